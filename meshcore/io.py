@@ -143,12 +143,13 @@ def from_json(obj: dict) -> Mesh:
     ).check()
 
 
-def _gmsh_mesh(mesh: Mesh) -> meshio.Mesh:
-    """The mesh as Gmsh wants it: one entity per (block, set) with its physical tag.
+def _gmsh_mesh(mesh: Mesh, split: bool) -> meshio.Mesh:
+    """The mesh as Gmsh wants it, cell sets as physical tags.
 
-    MSH 4.1 attaches physical tags to entities, not to elements, so each block
-    is split by set tag; each node is classified on the lowest-dimensional
-    entity holding it (Gmsh's own convention).
+    MSH 2.2 tags each element. MSH 4.1 (``split``) attaches physical tags to
+    entities, not elements, so each block is split by set tag into one entity
+    each (cells then come out grouped by set); each node is classified on the
+    lowest-dimensional entity holding it (Gmsh's own convention).
     """
     tags = [np.zeros(len(b), dtype=np.int64) for b in mesh.cells]
     field_data = {}
@@ -162,10 +163,10 @@ def _gmsh_mesh(mesh: Mesh) -> meshio.Mesh:
     node_entity = np.zeros(len(mesh.points), dtype=np.int64)
     for block, t in zip(mesh.cells, tags, strict=True):
         dim = CELL_TYPES[block.type][1]
-        for tag in np.unique(t):
-            data = block.data[t == tag]
+        for tag in np.unique(t) if split else [None]:
+            data = block.data if tag is None else block.data[t == tag]
             cells.append((block.type, data))
-            physical.append(np.full(len(data), tag, dtype=np.int64))
+            physical.append(t if tag is None else np.full(len(data), tag, dtype=np.int64))
             entity.append(np.full(len(data), len(cells), dtype=np.int64))
             nodes = np.unique(data)
             lower = nodes[node_dim[nodes] > dim]
@@ -187,7 +188,7 @@ def _gmsh_mesh(mesh: Mesh) -> meshio.Mesh:
 def _meshio_for(mesh: Mesh, fmt: str) -> meshio.Mesh:
     """The meshio mesh to write in ``fmt``, cell sets translated as the module says."""
     if fmt in ("gmsh", "gmsh22"):
-        return _gmsh_mesh(mesh)
+        return _gmsh_mesh(mesh, split=fmt == "gmsh")
     m = to_meshio(mesh)
     if fmt != "abaqus":
         for name, ids in mesh.cell_sets.items():
