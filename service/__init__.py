@@ -1,0 +1,1 @@
+"""meshservice: the HTTP service running meshcore methods as jobs."""

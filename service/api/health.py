@@ -1,0 +1,42 @@
+"""Health and metrics: liveness, readiness, Prometheus text."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Request, Response
+
+from service.deps import ManagerDep
+from service.problems import Unavailable
+
+api = APIRouter(tags=["health"])
+
+
+@api.get("/healthz", operation_id="healthz", summary="Alive")
+async def healthz() -> dict[str, str]:
+    return {"status": "ok"}
+
+
+@api.get(
+    "/readyz",
+    operation_id="readyz",
+    summary="Store and executor usable",
+    responses={503: {"description": "Not ready", "content": {"application/problem+json": {}}}},
+)
+async def readyz(manager: ManagerDep) -> dict[str, str]:
+    if not manager.store.ping():
+        raise Unavailable("the job store does not answer")
+    if not manager.executor.ready():
+        raise Unavailable(f"the {manager.executor.name} executor is not ready")
+    return {"status": "ready", "executor": manager.executor.name}
+
+
+@api.get(
+    "/metrics",
+    operation_id="metrics",
+    summary="Prometheus metrics",
+    response_class=Response,
+    responses={200: {"content": {"text/plain": {}}, "description": "Prometheus text format."}},
+)
+async def metrics(request: Request) -> Response:
+    return Response(
+        request.app.state.metrics.render(), media_type="text/plain; version=0.0.4; charset=utf-8"
+    )

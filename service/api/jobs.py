@@ -1,0 +1,348 @@
+"""The jobs resource: submit, read, long-poll, stream, list, cancel, delete, results."""
+
+
+import asyncio
+import base64
+import binascii
+import functools
+import hashlib
+import json
+import operator
+from collections.abc import AsyncIterator
+from typing import Annotated, Any, Literal
+
+from fastapi import APIRouter, Header, Query, Response
+from fastapi.responses import FileResponse
+from fastapi.sse import EventSourceResponse, ServerSentEvent
+from pydantic import ConfigDict, Field, create_model
+
+from meshcore import io
+from meshcore.errors import InputError
+from service.deps import ClientDep, JobDep, ManagerDep, SettingsDep, StoreDep
+from service.methods import Registry
+from service.preview import render_svg
+from service.problems import (
+    Gone,
+    Invalid,
+    NoResult,
+    NotFound,
+    NotReady,
+    TooLarge,
+    TooManyJobs,
+    from_input_error,
+)
+from service.schemas import JobOut, JobPage, ProblemOut, ResultOut
+from service.store import Job
+
+MAX_WAIT = 30.0
+Format = Literal[tuple(io.FORMATS)]  # type: ignore[valid-type]
+
+
+def _problems(*statuses: int) -> dict[int | str, dict[str, Any]]:
+    return {
+        s: {"model": ProblemOut, "content": {"application/problem+json": {}}} for s in statuses
+    }
+
+
+def request_model(registry: Registry) -> Any:
+    """The POST body: a union of one model per method, discriminated on ``method``."""
+    variants = []
+    for spec in registry.values():
+        example = {"method": spec.name, "params": spec.example}
+        variants.append(
+            create_model(
+                f"{''.join(p.title() for p in spec.name.split('_'))}Job",
+                __config__=ConfigDict(
+                    extra="forbid", json_schema_extra={"examples": [example]}, title=spec.name
+                ),
+                method=(Literal[spec.name], Field(description=spec.summary)),
+                params=(spec.params, ...),
+            )
+        )
+    if len(variants) == 1:
+        return variants[0]
+    return Annotated[functools.reduce(operator.or_, variants), Field(discriminator="method")]
+
+
+def _page_token(seq: int) -> str:
+    return base64.urlsafe_b64encode(f"seq:{seq}".encode()).decode().rstrip("=")
+
+
+def _seq_of(token: str) -> int:
+    try:
+        raw = base64.urlsafe_b64decode(token + "=" * (-len(token) % 4)).decode()
+        prefix, _, seq = raw.partition(":")
+        if prefix != "seq" or not seq.isdigit():
+            raise ValueError(raw)
+        return int(seq)
+    except (ValueError, binascii.Error, UnicodeDecodeError):
+        raise Invalid(
+            "page_token is not a token this service gave out",
+            errors=[{"loc": ["query", "page_token"], "msg": "invalid token", "type": "value_error"}],
+        ) from None
+
+
+def _job_response(job: Job, response: Response) -> JobOut:
+    response.headers["ETag"] = job.etag
+    response.headers["Location"] = f"/v1/jobs/{job.id}"
+    if not job.finished:
+        response.headers["Retry-After"] = "1"
+    return JobOut.of(job)
+
+
+def router(registry: Registry) -> APIRouter:
+    """The ``/v1/jobs`` routes for the methods of ``registry``."""
+    api = APIRouter(prefix="/v1/jobs", tags=["jobs"])
+    JobRequest = request_model(registry)  # noqa: N806 (a type)
+
+    @api.post(
+        "",
+        status_code=202,
+        operation_id="submitJob",
+        summary="Submit a job",
+        response_model=JobOut,
+        responses={
+            200: {"model": JobOut, "description": "Finished within ?wait=, or replayed."},
+            **_problems(401, 413, 422, 429),
+        },
+    )
+    async def submit(
+        body: JobRequest,  # type: ignore[valid-type]
+        response: Response,
+        manager: ManagerDep,
+        store: StoreDep,
+        settings: SettingsDep,
+        client: ClientDep,
+        wait: Annotated[float, Query(ge=0, le=MAX_WAIT, description="Seconds to wait.")] = 0,
+        idempotency_key: Annotated[str | None, Header(max_length=255)] = None,
+    ) -> JobOut:
+        """Queue a job; with ``?wait=S`` answer 200 with the finished job if it ends by then.
+
+        A repeated ``Idempotency-Key`` returns the first job for the same body
+        and answers 422 for a different one.
+        """
+        params = body.params
+        params_json = params.model_dump_json().encode()
+        body_hash = hashlib.sha256(body.method.encode() + b"\0" + params_json).hexdigest()
+        job = None
+        if idempotency_key is not None:
+            job = store.by_idempotency_key(client, idempotency_key)
+            if job is not None and job.body_hash != body_hash:
+                raise Invalid(
+                    "this Idempotency-Key was used for a different request body",
+                    errors=[{"loc": ["header", "Idempotency-Key"], "msg": "reused key",
+                             "type": "idempotency_conflict"}],
+                )
+        if job is None:
+            try:
+                params.check()
+            except InputError as exc:
+                raise from_input_error(exc, "body", "params") from None
+            points = params.point_count()
+            if points > settings.max_points:
+                raise TooLarge(
+                    f"the job has {points} input points; this service takes at most "
+                    f"{settings.max_points} (MESHSERVICE_MAX_POINTS)"
+                )
+            if store.unfinished_count(client) >= settings.max_queued:
+                raise TooManyJobs(
+                    f"you have {settings.max_queued} unfinished jobs (MESHSERVICE_MAX_QUEUED); "
+                    "wait for some to finish",
+                    headers={"Retry-After": "5"},
+                )
+            job = await asyncio.to_thread(
+                store.create,
+                client=client,
+                method=body.method,
+                params=params_json,
+                idempotency_key=idempotency_key,
+                body_hash=body_hash,
+            )
+            manager.wake()
+        if wait > 0 and not job.finished:
+            job = await manager.wait(job.id, lambda j: j.finished, wait) or job
+        if job.finished:
+            response.status_code = 200
+        return _job_response(job, response)
+
+    @api.get(
+        "",
+        operation_id="listJobs",
+        summary="List your jobs, newest first",
+        response_model=JobPage,
+        responses=_problems(401, 422),
+    )
+    async def list_jobs(
+        store: StoreDep,
+        client: ClientDep,
+        page_size: Annotated[int, Query(ge=1, le=100)] = 20,
+        page_token: Annotated[str | None, Query(max_length=64)] = None,
+    ) -> JobPage:
+        before = _seq_of(page_token) if page_token else None
+        jobs = store.page(client, page_size + 1, before)
+        more = len(jobs) > page_size
+        jobs = jobs[:page_size]
+        return JobPage(
+            jobs=[JobOut.of(j) for j in jobs],
+            next_page_token=_page_token(jobs[-1].seq) if more else None,
+        )
+
+    @api.get(
+        "/{job_id}",
+        operation_id="getJob",
+        summary="Get a job (long-poll with ?wait=)",
+        response_model=JobOut,
+        responses={304: {"description": "Not modified (If-None-Match)."}, **_problems(401, 404)},
+    )
+    async def get_job(
+        job: JobDep,
+        response: Response,
+        manager: ManagerDep,
+        wait: Annotated[float, Query(ge=0, le=MAX_WAIT, description="Seconds to wait.")] = 0,
+        if_none_match: Annotated[str | None, Header()] = None,
+    ) -> Any:
+        """The job; ``?wait=S`` waits for a change (of the ETag given in
+        ``If-None-Match``, else of the status); 304 when the ETag still matches."""
+        if wait > 0:
+            if if_none_match is not None:
+                tag = if_none_match
+
+                def changed(j: Job) -> bool:
+                    return j.etag != tag
+            else:
+                status = job.status
+
+                def changed(j: Job) -> bool:
+                    return j.status != status
+
+            job = await manager.wait(job.id, changed, wait)
+            if job is None:
+                raise NotFound("the job was deleted")
+        if if_none_match is not None and if_none_match == job.etag:
+            return Response(status_code=304, headers={"ETag": job.etag})
+        return _job_response(job, response)
+
+    @api.get(
+        "/{job_id}/events",
+        operation_id="streamJobEvents",
+        summary="Progress of a job as server-sent events",
+        response_class=EventSourceResponse,
+        responses=_problems(401, 404),
+    )
+    async def events(job: JobDep, manager: ManagerDep) -> AsyncIterator[ServerSentEvent]:
+        """One ``progress`` event per change of the job, then an ``end`` event."""
+        version = -1
+        current: Job | None = job
+        while current is not None:
+            if current.version != version:
+                version = current.version
+                data = JobOut.of(current).model_dump(mode="json")
+                yield ServerSentEvent(
+                    event="end" if current.finished else "progress",
+                    id=str(version),
+                    data=data,
+                )
+            if current.finished:
+                return
+            seen = current.version
+            current = await manager.wait(job.id, lambda j: j.version != seen, 15.0)
+
+    @api.post(
+        "/{job_id}/cancel",
+        operation_id="cancelJob",
+        summary="Cancel a job (idempotent)",
+        response_model=JobOut,
+        responses=_problems(401, 404),
+    )
+    async def cancel(job: JobDep, response: Response, manager: ManagerDep) -> JobOut:
+        manager.cancel(job.id)
+        return _job_response(manager.store.get(job.id) or job, response)
+
+    @api.delete(
+        "/{job_id}",
+        status_code=204,
+        operation_id="deleteJob",
+        summary="Cancel if needed, then remove the job and its files",
+        responses=_problems(401, 404),
+    )
+    async def delete(job: JobDep, manager: ManagerDep) -> Response:
+        await manager.delete(job.id)
+        return Response(status_code=204)
+
+    def _result_path(job: Job, store: Any) -> Any:
+        if job.expired:
+            raise Gone(f"the result of job {job.id} has expired and was removed")
+        if not job.finished:
+            raise NotReady(f"job {job.id} is {job.status}", headers={"Retry-After": "1"})
+        if job.status != "succeeded":
+            raise NoResult(f"job {job.id} {job.status}; see its error")
+        return store.result_path(job.id)
+
+    @api.get(
+        "/{job_id}/result",
+        operation_id="getJobResult",
+        summary="The result as JSON, or its mesh as a file (?format=)",
+        response_model=None,
+        responses={
+            200: {
+                "description": "The result, or with ?format= the mesh file.",
+                "content": {
+                    "application/json": {"schema": ResultOut.model_json_schema()},
+                    "application/octet-stream": {},
+                },
+            },
+            **_problems(401, 404, 409, 410, 422),
+        },
+    )
+    async def result(
+        job: JobDep,
+        store: StoreDep,
+        format: Annotated[Format | None, Query(description="Download the mesh.")] = None,
+    ) -> Response:
+        path = _result_path(job, store)
+        if format is None:
+            return FileResponse(path, media_type="application/json")
+        spec = io.FORMATS[format]
+        target = store.result_path(job.id, format)
+        if not target.exists():
+
+            def convert() -> None:
+                data = json.loads(path.read_bytes())
+                if not data.get("mesh"):
+                    raise InputError(
+                        "this result holds no mesh to download",
+                        loc=("query", "format"),
+                        code="no_mesh",
+                    )
+                store.write_result(job.id, io.to_bytes(io.from_json(data["mesh"]), format), format)
+
+            try:
+                await asyncio.to_thread(convert)
+            except InputError as exc:
+                raise from_input_error(exc) from None
+        filename = f"{job.id}{spec.suffix}"
+        return FileResponse(target, media_type=spec.media_type, filename=filename)
+
+    @api.get(
+        "/{job_id}/preview.svg",
+        operation_id="getJobPreview",
+        summary="An SVG drawing of a 2D result",
+        response_class=Response,
+        responses={
+            200: {"content": {"image/svg+xml": {}}, "description": "The drawing."},
+            **_problems(401, 404, 409, 410, 422),
+        },
+    )
+    async def preview(job: JobDep, store: StoreDep) -> Response:
+        path = _result_path(job, store)
+
+        def draw() -> str:
+            return render_svg(json.loads(path.read_bytes()))
+
+        try:
+            svg = await asyncio.to_thread(draw)
+        except InputError as exc:
+            raise from_input_error(exc) from None
+        return Response(svg, media_type="image/svg+xml")
+
+    return api

@@ -1,0 +1,70 @@
+"""The application factory: ``create_app(settings)``; nothing is built at import time."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+
+from fastapi import FastAPI
+from fastapi.middleware.cors import CORSMiddleware
+
+from service.api import health, jobs, methods
+from service.executors.local import LocalExecutor
+from service.jobs import JobManager
+from service.limits import BodySizeLimit
+from service.methods import Registry, default_registry
+from service.metrics import Metrics
+from service.problems import install_handlers
+from service.settings import Settings
+from service.store import Store
+
+DESCRIPTION = """\
+Meshing jobs over HTTP: submit a method and its params as JSON, poll or
+stream the job, fetch the result as JSON or download its mesh in a file
+format. Errors are RFC 9457 problem documents.
+"""
+
+
+def create_app(settings: Settings | None = None, registry: Registry | None = None) -> FastAPI:
+    """The service for ``settings`` running the methods of ``registry`` (default: all)."""
+    settings = settings or Settings()
+    registry = registry if registry is not None else default_registry()
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        store = Store(settings.data_dir)
+        metrics = Metrics(store.counts_by_status)
+        executor = LocalExecutor(settings.workers, settings.job_memory_limit)
+        manager = JobManager(store, executor, registry, settings, metrics)
+        app.state.metrics = metrics
+        app.state.manager = manager
+        await manager.start()
+        try:
+            yield
+        finally:
+            await manager.close()
+            store.close()
+
+    app = FastAPI(
+        title="meshservice",
+        version="0.1.0",
+        description=DESCRIPTION,
+        lifespan=lifespan,
+    )
+    app.state.settings = settings
+    install_handlers(app)
+    app.include_router(jobs.router(registry))
+    app.include_router(methods.router(registry))
+    app.include_router(health.api)
+    if settings.cors_origin_list:
+        app.add_middleware(
+            CORSMiddleware,
+            allow_origins=settings.cors_origin_list,
+            allow_methods=["GET", "POST", "DELETE"],
+            allow_headers=["Authorization", "Content-Type", "Idempotency-Key", "If-None-Match"],
+            expose_headers=["Location", "Retry-After", "ETag"],
+        )
+    app.add_middleware(BodySizeLimit, max_bytes=settings.max_body_bytes)
+    logging.getLogger("meshservice").setLevel(logging.INFO)
+    return app

@@ -1,0 +1,93 @@
+"""The job function: a method name plus JSON params in, result JSON bytes out.
+
+It is the same function for every executor: it runs inside the job's own
+process (locally, or on a distributed worker), knows nothing of the store,
+and turns every failure into :class:`JobFailed` carrying a problem document.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import traceback
+from typing import Any
+
+import numpy as np
+from pydantic import ValidationError
+
+from meshcore import io
+from meshcore.errors import AlgorithmError, InputError, MeshcoreError
+from meshcore.mesh import Mesh
+from service.methods import MethodSpec, Progress
+from service.problems import problem_document
+
+log = logging.getLogger("meshservice.job")
+
+
+class JobFailed(Exception):
+    """A job ended without a result; ``problem`` says why (RFC 9457 document)."""
+
+    def __init__(self, problem: dict) -> None:
+        super().__init__(problem.get("detail", ""))
+        self.problem = problem
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, Mesh):
+        return io.to_json(value)
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"{type(value).__name__} is not JSON serializable")
+
+
+def encode_result(result: dict) -> bytes:
+    """Result JSON bytes; meshes in the DESIGN.md mesh shape, arrays as lists."""
+    return json.dumps(result, default=_jsonable, allow_nan=False, separators=(",", ":")).encode()
+
+
+def failure(exc: BaseException, method: str) -> dict:
+    """The problem document for an exception raised by a job."""
+    if isinstance(exc, InputError):
+        errors = [{**e, "loc": ["params", *e["loc"]]} for e in exc.errors]
+        return problem_document(422, exc.code, "Invalid input", exc.message, errors)
+    if isinstance(exc, ValidationError):
+        errors = [
+            {"loc": ["params", *e["loc"]], "msg": e["msg"], "type": e["type"]}
+            for e in exc.errors()
+        ]
+        return problem_document(422, "validation_error", "Invalid input", str(exc), errors)
+    if isinstance(exc, AlgorithmError):
+        return problem_document(422, exc.code, "The method could not finish", exc.message)
+    if isinstance(exc, MeshcoreError):
+        return problem_document(422, exc.code, "The method stopped", exc.message)
+    if isinstance(exc, MemoryError):
+        return problem_document(
+            507, "out_of_memory", "Out of memory", "the job ran out of its memory limit"
+        )
+    return problem_document(
+        500,
+        "internal_error",
+        "Internal error",
+        f"method {method!r} failed unexpectedly ({type(exc).__name__}); it has been logged",
+    )
+
+
+def run_job(spec: MethodSpec, params_json: bytes, progress: Progress) -> bytes:
+    """Validate the params, run the method, and encode its result.
+
+    Raises
+    ------
+    JobFailed
+        for any failure, with the problem document of :func:`failure`; an
+        unexpected exception is also logged with its traceback.
+    """
+    try:
+        params = spec.params.model_validate_json(params_json)
+        return encode_result(spec.run(params, progress))
+    except (MeshcoreError, ValidationError, MemoryError) as exc:
+        raise JobFailed(failure(exc, spec.name)) from None
+    except Exception as exc:
+        log.error("job of method %r failed:\n%s", spec.name, traceback.format_exc())
+        raise JobFailed(failure(exc, spec.name)) from None

@@ -1,0 +1,174 @@
+"""Wire models: what clients send and what the API answers.
+
+Input models reject NaN and infinities at parse time and carry the JSON
+location of every fault; the checks that need numpy (indices in range,
+degenerate cells) run in :meth:`MethodParams.check`, which maps meshcore's
+:class:`~meshcore.errors.InputError` locations under the params field.
+"""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from meshcore import io
+from meshcore.errors import InputError
+from meshcore.mesh import CELL_TYPES, Mesh
+
+FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+Index = Annotated[int, Field(ge=0)]
+Coordinates = Annotated[list[FiniteFloat], Field(min_length=2, max_length=3)]
+CellType = Literal["vertex", "line", "triangle", "quad", "tetra", "pyramid", "wedge", "hexahedron"]
+assert set(CellType.__args__) == set(CELL_TYPES)
+
+
+class CellBlockIn(BaseModel):
+    """One block of cells of one type (meshio's names and node order)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    type: CellType
+    data: list[list[Index]] = Field(description="Point indices, one row per cell.")
+
+
+class MeshIn(BaseModel):
+    """A mesh: points and typed cell blocks, with optional data and cell sets (meshio layout)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    points: list[Coordinates] = Field(min_length=1, description="[x, y] or [x, y, z] rows.")
+    cells: list[CellBlockIn] = Field(min_length=1)
+    point_data: dict[str, list[FiniteFloat | list[FiniteFloat]]] = Field(default_factory=dict)
+    cell_data: dict[str, list[list[FiniteFloat | list[FiniteFloat]]]] = Field(
+        default_factory=dict, description="Per name, one list of values per block."
+    )
+    cell_sets: dict[str, list[list[Index]]] = Field(
+        default_factory=dict, description="Per name, the cell ids in each block."
+    )
+
+    def to_mesh(self) -> Mesh:
+        """The checked meshcore mesh (raises InputError located inside this object)."""
+        return io.from_json(self.model_dump())
+
+
+class MethodParams(BaseModel):
+    """Base of every method's params: unknown fields are refused."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    def meshes(self) -> dict[str, MeshIn]:
+        """The mesh-valued fields, by name."""
+        return {k: v for k, v in self if isinstance(v, MeshIn)}
+
+    def point_count(self) -> int:
+        """Input points of the job, counted against ``MESHSERVICE_MAX_POINTS``."""
+        return sum(len(m.points) for m in self.meshes().values())
+
+    def check(self) -> None:
+        """Deep checks before the job is queued; InputError locations start at the field."""
+        for name, mesh in self.meshes().items():
+            try:
+                mesh.to_mesh()
+            except InputError as exc:
+                raise exc.prefixed(name) from None
+
+
+class ProgressOut(BaseModel):
+    fraction: float = Field(ge=0, le=1)
+    message: str
+
+
+class ErrorItem(BaseModel):
+    loc: list[str | int]
+    msg: str
+    type: str | None = None
+
+
+class ProblemOut(BaseModel):
+    """An RFC 9457 problem document."""
+
+    type: str
+    title: str
+    status: int
+    detail: str
+    errors: list[ErrorItem] | None = None
+
+
+class JobLinks(BaseModel):
+    self: str
+    result: str
+    events: str
+    cancel: str
+    preview: str
+
+
+JobStatus = Literal["queued", "running", "succeeded", "failed", "cancelled"]
+
+
+class JobOut(BaseModel):
+    """A job as the API shows it."""
+
+    id: str
+    method: str
+    status: JobStatus
+    attempt: int = Field(description="Runs started so far (restarts re-run a job).")
+    progress: ProgressOut
+    created_at: datetime
+    started_at: datetime | None
+    finished_at: datetime | None
+    error: ProblemOut | None
+    links: JobLinks
+
+    @classmethod
+    def of(cls, job: Any) -> JobOut:
+        base = f"/v1/jobs/{job.id}"
+
+        def when(t: float | None) -> datetime | None:
+            return None if t is None else datetime.fromtimestamp(t, UTC)
+
+        return cls(
+            id=job.id,
+            method=job.method,
+            status=job.status,
+            attempt=job.attempt,
+            progress=ProgressOut(fraction=job.progress_fraction, message=job.progress_message),
+            created_at=when(job.created_at),
+            started_at=when(job.started_at),
+            finished_at=when(job.finished_at),
+            error=job.error,
+            links=JobLinks(
+                self=base,
+                result=f"{base}/result",
+                events=f"{base}/events",
+                cancel=f"{base}/cancel",
+                preview=f"{base}/preview.svg",
+            ),
+        )
+
+
+class JobPage(BaseModel):
+    jobs: list[JobOut]
+    next_page_token: str | None = Field(description="Pass as page_token for the next page.")
+
+
+class MethodOut(BaseModel):
+    name: str
+    summary: str
+    section: str = Field(description="Where the methods text describes it.")
+    params_schema: dict[str, Any]
+    example: dict[str, Any] = Field(description="A valid params object.")
+
+
+class ResultOut(BaseModel):
+    """A method's result: one object with fixed keys, those that apply present."""
+
+    model_config = ConfigDict(extra="allow")
+
+    mesh: dict[str, Any] | None = None
+    quality: dict[str, Any] | None = None
+    axis: dict[str, Any] | None = None
+    domain: dict[str, Any] | None = None
+    regions: list[Any] | None = None
+    stats: dict[str, Any] | None = None

@@ -1,0 +1,106 @@
+"""Live-server fixtures: the test app under a real uvicorn on a loopback port."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import httpx
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class LiveServer:
+    """``python -m tests.service.server`` in a subprocess, with its own data dir."""
+
+    def __init__(self, data_dir: Path, **env: str) -> None:
+        self.data_dir = data_dir
+        self.env = {k: str(v) for k, v in env.items()}
+        self.port = _free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.proc: subprocess.Popen | None = None
+        self.log = data_dir.parent / f"server-{data_dir.name}.log"
+
+    def start(self) -> LiveServer:
+        env = {**os.environ, "MESHSERVICE_WORKERS": "2", **self.env}
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "tests.service.server", "--port", str(self.port),
+             "--data-dir", str(self.data_dir)],
+            cwd=ROOT,
+            env=env,
+            stdout=open(self.log, "ab"),
+            stderr=subprocess.STDOUT,
+        )
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"server exited: {self.log.read_text()[-2000:]}")
+            try:
+                if httpx.get(self.url + "/readyz", timeout=1).status_code == 200:
+                    return self
+            except httpx.HTTPError:
+                pass
+            time.sleep(0.1)
+        raise RuntimeError(f"server did not start: {self.log.read_text()[-2000:]}")
+
+    def stop(self, sig: int = signal.SIGTERM) -> int:
+        assert self.proc is not None
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+        return self.proc.wait(30)
+
+    def client(self, **kwargs) -> httpx.Client:
+        return httpx.Client(base_url=self.url, timeout=60, **kwargs)
+
+
+@pytest.fixture(scope="session")
+def live(tmp_path_factory) -> Iterator[LiveServer]:
+    """One shared server: 2 workers, default limits."""
+    server = LiveServer(tmp_path_factory.mktemp("shared") / "data").start()
+    yield server
+    server.stop()
+
+
+@pytest.fixture
+def client(live) -> Iterator[httpx.Client]:
+    with live.client() as c:
+        yield c
+
+
+@pytest.fixture
+def start_server(tmp_path) -> Iterator:
+    """Start servers with their own settings; all stopped at the end of the test."""
+    servers: list[LiveServer] = []
+
+    def start(data_dir: Path | None = None, **env: str) -> LiveServer:
+        server = LiveServer(data_dir or tmp_path / f"data{len(servers)}", **env).start()
+        servers.append(server)
+        return server
+
+    yield start
+    for server in servers:
+        if server.proc and server.proc.poll() is None:
+            server.stop(signal.SIGKILL)
+
+
+def wait_status(c: httpx.Client, job_id: str, statuses: set[str], timeout: float = 30) -> dict:
+    """Poll until the job's status is one of ``statuses``."""
+    deadline = time.monotonic() + timeout
+    while True:
+        job = c.get(f"/v1/jobs/{job_id}").json()
+        if job["status"] in statuses or time.monotonic() > deadline:
+            return job
+        time.sleep(0.05)
