@@ -276,7 +276,10 @@ def router(registry: Registry) -> APIRouter:
             raise NotReady(f"job {job.id} is {job.status}", headers={"Retry-After": "1"})
         if job.status != "succeeded":
             raise NoResult(f"job {job.id} {job.status}; see its error")
-        return store.result_path(job.id)
+        path = store.result_path(job.id)
+        if not path.exists():  # expired between the row's read and now
+            raise Gone(f"the result of job {job.id} has expired and was removed")
+        return path
 
     @api.get(
         "/{job_id}/result",

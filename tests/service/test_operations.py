@@ -1,0 +1,151 @@
+"""Restart, authentication, health, methods, CORS and start-up checks, on live servers."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from service.methods import default_registry
+from tests.service.conftest import ROOT, wait_status
+from tests.service.test_jobs import assert_problem, submit, wait_file
+from tests.service.testing_methods import SQUARE
+
+
+class TestRestart:
+    @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL])
+    def test_nothing_is_lost(self, start_server, tmp_path, sig):
+        """Stop the server with a finished, a running and a queued job; start it again."""
+        server = start_server(MESHSERVICE_WORKERS="1")
+        marker = tmp_path / "started"
+        with server.client() as c:
+            done = submit(c, "quality", {"mesh": SQUARE}, wait=10).json()
+            running = submit(c, "sleep", {"seconds": 1.5, "marker": str(marker)}).json()
+            wait_file(marker)
+            queued = submit(c, "sleep", {"seconds": 0}).json()
+            assert c.get(f"/v1/jobs/{queued['id']}").json()["status"] == "queued"
+        server.stop(sig)
+
+        again = start_server(data_dir=server.data_dir, MESHSERVICE_WORKERS="1")
+        with again.client() as c:
+            assert c.get(f"/v1/jobs/{done['id']}/result").json()["quality"]["triangle"][
+                "count"] == 2
+            for job in (running, queued):
+                assert wait_status(c, job["id"], {"succeeded", "failed"})["status"] == "succeeded"
+            assert c.get(f"/v1/jobs/{running['id']}").json()["attempt"] == 2
+            assert c.get(f"/v1/jobs/{queued['id']}").json()["attempt"] == 1
+            assert len(marker.read_text().split()) == 2  # ran again from the start
+
+    def test_job_interrupted_too_often_fails_with_the_reason(self, start_server, tmp_path):
+        server = start_server(MESHSERVICE_MAX_ATTEMPTS="1")
+        marker = tmp_path / "started"
+        with server.client() as c:
+            job = submit(c, "sleep", {"seconds": 30, "marker": str(marker)}).json()
+            wait_file(marker)
+        server.stop(signal.SIGKILL)
+        again = start_server(data_dir=server.data_dir, MESHSERVICE_MAX_ATTEMPTS="1")
+        with again.client() as c:
+            job = c.get(f"/v1/jobs/{job['id']}").json()
+            assert job["status"] == "failed"
+            assert job["error"]["type"] == "/problems/interrupted"
+
+
+class TestAuth:
+    @pytest.fixture
+    def server(self, start_server):
+        return start_server(MESHSERVICE_API_KEYS="alice-key:alice,bob-key:bob")
+
+    def test_missing_key_is_401_with_www_authenticate(self, server):
+        with server.client() as c:
+            r = c.get("/v1/jobs")
+            assert_problem(r, 401)
+            assert r.headers["www-authenticate"].startswith("Bearer")
+
+    def test_wrong_key_is_401(self, server):
+        with server.client(headers={"Authorization": "Bearer nope"}) as c:
+            assert_problem(c.get("/v1/jobs"), 401)
+            assert_problem(submit(c, "quality", {"mesh": SQUARE}), 401)
+
+    def test_another_clients_job_is_404_and_not_listed(self, server):
+        with server.client(headers={"Authorization": "Bearer alice-key"}) as alice, \
+                server.client(headers={"Authorization": "Bearer bob-key"}) as bob:
+            job = submit(alice, "quality", {"mesh": SQUARE}, wait=10).json()
+            assert alice.get(f"/v1/jobs/{job['id']}").status_code == 200
+            for path in ("", "/result", "/events", "/preview.svg"):
+                assert_problem(bob.get(f"/v1/jobs/{job['id']}{path}"), 404)
+            assert_problem(bob.post(f"/v1/jobs/{job['id']}/cancel"), 404)
+            assert_problem(bob.delete(f"/v1/jobs/{job['id']}"), 404)
+            assert bob.get("/v1/jobs").json()["jobs"] == []
+            assert [j["id"] for j in alice.get("/v1/jobs").json()["jobs"]] == [job["id"]]
+
+    def test_health_needs_no_key(self, server):
+        with server.client() as c:
+            assert c.get("/healthz").status_code == 200
+
+
+class TestStartup:
+    def test_refuses_public_bind_without_keys(self, tmp_path):
+        r = subprocess.run(
+            [sys.executable, "-m", "service", "serve", "--host", "0.0.0.0",
+             "--data-dir", str(tmp_path)],
+            cwd=ROOT, capture_output=True, text=True, timeout=60,
+        )
+        assert r.returncode == 2
+        assert "refusing to listen on 0.0.0.0 without API keys" in r.stderr
+
+
+class TestHealth:
+    def test_healthz_readyz(self, client):
+        assert client.get("/healthz").json() == {"status": "ok"}
+        ready = client.get("/readyz")
+        assert ready.status_code == 200 and ready.json()["executor"] == "local"
+
+    def test_metrics(self, client):
+        submit(client, "quality", {"mesh": SQUARE}, wait=10)
+        text = client.get("/metrics").text
+        assert 'meshservice_jobs{status="succeeded"}' in text
+        assert "meshservice_queue_depth" in text
+        assert 'meshservice_job_duration_seconds_count{method="quality",status="succeeded"}' in text
+
+    def test_unknown_path_and_method_are_problems(self, client):
+        assert_problem(client.get("/v2/nothing"), 404)
+        assert_problem(client.put("/v1/jobs"), 405)
+
+
+class TestMethods:
+    def test_list_has_schema_section_and_example(self, client):
+        methods = {m["name"]: m for m in client.get("/v1/methods").json()}
+        quality = methods["quality"]
+        assert quality["params_schema"]["properties"]["mesh"]
+        assert quality["section"] and quality["summary"]
+        assert_problem(client.get("/v1/methods/nope"), 404)
+        assert client.get("/v1/methods/quality").json() == quality
+
+    def test_every_product_example_is_valid_input(self, client):
+        product = default_registry()
+        for method in client.get("/v1/methods").json():
+            if method["name"] not in product:
+                continue
+            job = submit(client, method["name"], method["example"], wait=20).json()
+            assert job["status"] == "succeeded", (method["name"], job)
+
+
+class TestCors:
+    def test_exposes_headers_to_allowed_origin(self, start_server):
+        server = start_server(MESHSERVICE_CORS_ORIGINS="https://app.example")
+        with server.client(headers={"Origin": "https://app.example"}) as c:
+            r = submit(c, "quality", {"mesh": SQUARE})
+            assert r.headers["access-control-allow-origin"] == "https://app.example"
+            exposed = r.headers["access-control-expose-headers"].lower()
+            assert {"location", "retry-after", "etag"} <= set(map(str.strip, exposed.split(",")))
+
+
+def test_sigterm_stops_promptly(start_server):
+    server = start_server()
+    t0 = time.monotonic()
+    # uvicorn shuts down gracefully, then re-raises the signal it caught
+    assert server.stop(signal.SIGTERM) in (0, -signal.SIGTERM)
+    assert time.monotonic() - t0 < 15
