@@ -33,12 +33,13 @@ class LiveServer:
         self.url = f"http://127.0.0.1:{self.port}"
         self.proc: subprocess.Popen | None = None
         self.log = data_dir.parent / f"server-{data_dir.name}.log"
+        self.module = "tests.service.server"  # "service": the product alone
 
     def start(self) -> LiveServer:
         env = {**os.environ, "MESHSERVICE_WORKERS": "2", **self.env}
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "tests.service.server", "--port", str(self.port),
-             "--data-dir", str(self.data_dir)],
+            [sys.executable, "-m", self.module, *(["serve"] if self.module == "service" else []),
+             "--port", str(self.port), "--data-dir", str(self.data_dir)],
             cwd=ROOT,
             env=env,
             stdout=open(self.log, "ab"),
