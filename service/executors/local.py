@@ -17,6 +17,7 @@ import ctypes
 import logging
 import multiprocessing
 import multiprocessing.forkserver
+import os
 import resource
 import signal
 import threading
@@ -31,16 +32,19 @@ from service.runner import JobFailed, run_job
 log = logging.getLogger("meshservice.local")
 
 PROGRESS_INTERVAL = 0.1  # seconds between progress messages a job sends
-_PRELOAD = ["meshcore", "meshcore.io", "meshcore.quality", "service.runner", "service.methods"]
+_PRELOAD = ["service.executors.local", "service.methods"]
+
+
+try:
+    _LIBC = ctypes.CDLL(None, use_errno=True)
+except OSError:
+    _LIBC = None
 
 
 def _die_with_parent() -> None:
     """Ask Linux to SIGKILL this process when its parent (the fork server) exits."""
-    try:
-        libc = ctypes.CDLL("libc.so.6", use_errno=True)
-        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    except OSError:
-        pass
+    if _LIBC is not None:
+        _LIBC.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
 
 
 def _child(task: Task, conn: Connection, memory_limit: int) -> None:
@@ -63,6 +67,7 @@ def _child(task: Task, conn: Connection, memory_limit: int) -> None:
     except JobFailed as exc:
         conn.send(("error", exc.problem))
     conn.close()
+    os._exit(0)  # the answer is sent: skip interpreter teardown
 
 
 def _death_problem(exitcode: int | None) -> dict:
