@@ -92,11 +92,11 @@ class JobManager:
         loop = asyncio.get_running_loop()
         deadline = loop.time() + timeout
         while True:
-            event = self._changed.setdefault(job_id, asyncio.Event())
             job = self.store.get(job_id)
             remaining = deadline - loop.time()
             if job is None or until(job) or remaining <= 0:
                 return job
+            event = self._changed.setdefault(job_id, asyncio.Event())
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(event.wait(), remaining)
 

@@ -52,6 +52,9 @@ class MeshIn(BaseModel):
         """The checked meshcore mesh (raises InputError located inside this object)."""
         return io.from_json(self.model_dump())
 
+    def point_count(self) -> int:
+        return len(self.points)
+
 
 class MethodParams(BaseModel):
     """Base of every method's params: unknown fields are refused."""
@@ -63,8 +66,16 @@ class MethodParams(BaseModel):
         return {k: v for k, v in self if isinstance(v, MeshIn)}
 
     def point_count(self) -> int:
-        """Input points of the job, counted against ``MESHSERVICE_MAX_POINTS``."""
-        return sum(len(m.points) for m in self.meshes().values())
+        """Input points of the job, counted against ``MESHSERVICE_MAX_POINTS``.
+
+        Sums ``point_count()`` over the fields (and items of list fields) that have one.
+        """
+        total = 0
+        for _, value in self:
+            for item in value if isinstance(value, list) else [value]:
+                if hasattr(item, "point_count"):
+                    total += item.point_count()
+        return total
 
     def check(self) -> None:
         """Deep checks before the job is queued; InputError locations start at the field."""

@@ -145,24 +145,36 @@ class Store:
         values["expired"] = bool(values["expired"])
         return Job(**values)
 
-    def create(
-        self,
-        *,
-        client: str,
-        method: str,
-        params: bytes,
-        idempotency_key: str | None,
-        body_hash: str,
-    ) -> Job:
-        """Write the params file, then commit a queued row; return the new job."""
+    def write_params(self, params: bytes) -> str:
+        """Write a new job's params file (blocking I/O, run it off the event loop); its id."""
         job_id = uuid.uuid4().hex
         self.job_dir(job_id).mkdir(parents=True)
         write_atomically(self.params_path(job_id), params)
-        self._db.execute(
+        return job_id
+
+    def create(
+        self,
+        job_id: str,
+        *,
+        client: str,
+        method: str,
+        idempotency_key: str | None,
+        body_hash: str,
+    ) -> Job:
+        """Commit a queued row for params written by :meth:`write_params`.
+
+        When another request committed the same ``(client, idempotency_key)``
+        first, this job's files are removed and that job is returned instead.
+        """
+        inserted = self._db.execute(
             "INSERT INTO jobs (id, client, method, status, created_at, idempotency_key,"
-            " body_hash) VALUES (?, ?, ?, 'queued', ?, ?, ?)",
+            " body_hash) VALUES (?, ?, ?, 'queued', ?, ?, ?)"
+            " ON CONFLICT (client, idempotency_key) DO NOTHING",
             (job_id, client, method, time.time(), idempotency_key, body_hash),
-        )
+        ).rowcount
+        if not inserted:
+            shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
+            return self.by_idempotency_key(client, idempotency_key)
         return self.get(job_id)
 
     def get(self, job_id: str, client: str | None = None) -> Job | None:

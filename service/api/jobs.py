@@ -124,15 +124,7 @@ def router(registry: Registry) -> APIRouter:
         params = body.params
         params_json = params.model_dump_json().encode()
         body_hash = hashlib.sha256(body.method.encode() + b"\0" + params_json).hexdigest()
-        job = None
-        if idempotency_key is not None:
-            job = store.by_idempotency_key(client, idempotency_key)
-            if job is not None and job.body_hash != body_hash:
-                raise Invalid(
-                    "this Idempotency-Key was used for a different request body",
-                    errors=[{"loc": ["header", "Idempotency-Key"], "msg": "reused key",
-                             "type": "idempotency_conflict"}],
-                )
+        job = store.by_idempotency_key(client, idempotency_key) if idempotency_key else None
         if job is None:
             try:
                 params.check()
@@ -150,15 +142,26 @@ def router(registry: Registry) -> APIRouter:
                     "wait for some to finish",
                     headers={"Retry-After": "5"},
                 )
-            job = await asyncio.to_thread(
-                store.create,
+            job_id = await asyncio.to_thread(store.write_params, params_json)
+            job = store.create(
+                job_id,
                 client=client,
                 method=body.method,
-                params=params_json,
                 idempotency_key=idempotency_key,
                 body_hash=body_hash,
             )
             manager.wake()
+        if job.body_hash != body_hash:
+            raise Invalid(
+                "this Idempotency-Key was used for a different request body",
+                errors=[
+                    {
+                        "loc": ["header", "Idempotency-Key"],
+                        "msg": "reused key",
+                        "type": "idempotency_conflict",
+                    }
+                ],
+            )
         if wait > 0 and not job.finished:
             job = await manager.wait(job.id, lambda j: j.finished, wait) or job
         if job.finished:

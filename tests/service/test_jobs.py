@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 import xml.etree.ElementTree as ET
 
 import httpx
@@ -127,6 +128,17 @@ class TestSubmit:
         assert first.json()["id"] == again.json()["id"]
         other = submit(client, "sleep", {"seconds": 0}, headers=key)
         assert_problem(other, 422, ["header", "Idempotency-Key"])
+
+    def test_concurrent_retries_with_one_key_make_one_job(self, live):
+        key = {"Idempotency-Key": f"race-{time.time()}"}
+
+        def post(_):
+            with live.client() as c:
+                return submit(c, "sleep", {"seconds": 0}, headers=key).json()["id"]
+
+        with ThreadPoolExecutor(8) as pool:
+            ids = set(pool.map(post, range(8)))
+        assert len(ids) == 1
 
     def test_unexpected_exception_fails_only_the_job(self, client):
         job = submit(client, "boom", {}, wait=10).json()
