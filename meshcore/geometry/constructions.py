@@ -1,0 +1,115 @@
+"""Inexact geometric constructions: new coordinates computed in float64.
+
+Unlike :mod:`meshcore.geometry.predicates`, these functions round: they build
+points (circumcentres) and lengths, never decide a sign. Each is computed
+relative to a vertex of its triangle so that the result does not degrade when
+the input is translated far from the origin (DESIGN.md, "Geometry
+robustness").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from meshcore.errors import InputError
+
+__all__ = ["circumcenter", "circumradius"]
+
+
+def _triple(a, b, c) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    arrays = []
+    for name, arg in zip("abc", (a, b, c), strict=True):
+        try:
+            arr = np.asarray(arg, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise InputError(
+                f"{name} must be an array of 2D points", loc=(name,), code="bad_shape"
+            ) from exc
+        if arr.ndim == 0 or arr.shape[-1] != 2:
+            raise InputError(
+                f"{name} must have shape (..., 2), got {arr.shape}", loc=(name,), code="bad_shape"
+            )
+        arrays.append(arr)
+    try:
+        return tuple(np.broadcast_arrays(*arrays))
+    except ValueError as exc:
+        raise InputError(
+            "point arrays do not broadcast: " + ", ".join(str(x.shape) for x in arrays),
+            loc=(),
+            code="bad_shape",
+        ) from exc
+
+
+def _offset(a, b, c) -> tuple[np.ndarray, np.ndarray]:
+    """Circumcentre of each triangle relative to its vertex a, and a."""
+    a, b, c = _triple(a, b, c)
+    bx = b[..., 0] - a[..., 0]
+    by = b[..., 1] - a[..., 1]
+    cx = c[..., 0] - a[..., 0]
+    cy = c[..., 1] - a[..., 1]
+    b2 = bx * bx + by * by
+    c2 = cx * cx + cy * cy
+    den = 2.0 * (bx * cy - by * cx)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ux = (cy * b2 - by * c2) / den
+        uy = (bx * c2 - cx * b2) / den
+    return np.stack([ux, uy], axis=-1), a
+
+
+def circumcenter(a, b, c) -> np.ndarray:
+    """Centres of the circles through the vertices of triangles.
+
+    Parameters
+    ----------
+    a, b, c : (n, 2) float64 or (2,) float64
+        Triangle vertices (shapes broadcast, any leading shape ``(..., 2)``).
+
+    Returns
+    -------
+    (n, 2) float64
+        Circumcentres. Rows of degenerate (collinear) triangles are infinite
+        or NaN; callers decide degeneracy with :func:`~.predicates.orient2d`,
+        not from this result.
+
+    Raises
+    ------
+    InputError
+        ``bad_shape`` for arrays that are not ``(..., 2)`` or do not broadcast.
+
+    Notes
+    -----
+    Computed as ``a + u`` where ``u`` solves the 2x2 system in coordinates
+    relative to ``a``; the relative error of ``u`` grows like the inverse of
+    the triangle's smallest angle's sine, independently of the distance of
+    the triangle from the origin. References: methods text §9.1 (circumcircle
+    of a triangle) and §9.4 (medial axis from circumcentres).
+    """
+    u, a = _offset(a, b, c)
+    return a + u
+
+
+def circumradius(a, b, c) -> np.ndarray:
+    """Radii of the circles through the vertices of triangles.
+
+    Parameters
+    ----------
+    a, b, c : (n, 2) float64 or (2,) float64
+        Triangle vertices (shapes broadcast).
+
+    Returns
+    -------
+    (n,) float64
+        Circumradii (infinite or NaN for collinear vertices).
+
+    Raises
+    ------
+    InputError
+        ``bad_shape`` as :func:`circumcenter`.
+
+    Notes
+    -----
+    The norm of the offset from vertex a to the circumcentre, so it is as
+    accurate as that offset. References: methods text §9.4.
+    """
+    u, _ = _offset(a, b, c)
+    return np.hypot(u[..., 0], u[..., 1])

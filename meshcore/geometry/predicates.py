@@ -1,0 +1,875 @@
+"""Robust geometric predicates: exact signs of orientation and in-circle tests.
+
+Every geometric decision of meshcore goes through these functions (DESIGN.md,
+"Geometry robustness"). They follow Shewchuk's scheme [1]_: the determinant is
+first evaluated in float64 together with a rigorous bound on its rounding
+error (a dynamic "semi-static" filter); only when ``|det|`` does not exceed
+the bound is the sign recomputed exactly with floating-point expansion
+arithmetic (``two_sum``, ``two_product`` with Dekker's splitting, zero
+eliminating expansion sums and scalings).
+
+The exact stage is ours, simpler than Shewchuk's four adaptive stages: the
+coordinate differences are formed exactly as two-term expansions; when those
+are all exact single doubles (the common case, e.g. nearby points) the
+determinant is expanded from the differences alone, otherwise from the
+two-term differences. Both give the exact sign; no intermediate error bound is
+trusted after the filter.
+
+Two interfaces share one implementation:
+
+* vectorized functions :func:`orient2d`, :func:`incircle`, :func:`orient3d`
+  take arrays of points, run the filter in numpy and the exact stage, in
+  compiled code, on the undecided rows only;
+* scalar numba functions :func:`orient2d_scalar`, :func:`incircle_scalar`,
+  :func:`orient3d_scalar` (``@njit``) for compiled kernels such as
+  :mod:`meshcore.delaunay`. The ``*_exact`` variants take a scratch buffer
+  (``work``, float64, at least :data:`WORK_SIZE` long) so that a kernel calls
+  them without allocating.
+
+Assumptions (as Shewchuk's): no overflow or underflow in the products formed,
+which holds when every coordinate difference is either zero or has magnitude
+within about ``[2**-150, 2**150]`` (orient2d tolerates far more). Callers
+with more extreme input rescale by a power of two first, which is exact and
+changes no sign (see :func:`meshcore.delaunay.delaunay`).
+
+References
+----------
+.. [1] J. R. Shewchuk, "Adaptive Precision Floating-Point Arithmetic and Fast
+   Robust Geometric Predicates", Discrete & Computational Geometry 18 (1997).
+   Methods text §9.1 (every Case decision of a boundary segment is a sign of
+   these determinants); DESIGN.md "Geometry robustness".
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from meshcore.errors import InputError
+
+__all__ = [
+    "WORK_SIZE",
+    "incircle",
+    "incircle_exact",
+    "incircle_scalar",
+    "orient2d",
+    "orient2d_exact",
+    "orient2d_scalar",
+    "orient3d",
+    "orient3d_exact",
+    "orient3d_scalar",
+]
+
+# Shewchuk's machine constants for IEEE double precision (round to nearest).
+_EPS = 2.0**-53
+_SPLITTER = 2.0**27 + 1.0
+_CCW_ERRBOUND_A = (3.0 + 16.0 * _EPS) * _EPS
+_O3D_ERRBOUND_A = (7.0 + 56.0 * _EPS) * _EPS
+_ICC_ERRBOUND_A = (10.0 + 96.0 * _EPS) * _EPS
+
+#: Length of the scratch buffer the ``*_exact`` scalar functions need.
+WORK_SIZE = 8192
+
+
+# ---------------------------------------------------------------------------
+# Error-free transformations (Dekker / Knuth / Shewchuk)
+# ---------------------------------------------------------------------------
+
+
+@njit(cache=True, inline="always")
+def _two_sum(a, b):
+    x = a + b
+    bv = x - a
+    av = x - bv
+    return x, (a - av) + (b - bv)
+
+
+@njit(cache=True, inline="always")
+def _two_diff(a, b):
+    x = a - b
+    bv = a - x
+    av = x + bv
+    return x, (a - av) + (bv - b)
+
+
+@njit(cache=True, inline="always")
+def _split(a):
+    c = _SPLITTER * a
+    abig = c - a
+    ahi = c - abig
+    return ahi, a - ahi
+
+
+@njit(cache=True, inline="always")
+def _two_product(a, b):
+    x = a * b
+    ahi, alo = _split(a)
+    bhi, blo = _split(b)
+    err1 = x - ahi * bhi
+    err2 = err1 - alo * bhi
+    err3 = err2 - ahi * blo
+    return x, alo * blo - err3
+
+
+@njit(cache=True)
+def _expansion_sum(elen, e, flen, f, h):
+    """Shewchuk's fast_expansion_sum_zeroelim: h = e + f, returns len(h).
+
+    e and f are nonoverlapping expansions with components in increasing order
+    of magnitude; so is h, without zero components. h must not alias e or f.
+    """
+    if elen == 0:
+        for i in range(flen):
+            h[i] = f[i]
+        return flen
+    if flen == 0:
+        for i in range(elen):
+            h[i] = e[i]
+        return elen
+    enow = e[0]
+    fnow = f[0]
+    eindex = 0
+    findex = 0
+    if (fnow > enow) == (fnow > -enow):
+        q = enow
+        eindex += 1
+        if eindex < elen:
+            enow = e[eindex]
+    else:
+        q = fnow
+        findex += 1
+        if findex < flen:
+            fnow = f[findex]
+    hindex = 0
+    if eindex < elen and findex < flen:
+        if (fnow > enow) == (fnow > -enow):
+            qnew = enow + q
+            q_ = q - (qnew - enow)
+            eindex += 1
+            if eindex < elen:
+                enow = e[eindex]
+        else:
+            qnew = fnow + q
+            q_ = q - (qnew - fnow)
+            findex += 1
+            if findex < flen:
+                fnow = f[findex]
+        # Fast_Two_Sum(enow, q) computed above as qnew, q_ (hh)
+        q = qnew
+        if q_ != 0.0:
+            h[hindex] = q_
+            hindex += 1
+        while eindex < elen and findex < flen:
+            if (fnow > enow) == (fnow > -enow):
+                q, hh = _two_sum(q, enow)
+                eindex += 1
+                if eindex < elen:
+                    enow = e[eindex]
+            else:
+                q, hh = _two_sum(q, fnow)
+                findex += 1
+                if findex < flen:
+                    fnow = f[findex]
+            if hh != 0.0:
+                h[hindex] = hh
+                hindex += 1
+    while eindex < elen:
+        q, hh = _two_sum(q, enow)
+        eindex += 1
+        if eindex < elen:
+            enow = e[eindex]
+        if hh != 0.0:
+            h[hindex] = hh
+            hindex += 1
+    while findex < flen:
+        q, hh = _two_sum(q, fnow)
+        findex += 1
+        if findex < flen:
+            fnow = f[findex]
+        if hh != 0.0:
+            h[hindex] = hh
+            hindex += 1
+    if q != 0.0 or hindex == 0:
+        h[hindex] = q
+        hindex += 1
+    return hindex
+
+
+@njit(cache=True)
+def _scale_expansion(elen, e, b, h):
+    """Shewchuk's scale_expansion_zeroelim: h = b * e, returns len(h)."""
+    q, hh = _two_product(e[0], b)
+    hindex = 0
+    if hh != 0.0:
+        h[hindex] = hh
+        hindex += 1
+    for i in range(1, elen):
+        p1, p0 = _two_product(e[i], b)
+        s, hh = _two_sum(q, p0)
+        if hh != 0.0:
+            h[hindex] = hh
+            hindex += 1
+        q = p1 + s
+        hh = s - (q - p1)
+        if hh != 0.0:
+            h[hindex] = hh
+            hindex += 1
+    if q != 0.0 or hindex == 0:
+        h[hindex] = q
+        hindex += 1
+    return hindex
+
+
+@njit(cache=True)
+def _expansion_product(elen, e, flen, f, h, tmp1, tmp2):
+    """h = e * f (both expansions); tmp1, tmp2 are scratch; returns len(h)."""
+    hlen = 0
+    for i in range(flen):
+        slen = _scale_expansion(elen, e, f[i], tmp1)
+        nlen = _expansion_sum(hlen, h, slen, tmp1, tmp2)
+        for k in range(nlen):
+            h[k] = tmp2[k]
+        hlen = nlen
+    return hlen
+
+
+@njit(cache=True, inline="always")
+def _sign_of(elen, e):
+    """Sign of an expansion: that of its largest (last nonzero) component."""
+    for i in range(elen - 1, -1, -1):
+        if e[i] > 0.0:
+            return 1
+        if e[i] < 0.0:
+            return -1
+    return 0
+
+
+@njit(cache=True, inline="always")
+def _set_diff(a, b, out):
+    """Write a - b as an exact expansion (1 or 2 components) into out."""
+    x, y = _two_diff(a, b)
+    if y == 0.0:
+        out[0] = x
+        return 1
+    out[0] = y
+    out[1] = x
+    return 2
+
+
+@njit(cache=True)
+def _cross_exact(adx, adxlen, bdy, bdylen, bdx, bdxlen, ady, adylen, h, work):
+    """h = adx * bdy - bdx * ady for expansions; work needs >= 96 slots."""
+    p = work[0:16]
+    q = work[16:32]
+    t1 = work[32:64]
+    t2 = work[64:96]
+    plen = _expansion_product(adxlen, adx, bdylen, bdy, p, t1, t2)
+    qlen = _expansion_product(bdxlen, bdx, adylen, ady, q, t1, t2)
+    for i in range(qlen):
+        q[i] = -q[i]
+    return _expansion_sum(plen, p, qlen, q, h)
+
+
+# ---------------------------------------------------------------------------
+# orient2d
+# ---------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def orient2d_exact(ax, ay, bx, by, cx, cy, work):
+    """Exact sign of the orientation of (a, b, c); ``work`` is scratch.
+
+    Parameters
+    ----------
+    ax, ay, bx, by, cx, cy : float64
+        The three points.
+    work : (WORK_SIZE,) float64
+        Scratch buffer, overwritten.
+
+    Returns
+    -------
+    int
+        +1 if a, b, c turn counter-clockwise, -1 if clockwise, 0 if collinear.
+    """
+    acx, acxt = _two_diff(ax, cx)
+    acy, acyt = _two_diff(ay, cy)
+    bcx, bcxt = _two_diff(bx, cx)
+    bcy, bcyt = _two_diff(by, cy)
+    if acxt == 0.0 and acyt == 0.0 and bcxt == 0.0 and bcyt == 0.0:
+        # Differences are exact: det = acx*bcy - acy*bcx from two products.
+        l1, l0 = _two_product(acx, bcy)
+        r1, r0 = _two_product(acy, bcx)
+        work[0] = l0
+        work[1] = l1
+        work[2] = -r0
+        work[3] = -r1
+        e = work[0:2]
+        f = work[2:4]
+        hlen = _expansion_sum(2, e, 2, f, work[4:8])
+        return _sign_of(hlen, work[4:8])
+    e1 = work[0:2]
+    e2 = work[2:4]
+    e3 = work[4:6]
+    e4 = work[6:8]
+    n1 = _set_diff(ax, cx, e1)
+    n2 = _set_diff(by, cy, e2)
+    n3 = _set_diff(bx, cx, e3)
+    n4 = _set_diff(ay, cy, e4)
+    h = work[8:40]
+    hlen = _cross_exact(e1, n1, e2, n2, e3, n3, e4, n4, h, work[40:200])
+    return _sign_of(hlen, h)
+
+
+@njit(cache=True)
+def orient2d_scalar(ax, ay, bx, by, cx, cy):
+    """Sign of the orientation of the points a, b, c (float filter, then exact).
+
+    Parameters
+    ----------
+    ax, ay, bx, by, cx, cy : float64
+
+    Returns
+    -------
+    int
+        +1 counter-clockwise, -1 clockwise, 0 collinear (exactly).
+    """
+    detleft = (ax - cx) * (by - cy)
+    detright = (ay - cy) * (bx - cx)
+    det = detleft - detright
+    errbound = _CCW_ERRBOUND_A * (abs(detleft) + abs(detright))
+    if det > errbound:
+        return 1
+    if -det > errbound:
+        return -1
+    if detleft == 0.0 or detright == 0.0:
+        # One product is exactly zero (no underflow): det is correctly rounded.
+        if det > 0.0:
+            return 1
+        if det < 0.0:
+            return -1
+        return 0
+    return orient2d_exact(ax, ay, bx, by, cx, cy, np.empty(256))
+
+
+# ---------------------------------------------------------------------------
+# incircle
+# ---------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def incircle_exact(ax, ay, bx, by, cx, cy, dx, dy, work):
+    """Exact sign of the in-circle determinant; ``work`` is scratch.
+
+    Parameters
+    ----------
+    ax, ay, bx, by, cx, cy, dx, dy : float64
+        a, b, c define the circle, d is tested.
+    work : (WORK_SIZE,) float64
+        Scratch buffer, overwritten.
+
+    Returns
+    -------
+    int
+        For counter-clockwise a, b, c: +1 if d is inside the circle through
+        them, -1 outside, 0 on it (signs reverse when a, b, c is clockwise).
+    """
+    adx, adxt = _two_diff(ax, dx)
+    ady, adyt = _two_diff(ay, dy)
+    bdx, bdxt = _two_diff(bx, dx)
+    bdy, bdyt = _two_diff(by, dy)
+    cdx, cdxt = _two_diff(cx, dx)
+    cdy, cdyt = _two_diff(cy, dy)
+    exact = (
+        adxt == 0.0 and adyt == 0.0 and bdxt == 0.0 and bdyt == 0.0 and cdxt == 0.0 and cdyt == 0.0
+    )
+    if exact:
+        return _incircle_from_diffs(adx, ady, bdx, bdy, cdx, cdy, work)
+    # General case: every difference is a (1 or 2 term) expansion.
+    d = work[0:12]
+    la = _set_diff(ax, dx, d[0:2])
+    lb = _set_diff(ay, dy, d[2:4])
+    lc = _set_diff(bx, dx, d[4:6])
+    ld = _set_diff(by, dy, d[6:8])
+    le = _set_diff(cx, dx, d[8:10])
+    lf = _set_diff(cy, dy, d[10:12])
+    xa, ya = d[0:2], d[2:4]
+    xb, yb = d[4:6], d[6:8]
+    xc, yc = d[8:10], d[10:12]
+    scratch = work[100:300]
+    cross = work[300:340]
+    lift = work[340:380]
+    sq1 = work[380:400]
+    sq2 = work[400:420]
+    term = work[420:1500]
+    acc = work[1500:3200]
+    acc2 = work[3200:4900]
+    t1 = work[4900:5000]
+    t2 = work[5000:6100]
+    alen = 0
+    for k in range(3):
+        if k == 0:
+            # alift * (bdx*cdy - cdx*bdy)
+            x0, x0l, y0, y0l = xa, la, ya, lb
+            clen = _cross_exact(xb, lc, yc, lf, xc, le, yb, ld, cross, scratch)
+        elif k == 1:
+            # blift * (cdx*ady - adx*cdy)
+            x0, x0l, y0, y0l = xb, lc, yb, ld
+            clen = _cross_exact(xc, le, ya, lb, xa, la, yc, lf, cross, scratch)
+        else:
+            # clift * (adx*bdy - bdx*ady)
+            x0, x0l, y0, y0l = xc, le, yc, lf
+            clen = _cross_exact(xa, la, yb, ld, xb, lc, ya, lb, cross, scratch)
+        s1 = _expansion_product(x0l, x0, x0l, x0, sq1, t1, scratch)
+        s2 = _expansion_product(y0l, y0, y0l, y0, sq2, t1, scratch)
+        liftlen = _expansion_sum(s1, sq1, s2, sq2, lift)
+        tlen = _expansion_product(liftlen, lift, clen, cross, term, t1, t2)
+        nlen = _expansion_sum(alen, acc, tlen, term, acc2)
+        for i in range(nlen):
+            acc[i] = acc2[i]
+        alen = nlen
+    return _sign_of(alen, acc)
+
+
+@njit(cache=True)
+def _incircle_from_diffs(adx, ady, bdx, bdy, cdx, cdy, work):
+    """Exact in-circle sign when the six coordinate differences are exact.
+
+    The sum over the vertices of ``lift * cross`` with every partial
+    expansion zero-eliminated and zero factors skipped: degenerate inputs
+    (co-circular lattice-like points) have many zero differences.
+    """
+    cr = work[0:4]
+    t8 = work[12:20]
+    t16a = work[20:36]
+    t16b = work[36:52]
+    t32 = work[52:84]
+    acc = work[84:180]
+    acc2 = work[180:276]
+    alen = 0
+    for k in range(3):
+        if k == 0:
+            px, py = adx, ady
+            clen = _cross4(bdx, cdy, cdx, bdy, cr)
+        elif k == 1:
+            px, py = bdx, bdy
+            clen = _cross4(cdx, ady, adx, cdy, cr)
+        else:
+            px, py = cdx, cdy
+            clen = _cross4(adx, bdy, bdx, ady, cr)
+        if clen == 0:
+            continue
+        n1 = 0
+        if px != 0.0:
+            n = _scale_expansion(clen, cr, px, t8)
+            n1 = _scale_expansion(n, t8, px, t16a)
+        n2 = 0
+        if py != 0.0:
+            n = _scale_expansion(clen, cr, py, t8)
+            n2 = _scale_expansion(n, t8, py, t16b)
+        tl = _expansion_sum(n1, t16a, n2, t16b, t32)
+        nl = _expansion_sum(alen, acc, tl, t32, acc2)
+        for i in range(nl):
+            acc[i] = acc2[i]
+        alen = nl
+    return _sign_of(alen, acc)
+
+
+@njit(cache=True, inline="always")
+def _cross4(a, b, c, d, out):
+    """out = a*b - c*d exactly (Two_Two_Diff), zeros removed; returns length."""
+    x1, x0 = _two_product(a, b)
+    y1, y0 = _two_product(c, d)
+    i, r0 = _two_diff(x0, y0)
+    j, _0 = _two_sum(x1, i)
+    i, r1 = _two_diff(_0, y1)
+    x3, x2 = _two_sum(j, i)
+    n = 0
+    if r0 != 0.0:
+        out[n] = r0
+        n += 1
+    if r1 != 0.0:
+        out[n] = r1
+        n += 1
+    if x2 != 0.0:
+        out[n] = x2
+        n += 1
+    if x3 != 0.0:
+        out[n] = x3
+        n += 1
+    return n
+
+
+@njit(cache=True)
+def incircle_scalar(ax, ay, bx, by, cx, cy, dx, dy):
+    """Sign of the in-circle test of d against the circle through a, b, c.
+
+    Parameters
+    ----------
+    ax, ay, bx, by, cx, cy, dx, dy : float64
+
+    Returns
+    -------
+    int
+        For counter-clockwise a, b, c: +1 if d is strictly inside the
+        circumcircle, -1 strictly outside, 0 exactly on it; reversed for a
+        clockwise triangle.
+    """
+    adx = ax - dx
+    bdx = bx - dx
+    cdx = cx - dx
+    ady = ay - dy
+    bdy = by - dy
+    cdy = cy - dy
+    bdxcdy = bdx * cdy
+    cdxbdy = cdx * bdy
+    alift = adx * adx + ady * ady
+    cdxady = cdx * ady
+    adxcdy = adx * cdy
+    blift = bdx * bdx + bdy * bdy
+    adxbdy = adx * bdy
+    bdxady = bdx * ady
+    clift = cdx * cdx + cdy * cdy
+    det = alift * (bdxcdy - cdxbdy) + blift * (cdxady - adxcdy) + clift * (adxbdy - bdxady)
+    permanent = (
+        (abs(bdxcdy) + abs(cdxbdy)) * alift
+        + (abs(cdxady) + abs(adxcdy)) * blift
+        + (abs(adxbdy) + abs(bdxady)) * clift
+    )
+    errbound = _ICC_ERRBOUND_A * permanent
+    if det > errbound:
+        return 1
+    if -det > errbound:
+        return -1
+    return incircle_exact(ax, ay, bx, by, cx, cy, dx, dy, np.empty(WORK_SIZE))
+
+
+# ---------------------------------------------------------------------------
+# orient3d
+# ---------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def orient3d_exact(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, work):
+    """Exact sign of Shewchuk's orient3d determinant; ``work`` is scratch.
+
+    Returns
+    -------
+    int
+        +1 if d lies below the plane through a, b, c (a, b, c appearing
+        counter-clockwise seen from above), -1 above, 0 coplanar.
+    """
+    d = work[0:18]
+    n = np.empty(9, np.int64)
+    n[0] = _set_diff(ax, dx, d[0:2])
+    n[1] = _set_diff(ay, dy, d[2:4])
+    n[2] = _set_diff(az, dz, d[4:6])
+    n[3] = _set_diff(bx, dx, d[6:8])
+    n[4] = _set_diff(by, dy, d[8:10])
+    n[5] = _set_diff(bz, dz, d[10:12])
+    n[6] = _set_diff(cx, dx, d[12:14])
+    n[7] = _set_diff(cy, dy, d[14:16])
+    n[8] = _set_diff(cz, dz, d[16:18])
+    xa, ya, za = d[0:2], d[2:4], d[4:6]
+    xb, yb, zb = d[6:8], d[8:10], d[10:12]
+    xc, yc, zc = d[12:14], d[14:16], d[16:18]
+    scratch = work[100:300]
+    cross = work[300:340]
+    term = work[340:500]
+    acc = work[500:1000]
+    acc2 = work[1000:1500]
+    t1 = work[1500:1600]
+    t2 = work[1600:1800]
+    alen = 0
+    for k in range(3):
+        if k == 0:
+            # adz * (bdx*cdy - cdx*bdy)
+            z, zl = za, n[2]
+            clen = _cross_exact(xb, n[3], yc, n[7], xc, n[6], yb, n[4], cross, scratch)
+        elif k == 1:
+            # bdz * (cdx*ady - adx*cdy)
+            z, zl = zb, n[5]
+            clen = _cross_exact(xc, n[6], ya, n[1], xa, n[0], yc, n[7], cross, scratch)
+        else:
+            # cdz * (adx*bdy - bdx*ady)
+            z, zl = zc, n[8]
+            clen = _cross_exact(xa, n[0], yb, n[4], xb, n[3], ya, n[1], cross, scratch)
+        tlen = _expansion_product(clen, cross, zl, z, term, t1, t2)
+        nl = _expansion_sum(alen, acc, tlen, term, acc2)
+        for i in range(nl):
+            acc[i] = acc2[i]
+        alen = nl
+    return _sign_of(alen, acc)
+
+
+@njit(cache=True)
+def orient3d_scalar(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz):
+    """Sign of Shewchuk's orient3d(a, b, c, d) (float filter, then exact).
+
+    Returns
+    -------
+    int
+        +1 if d lies below the plane through a, b, c (a, b, c appearing
+        counter-clockwise seen from above), -1 above, 0 coplanar.
+    """
+    adx = ax - dx
+    bdx = bx - dx
+    cdx = cx - dx
+    ady = ay - dy
+    bdy = by - dy
+    cdy = cy - dy
+    adz = az - dz
+    bdz = bz - dz
+    cdz = cz - dz
+    bdxcdy = bdx * cdy
+    cdxbdy = cdx * bdy
+    cdxady = cdx * ady
+    adxcdy = adx * cdy
+    adxbdy = adx * bdy
+    bdxady = bdx * ady
+    det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady)
+    permanent = (
+        (abs(bdxcdy) + abs(cdxbdy)) * abs(adz)
+        + (abs(cdxady) + abs(adxcdy)) * abs(bdz)
+        + (abs(adxbdy) + abs(bdxady)) * abs(cdz)
+    )
+    errbound = _O3D_ERRBOUND_A * permanent
+    if det > errbound:
+        return 1
+    if -det > errbound:
+        return -1
+    return orient3d_exact(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, np.empty(2048))
+
+
+# ---------------------------------------------------------------------------
+# Exact stage over undecided rows (compiled loops)
+# ---------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _orient2d_rows(a, b, c, rows, out):
+    work = np.empty(WORK_SIZE)
+    for r in rows:
+        out[r] = orient2d_exact(a[r, 0], a[r, 1], b[r, 0], b[r, 1], c[r, 0], c[r, 1], work)
+
+
+@njit(cache=True)
+def _incircle_rows(a, b, c, d, rows, out):
+    work = np.empty(WORK_SIZE)
+    for r in rows:
+        out[r] = incircle_exact(
+            a[r, 0], a[r, 1], b[r, 0], b[r, 1], c[r, 0], c[r, 1], d[r, 0], d[r, 1], work
+        )
+
+
+@njit(cache=True)
+def _orient3d_rows(a, b, c, d, rows, out):
+    work = np.empty(WORK_SIZE)
+    for r in rows:
+        out[r] = orient3d_exact(
+            a[r, 0],
+            a[r, 1],
+            a[r, 2],
+            b[r, 0],
+            b[r, 1],
+            b[r, 2],
+            c[r, 0],
+            c[r, 1],
+            c[r, 2],
+            d[r, 0],
+            d[r, 1],
+            d[r, 2],
+            work,
+        )
+
+
+# ---------------------------------------------------------------------------
+# Vectorized public predicates
+# ---------------------------------------------------------------------------
+
+
+def _prepare(args: tuple, dim: int, names: str) -> tuple[tuple[np.ndarray, ...], tuple]:
+    """Broadcast point arrays of shape (..., dim) to flat (n, dim) float64."""
+    arrays = []
+    for name, arg in zip(names, args, strict=True):
+        try:
+            arr = np.asarray(arg, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise InputError(
+                f"{name} must be an array of {dim}D points", loc=(name,), code="bad_shape"
+            ) from exc
+        if arr.ndim == 0 or arr.shape[-1] != dim:
+            raise InputError(
+                f"{name} must have shape (..., {dim}), got {arr.shape}",
+                loc=(name,),
+                code="bad_shape",
+            )
+        if not np.isfinite(arr).all():
+            raise InputError(f"{name} has a non-finite coordinate", loc=(name,), code="non_finite")
+        arrays.append(arr)
+    try:
+        shape = np.broadcast_shapes(*(a.shape for a in arrays))
+    except ValueError as exc:
+        raise InputError(
+            "point arrays do not broadcast: " + ", ".join(str(a.shape) for a in arrays),
+            loc=(),
+            code="bad_shape",
+        ) from exc
+    lead = shape[:-1]
+    flat = tuple(np.ascontiguousarray(np.broadcast_to(a, shape).reshape(-1, dim)) for a in arrays)
+    return flat, lead
+
+
+def _sign_int8(det: np.ndarray) -> np.ndarray:
+    return np.sign(det).astype(np.int8)
+
+
+def orient2d(a, b, c) -> np.ndarray:
+    """Exact orientation of point triples, row by row.
+
+    Parameters
+    ----------
+    a, b, c : (n, 2) float64 or (2,) float64
+        Points; shapes broadcast (any leading shape ``(..., 2)``).
+
+    Returns
+    -------
+    (n,) int8
+        +1 where a, b, c turn counter-clockwise (c left of the directed line
+        a->b), -1 clockwise, 0 exactly collinear. The leading broadcast shape
+        is kept, so three single points give a 0-d array.
+
+    Raises
+    ------
+    InputError
+        ``bad_shape`` for arrays that are not ``(..., 2)`` or do not
+        broadcast, ``non_finite`` for NaN or infinite coordinates.
+
+    Notes
+    -----
+    Float64 evaluation with Shewchuk's error bound ``ccwerrboundA``; the rows
+    it cannot decide are recomputed exactly. References: DESIGN.md "Geometry
+    robustness"; methods text §9.1.
+    """
+    (a, b, c), lead = _prepare((a, b, c), 2, "abc")
+    detleft = (a[:, 0] - c[:, 0]) * (b[:, 1] - c[:, 1])
+    detright = (a[:, 1] - c[:, 1]) * (b[:, 0] - c[:, 0])
+    det = detleft - detright
+    errbound = _CCW_ERRBOUND_A * (np.abs(detleft) + np.abs(detright))
+    out = _sign_int8(det)
+    undecided = ~(np.abs(det) > errbound) & (detleft != 0.0) & (detright != 0.0)
+    rows = np.flatnonzero(undecided)
+    if rows.size:
+        _orient2d_rows(a, b, c, rows, out)
+    return out.reshape(lead)
+
+
+def incircle(a, b, c, d) -> np.ndarray:
+    """Exact in-circle test of d against the circle through a, b, c, row by row.
+
+    Parameters
+    ----------
+    a, b, c, d : (n, 2) float64 or (2,) float64
+        Points; shapes broadcast (any leading shape ``(..., 2)``).
+
+    Returns
+    -------
+    (n,) int8
+        For counter-clockwise a, b, c: +1 where d lies strictly inside their
+        circumcircle, -1 strictly outside, 0 exactly on it. The sign reverses
+        for clockwise a, b, c (it is the sign of Shewchuk's determinant), and
+        is 0 whenever a, b, c are collinear and d is on their line.
+
+    Raises
+    ------
+    InputError
+        ``bad_shape`` or ``non_finite`` as :func:`orient2d`.
+
+    Notes
+    -----
+    Float64 evaluation with Shewchuk's ``iccerrboundA``; undecided rows are
+    recomputed exactly. Ties (0) are reported, not broken: the Delaunay
+    kernel breaks them by symbolic perturbation on its own. References:
+    DESIGN.md "Geometry robustness"; methods text §9.1.
+    """
+    (a, b, c, d), lead = _prepare((a, b, c, d), 2, "abcd")
+    adx = a[:, 0] - d[:, 0]
+    bdx = b[:, 0] - d[:, 0]
+    cdx = c[:, 0] - d[:, 0]
+    ady = a[:, 1] - d[:, 1]
+    bdy = b[:, 1] - d[:, 1]
+    cdy = c[:, 1] - d[:, 1]
+    bdxcdy = bdx * cdy
+    cdxbdy = cdx * bdy
+    alift = adx * adx + ady * ady
+    cdxady = cdx * ady
+    adxcdy = adx * cdy
+    blift = bdx * bdx + bdy * bdy
+    adxbdy = adx * bdy
+    bdxady = bdx * ady
+    clift = cdx * cdx + cdy * cdy
+    det = alift * (bdxcdy - cdxbdy) + blift * (cdxady - adxcdy) + clift * (adxbdy - bdxady)
+    permanent = (
+        (np.abs(bdxcdy) + np.abs(cdxbdy)) * alift
+        + (np.abs(cdxady) + np.abs(adxcdy)) * blift
+        + (np.abs(adxbdy) + np.abs(bdxady)) * clift
+    )
+    out = _sign_int8(det)
+    rows = np.flatnonzero(~(np.abs(det) > _ICC_ERRBOUND_A * permanent))
+    if rows.size:
+        _incircle_rows(a, b, c, d, rows, out)
+    return out.reshape(lead)
+
+
+def orient3d(a, b, c, d) -> np.ndarray:
+    """Exact orientation of point quadruples in 3D, row by row.
+
+    Parameters
+    ----------
+    a, b, c, d : (n, 3) float64 or (3,) float64
+        Points; shapes broadcast (any leading shape ``(..., 3)``).
+
+    Returns
+    -------
+    (n,) int8
+        Shewchuk's convention: +1 where d lies below the plane through a, b, c
+        (a, b, c appearing counter-clockwise seen from above, i.e. from the
+        side the right-hand normal (b - a) x (c - a) points to), -1 above,
+        0 exactly coplanar.
+
+    Raises
+    ------
+    InputError
+        ``bad_shape`` or ``non_finite`` as :func:`orient2d`.
+
+    Notes
+    -----
+    Float64 evaluation with Shewchuk's ``o3derrboundA``; undecided rows are
+    recomputed exactly. References: DESIGN.md "Geometry robustness".
+    """
+    (a, b, c, d), lead = _prepare((a, b, c, d), 3, "abcd")
+    adx = a[:, 0] - d[:, 0]
+    bdx = b[:, 0] - d[:, 0]
+    cdx = c[:, 0] - d[:, 0]
+    ady = a[:, 1] - d[:, 1]
+    bdy = b[:, 1] - d[:, 1]
+    cdy = c[:, 1] - d[:, 1]
+    adz = a[:, 2] - d[:, 2]
+    bdz = b[:, 2] - d[:, 2]
+    cdz = c[:, 2] - d[:, 2]
+    bdxcdy = bdx * cdy
+    cdxbdy = cdx * bdy
+    cdxady = cdx * ady
+    adxcdy = adx * cdy
+    adxbdy = adx * bdy
+    bdxady = bdx * ady
+    det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady)
+    permanent = (
+        (np.abs(bdxcdy) + np.abs(cdxbdy)) * np.abs(adz)
+        + (np.abs(cdxady) + np.abs(adxcdy)) * np.abs(bdz)
+        + (np.abs(adxbdy) + np.abs(bdxady)) * np.abs(cdz)
+    )
+    out = _sign_int8(det)
+    rows = np.flatnonzero(~(np.abs(det) > _O3D_ERRBOUND_A * permanent))
+    if rows.size:
+        _orient3d_rows(a, b, c, d, rows, out)
+    return out.reshape(lead)
