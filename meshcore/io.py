@@ -44,7 +44,13 @@ FORMATS: dict[str, FileFormat] = {
     "gmsh": FileFormat("gmsh", ".msh", "model/x-gmsh"),
     "gmsh22": FileFormat("gmsh22", ".msh", "model/x-gmsh"),
     "xdmf": FileFormat("xdmf", ".xdmf", "application/xml"),
-    "abaqus": FileFormat("abaqus", ".inp", "text/plain", binary=False),
+    "abaqus": FileFormat(
+        "abaqus",
+        ".inp",
+        "text/plain",
+        frozenset({"line", "triangle", "quad", "tetra", "wedge", "hexahedron"}),  # meshio's
+        binary=False,
+    ),
     "obj": FileFormat(
         "obj", ".obj", "model/obj", frozenset({"triangle", "quad"}), False
     ),
@@ -198,7 +204,7 @@ def _meshio_for(mesh: Mesh, fmt: str) -> meshio.Mesh:
                 f[a] = 1
                 flags.append(f)
             m.cell_data[f"set:{name}"] = flags
-        m.cell_sets = {}
+    m.cell_sets = {}  # Abaqus: written by _abaqus_elsets
     if m.points.shape[1] == 2 and fmt != "abaqus":
         m.points = np.column_stack([m.points, np.zeros(len(m.points))])
     if fmt in ("obj", "stl"):
@@ -240,7 +246,25 @@ def to_bytes(mesh: Mesh, fmt: str) -> bytes:
         else:
             meshio.write(path, m, file_format=spec.meshio_name)
         with open(path, "rb") as f:
-            return f.read()
+            data = f.read()
+    return data + _abaqus_elsets(mesh).encode() if fmt == "abaqus" else data
+
+
+def _abaqus_elsets(mesh: Mesh) -> str:
+    """One ``*ELSET`` per cell set, with 1-based element ids counted over all blocks.
+
+    meshio writes one ``*ELSET`` per set and block, and its reader keeps only
+    the last of equally named sets, so a set spanning blocks would lose cells.
+    """
+    offsets = np.cumsum([0] + [len(b) for b in mesh.cells])
+    out = []
+    for name, ids in mesh.cell_sets.items():
+        parts = [a + 1 + off for a, off in zip(ids, offsets[:-1], strict=True)]
+        els = np.concatenate(parts).tolist() if parts else []
+        if els:
+            rows = (",".join(map(str, els[i : i + 8])) for i in range(0, len(els), 8))
+            out.append(f"*ELSET, ELSET={name}\n" + ",\n".join(rows) + "\n")
+    return "".join(out)
 
 
 def from_bytes(data: bytes, fmt: str) -> Mesh:
