@@ -7,6 +7,11 @@ JSON shape (DESIGN.md)::
      "point_data": {name: [...]}, "cell_data": {name: [[...] per block]},
      "cell_sets": {name: [[ids in block 0], [ids in block 1], ...]}}
 
+A cell set spanning dimensions (quads and lines, say) keeps one physical tag
+in Gmsh files; ``$PhysicalNames`` names it for its highest dimension only,
+as a Gmsh physical group has one dimension, and :func:`from_meshio` matches
+the tag in every dimension so the set round-trips whole.
+
 Downloads go through meshio, which cannot write to buffers, so
 :func:`to_bytes` writes a temporary file and reads it back. Cell sets become
 Gmsh physical groups (``gmsh:physical`` cell data with named ``field_data``;
@@ -43,7 +48,12 @@ FORMATS: dict[str, FileFormat] = {
     "vtu": FileFormat("vtu", ".vtu", "application/vnd.vtk.vtu+xml"),
     "gmsh": FileFormat("gmsh", ".msh", "model/x-gmsh"),
     "gmsh22": FileFormat("gmsh22", ".msh", "model/x-gmsh"),
-    "xdmf": FileFormat("xdmf", ".xdmf", "application/xml"),
+    "xdmf": FileFormat(  # meshio cannot read vertex cells back from mixed XDMF
+        "xdmf",
+        ".xdmf",
+        "application/xml",
+        frozenset({"line", "triangle", "quad", "tetra", "pyramid", "wedge", "hexahedron"}),
+    ),
     "abaqus": FileFormat(
         "abaqus",
         ".inp",
@@ -78,10 +88,13 @@ def from_meshio(m: meshio.Mesh) -> Mesh:
     cells are all at most two-dimensional.
     """
     keep = [i for i, c in enumerate(m.cells) if c.type in CELL_TYPES]
-    cell_sets = {k: v for k, v in m.cell_sets.items() if not k.startswith("gmsh:")}
-    if not cell_sets and "gmsh:physical" in m.cell_data:  # MSH 2.2 physical groups
-        for name, (tag, _dim) in m.field_data.items():
-            cell_sets[name] = [np.flatnonzero(t == tag) for t in m.cell_data["gmsh:physical"]]
+    if "gmsh:physical" in m.cell_data:  # Gmsh physical groups, matched by tag in every dimension
+        cell_sets = {
+            name: [np.flatnonzero(t == tag) for t in m.cell_data["gmsh:physical"]]
+            for name, (tag, _dim) in m.field_data.items()
+        }
+    else:
+        cell_sets = {k: v for k, v in m.cell_sets.items() if not k.startswith("gmsh:")}
     points = np.asarray(m.points, dtype=np.float64)
     if (
         points.shape[1] == 3

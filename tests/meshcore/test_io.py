@@ -120,20 +120,7 @@ def test_round_trip_keeps_cell_sets(fmt: str, make) -> None:
     assert canonical_sets(back) == canonical_sets(mesh)
 
 
-@pytest.mark.parametrize(
-    "fmt",
-    [
-        "gmsh22",
-        "abaqus",
-        pytest.param(
-            "gmsh",
-            marks=pytest.mark.xfail(
-                reason="MSH 4.1: a physical group has one dimension; meshio reads the set "
-                "back for its highest dimension only"
-            ),
-        ),
-    ],
-)
+@pytest.mark.parametrize("fmt", ["gmsh", "gmsh22", "abaqus"])
 def test_cell_sets_across_dimensions(fmt: str) -> None:
     mesh = mesh_2d(cross_dimension_set=True)
     back = io.from_bytes(io.to_bytes(mesh, fmt), fmt)
