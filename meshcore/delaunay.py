@@ -14,15 +14,17 @@ Algorithm (a compiled sequential loop, numba ``@njit(cache=True)``):
 2. Order the points for insertion: biased randomized insertion order (BRIO:
    each point joins round ``r`` with probability ``2**-(r+1)``, the rounds
    are inserted from the smallest to the largest), each round sorted along a
-   Hilbert curve. The "random" draw is a hash of the point index, so the same
-   input always gives the same run.
+   Hilbert curve, alternately forwards and backwards. The "random" draw is a
+   hash of the point index, so the same input always gives the same run.
 3. Incremental insertion with *ghost triangles*: the hull edges are closed by
    triangles on a vertex at infinity, so that there is no super-triangle
    whose removal could leave flat triangles or miss hull points. A point is
-   located by a visibility walk from the last inserted point's triangle,
-   inserted by a 1->3 split (inside a triangle, or outside the hull in a ghost
-   triangle) or a 2->4 split (on an edge), and the Delaunay property is
-   restored by Lawson flips.
+   located by a visibility walk that starts at a triangle of the nearest
+   already inserted point along the Hilbert curve, inserted by a 1->3 split
+   (inside a triangle, or outside the hull in a ghost triangle) or a 2->4
+   split (on an edge), and the Delaunay property is restored by Lawson
+   flips. Duplicates are found on the way (a point on two edges of its
+   triangle), so they cost no separate pass.
 
 Choices where the methods text leaves freedom:
 
@@ -44,8 +46,8 @@ References
 ----------
 Methods text §9.1 (Delaunay triangulation and admissible segments), §9.4
 (the empty Delaunay triangulation); DESIGN.md "Geometry robustness" and "One
-Delaunay kernel". P. Su and R. Drysdale's and O. Devillers' surveys of walks;
-N. Amenta, S. Choi and G. Rote, "Incremental constructions con BRIO" (2003);
+Delaunay kernel". O. Devillers, S. Pion and M. Teillaud, "Walking in a
+triangulation" (2002); N. Amenta, S. Choi and G. Rote, "Incremental constructions con BRIO" (2003);
 H. Edelsbrunner and E. Mücke, "Simulation of Simplicity" (1990).
 """
 
@@ -66,6 +68,7 @@ _CCW_ERRBOUND_A = (3.0 + 16.0 * 2.0**-53) * 2.0**-53
 _ICC_ERRBOUND_A = (10.0 + 96.0 * 2.0**-53) * 2.0**-53
 _HILBERT_BITS = 24
 _CHUNK = 1 << 16
+_MAX_POINTS = 1 << 28  # corners 3 * (2n) must fit the kernel's int32 arrays
 # Smallest magnitude a nonzero coordinate may have after rescaling the largest
 # to [0.5, 1): keeps every product of the exact predicates a normal number.
 _MIN_SCALED = 2.0**-140
@@ -131,23 +134,26 @@ def _brio_hilbert_keys(pts, factor, nbits):
         m >>= 1
         rounds += 1
     keys = np.empty(n, np.int64)
+    curve = np.empty(n, np.int64)
     for i in range(n):
         hx = int((pts[i, 0] * factor - xmin) * scale)
         hy = int((pts[i, 1] * factor - ymin) * scale)
         hx = min(max(hx, 0), side)
         hy = min(max(hy, 0), side)
+        # Hilbert index, branch-free: the transform applied to the lower bits
+        # is one of {identity, swap, complement, both}, tracked as two bits.
         d = 0
-        s = 1 << (nbits - 1)
-        while s > 0:
-            rx = 1 if (hx & s) > 0 else 0
-            ry = 1 if (hy & s) > 0 else 0
-            d += s * s * ((3 * rx) ^ ry)
-            if ry == 0:
-                if rx == 1:
-                    hx = side - hx
-                    hy = side - hy
-                hx, hy = hy, hx
-            s >>= 1
+        sw = 0
+        cp = 0
+        for lvl in range(nbits - 1, -1, -1):
+            bx = ((hx >> lvl) & 1) ^ cp
+            by = ((hy >> lvl) & 1) ^ cp
+            t = (bx ^ by) & sw
+            rx = bx ^ t
+            ry = by ^ t
+            d = (d << 2) | ((3 * rx) ^ ry)
+            sw ^= 1 - ry
+            cp ^= (1 - ry) & rx
         # splitmix64 of the index: a reproducible fair coin sequence.
         z = np.uint64(i) + np.uint64(0x9E3779B97F4A7C15)
         z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
@@ -157,8 +163,51 @@ def _brio_hilbert_keys(pts, factor, nbits):
         while level < rounds and (z & np.uint64(1)) == np.uint64(0):
             z >>= np.uint64(1)
             level += 1
-        keys[i] = ((rounds - level) << (2 * nbits)) | d
-    return keys
+        r = rounds - level
+        curve[i] = d
+        if r % 2 == 1:
+            # Alternate the direction of the curve from round to round, so
+            # that each round starts where the previous one ended.
+            d = (1 << (2 * nbits)) - 1 - d
+        keys[i] = (r << (2 * nbits)) | d
+    return keys, curve
+
+
+@njit(cache=True)
+def _walk_hints(seq, curve_sorted):
+    """For each insertion position, an earlier-inserted point near it on the curve.
+
+    ``seq[j]`` is the insertion position of the j-th point along the Hilbert
+    curve and ``curve_sorted[j]`` its curve index. For each point the nearest
+    point on either side along the curve that was inserted before it is found
+    with two monotonic-stack sweeps (previous / next smaller element); the
+    closer of the two is the walk's starting vertex. -1: none.
+    """
+    n = seq.shape[0]
+    left = np.empty(n, np.int64)
+    stack = np.empty(n, np.int64)
+    sp = 0
+    for j in range(n):
+        while sp > 0 and seq[stack[sp - 1]] > seq[j]:
+            sp -= 1
+        left[j] = stack[sp - 1] if sp > 0 else -1
+        stack[sp] = j
+        sp += 1
+    hint = np.empty(n, np.int32)
+    sp = 0
+    for j in range(n - 1, -1, -1):
+        while sp > 0 and seq[stack[sp - 1]] > seq[j]:
+            sp -= 1
+        right = stack[sp - 1] if sp > 0 else -1
+        stack[sp] = j
+        sp += 1
+        best = left[j]
+        if right >= 0 and (
+            best < 0 or curve_sorted[right] - curve_sorted[j] < curve_sorted[j] - curve_sorted[best]
+        ):
+            best = right
+        hint[seq[j]] = seq[best] if best >= 0 else -1
+    return hint
 
 
 # ---------------------------------------------------------------------------
@@ -292,8 +341,20 @@ def _is_ghost(V, t):
     return V[3 * t] < 0 or V[3 * t + 1] < 0 or V[3 * t + 2] < 0
 
 
+@njit(cache=True, inline="always")
+def _touch(V, vt, t):
+    """Record real triangle t as the walk start of its three vertices."""
+    a = V[3 * t]
+    b = V[3 * t + 1]
+    c = V[3 * t + 2]
+    if a >= 0 and b >= 0 and c >= 0:
+        vt[a] = t
+        vt[b] = t
+        vt[c] = t
+
+
 @njit(cache=True)
-def _start(pts, order, V, A, state, work):
+def _start(pts, order, V, A, vt, state, work):
     """Build the first triangle and its three ghosts; reorder if needed.
 
     Finds the first point not collinear with the first two (moving it to
@@ -333,13 +394,14 @@ def _start(pts, order, V, A, state, work):
     A[3], A[10] = 10, 3  # edge (b, inf)
     A[4], A[6] = 6, 4  # edge (c, inf)
     A[7], A[9] = 9, 7  # edge (a, inf)
+    vt[0] = vt[1] = vt[2] = 0
     state[0] = 4
     state[1] = 0
     state[2] = _OK
 
 
 @njit(cache=True)
-def _insert_range(pts, V, A, stack, state, work, start, stop):
+def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop):
     """Insert points start..stop-1 (insertion order = row order of pts).
 
     state = [ntri, last real triangle, status, info1, info2].
@@ -348,7 +410,8 @@ def _insert_range(pts, V, A, stack, state, work, start, stop):
     last = state[1]
     for p in range(start, stop):
         # --- locate: visibility walk from the last triangle -------------
-        t = last
+        h = hint[p]
+        t = vt[h] if h >= 0 else last
         entry = -1
         zeros = 0
         zcorner = -1
@@ -411,6 +474,9 @@ def _insert_range(pts, V, A, stack, state, work, start, stop):
             A[3 * t2 + 2] = a2
             A[a1] = 3 * t1 + 1
             A[a2] = 3 * t2 + 2
+            _touch(V, vt, t0)
+            _touch(V, vt, t1)
+            _touch(V, vt, t2)
             stack[0] = 3 * t0
             stack[1] = 3 * t1 + 1
             stack[2] = 3 * t2 + 2
@@ -468,6 +534,10 @@ def _insert_range(pts, V, A, stack, state, work, start, stop):
             A[ab_] = 3 * T2 + 1
             A[bb_] = 3 * T3 + 2
             A[bc_] = 3 * T4 + 1
+            _touch(V, vt, T1)
+            _touch(V, vt, T2)
+            _touch(V, vt, T3)
+            _touch(V, vt, T4)
             stack[0] = 3 * T1 + 2
             stack[1] = 3 * T2 + 1
             stack[2] = 3 * T3 + 2
@@ -527,6 +597,8 @@ def _insert_range(pts, V, A, stack, state, work, start, stop):
             A[e_pu] = b0 + 2
             A[e_qv] = b2
             A[e_vp] = b2 + 1
+            _touch(V, vt, t)
+            _touch(V, vt, t2)
             if u >= 0:
                 last = t
             elif v >= 0:
@@ -606,6 +678,12 @@ def _validated(points) -> np.ndarray:
             f"points must have shape (n, 2), got {pts.shape}", loc=("points",), code="bad_shape"
         )
     n = len(pts)
+    if n >= _MAX_POINTS:
+        raise InputError(
+            f"at most {_MAX_POINTS - 1} points can be triangulated at once, got {n}",
+            loc=("points",),
+            code="too_many_points",
+        )
     if n < 3:
         raise InputError(
             f"a triangulation needs at least 3 points, got {n}",
@@ -703,7 +781,8 @@ def delaunay(
         points), ``duplicate_points`` (naming the coinciding indices),
         ``collinear_points`` (all points on one line),
         ``coordinates_out_of_range`` (nonzero coordinates more than 2**140
-        times smaller than the largest: the exact arithmetic would underflow).
+        times smaller than the largest: the exact arithmetic would underflow),
+        ``too_many_points`` (2**28 or more).
 
     Notes
     -----
@@ -715,7 +794,11 @@ def delaunay(
     a given input array but otherwise unspecified.
 
     Cost: expected O(n log n) (sorting) plus O(n) insertions with expected
-    constant work each, in compiled code; memory about 60 bytes per point.
+    constant work each, in compiled code. Memory: about 200 bytes per point
+    at the peak, half of it the int64 output arrays.
+
+    Limits: fewer than 2**28 points (int32 triangle indices inside the
+    kernel).
 
     References
     ----------
@@ -724,11 +807,15 @@ def delaunay(
     pts_in = _validated(points)
     n = len(pts_in)
     factor = _scale_factor(pts_in)
-    # Hilbert cells: about 2**8 times more cells than points is plenty.
-    nbits = min(_HILBERT_BITS, max(8, (n.bit_length() + 1) // 2 + 4))
-    keys = _brio_hilbert_keys(pts_in, factor, nbits)
+    # Hilbert cells: about 4n per side, so that even points sampling a curve
+    # (boundaries) rarely share a cell.
+    nbits = min(_HILBERT_BITS, max(8, n.bit_length() + 2))
+    keys, curve = _brio_hilbert_keys(pts_in, factor, nbits)
     order = np.argsort(keys)
     del keys
+    along = np.argsort(curve[order])
+    hint = _walk_hints(along, curve[order][along])
+    del curve, along
     pts = _gather(pts_in, order, factor)
 
     ntri_max = 2 * n
@@ -737,7 +824,8 @@ def delaunay(
     stack = np.empty(n + 8, np.int32)
     state = np.zeros(5, np.int64)
     work = np.empty(WORK_SIZE)
-    _start(pts, order, V, A, state, work)
+    vt = np.zeros(n, np.int32)
+    _start(pts, order, V, A, vt, state, work)
     if state[2] == _DUPLICATE:
         raise _duplicates_error(pts_in, int(state[3]), int(state[4]))
     if state[2] == _COLLINEAR:
@@ -753,7 +841,7 @@ def delaunay(
     done = 3
     while done < n:
         stop = min(n, done + _CHUNK)
-        _insert_range(pts, V, A, stack, state, work, done, stop)
+        _insert_range(pts, V, A, stack, vt, hint, state, work, done, stop)
         if state[2] == _DUPLICATE:
             raise _duplicates_error(pts_in, int(order[state[3]]), int(order[state[4]]))
         done = stop
