@@ -263,3 +263,21 @@ def test_bad_input_raises_input_error(args, code):
     with pytest.raises(InputError) as info:
         orient2d(*args)
     assert info.value.code == code
+
+
+def test_circumcenter_is_equidistant_even_far_from_the_origin():
+    # Constructions (inexact) live beside the predicates: the circumcentre of
+    # a right triangle is the midpoint of its hypotenuse.
+    from meshcore.geometry import circumcenter, circumradius
+
+    a, b, c = np.array([0.0, 0.0]), np.array([4.0, 0.0]), np.array([0.0, 2.0])
+    for shift in (0.0, 1e6):
+        np.testing.assert_allclose(
+            circumcenter(a + shift, b + shift, c + shift), [2 + shift, 1 + shift]
+        )
+        np.testing.assert_allclose(circumradius(a + shift, b + shift, c + shift), np.sqrt(5.0))
+    rng = np.random.default_rng(0)
+    p = rng.random((100, 3, 2)) + 1e6
+    o = circumcenter(p[:, 0], p[:, 1], p[:, 2])
+    r = np.linalg.norm(p - o[:, None, :], axis=2)
+    np.testing.assert_allclose(r, r[:, :1].repeat(3, axis=1), rtol=1e-6)
