@@ -32,7 +32,7 @@ from service.runner import JobFailed, run_job
 log = logging.getLogger("meshservice.local")
 
 PROGRESS_INTERVAL = 0.1  # seconds between progress messages a job sends
-_PRELOAD = ["service.executors.local", "service.methods"]
+_PRELOAD = ["service.executors.local", "service.executors.preload", "service.methods"]
 
 
 try:
