@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from meshcore import quality
+from service import params_product as product
 from service.schemas import MeshIn, MethodParams
 
 Progress = Callable[[float, str], None]
@@ -63,6 +64,45 @@ def default_registry() -> Registry:
             params=QualityParams,
             run=run_quality,
             example={"mesh": _UNIT_SQUARE},
+        ),
+        MethodSpec(
+            name="extrude",
+            summary="Product mesh: a base mesh of points, lines, triangles and quads swept along "
+            "a translation, rotation, helix, affine maps or explicit sections into lines, quads, "
+            "wedges and hexahedra (or simplices), with degeneracies on the axis resolved and "
+            "validity checked; cell sets bottom, top, side.",
+            section="§8.1.1-§8.1.3 (product method), Figures 8.1, 8.2, 8.5",
+            params=product.ExtrudeParams,
+            run=product.run_extrude,
+            example=product.EXTRUDE_EXAMPLE,
+        ),
+        MethodSpec(
+            name="sweep",
+            summary="Semi-automatic product mesh between a source section and a target section: "
+            "interior vertices of every intermediate section from a background mesh, "
+            "barycentric interpolation and distortion correction.",
+            section="§8.1.2 (semi-automatic method)",
+            params=product.SweepParams,
+            run=product.run_sweep,
+            example=product.SWEEP_EXAMPLE,
+        ),
+        MethodSpec(
+            name="merge",
+            summary="Merge meshes: coincident points joined, duplicated interface facets "
+            "dropped; fails at a hanging node or any non-conforming interface.",
+            section="§8.1.4 (Figure 8.5, right: product meshes merged)",
+            params=product.MergeParams,
+            run=product.run_merge,
+            example=product.MERGE_EXAMPLE,
+        ),
+        MethodSpec(
+            name="radial",
+            summary="Radial mesh of a disk, ring or sector: the classical product mesh, or "
+            "balanced by collapsing ring edges (quads, triangles where the count changes).",
+            section="§8.7.1 (radial meshes), Figure 8.16",
+            params=product.RadialParams,
+            run=product.run_radial,
+            example=product.RADIAL_EXAMPLE,
         ),
     ]
     return {s.name: s for s in specs}
