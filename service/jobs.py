@@ -54,10 +54,13 @@ class JobManager:
         self._closing = False
 
     async def start(self) -> None:
-        requeued, failed = self.store.recover(self.settings.max_attempts)
+        await self.executor.start()
+        interrupted = self.store.running()
+        for job in interrupted:
+            await self.executor.forget(job.id, job.attempt)
+        requeued, failed = self.store.recover(interrupted, self.settings.max_attempts)
         if requeued or failed:
             log.info("recovered interrupted jobs: %d requeued, %d failed", requeued, failed)
-        await self.executor.start()
         self._background = [
             asyncio.create_task(self._dispatch(), name="dispatcher"),
             asyncio.create_task(self._expire(), name="expiry"),
@@ -129,7 +132,8 @@ class JobManager:
                 for job in self.store.queued(free, exclude=set(self._running)):
                     if self.store.mark_running(job.id):
                         self._running[job.id] = asyncio.create_task(
-                            self._execute(job.id, job.method), name=f"job-{job.id}"
+                            self._execute(job.id, job.method, job.attempt + 1),
+                            name=f"job-{job.id}",
                         )
                         self._notify(job.id)
             await self._wakeup.wait()
@@ -149,7 +153,14 @@ class JobManager:
 
         return report
 
-    async def _execute(self, job_id: str, method: str) -> None:
+    def _restarted(self, job_id: str) -> Callable[[], None]:
+        def count() -> None:
+            if self.store.bump_attempt(job_id):
+                self._notify(job_id)
+
+        return count
+
+    async def _execute(self, job_id: str, method: str, attempt: int) -> None:
         started = time.monotonic()
         status = "failed"
         try:
@@ -160,9 +171,11 @@ class JobManager:
                         422, "unknown_method", "Unknown method", f"no method {method!r} here"
                     )
                 )
-            task = Task(job_id, spec, self.store.read_params(job_id), self.settings.job_time_limit)
+            params = self.store.read_params(job_id)
+            task = Task(job_id, attempt, spec, params, self.settings.job_time_limit)
             result = await asyncio.wait_for(
-                self.executor.run(task, self._progress(job_id)), self.settings.job_time_limit
+                self.executor.run(task, self._progress(job_id), self._restarted(job_id)),
+                self.settings.job_time_limit,
             )
             await asyncio.to_thread(self.store.write_result, job_id, result)
             status = "succeeded"

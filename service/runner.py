@@ -28,8 +28,11 @@ class JobFailed(Exception):
     """A job ended without a result; ``problem`` says why (RFC 9457 document)."""
 
     def __init__(self, problem: dict) -> None:
-        super().__init__(problem.get("detail", ""))
+        super().__init__(problem)  # args carry the problem, so the error pickles whole
         self.problem = problem
+
+    def __str__(self) -> str:
+        return str(self.problem.get("detail", ""))
 
 
 def _jsonable(value: Any) -> Any:

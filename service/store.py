@@ -265,17 +265,25 @@ class Store:
         """Put a running job back in the queue (shutdown or restart)."""
         return self._update(job_id, ("running",), status="queued", progress_message="requeued")
 
-    def recover(self, max_attempts: int) -> tuple[int, int]:
+    def running(self) -> list[Job]:
+        rows = self._db.execute("SELECT * FROM jobs WHERE status = 'running'").fetchall()
+        return [self._row(r) for r in rows]
+
+    def bump_attempt(self, job_id: str) -> bool:
+        """Count one more run of a running job (the engine re-ran it)."""
+        return self._db.execute(
+            "UPDATE jobs SET attempt = attempt + 1, version = version + 1"
+            " WHERE id = ? AND status = 'running'",
+            (job_id,),
+        ).rowcount == 1
+
+    def recover(self, interrupted: list[Job], max_attempts: int) -> tuple[int, int]:
         """After a restart: re-queue interrupted jobs, fail those out of attempts.
 
         Returns (requeued, failed).
         """
-        running = [
-            self._row(r)
-            for r in self._db.execute("SELECT * FROM jobs WHERE status = 'running'").fetchall()
-        ]
         requeued = failed = 0
-        for job in running:
+        for job in interrupted:
             if job.attempt < max_attempts:
                 requeued += self.requeue(job.id)
             else:

@@ -21,12 +21,12 @@ async def healthz() -> dict[str, str]:
     summary="Store and executor usable",
     responses={503: {"description": "Not ready", "content": {"application/problem+json": {}}}},
 )
-async def readyz(manager: ManagerDep) -> dict[str, str]:
+async def readyz(manager: ManagerDep) -> dict:
     if not manager.store.ping():
         raise Unavailable("the job store does not answer")
     if not manager.executor.ready():
         raise Unavailable(f"the {manager.executor.name} executor is not ready")
-    return {"status": "ready", "executor": manager.executor.name}
+    return {"status": "ready", **manager.executor.describe()}
 
 
 @api.get(

@@ -3,7 +3,10 @@
 An executor runs :func:`service.runner.run_job` for a :class:`Task` somewhere
 it can stop: cancelling the coroutine returned by :meth:`Executor.run` must
 stop the job's process (that is how cancellation and time limits work). It
-returns the result bytes or raises :class:`~service.runner.JobFailed`.
+returns the result bytes or raises :class:`~service.runner.JobFailed`; it
+calls ``progress(fraction, message)`` as the job reports, and
+``restarted()`` when the engine runs the job again on its own (a
+distributed worker died under it).
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ class Task:
     """One run of one job."""
 
     job_id: str
+    attempt: int
     spec: MethodSpec
     params: bytes
     time_limit: float
@@ -37,4 +41,14 @@ class Executor(Protocol):
 
     def ready(self) -> bool: ...
 
-    async def run(self, task: Task, progress: Callable[[float, str], None]) -> bytes: ...
+    def describe(self) -> dict: ...  # for /readyz: the backend and its workers
+
+    async def forget(self, job_id: str, attempt: int) -> None:
+        """Stop a run left over from before a restart, if the engine still has it."""
+
+    async def run(
+        self,
+        task: Task,
+        progress: Callable[[float, str], None],
+        restarted: Callable[[], None],
+    ) -> bytes: ...

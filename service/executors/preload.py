@@ -1,4 +1,4 @@
-"""Imported by the local executor's fork server: compile-or-load numba kernels once.
+"""Imported by the job fork server: compile-or-load numba kernels once.
 
 Jobs run in processes forked from the fork server, so whatever the server
 has loaded, every job has for free. numba compiles (or loads from its disk

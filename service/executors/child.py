@@ -1,0 +1,160 @@
+"""A job in its own killable process: the piece every executor shares.
+
+:func:`run_in_child` runs :func:`service.runner.run_job` in a fresh process
+forked from a ``forkserver`` that has already imported meshcore and loaded
+its compiled kernels, so a job starts in milliseconds with a clean
+interpreter and dies alone: a segfault, ``os._exit`` or the out-of-memory
+killer fails that job with the reason, and the next job gets a new process
+(``ProcessPoolExecutor`` instead breaks every job once one child dies). The
+child gets an address-space limit and a CPU-time limit and dies with its
+parent (``PR_SET_PDEATHSIG``). Progress and the result come back over a
+pipe. The call blocks; it kills the child as soon as ``should_stop()``
+turns true (cancellation, time limit, shutdown) and raises :class:`Stopped`.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import logging
+import multiprocessing
+import os
+import resource
+import signal
+import time
+from collections.abc import Callable
+from multiprocessing.connection import Connection
+
+from service.executors import Task
+from service.problems import problem_document
+from service.runner import JobFailed, run_job
+
+log = logging.getLogger("meshservice.child")
+
+PROGRESS_INTERVAL = 0.1  # seconds between progress messages a job sends
+PRELOAD = ["service.executors.child", "service.executors.preload", "service.methods"]
+
+try:
+    _LIBC = ctypes.CDLL(None, use_errno=True)
+except OSError:
+    _LIBC = None
+
+
+class Stopped(Exception):
+    """The job's process was killed because ``should_stop()`` turned true."""
+
+
+def context() -> multiprocessing.context.BaseContext:
+    """The fork-server context, with meshcore and its kernels preloaded."""
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(PRELOAD)
+    return ctx
+
+
+def _noop() -> None:
+    """A child that does nothing: starting one waits for the fork server to be warm."""
+
+
+def warm_up(ctx: multiprocessing.context.BaseContext) -> None:
+    """Start the fork server and wait until it has preloaded everything (blocking)."""
+    proc = ctx.Process(target=_noop, daemon=True)
+    proc.start()
+    proc.join()
+
+
+def _die_with_parent() -> None:
+    """Ask Linux to SIGKILL this process when its parent (the fork server) exits."""
+    if _LIBC is not None:
+        _LIBC.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+
+
+def _child(task: Task, conn: Connection, memory_limit: int) -> None:
+    """Body of a job's process: limits, run, send the outcome, exit."""
+    _die_with_parent()
+    resource.setrlimit(resource.RLIMIT_AS, (memory_limit, memory_limit))
+    cpu = int(task.time_limit) + 5
+    resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 5))
+    last = 0.0
+
+    def progress(fraction: float, message: str) -> None:
+        nonlocal last
+        now = time.monotonic()
+        if now - last >= PROGRESS_INTERVAL:
+            last = now
+            conn.send(("progress", min(max(float(fraction), 0.0), 1.0), str(message)[:200]))
+
+    try:
+        conn.send(("ok", run_job(task.spec, task.params, progress)))
+    except JobFailed as exc:
+        conn.send(("error", exc.problem))
+    conn.close()
+    os._exit(0)  # the answer is sent: skip interpreter teardown
+
+
+def death_problem(exitcode: int | None) -> dict:
+    """The problem document of a job process that died without an answer."""
+    if exitcode is not None and exitcode < 0:
+        sig = signal.Signals(-exitcode)
+        reasons = {
+            signal.SIGKILL: "it was killed (SIGKILL), most likely by the out-of-memory killer",
+            signal.SIGSEGV: "it crashed (SIGSEGV, a segmentation fault)",
+            signal.SIGXCPU: "it exceeded its CPU-time limit (SIGXCPU)",
+            signal.SIGABRT: "it aborted (SIGABRT)",
+        }
+        reason = reasons.get(sig, f"it was stopped by signal {sig.name}")
+    else:
+        reason = f"it exited with status {exitcode} before answering"
+    return problem_document(
+        500, "worker_died", "The job's process died", f"the job's process died: {reason}"
+    )
+
+
+def run_in_child(
+    ctx: multiprocessing.context.BaseContext,
+    task: Task,
+    memory_limit: int,
+    progress: Callable[[float, str], None],
+    should_stop: Callable[[], bool],
+    poll: float = 0.1,
+) -> bytes:
+    """Run ``task`` in a new child process and return its result bytes.
+
+    Blocks until the child answers or dies; checks ``should_stop`` every
+    ``poll`` seconds while waiting.
+
+    Raises
+    ------
+    JobFailed
+        the job failed (its problem document), or its process died.
+    Stopped
+        ``should_stop()`` turned true; the child has been killed.
+    """
+    receiver, sender = ctx.Pipe(duplex=False)
+    proc = ctx.Process(target=_child, args=(task, sender, memory_limit), name=f"job-{task.job_id}")
+    proc.daemon = True
+    proc.start()
+    sender.close()
+    try:
+        # Sequential by nature: one blocking reader per job's pipe.
+        while True:
+            if not receiver.poll(poll):
+                if should_stop():
+                    raise Stopped(task.job_id)
+                continue
+            try:
+                kind, *payload = receiver.recv()
+            except EOFError:
+                break
+            if kind == "progress":
+                progress(*payload)
+            elif kind == "ok":
+                return payload[0]
+            else:
+                raise JobFailed(payload[0])
+        proc.join(5)
+        log.warning("job %s: process died with exit code %s", task.job_id, proc.exitcode)
+        raise JobFailed(death_problem(proc.exitcode))
+    finally:
+        if proc.is_alive():
+            proc.kill()
+        proc.join(5)
+        receiver.close()
