@@ -190,6 +190,15 @@ def _gmsh_mesh(mesh: Mesh, split: bool) -> meshio.Mesh:
             nodes = np.unique(data)
             lower = nodes[node_dim[nodes] > dim]
             node_dim[lower], node_entity[lower] = dim, len(cells)
+    if split:  # MSH 4.1 lists an entity only when it holds a node: lend one to any that holds none
+        owned = np.bincount(node_entity, minlength=len(cells) + 1)
+        for e, (ctype, data) in enumerate(cells, start=1):
+            nodes = np.unique(data)
+            spare = nodes[owned[node_entity[nodes]] > 1]
+            if owned[e] == 0 and len(spare):
+                owned[node_entity[spare[0]]] -= 1
+                owned[e] += 1
+                node_dim[spare[0]], node_entity[spare[0]] = CELL_TYPES[ctype][1], e
     unused = node_dim == 4
     node_dim[unused], node_entity[unused] = 0, 0
     points = mesh.points
