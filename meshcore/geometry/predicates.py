@@ -17,9 +17,10 @@ trusted after the filter.
 
 Two interfaces share one implementation:
 
-* vectorized functions :func:`orient2d`, :func:`incircle`, :func:`orient3d`
-  take arrays of points, run the filter in numpy and the exact stage, in
-  compiled code, on the undecided rows only;
+* vectorized functions :func:`orient2d`, :func:`incircle`, :func:`orient3d`,
+  :func:`dot2d` and :func:`indiametral` take arrays of points, run the
+  filter in numpy and the exact stage, in compiled code, on the undecided
+  rows only;
 * scalar numba functions :func:`orient2d_scalar`, :func:`incircle_scalar`,
   :func:`orient3d_scalar` (``@njit``) for compiled kernels such as
   :mod:`meshcore.delaunay`. The ``*_exact`` variants take a scratch buffer
@@ -49,9 +50,12 @@ from meshcore.errors import InputError
 
 __all__ = [
     "WORK_SIZE",
+    "dot2d",
+    "dot2d_exact",
     "incircle",
     "incircle_exact",
     "incircle_scalar",
+    "indiametral",
     "orient2d",
     "orient2d_exact",
     "orient2d_scalar",
@@ -349,6 +353,62 @@ def orient2d_scalar(ax, ay, bx, by, cx, cy):
             return -1
         return 0
     return orient2d_exact(ax, ay, bx, by, cx, cy, np.empty(256))
+
+
+# ---------------------------------------------------------------------------
+# dot2d (diametral balls, acute angles)
+# ---------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def dot2d_exact(ax, ay, bx, by, cx, cy, work):
+    """Exact sign of ``(a - c) . (b - c)``; ``work`` is scratch.
+
+    Parameters
+    ----------
+    ax, ay, bx, by, cx, cy : float64
+        The three points.
+    work : (WORK_SIZE,) float64
+        Scratch buffer, overwritten.
+
+    Returns
+    -------
+    int
+        +1 if the angle acb is acute (c strictly outside the closed ball of
+        diameter ab), -1 if obtuse (c strictly inside it), 0 if right or if c
+        coincides with a or b.
+    """
+    acx, acxt = _two_diff(ax, cx)
+    acy, acyt = _two_diff(ay, cy)
+    bcx, bcxt = _two_diff(bx, cx)
+    bcy, bcyt = _two_diff(by, cy)
+    if acxt == 0.0 and acyt == 0.0 and bcxt == 0.0 and bcyt == 0.0:
+        # Differences are exact: det = acx*bcx + acy*bcy from two products.
+        l1, l0 = _two_product(acx, bcx)
+        r1, r0 = _two_product(acy, bcy)
+        work[0] = l0
+        work[1] = l1
+        work[2] = r0
+        work[3] = r1
+        hlen = _expansion_sum(2, work[0:2], 2, work[2:4], work[4:8])
+        return _sign_of(hlen, work[4:8])
+    e1 = work[0:2]
+    e2 = work[2:4]
+    e3 = work[4:6]
+    e4 = work[6:8]
+    n1 = _set_diff(ax, cx, e1)
+    n2 = _set_diff(bx, cx, e2)
+    n3 = _set_diff(ay, cy, e3)
+    n4 = _set_diff(by, cy, e4)
+    p = work[8:24]
+    q = work[24:40]
+    t1 = work[40:72]
+    t2 = work[72:104]
+    h = work[104:140]
+    plen = _expansion_product(n1, e1, n2, e2, p, t1, t2)
+    qlen = _expansion_product(n3, e3, n4, e4, q, t1, t2)
+    hlen = _expansion_sum(plen, p, qlen, q, h)
+    return _sign_of(hlen, h)
 
 
 # ---------------------------------------------------------------------------
@@ -653,6 +713,13 @@ def _orient2d_rows(a, b, c, rows, out):
 
 
 @njit(cache=True)
+def _dot2d_rows(a, b, c, rows, out):
+    work = np.empty(WORK_SIZE)
+    for r in rows:
+        out[r] = dot2d_exact(a[r, 0], a[r, 1], b[r, 0], b[r, 1], c[r, 0], c[r, 1], work)
+
+
+@njit(cache=True)
 def _incircle_rows(a, b, c, d, rows, out):
     work = np.empty(WORK_SIZE)
     for r in rows:
@@ -761,6 +828,81 @@ def orient2d(a, b, c) -> np.ndarray:
     if rows.size:
         _orient2d_rows(a, b, c, rows, out)
     return out.reshape(lead)
+
+
+def dot2d(a, b, c) -> np.ndarray:
+    """Exact sign of the dot product ``(a - c) . (b - c)``, row by row.
+
+    Parameters
+    ----------
+    a, b, c : (n, 2) float64 or (2,) float64
+        Points; shapes broadcast (any leading shape ``(..., 2)``).
+
+    Returns
+    -------
+    (n,) int8
+        +1 where the angle a-c-b is acute (c strictly outside the closed
+        ball of diameter ab), -1 where it is obtuse (c strictly inside the
+        open ball), 0 where it is right (c on the circle of diameter ab) or c
+        coincides with a or b. The leading broadcast shape is kept.
+
+    Raises
+    ------
+    InputError
+        ``bad_shape`` or ``non_finite`` as :func:`orient2d`.
+
+    Notes
+    -----
+    The determinant has the shape of orient2d's (two products of coordinate
+    differences, added instead of subtracted), so Shewchuk's bound
+    ``ccwerrboundA * (|t1| + |t2|)`` holds for it unchanged: each difference,
+    each product and the sum round once. Terms of equal sign never cancel and
+    are decided by the filter; an exactly zero term leaves the other, whose
+    sign is exact; the remaining undecided rows are recomputed exactly.
+    Used for the diametral-ball tests of §9.1.2 (Case 1 / Case 2) and for the
+    acute angles of Exercises 9.2-9.4. References: methods text §9.1;
+    DESIGN.md "Geometry robustness".
+    """
+    (a, b, c), lead = _prepare((a, b, c), 2, "abc")
+    t1 = (a[:, 0] - c[:, 0]) * (b[:, 0] - c[:, 0])
+    t2 = (a[:, 1] - c[:, 1]) * (b[:, 1] - c[:, 1])
+    det = t1 + t2
+    errbound = _CCW_ERRBOUND_A * (np.abs(t1) + np.abs(t2))
+    out = _sign_int8(det)
+    undecided = ~(np.abs(det) > errbound) & (t1 != 0.0) & (t2 != 0.0)
+    rows = np.flatnonzero(undecided)
+    if rows.size:
+        _dot2d_rows(a, b, c, rows, out)
+    return out.reshape(lead)
+
+
+def indiametral(a, b, p) -> np.ndarray:
+    """Exact test of p against the diametral ball of the segment ab, row by row.
+
+    Parameters
+    ----------
+    a, b, p : (n, 2) float64 or (2,) float64
+        Segment endpoints and tested points; shapes broadcast.
+
+    Returns
+    -------
+    (n,) int8
+        +1 where p lies strictly inside the open ball of diameter ab (the
+        ball :math:`B_f^{min}` of §9.1.1; the angle a-p-b is obtuse), 0 on
+        its circle (or at a or b), -1 strictly outside. The sign of
+        ``-(a - p) . (b - p)``, see :func:`dot2d`.
+
+    Raises
+    ------
+    InputError
+        ``bad_shape`` or ``non_finite`` as :func:`orient2d`.
+
+    Notes
+    -----
+    References: methods text §9.1.1 (Table 9.1), §9.1.2 (Case 1: the ball
+    is empty; Case 2: it holds points).
+    """
+    return -dot2d(a, b, p)
 
 
 def incircle(a, b, c, d) -> np.ndarray:

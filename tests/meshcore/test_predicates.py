@@ -13,8 +13,10 @@ from hypothesis import strategies as st
 
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import (
+    dot2d,
     incircle,
     incircle_scalar,
+    indiametral,
     orient2d,
     orient2d_scalar,
     orient3d,
@@ -281,3 +283,70 @@ def test_circumcenter_is_equidistant_even_far_from_the_origin():
     o = circumcenter(p[:, 0], p[:, 1], p[:, 2])
     r = np.linalg.norm(p - o[:, None, :], axis=2)
     np.testing.assert_allclose(r, r[:, :1].repeat(3, axis=1), rtol=1e-6)
+
+
+# ---------------------------------------------------------------------------
+# dot2d and indiametral (diametral balls of §9.1, acute angles)
+# ---------------------------------------------------------------------------
+
+
+def exact_dot2d(a, b, c) -> int:
+    ax, ay, bx, by, cx, cy = map(Fraction, (*a, *b, *c))
+    return _sign((ax - cx) * (bx - cx) + (ay - cy) * (by - cy))
+
+
+def test_indiametral_on_the_unit_circle():
+    # Segment from (-5, 0) to (5, 0): its diametral ball is the disk of radius 5.
+    #
+    #        (0, 5)   on the circle: 0 (so is (3, 4))
+    #   (0, 2.5)      inside: +1
+    #  a---------b
+    #        (0, -10) outside: -1
+    a, b = [-5.0, 0.0], [5.0, 0.0]
+    p = np.array([[0.0, 2.5], [0.0, 5.0], [0.0, -10.0], [3.0, 4.0], [-5.0, 0.0], [2.5, 0.0]])
+    np.testing.assert_array_equal(indiametral(a, b, p), [1, 0, -1, 0, 0, 1])
+    np.testing.assert_array_equal(dot2d(a, b, p), [-1, 0, 1, 0, 0, -1])
+
+
+def test_dot2d_decides_what_float64_gets_wrong():
+    # c one ulp off the circle of diameter ab, a million away from the origin:
+    # the float products cancel to garbage, the exact sign does not.
+    x0 = 1e6
+    a = np.array([x0, x0])
+    b = a + [3.0, 0.0]
+    grid = ulp_grid(x0 + 1.5, x0 + 1.5, 7)
+    want = [exact_dot2d(a, b, c) for c in grid]
+    np.testing.assert_array_equal(dot2d(a, b, grid), want)
+    np.testing.assert_array_equal(indiametral(a, b, grid), [-w for w in want])
+    t1 = (a[0] - grid[:, 0]) * (b[0] - grid[:, 0])
+    t2 = (a[1] - grid[:, 1]) * (b[1] - grid[:, 1])
+    assert (np.sign(t1 + t2) != want).any()
+
+
+@settings(max_examples=500, deadline=None)
+@given(degenerate_points(3))
+def test_dot2d_degenerate_matches_fractions(p):
+    a, b, c = p
+    assert dot2d(a, b, c) == exact_dot2d(a, b, c)
+    assert indiametral(a, b, c) == -exact_dot2d(a, b, c)
+    assert dot2d(b, a, c) == dot2d(a, b, c)
+
+
+@settings(max_examples=300, deadline=None)
+@given(point2, point2, point2)
+def test_dot2d_random_matches_fractions(a, b, c):
+    assert dot2d(a, b, c) == exact_dot2d(a, b, c)
+
+
+def test_dot2d_vectorized_batch_matches_fractions():
+    # Lattice points on many circles of diameter ab: right angles (0) abound.
+    rng = np.random.default_rng(11)
+    p = rng.integers(-5, 6, size=(4000, 3, 2)) * 0.1 + 1e6
+    got = dot2d(p[:, 0], p[:, 1], p[:, 2])
+    want = [exact_dot2d(*q) for q in p]
+    np.testing.assert_array_equal(got, want)
+    assert 0 in want and 1 in want and -1 in want
+    assert dot2d(np.zeros((2, 3, 2)), [1, 0], [0, 1]).shape == (2, 3)
+    with pytest.raises(InputError) as info:
+        indiametral([0, np.nan], [1, 0], [0, 1])
+    assert info.value.code == "non_finite"
