@@ -128,6 +128,15 @@ def to_json(mesh: Mesh) -> dict:
     return out
 
 
+def _array(value: object, dtype: type, loc: tuple, what: str) -> np.ndarray:
+    """``value`` as a rectangular array, or an InputError located at ``loc``."""
+    try:
+        return np.asarray(value, dtype=dtype)
+    except (ValueError, TypeError, OverflowError) as exc:
+        where = " ".join(str(p) for p in loc)
+        raise InputError(f"{where} must be {what}", loc=loc, code="bad_shape") from exc
+
+
 def from_json(obj: dict) -> Mesh:
     """A checked :class:`Mesh` from the JSON mesh shape.
 
@@ -136,29 +145,26 @@ def from_json(obj: dict) -> Mesh:
     InputError
         naming the field, block, cell and index at fault (see :meth:`Mesh.check`).
     """
-    try:
-        points = np.asarray(obj["points"], dtype=np.float64)
-    except (ValueError, TypeError) as exc:
-        raise InputError(
-            "points must be a rectangular list of numbers", loc=("points",), code="bad_shape"
-        ) from exc
-    blocks = []
-    for b, cell in enumerate(obj.get("cells", [])):
-        try:
-            data = np.asarray(cell["data"], dtype=np.int64)
-        except (ValueError, TypeError, OverflowError) as exc:
-            raise InputError(
-                f"cell block {b} must be a rectangular list of integer indices",
-                loc=("cells", b, "data"),
-                code="bad_shape",
-            ) from exc
-        blocks.append(CellBlock(cell["type"], data))
+    numbers, indices = "a rectangular list of numbers", "a list of integer indices"
+    points = _array(obj["points"], np.float64, ("points",), numbers)
+    blocks = [
+        CellBlock(cell["type"], _array(cell["data"], np.int64, ("cells", b, "data"), indices))
+        for b, cell in enumerate(obj.get("cells", []))
+    ]
+    point_data = {
+        name: _array(v, np.float64, ("point_data", name), numbers)
+        for name, v in (obj.get("point_data") or {}).items()
+    }
+    cell_data = {
+        name: [_array(a, np.float64, ("cell_data", name, b), numbers) for b, a in enumerate(v)]
+        for name, v in (obj.get("cell_data") or {}).items()
+    }
+    cell_sets = {
+        name: [_array(a, np.int64, ("cell_sets", name, b), indices) for b, a in enumerate(v)]
+        for name, v in (obj.get("cell_sets") or {}).items()
+    }
     return Mesh(
-        points,
-        tuple(blocks),
-        point_data=obj.get("point_data") or {},
-        cell_data=obj.get("cell_data") or {},
-        cell_sets=obj.get("cell_sets") or {},
+        points, tuple(blocks), point_data=point_data, cell_data=cell_data, cell_sets=cell_sets
     ).check()
 
 
