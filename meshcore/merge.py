@@ -322,10 +322,7 @@ def merged(
             )
     if top >= 2:
         _check_interface(facets, out_points, cell_mesh, where, remap, mesh_of_point, offsets, tol)
-    interior: set = set()
-    for f in facets.values():
-        for row in np.sort(f.nodes[f.counts == 2], axis=1):
-            interior.add(tuple(row.tolist()))
+    interior = {f.type: np.sort(f.nodes[f.counts == 2], axis=1) for f in facets.values()}
     if progress is not None:
         progress(0.7, "dropping duplicated interface facets")
 
@@ -341,18 +338,21 @@ def merged(
         owner_mesh = np.concatenate([np.full(len(k), i) for _, i, k in items])
         part_of = np.concatenate([np.full(len(k), pi) for pi, _, k in items])
         local = np.concatenate([np.arange(len(k)) for *_, k in items])
-        _, inverse = np.unique(keys, axis=0, return_inverse=True)
+        inner = interior.get(t, np.zeros((0, keys.shape[1]), np.int64))
+        # group equal rows; the interior facets ride along to mark their groups
+        _, inverse = np.unique(np.concatenate([keys, inner]), axis=0, return_inverse=True)
         inverse = inverse.ravel()
         n_groups = inverse.max() + 1 if len(inverse) else 0
+        in_mesh = np.zeros(n_groups, dtype=bool)
+        in_mesh[inverse[len(keys) :]] = True
+        inverse = inverse[: len(keys)]
         meshes_per = np.zeros(n_groups, dtype=np.int64)
         pair = np.unique(np.column_stack([inverse, owner_mesh]), axis=0)
         np.add.at(meshes_per, pair[:, 0], 1)
         shared = meshes_per[inverse] > 1
         if not shared.any():
             continue
-        is_interior = np.array(
-            [CELL_TYPES[t][1] == top - 1 and tuple(k.tolist()) in interior for k in keys[shared]]
-        )
+        is_interior = in_mesh[inverse[shared]]
         drop = np.zeros(len(keys), dtype=bool)
         idx_shared = np.flatnonzero(shared)
         drop[idx_shared[is_interior]] = True
@@ -363,8 +363,8 @@ def merged(
             later = np.ones(len(rest), dtype=bool)
             later[first] = False
             drop[rest[later]] = True
-        for g in np.flatnonzero(drop):
-            keep_mask[part_of[g]][local[g]] = False
+        for pi in np.unique(part_of[drop]):
+            keep_mask[pi][local[drop & (part_of == pi)]] = False
         dropped += int(drop.sum())
 
     # assemble: blocks by type, in order of first appearance, input after input

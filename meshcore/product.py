@@ -95,6 +95,7 @@ from scipy.spatial import cKDTree
 from meshcore import quality, topology
 from meshcore.delaunay import delaunay
 from meshcore.errors import InputError
+from meshcore.geometry import orient2d
 from meshcore.mesh import CELL_TYPES, CellBlock, Mesh
 
 __all__ = [
@@ -420,7 +421,6 @@ class _Base:
     points: np.ndarray  # (n, 3)
     blocks: tuple[CellBlock, ...]
     offsets: np.ndarray  # global index of each block's first cell
-    planar_input: bool
     mesh: Mesh
 
     @property
@@ -451,14 +451,29 @@ def _base(mesh: Mesh, loc: tuple = ("mesh",)) -> _Base:
     for block in mesh.cells:
         data = block.data
         if planar and block.type in ("triangle", "quad") and len(data):
-            area = quality.signed_area(mesh.points, data, block.type)
-            cw = area < 0
+            cw = _clockwise(mesh.points, data)
             if cw.any():
                 data = data.copy()
                 data[cw] = data[cw][:, ::-1]
         blocks.append(CellBlock(block.type, data))
     offsets = np.cumsum([0] + [len(b) for b in blocks])
-    return _Base(np.ascontiguousarray(pts), tuple(blocks), offsets, planar, mesh)
+    return _Base(np.ascontiguousarray(pts), tuple(blocks), offsets, mesh)
+
+
+def _clockwise(pts: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """Triangles or quads of the plane that turn clockwise, by exact orientation tests.
+
+    A quad's sense is that of its halves 0 1 2 and 0 2 3; when they disagree
+    (a non-convex or flat quad) the sign of its area decides.
+    """
+    p = [pts[cells[:, j]] for j in range(cells.shape[1])]
+    sense = orient2d(p[0], p[1], p[2]).astype(np.int64)
+    if cells.shape[1] == 4:
+        sense += orient2d(p[0], p[2], p[3])
+        unsure = np.flatnonzero(np.abs(sense) < 2)
+        if len(unsure):
+            sense[unsure] = np.sign(quality.signed_area(pts, cells[unsure], "quad"))
+    return sense < 0
 
 
 def _reversed(blocks: Sequence[CellBlock]) -> tuple[CellBlock, ...]:
@@ -879,7 +894,10 @@ def _product(
             code="bad_option",
         )
     tol = tolerances.distance(X)
-    fixed, closed = _fixed_and_closed(X, tol)
+    if translate:  # every vertex moves by the (nonzero) vector: nothing stays, nothing closes
+        fixed, closed = np.zeros(X.shape[1], dtype=bool), False
+    else:
+        fixed, closed = _fixed_and_closed(X, tol)
     _report(progress, 0.1, "numbering the sections")
     num = _numbering(X, fixed, closed)
     pts = num.points
@@ -1014,8 +1032,8 @@ def _invalid_error(
             errors.append(
                 {
                     "loc": list(fault),
-                    "msg": f"cell {c} of block {b} ({block.type}, layer {layer}, source cell {src}) "
-                    f"{detail} {_fmt(v)}",
+                    "msg": f"cell {c} of block {b} ({block.type}, layer {layer}, "
+                    f"source cell {src}) {detail} {_fmt(v)}",
                     "type": code,
                 }
             )

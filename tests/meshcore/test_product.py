@@ -324,6 +324,26 @@ class TestInputErrors:
             extrude(square(), path)
         assert err.value.errors[0]["loc"][: len(loc)] == loc
 
+    @settings(max_examples=40, deadline=None)
+    @given(
+        kind=st.sampled_from(["translate", "rotate", "helix"]),
+        vec=st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=0, max_size=4),
+        angle=st.floats(allow_nan=True, allow_infinity=True),
+        layers=st.integers(-2, 4) | st.floats(0, 3) | st.none(),
+    )
+    def test_any_path_either_works_or_raises_input_error(self, kind, vec, angle, layers):
+        path = {
+            "translate": lambda: Translate(vec, layers=layers),
+            "rotate": lambda: Rotate([0, 0, 0], vec, angle, layers),
+            "helix": lambda: Helix(vec, [0, 1, 0], angle, vec, layers),
+        }[kind]()
+        try:
+            r = extrude(square(), path, validate=False)
+        except InputError as exc:
+            assert exc.errors and exc.errors[0]["loc"][0] in ("path", "mesh")
+        else:
+            r.mesh.check()
+
     def test_a_volume_base_is_refused(self):
         tet = Mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], [("tetra", [[0, 1, 2, 3]])])
         with pytest.raises(InputError) as err:
