@@ -10,6 +10,8 @@ from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
 
 from service.api import health, jobs, methods
+from service.executors import Executor
+from service.executors.cluster import DaskExecutor
 from service.executors.local import LocalExecutor
 from service.jobs import JobManager
 from service.limits import BodySizeLimit
@@ -35,7 +37,11 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         store = Store(settings.data_dir)
         metrics = Metrics(store.counts_by_status)
-        executor = LocalExecutor(settings.workers, settings.job_memory_limit)
+        executor: Executor
+        if settings.dask_scheduler:
+            executor = DaskExecutor(settings.dask_scheduler, settings.job_memory_limit)
+        else:
+            executor = LocalExecutor(settings.workers, settings.job_memory_limit)
         manager = JobManager(store, executor, registry, settings, metrics)
         app.state.metrics = metrics
         app.state.manager = manager

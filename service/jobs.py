@@ -136,7 +136,9 @@ class JobManager:
                             name=f"job-{job.id}",
                         )
                         self._notify(job.id)
-            await self._wakeup.wait()
+            # the executor's capacity may change (workers join a cluster): look again soon
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self._wakeup.wait(), 1.0)
 
     async def _expire(self) -> None:
         interval = min(60.0, self.settings.retention / 4)

@@ -62,6 +62,9 @@ class Settings(BaseSettings):
         description="Seconds a finished job's result is kept; the job record is kept "
         "as long again (its result then answers 410).",
     )
+    dask_scheduler: str | None = Field(
+        None, description="A dask.distributed scheduler address: run jobs on its workers."
+    )
     api_keys: str = Field("", description="Comma-separated key:client pairs.")
     cors_origins: str = Field("", description="Comma-separated web origins allowed.")
 

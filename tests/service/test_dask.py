@@ -1,0 +1,164 @@
+"""The ``dask`` executor on a real cluster: a scheduler and two workers on loopback.
+
+The processes are started with the same commands as docker/compose.yaml
+(``dask scheduler``, ``dask worker``, the API with MESHSERVICE_DASK_SCHEDULER).
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import httpx
+import pytest
+
+from tests.service.conftest import ROOT, _free_port, wait_status
+from tests.service.test_jobs import pid_alive, submit, wait_file
+from tests.service.testing_methods import SQUARE
+
+BIN = Path(sys.executable).parent
+WORKER_ENV = {"DASK_DISTRIBUTED__WORKER__DAEMON": "False", "PYTHONPATH": str(ROOT)}
+
+
+def _parent(pid: int) -> int:
+    with open(f"/proc/{pid}/stat") as f:
+        return int(f.read().rsplit(")", 1)[1].split()[1])
+
+
+class Cluster:
+    def __init__(self, logs: Path) -> None:
+        self.port = _free_port()
+        self.address = f"tcp://127.0.0.1:{self.port}"
+        self.logs = logs
+        self.procs: list[subprocess.Popen] = []
+
+    def _spawn(self, name: str, *args: str) -> subprocess.Popen:
+        proc = subprocess.Popen(
+            [str(BIN / "dask"), *args],
+            cwd=ROOT,
+            env={**os.environ, **WORKER_ENV},
+            stdout=open(self.logs / f"{name}.log", "ab"),
+            stderr=subprocess.STDOUT,
+        )
+        self.procs.append(proc)
+        return proc
+
+    def start(self, workers: int = 2) -> Cluster:
+        self._spawn("scheduler", "scheduler", "--host", "127.0.0.1", "--port", str(self.port),
+                    "--no-dashboard")
+        for i in range(workers):
+            self._spawn(f"worker{i}", "worker", self.address, "--nthreads", "1",
+                        "--no-dashboard", "--name", f"w{i}")
+        return self
+
+    def stop(self) -> None:
+        for proc in reversed(self.procs):
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGTERM)
+        for proc in self.procs:
+            try:
+                proc.wait(20)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+
+
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory):
+    c = Cluster(tmp_path_factory.mktemp("dask")).start()
+    yield c
+    c.stop()
+
+
+@pytest.fixture
+def dask_server(start_server, cluster):
+    server = start_server(MESHSERVICE_DASK_SCHEDULER=cluster.address)
+    deadline = time.monotonic() + 60
+    while httpx.get(server.url + "/readyz").json().get("workers", 0) < 2:
+        assert time.monotonic() < deadline, "the two workers never joined"
+        time.sleep(0.2)
+    return server
+
+
+class TestDask:
+    def test_readyz_reports_scheduler_and_workers(self, dask_server, cluster):
+        ready = httpx.get(dask_server.url + "/readyz").json()
+        assert ready == {"status": "ready", "executor": "dask", "scheduler": cluster.address,
+                         "workers": 2}
+
+    def test_same_result_as_local(self, dask_server, client):
+        mesh = {"points": [[0, 0], [1, 0], [2, 0], [0, 1], [1, 1], [2, 1]],
+                "cells": [{"type": "quad", "data": [[0, 1, 4, 3], [1, 2, 5, 4]]}]}
+        with dask_server.client() as c:
+            remote = submit(c, "quality", {"mesh": mesh}, wait=30).json()
+            assert remote["status"] == "succeeded"
+            remote_result = c.get(f"/v1/jobs/{remote['id']}/result").content
+        local = submit(client, "quality", {"mesh": mesh}, wait=30).json()
+        assert client.get(f"/v1/jobs/{local['id']}/result").content == remote_result
+
+    def test_progress_reaches_the_job(self, dask_server):
+        with dask_server.client() as c:
+            job = submit(c, "sleep", {"seconds": 1.5}).json()
+            deadline = time.monotonic() + 30
+            while True:
+                state = c.get(f"/v1/jobs/{job['id']}").json()
+                if 0 < state["progress"]["fraction"] < 1 or time.monotonic() > deadline:
+                    break
+                time.sleep(0.05)
+            assert 0 < state["progress"]["fraction"] < 1
+            assert wait_status(c, job["id"], {"succeeded"})["status"] == "succeeded"
+
+    def test_cancel_kills_the_process_on_the_worker(self, dask_server, tmp_path):
+        marker = tmp_path / "pid"
+        with dask_server.client() as c:
+            job = submit(c, "sleep", {"seconds": 60, "marker": str(marker)}).json()
+            pid = int(wait_file(marker, 60))
+            assert c.post(f"/v1/jobs/{job['id']}/cancel").json()["status"] == "cancelled"
+            deadline = time.monotonic() + 10
+            while pid_alive(pid) and time.monotonic() < deadline:
+                time.sleep(0.05)
+            assert not pid_alive(pid)
+
+    def test_time_limit_kills_the_process_on_the_worker(self, start_server, cluster, tmp_path):
+        server = start_server(MESHSERVICE_DASK_SCHEDULER=cluster.address,
+                              MESHSERVICE_JOB_TIME_LIMIT="3")
+        marker = tmp_path / "pid"
+        with server.client() as c:
+            job = submit(c, "sleep", {"seconds": 60, "marker": str(marker)}).json()
+            pid = int(wait_file(marker, 60))
+            job = wait_status(c, job["id"], {"failed"}, timeout=60)
+            assert job["error"]["type"] == "/problems/time-limit"
+            deadline = time.monotonic() + 10
+            while pid_alive(pid) and time.monotonic() < deadline:
+                time.sleep(0.05)
+            assert not pid_alive(pid)
+
+    def test_killed_worker_reruns_the_job_elsewhere(self, dask_server, tmp_path):
+        marker = tmp_path / "pids"
+        with dask_server.client() as c:
+            job = submit(c, "sleep", {"seconds": 3, "marker": str(marker)}).json()
+            child = int(wait_file(marker, 60).split()[0])
+            worker = _parent(_parent(child))  # job process <- fork server <- worker
+            os.kill(worker, signal.SIGKILL)
+            job = wait_status(c, job["id"], {"succeeded", "failed"}, timeout=120)
+            assert job["status"] == "succeeded", job
+            assert job["attempt"] == 2
+            assert len(marker.read_text().split()) == 2
+
+    def test_restart_of_the_api_loses_nothing(self, start_server, cluster, tmp_path):
+        server = start_server(MESHSERVICE_DASK_SCHEDULER=cluster.address)
+        marker = tmp_path / "pid"
+        with server.client() as c:
+            running = submit(c, "sleep", {"seconds": 2, "marker": str(marker)}).json()
+            wait_file(marker, 60)
+            queued = [submit(c, "sleep", {"seconds": 0.2}).json() for _ in range(3)]
+        server.stop(signal.SIGKILL)
+        again = start_server(data_dir=server.data_dir, MESHSERVICE_DASK_SCHEDULER=cluster.address)
+        with again.client() as c:
+            for job in (running, *queued):
+                done = wait_status(c, job["id"], {"succeeded", "failed"}, timeout=120)
+                assert done["status"] == "succeeded", done
+            assert c.get(f"/v1/jobs/{running['id']}").json()["attempt"] == 2
