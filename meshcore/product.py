@@ -147,7 +147,7 @@ class Tolerances:
         if points.size == 0:
             return 0.0
         comps = [points[..., i] for i in range(points.shape[-1])]  # strided views: fast reductions
-        diameter = math.sqrt(sum((float(c.max()) - float(c.min())) ** 2 for c in comps))
+        diameter = math.hypot(*(float(c.max()) - float(c.min()) for c in comps))
         return self.coincident * diameter
 
 
@@ -171,6 +171,29 @@ def _vector(value, loc: tuple, name: str, *, nonzero: bool = False) -> np.ndarra
     if nonzero and not v.any():
         raise InputError(f"{name} must not be zero", loc=loc, code="zero_vector")
     return v
+
+
+def _unit(d: np.ndarray) -> np.ndarray:
+    """``d`` scaled to length 1, without overflow for huge components."""
+    d = d / np.abs(d).max()
+    return d / np.linalg.norm(d)
+
+
+_MAX_COORDINATE = 1e150  # squares of coordinate differences stay finite below this
+
+
+def _finite_sections(X: np.ndarray, loc: tuple) -> np.ndarray:
+    """``X``, unless a position is not finite or so large that squared distances overflow."""
+    big = ~(np.abs(X) <= _MAX_COORDINATE)
+    if big.any():
+        k, i = np.argwhere(big)[0][:2]
+        raise InputError(
+            f"vertex {i} on section {k} lies beyond {_MAX_COORDINATE:g}: the path or the mesh "
+            "is too large for the floating-point range",
+            loc=loc,
+            code="non_finite",
+        )
+    return X
 
 
 def _layers(value, loc: tuple = ("layers",)) -> int:
@@ -259,7 +282,7 @@ class Rotate:
     def _screw(self):
         a = _vector(self.axis_point, ("axis_point",), "axis_point")
         d = _vector(self.axis_direction, ("axis_direction",), "axis_direction", nonzero=True)
-        return a, d / np.linalg.norm(d), _angle(self.angle), _layers(self.layers), np.zeros(3)
+        return a, _unit(d), _angle(self.angle), _layers(self.layers), np.zeros(3)
 
     def _positions(self, pts: np.ndarray) -> np.ndarray:
         return _screw_positions(pts, *self._screw())
@@ -284,7 +307,7 @@ class Helix:
         a = _vector(self.axis_point, ("axis_point",), "axis_point")
         d = _vector(self.axis_direction, ("axis_direction",), "axis_direction", nonzero=True)
         w = _vector(self.vector, ("vector",), "vector")
-        return a, d / np.linalg.norm(d), _angle(self.angle), _layers(self.layers), w
+        return a, _unit(d), _angle(self.angle), _layers(self.layers), w
 
     def _positions(self, pts: np.ndarray) -> np.ndarray:
         return _screw_positions(pts, *self._screw())
@@ -1352,7 +1375,9 @@ def extrude(
     """
     base = _checked(mesh, path)
     _report(progress, 0.0, "computing the sections")
-    X = _prefixed(path._positions, base.points, prefix=("path",))
+    with np.errstate(over="ignore", invalid="ignore"):
+        X = _prefixed(path._positions, base.points, prefix=("path",))
+    _finite_sections(X, ("path",))
     screw = path._screw() if isinstance(path, Rotate | Helix) else None
     return _product(
         base,
@@ -1668,7 +1693,9 @@ def sweep(
     all_pts = [base.points, tgt] + ([sd.reshape(-1, 3)] if sd is not None and sd.size else [])
     tol = tolerances.distance(np.concatenate(all_pts))
     _report(progress, 0.0, "computing the sections")
-    X = _sweep_sections(base, bverts, tgt, sd, L, tol, progress)
+    with np.errstate(over="ignore", invalid="ignore"):
+        X = _sweep_sections(base, bverts, tgt, sd, L, tol, progress)
+    _finite_sections(X, ("target",))
     return _product(
         base,
         X,
