@@ -1,11 +1,21 @@
-"""The ``meshservice`` command: ``serve`` the API, or print its ``openapi`` document."""
+"""The ``meshservice`` command.
+
+``serve`` runs the API; ``openapi`` prints its OpenAPI document; ``submit``,
+``jobs`` and ``cancel`` are a batch client of a running service (URL and key
+from ``--url``/``--key`` or ``MESHSERVICE_URL``/``MESHSERVICE_API_KEY``).
+"""
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+from pathlib import Path
 
 from pydantic import ValidationError
+
+from meshcore.io import FORMATS
+from service.client import ServiceError
 
 
 def _serve(args: argparse.Namespace) -> int:
@@ -56,6 +66,49 @@ def _openapi(_: argparse.Namespace) -> int:
     return 0
 
 
+def _client(args: argparse.Namespace):
+    from service.client import MeshClient
+
+    return MeshClient(args.url, args.key)
+
+
+def _submit(args: argparse.Namespace) -> int:
+    from service.batch import read_items, run_batch
+
+    try:
+        items = read_items(args.files)
+    except ValueError as exc:
+        print(f"meshservice: {exc}", file=sys.stderr)
+        return 2
+    if not items:
+        print("meshservice: no jobs in the given files", file=sys.stderr)
+        return 2
+    with _client(args) as api:
+        out = Path(args.out) if args.out else None
+        return run_batch(api, items, wait=args.wait, out=out, fmt=args.format)
+
+
+def _jobs(args: argparse.Namespace) -> int:
+    with _client(args) as api:
+        print(f"{'id':<32} {'method':<20} {'status':<10} {'progress':>8} created")
+        for n, job in enumerate(api.jobs()):
+            if n == args.limit:
+                break
+            fraction = job["progress"]["fraction"]
+            print(
+                f"{job['id']:<32} {job['method']:<20} {job['status']:<10} "
+                f"{fraction:>8.0%} {job['created_at']}"
+            )
+    return 0
+
+
+def _cancel(args: argparse.Namespace) -> int:
+    with _client(args) as api:
+        for job_id in args.ids:
+            print(f"{job_id} {api.cancel(job_id)['status']}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="meshservice", description=__doc__)
     commands = parser.add_subparsers(dest="command")
@@ -68,7 +121,34 @@ def main(argv: list[str] | None = None) -> int:
     commands.add_parser("openapi", help="print the OpenAPI document as YAML").set_defaults(
         func=_openapi
     )
+    remote = argparse.ArgumentParser(add_help=False)
+    remote.add_argument(
+        "--url",
+        default=os.environ.get("MESHSERVICE_URL", "http://127.0.0.1:8000"),
+        help="the service (MESHSERVICE_URL)",
+    )
+    remote.add_argument(
+        "--key", default=os.environ.get("MESHSERVICE_API_KEY"), help="API key (MESHSERVICE_API_KEY)"
+    )
+    submit = commands.add_parser(
+        "submit", parents=[remote], help="submit a batch of jobs (JSON or JSON-lines files)"
+    )
+    submit.add_argument("files", nargs="+", metavar="FILE")
+    submit.add_argument("--wait", action="store_true", help="follow the jobs until they end")
+    submit.add_argument("--out", metavar="DIR", help="download results into DIR (implies --wait)")
+    submit.add_argument("--format", default="vtu", choices=sorted(FORMATS), help="mesh format")
+    submit.set_defaults(func=_submit)
+    jobs = commands.add_parser("jobs", parents=[remote], help="list your jobs, newest first")
+    jobs.add_argument("--limit", type=int, default=50)
+    jobs.set_defaults(func=_jobs)
+    cancel = commands.add_parser("cancel", parents=[remote], help="cancel jobs")
+    cancel.add_argument("ids", nargs="+", metavar="ID")
+    cancel.set_defaults(func=_cancel)
     args = parser.parse_args(argv)
     if args.command is None:
         args = parser.parse_args(["serve", *(argv or sys.argv[1:])])
-    return args.func(args)
+    try:
+        return args.func(args)
+    except ServiceError as exc:
+        print(f"meshservice: {exc}", file=sys.stderr)
+        return 1

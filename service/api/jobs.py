@@ -125,7 +125,9 @@ def router(registry: Registry) -> APIRouter:
         params_json = params.model_dump_json().encode()
         body_hash = hashlib.sha256(body.method.encode() + b"\0" + params_json).hexdigest()
         job = store.by_idempotency_key(client, idempotency_key) if idempotency_key else None
-        if job is None:
+        if job is not None:
+            response.headers["Idempotent-Replayed"] = "true"
+        else:
             try:
                 params.check()
             except InputError as exc:
@@ -150,6 +152,8 @@ def router(registry: Registry) -> APIRouter:
                 idempotency_key=idempotency_key,
                 body_hash=body_hash,
             )
+            if job.id != job_id:  # another request with this key committed first
+                response.headers["Idempotent-Replayed"] = "true"
             manager.wake()
         if job.body_hash != body_hash:
             raise Invalid(
