@@ -59,18 +59,24 @@ Choices the text leaves open, and ours:
   comes from, counted over the base's blocks in order). The base's own cell
   data, cell sets and point data are carried along.
 - **Validity** (§8.1.3: "must be checked explicitly"). The signed volume of
-  every cell (:func:`meshcore.quality.signed_volume`) must be positive. Then
-  the swept solid must not overlap itself. Where the path and the base prove
-  it cannot (a planar base translated; a planar base on one side of a
-  rotation or helix axis lying in its plane, turned by at most 360°), no
-  further test runs; a rotation past 360° of such a base reports the cells
-  past 360° exactly. Otherwise (helices of a full turn or more, affine maps,
-  explicit sections, sweeps, non-planar bases) sample points inside every
-  cell (its centroid and a point near each corner) are tested against the
-  face planes of every nearby cell: a sample strictly inside a foreign cell
-  is an overlap. An overlap thinner than about a quarter of the local cell
-  size may escape that test. For bases of lines and vertices (surfaces and
-  curves) the check is the cell measure and the rotation angle only.
+  every cell (:func:`meshcore.quality.signed_volume`) must be positive. For a
+  translation, a rotation or a helix along its axis the first layer decides
+  every other one (a translated prism's volume is linear in its positive
+  step; the other paths move the first layer rigidly), so only the first
+  layer is computed; other paths compute every cell. Then the swept solid
+  must not overlap itself. Where the path and the base prove it cannot (a
+  planar base translated; a planar base on one side of a rotation or helix
+  axis lying in its plane, turned by at most 360°), no further test runs; a
+  rotation past 360° of such a base reports the cells past 360° exactly.
+  Otherwise (helices of a full turn or more, affine maps, explicit sections,
+  sweeps, non-planar bases) sample points inside every cell (its centroid
+  and a point near each corner) are tested against the face planes of the
+  cells of non-adjacent layers whose bounding boxes hold them: a sample
+  strictly inside such a cell is an overlap. An overlap thinner than about a
+  quarter of the local cell size may escape that test; a fold between
+  adjacent layers is left to the volume check. For bases of lines and
+  vertices (surfaces and curves) the check is the cell measure and the
+  rotation angle only.
 
 References
 ----------
