@@ -91,6 +91,21 @@ def _xyz(p: np.ndarray) -> str:
     return "(" + ", ".join(f"{float(x):.6g}" for x in p) + ")"
 
 
+def _row_ids(rows: np.ndarray) -> np.ndarray:
+    """One id per row of an ``(m, k)`` int array, equal exactly for equal rows.
+
+    Ids are dense ranks, folded column by column (a 1-D sort per column is
+    much faster than ``np.unique(..., axis=0)``).
+    """
+    if rows.shape[1] == 0 or len(rows) == 0:
+        return np.zeros(len(rows), dtype=np.int64)
+    ids = np.unique(rows[:, 0], return_inverse=True)[1].ravel()
+    for j in range(1, rows.shape[1]):
+        col = np.unique(rows[:, j], return_inverse=True)[1].ravel()
+        ids = np.unique(ids * (int(col.max()) + 1) + col, return_inverse=True)[1].ravel()
+    return ids
+
+
 def _groups(points: np.ndarray, tol: float) -> np.ndarray:
     """The representative (lowest index) of each point's group of points within ``tol``."""
     n = len(points)
@@ -294,8 +309,8 @@ def merged(
         ids = np.flatnonzero(cell_type == t)
         data = np.concatenate([d for *_, tt, d in top_parts if tt == t])
         key = np.sort(data, axis=1)
-        _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-        inverse = inverse.ravel()
+        inverse = _row_ids(key)
+        counts = np.bincount(inverse)
         dup = np.flatnonzero(counts[inverse] > 1)
         if len(dup):
             twins = dup[inverse[dup] == inverse[dup[0]]]
@@ -340,14 +355,15 @@ def merged(
         local = np.concatenate([np.arange(len(k)) for *_, k in items])
         inner = interior.get(t, np.zeros((0, keys.shape[1]), np.int64))
         # group equal rows; the interior facets ride along to mark their groups
-        _, inverse = np.unique(np.concatenate([keys, inner]), axis=0, return_inverse=True)
-        inverse = inverse.ravel()
+        inverse = _row_ids(np.concatenate([keys, inner]))
         n_groups = inverse.max() + 1 if len(inverse) else 0
         in_mesh = np.zeros(n_groups, dtype=bool)
         in_mesh[inverse[len(keys) :]] = True
         inverse = inverse[: len(keys)]
         meshes_per = np.zeros(n_groups, dtype=np.int64)
-        pair = np.unique(np.column_stack([inverse, owner_mesh]), axis=0)
+        pair_id = _row_ids(np.column_stack([inverse, owner_mesh]))
+        _, first_of_pair = np.unique(pair_id, return_index=True)
+        pair = np.column_stack([inverse, owner_mesh])[first_of_pair]
         np.add.at(meshes_per, pair[:, 0], 1)
         shared = meshes_per[inverse] > 1
         if not shared.any():
@@ -424,12 +440,10 @@ def _check_interface(facets, points, cell_mesh, where, remap, mesh_of_point, off
         holder = f.pairs[once, 0]
         bnd.append((f.nodes[once], cell_mesh[holder], holder))
     # the boundary vertices of each input (a merged vertex may belong to several)
-    vm = np.unique(
-        np.concatenate(
-            [np.column_stack([nodes.ravel(), np.repeat(m, nodes.shape[1])]) for nodes, m, _ in bnd]
-        ),
-        axis=0,
+    vm = np.concatenate(
+        [np.column_stack([nodes.ravel(), np.repeat(m, nodes.shape[1])]) for nodes, m, _ in bnd]
     )
+    vm = vm[np.unique(_row_ids(vm), return_index=True)[1]]
     verts, vmesh = vm[:, 0], vm[:, 1]
     for nodes, fmesh, fcell in bnd:
         qi, fi = _facet_hits(points[verts], vmesh, verts, nodes, fmesh, points, tol)
