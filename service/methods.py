@@ -19,6 +19,7 @@ from typing import Any
 
 from meshcore import quality
 from service import params_product as product
+from service import params_triangulation as triangulation
 from service.schemas import MeshIn, MethodParams
 
 Progress = Callable[[float, str], None]
@@ -103,6 +104,16 @@ def default_registry() -> Registry:
             params=product.RadialParams,
             run=product.run_radial,
             example=product.RADIAL_EXAMPLE,
+        ),
+        MethodSpec(
+            name="triangulate",
+            summary="Boundary-conforming quality triangle mesh of a planar domain (holes, "
+            "constraints): every input segment a chain of edges, refined to a smallest angle, "
+            "largest area, edge length or size field; optionally empty or with the boundary kept.",
+            section="§9.1 (admissible boundaries), §8.2 (pattern), Remark 8.10 (size field)",
+            params=triangulation.TriangulateParams,
+            run=triangulation.run_triangulate,
+            example=triangulation.TRIANGULATE_EXAMPLE,
         ),
     ]
     return {s.name: s for s in specs}

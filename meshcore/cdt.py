@@ -1,0 +1,1472 @@
+"""Constrained Delaunay triangulations: segment recovery, regions, Delaunay refinement.
+
+The compiled kernels behind :func:`meshcore.triangulate.triangulate`. They
+take the Delaunay triangulation of :func:`meshcore.delaunay.delaunay` (never
+another one), recover missing segments by edge flips, keep the triangles of
+the domain by region, and refine by inserting circumcentres and segment
+split points one at a time (Bowyer-Watson cavities that never cross a
+segment). Every sign is an exact predicate of
+:mod:`meshcore.geometry.predicates` behind a float filter; the refinement
+*criteria* (is an angle small, is a triangle large) are float comparisons of
+lengths, not signs, and cannot make the mesh invalid.
+
+Data structure (the one of :mod:`meshcore.delaunay`, without ghosts): triangle
+``t`` has corners ``3t, 3t+1, 3t+2``, counter-clockwise. ``V[k]`` is the
+vertex at corner ``k``; the edge of corner ``k`` is the one opposite it,
+from ``V[nxt(k)]`` to ``V[prv(k)]`` (counter-clockwise in ``t``); ``A[k]``
+is the corner of the neighbouring triangle opposite the same edge, or -1 on
+the border of the triangulation; ``S[k]`` is the id of the input segment the
+edge lies on, or -1 (the same on both sides of the edge). ``vt[p]`` is some
+triangle having ``p`` as a vertex.
+
+Algorithms, each a sequential loop (a stack or a queue) in numba:
+
+* **Segment recovery** (``keep_boundary`` and any segment that the Delaunay
+  triangulation misses): the edges crossed by the segment are collected by a
+  walk from one endpoint and flipped away in a queue (a flip only when the
+  quadrilateral is strictly convex, else the edge goes to the back of the
+  queue; Sloan, 1993), then the new edges are flipped back to constrained
+  Delaunay (Lawson's flips, segments locked).
+* **Regions**: a flood fill from the triangle on the left of every boundary
+  segment (the domain's side, :class:`meshcore.domain.Domain` orients them
+  so) across every edge that is not a boundary segment; constraints are
+  crossed. What is not reached is a hole or the exterior.
+* **Refinement** (Ruppert's algorithm as Shewchuk's Triangle runs it): bad
+  triangles (smallest angle under the bound, area over the maximum,
+  circumradius over the size) in rounds of a first-in first-out queue; a
+  circumcentre that lies in the open diametral ball of a segment (or behind
+  it) is not inserted and the segment is split instead, or, when the
+  boundary is kept, the triangle is given up. Splits of a subsegment with an
+  input vertex at one end fall on concentric shells (powers of two of a unit
+  length from that vertex), and a triangle whose shortest edge joins two
+  split points equidistant from the input vertex shared by their segments is
+  not split: the two safeguards that make the algorithm terminate at small
+  input angles (Shewchuk, "Delaunay refinement algorithms for triangular mesh
+  generation", 2002, §3.6 and §4).
+
+References
+----------
+Methods text §9.1 (segments as Delaunay edges, the diametral ball
+:math:`B_f^{min}`, splitting at a point of the segment), §9.1.5 (new points
+on the curve); J. Ruppert (1995); L. P. Chew (1989); S. W. Sloan, "A fast
+algorithm for generating constrained Delaunay triangulations" (1993).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from meshcore.geometry.predicates import dot2d_exact, incircle_exact, orient2d_exact
+
+_CCW_ERRBOUND_A = (3.0 + 16.0 * 2.0**-53) * 2.0**-53
+_ICC_ERRBOUND_A = (10.0 + 96.0 * 2.0**-53) * 2.0**-53
+
+# Insertion outcomes.
+OK, BLOCKED, ENCROACH, DEGENERATE, WALK_LIMIT, NO_SPACE = 0, 1, 2, 3, 4, 5
+# Kernel statuses (returned to the Python driver).
+DONE, NEED_SPACE, NEED_SCRATCH, NEED_QUEUE, YIELD, BUDGET, COLLINEAR, CROSSING = range(8)
+
+# Layout of the integer state array of the refinement kernel.
+ST_NPTS, ST_NTRI, ST_QHEAD, ST_QTAIL, ST_QROUND, ST_ROUNDS = 0, 1, 2, 3, 4, 5
+ST_SQN, ST_STAMP, ST_ADD_B, ST_ADD_I, ST_STATUS, ST_GIVEN_UP = 6, 7, 8, 9, 10, 11
+ST_INFO = 12
+ST_SIZE = 16
+# Layout of the float parameters of the refinement kernel.
+PR_SIN2, PR_AREA, PR_SIZE2, PR_KEEP, PR_UNIT, PR_EQUI, PR_BUDGET, PR_OPS, PR_COS = range(9)
+PR_SIZE = 9
+
+_WALK_LIMIT_STEPS = 1 << 22
+
+
+# ---------------------------------------------------------------------------
+# Corners and predicates
+# ---------------------------------------------------------------------------
+
+
+@njit(cache=True, inline="always")
+def _nxt(k):
+    return k - 2 if k % 3 == 2 else k + 1
+
+
+@njit(cache=True, inline="always")
+def _prv(k):
+    return k + 2 if k % 3 == 0 else k - 1
+
+
+@njit(cache=True, inline="always")
+def _orient_xy(ax, ay, bx, by, cx, cy, work):
+    detleft = (ax - cx) * (by - cy)
+    detright = (ay - cy) * (bx - cx)
+    det = detleft - detright
+    errbound = _CCW_ERRBOUND_A * (abs(detleft) + abs(detright))
+    if det > errbound:
+        return 1
+    if -det > errbound:
+        return -1
+    if detleft == 0.0 or detright == 0.0:
+        if det > 0.0:
+            return 1
+        if det < 0.0:
+            return -1
+        return 0
+    return orient2d_exact(ax, ay, bx, by, cx, cy, work)
+
+
+@njit(cache=True, inline="always")
+def _orient(P, a, b, c, work):
+    return _orient_xy(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], work)
+
+
+@njit(cache=True, inline="always")
+def _dot_xy(ax, ay, bx, by, cx, cy, work):
+    """Sign of (a - c) . (b - c): -1 when c is in the open diametral ball of ab."""
+    left = (ax - cx) * (bx - cx)
+    right = (ay - cy) * (by - cy)
+    det = left + right
+    errbound = _CCW_ERRBOUND_A * (abs(left) + abs(right))
+    if det > errbound:
+        return 1
+    if -det > errbound:
+        return -1
+    if left == 0.0 or right == 0.0:
+        if det > 0.0:
+            return 1
+        if det < 0.0:
+            return -1
+        return 0
+    return dot2d_exact(ax, ay, bx, by, cx, cy, work)
+
+
+@njit(cache=True, inline="always")
+def _incircle_xy(ax, ay, bx, by, cx, cy, dx, dy, work):
+    """Exact sign of d against the circle of CCW (a, b, c); 0 on the circle."""
+    adx = ax - dx
+    bdx = bx - dx
+    cdx = cx - dx
+    ady = ay - dy
+    bdy = by - dy
+    cdy = cy - dy
+    bdxcdy = bdx * cdy
+    cdxbdy = cdx * bdy
+    alift = adx * adx + ady * ady
+    cdxady = cdx * ady
+    adxcdy = adx * cdy
+    blift = bdx * bdx + bdy * bdy
+    adxbdy = adx * bdy
+    bdxady = bdx * ady
+    clift = cdx * cdx + cdy * cdy
+    det = alift * (bdxcdy - cdxbdy) + blift * (cdxady - adxcdy) + clift * (adxbdy - bdxady)
+    permanent = (
+        (abs(bdxcdy) + abs(cdxbdy)) * alift
+        + (abs(cdxady) + abs(adxcdy)) * blift
+        + (abs(adxbdy) + abs(bdxady)) * clift
+    )
+    errbound = _ICC_ERRBOUND_A * permanent
+    if det > errbound:
+        return 1
+    if -det > errbound:
+        return -1
+    return incircle_exact(ax, ay, bx, by, cx, cy, dx, dy, work)
+
+
+@njit(cache=True, inline="always")
+def _incircle_tri(P, V, t, x, y, work):
+    a = V[3 * t]
+    b = V[3 * t + 1]
+    c = V[3 * t + 2]
+    return _incircle_xy(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], x, y, work)
+
+
+# ---------------------------------------------------------------------------
+# Building the structure, finding edges, flipping
+# ---------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def build(triangles, neighbors, V, A, S, vt):
+    """Fill V, A, S (no segment yet) and vt from a Delaunay triangulation."""
+    m = triangles.shape[0]
+    for t in range(m):
+        for i in range(3):
+            V[3 * t + i] = triangles[t, i]
+            S[3 * t + i] = -1
+    for t in range(m):
+        for i in range(3):
+            nb = neighbors[t, i]
+            A[3 * t + i] = -1
+            if nb >= 0:
+                for j in range(3):
+                    if neighbors[nb, j] == t:
+                        A[3 * t + i] = 3 * nb + j
+                        break
+        vt[triangles[t, 0]] = t
+        vt[triangles[t, 1]] = t
+        vt[triangles[t, 2]] = t
+
+
+@njit(cache=True, inline="always")
+def _corner_of(V, t, a):
+    for i in range(3):
+        if V[3 * t + i] == a:
+            return 3 * t + i
+    return -1
+
+
+@njit(cache=True)
+def find_edge(V, A, vt, a, b):
+    """A corner whose edge joins a and b (either direction), or -1.
+
+    Turns around ``a`` counter-clockwise from ``vt[a]``, then clockwise if a
+    border stopped the first turn.
+    """
+    ka = _corner_of(V, vt[a], a)
+    if ka < 0:
+        return -1
+    k = ka
+    while True:
+        if V[_nxt(k)] == b:
+            return _prv(k)
+        if V[_prv(k)] == b:
+            return _nxt(k)
+        kk = A[_nxt(k)]
+        if kk < 0:
+            break
+        k = _nxt(kk)
+        if k == ka:
+            return -1
+    k = ka
+    while True:
+        kk = A[_prv(k)]
+        if kk < 0:
+            return -1
+        k = _prv(kk)
+        if k == ka:
+            return -1
+        if V[_nxt(k)] == b:
+            return _prv(k)
+        if V[_prv(k)] == b:
+            return _nxt(k)
+
+
+@njit(cache=True)
+def find_directed(V, A, vt, a, b):
+    """The corner whose edge runs from a to b counter-clockwise in its triangle, or -1."""
+    k = find_edge(V, A, vt, a, b)
+    if k < 0:
+        return -1
+    if V[_nxt(k)] == a:
+        return k
+    kk = A[k]
+    return kk
+
+
+@njit(cache=True)
+def _flip(V, A, S, vt, k):
+    """Flip the edge of corner k; the two triangles keep their slots."""
+    kk = A[k]
+    t = k // 3
+    t2 = kk // 3
+    kn = _nxt(k)
+    kp = _prv(k)
+    p = V[k]
+    u = V[kn]
+    v = V[kp]
+    q = V[kk]
+    e_vp = A[kn]
+    e_pu = A[kp]
+    e_uq = A[_nxt(kk)]
+    e_qv = A[_prv(kk)]
+    s_vp = S[kn]
+    s_pu = S[kp]
+    s_uq = S[_nxt(kk)]
+    s_qv = S[_prv(kk)]
+    b0 = 3 * t
+    b2 = 3 * t2
+    V[b0] = p
+    V[b0 + 1] = u
+    V[b0 + 2] = q
+    A[b0] = e_uq
+    A[b0 + 1] = b2 + 2
+    A[b0 + 2] = e_pu
+    S[b0] = s_uq
+    S[b0 + 1] = -1
+    S[b0 + 2] = s_pu
+    V[b2] = p
+    V[b2 + 1] = q
+    V[b2 + 2] = v
+    A[b2] = e_qv
+    A[b2 + 1] = e_vp
+    A[b2 + 2] = b0 + 1
+    S[b2] = s_qv
+    S[b2 + 1] = s_vp
+    S[b2 + 2] = -1
+    if e_uq >= 0:
+        A[e_uq] = b0
+    if e_pu >= 0:
+        A[e_pu] = b0 + 2
+    if e_qv >= 0:
+        A[e_qv] = b2
+    if e_vp >= 0:
+        A[e_vp] = b2 + 1
+    vt[p] = t
+    vt[u] = t
+    vt[q] = t
+    vt[v] = t2
+
+
+# ---------------------------------------------------------------------------
+# Segment recovery by flips (Sloan), then constrained Delaunay by Lawson flips
+# ---------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _push_pair(qa, qb, n, a, b):
+    """Append (a, b) to growable pair arrays; returns the (possibly new) arrays."""
+    if n >= qa.shape[0]:
+        na = np.empty(2 * qa.shape[0], qa.dtype)
+        nb = np.empty(2 * qb.shape[0], qb.dtype)
+        na[:n] = qa[:n]
+        nb[:n] = qb[:n]
+        qa = na
+        qb = nb
+    qa[n] = a
+    qb[n] = b
+    return qa, qb
+
+
+@njit(cache=True)
+def recover_segments(P, V, A, S, vt, seg, sid, work, info):
+    """Make every segment an edge, mark it, and restore constrained Delaunay.
+
+    Parameters
+    ----------
+    seg : (k, 2) int64 endpoints; sid : (k,) int64 segment ids stored in S.
+    info : (4,) int64 out: [status, segment row, vertex, flips].
+
+    Returns status DONE, or COLLINEAR (a vertex lies on the open segment;
+    ``info[1:3]`` name it) or CROSSING (two segments cross).
+    """
+    nq = 64
+    qa = np.empty(nq, np.int64)
+    qb = np.empty(nq, np.int64)
+    ea = np.empty(nq, np.int64)
+    eb = np.empty(nq, np.int64)
+    ne = 0
+    flips = 0
+    for r in range(seg.shape[0]):
+        a = seg[r, 0]
+        b = seg[r, 1]
+        k = find_edge(V, A, vt, a, b)
+        if k < 0:
+            # Crossing edges: start in the triangle of a's star whose wedge holds b.
+            ka = _corner_of(V, vt[a], a)
+            start = -1
+            kk0 = ka
+            # turn counter-clockwise, then clockwise
+            direction = 0
+            k2 = ka
+            while True:
+                u = V[_nxt(k2)]
+                w = V[_prv(k2)]
+                o1 = _orient(P, a, u, b, work)
+                o2 = _orient(P, a, w, b, work)
+                if (
+                    o1 == 0
+                    and _dot_xy(P[u, 0], P[u, 1], P[b, 0], P[b, 1], P[a, 0], P[a, 1], work) > 0
+                ):
+                    info[0] = COLLINEAR
+                    info[1] = r
+                    info[2] = u
+                    return COLLINEAR
+                if o1 > 0 and o2 < 0:
+                    start = k2
+                    break
+                if direction == 0:
+                    nk = A[_nxt(k2)]
+                    if nk < 0:
+                        direction = 1
+                        k2 = kk0
+                        continue
+                    k2 = _nxt(nk)
+                    if k2 == kk0:
+                        break
+                else:
+                    nk = A[_prv(k2)]
+                    if nk < 0:
+                        break
+                    k2 = _prv(nk)
+            if start < 0:
+                info[0] = CROSSING
+                info[1] = r
+                info[2] = a
+                return CROSSING
+            # Walk to b, queueing the crossed edges (right vertex, left vertex).
+            nq = 0
+            k = start
+            while True:
+                if S[k] >= 0:
+                    info[0] = CROSSING
+                    info[1] = r
+                    info[2] = S[k]
+                    return CROSSING
+                qa, qb = _push_pair(qa, qb, nq, V[_nxt(k)], V[_prv(k)])
+                nq += 1
+                kk = A[k]
+                q = V[kk]
+                if q == b:
+                    break
+                o = _orient(P, a, b, q, work)
+                if o == 0:
+                    info[0] = COLLINEAR
+                    info[1] = r
+                    info[2] = q
+                    return COLLINEAR
+                k = _nxt(kk) if o > 0 else _prv(kk)
+            # Flip them away (circular queue over the arrays).
+            head = 0
+            count = nq
+            cap = qa.shape[0]
+            # make the queue circular in place: indices modulo cap
+            tail = nq % cap
+            while count > 0:
+                x = qa[head]
+                y = qb[head]
+                head = (head + 1) % cap
+                count -= 1
+                ke = find_edge(V, A, vt, x, y)
+                p = V[ke]
+                u = V[_nxt(ke)]
+                v = V[_prv(ke)]
+                q = V[A[ke]]
+                if _orient(P, p, u, q, work) > 0 and _orient(P, p, q, v, work) > 0:
+                    _flip(V, A, S, vt, ke)
+                    flips += 1
+                    op = _orient(P, a, b, p, work)
+                    oq = _orient(P, a, b, q, work)
+                    if op * oq < 0:
+                        qa[tail] = p
+                        qb[tail] = q
+                        tail = (tail + 1) % cap
+                        count += 1
+                    else:
+                        ea, eb = _push_pair(ea, eb, ne, p, q)
+                        ne += 1
+                else:
+                    qa[tail] = x
+                    qb[tail] = y
+                    tail = (tail + 1) % cap
+                    count += 1
+            k = find_edge(V, A, vt, a, b)
+        S[k] = sid[r]
+        if A[k] >= 0:
+            S[A[k]] = sid[r]
+    # Lawson: the new edges (and those around flipped ones) back to Delaunay.
+    while ne > 0:
+        ne -= 1
+        x = ea[ne]
+        y = eb[ne]
+        k = find_edge(V, A, vt, x, y)
+        if k < 0 or S[k] >= 0 or A[k] < 0:
+            continue
+        p = V[k]
+        u = V[_nxt(k)]
+        v = V[_prv(k)]
+        q = V[A[k]]
+        if (
+            _incircle_xy(
+                P[p, 0], P[p, 1], P[u, 0], P[u, 1], P[v, 0], P[v, 1], P[q, 0], P[q, 1], work
+            )
+            > 0
+        ):
+            _flip(V, A, S, vt, k)
+            flips += 1
+            ea, eb = _push_pair(ea, eb, ne, u, q)
+            ne += 1
+            ea, eb = _push_pair(ea, eb, ne, q, v)
+            ne += 1
+            ea, eb = _push_pair(ea, eb, ne, v, p)
+            ne += 1
+            ea, eb = _push_pair(ea, eb, ne, p, u)
+            ne += 1
+    info[0] = DONE
+    info[3] = flips
+    return DONE
+
+
+# ---------------------------------------------------------------------------
+# Regions
+# ---------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def domain_triangles(V, A, S, vt, ntri, bseg, n_boundary_ids):
+    """Mask of the triangles reached from the left of the boundary segments.
+
+    ``bseg`` holds the boundary subsegments oriented with the domain on the
+    left; segment ids below ``n_boundary_ids`` stop the fill.
+    """
+    inside = np.zeros(ntri, np.bool_)
+    stack = np.empty(ntri + 1, np.int64)
+    sp = 0
+    for r in range(bseg.shape[0]):
+        k = find_directed(V, A, vt, bseg[r, 0], bseg[r, 1])
+        if k < 0:
+            continue
+        t = k // 3
+        if not inside[t]:
+            inside[t] = True
+            stack[sp] = t
+            sp += 1
+    while sp > 0:
+        sp -= 1
+        t = stack[sp]
+        for i in range(3):
+            k = 3 * t + i
+            kk = A[k]
+            if kk < 0:
+                continue
+            if S[k] >= 0 and S[k] < n_boundary_ids:
+                continue
+            t2 = kk // 3
+            if not inside[t2]:
+                inside[t2] = True
+                stack[sp] = t2
+                sp += 1
+    return inside
+
+
+@njit(cache=True)
+def compact(V, A, S, keep, V2, A2, S2, vt):
+    """Copy the kept triangles into V2, A2, S2 (new numbering); returns their count."""
+    ntri = keep.shape[0]
+    ids = np.empty(ntri, np.int64)
+    m = 0
+    for t in range(ntri):
+        if keep[t]:
+            ids[t] = m
+            m += 1
+        else:
+            ids[t] = -1
+    for t in range(ntri):
+        r = ids[t]
+        if r < 0:
+            continue
+        for i in range(3):
+            k = 3 * t + i
+            V2[3 * r + i] = V[k]
+            S2[3 * r + i] = S[k]
+            kk = A[k]
+            if kk >= 0 and ids[kk // 3] >= 0:
+                A2[3 * r + i] = 3 * ids[kk // 3] + kk % 3
+            else:
+                A2[3 * r + i] = -1
+            vt[V[k]] = r
+    return m
+
+
+# ---------------------------------------------------------------------------
+# Refinement
+# ---------------------------------------------------------------------------
+
+
+@njit(cache=True, inline="always")
+def _size_at(H, hg, x, y):
+    """Bilinear interpolation of the size grid (clamped to it)."""
+    nx = H.shape[1]
+    ny = H.shape[0]
+    if nx == 1 and ny == 1:
+        return H[0, 0]
+    fx = (x - hg[0]) / hg[2]
+    fy = (y - hg[1]) / hg[3]
+    fx = min(max(fx, 0.0), nx - 1.0)
+    fy = min(max(fy, 0.0), ny - 1.0)
+    i = min(int(fx), nx - 2)
+    j = min(int(fy), ny - 2)
+    u = fx - i
+    v = fy - j
+    return (1.0 - v) * ((1.0 - u) * H[j, i] + u * H[j, i + 1]) + v * (
+        (1.0 - u) * H[j + 1, i] + u * H[j + 1, i + 1]
+    )
+
+
+@njit(cache=True, inline="always")
+def _small_angle(P, segends, sp, sq, j, cos_bound):
+    """Whether input segments sp and sq meet at their common vertex j at an
+    angle below the bound (cosine above ``cos_bound``)."""
+    u = segends[sp, 1] if segends[sp, 0] == j else segends[sp, 0]
+    v = segends[sq, 1] if segends[sq, 0] == j else segends[sq, 0]
+    ux = P[u, 0] - P[j, 0]
+    uy = P[u, 1] - P[j, 1]
+    vx = P[v, 0] - P[j, 0]
+    vy = P[v, 1] - P[j, 1]
+    dot = ux * vx + uy * vy
+    return dot > cos_bound * math.sqrt((ux * ux + uy * uy) * (vx * vx + vy * vy))
+
+
+@njit(cache=True)
+def _is_bad(P, V, t, prm, H, hg, pseg, segends, n_input):
+    """0: fine; 1: smallest angle under the bound; 2: too large (area or size)."""
+    a = V[3 * t]
+    b = V[3 * t + 1]
+    c = V[3 * t + 2]
+    ax = P[a, 0]
+    ay = P[a, 1]
+    bx = P[b, 0] - ax
+    by = P[b, 1] - ay
+    cx = P[c, 0] - ax
+    cy = P[c, 1] - ay
+    cross = bx * cy - by * cx
+    lab = bx * bx + by * by
+    lca = cx * cx + cy * cy
+    dx = cx - bx
+    dy = cy - by
+    lbc = dx * dx + dy * dy
+    if cross <= 0.0:
+        return 0  # never happens for valid triangles; nothing to refine
+    if 0.5 * cross > prm[PR_AREA]:
+        return 2
+    if prm[PR_SIZE2] > 0.0:
+        h = _size_at(H, hg, ax + (bx + cx) / 3.0, ay + (by + cy) / 3.0)
+        # circumradius**2 = lab * lbc * lca / (4 cross**2)
+        if lab * lbc * lca > 4.0 * cross * cross * prm[PR_SIZE2] * h * h:
+            return 2
+    s2 = prm[PR_SIN2]
+    if s2 <= 0.0:
+        return 0
+    # sin(smallest angle) = cross / (product of the two longer edges)
+    if lab <= lbc and lab <= lca:
+        p = a
+        q = b
+        prod = lbc * lca
+    elif lbc <= lca:
+        p = b
+        q = c
+        prod = lab * lca
+    else:
+        p = c
+        q = a
+        prod = lab * lbc
+    if cross * cross >= s2 * prod:
+        return 0
+    # Small input angle (Miller, Pav and Walkington's rule, as Triangle): the
+    # shortest edge joins split points of two segments meeting at an input
+    # vertex at an angle below the bound, at equal distances from it.
+    sp = pseg[p]
+    sq = pseg[q]
+    if sp >= 0 and sq >= 0 and sp != sq:
+        j = -1
+        if segends[sp, 0] == segends[sq, 0] or segends[sp, 0] == segends[sq, 1]:
+            j = segends[sp, 0]
+        elif segends[sp, 1] == segends[sq, 0] or segends[sp, 1] == segends[sq, 1]:
+            j = segends[sp, 1]
+        if j >= 0 and _small_angle(P, segends, sp, sq, j, prm[PR_COS]):
+            d1x = P[p, 0] - P[j, 0]
+            d1y = P[p, 1] - P[j, 1]
+            d2x = P[q, 0] - P[j, 0]
+            d2y = P[q, 1] - P[j, 1]
+            d1 = d1x * d1x + d1y * d1y
+            d2 = d2x * d2x + d2y * d2y
+            tol = prm[PR_EQUI]
+            if d1 < (1.0 + tol) * d2 and d1 > (1.0 - tol) * d2:
+                return 0
+    return 1
+
+
+@njit(cache=True)
+def _locate(P, V, A, S, x, y, t0, work):
+    """Visibility walk from t0 to (x, y): triangle >= 0, or -2 - corner when a
+    segment or the border blocks the way, or -1 past the step limit."""
+    t = t0
+    entry = -1
+    for step in range(_WALK_LIMIT_STEPS):
+        base = 3 * t
+        blocked = -1
+        nxt_k = -1
+        for j in range(3):
+            k = base + (j + step) % 3
+            if k == entry:
+                continue
+            u = V[_nxt(k)]
+            v = V[_prv(k)]
+            if _orient_xy(P[u, 0], P[u, 1], P[v, 0], P[v, 1], x, y, work) < 0:
+                if A[k] < 0 or S[k] >= 0:
+                    blocked = k
+                else:
+                    nxt_k = k
+                    break
+        if nxt_k < 0:
+            if blocked >= 0:
+                return -2 - blocked
+            return t
+        entry = A[nxt_k]
+        t = entry // 3
+    return -1
+
+
+@njit(cache=True)
+def _insert(
+    P,
+    V,
+    A,
+    S,
+    G,
+    vt,
+    pseg,
+    ppar,
+    st,
+    x,
+    y,
+    t0,
+    split_k,
+    sid,
+    par,
+    check_enc,
+    cav,
+    bnd,
+    bu,
+    bv,
+    bo,
+    bs,
+    fan,
+    mark,
+    enc,
+    work,
+):
+    """Insert (x, y) by a Bowyer-Watson cavity that crosses no segment.
+
+    ``split_k >= 0``: the point splits the subsegment of that corner (its two
+    sides seed the cavity, and its two halves become segment ``sid``);
+    otherwise it is located by a walk from ``t0``. With ``check_enc`` the
+    point is refused (ENCROACH, segments' corners in ``enc``) when it lies in
+    the open diametral ball of a segment on the cavity border, or behind a
+    segment (BLOCKED, the corner in ``enc[0]``). On OK the new triangles are
+    ``cav[:st[ST_INFO]]`` and the new point is ``st[ST_NPTS] - 1``.
+    """
+    cap = cav.shape[0]
+    stamp = st[ST_STAMP] + 1
+    st[ST_STAMP] = stamp
+    nc = 0
+    if split_k >= 0:
+        t = split_k // 3
+        cav[0] = t
+        mark[t] = stamp
+        nc = 1
+        kk = A[split_k]
+        if kk >= 0:
+            cav[1] = kk // 3
+            mark[kk // 3] = stamp
+            nc = 2
+        skip1 = split_k
+        skip2 = kk
+    else:
+        t = _locate(P, V, A, S, x, y, t0, work)
+        if t == -1:
+            return WALK_LIMIT
+        if t <= -2:
+            enc[0] = -2 - t
+            st[ST_INFO] = 1
+            return BLOCKED
+        cav[0] = t
+        mark[t] = stamp
+        nc = 1
+        skip1 = -1
+        skip2 = -1
+    nb = 0
+    i = 0
+    while i < nc:
+        t = cav[i]
+        i += 1
+        for j in range(3):
+            k = 3 * t + j
+            if k == skip1 or k == skip2:
+                continue
+            kk = A[k]
+            if kk >= 0 and S[k] < 0:
+                t2 = kk // 3
+                if mark[t2] == stamp:
+                    continue
+                if _incircle_tri(P, V, t2, x, y, work) > 0:
+                    if nc >= cap:
+                        return NO_SPACE
+                    cav[nc] = t2
+                    mark[t2] = stamp
+                    nc += 1
+                    continue
+            if nb >= cap:
+                return NO_SPACE
+            bnd[nb] = k
+            nb += 1
+    # Encroachment: the point in the open diametral ball of a border segment.
+    if check_enc:
+        ne = 0
+        for i in range(nb):
+            k = bnd[i]
+            if S[k] >= 0:
+                u = V[_nxt(k)]
+                v = V[_prv(k)]
+                if _dot_xy(P[u, 0], P[u, 1], P[v, 0], P[v, 1], x, y, work) < 0:
+                    enc[ne] = k
+                    ne += 1
+        if ne > 0:
+            st[ST_INFO] = ne
+            return ENCROACH
+    # Every new triangle strictly counter-clockwise, else refuse.
+    for i in range(nb):
+        k = bnd[i]
+        u = V[_nxt(k)]
+        v = V[_prv(k)]
+        if _orient_xy(P[u, 0], P[u, 1], P[v, 0], P[v, 1], x, y, work) <= 0:
+            return DEGENERATE
+    # A simple cavity border (no vertex twice, e.g. around a dangling segment).
+    dup = False
+    for i in range(nb):
+        u = V[_nxt(bnd[i])]
+        if fan[u] != -1:
+            dup = True
+        fan[u] = 0
+    for i in range(nb):
+        fan[V[_nxt(bnd[i])]] = -1
+    if dup:
+        return DEGENERATE
+    npts = st[ST_NPTS]
+    ntri = st[ST_NTRI]
+    if npts >= P.shape[0] or ntri + nb - nc > G.shape[0]:
+        return NO_SPACE
+    # Commit.
+    for i in range(nb):
+        k = bnd[i]
+        bu[i] = V[_nxt(k)]
+        bv[i] = V[_prv(k)]
+        bo[i] = A[k]
+        bs[i] = S[k]
+    c = npts
+    P[c, 0] = x
+    P[c, 1] = y
+    pseg[c] = sid
+    ppar[c] = par
+    st[ST_NPTS] = npts + 1
+    for i in range(nb):
+        if i >= nc:
+            cav[i] = ntri
+            ntri += 1
+        T = cav[i]
+        u = bu[i]
+        v = bv[i]
+        b0 = 3 * T
+        V[b0] = c
+        V[b0 + 1] = u
+        V[b0 + 2] = v
+        A[b0] = bo[i]
+        S[b0] = bs[i]
+        if bo[i] >= 0:
+            A[bo[i]] = b0
+        A[b0 + 1] = -1
+        A[b0 + 2] = -1
+        S[b0 + 1] = -1
+        S[b0 + 2] = -1
+        G[T] = 0
+        fan[u] = T
+        vt[u] = T
+        vt[v] = T
+        vt[c] = T
+    st[ST_NTRI] = ntri
+    for i in range(nb):
+        T = cav[i]
+        v = bv[i]
+        T2 = fan[v]
+        if T2 >= 0:
+            A[3 * T + 1] = 3 * T2 + 2
+            A[3 * T2 + 2] = 3 * T + 1
+    for i in range(nb):
+        fan[bu[i]] = -1
+    st[ST_INFO] = nb
+    return OK
+
+
+@njit(cache=True)
+def _mark_split_edges(V, A, S, cav, nb, a, b, sid):
+    """After a split of ab by the new point, mark its two halves as segment sid."""
+    for i in range(nb):
+        T = cav[i]
+        u = V[3 * T + 1]
+        v = V[3 * T + 2]
+        if u == a or u == b:
+            S[3 * T + 2] = sid
+            if A[3 * T + 2] >= 0:
+                S[A[3 * T + 2]] = sid
+        if v == a or v == b:
+            S[3 * T + 1] = sid
+            if A[3 * T + 1] >= 0:
+                S[A[3 * T + 1]] = sid
+
+
+@njit(cache=True)
+def _split_point(P, ppar, segends, segcurve, circles, a, b, sid, unit, n_input):
+    """Where to split subsegment ab of input segment sid: (x, y, parameter).
+
+    The parameter runs from 0 at the segment's first input vertex to 1 at
+    its second; the point is computed from the input endpoints (one rounding
+    off the line). With an input vertex at exactly one end the split is on a
+    concentric shell around it: at ``unit * 2**k`` from it, the power of two
+    that lands in the middle third of ab (Ruppert's "concentric shells", as
+    Triangle). Otherwise at the midpoint. A ring declared as a circle gets
+    the point on the circle (§9.1.5).
+    """
+    s0 = segends[sid, 0]
+    s1 = segends[sid, 1]
+    if a == s0:
+        ta = 0.0
+    elif a == s1:
+        ta = 1.0
+    else:
+        ta = ppar[a]
+    if b == s0:
+        tb = 0.0
+    elif b == s1:
+        tb = 1.0
+    else:
+        tb = ppar[b]
+    ex = P[s1, 0] - P[s0, 0]
+    ey = P[s1, 1] - P[s0, 1]
+    length = math.sqrt(ex * ex + ey * ey)
+    sub = abs(tb - ta) * length
+    a_in = a < n_input
+    b_in = b < n_input
+    if a_in != b_in and sub > 0.0:
+        p = unit
+        while sub > 3.0 * p:
+            p *= 2.0
+        while sub < 1.5 * p:
+            p *= 0.5
+        frac = p / sub
+        if a_in:
+            tm = ta + frac * (tb - ta)
+        else:
+            tm = tb + frac * (ta - tb)
+    else:
+        tm = 0.5 * (ta + tb)
+    x = P[s0, 0] + tm * ex
+    y = P[s0, 1] + tm * ey
+    cv = segcurve[sid]
+    if cv >= 0:
+        cx = circles[cv, 0]
+        cy = circles[cv, 1]
+        r = circles[cv, 2]
+        dx = x - cx
+        dy = y - cy
+        d = math.sqrt(dx * dx + dy * dy)
+        if d > 0.0:
+            x = cx + dx * (r / d)
+            y = cy + dy * (r / d)
+    return x, y, tm
+
+
+@njit(cache=True, inline="always")
+def _encroached(P, V, A, k, work):
+    """Whether a triangle apex on either side lies in the open diametral ball of edge k."""
+    u = V[_nxt(k)]
+    v = V[_prv(k)]
+    w = V[k]
+    if _dot_xy(P[u, 0], P[u, 1], P[v, 0], P[v, 1], P[w, 0], P[w, 1], work) < 0:
+        return True
+    kk = A[k]
+    if kk >= 0:
+        w = V[kk]
+        if _dot_xy(P[u, 0], P[u, 1], P[v, 0], P[v, 1], P[w, 0], P[w, 1], work) < 0:
+            return True
+    return False
+
+
+@njit(cache=True)
+def _enqueue_new(
+    P, V, A, S, st, prm, Q, SQa, SQb, cav, nb, c, split, H, hg, pseg, segends, n_input, work
+):
+    """Queue the bad new triangles and the segments the new point c encroaches."""
+    tail = st[ST_QTAIL]
+    sqn = st[ST_SQN]
+    for i in range(nb):
+        T = cav[i]
+        if _is_bad(P, V, T, prm, H, hg, pseg, segends, n_input) != 0:
+            Q[tail] = T
+            tail += 1
+        if split:
+            k = 3 * T
+            if S[k] >= 0:
+                u = V[3 * T + 1]
+                v = V[3 * T + 2]
+                if _dot_xy(P[u, 0], P[u, 1], P[v, 0], P[v, 1], P[c, 0], P[c, 1], work) < 0:
+                    SQa[sqn] = u
+                    SQb[sqn] = v
+                    sqn += 1
+            for j in (1, 2):
+                k = 3 * T + j
+                if S[k] >= 0 and _encroached(P, V, A, k, work):
+                    SQa[sqn] = V[_nxt(k)]
+                    SQb[sqn] = V[_prv(k)]
+                    sqn += 1
+    st[ST_QTAIL] = tail
+    st[ST_SQN] = sqn
+
+
+@njit(cache=True)
+def _split(
+    P,
+    V,
+    A,
+    S,
+    G,
+    vt,
+    pseg,
+    ppar,
+    st,
+    prm,
+    Q,
+    SQa,
+    SQb,
+    segends,
+    segcurve,
+    circles,
+    n_input,
+    H,
+    hg,
+    k,
+    cav,
+    bnd,
+    bu,
+    bv,
+    bo,
+    bs,
+    fan,
+    mark,
+    enc,
+    work,
+):
+    """Split the subsegment of corner k; returns the insertion outcome."""
+    a = V[_nxt(k)]
+    b = V[_prv(k)]
+    sid = S[k]
+    x, y, tm = _split_point(P, ppar, segends, segcurve, circles, a, b, sid, prm[PR_UNIT], n_input)
+    r = _insert(
+        P,
+        V,
+        A,
+        S,
+        G,
+        vt,
+        pseg,
+        ppar,
+        st,
+        x,
+        y,
+        -1,
+        k,
+        sid,
+        tm,
+        False,
+        cav,
+        bnd,
+        bu,
+        bv,
+        bo,
+        bs,
+        fan,
+        mark,
+        enc,
+        work,
+    )
+    if r == DEGENERATE and segcurve[sid] >= 0:
+        # The point on the curve does not fit the neighbourhood: take the chord's.
+        s0 = segends[sid, 0]
+        s1 = segends[sid, 1]
+        x = P[s0, 0] + tm * (P[s1, 0] - P[s0, 0])
+        y = P[s0, 1] + tm * (P[s1, 1] - P[s0, 1])
+        r = _insert(
+            P,
+            V,
+            A,
+            S,
+            G,
+            vt,
+            pseg,
+            ppar,
+            st,
+            x,
+            y,
+            -1,
+            k,
+            sid,
+            tm,
+            False,
+            cav,
+            bnd,
+            bu,
+            bv,
+            bo,
+            bs,
+            fan,
+            mark,
+            enc,
+            work,
+        )
+    if r != OK:
+        return r
+    nb = st[ST_INFO]
+    _mark_split_edges(V, A, S, cav, nb, a, b, sid)
+    st[ST_ADD_B] += 1
+    c = st[ST_NPTS] - 1
+    _enqueue_new(
+        P, V, A, S, st, prm, Q, SQa, SQb, cav, nb, c, True, H, hg, pseg, segends, n_input, work
+    )
+    return OK
+
+
+@njit(cache=True)
+def init_queues(P, V, A, S, st, prm, Q, SQa, SQb, H, hg, pseg, segends, n_input, work):
+    """Queue every bad triangle and (unless the boundary is kept) every encroached
+    subsegment; the caller sizes Q for all triangles and SQ for all corners."""
+    ntri = st[ST_NTRI]
+    tail = 0
+    sqn = 0
+    split = prm[PR_KEEP] <= 0.0
+    for t in range(ntri):
+        if _is_bad(P, V, t, prm, H, hg, pseg, segends, n_input) != 0:
+            Q[tail] = t
+            tail += 1
+        if split:
+            for j in range(3):
+                k = 3 * t + j
+                if S[k] >= 0 and (A[k] < 0 or A[k] > k) and _encroached(P, V, A, k, work):
+                    SQa[sqn] = V[_nxt(k)]
+                    SQb[sqn] = V[_prv(k)]
+                    sqn += 1
+    st[ST_QHEAD] = 0
+    st[ST_QTAIL] = tail
+    st[ST_QROUND] = tail
+    st[ST_SQN] = sqn
+
+
+@njit(cache=True)
+def refine(
+    P,
+    V,
+    A,
+    S,
+    G,
+    vt,
+    pseg,
+    ppar,
+    st,
+    prm,
+    Q,
+    SQa,
+    SQb,
+    segends,
+    segcurve,
+    circles,
+    n_input,
+    H,
+    hg,
+    cav,
+    bnd,
+    bu,
+    bv,
+    bo,
+    bs,
+    fan,
+    mark,
+    enc,
+    work,
+):
+    """Delaunay refinement until no triangle is bad (see the module docstring).
+
+    Returns a status: DONE; YIELD after ``prm[PR_OPS]`` insertions (for
+    progress and cancellation); NEED_SPACE (points or triangles),
+    NEED_QUEUE or NEED_SCRATCH (cavity arrays) to be grown by the caller
+    before calling again; BUDGET when the point count reaches
+    ``prm[PR_BUDGET]``. The queues live in ``st``, ``Q``, ``SQa``/``SQb``, so
+    a call resumes where the previous one stopped.
+    """
+    keep = prm[PR_KEEP] > 0.0
+    sc = cav.shape[0]
+    ops = 0
+    while True:
+        if st[ST_NPTS] + 2 >= P.shape[0] or st[ST_NTRI] + sc >= G.shape[0]:
+            return NEED_SPACE
+        if Q.shape[0] - st[ST_QTAIL] < 2 * sc:
+            head = st[ST_QHEAD]
+            if head > 0:
+                tail = st[ST_QTAIL]
+                for i in range(head, tail):
+                    Q[i - head] = Q[i]
+                st[ST_QTAIL] = tail - head
+                st[ST_QROUND] -= head
+                st[ST_QHEAD] = 0
+            if Q.shape[0] - st[ST_QTAIL] < 2 * sc:
+                return NEED_QUEUE
+        if SQa.shape[0] - st[ST_SQN] < 3 * sc:
+            return NEED_QUEUE
+        if st[ST_NPTS] >= prm[PR_BUDGET]:
+            return BUDGET
+        if ops >= prm[PR_OPS]:
+            return YIELD
+        # 1. Encroached subsegments first (a stack).
+        if st[ST_SQN] > 0:
+            n = st[ST_SQN] - 1
+            st[ST_SQN] = n
+            a = SQa[n]
+            b = SQb[n]
+            k = find_edge(V, A, vt, a, b)
+            if k < 0 or S[k] < 0 or not _encroached(P, V, A, k, work):
+                continue
+            r = _split(
+                P,
+                V,
+                A,
+                S,
+                G,
+                vt,
+                pseg,
+                ppar,
+                st,
+                prm,
+                Q,
+                SQa,
+                SQb,
+                segends,
+                segcurve,
+                circles,
+                n_input,
+                H,
+                hg,
+                k,
+                cav,
+                bnd,
+                bu,
+                bv,
+                bo,
+                bs,
+                fan,
+                mark,
+                enc,
+                work,
+            )
+            if r == NO_SPACE:
+                st[ST_SQN] = n + 1
+                return NEED_SCRATCH
+            ops += 1
+            continue
+        # 2. The next bad triangle, in rounds of the queue.
+        head = st[ST_QHEAD]
+        if head >= st[ST_QTAIL]:
+            return DONE
+        if head >= st[ST_QROUND]:
+            st[ST_ROUNDS] += 1
+            st[ST_QROUND] = st[ST_QTAIL]
+        t = Q[head]
+        st[ST_QHEAD] = head + 1
+        if G[t] != 0:
+            continue
+        if _is_bad(P, V, t, prm, H, hg, pseg, segends, n_input) == 0:
+            continue
+        a = V[3 * t]
+        b = V[3 * t + 1]
+        c = V[3 * t + 2]
+        ax = P[a, 0]
+        ay = P[a, 1]
+        bx = P[b, 0] - ax
+        by = P[b, 1] - ay
+        cx = P[c, 0] - ax
+        cy = P[c, 1] - ay
+        lb = bx * bx + by * by
+        lc = cx * cx + cy * cy
+        d = 2.0 * (bx * cy - by * cx)
+        x = ax + (cy * lb - by * lc) / d
+        y = ay + (bx * lc - cx * lb) / d
+        r = _insert(
+            P,
+            V,
+            A,
+            S,
+            G,
+            vt,
+            pseg,
+            ppar,
+            st,
+            x,
+            y,
+            t,
+            -1,
+            -1,
+            0.0,
+            True,
+            cav,
+            bnd,
+            bu,
+            bv,
+            bo,
+            bs,
+            fan,
+            mark,
+            enc,
+            work,
+        )
+        if r == OK:
+            st[ST_ADD_I] += 1
+            ops += 1
+            _enqueue_new(
+                P,
+                V,
+                A,
+                S,
+                st,
+                prm,
+                Q,
+                SQa,
+                SQb,
+                cav,
+                st[ST_INFO],
+                st[ST_NPTS] - 1,
+                False,
+                H,
+                hg,
+                pseg,
+                segends,
+                n_input,
+                work,
+            )
+        elif r == ENCROACH or r == BLOCKED:
+            if keep:
+                G[t] = 1
+                st[ST_GIVEN_UP] += 1
+                continue
+            # Split the segments instead (their corners move with each split,
+            # so name them by their endpoints first).
+            ne = st[ST_INFO]
+            for i in range(ne - 1, -1, -1):  # in place: enc[2i], enc[2i+1] = ends of enc[i]
+                k = enc[i]
+                enc[2 * i] = V[_nxt(k)]
+                enc[2 * i + 1] = V[_prv(k)]
+            split_any = False
+            for i in range(ne):
+                k = find_edge(V, A, vt, enc[2 * i], enc[2 * i + 1])
+                if k < 0 or S[k] < 0:
+                    continue
+                r2 = _split(
+                    P,
+                    V,
+                    A,
+                    S,
+                    G,
+                    vt,
+                    pseg,
+                    ppar,
+                    st,
+                    prm,
+                    Q,
+                    SQa,
+                    SQb,
+                    segends,
+                    segcurve,
+                    circles,
+                    n_input,
+                    H,
+                    hg,
+                    k,
+                    cav,
+                    bnd,
+                    bu,
+                    bv,
+                    bo,
+                    bs,
+                    fan,
+                    mark,
+                    enc,
+                    work,
+                )
+                if r2 == OK:
+                    split_any = True
+                    ops += 1
+                elif r2 == NO_SPACE:
+                    st[ST_QHEAD] = head
+                    return NEED_SCRATCH
+                if (
+                    st[ST_NPTS] + 2 >= P.shape[0]
+                    or st[ST_NTRI] + sc >= G.shape[0]
+                    or Q.shape[0] - st[ST_QTAIL] < sc + 1
+                    or SQa.shape[0] - st[ST_SQN] < 3 * sc
+                ):
+                    break
+            if split_any:
+                Q[st[ST_QTAIL]] = t
+                st[ST_QTAIL] += 1
+            else:
+                G[t] = 1
+                st[ST_GIVEN_UP] += 1
+        elif r == NO_SPACE:
+            st[ST_QHEAD] = head
+            return NEED_SCRATCH
+        else:
+            G[t] = 1
+            st[ST_GIVEN_UP] += 1
+
+
+@njit(cache=True)
+def locate_many(points, triangles, neighbors, q, out_t, out_bary, work):
+    """Triangle holding each query point (-1 outside the hull) and its barycentric
+    weights, by visibility walks from the previous answer (queries in raster
+    order walk a few triangles each)."""
+    t = 0
+    for i in range(q.shape[0]):
+        x = q[i, 0]
+        y = q[i, 1]
+        cur = t
+        found = -1
+        for step in range(_WALK_LIMIT_STEPS):
+            moved = False
+            outside = False
+            for j in range(3):
+                e = (j + step) % 3
+                a = triangles[cur, (e + 1) % 3]
+                b = triangles[cur, (e + 2) % 3]
+                if (
+                    _orient_xy(points[a, 0], points[a, 1], points[b, 0], points[b, 1], x, y, work)
+                    < 0
+                ):
+                    nb = neighbors[cur, e]
+                    if nb < 0:
+                        outside = True
+                    else:
+                        cur = nb
+                        moved = True
+                    break
+            if outside:
+                break
+            if not moved:
+                found = cur
+                break
+        out_t[i] = found
+        if found < 0:
+            continue
+        t = found
+        a = triangles[found, 0]
+        b = triangles[found, 1]
+        c = triangles[found, 2]
+        ax = points[a, 0]
+        ay = points[a, 1]
+        bx = points[b, 0] - ax
+        by = points[b, 1] - ay
+        cx = points[c, 0] - ax
+        cy = points[c, 1] - ay
+        px = x - ax
+        py = y - ay
+        det = bx * cy - by * cx
+        wb = (px * cy - py * cx) / det
+        wc = (bx * py - by * px) / det
+        wb = min(max(wb, 0.0), 1.0)
+        wc = min(max(wc, 0.0), 1.0 - wb)
+        out_bary[i, 0] = 1.0 - wb - wc
+        out_bary[i, 1] = wb
+        out_bary[i, 2] = wc
