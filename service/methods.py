@@ -115,5 +115,15 @@ def default_registry() -> Registry:
             run=triangulation.run_triangulate,
             example=triangulation.TRIANGULATE_EXAMPLE,
         ),
+        MethodSpec(
+            name="delaunay_admissible",
+            summary="Delaunay-admissible boundary discretization: segments split at projections "
+            "of encroaching points (on declared circles for curved rings) until every one is a "
+            "Delaunay edge; per-case counts and the empty Delaunay triangulation of the domain.",
+            section="§9.1.2-§9.1.5 (classification, splitting, curves), Exercises 9.2-9.4; §9.4.1",
+            params=triangulation.DelaunayAdmissibleParams,
+            run=triangulation.run_delaunay_admissible,
+            example=triangulation.DELAUNAY_ADMISSIBLE_EXAMPLE,
+        ),
     ]
     return {s.name: s for s in specs}

@@ -11,10 +11,11 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from meshcore import quality
-from meshcore.admissible import circles_of
+from meshcore.admissible import circles_of, make_admissible
 from meshcore.errors import InputError
 from meshcore.triangulate import MAX_MIN_ANGLE, estimated_triangles, triangulate
 from service.domain_schema import ConstraintPolylines, DomainIn, Position
@@ -185,4 +186,81 @@ TRIANGULATE_EXAMPLE = {
     "curves": [{"ring": 1, "type": "circle", "center": [0.5, 0.5], "radius": 0.25}],
     "min_angle": 30,
     "size": 0.05,
+}
+
+
+# ---------------------------------------------------------------------------
+# delaunay_admissible (§9.1.2-§9.1.5)
+# ---------------------------------------------------------------------------
+
+
+class DelaunayAdmissibleParams(MethodParams):
+    """A Delaunay-admissible boundary discretization and the empty triangulation."""
+
+    domain: DomainIn
+    segments: ConstraintPolylines | None = None
+    curves: list[CircleCurve] | None = Field(
+        None,
+        description="Rings that sample circles (rings numbered in the order of the "
+        "geometry): points added on them go on the circle, not on the chord (§9.1.5).",
+    )
+
+    def point_count(self) -> int:
+        """The domain's positions plus the constraint polylines' positions."""
+        return self.domain.point_count() + sum(len(line) for line in self.segments or [])
+
+    def check(self) -> None:
+        super().check()
+        dom = self.domain.to_domain(self.segments)
+        circles_of(dom, [c.model_dump() for c in self.curves or []])
+
+
+def run_delaunay_admissible(params: DelaunayAdmissibleParams, progress) -> dict:
+    """The new boundary discretization, the empty Delaunay triangulation and the counts."""
+    dom = params.domain.to_domain(params.segments)
+    res = make_admissible(
+        dom, curves=[c.model_dump() for c in params.curves or []], progress=progress
+    )
+    boundary = len(dom.segments)
+    ring_of = np.searchsorted(dom.ring_offsets, res.source, side="right") - 1
+    return {
+        "domain": {
+            "points": res.points,
+            "segments": res.segments,
+            "source": res.source,
+            "ring": np.where(res.source < boundary, ring_of, -1),
+        },
+        "mesh": res.triangulation,
+        "stats": {
+            "input_points": len(dom.points),
+            "input_segments": boundary + len(dom.constraints),
+            "segments": len(res.segments),
+            "points_added": res.added,
+            "cases_before": res.cases_before,
+            "cases_after": res.cases_after,
+            "rounds": res.rounds,
+            "protected_vertices": len(res.protected),
+            "triangles": len(res.triangulation.cells[0].data),
+        },
+    }
+
+
+#: A three-pointed star whose tips are 5° corners between sides of lengths 7.5 and 3.
+DELAUNAY_ADMISSIBLE_EXAMPLE = {
+    "domain": {
+        "type": "Polygon",
+        "coordinates": [
+            [
+                [2.51, -0.33],
+                [10.0, 0.0],
+                [7.0, 0.13],
+                [-0.97, 2.33],
+                [-5.0, 8.66],
+                [-3.61, 6.0],
+                [-1.54, -2.01],
+                [-5.0, -8.66],
+                [-3.39, -6.13],
+            ]
+        ],
+    }
 }
