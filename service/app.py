@@ -11,7 +11,6 @@ from fastapi.middleware.cors import CORSMiddleware
 
 from service.api import health, jobs, methods
 from service.executors import Executor
-from service.executors.cluster import DaskExecutor
 from service.executors.local import LocalExecutor
 from service.jobs import JobManager
 from service.limits import BodySizeLimit
@@ -39,6 +38,8 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
         metrics = Metrics(store.counts_by_status)
         executor: Executor
         if settings.dask_scheduler:
+            # imported here: dask.distributed costs a second at start-up when unused
+            
             executor = DaskExecutor(settings.dask_scheduler, settings.job_memory_limit)
         else:
             executor = LocalExecutor(settings.workers, settings.job_memory_limit)

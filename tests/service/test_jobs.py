@@ -15,7 +15,7 @@ import httpx
 import pytest
 
 from meshcore import io
-from tests.service.conftest import wait_status
+from tests.service.conftest import LiveServer, wait_status
 from tests.service.testing_methods import SQUARE
 
 PROBLEM = "application/problem+json"
@@ -153,10 +153,18 @@ class TestSubmit:
         assert job["status"] == "succeeded"
 
 
+@pytest.fixture(scope="module")
+def small(tmp_path_factory):
+    """A server taking bodies of at most 2000 bytes and jobs of at most 3 points."""
+    server = LiveServer(tmp_path_factory.mktemp("limits") / "data",
+                        MESHSERVICE_MAX_BODY_BYTES="2000", MESHSERVICE_MAX_POINTS="3").start()
+    yield server
+    server.stop()
+
+
 class TestLimits:
-    def test_body_too_large_is_413(self, start_server):
-        server = start_server(MESHSERVICE_MAX_BODY_BYTES="2000")
-        with server.client() as c:
+    def test_body_too_large_is_413(self, small):
+        with small.client() as c:
             big = {"points": [[i, 0.5 * i] for i in range(300)],
                    "cells": [{"type": "vertex", "data": [[i] for i in range(300)]}]}
             assert_problem(submit(c, "quality", {"mesh": big}), 413)
@@ -167,9 +175,8 @@ class TestLimits:
             r = c.post("/v1/jobs", content=chunks(), headers={"content-type": "application/json"})
             assert_problem(r, 413)
 
-    def test_too_many_points_is_413(self, start_server):
-        server = start_server(MESHSERVICE_MAX_POINTS="3")
-        with server.client() as c:
+    def test_too_many_points_is_413(self, small):
+        with small.client() as c:
             doc = assert_problem(submit(c, "quality", {"mesh": SQUARE}), 413)
             assert "MESHSERVICE_MAX_POINTS" in doc["detail"]
 

@@ -10,7 +10,7 @@ import time
 import pytest
 
 from service.methods import default_registry
-from tests.service.conftest import ROOT, wait_status
+from tests.service.conftest import ROOT, LiveServer, wait_status
 from tests.service.test_jobs import assert_problem, submit, wait_file
 from tests.service.testing_methods import SQUARE
 
@@ -53,10 +53,19 @@ class TestRestart:
             assert job["error"]["type"] == "/problems/interrupted"
 
 
+@pytest.fixture(scope="module")
+def keyed(tmp_path_factory):
+    """A server with two clients' API keys."""
+    server = LiveServer(tmp_path_factory.mktemp("auth") / "data",
+                        MESHSERVICE_API_KEYS="alice-key:alice,bob-key:bob").start()
+    yield server
+    server.stop()
+
+
 class TestAuth:
     @pytest.fixture
-    def server(self, start_server):
-        return start_server(MESHSERVICE_API_KEYS="alice-key:alice,bob-key:bob")
+    def server(self, keyed):
+        return keyed
 
     def test_missing_key_is_401_with_www_authenticate(self, server):
         with server.client() as c:
