@@ -33,10 +33,12 @@ Algorithms, each a sequential loop (a stack or a queue) in numba:
   crossed. What is not reached is a hole or the exterior.
 * **Refinement** (Ruppert's algorithm as Shewchuk's Triangle runs it): bad
   triangles (smallest angle under the bound, area over the maximum,
-  circumradius over the size) in rounds of a first-in first-out queue; a
-  circumcentre that lies in the open diametral ball of a segment (or behind
-  it) is not inserted and the segment is split instead, or, when the
-  boundary is kept, the triangle is given up. Splits of a subsegment with an
+  circumradius over the size) wait in buckets by their shortest edge,
+  shortest first (without this order refinement above 30 degrees may not
+  stop); each gets its circumcentre, or Ungor's off-centre when that is
+  nearer (fewer points). A point that lies in the open diametral ball of a
+  segment (or behind it) is not inserted and the segment is split instead,
+  or, when the boundary is kept, the triangle is given up. Splits of a subsegment with an
   input vertex at one end fall on concentric shells (powers of two of a unit
   length from that vertex), and a triangle whose shortest edge joins two
   split points equidistant from the input vertex shared by their segments is
@@ -70,13 +72,12 @@ OK, BLOCKED, ENCROACH, DEGENERATE, WALK_LIMIT, NO_SPACE = 0, 1, 2, 3, 4, 5
 DONE, NEED_SPACE, NEED_SCRATCH, NEED_QUEUE, YIELD, BUDGET, COLLINEAR, CROSSING = range(8)
 
 # Layout of the integer state array of the refinement kernel.
-ST_NPTS, ST_NTRI, ST_QHEAD, ST_QTAIL, ST_QROUND, ST_ROUNDS = 0, 1, 2, 3, 4, 5
-ST_SQN, ST_STAMP, ST_ADD_B, ST_ADD_I, ST_STATUS, ST_GIVEN_UP = 6, 7, 8, 9, 10, 11
-ST_INFO = 12
+ST_NPTS, ST_NTRI, ST_ROUNDS, ST_SQN, ST_STAMP, ST_ADD_B, ST_ADD_I = 0, 1, 2, 3, 4, 5, 6
+ST_GIVEN_UP, ST_INFO, ST_NINPUT, ST_QFIRST, ST_QUSED, ST_QFREE, ST_QCOUNT = range(7, 14)
 ST_SIZE = 16
 # Layout of the float parameters of the refinement kernel.
-PR_SIN2, PR_AREA, PR_SIZE2, PR_KEEP, PR_UNIT, PR_EQUI, PR_BUDGET, PR_OPS, PR_COS = range(9)
-PR_SIZE = 9
+PR_SIN2, PR_AREA, PR_SIZE2, PR_KEEP, PR_UNIT, PR_EQUI, PR_BUDGET, PR_OPS, PR_COS, PR_OFF = range(10)
+PR_SIZE = 10
 
 _WALK_LIMIT_STEPS = 1 << 22
 
@@ -570,6 +571,29 @@ def compact(V, A, S, keep, V2, A2, S2, vt):
 # ---------------------------------------------------------------------------
 # Refinement
 # ---------------------------------------------------------------------------
+#
+# The kernels take bundles (numba tuples) rather than dozens of arguments:
+#
+#   M   = (P, V, A, S, G, vt, pseg, ppar, fan, mark)  the mesh and its per-item
+#         arrays: G[t] is the generation of triangle t (the depth of the
+#         refinement cascade that made it) or -1 once given up; pseg[p] the
+#         input segment a split point lies on (-1 otherwise), ppar[p] its
+#         parameter along it; fan and mark are scratch (per point, per triangle)
+#   D   = (prm, segends, segcurve, circles, H, hg)  the fixed data
+#   Qs  = (Qe, Qb, SQ)  bad triangles: entries (3, cap) [triangle, next entry,
+#         free stack], buckets (2, NBUCKETS) [first entry, last entry]; SQ
+#         (2, cap) the stack of encroached subsegments (their endpoints)
+#   scr (8, cap) int64: one insertion's cavity, border corners, border
+#         endpoints, outer corners, segment ids, and two rows for the
+#         segments a refused point encroaches
+#
+# Bad triangles wait in buckets by the squared length of their shortest edge
+# (two per power of two, as Triangle's 4096 queues), shortest first, first in
+# first out within a bucket.
+
+NBUCKETS = 4400
+_BUCKET_OFFSET = 2200
+_SQRT_HALF = math.sqrt(0.5)
 
 
 @njit(cache=True, inline="always")
@@ -607,8 +631,10 @@ def _small_angle(P, segends, sp, sq, j, cos_bound):
 
 
 @njit(cache=True)
-def _is_bad(P, V, t, prm, H, hg, pseg, segends, n_input):
-    """0: fine; 1: smallest angle under the bound; 2: too large (area or size)."""
+def _is_bad(P, V, t, D, pseg):
+    """(code, squared shortest edge): code 0 fine, 1 smallest angle under the
+    bound, 2 too large (area over the maximum or circumradius over the size)."""
+    prm, segends, _, _, H, hg = D
     a = V[3 * t]
     b = V[3 * t + 1]
     c = V[3 * t + 2]
@@ -624,36 +650,38 @@ def _is_bad(P, V, t, prm, H, hg, pseg, segends, n_input):
     dx = cx - bx
     dy = cy - by
     lbc = dx * dx + dy * dy
-    if cross <= 0.0:
-        return 0  # never happens for valid triangles; nothing to refine
-    if 0.5 * cross > prm[PR_AREA]:
-        return 2
-    if prm[PR_SIZE2] > 0.0:
-        h = _size_at(H, hg, ax + (bx + cx) / 3.0, ay + (by + cy) / 3.0)
-        # circumradius**2 = lab * lbc * lca / (4 cross**2)
-        if lab * lbc * lca > 4.0 * cross * cross * prm[PR_SIZE2] * h * h:
-            return 2
-    s2 = prm[PR_SIN2]
-    if s2 <= 0.0:
-        return 0
-    # sin(smallest angle) = cross / (product of the two longer edges)
+    # the shortest edge pq, and the product of the two others
     if lab <= lbc and lab <= lca:
+        lmin = lab
         p = a
         q = b
         prod = lbc * lca
     elif lbc <= lca:
+        lmin = lbc
         p = b
         q = c
         prod = lab * lca
     else:
+        lmin = lca
         p = c
         q = a
         prod = lab * lbc
-    if cross * cross >= s2 * prod:
-        return 0
+    if cross <= 0.0:
+        return 0, lmin  # never for valid triangles; nothing to refine
+    if 0.5 * cross > prm[PR_AREA]:
+        return 2, lmin
+    if prm[PR_SIZE2] > 0.0:
+        h = _size_at(H, hg, ax + (bx + cx) / 3.0, ay + (by + cy) / 3.0)
+        # circumradius**2 = lab * lbc * lca / (4 cross**2)
+        if lab * lbc * lca > 4.0 * cross * cross * prm[PR_SIZE2] * h * h:
+            return 2, lmin
+    s2 = prm[PR_SIN2]
+    # sin(smallest angle) = cross / (product of the two longer edges)
+    if s2 <= 0.0 or cross * cross >= s2 * prod:
+        return 0, lmin
     # Small input angle (Miller, Pav and Walkington's rule, as Triangle): the
     # shortest edge joins split points of two segments meeting at an input
-    # vertex at an angle below the bound, at equal distances from it.
+    # vertex at a small angle, at equal distances from it: left as it is.
     sp = pseg[p]
     sq = pseg[q]
     if sp >= 0 and sq >= 0 and sp != sq:
@@ -671,8 +699,58 @@ def _is_bad(P, V, t, prm, H, hg, pseg, segends, n_input):
             d2 = d2x * d2x + d2y * d2y
             tol = prm[PR_EQUI]
             if d1 < (1.0 + tol) * d2 and d1 > (1.0 - tol) * d2:
-                return 0
-    return 1
+                return 0, lmin
+    return 1, lmin
+
+
+@njit(cache=True)
+def _push_bad(Qs, st, t, lmin):
+    """Queue triangle t in the bucket of its squared shortest edge."""
+    Qe, Qb, _ = Qs
+    if st[ST_QFREE] > 0:
+        st[ST_QFREE] -= 1
+        e = Qe[2, st[ST_QFREE]]
+    else:
+        e = st[ST_QUSED]
+        st[ST_QUSED] = e + 1
+    Qe[0, e] = t
+    Qe[1, e] = -1
+    m, x = math.frexp(lmin)
+    b = 2 * x + (1 if m > _SQRT_HALF else 0) + _BUCKET_OFFSET
+    b = min(max(b, 0), NBUCKETS - 1)
+    if Qb[0, b] < 0:
+        Qb[0, b] = e
+    else:
+        Qe[1, Qb[1, b]] = e
+    Qb[1, b] = e
+    if b < st[ST_QFIRST]:
+        st[ST_QFIRST] = b
+    st[ST_QCOUNT] += 1
+
+
+@njit(cache=True)
+def _pop_bad(Qs, st):
+    """The next bad triangle (shortest edge first), or -1."""
+    Qe, Qb, _ = Qs
+    b = st[ST_QFIRST]
+    while b < NBUCKETS and Qb[0, b] < 0:
+        b += 1
+    st[ST_QFIRST] = b
+    if b >= NBUCKETS:
+        return -1
+    e = Qb[0, b]
+    Qb[0, b] = Qe[1, e]
+    Qe[2, st[ST_QFREE]] = e
+    st[ST_QFREE] += 1
+    st[ST_QCOUNT] -= 1
+    return Qe[0, e]
+
+
+@njit(cache=True)
+def _queue_room(Qs, st):
+    """Entries that can still be pushed without growing the arrays."""
+    Qe, _, SQ = Qs
+    return min(Qe.shape[1] - st[ST_QUSED] + st[ST_QFREE], SQ.shape[1] - st[ST_SQN])
 
 
 @njit(cache=True)
@@ -707,77 +785,50 @@ def _locate(P, V, A, S, x, y, t0, work):
 
 
 @njit(cache=True)
-def _insert(
-    P,
-    V,
-    A,
-    S,
-    G,
-    vt,
-    pseg,
-    ppar,
-    st,
-    x,
-    y,
-    t0,
-    split_k,
-    sid,
-    par,
-    check_enc,
-    cav,
-    bnd,
-    bu,
-    bv,
-    bo,
-    bs,
-    fan,
-    mark,
-    enc,
-    work,
-):
+def _insert(M, st, x, y, t0, split_k, sid, par, check_enc, gen, scr, work):
     """Insert (x, y) by a Bowyer-Watson cavity that crosses no segment.
 
     ``split_k >= 0``: the point splits the subsegment of that corner (its two
     sides seed the cavity, and its two halves become segment ``sid``);
     otherwise it is located by a walk from ``t0``. With ``check_enc`` the
-    point is refused (ENCROACH, segments' corners in ``enc``) when it lies in
-    the open diametral ball of a segment on the cavity border, or behind a
-    segment (BLOCKED, the corner in ``enc[0]``). On OK the new triangles are
-    ``cav[:st[ST_INFO]]`` and the new point is ``st[ST_NPTS] - 1``.
+    point is refused (ENCROACH) when it lies in the open diametral ball of a
+    segment on the cavity border, or behind a segment (BLOCKED); the corners
+    of those segments are then ``scr[6, :st[ST_INFO]]``. On OK the new
+    triangles are ``scr[0, :st[ST_INFO]]`` (generation ``gen``) and the new
+    point is ``st[ST_NPTS] - 1``. Nothing changes unless the outcome is OK.
     """
-    cap = cav.shape[0]
+    P, V, A, S, G, vt, pseg, ppar, fan, mark = M
+    cap = scr.shape[1]
     stamp = st[ST_STAMP] + 1
     st[ST_STAMP] = stamp
-    nc = 0
+    skip1 = -1
+    skip2 = -1
     if split_k >= 0:
         t = split_k // 3
-        cav[0] = t
+        scr[0, 0] = t
         mark[t] = stamp
         nc = 1
-        kk = A[split_k]
-        if kk >= 0:
-            cav[1] = kk // 3
-            mark[kk // 3] = stamp
-            nc = 2
         skip1 = split_k
-        skip2 = kk
+        skip2 = A[split_k]
+        if skip2 >= 0:
+            scr[0, 1] = skip2 // 3
+            mark[skip2 // 3] = stamp
+            nc = 2
     else:
         t = _locate(P, V, A, S, x, y, t0, work)
         if t == -1:
             return WALK_LIMIT
         if t <= -2:
-            enc[0] = -2 - t
+            scr[6, 0] = -2 - t
             st[ST_INFO] = 1
             return BLOCKED
-        cav[0] = t
+        scr[0, 0] = t
         mark[t] = stamp
         nc = 1
-        skip1 = -1
-        skip2 = -1
     nb = 0
     i = 0
     while i < nc:
-        t = cav[i]
+        t = scr[0, i]
         i += 1
         for j in range(3):
             k = 3 * t + j
@@ -791,31 +842,31 @@ def _insert(
                 if _incircle_tri(P, V, t2, x, y, work) > 0:
                     if nc >= cap:
                         return NO_SPACE
-                    cav[nc] = t2
+                    scr[0, nc] = t2
                     mark[t2] = stamp
                     nc += 1
                     continue
             if nb >= cap:
                 return NO_SPACE
-            bnd[nb] = k
+            scr[1, nb] = k
             nb += 1
     # Encroachment: the point in the open diametral ball of a border segment.
     if check_enc:
         ne = 0
         for i in range(nb):
-            k = bnd[i]
+            k = scr[1, i]
             if S[k] >= 0:
                 u = V[_nxt(k)]
                 v = V[_prv(k)]
                 if _dot_xy(P[u, 0], P[u, 1], P[v, 0], P[v, 1], x, y, work) < 0:
-                    enc[ne] = k
+                    scr[6, ne] = k
                     ne += 1
         if ne > 0:
             st[ST_INFO] = ne
             return ENCROACH
     # Every new triangle strictly counter-clockwise, else refuse.
     for i in range(nb):
-        k = bnd[i]
+        k = scr[1, i]
         u = V[_nxt(k)]
         v = V[_prv(k)]
         if _orient_xy(P[u, 0], P[u, 1], P[v, 0], P[v, 1], x, y, work) <= 0:
@@ -823,25 +874,25 @@ def _insert(
     # A simple cavity border (no vertex twice, e.g. around a dangling segment).
     dup = False
     for i in range(nb):
-        u = V[_nxt(bnd[i])]
+        u = V[_nxt(scr[1, i])]
         if fan[u] != -1:
             dup = True
         fan[u] = 0
     for i in range(nb):
-        fan[V[_nxt(bnd[i])]] = -1
+        fan[V[_nxt(scr[1, i])]] = -1
     if dup:
         return DEGENERATE
     npts = st[ST_NPTS]
     ntri = st[ST_NTRI]
     if npts >= P.shape[0] or ntri + nb - nc > G.shape[0]:
         return NO_SPACE
-    # Commit.
+    # Commit: the fan of new triangles (c, u, v) over the border edges (u, v).
     for i in range(nb):
-        k = bnd[i]
-        bu[i] = V[_nxt(k)]
-        bv[i] = V[_prv(k)]
-        bo[i] = A[k]
-        bs[i] = S[k]
+        k = scr[1, i]
+        scr[2, i] = V[_nxt(k)]
+        scr[3, i] = V[_prv(k)]
+        scr[4, i] = A[k]
+        scr[5, i] = S[k]
     c = npts
     P[c, 0] = x
     P[c, 1] = y
@@ -850,47 +901,48 @@ def _insert(
     st[ST_NPTS] = npts + 1
     for i in range(nb):
         if i >= nc:
-            cav[i] = ntri
+            scr[0, i] = ntri
             ntri += 1
-        T = cav[i]
-        u = bu[i]
-        v = bv[i]
+        T = scr[0, i]
+        u = scr[2, i]
+        v = scr[3, i]
         b0 = 3 * T
         V[b0] = c
         V[b0 + 1] = u
         V[b0 + 2] = v
-        A[b0] = bo[i]
-        S[b0] = bs[i]
-        if bo[i] >= 0:
-            A[bo[i]] = b0
+        A[b0] = scr[4, i]
+        S[b0] = scr[5, i]
+        if scr[4, i] >= 0:
+            A[scr[4, i]] = b0
         A[b0 + 1] = -1
         A[b0 + 2] = -1
         S[b0 + 1] = -1
         S[b0 + 2] = -1
-        G[T] = 0
+        G[T] = gen
         fan[u] = T
         vt[u] = T
         vt[v] = T
         vt[c] = T
     st[ST_NTRI] = ntri
+    if gen > st[ST_ROUNDS]:
+        st[ST_ROUNDS] = gen
     for i in range(nb):
-        T = cav[i]
-        v = bv[i]
-        T2 = fan[v]
+        T = scr[0, i]
+        T2 = fan[scr[3, i]]
         if T2 >= 0:
             A[3 * T + 1] = 3 * T2 + 2
             A[3 * T2 + 2] = 3 * T + 1
     for i in range(nb):
-        fan[bu[i]] = -1
+        fan[scr[2, i]] = -1
     st[ST_INFO] = nb
     return OK
 
 
 @njit(cache=True)
-def _mark_split_edges(V, A, S, cav, nb, a, b, sid):
+def _mark_split_edges(V, A, S, scr, nb, a, b, sid):
     """After a split of ab by the new point, mark its two halves as segment sid."""
     for i in range(nb):
-        T = cav[i]
+        T = scr[0, i]
         u = V[3 * T + 1]
         v = V[3 * T + 2]
         if u == a or u == b:
@@ -904,7 +956,7 @@ def _mark_split_edges(V, A, S, cav, nb, a, b, sid):
 
 
 @njit(cache=True)
-def _split_point(P, ppar, segends, segcurve, circles, a, b, sid, unit, n_input):
+def _split_point(P, ppar, D, a, b, sid, n_input):
     """Where to split subsegment ab of input segment sid: (x, y, parameter).
 
     The parameter runs from 0 at the segment's first input vertex to 1 at
@@ -915,6 +967,7 @@ def _split_point(P, ppar, segends, segcurve, circles, a, b, sid, unit, n_input):
     Triangle). Otherwise at the midpoint. A ring declared as a circle gets
     the point on the circle (§9.1.5).
     """
+    prm, segends, segcurve, circles, _, _ = D
     s0 = segends[sid, 0]
     s1 = segends[sid, 1]
     if a == s0:
@@ -936,7 +989,7 @@ def _split_point(P, ppar, segends, segcurve, circles, a, b, sid, unit, n_input):
     a_in = a < n_input
     b_in = b < n_input
     if a_in != b_in and sub > 0.0:
-        p = unit
+        p = prm[PR_UNIT]
         while sub > 3.0 * p:
             p *= 2.0
         while sub < 1.5 * p:
@@ -981,232 +1034,160 @@ def _encroached(P, V, A, k, work):
 
 
 @njit(cache=True)
-def _enqueue_new(
-    P, V, A, S, st, prm, Q, SQa, SQb, cav, nb, c, split, H, hg, pseg, segends, n_input, work
-):
-    """Queue the bad new triangles and the segments the new point c encroaches."""
-    tail = st[ST_QTAIL]
+def _enqueue_new(M, D, Qs, st, scr, nb, split, work):
+    """Queue the bad new triangles and, after a split, the subsegments that the
+    new point or the new halves' apexes encroach."""
+    P, V, A, S, G, vt, pseg, ppar, fan, mark = M
+    SQ = Qs[2]
+    c = st[ST_NPTS] - 1
     sqn = st[ST_SQN]
     for i in range(nb):
-        T = cav[i]
-        if _is_bad(P, V, T, prm, H, hg, pseg, segends, n_input) != 0:
-            Q[tail] = T
-            tail += 1
+        T = scr[0, i]
+        bad, lmin = _is_bad(P, V, T, D, pseg)
+        if bad != 0:
+            _push_bad(Qs, st, T, lmin)
         if split:
             k = 3 * T
             if S[k] >= 0:
                 u = V[3 * T + 1]
                 v = V[3 * T + 2]
                 if _dot_xy(P[u, 0], P[u, 1], P[v, 0], P[v, 1], P[c, 0], P[c, 1], work) < 0:
-                    SQa[sqn] = u
-                    SQb[sqn] = v
+                    SQ[0, sqn] = u
+                    SQ[1, sqn] = v
                     sqn += 1
             for j in (1, 2):
                 k = 3 * T + j
                 if S[k] >= 0 and _encroached(P, V, A, k, work):
-                    SQa[sqn] = V[_nxt(k)]
-                    SQb[sqn] = V[_prv(k)]
+                    SQ[0, sqn] = V[_nxt(k)]
+                    SQ[1, sqn] = V[_prv(k)]
                     sqn += 1
-    st[ST_QTAIL] = tail
     st[ST_SQN] = sqn
 
 
 @njit(cache=True)
-def _split(
-    P,
-    V,
-    A,
-    S,
-    G,
-    vt,
-    pseg,
-    ppar,
-    st,
-    prm,
-    Q,
-    SQa,
-    SQb,
-    segends,
-    segcurve,
-    circles,
-    n_input,
-    H,
-    hg,
-    k,
-    cav,
-    bnd,
-    bu,
-    bv,
-    bo,
-    bs,
-    fan,
-    mark,
-    enc,
-    work,
-):
+def _split(M, D, Qs, st, k, gen, scr, work):
     """Split the subsegment of corner k; returns the insertion outcome."""
+    P, V, A, S, G, vt, pseg, ppar, fan, mark = M
+    segends = D[1]
+    segcurve = D[2]
+    n_input = st[ST_NINPUT]
     a = V[_nxt(k)]
     b = V[_prv(k)]
     sid = S[k]
-    x, y, tm = _split_point(P, ppar, segends, segcurve, circles, a, b, sid, prm[PR_UNIT], n_input)
-    r = _insert(
-        P,
-        V,
-        A,
-        S,
-        G,
-        vt,
-        pseg,
-        ppar,
-        st,
-        x,
-        y,
-        -1,
-        k,
-        sid,
-        tm,
-        False,
-        cav,
-        bnd,
-        bu,
-        bv,
-        bo,
-        bs,
-        fan,
-        mark,
-        enc,
-        work,
-    )
+    x, y, tm = _split_point(P, ppar, D, a, b, sid, n_input)
+    r = _insert(M, st, x, y, -1, k, sid, tm, False, gen, scr, work)
     if r == DEGENERATE and segcurve[sid] >= 0:
         # The point on the curve does not fit the neighbourhood: take the chord's.
         s0 = segends[sid, 0]
         s1 = segends[sid, 1]
         x = P[s0, 0] + tm * (P[s1, 0] - P[s0, 0])
         y = P[s0, 1] + tm * (P[s1, 1] - P[s0, 1])
-        r = _insert(
-            P,
-            V,
-            A,
-            S,
-            G,
-            vt,
-            pseg,
-            ppar,
-            st,
-            x,
-            y,
-            -1,
-            k,
-            sid,
-            tm,
-            False,
-            cav,
-            bnd,
-            bu,
-            bv,
-            bo,
-            bs,
-            fan,
-            mark,
-            enc,
-            work,
-        )
+        r = _insert(M, st, x, y, -1, k, sid, tm, False, gen, scr, work)
     if r != OK:
         return r
     nb = st[ST_INFO]
-    _mark_split_edges(V, A, S, cav, nb, a, b, sid)
+    _mark_split_edges(V, A, S, scr, nb, a, b, sid)
     st[ST_ADD_B] += 1
-    c = st[ST_NPTS] - 1
-    _enqueue_new(
-        P, V, A, S, st, prm, Q, SQa, SQb, cav, nb, c, True, H, hg, pseg, segends, n_input, work
-    )
+    _enqueue_new(M, D, Qs, st, scr, nb, True, work)
     return OK
 
 
 @njit(cache=True)
-def init_queues(P, V, A, S, st, prm, Q, SQa, SQb, H, hg, pseg, segends, n_input, work):
-    """Queue every bad triangle and (unless the boundary is kept) every encroached
-    subsegment; the caller sizes Q for all triangles and SQ for all corners."""
-    ntri = st[ST_NTRI]
-    tail = 0
-    sqn = 0
+def init_queues(M, D, Qs, st, work):
+    """Queue every bad triangle and (unless the boundary is kept) every
+    encroached subsegment. The caller sizes the queues for every triangle
+    and three subsegments per triangle."""
+    P, V, A, S, G, vt, pseg, ppar, fan, mark = M
+    prm = D[0]
+    Qb = Qs[1]
+    SQ = Qs[2]
+    for b in range(NBUCKETS):
+        Qb[0, b] = -1
+        Qb[1, b] = -1
+    st[ST_QFIRST] = NBUCKETS
+    st[ST_QUSED] = 0
+    st[ST_QFREE] = 0
+    st[ST_QCOUNT] = 0
     split = prm[PR_KEEP] <= 0.0
-    for t in range(ntri):
-        if _is_bad(P, V, t, prm, H, hg, pseg, segends, n_input) != 0:
-            Q[tail] = t
-            tail += 1
+    sqn = 0
+    for t in range(st[ST_NTRI]):
+        G[t] = 0
+        bad, lmin = _is_bad(P, V, t, D, pseg)
+        if bad != 0:
+            _push_bad(Qs, st, t, lmin)
         if split:
             for j in range(3):
                 k = 3 * t + j
                 if S[k] >= 0 and (A[k] < 0 or A[k] > k) and _encroached(P, V, A, k, work):
-                    SQa[sqn] = V[_nxt(k)]
-                    SQb[sqn] = V[_prv(k)]
+                    SQ[0, sqn] = V[_nxt(k)]
+                    SQ[1, sqn] = V[_prv(k)]
                     sqn += 1
-    st[ST_QHEAD] = 0
-    st[ST_QTAIL] = tail
-    st[ST_QROUND] = tail
     st[ST_SQN] = sqn
 
 
 @njit(cache=True)
-def refine(
-    P,
-    V,
-    A,
-    S,
-    G,
-    vt,
-    pseg,
-    ppar,
-    st,
-    prm,
-    Q,
-    SQa,
-    SQb,
-    segends,
-    segcurve,
-    circles,
-    n_input,
-    H,
-    hg,
-    cav,
-    bnd,
-    bu,
-    bv,
-    bo,
-    bs,
-    fan,
-    mark,
-    enc,
-    work,
-):
+def _steiner_point(P, a, b, c, off):
+    """Circumcentre of CCW (a, b, c), or Ungor's off-centre when it is closer.
+
+    The off-centre lies on the bisector of the shortest edge pq, on the side
+    of the triangle, at ``off * |pq|`` from its midpoint: with ``off`` a
+    little under ``cot(theta / 2) / 2`` the triangle it makes with pq has
+    an angle a little over the bound theta. Used when it is nearer to p
+    than the circumcentre (a skinny triangle): fewer points, as Triangle.
+    """
+    ax = P[a, 0]
+    ay = P[a, 1]
+    bx = P[b, 0] - ax
+    by = P[b, 1] - ay
+    cx = P[c, 0] - ax
+    cy = P[c, 1] - ay
+    lb = bx * bx + by * by
+    lc = cx * cx + cy * cy
+    d = 2.0 * (bx * cy - by * cx)
+    ux = (cy * lb - by * lc) / d
+    uy = (bx * lc - cx * lb) / d
+    if off <= 0.0:
+        return ax + ux, ay + uy
+    # shortest edge (p -> q, counter-clockwise in the triangle), relative to a
+    ex = cx - bx
+    ey = cy - by
+    la = ex * ex + ey * ey
+    if lb <= lc and lb <= la:
+        px, py, qx, qy = 0.0, 0.0, bx, by
+    elif la <= lc:
+        px, py, qx, qy = bx, by, cx, cy
+    else:
+        px, py, qx, qy = cx, cy, 0.0, 0.0
+    dx = qx - px
+    dy = qy - py
+    ox = px + 0.5 * dx - off * dy
+    oy = py + 0.5 * dy + off * dx
+    if (ox - px) ** 2 + (oy - py) ** 2 < (ux - px) ** 2 + (uy - py) ** 2:
+        return ax + ox, ay + oy
+    return ax + ux, ay + uy
+
+
+@njit(cache=True)
+def refine(M, D, Qs, st, scr, work):
     """Delaunay refinement until no triangle is bad (see the module docstring).
 
     Returns a status: DONE; YIELD after ``prm[PR_OPS]`` insertions (for
     progress and cancellation); NEED_SPACE (points or triangles),
     NEED_QUEUE or NEED_SCRATCH (cavity arrays) to be grown by the caller
     before calling again; BUDGET when the point count reaches
-    ``prm[PR_BUDGET]``. The queues live in ``st``, ``Q``, ``SQa``/``SQb``, so
-    a call resumes where the previous one stopped.
+    ``prm[PR_BUDGET]``. The queues live in ``st`` and ``Qs``, so a call
+    resumes where the previous one stopped.
     """
+    P, V, A, S, G, vt, pseg, ppar, fan, mark = M
+    prm = D[0]
+    SQ = Qs[2]
     keep = prm[PR_KEEP] > 0.0
-    sc = cav.shape[0]
+    sc = scr.shape[1]
     ops = 0
     while True:
         if st[ST_NPTS] + 2 >= P.shape[0] or st[ST_NTRI] + sc >= G.shape[0]:
             return NEED_SPACE
-        if Q.shape[0] - st[ST_QTAIL] < 2 * sc:
-            head = st[ST_QHEAD]
-            if head > 0:
-                tail = st[ST_QTAIL]
-                for i in range(head, tail):
-                    Q[i - head] = Q[i]
-                st[ST_QTAIL] = tail - head
-                st[ST_QROUND] -= head
-                st[ST_QHEAD] = 0
-            if Q.shape[0] - st[ST_QTAIL] < 2 * sc:
-                return NEED_QUEUE
-        if SQa.shape[0] - st[ST_SQN] < 3 * sc:
+        if _queue_room(Qs, st) < 4 * sc:
             return NEED_QUEUE
         if st[ST_NPTS] >= prm[PR_BUDGET]:
             return BUDGET
@@ -1216,200 +1197,76 @@ def refine(
         if st[ST_SQN] > 0:
             n = st[ST_SQN] - 1
             st[ST_SQN] = n
-            a = SQa[n]
-            b = SQb[n]
+            a = SQ[0, n]
+            b = SQ[1, n]
             k = find_edge(V, A, vt, a, b)
             if k < 0 or S[k] < 0 or not _encroached(P, V, A, k, work):
                 continue
-            r = _split(
-                P,
-                V,
-                A,
-                S,
-                G,
-                vt,
-                pseg,
-                ppar,
-                st,
-                prm,
-                Q,
-                SQa,
-                SQb,
-                segends,
-                segcurve,
-                circles,
-                n_input,
-                H,
-                hg,
-                k,
-                cav,
-                bnd,
-                bu,
-                bv,
-                bo,
-                bs,
-                fan,
-                mark,
-                enc,
-                work,
-            )
+            gen = G[k // 3] + 1 if G[k // 3] >= 0 else st[ST_ROUNDS]
+            r = _split(M, D, Qs, st, k, gen, scr, work)
             if r == NO_SPACE:
+                SQ[0, n] = a
+                SQ[1, n] = b
                 st[ST_SQN] = n + 1
                 return NEED_SCRATCH
             ops += 1
             continue
-        # 2. The next bad triangle, in rounds of the queue.
-        head = st[ST_QHEAD]
-        if head >= st[ST_QTAIL]:
+        # 2. The next bad triangle, shortest edge first.
+        t = _pop_bad(Qs, st)
+        if t < 0:
             return DONE
-        if head >= st[ST_QROUND]:
-            st[ST_ROUNDS] += 1
-            st[ST_QROUND] = st[ST_QTAIL]
-        t = Q[head]
-        st[ST_QHEAD] = head + 1
-        if G[t] != 0:
+        if G[t] < 0:
             continue
-        if _is_bad(P, V, t, prm, H, hg, pseg, segends, n_input) == 0:
+        bad, lmin = _is_bad(P, V, t, D, pseg)
+        if bad == 0:
             continue
-        a = V[3 * t]
-        b = V[3 * t + 1]
-        c = V[3 * t + 2]
-        ax = P[a, 0]
-        ay = P[a, 1]
-        bx = P[b, 0] - ax
-        by = P[b, 1] - ay
-        cx = P[c, 0] - ax
-        cy = P[c, 1] - ay
-        lb = bx * bx + by * by
-        lc = cx * cx + cy * cy
-        d = 2.0 * (bx * cy - by * cx)
-        x = ax + (cy * lb - by * lc) / d
-        y = ay + (bx * lc - cx * lb) / d
-        r = _insert(
-            P,
-            V,
-            A,
-            S,
-            G,
-            vt,
-            pseg,
-            ppar,
-            st,
-            x,
-            y,
-            t,
-            -1,
-            -1,
-            0.0,
-            True,
-            cav,
-            bnd,
-            bu,
-            bv,
-            bo,
-            bs,
-            fan,
-            mark,
-            enc,
-            work,
-        )
+        gen = G[t] + 1
+        x, y = _steiner_point(P, V[3 * t], V[3 * t + 1], V[3 * t + 2], prm[PR_OFF])
+        r = _insert(M, st, x, y, t, -1, -1, 0.0, True, gen, scr, work)
         if r == OK:
             st[ST_ADD_I] += 1
             ops += 1
-            _enqueue_new(
-                P,
-                V,
-                A,
-                S,
-                st,
-                prm,
-                Q,
-                SQa,
-                SQb,
-                cav,
-                st[ST_INFO],
-                st[ST_NPTS] - 1,
-                False,
-                H,
-                hg,
-                pseg,
-                segends,
-                n_input,
-                work,
-            )
+            _enqueue_new(M, D, Qs, st, scr, st[ST_INFO], False, work)
         elif r == ENCROACH or r == BLOCKED:
             if keep:
-                G[t] = 1
+                G[t] = -1
                 st[ST_GIVEN_UP] += 1
                 continue
             # Split the segments instead (their corners move with each split,
             # so name them by their endpoints first).
             ne = st[ST_INFO]
-            for i in range(ne - 1, -1, -1):  # in place: enc[2i], enc[2i+1] = ends of enc[i]
-                k = enc[i]
-                enc[2 * i] = V[_nxt(k)]
-                enc[2 * i + 1] = V[_prv(k)]
+            for i in range(ne):
+                k = scr[6, i]
+                scr[6, i] = V[_nxt(k)]
+                scr[7, i] = V[_prv(k)]
             split_any = False
             for i in range(ne):
-                k = find_edge(V, A, vt, enc[2 * i], enc[2 * i + 1])
+                k = find_edge(V, A, vt, scr[6, i], scr[7, i])
                 if k < 0 or S[k] < 0:
                     continue
-                r2 = _split(
-                    P,
-                    V,
-                    A,
-                    S,
-                    G,
-                    vt,
-                    pseg,
-                    ppar,
-                    st,
-                    prm,
-                    Q,
-                    SQa,
-                    SQb,
-                    segends,
-                    segcurve,
-                    circles,
-                    n_input,
-                    H,
-                    hg,
-                    k,
-                    cav,
-                    bnd,
-                    bu,
-                    bv,
-                    bo,
-                    bs,
-                    fan,
-                    mark,
-                    enc,
-                    work,
-                )
+                r2 = _split(M, D, Qs, st, k, gen, scr, work)
                 if r2 == OK:
                     split_any = True
                     ops += 1
                 elif r2 == NO_SPACE:
-                    st[ST_QHEAD] = head
+                    _push_bad(Qs, st, t, lmin)
                     return NEED_SCRATCH
                 if (
                     st[ST_NPTS] + 2 >= P.shape[0]
                     or st[ST_NTRI] + sc >= G.shape[0]
-                    or Q.shape[0] - st[ST_QTAIL] < sc + 1
-                    or SQa.shape[0] - st[ST_SQN] < 3 * sc
+                    or _queue_room(Qs, st) < 2 * sc
                 ):
                     break
             if split_any:
-                Q[st[ST_QTAIL]] = t
-                st[ST_QTAIL] += 1
+                _push_bad(Qs, st, t, lmin)
             else:
-                G[t] = 1
+                G[t] = -1
                 st[ST_GIVEN_UP] += 1
         elif r == NO_SPACE:
-            st[ST_QHEAD] = head
+            _push_bad(Qs, st, t, lmin)
             return NEED_SCRATCH
         else:
-            G[t] = 1
+            G[t] = -1
             st[ST_GIVEN_UP] += 1
 
 

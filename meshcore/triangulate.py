@@ -138,6 +138,10 @@ class _Tolerances:
     #: their index): it breaks the lattice's exact co-circularities, which would
     #: otherwise send many in-circle tests to exact arithmetic.
     jitter: float = 1e-3
+    #: Off-centres at this times ``cot(min_angle / 2)`` times the shortest edge
+    #: from its midpoint (Ungor; Triangle's 0.475, just under the 1/2 that
+    #: would make the new angle exactly ``min_angle``).
+    offcenter: float = 0.475
     #: Size grid: at most this many cells per side.
     grid_cells: int = 512
     #: Samples of the size along each segment when subdividing.
@@ -585,55 +589,66 @@ def _lattice(P, bseg, allseg, h: float, keep_boundary: bool):
 
 
 class _Work:
-    """The growable arrays of the refinement kernel."""
+    """The growable arrays of the refinement kernel (see :mod:`meshcore.cdt`)."""
 
-    def __init__(self, P, V, A, S, ntri, npts, pseg, ppar, vt, scratch=4096):
+    def __init__(self, P, V, A, S, ntri, npts, pseg, ppar, vt, n_input, scratch=4096):
         self.P, self.V, self.A, self.S = P, V, A, S
         self.pseg, self.ppar, self.vt = pseg, ppar, vt
         tcap = len(V) // 3
-        self.G = np.zeros(tcap, np.uint8)
+        self.G = np.zeros(tcap, np.int32)
         self.mark = np.zeros(tcap, np.int64)
         self.fan = np.full(len(P), -1, np.int32)
         self.st = np.zeros(cdt.ST_SIZE, np.int64)
         self.st[cdt.ST_NPTS] = npts
         self.st[cdt.ST_NTRI] = ntri
-        self.Q = np.empty(max(2 * ntri, 4 * scratch) + 16, np.int32)
-        self.SQa = np.empty(max(6 * ntri, 6 * scratch) + 16, np.int32)
-        self.SQb = np.empty_like(self.SQa)
-        self._scratch(scratch)
+        self.st[cdt.ST_NINPUT] = n_input
+        self.Qe = np.empty((3, ntri + 8 * scratch), np.int32)
+        self.Qb = np.empty((2, cdt.NBUCKETS), np.int32)
+        self.SQ = np.empty((2, 3 * ntri + 8 * scratch), np.int32)
+        self.scr = np.empty((8, scratch), np.int64)
         self.work = np.empty(WORK_SIZE)
 
-    def _scratch(self, n):
-        self.cav = np.empty(n, np.int64)
-        self.bnd = np.empty(n, np.int64)
-        self.bu = np.empty(n, np.int64)
-        self.bv = np.empty(n, np.int64)
-        self.bo = np.empty(n, np.int64)
-        self.bs = np.empty(n, np.int64)
-        self.enc = np.empty(2 * n, np.int64)
+    @property
+    def M(self):
+        return (
+            self.P,
+            self.V,
+            self.A,
+            self.S,
+            self.G,
+            self.vt,
+            self.pseg,
+            self.ppar,
+            self.fan,
+            self.mark,
+        )
+
+    @property
+    def Qs(self):
+        return (self.Qe, self.Qb, self.SQ)
 
     @staticmethod
-    def _grown(a, n, fill=None):
-        out = (
-            np.empty((n,) + a.shape[1:], a.dtype)
-            if fill is None
-            else np.full((n,) + a.shape[1:], fill, a.dtype)
-        )
-        out[: len(a)] = a
+    def _grown(a, n, fill=None, axis=0):
+        shape = list(a.shape)
+        shape[axis] = n
+        out = np.empty(shape, a.dtype) if fill is None else np.full(shape, fill, a.dtype)
+        if axis == 0:
+            out[: a.shape[0]] = a
+        else:
+            out[:, : a.shape[1]] = a
         return out
 
     def grow_space(self):
-        npts = int(self.st[cdt.ST_NPTS])
-        if npts + 2 >= len(self.P):
+        sc = self.scr.shape[1]
+        if int(self.st[cdt.ST_NPTS]) + 2 >= len(self.P):
             n = 2 * len(self.P)
             self.P = self._grown(self.P, n)
             self.pseg = self._grown(self.pseg, n)
             self.ppar = self._grown(self.ppar, n)
             self.vt = self._grown(self.vt, n)
             self.fan = self._grown(self.fan, n, -1)
-        ntri = int(self.st[cdt.ST_NTRI])
-        if ntri + len(self.cav) >= len(self.G):
-            n = 2 * len(self.G) + len(self.cav)
+        if int(self.st[cdt.ST_NTRI]) + sc >= len(self.G):
+            n = 2 * len(self.G) + sc
             self.V = self._grown(self.V, 3 * n)
             self.A = self._grown(self.A, 3 * n)
             self.S = self._grown(self.S, 3 * n)
@@ -641,13 +656,12 @@ class _Work:
             self.mark = self._grown(self.mark, n, 0)
 
     def grow_queue(self):
-        self.Q = self._grown(self.Q, 2 * len(self.Q) + 4 * len(self.cav))
-        n = 2 * len(self.SQa) + 6 * len(self.cav)
-        self.SQa = self._grown(self.SQa, n)
-        self.SQb = self._grown(self.SQb, n)
+        sc = self.scr.shape[1]
+        self.Qe = self._grown(self.Qe, 2 * self.Qe.shape[1] + 8 * sc, axis=1)
+        self.SQ = self._grown(self.SQ, 2 * self.SQ.shape[1] + 8 * sc, axis=1)
 
     def grow_scratch(self):
-        self._scratch(2 * len(self.cav))
+        self.scr = np.empty((8, 2 * self.scr.shape[1]), np.int64)
         self.grow_space()
         self.grow_queue()
 
@@ -848,7 +862,7 @@ def triangulate(
     pseg_c[:npts] = pseg
     ppar_c = np.zeros(pcap)
     ppar_c[:npts] = ppar
-    w = _Work(Pc, V2, A2, S2, ntri, npts, pseg_c, ppar_c, vt)
+    w = _Work(Pc, V2, A2, S2, ntri, npts, pseg_c, ppar_c, vt, n_input)
     rounds = given_up = 0
     if not empty:
         report(0.6, "refinement")
@@ -859,6 +873,7 @@ def triangulate(
         # below 60 degrees above that (their rule, as Triangle: terminates).
         small = min_angle if min_angle <= GUARANTEED_MIN_ANGLE else MPW_SMALL_ANGLE
         prm[cdt.PR_COS] = math.cos(math.radians(small))
+        prm[cdt.PR_OFF] = TOL.offcenter / math.tan(math.radians(min_angle) / 2.0)
         prm[cdt.PR_AREA] = max_area if max_area is not None else np.inf
         prm[cdt.PR_SIZE2] = TOL.circumradius**2 if sizing is not None else 0.0
         prm[cdt.PR_KEEP] = 1.0 if keep_boundary else 0.0
@@ -870,58 +885,10 @@ def triangulate(
         prm[cdt.PR_OPS] = 1 << 16
         H = sizing.H if sizing is not None else np.ones((1, 1))
         hg = sizing.grid if sizing is not None else np.zeros(4)
-        segends = seg_in
-        if len(w.Q) < ntri + 16 or len(w.SQa) < 3 * ntri + 16:
-            w.grow_queue()
-        cdt.init_queues(
-            w.P,
-            w.V,
-            w.A,
-            w.S,
-            w.st,
-            prm,
-            w.Q,
-            w.SQa,
-            w.SQb,
-            H,
-            hg,
-            w.pseg,
-            segends,
-            n_input,
-            w.work,
-        )
+        D = (prm, seg_in, seg_circle, circle_arr, H, hg)
+        cdt.init_queues(w.M, D, w.Qs, w.st, w.work)
         while True:
-            status = cdt.refine(
-                w.P,
-                w.V,
-                w.A,
-                w.S,
-                w.G,
-                w.vt,
-                w.pseg,
-                w.ppar,
-                w.st,
-                prm,
-                w.Q,
-                w.SQa,
-                w.SQb,
-                segends,
-                seg_circle,
-                circle_arr,
-                n_input,
-                H,
-                hg,
-                w.cav,
-                w.bnd,
-                w.bu,
-                w.bv,
-                w.bo,
-                w.bs,
-                w.fan,
-                w.mark,
-                w.enc,
-                w.work,
-            )
+            status = cdt.refine(w.M, D, w.Qs, w.st, w.scr, w.work)
             if status == cdt.DONE:
                 break
             if status == cdt.NEED_SPACE:
@@ -931,10 +898,10 @@ def triangulate(
             elif status == cdt.NEED_SCRATCH:
                 w.grow_scratch()
             elif status == cdt.YIELD:
-                q = int(w.st[cdt.ST_QTAIL] - w.st[cdt.ST_QHEAD])
+                n = int(w.st[cdt.ST_NPTS])
                 report(
-                    0.6 + 0.3 * (1 - 1 / (1 + int(w.st[cdt.ST_NPTS]) / max(npts, 1))),
-                    f"refinement: {int(w.st[cdt.ST_NPTS])} points, {q} triangles queued",
+                    0.6 + 0.3 * n / (n + max(expected - n, npts)),
+                    f"refinement: {n} points, {int(w.st[cdt.ST_QCOUNT])} triangles queued",
                 )
             elif status == cdt.BUDGET:
                 raise AlgorithmError(
