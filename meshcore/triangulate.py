@@ -527,10 +527,13 @@ def _lattice(P, bseg, allseg, h: float, keep_boundary: bool):
     yb = b[:, 1]
     ylo = np.minimum(ya, yb)
     yhi = np.maximum(ya, yb)
+    # Rows y_j = y0 + j dy in [ylo, yhi) (half-open, decided on the very
+    # floats y_j that the crossings use, so that the two segments at a ring
+    # vertex agree and every row crosses each ring an even number of times).
     jlo = np.ceil((ylo - y0) / dy).astype(np.int64)
-    jhi = np.ceil((yhi - y0) / dy).astype(np.int64) - 1
-    # half-open [ylo, yhi): fix rounding at the ends
     jlo += (y0 + jlo * dy < ylo).astype(np.int64)
+    jlo -= (y0 + (jlo - 1) * dy >= ylo).astype(np.int64)
+    jhi = np.ceil((yhi - y0) / dy).astype(np.int64) - 1
     jhi -= (y0 + jhi * dy >= yhi).astype(np.int64)
     jhi += (y0 + (jhi + 1) * dy < yhi).astype(np.int64)
     cnt = np.maximum(jhi - jlo + 1, 0)
