@@ -45,9 +45,12 @@ Choices where the text leaves freedom
   :attr:`Tolerances.angle_tie` of the largest are tied and the point of
   smallest index wins, so that translated or exactly scaled inputs make the
   same choices.
-* **A point on the segment.** A point strictly inside the segment
-  (collinear, angle 180°) is not a valid PSLG input, but it is handled: the
-  segment is split *at* that point, which is then shared.
+* **Input that is not a planar straight-line graph.** A point found
+  strictly inside a segment (collinear, angle 180°) is refused: an input
+  point raises :class:`~meshcore.errors.InputError` (``point_on_segment``),
+  an added one means two segments cross, and the splits, converging on the
+  crossing, stop with :class:`~meshcore.errors.AlgorithmError` naming both
+  (or when the points reach float64 resolution there).
 * **Acute angles and non-manifold vertices (Exercises 9.2-9.4).** Two
   segments meeting at a vertex ``E`` at an angle below 90° (exact sign of
   ``(X - E).(Y - E)``, on the input segments) form an *acute cluster* at
@@ -88,6 +91,16 @@ Choices where the text leaves freedom
   projects on ``[E, M]``'s side of ``M``, outside the ball of ``[M, F]``.
   The trigger is low on purpose: a clamp at every projection closer than
   ``|EP| / 2`` made thin 5° wedges cost four times more points.
+* **Ties of the projection.** The projection ``M`` of ``P`` makes a right
+  angle at ``M``, so ``M`` lies exactly on the diametral circle of ``[E, P]``
+  (Thales), which is a segment whenever ``P`` is joined to the end ``E``
+  (acute corners, thin spikes). That tie would be decided by the rounding
+  of ``M``, differently at different distances from the origin. So ``M``
+  moves away from its nearer end ``E`` by :data:`NUDGE` (2**-20) of
+  ``|EM|``, at most half of the room that keeps ``P`` outside the ball of
+  ``[E, M]``: the tie is decided, the same way everywhere. (On the test
+  polygons this also made the comb's and the star's results identical
+  under exact translations, and saved a point on the comb.)
 * **Curves (§9.1.5).** A ring may declare the circle it samples; its new
   points are the chord split points moved radially onto the circle (on the
   minor arc between the segment's ends), protection points are placed on
@@ -121,7 +134,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
@@ -158,6 +171,9 @@ SHARE_FRACTION = 0.45
 NEAR_END_TRIGGER = 0.125
 #: ... and is replaced by the point at this fraction of ``|EP|`` from ``E``.
 NEAR_END_FRACTION = 0.5
+#: Split points move away from the nearer end by this fraction of their
+#: distance to it (see "Ties of the projection" above).
+NUDGE = 2.0**-20
 #: At most this many rounds.
 MAX_ROUNDS = 2000
 #: Added points allowed: this factor times (points + segments) of the input ...
@@ -640,8 +656,12 @@ def _protection_points(P, S, rows, side, radius, circles, seg_circle) -> np.ndar
 
 
 def _projection_points(P, S, rows, enc, circles, seg_circle):
-    """Projection of the encroaching points on the segments, kept at least
-    ``NEAR_END_FRACTION * |EP|`` from the nearer end E; radial for circles.
+    """Split points of §9.1.4: the projection of the encroaching point ``X``
+    on the segment, measured from the nearer end ``E``; kept at least
+    ``NEAR_END_FRACTION * |EX|`` from ``E`` when closer than
+    ``NEAR_END_TRIGGER * |EX|``; moved away from ``E`` by :data:`NUDGE` of
+    that distance (at most half the room that keeps ``X`` outside the new
+    piece's ball); radially onto the circle for curved segments.
 
     Returns the points and the side (0 or 1) of the nearer end."""
     A, B, X = P[S[rows, 0]], P[S[rows, 1]], P[enc]
@@ -650,12 +670,18 @@ def _projection_points(P, S, rows, enc, circles, seg_circle):
     length = np.sqrt(ll)
     t = np.einsum("ij,ij->i", X - A, d) / ll
     from_a = t <= 0.5
-    # Distance from the nearer end along the segment, and the clamp.
-    along = np.where(from_a, t, 1.0 - t) * length
     E = np.where(from_a[:, None], A, B)
     F = np.where(from_a[:, None], B, A)
-    ep = np.hypot(X[:, 0] - E[:, 0], X[:, 1] - E[:, 1])
-    along = np.where(along < NEAR_END_TRIGGER * ep, NEAR_END_FRACTION * ep, along)
+    # Distances from E along the segment: X's projection, then the split.
+    foot = np.where(from_a, t, 1.0 - t) * length
+    ex = X - E
+    ep = np.hypot(ex[:, 0], ex[:, 1])
+    clamped = foot < NEAR_END_TRIGGER * ep
+    along = np.where(clamped, NEAR_END_FRACTION * ep, foot)
+    # X stays outside the ball of [E, M] while height**2 >= foot * (|EM| - foot).
+    height2 = np.maximum(ep * ep - foot * foot, 0.0)
+    room = np.where(clamped, np.inf, 0.5 * height2 / np.maximum(foot, np.finfo(float).tiny))
+    along = along + np.minimum(NUDGE * along, room)
     M = E + (F - E) * (along / length)[:, None]
     circ = seg_circle[rows]
     curved = np.flatnonzero(circ >= 0)
@@ -708,26 +734,24 @@ class _State:
     done: np.ndarray  # (m, 2): the end is protected (an apex subsegment)
     radius: np.ndarray  # (n,) protection radius per vertex, NaN if none yet
     near: np.ndarray  # (m, 2) projection splits made near that end of the piece
-    extra: list = field(default_factory=list)
+    n0: int  # input points (the first rows of P)
 
 
-def _apply_splits(st: _State, seg, t, new_xy, reuse, protect_side, near_side) -> None:
+def _apply_splits(st: _State, seg, t, new_xy, protect_side, near_side) -> None:
     """Split segments ``seg`` at the new points; keep pieces in order.
 
-    ``t`` orders the points along their segment, ``reuse`` is an existing
-    point index or -1, ``protect_side`` is 0 / 1 for a protection point of
+    ``t`` orders the points along their segment, ``protect_side`` is 0 / 1
+    for a protection point of
     that end, -1 otherwise; ``near_side`` is the end a projection split is
     nearer to (-1 for protection splits).
     """
     order = np.lexsort((t, seg))
-    seg, new_xy, reuse = seg[order], new_xy[order], reuse[order]
+    seg, new_xy = seg[order], new_xy[order]
     protect_side, near_side = protect_side[order], near_side[order]
     n = len(st.P)
-    fresh = reuse < 0
-    idx = reuse.copy()
-    idx[fresh] = n + np.arange(int(fresh.sum()))
-    st.P = np.concatenate([st.P, new_xy[fresh]])
-    st.radius = np.concatenate([st.radius, np.full(int(fresh.sum()), np.nan)])
+    idx = n + np.arange(len(seg))
+    st.P = np.concatenate([st.P, new_xy])
+    st.radius = np.concatenate([st.radius, np.full(len(seg), np.nan)])
     m = len(st.S)
     k = np.bincount(seg, minlength=m)
     pieces = 1 + k
@@ -831,9 +855,13 @@ def admissible_segments(
             loc=("segment_circle",),
             code="bad_shape",
         )
-    scale = _scale(P)
+    # Work in a frame centred on the first point when that shift is exact:
+    # the same input translated by any exact amount then makes the same
+    # constructions, hence the same decisions (see _local_origin).
+    origin = _local_origin(P)
+    local_circles = circles - np.array([origin[0], origin[1], 0.0])
     st = _State(
-        P=P,
+        P=P - origin,
         S=S,
         source=np.arange(m0, dtype=np.int64),
         seg_circle=segment_circle,
@@ -841,35 +869,21 @@ def admissible_segments(
         done=np.zeros((m0, 2), dtype=bool),
         radius=np.full(n0, np.nan),
         near=np.zeros((m0, 2), dtype=np.int64),
+        n0=n0,
     )
-    max_added = MAX_ADDED_FACTOR * (n0 + m0) + MAX_ADDED_BASE
-    cases_before: dict[str, int] | None = None
-    rounds = 0
-    while True:
-        rounds += 1
-        tri = delaunay(st.P)
-        present = _present(tri, st.S)
-        if cases_before is None:
-            cases_before = _counts(
-                classify_segments(P, S, triangulation=tri, tolerances=tolerances)
-            )
-        missing = np.flatnonzero(~present)
-        if progress is not None:
-            progress(
-                rounds / (rounds + 4.0),
-                f"round {rounds}: {missing.size} segment(s) not Delaunay, "
-                f"{len(st.P) - n0} point(s) added",
-            )
-        if missing.size == 0:
-            break
-        if rounds >= MAX_ROUNDS or len(st.P) - n0 > max_added:
-            raise AlgorithmError(
-                f"no Delaunay-admissible discretization after {rounds} rounds and "
-                f"{len(st.P) - n0} added points ({missing.size} segments still missing): "
-                "do segments cross?"
-            )
-        tree = cKDTree(st.P)
-        _split_round(st, missing, tree, scale, circles, tolerances)
+    budget = _Budget(n0=n0, max_added=MAX_ADDED_FACTOR * (n0 + m0) + MAX_ADDED_BASE)
+    tri = delaunay(P)
+    cases_before = _counts(classify_segments(P, S, triangulation=tri, tolerances=tolerances))
+    if origin.any():
+        tri = _rounds(st, budget, local_circles, tolerances, progress)
+        # Back to the input's frame: the input points come back exactly; the
+        # added ones are rounded, which may (rarely) undo a near tie, so the
+        # rounds go on there until every segment is an edge again.
+        st.P = st.P + origin
+        st.P[:n0] = P
+    tri = _rounds(
+        st, budget, circles, tolerances, progress, first=tri if not origin.any() else None
+    )
     cases_after = _counts(classify_segments(st.P, st.S, triangulation=tri, tolerances=tolerances))
     protected = np.flatnonzero(~np.isnan(st.radius))
     radius = st.radius[protected]
@@ -882,11 +896,63 @@ def admissible_segments(
         cases_before=cases_before,
         cases_after=cases_after,
         added=len(st.P) - n0,
-        rounds=rounds,
+        rounds=budget.rounds,
         protected=protected,
         protection_radius=radius,
         delaunay=tri,
     )
+
+
+def _local_origin(P: np.ndarray) -> np.ndarray:
+    """The first point if subtracting it from every point is exact, else 0.
+
+    Exactness is checked with the two-sum error of each difference (zero
+    for all of them). Boundary samples far from the origin (translated by
+    1e6) pass: their differences are small multiples of the coordinates'
+    common ulp.
+    """
+    if not len(P):
+        return np.zeros(2)
+    o = P[0]
+    d = P - o
+    bv = P - d
+    err = (P - (d + bv)) + (bv - o)
+    return o.copy() if not err.any() else np.zeros(2)
+
+
+@dataclass
+class _Budget:
+    n0: int
+    max_added: int
+    rounds: int = 0
+
+
+def _rounds(st, budget, circles, tol, progress, first=None) -> Triangulation:
+    """Rounds of §9.1.4 until every segment is an edge; the last triangulation."""
+    scale = _scale(st.P)
+    tri = first
+    while True:
+        if tri is None:
+            tri = delaunay(st.P)
+        budget.rounds += 1
+        missing = np.flatnonzero(~_present(tri, st.S))
+        added = len(st.P) - budget.n0
+        if progress is not None:
+            progress(
+                budget.rounds / (budget.rounds + 4.0),
+                f"round {budget.rounds}: {missing.size} segment(s) not Delaunay, "
+                f"{added} point(s) added",
+            )
+        if missing.size == 0:
+            return tri
+        if budget.rounds >= MAX_ROUNDS or added > budget.max_added:
+            raise AlgorithmError(
+                f"no Delaunay-admissible discretization after {budget.rounds} rounds and "
+                f"{added} added points ({missing.size} segments still missing): "
+                "do segments cross?"
+            )
+        _split_round(st, missing, cKDTree(st.P), scale, circles, tol)
+        tri = None
 
 
 def _split_round(st: _State, missing, tree, scale, circles, tol) -> None:
@@ -903,8 +969,10 @@ def _split_round(st: _State, missing, tree, scale, circles, tol) -> None:
     """
     S = st.S
     enc, on_segment = _choose_encroachers(st.P, S, missing, tree, scale, tol)
+    if on_segment.any():
+        _not_planar(st, missing[on_segment][0], enc[on_segment][0])
     M, near = _projection_points(st.P, S, missing, enc, circles, st.seg_circle)
-    pending = st.acute[missing] & ~st.done[missing] & ~on_segment[:, None]  # (k, 2)
+    pending = st.acute[missing] & ~st.done[missing]  # (k, 2)
     near_side = np.arange(2)[None, :] == near[:, None]
     # A second projection split near the same acute vertex on the same
     # segment: the chase of Exercise 9.3 may have begun; protect the vertex.
@@ -924,42 +992,58 @@ def _split_round(st: _State, missing, tree, scale, circles, tol) -> None:
     prot_xy = _protection_points(st.P, S, segs, prot_side, st.radius[apex], circles, st.seg_circle)
     plain = ~protect.any(axis=1)
     proj_rows = missing[plain]
-    proj_xy = M[plain]
-    reuse = np.where(on_segment[plain], enc[plain], -1)
-    proj_xy[reuse >= 0] = st.P[reuse[reuse >= 0]]
     rows = np.concatenate([segs, proj_rows])
-    xy = np.concatenate([prot_xy, proj_xy])
-    _check_split_points(st, tree, rows, xy, reuse_from=len(segs), reuse=reuse)
+    xy = np.concatenate([prot_xy, M[plain]])
+    _check_split_points(st, tree, rows, xy)
     _apply_splits(
         st,
         rows,
         np.concatenate([prot_side.astype(np.float64), np.full(len(proj_rows), 0.5)]),
         xy,
-        np.concatenate([np.full(len(segs), -1), reuse]),
         np.concatenate([prot_side, np.full(len(proj_rows), -1)]),
         np.concatenate([np.full(len(segs), -1), near[plain]]),
     )
 
 
-def _check_split_points(st: _State, tree, rows, xy, reuse_from: int, reuse) -> None:
+def _not_planar(st: _State, row: int, point: int) -> None:
+    """Raise for a point found strictly inside a segment (not a PSLG)."""
+    src = int(st.source[row])
+    xy = st.P[point].tolist()
+    if point < st.n0:
+        raise InputError(
+            f"point {point} {xy} lies inside segment {src}: segments may meet only at "
+            "their endpoints",
+            loc=("segments", src),
+            code="point_on_segment",
+        )
+    other = int(st.source[np.flatnonzero((st.S == point).any(axis=1))[0]])
+    raise AlgorithmError(
+        f"segments {min(src, other)} and {max(src, other)} cross near {xy}: segments may "
+        "meet only at their endpoints"
+    )
+
+
+def _check_split_points(st: _State, tree, rows, xy) -> None:
     """Every new split point must lie strictly inside its segment's diametral
-    ball (so it differs from both ends) and differ from every existing point:
-    only fails for segments too short for float64 at their distance from the
-    origin."""
+    ball (so it differs from both ends) and differ from every other point:
+    the first fails only for segments too short for float64 at their
+    distance from the origin, the second only where segments cross or touch
+    (two segments would share the point)."""
     if not len(rows):
         return
     a, b = st.P[st.S[rows, 0]], st.P[st.S[rows, 1]]
-    fresh = np.ones(len(rows), dtype=bool)
-    fresh[reuse_from:] = reuse < 0
-    bad = np.flatnonzero((dot2d(a, b, xy) >= 0) & fresh)
+    bad = np.flatnonzero(dot2d(a, b, xy) >= 0)
     if bad.size:
         i = int(bad[0])
         raise AlgorithmError(
             f"cannot split the segment from {a[i].tolist()} to {b[i].tolist()}: it is too "
-            "short for float64 at that distance from the origin"
+            "short for float64 at that distance from the origin (or segments cross there)"
         )
-    hit, _ = tree.query(xy[fresh], k=1)
-    bad = np.flatnonzero(fresh)[hit == 0.0]
+    hit, _ = tree.query(xy, k=1)
+    bad = np.flatnonzero(hit == 0.0)
+    if not bad.size:
+        _, first, count = np.unique(xy, axis=0, return_index=True, return_counts=True)
+        bad = first[count > 1]
     if bad.size:
         i = int(bad[0])
         raise AlgorithmError(
