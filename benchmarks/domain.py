@@ -13,7 +13,8 @@ Inputs: a circle and a 2 x 1 rectangle (250k points per side: long collinear
 runs) with 1M vertices each, given as numpy arrays and as JSON-style lists
 (what the service hands over); a plate with 10,000 holes of 100 vertices
 (containment of many rings); the 1M circle with 10,000 interior constraint
-segments (a 100 x 100 grid of short dashes).
+segments (a 100 x 100 grid of short dashes); a random star of 100k
+vertices, whose long edges run side by side (quadratic for both).
 
 Run with ``.venv/bin/python benchmarks/domain.py``.
 """
@@ -51,6 +52,14 @@ def rectangle(per_side: int) -> np.ndarray:
     )
 
 
+def spike_fan(n: int) -> np.ndarray:
+    """A star with n vertices at random radii in [1, 1.3]: long, nearly radial edges
+    packed side by side, the worst case of a grid (and of GEOS's chain index)."""
+    t = 2 * np.pi * np.arange(n) / n
+    r = 1 + 0.3 * np.random.default_rng(0).random(n)
+    return np.column_stack([r * np.cos(t), r * np.sin(t)])
+
+
 def plate_with_holes(k: int, m: int) -> list[np.ndarray]:
     """A k x k grid of circular holes (m vertices each) in a square plate."""
     outer = np.array([[0.0, 0.0], [k, 0.0], [k, k], [0.0, k]])
@@ -86,6 +95,7 @@ def main() -> None:
         ("rectangle 250k per side (lists)", [rect.tolist()], None),
         ("plate, 10k holes x 100 vertices", plate, None),
         ("circle 1M + 10k constraints", [one_million], chords(100)),
+        ("random star 100k (spike fan)", [spike_fan(100_000)], None),
     ]
     parse_domain({"type": "Polygon", "coordinates": [circle(100)]})  # warm up numba
     head = f"{'input':34s} {'vertices':>9s} {'ours [s]':>9s} {'vert/s':>9s}"
