@@ -128,8 +128,8 @@ def router(registry: Registry) -> APIRouter:
         if job is not None:
             response.headers["Idempotent-Replayed"] = "true"
         else:
-            try:
-                params.check()
+            try:  # deep checks (a million-vertex domain takes a while): off the event loop
+                await asyncio.to_thread(params.check)
             except InputError as exc:
                 raise from_input_error(exc, "body", "params") from None
             points = params.point_count()
