@@ -19,6 +19,9 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 
 from meshcore import merge, product, quality, radial
 from meshcore.errors import InputError
+from meshcore.mesh import Mesh
+from service.domain_schema import DomainIn
+from service.params_triangulation import TriangulateParams, run_triangulate
 from service.schemas import FiniteFloat, MeshIn, MethodParams
 
 Progress = product.Progress
@@ -185,16 +188,43 @@ class _ProductOptions(MethodParams):
 
 
 class ExtrudeParams(_ProductOptions):
-    """Extrude a base mesh along a path (§8.1.1-§8.1.3)."""
+    """Extrude a base mesh, or a planar domain meshed first, along a path (§8.1.1-§8.1.3)."""
 
-    mesh: MeshIn = Field(
-        description="The base: vertex, line, triangle and quad cells; 2D points lie at z = 0."
+    mesh: MeshIn | None = Field(
+        None,
+        description="The base: vertex, line, triangle and quad cells; 2D points lie at z = 0.",
+    )
+    domain: DomainIn | None = Field(
+        None, description="Or a planar domain, triangulated at `size` (method triangulate)."
+    )
+    size: float | None = Field(
+        None, gt=0, allow_inf_nan=False, description="Target edge length of the base (domain)."
     )
     path: Path
 
+    @model_validator(mode="after")
+    def _one_base(self) -> ExtrudeParams:
+        if (self.mesh is None) == (self.domain is None):
+            raise ValueError("give the base as either mesh or domain (with size)")
+        if (self.domain is None) != (self.size is None):
+            raise ValueError("size goes with domain, and domain needs size")
+        return self
+
+    def _triangulation(self) -> TriangulateParams:
+        return TriangulateParams(domain=self.domain, size=self.size)
+
     def check(self) -> None:
         super().check()
-        product.check_extrude(self.mesh.to_mesh(), self.path.to_path())
+        if self.mesh is not None:
+            product.check_extrude(self.mesh.to_mesh(), self.path.to_path())
+        else:
+            self._triangulation().check()
+
+    def base(self, progress: Progress) -> Mesh:
+        """The base mesh: the given one, or the domain triangulated at ``size``."""
+        if self.mesh is not None:
+            return self.mesh.to_mesh()
+        return run_triangulate(self._triangulation(), progress)["mesh"]
 
 
 class SweepParams(_ProductOptions):
@@ -308,12 +338,12 @@ def _product_result(res: product.ProductResult, progress: Progress) -> dict:
 def run_extrude(params: ExtrudeParams, progress: Progress) -> dict:
     """The product mesh of the base and the path."""
     res = product.extrude(
-        params.mesh.to_mesh(),
+        params.base(_scaled(progress, 0.0, 0.2)),
         params.path.to_path(),
         simplices=params.simplices,
         on_degenerate=params.on_degenerate,
         validate=params.validate_,
-        progress=_scaled(progress, 0.0, 0.8),
+        progress=_scaled(progress, 0.2, 0.8),
     )
     return _product_result(res, progress)
 
