@@ -968,11 +968,12 @@ def _admissible(P, pseg, ppar, sub, seg_in, seg_circle, circles):
     a = adm.points[seg_in[new_sid, 0]]
     d = adm.points[seg_in[new_sid, 1]] - a
     t = np.einsum("ij,ij->i", X - a, d) / np.einsum("ij,ij->i", d, d)
+    # (writeable copies: numba compiles read-only arrays as another type)
     return (
-        np.asarray(adm.points),
+        np.array(adm.points, dtype=np.float64),
         np.concatenate([pseg, new_sid]),
         np.concatenate([ppar, t]),
-        (np.asarray(adm.segments, dtype=np.int64), sid),
+        (np.array(adm.segments, dtype=np.int64), sid),
     )
 
 
