@@ -11,8 +11,9 @@ the domain (§9.4.1: no vertex inside, only boundary points).
 Algorithm (§9.1.4), in rounds, each one vectorized over all segments:
 
 1. Triangulate the current points with :func:`meshcore.delaunay.delaunay`
-   (our exact kernel) and look every segment up among its edges (integer
-   edge keys, sorted search). Stop when all are there.
+   (our exact kernel) and look every segment up among its edges (a
+   compiled, linear-time scan of the vertex adjacency). Stop when all are
+   there.
 2. For each missing segment ``f = AB`` gather the points of its closed
    diametral ball (a ``cKDTree`` ball query around the midpoint, enlarged
    by a rounding slack, then the exact predicate
@@ -28,9 +29,15 @@ segment's line holds no point: the segment lies on a straight run of the
 convex hull, found with :func:`~meshcore.geometry.predicates.orient2d`),
 Case 1 (the open diametral ball holds no point,
 :func:`~meshcore.geometry.predicates.indiametral`), Case 2 otherwise.
-Cases are reported for the input and for the output; only non-Delaunay
-segments are split, so a Case 2 segment whose triangle ``fP`` is Delaunay
-(§9.1.3) stays whole.
+Cases are reported for the input and for the output. Only segments that
+are not Delaunay edges in a round are split, so a Case 2 segment whose
+triangle ``fP`` is Delaunay (§9.1.3) stays whole, and Case 0 segments (hull
+edges, and the added points never leave the hull) are never split. A Case 1
+segment stays whole unless added points enter its diametral ball: that
+happens next to acute Case 2 neighbours, whose splits land near the shared
+vertex (the coupling of Exercise 9.2); on random stars a few Case 1
+segments are split so, on the comb, the L-shape and the grid of the tests
+none is.
 
 Choices where the text leaves freedom
 -------------------------------------
@@ -112,11 +119,23 @@ Choices where the text leaves freedom
   size plus :data:`MAX_ADDED_BASE`: only inputs that are not planar
   straight-line graphs (crossing segments) get there.
 
+Frames and ties. The rounds run in a frame centred on the first input
+point when that shift is exact (:func:`_local_origin`): an input moved by an
+exact translation then makes bit-identical constructions and decisions.
+Back in the input's frame, the added points are rounded once more, and the
+rounds continue there until every segment is an edge again (normally no
+round at all): the guarantee is always checked on the returned coordinates.
+Projections make right angles, so the output may hold exactly co-circular
+quadrilaterals around a segment; the segment is then an edge of our
+kernel's triangulation (its exact tie-breaking), and a Delaunay code with
+other tie-breaking may need a swap to show it (§9.1.3, footnote 4);
+floating-point codes such as Qhull may take either diagonal.
+
 Cost: each round re-triangulates all points (``O(n log n)``), looks the
 segments up in linear time (compiled), and queries the balls of the missing
 segments (linear in the points found in them). Rounds are few on the test
 polygons (2 to 8); a 1,000-vertex random star with 0.4° between spikes
-takes 32 rounds and 9,300 points, 4 s.
+takes 32 rounds and 9,300 points, 0.7 s.
 
 The restricted triangulation (:func:`restricted_triangles`) keeps the
 triangles reached by a flood fill across non-segment edges from the left
@@ -849,11 +868,21 @@ def admissible_segments(
     if segment_circle is None:
         segment_circle = np.full(m0, -1, dtype=np.int64)
     segment_circle = np.asarray(segment_circle, dtype=np.int64).reshape(-1)
-    if len(segment_circle) != m0 or (segment_circle >= len(circles)).any():
+    if (
+        len(segment_circle) != m0
+        or ((segment_circle < -1) | (segment_circle >= len(circles))).any()
+    ):
         raise InputError(
             "segment_circle must give, per segment, a circle index or -1",
             loc=("segment_circle",),
             code="bad_shape",
+        )
+    bad = np.flatnonzero(~np.isfinite(circles).all(axis=1) | ~(circles[:, 2] > 0))
+    if bad.size:
+        raise InputError(
+            f"circle {int(bad[0])} must have a finite centre and a positive radius",
+            loc=("circles", int(bad[0])),
+            code="bad_curve",
         )
     # Work in a frame centred on the first point when that shift is exact:
     # the same input translated by any exact amount then makes the same
@@ -874,16 +903,17 @@ def admissible_segments(
     budget = _Budget(n0=n0, max_added=MAX_ADDED_FACTOR * (n0 + m0) + MAX_ADDED_BASE)
     tri = delaunay(P)
     cases_before = _counts(classify_segments(P, S, triangulation=tri, tolerances=tolerances))
-    if origin.any():
-        tri = _rounds(st, budget, local_circles, tolerances, progress)
+    if origin.any() and not _present(tri, S).all():
+        _rounds(st, budget, local_circles, tolerances, progress)
         # Back to the input's frame: the input points come back exactly; the
         # added ones are rounded, which may (rarely) undo a near tie, so the
         # rounds go on there until every segment is an edge again.
         st.P = st.P + origin
         st.P[:n0] = P
-    tri = _rounds(
-        st, budget, circles, tolerances, progress, first=tri if not origin.any() else None
-    )
+        tri = None
+    else:
+        st.P = P
+    tri = _rounds(st, budget, circles, tolerances, progress, first=tri)
     cases_after = _counts(classify_segments(st.P, st.S, triangulation=tri, tolerances=tolerances))
     protected = np.flatnonzero(~np.isnan(st.radius))
     radius = st.radius[protected]
