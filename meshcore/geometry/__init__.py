@@ -6,6 +6,14 @@ coordinates (circumcentres) and may round.
 """
 
 from meshcore.geometry.constructions import circumcenter, circumradius
-from meshcore.geometry.predicates import incircle, orient2d, orient3d
+from meshcore.geometry.predicates import dot2d, incircle, indiametral, orient2d, orient3d
 
-__all__ = ["circumcenter", "circumradius", "incircle", "orient2d", "orient3d"]
+__all__ = [
+    "circumcenter",
+    "circumradius",
+    "dot2d",
+    "incircle",
+    "indiametral",
+    "orient2d",
+    "orient3d",
+]
