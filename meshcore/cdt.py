@@ -97,7 +97,7 @@ def _prv(k):
     return k + 2 if k % 3 == 0 else k - 1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _orient_xy(ax, ay, bx, by, cx, cy, work):
     detleft = (ax - cx) * (by - cy)
     detright = (ay - cy) * (bx - cx)
@@ -116,12 +116,12 @@ def _orient_xy(ax, ay, bx, by, cx, cy, work):
     return orient2d_exact(ax, ay, bx, by, cx, cy, work)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _orient(P, a, b, c, work):
     return _orient_xy(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], work)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _dot_xy(ax, ay, bx, by, cx, cy, work):
     """Sign of (a - c) . (b - c): -1 when c is in the open diametral ball of ab."""
     left = (ax - cx) * (bx - cx)
@@ -141,7 +141,7 @@ def _dot_xy(ax, ay, bx, by, cx, cy, work):
     return dot2d_exact(ax, ay, bx, by, cx, cy, work)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _incircle_xy(ax, ay, bx, by, cx, cy, dx, dy, work):
     """Exact sign of d against the circle of CCW (a, b, c); 0 on the circle."""
     adx = ax - dx
@@ -173,7 +173,7 @@ def _incircle_xy(ax, ay, bx, by, cx, cy, dx, dy, work):
     return incircle_exact(ax, ay, bx, by, cx, cy, dx, dy, work)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _incircle_tri(P, V, t, x, y, work):
     a = V[3 * t]
     b = V[3 * t + 1]
@@ -208,7 +208,7 @@ def build(triangles, neighbors, V, A, S, vt):
         vt[triangles[t, 2]] = t
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _corner_of(V, t, a):
     for i in range(3):
         if V[3 * t + i] == a:
@@ -596,7 +596,7 @@ _BUCKET_OFFSET = 2200
 _SQRT_HALF = math.sqrt(0.5)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _size_at(H, hg, x, y):
     """Bilinear interpolation of the size grid (clamped to it)."""
     nx = H.shape[1]
@@ -616,7 +616,7 @@ def _size_at(H, hg, x, y):
     )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _small_angle(P, segends, sp, sq, j, cos_bound):
     """Whether input segments sp and sq meet at their common vertex j at an
     angle below the bound (cosine above ``cos_bound``)."""
@@ -1017,7 +1017,7 @@ def _split_point(P, ppar, D, a, b, sid, n_input):
     return x, y, tm
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _encroached(P, V, A, k, work):
     """Whether a triangle apex on either side lies in the open diametral ball of edge k."""
     u = V[_nxt(k)]
