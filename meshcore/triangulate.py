@@ -131,6 +131,8 @@ MPW_SMALL_ANGLE = 60.0
 #: expected from the sizes (or MIN_BUDGET, whichever is larger): a runaway.
 BUDGET_FACTOR = 8
 MIN_BUDGET = 1 << 22
+# Triangle and point estimates saturate here (sizes near underflow).
+_ESTIMATE_CAP = 10**18
 # Lattices with fewer (row, column) slots than this mark dropped points in a
 # dense mask; finer (windowed) ones in a sorted search.
 _DENSE_MASK_LIMIT = 1 << 26
@@ -173,6 +175,9 @@ class _Tolerances:
     grid_cells: int = 512
     #: Samples of the size along each segment when subdividing.
     segment_samples: int = 9
+    #: Relative slack when counting a segment's pieces: one exactly n sizes
+    #: long gets n pieces, not n + 1 for a rounding of its length.
+    count_slack: float = 1e-12
 
 
 TOL = _Tolerances()
@@ -338,7 +343,7 @@ def _expected_points(domain: Domain, sizing: _Sizing) -> int:
         inv = 1.0 / sizing.H[0, 0] ** 2
     else:
         inv = float(np.mean(1.0 / sizing.H**2))
-    return int(min(domain.area * inv / (math.sqrt(3.0) / 2.0), 1e18))
+    return int(min(domain.area * inv / (math.sqrt(3.0) / 2.0), _ESTIMATE_CAP))
 
 
 def estimated_triangles(domain, *, max_area=None, size=None, size_field=None) -> int:
@@ -368,14 +373,15 @@ def estimated_triangles(domain, *, max_area=None, size=None, size_field=None) ->
     fp = fv = None
     if size_field is not None:
         fp, fv = _field_arrays(size_field)
-    sizing = _sizing(dom, size, max_area, fp, fv)
+    # nearest field values: an estimate needs no triangulation of the field
+    sizing = _sizing(dom, size, max_area, fp, fv, linear=False)
     return 0 if sizing is None else 2 * _expected_points(dom, sizing)
 
 
-def _interpolate_field(fp: np.ndarray, fv: np.ndarray, q: np.ndarray) -> np.ndarray:
+def _interpolate_field(fp: np.ndarray, fv: np.ndarray, q: np.ndarray, linear=True) -> np.ndarray:
     """Linear interpolation on our Delaunay triangulation of fp; nearest outside."""
     near = fv[cKDTree(fp).query(q)[1]]
-    if len(fp) < 3:
+    if len(fp) < 3 or not linear:
         return near
     try:
         tri = delaunay(fp)
@@ -396,7 +402,7 @@ def _locate_points(points, triangles, neighbors, q):
     return t, bary
 
 
-def _sizing(domain: Domain, size, max_area, field_pts, field_vals) -> _Sizing | None:
+def _sizing(domain: Domain, size, max_area, field_pts, field_vals, linear=True) -> _Sizing | None:
     h_area = None
     if max_area is not None:
         h_area = math.sqrt(4.0 * TOL.area_fill * max_area / math.sqrt(3.0))
@@ -407,7 +413,7 @@ def _sizing(domain: Domain, size, max_area, field_pts, field_vals) -> _Sizing | 
         return _Sizing(np.array([[min(hs)]]), np.zeros(4))
     lo = domain.points.min(axis=0)
     hi = domain.points.max(axis=0)
-    ext = np.maximum(hi - lo, domain.diameter * 1e-9)
+    ext = hi - lo  # both positive: a valid domain has area
     cells = min(TOL.grid_cells, max(8, 4 * int(math.sqrt(len(field_pts)))))
     step = ext.max() / cells
     nx = int(math.ceil(ext[0] / step)) + 1
@@ -416,7 +422,7 @@ def _sizing(domain: Domain, size, max_area, field_pts, field_vals) -> _Sizing | 
     gy = lo[1] + step * np.arange(ny)
     X, Y = np.meshgrid(gx, gy)
     q = np.column_stack([X.ravel(), Y.ravel()])
-    H = _interpolate_field(field_pts, field_vals, q).reshape(ny, nx)
+    H = _interpolate_field(field_pts, field_vals, q, linear).reshape(ny, nx)
     for h in (size, h_area):
         if h is not None:
             H = np.minimum(H, h)
@@ -447,7 +453,7 @@ def _subdivide(P, seg, sizing: _Sizing | None, seg_circle: np.ndarray, circles: 
     k = TOL.segment_samples
     s = np.linspace(0.0, 1.0, k)
     if sizing.uniform:
-        n = np.ceil(length / sizing.H[0, 0] * (1 - 1e-12)).astype(np.int64)
+        n = np.ceil(length / sizing.H[0, 0] * (1 - TOL.count_slack)).astype(np.int64)
         n = np.maximum(n, 1)
         total = n - 1
         sid = np.repeat(np.arange(len(seg)), total)
@@ -465,15 +471,16 @@ def _subdivide(P, seg, sizing: _Sizing | None, seg_circle: np.ndarray, circles: 
             ],
             axis=1,
         )
-        n = np.maximum(np.ceil(cum[:, -1] * (1 - 1e-12)).astype(np.int64), 1)
+        n = np.maximum(np.ceil(cum[:, -1] * (1 - TOL.count_slack)).astype(np.int64), 1)
         total = n - 1
         sid = np.repeat(np.arange(len(seg)), total)
         first = np.repeat(np.cumsum(total) - total, total)
         j = np.arange(total.sum()) - first + 1
         target = j / n[sid] * cum[sid, -1]
         # invert the piecewise-linear cumulative integral of each segment
-        flat = (cum / np.maximum(cum[:, -1:], 1e-300) + np.arange(len(seg))[:, None]).ravel()
-        pos = np.searchsorted(flat, target / np.maximum(cum[sid, -1], 1e-300) + sid) - 1
+        # (every segment has a positive length and size: cum[:, -1] > 0)
+        flat = (cum / cum[:, -1:] + np.arange(len(seg))[:, None]).ravel()
+        pos = np.searchsorted(flat, target / cum[sid, -1] + sid) - 1
         pos = np.clip(pos, sid * k, sid * k + k - 2)
         lo_c = cum.ravel()[pos]
         hi_c = cum.ravel()[pos + 1]
