@@ -45,7 +45,7 @@ class LiveServer:
             stdout=open(self.log, "ab"),
             stderr=subprocess.STDOUT,
         )
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + 120
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:
                 raise RuntimeError(f"server exited: {self.log.read_text()[-2000:]}")
@@ -65,6 +65,16 @@ class LiveServer:
 
     def client(self, **kwargs) -> httpx.Client:
         return httpx.Client(base_url=self.url, timeout=60, **kwargs)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def compiled_kernels() -> None:
+    """Compile the numba kernels into their disk cache once, before any server starts.
+
+    On a fresh clone the cache is empty, and every server's fork server would
+    otherwise compile them all at once (half a minute each on two cores).
+    """
+    import service.executors.preload  # noqa: F401
 
 
 @pytest.fixture(scope="session")
