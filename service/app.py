@@ -39,7 +39,8 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
         executor: Executor
         if settings.dask_scheduler:
             # imported here: dask.distributed costs a second at start-up when unused
-            
+            from service.executors.cluster import DaskExecutor
+
             executor = DaskExecutor(settings.dask_scheduler, settings.job_memory_limit)
         else:
             executor = LocalExecutor(settings.workers, settings.job_memory_limit)
