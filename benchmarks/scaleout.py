@@ -117,16 +117,46 @@ def main() -> None:
     quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "cwd": ROOT, "env": ENV}
     with tempfile.TemporaryDirectory() as tmp:
         try:
-            procs.append(subprocess.Popen([str(BIN / "dask"), "scheduler", "--host", "127.0.0.1",
-                                           "--port", str(sport), "--no-dashboard"], **quiet))
+            procs.append(
+                subprocess.Popen(
+                    [
+                        str(BIN / "dask"),
+                        "scheduler",
+                        "--host",
+                        "127.0.0.1",
+                        "--port",
+                        str(sport),
+                        "--no-dashboard",
+                    ],
+                    **quiet,
+                )
+            )
             for _ in range(2):
-                procs.append(subprocess.Popen([str(BIN / "dask"), "worker", address,
-                                               "--nthreads", "1", "--no-dashboard"], **quiet))
-            for port, extra in ((local_port, {}), (dask_port, {"MESHSERVICE_DASK_SCHEDULER":
-                                                              address})):
-                procs.append(subprocess.Popen(
-                    [str(BIN / "meshservice"), "serve", "--port", str(port), "--workers", "2",
-                     "--data-dir", f"{tmp}/{port}"], **{**quiet, "env": {**ENV, **extra}}))
+                procs.append(
+                    subprocess.Popen(
+                        [str(BIN / "dask"), "worker", address, "--nthreads", "1", "--no-dashboard"],
+                        **quiet,
+                    )
+                )
+            for port, extra in (
+                (local_port, {}),
+                (dask_port, {"MESHSERVICE_DASK_SCHEDULER": address}),
+            ):
+                procs.append(
+                    subprocess.Popen(
+                        [
+                            str(BIN / "meshservice"),
+                            "serve",
+                            "--port",
+                            str(port),
+                            "--workers",
+                            "2",
+                            "--data-dir",
+                            f"{tmp}/{port}",
+                        ],
+                        **{**quiet, "env": {**ENV, **extra}},
+                    )
+                )
             local, dask = f"http://127.0.0.1:{local_port}", f"http://127.0.0.1:{dask_port}"
             _wait_ready(local)
             _wait_ready(dask, workers=2)
@@ -145,8 +175,10 @@ def main() -> None:
     for name, wall, rate, p50 in rows:
         print(f"{name:<22}{wall:>9.2f}{rate:>9.2f}{p50:>17.1f}")
     per_job = (rows[1][1] - rows[0][1]) / args.jobs * 1000
-    print(f"dask overhead per job: {per_job:.1f} ms (throughput), "
-          f"{rows[1][3] - rows[0][3]:.1f} ms (tiny job round trip)")
+    print(
+        f"dask overhead per job: {per_job:.1f} ms (throughput), "
+        f"{rows[1][3] - rows[0][3]:.1f} ms (tiny job round trip)"
+    )
 
 
 if __name__ == "__main__":

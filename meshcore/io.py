@@ -61,9 +61,7 @@ FORMATS: dict[str, FileFormat] = {
         frozenset({"line", "triangle", "quad", "tetra", "wedge", "hexahedron"}),  # meshio's
         binary=False,
     ),
-    "obj": FileFormat(
-        "obj", ".obj", "model/obj", frozenset({"triangle", "quad"}), False
-    ),
+    "obj": FileFormat("obj", ".obj", "model/obj", frozenset({"triangle", "quad"}), False),
     "stl": FileFormat("stl", ".stl", "model/stl", frozenset({"triangle"})),
     "ply": FileFormat("ply", ".ply", "application/vnd.ply", frozenset({"triangle", "quad"})),
 }
@@ -84,8 +82,9 @@ def from_meshio(m: meshio.Mesh) -> Mesh:
     """A :class:`Mesh` from a ``meshio.Mesh``, keeping only the known cell types.
 
     Gmsh physical groups become cell sets and other Gmsh bookkeeping data
-    (``gmsh:*``) is dropped; point data, other cell data and cell sets are kept. Points are cut to 2D when every z is zero and the
-    cells are all at most two-dimensional.
+    (``gmsh:*``) is dropped; point data, other cell data and cell sets are
+    kept. Points are cut to 2D when every z is zero and the cells are all at
+    most two-dimensional.
     """
     keep = [i for i, c in enumerate(m.cells) if c.type in CELL_TYPES]
     if "gmsh:physical" in m.cell_data:  # Gmsh physical groups, matched by tag in every dimension
@@ -109,7 +108,9 @@ def from_meshio(m: meshio.Mesh) -> Mesh:
         cell_data={
             k: [v[i] for i in keep] for k, v in m.cell_data.items() if not k.startswith("gmsh:")
         },
-        cell_sets={k: [np.asarray(v[i], dtype=np.int64) for i in keep] for k, v in cell_sets.items()},
+        cell_sets={
+            k: [np.asarray(v[i], dtype=np.int64) for i in keep] for k, v in cell_sets.items()
+        },
     )
 
 
@@ -179,7 +180,10 @@ def _gmsh_mesh(mesh: Mesh, split: bool) -> meshio.Mesh:
     tags = [np.zeros(len(b), dtype=np.int64) for b in mesh.cells]
     field_data = {}
     for tag, (name, ids) in enumerate(mesh.cell_sets.items(), start=1):
-        dim = max((CELL_TYPES[b.type][1] for b, a in zip(mesh.cells, ids) if len(a)), default=0)
+        dim = max(
+            (CELL_TYPES[b.type][1] for b, a in zip(mesh.cells, ids, strict=True) if len(a)),
+            default=0,
+        )
         field_data[name] = np.array([tag, dim])
         for t, a in zip(tags, ids, strict=True):
             t[a[t[a] == 0]] = tag

@@ -63,9 +63,7 @@ class Mesh:
         if points.ndim == 1 and points.size == 0:
             points = points.reshape(0, 2)
         object.__setattr__(self, "points", points)
-        cells = tuple(
-            b if isinstance(b, CellBlock) else CellBlock(*b) for b in self.cells
-        )
+        cells = tuple(b if isinstance(b, CellBlock) else CellBlock(*b) for b in self.cells)
         object.__setattr__(self, "cells", cells)
         object.__setattr__(
             self, "point_data", {k: np.asarray(v) for k, v in self.point_data.items()}
@@ -78,7 +76,10 @@ class Mesh:
         object.__setattr__(
             self,
             "cell_sets",
-            {k: [np.asarray(a, dtype=np.int64).ravel() for a in v] for k, v in self.cell_sets.items()},
+            {
+                k: [np.asarray(a, dtype=np.int64).ravel() for a in v]
+                for k, v in self.cell_sets.items()
+            },
         )
 
     @property
@@ -163,8 +164,7 @@ class Mesh:
                 if rep.any():
                     c = int(np.flatnonzero(rep)[0])
                     raise InputError(
-                        f"cell {c} of block {b} ({block.type}) repeats a point: "
-                        f"{data[c].tolist()}",
+                        f"cell {c} of block {b} ({block.type}) repeats a point: {data[c].tolist()}",
                         loc=("cells", b, "data", c),
                         code="degenerate_cell",
                     )

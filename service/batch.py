@@ -96,10 +96,13 @@ class Progress:
 
     def draw(self) -> None:
         with self._lock:
-            finished = sum(i.status in ("succeeded", "failed", "cancelled", "error")
-                           for i in self.items)
-            total = f"{'overall':<28} [{_bar(finished / len(self.items))}] " \
-                    f"{finished}/{len(self.items)} done"
+            finished = sum(
+                i.status in ("succeeded", "failed", "cancelled", "error") for i in self.items
+            )
+            total = (
+                f"{'overall':<28} [{_bar(finished / len(self.items))}] "
+                f"{finished}/{len(self.items)} done"
+            )
             if self.tty:
                 lines = [self._line(i) for i in self.items] + [total]
                 if self._drawn:

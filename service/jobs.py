@@ -88,9 +88,7 @@ class JobManager:
         """Tell the dispatcher that the queue changed."""
         self._wakeup.set()
 
-    async def wait(
-        self, job_id: str, until: Callable[[Job], bool], timeout: float
-    ) -> Job | None:
+    async def wait(self, job_id: str, until: Callable[[Job], bool], timeout: float) -> Job | None:
         """The job once ``until(job)`` holds or ``timeout`` seconds pass (None: deleted)."""
         loop = asyncio.get_running_loop()
         deadline = loop.time() + timeout

@@ -20,8 +20,7 @@ class BodySizeLimit:
 
     async def _refuse(self, send: Send) -> None:
         doc = TooLarge(
-            f"the request body is larger than {self.max_bytes} bytes "
-            "(MESHSERVICE_MAX_BODY_BYTES)"
+            f"the request body is larger than {self.max_bytes} bytes (MESHSERVICE_MAX_BODY_BYTES)"
         ).document()
         body = json.dumps(doc).encode()
         await send(

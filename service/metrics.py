@@ -19,7 +19,9 @@ class _StoreCollector(Collector):
 
     def collect(self) -> Iterator[GaugeMetricFamily]:
         counts = self._counts()
-        jobs = GaugeMetricFamily("meshservice_jobs", "Jobs in the store by status", labels=["status"])
+        jobs = GaugeMetricFamily(
+            "meshservice_jobs", "Jobs in the store by status", labels=["status"]
+        )
         for status, n in counts.items():
             jobs.add_metric([status], n)
         yield jobs

@@ -151,7 +151,9 @@ def _jsonable_errors(errors: list[dict], body: Any) -> list[dict]:
             loc.append(tag)
             if e["type"] == "union_tag_invalid":
                 ctx = e["ctx"]
-                msg = f"unknown {tag} {ctx.get('tag')!r}; expected one of {ctx.get('expected_tags')}"
+                msg = (
+                    f"unknown {tag} {ctx.get('tag')!r}; expected one of {ctx.get('expected_tags')}"
+                )
         out.append({"loc": loc, "msg": msg, "type": e.get("type")})
     return out
 

@@ -57,8 +57,7 @@ def failure(exc: BaseException, method: str) -> dict:
         return problem_document(422, exc.code, "Invalid input", exc.message, errors)
     if isinstance(exc, ValidationError):
         errors = [
-            {"loc": ["params", *e["loc"]], "msg": e["msg"], "type": e["type"]}
-            for e in exc.errors()
+            {"loc": ["params", *e["loc"]], "msg": e["msg"], "type": e["type"]} for e in exc.errors()
         ]
         return problem_document(422, "validation_error", "Invalid input", str(exc), errors)
     if isinstance(exc, AlgorithmError):

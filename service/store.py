@@ -236,12 +236,15 @@ class Store:
         return cur.rowcount == 1
 
     def mark_running(self, job_id: str) -> bool:
-        return self._db.execute(
-            "UPDATE jobs SET status = 'running', attempt = attempt + 1, started_at = ?,"
-            " progress_fraction = 0, progress_message = '', version = version + 1"
-            " WHERE id = ? AND status = 'queued'",
-            (time.time(), job_id),
-        ).rowcount == 1
+        return (
+            self._db.execute(
+                "UPDATE jobs SET status = 'running', attempt = attempt + 1, started_at = ?,"
+                " progress_fraction = 0, progress_message = '', version = version + 1"
+                " WHERE id = ? AND status = 'queued'",
+                (time.time(), job_id),
+            ).rowcount
+            == 1
+        )
 
     def set_progress(self, job_id: str, fraction: float, message: str) -> bool:
         return self._update(
@@ -271,11 +274,14 @@ class Store:
 
     def bump_attempt(self, job_id: str) -> bool:
         """Count one more run of a running job (the engine re-ran it)."""
-        return self._db.execute(
-            "UPDATE jobs SET attempt = attempt + 1, version = version + 1"
-            " WHERE id = ? AND status = 'running'",
-            (job_id,),
-        ).rowcount == 1
+        return (
+            self._db.execute(
+                "UPDATE jobs SET attempt = attempt + 1, version = version + 1"
+                " WHERE id = ? AND status = 'running'",
+                (job_id,),
+            ).rowcount
+            == 1
+        )
 
     def recover(self, interrupted: list[Job], max_attempts: int) -> tuple[int, int]:
         """After a restart: re-queue interrupted jobs, fail those out of attempts.
@@ -307,8 +313,7 @@ class Store:
         Returns (results expired, jobs removed).
         """
         old = self._db.execute(
-            "SELECT id FROM jobs WHERE finished_at IS NOT NULL AND finished_at < ?"
-            " AND expired = 0",
+            "SELECT id FROM jobs WHERE finished_at IS NOT NULL AND finished_at < ? AND expired = 0",
             (now - retention,),
         ).fetchall()
         for (job_id,) in old:

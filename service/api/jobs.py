@@ -1,6 +1,5 @@
 """The jobs resource: submit, read, long-poll, stream, list, cancel, delete, results."""
 
-
 import asyncio
 import base64
 import binascii
@@ -39,9 +38,7 @@ Format = Literal[tuple(io.FORMATS)]  # type: ignore[valid-type]
 
 
 def _problems(*statuses: int) -> dict[int | str, dict[str, Any]]:
-    return {
-        s: {"model": ProblemOut, "content": {"application/problem+json": {}}} for s in statuses
-    }
+    return {s: {"model": ProblemOut, "content": {"application/problem+json": {}}} for s in statuses}
 
 
 def request_model(registry: Registry) -> Any:
@@ -64,6 +61,10 @@ def request_model(registry: Registry) -> Any:
     return Annotated[functools.reduce(operator.or_, variants), Field(discriminator="method")]
 
 
+def _changed(before: Job, now: Job) -> bool:
+    return now.version != before.version
+
+
 def _page_token(seq: int) -> str:
     return base64.urlsafe_b64encode(f"seq:{seq}".encode()).decode().rstrip("=")
 
@@ -78,7 +79,9 @@ def _seq_of(token: str) -> int:
     except (ValueError, binascii.Error, UnicodeDecodeError):
         raise Invalid(
             "page_token is not a token this service gave out",
-            errors=[{"loc": ["query", "page_token"], "msg": "invalid token", "type": "value_error"}],
+            errors=[
+                {"loc": ["query", "page_token"], "msg": "invalid token", "type": "value_error"}
+            ],
         ) from None
 
 
@@ -251,8 +254,7 @@ def router(registry: Registry) -> APIRouter:
                 )
             if current.finished:
                 return
-            seen = current.version
-            current = await manager.wait(job.id, lambda j: j.version != seen, 15.0)
+            current = await manager.wait(job.id, functools.partial(_changed, current), 15.0)
 
     @api.post(
         "/{job_id}/cancel",

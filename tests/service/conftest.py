@@ -38,8 +38,16 @@ class LiveServer:
     def start(self) -> LiveServer:
         env = {**os.environ, "MESHSERVICE_WORKERS": "2", **self.env}
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", self.module, *(["serve"] if self.module == "service" else []),
-             "--port", str(self.port), "--data-dir", str(self.data_dir)],
+            [
+                sys.executable,
+                "-m",
+                self.module,
+                *(["serve"] if self.module == "service" else []),
+                "--port",
+                str(self.port),
+                "--data-dir",
+                str(self.data_dir),
+            ],
             cwd=ROOT,
             env=env,
             stdout=open(self.log, "ab"),

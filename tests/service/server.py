@@ -22,8 +22,13 @@ def main() -> None:
     args = parser.parse_args()
     settings = Settings(port=args.port, data_dir=args.data_dir)
     app = create_app(settings, testing_registry())
-    uvicorn.run(app, host=settings.host, port=settings.port, log_level="warning",
-                timeout_graceful_shutdown=5)
+    uvicorn.run(
+        app,
+        host=settings.host,
+        port=settings.port,
+        log_level="warning",
+        timeout_graceful_shutdown=5,
+    )
 
 
 if __name__ == "__main__":

@@ -14,7 +14,10 @@ from tests.service.testing_methods import SQUARE
 def cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
     return subprocess.run(
         [sys.executable, "-m", "service", *args],
-        cwd=ROOT, capture_output=True, text=True, timeout=timeout,
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
     )
 
 
@@ -27,14 +30,27 @@ def write_batch(folder, n_files: int, n_lines: int, method: str = "echo_mesh") -
         path.write_text(json.dumps(job))
         paths.append(str(path))
     lines = folder / "more.jsonl"
-    lines.write_text("\n".join(json.dumps({**job, "params": {**job["params"], "mesh": {
-        **SQUARE, "points": [[x + i, y] for x, y in SQUARE["points"]]}}}) for i in range(n_lines)))
+    lines.write_text(
+        "\n".join(
+            json.dumps(
+                {
+                    **job,
+                    "params": {
+                        **job["params"],
+                        "mesh": {**SQUARE, "points": [[x + i, y] for x, y in SQUARE["points"]]},
+                    },
+                }
+            )
+            for i in range(n_lines)
+        )
+    )
     return [*paths, str(lines)]
 
 
 class TestSubmit:
-    def test_batch_of_20_downloads_20_files_and_a_rerun_submits_nothing(self, start_server,
-                                                                        tmp_path):
+    def test_batch_of_20_downloads_20_files_and_a_rerun_submits_nothing(
+        self, start_server, tmp_path
+    ):
         server = start_server()
         files = write_batch(tmp_path / "in", 10, 10)
         out = tmp_path / "out"
@@ -43,7 +59,8 @@ class TestSubmit:
         assert "submitted 20 jobs (20 new, 0 refused)" in first.stderr
         assert "overall" in first.stderr and "#" in first.stderr
         assert sorted(p.name for p in out.iterdir()) == sorted(
-            [f"job{i}.vtu" for i in range(10)] + [f"more-{i}.vtu" for i in range(1, 11)])
+            [f"job{i}.vtu" for i in range(10)] + [f"more-{i}.vtu" for i in range(1, 11)]
+        )
         again = cli("submit", *files, "--url", server.url, "--wait")
         assert again.returncode == 0, again.stderr
         assert "submitted 20 jobs (0 new, 0 refused)" in again.stderr

@@ -18,7 +18,6 @@ import pytest
 
 from tests.service.conftest import ROOT, _free_port, wait_status
 from tests.service.test_jobs import pid_alive, submit, wait_file
-from tests.service.testing_methods import SQUARE
 
 BIN = Path(sys.executable).parent
 WORKER_ENV = {"DASK_DISTRIBUTED__WORKER__DAEMON": "False", "PYTHONPATH": str(ROOT)}
@@ -48,11 +47,26 @@ class Cluster:
         return proc
 
     def start(self, workers: int = 2) -> Cluster:
-        self._spawn("scheduler", "scheduler", "--host", "127.0.0.1", "--port", str(self.port),
-                    "--no-dashboard")
+        self._spawn(
+            "scheduler",
+            "scheduler",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            str(self.port),
+            "--no-dashboard",
+        )
         for i in range(workers):
-            self._spawn(f"worker{i}", "worker", self.address, "--nthreads", "1",
-                        "--no-dashboard", "--name", f"w{i}")
+            self._spawn(
+                f"worker{i}",
+                "worker",
+                self.address,
+                "--nthreads",
+                "1",
+                "--no-dashboard",
+                "--name",
+                f"w{i}",
+            )
         return self
 
     def stop(self) -> None:
@@ -86,12 +100,18 @@ def dask_server(start_server, cluster):
 class TestDask:
     def test_readyz_reports_scheduler_and_workers(self, dask_server, cluster):
         ready = httpx.get(dask_server.url + "/readyz").json()
-        assert ready == {"status": "ready", "executor": "dask", "scheduler": cluster.address,
-                         "workers": 2}
+        assert ready == {
+            "status": "ready",
+            "executor": "dask",
+            "scheduler": cluster.address,
+            "workers": 2,
+        }
 
     def test_same_result_as_local(self, dask_server, client):
-        mesh = {"points": [[0, 0], [1, 0], [2, 0], [0, 1], [1, 1], [2, 1]],
-                "cells": [{"type": "quad", "data": [[0, 1, 4, 3], [1, 2, 5, 4]]}]}
+        mesh = {
+            "points": [[0, 0], [1, 0], [2, 0], [0, 1], [1, 1], [2, 1]],
+            "cells": [{"type": "quad", "data": [[0, 1, 4, 3], [1, 2, 5, 4]]}],
+        }
         with dask_server.client() as c:
             remote = submit(c, "quality", {"mesh": mesh}, wait=30).json()
             assert remote["status"] == "succeeded"
@@ -123,8 +143,9 @@ class TestDask:
             assert not pid_alive(pid)
 
     def test_time_limit_kills_the_process_on_the_worker(self, start_server, cluster, tmp_path):
-        server = start_server(MESHSERVICE_DASK_SCHEDULER=cluster.address,
-                              MESHSERVICE_JOB_TIME_LIMIT="3")
+        server = start_server(
+            MESHSERVICE_DASK_SCHEDULER=cluster.address, MESHSERVICE_JOB_TIME_LIMIT="3"
+        )
         marker = tmp_path / "pid"
         with server.client() as c:
             job = submit(c, "sleep", {"seconds": 60, "marker": str(marker)}).json()

@@ -48,8 +48,11 @@ def _local(args: list[str], ports: dict[str, str]) -> list[str]:
 def test_compose_commands_serve_a_job(tmp_path):
     compose = yaml.safe_load((DOCKER / "compose.yaml").read_text())["services"]
     scheduler_port, api_port = str(_free_port()), str(_free_port())
-    ports = {"scheduler:8786": f"127.0.0.1:{scheduler_port}", "8786": scheduler_port,
-             "8000": api_port}
+    ports = {
+        "scheduler:8786": f"127.0.0.1:{scheduler_port}",
+        "8786": scheduler_port,
+        "8000": api_port,
+    }
     bin_dir = Path(sys.executable).parent
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     procs = []
@@ -58,10 +61,19 @@ def test_compose_commands_serve_a_job(tmp_path):
         spec = compose[service]
         program = spec.get("entrypoint", ["meshservice"])[0]
         args = [str(bin_dir / program), *_local(spec["command"], ports)]
-        environment = {k: _local([str(v)], ports)[0] for k, v in spec.get("environment", {}).items()}
+        environment = {
+            k: _local([str(v)], ports)[0] for k, v in spec.get("environment", {}).items()
+        }
         log = open(tmp_path / f"{service}.log", "wb")
-        procs.append(subprocess.Popen(args, cwd=ROOT, env={**env, **extra_env, **environment},
-                                      stdout=log, stderr=subprocess.STDOUT))
+        procs.append(
+            subprocess.Popen(
+                args,
+                cwd=ROOT,
+                env={**env, **extra_env, **environment},
+                stdout=log,
+                stderr=subprocess.STDOUT,
+            )
+        )
 
     try:
         start("scheduler", {})
@@ -80,9 +92,13 @@ def test_compose_commands_serve_a_job(tmp_path):
             assert time.monotonic() < deadline, (tmp_path / "api.log").read_text()[-2000:]
             time.sleep(0.2)
         assert ready.json()["executor"] == "dask"
-        r = httpx.post(url + "/v1/jobs", params={"wait": 30},
-                       headers={"Authorization": f"Bearer {key}"},
-                       json={"method": "quality", "params": {"mesh": SQUARE}}, timeout=60)
+        r = httpx.post(
+            url + "/v1/jobs",
+            params={"wait": 30},
+            headers={"Authorization": f"Bearer {key}"},
+            json={"method": "quality", "params": {"mesh": SQUARE}},
+            timeout=60,
+        )
         assert r.status_code == 200 and r.json()["status"] == "succeeded", r.text
         assert httpx.get(url + "/v1/jobs").status_code == 401
     finally:

@@ -8,8 +8,8 @@ from __future__ import annotations
 import json
 import os
 import time
-from concurrent.futures import ThreadPoolExecutor
 import xml.etree.ElementTree as ET
+from concurrent.futures import ThreadPoolExecutor
 
 import httpx
 import pytest
@@ -61,7 +61,9 @@ def wait_file(path, timeout: float = 20) -> str:
 class TestSubmit:
     def test_malformed_json_is_a_422_problem(self, client):
         r = client.post(
-            "/v1/jobs", content=b'{"method": "quality", ', headers={"content-type": "application/json"}
+            "/v1/jobs",
+            content=b'{"method": "quality", ',
+            headers={"content-type": "application/json"},
         )
         assert_problem(r, 422, ["body"])
 
@@ -76,8 +78,10 @@ class TestSubmit:
         assert any("points" in e["loc"] for e in doc["errors"])
 
     def test_nan_and_inf_coordinates_are_refused(self, client):
-        body = b'{"method": "quality", "params": {"mesh": {"points": [[0, 0], [NaN, 0], [0, 1]],' \
+        body = (
+            b'{"method": "quality", "params": {"mesh": {"points": [[0, 0], [NaN, 0], [0, 1]],'
             b' "cells": [{"type": "triangle", "data": [[0, 1, 2]]}]}}}'
+        )
         r = client.post("/v1/jobs", content=body, headers={"content-type": "application/json"})
         doc = assert_problem(r, 422)
         assert any(e["loc"][-3:-1] == ["points", 1] for e in doc["errors"]), doc
@@ -86,24 +90,41 @@ class TestSubmit:
         assert_problem(r, 422)
 
     def test_out_of_range_index_names_block_cell_and_index(self, client):
-        mesh = {"points": [[0, 0], [1, 0], [0, 1]], "cells": [{"type": "triangle",
-                                                               "data": [[0, 1, 2], [0, 1, 7]]}]}
-        doc = assert_problem(submit(client, "quality", {"mesh": mesh}), 422,
-                             ["body", "params", "mesh", "cells", 0, "data", 1, 2])
+        mesh = {
+            "points": [[0, 0], [1, 0], [0, 1]],
+            "cells": [{"type": "triangle", "data": [[0, 1, 2], [0, 1, 7]]}],
+        }
+        doc = assert_problem(
+            submit(client, "quality", {"mesh": mesh}),
+            422,
+            ["body", "params", "mesh", "cells", 0, "data", 1, 2],
+        )
         assert "7" in doc["detail"]
 
     def test_empty_mesh_is_refused(self, client):
-        assert_problem(submit(client, "quality", {"mesh": {"points": [], "cells": []}}), 422,
-                       ["body", "params", "mesh"])
+        assert_problem(
+            submit(client, "quality", {"mesh": {"points": [], "cells": []}}),
+            422,
+            ["body", "params", "mesh"],
+        )
 
     def test_wrong_nodes_per_cell(self, client):
-        mesh = {"points": [[0, 0], [1, 0], [0, 1]], "cells": [{"type": "quad", "data": [[0, 1, 2]]}]}
-        assert_problem(submit(client, "quality", {"mesh": mesh}), 422,
-                       ["body", "params", "mesh", "cells", 0, "data"])
+        mesh = {
+            "points": [[0, 0], [1, 0], [0, 1]],
+            "cells": [{"type": "quad", "data": [[0, 1, 2]]}],
+        }
+        assert_problem(
+            submit(client, "quality", {"mesh": mesh}),
+            422,
+            ["body", "params", "mesh", "cells", 0, "data"],
+        )
 
     def test_unknown_params_field(self, client):
-        assert_problem(submit(client, "quality", {"mesh": SQUARE, "colour": "red"}), 422,
-                       ["body", "params", "colour"])
+        assert_problem(
+            submit(client, "quality", {"mesh": SQUARE, "colour": "red"}),
+            422,
+            ["body", "params", "colour"],
+        )
 
     def test_wait_answers_200_with_the_finished_job(self, client):
         r = submit(client, "quality", {"mesh": SQUARE}, wait=10)
@@ -145,8 +166,7 @@ class TestSubmit:
         assert job["status"] == "failed"
         assert job["error"]["status"] == 500
         assert "boom" in job["error"]["detail"]
-        assert submit(client, "quality", {"mesh": SQUARE}, wait=10).json()[
-            "status"] == "succeeded"
+        assert submit(client, "quality", {"mesh": SQUARE}, wait=10).json()["status"] == "succeeded"
 
     def test_mesh_error_found_in_the_job_is_a_422_problem_in_error(self, client):
         job = submit(client, "echo_mesh", {"mesh": SQUARE}, wait=10).json()
@@ -156,8 +176,11 @@ class TestSubmit:
 @pytest.fixture(scope="module")
 def small(tmp_path_factory):
     """A server taking bodies of at most 2000 bytes and jobs of at most 3 points."""
-    server = LiveServer(tmp_path_factory.mktemp("limits") / "data",
-                        MESHSERVICE_MAX_BODY_BYTES="2000", MESHSERVICE_MAX_POINTS="3").start()
+    server = LiveServer(
+        tmp_path_factory.mktemp("limits") / "data",
+        MESHSERVICE_MAX_BODY_BYTES="2000",
+        MESHSERVICE_MAX_POINTS="3",
+    ).start()
     yield server
     server.stop()
 
@@ -165,8 +188,10 @@ def small(tmp_path_factory):
 class TestLimits:
     def test_body_too_large_is_413(self, small):
         with small.client() as c:
-            big = {"points": [[i, 0.5 * i] for i in range(300)],
-                   "cells": [{"type": "vertex", "data": [[i] for i in range(300)]}]}
+            big = {
+                "points": [[i, 0.5 * i] for i in range(300)],
+                "cells": [{"type": "vertex", "data": [[i] for i in range(300)]}],
+            }
             assert_problem(submit(c, "quality", {"mesh": big}), 413)
 
             def chunks():
@@ -213,8 +238,9 @@ class TestGet:
         job = submit(client, "quality", {"mesh": SQUARE}, wait=10).json()
         r = client.get(f"/v1/jobs/{job['id']}")
         etag = r.headers["etag"]
-        assert client.get(f"/v1/jobs/{job['id']}", headers={"If-None-Match": etag}).status_code \
-            == 304
+        assert (
+            client.get(f"/v1/jobs/{job['id']}", headers={"If-None-Match": etag}).status_code == 304
+        )
 
     def test_long_poll_returns_when_the_status_changes(self, client):
         job = submit(client, "sleep", {"seconds": 0.5}).json()
@@ -228,8 +254,11 @@ class TestGet:
         job = submit(client, "sleep", {"seconds": 2}).json()
         job = wait_status(client, job["id"], {"running"})
         r = client.get(f"/v1/jobs/{job['id']}")
-        r2 = client.get(f"/v1/jobs/{job['id']}", params={"wait": 10},
-                        headers={"If-None-Match": r.headers["etag"]})
+        r2 = client.get(
+            f"/v1/jobs/{job['id']}",
+            params={"wait": 10},
+            headers={"If-None-Match": r.headers["etag"]},
+        )
         assert r2.status_code == 200
         assert r2.headers["etag"] != r.headers["etag"]
         client.post(f"/v1/jobs/{job['id']}/cancel")
@@ -259,8 +288,9 @@ class TestEvents:
 
 class TestList:
     def test_bad_page_token_is_422(self, client):
-        assert_problem(client.get("/v1/jobs", params={"page_token": "garbage"}), 422,
-                       ["query", "page_token"])
+        assert_problem(
+            client.get("/v1/jobs", params={"page_token": "garbage"}), 422, ["query", "page_token"]
+        )
 
     def test_pages_cover_every_job_once_newest_first(self, start_server):
         server = start_server()
@@ -366,8 +396,10 @@ class TestResult:
     def test_download_reads_back(self, client, fmt):
         mesh = {
             "points": [[0, 0], [1, 0], [2, 0], [0, 1], [1, 1], [2, 1]],
-            "cells": [{"type": "triangle", "data": [[0, 1, 4], [0, 4, 3]]},
-                      {"type": "quad", "data": [[1, 2, 5, 4]]}],
+            "cells": [
+                {"type": "triangle", "data": [[0, 1, 4], [0, 4, 3]]},
+                {"type": "quad", "data": [[1, 2, 5, 4]]},
+            ],
             "cell_sets": {"left": [[0, 1], []], "right": [[], [0]]},
         }
         if fmt == "stl":
@@ -387,7 +419,9 @@ class TestResult:
         assert len(back.points) == (len(used) if fmt == "stl" else 6)  # STL keeps used points
         if fmt in ("gmsh", "gmsh22", "abaqus"):
             assert {k: sum(len(a) for a in v) for k, v in back.cell_sets.items()} == {
-                "left": 2, "right": 1}
+                "left": 2,
+                "right": 1,
+            }
 
     def test_preview_svg_is_xml(self, client):
         job = submit(client, "echo_mesh", {"mesh": SQUARE}, wait=10).json()
@@ -424,16 +458,14 @@ class TestCrashes:
         job = wait_status(client, job["id"], {"failed"})
         assert job["error"]["type"] == "/problems/worker-died"
         assert "SIGKILL" in job["error"]["detail"]
-        assert submit(client, "quality", {"mesh": SQUARE}, wait=10).json()[
-            "status"] == "succeeded"
+        assert submit(client, "quality", {"mesh": SQUARE}, wait=10).json()["status"] == "succeeded"
 
     @pytest.mark.parametrize("how, words", [("exit", "status 3"), ("segfault", "SIGSEGV")])
     def test_crash_fails_only_that_job(self, client, how, words):
         job = submit(client, "crash", {"how": how}, wait=20).json()
         assert job["status"] == "failed"
         assert words in job["error"]["detail"]
-        assert submit(client, "quality", {"mesh": SQUARE}, wait=10).json()[
-            "status"] == "succeeded"
+        assert submit(client, "quality", {"mesh": SQUARE}, wait=10).json()["status"] == "succeeded"
 
     def test_memory_limit_fails_the_job(self, start_server):
         server = start_server(MESHSERVICE_JOB_MEMORY_LIMIT=str(1 << 30))
@@ -441,5 +473,4 @@ class TestCrashes:
             job = submit(c, "crash", {"how": "memory"}, wait=30).json()
             assert job["status"] == "failed"
             assert job["error"]["type"] == "/problems/out-of-memory"
-            assert submit(c, "quality", {"mesh": SQUARE}, wait=10).json()[
-                "status"] == "succeeded"
+            assert submit(c, "quality", {"mesh": SQUARE}, wait=10).json()["status"] == "succeeded"

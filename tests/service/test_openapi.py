@@ -8,7 +8,6 @@ import pytest
 import schemathesis
 import yaml
 from hypothesis import HealthCheck, given, settings
-
 from schemathesis.specs.openapi.checks import positive_data_acceptance
 
 from service.cli import openapi_yaml

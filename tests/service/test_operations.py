@@ -31,8 +31,9 @@ class TestRestart:
 
         again = start_server(data_dir=server.data_dir, MESHSERVICE_WORKERS="1")
         with again.client() as c:
-            assert c.get(f"/v1/jobs/{done['id']}/result").json()["quality"]["triangle"][
-                "count"] == 2
+            assert (
+                c.get(f"/v1/jobs/{done['id']}/result").json()["quality"]["triangle"]["count"] == 2
+            )
             for job in (running, queued):
                 assert wait_status(c, job["id"], {"succeeded", "failed"})["status"] == "succeeded"
             assert c.get(f"/v1/jobs/{running['id']}").json()["attempt"] == 2
@@ -56,8 +57,9 @@ class TestRestart:
 @pytest.fixture(scope="module")
 def keyed(tmp_path_factory):
     """A server with two clients' API keys."""
-    server = LiveServer(tmp_path_factory.mktemp("auth") / "data",
-                        MESHSERVICE_API_KEYS="alice-key:alice,bob-key:bob").start()
+    server = LiveServer(
+        tmp_path_factory.mktemp("auth") / "data", MESHSERVICE_API_KEYS="alice-key:alice,bob-key:bob"
+    ).start()
     yield server
     server.stop()
 
@@ -79,8 +81,10 @@ class TestAuth:
             assert_problem(submit(c, "quality", {"mesh": SQUARE}), 401)
 
     def test_another_clients_job_is_404_and_not_listed(self, server):
-        with server.client(headers={"Authorization": "Bearer alice-key"}) as alice, \
-                server.client(headers={"Authorization": "Bearer bob-key"}) as bob:
+        with (
+            server.client(headers={"Authorization": "Bearer alice-key"}) as alice,
+            server.client(headers={"Authorization": "Bearer bob-key"}) as bob,
+        ):
             job = submit(alice, "quality", {"mesh": SQUARE}, wait=10).json()
             assert alice.get(f"/v1/jobs/{job['id']}").status_code == 200
             for path in ("", "/result", "/events", "/preview.svg"):
@@ -98,9 +102,20 @@ class TestAuth:
 class TestStartup:
     def test_refuses_public_bind_without_keys(self, tmp_path):
         r = subprocess.run(
-            [sys.executable, "-m", "service", "serve", "--host", "0.0.0.0",
-             "--data-dir", str(tmp_path)],
-            cwd=ROOT, capture_output=True, text=True, timeout=60,
+            [
+                sys.executable,
+                "-m",
+                "service",
+                "serve",
+                "--host",
+                "0.0.0.0",
+                "--data-dir",
+                str(tmp_path),
+            ],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=60,
         )
         assert r.returncode == 2
         assert "refusing to listen on 0.0.0.0 without API keys" in r.stderr

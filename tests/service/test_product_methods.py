@@ -136,22 +136,31 @@ class TestExtrude:
         assert sizes == {"bottom": 2, "top": 2, "side": 40}
         assert sum(len(b) for b in mesh.cells if b.type == "wedge") == 20
 
-
     def test_a_domain_needs_a_size_and_excludes_a_mesh(self, client):
         path = SOLID_SQUARE["path"]
-        assert_problem(submit(client, "extrude", {"domain": RECTANGLE, "path": path}), 422,
-                       ["body", "params"])
-        assert_problem(submit(client, "extrude", {"mesh": SQUARE, "domain": RECTANGLE,
-                                                  "size": 0.2, "path": path}), 422)
-        assert_problem(submit(client, "extrude", {"domain": RECTANGLE, "size": 1e-6,
-                                                  "path": path}), 422,
-                       ["body", "params", "size"])
+        assert_problem(
+            submit(client, "extrude", {"domain": RECTANGLE, "path": path}), 422, ["body", "params"]
+        )
+        assert_problem(
+            submit(
+                client, "extrude", {"mesh": SQUARE, "domain": RECTANGLE, "size": 0.2, "path": path}
+            ),
+            422,
+        )
+        assert_problem(
+            submit(client, "extrude", {"domain": RECTANGLE, "size": 1e-6, "path": path}),
+            422,
+            ["body", "params", "size"],
+        )
 
     def test_a_domain_is_triangulated_then_extruded(self, client):
         """A 2 x 1 rectangle meshed at size 0.2, 3 layers of 0.5 / 3: wedges = 3 x triangles,
         volume = 2 x 0.5."""
-        params = {"domain": RECTANGLE, "size": 0.2,
-                  "path": {"type": "translate", "vector": [0, 0, 0.5], "layers": 3}}
+        params = {
+            "domain": RECTANGLE,
+            "size": 0.2,
+            "path": {"type": "translate", "vector": [0, 0, 0.5], "layers": 3},
+        }
         out = result(client, finished(client, "extrude", params))
         mesh = io.from_json(out["mesh"])
         wedges = mesh.cells_by_type["wedge"]

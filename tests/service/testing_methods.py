@@ -74,12 +74,15 @@ def run_boom(params: BoomParams, progress: Progress) -> dict:
 def testing_registry() -> Registry:
     registry = default_registry()
     for spec in [
-        MethodSpec("echo_mesh", "Return the input mesh.", "tests", EchoParams, run_echo,
-                   {"mesh": SQUARE}),
-        MethodSpec("sleep", "Sleep, reporting progress.", "tests", SleepParams, run_sleep,
-                   {"seconds": 0.1}),
-        MethodSpec("crash", "Kill the job's own process.", "tests", CrashParams, run_crash,
-                   {"how": "exit"}),
+        MethodSpec(
+            "echo_mesh", "Return the input mesh.", "tests", EchoParams, run_echo, {"mesh": SQUARE}
+        ),
+        MethodSpec(
+            "sleep", "Sleep, reporting progress.", "tests", SleepParams, run_sleep, {"seconds": 0.1}
+        ),
+        MethodSpec(
+            "crash", "Kill the job's own process.", "tests", CrashParams, run_crash, {"how": "exit"}
+        ),
         MethodSpec("boom", "Raise an unexpected exception.", "tests", BoomParams, run_boom, {}),
     ]:
         registry[spec.name] = spec
