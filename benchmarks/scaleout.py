@@ -30,7 +30,11 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
-ENV = {**os.environ, "DASK_DISTRIBUTED__WORKER__DAEMON": "False"}
+ENV = {
+    **os.environ,
+    "DASK_DISTRIBUTED__WORKER__DAEMON": "False",
+    "MESHSERVICE_MAX_QUEUED": "100000",
+}
 
 
 def _port() -> int:
@@ -81,7 +85,9 @@ def _wait_ready(url: str, workers: int | None = None) -> None:
 def _throughput(url: str, n: int) -> tuple[float, int]:
     with httpx.Client(base_url=url, timeout=120) as c:
         t0 = time.perf_counter()
-        ids = [c.post("/v1/jobs", json=MEDIUM).json()["id"] for _ in range(n)]
+        answers = [c.post("/v1/jobs", json=MEDIUM) for _ in range(n)]
+        assert all(a.status_code == 202 for a in answers), answers[0].text
+        ids = [a.json()["id"] for a in answers]
 
         def finish(job_id: str) -> str:
             while True:

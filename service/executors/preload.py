@@ -1,4 +1,4 @@
-"""Imported by the job fork server: compile-or-load numba kernels once.
+"""Imported last by the job fork server: load numba kernels once, then freeze the heap.
 
 Jobs run in processes forked from the fork server, so whatever the server
 has loaded, every job has for free. numba compiles (or loads from its disk
@@ -8,6 +8,8 @@ the service start. Triangulating a square with a hole, with and without
 keeping its boundary, runs the domain checks, the Delaunay kernel, the
 admissible boundary, the constrained triangulation and the refinement.
 """
+
+import gc
 
 from meshcore.domain import parse_domain
 from meshcore.triangulate import triangulate
@@ -23,3 +25,8 @@ _SQUARE_WITH_HOLE = parse_domain(
 )
 for _keep in (False, True):
     triangulate(_SQUARE_WITH_HOLE, min_angle=30, size=0.2, keep_boundary=_keep)
+
+# Jobs are forked from here: keep the collector off what is loaded by now, so
+# a job's garbage collections do not touch (and copy) these pages.
+gc.collect()
+gc.freeze()
