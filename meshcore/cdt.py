@@ -61,10 +61,7 @@ import math
 import numpy as np
 from numba import njit
 
-from meshcore.geometry.predicates import dot2d_exact, incircle_exact, orient2d_exact
-
-_CCW_ERRBOUND_A = (3.0 + 16.0 * 2.0**-53) * 2.0**-53
-_ICC_ERRBOUND_A = (10.0 + 96.0 * 2.0**-53) * 2.0**-53
+from meshcore.geometry.predicates import dot2d_filtered, incircle_filtered, orient2d_filtered
 
 # Insertion outcomes.
 OK, BLOCKED, ENCROACH, DEGENERATE, WALK_LIMIT, NO_SPACE = 0, 1, 2, 3, 4, 5
@@ -98,79 +95,8 @@ def _prv(k):
 
 
 @njit(cache=True)
-def _orient_xy(ax, ay, bx, by, cx, cy, work):
-    detleft = (ax - cx) * (by - cy)
-    detright = (ay - cy) * (bx - cx)
-    det = detleft - detright
-    errbound = _CCW_ERRBOUND_A * (abs(detleft) + abs(detright))
-    if det > errbound:
-        return 1
-    if -det > errbound:
-        return -1
-    if detleft == 0.0 or detright == 0.0:
-        if det > 0.0:
-            return 1
-        if det < 0.0:
-            return -1
-        return 0
-    return orient2d_exact(ax, ay, bx, by, cx, cy, work)
-
-
-@njit(cache=True)
 def _orient(P, a, b, c, work):
-    return _orient_xy(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], work)
-
-
-@njit(cache=True)
-def _dot_xy(ax, ay, bx, by, cx, cy, work):
-    """Sign of (a - c) . (b - c): -1 when c is in the open diametral ball of ab."""
-    left = (ax - cx) * (bx - cx)
-    right = (ay - cy) * (by - cy)
-    det = left + right
-    errbound = _CCW_ERRBOUND_A * (abs(left) + abs(right))
-    if det > errbound:
-        return 1
-    if -det > errbound:
-        return -1
-    if left == 0.0 or right == 0.0:
-        if det > 0.0:
-            return 1
-        if det < 0.0:
-            return -1
-        return 0
-    return dot2d_exact(ax, ay, bx, by, cx, cy, work)
-
-
-@njit(cache=True)
-def _incircle_xy(ax, ay, bx, by, cx, cy, dx, dy, work):
-    """Exact sign of d against the circle of CCW (a, b, c); 0 on the circle."""
-    adx = ax - dx
-    bdx = bx - dx
-    cdx = cx - dx
-    ady = ay - dy
-    bdy = by - dy
-    cdy = cy - dy
-    bdxcdy = bdx * cdy
-    cdxbdy = cdx * bdy
-    alift = adx * adx + ady * ady
-    cdxady = cdx * ady
-    adxcdy = adx * cdy
-    blift = bdx * bdx + bdy * bdy
-    adxbdy = adx * bdy
-    bdxady = bdx * ady
-    clift = cdx * cdx + cdy * cdy
-    det = alift * (bdxcdy - cdxbdy) + blift * (cdxady - adxcdy) + clift * (adxbdy - bdxady)
-    permanent = (
-        (abs(bdxcdy) + abs(cdxbdy)) * alift
-        + (abs(cdxady) + abs(adxcdy)) * blift
-        + (abs(adxbdy) + abs(bdxady)) * clift
-    )
-    errbound = _ICC_ERRBOUND_A * permanent
-    if det > errbound:
-        return 1
-    if -det > errbound:
-        return -1
-    return incircle_exact(ax, ay, bx, by, cx, cy, dx, dy, work)
+    return orient2d_filtered(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], work)
 
 
 @njit(cache=True)
@@ -178,7 +104,7 @@ def _incircle_tri(P, V, t, x, y, work):
     a = V[3 * t]
     b = V[3 * t + 1]
     c = V[3 * t + 2]
-    return _incircle_xy(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], x, y, work)
+    return incircle_filtered(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], x, y, work)
 
 
 # ---------------------------------------------------------------------------
@@ -376,7 +302,8 @@ def recover_segments(P, V, A, S, vt, seg, sid, work, info):
                 o2 = _orient(P, a, w, b, work)
                 if (
                     o1 == 0
-                    and _dot_xy(P[u, 0], P[u, 1], P[b, 0], P[b, 1], P[a, 0], P[a, 1], work) > 0
+                    and dot2d_filtered(P[u, 0], P[u, 1], P[b, 0], P[b, 1], P[a, 0], P[a, 1], work)
+                    > 0
                 ):
                     info[0] = COLLINEAR
                     info[1] = r
@@ -477,7 +404,7 @@ def recover_segments(P, V, A, S, vt, seg, sid, work, info):
         v = V[_prv(k)]
         q = V[A[k]]
         if (
-            _incircle_xy(
+            incircle_filtered(
                 P[p, 0], P[p, 1], P[u, 0], P[u, 1], P[v, 0], P[v, 1], P[q, 0], P[q, 1], work
             )
             > 0
@@ -769,7 +696,7 @@ def _locate(P, V, A, S, x, y, t0, work):
                 continue
             u = V[_nxt(k)]
             v = V[_prv(k)]
-            if _orient_xy(P[u, 0], P[u, 1], P[v, 0], P[v, 1], x, y, work) < 0:
+            if orient2d_filtered(P[u, 0], P[u, 1], P[v, 0], P[v, 1], x, y, work) < 0:
                 if A[k] < 0 or S[k] >= 0:
                     blocked = k
                 else:
@@ -858,7 +785,7 @@ def _insert(M, st, x, y, t0, split_k, sid, par, check_enc, gen, scr, work):
             if S[k] >= 0:
                 u = V[_nxt(k)]
                 v = V[_prv(k)]
-                if _dot_xy(P[u, 0], P[u, 1], P[v, 0], P[v, 1], x, y, work) < 0:
+                if dot2d_filtered(P[u, 0], P[u, 1], P[v, 0], P[v, 1], x, y, work) < 0:
                     scr[6, ne] = k
                     ne += 1
         if ne > 0:
@@ -869,7 +796,7 @@ def _insert(M, st, x, y, t0, split_k, sid, par, check_enc, gen, scr, work):
         k = scr[1, i]
         u = V[_nxt(k)]
         v = V[_prv(k)]
-        if _orient_xy(P[u, 0], P[u, 1], P[v, 0], P[v, 1], x, y, work) <= 0:
+        if orient2d_filtered(P[u, 0], P[u, 1], P[v, 0], P[v, 1], x, y, work) <= 0:
             return DEGENERATE
     # A simple cavity border (no vertex twice, e.g. around a dangling segment).
     dup = False
@@ -1023,12 +950,12 @@ def _encroached(P, V, A, k, work):
     u = V[_nxt(k)]
     v = V[_prv(k)]
     w = V[k]
-    if _dot_xy(P[u, 0], P[u, 1], P[v, 0], P[v, 1], P[w, 0], P[w, 1], work) < 0:
+    if dot2d_filtered(P[u, 0], P[u, 1], P[v, 0], P[v, 1], P[w, 0], P[w, 1], work) < 0:
         return True
     kk = A[k]
     if kk >= 0:
         w = V[kk]
-        if _dot_xy(P[u, 0], P[u, 1], P[v, 0], P[v, 1], P[w, 0], P[w, 1], work) < 0:
+        if dot2d_filtered(P[u, 0], P[u, 1], P[v, 0], P[v, 1], P[w, 0], P[w, 1], work) < 0:
             return True
     return False
 
@@ -1051,7 +978,7 @@ def _enqueue_new(M, D, Qs, st, scr, nb, split, work):
             if S[k] >= 0:
                 u = V[3 * T + 1]
                 v = V[3 * T + 2]
-                if _dot_xy(P[u, 0], P[u, 1], P[v, 0], P[v, 1], P[c, 0], P[c, 1], work) < 0:
+                if dot2d_filtered(P[u, 0], P[u, 1], P[v, 0], P[v, 1], P[c, 0], P[c, 1], work) < 0:
                     SQ[0, sqn] = u
                     SQ[1, sqn] = v
                     sqn += 1
@@ -1289,7 +1216,9 @@ def locate_many(points, triangles, neighbors, q, out_t, out_bary, work):
                 a = triangles[cur, (e + 1) % 3]
                 b = triangles[cur, (e + 2) % 3]
                 if (
-                    _orient_xy(points[a, 0], points[a, 1], points[b, 0], points[b, 1], x, y, work)
+                    orient2d_filtered(
+                        points[a, 0], points[a, 1], points[b, 0], points[b, 1], x, y, work
+                    )
                     < 0
                 ):
                     nb = neighbors[cur, e]

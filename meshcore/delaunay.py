@@ -215,6 +215,8 @@ def _walk_hints(seq, curve_sorted):
 # ---------------------------------------------------------------------------
 
 
+# _orient and _incircle repeat the filters of predicates.orient2d_filtered and
+# incircle_filtered, inlined: calling those instead measured 5-18 % slower here.
 @njit(cache=True, inline="always")
 def _orient(pts, a, b, c, work):
     ax = pts[a, 0]

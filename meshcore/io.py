@@ -271,12 +271,20 @@ def to_bytes(mesh: Mesh, fmt: str) -> bytes:
     m = _meshio_for(mesh, fmt)
     with tempfile.TemporaryDirectory(prefix="meshcore-") as tmp:
         path = os.path.join(tmp, "mesh" + spec.suffix)
-        if fmt == "xdmf":  # heavy data inline, so that the download is one file
-            meshio.xdmf.write(path, m, data_format="XML")
-        elif fmt in ("stl", "ply", "gmsh", "gmsh22"):
-            meshio.write(path, m, file_format=spec.meshio_name, binary=True)
-        else:
-            meshio.write(path, m, file_format=spec.meshio_name)
+        try:
+            if fmt == "xdmf":  # heavy data inline, so that the download is one file
+                meshio.xdmf.write(path, m, data_format="XML")
+            elif fmt in ("stl", "ply", "gmsh", "gmsh22"):
+                meshio.write(path, m, file_format=spec.meshio_name, binary=True)
+            else:
+                meshio.write(path, m, file_format=spec.meshio_name)
+        except (meshio.WriteError, meshio.ReadError, ValueError, KeyError, TypeError) as exc:
+            # what the table above cannot foresee (data meshio cannot store): a 4xx, not a 500
+            raise InputError(
+                f"format {fmt!r} cannot hold this mesh: {exc}",
+                loc=("format",),
+                code="format_mismatch",
+            ) from None
         with open(path, "rb") as f:
             data = f.read()
     return data + _abaqus_elsets(mesh).encode() if fmt == "abaqus" else data

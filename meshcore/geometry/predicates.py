@@ -52,12 +52,15 @@ __all__ = [
     "WORK_SIZE",
     "dot2d",
     "dot2d_exact",
+    "dot2d_filtered",
     "incircle",
     "incircle_exact",
+    "incircle_filtered",
     "incircle_scalar",
     "indiametral",
     "orient2d",
     "orient2d_exact",
+    "orient2d_filtered",
     "orient2d_scalar",
     "orient3d",
     "orient3d_exact",
@@ -325,6 +328,29 @@ def orient2d_exact(ax, ay, bx, by, cx, cy, work):
 
 
 @njit(cache=True)
+def orient2d_filtered(ax, ay, bx, by, cx, cy, work):
+    """:func:`orient2d_scalar` with a ``(WORK_SIZE,)`` scratch buffer for the exact stage.
+
+    For compiled loops that allocate the buffer once (the CDT kernels).
+    """
+    detleft = (ax - cx) * (by - cy)
+    detright = (ay - cy) * (bx - cx)
+    det = detleft - detright
+    errbound = _CCW_ERRBOUND_A * (abs(detleft) + abs(detright))
+    if det > errbound:
+        return 1
+    if -det > errbound:
+        return -1
+    if detleft == 0.0 or detright == 0.0:
+        if det > 0.0:
+            return 1
+        if det < 0.0:
+            return -1
+        return 0
+    return orient2d_exact(ax, ay, bx, by, cx, cy, work)
+
+
+@njit(cache=True)
 def orient2d_scalar(ax, ay, bx, by, cx, cy):
     """Sign of the orientation of the points a, b, c (float filter, then exact).
 
@@ -409,6 +435,29 @@ def dot2d_exact(ax, ay, bx, by, cx, cy, work):
     qlen = _expansion_product(n3, e3, n4, e4, q, t1, t2)
     hlen = _expansion_sum(plen, p, qlen, q, h)
     return _sign_of(hlen, h)
+
+
+@njit(cache=True)
+def dot2d_filtered(ax, ay, bx, by, cx, cy, work):
+    """Sign of ``(a - c) . (b - c)`` (filter, then exact); ``work`` is scratch.
+
+    -1 when c is in the open diametral ball of ab (§9.1.1), 0 on its circle.
+    """
+    left = (ax - cx) * (bx - cx)
+    right = (ay - cy) * (by - cy)
+    det = left + right
+    errbound = _CCW_ERRBOUND_A * (abs(left) + abs(right))
+    if det > errbound:
+        return 1
+    if -det > errbound:
+        return -1
+    if left == 0.0 or right == 0.0:
+        if det > 0.0:
+            return 1
+        if det < 0.0:
+            return -1
+        return 0
+    return dot2d_exact(ax, ay, bx, by, cx, cy, work)
 
 
 # ---------------------------------------------------------------------------
@@ -560,20 +609,8 @@ def _cross4(a, b, c, d, out):
 
 
 @njit(cache=True)
-def incircle_scalar(ax, ay, bx, by, cx, cy, dx, dy):
-    """Sign of the in-circle test of d against the circle through a, b, c.
-
-    Parameters
-    ----------
-    ax, ay, bx, by, cx, cy, dx, dy : float64
-
-    Returns
-    -------
-    int
-        For counter-clockwise a, b, c: +1 if d is strictly inside the
-        circumcircle, -1 strictly outside, 0 exactly on it; reversed for a
-        clockwise triangle.
-    """
+def incircle_filtered(ax, ay, bx, by, cx, cy, dx, dy, work):
+    """:func:`incircle_scalar` with a ``(WORK_SIZE,)`` scratch buffer for the exact stage."""
     adx = ax - dx
     bdx = bx - dx
     cdx = cx - dx
@@ -600,7 +637,25 @@ def incircle_scalar(ax, ay, bx, by, cx, cy, dx, dy):
         return 1
     if -det > errbound:
         return -1
-    return incircle_exact(ax, ay, bx, by, cx, cy, dx, dy, np.empty(WORK_SIZE))
+    return incircle_exact(ax, ay, bx, by, cx, cy, dx, dy, work)
+
+
+@njit(cache=True)
+def incircle_scalar(ax, ay, bx, by, cx, cy, dx, dy):
+    """Sign of the in-circle test of d against the circle through a, b, c.
+
+    Parameters
+    ----------
+    ax, ay, bx, by, cx, cy, dx, dy : float64
+
+    Returns
+    -------
+    int
+        For counter-clockwise a, b, c: +1 if d is strictly inside the
+        circumcircle, -1 strictly outside, 0 exactly on it; reversed for a
+        clockwise triangle.
+    """
+    return incircle_filtered(ax, ay, bx, by, cx, cy, dx, dy, np.empty(WORK_SIZE))
 
 
 # ---------------------------------------------------------------------------

@@ -224,3 +224,19 @@ class TestJson:
         with pytest.raises(InputError) as err:
             io.from_json(obj)
         assert err.value.errors[0]["loc"] == ["cells", 0, "data"]
+
+
+@pytest.mark.parametrize("fmt", ["gmsh", "gmsh22", "xdmf"])
+def test_data_a_format_cannot_store_is_an_input_error(fmt: str) -> None:
+    """Gmsh stores 1, 3 or 9 components per point; five are refused, not crashed on."""
+    five = [[1.0, 2.0, 3.0, 4.0, 5.0]] * 3
+    mesh = io.from_json(
+        {
+            "points": [[0, 0], [1, 0], [0, 1]],
+            "cells": [{"type": "triangle", "data": [[0, 1, 2]]}],
+            "point_data": {"v": five},
+        }
+    )
+    with pytest.raises(InputError) as err:
+        io.to_bytes(mesh, fmt)
+    assert err.value.code == "format_mismatch"
