@@ -6,7 +6,11 @@ the pyramid's, see :func:`scaled_jacobian`):
 - triangle: normalized shape ratio ``4 sqrt(3) A / (a² + b² + c²)``
   (:func:`triangle_shape`);
 - quad: the corner measure (8.3)/(8.4) of §8.4.4, or its metric form (8.6)
-  (:func:`quad_quality`);
+  with a constant metric or one per vertex (:func:`quad_quality`); also the
+  simplified measure (8.7) at the ends of one diagonal
+  (:func:`quad_quality_simplified`), the shape measure (8.8) of Remark 8.7
+  (:func:`quad_shape`) and, for quads in space, the warp angle
+  (:func:`quad_warp`);
 - tetra: normalized radius ratio ``3 r_in / r_circ`` (:func:`tetra_radius_ratio`);
 - pyramid, wedge, hexahedron: scaled Jacobian, the least normalized corner
   Jacobian determinant (:func:`scaled_jacobian`).
@@ -25,7 +29,8 @@ cell is degenerate), so no function here returns NaN for finite input
 counts the cell as invalid with quality 0 and skips its angles).
 
 References: §8.4.4 (quad quality (8.3), (8.4), angle in a metric (8.5), quad
-quality in a metric (8.6)); §8.3.1, Definition 8.1 (conformity).
+quality in a metric (8.6), the simplified measure (8.7), Remark 8.7 (8.8));
+§8.4.5 (quads on a surface); §8.3.1, Definition 8.1 (conformity).
 """
 
 from __future__ import annotations
@@ -46,6 +51,9 @@ __all__ = [
     "cell_quality",
     "quad_angles",
     "quad_quality",
+    "quad_quality_simplified",
+    "quad_shape",
+    "quad_warp",
     "report",
     "scaled_jacobian",
     "signed_area",
@@ -194,6 +202,52 @@ def _metric(metric, d: int) -> np.ndarray | None:
         raise InputError(
             "metric must be positive definite", loc=("metric",), code="bad_metric"
         ) from exc
+
+
+def _metric_factors(metric, d: int, n: int) -> np.ndarray | None:
+    """Cholesky factors of a constant metric ``(d, d)`` or of one metric per point ``(n, d, d)``.
+
+    Returns ``None``, a ``(d, d)`` factor, or ``(n, d, d)`` factors
+    (``M_p = L_p L_p^T``); an InputError locates the first bad point metric.
+    """
+    if metric is None:
+        return None
+    try:
+        m = np.asarray(metric, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(
+            "metric must be a square matrix of numbers", loc=("metric",), code="bad_metric"
+        ) from exc
+    if m.ndim != 3:
+        return _metric(m, d)
+    if m.shape != (n, d, d):
+        raise InputError(
+            f"a metric per point must have shape ({n}, {d}, {d}), got {m.shape}",
+            loc=("metric",),
+            code="bad_metric",
+        )
+    finite = np.isfinite(m).all(axis=(1, 2))
+    sym = np.isclose(m, np.swapaxes(m, 1, 2), rtol=1e-12, atol=0.0).all(axis=(1, 2))
+    bad = ~(finite & sym)
+    if not bad.any():
+        bad = ~(np.linalg.eigvalsh(m).min(axis=1) > 0)
+    if bad.any():
+        p = int(np.flatnonzero(bad)[0])
+        raise InputError(
+            f"the metric of point {p} is not a finite symmetric positive definite matrix",
+            loc=("metric", p),
+            code="bad_metric",
+        )
+    return np.linalg.cholesky(m)
+
+
+def _mapped(P: list[_V], Lrows: np.ndarray) -> list[_V]:
+    """Cell vertices mapped row by row by ``x -> L^T x``, ``Lrows`` of shape ``(m, d, d)``."""
+    d = Lrows.shape[1]
+    out = []
+    for v in P:
+        out.append(_V(sum(v.c[i] * Lrows[:, i, j] for i in range(d)) for j in range(d)))
+    return out
 
 
 # ----------------------------------------------------------------------------- kernels
@@ -480,9 +534,11 @@ def quad_quality(points: np.ndarray, cells: np.ndarray, metric: np.ndarray | Non
         the sense is that of the quad's vector area, so only non-convex or
         flat quads get 0.
     cells : (m, 4) int
-    metric : (d, d) float64, optional
+    metric : (d, d) or (n, d, d) float64, optional
         A constant symmetric positive definite metric, ``d`` the points'
-        dimension.
+        dimension, or one per point: then each quad takes the least of the
+        four values measured in the metrics of its corners (the 16 corner
+        evaluations of Remark 8.6).
 
     Returns
     -------
@@ -492,18 +548,170 @@ def quad_quality(points: np.ndarray, cells: np.ndarray, metric: np.ndarray | Non
     Raises
     ------
     InputError
-        ``bad_metric`` when the metric is not a finite SPD ``(d, d)`` matrix.
+        ``bad_metric`` when the metric is not a finite SPD ``(d, d)`` matrix
+        (or ``(n, d, d)`` stack, naming the first bad point).
 
     References
     ----------
     §8.4.4, equations (8.3), (8.4), (8.5), (8.6).
     """
     pts, data = _prepare(points, cells, "quad", ("quad",))
-    L = _metric(metric, pts.shape[1])
+    L = _metric_factors(metric, pts.shape[1], len(pts))
+    if L is not None and L.ndim == 3:
+        P = _gather(pts, data)
+        q = None
+        for j in range(4):  # (8.6): the least value over the metrics of the corners
+            _, cos, turn = _quad(_mapped(P, L[data[:, j]]))
+            qj = _quad_q(cos, turn)
+            q = qj if q is None else np.minimum(q, qj, out=q)
+        return q
     if L is not None:
         pts = pts @ L
     _, cos, turn = _quad(_gather(pts, data))
     return _quad_q(cos, turn)
+
+
+@_quiet
+def quad_quality_simplified(points: np.ndarray, cells: np.ndarray, metric=None) -> np.ndarray:
+    """The simplified quad quality (8.7) of §8.4.4, at the ends of the diagonal 0-2.
+
+    For a quad ``ABCD`` made of the triangles ``ABC`` and ``CDA`` (nodes 0
+    and 2 the ends of their common edge ``AC``), the least of the corner
+    values (8.3) at ``A`` and ``C``, each angle measured in the metrics at
+    ``A`` and at ``C``: four values instead of the sixteen of (8.6). The
+    corners at ``B`` and ``D`` are triangle corners and do not enter, except
+    that a quad with any corner turning the wrong way (or not at all) gets
+    0, as in :func:`quad_quality`.
+
+    Parameters
+    ----------
+    points : (n, 2) or (n, 3) float64
+    cells : (m, 4) int
+        Nodes 0 and 2 the ends of the diagonal the measure is about.
+    metric : (d, d) or (n, d, d) float64, optional
+        Constant, or one per point (only those of nodes 0 and 2 are used).
+
+    Returns
+    -------
+    (m,) float64
+        In ``[0, 1]``; 1 when the corners at nodes 0 and 2 are right angles.
+
+    References
+    ----------
+    §8.4.4, equation (8.7).
+    """
+    pts, data = _prepare(points, cells, "quad", ("quad",))
+    L = _metric_factors(metric, pts.shape[1], len(pts))
+    P = _gather(pts, data)
+    if L is None or L.ndim == 2:
+        mapped = [P if L is None else _gather(pts @ L, data)]
+    else:
+        mapped = [_mapped(P, L[data[:, j]]) for j in (0, 2)]
+    q = None
+    for Pm in mapped:
+        _, cos, turn = _quad(Pm)
+        qj = _quad_q([cos[0], cos[2]], turn)
+        q = qj if q is None else np.minimum(q, qj, out=q)
+    return q
+
+
+#: alpha of (8.8): 1 for the square (S_min = 1/2, h_max = sqrt 2, sides 1).
+_SHAPE_ALPHA = 4.0 * math.sqrt(2.0)
+
+
+@_quiet
+def quad_shape(points: np.ndarray, cells: np.ndarray, metric=None) -> np.ndarray:
+    """The shape quality (8.8) of Remark 8.7: ``alpha S_min / (h_max sqrt(sum d_i²))``.
+
+    ``S_min`` is the least area of the four triangles ``012, 123, 230, 301``
+    of the quad (signed: in the plane by the plane's orientation, on a
+    surface along the quad's vector area, so a non-convex or clockwise quad
+    scores ``<= 0``), ``h_max`` the longest of the four sides and two
+    diagonals, ``d_i`` the four sides (the sum runs over ``i = 1..4`` in
+    the text; we read the ``d_i`` as the sides), and ``alpha = 4 sqrt(2)``
+    makes the square 1. A rectangle of sides ``1`` and ``r >= 1`` scores
+    ``2 sqrt(2) r / (sqrt(1 + r²) sqrt(2 + 2 r²)) = 2 r / (1 + r²)`` (0.8 at
+    ``r = 2``), so unlike (8.4) this measure also penalizes stretched quads.
+
+    Parameters
+    ----------
+    points : (n, 2) or (n, 3) float64
+    cells : (m, 4) int
+    metric : (d, d) float64, optional
+        A constant SPD metric: the measure of the points mapped by
+        ``x -> L^T x`` (``M = L L^T``). The text defines (8.8) for the
+        isotropic case only; a metric per point is refused.
+
+    Returns
+    -------
+    (m,) float64
+        At most 1, 1 exactly for squares; ``<= 0`` when some corner is not convex.
+
+    References
+    ----------
+    §8.4.4, Remark 8.7, equation (8.8).
+    """
+    pts, data = _prepare(points, cells, "quad", ("quad",))
+    L = _metric_factors(metric, pts.shape[1], len(pts))
+    if L is not None and L.ndim == 3:
+        raise InputError(
+            "the shape measure (8.8) takes a constant metric only",
+            loc=("metric",),
+            code="bad_metric",
+        )
+    if L is not None:
+        pts = pts @ L
+    P = _gather(pts, data)
+    d1, d2 = P[2] - P[0], P[3] - P[1]
+    normal = d1.cross(d2)
+    planar = isinstance(normal, np.ndarray)
+    nn = None if planar else normal.norm()
+    smin = None
+    for a, b, c in ((0, 1, 2), (1, 2, 3), (2, 3, 0), (3, 0, 1)):
+        t = (P[b] - P[a]).cross(P[c] - P[a])
+        s = 0.5 * t if planar else _ratio(0.5 * t.dot(normal), nn)
+        smin = s if smin is None else np.minimum(smin, s, out=smin)
+    edges = [P[(j + 1) % 4] - P[j] for j in range(4)]
+    sides = [e.dot(e) for e in edges]
+    hmax2 = np.maximum(d1.dot(d1), d2.dot(d2))
+    for s2 in sides:
+        np.maximum(hmax2, s2, out=hmax2)
+    return _ratio(_SHAPE_ALPHA * smin, np.sqrt(hmax2 * (sides[0] + sides[1] + sides[2] + sides[3])))
+
+
+@_quiet
+def quad_warp(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """Warp of quads in space: the larger of the two fold angles, in degrees.
+
+    Split along the diagonal 0-2, a quad is the triangles ``012`` and
+    ``023``; the fold angle is the angle between their normals. The warp is
+    the larger of that angle and the one of the split along 1-3. It is 0 for
+    a planar quad (and for every quad of points in the plane) and grows as
+    the quad twists out of a plane (§8.4.5: quads of a surface need not be
+    planar).
+
+    Parameters
+    ----------
+    points : (n, 2) or (n, 3) float64
+    cells : (m, 4) int
+
+    Returns
+    -------
+    (m,) float64
+        In ``[0, 180]``; 0 where a split triangle is degenerate.
+    """
+    pts, data = _prepare(points, cells, "quad", ("quad",))
+    if pts.shape[1] == 2:
+        return np.zeros(len(data))
+    P = _gather(pts, data)
+    out = None
+    for a, b, c, d in ((0, 1, 2, 3), (1, 2, 3, 0)):
+        n1 = (P[b] - P[a]).cross(P[c] - P[a])
+        n2 = (P[c] - P[a]).cross(P[d] - P[a])
+        n11, n22 = n1.dot(n1), n2.dot(n2)
+        ang = _acos_deg(_cos(n1, n2, n11, n22))
+        out = ang if out is None else np.maximum(out, ang, out=out)
+    return out
 
 
 @_quiet
