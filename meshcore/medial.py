@@ -86,6 +86,7 @@ reconstruction" (1999).
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -97,8 +98,7 @@ from meshcore.admissible import _edges_present, admissible_segments
 from meshcore.delaunay import delaunay
 from meshcore.domain import Domain, _ray_parity, parse_domain
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.geometry.constructions import circumcenter
-from meshcore.geometry.predicates import incircle
+from meshcore.geometry.predicates import WORK_SIZE, incircle_filtered
 from meshcore.mesh import CellBlock, Mesh
 
 __all__ = [
@@ -162,6 +162,13 @@ class MedialAxis:
         For ``voronoi`` nodes, a triangle whose circumcentre the node is;
         -1 for the corner nodes added at Type 2 apexes and, in the
         ``midpoints`` approximation, for edge midpoints.
+    triangle_node : (t,) int64
+        For ``voronoi``, the node each triangle's circumcentre is (co-circular
+        neighbours share one), -1 where pruned; all -1 for ``midpoints``.
+    edge_pq : (m, 2) int64
+        For ``voronoi``, the interior Delaunay edge (two samples, one on each
+        side of the axis) that each axis edge crosses; -1 for the edges to
+        Type 2 apexes and for ``midpoints``.
     stats : dict
         Counts: samples, added points, triangles by type, nodes by kind,
         edges, branches, branches pruned.
@@ -180,6 +187,8 @@ class MedialAxis:
     triangles: np.ndarray
     triangle_type: np.ndarray
     node_triangle: np.ndarray
+    triangle_node: np.ndarray
+    edge_pq: np.ndarray
     stats: dict = field(default_factory=dict)
 
     def to_json(self) -> dict:
@@ -356,11 +365,18 @@ def _empty_triangulation(tri, nb, succ):
 
 
 @njit(cache=True)
-def _dual_edges(tri, nb, inside, bnd):
-    """Interior edges between inside triangles: (t, u, p, q, c, d) rows, t < u,
-    ``p, q`` the shared edge, ``c`` opposite in ``t``, ``d`` opposite in ``u``."""
+def _dual_edges(pts, tri, nb, inside, bnd):
+    """Interior edges between inside triangles.
+
+    Returns rows ``(t, u, p, q)`` with ``t < u`` and ``p, q`` the shared
+    edge, and per row whether the four vertices are co-circular (the exact
+    in-circle sign of the vertex of ``u`` opposite the edge against ``t``'s
+    circle is 0).
+    """
     nt = tri.shape[0]
-    out = np.empty((3 * nt // 2 + 1, 6), np.int64)
+    out = np.empty((3 * nt // 2 + 1, 4), np.int64)
+    cocircular = np.empty(3 * nt // 2 + 1, np.bool_)
+    work = np.empty(WORK_SIZE)
     k = 0
     for t in range(nt):
         if not inside[t]:
@@ -371,16 +387,55 @@ def _dual_edges(tri, nb, inside, bnd):
             u = nb[t, i]
             if u < t:
                 continue
-            out[k, 0] = t
-            out[k, 1] = u
-            out[k, 2] = tri[t, (i + 1) % 3]
-            out[k, 3] = tri[t, (i + 2) % 3]
-            out[k, 4] = tri[t, i]
+            p = tri[t, (i + 1) % 3]
+            q = tri[t, (i + 2) % 3]
+            c = tri[t, i]
+            d = c
             for j in range(3):
                 if nb[u, j] == t:
-                    out[k, 5] = tri[u, j]
+                    d = tri[u, j]
+            out[k, 0] = t
+            out[k, 1] = u
+            out[k, 2] = p
+            out[k, 3] = q
+            s = incircle_filtered(
+                pts[p, 0],
+                pts[p, 1],
+                pts[q, 0],
+                pts[q, 1],
+                pts[c, 0],
+                pts[c, 1],
+                pts[d, 0],
+                pts[d, 1],
+                work,
+            )
+            cocircular[k] = s == 0
             k += 1
-    return out[:k]
+    return out[:k], cocircular[:k]
+
+
+@njit(cache=True)
+def _circumcentres(pts, T):
+    """Circumcentre and circumradius of each triangle, relative to its first vertex."""
+    n = T.shape[0]
+    centre = np.empty((n, 2))
+    radius = np.empty(n)
+    for i in range(n):
+        ax = pts[T[i, 0], 0]
+        ay = pts[T[i, 0], 1]
+        bx = pts[T[i, 1], 0] - ax
+        by = pts[T[i, 1], 1] - ay
+        cx = pts[T[i, 2], 0] - ax
+        cy = pts[T[i, 2], 1] - ay
+        b2 = bx * bx + by * by
+        c2 = cx * cx + cy * cy
+        den = 2.0 * (bx * cy - by * cx)
+        ux = (cy * b2 - by * c2) / den
+        uy = (bx * c2 - cx * b2) / den
+        centre[i, 0] = ax + ux
+        centre[i, 1] = ay + uy
+        radius[i] = math.hypot(ux, uy)
+    return centre, radius
 
 
 @njit(cache=True)
@@ -895,7 +950,17 @@ def medial_axis(
     ----------
     Methods text §9.4.1-§9.4.3, Remarks 9.10-9.14.
     """
-    report = progress or (lambda fraction, message: None)
+    timings: dict[str, float] = {}
+    clock = [time.perf_counter()]
+
+    def report(fraction: float, message: str, phase: str | None = None) -> None:
+        if phase is not None:
+            now = time.perf_counter()
+            timings[phase] = round(now - clock[0], 6)
+            clock[0] = now
+        if progress is not None:
+            progress(fraction, message)
+
     if (domain is None) == (points is None):
         raise InputError("give exactly one of domain and points", loc=(), code="bad_input")
     if approximation not in ("voronoi", "midpoints"):
@@ -919,9 +984,9 @@ def medial_axis(
     report(0.05, "sampling the boundary")
     pts, succ, source = _sampled(domain, h)
     h_used = float(h) if h is not None else float(np.hypot(*(pts[succ] - pts).T).max())
-    report(0.1, f"Delaunay triangulation of {len(pts)} boundary samples")
+    report(0.1, f"Delaunay triangulation of {len(pts)} boundary samples", "sampling")
     pts, succ, source, tri, added = _admissible(pts, succ, source, progress)
-    report(0.5, "typing the triangles")
+    report(0.5, "typing the triangles", "delaunay")
     inside, bnd, ttype, status = _empty_triangulation(tri.triangles, tri.neighbors, succ)
     if status[0] < 0:
         raise AlgorithmError("the boundary pieces do not bound the domain (fill leaked)")
@@ -930,24 +995,21 @@ def medial_axis(
     types = ttype[keep]
     remap = np.full(len(tri.triangles), -1, dtype=np.int64)
     remap[keep] = np.arange(len(keep))
-    dual = _dual_edges(tri.triangles, tri.neighbors, inside, bnd)
+    dual, cocircular = _dual_edges(pts, tri.triangles, tri.neighbors, inside, bnd)
     dual[:, 0] = remap[dual[:, 0]]
     dual[:, 1] = remap[dual[:, 1]]
-    p, q, c, d = (pts[dual[:, i]] for i in range(2, 6))
-    cocircular = incircle(p, q, c, d) == 0
     label, n_nodes = _classes(len(T), dual[cocircular, :2])
-    report(0.6, "Voronoi graph")
+    report(0.6, "Voronoi graph", "types")
     rep = np.full(n_nodes, len(T), dtype=np.int64)
     np.minimum.at(rep, label, np.arange(len(T)))  # first triangle of each class
-    centre = circumcenter(pts[T[rep, 0]], pts[T[rep, 1]], pts[T[rep, 2]])
-    cradius = np.hypot(*(centre - pts[T[rep, 0]]).T)
+    centre, cradius = _circumcentres(pts, T[rep])
     between = ~cocircular
     g_edges = np.column_stack([label[dual[between, 0]], label[dual[between, 1]]])
     g_pq = dual[between, 2:4]
     node_alive, edge_alive, pruned = _prune(
         n_nodes, g_edges, g_pq, centre, cradius, pts, math.radians(prune)
     )
-    report(0.75, "terminal nodes and radii")
+    report(0.75, "terminal nodes and radii", "graph_and_pruning")
     class_type2 = np.full(n_nodes, -1, dtype=np.int64)
     t2 = np.flatnonzero(types == 2)
     class_type2[label[t2]] = t2
@@ -971,11 +1033,16 @@ def medial_axis(
         node_tri = np.concatenate([rep[alive_nodes], np.full(len(apex), -1)])
         base = len(alive_nodes)
         edges = np.concatenate([edges, np.column_stack([ends, base + np.arange(len(apex))])])
+        triangle_node = new_id[label]
+        edge_pq = np.concatenate([g_pq, np.full((len(apex), 2), -1)])
     else:
         nodes, seeds, node_tri, edges = _midpoint_graph(
             pts, T, rep, alive_nodes, edges, g_pq, deg, ends, apex, label
         )
+        triangle_node = np.full(len(T), -1, dtype=np.int64)
+        edge_pq = np.full((len(edges), 2), -1, dtype=np.int64)
     radius = _boundary_distance(nodes, seeds.astype(np.int64), pts, succ, pred)
+    report(0.9, "branches", "nodes_and_radii")
     radius[seeds.max(axis=1) < 0] = 0.0
     offsets, ids = _branches(len(nodes), edges.astype(np.int64))
     branches = tuple(ids[offsets[i] : offsets[i + 1]] for i in range(len(offsets) - 1))
@@ -998,7 +1065,8 @@ def medial_axis(
         "branches": len(branches),
         "branches_pruned": int(pruned),
     }
-    report(1.0, "done")
+    report(1.0, "done", "branches")
+    stats["seconds"] = timings
     return MedialAxis(
         nodes=nodes,
         radius=radius,
@@ -1013,6 +1081,8 @@ def medial_axis(
         triangles=T,
         triangle_type=types,
         node_triangle=node_tri.astype(np.int64),
+        triangle_node=triangle_node.astype(np.int64),
+        edge_pq=edge_pq.astype(np.int64),
         stats=stats,
     )
 
