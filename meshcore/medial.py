@@ -121,6 +121,25 @@ MAX_DEFAULT_SAMPLES = 1 << 18
 #: A given ``h`` may ask for at most this many boundary samples.
 MAX_SAMPLES = 1 << 23
 
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Every tolerance of this module; none of them decides a sign.
+
+    Attributes
+    ----------
+    node_merge : float
+        Adjacent circumcentres closer than this, times the domain's
+        diameter, are one node: the exactly co-circular ones already are,
+        and rounding leaves near-coincident ones (a few ulps apart) whose
+        edges have no meaningful direction.
+    """
+
+    node_merge: float = 2.0**-33
+
+
+TOLERANCES = Tolerances()
+
 _CRITICAL, _TERMINAL, _REGULAR, _ISOLATED = "critical", "terminal", "regular", "isolated"
 
 
@@ -165,6 +184,8 @@ class MedialAxis:
     triangle_node : (t,) int64
         For ``voronoi``, the node each triangle's circumcentre is (co-circular
         neighbours share one), -1 where pruned; all -1 for ``midpoints``.
+    node_sample : (n,) int64
+        The sample each corner node (a Type 2 apex) is, -1 for the others.
     edge_pq : (m, 2) int64
         For ``voronoi``, the interior Delaunay edge (two samples, one on each
         side of the axis) that each axis edge crosses; -1 for the edges to
@@ -188,6 +209,7 @@ class MedialAxis:
     triangle_type: np.ndarray
     node_triangle: np.ndarray
     triangle_node: np.ndarray
+    node_sample: np.ndarray
     edge_pq: np.ndarray
     stats: dict = field(default_factory=dict)
 
@@ -998,12 +1020,15 @@ def medial_axis(
     dual, cocircular = _dual_edges(pts, tri.triangles, tri.neighbors, inside, bnd)
     dual[:, 0] = remap[dual[:, 0]]
     dual[:, 1] = remap[dual[:, 1]]
-    label, n_nodes = _classes(len(T), dual[cocircular, :2])
+    centre_all, radius_all = _circumcentres(pts, T)
+    gap = np.hypot(*(centre_all[dual[:, 0]] - centre_all[dual[:, 1]]).T)
+    merged = cocircular | (gap <= TOLERANCES.node_merge * domain.diameter)
+    label, n_nodes = _classes(len(T), dual[merged, :2])
     report(0.6, "Voronoi graph", "types")
     rep = np.full(n_nodes, len(T), dtype=np.int64)
     np.minimum.at(rep, label, np.arange(len(T)))  # first triangle of each class
-    centre, cradius = _circumcentres(pts, T[rep])
-    between = ~cocircular
+    centre, cradius = centre_all[rep], radius_all[rep]
+    between = ~merged
     g_edges = np.column_stack([label[dual[between, 0]], label[dual[between, 1]]])
     g_pq = dual[between, 2:4]
     node_alive, edge_alive, pruned = _prune(
@@ -1058,6 +1083,7 @@ def medial_axis(
         "triangles": int(len(T)),
         "triangle_types": {f"type{i}": int(counts[i]) for i in range(4)},
         "cocircular_pairs": int(cocircular.sum()),
+        "merged_pairs": int(merged.sum()),
         "nodes": int(len(nodes)),
         "edges": int(len(edges)),
         "critical": int((deg >= 3).sum()),
@@ -1082,6 +1108,7 @@ def medial_axis(
         triangle_type=types,
         node_triangle=node_tri.astype(np.int64),
         triangle_node=triangle_node.astype(np.int64),
+        node_sample=np.concatenate([np.full(len(nodes) - len(apex), -1), apex]).astype(np.int64),
         edge_pq=edge_pq.astype(np.int64),
         stats=stats,
     )
