@@ -18,7 +18,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from meshcore import quality
+from service import params_medial as medial
 from service import params_product as product
+from service import params_quad as quad
 from service import params_triangulation as triangulation
 from service.schemas import MeshIn, MethodParams
 
@@ -124,6 +126,64 @@ def default_registry() -> Registry:
             params=triangulation.DelaunayAdmissibleParams,
             run=triangulation.run_delaunay_admissible,
             example=triangulation.DELAUNAY_ADMISSIBLE_EXAMPLE,
+        ),
+        MethodSpec(
+            name="quad_combine",
+            summary="Quad mesh by triangle combination: pairs chosen by a stack path, a heap, "
+            "a front or a matching (fewest triangles left), weighted by quad quality (metric "
+            "optional); optionally only quads (split), and optimized by the quad operators and "
+            "smoothing. Planar meshes, surfaces or a domain meshed first.",
+            section="§8.4 (8.4.1-8.4.5), Figures 8.12, 8.13, Remarks 8.3-8.8",
+            params=quad.QuadCombineParams,
+            run=quad.run_quad_combine,
+            example=quad.QUAD_COMBINE_EXAMPLE,
+        ),
+        MethodSpec(
+            name="medial_axis",
+            summary="Medial axis of a polygon (holes allowed) or of a boundary point cloud: "
+            "circumcentres of the empty Delaunay triangulation joined across interior edges, "
+            "spurious branches pruned; nodes with radii, critical and terminal nodes, branches; "
+            "downloadable as a line mesh with the radius.",
+            section="§9.4.1-§9.4.3 (Theorem 9.1, Figures 9.9-9.12, Remarks 9.10-9.14), §9.7.4",
+            params=medial.MedialAxisParams,
+            run=medial.run_medial_axis,
+            example=medial.MEDIAL_AXIS_EXAMPLE,
+        ),
+        MethodSpec(
+            name="medial_transform",
+            summary="Medial axis transform: the domain rebuilt as the union of the disks of a "
+            "medial axis, with the Hausdorff distance to the original boundary.",
+            section="§9.6",
+            params=medial.MedialTransformParams,
+            run=medial.run_medial_transform,
+            example=medial.MEDIAL_TRANSFORM_EXAMPLE,
+        ),
+        MethodSpec(
+            name="partition",
+            summary="Domain partition along cut lines of the medial axis, by either method of "
+            "the text: polygonal regions of 3 to 6 sides that tile the domain.",
+            section="§9.7.1 (Figure 9.13)",
+            params=medial.PartitionParams,
+            run=medial.run_partition,
+            example=medial.PARTITION_EXAMPLE,
+        ),
+        MethodSpec(
+            name="quad_medial",
+            summary="All-quad mesh from the medial-axis partition: midpoint subdivision of each "
+            "region, then repeated subdivision or a conforming transfinite fill at a size.",
+            section="§9.7.2 (Figure 9.14), §8.5.3",
+            params=medial.QuadMedialParams,
+            run=medial.run_quad_medial,
+            example=medial.QUAD_MEDIAL_EXAMPLE,
+        ),
+        MethodSpec(
+            name="simplify",
+            summary="Geometry simplification: holes and boundary details (notches, protrusions, "
+            "fillets, steps) small against the local radius of the medial axis removed.",
+            section="§9.7.4 (geometry simplification), Remark 9.15",
+            params=medial.SimplifyParams,
+            run=medial.run_simplify,
+            example=medial.SIMPLIFY_EXAMPLE,
         ),
     ]
     return {s.name: s for s in specs}
