@@ -6,12 +6,15 @@ cache) a kernel on its first call; running the kernels once here on a tiny
 domain moves that cost (about 0.3 s per kernel family) from every job to
 the service start. Triangulating a square with a hole, with and without
 keeping its boundary, runs the domain checks, the Delaunay kernel, the
-admissible boundary, the constrained triangulation and the refinement.
+admissible boundary, the constrained triangulation and the refinement; a
+quad mesh on the medial-axis partition runs the medial-axis kernels.
 """
 
 import gc
 
 from meshcore.domain import parse_domain
+from meshcore.medial import medial_axis
+from meshcore.partition import quad_medial
 from meshcore.triangulate import triangulate
 
 _SQUARE_WITH_HOLE = parse_domain(
@@ -25,6 +28,9 @@ _SQUARE_WITH_HOLE = parse_domain(
 )
 for _keep in (False, True):
     triangulate(_SQUARE_WITH_HOLE, min_angle=30, size=0.2, keep_boundary=_keep)
+# the medial axis kernels (polygon and point cloud), the partition's faces
+quad_medial(_SQUARE_WITH_HOLE, levels=0, h=0.05)
+medial_axis(points=[[0, 0], [1, 0], [1, 1], [0, 1]])
 
 # Jobs are forked from here: keep the collector off what is loaded by now, so
 # a job's garbage collections do not touch (and copy) these pages.
