@@ -1,0 +1,734 @@
+r"""Optimization of quad (and mixed quad-triangle) meshes: the operators of §8.4.3.
+
+Operators, each applied where it raises the local quality (the least
+quality of the cells it replaces, strictly) and leaves every new cell valid
+(planar: strictly convex by the exact
+:func:`~meshcore.geometry.predicates.orient2d` at every corner; on a
+surface: the corner turns of :mod:`meshcore.quality`):
+
+``valence2``
+    An interior vertex held by two cells only is removed: two quads become
+    one quad, a quad and a triangle one triangle.
+``valence3``
+    An interior vertex held by three quads is removed: their hexagon is
+    split into two quads along the best of its three main diagonals.
+``collapse``
+    A quad whose two opposite vertices are interior and held by three cells
+    each is removed: the two vertices merge at their midpoint (the
+    "doublet" collapse).
+``swap``
+    The edge between two quads is replaced by one of the two other
+    connexions of their hexagon (edge swapping, Chapter 18 of the text).
+``hexagon``
+    Four quads around two adjacent interior valence-3 vertices (a
+    six-sided set with two interior vertices, the next case of "a set of
+    adjacent quads forming a six side polygon") become two quads.
+``smooth``
+    Laplacian smoothing of interior vertices (every vertex moves to the mean
+    of its edge neighbours, all at once), where a move is kept only when the
+    least quality of the vertex's cells does not drop, their mean rises and
+    none becomes invalid; moves that fail are undone until every kept move
+    passes. So the mesh's least quality never drops and no cell inverts.
+
+Each sweep applies the operators in that order, a set of non-overlapping
+candidates at a time (best gain first, by a compiled greedy selection);
+sweeps repeat until nothing changes or ``sweeps`` is reached. Candidates are
+found and rebuilt by compiled loops over configurations (numba), and every
+quality and sign is evaluated vectorized by :mod:`meshcore.quality` and the
+predicates.
+
+Choices the text leaves open
+----------------------------
+* The measure is the combination's: (8.4)/(8.6) (``angle``, also for
+  ``simplified``, which is about one diagonal only) or (8.8) (``shape``);
+  triangles count with their shape ratio.
+* A new diagonal that is already an edge of the mesh elsewhere would make
+  the mesh non-conforming: such a split is not proposed.
+* On a surface (points in 3D) only the operators that move no point apply
+  (``valence2``, ``valence3``, ``swap``, ``hexagon``): a midpoint or a mean
+  of surface points lies off the surface.
+* Vertices on the boundary never move and are never removed.
+
+References
+----------
+Methods text §8.4.3 (the operators and their acceptance by quality),
+§8.4.4 ((8.4), (8.6), (8.8)); Chapter 18 (edge swapping, relaxation).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit
+
+from meshcore import quality
+from meshcore.geometry.predicates import orient2d
+from meshcore.mesh import CellBlock, Mesh
+
+__all__ = ["OPERATORS", "OptimizeResult", "optimize"]
+
+OPERATORS = ("valence2", "valence3", "collapse", "swap", "hexagon", "smooth")
+
+
+@dataclass(frozen=True)
+class _Tolerances:
+    #: Least rise of the local least quality for an operator to apply.
+    gain: float = 1e-9
+    #: Least rise of the mean quality of a vertex's cells for a smoothing move.
+    smooth_gain: float = 1e-12
+    #: Only configurations holding a cell of lower quality are worked on
+    #: (nearly perfect regions cannot gain and cost most of the time).
+    active_below: float = 0.95
+    #: Smoothing passes per sweep.
+    smooth_passes: int = 4
+
+
+TOL = _Tolerances()
+
+
+@dataclass(frozen=True)
+class OptimizeResult:
+    """The optimized mesh and how many times each operator applied."""
+
+    mesh: Mesh
+    operators: dict = field(default_factory=dict)
+
+
+# ----------------------------------------------------------------------------- cells
+# All cells are rows of C (c, 4), a triangle with -1 in its last slot.
+
+
+def _incidence(C: np.ndarray, alive: np.ndarray, n: int):
+    """CSR vertex -> alive cells: ``(ptr (n + 1,), cells)``."""
+    rows = np.flatnonzero(alive)
+    sub = C[rows]
+    cell = np.repeat(rows, 4)
+    v = sub.ravel()
+    keep = v >= 0
+    v, cell = v[keep], cell[keep]
+    order = np.argsort(v, kind="stable")
+    ptr = np.zeros(n + 1, np.int64)
+    np.cumsum(np.bincount(v, minlength=n), out=ptr[1:])
+    return ptr, cell[order]
+
+
+def _edge_keys(C: np.ndarray, alive: np.ndarray, n: int):
+    """Directed edges of the alive cells: (key of the undirected edge, cell)."""
+    rows = np.flatnonzero(alive)
+    sub = C[rows]
+    tri = sub[:, 3] < 0
+    nxt = np.roll(sub, -1, axis=1)
+    nxt[tri, 2] = sub[tri, 0]
+    a = sub.ravel()
+    b = nxt.ravel()
+    cell = np.repeat(rows, 4)
+    keep = (a >= 0) & (b >= 0)
+    a, b, cell = a[keep], b[keep], cell[keep]
+    return np.minimum(a, b) * n + np.maximum(a, b), a, b, cell
+
+
+def _cell_quality(P, C, measure: str, metric) -> np.ndarray:
+    """Quality of each row of C: the quad measure, or the triangle shape ratio."""
+    q = np.empty(len(C))
+    tri = C[:, 3] < 0
+    if tri.any():
+        q[tri] = quality.triangle_shape(P, C[tri, :3])
+    if (~tri).any():
+        quads = C[~tri]
+        if measure == "shape":
+            q[~tri] = quality.quad_shape(P, quads, metric)
+        else:
+            q[~tri] = quality.quad_quality(P, quads, metric)
+    return q
+
+
+def _valid(P, C) -> np.ndarray:
+    """Rows of C that are strictly convex (planar, exact) or of positive quality (surface)."""
+    ok = np.ones(len(C), bool)
+    if not len(C):
+        return ok
+    tri = C[:, 3] < 0
+    if P.shape[1] == 2:
+        for i in range(4):
+            a, b, c = C[:, i - 1], C[:, i], C[:, (i + 1) % 4]
+            # triangles: corners 0, 1, 2 (their slot 3 is skipped)
+            a = np.where(tri & (i == 0), C[:, 2], a)
+            c = np.where(tri & (i == 2), C[:, 0], c)
+            rows = ~tri if i == 3 else np.ones(len(C), bool)
+            r = np.flatnonzero(rows)
+            ok[r] &= orient2d(P[a[r]], P[b[r]], P[c[r]]) > 0
+        return ok
+    if tri.any():
+        ok[tri] = quality.signed_area(P, C[tri, :3]) > 0
+    if (~tri).any():
+        ok[~tri] = quality.quad_quality(P, C[~tri]) > 0
+    return ok
+
+
+# ----------------------------------------------------------------------------- kernels
+# Compiled loops over candidate configurations (each a handful of cells).
+
+
+@njit(cache=True)
+def _rotated(C, c, v, out):
+    """Write cell c's vertices starting at v into out; return its size (0 if v is absent)."""
+    nv = 4 if C[c, 3] >= 0 else 3
+    for s in range(nv):
+        if C[c, s] == v:
+            for j in range(nv):
+                out[j] = C[c, (s + j) % nv]
+            return nv
+    return 0
+
+
+@njit(cache=True)
+def _hexagons(C, sets):
+    """Boundary cycle (6 vertices, in the cells' sense) of each set of cells, or -1 rows."""
+    k = sets.shape[0]
+    H = np.full((k, 6), -1, np.int64)
+    src = np.empty(16, np.int64)
+    dst = np.empty(16, np.int64)
+    bs = np.empty(16, np.int64)
+    bd = np.empty(16, np.int64)
+    for i in range(k):
+        ne = 0
+        for j in range(sets.shape[1]):
+            c = sets[i, j]
+            if c < 0:
+                continue
+            nv = 4 if C[c, 3] >= 0 else 3
+            for a in range(nv):
+                src[ne] = C[c, a]
+                dst[ne] = C[c, (a + 1) % nv]
+                ne += 1
+        nb = 0
+        for e in range(ne):
+            inner = False
+            for f in range(ne):
+                if src[f] == dst[e] and dst[f] == src[e]:
+                    inner = True
+                    break
+            if not inner:
+                if nb == 16:
+                    break
+                bs[nb] = src[e]
+                bd[nb] = dst[e]
+                nb += 1
+        if nb != 6:
+            continue
+        cur = bs[0]
+        ok = True
+        for step in range(6):
+            H[i, step] = cur
+            nxt = -1
+            for e in range(6):
+                if bs[e] == cur:
+                    nxt = bd[e]
+            if nxt < 0:
+                ok = False
+                break
+            cur = nxt
+        if not ok or cur != bs[0]:
+            H[i, 0] = -1
+            continue
+        for a in range(6):
+            for b in range(a + 1, 6):
+                if H[i, a] == H[i, b]:
+                    ok = False
+        if not ok:
+            H[i, 0] = -1
+    return H
+
+
+@njit(cache=True)
+def _valence2(C, ptr, cells, verts):
+    """Per interior valence-2 vertex: its two cells and the merged cell (-1 row if none)."""
+    k = verts.shape[0]
+    old = np.full((k, 2), -1, np.int64)
+    new = np.full((k, 4), -1, np.int64)
+    x = np.empty(4, np.int64)
+    y = np.empty(4, np.int64)
+    for i in range(k):
+        v = verts[i]
+        c0 = cells[ptr[v]]
+        c1 = cells[ptr[v] + 1]
+        if C[c0, 3] < 0:
+            c0, c1 = c1, c0
+        n0 = _rotated(C, c0, v, x)
+        n1 = _rotated(C, c1, v, y)
+        if n0 != 4:
+            continue
+        # x = (v, a, p, b); y = (v, b, q, a) or (v, b, a)
+        a, b = x[1], x[3]
+        if y[1] != b or y[n1 - 1] != a:
+            continue
+        old[i, 0] = c0
+        old[i, 1] = c1
+        if n1 == 4:
+            new[i, 0], new[i, 1], new[i, 2], new[i, 3] = a, x[2], b, y[2]
+        else:
+            new[i, 0], new[i, 1], new[i, 2] = a, x[2], b
+    return old, new
+
+
+@njit(cache=True)
+def _collapses(C, ptr, cells, quads, first):
+    """Per quad with opposite interior valence-3 vertices ``first``, ``first + 2``.
+
+    Returns the five cells involved (the quad first), the four rebuilt cells
+    (the merged vertex is the one at ``first``), and the two vertices.
+    """
+    k = quads.shape[0]
+    old = np.full((k, 5), -1, np.int64)
+    new = np.full((k, 4, 4), -1, np.int64)
+    pair = np.full((k, 2), -1, np.int64)
+    for i in range(k):
+        q = quads[i]
+        v1 = C[q, first[i]]
+        v2 = C[q, (first[i] + 2) % 4]
+        old[i, 0] = q
+        n = 1
+        ok = True
+        for v in (v1, v2):
+            for j in range(ptr[v], ptr[v + 1]):
+                c = cells[j]
+                if c == q:
+                    continue
+                for s in range(n):
+                    if old[i, s] == c:
+                        ok = False  # v1 and v2 share another cell
+                if n == 5:
+                    ok = False
+                    break
+                old[i, n] = c
+                n += 1
+        if not ok or n != 5:
+            old[i, 0] = -1
+            continue
+        for s in range(4):
+            c = old[i, 1 + s]
+            for j in range(4):
+                u = C[c, j]
+                new[i, s, j] = v1 if u == v2 else u
+        pair[i, 0] = v1
+        pair[i, 1] = v2
+    return old, new, pair
+
+
+@njit(cache=True)
+def _select(gain, old, ncells):
+    """Greedy set of candidates with disjoint cells, largest gain first."""
+    order = np.argsort(-gain)
+    taken = np.zeros(ncells, np.bool_)
+    pick = np.zeros(gain.shape[0], np.bool_)
+    for o in order:
+        free = True
+        for j in range(old.shape[1]):
+            c = old[o, j]
+            if c >= 0 and taken[c]:
+                free = False
+                break
+        if not free:
+            continue
+        pick[o] = True
+        for j in range(old.shape[1]):
+            c = old[o, j]
+            if c >= 0:
+                taken[c] = True
+    return pick
+
+
+# ----------------------------------------------------------------------------- the optimizer
+
+
+class _State:
+    """Points, cells and alive flags of the mesh being optimized."""
+
+    def __init__(self, P, C, measure, metric, interior):
+        self.P = P
+        self.C = C
+        self.alive = np.ones(len(C), bool)
+        self.q = _cell_quality(P, C, measure, metric)
+        self.measure = measure
+        self.metric = metric
+        self.interior = interior
+
+    def quality_of(self, rows: np.ndarray) -> np.ndarray:
+        return _cell_quality(self.P, rows, self.measure, self.metric)
+
+    def replace(self, old: np.ndarray, new: np.ndarray, newq: np.ndarray) -> None:
+        old = old[old >= 0]
+        self.alive[old] = False
+        self.C = np.concatenate([self.C, new])
+        self.alive = np.concatenate([self.alive, np.ones(len(new), bool)])
+        self.q = np.concatenate([self.q, newq])
+
+
+def _old_min(st: _State, old: np.ndarray) -> np.ndarray:
+    qq = np.where(old >= 0, st.q[np.maximum(old, 0)], np.inf)
+    return qq.min(axis=1)
+
+
+def _hex_splits(st: _State, sets: np.ndarray, edge_keys: np.ndarray):
+    """Best two-quad split of the hexagon of each cell set: (pick, new quads (k, 2, 4), gain)."""
+    n = len(st.P)
+    sets = sets[_old_min(st, sets) < TOL.active_below]
+    H = _hexagons(st.C, sets)
+    ok = H[:, 0] >= 0
+    sets, H = sets[ok], H[ok]
+    k = len(sets)
+    if not k:
+        return sets, np.zeros((0, 2, 4), np.int64), np.zeros(0)
+    cand = np.empty((k, 3, 2, 4), np.int64)
+    for s in range(3):
+        idx = (np.arange(6) + s) % 6
+        Hs = H[:, idx]
+        cand[:, s, 0] = Hs[:, [0, 1, 2, 3]]
+        cand[:, s, 1] = Hs[:, [3, 4, 5, 0]]
+    flat = cand.reshape(-1, 4)
+    q = st.quality_of(flat).reshape(k, 3, 2).min(axis=2)
+    valid = _valid(st.P, flat).reshape(k, 3, 2).all(axis=2)
+    d0, d1 = cand[:, :, 0, 0], cand[:, :, 0, 3]
+    dkey = np.minimum(d0, d1) * n + np.maximum(d0, d1)
+    exists = np.isin(dkey, edge_keys)
+    # the current diagonal of a pair of quads is an existing edge: the split is the pair itself
+    valid &= ~exists
+    q = np.where(valid, q, -np.inf)
+    best = np.argmax(q, axis=1)
+    bq = q[np.arange(k), best]
+    gain = bq - _old_min(st, sets)
+    new = cand[np.arange(k), best]
+    return sets, new, gain
+
+
+def _apply_hex(st: _State, sets, new, gain) -> int:
+    good = gain > TOL.gain
+    sets, new, gain = sets[good], new[good], gain[good]
+    if not len(sets):
+        return 0
+    pick = _select(gain, sets, len(st.C))
+    sets, new = sets[pick], new[pick]
+    rows = new.reshape(-1, 4)
+    st.replace(sets.ravel(), rows, st.quality_of(rows))
+    return int(pick.sum())
+
+
+def _op_valence2(st: _State) -> int:
+    ptr, cells = _incidence(st.C, st.alive, len(st.P))
+    val = np.diff(ptr)
+    verts = np.flatnonzero((val == 2) & st.interior)
+    if not len(verts):
+        return 0
+    old, new = _valence2(st.C, ptr, cells, verts)
+    ok = old[:, 0] >= 0
+    old, new = old[ok], new[ok]
+    if not len(old):
+        return 0
+    valid = _valid(st.P, new)
+    gain = np.where(valid, st.quality_of(new) - _old_min(st, old), -np.inf)
+    good = gain > TOL.gain
+    old, new, gain = old[good], new[good], gain[good]
+    if not len(old):
+        return 0
+    pick = _select(gain, old, len(st.C))
+    st.replace(old[pick].ravel(), new[pick], st.quality_of(new[pick]))
+    return int(pick.sum())
+
+
+def _valence3_vertices(st: _State, ptr, cells):
+    val = np.diff(ptr)
+    v = np.flatnonzero((val == 3) & st.interior)
+    if not len(v):
+        return v, np.zeros((0, 3), np.int64)
+    sets = cells[ptr[v][:, None] + np.arange(3)]
+    allquad = (st.C[sets, 3] >= 0).all(axis=1)
+    return v[allquad], sets[allquad]
+
+
+def _op_valence3(st: _State) -> int:
+    ptr, cells = _incidence(st.C, st.alive, len(st.P))
+    keys = np.unique(_edge_keys(st.C, st.alive, len(st.P))[0])
+    _, sets = _valence3_vertices(st, ptr, cells)
+    if not len(sets):
+        return 0
+    return _apply_hex(st, *_hex_splits(st, sets, keys))
+
+
+def _op_hexagon(st: _State) -> int:
+    n = len(st.P)
+    ptr, cells = _incidence(st.C, st.alive, n)
+    key, a, b, _ = _edge_keys(st.C, st.alive, n)
+    keys = np.unique(key)
+    v3, sets3 = _valence3_vertices(st, ptr, cells)
+    if len(v3) < 2:
+        return 0
+    is3 = np.zeros(n, bool)
+    is3[v3] = True
+    row = np.full(n, -1, np.int64)
+    row[v3] = np.arange(len(v3))
+    e = np.flatnonzero(is3[a] & is3[b] & (a < b))
+    if not len(e):
+        return 0
+    six = np.sort(np.concatenate([sets3[row[a[e]]], sets3[row[b[e]]]], axis=1), axis=1)
+    dup = six[:, 1:] == six[:, :-1]
+    ok = dup.sum(axis=1) == 2
+    six, dup = six[ok], dup[ok]
+    if not len(six):
+        return 0
+    keep = np.ones_like(six, bool)
+    keep[:, 1:] &= ~dup
+    sets = six[keep].reshape(-1, 4)
+    return _apply_hex(st, *_hex_splits(st, sets, keys))
+
+
+def _op_swap(st: _State) -> int:
+    n = len(st.P)
+    key, _, _, cell = _edge_keys(st.C, st.alive, n)
+    order = np.argsort(key, kind="stable")
+    ks, cs = key[order], cell[order]
+    same = np.flatnonzero(ks[1:] == ks[:-1])
+    pairs = np.column_stack([cs[same], cs[same + 1]])
+    quads = (st.C[pairs, 3] >= 0).all(axis=1) & (pairs[:, 0] != pairs[:, 1])
+    pairs = pairs[quads]
+    if not len(pairs):
+        return 0
+    return _apply_hex(st, *_hex_splits(st, pairs, np.unique(key)))
+
+
+def _op_collapse(st: _State) -> int:
+    n = len(st.P)
+    ptr, cells = _incidence(st.C, st.alive, n)
+    val = np.diff(ptr)
+    three = (val == 3) & st.interior
+    qrows = np.flatnonzero(st.alive & (st.C[:, 3] >= 0))
+    Q = st.C[qrows]
+    cand_q, cand_f = [], []
+    for f in (0, 1):
+        hit = three[Q[:, f]] & three[Q[:, f + 2]]
+        cand_q.append(qrows[hit])
+        cand_f.append(np.full(int(hit.sum()), f))
+    quads = np.concatenate(cand_q)
+    first = np.concatenate(cand_f)
+    if not len(quads):
+        return 0
+    old, new, pair = _collapses(st.C, ptr, cells, quads, first)
+    ok = old[:, 0] >= 0
+    old, new, pair = old[ok], new[ok], pair[ok]
+    if not len(old):
+        return 0
+    mid = 0.5 * (st.P[pair[:, 0]] + st.P[pair[:, 1]])
+    # evaluate the four rebuilt cells with the merged vertex at the midpoint: the
+    # midpoints are appended as temporary points
+    base = len(st.P)
+    tmp = np.arange(base, base + len(old))
+    rows = new.copy()
+    rows[rows == pair[:, 0][:, None, None]] = -2
+    rows = np.where(rows == -2, tmp[:, None, None], rows)
+    Pt = np.concatenate([st.P, mid])
+    flat = rows.reshape(-1, 4)
+    q = _cell_quality(Pt, flat, st.measure, _extended(st.metric, pair))
+    valid = _valid(Pt, flat).reshape(-1, 4).all(axis=1)
+    gain = np.where(valid, q.reshape(-1, 4).min(axis=1) - _old_min(st, old), -np.inf)
+    good = gain > TOL.gain
+    old, new, pair, mid, gain = old[good], new[good], pair[good], mid[good], gain[good]
+    if not len(old):
+        return 0
+    # a vertex may be merged by one collapse only: two picked collapses never share a cell,
+    # and each vertex's cells are all in its collapse, so the vertices are distinct too
+    pick = _select(gain, old, len(st.C))
+    old, new, pair, mid = old[pick], new[pick], pair[pick], mid[pick]
+    st.P = st.P.copy()
+    st.P[pair[:, 0]] = mid
+    if st.metric is not None and np.ndim(st.metric) == 3:
+        st.metric = st.metric.copy()
+        st.metric[pair[:, 0]] = 0.5 * (st.metric[pair[:, 0]] + st.metric[pair[:, 1]])
+    rows = new.reshape(-1, 4)
+    st.replace(old.ravel(), rows, st.quality_of(rows))
+    return int(pick.sum())
+
+
+def _extended(metric, pair):
+    if metric is None or np.ndim(metric) != 3:
+        return metric
+    return np.concatenate([metric, 0.5 * (metric[pair[:, 0]] + metric[pair[:, 1]])])
+
+
+@njit(cache=True)
+def _colors(C, ptr, cells, movable):
+    """Greedy colouring of the movable vertices: two vertices of one cell never share a colour.
+
+    A sequential loop (each colour depends on those of the neighbours before).
+    """
+    n = ptr.shape[0] - 1
+    color = np.full(n, -1, np.int64)
+    seen = np.full(64, -1, np.int64)
+    for v in range(n):
+        if not movable[v]:
+            continue
+        for j in range(ptr[v], ptr[v + 1]):
+            c = cells[j]
+            for s in range(4):
+                u = C[c, s]
+                if u >= 0 and color[u] >= 0 and color[u] < 64:
+                    seen[color[u]] = v
+        k = 0
+        while k < 64 and seen[k] == v:
+            k += 1
+        color[v] = k
+    return color
+
+
+def _op_smooth(st: _State) -> int:
+    """Smoothing by colours: vertices of one colour share no cell, so each move is judged alone."""
+    n = len(st.P)
+    key, a, b, _ = _edge_keys(st.C, st.alive, n)
+    _, first = np.unique(key, return_index=True)
+    ea, eb = a[first], b[first]
+    deg = np.bincount(ea, minlength=n) + np.bincount(eb, minlength=n)
+    ptr, cells = _incidence(st.C, st.alive, n)
+    vmin = np.full(n, np.inf)
+    live = np.flatnonzero(st.alive)
+    cv = st.C[live]
+    np.minimum.at(vmin, cv[cv >= 0], np.repeat(st.q[live], 4)[(cv >= 0).ravel()])
+    movable = st.interior & (deg > 0) & (vmin < TOL.active_below)
+    color = _colors(st.C, ptr, cells, movable)
+    ncol = int(color.max()) + 1 if movable.any() else 0
+    by_color = [np.flatnonzero(color == k) for k in range(ncol)]
+    moved = np.zeros(n, bool)
+    for _ in range(TOL.smooth_passes):
+        moved_now = 0
+        for verts in by_color:
+            if not len(verts):
+                continue
+            s = np.zeros((n, st.P.shape[1]))
+            np.add.at(s, ea, st.P[eb])
+            np.add.at(s, eb, st.P[ea])
+            # the cells of these vertices, each listed once per vertex (no two share one)
+            cnt = ptr[verts + 1] - ptr[verts]
+            idx = (
+                np.repeat(ptr[verts], cnt)
+                + np.arange(cnt.sum())
+                - np.repeat(np.cumsum(cnt) - cnt, cnt)
+            )
+            cc = cells[idx]
+            rows = st.C[cc]
+            old_q = st.q[cc]
+            Pt = st.P.copy()
+            Pt[verts] = s[verts] / deg[verts][:, None]
+            new_q = _cell_quality(Pt, rows, st.measure, st.metric)
+            new_q = np.where(_valid(Pt, rows), new_q, -np.inf)
+            pos = np.repeat(np.arange(len(verts)), cnt)
+            omin = np.full(len(verts), np.inf)
+            nmin = np.full(len(verts), np.inf)
+            np.minimum.at(omin, pos, old_q)
+            np.minimum.at(nmin, pos, new_q)
+            osum = np.bincount(pos, weights=old_q, minlength=len(verts))
+            nsum = np.bincount(pos, weights=np.maximum(new_q, -1.0), minlength=len(verts))
+            ok = (nmin >= omin) & (nsum > osum + TOL.smooth_gain)
+            if not ok.any():
+                continue
+            keep = ok[pos]
+            st.P = st.P.copy()
+            st.P[verts[ok]] = Pt[verts[ok]]
+            st.q[cc[keep]] = new_q[keep]
+            moved[verts[ok]] = True
+            moved_now += int(ok.sum())
+        if not moved_now:
+            break
+    return int(moved.sum())
+
+
+def optimize(
+    mesh: Mesh,
+    *,
+    measure: str = "angle",
+    metric=None,
+    sweeps: int = 4,
+    progress: Callable[[float, str], None] | None = None,
+) -> OptimizeResult:
+    """Improve a quad or mixed mesh by the operators of §8.4.3 and smoothing.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        Quads and triangles, conforming, counter-clockwise in the plane (or
+        consistently oriented on a surface); every cell valid.
+    measure : {"angle", "simplified", "shape"}
+        ``shape`` optimizes (8.8), the others (8.4)/(8.6).
+    metric : (d, d) or (n, d, d) float64, optional
+    sweeps : int
+        Rounds of all operators at most.
+    progress : callable(fraction, message), optional
+
+    Returns
+    -------
+    OptimizeResult
+        The mesh (quads block, then triangles if any; unused points
+        dropped) and per operator the number of applications (for
+        ``smooth``: vertices moved).
+
+    References
+    ----------
+    §8.4.3 (module docstring).
+    """
+    P = np.asarray(mesh.points, dtype=np.float64)
+    n = len(P)
+    blocks = mesh.cells_by_type
+    quads = blocks.get("quad", np.zeros((0, 4), np.int64))
+    tris = blocks.get("triangle", np.zeros((0, 3), np.int64))
+    C = np.concatenate([quads, np.column_stack([tris, np.full(len(tris), -1)])]).astype(np.int64)
+    if metric is not None and np.ndim(metric) == 2:
+        metric = np.asarray(metric, dtype=np.float64)
+    alive = np.ones(len(C), bool)
+    key, _, _, _ = _edge_keys(C, alive, n)
+    ukey, cnt = np.unique(key, return_counts=True)
+    bkeys = ukey[cnt == 1]
+    interior = np.ones(n, bool)
+    interior[bkeys // n] = False
+    interior[bkeys % n] = False
+    used = np.zeros(n, bool)
+    used[C[C >= 0]] = True
+    interior &= used
+    st = _State(P, C, "shape" if measure == "shape" else "angle", metric, interior)
+    planar = P.shape[1] == 2
+    ops = dict.fromkeys(OPERATORS, 0)
+    steps = [
+        ("valence2", _op_valence2),
+        ("valence3", _op_valence3),
+        ("collapse", _op_collapse),
+        ("hexagon", _op_hexagon),
+        ("swap", _op_swap),
+        ("smooth", _op_smooth),
+    ]
+    for sweep in range(sweeps):
+        changed = 0
+        for i, (name, op) in enumerate(steps):
+            if progress is not None:
+                progress((sweep + i / len(steps)) / sweeps, f"optimization: {name}")
+            if not planar and name in ("collapse", "smooth"):
+                continue
+            k = op(st)
+            ops[name] += k
+            if name != "smooth":
+                changed += k
+                if k:  # removed vertices are no longer interior vertices of any cell
+                    still = np.zeros(n, bool)
+                    c = st.C[st.alive]
+                    still[c[c >= 0]] = True
+                    st.interior &= still
+        if changed == 0:
+            break
+    C = st.C[st.alive]
+    used = np.zeros(n, bool)
+    used[C[C >= 0]] = True
+    new = np.cumsum(used) - 1
+    Cn = np.where(C >= 0, new[np.maximum(C, 0)], -1)
+    tri = Cn[:, 3] < 0
+    out = [CellBlock("quad", Cn[~tri])]
+    if tri.any():
+        out.append(CellBlock("triangle", Cn[tri, :3]))
+    if progress is not None:
+        progress(1.0, "optimization done")
+    return OptimizeResult(Mesh(st.P[used], tuple(out)), ops)
