@@ -19,9 +19,13 @@ Pipeline (§9.4.1):
    triangle that is the whole domain), Figure 9.9.
 4. **Voronoi graph.** Circumcentres of adjacent triangles are joined across
    interior edges (Theorem 9.1). Adjacent triangles whose four vertices are
-   co-circular (the exact :func:`~meshcore.geometry.predicates.incircle` is
-   0) have the same circumcentre: they are one node, of degree 4 or more
-   where co-circularity joins branches (Figure 9.10, left; §9.4.3).
+   co-circular have the same circumcentre: they are one node, of degree 4
+   or more where co-circularity joins branches (Figure 9.10, left;
+   §9.4.3). The test is on the two centres, computed relative to a shared
+   vertex, being within :attr:`Tolerances.node_merge` of the diameter: it
+   takes the exact ties (which the Delaunay kernel broke symbolically, one
+   way or the other) and the near-ties whose Voronoi edge is shorter than
+   any meaningful length, which has no direction worth keeping.
 5. **Pruning** (Remarks 9.10-9.13, §9.4.3): a *terminal branch* runs from
    a leaf to the first node where three or more edges meet. Its
    *significance* is the angle that the boundary edge through which it
@@ -98,7 +102,6 @@ from meshcore.admissible import _edges_present, admissible_segments
 from meshcore.delaunay import delaunay
 from meshcore.domain import Domain, _ray_parity, parse_domain
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.geometry.predicates import WORK_SIZE, incircle_filtered
 from meshcore.mesh import CellBlock, Mesh
 
 __all__ = [
@@ -130,9 +133,7 @@ class Tolerances:
     ----------
     node_merge : float
         Adjacent circumcentres closer than this, times the domain's
-        diameter, are one node: the exactly co-circular ones already are,
-        and rounding leaves near-coincident ones (a few ulps apart) whose
-        edges have no meaningful direction.
+        diameter, are one node (co-circular vertices, up to rounding).
     """
 
     node_merge: float = 2.0**-33
@@ -387,18 +388,30 @@ def _empty_triangulation(tri, nb, succ):
 
 
 @njit(cache=True)
+def _offset_centre(pts, o, b, c):
+    """Circumcentre of (o, b, c) relative to o (no large coordinates added)."""
+    bx = pts[b, 0] - pts[o, 0]
+    by = pts[b, 1] - pts[o, 1]
+    cx = pts[c, 0] - pts[o, 0]
+    cy = pts[c, 1] - pts[o, 1]
+    b2 = bx * bx + by * by
+    c2 = cx * cx + cy * cy
+    den = 2.0 * (bx * cy - by * cx)
+    return (cy * b2 - by * c2) / den, (bx * c2 - cx * b2) / den
+
+
+@njit(cache=True)
 def _dual_edges(pts, tri, nb, inside, bnd):
     """Interior edges between inside triangles.
 
     Returns rows ``(t, u, p, q)`` with ``t < u`` and ``p, q`` the shared
-    edge, and per row whether the four vertices are co-circular (the exact
-    in-circle sign of the vertex of ``u`` opposite the edge against ``t``'s
-    circle is 0).
+    edge, and per row the distance between the two circumcentres, both
+    computed relative to ``p`` (so that it does not depend on where the
+    domain lies): 0 up to rounding when the four vertices are co-circular.
     """
     nt = tri.shape[0]
     out = np.empty((3 * nt // 2 + 1, 4), np.int64)
-    cocircular = np.empty(3 * nt // 2 + 1, np.bool_)
-    work = np.empty(WORK_SIZE)
+    gap = np.empty(3 * nt // 2 + 1)
     k = 0
     for t in range(nt):
         if not inside[t]:
@@ -420,20 +433,11 @@ def _dual_edges(pts, tri, nb, inside, bnd):
             out[k, 1] = u
             out[k, 2] = p
             out[k, 3] = q
-            s = incircle_filtered(
-                pts[p, 0],
-                pts[p, 1],
-                pts[q, 0],
-                pts[q, 1],
-                pts[c, 0],
-                pts[c, 1],
-                pts[d, 0],
-                pts[d, 1],
-                work,
-            )
-            cocircular[k] = s == 0
+            x1, y1 = _offset_centre(pts, p, q, c)
+            x2, y2 = _offset_centre(pts, p, d, q)
+            gap[k] = math.hypot(x1 - x2, y1 - y2)
             k += 1
-    return out[:k], cocircular[:k]
+    return out[:k], gap[:k]
 
 
 @njit(cache=True)
@@ -1017,17 +1021,15 @@ def medial_axis(
     types = ttype[keep]
     remap = np.full(len(tri.triangles), -1, dtype=np.int64)
     remap[keep] = np.arange(len(keep))
-    dual, cocircular = _dual_edges(pts, tri.triangles, tri.neighbors, inside, bnd)
+    dual, gap = _dual_edges(pts, tri.triangles, tri.neighbors, inside, bnd)
     dual[:, 0] = remap[dual[:, 0]]
     dual[:, 1] = remap[dual[:, 1]]
-    centre_all, radius_all = _circumcentres(pts, T)
-    gap = np.hypot(*(centre_all[dual[:, 0]] - centre_all[dual[:, 1]]).T)
-    merged = cocircular | (gap <= TOLERANCES.node_merge * domain.diameter)
+    merged = gap <= TOLERANCES.node_merge * domain.diameter
     label, n_nodes = _classes(len(T), dual[merged, :2])
     report(0.6, "Voronoi graph", "types")
     rep = np.full(n_nodes, len(T), dtype=np.int64)
     np.minimum.at(rep, label, np.arange(len(T)))  # first triangle of each class
-    centre, cradius = centre_all[rep], radius_all[rep]
+    centre, cradius = _circumcentres(pts, T[rep])
     between = ~merged
     g_edges = np.column_stack([label[dual[between, 0]], label[dual[between, 1]]])
     g_pq = dual[between, 2:4]
@@ -1072,9 +1074,7 @@ def medial_axis(
     offsets, ids = _branches(len(nodes), edges.astype(np.int64))
     branches = tuple(ids[offsets[i] : offsets[i + 1]] for i in range(len(offsets) - 1))
     deg = np.bincount(edges.ravel(), minlength=len(nodes))
-    kind = np.where(
-        deg >= 3, _CRITICAL, np.where(deg == 1, _TERMINAL, np.where(deg == 2, _REGULAR, _ISOLATED))
-    )
+    kind = np.array([_ISOLATED, _TERMINAL, _REGULAR, _CRITICAL])[np.minimum(deg, 3)]
     counts = np.bincount(types, minlength=4)
     stats = {
         "h": h_used,
@@ -1082,7 +1082,6 @@ def medial_axis(
         "points_added": int(added),
         "triangles": int(len(T)),
         "triangle_types": {f"type{i}": int(counts[i]) for i in range(4)},
-        "cocircular_pairs": int(cocircular.sum()),
         "merged_pairs": int(merged.sum()),
         "nodes": int(len(nodes)),
         "edges": int(len(edges)),
