@@ -44,7 +44,8 @@ domain) are positive.
     protrusion (inside) is cut off.
 ``fillet``
     The run turns one way only (a convex or a concave round, or a chamfer),
-    by at least :attr:`Tolerances.fillet_turning` (30°), ``|I| >= 2``, and the
+    by at least :attr:`Tolerances.fillet_turning` (30°), no vertex by more
+    than :attr:`Tolerances.fillet_share` (3/4) of that, ``|I| >= 2``, and the
     lines of its first and last edges ``a i`` and ``j b`` meet at a point
     ``X`` ahead of both: the run is replaced by the corner ``X``.
 ``step``
@@ -111,6 +112,7 @@ from scipy.sparse.csgraph import connected_components
 
 from meshcore.domain import Domain, parse_domain
 from meshcore.errors import InputError, MeshcoreError
+from meshcore.medial import medial_axis
 
 __all__ = ["DEFAULT_THRESHOLD", "Simplification", "TOLERANCES", "Tolerances", "simplify"]
 
@@ -138,6 +140,11 @@ class Tolerances:
         Degrees: a side runs on until the boundary has turned by this much.
     context : float
         A detail interrupts sides at least this many times its size.
+    fillet_share : float
+        No vertex of a fillet turns by more than this fraction of the
+        fillet's turning (a run whose turning sits at one vertex is a
+        corner with samples beside it, not a rounding; a chamfer's two
+        vertices share it equally).
     max_feature_vertices : int
         Longest run of vertices one detail may replace.
     parallel : float
@@ -150,6 +157,7 @@ class Tolerances:
     step_turning: float = 45.0
     side_turning: float = 10.0
     context: float = 2.0
+    fillet_share: float = 0.75
     max_feature_vertices: int = 32
     parallel: float = 1e-9
 
@@ -387,7 +395,9 @@ def _candidates(rg: _Rings, threshold: float, tol: Tolerances) -> list[dict]:
         kinds.append(("chord", chord, a, b, k + 1))
         if k >= 2:
             # fillet, step: the run's first and last edges are part of the sides
+            # one way, and no one vertex carrying most of it (that is a corner)
             one_way = ((tmin > 0) | (tmax < 0)) & (np.abs(net) >= fillet)
+            one_way &= np.maximum(-tmin, tmax) <= tol.fillet_share * np.abs(net)
             kinds.append(("fillet", ok_ring & one_way, v0, j, k - 1))
         if k == 2:
             ti, tj = rg.turn[v0], rg.turn[j]
@@ -403,13 +413,14 @@ def _candidates(rg: _Rings, threshold: float, tol: Tolerances) -> list[dict]:
             count = np.minimum(back_n[e] + inner + fwd_n[f], rg.size[sel])
             first = rg.at(e, -back_n[e])
             rad = _range_sum(cum_lr, rg, first, count) / _range_sum(cum_l, rg, first, count)
-            if kind == "chord":  # the diameter is at least the box diagonal / sqrt 2
-                diag = np.hypot(
-                    *(np.maximum(hi_xy[sel], rg.P[b[sel]]) - np.minimum(lo_xy[sel], rg.P[b[sel]])).T
-                )
-                keep = diag / math.sqrt(2) < threshold * rad
+            # lower bounds of the size: the box diagonal / sqrt 2 (chord), the run's span
+            if kind == "chord":
+                pb = rg.P[b[sel]]
+                lower = np.hypot(*(np.maximum(hi_xy[sel], pb) - np.minimum(lo_xy[sel], pb)).T)
+                lower /= math.sqrt(2)
             else:
-                keep = rad > 0
+                lower = np.hypot(*(rg.P[j[sel]] - rg.P[sel]).T)
+            keep = (lower < threshold * rad) & (np.minimum(side_a, side_b) >= tol.context * lower)
             keep &= np.minimum(side_a, side_b) > 0
             for idx in np.flatnonzero(keep):
                 v = int(sel[idx])
@@ -542,17 +553,16 @@ def _geometry(domain: Domain, rg: _Rings, chosen: list[dict], dropped_rings: set
             extra_pt.append(p)
     keys = np.concatenate([rg.pos.astype(float), np.array(extra_key, dtype=float)])
     ring = np.concatenate([rg.ring, rg.ring[np.array(extra_key, dtype=np.int64)]])
-    if extra_key:
-        keys[N:] = (
-            rg.pos[np.array(extra_key)] - 0.5 + 1e-3 * np.arange(len(extra_key)) / len(extra_key)
-        )
+    if extra_key:  # a fillet or a step adds one point, where its run began
+        keys[N:] = rg.pos[np.array(extra_key)] - 0.5
     pts = np.vstack([rg.P, np.array(extra_pt).reshape(-1, 2)])
     live = np.concatenate([keep, np.ones(len(extra_key), dtype=bool)])
     order = np.lexsort((keys, ring))
     order = order[live[order]]
+    cuts = np.searchsorted(ring[order], np.arange(domain.ring_count + 1))
     polys: list[list] = []
-    for k in range(domain.ring_count):
-        rows = order[ring[order] == k]
+    for k in range(domain.ring_count):  # one pass per ring
+        rows = order[cuts[k] : cuts[k + 1]]
         if not domain.ring_is_hole[k]:
             polys.append([pts[rows].tolist()])
         elif k not in dropped_rings:
@@ -650,8 +660,6 @@ def simplify(
     ----------
     Methods text §9.7.4 (geometry simplification), Remark 9.15.
     """
-    from meshcore.medial import medial_axis
-
     threshold, h = _check_inputs(domain, threshold, h)
     if progress is not None:
         progress(0.0, "medial axis")
