@@ -77,6 +77,19 @@ class TestPlate:
         assert res.domain == domain.as_geojson()
         assert out.area == domain.area
 
+    @pytest.mark.parametrize(("scale", "shift"), [(1e-6, 0.0), (1.0, 1e6)])
+    def test_scaling_and_translation_change_nothing(self, scale, shift):
+        moved = {
+            "type": "Polygon",
+            "coordinates": [(np.asarray(r) * scale + shift).tolist() for r in PLATE["coordinates"]],
+        }
+        base = simplify(parse_domain(PLATE)).removed
+        res = simplify(parse_domain(moved)).removed
+        assert [(r["kind"], r["ring"], r["vertices"]) for r in res] == [
+            (r["kind"], r["ring"], r["vertices"]) for r in base
+        ]
+        assert [r["ratio"] for r in res] == pytest.approx([r["ratio"] for r in base], rel=1e-6)
+
     def test_large_threshold_removes_the_large_hole_too(self):
         domain, res, out = simplified(PLATE, threshold=3)
         assert sorted(r["ring"] for r in res.removed if r["kind"] == "hole") == [1, 2]
