@@ -1232,6 +1232,10 @@ def combine(
         )
         out_mesh = opt.mesh
         ops = opt.operators
+        if boundary is not None:  # boundary vertices are never removed
+            boundary = opt.point_map[boundary]
+        if metric is not None and metric.ndim == 3:
+            metric = metric[opt.point_map >= 0]
         lap("optimize")
         quality_after = _report(out_mesh, metric, boundary)
     if out_mesh.dim == 3:

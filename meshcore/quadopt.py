@@ -90,10 +90,12 @@ TOL = _Tolerances()
 
 @dataclass(frozen=True)
 class OptimizeResult:
-    """The optimized mesh and how many times each operator applied."""
+    """The optimized mesh, how many times each operator applied, the point renumbering."""
 
     mesh: Mesh
     operators: dict = field(default_factory=dict)
+    #: (n,) int64: the new index of each input point, -1 for the removed ones.
+    point_map: np.ndarray | None = None
 
 
 # ----------------------------------------------------------------------------- cells
@@ -731,4 +733,4 @@ def optimize(
         out.append(CellBlock("triangle", Cn[tri, :3]))
     if progress is not None:
         progress(1.0, "optimization done")
-    return OptimizeResult(Mesh(st.P[used], tuple(out)), ops)
+    return OptimizeResult(Mesh(st.P[used], tuple(out)), ops, np.where(used, new, -1))
