@@ -464,20 +464,22 @@ def _polyline_points(xy: np.ndarray, n: int, fixed: np.ndarray) -> np.ndarray:
 
 
 def _side_point(xy: np.ndarray, s: np.ndarray, fixed: np.ndarray):
-    """The point of a side (a polyline with cumulative lengths ``s``): its input
-    corner nearest to the middle when one lies in the middle half (so that no
-    coarse quad cuts a corner), else the arclength midpoint. Returns the index
-    of the polyline vertex at or before it, and the point; a corner is
-    returned as the end of the piece that precedes it."""
+    """The point of a side (a polyline with cumulative lengths ``s``).
+
+    Its input corner nearest to the middle when one lies in the middle half
+    (so that no coarse quad cuts a corner), else the arclength midpoint.
+    Returns ``(m, point, at_vertex)``: the point is vertex ``m``, or lies
+    inside the piece from vertex ``m`` to ``m + 1``.
+    """
     inner = np.flatnonzero(fixed[1:-1]) + 1
     if inner.size:
         k = inner[np.argmin(np.abs(s[inner] - s[-1] / 2))]
         if abs(s[k] - s[-1] / 2) <= s[-1] / 4:
-            return int(k) - 1, xy[k]
+            return int(k), xy[k], True
     mid_s = s[-1] / 2
     m = min(int(np.searchsorted(s, mid_s, side="right")) - 1, len(s) - 2)
     t = (mid_s - s[m]) / (s[m + 1] - s[m]) if s[m + 1] > s[m] else 0.0
-    return m, xy[m] + t * (xy[m + 1] - xy[m])
+    return m, xy[m] + t * (xy[m + 1] - xy[m]), False
 
 
 def _coons(bottom, right, top, left) -> np.ndarray:
@@ -512,27 +514,28 @@ def _corner_area(a, b, c) -> float:
 
 
 def _inner_point(ring: np.ndarray, corners: np.ndarray, mids: np.ndarray) -> np.ndarray:
-    """The point joined to the side points: the candidate whose coarse quads have
-    the largest smallest triangle area."""
+    """The point joined to the side points: among the mean of the side points, the
+    mean of the corners, the area centroid and a 9 x 9 lattice over the corners'
+    bounding box, the one whose coarse quads' smallest triangle is largest."""
     x, y = ring[:, 0], ring[:, 1]
     cross = x * np.roll(y, -1) - np.roll(x, -1) * y
-    area = cross.sum() / 2
     centroid = np.array(
         [((x + np.roll(x, -1)) * cross).sum(), ((y + np.roll(y, -1)) * cross).sum()]
-    ) / (6 * area)
-    best, best_score = None, -np.inf
-    for g in (mids.mean(axis=0), corners.mean(axis=0), centroid):
-        k = len(corners)
-        score = min(
-            min(
-                _corner_area(corners[i], mids[i], g),
-                _corner_area(corners[i], g, mids[i - 1]),
-            )
-            for i in range(k)
+    ) / (3 * cross.sum())
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    t = (np.arange(9) + 0.5) / 9
+    lattice = lo + np.stack(np.meshgrid(t, t), axis=-1).reshape(-1, 2) * (hi - lo)
+    g = np.vstack([mids.mean(axis=0), corners.mean(axis=0), centroid, lattice])[:, None, :]
+    prev = np.roll(mids, 1, axis=0)[None]
+
+    def area(a, b, c):
+        return (b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) - (b[..., 1] - a[..., 1]) * (
+            c[..., 0] - a[..., 0]
         )
-        if score > best_score:
-            best, best_score = g, score
-    return best
+
+    c, m = corners[None], mids[None]
+    score = np.minimum(area(c, m, g), area(c, g, prev)).min(axis=1)
+    return g[int(np.argmax(score)), 0]
 
 
 def quad_medial(
@@ -637,11 +640,16 @@ def quad_medial(
             s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
             if (key, 0) not in half_id:
                 fixed = is_corner[canon]
-                m, mid = _side_point(xy, s, fixed)
-                first = np.vstack([xy[: m + 1], mid])
-                second = np.vstack([mid, xy[m + 1 :]])
-                half_id[(key, 0)] = new_segment(first, np.append(fixed[: m + 1], True))
-                half_id[(key, 1)] = new_segment(second, np.insert(fixed[m + 1 :], 0, True))
+                m, mid, at_vertex = _side_point(xy, s, fixed)
+                if at_vertex:  # the side point is vertex m
+                    first, second = xy[: m + 1], xy[m:]
+                    f1, f2 = fixed[: m + 1].copy(), fixed[m:].copy()
+                else:  # inside the piece (m, m + 1)
+                    first, second = np.vstack([xy[: m + 1], mid]), np.vstack([mid, xy[m + 1 :]])
+                    f1, f2 = np.append(fixed[: m + 1], True), np.insert(fixed[m + 1 :], 0, True)
+                f1[-1] = f2[0] = True
+                half_id[(key, 0)] = new_segment(first, f1)
+                half_id[(key, 1)] = new_segment(second, f2)
             a, b = half_id[(key, 0)], half_id[(key, 1)]
             mids.append(seg_xy[a][-1])
             halves.append(((b, True), (a, True)) if flipped else ((a, False), (b, False)))
