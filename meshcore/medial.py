@@ -43,8 +43,16 @@ Pipeline (§9.4.1):
 6. **Terminal nodes** (§9.4.1, Type 1-Type 2 pair): "the medial axis ends at
    the centre of the circle of the triangle of Type 2; to complete it, one
    can link this point with the terminal node": a surviving leaf that is a
-   Type 2 triangle is joined to the boundary vertex its two boundary edges
-   share (radius 0), so corner branches reach their corners.
+   Type 2 triangle at a *corner* (the boundary turns there by at least
+   ``prune`` degrees, the significance of that corner's branch) is joined
+   to it (radius 0), so corner branches reach their corners. At a smooth
+   convex end the contacts of the circles close up towards the osculating
+   circle (Remark 9.11): leaves whose circle touches the boundary within
+   less than ``prune`` degrees (the minor arc between its farthest two
+   contacts) are trimmed, repeatedly, so the axis ends near the centre of
+   curvature (1.49 for 1.5 on the 2 x 1 ellipse). A component left as a single
+   path is measured from its widest node, each half removed when
+   insignificant there, so that a disk's axis is its centre.
 7. **Radii.** Each node's radius is its distance to the boundary pieces
    (not the circumradius: a circle through three samples bulges past the
    boundary between samples), found by descending along the boundary from
@@ -442,10 +450,12 @@ def _dual_edges(pts, tri, nb, inside, bnd):
 
 @njit(cache=True)
 def _circumcentres(pts, T):
-    """Circumcentre and circumradius of each triangle, relative to its first vertex."""
+    """Circumcentre, circumradius and contact spread (radians: the largest angle
+    two vertices subtend at the centre, the minor arc) of each triangle."""
     n = T.shape[0]
     centre = np.empty((n, 2))
     radius = np.empty(n)
+    spread = np.empty(n)
     for i in range(n):
         ax = pts[T[i, 0], 0]
         ay = pts[T[i, 0], 1]
@@ -460,8 +470,11 @@ def _circumcentres(pts, T):
         uy = (bx * c2 - cx * b2) / den
         centre[i, 0] = ax + ux
         centre[i, 1] = ay + uy
-        radius[i] = math.hypot(ux, uy)
-    return centre, radius
+        r = math.hypot(ux, uy)
+        radius[i] = r
+        chord = math.sqrt(max(b2, c2, (bx - cx) ** 2 + (by - cy) ** 2))
+        spread[i] = 2.0 * math.asin(min(1.0, chord / (2.0 * r)))
+    return centre, radius, spread
 
 
 @njit(cache=True)
@@ -497,6 +510,20 @@ def _classes(n, pairs):
             k += 1
         label[i] = label[root]
     return label, k
+
+
+@njit(cache=True)
+def _class_reps(label, k, spread):
+    """Per class: its first triangle and the largest contact spread of its triangles."""
+    rep = np.full(k, -1, np.int64)
+    best = np.zeros(k)
+    for t in range(label.shape[0]):
+        c = label[t]
+        if rep[c] < 0:
+            rep[c] = t
+        if spread[t] > best[c]:
+            best[c] = spread[t]
+    return rep, best
 
 
 @njit(cache=True)
@@ -594,7 +621,7 @@ def _significance(center, radius, pts, edge_pq, e):
 
 
 @njit(cache=True)
-def _prune(n, edges, edge_pq, center, cradius, pts, threshold):
+def _prune(n, edges, edge_pq, center, cradius, spread, pts, threshold):
     """Remove terminal branches of significance below ``threshold`` (radians),
     least significant first (module docstring, step 5). Returns the alive
     flags of nodes and edges and the number of branches removed."""
@@ -678,6 +705,80 @@ def _prune(n, edges, edge_pq, center, cradius, pts, threshold):
                 if size >= cap:
                     continue
                 size = _heap_push(hk, hv, hn, size, key, lf, version[lf])
+    # Tails: a leaf whose own circle touches the boundary within less than the
+    # threshold (the end of a smooth convex part, where the contacts close up
+    # towards the osculating circle, Remark 9.11) goes, repeatedly.
+    stack = np.empty(n, np.int64)
+    top = 0
+    for v in range(n):
+        if node_alive[v] and deg[v] == 1 and spread[v] < threshold:
+            stack[top] = v
+            top += 1
+    while top > 0:
+        top -= 1
+        v = stack[top]
+        if not node_alive[v] or deg[v] != 1 or spread[v] >= threshold:
+            continue
+        for j2 in range(start[v], start[v + 1]):
+            f = inc[j2]
+            if alive[f]:
+                alive[f] = False
+                node_alive[v] = False
+                deg[v] = 0
+                w = edges[f, 0] + edges[f, 1] - v
+                deg[w] -= 1
+                if deg[w] == 1 and spread[w] < threshold:
+                    stack[top] = w
+                    top += 1
+    # A component left as a path (no junction) is measured from its widest
+    # node M: each half whose edge out of M is insignificant goes (a disk's
+    # axis is its centre; an ellipse keeps the segment between its centres
+    # of curvature).
+    path_nodes = np.empty(n, np.int64)
+    path_edges = np.empty(n, np.int64)
+    for v in range(n):
+        if not node_alive[v] or deg[v] != 1:
+            continue
+        k = 0
+        cur = v
+        e = -1
+        for j2 in range(start[v], start[v + 1]):
+            if alive[inc[j2]]:
+                e = inc[j2]
+        while True:
+            path_nodes[k] = cur
+            path_edges[k] = e
+            k += 1
+            nxt = edges[e, 0] + edges[e, 1] - cur
+            if deg[nxt] != 2:
+                path_nodes[k] = nxt
+                break
+            e = _other_edge(start, inc, alive, nxt, e)
+            cur = nxt
+        last_node = path_nodes[k]
+        if deg[last_node] != 1 or last_node < v:
+            continue  # not a path, or already done from its other end
+        top = 0
+        for i in range(k + 1):
+            if cradius[path_nodes[i]] > cradius[path_nodes[top]]:
+                top = i
+        mid = path_nodes[top]
+        if top > 0:  # the half towards v leaves M through path_edges[top - 1]
+            key = _significance(center[mid], cradius[mid], pts, edge_pq, path_edges[top - 1])
+            if key < threshold:
+                for i in range(top):
+                    node_alive[path_nodes[i]] = False
+                    alive[path_edges[i]] = False
+                deg[mid] -= 1
+                removed += 1
+        if top < k:  # the other half leaves M through path_edges[top]
+            key = _significance(center[mid], cradius[mid], pts, edge_pq, path_edges[top])
+            if key < threshold:
+                for i in range(top, k):
+                    alive[path_edges[i]] = False
+                    node_alive[path_nodes[i + 1]] = False
+                deg[mid] -= 1
+                removed += 1
     return node_alive, alive, removed
 
 
@@ -1027,14 +1128,14 @@ def medial_axis(
     merged = gap <= TOLERANCES.node_merge * domain.diameter
     label, n_nodes = _classes(len(T), dual[merged, :2])
     report(0.6, "Voronoi graph", "types")
-    rep = np.full(n_nodes, len(T), dtype=np.int64)
-    np.minimum.at(rep, label, np.arange(len(T)))  # first triangle of each class
-    centre, cradius = _circumcentres(pts, T[rep])
+    centre_all, radius_all, spread_all = _circumcentres(pts, T)
+    rep, spread = _class_reps(label, n_nodes, spread_all)
+    centre, cradius = centre_all[rep], radius_all[rep]
     between = ~merged
     g_edges = np.column_stack([label[dual[between, 0]], label[dual[between, 1]]])
     g_pq = dual[between, 2:4]
     node_alive, edge_alive, pruned = _prune(
-        n_nodes, g_edges, g_pq, centre, cradius, pts, math.radians(prune)
+        n_nodes, g_edges, g_pq, centre, cradius, spread, pts, math.radians(prune)
     )
     report(0.75, "terminal nodes and radii", "graph_and_pruning")
     class_type2 = np.full(n_nodes, -1, dtype=np.int64)
@@ -1047,13 +1148,21 @@ def medial_axis(
     new_id[alive_nodes] = np.arange(len(alive_nodes))
     edges = new_id[g_edges]
     deg = np.bincount(edges.ravel(), minlength=len(alive_nodes))
-    # Type 2 leaves reach their apex (the sample shared by both boundary edges)
+    # Type 2 leaves at a corner reach it (the sample shared by both boundary
+    # edges, where the boundary turns by at least the pruning angle)
+    pred = np.empty_like(succ)
+    pred[succ] = np.arange(len(succ))
     ends = np.flatnonzero((deg == 1) & (class_type2[alive_nodes] >= 0))
     t_end = class_type2[alive_nodes[ends]]
     apex_col = np.argmin(bnd[keep[t_end]], axis=1)  # the vertex opposite the interior edge
     apex = T[t_end, apex_col]
-    pred = np.empty_like(succ)
-    pred[succ] = np.arange(len(succ))
+    din = pts[apex] - pts[pred[apex]]
+    dout = pts[succ[apex]] - pts[apex]
+    turn = np.degrees(
+        np.arctan2(np.abs(din[:, 0] * dout[:, 1] - din[:, 1] * dout[:, 0]), (din * dout).sum(1))
+    )
+    corner = turn >= prune
+    ends, apex = ends[corner], apex[corner]
     if approximation == "voronoi":
         nodes = np.concatenate([centre[alive_nodes], pts[apex]])
         seeds = np.concatenate([T[rep[alive_nodes]], np.full((len(apex), 3), -1)])

@@ -158,6 +158,24 @@ class TestAnnulus:
         assert (medial_axis(ANNULUS, prune=0).kind == "terminal").sum() > 0
 
 
+class TestSmoothShapes:
+    def test_a_disk_has_its_centre_for_axis(self):
+        ax = medial_axis(parse_domain({"type": "Polygon", "coordinates": [circle(1, 400)]}))
+        assert list(ax.kind) == ["isolated"]
+        np.testing.assert_allclose(ax.nodes[0], [0, 0], atol=1e-9)
+
+    def test_an_ellipse_axis_ends_near_its_centres_of_curvature(self):
+        # axes 2 and 1: the axis is the segment between (-1.5, 0) and (1.5, 0);
+        # trimming the tails at 25 degrees of contact ends it at 1.5 cos(6.3 deg)
+        t = 2 * np.pi * np.arange(400) / 400
+        ring = np.c_[2 * np.cos(t), np.sin(t)].tolist()
+        ax = medial_axis(parse_domain({"type": "Polygon", "coordinates": [ring]}))
+        assert (ax.kind == "critical").sum() == 0 and (ax.kind == "terminal").sum() == 2
+        ends = np.sort(ax.nodes[ax.kind == "terminal"][:, 0])
+        np.testing.assert_allclose(ends, [-1.5, 1.5], atol=0.02)
+        np.testing.assert_allclose(ax.nodes[:, 1], 0, atol=1e-3)
+
+
 class TestPointCloud:
     def test_reproduces_the_polygon_result_on_the_same_samples(self):
         ax = medial_axis(RECT, h=0.05)
