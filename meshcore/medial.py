@@ -101,6 +101,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from numba import njit
@@ -164,10 +165,6 @@ class MedialAxis:
         Distance from each node to the boundary (0 at corner nodes).
     edges : (m, 2) int64
         Axis edges, as node indices.
-    kind : (n,) str
-        ``"critical"`` (three or more edges: a Type 0 node where branches
-        meet), ``"terminal"`` (one edge: a branch end), ``"regular"`` (two),
-        ``"isolated"`` (none: the axis is one point).
     branches : tuple of (k,) int64
         Node chains between critical and terminal nodes; a closed loop with
         no such node is one chain whose last id repeats its first.
@@ -177,9 +174,10 @@ class MedialAxis:
         The domain (for a point cloud, the one reconstructed from it).
     samples : (p, 2) float64
         The boundary samples, ``domain.points``-independent numbering.
-    segments : (s, 2) int64
-        Boundary pieces between samples, domain on the left.
-    segment_source : (s,) int64
+    succ : (p,) int64
+        The next sample along the boundary: piece ``i -> succ[i]`` has the
+        domain on its left.
+    segment_source : (p,) int64
         The domain boundary segment each piece lies on.
     triangles : (t, 3) int64
         The empty Delaunay triangulation of the domain on the samples,
@@ -207,12 +205,11 @@ class MedialAxis:
     nodes: np.ndarray
     radius: np.ndarray
     edges: np.ndarray
-    kind: np.ndarray
     branches: tuple[np.ndarray, ...]
     h: float
     domain: Domain
     samples: np.ndarray
-    segments: np.ndarray
+    succ: np.ndarray
     segment_source: np.ndarray
     triangles: np.ndarray
     triangle_type: np.ndarray
@@ -221,6 +218,19 @@ class MedialAxis:
     node_sample: np.ndarray
     edge_pq: np.ndarray
     stats: dict = field(default_factory=dict)
+
+    @cached_property
+    def kind(self) -> np.ndarray:
+        """(n,) str: ``"critical"`` (three or more edges: a Type 0 node where
+        branches meet), ``"terminal"`` (one edge: a branch end), ``"regular"``
+        (two), ``"isolated"`` (none: the axis is one point)."""
+        deg = np.bincount(self.edges.ravel(), minlength=len(self.nodes))
+        return np.array([_ISOLATED, _TERMINAL, _REGULAR, _CRITICAL])[np.minimum(deg, 3)]
+
+    @cached_property
+    def segments(self) -> np.ndarray:
+        """(p, 2) int64: the boundary pieces ``(i, succ[i])``, domain on the left."""
+        return np.column_stack([np.arange(len(self.succ)), self.succ])
 
     def to_json(self) -> dict:
         """The medial-axis JSON of DESIGN.md: nodes, radius, edges, kind, branches."""
@@ -312,20 +322,40 @@ def _sampled(domain: Domain, h: float | None):
                 loc=("h",),
                 code="too_many_samples",
             )
-    first = np.cumsum(count) - count
-    owner = np.repeat(np.arange(len(seg)), count)
-    t = (np.arange(int(count.sum())) - first[owner]) / count[owner]
-    pts = a[owner] + t[:, None] * (b - a)[owner]
-    pts[first] = a  # input vertices exactly
-    # next sample: the following one, or the first of the ring
-    succ = np.arange(1, len(pts) + 1)
-    ring_of_seg = domain.segment_ring[_travel_order(domain)]
-    ring_of_pt = ring_of_seg[owner]
-    ends = np.flatnonzero(np.r_[ring_of_pt[1:] != ring_of_pt[:-1], True])
-    starts = np.r_[0, ends[:-1] + 1]
-    succ[ends] = starts
-    source = _travel_order(domain)[owner]
-    return pts, succ.astype(np.int64), source.astype(np.int64)
+    order = _travel_order(domain)
+    ring_of_seg = domain.segment_ring[order]
+    last_of_ring = np.r_[ring_of_seg[1:] != ring_of_seg[:-1], True]
+    return _resample(a, b, count, last_of_ring, order)
+
+
+@njit(cache=True)
+def _resample(a, b, count, last_of_ring, seg_id):
+    """Points ``a + (b - a) j / count`` for each segment (``a`` itself exactly),
+    the next sample of each (the first of the ring after a ring's last one)
+    and the segment each piece comes from."""
+    total = 0
+    for s in range(count.shape[0]):
+        total += count[s]
+    pts = np.empty((total, 2))
+    succ = np.empty(total, np.int64)
+    source = np.empty(total, np.int64)
+    k = 0
+    ring_start = 0
+    for s in range(count.shape[0]):
+        c = count[s]
+        dx = b[s, 0] - a[s, 0]
+        dy = b[s, 1] - a[s, 1]
+        for j in range(c):
+            t = j / c
+            pts[k, 0] = a[s, 0] + t * dx
+            pts[k, 1] = a[s, 1] + t * dy
+            succ[k] = k + 1
+            source[k] = seg_id[s]
+            k += 1
+        if last_of_ring[s]:
+            succ[k - 1] = ring_start
+            ring_start = k
+    return pts, succ, source
 
 
 def _admissible(pts, succ, source, progress):
@@ -510,6 +540,27 @@ def _classes(n, pairs):
             k += 1
         label[i] = label[root]
     return label, k
+
+
+@njit(cache=True)
+def _class_edges(dual, merged, label):
+    """The dual edges between different classes, as class pairs, and their
+    Delaunay edges."""
+    m = 0
+    for r in range(dual.shape[0]):
+        if not merged[r]:
+            m += 1
+    pairs = np.empty((m, 2), np.int64)
+    pq = np.empty((m, 2), np.int64)
+    k = 0
+    for r in range(dual.shape[0]):
+        if not merged[r]:
+            pairs[k, 0] = label[dual[r, 0]]
+            pairs[k, 1] = label[dual[r, 1]]
+            pq[k, 0] = dual[r, 2]
+            pq[k, 1] = dual[r, 3]
+            k += 1
+    return pairs, pq
 
 
 @njit(cache=True)
@@ -800,12 +851,15 @@ def _piece_distance(x, y, pts, a, b):
 
 
 @njit(cache=True)
-def _boundary_distance(nodes, seeds, pts, succ, pred):
+def _boundary_distance(nodes, seeds, on_boundary, pts, succ, pred):
     """Distance of each node to the boundary pieces, by descent along the
-    boundary from each of its seed samples (both directions)."""
+    boundary from each of its seed samples (both directions); 0 for the
+    nodes that are samples (``on_boundary >= 0``)."""
     n = nodes.shape[0]
-    out = np.empty(n)
+    out = np.zeros(n)
     for i in range(n):
+        if on_boundary[i] >= 0:
+            continue
         x = nodes[i, 0]
         y = nodes[i, 1]
         best = np.inf
@@ -1131,9 +1185,7 @@ def medial_axis(
     centre_all, radius_all, spread_all = _circumcentres(pts, T)
     rep, spread = _class_reps(label, n_nodes, spread_all)
     centre, cradius = centre_all[rep], radius_all[rep]
-    between = ~merged
-    g_edges = np.column_stack([label[dual[between, 0]], label[dual[between, 1]]])
-    g_pq = dual[between, 2:4]
+    g_edges, g_pq = _class_edges(dual, merged, label)
     node_alive, edge_alive, pruned = _prune(
         n_nodes, g_edges, g_pq, centre, cradius, spread, pts, math.radians(prune)
     )
@@ -1165,8 +1217,8 @@ def medial_axis(
     ends, apex = ends[corner], apex[corner]
     if approximation == "voronoi":
         nodes = np.concatenate([centre[alive_nodes], pts[apex]])
-        seeds = np.concatenate([T[rep[alive_nodes]], np.full((len(apex), 3), -1)])
         node_tri = np.concatenate([rep[alive_nodes], np.full(len(apex), -1)])
+        seeds = T[node_tri]  # the rows of corner nodes are not used: their radius is 0
         base = len(alive_nodes)
         edges = np.concatenate([edges, np.column_stack([ends, base + np.arange(len(apex))])])
         triangle_node = new_id[label]
@@ -1177,13 +1229,13 @@ def medial_axis(
         )
         triangle_node = np.full(len(T), -1, dtype=np.int64)
         edge_pq = np.full((len(edges), 2), -1, dtype=np.int64)
-    radius = _boundary_distance(nodes, seeds.astype(np.int64), pts, succ, pred)
+    node_sample = np.full(len(nodes), -1, dtype=np.int64)
+    node_sample[len(nodes) - len(apex) :] = apex
+    radius = _boundary_distance(nodes, seeds, node_sample, pts, succ, pred)
     report(0.9, "branches", "nodes_and_radii")
-    radius[seeds.max(axis=1) < 0] = 0.0
-    offsets, ids = _branches(len(nodes), edges.astype(np.int64))
+    offsets, ids = _branches(len(nodes), edges)
     branches = tuple(ids[offsets[i] : offsets[i + 1]] for i in range(len(offsets) - 1))
     deg = np.bincount(edges.ravel(), minlength=len(nodes))
-    kind = np.array([_ISOLATED, _TERMINAL, _REGULAR, _CRITICAL])[np.minimum(deg, 3)]
     counts = np.bincount(types, minlength=4)
     stats = {
         "h": h_used,
@@ -1204,20 +1256,19 @@ def medial_axis(
     return MedialAxis(
         nodes=nodes,
         radius=radius,
-        edges=edges.astype(np.int64),
-        kind=kind,
+        edges=edges,
         branches=branches,
         h=h_used,
         domain=domain,
         samples=pts,
-        segments=np.column_stack([np.arange(len(pts)), succ]),
+        succ=succ,
         segment_source=source,
         triangles=T,
         triangle_type=types,
-        node_triangle=node_tri.astype(np.int64),
-        triangle_node=triangle_node.astype(np.int64),
-        node_sample=np.concatenate([np.full(len(nodes) - len(apex), -1), apex]).astype(np.int64),
-        edge_pq=edge_pq.astype(np.int64),
+        node_triangle=node_tri,
+        triangle_node=triangle_node,
+        node_sample=node_sample,
+        edge_pq=edge_pq,
         stats=stats,
     )
 
@@ -1256,4 +1307,4 @@ def _midpoint_graph(pts, T, rep, alive_nodes, edges, g_pq, deg, ends, apex, labe
         ]
     )
     node_tri = np.concatenate([np.full(m, -1), tri_of[junction], np.full(len(apex), -1)])
-    return nodes, seeds, node_tri, np.concatenate(links).astype(np.int64)
+    return nodes, seeds.astype(np.int64), node_tri, np.concatenate(links).astype(np.int64)

@@ -150,7 +150,7 @@ def _contacts(ax: MedialAxis) -> tuple[np.ndarray, np.ndarray]:
     )
     key = pairs[:, 0] * np.int64(len(ax.samples)) + pairs[:, 1]
     pred = np.empty(len(ax.samples), dtype=np.int64)
-    pred[ax.segments[:, 1]] = ax.segments[:, 0]
+    pred[ax.succ] = np.arange(len(ax.succ))
     before = pairs[:, 0] * np.int64(len(ax.samples)) + pred[pairs[:, 1]]
     pos = np.minimum(np.searchsorted(key, before), len(key) - 1)
     follows = key[pos] == before
@@ -398,8 +398,7 @@ def partition(
     edges = np.sort(edges, axis=1)
     edges, first = np.unique(edges, axis=0, return_index=True)
     proper = edges[:, 0] != edges[:, 1]
-    succ = np.empty(p, dtype=np.int64)
-    succ[ax.segments[:, 0]] = ax.segments[:, 1]
+    succ = ax.succ
     cycles, corners, kinds = _faces(points, edges[proper], kind[first][proper], succ)
     regions = []
     total = 0.0
@@ -600,8 +599,7 @@ def quad_medial(
     ax = part.axis
     points = part.points
     p = len(ax.samples)
-    succ = np.empty(p, dtype=np.int64)
-    succ[ax.segments[:, 0]] = ax.segments[:, 1]
+    succ = ax.succ
     pred = np.empty(p, dtype=np.int64)
     pred[succ] = np.arange(p)
     src = ax.segment_source
