@@ -18,24 +18,36 @@ surface: the corner turns of :mod:`meshcore.quality`):
     "doublet" collapse).
 ``swap``
     The edge between two quads is replaced by one of the two other
-    connexions of their hexagon (edge swapping, Chapter 18 of the text).
+    connexions of their hexagon (edge swapping, Chapter 18 of the text),
+    by the *topological* criterion of §8.4.3: when it lowers
+    ``sum |valence - ideal|`` over the four vertices whose valence changes
+    (ideal 4 inside, the vertex's angle in right angles on the boundary:
+    "the relaxation of the degree of the internal vertices"), the new quads
+    staying valid and above ``swap_floor`` (and above the mesh's least
+    quality); or, valences unchanged, when the least quality rises.
 ``hexagon``
     Four quads around two adjacent interior valence-3 vertices (a
     six-sided set with two interior vertices, the next case of "a set of
     adjacent quads forming a six side polygon") become two quads.
 ``smooth``
-    Laplacian smoothing of interior vertices (every vertex moves to the mean
-    of its edge neighbours, all at once), where a move is kept only when the
-    least quality of the vertex's cells does not drop, their mean rises and
-    none becomes invalid; moves that fail are undone until every kept move
-    passes. So the mesh's least quality never drops and no cell inverts.
+    Laplacian smoothing of interior vertices, colour by colour (vertices of
+    one colour share no cell, so every move is judged on its own cells): a
+    move is undone when one of its cells turns invalid or drops below
+    ``max(smooth_floor, least quality of the mesh)`` (a cell already below
+    that may not drop at all). A whole pass is kept only when the mean
+    quality of the mesh rises. So no cell inverts and the least quality
+    never drops. (A per-vertex rule "the vertex's cells must improve" was
+    measured to stall: 0.758 mean against 0.827 on a Gmsh mesh of 5k
+    triangles, Gmsh's Blossom reaching 0.804.)
 
-Each sweep applies the operators in that order, a set of non-overlapping
-candidates at a time (best gain first, by a compiled greedy selection);
-sweeps repeat until nothing changes or ``sweeps`` is reached. Candidates are
-found and rebuilt by compiled loops over configurations (numba), and every
-quality and sign is evaluated vectorized by :mod:`meshcore.quality` and the
-predicates.
+Each sweep applies the operators in the order valence2, valence3, collapse,
+hexagon, swap, smooth, a set of non-overlapping candidates at a time (best
+gain first, by a compiled greedy selection); sweeps repeat until no
+operator changes the topology or ``sweeps`` is reached. Candidates are found
+and rebuilt by compiled loops over configurations (numba), and every quality
+and sign is evaluated vectorized by :mod:`meshcore.quality` and the
+predicates. Configurations whose cells are all above ``active_below`` are
+not worked on (operators other than the topological swap, and smoothing).
 
 Choices the text leaves open
 ----------------------------
@@ -76,13 +88,21 @@ OPERATORS = ("valence2", "valence3", "collapse", "swap", "hexagon", "smooth")
 class _Tolerances:
     #: Least rise of the local least quality for an operator to apply.
     gain: float = 1e-9
-    #: Least rise of the mean quality of a vertex's cells for a smoothing move.
+    #: Least rise of the mesh's mean quality for a smoothing pass to be kept.
     smooth_gain: float = 1e-12
     #: Only configurations holding a cell of lower quality are worked on
     #: (nearly perfect regions cannot gain and cost most of the time).
     active_below: float = 0.95
+    #: Smoothing may lower a cell's quality (for a better mean) down to this
+    #: floor but never below the mesh's least quality nor below its own
+    #: quality when it is under the floor.
+    smooth_floor: float = 0.4
+    #: A swap that relaxes the valences may leave a cell this low (smoothing follows).
+    swap_floor: float = 0.3
+    #: "iso" (parallelogram ideal positions) or "laplace" (mean of neighbours).
+    smooth_mode: str = "laplace"
     #: Smoothing passes per sweep.
-    smooth_passes: int = 4
+    smooth_passes: int = 12
 
 
 TOL = _Tolerances()
@@ -345,10 +365,26 @@ def _select(gain, old, ncells):
 # ----------------------------------------------------------------------------- the optimizer
 
 
+def _ideal_valence(P, C, interior) -> np.ndarray:
+    """4 inside; on the boundary, the vertex's angle in right angles (at least 1)."""
+    n = len(P)
+    total = np.zeros(n)
+    tri = C[:, 3] < 0
+    for rows, k, cols in ((C[~tri], 4, 4), (C[tri, :3], 3, 3)):
+        if not len(rows):
+            continue
+        ang = quality.cell_angles(P, rows, "quad" if k == 4 else "triangle")
+        np.add.at(total, rows[:, :cols].ravel(), ang.ravel())
+    ideal = np.maximum(np.rint(total / 90.0), 1).astype(np.int64)
+    ideal[interior] = 4
+    return ideal
+
+
 class _State:
     """Points, cells and alive flags of the mesh being optimized."""
 
     def __init__(self, P, C, measure, metric, interior):
+        self.ideal = _ideal_valence(P, C, interior)
         self.P = P
         self.C = C
         self.alive = np.ones(len(C), bool)
@@ -373,10 +409,18 @@ def _old_min(st: _State, old: np.ndarray) -> np.ndarray:
     return qq.min(axis=1)
 
 
-def _hex_splits(st: _State, sets: np.ndarray, edge_keys: np.ndarray):
-    """Best two-quad split of the hexagon of each cell set: (pick, new quads (k, 2, 4), gain)."""
+def _hex_splits(st: _State, sets: np.ndarray, edge_keys: np.ndarray, topological=False):
+    """Best two-quad split of the hexagon of each cell set: (sets, new quads (k, 2, 4), gain).
+
+    ``topological`` (a pair of quads): the gain is first the drop of
+    ``sum |valence - ideal|`` over the four vertices whose valence the swap
+    changes (the "topological criterion" of §8.4.3, degrees relaxed towards
+    4), a split being allowed to lower the quality down to
+    :func:`_floor`; then the rise of the least quality.
+    """
     n = len(st.P)
-    sets = sets[_old_min(st, sets) < TOL.active_below]
+    if not topological:
+        sets = sets[_old_min(st, sets) < TOL.active_below]
     H = _hexagons(st.C, sets)
     ok = H[:, 0] >= 0
     sets, H = sets[ok], H[ok]
@@ -397,12 +441,41 @@ def _hex_splits(st: _State, sets: np.ndarray, edge_keys: np.ndarray):
     exists = np.isin(dkey, edge_keys)
     # the current diagonal of a pair of quads is an existing edge: the split is the pair itself
     valid &= ~exists
+    old = _old_min(st, sets)
+    if topological:
+        ptr, _ = _incidence(st.C, st.alive, n)
+        val = np.diff(ptr)
+        cur = np.argmax(exists, axis=1)  # the shared edge: the pair as it is
+        r = np.arange(k)
+        u, w = H[r, cur], H[r, (cur + 3) % 6]
+        dev = np.zeros((k, 3))
+        for s_ in range(3):
+            a, b = H[:, s_], H[:, s_ + 3]
+            before = sum(np.abs(val[x] - st.ideal[x]) for x in (u, w, a, b))
+            after = (
+                np.abs(val[u] - 1 - st.ideal[u])
+                + np.abs(val[w] - 1 - st.ideal[w])
+                + np.abs(val[a] + 1 - st.ideal[a])
+                + np.abs(val[b] + 1 - st.ideal[b])
+            )
+            dev[:, s_] = before - after
+        floor = np.minimum(old, _floor(st, TOL.swap_floor))
+        ok = valid & (dev >= 0) & (q >= floor[:, None]) & ((dev > 0) | (q > old[:, None]))
+        score = np.where(ok, dev + (q - old[:, None]), -np.inf)
+        best = np.argmax(score, axis=1)
+        gain = score[r, best]
+        return sets, cand[r, best], gain
     q = np.where(valid, q, -np.inf)
     best = np.argmax(q, axis=1)
     bq = q[np.arange(k), best]
-    gain = bq - _old_min(st, sets)
+    gain = bq - old
     new = cand[np.arange(k), best]
     return sets, new, gain
+
+
+def _floor(st: _State, floor: float | None = None) -> float:
+    """Lowest quality a relaxing change may leave a cell at: never below the mesh's least."""
+    return max(float(st.q[st.alive].min()), TOL.smooth_floor if floor is None else floor)
 
 
 def _apply_hex(st: _State, sets, new, gain) -> int:
@@ -496,7 +569,7 @@ def _op_swap(st: _State) -> int:
     pairs = pairs[quads]
     if not len(pairs):
         return 0
-    return _apply_hex(st, *_hex_splits(st, pairs, np.unique(key)))
+    return _apply_hex(st, *_hex_splits(st, pairs, np.unique(key), topological=True))
 
 
 def _op_collapse(st: _State) -> int:
@@ -582,8 +655,54 @@ def _colors(C, ptr, cells, movable):
     return color
 
 
+def _targets(st: _State, verts, ptr, cells, ea, eb, deg) -> np.ndarray:
+    """Where smoothing moves each vertex: the mean over its cells of their ideal positions.
+
+    For a quad ``(v, a, b, c)`` (``b`` opposite ``v``) the ideal position
+    is ``a + c - b``, the corner that makes it a parallelogram
+    (isoparametric smoothing: exact on any affine image of a grid); for a
+    triangle ``(v, a, c)`` it is the apex of the equilateral triangle on
+    ``a c``. ``TOL.smooth_mode`` "laplace" takes the mean of the edge
+    neighbours instead.
+    """
+    P = st.P
+    if TOL.smooth_mode == "laplace" or P.shape[1] != 2:
+        s = np.zeros((len(P), P.shape[1]))
+        np.add.at(s, ea, P[eb])
+        np.add.at(s, eb, P[ea])
+        return s[verts] / deg[verts][:, None]
+    cnt = ptr[verts + 1] - ptr[verts]
+    pos = np.repeat(np.arange(len(verts)), cnt)
+    idx = np.repeat(ptr[verts], cnt) + np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    rows = st.C[cells[idx]]
+    v = verts[pos]
+    tri = rows[:, 3] < 0
+    k = np.where(tri, 3, 4)
+    j = np.argmax(rows == v[:, None], axis=1)
+    nxt = rows[np.arange(len(rows)), (j + 1) % k]
+    prv = rows[np.arange(len(rows)), (j + k - 1) % k]
+    opp = rows[np.arange(len(rows)), (j + 2) % 4]
+    ideal = P[nxt] + P[prv] - P[opp]
+    # triangle (v, nxt, prv): the apex left of prv -> nxt... v is left of nxt -> prv? v, nxt,
+    # prv counter-clockwise, so v lies left of nxt -> prv
+    if tri.any():
+        a, c = P[nxt[tri]], P[prv[tri]]
+        d = c - a
+        ideal[tri] = 0.5 * (a + c) + (np.sqrt(3.0) / 2.0) * np.column_stack([-d[:, 1], d[:, 0]])
+    out = np.zeros((len(verts), 2))
+    np.add.at(out, pos, ideal)
+    return out / cnt[:, None]
+
+
 def _op_smooth(st: _State) -> int:
-    """Smoothing by colours: vertices of one colour share no cell, so each move is judged alone."""
+    """Smoothing passes by colours, each pass kept only when the mean quality rises.
+
+    Vertices of one colour share no cell, so each move is judged on its own
+    cells: it is undone when one of them turns invalid or drops below
+    :func:`_floor` (cells already below keep at least their quality). A pass
+    (every colour once) is kept only when the mean quality of the mesh
+    rises; else it is undone and smoothing stops.
+    """
     n = len(st.P)
     key, a, b, _ = _edge_keys(st.C, st.alive, n)
     _, first = np.unique(key, return_index=True)
@@ -600,13 +719,13 @@ def _op_smooth(st: _State) -> int:
     by_color = [np.flatnonzero(color == k) for k in range(ncol)]
     moved = np.zeros(n, bool)
     for _ in range(TOL.smooth_passes):
-        moved_now = 0
+        P0, q0, mean0 = st.P.copy(), st.q.copy(), float(st.q[live].mean())
+        floor = _floor(st)
+        moved_now = np.zeros(n, bool)
         for verts in by_color:
             if not len(verts):
                 continue
-            s = np.zeros((n, st.P.shape[1]))
-            np.add.at(s, ea, st.P[eb])
-            np.add.at(s, eb, st.P[ea])
+            target = _targets(st, verts, ptr, cells, ea, eb, deg)
             # the cells of these vertices, each listed once per vertex (no two share one)
             cnt = ptr[verts + 1] - ptr[verts]
             idx = (
@@ -618,7 +737,7 @@ def _op_smooth(st: _State) -> int:
             rows = st.C[cc]
             old_q = st.q[cc]
             Pt = st.P.copy()
-            Pt[verts] = s[verts] / deg[verts][:, None]
+            Pt[verts] = target
             new_q = _cell_quality(Pt, rows, st.measure, st.metric)
             new_q = np.where(_valid(Pt, rows), new_q, -np.inf)
             pos = np.repeat(np.arange(len(verts)), cnt)
@@ -626,19 +745,20 @@ def _op_smooth(st: _State) -> int:
             nmin = np.full(len(verts), np.inf)
             np.minimum.at(omin, pos, old_q)
             np.minimum.at(nmin, pos, new_q)
-            osum = np.bincount(pos, weights=old_q, minlength=len(verts))
-            nsum = np.bincount(pos, weights=np.maximum(new_q, -1.0), minlength=len(verts))
-            ok = (nmin >= omin) & (nsum > osum + TOL.smooth_gain)
+            ok = nmin >= np.minimum(omin, floor)
             if not ok.any():
                 continue
             keep = ok[pos]
             st.P = st.P.copy()
             st.P[verts[ok]] = Pt[verts[ok]]
             st.q[cc[keep]] = new_q[keep]
-            moved[verts[ok]] = True
-            moved_now += int(ok.sum())
-        if not moved_now:
+            moved_now[verts[ok]] = True
+        if not moved_now.any():
             break
+        if not float(st.q[live].mean()) > mean0 + TOL.smooth_gain:
+            st.P, st.q = P0, q0
+            break
+        moved |= moved_now
     return int(moved.sum())
 
 

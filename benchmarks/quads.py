@@ -1,0 +1,361 @@
+"""Side by side: ``quad_combine`` (ours) and Gmsh's recombination, one triangle mesh.
+
+Run from the repository root::
+
+    .venv/bin/python benchmarks/quads.py                       # 10k, 100k, 1M triangles
+    .venv/bin/python benchmarks/quads.py --sizes 10000 100000
+
+Input: the unit square minus a disk of radius 0.25 (Gmsh: its OpenCASCADE
+geometry; ours: the square minus a polygon sampling the circle at about the
+mesh size, our domains being polygons), meshed into about N triangles by
+Gmsh's default 2D algorithm (Frontal-Delaunay, ``MeshSizeMin = MeshSizeMax
+= h``, ``h`` calibrated by ``GMSH_FILL``). On that *same* triangle mesh:
+
+* Gmsh: ``Mesh.RecombineAll`` with ``Mesh.RecombinationAlgorithm`` 0
+  (simple) and 1 (Blossom), recombination (with Gmsh's own topological
+  optimization and smoothing) inside ``generate``; its time is that of
+  ``generate`` minus that of meshing alone (the first run), Gmsh being
+  deterministic. (``gmsh.model.mesh.recombine()`` after meshing ignores
+  ``RecombinationAlgorithm``: Blossom then leaves triangles.)
+* ours: ``combine(mesh, algorithm=...)`` for ``matching``, ``heap``,
+  ``frontal`` and ``stack``, and ``matching`` with ``optimize`` (the call
+  timed after a warm-up that loads numba's cache).
+
+Rows marked * mesh the domain themselves (meshing included in the time):
+Gmsh's ``Mesh.RecombineAll`` with algorithms 2 (simple full-quad) and 3
+(Blossom full-quad), Gmsh's quad algorithm ``Mesh.Algorithm = 8``
+(Frontal-Delaunay for quads) with ``RecombineAll``, ours from the domain
+with ``all_quad`` and ``twice_size`` (about N / 2 final quads; ``heap`` and
+``matching``, optimized), and ours from the domain without splitting
+(pairs of about N right triangles of the sheared lattice, optimized). Gmsh
+needs the OpenCASCADE geometry: its full-quad algorithms fail ("1D mesh
+cannot be divided by 2") on the geo-kernel polygon.
+
+Every row: wall time, quads, triangles left, mean and min quad quality
+(8.4) by :func:`meshcore.quality.quad_quality` (clockwise quads reversed
+first: Gmsh orients by its surface normal), the fraction of quads under 0.5.
+Every run is a child process. Gmsh is a bench-only dependency (``pip
+install -e .[bench]``) and is skipped with a note when absent.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+sys.path.insert(0, ROOT)
+
+
+def rings(h: float):
+    """The square and the circle sampled about every h (at least 32 points), as Gmsh does."""
+    n = max(32, 4 * math.ceil(2 * math.pi * 0.25 / h / 4))
+    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    circ = 0.5 + 0.25 * np.column_stack([np.cos(th), np.sin(th)])
+    return [np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]), circ[::-1]]
+
+
+def area() -> float:
+    return 1.0 - math.pi / 16
+
+
+#: Gmsh's Frontal-Delaunay lays about this many times the triangles of equilateral
+#: triangles of side MeshSize (measured).
+GMSH_FILL = 2.56
+
+
+def size_for(n: int) -> float:
+    """The Gmsh MeshSize giving about n triangles."""
+    return math.sqrt(GMSH_FILL * 4 * area() / (math.sqrt(3) * n))
+
+
+def geometry(h: float):
+    return {"type": "Polygon", "coordinates": [r.tolist() for r in rings(h)]}
+
+
+# ---------------------------------------------------------------------------
+# Children
+# ---------------------------------------------------------------------------
+
+
+def _gmsh_model(h: float, algorithm: int | None = None):
+    import gmsh
+
+    gmsh.initialize(["-noenv"])
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.option.setNumber("General.NumThreads", 1)
+    gmsh.option.setNumber("Mesh.MeshSizeMin", h)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+    if algorithm is not None:
+        gmsh.option.setNumber("Mesh.Algorithm", algorithm)
+    # the OpenCASCADE kernel: the unit square minus the disk (Gmsh's full-quad algorithms
+    # fail with "1D mesh cannot be divided by 2" on a polygonal geo-kernel boundary)
+    occ = gmsh.model.occ
+    occ.cut([(2, occ.addRectangle(0, 0, 0, 1, 1))], [(2, occ.addDisk(0.5, 0.5, 0, 0.25, 0.25))])
+    occ.synchronize()
+    return gmsh
+
+
+def _gmsh_cells(gmsh):
+    tags, coords, _ = gmsh.model.mesh.getNodes()
+    P = coords.reshape(-1, 3)[:, :2].copy()
+    index = np.empty(int(tags.max()) + 1, np.int64)
+    index[tags.astype(np.int64)] = np.arange(len(tags))
+    out = {}
+    for etype, k, name in ((2, 3, "triangle"), (3, 4, "quad")):
+        try:
+            _, nodes = gmsh.model.mesh.getElementsByType(etype)
+        except Exception:  # noqa: BLE001 (no element of this type)
+            nodes = np.zeros(0)
+        out[name] = index[np.asarray(nodes, np.int64).reshape(-1, k)]
+    return P, out
+
+
+def _ccw(P, cells):
+    from meshcore.quality import signed_area
+
+    if not len(cells):
+        return cells
+    cw = signed_area(P, cells, "quad" if cells.shape[1] == 4 else "triangle") < 0
+    cells = cells.copy()
+    cells[cw] = cells[cw, ::-1]
+    return cells
+
+
+def _describe(P, quads, tris, seconds) -> dict:
+    from meshcore.quality import quad_quality
+
+    quads = _ccw(P, np.asarray(quads, np.int64))
+    q = quad_quality(P, quads) if len(quads) else np.zeros(1)
+    return {
+        "seconds": seconds,
+        "quads": int(len(quads)),
+        "triangles": int(len(tris)),
+        "mean": float(q.mean()),
+        "min": float(q.min()),
+        "under05": float(np.mean(q < 0.5)),
+    }
+
+
+def child(tool: str, n: int, path: str) -> dict:
+    h = size_for(n)
+    if tool == "gmsh-mesh":
+        gmsh = _gmsh_model(h)
+        t = time.perf_counter()
+        gmsh.model.mesh.generate(2)
+        seconds = time.perf_counter() - t
+        P, cells = _gmsh_cells(gmsh)
+        gmsh.finalize()
+        T = _ccw(P, cells["triangle"])
+        np.savez(path, P=P, T=T)
+        return {
+            "seconds": seconds,
+            "quads": 0,
+            "triangles": int(len(T)),
+            "mean": 0,
+            "min": 0,
+            "under05": 0,
+        }
+    if tool.startswith("gmsh-recombine"):
+        # gmsh.model.mesh.recombine() ignores RecombinationAlgorithm (Blossom then leaves
+        # triangles like the simple algorithm): recombine inside generate, and report the
+        # time of generate minus that of meshing alone (the "gmsh-mesh" run)
+        k = int(tool[-1])
+        gmsh = _gmsh_model(h)
+        gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        gmsh.option.setNumber("Mesh.RecombinationAlgorithm", k)
+        t = time.perf_counter()
+        gmsh.model.mesh.generate(2)
+        seconds = time.perf_counter() - t
+        P, cells = _gmsh_cells(gmsh)
+        gmsh.finalize()
+        out = _describe(P, cells["quad"], cells["triangle"], seconds)
+        out["total"] = seconds
+        return out
+    if tool.startswith("gmsh-all"):
+        k = int(tool[-1])
+        algo = 8 if k == 8 else None
+        gmsh = _gmsh_model(h, algo)
+        gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        if k != 8:
+            gmsh.option.setNumber("Mesh.RecombinationAlgorithm", k)
+        t = time.perf_counter()
+        gmsh.model.mesh.generate(2)
+        seconds = time.perf_counter() - t
+        P, cells = _gmsh_cells(gmsh)
+        gmsh.finalize()
+        return _describe(P, cells["quad"], cells["triangle"], seconds)
+    from meshcore.mesh import CellBlock, Mesh
+    from meshcore.quadcombine import combine
+
+    warm = np.load(path)
+    # warm-up: every kernel (numba loads them from its cache on their first call)
+    for alg in ("matching", "heap", "frontal", "stack"):
+        combine(domain=geometry(0.1), size=0.1, algorithm=alg, optimize=True)
+    combine(domain=geometry(0.1), size=0.1, all_quad=True, twice_size=True, optimize=True)
+    # n triangles of the sheared lattice: right triangles of side s, of area s**2 / 2
+    s = math.sqrt(2 * area() / n)
+    if tool.startswith(("ours-domain", "ours-pairs")):
+        alg = tool.split("-")[2]
+        if tool.startswith("ours-domain"):  # n / 2 final quads of side s, from 2s triangles
+            kw = {"size": s, "all_quad": True, "twice_size": True}
+        else:  # pairs of n triangles
+            kw = {"size": s}
+        t = time.perf_counter()
+        res = combine(domain=geometry(s), algorithm=alg, optimize=True, **kw)
+        seconds = time.perf_counter() - t
+    else:
+        alg = tool.split("-")[1]
+        opt = tool.endswith("-opt")
+        mesh = Mesh(warm["P"], (CellBlock("triangle", warm["T"]),))
+        t = time.perf_counter()
+        res = combine(mesh, algorithm=alg, optimize=opt)
+        seconds = time.perf_counter() - t
+    blocks = res.mesh.cells_by_type
+    out = _describe(
+        res.mesh.points,
+        blocks.get("quad", np.zeros((0, 4))),
+        blocks.get("triangle", np.zeros((0, 3))),
+        seconds,
+    )
+    out["phases"] = res.stats["seconds"]
+    return out
+
+
+def run_child(tool: str, n: int, path: str, timeout: float) -> dict | str:
+    try:
+        out = subprocess.run(
+            [sys.executable, __file__, "--child", tool, str(n), path],
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+            cwd=ROOT,
+        )
+    except subprocess.TimeoutExpired:
+        return f"timeout {timeout:.0f} s"
+    if out.returncode != 0:
+        return out.stderr.strip().splitlines()[-1] if out.stderr.strip() else "failed"
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def available(module: str) -> bool:
+    try:
+        __import__(module)
+    except ImportError:
+        return False
+    return True
+
+
+# ---------------------------------------------------------------------------
+# Table
+# ---------------------------------------------------------------------------
+
+LABELS = {
+    "gmsh-recombine0": "Gmsh simple (algo 0)",
+    "gmsh-recombine1": "Gmsh Blossom (algo 1)",
+    "ours-matching": "ours matching",
+    "ours-heap": "ours heap",
+    "ours-frontal": "ours frontal",
+    "ours-stack": "ours stack",
+    "ours-matching-opt": "ours matching + optimize",
+    "gmsh-all2": "Gmsh simple full-quad (algo 2)*",
+    "gmsh-all3": "Gmsh Blossom full-quad (algo 3)*",
+    "gmsh-all8": "Gmsh quad algorithm 8 + Blossom*",
+    "ours-domain-heap": "ours domain all_quad heap + opt*",
+    "ours-domain-matching": "ours domain all_quad matching + opt*",
+    "ours-pairs-matching": "ours domain (pairs) matching + opt*",
+    "ours-pairs-heap": "ours domain (pairs) heap + opt*",
+}
+
+
+def fmt_row(label, r, ref, ref_name):
+    if isinstance(r, str):
+        return f"| {label} | {r} | | | | | | |"
+    ratio = ""
+    if isinstance(ref, dict) and ref is not r:
+        ratio = f"{r['seconds'] / ref['seconds']:.2f} ({ref_name})"
+    return (
+        f"| {label} | {r['seconds']:.3f} | {r['quads']:,} | {r['triangles']:,} | "
+        f"{r['mean']:.3f} | {r['min']:.3f} | {100 * r['under05']:.2f} % | {ratio} |"
+    )
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--sizes", type=int, nargs="*", default=[10_000, 100_000, 1_000_000])
+    ap.add_argument("--timeout", type=float, default=900)
+    ap.add_argument("--child", nargs=3, metavar=("TOOL", "N", "PATH"))
+    args = ap.parse_args()
+    if args.child:
+        tool, n, path = args.child
+        print(json.dumps(child(tool, int(n), path)))
+        return
+    if not available("gmsh"):
+        print(
+            "note: Gmsh not installed (pip install -e .[bench]): no triangle mesh to share; "
+            "ours runs on its own domain input only"
+        )
+    print(
+        "| run | seconds | quads | triangles left | mean Q (8.4) | min Q | Q < 0.5 | "
+        "time ratio to peer |"
+    )
+    print("|---|---:|---:|---:|---:|---:|---:|---|")
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in args.sizes:
+            path = os.path.join(tmp, f"mesh{n}.npz")
+            results = {}
+            if available("gmsh"):
+                base = run_child("gmsh-mesh", n, path, args.timeout)
+                tri = base["triangles"] if isinstance(base, dict) else base
+                print(
+                    f"| **~{n:,} triangles** (Gmsh mesh: {tri:,} triangles, "
+                    f"{base['seconds'] if isinstance(base, dict) else 0:.2f} s) | | | | | | | |",
+                    flush=True,
+                )
+                tools = [
+                    "gmsh-recombine0",
+                    "gmsh-recombine1",
+                    "ours-matching",
+                    "ours-heap",
+                    "ours-frontal",
+                    "ours-stack",
+                    "ours-matching-opt",
+                    "gmsh-all2",
+                    "gmsh-all3",
+                    "gmsh-all8",
+                    "ours-domain-heap",
+                    "ours-domain-matching",
+                    "ours-pairs-matching",
+                    "ours-pairs-heap",
+                ]
+            else:
+                np.savez(path, P=np.zeros((0, 2)), T=np.zeros((0, 3), np.int64))
+                tools = ["ours-domain-heap", "ours-domain-matching", "ours-pairs-matching"]
+            for tool in tools:
+                if tool == "ours-stack" and n > 200_000:
+                    continue
+                results[tool] = run_child(tool, n, path, args.timeout)
+                r = results[tool]
+                if tool.startswith("gmsh-recombine") and isinstance(r, dict):
+                    r["seconds"] = max(r["total"] - base["seconds"], 1e-6)
+                if tool.startswith("ours-domain") or tool.startswith("ours-pairs"):
+                    ref, ref_name = results.get("gmsh-all8"), "Gmsh algo 8"
+                elif tool.startswith("ours"):
+                    ref, ref_name = results.get("gmsh-recombine1"), "Gmsh Blossom"
+                else:
+                    ref, ref_name = None, ""
+                print(fmt_row(LABELS[tool], results[tool], ref, ref_name), flush=True)
+    print("* meshing included in the time (the domain is meshed by the run itself).")
+    print("time ratio: ours / peer wall time (below 1: ours faster).")
+
+
+if __name__ == "__main__":
+    main()
