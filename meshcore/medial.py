@@ -358,6 +358,24 @@ def _resample(a, b, count, last_of_ring, seg_id):
     return pts, succ, source
 
 
+def _too_thin(exc: InputError, domain: Domain, source, cloud_ids) -> InputError:
+    """The error for a boundary whose samples collide (a spike or a gap thinner
+    than float64 resolves): located at the domain vertex starting the
+    segment of the first sample named."""
+    loc = exc.errors[0]["loc"] if exc.errors else []
+    sample = int(loc[1]) if len(loc) > 1 and isinstance(loc[1], int) else 0
+    seg = int(source[min(sample, len(source) - 1)])
+    v = int(domain.segments[seg, 0])
+    where = ("points", int(cloud_ids[v])) if cloud_ids is not None else domain.vertex_loc(v)
+    return InputError(
+        f"the boundary near {domain.vertex_name(v)} at {domain.points[v].tolist()} is too thin "
+        "to sample: two of its segments nearly overlap, closer than float64 resolves; "
+        "widen or remove that spike",
+        loc=where,
+        code="degenerate_boundary",
+    )
+
+
 def _admissible(pts, succ, source, progress):
     """Delaunay triangulation in which every piece is an edge (§9.1.4)."""
     tri = delaunay(pts)
@@ -1159,14 +1177,17 @@ def medial_axis(
     if h is not None and not (isinstance(h, int | float) and math.isfinite(h) and h > 0):
         raise InputError(f"h must be a positive number, got {h!r}", loc=("h",), code="bad_value")
     if domain is None:
-        domain, _ = _cloud_domain(points)
+        domain, cloud_ids = _cloud_domain(points)
     elif h is None:
         h = _default_h(domain)
     report(0.05, "sampling the boundary")
     pts, succ, source = _sampled(domain, h)
     h_used = float(h) if h is not None else float(np.hypot(*(pts[succ] - pts).T).max())
     report(0.1, f"Delaunay triangulation of {len(pts)} boundary samples", "sampling")
-    pts, succ, source, tri, added = _admissible(pts, succ, source, progress)
+    try:
+        pts, succ, source, tri, added = _admissible(pts, succ, source, progress)
+    except InputError as exc:  # samples of two nearly overlapping segments coincide
+        raise _too_thin(exc, domain, source, None if points is None else cloud_ids) from None
     report(0.5, "typing the triangles", "delaunay")
     inside, bnd, ttype, status = _empty_triangulation(tri.triangles, tri.neighbors, succ)
     if status[0] < 0:

@@ -220,6 +220,17 @@ class TestErrors:
             medial_axis(RECT, **kwargs)
         assert exc.value.errors[0]["loc"] == [loc]
 
+    def test_a_spike_thinner_than_rounding_is_refused_at_its_vertex(self):
+        # vertex 12 turns back along its previous segment, off it by rounding only
+        ring = [[0.35, 0.05], [0.65, 0.35], [0.25, 0.25], [0.05, 0.3], [-0.0, 0.5], [-0.05, 0.15],
+                [-0.45, 0.4], [-0.3, 0.05], [-0.75, -0.15], [-0.4, -0.1], [-0.3, -0.1],
+                [-0.2, -0.15], [-0.25, -0.2], [-0.15, -0.1], [-0.05, -0.65], [0.1, -0.55],
+                [0.2, -0.95], [0.25, -0.95], [0.55, -0.65], [0.35, -0.1]]  # fmt: skip
+        with pytest.raises(InputError) as exc:
+            medial_axis(parse_domain({"type": "Polygon", "coordinates": [ring]}))
+        assert exc.value.code == "degenerate_boundary"
+        assert exc.value.errors[0]["loc"] == ["coordinates", 0, 12]
+
     def test_a_runaway_h_is_refused(self):
         with pytest.raises(InputError) as exc:
             medial_axis(RECT, h=1e-9)
