@@ -173,7 +173,13 @@ def _first(mask: np.ndarray) -> tuple[int, ...]:
     return tuple(int(x) for x in np.argwhere(mask)[0])
 
 
-def _checked(nodes, radius, edges, boundary, h):
+def checked_axis(nodes, radius, edges, boundary=None, h=None):
+    """The validated axis arrays ``(nodes, radius, edges, h)`` of :func:`medial_transform`.
+
+    Raises the same :class:`~meshcore.errors.InputError` as
+    :func:`medial_transform` for bad input (located at ``nodes``, ``radius``,
+    ``edges``, ``boundary`` or ``h``), without building anything.
+    """
     P = _array(nodes, "nodes", 2, 2).astype(np.float64)
     n = len(P)
     if n == 0:
@@ -446,7 +452,7 @@ def medial_transform(
     ----------
     Methods text §9.6; Definition 9.1 (§9.4).
     """
-    P, r, E, h = _checked(nodes, radius, edges, boundary, h)
+    P, r, E, h = checked_axis(nodes, radius, edges, boundary, h)
     lo = (P - r[:, None]).min(axis=0)
     hi = (P + r[:, None]).max(axis=0)
     diameter = float(np.hypot(*(hi - lo)))

@@ -18,7 +18,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from meshcore.errors import InputError
 from meshcore.medial import DEFAULT_PRUNE, medial_axis
-from meshcore.medial_transform import medial_transform
+from meshcore.medial_transform import checked_axis, medial_transform
 from meshcore.partition import partition, quad_medial
 from meshcore.simplify import DEFAULT_THRESHOLD, simplify
 from service.domain_schema import DomainIn, Position
@@ -155,40 +155,28 @@ class MedialTransformParams(MethodParams):
         description="Accuracy of the rebuilt boundary (circles are sampled to within it).",
     )
 
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return (
+            np.asarray(self.axis.nodes, dtype=float),
+            np.asarray(self.axis.radius, dtype=float),
+            np.asarray(self.axis.edges, dtype=np.int64).reshape(-1, 2),
+        )
+
     def check(self) -> None:
         super().check()
-        self._run(check_only=True)
-
-    def _run(self, check_only: bool = False, progress=None):
         boundary = None if self.domain is None else self.domain.to_domain()
         try:
-            if check_only:
-                from meshcore.medial_transform import _checked
-
-                return _checked(
-                    np.asarray(self.axis.nodes, dtype=float),
-                    np.asarray(self.axis.radius, dtype=float),
-                    np.asarray(self.axis.edges, dtype=np.int64).reshape(-1, 2),
-                    boundary,
-                    self.h,
-                )
-            return medial_transform(
-                np.asarray(self.axis.nodes, dtype=float),
-                np.asarray(self.axis.radius, dtype=float),
-                np.asarray(self.axis.edges, dtype=np.int64).reshape(-1, 2),
-                boundary=boundary,
-                h=self.h,
-                progress=progress,
-            )
+            checked_axis(*self.arrays(), boundary, self.h)
         except InputError as exc:
-            if exc.errors and exc.errors[0]["loc"][:1] in (["nodes"], ["radius"], ["edges"]):
+            if exc.errors[0]["loc"][:1] in (["nodes"], ["radius"], ["edges"]):
                 raise exc.prefixed("axis") from None
             raise
 
 
 def run_medial_transform(params: MedialTransformParams, progress) -> dict:
     """The rebuilt domain, its area and the Hausdorff distance to the original."""
-    res = params._run(progress=progress)
+    boundary = None if params.domain is None else params.domain.to_domain()
+    res = medial_transform(*params.arrays(), boundary=boundary, h=params.h, progress=progress)
     return {
         "domain": res.domain,
         "stats": {**res.stats, "hausdorff": res.hausdorff, "area": res.area, "h": res.h},
