@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from meshcore import quality, topology
 from meshcore.domain import parse_domain
@@ -65,6 +67,29 @@ class TestPartition:
         with pytest.raises(InputError) as exc:
             partition(domain("rectangle"), method="other")
         assert exc.value.errors[0]["loc"] == ["method"]
+
+
+@st.composite
+def stars(draw):
+    """Random star-shaped polygons: many reflex corners."""
+    n = draw(st.integers(5, 14))
+    radii = draw(st.lists(st.floats(0.3, 1.0), min_size=n, max_size=n))
+    t = 2 * np.pi * np.arange(n) / n
+    return (np.c_[np.cos(t), np.sin(t)] * np.array(radii)[:, None]).tolist()
+
+
+class TestRandomDomains:
+    @settings(max_examples=20, deadline=None)
+    @given(stars(), st.sampled_from(["critical", "terminal"]))
+    def test_partition_tiles_and_quads_are_valid(self, ring, method):
+        dom = parse_domain({"type": "Polygon", "coordinates": [ring]})
+        part = partition(dom, method=method)
+        assert sum(r["area"] for r in part.regions) == pytest.approx(dom.area, rel=1e-12)
+        assert min(r["sides"] for r in part.regions) >= 3
+        res = quad_medial(dom, method=method, size=0.05)
+        area = quality.signed_area(res.mesh.points, res.mesh.cells[0].data, "quad")
+        assert (area > 0).all()
+        assert area.sum() == pytest.approx(dom.area, rel=1e-12)
 
 
 class TestQuadMedial:
