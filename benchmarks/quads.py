@@ -69,7 +69,7 @@ def area() -> float:
 
 #: Gmsh's Frontal-Delaunay lays about this many times the triangles of equilateral
 #: triangles of side MeshSize (measured).
-GMSH_FILL = 2.56
+GMSH_FILL = 1.04
 
 
 def size_for(n: int) -> float:

@@ -49,11 +49,12 @@ Pipeline
      paths of Edmonds' blossom algorithm grown from every leftover
      triangle, which pair leftovers two by two by flipping the pairs along
      an alternating path in the dual graph: first through pairs of quality
-     at least ``good_quality``, then through every allowed pair. A search
+     at least ``good_quality``, then through every allowed pair (twice, the
+     second time with a much larger bound on a search's tree). A search
      that finds nothing proves that this triangle stays unpaired in *some*
      maximum matching, so after the passes the number of leftovers is the
-     least possible in the allowed dual graph (up to ``search_cap``, a bound
-     on one search's tree). Then alternating 4-cycles that raise the summed
+     least possible in the allowed dual graph (up to ``search_caps``, the
+     bounds on one search's tree). Then alternating 4-cycles that raise the summed
      quality are swapped in. It is a maximum-*cardinality* matching with a
      quality-greedy start, not an exact maximum-weight matching (Edmonds'
      weighted algorithm costs far more at a million triangles); the
@@ -160,8 +161,10 @@ class _Tolerances:
     urgent_start: bool = True
     #: Augmenting paths go through pairs at least this good first.
     good_quality: float = 0.5
-    #: Largest alternating tree (triangles) grown from one leftover triangle.
-    search_cap: int = 1 << 16
+    #: Largest alternating tree (triangles) grown from one leftover triangle in
+    #: the three passes (good pairs only; all pairs; all pairs again for the
+    #: few left): a failed search costs its whole tree, so the caps grow.
+    search_caps: tuple[int, int, int] = (1 << 10, 1 << 12, 1 << 17)
     #: Cost of one alternating step in the augmenting search, against the
     #: quality it loses: a path may be 1 / path_step times longer to lose 1 less.
     path_step: float = 0.05
@@ -311,38 +314,37 @@ def _heap_kernel(nb, w, order, mate, urgent):
 
 
 @njit(cache=True)
+def _find(base, x):
+    """Representative of x's blossom (union-find with path halving)."""
+    while base[x] != x:
+        base[x] = base[base[x]]
+        x = base[x]
+    return x
+
+
+@njit(cache=True)
 def _lca(a, b, base, p, mate, mark):
     x = a
     while True:
-        x = base[x]
+        x = _find(base, x)
         mark[x] = True
         if mate[x] < 0:
             break
         x = p[mate[x]]
     y = b
     while True:
-        y = base[y]
+        y = _find(base, y)
         if mark[y]:
             break
         y = p[mate[y]]
     x = a
     while True:
-        x = base[x]
+        x = _find(base, x)
         mark[x] = False
         if mate[x] < 0:
             break
         x = p[mate[x]]
     return y
-
-
-@njit(cache=True)
-def _mark_path(v, b, child, base, p, mate, blossom):
-    while base[v] != b:
-        blossom[base[v]] = True
-        blossom[base[mate[v]]] = True
-        p[v] = child
-        child = mate[v]
-        v = p[mate[v]]
 
 
 @njit(cache=True)
@@ -379,21 +381,41 @@ def _scan(nb, w, mate, v, dv, step, hk, hv, hn):
 
 
 @njit(cache=True)
+def _mark_path(v, b, child, base, p, mate, buf, nbuf):
+    """Walk from ``v`` up to the blossom base ``b``, re-linking ``p``; record the triangles.
+
+    Bases are merged only after both sides are walked (a walk may pass
+    through a sub-blossom whose base is not yet ``b``).
+    """
+    while _find(base, v) != b:
+        u = mate[v]
+        p[v] = child
+        child = u
+        buf[nbuf] = v
+        buf[nbuf + 1] = u
+        nbuf += 2
+        v = p[u]
+    return nbuf
+
+
+@njit(cache=True)
 def _augment_kernel(nb, w, thr, mate, cap, step):
     """Edmonds' augmenting paths from every free triangle (blossoms contracted).
 
     The alternating tree grows cheapest first (Dijkstra's order instead of
     breadth-first: Edmonds' search finds an augmenting path whenever one
-    exists in whatever order it scans), by :func:`_step_cost`. The tree of one search is reset
-    through the list of the triangles it touched, so a search costs the
-    size of its tree, not ``m``. Returns the number of augmentations.
+    exists in whatever order it scans), by :func:`_step_cost`. Blossoms are
+    contracted by union-find on their bases (only the path from each side
+    up to the base is walked), and the tree of one search is reset through
+    the list of the triangles it touched, so a search costs about the size
+    of its tree, not ``m``. Returns the number of augmentations.
     """
     m = nb.shape[0]
     base = np.arange(m)
     p = np.full(m, -1, np.int64)
     used = np.zeros(m, np.bool_)
-    blossom = np.zeros(m, np.bool_)
     mark = np.zeros(m, np.bool_)
+    buf = np.empty(2 * m + 2, np.int64)
     dist = np.zeros(m)
     hk = np.empty(3 * m + 3)
     hv = np.empty(3 * m + 3, np.int64)
@@ -421,23 +443,25 @@ def _augment_kernel(nb, w, thr, mate, cap, step):
             v = h // 3
             k = h % 3
             to = nb[v, k]
-            if w[v, k] < thr or base[v] == base[to] or mate[v] == to:
+            if w[v, k] < thr or mate[v] == to or _find(base, v) == _find(base, to):
                 continue
             if to == root or (mate[to] >= 0 and p[mate[to]] >= 0):
+                # a blossom: contract it onto the base of the paths' meeting point
                 cb = _lca(v, to, base, p, mate, mark)
-                for i in range(nt):
-                    blossom[touched[i]] = False
-                _mark_path(v, cb, to, base, p, mate, blossom)
-                _mark_path(to, cb, v, base, p, mate, blossom)
-                for i in range(nt):
-                    x = touched[i]
-                    if blossom[base[x]]:
-                        base[x] = cb
-                        if not used[x]:
-                            used[x] = True
-                            dist[x] = dist[v]
-                            if hn + 3 <= hk.shape[0]:
-                                hn = _scan(nb, w, mate, x, dist[x], step, hk, hv, hn)
+                nbuf = _mark_path(v, cb, to, base, p, mate, buf, 0)
+                nbuf = _mark_path(to, cb, v, base, p, mate, buf, nbuf)
+                for i in range(nbuf):
+                    r = _find(base, buf[i])
+                    if r != cb:
+                        base[r] = cb
+                dv = dist[v]
+                for i in range(1, nbuf, 2):  # the odd triangles of the cycle turn even
+                    x = buf[i]
+                    if not used[x]:
+                        used[x] = True
+                        dist[x] = dv
+                        if hn + 3 <= hk.shape[0]:
+                            hn = _scan(nb, w, mate, x, dv, step, hk, hv, hn)
             elif p[to] < 0:
                 p[to] = v
                 touched[nt] = to
@@ -466,7 +490,6 @@ def _augment_kernel(nb, w, thr, mate, cap, step):
             base[x] = x
             p[x] = -1
             used[x] = False
-            blossom[x] = False
     return gained
 
 
@@ -1169,8 +1192,13 @@ def combine(
         if algorithm == "matching":
             stats["heap_triangles_left"] = int(np.count_nonzero(mate < 0))
             gained = 0
-            for thr in sorted({max(TOL.good_quality, min_quality), min_quality}, reverse=True):
-                gained += _augment_kernel(nb, w, thr, mate, TOL.search_cap, TOL.path_step)
+            good = max(TOL.good_quality, min_quality)
+            for thr, cap in (
+                (good, TOL.search_caps[0]),
+                (min_quality, TOL.search_caps[1]),
+                (min_quality, TOL.search_caps[2]),
+            ):
+                gained += _augment_kernel(nb, w, thr, mate, cap, TOL.path_step)
             stats["augmentations"] = int(gained)
             stats["swaps"] = int(_swap_kernel(nb, w, mate, TOL.gain, TOL.swap_sweeps))
     elif algorithm == "frontal":
