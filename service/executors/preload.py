@@ -7,7 +7,9 @@ domain moves that cost (about 0.3 s per kernel family) from every job to
 the service start. Triangulating a square with a hole, with and without
 keeping its boundary, runs the domain checks, the Delaunay kernel, the
 admissible boundary, the constrained triangulation and the refinement; a
-quad mesh on the medial-axis partition runs the medial-axis kernels.
+quad mesh on the medial-axis partition runs the medial-axis kernels; quad
+combination by each algorithm, optimized, runs the combination and
+optimization kernels.
 """
 
 import gc
@@ -15,6 +17,7 @@ import gc
 from meshcore.domain import parse_domain
 from meshcore.medial import medial_axis
 from meshcore.partition import quad_medial
+from meshcore.quadcombine import combine
 from meshcore.triangulate import triangulate
 
 _SQUARE_WITH_HOLE = parse_domain(
@@ -31,6 +34,9 @@ for _keep in (False, True):
 # the medial axis kernels (polygon and point cloud), the partition's faces
 quad_medial(_SQUARE_WITH_HOLE, levels=0, h=0.05)
 medial_axis(points=[[0, 0], [1, 0], [1, 1], [0, 1]])
+# the quad combination kernels: the four selection algorithms and the optimizer
+for _alg in ("stack", "heap", "frontal", "matching"):
+    combine(domain=_SQUARE_WITH_HOLE, size=0.2, algorithm=_alg, optimize=True)
 
 # Jobs are forked from here: keep the collector off what is loaded by now, so
 # a job's garbage collections do not touch (and copy) these pages.
