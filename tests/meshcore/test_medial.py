@@ -259,3 +259,31 @@ class TestRandomDomains:
         assert len(ax.edges) == len(ax.nodes) - 1
         inside = shapely.contains_xy(shapely.Polygon(ring).buffer(1e-9), *ax.nodes.T)
         assert inside.all()
+
+
+class TestAnyPolygon:
+    @settings(max_examples=60, deadline=None)
+    @given(
+        st.lists(
+            st.tuples(st.integers(0, 20), st.integers(0, 20)), min_size=3, max_size=9, unique=True
+        )
+    )
+    def test_valid_or_refused_with_a_location(self, ring):
+        # random rings: most cross themselves (refused with the ring and vertex),
+        # the others get an axis whose radii are distances to the boundary
+        from meshcore.errors import MeshcoreError
+
+        coords = [[x / 20, y / 20] for x, y in ring]
+        try:
+            dom = parse_domain({"type": "Polygon", "coordinates": [coords]})
+        except InputError as exc:
+            assert exc.errors[0]["loc"][0] == "coordinates"
+            return
+        try:
+            ax = medial_axis(dom, h=0.01)
+        except MeshcoreError as exc:
+            assert isinstance(exc, InputError) and exc.errors[0]["loc"][0] == "coordinates"
+            return
+        d = segment_distance(ax.nodes, boundary_segments(dom))
+        np.testing.assert_allclose(ax.radius, d, rtol=1e-9, atol=1e-12)
+        assert len(ax.edges) == len(ax.nodes) - 1  # one ring, no hole: a tree
