@@ -292,6 +292,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", type=int, nargs="*", default=[10_000, 100_000, 1_000_000])
     ap.add_argument("--timeout", type=float, default=900)
+    ap.add_argument("--tools", nargs="*", default=None, help="only these runs (names as in LABELS)")
     ap.add_argument("--child", nargs=3, metavar=("TOOL", "N", "PATH"))
     args = ap.parse_args()
     if args.child:
@@ -341,6 +342,8 @@ def main() -> None:
                 tools = ["ours-domain-heap", "ours-domain-matching", "ours-pairs-matching"]
             for tool in tools:
                 if tool == "ours-stack" and n > 200_000:
+                    continue
+                if args.tools is not None and tool not in args.tools:
                     continue
                 results[tool] = run_child(tool, n, path, args.timeout)
                 r = results[tool]

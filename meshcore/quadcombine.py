@@ -35,20 +35,20 @@ Pipeline
      (Remark 8.5). On a tree this post-order rule is the optimal greedy
      matching (leaves first).
    * ``heap`` (§8.4.4): the allowed edges, best quality first; a pair is
-     formed when both triangles are still free. We keep the "update as
-     pairs are used" of the text as a second heap: when a triangle is down
-     to its last allowed free neighbour, that pair jumps ahead of the
-     quality order (ranked by quality among such pairs). This is the
-     cheapest defence against the second drawback of §8.4.4, isolated
-     triangles; without it the sorted order leaves about twice as many.
+     formed when both triangles are still free (a sorted pass: the
+     qualities never change, so the heap of the text reduces to an order).
    * ``frontal`` (Remark 8.8): triangles in breadth-first order from the
      boundary inward (from triangle 0 on a closed surface); a free
      triangle is combined with its best allowed free neighbour, and the
      front moves on past both. No global sort.
-   * ``matching`` (beyond the text): the heap's pairs, then augmenting
-     paths of Edmonds' blossom algorithm grown from every leftover
-     triangle, which pair leftovers two by two by flipping the pairs along
-     an alternating path in the dual graph: first through pairs of quality
+   * ``matching`` (beyond the text): a greedy start, the heap's order
+     with the "update as pairs are used" of the text kept as a second heap
+     (a triangle down to its last allowed free neighbour pairs with it
+     ahead of the quality order, the cheapest defence against the isolated
+     triangles of §8.4.4), then augmenting paths of Edmonds' blossom
+     algorithm grown from every leftover triangle, which pair leftovers two
+     by two by flipping the pairs along an alternating path in the dual
+     graph, cheapest in lost quality first: first through pairs of quality
      at least ``good_quality``, then through every allowed pair (twice, the
      second time with a much larger bound on a search's tree). A search
      that finds nothing proves that this triangle stays unpaired in *some*
@@ -854,9 +854,10 @@ def check_metric_2d(metric) -> None:
 
 def _triangulated(domain, size, size_field, min_angle, pattern, keep_boundary, progress):
     """Triangles of a domain laid for combination (sheared lattice), with even parts."""
-    from meshcore.triangulate import _as_domain, triangulate
+    from meshcore.domain import Domain, parse_domain
+    from meshcore.triangulate import triangulate
 
-    dom = _as_domain(domain)
+    dom = domain if isinstance(domain, Domain) else parse_domain(domain)
     A = _SHEAR if pattern == "squares" else np.eye(2)
     field_ = None
     if size_field is not None:
@@ -975,7 +976,9 @@ def _even_parts(P, tri):
 # ----------------------------------------------------------------------------- splitting
 
 
-def split_all(points: np.ndarray, quads: np.ndarray, triangles: np.ndarray, metric=None):
+def split_all(
+    points: np.ndarray, quads: np.ndarray, triangles: np.ndarray, metric=None, segments=None
+):
     """Every quad into four quads and every triangle into three (Figure 8.13).
 
     Parameters
@@ -985,6 +988,8 @@ def split_all(points: np.ndarray, quads: np.ndarray, triangles: np.ndarray, metr
     triangles : (t, 3) int
     metric : (n, d, d) float64, optional
         Extended to the new points (the mean of the points they are made from).
+    segments : (s, 2) int, optional
+        Edges of the cells (a boundary) to follow through the split.
 
     Returns
     -------
@@ -993,6 +998,8 @@ def split_all(points: np.ndarray, quads: np.ndarray, triangles: np.ndarray, metr
     quads : (4 q + 3 t, 4) int64
         Counter-clockwise when the input cells are; conforming.
     metric : (n + e + q + t, d, d) float64 or None
+    segments : (2 s, 2) int64 or None
+        Each given edge ``(a, b)`` as ``(a, m)`` and ``(m, b)``, ``m`` its midpoint.
 
     References
     ----------
@@ -1033,7 +1040,13 @@ def split_all(points: np.ndarray, quads: np.ndarray, triangles: np.ndarray, metr
         mq = metric[cells[0]].mean(axis=1) if nq else np.zeros((0,) + metric.shape[1:])
         mt = metric[cells[1]].mean(axis=1) if nt else np.zeros((0,) + metric.shape[1:])
         newm = np.concatenate([metric, mm, mq, mt])
-    return newp, newq, newm
+    if segments is None:
+        return newp, newq, newm
+    seg = np.asarray(segments, np.int64).reshape(-1, 2)
+    skey = np.minimum(seg[:, 0], seg[:, 1]) * n + np.maximum(seg[:, 0], seg[:, 1])
+    mid = n + np.searchsorted(uniq, skey)
+    newseg = np.concatenate([np.column_stack([seg[:, 0], mid]), np.column_stack([mid, seg[:, 1]])])
+    return newp, newq, newm, newseg
 
 
 # ----------------------------------------------------------------------------- entry point
@@ -1154,7 +1167,6 @@ def combine(
             loc=("twice_size",),
             code="conflicting_parameters",
         )
-    boundary = None
     if domain is not None:
         if metric is not None:
             check_metric_2d(metric)
@@ -1176,8 +1188,7 @@ def combine(
     metric = _check_metric(metric, P)
     report(0.4, "dual graph")
     nb = _neighbours(mesh, P, tri)
-    if domain is None:
-        boundary = _boundary_edges(tri, nb)
+    boundary = _boundary_edges(tri, nb)  # the input's, or the domain's chains
     quads_of, w = _candidates(P, tri, nb, measure, metric, min_quality)
     lap("candidates")
     report(0.5, f"selecting pairs ({algorithm})")
@@ -1237,11 +1248,9 @@ def combine(
     out_mesh = _mesh_of(P, quads, left)
     if all_quad:
         report(0.6, "splitting into quads")
-        P2, q2, m2 = split_all(P, quads, left, metric)
+        P2, q2, m2, boundary = split_all(P, quads, left, metric, boundary)
         if metric is not None and metric.ndim == 3:
             metric = m2
-        if boundary is not None:
-            boundary = None  # boundary edges are split: conformity counts boundary edges only
         out_mesh = Mesh(P2, (CellBlock("quad", q2),))
     lap("build")
     report(0.65, "quality report")

@@ -218,6 +218,8 @@ class TestRandomDomains:
         # each boundary edge of the input is two edges of the output, end to end
         assert len(boundary_edges(res.mesh)) == 2 * len(boundary_edges(mesh))
         assert res.quality_before["quad"]["invalid"] == 0
+        # the report follows the input boundary through the split
+        assert res.quality_before["conformity"] == {"nonmanifold": 0, "boundary_edges": 0}
 
 
 class TestDomainInput:
