@@ -401,3 +401,51 @@ class TestBadInput:
         with pytest.raises(InputError) as err:
             combine(tri_mesh(SQUARE_PTS, SQUARE_TRI), **kw)
         assert err.value.errors[0]["loc"] == loc
+
+
+class TestQuadMeasures:
+    """The measures added to meshcore.quality for §8.4.4 and §8.4.5."""
+
+    Q = [[0, 1, 2, 3]]
+
+    def test_square(self):
+        assert quality.quad_quality_simplified(SQUARE_PTS, self.Q) == pytest.approx([1.0])
+        assert quality.quad_shape(SQUARE_PTS, self.Q) == pytest.approx([1.0])
+        assert quality.quad_warp(SQUARE_PTS, self.Q) == pytest.approx([0.0])
+
+    def test_rhombus_and_rectangle(self):
+        s = math.sqrt(3) / 2
+        rhombus = [[0, 0], [1, 0], [1.5, s], [0.5, s]]  # 60 degrees at nodes 0 and 2
+        assert quality.quad_quality_simplified(rhombus, self.Q) == pytest.approx([2 / 3])
+        assert quality.quad_quality(rhombus, self.Q) == pytest.approx([2 / 3])
+        # (8.8) of a 2 x 1 rectangle: 2 r / (1 + r**2) = 0.8, while (8.4) is 1
+        rect = [[0, 0], [2, 0], [2, 1], [0, 1]]
+        assert quality.quad_shape(rect, self.Q) == pytest.approx([0.8])
+        assert quality.quad_quality(rect, self.Q) == pytest.approx([1.0])
+        # a non-convex quad scores <= 0
+        dart = [[0, 0], [2, 0], [0.5, 0.5], [0, 2]]
+        assert quality.quad_shape(dart, self.Q)[0] <= 0
+
+    def test_warp_of_a_folded_square(self):
+        # the unit square folded by 90 degrees along its diagonal 0-2
+        P = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0.5, 0.5, math.sqrt(0.5)]]
+        warp = quality.quad_warp(P, self.Q)[0]
+        assert 45 < warp <= 180
+        flat = [[0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]]
+        assert quality.quad_warp(flat, self.Q) == pytest.approx([0.0], abs=1e-12)
+
+    def test_metric_per_point_matches_a_constant_one(self):
+        s = math.sqrt(3) / 2
+        P = np.array([[0, 0], [1, 0], [1.5, s], [0.5, s]])
+        M = np.array([[1.0, 0.2], [0.2, 2.0]])
+        each = np.tile(M, (4, 1, 1))
+        for f in (quality.quad_quality, quality.quad_quality_simplified):
+            assert f(P, self.Q, each) == pytest.approx(f(P, self.Q, M))
+        # the least over the corners' metrics (8.6)
+        D = np.diag([1.0, 0.04])
+        each[1] = D
+        expect = min(quality.quad_quality(P, self.Q, M)[0], quality.quad_quality(P, self.Q, D)[0])
+        assert quality.quad_quality(P, self.Q, each)[0] == pytest.approx(expect)
+        assert quality.quad_quality(P, self.Q, D)[0] < quality.quad_quality(P, self.Q, M)[0]
+        with pytest.raises(InputError):
+            quality.quad_shape(P, self.Q, each)
