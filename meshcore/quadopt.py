@@ -109,8 +109,6 @@ class _Tolerances:
     smooth_floor: float = 0.4
     #: A swap that relaxes the valences may leave a cell this low (smoothing follows).
     swap_floor: float = 0.3
-    #: "iso" (parallelogram ideal positions) or "laplace" (mean of neighbours).
-    smooth_mode: str = "laplace"
     #: Cells under this quality get their vertices moved to raise the least
     #: quality around them (the "lift" pattern search), in this many rounds.
     lift_below: float = 0.6
@@ -186,20 +184,22 @@ def _valid(P, C) -> np.ndarray:
     if not len(C):
         return ok
     tri = C[:, 3] < 0
+    t, q = np.flatnonzero(tri), np.flatnonzero(~tri)
     if P.shape[1] == 2:
-        for i in range(4):
-            a, b, c = C[:, i - 1], C[:, i], C[:, (i + 1) % 4]
-            # triangles: corners 0, 1, 2 (their slot 3 is skipped)
-            a = np.where(tri & (i == 0), C[:, 2], a)
-            c = np.where(tri & (i == 2), C[:, 0], c)
-            rows = ~tri if i == 3 else np.ones(len(C), bool)
-            r = np.flatnonzero(rows)
-            ok[r] &= orient2d(P[a[r]], P[b[r]], P[c[r]]) > 0
+        if len(t):
+            T = C[t]
+            ok[t] = orient2d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]) > 0
+        if len(q):
+            Q = C[q]
+            good = np.ones(len(q), bool)
+            for i in range(4):
+                good &= orient2d(P[Q[:, i - 1]], P[Q[:, i]], P[Q[:, (i + 1) % 4]]) > 0
+            ok[q] = good
         return ok
-    if tri.any():
-        ok[tri] = quality.signed_area(P, C[tri, :3]) > 0
-    if (~tri).any():
-        ok[~tri] = quality.quad_quality(P, C[~tri]) > 0
+    if len(t):
+        ok[t] = quality.signed_area(P, C[t, :3]) > 0
+    if len(q):
+        ok[q] = quality.quad_quality(P, C[q]) > 0
     return ok
 
 
@@ -399,7 +399,7 @@ class _State:
 
     def __init__(self, P, C, measure, metric, interior):
         self.ideal = _ideal_valence(P, C, interior)
-        self.P = P
+        self.P = np.array(P, dtype=np.float64)  # moved in place from here on
         self.C = C
         self.alive = np.ones(len(C), bool)
         self.q = _cell_quality(P, C, measure, metric)
@@ -632,7 +632,6 @@ def _op_collapse(st: _State) -> int:
     # and each vertex's cells are all in its collapse, so the vertices are distinct too
     pick = _select(gain, old, len(st.C))
     old, new, pair, mid = old[pick], new[pick], pair[pick], mid[pick]
-    st.P = st.P.copy()
     st.P[pair[:, 0]] = mid
     if st.metric is not None and np.ndim(st.metric) == 3:
         st.metric = st.metric.copy()
@@ -673,43 +672,18 @@ def _colors(C, ptr, cells, movable):
     return color
 
 
-def _targets(st: _State, verts, ptr, cells, ea, eb, deg) -> np.ndarray:
-    """Where smoothing moves each vertex: the mean over its cells of their ideal positions.
-
-    For a quad ``(v, a, b, c)`` (``b`` opposite ``v``) the ideal position
-    is ``a + c - b``, the corner that makes it a parallelogram
-    (isoparametric smoothing: exact on any affine image of a grid); for a
-    triangle ``(v, a, c)`` it is the apex of the equilateral triangle on
-    ``a c``. ``TOL.smooth_mode`` "laplace" takes the mean of the edge
-    neighbours instead.
-    """
-    P = st.P
-    if TOL.smooth_mode == "laplace" or P.shape[1] != 2:
-        s = np.zeros((len(P), P.shape[1]))
-        np.add.at(s, ea, P[eb])
-        np.add.at(s, eb, P[ea])
-        return s[verts] / deg[verts][:, None]
+def _segments(ptr: np.ndarray, verts: np.ndarray):
+    """Positions into a CSR array of the rows ``verts``: (index, segment starts, counts)."""
     cnt = ptr[verts + 1] - ptr[verts]
-    pos = np.repeat(np.arange(len(verts)), cnt)
-    idx = np.repeat(ptr[verts], cnt) + np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    rows = st.C[cells[idx]]
-    v = verts[pos]
-    tri = rows[:, 3] < 0
-    k = np.where(tri, 3, 4)
-    j = np.argmax(rows == v[:, None], axis=1)
-    nxt = rows[np.arange(len(rows)), (j + 1) % k]
-    prv = rows[np.arange(len(rows)), (j + k - 1) % k]
-    opp = rows[np.arange(len(rows)), (j + 2) % 4]
-    ideal = P[nxt] + P[prv] - P[opp]
-    # triangle (v, nxt, prv): the apex left of prv -> nxt... v is left of nxt -> prv? v, nxt,
-    # prv counter-clockwise, so v lies left of nxt -> prv
-    if tri.any():
-        a, c = P[nxt[tri]], P[prv[tri]]
-        d = c - a
-        ideal[tri] = 0.5 * (a + c) + (np.sqrt(3.0) / 2.0) * np.column_stack([-d[:, 1], d[:, 0]])
-    out = np.zeros((len(verts), 2))
-    np.add.at(out, pos, ideal)
-    return out / cnt[:, None]
+    starts = np.cumsum(cnt) - cnt
+    idx = np.repeat(ptr[verts] - starts, cnt) + np.arange(cnt.sum())
+    return idx, starts, cnt
+
+
+def _targets(P: np.ndarray, verts, nptr, nidx) -> np.ndarray:
+    """Laplacian targets: the mean of each vertex's edge neighbours (CSR ``nptr, nidx``)."""
+    idx, starts, cnt = _segments(nptr, verts)
+    return np.add.reduceat(P[nidx[idx]], starts, axis=0) / cnt[:, None]
 
 
 def _op_lift(st: _State) -> int:
@@ -762,24 +736,26 @@ def _op_lift(st: _State) -> int:
                 np.bincount(pos, weights=(rows >= 0).sum(axis=1) - 1, minlength=len(vs)), 1
             )
             best = cur.copy()
-            best_p = st.P[vs].copy()
+            here = st.P[vs].copy()
+            best_p = here.copy()
             for step in (0.25, 0.0625):
                 for d in dirs:
-                    Pt = st.P.copy()
-                    Pt[vs] = st.P[vs] + step * h[:, None] * d
+                    st.P[vs] = here + step * h[:, None] * d  # tried in place
                     nq = np.where(
-                        _valid(Pt, rows), _cell_quality(Pt, rows, st.measure, st.metric), -np.inf
+                        _valid(st.P, rows),
+                        _cell_quality(st.P, rows, st.measure, st.metric),
+                        -np.inf,
                     )
                     m = np.full(len(vs), np.inf)
                     np.minimum.at(m, pos, nq)
                     better = m > best + TOL.gain
                     best[better] = m[better]
-                    best_p[better] = Pt[vs[better]]
+                    best_p[better] = st.P[vs[better]]
+            st.P[vs] = here
             win = best > cur + TOL.gain
             if not win.any():
                 continue
             any_move = True
-            st.P = st.P.copy()
             st.P[vs[win]] = best_p[win]
             keep = win[pos]
             st.q[cc[keep]] = _cell_quality(st.P, rows[keep], st.measure, st.metric)
@@ -801,13 +777,18 @@ def _op_smooth(st: _State) -> int:
     n = len(st.P)
     key, a, b, _ = _edge_keys(st.C, st.alive, n)
     _, first = np.unique(key, return_index=True)
-    ea, eb = a[first], b[first]
-    deg = np.bincount(ea, minlength=n) + np.bincount(eb, minlength=n)
+    src = np.concatenate([a[first], b[first]])
+    dst = np.concatenate([b[first], a[first]])
+    order = np.argsort(src, kind="stable")
+    nidx = dst[order]
+    deg = np.bincount(src, minlength=n)
+    nptr = np.zeros(n + 1, np.int64)
+    np.cumsum(deg, out=nptr[1:])
     ptr, cells = _incidence(st.C, st.alive, n)
-    vmin = np.full(n, np.inf)
     live = np.flatnonzero(st.alive)
-    cv = st.C[live]
-    np.minimum.at(vmin, cv[cv >= 0], np.repeat(st.q[live], 4)[(cv >= 0).ravel()])
+    vmin = np.full(n, np.inf)
+    has = ptr[1:] > ptr[:-1]
+    vmin[has] = np.minimum.reduceat(st.q[cells], ptr[:-1][has])
     movable = st.interior & (deg > 0) & (vmin < TOL.active_below)
     color = _colors(st.C, ptr, cells, movable)
     ncol = int(color.max()) + 1 if movable.any() else 0
@@ -820,32 +801,24 @@ def _op_smooth(st: _State) -> int:
         for verts in by_color:
             if not len(verts):
                 continue
-            target = _targets(st, verts, ptr, cells, ea, eb, deg)
+            target = _targets(st.P, verts, nptr, nidx)
             # the cells of these vertices, each listed once per vertex (no two share one)
-            cnt = ptr[verts + 1] - ptr[verts]
-            idx = (
-                np.repeat(ptr[verts], cnt)
-                + np.arange(cnt.sum())
-                - np.repeat(np.cumsum(cnt) - cnt, cnt)
-            )
+            idx, starts, _ = _segments(ptr, verts)
             cc = cells[idx]
             rows = st.C[cc]
             old_q = st.q[cc]
-            Pt = st.P.copy()
-            Pt[verts] = target
-            new_q = _cell_quality(Pt, rows, st.measure, st.metric)
-            new_q = np.where(_valid(Pt, rows), new_q, -np.inf)
-            pos = np.repeat(np.arange(len(verts)), cnt)
-            omin = np.full(len(verts), np.inf)
-            nmin = np.full(len(verts), np.inf)
-            np.minimum.at(omin, pos, old_q)
-            np.minimum.at(nmin, pos, new_q)
+            here = st.P[verts].copy()
+            st.P[verts] = target  # tried in place, undone where refused
+            new_q = _cell_quality(st.P, rows, st.measure, st.metric)
+            new_q = np.where(_valid(st.P, rows), new_q, -np.inf)
+            omin = np.minimum.reduceat(old_q, starts)
+            nmin = np.minimum.reduceat(new_q, starts)
+            pos = np.repeat(np.arange(len(verts)), np.diff(np.append(starts, len(cc))))
             ok = nmin >= np.minimum(omin, floor)
+            st.P[verts[~ok]] = here[~ok]
             if not ok.any():
                 continue
             keep = ok[pos]
-            st.P = st.P.copy()
-            st.P[verts[ok]] = Pt[verts[ok]]
             st.q[cc[keep]] = new_q[keep]
             moved_now[verts[ok]] = True
         if not moved_now.any():
