@@ -582,6 +582,74 @@ def _class_edges(dual, merged, label):
 
 
 @njit(cache=True)
+def _compact(node_alive, edge_alive, edges, pq):
+    """The surviving nodes (ids, old -> new map) and edges (renumbered, with
+    their Delaunay edges), and the new degrees."""
+    n = node_alive.shape[0]
+    new_id = np.full(n, -1, np.int64)
+    k = 0
+    for v in range(n):
+        if node_alive[v]:
+            new_id[v] = k
+            k += 1
+    alive_nodes = np.empty(k, np.int64)
+    for v in range(n):
+        if new_id[v] >= 0:
+            alive_nodes[new_id[v]] = v
+    m = 0
+    for e in range(edge_alive.shape[0]):
+        if edge_alive[e]:
+            m += 1
+    out = np.empty((m, 2), np.int64)
+    out_pq = np.empty((m, 2), np.int64)
+    deg = np.zeros(k, np.int64)
+    j = 0
+    for e in range(edge_alive.shape[0]):
+        if edge_alive[e]:
+            a = new_id[edges[e, 0]]
+            b = new_id[edges[e, 1]]
+            out[j, 0] = a
+            out[j, 1] = b
+            out_pq[j, 0] = pq[e, 0]
+            out_pq[j, 1] = pq[e, 1]
+            deg[a] += 1
+            deg[b] += 1
+            j += 1
+    return alive_nodes, new_id, out, out_pq, deg
+
+
+@njit(cache=True)
+def _with_corners(centre, rep, alive_nodes, T, edges, pq, ends, apex, pts):
+    """Voronoi nodes (circumcentres, then the corners ``apex`` joined to the
+    leaves ``ends``): positions, triangles (-1 for corners), seed samples,
+    edges and their Delaunay edges (-1 for the corner edges)."""
+    k = alive_nodes.shape[0]
+    c = apex.shape[0]
+    m = edges.shape[0]
+    nodes = np.empty((k + c, 2))
+    node_tri = np.empty(k + c, np.int64)
+    seeds = np.full((k + c, 3), -1, np.int64)
+    for i in range(k):
+        t = rep[alive_nodes[i]]
+        nodes[i, 0] = centre[alive_nodes[i], 0]
+        nodes[i, 1] = centre[alive_nodes[i], 1]
+        node_tri[i] = t
+        for j in range(3):
+            seeds[i, j] = T[t, j]
+    out = np.empty((m + c, 2), np.int64)
+    out_pq = np.full((m + c, 2), -1, np.int64)
+    out[:m] = edges
+    out_pq[:m] = pq
+    for i in range(c):
+        nodes[k + i, 0] = pts[apex[i], 0]
+        nodes[k + i, 1] = pts[apex[i], 1]
+        node_tri[k + i] = -1
+        out[m + i, 0] = ends[i]
+        out[m + i, 1] = k + i
+    return nodes, node_tri, seeds, out, out_pq
+
+
+@njit(cache=True)
 def _class_reps(label, k, spread):
     """Per class: its first triangle and the largest contact spread of its triangles."""
     rep = np.full(k, -1, np.int64)
@@ -1214,13 +1282,7 @@ def medial_axis(
     class_type2 = np.full(n_nodes, -1, dtype=np.int64)
     t2 = np.flatnonzero(types == 2)
     class_type2[label[t2]] = t2
-    g_edges = g_edges[edge_alive]
-    g_pq = g_pq[edge_alive]
-    alive_nodes = np.flatnonzero(node_alive)
-    new_id = np.full(n_nodes, -1, dtype=np.int64)
-    new_id[alive_nodes] = np.arange(len(alive_nodes))
-    edges = new_id[g_edges]
-    deg = np.bincount(edges.ravel(), minlength=len(alive_nodes))
+    alive_nodes, new_id, edges, g_pq, deg = _compact(node_alive, edge_alive, g_edges, g_pq)
     # Type 2 leaves at a corner reach it (the sample shared by both boundary
     # edges, where the boundary turns by at least the pruning angle)
     pred = np.empty_like(succ)
@@ -1237,13 +1299,10 @@ def medial_axis(
     corner = turn >= prune
     ends, apex = ends[corner], apex[corner]
     if approximation == "voronoi":
-        nodes = np.concatenate([centre[alive_nodes], pts[apex]])
-        node_tri = np.concatenate([rep[alive_nodes], np.full(len(apex), -1)])
-        seeds = T[node_tri]  # the rows of corner nodes are not used: their radius is 0
-        base = len(alive_nodes)
-        edges = np.concatenate([edges, np.column_stack([ends, base + np.arange(len(apex))])])
+        nodes, node_tri, seeds, edges, edge_pq = _with_corners(
+            centre, rep, alive_nodes, T, edges, g_pq, ends, apex, pts
+        )
         triangle_node = new_id[label]
-        edge_pq = np.concatenate([g_pq, np.full((len(apex), 2), -1)])
     else:
         nodes, seeds, node_tri, edges = _midpoint_graph(
             pts, T, rep, alive_nodes, edges, g_pq, deg, ends, apex, label
