@@ -113,6 +113,9 @@ class _Tolerances:
     #: quality around them (the "lift" pattern search), in this many rounds.
     lift_below: float = 0.6
     lift_rounds: int = 6
+    #: A smoothing move shorter than this times the vertex's distance to a
+    #: neighbour leaves the neighbours out of the next pass.
+    smooth_still: float = 1e-3
     #: Smoothing passes per sweep.
     smooth_passes: int = 12
 
@@ -587,6 +590,13 @@ def _op_swap(st: _State) -> int:
     pairs = pairs[quads]
     if not len(pairs):
         return 0
+    # a swap can only relax valences next to an irregular vertex, or lift a poor pair
+    ptr, _ = _incidence(st.C, st.alive, n)
+    irregular = np.diff(ptr) != st.ideal
+    near = irregular[st.C[pairs].reshape(len(pairs), -1)].any(axis=1)
+    pairs = pairs[near | (_old_min(st, pairs) < TOL.active_below)]
+    if not len(pairs):
+        return 0
     return _apply_hex(st, *_hex_splits(st, pairs, np.unique(key), topological=True))
 
 
@@ -772,7 +782,8 @@ def _op_smooth(st: _State) -> int:
     cells: it is undone when one of them turns invalid or drops below
     :func:`_floor` (cells already below keep at least their quality). A pass
     (every colour once) is kept only when the mean quality of the mesh
-    rises; else it is undone and smoothing stops.
+    rises; else it is undone and smoothing stops. After the first pass only
+    the vertices that moved and their neighbours are tried again.
     """
     n = len(st.P)
     key, a, b, _ = _edge_keys(st.C, st.alive, n)
@@ -793,12 +804,15 @@ def _op_smooth(st: _State) -> int:
     color = _colors(st.C, ptr, cells, movable)
     ncol = int(color.max()) + 1 if movable.any() else 0
     by_color = [np.flatnonzero(color == k) for k in range(ncol)]
-    moved = np.zeros(n, bool)
+    moved = np.zeros(n, bool)  # kept moves, however small
+    active = movable.copy()
     for _ in range(TOL.smooth_passes):
         P0, q0, mean0 = st.P.copy(), st.q.copy(), float(st.q[live].mean())
         floor = _floor(st)
         moved_now = np.zeros(n, bool)
+        kept = np.zeros(n, bool)
         for verts in by_color:
+            verts = verts[active[verts]]
             if not len(verts):
                 continue
             target = _targets(st.P, verts, nptr, nidx)
@@ -820,13 +834,25 @@ def _op_smooth(st: _State) -> int:
                 continue
             keep = ok[pos]
             st.q[cc[keep]] = new_q[keep]
-            moved_now[verts[ok]] = True
-        if not moved_now.any():
-            break
+            kept[verts[ok]] = True
+            # a move shorter than smooth_still times the distance to a neighbour does
+            # not wake the neighbours up for the next pass
+            step = np.linalg.norm(target - here, axis=1)
+            far = np.linalg.norm(st.P[nidx[nptr[verts]]] - here, axis=1)
+            moved_now[verts[ok & (step > TOL.smooth_still * far)]] = True
         if not float(st.q[live].mean()) > mean0 + TOL.smooth_gain:
             st.P, st.q = P0, q0
             break
-        moved |= moved_now
+        moved |= kept
+        if not moved_now.any():
+            break
+        # next pass: only where something moved, or next to it
+        mv = np.flatnonzero(moved_now)
+        idx, _, _ = _segments(nptr, mv)
+        active = np.zeros(n, bool)
+        active[mv] = True
+        active[nidx[idx]] = True
+        active &= movable
     return int(moved.sum())
 
 
