@@ -106,12 +106,15 @@ Cost (``benchmarks/quads.py``, one Gmsh mesh of a square with a hole)
 ``matching`` 0.65 s with no triangle left (Gmsh's Blossom 19.4 s); with
 ``optimize`` 7.7 s, mean quality (8.4) 0.849, least 0.58 (Blossom 0.822,
 0.476). 964k triangles: ``heap`` 3.3 s, ``matching`` 17.8 s. The tail of
-the matching dominates there: after the greedy start the leftovers sit deep
-inside regular patches, whose dual graph is locally the bipartite honeycomb,
-so two leftovers of the same parity can only meet through an odd cycle (an
-irregular vertex) far away; the last few hundred searches grow trees of
-10^4-10^5 triangles. From the domain with ``all_quad`` and ``twice_size``:
-mean 0.985 at 51k quads in 1.2 s, 0.993 at 503k quads in 18.5 s.
+the matching dominates there: the last ~900 leftovers sit deep inside the
+domain (median 92 triangle sizes from the boundary, measured) and their
+searches grow trees of 10^4-10^5 triangles. Our reading, not verified: in
+regular patches the dual graph is locally the bipartite honeycomb, so two
+leftovers of the same parity meet only through an odd cycle (an irregular
+vertex) that may be far away. A forest search from all leftovers at once
+was tried and was not faster (each phase costs the whole mesh). From the
+domain with ``all_quad`` and ``twice_size``: mean 0.985 at 51k quads in
+1.2 s, 0.993 at 503k quads in 18.5 s.
 
 References
 ----------
