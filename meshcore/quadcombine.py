@@ -837,7 +837,7 @@ def _allowed(P, quads, metric) -> np.ndarray:
 def _check_metric(metric, P) -> np.ndarray | None:
     if metric is None:
         return None
-    quality._metric_factors(metric, P.shape[1], len(P))  # raises located InputErrors
+    quality.metric_factors(metric, P.shape[1], len(P))  # raises located InputErrors
     return np.asarray(metric, dtype=np.float64)
 
 
@@ -862,7 +862,7 @@ def check_metric_2d(metric) -> None:
             loc=("metric",),
             code="bad_metric",
         )
-    quality._metric_factors(metric, 2, 0)
+    quality.metric_factors(metric, 2, 0)
 
 
 # ----------------------------------------------------------------------------- domain input

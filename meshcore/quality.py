@@ -49,6 +49,7 @@ __all__ = [
     "HISTOGRAM_BINS",
     "cell_angles",
     "cell_quality",
+    "metric_factors",
     "quad_angles",
     "quad_quality",
     "quad_quality_simplified",
@@ -204,11 +205,28 @@ def _metric(metric, d: int) -> np.ndarray | None:
         ) from exc
 
 
-def _metric_factors(metric, d: int, n: int) -> np.ndarray | None:
+def metric_factors(metric, d: int, n: int) -> np.ndarray | None:
     """Cholesky factors of a constant metric ``(d, d)`` or of one metric per point ``(n, d, d)``.
 
-    Returns ``None``, a ``(d, d)`` factor, or ``(n, d, d)`` factors
-    (``M_p = L_p L_p^T``); an InputError locates the first bad point metric.
+    Parameters
+    ----------
+    metric : (d, d) or (n, d, d) float64, or None
+    d : int
+        The points' dimension.
+    n : int
+        The number of points (for a metric per point).
+
+    Returns
+    -------
+    None, (d, d) or (n, d, d) float64
+        ``L`` with ``M = L L^T`` (per point for a stack).
+
+    Raises
+    ------
+    InputError
+        ``bad_metric``, located at ``("metric",)`` or ``("metric", p)`` for
+        the first point whose metric is not finite, symmetric and positive
+        definite.
     """
     if metric is None:
         return None
@@ -556,7 +574,7 @@ def quad_quality(points: np.ndarray, cells: np.ndarray, metric: np.ndarray | Non
     §8.4.4, equations (8.3), (8.4), (8.5), (8.6).
     """
     pts, data = _prepare(points, cells, "quad", ("quad",))
-    L = _metric_factors(metric, pts.shape[1], len(pts))
+    L = metric_factors(metric, pts.shape[1], len(pts))
     if L is not None and L.ndim == 3:
         P = _gather(pts, data)
         q = None
@@ -601,7 +619,7 @@ def quad_quality_simplified(points: np.ndarray, cells: np.ndarray, metric=None) 
     §8.4.4, equation (8.7).
     """
     pts, data = _prepare(points, cells, "quad", ("quad",))
-    L = _metric_factors(metric, pts.shape[1], len(pts))
+    L = metric_factors(metric, pts.shape[1], len(pts))
     P = _gather(pts, data)
     if L is None or L.ndim == 2:
         mapped = [P if L is None else _gather(pts @ L, data)]
@@ -652,7 +670,7 @@ def quad_shape(points: np.ndarray, cells: np.ndarray, metric=None) -> np.ndarray
     §8.4.4, Remark 8.7, equation (8.8).
     """
     pts, data = _prepare(points, cells, "quad", ("quad",))
-    L = _metric_factors(metric, pts.shape[1], len(pts))
+    L = metric_factors(metric, pts.shape[1], len(pts))
     if L is not None and L.ndim == 3:
         raise InputError(
             "the shape measure (8.8) takes a constant metric only",
