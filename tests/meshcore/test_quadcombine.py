@@ -197,6 +197,15 @@ class TestRandomDomains:
         assert n_tri == res.triangles_left
         assert 2 * res.pairs + 4 * res.triples + res.triangles_left == len(mesh.cells[0].data)
 
+    @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+    @given(seed=st.integers(0, 2**32 - 1), algorithm=st.sampled_from(ALGORITHMS))
+    def test_same_pairs_translated_by_1e6_or_scaled_by_1e_6(self, seed, algorithm):
+        mesh = random_mesh(seed)
+        pairs = {tuple(sorted(r)) for r in combine(mesh, algorithm=algorithm).mesh.cells[0].data}
+        for moved in (mesh.points + 1e6, mesh.points * 1e-6):
+            res = combine(tri_mesh(moved, mesh.cells[0].data), algorithm=algorithm)
+            assert {tuple(sorted(r)) for r in res.mesh.cells[0].data} == pairs
+
     @settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
     @given(seed=st.integers(0, 2**32 - 1))
     def test_matching_leaves_no_more_than_heap(self, seed):
