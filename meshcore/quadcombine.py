@@ -46,16 +46,16 @@ Pipeline
      (a triangle down to its last allowed free neighbour pairs with it
      ahead of the quality order, the cheapest defence against the isolated
      triangles of §8.4.4), then augmenting paths of Edmonds' blossom
-     algorithm grown from every leftover triangle, which pair leftovers two
-     by two by flipping the pairs along an alternating path in the dual
-     graph, cheapest in lost quality first: first through pairs of quality
-     at least ``good_quality``, then through every allowed pair (twice, the
-     second time with a much larger bound on a search's tree). A search
-     that finds nothing proves that this triangle stays unpaired in *some*
-     maximum matching, so after the passes the number of leftovers is the
-     least possible in the allowed dual graph (up to ``search_caps``, the
-     bounds on one search's tree). Then alternating 4-cycles that raise the summed
-     quality are swapped in. It is a maximum-*cardinality* matching with a
+     algorithm, which pair leftovers two by two by flipping the pairs along
+     an alternating path in the dual graph: first one bounded search
+     (``search_cap`` triangles) from each leftover through pairs of quality
+     at least ``good_quality``, cheapest in lost quality first; then one
+     forest search from all the leftovers at once through every allowed
+     pair, breadth-first, dissolving only the two trees of each path found
+     (:func:`_forest_kernel`). When the forest stops no augmenting path is
+     left, so the number of leftovers is the least possible in the allowed
+     dual graph. Then alternating 4-cycles that raise the summed quality
+     are swapped in. It is a maximum-*cardinality* matching with a
      quality-greedy start, not an exact maximum-weight matching (Edmonds'
      weighted algorithm costs far more at a million triangles); the
      cardinality is what decides the triangles left, quality comes second.
@@ -103,16 +103,24 @@ Choices the text leaves open
 Cost (``benchmarks/quads.py``, one Gmsh mesh of a square with a hole)
 ----------------------------------------------------------------------
 97k triangles: ``heap`` 0.17 s, ``frontal`` 0.16 s, ``stack`` 0.32 s,
-``matching`` 0.65 s with no triangle left (Gmsh's Blossom 19.4 s); with
-``optimize`` 7.7 s, mean quality (8.4) 0.849, least 0.58 (Blossom 0.822,
-0.476). 964k triangles: ``heap`` 3.3 s, ``matching`` 17.8 s. The tail of
-the matching dominates there: the last ~900 leftovers sit deep inside the
-domain (median 92 triangle sizes from the boundary, measured) and their
-searches grow trees of 10^4-10^5 triangles. Our reading, not verified: in
-regular patches the dual graph is locally the bipartite honeycomb, so two
-leftovers of the same parity meet only through an odd cycle (an irregular
-vertex) that may be far away. A forest search from all leftovers at once
-was tried and was not faster (each phase costs the whole mesh). From the
+``matching`` 0.36 s with no triangle left (Gmsh's Blossom 19.4 s); with
+``optimize`` 7.1 s, mean quality (8.4) 0.853, least 0.51 (Blossom 0.822,
+0.476). 964k triangles: ``heap`` 3.3 s, ``matching`` 7.9 s (17.8 s before
+the forest search). The tail of the matching dominated there: the last
+~900 leftovers sit deep inside the domain (median 92 triangle sizes from
+the boundary, measured) and one search per leftover grew trees of
+10^4-10^5 triangles, most of them failing (pass after pass, with growing
+caps). Our reading, not verified: in regular patches the dual graph is
+locally the bipartite honeycomb, so two leftovers of the same parity meet
+only through an odd cycle (an irregular vertex) that may be far away. The
+forest grows every tree at once and keeps the trees it does not use: after
+the 1024-triangle pass (1.7 s; 2339 of the heap's 7087 leftovers are
+still free) it pairs all of them but one in 2.6 s, against 12.3 s for the
+two passes with larger caps that it replaces. Measured and dropped: the forest ordered by
+path cost (a priority queue, 8.4 s alone), the forest restricted to good
+pairs first (11.7 s: the trees cannot meet and cover the mesh), the forest
+alone without the bounded pass (6.1 s in all, but mean 0.845 against 0.852
+after ``optimize`` at 10k triangles). From the
 domain with ``all_quad`` and ``twice_size``: mean 0.985 at 51k quads in
 1.2 s, 0.993 at 503k quads in 18.5 s.
 
@@ -178,9 +186,8 @@ class _Tolerances:
     #: Augmenting paths go through pairs at least this good first.
     good_quality: float = 0.5
     #: Largest alternating tree (triangles) grown from one leftover triangle in
-    #: the three passes (good pairs only; all pairs; all pairs again for the
-    #: few left): a failed search costs its whole tree, so the caps grow.
-    search_caps: tuple[int, int, int] = (1 << 10, 1 << 12, 1 << 17)
+    #: the first pass (good pairs only, cheapest first); 0 skips that pass.
+    search_cap: int = 1 << 10
     #: Cost of one alternating step in the augmenting search, against the
     #: quality it loses: a path may be 1 / path_step times longer to lose 1 less.
     path_step: float = 0.05
@@ -506,6 +513,134 @@ def _augment_kernel(nb, w, thr, mate, cap, step):
             base[x] = x
             p[x] = -1
             used[x] = False
+    return gained
+
+
+@njit(cache=True)
+def _enqueue(q, qt, x):
+    if qt == q.shape[0]:
+        q2 = np.empty(2 * q.shape[0], np.int64)
+        q2[:qt] = q
+        q = q2
+    q[qt] = x
+    return q, qt + 1
+
+
+@njit(cache=True)
+def _forest_kernel(nb, w, thr, mate):
+    """Edmonds' search from every free triangle at once (a forest), trees dissolved after use.
+
+    Every free triangle roots a tree, and the trees grow together,
+    breadth-first (one queue of even triangles; no costs: a priority queue
+    by :func:`_step_cost` was measured 2.8 times slower at 964k triangles).
+    An edge from an even triangle to an even triangle of the same tree
+    contracts a blossom (as in :func:`_augment_kernel`); to an even
+    triangle of another tree it closes an augmenting path ``root - ... - v -
+    to - ... - root'``, which is flipped. Only the two trees of that path
+    are dissolved (their triangles unlabelled, and the even triangles of
+    other trees next to them queued again); every other tree stays as grown,
+    so no search starts over and no failed search is paid for twice. When
+    the queue is empty no augmenting path is left through pairs of quality
+    at least ``thr`` (the trees are Edmonds' Hungarian forest): the matching
+    is of maximum cardinality. Returns the number of augmentations.
+    """
+    m = nb.shape[0]
+    base = np.arange(m)
+    p = np.full(m, -1, np.int64)
+    root = np.full(m, -1, np.int64)
+    even = np.zeros(m, np.bool_)
+    mark = np.zeros(m, np.bool_)
+    buf = np.empty(2 * m + 2, np.int64)
+    nxt = np.full(m, -1, np.int64)  # members of a tree: a list through nxt from head[root]
+    head = np.full(m, -1, np.int64)
+    q = np.empty(max(m, 16), np.int64)
+    qh = 0
+    qt = 0
+    for r in range(m):
+        if mate[r] < 0:
+            root[r] = r
+            even[r] = True
+            head[r] = r
+            q, qt = _enqueue(q, qt, r)
+    gained = 0
+    while qh < qt:
+        v = q[qh]
+        qh += 1
+        if qh > (q.shape[0] >> 1) and qh > 4096:  # drop the consumed half
+            q[: qt - qh] = q[qh:qt]
+            qt -= qh
+            qh = 0
+        for k in range(3):
+            if not even[v]:
+                break
+            to = nb[v, k]
+            if to < 0 or w[v, k] < thr or mate[v] == to:
+                continue
+            rv = root[v]
+            if root[to] < 0:
+                p[to] = v
+                to2 = mate[to]
+                for x in (to, to2):
+                    root[x] = rv
+                    nxt[x] = head[rv]
+                    head[rv] = x
+                even[to2] = True
+                q, qt = _enqueue(q, qt, to2)
+                continue
+            if not even[to] or _find(base, v) == _find(base, to):
+                continue
+            if root[to] == rv:
+                cb = _lca(v, to, base, p, mate, mark)
+                nbuf = _mark_path(v, cb, to, base, p, mate, buf, 0)
+                nbuf = _mark_path(to, cb, v, base, p, mate, buf, nbuf)
+                for i in range(nbuf):
+                    r = _find(base, buf[i])
+                    if r != cb:
+                        base[r] = cb
+                for i in range(1, nbuf, 2):
+                    x = buf[i]
+                    if not even[x]:
+                        even[x] = True
+                        q, qt = _enqueue(q, qt, x)
+                continue
+            rt = root[to]
+            o = mate[to]
+            mate[to] = -1
+            while o >= 0:
+                y = p[o]
+                n2 = mate[y]
+                mate[o] = y
+                mate[y] = o
+                o = n2
+            p[to] = v
+            x = to
+            while x >= 0:
+                px = p[x]
+                ppx = mate[px]
+                mate[x] = px
+                mate[px] = x
+                x = ppx
+            gained += 1
+            for r in (rv, rt):
+                x = head[r]
+                while x >= 0:
+                    root[x] = -1
+                    even[x] = False
+                    p[x] = -1
+                    base[x] = x
+                    x = nxt[x]
+            for r in (rv, rt):
+                x = head[r]
+                head[r] = -1
+                while x >= 0:
+                    for j in range(3):
+                        y = nb[x, j]
+                        if y >= 0 and even[y]:
+                            q, qt = _enqueue(q, qt, y)
+                    n2 = nxt[x]
+                    nxt[x] = -1
+                    x = n2
+            break
     return gained
 
 
@@ -1220,12 +1355,9 @@ def combine(
             stats["heap_triangles_left"] = int(np.count_nonzero(mate < 0))
             gained = 0
             good = max(TOL.good_quality, min_quality)
-            for thr, cap in (
-                (good, TOL.search_caps[0]),
-                (min_quality, TOL.search_caps[1]),
-                (min_quality, TOL.search_caps[2]),
-            ):
-                gained += _augment_kernel(nb, w, thr, mate, cap, TOL.path_step)
+            if TOL.search_cap > 0:
+                gained += _augment_kernel(nb, w, good, mate, TOL.search_cap, TOL.path_step)
+            gained += _forest_kernel(nb, w, min_quality, mate)
             stats["augmentations"] = int(gained)
             stats["swaps"] = int(_swap_kernel(nb, w, mate, TOL.gain, TOL.swap_sweeps))
     elif algorithm == "frontal":
