@@ -4,7 +4,8 @@ Operators, each applied where it raises the local quality (the least
 quality of the cells it replaces, strictly) or, for those that rebuild a
 hexagon, relaxes the vertex valences (below), and leaves every new cell valid
 (planar: strictly convex by the exact
-:func:`~meshcore.geometry.predicates.orient2d` at every corner; on a
+:func:`~meshcore.geometry.predicates.orient2d_filtered` at every corner, in a
+compiled loop; on a
 surface: the corner turns of :mod:`meshcore.quality`):
 
 ``valence2``
@@ -86,7 +87,7 @@ import numpy as np
 from numba import njit
 
 from meshcore import quality
-from meshcore.geometry.predicates import orient2d
+from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered
 from meshcore.mesh import CellBlock, Mesh
 
 __all__ = ["OPERATORS", "OptimizeResult", "optimize"]
@@ -181,24 +182,37 @@ def _cell_quality(P, C, measure: str, metric) -> np.ndarray:
     return q
 
 
+@njit(cache=True)
+def _valid_planar(P, C):
+    """Rows of C (planar) whose every corner turns counter-clockwise, by the exact orient2d.
+
+    A compiled loop over the rows: the vectorized predicate's per-call
+    checks and gathers cost more than the signs at the sizes smoothing asks.
+    """
+    k = C.shape[0]
+    ok = np.ones(k, np.bool_)
+    work = np.empty(WORK_SIZE)
+    for r in range(k):
+        nv = 4 if C[r, 3] >= 0 else 3
+        for i in range(nv if nv == 4 else 1):
+            a = C[r, (i + nv - 1) % nv]
+            b = C[r, i]
+            c = C[r, (i + 1) % nv]
+            if orient2d_filtered(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], work) <= 0:
+                ok[r] = False
+                break
+    return ok
+
+
 def _valid(P, C) -> np.ndarray:
     """Rows of C that are strictly convex (planar, exact) or of positive quality (surface)."""
     ok = np.ones(len(C), bool)
     if not len(C):
         return ok
+    if P.shape[1] == 2:
+        return _valid_planar(P, C)
     tri = C[:, 3] < 0
     t, q = np.flatnonzero(tri), np.flatnonzero(~tri)
-    if P.shape[1] == 2:
-        if len(t):
-            T = C[t]
-            ok[t] = orient2d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]) > 0
-        if len(q):
-            Q = C[q]
-            good = np.ones(len(q), bool)
-            for i in range(4):
-                good &= orient2d(P[Q[:, i - 1]], P[Q[:, i]], P[Q[:, (i + 1) % 4]]) > 0
-            ok[q] = good
-        return ok
     if len(t):
         ok[t] = quality.signed_area(P, C[t, :3]) > 0
     if len(q):
