@@ -734,7 +734,8 @@ def _op_lift(st: _State) -> int:
     movable[verts] = True
     color = _colors(st.C, ptr, cells, movable)
     ang = np.arange(8) * (np.pi / 4)
-    dirs = np.column_stack([np.cos(ang), np.sin(ang)])
+    dirs = np.tile(np.column_stack([np.cos(ang), np.sin(ang)]), (2, 1))
+    steps = np.repeat([0.25, 0.0625], 8)  # times the mean edge length
     moved = np.zeros(n, bool)
     for _ in range(TOL.lift_rounds):
         any_move = False
@@ -760,22 +761,28 @@ def _op_lift(st: _State) -> int:
                 np.bincount(pos, weights=(rows >= 0).sum(axis=1) - 1, minlength=len(vs)), 1
             )
             best = cur.copy()
-            here = st.P[vs].copy()
+            here = st.P[vs]
             best_p = here.copy()
-            for step in (0.25, 0.0625):
-                for d in dirs:
-                    st.P[vs] = here + step * h[:, None] * d  # tried in place
-                    nq = np.where(
-                        _valid(st.P, rows),
-                        _cell_quality(st.P, rows, st.measure, st.metric),
-                        -np.inf,
-                    )
-                    m = np.full(len(vs), np.inf)
-                    np.minimum.at(m, pos, nq)
-                    better = m > best + TOL.gain
-                    best[better] = m[better]
-                    best_p[better] = st.P[vs[better]]
-            st.P[vs] = here
+            # the 16 trial positions of every vertex appended as points, all judged in
+            # one call: trial j of vertex i is point n + j * len(vs) + i
+            trial = here[None] + (steps[:, None, None] * h[None, :, None]) * dirs[:, None, :]
+            trial = trial.reshape(-1, 2)
+            Pt = np.concatenate([st.P, trial])
+            nt = len(steps)
+            tid = (n + np.arange(nt)[:, None] * len(vs) + pos[None, :]).ravel()
+            rows_t = np.tile(rows, (nt, 1))
+            rows_t = np.where(rows_t == np.tile(vs[pos], nt)[:, None], tid[:, None], rows_t)
+            mt = st.metric
+            if mt is not None and np.ndim(mt) == 3:
+                mt = np.concatenate([mt, np.tile(mt[vs], (nt, 1, 1))])
+            nq = np.where(_valid(Pt, rows_t), _cell_quality(Pt, rows_t, st.measure, mt), -np.inf)
+            ms = np.full(nt * len(vs), np.inf)
+            np.minimum.at(ms, tid - n, nq)
+            ms = ms.reshape(nt, len(vs))
+            for j in range(nt):  # in the order of the trials: the first clear best wins
+                better = ms[j] > best + TOL.gain
+                best[better] = ms[j][better]
+                best_p[better] = trial.reshape(nt, len(vs), 2)[j][better]
             win = best > cur + TOL.gain
             if not win.any():
                 continue
