@@ -54,7 +54,9 @@ with valences unchanged, the split must raise the least quality.
 Each sweep applies the operators in the order valence2, valence3, collapse,
 hexagon, swap, smooth, a set of non-overlapping candidates at a time (best
 gain first, by a compiled greedy selection); sweeps repeat until no
-operator changes the topology or ``sweeps`` is reached. Candidates are found
+operator changes the topology or ``sweeps`` is reached. Then a longer
+smoothing over every interior vertex (``final_smooth_passes``), then the
+lift. Candidates are found
 and rebuilt by compiled loops over configurations (numba), and every quality
 and sign is evaluated vectorized by :mod:`meshcore.quality` and the
 predicates. Configurations whose cells are all above ``active_below`` are
@@ -119,6 +121,12 @@ class _Tolerances:
     smooth_still: float = 1e-3
     #: Smoothing passes per sweep.
     smooth_passes: int = 12
+    #: Smoothing passes after the last sweep (the topology settled), before the
+    #: lift, over the vertices of cells under ``final_active_below`` (above 1:
+    #: every interior vertex). Laplacian smoothing converges slowly: 12 passes
+    #: per sweep leave mean quality on the table (97k triangles: 0.853 -> 0.861).
+    final_smooth_passes: int = 30
+    final_active_below: float = 1.01
 
 
 TOL = _Tolerances()
@@ -796,7 +804,7 @@ def _op_lift(st: _State) -> int:
     return int(moved.sum())
 
 
-def _op_smooth(st: _State) -> int:
+def _op_smooth(st: _State, passes: int | None = None, below: float | None = None) -> int:
     """Smoothing passes by colours, each pass kept only when the mean quality rises.
 
     Vertices of one colour share no cell, so each move is judged on its own
@@ -821,13 +829,13 @@ def _op_smooth(st: _State) -> int:
     vmin = np.full(n, np.inf)
     has = ptr[1:] > ptr[:-1]
     vmin[has] = np.minimum.reduceat(st.q[cells], ptr[:-1][has])
-    movable = st.interior & (deg > 0) & (vmin < TOL.active_below)
+    movable = st.interior & (deg > 0) & (vmin < (TOL.active_below if below is None else below))
     color = _colors(st.C, ptr, cells, movable)
     ncol = int(color.max()) + 1 if movable.any() else 0
     by_color = [np.flatnonzero(color == k) for k in range(ncol)]
     moved = np.zeros(n, bool)  # kept moves, however small
     active = movable.copy()
-    for _ in range(TOL.smooth_passes):
+    for _ in range(TOL.smooth_passes if passes is None else passes):
         P0, q0, mean0 = st.P.copy(), st.q.copy(), float(st.q[live].mean())
         floor = _floor(st)
         moved_now = np.zeros(n, bool)
@@ -960,6 +968,10 @@ def optimize(
     # last, once: raising the worst cells raises the mesh's least quality, which would
     # then hold smoothing back (it never lets a cell under the least quality)
     if planar:
+        if progress is not None:
+            progress(0.96, "optimization: smooth")
+        if TOL.final_smooth_passes:
+            ops["smooth"] += _op_smooth(st, TOL.final_smooth_passes, TOL.final_active_below)
         if progress is not None:
             progress(0.98, "optimization: lift")
         ops["lift"] += _op_lift(st)
