@@ -59,8 +59,12 @@ smoothing over every interior vertex (``final_smooth_passes``), then the
 lift. Candidates are found
 and rebuilt by compiled loops over configurations (numba), and every quality
 and sign is evaluated vectorized by :mod:`meshcore.quality` and the
-predicates. Configurations whose cells are all above ``active_below`` are
-not smoothed.
+predicates, except in the smoothing passes of a planar mesh under (8.4)
+without a metric: there one compiled loop per pass moves the vertices
+colour by colour and evaluates their cells with the same operations as
+:func:`meshcore.quality.quad_quality` (a few cells per move, where a
+vectorized call costs more than the cells). Configurations whose cells are
+all above ``active_below`` are not smoothed.
 
 Choices the text leaves open
 ----------------------------
@@ -82,6 +86,7 @@ Methods text §8.4.3 (the operators and their acceptance by quality),
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -201,14 +206,7 @@ def _valid_planar(P, C):
     ok = np.ones(k, np.bool_)
     work = np.empty(WORK_SIZE)
     for r in range(k):
-        nv = 4 if C[r, 3] >= 0 else 3
-        for i in range(nv if nv == 4 else 1):
-            a = C[r, (i + nv - 1) % nv]
-            b = C[r, i]
-            c = C[r, (i + 1) % nv]
-            if orient2d_filtered(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], work) <= 0:
-                ok[r] = False
-                break
+        ok[r] = _row_valid(P, C, r, work)
     return ok
 
 
@@ -804,6 +802,100 @@ def _op_lift(st: _State) -> int:
     return int(moved.sum())
 
 
+@njit(cache=True)
+def _angle_quality(P, C, c):
+    """(8.4) of a quad row, or the shape ratio of a triangle row, as :mod:`meshcore.quality`.
+
+    The same operations as ``quality.quad_quality`` and
+    ``quality.triangle_shape`` (no metric), for one planar cell: the
+    compiled smoothing asks for a few cells at a time.
+    """
+    if C[c, 3] < 0:
+        a, b, d = C[c, 0], C[c, 1], C[c, 2]
+        e0x, e0y = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1]
+        e1x, e1y = P[d, 0] - P[b, 0], P[d, 1] - P[b, 1]
+        e2x, e2y = P[a, 0] - P[d, 0], P[a, 1] - P[d, 1]
+        den = (e0x * e0x + e0y * e0y) + (e1x * e1x + e1y * e1y) + (e2x * e2x + e2y * e2y)
+        area = 0.5 * (e2x * e0y - e2y * e0x)
+        return (4 * math.sqrt(3.0)) * area / den if den > 0 else 0.0
+    big = 0.0
+    for j in range(4):
+        u, v, w = C[c, j], C[c, (j + 1) % 4], C[c, (j + 3) % 4]
+        ax, ay = P[v, 0] - P[u, 0], P[v, 1] - P[u, 1]
+        bx, by = -(P[u, 0] - P[w, 0]), -(P[u, 1] - P[w, 1])
+        if ax * by - ay * bx <= 0:
+            return 0.0
+        den = math.sqrt((ax * ax + ay * ay) * (bx * bx + by * by))
+        cs = (ax * bx + ay * by) / den if den > 0 else 1.0
+        big = max(big, abs(cs))
+    return 1.0 - (2.0 / math.pi) * math.asin(min(big, 1.0))
+
+
+@njit(cache=True)
+def _smooth_pass(P, C, q, order, active, nptr, nidx, ptr, cells, floor, still, kept, moved_now):
+    """One smoothing pass (colour by colour, ``order`` sorted by colour), planar, (8.4).
+
+    A sequential loop over the vertices: within a colour no two share a
+    cell nor an edge, so the result is that of moving the colour at once.
+    A vertex moves to the mean of its edge neighbours unless one of its
+    cells turns invalid (exact orient2d) or drops below
+    ``min(floor, its cells' least quality)``.
+    """
+    work = np.empty(WORK_SIZE)
+    newq = np.empty(64)
+    for i in range(order.shape[0]):
+        v = order[i]
+        if not active[v]:
+            continue
+        k0, k1 = nptr[v], nptr[v + 1]
+        tx = 0.0
+        ty = 0.0
+        for j in range(k0, k1):
+            tx += P[nidx[j], 0]
+            ty += P[nidx[j], 1]
+        tx /= k1 - k0
+        ty /= k1 - k0
+        hx, hy = P[v, 0], P[v, 1]
+        P[v, 0] = tx
+        P[v, 1] = ty
+        omin = np.inf
+        nmin = np.inf
+        nc = ptr[v + 1] - ptr[v]
+        for j in range(nc):
+            c = cells[ptr[v] + j]
+            omin = min(omin, q[c])
+            nq = -np.inf
+            if _row_valid(P, C, c, work):
+                nq = _angle_quality(P, C, c)
+            if j < 64:
+                newq[j] = nq
+            nmin = min(nmin, nq)
+        if not nmin >= min(omin, floor) or nc > 64:
+            P[v, 0] = hx
+            P[v, 1] = hy
+            continue
+        for j in range(nc):
+            q[cells[ptr[v] + j]] = newq[j]
+        kept[v] = True
+        u = nidx[k0]
+        step = math.sqrt((tx - hx) ** 2 + (ty - hy) ** 2)
+        far = math.sqrt((P[u, 0] - hx) ** 2 + (P[u, 1] - hy) ** 2)
+        if step > still * far:
+            moved_now[v] = True
+
+
+@njit(cache=True)
+def _row_valid(P, C, r, work):
+    nv = 4 if C[r, 3] >= 0 else 3
+    for i in range(nv if nv == 4 else 1):
+        a = C[r, (i + nv - 1) % nv]
+        b = C[r, i]
+        c = C[r, (i + 1) % nv]
+        if orient2d_filtered(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], work) <= 0:
+            return False
+    return True
+
+
 def _op_smooth(st: _State, passes: int | None = None, below: float | None = None) -> int:
     """Smoothing passes by colours, each pass kept only when the mean quality rises.
 
@@ -833,6 +925,9 @@ def _op_smooth(st: _State, passes: int | None = None, below: float | None = None
     color = _colors(st.C, ptr, cells, movable)
     ncol = int(color.max()) + 1 if movable.any() else 0
     by_color = [np.flatnonzero(color == k) for k in range(ncol)]
+    # the compiled pass: planar, measure (8.4) without a metric
+    fast = st.P.shape[1] == 2 and st.measure == "angle" and st.metric is None
+    order = np.concatenate(by_color) if by_color else np.zeros(0, np.int64)
     moved = np.zeros(n, bool)  # kept moves, however small
     active = movable.copy()
     for _ in range(TOL.smooth_passes if passes is None else passes):
@@ -840,7 +935,23 @@ def _op_smooth(st: _State, passes: int | None = None, below: float | None = None
         floor = _floor(st)
         moved_now = np.zeros(n, bool)
         kept = np.zeros(n, bool)
-        for verts in by_color:
+        if fast:
+            _smooth_pass(
+                st.P,
+                st.C,
+                st.q,
+                order,
+                active,
+                nptr,
+                nidx,
+                ptr,
+                cells,
+                floor,
+                TOL.smooth_still,
+                kept,
+                moved_now,
+            )
+        for verts in [] if fast else by_color:
             verts = verts[active[verts]]
             if not len(verts):
                 continue
