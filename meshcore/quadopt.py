@@ -180,8 +180,19 @@ def _edge_keys(C: np.ndarray, alive: np.ndarray, n: int):
     return np.minimum(a, b) * n + np.maximum(a, b), a, b, cell
 
 
+@njit(cache=True)
+def _angle_quality_rows(P, C):
+    """:func:`_angle_quality` of every row (planar, no metric)."""
+    q = np.empty(C.shape[0])
+    for r in range(C.shape[0]):
+        q[r] = _angle_quality(P, C, r)
+    return q
+
+
 def _cell_quality(P, C, measure: str, metric) -> np.ndarray:
     """Quality of each row of C: the quad measure, or the triangle shape ratio."""
+    if P.shape[1] == 2 and measure == "angle" and metric is None:
+        return _angle_quality_rows(P, C)
     q = np.empty(len(C))
     tri = C[:, 3] < 0
     if tri.any():
