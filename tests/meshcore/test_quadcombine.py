@@ -7,6 +7,7 @@ each edge.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -14,7 +15,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from meshcore import quadopt, quality
+from meshcore import quadcombine, quadopt, quality
 from meshcore.domain import parse_domain
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d
@@ -214,6 +215,32 @@ class TestRandomDomains:
         matching = combine(mesh, algorithm="matching")
         assert matching.triangles_left <= heap.triangles_left
         assert matching.triangles_left <= combine(mesh, algorithm="frontal").triangles_left
+
+    @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+    @given(seed=st.integers(0, 2**32 - 1), fine=st.booleans())
+    def test_matching_is_a_maximum_matching_of_the_allowed_pairs(self, seed, fine):
+        # the count an independent maximum-cardinality matching (networkx) reaches; the
+        # fine meshes (a few thousand triangles) leave work for the forest search
+        nx = pytest.importorskip("networkx")
+        from meshcore.quadcombine import _candidates, _neighbours
+
+        mesh = random_mesh(seed, 0.04 if fine else 0.12)
+        P, tri = mesh.points, mesh.cells[0].data.astype(np.int64)
+        nb = _neighbours(mesh, P, tri)
+        _, w = _candidates(P, tri, nb, "angle", None, 0.0)
+        t, k = np.nonzero((w >= 0) & (nb > np.arange(len(tri))[:, None]))
+        g = nx.Graph()
+        g.add_edges_from(zip(t.tolist(), nb[t, k].tolist(), strict=True))
+        best = len(nx.max_weight_matching(g, maxcardinality=True))
+        default = quadcombine.TOL
+        for cap in (default.search_cap, 0):  # 0: the forest search alone
+            quadcombine.TOL = dataclasses.replace(default, search_cap=cap)
+            try:
+                res = combine(mesh, algorithm="matching")
+            finally:
+                quadcombine.TOL = default
+            assert res.pairs == best
+            assert res.triangles_left == len(tri) - 2 * best
 
     @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
     @given(seed=st.integers(0, 2**32 - 1), algorithm=st.sampled_from(ALGORITHMS))
