@@ -102,11 +102,12 @@ Choices the text leaves open
 
 Cost (``benchmarks/quads.py``, one Gmsh mesh of a square with a hole)
 ----------------------------------------------------------------------
-97k triangles: ``heap`` 0.17 s, ``frontal`` 0.16 s, ``stack`` 0.32 s,
-``matching`` 0.36 s with no triangle left (Gmsh's Blossom 19.4 s); with
-``optimize`` 7.1 s, mean quality (8.4) 0.853, least 0.51 (Blossom 0.822,
-0.476). 964k triangles: ``heap`` 3.3 s, ``matching`` 7.9 s (17.8 s before
-the forest search). The tail of the matching dominated there: the last
+97k triangles: ``heap`` 0.17 s, ``frontal`` 0.18 s, ``stack`` 0.32 s,
+``matching`` 0.38 s with no triangle left (Gmsh's Blossom 18.2 s); with
+``optimize`` 4.6 s, mean quality (8.4) 0.861, least 0.53 (Blossom 0.822,
+0.476). 10k triangles: ``matching`` with ``optimize`` 0.37 s (Blossom
+0.18 s). 964k triangles: ``heap`` 3.0 s, ``matching`` 7.3 s (17.8 s
+before the forest search). The tail of the matching dominated there: the last
 ~900 leftovers sit deep inside the domain (median 92 triangle sizes from
 the boundary, measured) and one search per leftover grew trees of
 10^4-10^5 triangles, most of them failing (pass after pass, with growing
