@@ -221,7 +221,8 @@ class TestRandomDomains:
     def test_matching_is_a_maximum_matching_of_the_allowed_pairs(self, seed, fine):
         # the count an independent maximum-cardinality matching (networkx) reaches; the
         # fine meshes (a few thousand triangles) leave work for the forest search
-        nx = pytest.importorskip("networkx")
+        import networkx as nx
+
         from meshcore.quadcombine import _candidates, _neighbours
 
         mesh = random_mesh(seed, 0.04 if fine else 0.12)
