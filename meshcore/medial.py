@@ -1015,9 +1015,10 @@ def _branches(n, edges):
 
 
 @njit(cache=True)
-def _rings_of(succ_a, succ_b):
-    """Orders a 2-regular graph (two neighbours per point) into cycles.
-    Returns (order, ring offsets)."""
+def _cycles(succ_a, succ_b):
+    """The cycles of a graph in which every vertex has two links: a 2-regular
+    graph (its two neighbours), or a permutation given twice. Returns
+    (vertices in cycle order, cycle offsets)."""
     n = succ_a.shape[0]
     seen = np.zeros(n, np.bool_)
     order = np.empty(n, np.int64)
@@ -1116,7 +1117,7 @@ def _cloud_domain(points) -> tuple[Domain, np.ndarray]:
     ends = ends[np.argsort(ends[:, 0], kind="stable")]
     adj[:, 0] = ends[0::2, 1]
     adj[:, 1] = ends[1::2, 1]
-    order, offsets = _rings_of(adj[:, 0], adj[:, 1])
+    order, offsets = _cycles(adj[:, 0], adj[:, 1])
     short = np.flatnonzero(np.diff(offsets) < 3)
     if short.size:
         i = int(order[offsets[short[0]]])

@@ -89,7 +89,7 @@ from numba import njit
 from meshcore import quality, topology
 from meshcore.domain import Domain
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.medial import DEFAULT_PRUNE, MedialAxis, medial_axis
+from meshcore.medial import DEFAULT_PRUNE, MedialAxis, _classes, _cycles, medial_axis
 from meshcore.mesh import CellBlock, Mesh
 
 __all__ = ["Partition", "QuadMedial", "partition", "quad_medial"]
@@ -256,30 +256,6 @@ def _cut_lines(ax: MedialAxis, method: str):
 # ---------------------------------------------------------------------------
 
 
-@njit(cache=True)
-def _cycles(nxt):
-    """Cycles of a permutation: (order, offsets)."""
-    n = nxt.shape[0]
-    seen = np.zeros(n, np.bool_)
-    order = np.empty(n, np.int64)
-    offsets = np.empty(n + 1, np.int64)
-    offsets[0] = 0
-    k = 0
-    r = 0
-    for s in range(n):
-        if seen[s]:
-            continue
-        h = s
-        while not seen[h]:
-            seen[h] = True
-            order[k] = h
-            k += 1
-            h = nxt[h]
-        r += 1
-        offsets[r] = k
-    return order, offsets[: r + 1]
-
-
 def _faces(points: np.ndarray, edges: np.ndarray, kind: np.ndarray, succ: np.ndarray):
     """Faces of a planar straight-line graph that lie in the domain.
 
@@ -307,7 +283,7 @@ def _faces(points: np.ndarray, edges: np.ndarray, kind: np.ndarray, succ: np.nda
     pos = rank[t] - first[v]
     prev_pos = (pos - 1) % degree[v]
     nxt = order[first[v] + prev_pos]
-    horder, offsets = _cycles(nxt)
+    horder, offsets = _cycles(nxt, nxt)
     p = len(succ)
     backwards = (hkind == _BOUNDARY) & (head < p) & (tail < p)
     backwards[backwards] = succ[head[backwards]] == tail[backwards]
@@ -792,8 +768,6 @@ def _quads_on(part: Partition, size: float | None, levels: int | None):
         [[s0[0], s2] for s0, s1, s2, s3 in patches] + [[s1, s3[0]] for s0, s1, s2, s3 in patches],
         dtype=np.int64,
     )
-    from meshcore.medial import _classes  # the same union-find
-
     label, n_classes = _classes(n_seg, pairs)
     if levels is not None:
         count = np.full(n_classes, 2 ** int(levels), dtype=np.int64)

@@ -12,6 +12,7 @@ from meshcore import quality, topology
 from meshcore.domain import parse_domain
 from meshcore.errors import InputError
 from meshcore.partition import partition, quad_medial
+from tests.meshcore.test_medial import stars
 
 
 def circle(c, r, n, cw=False):
@@ -67,15 +68,6 @@ class TestPartition:
         with pytest.raises(InputError) as exc:
             partition(domain("rectangle"), method="other")
         assert exc.value.errors[0]["loc"] == ["method"]
-
-
-@st.composite
-def stars(draw):
-    """Random star-shaped polygons: many reflex corners."""
-    n = draw(st.integers(5, 14))
-    radii = draw(st.lists(st.floats(0.3, 1.0), min_size=n, max_size=n))
-    t = 2 * np.pi * np.arange(n) / n
-    return (np.c_[np.cos(t), np.sin(t)] * np.array(radii)[:, None]).tolist()
 
 
 class TestRandomDomains:
