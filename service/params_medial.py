@@ -94,7 +94,8 @@ class MedialAxisParams(MethodParams):
 
 
 def run_medial_axis(params: MedialAxisParams, progress) -> dict:
-    """The axis (nodes, radii, edges, kinds, branches), as a line mesh too, and counts."""
+    """The axis (nodes, radii, edges, kinds, branches), as a line mesh too, the domain
+    (for a point cloud: the one reconstructed from it) and counts."""
     if params.domain is not None:
         axis = medial_axis(
             params.domain.to_domain(),
@@ -112,7 +113,7 @@ def run_medial_axis(params: MedialAxisParams, progress) -> dict:
             approximation=params.approximation,
             progress=progress,
         )
-        domain = None
+        domain = axis.domain.as_geojson()  # the curves reconstructed from the cloud
     return {"axis": axis.to_json(), "mesh": axis.to_mesh(), "domain": domain, "stats": axis.stats}
 
 

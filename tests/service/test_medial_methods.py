@@ -74,6 +74,8 @@ class TestResults:
         pts += [[2 - x / 10, 1] for x in range(20)] + [[0, 1 - y / 10] for y in range(10)]
         res = finished(client, "medial_axis", {"points": pts})
         assert res["axis"]["kind"].count("terminal") == 4
+        assert res["domain"]["type"] == "Polygon"  # the reconstructed ring
+        assert len(res["domain"]["coordinates"][0]) == len(pts) + 1
 
     def test_medial_transform_of_the_axis_gives_the_rectangle_back(self, client):
         axis = finished(client, "medial_axis", {"domain": RECT})["axis"]
