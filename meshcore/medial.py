@@ -664,19 +664,22 @@ def _class_reps(label, k, spread):
 
 
 @njit(cache=True)
-def _csr(n, edges):
-    """Adjacency of an undirected graph: start (n+1,), edge ids (2m,)."""
+def _csr(n, cells):
+    """Incidence of ``n`` vertices in the rows of ``cells`` ((m, k) vertex ids:
+    edges, quads): ``start`` (n + 1,) and the row ids ``inc`` (k m,), vertex
+    ``v``'s rows being ``inc[start[v]:start[v + 1]]``."""
+    m, k = cells.shape
     start = np.zeros(n + 1, np.int64)
-    for e in range(edges.shape[0]):
-        start[edges[e, 0] + 1] += 1
-        start[edges[e, 1] + 1] += 1
+    for e in range(m):
+        for j in range(k):
+            start[cells[e, j] + 1] += 1
     for v in range(n):
         start[v + 1] += start[v]
     fill = start[:-1].copy()
-    inc = np.empty(2 * edges.shape[0], np.int64)
-    for e in range(edges.shape[0]):
-        for j in range(2):
-            v = edges[e, j]
+    inc = np.empty(k * m, np.int64)
+    for e in range(m):
+        for j in range(k):
+            v = cells[e, j]
             inc[fill[v]] = e
             fill[v] += 1
     return start, inc

@@ -89,7 +89,7 @@ from numba import njit
 from meshcore import quality, topology
 from meshcore.domain import Domain
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.medial import DEFAULT_PRUNE, MedialAxis, _classes, _cycles, medial_axis
+from meshcore.medial import DEFAULT_PRUNE, MedialAxis, _classes, _csr, _cycles, medial_axis
 from meshcore.mesh import CellBlock, Mesh
 
 __all__ = ["Partition", "QuadMedial", "partition", "quad_medial"]
@@ -187,13 +187,34 @@ def _branch_graph_core(ax: MedialAxis) -> np.ndarray:
         alive &= ~loose
 
 
-def _cross_section(ax: MedialAxis, node: int) -> list[tuple[int, int]]:
-    """The two radii at a regular node: to the samples of a Delaunay edge it sits on."""
-    e = np.flatnonzero((ax.edges == node).any(axis=1) & (ax.edge_pq[:, 0] >= 0))
-    if e.size == 0:
-        return []
-    p, q = ax.edge_pq[e[0]]
-    return [(node, int(p)), (node, int(q))]
+@njit(cache=True)
+def _stripped(n, edges, keep):
+    """Edges left after peeling, leaf by leaf, the nodes not in ``keep``."""
+    start, inc = _csr(n, edges)
+    alive = np.ones(edges.shape[0], np.bool_)
+    deg = np.diff(start)
+    stack = np.empty(n, np.int64)
+    top = 0
+    for v in range(n):
+        if deg[v] == 1 and not keep[v]:
+            stack[top] = v
+            top += 1
+    while top > 0:
+        top -= 1
+        v = stack[top]
+        if deg[v] != 1 or keep[v]:
+            continue
+        for j in range(start[v], start[v + 1]):
+            f = inc[j]
+            if alive[f]:
+                alive[f] = False
+                deg[v] = 0
+                w = edges[f, 0] + edges[f, 1] - v
+                deg[w] -= 1
+                if deg[w] == 1 and not keep[w]:
+                    stack[top] = w
+                    top += 1
+    return alive
 
 
 def _cut_lines(ax: MedialAxis, method: str):
@@ -202,6 +223,7 @@ def _cut_lines(ax: MedialAxis, method: str):
     deg = np.bincount(ax.edges.ravel(), minlength=n)
     start, contact = _contacts(ax)
     core = _branch_graph_core(ax)
+    first, incident = _csr(n, ax.edges)  # the axis edges of each node
     cuts: list[tuple[int, int]] = []
     keep_edge = np.ones(len(ax.edges), dtype=bool)
     for v in np.flatnonzero((deg >= 3) | (deg == 0)):
@@ -227,10 +249,14 @@ def _cut_lines(ax: MedialAxis, method: str):
         at = np.searchsorted(s, s[-1] * np.arange(1, k + 1) / (k + 1))
         sections += [int(chain[i]) for i in np.clip(at, 1, len(chain) - 2) if deg[chain[i]] == 2]
     for v in dict.fromkeys(int(s) for s in sections):
-        cuts += _cross_section(ax, v)
+        # the two radii at a regular node: to the samples of a Delaunay edge it sits on
+        e = incident[first[v] : first[v + 1]]
+        e = e[ax.edge_pq[e, 0] >= 0]
+        if e.size:
+            cuts += [(v, int(ax.edge_pq[e[0], 0])), (v, int(ax.edge_pq[e[0], 1]))]
     if method == "terminal":
         for v in np.flatnonzero((deg == 1) & (ax.node_sample < 0)):
-            e = int(np.flatnonzero((ax.edges == v).any(axis=1))[0])
+            e = int(incident[first[v]])
             touch = contact[start[v] : start[v + 1]]
             away = touch[~np.isin(touch, ax.edge_pq[e])]
             if away.size:
@@ -239,15 +265,7 @@ def _cut_lines(ax: MedialAxis, method: str):
         # only the axis between cut nodes: strip branches down to nodes with cuts
         has_cut = np.zeros(n, dtype=bool)
         has_cut[[c[0] for c in cuts]] = True
-        while True:
-            d = np.bincount(ax.edges[keep_edge].ravel(), minlength=n)
-            loose = keep_edge & (
-                ((d[ax.edges[:, 0]] == 1) & ~has_cut[ax.edges[:, 0]])
-                | ((d[ax.edges[:, 1]] == 1) & ~has_cut[ax.edges[:, 1]])
-            )
-            if not loose.any():
-                break
-            keep_edge &= ~loose
+        keep_edge = _stripped(n, ax.edges, has_cut)
     return keep_edge, np.array(cuts, dtype=np.int64).reshape(-1, 2)
 
 
@@ -507,19 +525,7 @@ def _smoothed(points, quads, fixed, sweeps):
     previous ones.)"""
     P = points.copy()
     n = P.shape[0]
-    start = np.zeros(n + 1, np.int64)
-    for q in range(quads.shape[0]):
-        for k in range(4):
-            start[quads[q, k] + 1] += 1
-    for v in range(n):
-        start[v + 1] += start[v]
-    fill = start[:-1].copy()
-    cells = np.empty(4 * quads.shape[0], np.int64)
-    for q in range(quads.shape[0]):
-        for k in range(4):
-            v = quads[q, k]
-            cells[fill[v]] = q
-            fill[v] += 1
+    start, cells = _csr(n, quads)
     floor = np.empty(n)
     for v in range(n):
         floor[v] = 0.5 * _worst_corner(P, quads, start, cells, v, P[v, 0], P[v, 1])
