@@ -827,15 +827,16 @@ def _quads_on(part: Partition, size: float | None, levels: int | None):
     fixed[boundary.ravel()] = True
     uniq = _smoothed(uniq, quads, fixed, SMOOTHING_SWEEPS)
     mesh = Mesh(uniq, (CellBlock("quad", quads),))
+    area = quality.signed_area(uniq, quads, "quad")
     stats = {
-        "quads": int(len(mesh.cells[0].data)),
+        "quads": int(len(quads)),
         "points": int(len(uniq)),
         "coarse_quads": len(patches),
         "regions": len(part.regions),
         "side_classes": int(n_classes),
-        "area": float(quality.signed_area(mesh.points, mesh.cells[0].data, "quad").sum()),
+        "area": float(area.sum()),
         "not_convex_before_smoothing": int((before <= 0).sum()),
-        "invalid": int((quality.signed_area(mesh.points, quads, "quad") <= 0).sum()),
+        "invalid": int((area <= 0).sum()),
         "domain_area": ax.domain.area,
     }
     return mesh, stats
