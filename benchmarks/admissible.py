@@ -38,8 +38,8 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
-from meshcore.admissible import admissible_segments  # noqa: E402
-from meshcore.delaunay import delaunay  # noqa: E402
+from meshcore.delaunay.admissible import admissible_segments  # noqa: E402
+from meshcore.delaunay.kernel2d import delaunay  # noqa: E402
 
 try:
     import triangle

@@ -32,7 +32,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
-from meshcore.delaunay import delaunay  # noqa: E402
+from meshcore.delaunay.kernel2d import delaunay  # noqa: E402
 
 
 def random_square(n: int) -> np.ndarray:

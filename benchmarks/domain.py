@@ -1,4 +1,4 @@
-"""Time :func:`meshcore.domain.parse_domain` on large boundaries.
+"""Time :func:`meshcore.domain.planar.parse_domain` on large boundaries.
 
 Prints one row per input: the number of boundary vertices, the best of three
 wall-clock times of the whole validation (structure, duplicates, exact
@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from meshcore.domain import parse_domain
+from meshcore.domain.planar import parse_domain
 
 try:
     import shapely

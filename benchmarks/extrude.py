@@ -13,7 +13,7 @@ about 100k triangles); both sides sweep the very same triangles:
 Gmsh: ``gmsh.model.geo.extrude`` / ``revolve`` with ``numElements`` and
 ``recombine=True`` (prisms), after ``generate(2)`` (not timed); the time is
 that of ``generate(3)``, which builds the layers. Ours:
-:func:`meshcore.product.extrude` on the base arrays, with its validity checks
+:func:`meshcore.product.extrusion` on the base arrays, with its validity checks
 on (the default) and, as a second figure, ``validate=False``. Each side runs
 in its own process; the peak memory is that process's maximum resident set
 (interpreter and libraries included). Ours is the best of three runs,
@@ -129,7 +129,7 @@ def run_gmsh(kind: str, layers: int) -> dict:
 
 def run_ours(kind: str, layers: int, base_path: str, validate: bool) -> dict:
     from meshcore.mesh import Mesh
-    from meshcore.product import Rotate, Translate, extrude
+    from meshcore.product.extrusion import Rotate, Translate, extrude
 
     data = np.load(base_path)
     points = data["points"] + ([1.0, 0.0] if kind == "rotate" else [0.0, 0.0])

@@ -10,7 +10,7 @@ Three tables, one run:
 
 1. **Ours vs Triangle, same points.** The 2 x 1 rectangle sampled with
    ``N`` = 10k, 100k and 1M boundary points (``h = perimeter / N``). Ours:
-   the whole :func:`meshcore.medial.medial_axis` call (sampling, our
+   the whole :func:`meshcore.medial.axis.medial_axis` call (sampling, our
    Delaunay kernel, types, Voronoi graph, pruning, radii) and, apart, its
    Delaunay phase (``stats["seconds"]["delaunay"]``). Triangle: only its
    Delaunay triangulation of the same samples
@@ -63,8 +63,8 @@ from scipy.spatial import cKDTree
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 sys.path.insert(0, ROOT)
 
-from meshcore.domain import parse_domain  # noqa: E402
-from meshcore.medial import medial_axis  # noqa: E402
+from meshcore.domain.planar import parse_domain  # noqa: E402
+from meshcore.medial.axis import medial_axis  # noqa: E402
 
 MARGIN = 0.02  # raster margin around the bounding box, times its extent
 

@@ -32,7 +32,7 @@ needs the OpenCASCADE geometry: its full-quad algorithms fail ("1D mesh
 cannot be divided by 2") on the geo-kernel polygon.
 
 Every row: wall time, quads, triangles left, mean and min quad quality
-(8.4) by :func:`meshcore.quality.quad_quality` (clockwise quads reversed
+(8.4) by :func:`meshcore.mesh.quality.quad_quality` (clockwise quads reversed
 first: Gmsh orients by its surface normal), the fraction of quads under 0.5.
 Every run is a child process. Gmsh is a bench-only dependency (``pip
 install -e .[bench]``) and is skipped with a note when absent.
@@ -120,7 +120,7 @@ def _gmsh_cells(gmsh):
 
 
 def _ccw(P, cells):
-    from meshcore.quality import signed_area
+    from meshcore.mesh.quality import signed_area
 
     if not len(cells):
         return cells
@@ -131,7 +131,7 @@ def _ccw(P, cells):
 
 
 def _describe(P, quads, tris, seconds) -> dict:
-    from meshcore.quality import quad_quality
+    from meshcore.mesh.quality import quad_quality
 
     quads = _ccw(P, np.asarray(quads, np.int64))
     q = quad_quality(P, quads) if len(quads) else np.zeros(1)
@@ -194,7 +194,7 @@ def child(tool: str, n: int, path: str) -> dict:
         gmsh.finalize()
         return _describe(P, cells["quad"], cells["triangle"], seconds)
     from meshcore.mesh import CellBlock, Mesh
-    from meshcore.quadcombine import combine
+    from meshcore.quads.combination import combine
 
     warm = np.load(path)
     # warm-up: every kernel (numba loads them from its cache on their first call)

@@ -1,4 +1,4 @@
-"""Time :func:`meshcore.quality.report` on large structured meshes.
+"""Time :func:`meshcore.mesh.quality.report` on large structured meshes.
 
 Prints one row per mesh: cell type, number of cells and points, the best of
 three wall-clock times of our whole report (validation, quality measure,
@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 from meshcore.mesh import CellBlock, Mesh
-from meshcore.quality import report
+from meshcore.mesh.quality import report
 
 
 def grid_2d(nx: int, ny: int, cell_type: str) -> Mesh:

@@ -24,7 +24,7 @@ from pathlib import Path
 import httpx
 import numpy as np
 
-from meshcore import io, quality
+from meshcore.mesh import io, quality
 
 ROOT = Path(__file__).resolve().parents[1]
 SQUARE = {

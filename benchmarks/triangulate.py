@@ -30,7 +30,7 @@ after a warm-up call that loads numba's cache; parsing the domain is not
 timed), peak resident memory of the child (``getrusage``, whole process,
 Python and imports included), and the quality of the result (smallest
 angle, fraction of triangles with an angle under 30 degrees) computed by
-:mod:`meshcore.quality`. Triangle and Gmsh are bench-only dependencies
+:mod:`meshcore.mesh.quality`. Triangle and Gmsh are bench-only dependencies
 (``pip install -e .[bench]``) and are skipped with a note when absent.
 """
 
@@ -108,7 +108,7 @@ def area_of(pts, rings):
 
 
 def _quality(points, triangles):
-    from meshcore.quality import triangle_angles
+    from meshcore.mesh.quality import triangle_angles
 
     ang = triangle_angles(points, triangles).min(axis=1)
     return float(ang.min()), float(np.mean(ang < 30.0))
@@ -122,8 +122,8 @@ def child(tool: str, case: str, target: int) -> dict:
     area = area_of(pts, rings)
     mean_area = area / target if target else None
     if tool == "ours":
-        from meshcore.domain import parse_domain
-        from meshcore.triangulate import triangulate
+        from meshcore.domain.planar import parse_domain
+        from meshcore.triangulation.refinement import triangulate
 
         domain = parse_domain(geometry_of(pts, rings))
         triangulate(parse_domain(geometry_of(*square_hole()[:2])), min_angle=30, max_area=1e-3)

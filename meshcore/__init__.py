@@ -1,15 +1,42 @@
 """meshcore: the meshing library behind meshservice (numpy/scipy/numba, no HTTP).
 
-The data types and errors are here; each method family is a module named
-after it, holding its entry point: ``delaunay.delaunay``,
-``domain.parse_domain``, ``admissible.make_admissible``,
-``triangulate.triangulate``, ``product.extrude`` and ``product.sweep``,
-``merge.merged``, ``radial.radial``, ``quality.report``, and ``io`` for
-files and JSON.
+The packages are the table of contents of the methods text: the shared
+kernel (:mod:`.geometry`, :mod:`.mesh`, :mod:`.domain`, :mod:`.delaunay`)
+below one package per method family (:mod:`.triangulation`,
+:mod:`.product`, :mod:`.quads`, :mod:`.medial`). Each method's entry point
+is re-exported here, loaded on first use so that ``import meshcore`` stays
+cheap::
+
+    from meshcore import parse_domain, triangulate, medial_axis, extrude
+
+A name that is also a subpackage (``delaunay``) is imported from its
+package instead: ``from meshcore.delaunay import delaunay``.
 """
+
+from __future__ import annotations
+
+import importlib
 
 from meshcore.errors import AlgorithmError, Cancelled, InputError, MeshcoreError
 from meshcore.mesh import CELL_TYPES, CellBlock, Mesh
+
+_ENTRY_POINTS = {
+    "parse_domain": "meshcore.domain",
+    "make_admissible": "meshcore.delaunay",
+    "triangulate": "meshcore.triangulation",
+    "extrude": "meshcore.product",
+    "sweep": "meshcore.product",
+    "merged": "meshcore.product",
+    "radial": "meshcore.product",
+    "combine": "meshcore.quads",
+    "optimize_quads": "meshcore.quads",
+    "medial_axis": "meshcore.medial",
+    "medial_transform": "meshcore.medial",
+    "partition": "meshcore.medial",
+    "quad_medial": "meshcore.medial",
+    "simplify": "meshcore.medial",
+    "report": "meshcore.mesh.quality",
+}
 
 __all__ = [
     "CELL_TYPES",
@@ -19,4 +46,14 @@ __all__ = [
     "InputError",
     "Mesh",
     "MeshcoreError",
+    *_ENTRY_POINTS,
 ]
+
+
+def __getattr__(name: str):
+    """The entry point ``name``, imported from its family's package on first use."""
+    if name in _ENTRY_POINTS:
+        value = getattr(importlib.import_module(_ENTRY_POINTS[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'meshcore' has no attribute {name!r}")

@@ -14,7 +14,7 @@ from service.executors import Executor
 from service.executors.local import LocalExecutor
 from service.jobs import JobManager
 from service.limits import BodySizeLimit
-from service.methods import Registry, default_registry
+from service.methods.registry import Registry, default_registry
 from service.metrics import Metrics
 from service.problems import install_handlers
 from service.settings import Settings

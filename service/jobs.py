@@ -21,7 +21,7 @@ import time
 from collections.abc import Callable
 
 from service.executors import Executor, Task
-from service.methods import Registry
+from service.methods.registry import Registry
 from service.metrics import Metrics
 from service.problems import problem_document
 from service.runner import JobFailed

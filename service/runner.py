@@ -15,10 +15,9 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from meshcore import io
 from meshcore.errors import AlgorithmError, InputError, MeshcoreError
-from meshcore.mesh import Mesh
-from service.methods import MethodSpec, Progress
+from meshcore.mesh import Mesh, io
+from service.methods.registry import MethodSpec, Progress
 from service.problems import problem_document
 
 log = logging.getLogger("meshservice.job")

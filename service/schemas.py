@@ -13,9 +13,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from meshcore import io
 from meshcore.errors import InputError
-from meshcore.mesh import CELL_TYPES, Mesh
+from meshcore.mesh import CELL_TYPES, Mesh, io
 
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
 Index = Annotated[int, Field(ge=0)]

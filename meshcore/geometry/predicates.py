@@ -23,7 +23,7 @@ Two interfaces share one implementation:
   rows only;
 * scalar numba functions :func:`orient2d_scalar`, :func:`incircle_scalar`,
   :func:`orient3d_scalar` (``@njit``) for compiled kernels such as
-  :mod:`meshcore.delaunay`. The ``*_exact`` variants take a scratch buffer
+  :mod:`meshcore.delaunay.kernel2d`. The ``*_exact`` variants take a scratch buffer
   (``work``, float64, at least :data:`WORK_SIZE` long) so that a kernel calls
   them without allocating.
 
@@ -31,7 +31,7 @@ Assumptions (as Shewchuk's): no overflow or underflow in the products formed,
 which holds when every coordinate difference is either zero or has magnitude
 within about ``[2**-150, 2**150]`` (orient2d tolerates far more). Callers
 with more extreme input rescale by a power of two first, which is exact and
-changes no sign (see :func:`meshcore.delaunay.delaunay`).
+changes no sign (see :func:`meshcore.delaunay.kernel2d.delaunay`).
 
 References
 ----------

@@ -15,10 +15,8 @@ from fastapi.responses import FileResponse
 from fastapi.sse import EventSourceResponse, ServerSentEvent
 from pydantic import ConfigDict, Field, create_model
 
-from meshcore import io
-from meshcore.errors import InputError
 from service.deps import ClientDep, JobDep, ManagerDep, SettingsDep, StoreDep
-from service.methods import Registry
+from service.methods.registry import FORMATS, InputError, Registry, mesh_file
 from service.preview import render_svg
 from service.problems import (
     Gone,
@@ -34,7 +32,7 @@ from service.schemas import JobOut, JobPage, ProblemOut, ResultOut
 from service.store import Job
 
 MAX_WAIT = 30.0
-Format = Literal[tuple(io.FORMATS)]  # type: ignore[valid-type]
+Format = Literal[tuple(FORMATS)]  # type: ignore[valid-type]
 
 
 def _problems(*statuses: int) -> dict[int | str, dict[str, Any]]:
@@ -314,19 +312,13 @@ def router(registry: Registry) -> APIRouter:
         path = _result_path(job, store)
         if format is None:
             return FileResponse(path, media_type="application/json")
-        spec = io.FORMATS[format]
+        spec = FORMATS[format]
         target = store.result_path(job.id, format)
         if not target.exists():
 
             def convert() -> None:
                 data = json.loads(path.read_bytes())
-                if not data.get("mesh"):
-                    raise InputError(
-                        "this result holds no mesh to download",
-                        loc=("query", "format"),
-                        code="no_mesh",
-                    )
-                store.write_result(job.id, io.to_bytes(io.from_json(data["mesh"]), format), format)
+                store.write_result(job.id, mesh_file(data, format), format)
 
             try:
                 await asyncio.to_thread(convert)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter
 
-from service.methods import MethodSpec, Registry
+from service.methods.registry import MethodSpec, Registry
 from service.problems import NotFound
 from service.schemas import MethodOut, ProblemOut
 

@@ -15,7 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
-from service.methods import MethodSpec
+from service.methods.registry import MethodSpec
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,7 @@ from service.runner import JobFailed, run_job
 log = logging.getLogger("meshservice.child")
 
 PROGRESS_INTERVAL = 0.1  # seconds between progress messages a job sends
-PRELOAD = ["service.executors.child", "service.methods", "service.executors.preload"]
+PRELOAD = ["service.executors.child", "service.methods.registry", "service.executors.preload"]
 
 try:
     _LIBC = ctypes.CDLL(None, use_errno=True)

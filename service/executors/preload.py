@@ -14,11 +14,11 @@ optimization kernels.
 
 import gc
 
-from meshcore.domain import parse_domain
-from meshcore.medial import medial_axis
-from meshcore.partition import quad_medial
-from meshcore.quadcombine import combine
-from meshcore.triangulate import triangulate
+from meshcore.domain.planar import parse_domain
+from meshcore.medial.axis import medial_axis
+from meshcore.medial.partitioning import quad_medial
+from meshcore.quads.combination import combine
+from meshcore.triangulation.refinement import triangulate
 
 _SQUARE_WITH_HOLE = parse_domain(
     {

@@ -14,7 +14,7 @@ from concurrent.futures import ThreadPoolExecutor
 import httpx
 import pytest
 
-from meshcore import io
+from meshcore.mesh import io
 from tests.service.conftest import LiveServer, wait_status
 from tests.service.testing_methods import SQUARE
 

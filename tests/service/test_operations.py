@@ -9,7 +9,7 @@ import time
 
 import pytest
 
-from service.methods import default_registry
+from service.methods.registry import default_registry
 from tests.service.conftest import ROOT, LiveServer, wait_status
 from tests.service.test_jobs import assert_problem, submit, wait_file
 from tests.service.testing_methods import SQUARE

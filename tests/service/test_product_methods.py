@@ -9,7 +9,7 @@ import json
 
 import pytest
 
-from meshcore import io, quality
+from meshcore.mesh import io, quality
 from tests.service.test_jobs import assert_problem, submit
 from tests.service.testing_methods import SQUARE
 

@@ -10,10 +10,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from meshcore import io, quality
-from meshcore.domain import parse_domain
+from meshcore.domain.planar import parse_domain
 from meshcore.geometry.predicates import orient2d
-from service.params_quad import QUAD_COMBINE_EXAMPLE
+from meshcore.mesh import io, quality
+from service.methods.quads import QUAD_COMBINE_EXAMPLE
 from tests.service.test_jobs import assert_problem, submit
 
 SQUARE_MESH = {

@@ -12,9 +12,9 @@ import json
 import numpy as np
 import pytest
 
-from meshcore import io
 from meshcore.geometry.predicates import orient2d
-from service.params_triangulation import TRIANGULATE_EXAMPLE
+from meshcore.mesh import io
+from service.methods.triangulation import TRIANGULATE_EXAMPLE
 from tests.service.test_jobs import assert_problem, submit
 
 SQUARE = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]]]}

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from service.params_triangulation import DELAUNAY_ADMISSIBLE_EXAMPLE
+from service.methods.triangulation import DELAUNAY_ADMISSIBLE_EXAMPLE
 from tests.service.test_jobs import assert_problem, submit
 
 SQUARE = [[0, 0], [4, 0], [4, 4], [0, 4]]

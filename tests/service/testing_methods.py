@@ -15,7 +15,7 @@ from typing import Literal
 
 from pydantic import Field
 
-from service.methods import MethodSpec, Progress, Registry, default_registry
+from service.methods.registry import MethodSpec, Progress, Registry, default_registry
 from service.schemas import MeshIn, MethodParams
 
 SQUARE = {

@@ -1,0 +1,1358 @@
+"""Delaunay-admissible boundary discretizations (methods text §9.1.2-§9.1.5).
+
+A set of segments is *Delaunay-admissible* when every segment is an edge of
+the Delaunay triangulation of the segments' endpoints (§9.1). Given a
+boundary discretization that is not, :func:`make_admissible` (on a
+:class:`~meshcore.domain.planar.Domain`) and :func:`admissible_segments` (on raw
+arrays, for the triangulator) split the offending segments until it is, and
+:func:`make_admissible` also returns the "empty" Delaunay triangulation of
+the domain (§9.4.1: no vertex inside, only boundary points).
+
+Algorithm (§9.1.4), in rounds, each one vectorized over all segments:
+
+1. Triangulate the current points with :func:`meshcore.delaunay.kernel2d.delaunay`
+   (our exact kernel) and look every segment up among its edges (a
+   compiled, linear-time scan of the vertex adjacency). Stop when all are
+   there.
+2. For each missing segment ``f = AB`` gather the points of its closed
+   diametral ball (a ``cKDTree`` ball query around the midpoint, enlarged
+   by a rounding slack, then the exact predicate
+   :func:`~meshcore.geometry.predicates.dot2d` decides membership) and pick
+   the one with the largest angle ``APB`` (§9.1.2).
+3. Split ``f`` at the projection of ``P`` on ``f`` (§9.1.4, Figure 9.4), or,
+   for a segment of a ring that declares a circle, at that projection moved
+   radially onto the circle (§9.1.5). Segments meeting at an acute angle
+   are first *protected* (below).
+
+Classification (§9.1.2) is exact: Case 0 (one open half-plane of the
+segment's line holds no point: the segment lies on a straight run of the
+convex hull, found with :func:`~meshcore.geometry.predicates.orient2d`),
+Case 1 (the open diametral ball holds no point,
+:func:`~meshcore.geometry.predicates.indiametral`), Case 2 otherwise.
+Cases are reported for the input and for the output. Only segments that
+are not Delaunay edges in a round are split, so a Case 2 segment whose
+triangle ``fP`` is Delaunay (§9.1.3) stays whole, and Case 0 segments (hull
+edges, and the added points never leave the hull) are never split. A Case 1
+segment stays whole unless added points enter its diametral ball: that
+happens next to acute Case 2 neighbours, whose splits land near the shared
+vertex (the coupling of Exercise 9.2); on random stars a few Case 1
+segments are split so, on the comb, the L-shape and the grid of the tests
+none is.
+
+Choices where the text leaves freedom
+-------------------------------------
+* **Closed balls (Exercise 9.5).** A missing segment is split even when its
+  encroaching points lie only *on* its diametral circle: the kernel breaks
+  co-circular ties by symbolic perturbation, and the tie may have gone
+  against the segment. Projecting such a point strictly separates it from
+  both halves, so this costs nothing elsewhere.
+* **Which encroaching point.** The largest angle ``APB`` (§9.1.2), computed
+  in floating point: any encroaching point gives a valid split (Remark
+  9.4), so this is a choice, not a sign decision. Angles within
+  :attr:`Tolerances.angle_tie` of the largest are tied and the point of
+  smallest index wins, so that translated or exactly scaled inputs make the
+  same choices.
+* **Input that is not a planar straight-line graph.** A point found
+  strictly inside a segment (collinear, angle 180°) is refused: an input
+  point raises :class:`~meshcore.errors.InputError` (``point_on_segment``),
+  an added one means two segments cross, and the splits, converging on the
+  crossing, stop with :class:`~meshcore.errors.AlgorithmError` naming both
+  (or when the points reach float64 resolution there).
+* **Acute angles and non-manifold vertices (Exercises 9.2-9.4).** Two
+  segments meeting at a vertex ``E`` at an angle below 90° (exact sign of
+  ``(X - E).(Y - E)``, on the input segments) form an *acute cluster* at
+  ``E`` (all segments of ``E`` in such a pair, any number of them: a
+  non-manifold vertex is no special case). Their splits are coupled: a
+  split near ``E`` on one may encroach another, and the projections can
+  chase each other into ``E`` (Exercise 9.3). In exact arithmetic the
+  projection of one segment's end onto the other lands exactly on the
+  other's diametral circle, so one step ends the chase; rounding can
+  restart it, and more encroaching points can feed it. So a projection
+  split near ``E`` is allowed once per cluster segment; the second time
+  (on the same segment's piece at ``E``) ``E`` is *protected*: its radius
+  ``r_E`` is fixed, the projection distance ``|EM|`` when that is within a
+  safe bound, else the bound, and from then on each missing piece of the
+  cluster at ``E`` is split at exactly ``r_E`` from ``E`` (Exercise 9.4's
+  "points at a common distance on all edges emanating from A", made lazily
+  so that segments that are Delaunay stay whole). The safe bound is
+  :data:`PROTECT_FRACTION` (0.9) times the distance from ``E`` to its
+  nearest other point and to its nearest non-incident segment, and
+  :data:`SHARE_FRACTION` (0.45) times its shortest cluster segment (so the
+  protection points of a segment's two ends stay apart). Then the pieces
+  ``[E, M]`` all have length ``r_E`` and nothing ever enters their closed
+  diametral balls (those lie in the disk of radius ``r_E`` around ``E``:
+  later splits on non-incident segments are farther, the other protected
+  pieces end at exactly ``r_E``, pieces at 90° or more from them stay in
+  the closed half-plane behind ``E``, and unprotected cluster pieces are
+  longer than ``2 r_E`` until they are split at ``r_E``), so they are
+  Delaunay for good and the chase cannot reach ``E``. Measured on the test
+  polygons this safety net costs a few points in all (4% on a set of random
+  stars), where protecting every acute vertex up front doubled the count.
+* **Near-endpoint projections.** When ``P`` lies almost above an endpoint
+  ``E``, its projection falls extremely close to ``E``: a subsegment far
+  shorter than the local feature size (``|EP|``), inviting cascades. A
+  projection closer to ``E`` than :data:`NEAR_END_TRIGGER` (1/8) of
+  ``|EP|`` is replaced by the point at :data:`NEAR_END_FRACTION` (1/2) of
+  ``|EP|`` from ``E``. It still separates ``P`` from both halves: the ball of
+  ``[E, M]`` lies within distance ``|EM| < |EP|`` of ``E``, and ``P``
+  projects on ``[E, M]``'s side of ``M``, outside the ball of ``[M, F]``.
+  The trigger is low on purpose: a clamp at every projection closer than
+  ``|EP| / 2`` made thin 5° wedges cost four times more points.
+* **Ties of the projection.** The projection ``M`` of ``P`` makes a right
+  angle at ``M``, so ``M`` lies exactly on the diametral circle of ``[E, P]``
+  (Thales), which is a segment whenever ``P`` is joined to the end ``E``
+  (acute corners, thin spikes). That tie would be decided by the rounding
+  of ``M``, differently at different distances from the origin. So ``M``
+  moves away from its nearer end ``E`` by :data:`NUDGE` (2**-20) of
+  ``|EM|``, at most half of the room that keeps ``P`` outside the ball of
+  ``[E, M]``: the tie is decided, the same way everywhere. (On the test
+  polygons this also made the comb's and the star's results identical
+  under exact translations, and saved a point on the comb.)
+* **Curves (§9.1.5).** A ring may declare the circle it samples; its new
+  points are the chord split points moved radially onto the circle (on the
+  minor arc between the segment's ends), protection points are placed on
+  the circle at chord distance ``r_A``. The domain is assumed to be sampled
+  finely enough that the arcs meet no other segment.
+* **Termination guard.** Rounds stop with
+  :class:`~meshcore.errors.AlgorithmError` after :data:`MAX_ROUNDS` rounds
+  or when the points added exceed :data:`MAX_ADDED_FACTOR` times the input
+  size plus :data:`MAX_ADDED_BASE`: only inputs that are not planar
+  straight-line graphs (crossing segments) get there.
+
+Frames and ties. The rounds run in a frame centred on the first input
+point when that shift is exact (:func:`_local_origin`): an input moved by an
+exact translation then makes bit-identical constructions and decisions.
+Back in the input's frame, the added points are rounded once more, and the
+rounds continue there until every segment is an edge again (normally no
+round at all): the guarantee is always checked on the returned coordinates.
+Projections make right angles, so the output may hold exactly co-circular
+quadrilaterals around a segment; the segment is then an edge of our
+kernel's triangulation (its exact tie-breaking), and a Delaunay code with
+other tie-breaking may need a swap to show it (§9.1.3, footnote 4);
+floating-point codes such as Qhull may take either diagonal.
+
+Cost: each round re-triangulates all points (``O(n log n)``), looks the
+segments up in linear time (compiled), and queries the balls of the missing
+segments (linear in the points found in them). Rounds are few on the test
+polygons (2 to 8); a 1,000-vertex random star with 0.4° between spikes
+takes 32 rounds and 9,300 points, 0.7 s; a 10,000-vertex one 146 rounds and
+604,000 points, 126 s, most rounds at the end splitting one or two segments
+each (each spike's chain of splits is sequential, and every round
+re-triangulates everything).
+
+The restricted triangulation (:func:`restricted_triangles`) keeps the
+triangles reached by a flood fill across non-segment edges from the left
+side of every boundary segment (both sides of an interior constraint):
+regions, never centroid tests.
+
+References
+----------
+Methods text §9.1 (all of it, Exercises 9.2-9.5), §9.4.1 (the empty
+Delaunay triangulation of a domain); DESIGN.md "Geometry robustness".
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from meshcore.delaunay.kernel2d import Triangulation, delaunay
+from meshcore.domain.planar import Domain
+from meshcore.errors import AlgorithmError, InputError
+from meshcore.geometry.predicates import dot2d, orient2d
+from meshcore.mesh import CellBlock, Mesh
+
+__all__ = [
+    "AdmissibleBoundary",
+    "AdmissibleSegments",
+    "Tolerances",
+    "admissible_segments",
+    "circles_of",
+    "classify_segments",
+    "make_admissible",
+    "restricted_triangles",
+]
+
+Progress = Callable[[float, str], None]
+
+#: Protection radius of an acute vertex: at most this fraction of the distance
+#: to its nearest other point or non-incident segment (below 1, see above) ...
+PROTECT_FRACTION = 0.9
+#: ... and at most this fraction of its shortest acute-cluster segment (below 1/2).
+SHARE_FRACTION = 0.45
+#: A projection closer than this fraction of ``|EP|`` to the nearer endpoint
+#: ``E`` (``P`` the encroaching point) is too close ...
+NEAR_END_TRIGGER = 0.125
+#: ... and is replaced by the point at this fraction of ``|EP|`` from ``E``.
+NEAR_END_FRACTION = 0.5
+#: Split points move away from the nearer end by this fraction of their
+#: distance to it (see "Ties of the projection" above).
+NUDGE = 2.0**-20
+#: At most this many rounds.
+MAX_ROUNDS = 2000
+#: Added points allowed: this factor times (points + segments) of the input ...
+MAX_ADDED_FACTOR = 64
+#: ... plus this many.
+MAX_ADDED_BASE = 10_000
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Every tolerance of this module; none of them decides a sign.
+
+    Attributes
+    ----------
+    ball_slack : float
+        Relative enlargement of the ball queries (times the ball's radius):
+        the candidate set only grows, the exact predicate decides.
+    coordinate_slack : float
+        Absolute enlargement of the ball queries, times the largest
+        coordinate magnitude (rounding of midpoints far from the origin).
+    angle_tie : float
+        Radians: encroaching points whose angles ``APB`` are within this of
+        the largest are tied; the smallest point index wins.
+    curve_fit : float
+        How far, times the domain's diameter, a ring's points may lie from
+        the circle the ring declares.
+    """
+
+    ball_slack: float = 2.0**-30
+    coordinate_slack: float = 2.0**-40
+    angle_tie: float = 2.0**-30
+    curve_fit: float = 1e-6
+
+
+TOLERANCES = Tolerances()
+
+
+@dataclass(frozen=True, eq=False)
+class AdmissibleSegments:
+    """A Delaunay-admissible set of segments (result of :func:`admissible_segments`).
+
+    Attributes
+    ----------
+    points : (n, 2) float64
+        The input points first, indices unchanged, then the added points.
+    segments : (m, 2) int64
+        The output segments, each an edge of :attr:`delaunay`. The pieces of
+        input segment ``i`` are consecutive rows, in order from its first
+        to its second endpoint, and keep its direction.
+    source : (m,) int64
+        The input segment each output segment comes from (non-decreasing).
+    cases_before, cases_after : dict
+        Counts of Case 0, 1 and 2 segments (§9.1.2) among the input and the
+        output segments, keys ``"case0"``, ``"case1"``, ``"case2"``.
+    added : int
+        Number of points added (Steiner points).
+    rounds : int
+        Triangulation rounds run (the last one finds nothing to split).
+    protected : (k,) int64
+        The acute vertices that were protected (Exercises 9.2-9.4).
+    protection_radius : (k,) float64
+        Their protection radii: every protected segment piece at such a
+        vertex has this length.
+    delaunay : Triangulation
+        The Delaunay triangulation of :attr:`points` (all of the convex hull).
+    """
+
+    points: np.ndarray
+    segments: np.ndarray
+    source: np.ndarray
+    cases_before: dict[str, int]
+    cases_after: dict[str, int]
+    added: int
+    rounds: int
+    protected: np.ndarray
+    protection_radius: np.ndarray
+    delaunay: Triangulation
+
+
+@dataclass(frozen=True, eq=False)
+class AdmissibleBoundary:
+    """A Delaunay-admissible boundary of a domain and its empty triangulation.
+
+    Attributes
+    ----------
+    points : (n, 2) float64
+        The domain's points first (``domain.points``, indices unchanged),
+        then the added points.
+    segments : (m, 2) int64
+        Output segments, domain on the left for boundary pieces; the pieces
+        of input segment ``i`` are consecutive, in order along it.
+    source : (m,) int64
+        Input segment id per output segment: ids below
+        ``len(domain.segments)`` are boundary segments, the others
+        constraint ``id - len(domain.segments)``.
+    cases_before, cases_after : dict
+        Per-case counts (§9.1.2) of the input and output segments.
+    added : int
+        Points added.
+    rounds : int
+        Triangulation rounds run.
+    protected : (k,) int64
+        The acute vertices protected (Exercises 9.2-9.4).
+    triangulation : Mesh
+        The empty Delaunay triangulation of the domain (§9.4.1): the
+        Delaunay triangles of :attr:`points` inside the domain, a
+        ``triangle`` block, counter-clockwise.
+    """
+
+    points: np.ndarray
+    segments: np.ndarray
+    source: np.ndarray
+    cases_before: dict[str, int]
+    cases_after: dict[str, int]
+    added: int
+    rounds: int
+    protected: np.ndarray
+    triangulation: Mesh
+
+
+# ---------------------------------------------------------------------------
+# Small helpers
+# ---------------------------------------------------------------------------
+
+
+def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
+    """Undirected integer key of each edge (a, b)."""
+    lo = np.minimum(a, b)
+    hi = np.maximum(a, b)
+    return lo * np.int64(n) + hi
+
+
+@njit(cache=True)
+def edges_present(triangles, n, segments):
+    """Whether each segment is an edge of the triangles: vertex adjacency in
+    CSR form (counting sort, linear time), then a scan of each segment's
+    first vertex's neighbours (a sequential compiled loop)."""
+    start = np.zeros(n + 1, np.int64)
+    for t in range(triangles.shape[0]):
+        for i in range(3):
+            start[triangles[t, i] + 1] += 1
+    for v in range(n):
+        start[v + 1] += start[v]
+    fill = start[:-1].copy()
+    nxt = np.empty(3 * triangles.shape[0], np.int64)
+    prv = np.empty(3 * triangles.shape[0], np.int64)
+    for t in range(triangles.shape[0]):
+        for i in range(3):
+            v = triangles[t, i]
+            nxt[fill[v]] = triangles[t, (i + 1) % 3]
+            prv[fill[v]] = triangles[t, (i + 2) % 3]
+            fill[v] += 1
+    out = np.zeros(segments.shape[0], np.bool_)
+    for k in range(segments.shape[0]):
+        a = segments[k, 0]
+        b = segments[k, 1]
+        for j in range(start[a], start[a + 1]):
+            if nxt[j] == b or prv[j] == b:
+                out[k] = True
+                break
+    return out
+
+
+def _present(tri: Triangulation, segments: np.ndarray) -> np.ndarray:
+    """(m,) bool: which segments are edges of the triangulation."""
+    return edges_present(tri.triangles, len(tri.points), segments)
+
+
+def _ball_pairs(tree: cKDTree, centers: np.ndarray, radii: np.ndarray):
+    """(query, point) index pairs of the points within ``radii`` of ``centers``."""
+    if len(centers) == 0:
+        empty = np.zeros(0, dtype=np.int64)
+        return empty, empty
+    lists = tree.query_ball_point(centers, radii)
+    counts = np.fromiter(map(len, lists), dtype=np.int64, count=len(lists))
+    flat = np.fromiter(
+        itertools.chain.from_iterable(lists), dtype=np.int64, count=int(counts.sum())
+    )
+    return np.repeat(np.arange(len(centers), dtype=np.int64), counts), flat
+
+
+def _query_radii(A: np.ndarray, B: np.ndarray, scale: float, tol: Tolerances):
+    """Midpoints and enlarged half-lengths of segments AB, for ball queries."""
+    mid = 0.5 * (A + B)
+    half = 0.5 * np.hypot(B[:, 0] - A[:, 0], B[:, 1] - A[:, 1])
+    return mid, half * (1.0 + tol.ball_slack) + tol.coordinate_slack * scale
+
+
+def _closed_ball_members(P, tree, a, b, scale, tol):
+    """Pairs (segment row, point) with the point in the closed diametral ball.
+
+    Returns the rows, the points and their exact :func:`dot2d` signs (-1
+    strictly inside, 0 on the circle); the endpoints themselves excluded.
+    """
+    A, B = P[a], P[b]
+    mid, radii = _query_radii(A, B, scale, tol)
+    q, p = _ball_pairs(tree, mid, radii)
+    keep = (p != a[q]) & (p != b[q])
+    q, p = q[keep], p[keep]
+    d = dot2d(A[q], B[q], P[p]) if len(q) else np.zeros(0, dtype=np.int8)
+    inside = d <= 0
+    return q[inside], p[inside], d[inside]
+
+
+def _hull_case0(P: np.ndarray, tri: Triangulation, segments: np.ndarray) -> np.ndarray:
+    """Case 0 of §9.1.2: the segment lies on a straight run of the convex hull.
+
+    One open half-plane of the segment's line is empty iff the line supports
+    the point set, iff both ends are hull vertices and the second lies on
+    the line of a hull edge at the first (exact orient2d).
+    """
+    n = len(P)
+    t, nb = tri.triangles, tri.neighbors
+    rows, cols = np.nonzero(nb < 0)
+    u = t[rows, (cols + 1) % 3]  # hull edge u -> v, counter-clockwise
+    v = t[rows, (cols + 2) % 3]
+    nxt = np.full(n, -1, dtype=np.int64)
+    prv = np.full(n, -1, dtype=np.int64)
+    nxt[u] = v
+    prv[v] = u
+    a, b = segments[:, 0], segments[:, 1]
+    on_hull = (nxt[a] >= 0) & (nxt[b] >= 0)
+    out = np.zeros(len(segments), dtype=bool)
+    idx = np.flatnonzero(on_hull)
+    if idx.size:
+        ai, bi = a[idx], b[idx]
+        along_out = orient2d(P[ai], P[nxt[ai]], P[bi]) == 0
+        along_in = orient2d(P[prv[ai]], P[ai], P[bi]) == 0
+        out[idx] = along_out | along_in
+    return out
+
+
+def _scale(P: np.ndarray) -> float:
+    return float(np.abs(P).max()) if len(P) else 0.0
+
+
+def _counts(cases: np.ndarray) -> dict[str, int]:
+    c = np.bincount(cases, minlength=3)
+    return {"case0": int(c[0]), "case1": int(c[1]), "case2": int(c[2])}
+
+
+# ---------------------------------------------------------------------------
+# Classification
+# ---------------------------------------------------------------------------
+
+
+def classify_segments(
+    points,
+    segments,
+    *,
+    triangulation: Triangulation | None = None,
+    tolerances: Tolerances = TOLERANCES,
+) -> np.ndarray:
+    """Case 0 / 1 / 2 of each segment (§9.1.2), decided by exact predicates.
+
+    Parameters
+    ----------
+    points : (n, 2) float64
+        The point set :math:`\\mathcal{S}`.
+    segments : (m, 2) int64
+        Segments as point indices.
+    triangulation : Triangulation, optional
+        The Delaunay triangulation of ``points`` if already at hand (its
+        convex hull gives Case 0).
+
+    Returns
+    -------
+    (m,) int8
+        0 where one open half-plane of the segment's line holds no point, 1
+        where the open diametral ball holds no point (and not Case 0), 2
+        otherwise.
+
+    References
+    ----------
+    Methods text §9.1.2 (classification), §9.1.3.
+    """
+    P, S = _validated(points, segments)
+    tri = triangulation if triangulation is not None else delaunay(P)
+    cases = np.full(len(S), 2, dtype=np.int8)
+    tree = cKDTree(P)
+    q, _, d = _closed_ball_members(P, tree, S[:, 0], S[:, 1], _scale(P), tolerances)
+    strictly = np.bincount(q[d < 0], minlength=len(S))
+    cases[strictly == 0] = 1
+    cases[_hull_case0(P, tri, S)] = 0
+    return cases
+
+
+# ---------------------------------------------------------------------------
+# Validation of raw arrays
+# ---------------------------------------------------------------------------
+
+
+def _validated(points, segments) -> tuple[np.ndarray, np.ndarray]:
+    try:
+        P = np.array(points, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(
+            "points must be an (n, 2) array", loc=("points",), code="bad_shape"
+        ) from exc
+    if P.ndim != 2 or P.shape[1] != 2:
+        raise InputError(
+            f"points must have shape (n, 2), got {P.shape}", loc=("points",), code="bad_shape"
+        )
+    bad = np.flatnonzero(~np.isfinite(P).all(axis=1))
+    if bad.size:
+        raise InputError(
+            f"point {int(bad[0])} has a non-finite coordinate",
+            loc=("points", int(bad[0])),
+            code="non_finite",
+        )
+    try:
+        S = np.array(segments, dtype=np.int64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(
+            "segments must be an (m, 2) integer array", loc=("segments",), code="bad_shape"
+        ) from exc
+    if S.size == 0:
+        S = S.reshape(0, 2)
+    if S.ndim != 2 or S.shape[1] != 2:
+        raise InputError(
+            f"segments must have shape (m, 2), got {S.shape}", loc=("segments",), code="bad_shape"
+        )
+    out = np.flatnonzero(((S < 0) | (S >= len(P))).any(axis=1))
+    if out.size:
+        i = int(out[0])
+        raise InputError(
+            f"segment {i} has an index out of range [0, {len(P)})",
+            loc=("segments", i),
+            code="index_out_of_range",
+        )
+    same = np.flatnonzero((S[:, 0] == S[:, 1]) | (P[S[:, 0]] == P[S[:, 1]]).all(axis=1))
+    if same.size:
+        i = int(same[0])
+        raise InputError(
+            f"segment {i} has zero length", loc=("segments", i), code="degenerate_segment"
+        )
+    keys = _edge_keys(S[:, 0], S[:, 1], len(P))
+    order = np.argsort(keys, kind="stable")
+    dup = np.flatnonzero(keys[order][1:] == keys[order][:-1])
+    if dup.size:
+        i, j = sorted((int(order[dup[0]]), int(order[dup[0] + 1])))
+        raise InputError(
+            f"segments {i} and {j} join the same points",
+            loc=("segments", j),
+            code="duplicate_segment",
+        )
+    return P, S
+
+
+# ---------------------------------------------------------------------------
+# Acute clusters and protection radii (Exercises 9.2-9.4)
+# ---------------------------------------------------------------------------
+
+
+def _acute_ends(P: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """(m, 2) bool: the segment makes an angle below 90° with another at that end.
+
+    Raises InputError for two segments overlapping from a common vertex.
+    """
+    m = len(S)
+    vert = S.ravel()  # end e = 2 * segment + side
+    other = S[:, ::-1].ravel()
+    order = np.argsort(vert, kind="stable")
+    vs = vert[order]
+    acute = np.zeros(2 * m, dtype=bool)
+    k = 1
+    while k < len(vs):
+        same = np.flatnonzero(vs[k:] == vs[:-k])
+        if same.size == 0:
+            break
+        e1, e2 = order[same], order[same + k]
+        apex = P[vert[e1]]
+        x1, x2 = P[other[e1]], P[other[e2]]
+        sharp = dot2d(x1, x2, apex) > 0
+        if sharp.any():
+            overlap = sharp & (orient2d(apex, x1, x2) == 0)
+            if overlap.any():
+                i = int(np.flatnonzero(overlap)[0])
+                s1, s2 = sorted((int(e1[i] // 2), int(e2[i] // 2)))
+                raise InputError(
+                    f"segments {s1} and {s2} overlap from their common point "
+                    f"{P[vert[e1[i]]].tolist()}",
+                    loc=("segments", s2),
+                    code="overlapping_segments",
+                )
+            acute[e1[sharp]] = True
+            acute[e2[sharp]] = True
+        k += 1
+    return acute.reshape(m, 2)
+
+
+def _point_segment_distance(X: np.ndarray, U: np.ndarray, V: np.ndarray) -> np.ndarray:
+    d = V - U
+    ll = np.einsum("ij,ij->i", d, d)
+    t = np.clip(np.einsum("ij,ij->i", X - U, d) / ll, 0.0, 1.0)
+    foot = U + t[:, None] * d
+    return np.hypot(X[:, 0] - foot[:, 0], X[:, 1] - foot[:, 1])
+
+
+def _protection_bounds(P, S, acute, tree, verts, tol) -> np.ndarray:
+    """Largest safe protection radius of each vertex (Exercise 9.4).
+
+    The smallest of: :data:`PROTECT_FRACTION` times the distance to the
+    nearest other point, the same fraction of the distance to the nearest
+    segment not incident to the vertex, and :data:`SHARE_FRACTION` times the
+    shortest segment of the vertex's acute cluster (so that the protection
+    points of both ends of a segment stay apart).
+
+    Segments are searched by length class (lengths in ``[2**k, 2**(k+1))``),
+    each class in a ``cKDTree`` of midpoints with the query radius enlarged
+    by the class's half length, so that long segments are found without
+    scanning all of them.
+    """
+    X = P[verts]
+    dist, _ = tree.query(X, k=2)
+    reach = dist[:, 1].copy()  # nearest other point
+    U, V = P[S[:, 0]], P[S[:, 1]]
+    length = np.hypot(V[:, 0] - U[:, 0], V[:, 1] - U[:, 1])
+    cls = np.frexp(length)[1]
+    scale = _scale(P)
+    for c in np.unique(cls):
+        members = np.flatnonzero(cls == c)
+        mtree = cKDTree(0.5 * (U[members] + V[members]))
+        half_max = math.ldexp(1.0, int(c) - 1)
+        radii = reach + half_max * (1.0 + tol.ball_slack) + tol.coordinate_slack * scale
+        q, j = _ball_pairs(mtree, X, radii)
+        seg = members[j]
+        keep = (S[seg, 0] != verts[q]) & (S[seg, 1] != verts[q])
+        q, seg = q[keep], seg[keep]
+        if q.size:
+            d = _point_segment_distance(X[q], U[seg], V[seg])
+            np.minimum.at(reach, q, d)
+    # Shortest piece of the acute cluster at each vertex.
+    slot = np.full(len(P), -1, dtype=np.int64)
+    slot[verts] = np.arange(len(verts))
+    ends = np.flatnonzero(acute.ravel())
+    end_vertex = S.ravel()[ends]
+    mine = slot[end_vertex] >= 0
+    shortest = np.full(len(verts), np.inf)
+    np.minimum.at(shortest, slot[end_vertex[mine]], length[ends[mine] // 2])
+    return np.minimum(PROTECT_FRACTION * reach, SHARE_FRACTION * shortest)
+
+
+# ---------------------------------------------------------------------------
+# Split points
+# ---------------------------------------------------------------------------
+
+
+def _on_circle(M: np.ndarray, circ: np.ndarray) -> np.ndarray:
+    """Points M moved radially onto their circles (rows of (cx, cy, r))."""
+    c = circ[:, :2]
+    d = M - c
+    norm = np.hypot(d[:, 0], d[:, 1])
+    return c + d * (circ[:, 2] / norm)[:, None]
+
+
+def _protection_points(P, S, rows, side, radius, circles, seg_circle) -> np.ndarray:
+    """Points at distance ``radius`` from the ``side`` end of segments ``rows``."""
+    apex = P[S[rows, side]]
+    far = P[S[rows, 1 - side]]
+    d = far - apex
+    length = np.hypot(d[:, 0], d[:, 1])
+    M = apex + d * (radius / length)[:, None]
+    circ = seg_circle[rows]
+    curved = np.flatnonzero(circ >= 0)
+    if curved.size:
+        # On the circle, at chord distance ``radius`` from the apex, toward far.
+        cc = circles[circ[curved]]
+        centre, R = cc[:, :2], cc[:, 2]
+        u = apex[curved] - centre
+        u = u * (R / np.hypot(u[:, 0], u[:, 1]))[:, None]
+        w = far[curved] - centre
+        turn = np.sign(u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0])
+        phi = 2.0 * np.arcsin(np.minimum(radius[curved] / (2.0 * R), 1.0)) * turn
+        cos, sin = np.cos(phi), np.sin(phi)
+        M[curved] = centre + np.column_stack(
+            [cos * u[:, 0] - sin * u[:, 1], sin * u[:, 0] + cos * u[:, 1]]
+        )
+    return M
+
+
+def _projection_points(P, S, rows, enc, circles, seg_circle):
+    """Split points of §9.1.4: the projection of the encroaching point ``X``
+    on the segment, measured from the nearer end ``E``; kept at least
+    ``NEAR_END_FRACTION * |EX|`` from ``E`` when closer than
+    ``NEAR_END_TRIGGER * |EX|``; moved away from ``E`` by :data:`NUDGE` of
+    that distance (at most half the room that keeps ``X`` outside the new
+    piece's ball); radially onto the circle for curved segments.
+
+    Returns the points and the side (0 or 1) of the nearer end."""
+    A, B, X = P[S[rows, 0]], P[S[rows, 1]], P[enc]
+    d = B - A
+    ll = np.einsum("ij,ij->i", d, d)
+    length = np.sqrt(ll)
+    t = np.einsum("ij,ij->i", X - A, d) / ll
+    from_a = t <= 0.5
+    E = np.where(from_a[:, None], A, B)
+    F = np.where(from_a[:, None], B, A)
+    # Distances from E along the segment: X's projection, then the split.
+    foot = np.where(from_a, t, 1.0 - t) * length
+    ex = X - E
+    ep = np.hypot(ex[:, 0], ex[:, 1])
+    clamped = foot < NEAR_END_TRIGGER * ep
+    along = np.where(clamped, NEAR_END_FRACTION * ep, foot)
+    # X stays outside the ball of [E, M] while height**2 >= foot * (|EM| - foot).
+    height2 = np.maximum(ep * ep - foot * foot, 0.0)
+    room = np.where(clamped, np.inf, 0.5 * height2 / np.maximum(foot, np.finfo(float).tiny))
+    along = along + np.minimum(NUDGE * along, room)
+    M = E + (F - E) * (along / length)[:, None]
+    circ = seg_circle[rows]
+    curved = np.flatnonzero(circ >= 0)
+    if curved.size:
+        M[curved] = _on_circle(M[curved], circles[circ[curved]])
+    return M, np.where(from_a, 0, 1)
+
+
+def _choose_encroachers(P, S, rows, tree, scale, tol):
+    """Per missing segment, the point of its closed diametral ball with the
+    largest angle APB (ties within ``angle_tie``: smallest index)."""
+    a, b = S[rows, 0], S[rows, 1]
+    q, p, _ = _closed_ball_members(P, tree, a, b, scale, tol)
+    found = np.bincount(q, minlength=len(rows))
+    if (found == 0).any():
+        i = int(rows[np.flatnonzero(found == 0)[0]])
+        raise AlgorithmError(
+            f"segment {i} is not a Delaunay edge yet its closed diametral ball is empty "
+            "(inconsistent predicates)"
+        )
+    u = P[a[q]] - P[p]
+    v = P[b[q]] - P[p]
+    cross = np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])
+    dot = u[:, 0] * v[:, 0] + u[:, 1] * v[:, 1]
+    angle = np.arctan2(cross, dot)
+    collinear = orient2d(P[a[q]], P[b[q]], P[p]) == 0
+    angle[collinear] = np.pi
+    best = np.full(len(rows), -np.inf)
+    np.maximum.at(best, q, angle)
+    tied = angle >= best[q] - tol.angle_tie
+    choice = np.full(len(rows), np.iinfo(np.int64).max, dtype=np.int64)
+    np.minimum.at(choice, q[tied], p[tied])
+    on_segment = np.zeros(len(rows), dtype=bool)
+    on_segment[q[collinear & (p == choice[q])]] = True
+    return choice, on_segment
+
+
+# ---------------------------------------------------------------------------
+# The rounds
+# ---------------------------------------------------------------------------
+
+
+@dataclass
+class _State:
+    P: np.ndarray
+    S: np.ndarray
+    source: np.ndarray
+    seg_circle: np.ndarray
+    acute: np.ndarray  # (m, 2) the end is in an acute cluster (of the input)
+    done: np.ndarray  # (m, 2): the end is protected (an apex subsegment)
+    radius: np.ndarray  # (n,) protection radius per vertex, NaN if none yet
+    near: np.ndarray  # (m, 2) projection splits made near that end of the piece
+    n0: int  # input points (the first rows of P)
+
+
+def _apply_splits(st: _State, seg, t, new_xy, protect_side, near_side) -> None:
+    """Split segments ``seg`` at the new points; keep pieces in order.
+
+    ``t`` orders the points along their segment, ``protect_side`` is 0 / 1
+    for a protection point of
+    that end, -1 otherwise; ``near_side`` is the end a projection split is
+    nearer to (-1 for protection splits).
+    """
+    order = np.lexsort((t, seg))
+    seg, new_xy = seg[order], new_xy[order]
+    protect_side, near_side = protect_side[order], near_side[order]
+    n = len(st.P)
+    idx = n + np.arange(len(seg))
+    st.P = np.concatenate([st.P, new_xy])
+    st.radius = np.concatenate([st.radius, np.full(len(seg), np.nan)])
+    m = len(st.S)
+    k = np.bincount(seg, minlength=m)
+    pieces = 1 + k
+    off = np.concatenate([[0], np.cumsum(pieces)[:-1]])
+    total = int(pieces.sum())
+    owner = np.repeat(np.arange(m), pieces)
+    starts = np.empty(total, dtype=np.int64)
+    ends = np.empty(total, dtype=np.int64)
+    starts[off] = st.S[:, 0]
+    ends[off + k] = st.S[:, 1]
+    seg_start = np.concatenate([[0], np.cumsum(k)[:-1]])
+    rank = np.arange(len(seg)) - seg_start[seg]
+    starts[off[seg] + 1 + rank] = idx
+    ends[off[seg] + rank] = idx
+    acute = np.zeros((total, 2), dtype=bool)
+    done = np.zeros((total, 2), dtype=bool)
+    acute[off, 0] = st.acute[:, 0]
+    done[off, 0] = st.done[:, 0]
+    acute[off + k, 1] = st.acute[:, 1]
+    done[off + k, 1] = st.done[:, 1]
+    near = np.zeros((total, 2), dtype=np.int64)
+    near[off, 0] = st.near[:, 0]
+    near[off + k, 1] = st.near[:, 1]
+    first_split = protect_side == 0
+    done[off[seg[first_split]], 0] = True
+    last_split = protect_side == 1
+    done[off[seg[last_split]] + k[seg[last_split]], 1] = True
+    near[off[seg[near_side == 0]], 0] += 1
+    near[off[seg[near_side == 1]] + k[seg[near_side == 1]], 1] += 1
+    st.near = near
+    st.S = np.column_stack([starts, ends])
+    st.source = st.source[owner]
+    st.seg_circle = st.seg_circle[owner]
+    st.acute = acute
+    st.done = done
+
+
+def admissible_segments(
+    points,
+    segments,
+    *,
+    circles=None,
+    segment_circle=None,
+    progress: Progress | None = None,
+    tolerances: Tolerances = TOLERANCES,
+) -> AdmissibleSegments:
+    """Split segments until every one is an edge of the Delaunay triangulation.
+
+    The raw-array entry point of §9.1.4 (the triangulator calls it); see
+    the module documentation for the algorithm and its choices.
+
+    Parameters
+    ----------
+    points : (n, 2) float64
+        Distinct finite points, not all collinear.
+    segments : (m, 2) int64
+        A planar straight-line graph: segments meet only at common
+        endpoints, no point lies inside a segment (one that does is used as
+        the split point), no two segments join the same points.
+    circles : (k, 3) float64, optional
+        Circles ``(cx, cy, r)`` that some segments sample (§9.1.5).
+    segment_circle : (m,) int64, optional
+        Per segment, the index of the circle it samples, or -1 (straight).
+        Its new points are placed on the circle.
+    progress : callable, optional
+        ``progress(fraction, message)`` after each round; it may raise to
+        cancel. The fraction is a heuristic (the number of rounds is not
+        known in advance).
+    tolerances : Tolerances, optional
+
+    Returns
+    -------
+    AdmissibleSegments
+
+    Raises
+    ------
+    InputError
+        Bad shapes, non-finite points, indices out of range, zero-length,
+        duplicate or overlapping segments; what :func:`delaunay` refuses
+        (duplicate or all-collinear points).
+    AlgorithmError
+        More than :data:`MAX_ROUNDS` rounds or too many added points (an
+        input that is not a planar straight-line graph), or a segment too
+        short to split in float64.
+
+    References
+    ----------
+    Methods text §9.1.2-§9.1.5, Exercises 9.2-9.5.
+    """
+    P, S = _validated(points, segments)
+    m0, n0 = len(S), len(P)
+    if circles is None:
+        circles = np.zeros((0, 3))
+    circles = np.asarray(circles, dtype=np.float64).reshape(-1, 3)
+    if segment_circle is None:
+        segment_circle = np.full(m0, -1, dtype=np.int64)
+    segment_circle = np.asarray(segment_circle, dtype=np.int64).reshape(-1)
+    if (
+        len(segment_circle) != m0
+        or ((segment_circle < -1) | (segment_circle >= len(circles))).any()
+    ):
+        raise InputError(
+            "segment_circle must give, per segment, a circle index or -1",
+            loc=("segment_circle",),
+            code="bad_shape",
+        )
+    bad = np.flatnonzero(~np.isfinite(circles).all(axis=1) | ~(circles[:, 2] > 0))
+    if bad.size:
+        raise InputError(
+            f"circle {int(bad[0])} must have a finite centre and a positive radius",
+            loc=("circles", int(bad[0])),
+            code="bad_curve",
+        )
+    # Work in a frame centred on the first point when that shift is exact:
+    # the same input translated by any exact amount then makes the same
+    # constructions, hence the same decisions (see _local_origin).
+    origin = _local_origin(P)
+    local_circles = circles - np.array([origin[0], origin[1], 0.0])
+    st = _State(
+        P=P - origin,
+        S=S,
+        source=np.arange(m0, dtype=np.int64),
+        seg_circle=segment_circle,
+        acute=_acute_ends(P, S),
+        done=np.zeros((m0, 2), dtype=bool),
+        radius=np.full(n0, np.nan),
+        near=np.zeros((m0, 2), dtype=np.int64),
+        n0=n0,
+    )
+    budget = _Budget(n0=n0, max_added=MAX_ADDED_FACTOR * (n0 + m0) + MAX_ADDED_BASE)
+    tri = delaunay(P)
+    cases_before = _counts(classify_segments(P, S, triangulation=tri, tolerances=tolerances))
+    if origin.any() and not _present(tri, S).all():
+        _rounds(st, budget, local_circles, tolerances, progress)
+        # Back to the input's frame: the input points come back exactly; the
+        # added ones are rounded, which may (rarely) undo a near tie, so the
+        # rounds go on there until every segment is an edge again.
+        st.P = st.P + origin
+        st.P[:n0] = P
+        tri = None
+    else:
+        st.P = P
+    tri = _rounds(st, budget, circles, tolerances, progress, first=tri)
+    cases_after = _counts(classify_segments(st.P, st.S, triangulation=tri, tolerances=tolerances))
+    protected = np.flatnonzero(~np.isnan(st.radius))
+    radius = st.radius[protected]
+    for arr in (st.P, st.S, st.source, protected, radius):
+        arr.flags.writeable = False
+    return AdmissibleSegments(
+        points=st.P,
+        segments=st.S,
+        source=st.source,
+        cases_before=cases_before,
+        cases_after=cases_after,
+        added=len(st.P) - n0,
+        rounds=budget.rounds,
+        protected=protected,
+        protection_radius=radius,
+        delaunay=tri,
+    )
+
+
+def _local_origin(P: np.ndarray) -> np.ndarray:
+    """The first point if subtracting it from every point is exact, else 0.
+
+    Exactness is checked with the two-sum error of each difference (zero
+    for all of them). Boundary samples far from the origin (translated by
+    1e6) pass: their differences are small multiples of the coordinates'
+    common ulp.
+    """
+    if not len(P):
+        return np.zeros(2)
+    o = P[0]
+    d = P - o
+    bv = P - d
+    err = (P - (d + bv)) + (bv - o)
+    return o.copy() if not err.any() else np.zeros(2)
+
+
+@dataclass
+class _Budget:
+    n0: int
+    max_added: int
+    rounds: int = 0
+
+
+def _rounds(st, budget, circles, tol, progress, first=None) -> Triangulation:
+    """Rounds of §9.1.4 until every segment is an edge; the last triangulation."""
+    scale = _scale(st.P)
+    tri = first
+    while True:
+        if tri is None:
+            tri = delaunay(st.P)
+        budget.rounds += 1
+        missing = np.flatnonzero(~_present(tri, st.S))
+        added = len(st.P) - budget.n0
+        if progress is not None:
+            progress(
+                budget.rounds / (budget.rounds + 4.0),
+                f"round {budget.rounds}: {missing.size} segment(s) not Delaunay, "
+                f"{added} point(s) added",
+            )
+        if missing.size == 0:
+            return tri
+        if budget.rounds >= MAX_ROUNDS or added > budget.max_added:
+            raise AlgorithmError(
+                f"no Delaunay-admissible discretization after {budget.rounds} rounds and "
+                f"{added} added points ({missing.size} segments still missing): "
+                "do segments cross?"
+            )
+        _split_round(st, missing, cKDTree(st.P), scale, circles, tol)
+        tri = None
+
+
+def _split_round(st: _State, missing, tree, scale, circles, tol) -> None:
+    """One round of splits of the missing segments (§9.1.4, Exercises 9.2-9.4).
+
+    Each missing segment gets its projection split point ``M``, nearer its
+    end ``E``. A segment of an acute cluster at ``E`` may be split near
+    ``E`` by projection once; a second time, the chase of Exercise 9.3 may
+    have begun and ``E`` is protected: its radius is fixed, the projection
+    distance ``|EM|`` when that is within the safe bound
+    (:func:`_protection_bounds`), the bound otherwise. From then on every
+    missing piece of its cluster is split at exactly that distance from
+    ``E`` (and gets no projection split that round).
+    """
+    S = st.S
+    enc, on_segment = _choose_encroachers(st.P, S, missing, tree, scale, tol)
+    if on_segment.any():
+        _not_planar(st, missing[on_segment][0], enc[on_segment][0])
+    M, near = _projection_points(st.P, S, missing, enc, circles, st.seg_circle)
+    pending = st.acute[missing] & ~st.done[missing]  # (k, 2)
+    near_side = np.arange(2)[None, :] == near[:, None]
+    # A second projection split near the same acute vertex on the same
+    # segment: the chase of Exercise 9.3 may have begun; protect the vertex.
+    again = pending & near_side & (st.near[missing] >= 1) & np.isnan(st.radius[S[missing]])
+    if again.any():
+        rows = np.flatnonzero(again.any(axis=1))
+        E = S[missing[rows], near[rows]]
+        x = np.hypot(M[rows, 0] - st.P[E, 0], M[rows, 1] - st.P[E, 1])
+        verts, inv = np.unique(E, return_inverse=True)
+        r = _protection_bounds(st.P, S, st.acute, tree, verts, tol)
+        np.minimum.at(r, inv, x)
+        st.radius[verts] = r
+    protect = pending & ~np.isnan(st.radius[S[missing]])
+    prot_rows, prot_side = np.nonzero(protect)
+    segs = missing[prot_rows]
+    apex = S[segs, prot_side]
+    prot_xy = _protection_points(st.P, S, segs, prot_side, st.radius[apex], circles, st.seg_circle)
+    plain = ~protect.any(axis=1)
+    proj_rows = missing[plain]
+    rows = np.concatenate([segs, proj_rows])
+    xy = np.concatenate([prot_xy, M[plain]])
+    _check_split_points(st, tree, rows, xy)
+    _apply_splits(
+        st,
+        rows,
+        np.concatenate([prot_side.astype(np.float64), np.full(len(proj_rows), 0.5)]),
+        xy,
+        np.concatenate([prot_side, np.full(len(proj_rows), -1)]),
+        np.concatenate([np.full(len(segs), -1), near[plain]]),
+    )
+
+
+def _not_planar(st: _State, row: int, point: int) -> None:
+    """Raise for a point found strictly inside a segment (not a PSLG)."""
+    src = int(st.source[row])
+    xy = st.P[point].tolist()
+    if point < st.n0:
+        raise InputError(
+            f"point {point} {xy} lies inside segment {src}: segments may meet only at "
+            "their endpoints",
+            loc=("segments", src),
+            code="point_on_segment",
+        )
+    other = int(st.source[np.flatnonzero((st.S == point).any(axis=1))[0]])
+    raise AlgorithmError(
+        f"segments {min(src, other)} and {max(src, other)} cross near {xy}: segments may "
+        "meet only at their endpoints"
+    )
+
+
+def _check_split_points(st: _State, tree, rows, xy) -> None:
+    """Every new split point must lie strictly inside its segment's diametral
+    ball (so it differs from both ends) and differ from every other point:
+    the first fails only for segments too short for float64 at their
+    distance from the origin, the second only where segments cross or touch
+    (two segments would share the point)."""
+    if not len(rows):
+        return
+    a, b = st.P[st.S[rows, 0]], st.P[st.S[rows, 1]]
+    bad = np.flatnonzero(dot2d(a, b, xy) >= 0)
+    if bad.size:
+        i = int(bad[0])
+        raise AlgorithmError(
+            f"cannot split the segment from {a[i].tolist()} to {b[i].tolist()}: it is too "
+            "short for float64 at that distance from the origin (or segments cross there)"
+        )
+    hit, _ = tree.query(xy, k=1)
+    bad = np.flatnonzero(hit == 0.0)
+    if not bad.size:
+        _, first, count = np.unique(xy, axis=0, return_index=True, return_counts=True)
+        bad = first[count > 1]
+    if bad.size:
+        i = int(bad[0])
+        raise AlgorithmError(
+            f"cannot split the segment from {a[i].tolist()} to {b[i].tolist()}: the split "
+            f"point {xy[i].tolist()} is an existing point (do segments cross or touch?)"
+        )
+
+
+# ---------------------------------------------------------------------------
+# The empty triangulation of the domain (§9.4.1)
+# ---------------------------------------------------------------------------
+
+
+def restricted_triangles(tri: Triangulation, segments, two_sided=None) -> np.ndarray:
+    """The triangles of ``tri`` inside the domain the segments bound.
+
+    A flood fill over the triangles, across edges that are not segments,
+    from the triangle on the left of every segment (and on its right too
+    where ``two_sided``): regions, never centroid tests.
+
+    Parameters
+    ----------
+    tri : Triangulation
+        A triangulation having every segment as an edge.
+    segments : (m, 2) int64
+        Boundary segments oriented with the domain on their left, and
+        interior constraints.
+    two_sided : (m,) bool, optional
+        True for interior constraints (domain on both sides).
+
+    Returns
+    -------
+    (k,) int64
+        Indices of the triangles inside, increasing.
+
+    Raises
+    ------
+    InputError
+        ``not_an_edge`` if a segment is not an edge of ``tri``,
+        ``inconsistent_orientation`` if a segment has no triangle on its
+        left or the fill reaches both sides of a one-sided segment.
+
+    References
+    ----------
+    Methods text §9.4.1 (the Delaunay triangulation of the domain whose sole
+    vertices are the boundary points).
+    """
+    S = np.asarray(segments, dtype=np.int64).reshape(-1, 2)
+    two = np.zeros(len(S), dtype=bool) if two_sided is None else np.asarray(two_sided, bool)
+    t, nb = tri.triangles, tri.neighbors
+    n = len(tri.points)
+    nt = len(t)
+    # Directed edge (a -> b) of triangle row, counter-clockwise: opposite vertex i.
+    ea = np.concatenate([t[:, (i + 1) % 3] for i in range(3)])
+    eb = np.concatenate([t[:, (i + 2) % 3] for i in range(3)])
+    owner = np.tile(np.arange(nt, dtype=np.int64), 3)
+    across = np.concatenate([nb[:, i] for i in range(3)])
+    directed = ea * np.int64(n) + eb
+    order = np.argsort(directed)
+    dsorted = directed[order]
+
+    def left_of(a, b):
+        key = a * np.int64(n) + b
+        pos = np.minimum(np.searchsorted(dsorted, key), len(dsorted) - 1)
+        hit = dsorted[pos] == key
+        return np.where(hit, owner[order[pos]], -1)
+
+    left = left_of(S[:, 0], S[:, 1])
+    right = left_of(S[:, 1], S[:, 0])
+    absent = np.flatnonzero((left < 0) & (right < 0))
+    if absent.size:
+        i = int(absent[0])
+        raise InputError(
+            f"segment {i} is not an edge of the triangulation",
+            loc=("segments", i),
+            code="not_an_edge",
+        )
+    no_side = np.flatnonzero((left < 0) | (two & (right < 0)))
+    if no_side.size:
+        i = int(no_side[0])
+        raise InputError(
+            f"segment {i} has no triangle on its domain side: is the boundary oriented "
+            "with the domain on the left?",
+            loc=("segments", i),
+            code="inconsistent_orientation",
+        )
+    seeds = np.concatenate([left, right[two]])
+    barrier = np.isin(_edge_keys(ea, eb, n), _edge_keys(S[:, 0], S[:, 1], n))
+    link = (across >= 0) & ~barrier
+    graph = coo_matrix(
+        (np.ones(int(link.sum()), dtype=np.int8), (owner[link], across[link])), shape=(nt, nt)
+    )
+    _, labels = connected_components(graph, directed=False)
+    inside = np.isin(labels, labels[seeds])
+    leak = right[~two]
+    if (leak >= 0).any() and inside[leak[leak >= 0]].any():
+        raise InputError(
+            "the segments do not bound a region consistently: the fill from their left "
+            "sides reaches the right side of a boundary segment",
+            loc=("segments",),
+            code="inconsistent_orientation",
+        )
+    return np.flatnonzero(inside)
+
+
+# ---------------------------------------------------------------------------
+# Domains and curves
+# ---------------------------------------------------------------------------
+
+
+def circles_of(
+    domain: Domain, curves: Sequence[Mapping] | None, tolerances: Tolerances = TOLERANCES
+) -> tuple[np.ndarray, np.ndarray]:
+    """Validated circle curves of a domain's rings (§9.1.5).
+
+    Parameters
+    ----------
+    domain : Domain
+    curves : list of mappings, optional
+        ``{"ring": k, "type": "circle", "center": [x, y], "radius": r}``;
+        rings are numbered in the order of the geometry (``Domain`` ring
+        numbering).
+
+    Returns
+    -------
+    circles : (k, 3) float64
+        ``(cx, cy, r)`` per curve.
+    segment_circle : (m,) int64
+        Per boundary segment then constraint segment of the domain, its
+        circle index or -1.
+
+    Raises
+    ------
+    InputError
+        With ``loc`` ``("curves", i, field)``: a ring index that does not
+        exist or is declared twice, a type other than ``"circle"``, a
+        non-finite centre, a radius that is not positive, or a ring whose
+        points are farther than ``curve_fit`` times the domain's diameter
+        from the circle (naming the vertex).
+    """
+    m = len(domain.segments) + len(domain.constraints)
+    seg_circle = np.full(m, -1, dtype=np.int64)
+    if not curves:
+        return np.zeros((0, 3)), seg_circle
+    n_rings = len(domain.ring_offsets) - 1
+    rows = []
+    seen: dict[int, int] = {}
+    for i, curve in enumerate(curves):
+        if not isinstance(curve, Mapping):
+            raise InputError("a curve must be an object", loc=("curves", i), code="bad_curve")
+        kind = curve.get("type", "circle")
+        if kind != "circle":
+            raise InputError(
+                f"curve {i}: unknown type {kind!r} (only 'circle')",
+                loc=("curves", i, "type"),
+                code="bad_curve",
+            )
+        ring = curve.get("ring")
+        if (
+            isinstance(ring, bool)
+            or not isinstance(ring, int | np.integer)
+            or not (0 <= ring < n_rings)
+        ):
+            raise InputError(
+                f"curve {i}: ring {ring!r} does not exist (the domain has {n_rings} ring(s), "
+                "numbered from 0 in the order of the geometry)",
+                loc=("curves", i, "ring"),
+                code="bad_curve",
+            )
+        ring = int(ring)
+        if ring in seen:
+            raise InputError(
+                f"curve {i}: ring {ring} already has curve {seen[ring]}",
+                loc=("curves", i, "ring"),
+                code="bad_curve",
+            )
+        seen[ring] = i
+        try:
+            centre = np.asarray(curve.get("center"), dtype=np.float64).reshape(2)
+        except (TypeError, ValueError):
+            centre = np.array([np.nan, np.nan])
+        if not np.isfinite(centre).all():
+            raise InputError(
+                f"curve {i}: center must be two finite numbers",
+                loc=("curves", i, "center"),
+                code="bad_curve",
+            )
+        radius = curve.get("radius")
+        if (
+            isinstance(radius, bool)
+            or not isinstance(radius, int | float | np.number)
+            or not math.isfinite(radius)
+            or radius <= 0
+        ):
+            raise InputError(
+                f"curve {i}: radius must be a positive number, got {radius!r}",
+                loc=("curves", i, "radius"),
+                code="bad_curve",
+            )
+        lo, hi = int(domain.ring_offsets[ring]), int(domain.ring_offsets[ring + 1])
+        pts = domain.points[lo:hi]
+        off = np.abs(np.hypot(pts[:, 0] - centre[0], pts[:, 1] - centre[1]) - radius)
+        allowed = tolerances.curve_fit * domain.diameter
+        worst = int(np.argmax(off))
+        if off[worst] > allowed:
+            raise InputError(
+                f"curve {i}: vertex {worst} of ring {ring} at {pts[worst].tolist()} is "
+                f"{off[worst]:.3g} away from the circle (center {centre.tolist()}, radius "
+                f"{radius}); allowed: {allowed:.3g} ({tolerances.curve_fit:g} times the "
+                "domain's diameter)",
+                loc=("curves", i, "radius"),
+                code="curve_mismatch",
+            )
+        seg_circle[lo:hi] = len(rows)
+        rows.append([centre[0], centre[1], float(radius)])
+    return np.asarray(rows, dtype=np.float64), seg_circle
+
+
+def make_admissible(
+    domain: Domain,
+    curves: Sequence[Mapping] | None = None,
+    progress: Progress | None = None,
+) -> AdmissibleBoundary:
+    """A Delaunay-admissible discretization of a domain's boundary (§9.1.5).
+
+    Parameters
+    ----------
+    domain : Domain
+        From :func:`meshcore.domain.planar.parse_domain`; its boundary segments and
+        interior constraints are made admissible together.
+    curves : list of mappings, optional
+        Circles that rings sample, ``{"ring": k, "type": "circle",
+        "center": [x, y], "radius": r}`` (see :func:`circles_of`): new points
+        on that ring are placed on the circle.
+    progress : callable, optional
+        ``progress(fraction, message)``; it may raise to cancel.
+
+    Returns
+    -------
+    AdmissibleBoundary
+        The new discretization and the empty Delaunay triangulation of the
+        domain (§9.4.1). Without curves its triangles' areas add up to the
+        domain's area; with curves, new points lie on the circles, so the
+        area is that of the refined polygon.
+
+    Raises
+    ------
+    InputError
+        Bad curves (:func:`circles_of`).
+    AlgorithmError
+        As :func:`admissible_segments`.
+
+    References
+    ----------
+    Methods text §9.1.2-§9.1.5, §9.4.1; Exercises 9.2-9.5.
+    """
+    circles, seg_circle = circles_of(domain, curves)
+    segments = np.concatenate([domain.segments, domain.constraints]).astype(np.int64)
+    result = admissible_segments(
+        domain.points,
+        segments,
+        circles=circles,
+        segment_circle=seg_circle,
+        progress=progress,
+    )
+    two_sided = result.source >= len(domain.segments)
+    inside = restricted_triangles(result.delaunay, result.segments, two_sided)
+    mesh = Mesh(result.points, (CellBlock("triangle", result.delaunay.triangles[inside]),))
+    return AdmissibleBoundary(
+        points=result.points,
+        segments=result.segments,
+        source=result.source,
+        cases_before=result.cases_before,
+        cases_after=result.cases_after,
+        added=result.added,
+        rounds=result.rounds,
+        protected=result.protected,
+        triangulation=mesh,
+    )

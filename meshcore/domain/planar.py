@@ -1,0 +1,1486 @@
+"""The 2D domain input: GeoJSON polygons and interior constraints, validated.
+
+A domain is given as a GeoJSON ``Polygon`` or ``MultiPolygon`` geometry plus
+optional interior constraint polylines (DESIGN.md, "Domain input (2D)").
+:func:`parse_domain` checks it and returns a frozen :class:`Domain`: the ring
+vertices, the boundary segments oriented with the domain on their left, the
+constraint segments, the exact area and the diameter. Every method that meshes
+a planar domain (admissible boundaries §9.1, triangulation, medial axis §9.4)
+starts from a :class:`Domain`.
+
+Terminology (§9.1.1): the boundary discretization is a set 𝓕 of segments
+``f = AB`` whose endpoints form the point set 𝓢. Here 𝓢 is
+:attr:`Domain.points` and 𝓕 is :attr:`Domain.segments` (the ring edges)
+together with :attr:`Domain.constraints` (interior segments the mesh must
+contain as well).
+
+What is accepted
+----------------
+* A ``Polygon`` is a list of rings, the first the outer ring, the others its
+  holes; a ``MultiPolygon`` is a list of such polygons. A ring is a list of
+  ``[x, y]`` positions, closed or not: a last position equal to the first is
+  dropped. Orientation is free; it is normalized (outer rings
+  counter-clockwise, holes clockwise, so the domain lies left of every
+  segment, as RFC 7946 asks).
+* Collinear consecutive vertices (straight runs of boundary samples) are
+  allowed: they are ordinary vertices.
+* Constraint polylines (``segments``: a list of polylines, each a list of
+  at least two ``[x, y]`` positions) lie in the domain. All segments,
+  boundary and constraints together, form a planar straight-line graph:
+  two segments meet at most at a common vertex. A constraint vertex may
+  coincide with a ring vertex (an interface running from boundary to
+  boundary) or with a vertex of another polyline (polylines may meet, branch
+  and close into loops); its segments are then attached to that vertex.
+
+What is rejected
+----------------
+Each rejection is an :class:`~meshcore.errors.InputError` whose ``code`` is
+one of the following and whose message names the ring (``ring r`` for a
+Polygon, ``polygon p, ring r`` for a MultiPolygon) or constraint and the
+vertex. ``loc`` points into the arguments: ``("coordinates", r, v)`` for a
+Polygon, ``("coordinates", p, r, v)`` for a MultiPolygon,
+``("segments", i, j)`` for vertex ``j`` of constraint polyline ``i``; vertex
+indices are those of the input lists.
+
+``bad_geometry``
+    Not a Polygon / MultiPolygon object, empty coordinate lists, a position
+    that is not two numbers (3D positions are refused: the domain is planar).
+``non_finite``, ``out_of_range``
+    NaN or infinite coordinates; magnitudes above ``1e150`` (the area would
+    overflow).
+``too_few_points``
+    A ring with fewer than 3 distinct points, a polyline with fewer than 2.
+``duplicate_point``
+    Two consecutive equal positions (besides the closing one).
+``zero_area``
+    A ring whose vertices are all collinear.
+``self_intersection``
+    A ring whose segments cross, touch or overlap: crossings, a vertex on
+    another segment, a vertex repeated non-consecutively (a ring touching
+    itself at a vertex is rejected: it would make a non-manifold boundary
+    vertex), a spike doubling back over the previous segment. The message
+    names both segments and the point.
+``ring_intersection``
+    Two distinct rings sharing any point (crossing, touching at a vertex or
+    on a segment, overlapping): rings must be pairwise disjoint.
+``hole_outside``
+    A hole not inside its outer ring, or inside another hole of its polygon.
+``polygon_overlap``
+    A polygon of a MultiPolygon inside another (not inside one of its
+    holes). Parts whose boundaries cross or touch are ``ring_intersection``.
+``constraint_intersection``
+    A constraint segment crossing, overlapping or touching another segment
+    anywhere but at a common vertex (a constraint vertex on the interior of
+    a boundary segment is refused: add that vertex to the ring).
+``constraint_outside``
+    A constraint segment outside the domain.
+
+Robustness
+----------
+Every decision is a sign of :func:`~meshcore.geometry.predicates.orient2d`
+or an exact comparison of input coordinates; no tolerance decides anything
+(DESIGN.md, "Geometry robustness"). The predicates see the coordinates
+scaled by a power of two (exact), so the outcome is the same after any
+translation or power-of-two scaling that is exact in floating point.
+Candidate segment pairs come from a uniform grid (cell size the median
+segment extent, long segments rasterized through the cells they cross);
+cell assignment is conservative (it may only add candidates). The pairs of
+each cell are tested in a compiled loop (bounding boxes compared exactly,
+then :func:`~meshcore.geometry.predicates.orient2d_scalar`), without
+building pair arrays. The cost is linear in the number of (segment, cell)
+entries and same-cell pairs: near linear for boundary samples (1M
+vertices in about half a second), quadratic in the worst case where very
+many long segments run close together (dense spike fans), as GEOS's
+validity check is (``benchmarks/domain.py``).
+
+References
+----------
+DESIGN.md "Domain input (2D)", "Errors", "Geometry robustness"; methods
+text §9.1.1 (boundary discretization, segments).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from numbers import Real
+
+import numpy as np
+from numba import njit
+
+from meshcore.errors import InputError
+from meshcore.geometry.predicates import orient2d, orient2d_scalar
+from meshcore.geometry.tolerances import MAX_COORDINATE
+
+__all__ = ["Domain", "parse_domain"]
+
+# Candidate search: (segment, cell) entries allowed per segment before the
+# grid coarsens, and ray-test candidate pairs processed per chunk (bounds memory).
+_ENTRIES_PER_SEGMENT = 8
+_PAIR_CHUNK = 1 << 22
+# At most this many faults are listed in an error's ``errors``.
+_MAX_LISTED = 10
+# The intersection search stops after finding this many bad pairs.
+_MAX_FOUND = 1 << 16
+
+
+@dataclass(frozen=True, eq=False)
+class Domain:
+    """A validated planar domain: rings, oriented boundary segments, constraints.
+
+    Build it with :func:`parse_domain`. Ring ``k`` is the ``k``-th ring in
+    the order of the geometry (for a MultiPolygon: polygon 0's outer ring,
+    its holes, then polygon 1's outer ring, ...). Its vertices are
+    ``points[ring_offsets[k]:ring_offsets[k + 1]]`` in the order of the
+    input (the closing position dropped), and boundary segment
+    ``ring_offsets[k] + v`` is the input edge from vertex ``v`` to vertex
+    ``v + 1`` (cyclically), oriented so that the domain lies on its left.
+
+    Attributes
+    ----------
+    points : (n, 2) float64
+        Ring vertices (the first ``boundary_point_count`` rows, ring after
+        ring), then the constraint vertices that are not ring vertices, in
+        order of first appearance. All rows are distinct.
+    ring_offsets : (R + 1,) int64
+        Ring ``k`` owns vertices and segments ``ring_offsets[k]`` to
+        ``ring_offsets[k + 1] - 1``.
+    ring_polygon : (R,) int64
+        Index of the polygon each ring belongs to (0 for a Polygon).
+    ring_is_hole : (R,) bool
+        False for a polygon's outer ring (its first ring), True for holes.
+    ring_reversed : (R,) bool
+        Whether the input ring ran the other way (clockwise outer ring,
+        counter-clockwise hole): its segments go from vertex ``v + 1`` to
+        ``v``.
+    segments : (m, 2) int64
+        Boundary segments, ``m = ring_offsets[-1]``, one per input edge,
+        oriented with the domain on the left: outer rings counter-clockwise,
+        holes clockwise.
+    constraints : (c, 2) int64
+        Interior constraint segments, in input order (polyline after
+        polyline, vertex after vertex), as point indices.
+    constraint_source : (c, 2) int64
+        Per constraint segment: the input polyline ``i`` and the index ``j``
+        of its first vertex in that polyline (the segment joins vertices
+        ``j`` and ``j + 1``).
+    area : float
+        The domain's area, outer rings minus holes, from exact products
+        summed with compensation (:func:`math.fsum`): the exact area of the
+        input polygons to within about an ulp, however far from the origin
+        they lie.
+    diameter : float
+        Diagonal of the bounding box of the points; the length scale for
+        tolerances.
+    multi : bool
+        Whether the input was a MultiPolygon (it selects the shape of
+        ``loc`` paths, see :meth:`vertex_loc`).
+
+    References
+    ----------
+    DESIGN.md "Domain input (2D)"; methods text §9.1.1.
+    """
+
+    points: np.ndarray
+    ring_offsets: np.ndarray
+    ring_polygon: np.ndarray
+    ring_is_hole: np.ndarray
+    ring_reversed: np.ndarray
+    segments: np.ndarray
+    constraints: np.ndarray
+    constraint_source: np.ndarray
+    area: float
+    diameter: float
+    multi: bool = False
+
+    def __post_init__(self) -> None:
+        dtypes = {
+            "points": np.float64,
+            "ring_offsets": np.int64,
+            "ring_polygon": np.int64,
+            "ring_is_hole": np.bool_,
+            "ring_reversed": np.bool_,
+            "segments": np.int64,
+            "constraints": np.int64,
+            "constraint_source": np.int64,
+        }
+        for name, dtype in dtypes.items():
+            arr = np.array(getattr(self, name), dtype=dtype)
+            if name in ("points", "segments", "constraints", "constraint_source"):
+                arr = arr.reshape(-1, 2)
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+        object.__setattr__(self, "area", float(self.area))
+        object.__setattr__(self, "diameter", float(self.diameter))
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Domain):
+            return NotImplemented
+        return (
+            self.area == other.area
+            and self.diameter == other.diameter
+            and self.multi == other.multi
+            and all(
+                np.array_equal(getattr(self, k), getattr(other, k))
+                for k in (
+                    "points",
+                    "ring_offsets",
+                    "ring_polygon",
+                    "ring_is_hole",
+                    "ring_reversed",
+                    "segments",
+                    "constraints",
+                    "constraint_source",
+                )
+            )
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+    @property
+    def ring_count(self) -> int:
+        """Number of rings R."""
+        return len(self.ring_offsets) - 1
+
+    @property
+    def boundary_point_count(self) -> int:
+        """Number of ring vertices (= number of boundary segments)."""
+        return int(self.ring_offsets[-1])
+
+    @property
+    def segment_ring(self) -> np.ndarray:
+        """(m,) int64: the ring of each boundary segment (and of each ring vertex)."""
+        return np.repeat(np.arange(self.ring_count, dtype=np.int64), np.diff(self.ring_offsets))
+
+    def ring_name(self, k: int) -> str:
+        """Human name of ring ``k``: ``"ring 1"`` or ``"polygon 0, ring 1"``."""
+        return _ring_name(self.multi, *self._ring_position(k))
+
+    def ring_loc(self, k: int) -> tuple[str | int, ...]:
+        """``loc`` path of ring ``k`` in the geometry (see :func:`parse_domain`)."""
+        return _ring_loc(self.multi, *self._ring_position(k))
+
+    def vertex_loc(self, i: int) -> tuple[str | int, ...]:
+        """``loc`` path of point ``i``: into the geometry, or into ``segments``."""
+        i = int(i)
+        nb = self.boundary_point_count
+        if i < nb:
+            k = int(np.searchsorted(self.ring_offsets, i, side="right")) - 1
+            return (*self.ring_loc(k), i - int(self.ring_offsets[k]))
+        rows, cols = np.nonzero(self.constraints == i)
+        line, first = (int(x) for x in self.constraint_source[rows[0]])
+        return ("segments", line, first + int(cols[0]))
+
+    def vertex_name(self, i: int) -> str:
+        """Human name of point ``i``, e.g. ``"vertex 3 of ring 1"``."""
+        loc = self.vertex_loc(i)
+        if loc[0] == "segments":
+            return f"vertex {loc[2]} of constraint {loc[1]}"
+        k = int(np.searchsorted(self.ring_offsets, int(i), side="right")) - 1
+        return f"vertex {loc[-1]} of {self.ring_name(k)}"
+
+    def as_geojson(self) -> dict:
+        """The rings as a GeoJSON geometry, normalized: closed, outer CCW, holes CW.
+
+        Returns
+        -------
+        dict
+            ``{"type": "Polygon" | "MultiPolygon", "coordinates": ...}`` with
+            plain Python floats, the same type as the input.
+        """
+        polys: list[list[list[list[float]]]] = []
+        for k in range(self.ring_count):
+            lo, hi = int(self.ring_offsets[k]), int(self.ring_offsets[k + 1])
+            ring = self.points[lo:hi]
+            if self.ring_reversed[k]:
+                ring = ring[::-1]
+            coords = ring.tolist()
+            coords.append(coords[0])
+            if not self.ring_is_hole[k]:
+                polys.append([])
+            polys[-1].append(coords)
+        if self.multi:
+            return {"type": "MultiPolygon", "coordinates": polys}
+        return {"type": "Polygon", "coordinates": polys[0]}
+
+    def _ring_position(self, k: int) -> tuple[int, int]:
+        p = int(self.ring_polygon[k])
+        first = int(np.searchsorted(self.ring_polygon, p, side="left"))
+        return p, int(k) - first
+
+
+# ---------------------------------------------------------------------------
+# Names and locations
+# ---------------------------------------------------------------------------
+
+
+def _ring_name(multi: bool, p: int, r: int) -> str:
+    return f"polygon {p}, ring {r}" if multi else f"ring {r}"
+
+
+def _ring_loc(multi: bool, p: int, r: int) -> tuple[str | int, ...]:
+    return ("coordinates", p, r) if multi else ("coordinates", r)
+
+
+def _pt(x: float, y: float) -> str:
+    return f"({float(x)!r}, {float(y)!r})"
+
+
+class _Names:
+    """Names and ``loc`` paths of rings, vertices and segments for messages."""
+
+    def __init__(self, multi: bool, ring_pos: list[tuple[int, int]], lengths: np.ndarray):
+        self.multi = multi
+        self.ring_pos = ring_pos
+        self.lengths = lengths
+        self.offsets = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+        self.line_offsets = np.zeros(1, dtype=np.int64)
+
+    def ring(self, k: int) -> str:
+        return _ring_name(self.multi, *self.ring_pos[k])
+
+    def ring_loc(self, k: int) -> tuple[str | int, ...]:
+        return _ring_loc(self.multi, *self.ring_pos[k])
+
+    def vertex_loc(self, k: int, v: int) -> tuple[str | int, ...]:
+        return (*self.ring_loc(k), int(v))
+
+    def segment(self, s: int) -> tuple[str, tuple[str | int, ...], int]:
+        """(description, loc of its first vertex, owner id) of global segment ``s``.
+
+        Boundary segments come first (one per ring vertex), then constraint
+        segments (one per consecutive pair of polyline vertices). Owner ids
+        are ring numbers for boundary segments, ``-1 - polyline`` otherwise.
+        """
+        s = int(s)
+        nb = int(self.offsets[-1])
+        if s < nb:
+            k = int(np.searchsorted(self.offsets, s, side="right")) - 1
+            v = s - int(self.offsets[k])
+            w = (v + 1) % int(self.lengths[k])
+            return f"segment [{self.ring(k)}: vertex {v} -> {w}]", self.vertex_loc(k, v), k
+        t = s - nb
+        i = int(np.searchsorted(self.line_offsets, t, side="right")) - 1
+        j = t - int(self.line_offsets[i])
+        return f"segment [constraint {i}: vertex {j} -> {j + 1}]", ("segments", i, j), -1 - i
+
+
+# ---------------------------------------------------------------------------
+# Parsing positions
+# ---------------------------------------------------------------------------
+
+
+def _is_seq(value: object) -> bool:
+    if isinstance(value, np.ndarray):
+        return value.ndim >= 1
+    return isinstance(value, Sequence) and not isinstance(value, str | bytes)
+
+
+def _positions(value: object, loc: tuple, what: str) -> np.ndarray:
+    """A list of ``[x, y]`` positions as a (k, 2) float64 array, or InputError.
+
+    ``loc`` locates the list; faults are located at the offending position
+    (and coordinate, for non-finite numbers).
+    """
+    if not _is_seq(value):
+        raise InputError(f"{what} must be a list of [x, y] positions", loc=loc, code="bad_geometry")
+    arr = None
+    try:
+        arr = np.asarray(value)
+    except (ValueError, TypeError, OverflowError):
+        arr = None
+    if arr is not None and arr.ndim == 1 and arr.size == 0:
+        return np.zeros((0, 2))
+    if arr is None or arr.dtype.kind not in "iuf" or arr.ndim != 2 or arr.shape[1] != 2:
+        arr = _positions_slow(value, loc, what)
+    else:
+        arr = np.array(arr, dtype=np.float64)
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        v, c = (int(x) for x in np.argwhere(bad)[0])
+        raise InputError(
+            f"{what}: vertex {v} has a non-finite coordinate ({float(arr[v, c])!r})",
+            loc=(*loc, v, c),
+            code="non_finite",
+        )
+    big = np.abs(arr) > MAX_COORDINATE
+    if big.any():
+        v, c = (int(x) for x in np.argwhere(big)[0])
+        raise InputError(
+            f"{what}: vertex {v} has a coordinate of magnitude above {MAX_COORDINATE:g} "
+            f"({float(arr[v, c])!r})",
+            loc=(*loc, v, c),
+            code="out_of_range",
+        )
+    return arr
+
+
+def _positions_slow(value: Sequence, loc: tuple, what: str) -> np.ndarray:
+    """Position by position: locate the first malformed one, else convert."""
+    out = np.empty((len(value), 2))
+    for v, pos in enumerate(value):
+        if not _is_seq(pos) or len(pos) != 2:
+            n = len(pos) if _is_seq(pos) else None
+            got = f"{n} numbers" if n is not None else type(pos).__name__
+            raise InputError(
+                f"{what}: vertex {v} must be a position [x, y] of two numbers, got {got}",
+                loc=(*loc, v),
+                code="bad_geometry",
+            )
+        for c, x in enumerate(pos):
+            if isinstance(x, bool | np.bool_ | np.complexfloating) or not isinstance(
+                x, Real | np.number
+            ):
+                raise InputError(
+                    f"{what}: vertex {v}, coordinate {c} is not a number ({x!r})",
+                    loc=(*loc, v, c),
+                    code="bad_geometry",
+                )
+            try:
+                out[v, c] = float(x)
+            except (OverflowError, ValueError, TypeError):
+                out[v, c] = np.inf
+    return out
+
+
+def _polygons(geometry: object) -> tuple[bool, list[list]]:
+    """Whether it is a MultiPolygon, and its polygons as lists of rings."""
+    if not isinstance(geometry, Mapping):
+        raise InputError(
+            "the domain must be a GeoJSON geometry object "
+            '{"type": "Polygon" | "MultiPolygon", "coordinates": [...]}',
+            loc=(),
+            code="bad_geometry",
+        )
+    gtype = geometry.get("type")
+    if gtype not in ("Polygon", "MultiPolygon"):
+        raise InputError(
+            f'the domain\'s "type" must be "Polygon" or "MultiPolygon", got {gtype!r}',
+            loc=("type",),
+            code="bad_geometry",
+        )
+    coords = geometry.get("coordinates")
+    multi = gtype == "MultiPolygon"
+    if not _is_seq(coords) or len(coords) == 0:
+        raise InputError(
+            f"a {gtype} needs a non-empty list of "
+            + ("polygons (lists of rings)" if multi else "rings (lists of positions)"),
+            loc=("coordinates",),
+            code="bad_geometry",
+        )
+    if not multi:
+        return False, [coords]
+    for p, poly in enumerate(coords):
+        if not _is_seq(poly) or len(poly) == 0:
+            raise InputError(
+                f"polygon {p} must be a non-empty list of rings",
+                loc=("coordinates", p),
+                code="bad_geometry",
+            )
+    return True, list(coords)
+
+
+# ---------------------------------------------------------------------------
+# Exact helpers
+# ---------------------------------------------------------------------------
+
+
+def _power_of_two_scale(points: np.ndarray) -> float:
+    """2**-e with e the exponent of the largest magnitude: scaled |coordinates| < 1.
+
+    Multiplying by it is exact (no coordinate comes near underflow within
+    the accepted range unless it is absurdly small next to the largest),
+    changes no predicate sign, and keeps the predicates' products far from
+    overflow and underflow.
+    """
+    big = float(np.abs(points).max()) if points.size else 0.0
+    if big == 0.0:
+        return 1.0
+    return float(np.ldexp(1.0, -int(np.frexp(big)[1])))
+
+
+def _two_product(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Dekker's exact product: a * b == hi + lo exactly (|a|, |b| < 1, no overflow)."""
+    hi = a * b
+    c = 134217729.0 * a
+    ahi = c - (c - a)
+    alo = a - ahi
+    c = 134217729.0 * b
+    bhi = c - (c - b)
+    blo = b - bhi
+    lo = alo * blo - (((hi - ahi * bhi) - alo * bhi) - ahi * blo)
+    return hi, lo
+
+
+# ---------------------------------------------------------------------------
+# Candidate pairs: uniform grid over segment bounding boxes
+# ---------------------------------------------------------------------------
+
+
+def _floor_index(values: np.ndarray, origin: float, h: float) -> np.ndarray:
+    return np.floor((values - origin) / h).astype(np.int64)
+
+
+@njit(cache=True)
+def _grid_cells(x0, y0, x1, y1, ox, oy, h, pad, nx, ny, key, seg, fill):
+    """Count (``fill`` False) or write the (cell, segment) entries of a grid.
+
+    A segment whose bounding box spans at most 2 x 2 cells is entered in
+    those cells ("short"). A longer one is rasterized along its major axis
+    u: its columns come from its endpoints, and in each column the rows its
+    v-range over the column touches, padded by ``pad`` (far above the
+    rounding of the interpolation) and clipped to its own v-range. Cell
+    indices are ``floor((x - origin) / h)``, the same expression for every
+    segment and monotone in x, so two segments whose bounding boxes (or
+    rasterized paths) share a point share a cell. A sequential compiled
+    loop over segments.
+
+    Returns
+    -------
+    total : int
+        Number of entries (written to ``key``, ``seg`` when ``fill``).
+    short : (s,) bool
+        The segments entered by bounding box.
+    """
+    s = len(x0)
+    short = np.zeros(s, dtype=np.bool_)
+    total = 0
+    for i in range(s):
+        lx = min(x0[i], x1[i])
+        hx = max(x0[i], x1[i])
+        ly = min(y0[i], y1[i])
+        hy = max(y0[i], y1[i])
+        cx0 = np.int64(np.floor((lx - ox) / h))
+        cx1 = np.int64(np.floor((hx - ox) / h))
+        cy0 = np.int64(np.floor((ly - oy) / h))
+        cy1 = np.int64(np.floor((hy - oy) / h))
+        if cx1 - cx0 <= 1 and cy1 - cy0 <= 1:
+            short[i] = True
+            for cx in range(cx0, cx1 + 1):
+                for cy in range(cy0, cy1 + 1):
+                    if fill:
+                        key[total] = cx * ny + cy
+                        seg[total] = i
+                    total += 1
+            continue
+        xmajor = hx - lx >= hy - ly
+        if xmajor:
+            ou, ov, nv = ox, oy, ny
+            if x0[i] <= x1[i]:
+                ua, va, ub, vb = x0[i], y0[i], x1[i], y1[i]
+            else:
+                ua, va, ub, vb = x1[i], y1[i], x0[i], y0[i]
+        else:
+            ou, ov, nv = oy, ox, nx
+            if y0[i] <= y1[i]:
+                ua, va, ub, vb = y0[i], x0[i], y1[i], x1[i]
+            else:
+                ua, va, ub, vb = y1[i], x1[i], y0[i], x0[i]
+        vlo = min(va, vb)
+        vhi = max(va, vb)
+        slope = (vb - va) / (ub - ua)
+        c0 = np.int64(np.floor((ua - ou) / h))
+        c1 = np.int64(np.floor((ub - ou) / h))
+        for c in range(c0, c1 + 1):
+            ul = max(ua, ou + c * h)
+            ur = min(ub, ou + (c + 1) * h)
+            vl = va + (ul - ua) * slope
+            vr = va + (ur - ua) * slope
+            lo = max(min(vl, vr) - pad, vlo)
+            hi = min(max(vl, vr) + pad, vhi)
+            r0 = min(max(np.int64(np.floor((lo - ov) / h)), 0), nv - 1)
+            r1 = min(max(np.int64(np.floor((hi - ov) / h)), 0), nv - 1)
+            for r in range(r0, r1 + 1):
+                if fill:
+                    key[total] = c * ny + r if xmajor else r * ny + c
+                    seg[total] = i
+                total += 1
+    return total, short
+
+
+def _grid_entries(p0: np.ndarray, p1: np.ndarray):
+    """Segments entered in the cells of a uniform grid, sorted by cell.
+
+    Parameters
+    ----------
+    p0, p1 : (s, 2) float64
+        Segment endpoints (scaled coordinates, |x| < 1).
+
+    Returns
+    -------
+    key, seg : (e,) int64
+        Cell key and segment of each entry, sorted by key.
+    grid : tuple
+        ``(decodable, ny, ox, oy, h, short)``: whether ``key = cx * ny + cy``
+        (else keys are hashed cell numbers), the grid's origin and cell size,
+        and (s,) bool, the segments entered in their bounding-box cells.
+
+    Notes
+    -----
+    Cell size ``h`` is the median segment extent, doubled while the entries
+    would exceed ``_ENTRIES_PER_SEGMENT`` per segment; cells are filled by
+    :func:`_grid_cells`.
+    """
+    s = len(p0)
+    x0 = np.ascontiguousarray(p0[:, 0])
+    y0 = np.ascontiguousarray(p0[:, 1])
+    x1 = np.ascontiguousarray(p1[:, 0])
+    y1 = np.ascontiguousarray(p1[:, 1])
+    ox = float(min(x0.min(), x1.min()))
+    oy = float(min(y0.min(), y1.min()))
+    mx = float(max(x0.max(), x1.max()))
+    my = float(max(y0.max(), y1.max()))
+    span = max(mx - ox, my - oy)
+    big = max(abs(ox), abs(oy), abs(mx), abs(my))
+    pad = 64.0 * float(np.spacing(big))
+    extent = np.maximum(np.abs(x1 - x0), np.abs(y1 - y0))
+    h = max(float(np.median(extent)), span * 2.0**-30, pad)
+    budget = _ENTRIES_PER_SEGMENT * s + (1 << 20)
+    dummy = np.zeros(0, dtype=np.int64)
+    while True:
+        nx = int(np.floor((mx - ox) / h)) + 1
+        ny = int(np.floor((my - oy) / h)) + 1
+        total, short = _grid_cells(x0, y0, x1, y1, ox, oy, h, pad, nx, ny, dummy, dummy, False)
+        if total <= budget or h >= span:
+            break
+        h *= 2.0
+    key = np.empty(total, dtype=np.int64)
+    seg = np.empty(total, dtype=np.int64)
+    _grid_cells(x0, y0, x1, y1, ox, oy, h, pad, nx, ny, key, seg, True)
+    # Packing (cell, segment) into one int64 lets numpy's fast value sort order
+    # the entries; a cell number too wide to pack is hashed, which can only
+    # merge cells (extra candidates, removed by the box test).
+    bits = max(1, (s - 1).bit_length())
+    room = 63 - bits
+    decodable = nx * ny <= (1 << room)
+    if not decodable:
+        mixed = key.astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
+        key = (mixed >> np.uint64(64 - room)).astype(np.int64)
+    packed = np.sort((key << bits) | seg)
+    return packed >> bits, packed & ((1 << bits) - 1), (decodable, ny, ox, oy, h, short)
+
+
+# ---------------------------------------------------------------------------
+# Exact classification of segment pairs (compiled)
+# ---------------------------------------------------------------------------
+
+_CROSS, _TOUCH, _OVERLAP = 1, 2, 3
+
+
+@njit(cache=True)
+def _within_box(px, py, ax, ay, bx, by):
+    return min(ax, bx) <= px <= max(ax, bx) and min(ay, by) <= py <= max(ay, by)
+
+
+@njit(cache=True)
+def _classify_pair(P, ends, i, j):
+    """How segments i and j meet other than at a shared vertex: (kind, witness).
+
+    kind is 0 (disjoint, or meeting only at a common vertex), ``_CROSS``
+    (proper crossing), ``_TOUCH`` (an endpoint on the other segment) or
+    ``_OVERLAP`` (collinear and sharing more than a point, or the same
+    segment twice); witness is the index of a point on both segments (-1
+    for a crossing). Signs come from
+    :func:`~meshcore.geometry.predicates.orient2d_scalar`, the rest from
+    exact comparisons of coordinates and point indices.
+    """
+    a, b, c, d = ends[i, 0], ends[i, 1], ends[j, 0], ends[j, 1]
+    ax, ay, bx, by = P[a, 0], P[a, 1], P[b, 0], P[b, 1]
+    cx, cy, dx, dy = P[c, 0], P[c, 1], P[d, 0], P[d, 1]
+    o1 = orient2d_scalar(ax, ay, bx, by, cx, cy)
+    o2 = orient2d_scalar(ax, ay, bx, by, dx, dy)
+    if o1 * o2 > 0:
+        return 0, -1  # c and d strictly on one side of ab
+    o3 = orient2d_scalar(cx, cy, dx, dy, ax, ay)
+    o4 = orient2d_scalar(cx, cy, dx, dy, bx, by)
+    if o3 * o4 > 0:
+        return 0, -1
+    sa = a == c or a == d
+    sb = b == c or b == d
+    sc = c == a or c == b
+    sd = d == a or d == b
+    if sa and sb:
+        return _OVERLAP, a
+    on_c = o1 == 0 and not sc and _within_box(cx, cy, ax, ay, bx, by)
+    on_d = o2 == 0 and not sd and _within_box(dx, dy, ax, ay, bx, by)
+    on_a = o3 == 0 and not sa and _within_box(ax, ay, cx, cy, dx, dy)
+    on_b = o4 == 0 and not sb and _within_box(bx, by, cx, cy, dx, dy)
+    if not (on_a or on_b or on_c or on_d):
+        if o1 * o2 < 0 and o3 * o4 < 0:
+            return _CROSS, -1
+        return 0, -1
+    w = c if on_c else (d if on_d else (a if on_a else b))
+    if o1 == 0 and o2 == 0:
+        # Collinear: do the extents along the line share more than a point?
+        if ax != bx:
+            lo = max(min(ax, bx), min(cx, dx))
+            hi = min(max(ax, bx), max(cx, dx))
+        else:
+            lo = max(min(ay, by), min(cy, dy))
+            hi = min(max(ay, by), max(cy, dy))
+        if lo < hi:
+            return _OVERLAP, w
+    return _TOUCH, w
+
+
+@njit(cache=True)
+def _scan_cells(key, seg, P, ends, succ, short, decodable, ny, ox, oy, h, cap):
+    """Test every pair of segments sharing a grid cell; collect the bad ones.
+
+    A compiled loop over the pairs of each cell (no pair arrays are built).
+    A pair is skipped when its bounding boxes are disjoint (exact
+    comparisons), when the segments are consecutive in a ring, or, for two
+    bounding-box-entered segments, in every cell but the one holding the
+    lower-left corner of their boxes' intersection (so such a pair is
+    tested once). Returns ``(out, count, full)``: rows ``(i, j, kind,
+    witness)`` with i < j (a pair with a long segment may repeat), and
+    whether ``cap`` rows were reached (the scan then stops).
+    """
+    out = np.empty((cap, 4), dtype=np.int64)
+    nout = 0
+    n = len(key)
+    x0 = P[ends[:, 0], 0]
+    x1 = P[ends[:, 1], 0]
+    y0 = P[ends[:, 0], 1]
+    y1 = P[ends[:, 1], 1]
+    lox = np.minimum(x0, x1)
+    hix = np.maximum(x0, x1)
+    loy = np.minimum(y0, y1)
+    hiy = np.maximum(y0, y1)
+    start = 0
+    while start < n:
+        stop = start + 1
+        while stop < n and key[stop] == key[start]:
+            stop += 1
+        if stop - start >= 2:
+            cx = key[start] // ny
+            cy = key[start] % ny
+            for p in range(start, stop - 1):
+                for q in range(p + 1, stop):
+                    i = min(seg[p], seg[q])
+                    j = max(seg[p], seg[q])
+                    if i == j:
+                        continue
+                    if lox[i] > hix[j] or lox[j] > hix[i] or loy[i] > hiy[j] or loy[j] > hiy[i]:
+                        continue
+                    if succ[i] == j or succ[j] == i:
+                        continue
+                    if decodable and short[i] and short[j]:
+                        rx = np.int64(np.floor((max(lox[i], lox[j]) - ox) / h))
+                        ry = np.int64(np.floor((max(loy[i], loy[j]) - oy) / h))
+                        if rx != cx or ry != cy:
+                            continue
+                    kind, w = _classify_pair(P, ends, i, j)
+                    if kind != 0:
+                        out[nout, 0] = i
+                        out[nout, 1] = j
+                        out[nout, 2] = kind
+                        out[nout, 3] = w
+                        nout += 1
+                        if nout == cap:
+                            return out, nout, True
+        start = stop
+    return out, nout, False
+
+
+def _intersections(P: np.ndarray, ends: np.ndarray, succ: np.ndarray, p0, p1):
+    """Every pair of segments meeting other than at a common vertex.
+
+    Parameters
+    ----------
+    P : (n, 2) float64
+        Points, scaled (|x| < 1).
+    ends : (s, 2) int64
+        Segments as point indices.
+    succ : (s,) int64
+        The next segment of the same ring, -1 for constraints: consecutive
+        ring segments share a vertex by construction and are not tested
+        (their overlap, a spike, is checked before).
+    p0, p1 : (s, 2) float64
+        ``P[ends[:, 0]]`` and ``P[ends[:, 1]]``.
+
+    Returns
+    -------
+    rows : (k, 4) int64
+        Unique rows ``(i, j, kind, witness)``, i < j, sorted.
+    capped : bool
+        Whether the search stopped at ``_MAX_FOUND`` pairs.
+    """
+    if len(ends) < 2:
+        return np.zeros((0, 4), dtype=np.int64), False
+    key, seg, (decodable, ny, ox, oy, h, short) = _grid_entries(p0, p1)
+    out, count, capped = _scan_cells(
+        key, seg, P, ends, succ, short, decodable, ny, ox, oy, h, _MAX_FOUND
+    )
+    rows = out[:count]
+    if count:
+        rows = np.unique(rows, axis=0)
+        _, first = np.unique(rows[:, 0] * len(ends) + rows[:, 1], return_index=True)
+        rows = rows[first]
+    return rows, bool(capped)
+
+
+def _crossing_point(a, b, c, d) -> tuple[float, float]:
+    """Where segments ab and cd cross (a construction: rounded)."""
+    r = (b[0] - a[0], b[1] - a[1])
+    q = (d[0] - c[0], d[1] - c[1])
+    den = r[0] * q[1] - r[1] * q[0]
+    t = ((c[0] - a[0]) * q[1] - (c[1] - a[1]) * q[0]) / den
+    return a[0] + t * r[0], a[1] + t * r[1]
+
+
+# ---------------------------------------------------------------------------
+# Point in polygon: ray parity per (query, ring)
+# ---------------------------------------------------------------------------
+
+
+def ray_parity(q, q_skip_ring, p0, p1, seg_ring, n_rings):
+    """Rings that contain each query point, by exact ray crossing parity.
+
+    Parameters
+    ----------
+    q : (k, 2) float64
+        Query points, none of them on a segment of a ring it is tested
+        against (callers guarantee it).
+    q_skip_ring : (k,) int64
+        A ring not to test the query against (its own ring), or -1.
+    p0, p1 : (s, 2) float64
+        Ring segments; ``seg_ring`` (s,) int64 their ring.
+
+    Returns
+    -------
+    (r, 2) int64
+        Rows ``(query, ring)`` for every ring that contains the query.
+
+    Notes
+    -----
+    Each query shoots an axis-parallel ray, in whichever of the four
+    directions meets the fewest candidate segments. For a ray along +u
+    (u = x or y, v the other axis), a segment with ``lo.v <= q.v < hi.v``
+    (half-open, exact comparisons; lo, hi its endpoints ordered by v)
+    crosses it iff ``orient2d(lo, hi, q) > 0`` in the (u, v) frame, and
+    iff ``< 0`` for a ray along -u. Candidates come from strips in v, the
+    entries of a strip sorted by the column of the segment's far end, so
+    a query only meets segments that reach past it.
+    """
+    options = []
+    for u in (0, 1):
+        sides = _ray_plan(q, p0, p1, u)
+        for side, (first, count, sseg) in sides or ():
+            options.append((u, side, first, count, sseg))
+    if not options:
+        return np.zeros((0, 2), dtype=np.int64)
+    counts = np.stack([o[3] for o in options])
+    choice = np.argmin(counts, axis=0)
+    found = []
+    for o, (u, side, first, count, sseg) in enumerate(options):
+        queries = np.flatnonzero(choice == o)
+        if queries.size == 0:
+            continue
+        frame = [u, 1 - u]
+        qq = q[:, frame]
+        a = p0[:, frame]
+        b = p1[:, frame]
+        up = a[:, 1] < b[:, 1]
+        low = np.where(up[:, None], a, b)
+        high = np.where(up[:, None], b, a)
+        cnt = count[queries]
+        cum = np.cumsum(cnt)
+        start = 0
+        while start < len(queries):
+            base = int(cum[start - 1]) if start else 0
+            stop = int(np.searchsorted(cum, base + _PAIR_CHUNK, side="right"))
+            stop = min(max(stop, start + 1), len(queries))
+            c = cnt[start:stop]
+            tot = int(c.sum())
+            if tot:
+                qi = np.repeat(queries[start:stop], c)
+                e = np.repeat(first[queries[start:stop]], c) + (
+                    np.arange(tot) - np.repeat(np.cumsum(c) - c, c)
+                )
+                s = sseg[e]
+                y = qq[qi, 1]
+                ok = (low[s, 1] <= y) & (y < high[s, 1]) & (seg_ring[s] != q_skip_ring[qi])
+                qi, s = qi[ok], s[ok]
+                hit = orient2d(low[s], high[s], qq[qi]) * side > 0
+                found.append(qi[hit] * n_rings + seg_ring[s[hit]])
+            start = stop
+    if not found:
+        return np.zeros((0, 2), dtype=np.int64)
+    keys, counts_ = np.unique(np.concatenate(found), return_counts=True)
+    keys = keys[counts_ % 2 == 1]
+    return np.stack([keys // n_rings, keys % n_rings], axis=1)
+
+
+def _ray_plan(q, p0, p1, u):
+    """Candidate lists for rays along +u and -u.
+
+    Returns ``None`` when every segment is parallel to u, else
+    ``[(+1, (first, count, entries)), (-1, (first, count, entries))]``: query
+    ``i`` meets segments ``entries[first[i]:first[i] + count[i]]``.
+    """
+    v = 1 - u
+    lov = np.minimum(p0[:, v], p1[:, v])
+    hiv = np.maximum(p0[:, v], p1[:, v])
+    # Only segments whose half-open v-range holds some query can be crossed
+    # (segments parallel to the ray never are).
+    qv = np.sort(q[:, v])
+    live = np.flatnonzero(
+        np.searchsorted(qv, hiv, side="left") > np.searchsorted(qv, lov, side="left")
+    )
+    if live.size == 0:
+        return None
+    lov, hiv = lov[live], hiv[live]
+    lou = np.minimum(p0[live, u], p1[live, u])
+    hiu = np.maximum(p0[live, u], p1[live, u])
+    ov = float(lov.min())
+    span_v = float(hiv.max()) - ov
+    h = max(float((hiv - lov).mean()), span_v * 2.0**-30)
+    budget = _ENTRIES_PER_SEGMENT * len(live) + (1 << 20)
+    while True:
+        r0 = _floor_index(lov, ov, h)
+        cnt = _floor_index(hiv, ov, h) - r0 + 1
+        if int(cnt.sum()) <= budget or h >= span_v:
+            break
+        h *= 2.0
+    rows = int((r0 + cnt).max())
+    # Columns in u, as fine as the packing of (row, column, segment) into 63 bits allows.
+    bits = max(1, (len(live) - 1).bit_length())
+    col_bits = max(0, min(20, 63 - bits - max(1, rows.bit_length())))
+    ncol = 1 << col_bits
+    ou = float(min(lou.min(), q[:, u].min()))
+    span_u = max(float(hiu.max()), float(q[:, u].max())) - ou
+    hu = max(span_u / ncol * (1 + 2.0**-20), 2.0**-1070)
+    rep = np.repeat(np.arange(len(live)), cnt)
+    row = r0[rep] + (np.arange(len(rep)) - np.repeat(np.cumsum(cnt) - cnt, cnt))
+    qrow = _floor_index(q[:, v], ov, h)
+    qcol = np.clip(_floor_index(q[:, u], ou, hu), 0, ncol - 1)
+    sides = []
+    for side, far in ((1, hiu), (-1, lou)):
+        col = np.clip(_floor_index(far, ou, hu), 0, ncol - 1)
+        packed = np.sort((((row * ncol) + col[rep]) << bits) | rep)
+        key = packed >> bits
+        sseg = live[packed & ((1 << bits) - 1)]
+        if side > 0:  # far end at or right of the query's column
+            lo_key, hi_key = qrow * ncol + qcol, qrow * ncol + ncol
+        else:  # far (left) end at or left of the query's column
+            lo_key, hi_key = qrow * ncol, qrow * ncol + qcol + 1
+        first = np.searchsorted(key, lo_key, side="left")
+        count = np.searchsorted(key, hi_key, side="left") - first
+        sides.append((side, (first, count, sseg)))
+    return sides
+
+
+# ---------------------------------------------------------------------------
+# The parser
+# ---------------------------------------------------------------------------
+
+
+def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
+    """Validate a GeoJSON Polygon / MultiPolygon and constraint polylines.
+
+    Parameters
+    ----------
+    geometry : dict
+        ``{"type": "Polygon", "coordinates": [outer, hole, ...]}`` or
+        ``{"type": "MultiPolygon", "coordinates": [[outer, hole, ...], ...]}``;
+        a ring is a list (or (k, 2) array) of ``[x, y]`` positions, closed
+        (last equal to first) or not, in either orientation. Other members
+        of the object (``bbox``, foreign members) are ignored.
+    segments : list of polylines, optional
+        Interior constraints: each polyline a list of at least two ``[x, y]``
+        positions; consecutive positions make the constraint segments.
+
+    Returns
+    -------
+    Domain
+        The validated domain (see :class:`Domain` for the layout).
+
+    Raises
+    ------
+    InputError
+        With the ``code`` and ``loc`` listed in the module documentation;
+        the message names the ring (or constraint) and vertex, and for
+        intersections both segments and the point where they meet.
+        Intersection errors list up to 10 faults in ``errors``.
+
+    Notes
+    -----
+    Checks run in this order, the first failing one raising: structure and
+    numbers of the rings, then of the constraint polylines (with their
+    sizes and duplicates); ring sizes, duplicates, collinear rings and
+    spikes; intersections of all segments; hole containment and polygon
+    overlap; constraints inside the domain. Decisions use
+    :func:`~meshcore.geometry.predicates.orient2d` and exact comparisons
+    only (module documentation, "Robustness").
+
+    References
+    ----------
+    DESIGN.md "Domain input (2D)", "Errors"; methods text §9.1.1.
+    """
+    multi, polygons = _polygons(geometry)
+
+    # -- rings: structure, numbers, closing position ---------------------
+    rings: list[np.ndarray] = []
+    ring_pos: list[tuple[int, int]] = []
+    for p, poly in enumerate(polygons):
+        for r, ring in enumerate(poly):
+            loc = _ring_loc(multi, p, r)
+            arr = _positions(ring, loc, _ring_name(multi, p, r))
+            if len(arr) >= 2 and (arr[0] == arr[-1]).all():
+                arr = arr[:-1]
+            rings.append(arr)
+            ring_pos.append((p, r))
+    lines = _constraint_lines(segments)
+    lengths = np.array([len(a) for a in rings], dtype=np.int64)
+    names = _Names(multi, ring_pos, lengths)
+    for k in np.flatnonzero(lengths < 3):
+        raise InputError(
+            f"{names.ring(k)} has {_distinct_small(rings[k])} distinct point(s); "
+            "a ring needs at least 3",
+            loc=names.ring_loc(k),
+            code="too_few_points",
+        )
+    n_rings = len(rings)
+    offsets = names.offsets
+    pts = np.concatenate(rings)
+    nb = len(pts)
+    ring_of = np.repeat(np.arange(n_rings), lengths)
+    idx = np.arange(nb)
+    nxt = idx + 1
+    nxt[offsets[1:] - 1] = offsets[:-1]
+    prv = idx - 1
+    prv[offsets[:-1]] = offsets[1:] - 1
+
+    _check_ring_points(pts, ring_of, offsets, lengths, prv, nxt, names)
+
+    # -- constraints -----------------------------------------------------
+    names.line_offsets = np.concatenate([[0], np.cumsum([len(x) - 1 for x in lines])]).astype(
+        np.int64
+    )
+
+    # Everything below runs on coordinates scaled by a power of two.
+    all_raw = np.concatenate([pts, *lines]) if lines else pts
+    scale = _power_of_two_scale(all_raw)
+    P = pts * scale
+
+    # Merge constraint vertices with equal ring vertices / each other.
+    cpoints, cseg, csrc = _merge_constraints(pts, lines)
+    points = np.concatenate([pts, cpoints]) if len(cpoints) else pts
+    PA = points * scale
+    bseg = np.stack([idx, nxt], axis=1)
+    allseg = np.concatenate([bseg, cseg]) if len(cseg) else bseg
+
+    # -- pairwise intersections ------------------------------------------
+    succ = np.full(len(allseg), -1, dtype=np.int64)
+    succ[:nb] = nxt
+
+    p0 = P
+    p1 = _rolled(P, offsets, 1)
+    if len(cseg):
+        p0 = np.concatenate([p0, PA[cseg[:, 0]]])
+        p1 = np.concatenate([p1, PA[cseg[:, 1]]])
+    rows, capped = _intersections(PA, allseg, succ, p0, p1)
+    if len(rows):
+        _raise_intersections(points, PA, scale, allseg, rows, capped, names)
+
+    # -- orientation (exact, at each ring's lexicographically lowest vertex)
+    low = _lexmin_index(P, ring_of, offsets)
+    turn = orient2d(P[prv[low]], P[low], P[nxt[low]])
+    ccw = turn > 0
+    ring_polygon = np.array([p for p, _ in ring_pos], dtype=np.int64)
+    ring_is_hole = np.array([r > 0 for _, r in ring_pos], dtype=bool)
+    reversed_ = ccw == ring_is_hole
+    rev_v = reversed_[ring_of]
+    segs = np.where(rev_v[:, None], bseg[:, ::-1], bseg)
+
+    # -- containment -----------------------------------------------------
+    _check_containment(
+        P, segs, ring_of, offsets, ring_polygon, ring_is_hole, names, PA, cseg, nb, points
+    )
+
+    # -- area and size ---------------------------------------------------
+    # Undo the scaling exactly: area * 2**(2 e) for scale = 2**-e.
+    area = math.ldexp(_area(P, offsets, np.where(rev_v, -1.0, 1.0)), -2 * math.frexp(scale)[1] + 2)
+    diameter = math.hypot(
+        float(pts[:, 0].max() - pts[:, 0].min()), float(pts[:, 1].max() - pts[:, 1].min())
+    )
+    return Domain(
+        points=points,
+        ring_offsets=offsets,
+        ring_polygon=ring_polygon,
+        ring_is_hole=ring_is_hole,
+        ring_reversed=reversed_,
+        segments=segs,
+        constraints=cseg,
+        constraint_source=csrc,
+        area=area,
+        diameter=diameter,
+        multi=multi,
+    )
+
+
+def _distinct_small(arr: np.ndarray) -> int:
+    return len({(float(x), float(y)) for x, y in arr})
+
+
+def _check_ring_points(pts, ring_of, offsets, lengths, prv, nxt, names: _Names) -> None:
+    """Distinct points, consecutive duplicates, collinear rings, spikes."""
+    n_rings = len(lengths)
+    starts = offsets[:-1]
+    x, y = pts[:, 0], pts[:, 1]
+    before = _rolled(pts, offsets, -1)
+    same_prev = (x == before[:, 0]) & (y == before[:, 1])
+    keep = ~same_prev
+    ccount = np.bincount(ring_of[keep], minlength=n_rings)
+    distinct = np.maximum(ccount, 1)
+    # Without consecutive repeats, 2 distinct points must alternate a, b, a, b.
+    if (ccount >= 3).any():
+        cp = pts[keep]
+        cr = ring_of[keep]
+        coff = np.concatenate([[0], np.cumsum(ccount)])
+        local = np.arange(len(cp)) - coff[cr]
+        prev2 = coff[cr] + (local - 2) % ccount[cr]
+        differs = (cp[:, 0] != cp[prev2, 0]) | (cp[:, 1] != cp[prev2, 1])
+        alternating = (np.bincount(cr[differs], minlength=n_rings) == 0) & (ccount >= 3)
+        distinct[alternating] = 2
+    for k in np.flatnonzero(distinct < 3):
+        raise InputError(
+            f"{names.ring(k)} has {int(distinct[k])} distinct point(s); a ring needs at least 3",
+            loc=names.ring_loc(k),
+            code="too_few_points",
+        )
+    dup = np.flatnonzero(same_prev)
+    if dup.size:
+        i = int(dup[0])
+        k = int(ring_of[i])
+        v = i - int(starts[k])
+        if v == 0:  # the ring was closed, and its closing position was doubled
+            v = int(lengths[k])
+        raise InputError(
+            f"{names.ring(k)}: vertex {v} repeats vertex {v - 1} at {_pt(*pts[i])} "
+            "(duplicate consecutive points)",
+            loc=names.vertex_loc(k, v),
+            code="duplicate_point",
+        )
+    P = pts * _power_of_two_scale(pts)
+    turn = orient2d(_rolled(P, offsets, -1), P, _rolled(P, offsets, 1))
+    # Every consecutive triple collinear (and no repeats): the whole ring is on a line.
+    flat = np.bincount(ring_of[turn != 0], minlength=n_rings) == 0
+    for k in np.flatnonzero(flat):
+        raise InputError(
+            f"{names.ring(k)} has zero area: all its vertices are collinear",
+            loc=names.ring_loc(k),
+            code="zero_area",
+        )
+    # Spikes: a vertex where the ring doubles back over its previous segment
+    # (collinear, and the coordinate differences change sign: exact).
+    straight = np.flatnonzero(turn == 0)
+    if straight.size:
+        a, b, c = pts[prv[straight]], pts[straight], pts[nxt[straight]]
+        axis = np.where(a[:, 0] != b[:, 0], 0, 1)
+        rows = np.arange(len(straight))
+        back = np.sign(b[rows, axis] - a[rows, axis]) != np.sign(c[rows, axis] - b[rows, axis])
+        spikes = straight[back]
+        if spikes.size:
+            i = int(spikes[0])
+            k = int(ring_of[i])
+            v = i - int(starts[k])
+            n = int(lengths[k])
+            raise InputError(
+                f"{names.ring(k)} intersects itself: it doubles back at vertex {v} "
+                f"{_pt(*pts[i])}: segment [vertex {(v - 1) % n} -> {v}] and segment "
+                f"[vertex {v} -> {(v + 1) % n}] overlap",
+                loc=names.vertex_loc(k, v),
+                code="self_intersection",
+            )
+
+
+def _rolled(a: np.ndarray, offsets: np.ndarray, step: int) -> np.ndarray:
+    """``a[nxt]`` (step +1) or ``a[prv]`` (step -1) within each ring, by slicing.
+
+    ``a`` holds one row per ring vertex, rings stored one after the other as
+    ``offsets`` says; copying shifted slices is much faster than a gather.
+    """
+    out = np.empty_like(a)
+    starts, ends = offsets[:-1], offsets[1:] - 1
+    if step > 0:
+        out[:-1] = a[1:]
+        out[ends] = a[starts]
+    else:
+        out[1:] = a[:-1]
+        out[starts] = a[ends]
+    return out
+
+
+def _exact_shift(v: np.ndarray) -> np.ndarray:
+    """v - v[0] when every difference is exact (two-sum error 0), else v."""
+    ref = v[0]
+    s = v - ref
+    bv = s - v
+    err = (v - (s - bv)) + (-ref - bv)
+    return s if not err.any() else v
+
+
+def _area(P: np.ndarray, offsets: np.ndarray, sign: np.ndarray) -> float:
+    """Signed shoelace area of the rings, each weighted by ``sign`` (per vertex).
+
+    Coordinates are shifted to the first vertex when that is exact (it keeps
+    the terms small); each product is split exactly (Dekker), the leading
+    parts ``x_i y_{i+1} - x_{i+1} y_i`` (rounded, with their exact rounding
+    error kept) are summed exactly by :func:`math.fsum`, and the small
+    parts, each below an ulp of its term, by numpy's pairwise sum. The
+    error is that of the small parts' sum, orders of magnitude below an ulp
+    of the area unless the terms cancel by some 1e16.
+    """
+    x = _exact_shift(P[:, 0])
+    y = _exact_shift(P[:, 1])
+    h1, l1 = _two_product(x, _rolled(y, offsets, 1))
+    h2, l2 = _two_product(_rolled(x, offsets, 1), y)
+    d = h1 - h2
+    bv = d - h1
+    e = (h1 - (d - bv)) + (-h2 - bv)
+    lead = (d * sign).tolist()
+    lead.append(float(((e + l1 - l2) * sign).sum()))
+    return 0.5 * math.fsum(lead)
+
+
+def _lexmin_index(P, ring_of, offsets) -> np.ndarray:
+    """Per ring, the index of a vertex with the smallest (x, y) (exact)."""
+    starts = offsets[:-1]
+    x, y = P[:, 0], P[:, 1]
+    minx = np.minimum.reduceat(x, starts)
+    cand = x == minx[ring_of]
+    ym = np.where(cand, y, np.inf)
+    miny = np.minimum.reduceat(ym, starts)
+    hit = np.flatnonzero(cand & (y == miny[ring_of]))
+    _, first = np.unique(ring_of[hit], return_index=True)
+    return hit[first]
+
+
+def _constraint_lines(segments) -> list[np.ndarray]:
+    if segments is None:
+        return []
+    if not _is_seq(segments):
+        raise InputError(
+            "segments must be a list of polylines (lists of [x, y] positions)",
+            loc=("segments",),
+            code="bad_geometry",
+        )
+    lines = []
+    for i, line in enumerate(segments):
+        arr = _positions(line, ("segments", i), f"constraint {i}")
+        if len(arr) < 2:
+            raise InputError(
+                f"constraint {i} has {len(arr)} point(s); a polyline needs at least 2",
+                loc=("segments", i),
+                code="too_few_points",
+            )
+        dup = np.flatnonzero((arr[1:] == arr[:-1]).all(axis=1))
+        if dup.size:
+            j = int(dup[0]) + 1
+            raise InputError(
+                f"constraint {i}: vertex {j} repeats vertex {j - 1} at {_pt(*arr[j])} "
+                "(duplicate consecutive points)",
+                loc=("segments", i, j),
+                code="duplicate_point",
+            )
+        lines.append(arr)
+    return lines
+
+
+def _complex_keys(p: np.ndarray) -> np.ndarray:
+    k = np.empty(len(p), dtype=np.complex128)
+    k.real = p[:, 0]
+    k.imag = p[:, 1]
+    return k
+
+
+def _merge_constraints(pts: np.ndarray, lines: list[np.ndarray]):
+    """Point indices of constraint vertices, equal positions sharing one index.
+
+    A constraint vertex equal to a ring vertex takes that vertex's index;
+    the others are new points, numbered in order of first appearance.
+
+    Returns
+    -------
+    new_points : (q, 2) float64
+    seg : (c, 2) int64
+    source : (c, 2) int64
+        (polyline, first vertex) per segment.
+    """
+    empty2 = np.zeros((0, 2), dtype=np.int64)
+    if not lines:
+        return np.zeros((0, 2)), empty2, empty2
+    nb = len(pts)
+    cp = np.concatenate(lines)
+    ck = _complex_keys(cp)
+    uk, inv = np.unique(ck, return_inverse=True)
+    inv = inv.reshape(-1)
+    # Ring vertices equal to a constraint vertex (the first such, in ring order).
+    bk = _complex_keys(pts)
+    pos = np.minimum(np.searchsorted(uk, bk), len(uk) - 1)
+    match = np.flatnonzero(uk[pos] == bk)
+    target = np.full(len(uk), nb, dtype=np.int64)
+    np.minimum.at(target, pos[match], match)
+    target[target == nb] = -1
+    # New points in order of first appearance among the constraint vertices.
+    first_seen = np.full(len(uk), len(cp), dtype=np.int64)
+    np.minimum.at(first_seen, inv, np.arange(len(cp)))
+    new = np.flatnonzero(target < 0)
+    new = new[np.argsort(first_seen[new], kind="stable")]
+    target[new] = nb + np.arange(len(new))
+    g = target[inv]
+    new_points = cp[first_seen[new]]
+    sizes = np.array([len(line) for line in lines], dtype=np.int64)
+    starts = np.cumsum(sizes) - sizes
+    line = np.repeat(np.arange(len(lines)), sizes - 1)
+    first = np.arange(len(line)) + line  # global index of each segment's first vertex
+    seg = np.stack([g[first], g[first + 1]], axis=1)
+    source = np.stack([line, first - starts[line]], axis=1)
+    return new_points, seg, source
+
+
+def _raise_intersections(points, PA, scale, seg, rows, capped, names: _Names) -> None:
+    """Raise the InputError for intersecting pairs (the first ones in segment order)."""
+    errors = []
+    for si, sj, kd, w in rows[:_MAX_LISTED].tolist():
+        di, loc_i, oi = names.segment(si)
+        dj, loc_j, oj = names.segment(sj)
+        if kd == _CROSS:
+            x, y = _crossing_point(*PA[seg[si]], *PA[seg[sj]])
+            where, verb = _pt(x / scale, y / scale), "cross"
+        else:
+            where, verb = _pt(*points[w]), "touch" if kd == _TOUCH else "overlap"
+        owner = {o: names.ring(o) if o >= 0 else f"constraint {-1 - o}" for o in (oi, oj)}
+        if oi >= 0 and oj >= 0:
+            code = "self_intersection" if oi == oj else "ring_intersection"
+            loc = loc_i
+        else:
+            code = "constraint_intersection"
+            loc = loc_j if oi >= 0 else loc_i  # point at the constraint
+        if oi == oj:
+            head = f"{owner[oi]} intersects itself"
+        else:
+            head = f"{owner[oi]} and {owner[oj]} intersect"
+        msg = f"{head}: {di} and {dj} {verb} at {where}"
+        if code == "constraint_intersection":
+            msg += " (segments may meet only at common vertices)"
+        errors.append({"loc": list(loc), "msg": msg, "type": code})
+    message = errors[0]["msg"]
+    more = len(rows) - 1
+    if more:
+        message += f"; and {'at least ' if capped else ''}{more} more intersecting pair"
+        message += "s" if more > 1 else ""
+    raise InputError(message, code=errors[0]["type"], errors=errors)
+
+
+def _check_containment(
+    P, segs, ring_of, offsets, ring_polygon, ring_is_hole, names, PA, cseg, nb, points
+) -> None:
+    """Holes in their outer ring, polygons apart, constraints inside the domain.
+
+    Rings are pairwise disjoint here, so one vertex decides where a whole
+    ring lies; a point is in the domain iff an odd number of rings contain
+    it (outer rings at even depth, holes at odd depth, once the first two
+    checks pass).
+    """
+    n_rings = len(offsets) - 1
+    starts = offsets[:-1]
+    n_new = len(PA) - nb
+    n_ring_queries = n_rings if n_rings > 1 else 0
+    queries, skips = [], []
+    if n_ring_queries:
+        queries.append(P[starts])
+        skips.append(np.arange(n_rings))
+    if n_new:
+        queries.append(PA[nb:])
+        skips.append(np.full(n_new, -1))
+    if queries:
+        inside = ray_parity(
+            np.concatenate(queries),
+            np.concatenate(skips),
+            P[segs[:, 0]],
+            P[segs[:, 1]],
+            ring_of,
+            n_rings,
+        )
+    else:
+        inside = np.zeros((0, 2), dtype=np.int64)
+    if n_ring_queries:
+        rr = inside[inside[:, 0] < n_rings]  # (ring, ring containing it)
+        keys = rr[:, 0] * n_rings + rr[:, 1]
+        holes = np.flatnonzero(ring_is_hole)
+        outer_of = np.searchsorted(ring_polygon, ring_polygon, side="left")
+        ok = np.isin(holes * n_rings + outer_of[holes], keys)
+        if not ok.all():
+            k = int(holes[~ok][0])
+            o = int(outer_of[k])
+            raise InputError(
+                f"{names.ring(k)} is a hole outside its outer ring ({names.ring(o)}): "
+                f"its vertex 0 {_pt(*points[starts[k]])} is not inside",
+                loc=names.vertex_loc(k, 0),
+                code="hole_outside",
+            )
+        both_holes = ring_is_hole[rr[:, 0]] & ring_is_hole[rr[:, 1]]
+        nested = rr[both_holes & (ring_polygon[rr[:, 0]] == ring_polygon[rr[:, 1]])]
+        if len(nested):
+            k, h = (int(x) for x in nested[0])
+            raise InputError(
+                f"{names.ring(k)} is a hole inside another hole of its polygon, "
+                f"{names.ring(h)}: its vertex 0 {_pt(*points[starts[k]])} is inside",
+                loc=names.vertex_loc(k, 0),
+                code="hole_outside",
+            )
+        # An outer ring inside another polygon's outer ring must be in one of its holes.
+        outer_in = rr[~ring_is_hole[rr[:, 0]] & ~ring_is_hole[rr[:, 1]]]
+        in_hole = rr[ring_is_hole[rr[:, 1]]]
+        hole_keys = in_hole[:, 0] * n_rings + outer_of[in_hole[:, 1]]
+        overlap = ~np.isin(outer_in[:, 0] * n_rings + outer_in[:, 1], hole_keys)
+        if overlap.any():
+            a, b = (int(x) for x in outer_in[overlap][0])
+            raise InputError(
+                f"polygon {int(ring_polygon[a])} lies inside polygon {int(ring_polygon[b])} "
+                f"(its vertex 0 {_pt(*points[starts[a]])} is inside {names.ring(b)} and in "
+                "none of its holes): the polygons of a MultiPolygon must not overlap",
+                loc=names.vertex_loc(a, 0),
+                code="polygon_overlap",
+            )
+    if not len(cseg):
+        return
+    bad_seg = np.zeros(len(cseg), dtype=bool)
+    if n_new:
+        # Constraint vertices off the boundary: inside iff contained in an odd number of rings.
+        q_new = inside[inside[:, 0] >= n_ring_queries, 0] - n_ring_queries
+        depth = np.bincount(q_new, minlength=n_new)
+        is_out = np.zeros(len(PA), dtype=bool)
+        is_out[nb:] = depth % 2 == 0
+        bad_seg |= is_out[cseg[:, 0]] | is_out[cseg[:, 1]]
+    # Segments joining two ring vertices: does the segment leave its first end into
+    # the domain? (Its interior meets no other segment, so that decides.)
+    both = np.flatnonzero((cseg[:, 0] < nb) & (cseg[:, 1] < nb))
+    if both.size:
+        a = cseg[both, 0]
+        b = cseg[both, 1]
+        succ = np.empty(nb, dtype=np.int64)
+        succ[segs[:, 0]] = segs[:, 1]
+        pred = np.empty(nb, dtype=np.int64)
+        pred[segs[:, 1]] = segs[:, 0]
+        pp, vv, nn, bb = P[pred[a]], P[a], P[succ[a]], P[b]
+        corner = orient2d(pp, vv, nn)
+        left_of_in = orient2d(pp, vv, bb) > 0
+        left_of_out = orient2d(vv, nn, bb) > 0
+        into = np.where(corner > 0, left_of_in & left_of_out, left_of_in | left_of_out)
+        into = np.where(corner == 0, left_of_in, into)
+        bad_seg[both[~into]] = True
+    bad = np.flatnonzero(bad_seg)
+    if bad.size:
+        s = int(bad[0])
+        desc, loc, _ = names.segment(nb + s)
+        a, b = cseg[s]
+        raise InputError(
+            f"{desc} from {_pt(*points[a])} to {_pt(*points[b])} lies outside the domain",
+            loc=loc,
+            code="constraint_outside",
+        )

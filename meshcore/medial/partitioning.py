@@ -1,0 +1,841 @@
+"""Domain partitions from the medial axis and all-quad meshes on them (§9.7.1, §9.7.2, §8.5.3).
+
+:func:`partition` splits a domain into polygonal regions along *cut lines*
+derived from its medial axis (:func:`meshcore.medial.axis.medial_axis`, Voronoi
+approximation); :func:`quad_medial` meshes those regions with quads.
+
+Partition (§9.7.1). The regions are the faces of the planar graph made of
+the boundary pieces, some axis edges and straight cuts from axis nodes to
+the boundary samples their maximal circles touch (the radii of an empty
+circle, so they stay inside the domain). Faces are traced with half-edges
+sorted by angle around each vertex (floating-point angles: these are
+constructions between distinct points, no sign decision); the faces of
+positive area are the regions. A region's *corners* are the vertices where
+three or more of these edges meet; its sides are the chains between
+corners, so a run of boundary pieces between two cuts is one side, as the
+text counts it.
+
+* ``method="terminal"`` (the first method of the text): the cut lines are
+  the axis itself, followed from each terminal node (the apex of a Type 2
+  triangle) through Type 1 and Type 0 triangles to the next terminal; a
+  region lies between the path joining two consecutive terminals and the
+  boundary between them, with (Type 0 nodes on the path) + 2 sides. A leaf
+  that does not reach a corner (the end of a smooth convex part) is joined
+  to the sample its circle touches.
+* ``method="critical"`` (the second method, Figure 9.13): each Type 0 node
+  is joined to the vertices of its triangle (to all the co-circular
+  vertices of its node), and consecutive Type 0 nodes are joined along the
+  axis; terminal branches are not cuts. Regions are triangles (a cut, the
+  boundary around a terminal branch, a cut) and quads (cut, boundary, cut,
+  axis), as the text says.
+
+Choices where the text leaves freedom ("numerous variations can be used in
+order to optimize such a partition"): the branches that regions lie along
+(those between junctions, loops, and an axis that is a single path) get
+*cross-sections*, the two radii from a regular node to the two samples of
+the Delaunay edge the axis crosses there, evenly spaced about one local
+width (twice the mean radius) apart, so that regions are about as long as
+they are wide and close to convex (a crescent along a hole's loop would
+make inverted quads). At least four go on a closed loop with no junction
+(an annulus: eight quads), two on a branch that leaves and returns to the
+same junction, one on every branch of a loop for ``terminal`` (so each
+hole is reached by a cut), and one on an axis that is a single path
+between two terminals: so every region is simply connected and has at
+least three sides.
+
+Quads (§9.7.2, §8.5.3). Every region is split by midpoint subdivision: a
+point inside (the centroid of its side points, or of its corners, or its
+area centroid, whichever gives the best smallest corner area) joined to
+one point on each side (the arclength midpoint, on the boundary for a
+boundary side), giving as many coarse quads as sides. Each coarse quad is
+then filled by transfinite (Coons) interpolation of its four sides on an
+``n1 x n2`` grid. Conformity: the two pairs of opposite sides of every
+coarse quad must have equal counts and a side shared by two coarse quads
+one count, so counts are constant on classes of sides (a union-find), each
+class taking the largest ``ceil(length / size)`` of its members
+(``levels`` instead gives ``2**levels`` everywhere: repeated midpoint
+subdivision). Boundary points are placed by arclength along the boundary
+pieces (so they lie on the input boundary) and the input vertices of a
+boundary side are snapped onto division points when there are enough of
+them, so polygonal domains are covered exactly. A side's point is its
+input corner nearest to the middle when one lies in its middle half (no
+coarse quad cuts a corner). The transfinite fill folds cells next to reflex
+corners; Gauss-Seidel Laplacian sweeps over the interior points then keep
+each move that raises the smallest corner area around the point or keeps it
+above half of what the fill gave (untangling without flattening quads
+against a concave boundary). On 150 random star polygons the ``critical``
+partition so gives only valid quads; the ``terminal`` one's 5- and 6-sided
+regions around reflex corners still folded on 19 of them, so when it does
+the mesh is made on the ``critical`` partition instead (said in
+``stats["fallback"]``). The ``terminal`` method also made regions of 7 sides
+on 2 of those 150 (footnote 12 of the text presumes 6 at most).
+
+References
+----------
+Methods text §9.7.1 (domain partitioning, Figure 9.13), §9.7.2 (quad mesh
+construction, Figure 9.14), §8.5.3 (medial axis, midpoint subdivision,
+algebraic method and its consistency constraints).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit
+
+from meshcore.domain.planar import Domain
+from meshcore.errors import AlgorithmError, InputError
+from meshcore.medial.axis import DEFAULT_PRUNE, MedialAxis, _classes, _csr, _cycles, medial_axis
+from meshcore.mesh import CellBlock, Mesh, quality, topology
+
+__all__ = ["Partition", "QuadMedial", "partition", "quad_medial"]
+
+Progress = Callable[[float, str], None]
+
+#: Most quads a ``quad_medial`` job may make.
+MAX_QUADS = 4_000_000
+#: Gauss-Seidel smoothing sweeps after the transfinite fill (at most).
+SMOOTHING_SWEEPS = 50
+
+_BOUNDARY, _AXIS, _CUT = 0, 1, 2
+
+
+@dataclass(frozen=True, eq=False)
+class Partition:
+    """Regions of a domain cut along its medial axis.
+
+    Attributes
+    ----------
+    regions : list of dict
+        GeoJSON Polygons (counter-clockwise closed ring), each with the
+        foreign members ``sides`` (its side count) and ``area``.
+    cuts : (c, 2, 2) float64
+        The cut segments that are not axis edges.
+    axis : MedialAxis
+        The axis the partition comes from.
+    points : (v, 2) float64
+        Vertices of the planar graph: the boundary samples, then the axis nodes.
+    cycles : tuple of (k,) int64
+        Each region's vertex ids, counter-clockwise.
+    corners : tuple of (k,) bool
+        Which of a cycle's vertices are corners of the region.
+    edge_kind : tuple of (k,) int8
+        Kind of each cycle edge (vertex ``i`` to ``i + 1``): 0 boundary, 1
+        axis, 2 cut.
+    stats : dict
+    """
+
+    regions: list[dict]
+    cuts: np.ndarray
+    axis: MedialAxis
+    points: np.ndarray
+    cycles: tuple[np.ndarray, ...]
+    corners: tuple[np.ndarray, ...]
+    edge_kind: tuple[np.ndarray, ...]
+    stats: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True, eq=False)
+class QuadMedial:
+    """An all-quad mesh on a medial-axis partition."""
+
+    mesh: Mesh
+    partition: Partition
+    stats: dict = field(default_factory=dict)
+
+
+# ---------------------------------------------------------------------------
+# Cut lines
+# ---------------------------------------------------------------------------
+
+
+def _contacts(ax: MedialAxis) -> tuple[np.ndarray, np.ndarray]:
+    """CSR lists of the samples each node's circle touches (its triangles' vertices),
+    one per run of consecutive samples (co-circular neighbours touch the circle at
+    one place: cutting to both would make a sliver region)."""
+    t = np.flatnonzero(ax.triangle_node >= 0)
+    pairs = np.unique(
+        np.column_stack([np.repeat(ax.triangle_node[t], 3), ax.triangles[t].ravel()]), axis=0
+    )
+    key = pairs[:, 0] * np.int64(len(ax.samples)) + pairs[:, 1]
+    pred = np.empty(len(ax.samples), dtype=np.int64)
+    pred[ax.succ] = np.arange(len(ax.succ))
+    before = pairs[:, 0] * np.int64(len(ax.samples)) + pred[pairs[:, 1]]
+    pos = np.minimum(np.searchsorted(key, before), len(key) - 1)
+    follows = key[pos] == before
+    kept = np.bincount(pairs[~follows, 0], minlength=len(ax.nodes))
+    closed = np.flatnonzero((kept == 0) & (np.bincount(pairs[:, 0], minlength=len(ax.nodes)) > 0))
+    follows[np.searchsorted(pairs[:, 0], closed)] = False  # a closed run: keep one
+    pairs = pairs[~follows]
+    start = np.searchsorted(pairs[:, 0], np.arange(len(ax.nodes) + 1))
+    return start, pairs[:, 1]
+
+
+def _branch_graph_core(ax: MedialAxis) -> np.ndarray:
+    """Per branch, whether it is in the 2-core of the graph of branches."""
+    ends = np.array([[b[0], b[-1]] for b in ax.branches], dtype=np.int64).reshape(-1, 2)
+    alive = np.ones(len(ends), dtype=bool)
+    while True:
+        deg = np.bincount(ends[alive].ravel(), minlength=len(ax.nodes))
+        loose = alive & ((deg[ends[:, 0]] == 1) | (deg[ends[:, 1]] == 1))
+        if not loose.any():
+            return alive
+        alive &= ~loose
+
+
+@njit(cache=True)
+def _stripped(n, edges, keep):
+    """Edges left after peeling, leaf by leaf, the nodes not in ``keep``."""
+    start, inc = _csr(n, edges)
+    alive = np.ones(edges.shape[0], np.bool_)
+    deg = np.diff(start)
+    stack = np.empty(n, np.int64)
+    top = 0
+    for v in range(n):
+        if deg[v] == 1 and not keep[v]:
+            stack[top] = v
+            top += 1
+    while top > 0:
+        top -= 1
+        v = stack[top]
+        if deg[v] != 1 or keep[v]:
+            continue
+        for j in range(start[v], start[v + 1]):
+            f = inc[j]
+            if alive[f]:
+                alive[f] = False
+                deg[v] = 0
+                w = edges[f, 0] + edges[f, 1] - v
+                deg[w] -= 1
+                if deg[w] == 1 and not keep[w]:
+                    stack[top] = w
+                    top += 1
+    return alive
+
+
+def _cut_lines(ax: MedialAxis, method: str):
+    """Axis edges kept and cuts (node, sample) of the partition."""
+    n = len(ax.nodes)
+    deg = np.bincount(ax.edges.ravel(), minlength=n)
+    start, contact = _contacts(ax)
+    core = _branch_graph_core(ax)
+    first, incident = _csr(n, ax.edges)  # the axis edges of each node
+    cuts: list[tuple[int, int]] = []
+    keep_edge = np.ones(len(ax.edges), dtype=bool)
+    for v in np.flatnonzero((deg >= 3) | (deg == 0)):
+        if method == "critical" or deg[v] == 0:
+            cuts += [(int(v), int(s)) for s in contact[start[v] : start[v + 1]]]
+    sections: list[int] = []
+    for b, chain in enumerate(ax.branches):
+        closed = chain[0] == chain[-1]
+        if closed and deg[chain[0]] == 2:  # a loop with no junction
+            least = 4
+        elif closed:
+            least = 2
+        elif deg[chain[0]] == 1 and deg[chain[-1]] == 1:  # the whole axis is a path
+            least = 1
+        elif core[b]:
+            least = 1 if method == "terminal" else 0
+        else:
+            continue
+        xy = ax.nodes[chain]
+        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+        width = 2 * max(float(ax.radius[chain].mean()), np.finfo(float).tiny)
+        k = max(least, int(round(s[-1] / width)) - 1)
+        at = np.searchsorted(s, s[-1] * np.arange(1, k + 1) / (k + 1))
+        sections += [int(chain[i]) for i in np.clip(at, 1, len(chain) - 2) if deg[chain[i]] == 2]
+    for v in dict.fromkeys(int(s) for s in sections):
+        # the two radii at a regular node: to the samples of a Delaunay edge it sits on
+        e = incident[first[v] : first[v + 1]]
+        e = e[ax.edge_pq[e, 0] >= 0]
+        if e.size:
+            cuts += [(v, int(ax.edge_pq[e[0], 0])), (v, int(ax.edge_pq[e[0], 1]))]
+    if method == "terminal":
+        for v in np.flatnonzero((deg == 1) & (ax.node_sample < 0)):
+            e = int(incident[first[v]])
+            touch = contact[start[v] : start[v + 1]]
+            away = touch[~np.isin(touch, ax.edge_pq[e])]
+            if away.size:
+                cuts.append((int(v), int(away[0])))
+    else:
+        # only the axis between cut nodes: strip branches down to nodes with cuts
+        has_cut = np.zeros(n, dtype=bool)
+        has_cut[[c[0] for c in cuts]] = True
+        keep_edge = _stripped(n, ax.edges, has_cut)
+    return keep_edge, np.array(cuts, dtype=np.int64).reshape(-1, 2)
+
+
+# ---------------------------------------------------------------------------
+# Faces
+# ---------------------------------------------------------------------------
+
+
+def _faces(points: np.ndarray, edges: np.ndarray, kind: np.ndarray, succ: np.ndarray):
+    """Faces of a planar straight-line graph that lie in the domain.
+
+    ``succ`` gives the next sample along the boundary (the first
+    ``len(succ)`` vertices are the samples): faces bordered by a boundary
+    piece run backwards (holes, the exterior) are dropped. Returns per face
+    its counter-clockwise vertex cycle, corner flags (vertex degree >= 3)
+    and edge kinds.
+    """
+    tail = np.concatenate([edges[:, 0], edges[:, 1]])
+    head = np.concatenate([edges[:, 1], edges[:, 0]])
+    hkind = np.concatenate([kind, kind])
+    m = len(edges)
+    twin = np.concatenate([np.arange(m, 2 * m), np.arange(m)])
+    d = points[head] - points[tail]
+    angle = np.arctan2(d[:, 1], d[:, 0])
+    order = np.lexsort((angle, tail))
+    rank = np.empty(2 * m, dtype=np.int64)
+    rank[order] = np.arange(2 * m)
+    first = np.searchsorted(tail[order], np.arange(len(points) + 1))
+    degree = np.diff(first)
+    # next(h): at head(h), the outgoing half-edge just before twin(h) in CCW order
+    t = twin
+    v = head
+    pos = rank[t] - first[v]
+    prev_pos = (pos - 1) % degree[v]
+    nxt = order[first[v] + prev_pos]
+    horder, offsets = _cycles(nxt, nxt)
+    p = len(succ)
+    backwards = (hkind == _BOUNDARY) & (head < p) & (tail < p)
+    backwards[backwards] = succ[head[backwards]] == tail[backwards]
+    cycles, corners, kinds = [], [], []
+    for f in range(len(offsets) - 1):
+        hs = horder[offsets[f] : offsets[f + 1]]
+        if backwards[hs].any():
+            continue
+        verts = tail[hs]
+        xy = points[verts]
+        area = 0.5 * float(
+            np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1])
+        )
+        if area <= 0:
+            continue
+        cycles.append(verts)
+        corners.append(degree[verts] >= 3)
+        kinds.append(hkind[hs].astype(np.int8))
+    return cycles, corners, kinds
+
+
+def _ring_area(xy: np.ndarray) -> float:
+    x, y = xy[:, 0] - xy[0, 0], xy[:, 1] - xy[0, 1]
+    return 0.5 * math.fsum(x * np.roll(y, -1) - np.roll(x, -1) * y)
+
+
+def partition(
+    domain: Domain | None = None,
+    *,
+    axis: MedialAxis | None = None,
+    method: str = "critical",
+    h: float | None = None,
+    prune: float = DEFAULT_PRUNE,
+    progress: Progress | None = None,
+) -> Partition:
+    """Split a domain into regions along cut lines of its medial axis (§9.7.1).
+
+    Parameters
+    ----------
+    domain : Domain, optional
+        The domain; its axis is computed with ``h`` and ``prune``.
+    axis : MedialAxis, optional
+        Instead of ``domain``: an axis from :func:`~meshcore.medial.axis.medial_axis`
+        (``voronoi`` approximation).
+    method : {"critical", "terminal"}
+        The second or the first method of the text (module docstring).
+    h, prune : float, optional
+        As :func:`~meshcore.medial.axis.medial_axis`.
+    progress : callable, optional
+
+    Returns
+    -------
+    Partition
+        Regions that tile the domain: simple counter-clockwise polygons with
+        disjoint interiors whose areas add up to the domain's area, every
+        vertex a boundary sample or an axis node.
+
+    Raises
+    ------
+    InputError
+        A bad method, or neither or both of domain and axis.
+    AlgorithmError
+        A region came out with fewer than 3 sides (an axis too coarse to
+        partition: lower ``h``).
+
+    References
+    ----------
+    Methods text §9.7.1, Figure 9.13.
+    """
+    if method not in ("critical", "terminal"):
+        raise InputError(
+            f"method must be 'critical' or 'terminal', got {method!r}",
+            loc=("method",),
+            code="bad_value",
+        )
+    if (domain is None) == (axis is None):
+        raise InputError("give exactly one of domain and axis", loc=(), code="bad_input")
+    if axis is None:
+        axis = medial_axis(domain, h=h, prune=prune, progress=progress)
+    ax = axis
+    if len(ax.nodes) and (ax.triangle_node < 0).all():
+        raise InputError(
+            "partition needs an axis of the 'voronoi' approximation",
+            loc=("axis",),
+            code="bad_value",
+        )
+    keep_edge, cuts = _cut_lines(ax, method)
+    p = len(ax.samples)
+    points = np.concatenate([ax.samples, ax.nodes])
+    vertex = np.where(ax.node_sample >= 0, ax.node_sample, p + np.arange(len(ax.nodes)))
+    axis_edges = vertex[ax.edges[keep_edge]]
+    cut_edges = np.column_stack([vertex[cuts[:, 0]], cuts[:, 1]])
+    edges = np.concatenate([ax.segments, axis_edges, cut_edges])
+    kind = np.concatenate(
+        [
+            np.full(len(ax.segments), _BOUNDARY),
+            np.full(len(axis_edges), _AXIS),
+            np.full(len(cut_edges), _CUT),
+        ]
+    )
+    edges = np.sort(edges, axis=1)
+    edges, first = np.unique(edges, axis=0, return_index=True)
+    proper = edges[:, 0] != edges[:, 1]
+    succ = ax.succ
+    cycles, corners, kinds = _faces(points, edges[proper], kind[first][proper], succ)
+    regions = []
+    total = 0.0
+    for verts, corner in zip(cycles, corners, strict=True):
+        ring = points[verts]
+        area = _ring_area(ring)
+        total += area
+        sides = int(corner.sum())
+        if sides < 3:
+            raise AlgorithmError(
+                f"a region of area {area:.6g} has {sides} sides: the axis is too coarse to "
+                "partition the domain, give a smaller h"
+            )
+        coords = np.concatenate([ring, ring[:1]]).tolist()
+        regions.append({"type": "Polygon", "coordinates": [coords], "sides": sides, "area": area})
+    sides = np.array([r["sides"] for r in regions], dtype=np.int64)
+    stats = {
+        "regions": len(regions),
+        "sides": {str(k): int((sides == k).sum()) for k in np.unique(sides)},
+        "cuts": int(len(cuts)),
+        "area": total,
+        "domain_area": ax.domain.area,
+        "axis": ax.stats,
+    }
+    return Partition(
+        regions=regions,
+        cuts=np.stack([points[cut_edges[:, 0]], points[cut_edges[:, 1]]], axis=1),
+        axis=ax,
+        points=points,
+        cycles=tuple(cycles),
+        corners=tuple(corners),
+        edge_kind=tuple(kinds),
+        stats=stats,
+    )
+
+
+# ---------------------------------------------------------------------------
+# Quads: midpoint subdivision, then a transfinite fill (§9.7.2, §8.5.3)
+# ---------------------------------------------------------------------------
+
+
+def _polyline_points(xy: np.ndarray, n: int, fixed: np.ndarray) -> np.ndarray:
+    """``n + 1`` points along a polyline by arclength, with the vertices flagged
+    in ``fixed`` (interior corners) moved onto division points where they fit."""
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+    target = np.linspace(0.0, s[-1], n + 1)
+    knots = [0]
+    corners = np.flatnonzero(fixed[1:-1]) + 1
+    for i, k in enumerate(corners):
+        left_after = len(corners) - i - 1  # corners still to place after this one
+        j = int(round(s[k] / s[-1] * n)) if s[-1] > 0 else 0
+        j = min(max(j, knots[-1] + 1), n - 1 - left_after)
+        if knots[-1] < j < n:
+            target[j] = s[k]
+            knots.append(j)
+    knots.append(n)
+    for a, b in zip(knots[:-1], knots[1:], strict=True):
+        target[a : b + 1] = np.linspace(target[a], target[b], b - a + 1)
+    out = np.column_stack([np.interp(target, s, xy[:, 0]), np.interp(target, s, xy[:, 1])])
+    out[0], out[-1] = xy[0], xy[-1]
+    return out
+
+
+def _side_point(xy: np.ndarray, s: np.ndarray, fixed: np.ndarray):
+    """The point of a side (a polyline with cumulative lengths ``s``).
+
+    Its input corner nearest to the middle when one lies in the middle half
+    (so that no coarse quad cuts a corner), else the arclength midpoint.
+    Returns ``(m, point, at_vertex)``: the point is vertex ``m``, or lies
+    inside the piece from vertex ``m`` to ``m + 1``.
+    """
+    inner = np.flatnonzero(fixed[1:-1]) + 1
+    if inner.size:
+        k = inner[np.argmin(np.abs(s[inner] - s[-1] / 2))]
+        if abs(s[k] - s[-1] / 2) <= s[-1] / 4:
+            return int(k), xy[k], True
+    mid_s = s[-1] / 2
+    m = min(int(np.searchsorted(s, mid_s, side="right")) - 1, len(s) - 2)
+    t = (mid_s - s[m]) / (s[m + 1] - s[m]) if s[m + 1] > s[m] else 0.0
+    return m, xy[m] + t * (xy[m + 1] - xy[m]), False
+
+
+def _corner_areas(points: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """(m, 4): twice the signed area of the triangle at each corner of each quad
+    (all positive iff the quad is strictly convex)."""
+    p = points[quads]
+    a, b = np.roll(p, 1, axis=1) - p, np.roll(p, -1, axis=1) - p
+    return b[..., 0] * a[..., 1] - b[..., 1] * a[..., 0]
+
+
+@njit(cache=True)
+def _worst_corner(P, quads, start, cells, v, x, y):
+    """Smallest corner area of the quads around vertex v with v moved to (x, y)."""
+    worst = np.inf
+    for j in range(start[v], start[v + 1]):
+        q = cells[j]
+        for k in range(4):
+            a = quads[q, (k + 3) % 4]
+            b = quads[q, k]
+            c = quads[q, (k + 1) % 4]
+            ax, ay = (x, y) if a == v else (P[a, 0], P[a, 1])
+            bx, by = (x, y) if b == v else (P[b, 0], P[b, 1])
+            cx, cy = (x, y) if c == v else (P[c, 0], P[c, 1])
+            area = (cx - bx) * (ay - by) - (cy - by) * (ax - bx)
+            if area < worst:
+                worst = area
+    return worst
+
+
+@njit(cache=True)
+def _smoothed(points, quads, fixed, sweeps):
+    """Gauss-Seidel Laplacian sweeps over the free vertices. A move is kept when
+    it raises the smallest corner area of the quads around the vertex, or keeps
+    it above half of what the transfinite fill gave there: this untangles what
+    the fill folded at reflex corners and evens the rest without flattening
+    quads against a concave boundary. (A sequential sweep: each move sees the
+    previous ones.)"""
+    P = points.copy()
+    n = P.shape[0]
+    start, cells = _csr(n, quads)
+    floor = np.empty(n)
+    for v in range(n):
+        floor[v] = 0.5 * _worst_corner(P, quads, start, cells, v, P[v, 0], P[v, 1])
+    for _ in range(sweeps):
+        moved = 0
+        for v in range(n):
+            if fixed[v]:
+                continue
+            sx = 0.0
+            sy = 0.0
+            cnt = 0
+            for j in range(start[v], start[v + 1]):
+                q = cells[j]
+                for k in range(4):
+                    if quads[q, k] == v:
+                        for w in (quads[q, (k + 1) % 4], quads[q, (k + 3) % 4]):
+                            sx += P[w, 0]
+                            sy += P[w, 1]
+                            cnt += 1
+            x = sx / cnt
+            y = sy / cnt
+            now = _worst_corner(P, quads, start, cells, v, P[v, 0], P[v, 1])
+            new = _worst_corner(P, quads, start, cells, v, x, y)
+            if new > now or (new > 0.0 and new >= floor[v]):
+                if x != P[v, 0] or y != P[v, 1]:
+                    moved += 1
+                P[v, 0] = x
+                P[v, 1] = y
+        if moved == 0:
+            break
+    return P
+
+
+def _coons(bottom, right, top, left) -> np.ndarray:
+    """Transfinite interpolation on an ``(n1 + 1) x (n2 + 1)`` grid.
+
+    ``bottom`` and ``top`` run in ``u`` (n1 + 1 points), ``left`` and
+    ``right`` in ``v`` (n2 + 1); the corners are shared::
+
+        left[-1] = top[0]  ----  top[-1] = right[-1]
+           |                        |
+        left[0] = bottom[0] ---- bottom[-1] = right[0]
+    """
+    n1, n2 = len(bottom) - 1, len(left) - 1
+    u = np.linspace(0.0, 1.0, n1 + 1)[:, None, None]
+    v = np.linspace(0.0, 1.0, n2 + 1)[None, :, None]
+    B, T = bottom[:, None, :], top[:, None, :]
+    L, R = left[None, :, :], right[None, :, :]
+    grid = (
+        (1 - v) * B
+        + v * T
+        + (1 - u) * L
+        + u * R
+        - ((1 - u) * (1 - v) * bottom[0] + u * (1 - v) * bottom[-1])
+        - ((1 - u) * v * top[0] + u * v * top[-1])
+    )
+    grid[:, 0], grid[:, -1], grid[0, :], grid[-1, :] = bottom, top, left, right
+    return grid
+
+
+def _corner_area(a, b, c) -> float:
+    return 0.5 * float((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+
+
+def _inner_point(ring: np.ndarray, corners: np.ndarray, mids: np.ndarray) -> np.ndarray:
+    """The point joined to the side points: among the mean of the side points, the
+    mean of the corners, the area centroid and a 9 x 9 lattice over the corners'
+    bounding box, the one whose coarse quads ``(corner, side point, G, previous
+    side point)`` have the best worst quality ((8.4), 0 when not convex)."""
+    x, y = ring[:, 0], ring[:, 1]
+    cross = x * np.roll(y, -1) - np.roll(x, -1) * y
+    centroid = np.array(
+        [((x + np.roll(x, -1)) * cross).sum(), ((y + np.roll(y, -1)) * cross).sum()]
+    ) / (3 * cross.sum())
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    t = (np.arange(9) + 0.5) / 9
+    lattice = lo + np.stack(np.meshgrid(t, t), axis=-1).reshape(-1, 2) * (hi - lo)
+    g = np.vstack([mids.mean(axis=0), corners.mean(axis=0), centroid, lattice])
+    k, c = len(corners), len(g)
+    quads = np.stack(
+        [
+            np.broadcast_to(corners, (c, k, 2)),
+            np.broadcast_to(mids, (c, k, 2)),
+            np.broadcast_to(g[:, None, :], (c, k, 2)),
+            np.broadcast_to(np.roll(mids, 1, axis=0), (c, k, 2)),
+        ],
+        axis=2,
+    ).reshape(-1, 4, 2)
+    pts = quads.reshape(-1, 2)
+    cells = np.arange(len(pts)).reshape(-1, 4)
+    q = quality.cell_quality(pts, cells, "quad")
+    q = np.where(_corner_areas(pts, cells).min(axis=1) > 0, q, -1.0)
+    return g[int(np.argmax(q.reshape(c, k).min(axis=1)))]
+
+
+def quad_medial(
+    domain: Domain,
+    *,
+    method: str = "critical",
+    size: float | None = None,
+    levels: int | None = None,
+    h: float | None = None,
+    prune: float = DEFAULT_PRUNE,
+    progress: Progress | None = None,
+) -> QuadMedial:
+    """An all-quad mesh of a domain from its medial-axis partition (§9.7.2).
+
+    Parameters
+    ----------
+    domain : Domain
+    method : {"critical", "terminal"}
+        The partition (:func:`partition`).
+    size : float, optional
+        Target edge length of the transfinite fill: each class of sides that
+        conformity ties together gets the largest ``ceil(length / size)`` of
+        its members.
+    levels : int, optional
+        Instead of ``size``: ``levels`` more midpoint subdivisions (every
+        coarse quad becomes ``4**levels`` quads). Neither: ``levels=2``.
+    h, prune : optional
+        As :func:`~meshcore.medial.axis.medial_axis`.
+    progress : callable, optional
+
+    Returns
+    -------
+    QuadMedial
+        Only quads, counter-clockwise, of positive area, conforming
+        (coincident boundary points of neighbouring patches are one point),
+        boundary points on the input boundary (snapped onto its corners
+        where the counts allow, which covers a polygonal domain exactly).
+        ``stats["fallback"]`` says when a ``terminal`` partition folded and
+        the ``critical`` one was meshed instead.
+
+    Raises
+    ------
+    InputError
+        Both ``size`` and ``levels``, values out of range, or more than
+        :data:`MAX_QUADS` quads.
+    AlgorithmError
+        As :func:`partition`, or inverted quads left on the critical
+        partition (none on the domains tested).
+
+    References
+    ----------
+    Methods text §9.7.2, Figure 9.14; §8.5.3; Chapter 4 (algebraic methods).
+    """
+    if size is not None and levels is not None:
+        raise InputError("give size or levels, not both", loc=("levels",), code="bad_input")
+    if size is not None and not (math.isfinite(size) and size > 0):
+        raise InputError(f"size must be positive, got {size!r}", loc=("size",), code="bad_value")
+    if levels is None and size is None:
+        levels = 2
+    if levels is not None and not (0 <= int(levels) <= 10):
+        raise InputError(
+            f"levels must be between 0 and 10, got {levels!r}", loc=("levels",), code="bad_value"
+        )
+    part = partition(domain, method=method, h=h, prune=prune, progress=progress)
+    mesh, stats = _quads_on(part, size, levels)
+    if stats["invalid"] and method == "terminal":
+        # regions of 5 or 6 sides around reflex corners can fold; the critical
+        # partition's triangles and quads do not on the domains tested
+        fallback = partition(axis=part.axis, method="critical")
+        mesh, stats2 = _quads_on(fallback, size, levels)
+        stats = {
+            **stats2,
+            "fallback": f"the terminal partition gave {stats['invalid']} "
+            "inverted quads: meshed on the critical partition",
+        }
+        part = fallback
+    if stats["invalid"]:
+        raise AlgorithmError(
+            f"{stats['invalid']} quads came out inverted on this partition; try another "
+            "method, a smaller h or a smaller size"
+        )
+    report = quality.report(mesh)
+    return QuadMedial(mesh=mesh, partition=part, stats={**stats, "quality": report})
+
+
+def _quads_on(part: Partition, size: float | None, levels: int | None):
+    """Midpoint subdivision and transfinite fill of a partition's regions, then
+    smoothing; the mesh and its counts (``invalid``: quads of area <= 0)."""
+    ax = part.axis
+    points = part.points
+    p = len(ax.samples)
+    succ = ax.succ
+    pred = np.empty(p, dtype=np.int64)
+    pred[succ] = np.arange(p)
+    src = ax.segment_source
+    is_corner = np.zeros(len(points), dtype=bool)
+    is_corner[:p] = src[pred] != src  # input vertices between two input segments
+
+    # segments: half-sides (in canonical direction) and spokes
+    seg_xy: list[np.ndarray] = []
+    seg_fixed: list[np.ndarray] = []
+    half_id: dict[tuple[bytes, int], int] = {}
+    patches = []  # (s0, s0 reversed?, s1, s2, s3 reversed?) and corner points
+
+    def new_segment(xy, fixed) -> int:
+        seg_xy.append(xy)
+        seg_fixed.append(fixed)
+        return len(seg_xy) - 1
+
+    for verts, corner in zip(part.cycles, part.corners, strict=True):
+        ci = np.flatnonzero(corner)
+        verts = np.roll(verts, -ci[0])
+        ci = ci - ci[0]
+        k = len(ci)
+        bounds = np.append(ci, len(verts))
+        halves = []  # per side: (first-half id, reversed?), (second-half id, reversed?)
+        mids = []
+        for j in range(k):
+            side = np.append(verts[bounds[j] : bounds[j + 1]], verts[bounds[(j + 1)] % len(verts)])
+            canon = (
+                side
+                if side[0] < side[-1] or (side[0] == side[-1] and side[1] < side[-2])
+                else side[::-1]
+            )
+            flipped = canon is not side
+            key = canon.tobytes()
+            xy = points[canon]
+            s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+            if (key, 0) not in half_id:
+                fixed = is_corner[canon]
+                m, mid, at_vertex = _side_point(xy, s, fixed)
+                if at_vertex:  # the side point is vertex m
+                    first, second = xy[: m + 1], xy[m:]
+                    f1, f2 = fixed[: m + 1].copy(), fixed[m:].copy()
+                else:  # inside the piece (m, m + 1)
+                    first, second = np.vstack([xy[: m + 1], mid]), np.vstack([mid, xy[m + 1 :]])
+                    f1, f2 = np.append(fixed[: m + 1], True), np.insert(fixed[m + 1 :], 0, True)
+                f1[-1] = f2[0] = True
+                half_id[(key, 0)] = new_segment(first, f1)
+                half_id[(key, 1)] = new_segment(second, f2)
+            a, b = half_id[(key, 0)], half_id[(key, 1)]
+            mids.append(seg_xy[a][-1])
+            halves.append(((b, True), (a, True)) if flipped else ((a, False), (b, False)))
+        ring = points[verts]
+        cpts = points[verts[ci]]
+        g = _inner_point(ring, cpts, np.array(mids))
+        spokes = [new_segment(np.vstack([mids[j], g]), np.ones(2, bool)) for j in range(k)]
+        for j in range(k):
+            patches.append((halves[j][0], spokes[j], spokes[j - 1], halves[j - 1][1]))
+    # conformity classes: opposite patch sides, shared sides
+    n_seg = len(seg_xy)
+    pairs = np.array(
+        [[s0[0], s2] for s0, s1, s2, s3 in patches] + [[s1, s3[0]] for s0, s1, s2, s3 in patches],
+        dtype=np.int64,
+    )
+    label, n_classes = _classes(n_seg, pairs)
+    if levels is not None:
+        count = np.full(n_classes, 2 ** int(levels), dtype=np.int64)
+    else:
+        length = np.array([np.hypot(*np.diff(xy, axis=0).T).sum() for xy in seg_xy])
+        count = np.zeros(n_classes, dtype=np.int64)
+        np.maximum.at(count, label, np.maximum(1, np.ceil(length / size)).astype(np.int64))
+    n_of = count[label]
+    total = sum(int(n_of[s0[0]] * n_of[s1]) for s0, s1, _, _ in patches)
+    if total > MAX_QUADS:
+        raise InputError(
+            f"this would make {total:,} quads; at most {MAX_QUADS:,}: ask for a larger size "
+            "or fewer levels",
+            loc=("size" if size is not None else "levels",),
+            code="too_many_quads",
+        )
+    seg_pts = [
+        _polyline_points(xy, int(n_of[i]), fx)
+        for i, (xy, fx) in enumerate(zip(seg_xy, seg_fixed, strict=True))
+    ]
+
+    def along(ref):
+        sid, rev = ref
+        return seg_pts[sid][::-1] if rev else seg_pts[sid]
+
+    grids = []
+    for s0, s1, s2, s3 in patches:
+        bottom = along(s0)
+        right = seg_pts[s1]
+        top = seg_pts[s2]
+        left = along(s3)[::-1]
+        grids.append(_coons(bottom, right, top, left))
+    allpts = np.concatenate([g.reshape(-1, 2) for g in grids])
+    uniq, inverse = np.unique(allpts, axis=0, return_inverse=True)
+    inverse = inverse.ravel()
+    quads = []
+    offset = 0
+    for g in grids:
+        n1, n2 = g.shape[0] - 1, g.shape[1] - 1
+        ids = inverse[offset : offset + g.shape[0] * g.shape[1]].reshape(g.shape[0], g.shape[1])
+        offset += g.shape[0] * g.shape[1]
+        quads.append(
+            np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], axis=-1).reshape(
+                n1 * n2, 4
+            )
+        )
+    quads = np.concatenate(quads)
+    before = _corner_areas(uniq, quads).min(axis=1)
+    boundary = topology.boundary(Mesh(uniq, (CellBlock("quad", quads),))).cells[0].data
+    fixed = np.zeros(len(uniq), dtype=bool)
+    fixed[boundary.ravel()] = True
+    uniq = _smoothed(uniq, quads, fixed, SMOOTHING_SWEEPS)
+    mesh = Mesh(uniq, (CellBlock("quad", quads),))
+    area = quality.signed_area(uniq, quads, "quad")
+    stats = {
+        "quads": int(len(quads)),
+        "points": int(len(uniq)),
+        "coarse_quads": len(patches),
+        "regions": len(part.regions),
+        "side_classes": int(n_classes),
+        "area": float(area.sum()),
+        "not_convex_before_smoothing": int((before <= 0).sum()),
+        "invalid": int((area <= 0).sum()),
+        "domain_area": ax.domain.area,
+    }
+    return mesh, stats

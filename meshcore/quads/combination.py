@@ -1,0 +1,1472 @@
+r"""Quad meshes by triangle combination (§8.4): ``combine``.
+
+Input: a conforming triangle mesh, planar or a surface in 3D (§8.4.5), or a
+planar domain that is triangulated here first. Output: quads (plus the
+triangles that could not be combined, unless ``all_quad``), optionally
+improved by the operators of §8.4.3 (:mod:`meshcore.quads.optimization`).
+
+Pipeline
+--------
+1. **Dual graph.** Every interior edge ``uv`` between the triangles
+   ``(u, v, w1)`` and ``(v, u, w2)`` is a candidate quad ``(u, w2, v, w1)``
+   (counter-clockwise; nodes 0 and 2 are the ends of the edge that the
+   combination removes). A candidate is *allowed* when it is strictly
+   convex (planar: the exact :func:`~meshcore.geometry.predicates.orient2d`
+   at ``u`` and ``v``; on a surface: the corner turns of
+   :mod:`meshcore.mesh.quality` along the quad's vector area), when neither of
+   its corners at ``u`` and ``v`` is within ``flat_corner`` degrees of 0 or
+   180 (measured in the metric: the first drawback of §8.4.4, "a triangle
+   with an edge aligned with one of its neighbour", gives a quad with a flat
+   corner), and when its quality reaches ``min_quality``. Its weight is its
+   quality: ``angle`` (8.3)/(8.4) or (8.6) with a metric, ``simplified``
+   (8.7), or ``shape`` (8.8), all from :mod:`meshcore.mesh.quality`.
+2. **Selection** of the pairs, one compiled sequential kernel (numba) per
+   algorithm:
+
+   * ``stack`` (§8.4.2): a depth-first path from a triangle with two
+     boundary edges; from triangle ``K`` entered through edge ``e1`` the
+     next edges in the direct sense are tried, and a neighbour joins the
+     stack as ``K``'s child when it is not coloured yet and the pair is
+     allowed. When a triangle leaves the stack with one active child they
+     are combined; with none it stays for its father; with two it is
+     combined with its two children and its father into three quads around
+     its centroid (Figure 8.12, right) when those three quads are allowed,
+     else with its better child. Each connected part gets its own path
+     (Remark 8.5). On a tree this post-order rule is the optimal greedy
+     matching (leaves first).
+   * ``heap`` (§8.4.4): the allowed edges, best quality first; a pair is
+     formed when both triangles are still free (a sorted pass: the
+     qualities never change, so the heap of the text reduces to an order).
+   * ``frontal`` (Remark 8.8): triangles in breadth-first order from the
+     boundary inward (from triangle 0 on a closed surface); a free
+     triangle is combined with its best allowed free neighbour, and the
+     front moves on past both. No global sort.
+   * ``matching`` (beyond the text): a greedy start, the heap's order
+     with the "update as pairs are used" of the text kept as a second heap
+     (a triangle down to its last allowed free neighbour pairs with it
+     ahead of the quality order, the cheapest defence against the isolated
+     triangles of §8.4.4), then augmenting paths of Edmonds' blossom
+     algorithm, which pair leftovers two by two by flipping the pairs along
+     an alternating path in the dual graph: first one bounded search
+     (``search_cap`` triangles) from each leftover through pairs of quality
+     at least ``good_quality``, cheapest in lost quality first; then one
+     forest search from all the leftovers at once through every allowed
+     pair, breadth-first, dissolving only the two trees of each path found
+     (:func:`_forest_kernel`). When the forest stops no augmenting path is
+     left, so the number of leftovers is the least possible in the allowed
+     dual graph. Then alternating 4-cycles that raise the summed quality
+     are swapped in. It is a maximum-*cardinality* matching with a
+     quality-greedy start, not an exact maximum-weight matching (Edmonds'
+     weighted algorithm costs far more at a million triangles); the
+     cardinality is what decides the triangles left, quality comes second.
+
+3. **Domain input.** The domain is triangulated by
+   :func:`meshcore.triangulation.refinement.triangulate` in a sheared frame ``x' = A x``
+   with ``A = [[1, 1/2], [0, sqrt(3)/2]]``, and the mesh mapped back. The
+   triangulator's equilateral lattice of side ``h`` then becomes a square
+   grid of side ``h`` cut along one diagonal, whose pairs are squares of
+   quality 1 ("lay the triangles so that pairs make near-squares"); only
+   the layer along the boundary is irregular. ``pattern="equilateral"``
+   skips the shear (pairs are then 60/120 degree rhombi, quality 2/3).
+   With ``all_quad`` the domain is meshed at twice the size when
+   ``twice_size`` (§8.4.2, last paragraph), so that the final quads have
+   the requested size. The parity of the triangle count of a part is the
+   parity of its boundary edge count, and an odd part cannot be paired
+   completely (Remark 8.3): for domain input, one boundary edge of each odd
+   part (the longest) is split at its midpoint, which makes the count even
+   and keeps every input segment a chain of edges.
+4. **all_quad** (Figure 8.13): every edge gets its midpoint, every cell its
+   vertex centroid; a quad becomes four quads and a leftover triangle three,
+   so the mesh stays conforming. The four pieces of a quad are the quad cut
+   by its two bimedians (which meet at the vertex centroid), so areas add
+   up exactly up to rounding and convex quads give convex pieces.
+5. **optimize** (§8.4.3): see :mod:`meshcore.quads.optimization`.
+
+Choices the text leaves open
+----------------------------
+* Inverted (planar), degenerate, non-triangle, non-manifold or
+  inconsistently oriented input is refused with an
+  :class:`~meshcore.errors.InputError` naming the cells; overlaps between
+  non-adjacent triangles are not searched for.
+* Qualities are compared after rounding to ``quality_resolution``, so that
+  ties (a structured mesh has many) break by index and not by the last
+  bits of a rounding: the same mesh in an equivalent frame (stretched, with
+  the metric that undoes the stretch) gives the same pairs.
+* A metric per vertex (8.6) takes each candidate's least value over the
+  metrics of its four corners (16 corner values, Remark 8.6); ``simplified``
+  uses those at the ends of the removed edge (8.7); ``shape`` (8.8) is
+  isotropic in the text and takes a constant metric only. Points added by
+  the three-quad pattern and by ``all_quad`` get the mean metric of the
+  points they are made from. The quality report uses a constant metric; a
+  metric per vertex enters the weights only.
+
+Cost (``benchmarks/quads.py``, one Gmsh mesh of a square with a hole)
+----------------------------------------------------------------------
+97k triangles: ``heap`` 0.17 s, ``frontal`` 0.18 s, ``stack`` 0.32 s,
+``matching`` 0.38 s with no triangle left (Gmsh's Blossom 18.2 s); with
+``optimize`` 4.6 s, mean quality (8.4) 0.861, least 0.53 (Blossom 0.822,
+0.476). 10k triangles: ``matching`` with ``optimize`` 0.37 s (Blossom
+0.18 s). 964k triangles: ``heap`` 3.0 s, ``matching`` 7.3 s (17.8 s
+before the forest search). The tail of the matching dominated there: the last
+~900 leftovers sit deep inside the domain (median 92 triangle sizes from
+the boundary, measured) and one search per leftover grew trees of
+10^4-10^5 triangles, most of them failing (pass after pass, with growing
+caps). Our reading, not verified: in regular patches the dual graph is
+locally the bipartite honeycomb, so two leftovers of the same parity meet
+only through an odd cycle (an irregular vertex) that may be far away. The
+forest grows every tree at once and keeps the trees it does not use: after
+the 1024-triangle pass (1.7 s; 2339 of the heap's 7087 leftovers are
+still free) it pairs all of them but one in 2.6 s, against 12.3 s for the
+two passes with larger caps that it replaces. Measured and dropped: the forest ordered by
+path cost (a priority queue, 8.4 s alone), the forest restricted to good
+pairs first (11.7 s: the trees cannot meet and cover the mesh), the forest
+alone without the bounded pass (6.1 s in all, but mean 0.845 against 0.852
+after ``optimize`` at 10k triangles). From the
+domain with ``all_quad`` and ``twice_size``: mean 0.985 at 51k quads in
+1.2 s, 0.993 at 503k quads in 18.5 s.
+
+References
+----------
+Methods text §8.4.1 (the two combination patterns, Figure 8.12), §8.4.2
+(the stack path, Remark 8.5, twice size), §8.4.3 (optimization), §8.4.4
+((8.3)-(8.8), the heap, the two drawbacks, Figure 8.13, Remarks 8.6-8.8),
+§8.4.5 (surfaces), Remark 8.3 (parity). J. Edmonds, "Paths, trees, and
+flowers" (1965); J.-F. Remacle et al., "Blossom-Quad: a non-uniform
+quadrilateral mesh generator using a minimum-cost perfect-matching
+algorithm" (2012).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit
+from scipy.sparse import csgraph, csr_matrix
+
+from meshcore.errors import InputError
+from meshcore.geometry.predicates import orient2d
+from meshcore.mesh import CellBlock, Mesh, quality
+
+__all__ = [
+    "ALGORITHMS",
+    "MEASURES",
+    "QuadResult",
+    "check_input",
+    "check_metric_2d",
+    "combine",
+    "split_all",
+]
+
+ALGORITHMS = ("stack", "heap", "frontal", "matching")
+MEASURES = ("angle", "simplified", "shape")
+PATTERNS = ("squares", "equilateral")
+
+Progress = Callable[[float, str], None]
+
+
+@dataclass(frozen=True)
+class _Tolerances:
+    """Every threshold of the combination, in one place (angles in degrees)."""
+
+    #: A candidate whose corner at an end of the removed edge is within this
+    #: of 0 or 180 degrees (in the metric) is a flat quad: not combined.
+    flat_corner: float = 5.0
+    #: Qualities (in [0, 1]) are rounded to this before they are compared.
+    quality_resolution: float = 1e-9
+    #: Least gain of summed quality for a 4-cycle swap (qualities are <= 1).
+    gain: float = 1e-9
+    #: Whether the matching's greedy start lets a triangle down to its last
+    #: allowed neighbour pair first (fewer leftovers to augment from).
+    urgent_start: bool = True
+    #: Augmenting paths go through pairs at least this good first.
+    good_quality: float = 0.5
+    #: Largest alternating tree (triangles) grown from one leftover triangle in
+    #: the first pass (good pairs only, cheapest first); 0 skips that pass.
+    search_cap: int = 1 << 10
+    #: Cost of one alternating step in the augmenting search, against the
+    #: quality it loses: a path may be 1 / path_step times longer to lose 1 less.
+    path_step: float = 0.05
+    #: Sweeps of 4-cycle swaps at most.
+    swap_sweeps: int = 8
+
+
+TOL = _Tolerances()
+
+_SHEAR = np.array([[1.0, 0.5], [0.0, math.sqrt(3.0) / 2.0]])
+
+
+@dataclass(frozen=True)
+class QuadResult:
+    """What :func:`combine` returns.
+
+    Attributes
+    ----------
+    mesh : Mesh
+        Quads first (block 0), then the triangles left (block 1, if any).
+    quality_before, quality_after : dict
+        :func:`meshcore.mesh.quality.report` of the mesh before and after
+        optimization (the same dict when ``optimize`` is off).
+    pairs : int
+        Quads made of two triangles.
+    triples : int
+        Three-quad patterns (one triangle and its three neighbours).
+    triangles_left : int
+        Triangles not combined (before any ``all_quad`` split).
+    operators : dict
+        Per operator of §8.4.3, how many times it was applied (empty when
+        ``optimize`` is off).
+    stats : dict
+        Counts and timings (seconds per phase), plus ``warp`` (degrees, min
+        / mean / max) for quads on a surface.
+    """
+
+    mesh: Mesh
+    quality_before: dict
+    quality_after: dict
+    pairs: int
+    triples: int
+    triangles_left: int
+    operators: dict = field(default_factory=dict)
+    stats: dict = field(default_factory=dict)
+
+
+# ----------------------------------------------------------------------------- kernels
+# Every kernel below is an inherently sequential loop (a heap, a stack path, a
+# front, alternating-tree searches): each decision depends on the previous ones.
+# Triangle t has neighbours nb[t, k] across its local edge k (from node k to
+# node k + 1), -1 on the boundary; w[t, k] is the weight of combining t with
+# nb[t, k], negative when the pair is not allowed.
+
+
+@njit(cache=True)
+def _push(hk, hv, n, key, val):
+    i = n
+    hk[i] = key
+    hv[i] = val
+    while i > 0:
+        p = (i - 1) // 2
+        if hk[p] > hk[i] or (hk[p] == hk[i] and hv[p] < hv[i]):
+            break
+        hk[p], hk[i] = hk[i], hk[p]
+        hv[p], hv[i] = hv[i], hv[p]
+        i = p
+    return n + 1
+
+
+@njit(cache=True)
+def _pop(hk, hv, n):
+    n -= 1
+    hk[0] = hk[n]
+    hv[0] = hv[n]
+    i = 0
+    while True:
+        a = 2 * i + 1
+        if a >= n:
+            break
+        b = a + 1
+        c = a
+        if b < n and (hk[b] > hk[a] or (hk[b] == hk[a] and hv[b] < hv[a])):
+            c = b
+        if hk[i] > hk[c] or (hk[i] == hk[c] and hv[i] < hv[c]):
+            break
+        hk[c], hk[i] = hk[i], hk[c]
+        hv[c], hv[i] = hv[i], hv[c]
+        i = c
+    return n
+
+
+@njit(cache=True)
+def _last_option(nb, w, mate, r):
+    for i in range(3):
+        u = nb[r, i]
+        if u >= 0 and mate[u] < 0 and w[r, i] >= 0:
+            return i
+    return -1
+
+
+@njit(cache=True)
+def _heap_kernel(nb, w, order, mate, urgent):
+    """Best-first pairs (§8.4.4); with ``urgent``, a triangle's last option jumps the queue."""
+    m = nb.shape[0]
+    cnt = np.zeros(m, np.int64)
+    for t in range(m):
+        for k in range(3):
+            if nb[t, k] >= 0 and w[t, k] >= 0:
+                cnt[t] += 1
+    hk = np.empty(m + 1)
+    hv = np.empty(m + 1, np.int64)
+    hn = 0
+    for t in range(m):
+        if urgent and cnt[t] == 1:
+            i = _last_option(nb, w, mate, t)
+            hn = _push(hk, hv, hn, w[t, i], 3 * t + i)
+    pos = 0
+    pairs = 0
+    while True:
+        if hn > 0:
+            h = hv[0]
+            hn = _pop(hk, hv, hn)
+        elif pos < order.shape[0]:
+            h = order[pos]
+            pos += 1
+        else:
+            break
+        t = h // 3
+        s = nb[t, h % 3]
+        if mate[t] >= 0 or mate[s] >= 0:
+            continue
+        mate[t] = s
+        mate[s] = t
+        pairs += 1
+        for x in (t, s):
+            for j in range(3):
+                r = nb[x, j]
+                if r < 0 or mate[r] >= 0 or w[x, j] < 0:
+                    continue
+                cnt[r] -= 1
+                if urgent and cnt[r] == 1 and hn < m:
+                    i = _last_option(nb, w, mate, r)
+                    if i >= 0:
+                        hn = _push(hk, hv, hn, w[r, i], 3 * r + i)
+    return pairs
+
+
+@njit(cache=True)
+def _find(base, x):
+    """Representative of x's blossom (union-find with path halving)."""
+    while base[x] != x:
+        base[x] = base[base[x]]
+        x = base[x]
+    return x
+
+
+@njit(cache=True)
+def _lca(a, b, base, p, mate, mark):
+    x = a
+    while True:
+        x = _find(base, x)
+        mark[x] = True
+        if mate[x] < 0:
+            break
+        x = p[mate[x]]
+    y = b
+    while True:
+        y = _find(base, y)
+        if mark[y]:
+            break
+        y = p[mate[y]]
+    x = a
+    while True:
+        x = _find(base, x)
+        mark[x] = False
+        if mate[x] < 0:
+            break
+        x = p[mate[x]]
+    return y
+
+
+@njit(cache=True)
+def _weight(nb, w, a, b):
+    for k in range(3):
+        if nb[a, k] == b:
+            return w[a, k]
+    return -1.0
+
+
+@njit(cache=True)
+def _step_cost(nb, w, mate, v, k, step):
+    """Cost of the alternating step from ``v`` across its edge ``k`` and on along ``to``'s pair.
+
+    ``step`` plus the quality the step loses (the pair broken minus the pair
+    made, when positive): the search prefers paths that lose little, even
+    when they are much longer.
+    """
+    to = nb[v, k]
+    t2 = mate[to]
+    loss = 0.0
+    if t2 >= 0:
+        loss = _weight(nb, w, to, t2) - w[v, k]
+    return step + max(loss, 0.0)
+
+
+@njit(cache=True)
+def _scan(nb, w, mate, v, dv, step, hk, hv, hn):
+    """Queue the edges of the even triangle ``v`` (path cost ``dv``) by the cost of taking them."""
+    for k in range(3):
+        if nb[v, k] >= 0:
+            hn = _push(hk, hv, hn, -(dv + _step_cost(nb, w, mate, v, k, step)), 3 * v + k)
+    return hn
+
+
+@njit(cache=True)
+def _mark_path(v, b, child, base, p, mate, buf, nbuf):
+    """Walk from ``v`` up to the blossom base ``b``, re-linking ``p``; record the triangles.
+
+    Bases are merged only after both sides are walked (a walk may pass
+    through a sub-blossom whose base is not yet ``b``).
+    """
+    while _find(base, v) != b:
+        u = mate[v]
+        p[v] = child
+        child = u
+        buf[nbuf] = v
+        buf[nbuf + 1] = u
+        nbuf += 2
+        v = p[u]
+    return nbuf
+
+
+@njit(cache=True)
+def _augment_kernel(nb, w, thr, mate, cap, step):
+    """Edmonds' augmenting paths from every free triangle (blossoms contracted).
+
+    The alternating tree grows cheapest first (Dijkstra's order instead of
+    breadth-first: Edmonds' search finds an augmenting path whenever one
+    exists in whatever order it scans), by :func:`_step_cost`. Blossoms are
+    contracted by union-find on their bases (only the path from each side
+    up to the base is walked), and the tree of one search is reset through
+    the list of the triangles it touched, so a search costs about the size
+    of its tree, not ``m``. Returns the number of augmentations.
+    """
+    m = nb.shape[0]
+    base = np.arange(m)
+    p = np.full(m, -1, np.int64)
+    used = np.zeros(m, np.bool_)
+    mark = np.zeros(m, np.bool_)
+    buf = np.empty(2 * m + 2, np.int64)
+    dist = np.zeros(m)
+    hk = np.empty(3 * m + 3)
+    hv = np.empty(3 * m + 3, np.int64)
+    touched = np.empty(m + 3, np.int64)
+    gained = 0
+    for root in range(m):
+        if mate[root] >= 0:
+            continue
+        ok = False
+        for k in range(3):
+            if nb[root, k] >= 0 and w[root, k] >= thr:
+                ok = True
+        if not ok:
+            continue
+        nt = 0
+        used[root] = True
+        dist[root] = 0.0
+        touched[nt] = root
+        nt += 1
+        hn = _scan(nb, w, mate, root, 0.0, step, hk, hv, 0)
+        end = -1
+        while hn > 0 and end < 0 and nt < cap:
+            h = hv[0]
+            hn = _pop(hk, hv, hn)
+            v = h // 3
+            k = h % 3
+            to = nb[v, k]
+            if w[v, k] < thr or mate[v] == to or _find(base, v) == _find(base, to):
+                continue
+            if to == root or (mate[to] >= 0 and p[mate[to]] >= 0):
+                # a blossom: contract it onto the base of the paths' meeting point
+                cb = _lca(v, to, base, p, mate, mark)
+                nbuf = _mark_path(v, cb, to, base, p, mate, buf, 0)
+                nbuf = _mark_path(to, cb, v, base, p, mate, buf, nbuf)
+                for i in range(nbuf):
+                    r = _find(base, buf[i])
+                    if r != cb:
+                        base[r] = cb
+                dv = dist[v]
+                for i in range(1, nbuf, 2):  # the odd triangles of the cycle turn even
+                    x = buf[i]
+                    if not used[x]:
+                        used[x] = True
+                        dist[x] = dv
+                        if hn + 3 <= hk.shape[0]:
+                            hn = _scan(nb, w, mate, x, dv, step, hk, hv, hn)
+            elif p[to] < 0:
+                p[to] = v
+                touched[nt] = to
+                nt += 1
+                if mate[to] < 0:
+                    end = to
+                    break
+                to2 = mate[to]
+                used[to2] = True
+                dist[to2] = dist[v] + _step_cost(nb, w, mate, v, k, step)
+                touched[nt] = to2
+                nt += 1
+                if hn + 3 <= hk.shape[0]:
+                    hn = _scan(nb, w, mate, to2, dist[to2], step, hk, hv, hn)
+        if end >= 0:
+            v = end
+            while v >= 0:
+                pv = p[v]
+                ppv = mate[pv]
+                mate[v] = pv
+                mate[pv] = v
+                v = ppv
+            gained += 1
+        for i in range(nt):
+            x = touched[i]
+            base[x] = x
+            p[x] = -1
+            used[x] = False
+    return gained
+
+
+@njit(cache=True)
+def _enqueue(q, qt, x):
+    if qt == q.shape[0]:
+        q2 = np.empty(2 * q.shape[0], np.int64)
+        q2[:qt] = q
+        q = q2
+    q[qt] = x
+    return q, qt + 1
+
+
+@njit(cache=True)
+def _forest_kernel(nb, w, thr, mate):
+    """Edmonds' search from every free triangle at once (a forest), trees dissolved after use.
+
+    Every free triangle roots a tree, and the trees grow together,
+    breadth-first (one queue of even triangles; no costs: a priority queue
+    by :func:`_step_cost` was measured 2.8 times slower at 964k triangles).
+    An edge from an even triangle to an even triangle of the same tree
+    contracts a blossom (as in :func:`_augment_kernel`); to an even
+    triangle of another tree it closes an augmenting path ``root - ... - v -
+    to - ... - root'``, which is flipped. Only the two trees of that path
+    are dissolved (their triangles unlabelled, and the even triangles of
+    other trees next to them queued again); every other tree stays as grown,
+    so no search starts over and no failed search is paid for twice. When
+    the queue is empty no augmenting path is left through pairs of quality
+    at least ``thr`` (the trees are Edmonds' Hungarian forest): the matching
+    is of maximum cardinality. Returns the number of augmentations.
+    """
+    m = nb.shape[0]
+    base = np.arange(m)
+    p = np.full(m, -1, np.int64)
+    root = np.full(m, -1, np.int64)
+    even = np.zeros(m, np.bool_)
+    mark = np.zeros(m, np.bool_)
+    buf = np.empty(2 * m + 2, np.int64)
+    nxt = np.full(m, -1, np.int64)  # members of a tree: a list through nxt from head[root]
+    head = np.full(m, -1, np.int64)
+    q = np.empty(max(m, 16), np.int64)
+    qh = 0
+    qt = 0
+    for r in range(m):
+        if mate[r] < 0:
+            root[r] = r
+            even[r] = True
+            head[r] = r
+            q, qt = _enqueue(q, qt, r)
+    gained = 0
+    while qh < qt:
+        v = q[qh]
+        qh += 1
+        if qh > (q.shape[0] >> 1) and qh > 4096:  # drop the consumed half
+            q[: qt - qh] = q[qh:qt]
+            qt -= qh
+            qh = 0
+        for k in range(3):
+            if not even[v]:
+                break
+            to = nb[v, k]
+            if to < 0 or w[v, k] < thr or mate[v] == to:
+                continue
+            rv = root[v]
+            if root[to] < 0:
+                p[to] = v
+                to2 = mate[to]
+                for x in (to, to2):
+                    root[x] = rv
+                    nxt[x] = head[rv]
+                    head[rv] = x
+                even[to2] = True
+                q, qt = _enqueue(q, qt, to2)
+                continue
+            if not even[to] or _find(base, v) == _find(base, to):
+                continue
+            if root[to] == rv:
+                cb = _lca(v, to, base, p, mate, mark)
+                nbuf = _mark_path(v, cb, to, base, p, mate, buf, 0)
+                nbuf = _mark_path(to, cb, v, base, p, mate, buf, nbuf)
+                for i in range(nbuf):
+                    r = _find(base, buf[i])
+                    if r != cb:
+                        base[r] = cb
+                for i in range(1, nbuf, 2):
+                    x = buf[i]
+                    if not even[x]:
+                        even[x] = True
+                        q, qt = _enqueue(q, qt, x)
+                continue
+            rt = root[to]
+            o = mate[to]
+            mate[to] = -1
+            while o >= 0:
+                y = p[o]
+                n2 = mate[y]
+                mate[o] = y
+                mate[y] = o
+                o = n2
+            p[to] = v
+            x = to
+            while x >= 0:
+                px = p[x]
+                ppx = mate[px]
+                mate[x] = px
+                mate[px] = x
+                x = ppx
+            gained += 1
+            for r in (rv, rt):
+                x = head[r]
+                while x >= 0:
+                    root[x] = -1
+                    even[x] = False
+                    p[x] = -1
+                    base[x] = x
+                    x = nxt[x]
+            for r in (rv, rt):
+                x = head[r]
+                head[r] = -1
+                while x >= 0:
+                    for j in range(3):
+                        y = nb[x, j]
+                        if y >= 0 and even[y]:
+                            q, qt = _enqueue(q, qt, y)
+                    n2 = nxt[x]
+                    nxt[x] = -1
+                    x = n2
+            break
+    return gained
+
+
+@njit(cache=True)
+def _swap_kernel(nb, w, mate, gain, sweeps):
+    """Swap pairs (a, b), (c, d) for (a, c), (b, d) when the summed quality rises."""
+    m = nb.shape[0]
+    swaps = 0
+    for _ in range(sweeps):
+        changed = 0
+        for a in range(m):
+            b = mate[a]
+            if b < 0:
+                continue
+            wab = _weight(nb, w, a, b)
+            best = gain
+            bc = -1
+            bd = -1
+            for k in range(3):
+                c = nb[a, k]
+                if c < 0 or c == b or w[a, k] < 0:
+                    continue
+                d = mate[c]
+                if d < 0 or d == a or d == b:
+                    continue
+                wbd = _weight(nb, w, b, d)
+                if wbd < 0:
+                    continue
+                g = w[a, k] + wbd - wab - _weight(nb, w, c, d)
+                if g > best:
+                    best = g
+                    bc = c
+                    bd = d
+            if bc >= 0:
+                mate[a] = bc
+                mate[bc] = a
+                mate[b] = bd
+                mate[bd] = b
+                changed += 1
+        swaps += changed
+        if changed == 0:
+            break
+    return swaps
+
+
+@njit(cache=True)
+def _local_index(nb, t, s):
+    for k in range(3):
+        if nb[t, k] == s:
+            return k
+    return -1
+
+
+@njit(cache=True)
+def _stack_kernel(nb, w, w3, starts, start_edge, mate, triples):
+    """The stack path of §8.4.2; returns the number of three-quad patterns."""
+    m = nb.shape[0]
+    color = np.zeros(m, np.bool_)
+    active = np.ones(m, np.bool_)
+    father = np.full(m, -1, np.int64)
+    came = np.zeros(m, np.int64)
+    tried = np.zeros(m, np.int64)
+    stack = np.empty(m, np.int64)
+    ntr = 0
+    for s0 in range(starts.shape[0]):
+        st = starts[s0]
+        if color[st]:
+            continue
+        color[st] = True
+        came[st] = start_edge[s0]
+        sp = 1
+        stack[0] = st
+        while sp > 0:
+            K = stack[sp - 1]
+            pushed = False
+            while tried[K] < 3:
+                k = (came[K] + 1 + tried[K]) % 3
+                tried[K] += 1
+                N = nb[K, k]
+                if N >= 0 and not color[N] and w[K, k] >= 0:
+                    color[N] = True
+                    father[N] = K
+                    came[N] = _local_index(nb, N, K)
+                    stack[sp] = N
+                    sp += 1
+                    pushed = True
+                    break
+            if pushed:
+                continue
+            sp -= 1
+            if not active[K]:
+                continue
+            nc = 0
+            c0 = -1
+            c1 = -1
+            for k in range(3):
+                N = nb[K, k]
+                if N >= 0 and father[N] == K and active[N]:
+                    if nc == 0:
+                        c0 = k
+                    else:
+                        c1 = k
+                    nc += 1
+            F = father[K]
+            kf = -1 if F < 0 else _local_index(nb, K, F)
+            if nc == 0:
+                continue
+            if nc == 2 and F >= 0 and active[F] and w3[K]:
+                triples[ntr, 0] = K
+                for k in range(3):
+                    triples[ntr, 1 + k] = nb[K, k]
+                    active[nb[K, k]] = False
+                active[K] = False
+                ntr += 1
+                continue
+            kc = c0
+            if nc == 2 and w[K, c1] > w[K, c0]:
+                kc = c1
+            if w[K, kc] >= 0:
+                N = nb[K, kc]
+            elif kf >= 0 and active[F] and w[K, kf] >= 0:
+                N = F
+            else:
+                continue
+            mate[K] = N
+            mate[N] = K
+            active[K] = False
+            active[N] = False
+    return ntr
+
+
+@njit(cache=True)
+def _frontal_kernel(nb, w, seeds, mate):
+    """Remark 8.8: combine in breadth-first order from the boundary inward."""
+    m = nb.shape[0]
+    queued = np.zeros(m, np.bool_)
+    queue = np.empty(m, np.int64)
+    qh = 0
+    qt = 0
+    for i in range(seeds.shape[0]):
+        t = seeds[i]
+        if not queued[t]:
+            queued[t] = True
+            queue[qt] = t
+            qt += 1
+    nxt = 0
+    pairs = 0
+    while True:
+        if qh == qt:  # a part with no boundary (a closed surface): seed it
+            while nxt < m and queued[nxt]:
+                nxt += 1
+            if nxt == m:
+                break
+            queued[nxt] = True
+            queue[qt] = nxt
+            qt += 1
+        t = queue[qh]
+        qh += 1
+        if mate[t] < 0:
+            best = -1
+            for k in range(3):
+                s = nb[t, k]
+                if s >= 0 and mate[s] < 0 and w[t, k] >= 0 and (best < 0 or w[t, k] > w[t, best]):
+                    best = k
+            if best >= 0:
+                s = nb[t, best]
+                mate[t] = s
+                mate[s] = t
+                pairs += 1
+                for k in range(3):
+                    r = nb[s, k]
+                    if r >= 0 and not queued[r]:
+                        queued[r] = True
+                        queue[qt] = r
+                        qt += 1
+        for k in range(3):
+            r = nb[t, k]
+            if r >= 0 and not queued[r]:
+                queued[r] = True
+                queue[qt] = r
+                qt += 1
+    return pairs
+
+
+# ----------------------------------------------------------------------------- input
+
+
+def _check_mesh(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Points ``(n, d)`` and triangles ``(m, 3)`` of a checked triangle mesh."""
+    if not isinstance(mesh, Mesh):
+        raise InputError("mesh must be a Mesh", loc=("mesh",), code="bad_shape")
+    try:
+        mesh.check()
+    except InputError as exc:
+        raise exc.prefixed("mesh") from None
+    for b, block in enumerate(mesh.cells):
+        if block.type != "triangle" and len(block):
+            raise InputError(
+                f"cell block {b} holds {block.type} cells; quad combination takes triangles only",
+                loc=("mesh", "cells", b, "type"),
+                code="unsupported_cell_type",
+            )
+    blocks = [b.data for b in mesh.cells if b.type == "triangle"]
+    tri = np.concatenate(blocks) if len(blocks) > 1 else blocks[0]
+    return mesh.points, np.ascontiguousarray(tri, dtype=np.int64)
+
+
+def _cell_loc(mesh: Mesh, c: int) -> tuple:
+    """``("mesh", "cells", b, "data", i)`` of the ``c``-th triangle over all blocks."""
+    for b, block in enumerate(mesh.cells):
+        if c < len(block):
+            return ("mesh", "cells", b, "data", int(c))
+        c -= len(block)
+    return ("mesh", "cells")
+
+
+def _refuse_cells(mesh: Mesh, bad: np.ndarray, what: str, code: str) -> None:
+    idx = np.flatnonzero(bad)
+    if not len(idx):
+        return
+    listed = ", ".join(str(int(i)) for i in idx[:10])
+    more = f" (and {len(idx) - 10} more)" if len(idx) > 10 else ""
+    msg = f"{len(idx)} triangle(s) {what}: {listed}{more}"
+    errors = [{"loc": list(_cell_loc(mesh, int(i))), "msg": msg, "type": code} for i in idx[:10]]
+    raise InputError(msg, code=code, errors=errors)
+
+
+def _neighbours(mesh: Mesh, P: np.ndarray, tri: np.ndarray):
+    """Neighbour table ``(m, 3)`` (-1 on the boundary), refusing bad topology and cells."""
+    m = len(tri)
+    if P.shape[1] == 2:
+        sign = orient2d(P[tri[:, 0]], P[tri[:, 1]], P[tri[:, 2]])
+        _refuse_cells(mesh, sign < 0, "are inverted (clockwise)", "inverted_cell")
+        _refuse_cells(mesh, sign == 0, "are flat (zero area)", "degenerate_cell")
+    else:
+        area = quality.signed_area(P, tri)
+        _refuse_cells(mesh, ~(area > 0), "are flat (zero area)", "degenerate_cell")
+    a = tri.ravel()
+    b = np.roll(tri, -1, axis=1).ravel()
+    n = len(P)
+    key = np.minimum(a, b) * n + np.maximum(a, b)
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    start = np.r_[True, ks[1:] != ks[:-1]]
+    gid = np.cumsum(start) - 1
+    count = np.bincount(gid)
+    many = count[gid] > 2
+    if many.any():
+        bad = np.zeros(m, bool)
+        bad[order[many] // 3] = True
+        _refuse_cells(
+            mesh, bad, "share an edge with two or more others (non-manifold)", "nonmanifold_edge"
+        )
+    nb = np.full(3 * m, -1, np.int64)
+    two = np.flatnonzero(count[gid] == 2)
+    first = two[start[two]]
+    h1, h2 = order[first], order[first + 1]
+    same = a[h1] == a[h2]
+    if same.any():
+        bad = np.zeros(m, bool)
+        bad[h1[same] // 3] = True
+        bad[h2[same] // 3] = True
+        what = (
+            "overlap a neighbour (same orientation along a shared edge)"
+            if P.shape[1] == 2
+            else "are oriented against a neighbour"
+        )
+        _refuse_cells(mesh, bad, what, "inconsistent_orientation")
+    nb[h1] = h2 // 3
+    nb[h2] = h1 // 3
+    return nb.reshape(m, 3)
+
+
+def _quantized(q: np.ndarray) -> np.ndarray:
+    r = TOL.quality_resolution
+    return np.round(q / r) * r
+
+
+def _measure(points, quads, name: str, metric) -> np.ndarray:
+    if name == "angle":
+        return quality.quad_quality(points, quads, metric)
+    if name == "simplified":
+        return quality.quad_quality_simplified(points, quads, metric)
+    return quality.quad_shape(points, quads, metric)
+
+
+def _candidates(P, tri, nb, measure: str, metric, min_quality: float):
+    """Quads ``(m, 3, 4)`` of every (triangle, edge) and their weights ``(m, 3)`` (< 0: refused)."""
+    m = len(tri)
+    t = np.repeat(np.arange(m), 3)
+    k = np.tile(np.arange(3), m)
+    s = nb.ravel()
+    inner = np.flatnonzero((s >= 0) & (t < s))
+    u = tri[t[inner], k[inner]]
+    v = tri[t[inner], (k[inner] + 1) % 3]
+    w1 = tri[t[inner], (k[inner] + 2) % 3]
+    s_in = s[inner]
+    # the apex of s: its vertex that is neither u nor v
+    ts = tri[s_in]
+    w2 = ts.sum(axis=1) - u - v
+    quads = np.column_stack([u, w2, v, w1])
+    ok = _allowed(P, quads, metric)
+    q = np.where(ok, _quantized(_measure(P, quads, measure, metric)), -1.0)
+    q[q < min_quality] = -1.0
+    w = np.full(3 * m, -1.0)
+    w[3 * t[inner] + k[inner]] = q
+    # the same weight seen from s
+    ks = np.argmax(nb[s_in] == t[inner][:, None], axis=1)
+    w[3 * s_in + ks] = q
+    allq = np.zeros((3 * m, 4), np.int64)
+    allq[3 * t[inner] + k[inner]] = quads
+    allq[3 * s_in + ks] = quads
+    return allq.reshape(m, 3, 4), w.reshape(m, 3)
+
+
+def _allowed(P, quads, metric) -> np.ndarray:
+    """Strictly convex candidates without a flat corner at the ends of the removed edge."""
+    u, w2, v, w1 = (P[quads[:, i]] for i in range(4))
+    if P.shape[1] == 2:
+        convex = (orient2d(w1, u, w2) > 0) & (orient2d(w2, v, w1) > 0)
+    else:
+        convex = np.ones(len(quads), bool)
+    # (8.7) at u and v is 2 theta / pi or 2 - 2 theta / pi: within f of 0 or 180 degrees
+    # is a value under f / 90; 0 for a reflex corner (on a surface, the convexity test).
+    corner = quality.quad_quality_simplified(P, quads, metric)
+    return convex & (corner > TOL.flat_corner / 90.0)
+
+
+def _check_metric(metric, P) -> np.ndarray | None:
+    if metric is None:
+        return None
+    quality.metric_factors(metric, P.shape[1], len(P))  # raises located InputErrors
+    return np.asarray(metric, dtype=np.float64)
+
+
+def check_input(mesh: Mesh, metric=None) -> None:
+    """Raise the InputError :func:`combine` would raise for this mesh and metric.
+
+    Parameters
+    ----------
+    mesh : Mesh
+    metric : (d, d) or (n, d, d) float64, optional
+    """
+    P, tri = _check_mesh(mesh)
+    _neighbours(mesh, P, tri)
+    _check_metric(metric, P)
+
+
+def check_metric_2d(metric) -> None:
+    """Raise an InputError unless ``metric`` is a constant 2x2 SPD matrix (domain input)."""
+    if np.ndim(metric) == 3:
+        raise InputError(
+            "with domain input the metric must be constant (the points are not known yet)",
+            loc=("metric",),
+            code="bad_metric",
+        )
+    quality.metric_factors(metric, 2, 0)
+
+
+# ----------------------------------------------------------------------------- domain input
+
+
+def _triangulated(domain, size, size_field, min_angle, pattern, keep_boundary, progress):
+    """Triangles of a domain laid for combination (sheared lattice), with even parts."""
+    from meshcore.domain.planar import Domain, parse_domain
+    from meshcore.triangulation.refinement import triangulate
+
+    dom = domain if isinstance(domain, Domain) else parse_domain(domain)
+    A = _SHEAR if pattern == "squares" else np.eye(2)
+    field_ = None
+    if size_field is not None:
+        fp = np.asarray(size_field["points"], dtype=np.float64)
+        field_ = {"points": fp @ A.T if len(fp) else fp, "values": size_field["values"]}
+    sheared = dataclasses.replace(
+        dom,
+        points=dom.points @ A.T,
+        area=dom.area * float(np.linalg.det(A)),
+    )
+    res = triangulate(
+        sheared,
+        size=size,
+        size_field=field_,
+        min_angle=min_angle,
+        keep_boundary=keep_boundary,
+        progress=progress,
+    )
+    P = res.mesh.points @ np.linalg.inv(A).T
+    P[: len(dom.points)] = dom.points  # the input vertices exactly, not their round trip
+    tri = res.mesh.cells[0].data
+    P, tri = _drop_lonely_boundary_points(P, tri, len(dom.points))
+    P, tri = _even_parts(P, tri)
+    return Mesh(P, (CellBlock("triangle", tri),)), dom
+
+
+def _drop_lonely_boundary_points(P, tri, n_input: int):
+    """Remove the added boundary points held by two triangles only.
+
+    Such a point ``v`` splits an input segment ``a d``, and its two triangles
+    ``a v c`` and ``v d c`` make a quad with a flat corner at ``v``: they can
+    never be combined (the first drawback of §8.4.4). The triangle ``a d c``
+    replaces them when it is counter-clockwise (exact predicate); ``a d``
+    is then the chain of the segment. Input vertices are never removed.
+    """
+    m = len(tri)
+    val = np.bincount(tri.ravel(), minlength=len(P))
+    cand = np.flatnonzero(val == 2)
+    cand = cand[cand >= n_input]
+    if not len(cand):
+        return P, tri
+    holders = np.flatnonzero(np.isin(tri, cand).any(axis=1))
+    corner = np.isin(tri[holders], cand)
+    # a triangle holding two candidates (two lonely points next to each other) is left alone
+    single = corner.sum(axis=1) == 1
+    holders, corner = holders[single], corner[single]
+    j = np.argmax(corner, axis=1)
+    v = tri[holders, j]
+    order = np.argsort(v, kind="stable")
+    v, holders, j = v[order], holders[order], j[order]
+    pair = np.flatnonzero(v[1:] == v[:-1])
+    pair = pair[np.r_[True, pair[1:] != pair[:-1] + 1]] if len(pair) else pair
+    t1, t2, j1, j2 = holders[pair], holders[pair + 1], j[pair], j[pair + 1]
+    # orient so that t1 = (v, d, c) and t2 = (a, v, c): t1's next vertex after v is
+    # t2's previous one (c, the shared apex)
+    c1 = tri[t1, (j1 + 2) % 3]
+    swap = c1 != tri[t2, (j2 + 1) % 3]
+    t1, t2 = np.where(swap, t2, t1), np.where(swap, t1, t2)
+    j1, j2 = np.where(swap, j2, j1), np.where(swap, j1, j2)
+    d = tri[t1, (j1 + 1) % 3]
+    c = tri[t1, (j1 + 2) % 3]
+    a = tri[t2, (j2 + 2) % 3]
+    ok = (tri[t2, (j2 + 1) % 3] == c) & (orient2d(P[a], P[d], P[c]) > 0)
+    t1, t2, a, d, c = t1[ok], t2[ok], a[ok], d[ok], c[ok]
+    if not len(t1):
+        return P, tri
+    tri = tri.copy()
+    tri[t1] = np.column_stack([a, d, c])
+    keep = np.ones(m, bool)
+    keep[t2] = False
+    tri = tri[keep]
+    used = np.zeros(len(P), bool)
+    used[tri.ravel()] = True
+    new = np.cumsum(used) - 1
+    return P[used], new[tri]
+
+
+def _even_parts(P, tri):
+    """Split the longest boundary edge of every part with an odd triangle count (Remark 8.3)."""
+    m = len(tri)
+    a = tri.ravel()
+    b = np.roll(tri, -1, axis=1).ravel()
+    n = len(P)
+    key = np.minimum(a, b) * n + np.maximum(a, b)
+    uniq, inv, cnt = np.unique(key, return_inverse=True, return_counts=True)
+    h = np.arange(3 * m)
+    inner = cnt[inv] == 2
+    order = np.argsort(inv[inner], kind="stable")
+    hh = h[inner][order]
+    t1, t2 = hh[0::2] // 3, hh[1::2] // 3
+    g = csr_matrix((np.ones(len(t1)), (t1, t2)), shape=(m, m))
+    nparts, label = csgraph.connected_components(g, directed=False)
+    odd = np.flatnonzero(np.bincount(label, minlength=nparts) % 2 == 1)
+    if not len(odd):
+        return P, tri
+    bh = h[cnt[inv] == 1]
+    blen = np.linalg.norm(P[b[bh]] - P[a[bh]], axis=1)
+    bpart = label[bh // 3]
+    pick = []
+    for part in odd:  # a loop over parts, not cells
+        cand = np.flatnonzero(bpart == part)
+        if len(cand):
+            pick.append(bh[cand[np.argmax(blen[cand])]])
+    pick = np.asarray(pick, dtype=np.int64)
+    t = pick // 3
+    k = pick % 3
+    u, v, x = tri[t, k], tri[t, (k + 1) % 3], tri[t, (k + 2) % 3]
+    mid = np.arange(n, n + len(pick))
+    P = np.concatenate([P, 0.5 * (P[u] + P[v])])
+    tri = tri.copy()
+    tri[t] = np.column_stack([u, mid, x])
+    tri = np.concatenate([tri, np.column_stack([mid, v, x])])
+    return P, tri
+
+
+# ----------------------------------------------------------------------------- splitting
+
+
+def split_all(
+    points: np.ndarray, quads: np.ndarray, triangles: np.ndarray, metric=None, segments=None
+):
+    """Every quad into four quads and every triangle into three (Figure 8.13).
+
+    Parameters
+    ----------
+    points : (n, d) float64
+    quads : (q, 4) int
+    triangles : (t, 3) int
+    metric : (n, d, d) float64, optional
+        Extended to the new points (the mean of the points they are made from).
+    segments : (s, 2) int, optional
+        Edges of the cells (a boundary) to follow through the split.
+
+    Returns
+    -------
+    points : (n + e + q + t, d) float64
+        The input points, then one midpoint per edge, then one centroid per cell.
+    quads : (4 q + 3 t, 4) int64
+        Counter-clockwise when the input cells are; conforming.
+    metric : (n + e + q + t, d, d) float64 or None
+    segments : (2 s, 2) int64 or None
+        Each given edge ``(a, b)`` as ``(a, m)`` and ``(m, b)``, ``m`` its midpoint.
+
+    References
+    ----------
+    §8.4.2 (twice size), §8.4.4 and Figure 8.13.
+    """
+    n = len(points)
+    cells = [
+        np.asarray(quads, np.int64).reshape(-1, 4),
+        np.asarray(triangles, np.int64).reshape(-1, 3),
+    ]
+    heads = np.concatenate([c.ravel() for c in cells])
+    tails = np.concatenate([np.roll(c, -1, axis=1).ravel() for c in cells])
+    key = np.minimum(heads, tails) * n + np.maximum(heads, tails)
+    uniq, inv = np.unique(key, return_inverse=True)
+    e0, e1 = uniq // n, uniq % n
+    ne = len(uniq)
+    nq, nt = len(cells[0]), len(cells[1])
+    mids = 0.5 * (points[e0] + points[e1])
+    cq = points[cells[0]].mean(axis=1) if nq else np.zeros((0, points.shape[1]))
+    ct = points[cells[1]].mean(axis=1) if nt else np.zeros((0, points.shape[1]))
+    newp = np.concatenate([points, mids, cq, ct])
+    out = []
+    off = 0
+    for c, kk, cbase in ((cells[0], 4, n + ne), (cells[1], 3, n + ne + nq)):
+        mc = len(c)
+        if not mc:
+            continue
+        em = n + inv[off : off + kk * mc].reshape(mc, kk)
+        off += kk * mc
+        centre = cbase + np.arange(mc)
+        for i in range(kk):
+            out.append(np.column_stack([c[:, i], em[:, i], centre, em[:, i - 1]]))
+    newq = np.concatenate(out) if out else np.zeros((0, 4), np.int64)
+    newm = None
+    if metric is not None and np.ndim(metric) == 3:
+        metric = np.asarray(metric)
+        mm = 0.5 * (metric[e0] + metric[e1])
+        mq = metric[cells[0]].mean(axis=1) if nq else np.zeros((0,) + metric.shape[1:])
+        mt = metric[cells[1]].mean(axis=1) if nt else np.zeros((0,) + metric.shape[1:])
+        newm = np.concatenate([metric, mm, mq, mt])
+    if segments is None:
+        return newp, newq, newm
+    seg = np.asarray(segments, np.int64).reshape(-1, 2)
+    skey = np.minimum(seg[:, 0], seg[:, 1]) * n + np.maximum(seg[:, 0], seg[:, 1])
+    mid = n + np.searchsorted(uniq, skey)
+    newseg = np.concatenate([np.column_stack([seg[:, 0], mid]), np.column_stack([mid, seg[:, 1]])])
+    return newp, newq, newm, newseg
+
+
+# ----------------------------------------------------------------------------- entry point
+
+
+def _choose(value, name: str, allowed: tuple[str, ...]) -> str:
+    if value not in allowed:
+        raise InputError(
+            f"{name} must be one of {', '.join(allowed)}, got {value!r}",
+            loc=(name,),
+            code="bad_value",
+        )
+    return value
+
+
+def _report(mesh: Mesh, metric, boundary) -> dict:
+    const = metric if metric is not None and np.ndim(metric) == 2 else None
+    return quality.report(mesh, boundary_segments=boundary, metric=const)
+
+
+def _mesh_of(P, quads, tris) -> Mesh:
+    blocks = [CellBlock("quad", quads)]
+    if len(tris):
+        blocks.append(CellBlock("triangle", tris))
+    return Mesh(P, tuple(blocks))
+
+
+def _boundary_edges(tri: np.ndarray, nb: np.ndarray) -> np.ndarray:
+    t, k = np.nonzero(nb < 0)
+    return np.column_stack([tri[t, k], tri[t, (k + 1) % 3]])
+
+
+def combine(
+    mesh: Mesh | None = None,
+    *,
+    domain=None,
+    size: float | None = None,
+    size_field: dict | None = None,
+    min_angle: float | None = None,
+    keep_boundary: bool = False,
+    pattern: str = "squares",
+    algorithm: str = "matching",
+    measure: str = "angle",
+    metric=None,
+    min_quality: float = 0.0,
+    all_quad: bool = False,
+    twice_size: bool = False,
+    optimize: bool = False,
+    progress: Progress | None = None,
+) -> QuadResult:
+    """Combine the triangles of a mesh (or of a domain meshed here) into quads.
+
+    Parameters
+    ----------
+    mesh : Mesh, optional
+        Triangles only, counter-clockwise in the plane, consistently oriented
+        on a surface (points ``(n, 3)``), conforming and manifold.
+    domain : Domain or dict, optional
+        Instead of ``mesh``: a planar domain, triangulated by
+        :func:`meshcore.triangulation.refinement.triangulate` with ``size``,
+        ``size_field``, ``min_angle`` and ``keep_boundary`` (module
+        docstring, step 3).
+    pattern : {"squares", "equilateral"}
+        Domain input: triangles laid in pairs of near-squares (sheared
+        lattice) or the triangulator's equilateral lattice.
+    algorithm : {"stack", "heap", "frontal", "matching"}
+    measure : {"angle", "simplified", "shape"}
+        (8.4)/(8.6), (8.7) or (8.8): the weight of a candidate quad, and the
+        measure the optimization improves.
+    metric : (d, d) or (n, d, d) float64, optional
+        A constant SPD metric or one per point (domain input: constant only).
+    min_quality : float
+        Candidates of lower quality are not combined.
+    all_quad : bool
+        Split quads into four and leftover triangles into three (Figure 8.13).
+    twice_size : bool
+        Domain input with ``all_quad``: mesh at ``2 * size`` first.
+    optimize : bool
+        Apply the operators of §8.4.3 and smoothing (:mod:`meshcore.quads.optimization`).
+    progress : callable(fraction, message), optional
+
+    Returns
+    -------
+    QuadResult
+
+    Raises
+    ------
+    InputError
+        Bad parameters (``loc`` names them), a bad mesh (``loc`` under
+        ``mesh``: non-triangle blocks, indices out of range, inverted, flat,
+        non-manifold or inconsistently oriented triangles) or a bad domain.
+
+    References
+    ----------
+    §8.4 (module docstring).
+    """
+    report = progress if progress is not None else (lambda f, msg: None)
+    timings: dict[str, float] = {}
+    clock = time.perf_counter()
+
+    def lap(name: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        timings[name] = round(now - clock, 6)
+        clock = now
+
+    algorithm = _choose(algorithm, "algorithm", ALGORITHMS)
+    measure = _choose(measure, "quality", MEASURES)
+    pattern = _choose(pattern, "pattern", PATTERNS)
+    if (mesh is None) == (domain is None):
+        raise InputError("give either mesh or domain", loc=("mesh",), code="conflicting_parameters")
+    if not (0.0 <= min_quality <= 1.0):
+        raise InputError("min_quality must be in [0, 1]", loc=("min_quality",), code="bad_value")
+    if twice_size and (domain is None or not all_quad):
+        raise InputError(
+            "twice_size meshes a domain at twice the size for all_quad: it needs domain input "
+            "and all_quad=true",
+            loc=("twice_size",),
+            code="conflicting_parameters",
+        )
+    if domain is not None:
+        if metric is not None:
+            check_metric_2d(metric)
+        report(0.0, "triangulating the domain")
+        tsize = None if size is None else (2.0 * size if twice_size else size)
+        field_ = size_field
+        if twice_size and size_field is not None:
+            field_ = {
+                "points": size_field["points"],
+                "values": [2.0 * v for v in size_field["values"]],
+            }
+
+        def sub(f: float, msg: str) -> None:
+            report(0.4 * f, msg)
+
+        mesh, _dom = _triangulated(domain, tsize, field_, min_angle, pattern, keep_boundary, sub)
+        lap("triangulate")
+    P, tri = _check_mesh(mesh)
+    metric = _check_metric(metric, P)
+    report(0.4, "dual graph")
+    nb = _neighbours(mesh, P, tri)
+    boundary = _boundary_edges(tri, nb)  # the input's, or the domain's chains
+    quads_of, w = _candidates(P, tri, nb, measure, metric, min_quality)
+    lap("candidates")
+    report(0.5, f"selecting pairs ({algorithm})")
+    m = len(tri)
+    mate = np.full(m, -1, np.int64)
+    triples = np.zeros((0, 4), np.int64)
+    stats: dict = {"input_triangles": m, "input_points": len(P)}
+    if algorithm in ("heap", "matching"):
+        valid = np.flatnonzero((w.ravel() >= 0) & (np.arange(3 * m) // 3 < nb.ravel()))
+        order = valid[np.argsort(-w.ravel()[valid], kind="stable")]
+        _heap_kernel(nb, w, order, mate, algorithm == "matching" and TOL.urgent_start)
+        if algorithm == "matching":
+            stats["heap_triangles_left"] = int(np.count_nonzero(mate < 0))
+            gained = 0
+            good = max(TOL.good_quality, min_quality)
+            if TOL.search_cap > 0:
+                gained += _augment_kernel(nb, w, good, mate, TOL.search_cap, TOL.path_step)
+            gained += _forest_kernel(nb, w, min_quality, mate)
+            stats["augmentations"] = int(gained)
+            stats["swaps"] = int(_swap_kernel(nb, w, mate, TOL.gain, TOL.swap_sweeps))
+    elif algorithm == "frontal":
+        seeds = np.flatnonzero((nb < 0).any(axis=1))
+        _frontal_kernel(nb, w, seeds, mate)
+    else:
+        nbound = (nb < 0).sum(axis=1)
+        starts = np.argsort(-nbound, kind="stable")
+        start_edge = np.argmax(nb[starts] < 0, axis=1)
+        w3 = _three_quads_allowed(P, tri, nb, measure, metric, min_quality)
+        buf = np.zeros((m // 4 + 1, 4), np.int64)
+        ntr = _stack_kernel(nb, w, w3, starts, start_edge, mate, buf)
+        triples = buf[:ntr]
+    lap("selection")
+    # -- the mixed mesh ------------------------------------------------------
+    t = np.flatnonzero((mate >= 0) & (np.arange(m) < mate))
+    k = np.argmax(nb[t] == mate[t][:, None], axis=1)
+    quads = quads_of[t, k]
+    used = mate >= 0
+    npts = len(P)
+    if len(triples):
+        Kt = triples[:, 0]
+        used[triples.ravel()] = True
+        g = np.arange(npts, npts + len(Kt))
+        P = np.concatenate([P, P[tri[Kt]].mean(axis=1)])
+        if metric is not None and metric.ndim == 3:
+            metric = np.concatenate([metric, metric[tri[Kt]].mean(axis=1)])
+        tq = []
+        for kk in range(3):
+            u, v = tri[Kt, kk], tri[Kt, (kk + 1) % 3]
+            d = tri[nb[Kt, kk]].sum(axis=1) - u - v
+            tq.append(np.column_stack([u, d, v, g]))
+        quads = np.concatenate([quads, *tq])
+    left = tri[~used]
+    stats.update(pairs=len(t), triples=len(triples), triangles_left=len(left))
+    out_mesh = _mesh_of(P, quads, left)
+    if all_quad:
+        report(0.6, "splitting into quads")
+        P2, q2, m2, boundary = split_all(P, quads, left, metric, boundary)
+        if metric is not None and metric.ndim == 3:
+            metric = m2
+        out_mesh = Mesh(P2, (CellBlock("quad", q2),))
+    lap("build")
+    report(0.65, "quality report")
+    quality_before = _report(out_mesh, metric, boundary)
+    ops: dict = {}
+    quality_after = quality_before
+    if optimize:
+        from meshcore.quads.optimization import optimize_quads
+
+        report(0.7, "optimization")
+        opt = optimize_quads(
+            out_mesh,
+            measure=measure,
+            metric=metric,
+            progress=lambda f, msg: report(0.7 + 0.25 * f, msg),
+        )
+        out_mesh = opt.mesh
+        ops = opt.operators
+        if boundary is not None:  # boundary vertices are never removed
+            boundary = opt.point_map[boundary]
+        if metric is not None and metric.ndim == 3:
+            metric = metric[opt.point_map >= 0]
+        lap("optimize")
+        quality_after = _report(out_mesh, metric, boundary)
+    if out_mesh.dim == 3:
+        qd = out_mesh.cells_by_type.get("quad")
+        if qd is not None and len(qd):
+            wp = quality.quad_warp(out_mesh.points, qd)
+            stats["warp"] = {
+                "min": float(wp.min()),
+                "mean": float(wp.mean()),
+                "max": float(wp.max()),
+            }
+    stats["seconds"] = timings
+    report(1.0, "done")
+    return QuadResult(
+        mesh=out_mesh,
+        quality_before=quality_before,
+        quality_after=quality_after,
+        pairs=int(len(t)),
+        triples=int(len(triples)),
+        triangles_left=int(len(left)),
+        operators=ops,
+        stats=stats,
+    )
+
+
+def _three_quads_allowed(P, tri, nb, measure, metric, min_quality) -> np.ndarray:
+    """Whether a triangle and its three neighbours make three allowed quads (Figure 8.12)."""
+    m = len(tri)
+    full = (nb >= 0).all(axis=1)
+    K = np.flatnonzero(full)
+    ok = np.zeros(m, bool)
+    if not len(K):
+        return ok
+    g = np.arange(len(P), len(P) + len(K))
+    Pg = np.concatenate([P, P[tri[K]].mean(axis=1)])
+    mg = metric
+    if metric is not None and metric.ndim == 3:
+        mg = np.concatenate([metric, metric[tri[K]].mean(axis=1)])
+    good = np.ones(len(K), bool)
+    for k in range(3):
+        u, v = tri[K, k], tri[K, (k + 1) % 3]
+        s = nb[K, k]
+        d = tri[s].sum(axis=1) - u - v
+        q4 = np.column_stack([u, d, v, g])
+        allowed = _allowed(Pg, q4, mg)
+        q = _measure(Pg, q4, measure, mg)
+        good &= allowed & (q >= min_quality)
+    ok[K] = good
+    return ok

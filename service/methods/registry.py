@@ -1,0 +1,204 @@
+"""The method registry: one readable entry per method.
+
+A method is a name, a pydantic params model, a function running it on
+meshcore and returning the result object (DESIGN.md's fixed keys: ``mesh``,
+``quality``, ``axis``, ``domain``, ``regions``, ``stats``), a summary, the
+section of the methods text, and an example of valid params. The service
+never grows a route per method: the request body is a discriminated union
+over this table (see :func:`service.api.jobs.request_model`).
+
+Run functions are module-level so that they pickle by reference into the
+job's process.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from meshcore.errors import InputError
+from meshcore.mesh import io, quality
+from service.methods import medial, product, quads, triangulation
+from service.schemas import MeshIn, MethodParams
+
+Progress = Callable[[float, str], None]
+
+#: Download formats of a result's mesh, by ``?format=`` name.
+FORMATS = io.FORMATS
+
+
+def mesh_file(result: dict, fmt: str) -> bytes:
+    """The mesh of a method's ``result`` (its JSON object) as a file in format ``fmt``.
+
+    Raises :class:`InputError` (a 422) when the result holds no mesh or the
+    format cannot hold its cells. The API reaches meshcore only through this
+    module.
+    """
+    if not result.get("mesh"):
+        raise InputError(
+            "this result holds no mesh to download", loc=("query", "format"), code="no_mesh"
+        )
+    return io.to_bytes(io.from_json(result["mesh"]), fmt)
+
+
+@dataclass(frozen=True)
+class MethodSpec:
+    """One method of the service."""
+
+    name: str
+    summary: str
+    section: str
+    params: type[MethodParams]
+    run: Callable[[Any, Progress], dict]
+    example: dict
+
+
+Registry = dict[str, MethodSpec]
+
+_UNIT_SQUARE = {
+    "points": [[0, 0], [1, 0], [1, 1], [0, 1]],
+    "cells": [{"type": "triangle", "data": [[0, 1, 2], [0, 2, 3]]}],
+}
+
+
+class QualityParams(MethodParams):
+    mesh: MeshIn
+
+
+def run_quality(params: QualityParams, progress: Progress) -> dict:
+    """The quality report of DESIGN.md for the given mesh."""
+    return {"quality": quality.report(params.mesh.to_mesh(), progress=progress)}
+
+
+def default_registry() -> Registry:
+    """The product's methods, by name."""
+    specs = [
+        MethodSpec(
+            name="quality",
+            summary="Quality report of a mesh: per cell type counts, invalid cells, "
+            "quality and angle statistics, conformity.",
+            section="§8.3.1 (conformity), §8.4.4 (quad quality); DESIGN.md quality measures",
+            params=QualityParams,
+            run=run_quality,
+            example={"mesh": _UNIT_SQUARE},
+        ),
+        MethodSpec(
+            name="extrude",
+            summary="Product mesh: a base mesh of points, lines, triangles and quads swept along "
+            "a translation, rotation, helix, affine maps or explicit sections into lines, quads, "
+            "wedges and hexahedra (or simplices), with degeneracies on the axis resolved and "
+            "validity checked; cell sets bottom, top, side.",
+            section="§8.1.1-§8.1.3 (product method), Figures 8.1, 8.2, 8.5",
+            params=product.ExtrudeParams,
+            run=product.run_extrude,
+            example=product.EXTRUDE_EXAMPLE,
+        ),
+        MethodSpec(
+            name="sweep",
+            summary="Semi-automatic product mesh between a source section and a target section: "
+            "interior vertices of every intermediate section from a background mesh, "
+            "barycentric interpolation and distortion correction.",
+            section="§8.1.2 (semi-automatic method)",
+            params=product.SweepParams,
+            run=product.run_sweep,
+            example=product.SWEEP_EXAMPLE,
+        ),
+        MethodSpec(
+            name="merge",
+            summary="Merge meshes: coincident points joined, duplicated interface facets "
+            "dropped; fails at a hanging node or any non-conforming interface.",
+            section="§8.1.4 (Figure 8.5, right: product meshes merged)",
+            params=product.MergeParams,
+            run=product.run_merge,
+            example=product.MERGE_EXAMPLE,
+        ),
+        MethodSpec(
+            name="radial",
+            summary="Radial mesh of a disk, ring or sector: the classical product mesh, or "
+            "balanced by collapsing ring edges (quads, triangles where the count changes).",
+            section="§8.7.1 (radial meshes), Figure 8.16",
+            params=product.RadialParams,
+            run=product.run_radial,
+            example=product.RADIAL_EXAMPLE,
+        ),
+        MethodSpec(
+            name="triangulate",
+            summary="Boundary-conforming quality triangle mesh of a planar domain (holes, "
+            "constraints): every input segment a chain of edges, refined to a smallest angle, "
+            "largest area, edge length or size field; optionally empty or with the boundary kept.",
+            section="§9.1 (admissible boundaries), §8.2 (pattern), Remark 8.10 (size field)",
+            params=triangulation.TriangulateParams,
+            run=triangulation.run_triangulate,
+            example=triangulation.TRIANGULATE_EXAMPLE,
+        ),
+        MethodSpec(
+            name="delaunay_admissible",
+            summary="Delaunay-admissible boundary discretization: segments split at projections "
+            "of encroaching points (on declared circles for curved rings) until every one is a "
+            "Delaunay edge; per-case counts and the empty Delaunay triangulation of the domain.",
+            section="§9.1.2-§9.1.5 (classification, splitting, curves), Exercises 9.2-9.4; §9.4.1",
+            params=triangulation.DelaunayAdmissibleParams,
+            run=triangulation.run_delaunay_admissible,
+            example=triangulation.DELAUNAY_ADMISSIBLE_EXAMPLE,
+        ),
+        MethodSpec(
+            name="quad_combine",
+            summary="Quad mesh by triangle combination: pairs chosen by a stack path, a heap, "
+            "a front or a matching (fewest triangles left), weighted by quad quality (metric "
+            "optional); optionally only quads (split), and optimized by the quad operators and "
+            "smoothing. Planar meshes, surfaces or a domain meshed first.",
+            section="§8.4 (8.4.1-8.4.5), Figures 8.12, 8.13, Remarks 8.3-8.8",
+            params=quads.QuadCombineParams,
+            run=quads.run_quad_combine,
+            example=quads.QUAD_COMBINE_EXAMPLE,
+        ),
+        MethodSpec(
+            name="medial_axis",
+            summary="Medial axis of a polygon (holes allowed) or of a boundary point cloud: "
+            "circumcentres of the empty Delaunay triangulation joined across interior edges, "
+            "spurious branches pruned; nodes with radii, critical and terminal nodes, branches; "
+            "downloadable as a line mesh with the radius.",
+            section="§9.4.1-§9.4.3 (Theorem 9.1, Figures 9.9-9.12, Remarks 9.10-9.14), §9.7.4",
+            params=medial.MedialAxisParams,
+            run=medial.run_medial_axis,
+            example=medial.MEDIAL_AXIS_EXAMPLE,
+        ),
+        MethodSpec(
+            name="medial_transform",
+            summary="Medial axis transform: the domain rebuilt as the union of the disks of a "
+            "medial axis, with the Hausdorff distance to the original boundary.",
+            section="§9.6",
+            params=medial.MedialTransformParams,
+            run=medial.run_medial_transform,
+            example=medial.MEDIAL_TRANSFORM_EXAMPLE,
+        ),
+        MethodSpec(
+            name="partition",
+            summary="Domain partition along cut lines of the medial axis, by either method of "
+            "the text: polygonal regions of 3 to 6 sides that tile the domain.",
+            section="§9.7.1 (Figure 9.13)",
+            params=medial.PartitionParams,
+            run=medial.run_partition,
+            example=medial.PARTITION_EXAMPLE,
+        ),
+        MethodSpec(
+            name="quad_medial",
+            summary="All-quad mesh from the medial-axis partition: midpoint subdivision of each "
+            "region, then repeated subdivision or a conforming transfinite fill at a size.",
+            section="§9.7.2 (Figure 9.14), §8.5.3",
+            params=medial.QuadMedialParams,
+            run=medial.run_quad_medial,
+            example=medial.QUAD_MEDIAL_EXAMPLE,
+        ),
+        MethodSpec(
+            name="simplify",
+            summary="Geometry simplification: holes and boundary details (notches, protrusions, "
+            "fillets, steps) small against the local radius of the medial axis removed.",
+            section="§9.7.4 (geometry simplification), Remark 9.15",
+            params=medial.SimplifyParams,
+            run=medial.run_simplify,
+            example=medial.SIMPLIFY_EXAMPLE,
+        ),
+    ]
+    return {s.name: s for s in specs}

@@ -1,0 +1,266 @@
+"""Params and run functions of the triangulation methods (§9.1).
+
+Each params model refuses, with the field's location, what JSON Schema can
+say (shapes, signs, ranges, NaN and infinities); its :meth:`check` runs
+meshcore's own checks (domain validation, curves against their rings, size
+field points, conflicting options, runaway sizes) and raises
+:class:`~meshcore.errors.InputError` located relative to the params.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from meshcore.delaunay.admissible import circles_of, make_admissible
+from meshcore.errors import InputError
+from meshcore.mesh import quality
+from meshcore.triangulation.refinement import MAX_MIN_ANGLE, estimated_triangles, triangulate
+from service.methods.domain_schema import ConstraintPolylines, DomainIn, Position
+from service.schemas import MethodParams
+
+Progress = object  # the registry's Progress: callable(fraction, message)
+
+#: Requests whose sizes would make more triangles than this are refused (422).
+MAX_TRIANGLES = 20_000_000
+
+PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+
+
+class CircleCurve(BaseModel):
+    """A ring that samples a circle: new points on it go on the circle (§9.1.5)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    ring: int = Field(ge=0, description="Ring index, in the order of the geometry's rings.")
+    type: Literal["circle"] = "circle"
+    center: Position
+    radius: PositiveFloat
+
+
+class SizeField(BaseModel):
+    """Target edge lengths at scattered points (the control space of Remark 8.10)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    points: list[Position] = Field(min_length=1, description="[x, y] positions, distinct.")
+    values: list[PositiveFloat] = Field(
+        min_length=1, description="Target edge length at each point (same count)."
+    )
+
+    @model_validator(mode="after")
+    def _same_length(self) -> SizeField:
+        if len(self.points) != len(self.values):
+            raise ValueError(
+                f"size_field has {len(self.points)} points but {len(self.values)} values"
+            )
+        return self
+
+    def point_count(self) -> int:
+        return len(self.points)
+
+
+class TriangulateParams(MethodParams):
+    """A boundary-conforming quality triangle mesh of a planar domain."""
+
+    domain: DomainIn
+    segments: ConstraintPolylines | None = None
+    curves: list[CircleCurve] | None = Field(
+        None, description="Rings that sample circles: added boundary points go on the circle."
+    )
+    empty: bool = Field(
+        False,
+        description="Only the boundary points (plus the Steiner points making the boundary "
+        "Delaunay-admissible): the empty triangulation. Excludes the size and angle options.",
+    )
+    min_angle: float | None = Field(
+        None,
+        gt=0,
+        le=MAX_MIN_ANGLE,
+        allow_inf_nan=False,
+        description="Degrees: refine until every triangle's smallest angle reaches it, except "
+        "next to input angles below it. Always terminates up to 30. Default 20 (not empty).",
+    )
+    max_area: float | None = Field(
+        None, gt=0, allow_inf_nan=False, description="Largest triangle area."
+    )
+    size: float | None = Field(None, gt=0, allow_inf_nan=False, description="Target edge length.")
+    size_field: SizeField | None = Field(
+        None,
+        description="Target edge lengths at scattered points, interpolated linearly "
+        "(nearest value outside their hull).",
+    )
+    keep_boundary: bool = Field(
+        False,
+        description="Add no point on any input segment (the mesh fits a neighbour's boundary "
+        "exactly); refinement stops where it would encroach a segment.",
+    )
+
+    def check(self) -> None:
+        super().check()
+        dom = self.domain.to_domain(self.segments)
+        curves = [c.model_dump() for c in self.curves or []]
+        circles_of(dom, curves)
+        if self.empty:
+            for name in ("min_angle", "max_area", "size", "size_field"):
+                if getattr(self, name) is not None:
+                    raise InputError(
+                        f"empty=true adds no interior point; it excludes {name}",
+                        loc=(name,),
+                        code="conflicting_parameters",
+                    )
+        field = None if self.size_field is None else self.size_field.model_dump()
+        estimate = estimated_triangles(
+            dom, max_area=self.max_area, size=self.size, size_field=field
+        )
+        if estimate > MAX_TRIANGLES:
+            name = next(n for n in ("size", "max_area", "size_field") if getattr(self, n))
+            raise InputError(
+                f"these sizes would make about {estimate:,} triangles on a domain of area "
+                f"{dom.area:.6g}; this service makes at most {MAX_TRIANGLES:,}: "
+                "ask for larger sizes",
+                loc=(name,),
+                code="too_many_triangles",
+            )
+
+
+def run_triangulate(params: TriangulateParams, progress) -> dict:
+    """The mesh, its quality report and the counts of added points."""
+    dom = params.domain.to_domain(params.segments)
+
+    def sub(fraction: float, message: str) -> None:
+        progress(0.9 * fraction, message)
+
+    res = triangulate(
+        dom,
+        curves=[c.model_dump() for c in params.curves or []],
+        empty=params.empty,
+        min_angle=params.min_angle,
+        max_area=params.max_area,
+        size=params.size,
+        size_field=None if params.size_field is None else params.size_field.model_dump(),
+        keep_boundary=params.keep_boundary,
+        progress=sub,
+    )
+    progress(0.9, "quality report")
+    report = quality.report(res.mesh, boundary_segments=res.boundary_segments)
+    return {
+        "mesh": res.mesh,
+        "quality": report,
+        "stats": {
+            "points": len(res.mesh.points),
+            "triangles": len(res.mesh.cells[0].data),
+            "input_points": len(dom.points),
+            "boundary_points_added": res.boundary_points_added,
+            "interior_points_added": res.interior_points_added,
+            "rounds": res.rounds,
+            "given_up": res.given_up,
+            "seconds": {k: round(v, 6) for k, v in res.timings.items()},
+        },
+    }
+
+
+def _circle(cx: float, cy: float, r: float, n: int) -> list[list[float]]:
+    import math
+
+    return [
+        [
+            round(cx + r * math.cos(2 * math.pi * k / n), 9),
+            round(cy + r * math.sin(2 * math.pi * k / n), 9),
+        ]
+        for k in range(n)
+    ]
+
+
+#: A unit square with a circular hole of radius 0.25, 30 degrees, edge length 0.05.
+TRIANGULATE_EXAMPLE = {
+    "domain": {
+        "type": "Polygon",
+        "coordinates": [
+            [[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]],
+            _circle(0.5, 0.5, 0.25, 32),
+        ],
+    },
+    "curves": [{"ring": 1, "type": "circle", "center": [0.5, 0.5], "radius": 0.25}],
+    "min_angle": 30,
+    "size": 0.05,
+}
+
+
+# ---------------------------------------------------------------------------
+# delaunay_admissible (§9.1.2-§9.1.5)
+# ---------------------------------------------------------------------------
+
+
+class DelaunayAdmissibleParams(MethodParams):
+    """A Delaunay-admissible boundary discretization and the empty triangulation."""
+
+    domain: DomainIn
+    segments: ConstraintPolylines | None = None
+    curves: list[CircleCurve] | None = Field(
+        None,
+        description="Rings that sample circles (rings numbered in the order of the "
+        "geometry): points added on them go on the circle, not on the chord (§9.1.5).",
+    )
+
+    def point_count(self) -> int:
+        """The domain's positions plus the constraint polylines' positions."""
+        return self.domain.point_count() + sum(len(line) for line in self.segments or [])
+
+    def check(self) -> None:
+        super().check()
+        dom = self.domain.to_domain(self.segments)
+        circles_of(dom, [c.model_dump() for c in self.curves or []])
+
+
+def run_delaunay_admissible(params: DelaunayAdmissibleParams, progress) -> dict:
+    """The new boundary discretization, the empty Delaunay triangulation and the counts."""
+    dom = params.domain.to_domain(params.segments)
+    res = make_admissible(
+        dom, curves=[c.model_dump() for c in params.curves or []], progress=progress
+    )
+    boundary = len(dom.segments)
+    ring_of = np.searchsorted(dom.ring_offsets, res.source, side="right") - 1
+    return {
+        "domain": {
+            "points": res.points,
+            "segments": res.segments,
+            "source": res.source,
+            "ring": np.where(res.source < boundary, ring_of, -1),
+        },
+        "mesh": res.triangulation,
+        "stats": {
+            "input_points": len(dom.points),
+            "input_segments": boundary + len(dom.constraints),
+            "segments": len(res.segments),
+            "points_added": res.added,
+            "cases_before": res.cases_before,
+            "cases_after": res.cases_after,
+            "rounds": res.rounds,
+            "protected_vertices": len(res.protected),
+            "triangles": len(res.triangulation.cells[0].data),
+        },
+    }
+
+
+#: A three-pointed star whose tips are 5° corners between sides of lengths 7.5 and 3.
+DELAUNAY_ADMISSIBLE_EXAMPLE = {
+    "domain": {
+        "type": "Polygon",
+        "coordinates": [
+            [
+                [2.51, -0.33],
+                [10.0, 0.0],
+                [7.0, 0.13],
+                [-0.97, 2.33],
+                [-5.0, 8.66],
+                [-3.61, 6.0],
+                [-1.54, -2.01],
+                [-5.0, -8.66],
+                [-3.39, -6.13],
+            ]
+        ],
+    }
+}

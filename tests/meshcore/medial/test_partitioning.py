@@ -1,0 +1,130 @@
+"""Medial-axis partitions (§9.7.1) and quad meshes on them (§9.7.2, §8.5.3)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from meshcore.domain.planar import parse_domain
+from meshcore.errors import InputError
+from meshcore.medial.partitioning import partition, quad_medial
+from meshcore.mesh import quality, topology
+from tests.meshcore.medial.test_axis import stars
+
+
+def circle(c, r, n, cw=False):
+    t = 2 * np.pi * np.arange(n) / n
+    ring = np.asarray(c) + np.c_[r * np.cos(t), r * np.sin(t)]
+    return (ring[::-1] if cw else ring).tolist()
+
+
+SHAPES = {
+    "rectangle": [[[0, 0], [2, 0], [2, 1], [0, 1]]],
+    "L": [[[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]]],
+    "T": [[[0, 0], [3, 0], [3, 1], [2, 1], [2, 3], [1, 3], [1, 1], [0, 1]]],
+    "strip": [[[0, 0], [6, 0], [6, 1], [0, 1]]],
+    "annulus": [circle([0, 0], 1, 128), circle([0, 0], 0.5, 128, True)],
+    "plate": [[[0, 0], [4, 0], [4, 2], [0, 2]], circle([2, 1], 0.5, 64, True)],
+}
+POLYGONAL = ("rectangle", "L", "T", "strip")
+
+
+def domain(name):
+    return parse_domain({"type": "Polygon", "coordinates": SHAPES[name]})
+
+
+class TestPartition:
+    @pytest.mark.parametrize("method", ["critical", "terminal"])
+    @pytest.mark.parametrize("name", list(SHAPES))
+    def test_regions_tile_the_domain_with_3_to_6_sides(self, name, method):
+        dom = domain(name)
+        part = partition(dom, method=method)
+        polys = [shapely.Polygon(r["coordinates"][0]) for r in part.regions]
+        assert all(p.is_valid and p.area > 0 for p in polys)
+        areas = [r["area"] for r in part.regions]
+        assert sum(areas) == pytest.approx(dom.area, rel=1e-12)
+        # no overlap: the union has the area of the sum
+        assert shapely.union_all(polys).area == pytest.approx(dom.area, rel=1e-9)
+        assert all(3 <= r["sides"] <= 6 for r in part.regions)
+
+    def test_critical_method_gives_triangles_and_quads(self):
+        part = partition(domain("rectangle"), method="critical")
+        assert sorted(r["sides"] for r in part.regions) == [3, 3, 3, 3, 4, 4]
+
+    def test_terminal_method_sides_are_type0_nodes_plus_two(self):
+        # the rectangle: two regions along the long sides pass both Type 0 nodes
+        # (4 sides), the two at the short sides one (3 sides)
+        part = partition(domain("rectangle"), method="terminal")
+        assert sorted(r["sides"] for r in part.regions) == [3, 3, 4, 4]
+
+    def test_a_loop_without_junction_is_cut(self):
+        part = partition(domain("annulus"))
+        assert len(part.regions) >= 8 and all(r["sides"] == 4 for r in part.regions)
+
+    def test_bad_method(self):
+        with pytest.raises(InputError) as exc:
+            partition(domain("rectangle"), method="other")
+        assert exc.value.errors[0]["loc"] == ["method"]
+
+
+class TestRandomDomains:
+    @settings(max_examples=20, deadline=None)
+    @given(stars(), st.sampled_from(["critical", "terminal"]))
+    def test_partition_tiles_and_quads_are_valid(self, ring, method):
+        dom = parse_domain({"type": "Polygon", "coordinates": [ring]})
+        part = partition(dom, method=method)
+        assert sum(r["area"] for r in part.regions) == pytest.approx(dom.area, rel=1e-12)
+        assert min(r["sides"] for r in part.regions) >= 3
+        res = quad_medial(dom, method=method, size=0.05)
+        area = quality.signed_area(res.mesh.points, res.mesh.cells[0].data, "quad")
+        assert (area > 0).all()
+        assert area.sum() == pytest.approx(dom.area, rel=1e-12)
+
+
+class TestQuadMedial:
+    @pytest.mark.parametrize(
+        "name, kwargs",
+        [(n, {}) for n in SHAPES] + [(n, {"size": 0.05}) for n in SHAPES],
+    )
+    def test_only_valid_conforming_quads_covering_the_domain(self, name, kwargs):
+        dom = domain(name)
+        res = quad_medial(dom, **kwargs)
+        mesh = res.mesh
+        assert [b.type for b in mesh.cells] == ["quad"]
+        quads = mesh.cells[0].data
+        area = quality.signed_area(mesh.points, quads, "quad")
+        assert (area > 0).all()
+        conf = topology.conformity(mesh)
+        assert conf["nonmanifold"] == 0
+        # every edge of the mesh boundary lies on the input boundary
+        edges = topology.boundary(mesh).cells[0].data
+        segs = dom.points[dom.segments]
+        mid = mesh.points[edges].mean(axis=1)
+        a, b = segs[:, 0][None], segs[:, 1][None]
+        ab = b - a
+        t = np.clip(np.einsum("nmk,nmk->nm", mid[:, None] - a, ab) / (ab**2).sum(-1), 0, 1)
+        off = np.hypot(*(mid[:, None] - a - t[..., None] * ab).transpose(2, 0, 1)).min(axis=1)
+        if name in POLYGONAL:
+            assert off.max() < 1e-12
+            assert area.sum() == pytest.approx(dom.area, rel=1e-12)
+        else:  # curved rings: the mesh's boundary points are on the rings, edges are chords
+            assert area.sum() == pytest.approx(dom.area, rel=0.02)
+
+    def test_levels_multiply_the_quads_by_four(self):
+        dom = domain("rectangle")
+        counts = [len(quad_medial(dom, levels=k).mesh.cells[0].data) for k in (0, 1, 2)]
+        assert counts[1] == 4 * counts[0] and counts[2] == 16 * counts[0]
+
+    def test_size_sets_the_edge_length(self):
+        res = quad_medial(domain("strip"), size=0.1)
+        q = res.mesh.cells[0].data
+        p = res.mesh.points
+        lengths = np.hypot(*(p[q] - p[np.roll(q, -1, axis=1)]).transpose(2, 0, 1))
+        assert 0.03 < np.median(lengths) <= 0.1
+
+    def test_size_and_levels_exclude_each_other(self):
+        with pytest.raises(InputError):
+            quad_medial(domain("rectangle"), size=0.1, levels=1)
