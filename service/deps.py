@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hmac
 from typing import Annotated
 
 from fastapi import Depends, Request
@@ -13,6 +14,9 @@ from service.settings import Settings
 from service.store import Job, Store
 
 _bearer = HTTPBearer(auto_error=False, description="An API key from MESHSERVICE_API_KEYS.")
+_metrics_bearer = HTTPBearer(
+    auto_error=False, scheme_name="MetricsToken", description="MESHSERVICE_METRICS_TOKEN."
+)
 
 
 def _settings(request: Request) -> Settings:
@@ -41,6 +45,25 @@ def _client(
     if client is None:
         raise Unauthorized("the API key is not valid")
     return client
+
+
+def authenticated(client: Annotated[str, Depends(_client)]) -> None:
+    """A route dependency: the caller must send a valid API key when keys are set."""
+
+
+def metrics_access(
+    settings: Annotated[Settings, Depends(_settings)],
+    credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_metrics_bearer)],
+) -> None:
+    """``/metrics`` is open without API keys; with keys, it needs ``MESHSERVICE_METRICS_TOKEN``."""
+    if not settings.clients_by_key and not settings.metrics_token:
+        return
+    if not settings.metrics_token:
+        raise Unauthorized("with API keys set, /metrics needs MESHSERVICE_METRICS_TOKEN to be set")
+    if credentials is None or not hmac.compare_digest(
+        credentials.credentials, settings.metrics_token
+    ):
+        raise Unauthorized("send the metrics token as 'Authorization: Bearer TOKEN'")
 
 
 SettingsDep = Annotated[Settings, Depends(_settings)]
