@@ -1,4 +1,9 @@
-"""``Annotated`` dependencies shared by the routers."""
+"""``Annotated`` dependencies shared by the routers.
+
+They are coroutines: FastAPI runs a plain ``def`` dependency in its thread
+pool, a hop per dependency per request that costs more than the dependency
+itself under load.
+"""
 
 from __future__ import annotations
 
@@ -19,19 +24,19 @@ _metrics_bearer = HTTPBearer(
 )
 
 
-def _settings(request: Request) -> Settings:
+async def _settings(request: Request) -> Settings:
     return request.app.state.settings
 
 
-def _manager(request: Request) -> JobManager:
+async def _manager(request: Request) -> JobManager:
     return request.app.state.manager
 
 
-def _store(request: Request) -> Store:
+async def _store(request: Request) -> Store:
     return request.app.state.manager.store
 
 
-def _client(
+async def _client(
     settings: Annotated[Settings, Depends(_settings)],
     credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)],
 ) -> str:
@@ -47,11 +52,11 @@ def _client(
     return client
 
 
-def authenticated(client: Annotated[str, Depends(_client)]) -> None:
+async def authenticated(client: Annotated[str, Depends(_client)]) -> None:
     """A route dependency: the caller must send a valid API key when keys are set."""
 
 
-def metrics_access(
+async def metrics_access(
     settings: Annotated[Settings, Depends(_settings)],
     credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_metrics_bearer)],
 ) -> None:
@@ -72,7 +77,7 @@ StoreDep = Annotated[Store, Depends(_store)]
 ClientDep = Annotated[str, Depends(_client)]
 
 
-def _job(job_id: str, store: StoreDep, client: ClientDep) -> Job:
+async def _job(job_id: str, store: StoreDep, client: ClientDep) -> Job:
     """The caller's job; another client's job is as absent as a missing one."""
     job = store.get(job_id, client)
     if job is None:

@@ -62,6 +62,12 @@ class Settings(BaseSettings):
     body_timeout: float = Field(
         60.0, gt=0, description="Seconds a client may take to send its whole request body."
     )
+    keep_alive: float = Field(
+        30.0,
+        gt=0,
+        description="Seconds an idle connection is kept open; above the usual client pool "
+        "expiry (httpx: 5 s), so a client never reuses a connection the service is closing.",
+    )
     send_timeout: float = Field(
         60.0, gt=0, description="Seconds a response may wait for a client that does not read."
     )

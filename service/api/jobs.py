@@ -88,7 +88,7 @@ def _seq_of(token: str) -> int:
         ) from None
 
 
-def _stream_slot(manager: ManagerDep, client: ClientDep) -> str:
+async def _stream_slot(manager: ManagerDep, client: ClientDep) -> str:
     """The client, once it is known to have a free stream slot (a 429 before streaming)."""
     manager.check_stream(client)
     return client
