@@ -447,7 +447,7 @@ def _ghost_slot(V, b):
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _conflict(pts, V, A, t, p, work, pbuf):
     """Is tetrahedron t in conflict with point p (p in its perturbed circumsphere)?"""
     b = 4 * t
@@ -502,7 +502,9 @@ def _walk(pts, V, A, t, p, work):
 
 
 @njit(cache=True)
-def _insert(pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work):
+def _insert(
+    pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work, pbuf
+):
     """Insert vertex p (its coordinates in pts[p]) walking from tetrahedron start.
 
     Sets state[_STATUS]: _OK (state[_NCAV] removed slots in cav, state[_NNEW]
@@ -510,7 +512,6 @@ def _insert(pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot,
     coincides with), _GROW_BUFFERS or _GROW_TETS (nothing changed: enlarge
     and call again).
     """
-    pbuf = np.empty((5, 3))
     t = _walk(pts, V, A, start, p, work)
     b = 4 * t
     if _ghost_slot(V, b) < 0:
@@ -669,6 +670,7 @@ def _insert_range(
     pts, hint, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work, lo, hi
 ):
     """Insert vertices lo..hi-1; stops at the first one not _OK (state[_INFO+...])."""
+    pbuf = np.empty((5, 3))
     for p in range(lo, hi):
         h = hint[p]
         start = state[_LAST]
@@ -677,8 +679,9 @@ def _insert_range(
             if V[4 * s] != -2:
                 start = s
         _insert(
-            pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work
-        )
+            pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work,
+            pbuf,
+        )  # fmt: skip
         if state[_STATUS] != _OK:
             return p
     return hi
@@ -1123,7 +1126,7 @@ class IncrementalDelaunay3d:
             _insert(
                 self._pts, p, start, self._V, self._A, self._mark, self._vt, self._free,
                 self._state, self._cav, self._bnd, self._newv, self._newslot, self._hkey,
-                self._hval, self._work,
+                self._hval, self._work, np.empty((5, 3)),
             )  # fmt: skip
             status = int(self._state[_STATUS])
             if status == _OK:
