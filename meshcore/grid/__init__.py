@@ -1,0 +1,11 @@
+"""Grid and pattern meshes (§8.2) and all-quad meshes by grid superposition (§8.5.2).
+
+:func:`grid` meshes a domain with a regular grid of squares, the boundary
+cells kept, fitted or split (:mod:`meshcore.grid.cartesian`). The name
+``grid`` is also this package's, so it is imported from here, not from
+``meshcore``: ``from meshcore.grid import grid``.
+"""
+
+from meshcore.grid.cartesian import MAX_CELLS, GridResult, estimated_cells, grid
+
+__all__ = ["MAX_CELLS", "GridResult", "estimated_cells", "grid"]
