@@ -138,6 +138,8 @@ class _Tolerances:
     snap: float = 0.2
     #: Segment samples are this far apart (cells around them are "near").
     sample: float = 0.5
+    #: Two triangles of a piece make a quad only if its scaled Jacobian reaches this.
+    min_jacobian: float = 0.5
     #: Hausdorff distance (keep): boundaries sampled this finely.
     hausdorff_sample: float = 1.0 / 64.0
 
@@ -489,7 +491,7 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
     def lap(name):
         nonlocal clock
         now = time.process_time()
-        timings[name] = now - clock
+        timings[name] = timings.get(name, 0.0) + now - clock
         clock = now
 
     # -- near cells, core ---------------------------------------------------
@@ -587,9 +589,7 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
     e_h = np.concatenate([n00, n00 + nx1])  # horizontal edges: (n, n + 1)
     e_v = np.concatenate([n00, n00 + 1])  # vertical edges: (n, n + nx1)
     edges = np.unique(
-        np.concatenate(
-            [np.column_stack([e_h, e_h + 1]), np.column_stack([e_v, e_v + nx1])]
-        ),
+        np.concatenate([np.column_stack([e_h, e_h + 1]), np.column_stack([e_v, e_v + nx1])]),
         axis=0,
     )
     # drop the core outline's edges (they are rings of the band)
@@ -751,8 +751,12 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
             rs = dom.segments
             rings = dom.segment_ring
             rows = ray_parity(
-                mid, np.full(len(test), -1, dtype=np.int64), L[rs[:, 0]], L[rs[:, 1]],
-                rings, dom.ring_count,
+                mid,
+                np.full(len(test), -1, dtype=np.int64),
+                L[rs[:, 0]],
+                L[rs[:, 1]],
+                rings,
+                dom.ring_count,
             )
             par = np.bincount(rows[:, 0], minlength=len(test)) % 2 == 1
             keep[test] = par
@@ -773,7 +777,9 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
         for k in range(len(starts) - 1):
             loop = order[starts[k] : starts[k + 1]]
             xy = np.column_stack([loop % nx1, loop // nx1]).astype(np.float64)
-            area2 = float(np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1]))
+            area2 = float(
+                np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1])
+            )
             # core on the left: CCW = outer loop of the core = hole of the band
             rings_ids.append(loop[::-1])
             ring_outer.append(area2 < 0)
@@ -829,7 +835,9 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
         # in ta the edge runs x -> y or y -> x; orient the quad counter-clockwise
         ta_rows = tdata[ta]
         nxt_of_x = np.where(
-            ta_rows[:, 0] == x, ta_rows[:, 1], np.where(ta_rows[:, 1] == x, ta_rows[:, 2], ta_rows[:, 0])
+            ta_rows[:, 0] == x,
+            ta_rows[:, 1],
+            np.where(ta_rows[:, 1] == x, ta_rows[:, 2], ta_rows[:, 0]),
         )
         fwd = nxt_of_x == y  # ta has x -> y, so tb has y -> x
         q4 = np.where(
@@ -841,8 +849,8 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
         convex = np.ones(len(q4), dtype=bool)
         for c in range(4):
             convex &= orient2d(P4[:, c], P4[:, (c + 1) % 4], P4[:, (c + 2) % 4]) > 0
-        same_piece = piece[ta] == piece[tb]
-        cand = np.flatnonzero(convex & same_piece)
+        convex[convex] = _quad_jacobian(tp, q4[convex]) >= TOL.min_jacobian
+        cand = np.flatnonzero(convex)
         qual = quad_quality(tp, q4[cand])
         order = cand[np.argsort(-qual, kind="stable")]
         take = _greedy_pairs(ta[order], tb[order], nt)
@@ -862,9 +870,7 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
     four = corners == 4
     grid_only = np.ones(n_pieces, dtype=bool)  # every corner an unmoved grid node
     tv = T.ravel()
-    np.logical_and.at(
-        grid_only, np.repeat(piece, 3), (tv < N) & ~moved[np.minimum(tv, N - 1)]
-    )
+    np.logical_and.at(grid_only, np.repeat(piece, 3), (tv < N) & ~moved[np.minimum(tv, N - 1)])
     whole_piece = four & grid_only
     templates = {
         "whole": int(whole_piece.sum()),
@@ -890,7 +896,9 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
         boundary_q = band_quads[~whole]
     else:
         interior_q, boundary_q = core_quads, np.zeros((0, 4), dtype=np.int64)
-    used = _used(np.concatenate([interior_q.ravel(), boundary_q.ravel(), band_tris.ravel()]), N + V + n_extra)
+    used = _used(
+        np.concatenate([interior_q.ravel(), boundary_q.ravel(), band_tris.ravel()]), N + V + n_extra
+    )
     remap = np.full(N + V + n_extra, -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
     pts = np.empty((len(used), 2))
@@ -952,7 +960,9 @@ def _band_domain(rings_ids, ring_outer, lines, coords_L) -> Domain:
         segs1 = np.concatenate([np.roll(coords[k], -1, axis=0) for k in outer])
         seg_ring = np.concatenate([np.full(len(coords[k]), i) for i, k in enumerate(outer)])
         q = np.array([coords[k][0] for k in holes])
-        rows = ray_parity(q, np.full(len(q), -1, dtype=np.int64), segs0, segs1, seg_ring, len(outer))
+        rows = ray_parity(
+            q, np.full(len(q), -1, dtype=np.int64), segs0, segs1, seg_ring, len(outer)
+        )
         areas = [abs(_shoelace(coords[k])) for k in outer]
         for h_i, r_i in rows.tolist():
             prev = owner.get(h_i)
@@ -970,13 +980,13 @@ def _band_domain(rings_ids, ring_outer, lines, coords_L) -> Domain:
     try:
         return parse_domain(geometry, segments or None)
     except InputError as exc:
-        raise AlgorithmError(f"grid: the band between the core and the boundary is invalid: {exc}") from None
+        raise AlgorithmError(
+            f"grid: the band between the core and the boundary is invalid: {exc}"
+        ) from None
 
 
 def _shoelace(xy: np.ndarray) -> float:
-    return 0.5 * float(
-        np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1])
-    )
+    return 0.5 * float(np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1]))
 
 
 # ---------------------------------------------------------------------------
@@ -1111,7 +1121,9 @@ def grid(
     else:
         h = _number(size, "size")
         if h <= 0:
-            raise InputError(f"size must be above 0, got {size!r}", loc=("size",), code="bad_parameter")
+            raise InputError(
+                f"size must be above 0, got {size!r}", loc=("size",), code="bad_parameter"
+            )
         est = estimated_cells(dom, size=h, angle=a)
         if est > max_cells:
             raise InputError(
@@ -1138,7 +1150,11 @@ def grid(
         remap = np.full(nx1 * (ny + 1), -1, dtype=np.int64)
         remap[used] = np.arange(len(used))
         pts = frame.world(np.column_stack([used % nx1, used // nx1]).astype(np.float64))
-        interior_q, boundary_q, band_tris = remap[quads], np.zeros((0, 4), np.int64), np.zeros((0, 3), np.int64)
+        interior_q, boundary_q, band_tris = (
+            remap[quads],
+            np.zeros((0, 4), np.int64),
+            np.zeros((0, 3), np.int64),
+        )
         lap("staircase")
         out = _outline_edges(kept)
         oL = np.column_stack([out.ravel() % nx1, out.ravel() // nx1]).astype(np.float64)
@@ -1151,7 +1167,9 @@ def grid(
         )
         lap("errors")
     else:
-        pts, interior_q, boundary_q, band_tris, fstats, ft = _fit(dom, frame, L, nx, ny, boundary, cells)
+        pts, interior_q, boundary_q, band_tris, fstats, ft = _fit(
+            dom, frame, L, nx, ny, boundary, cells
+        )
         timings.update(ft)
         stats.update(fstats)
         clock = time.process_time()
@@ -1168,7 +1186,10 @@ def grid(
     else:
         quads = np.concatenate([interior_q, boundary_q])
         blocks = [CellBlock("quad", quads)]
-        sets = {"interior": [np.arange(n_interior)], "boundary": [np.arange(n_interior, len(quads))]}
+        sets = {
+            "interior": [np.arange(n_interior)],
+            "boundary": [np.arange(n_interior, len(quads))],
+        }
         if len(band_tris):
             blocks.append(CellBlock("triangle", band_tris))
             sets["interior"].append(np.zeros(0, dtype=np.int64))
@@ -1197,15 +1218,21 @@ def grid(
             "triangle_shape_min": float(bt.min()) if bt.size else None,
             "triangle_shape_mean": float(bt.mean()) if bt.size else None,
         }
-        area = 0.0
-        rel = pts - pts.min(axis=0)  # exact near far-off origins: no cancellation
-        for b in blocks:
-            P = rel[b.data]
-            k = P.shape[1]
-            area += 0.5 * math.fsum(
-                (P[:, c, 0] * P[:, (c + 1) % k, 1] - P[:, (c + 1) % k, 0] * P[:, c, 1]).sum()
+        # interior cells are squares of side h; the boundary cells by the shoelace
+        # formula, relative to a mesh point (no cancellation far from the origin)
+        rel = pts - pts.min(axis=0)
+        parts = [n_interior * h * h]
+        for data in (boundary_q, band_tris):
+            P = rel[data]
+            k = data.shape[1]
+            parts += [
+                0.5
+                * float(
+                    (P[:, c, 0] * P[:, (c + 1) % k, 1] - P[:, (c + 1) % k, 0] * P[:, c, 1]).sum()
+                )
                 for c in range(k)
-            )
+            ]
+        area = math.fsum(parts)
         stats["area"] = area
     else:
         stats["area"] = stats["domain_area"] + stats["area_error"]

@@ -19,7 +19,7 @@ from typing import Any
 
 from meshcore.errors import InputError
 from meshcore.mesh import io, quality
-from service.methods import medial, product, quads, triangulation
+from service.methods import grid, medial, product, quads, triangulation
 from service.schemas import MeshIn, MethodParams
 
 Progress = Callable[[float, str], None]
@@ -152,6 +152,17 @@ def default_registry() -> Registry:
             params=quads.QuadCombineParams,
             run=quads.run_quad_combine,
             example=quads.QUAD_COMBINE_EXAMPLE,
+        ),
+        MethodSpec(
+            name="grid",
+            summary="Grid mesh of a planar domain (holes, constraints): squares of a placed, "
+            "rotated grid; boundary cells kept whole (staircase, with its area and Hausdorff "
+            "errors), fitted (nodes snapped, cut cells split by templates, the domain covered "
+            "exactly) or split into triangles; interior cells perfect squares or their halves.",
+            section="§8.2 (grid methods, steps 1-3)",
+            params=grid.GridParams,
+            run=grid.run_grid,
+            example=grid.GRID_EXAMPLE,
         ),
         MethodSpec(
             name="medial_axis",

@@ -68,7 +68,10 @@ NAMED = {
     "square_with_hole": (square_with_hole(), 0.037),
     "l_shape": (l_shape(), 0.13),
     "plate": (plate(), 0.041),
-    "aligned_square": ({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}, 0.125),
+    "aligned_square": (
+        {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]},
+        0.125,
+    ),
 }
 
 
@@ -87,8 +90,10 @@ def assert_fitted(domain, mesh, area_rtol=1e-12):
             turn = orient2d(P[data[:, c]], P[data[:, (c + 1) % k]], P[data[:, (c + 2) % k]])
             assert (turn > 0).all(), f"{kind} not strictly convex / counter-clockwise"
             area += 0.5 * float(
-                np.sum(Q[data[:, c], 0] * Q[data[:, (c + 1) % k], 1]
-                       - Q[data[:, (c + 1) % k], 0] * Q[data[:, c], 1])
+                np.sum(
+                    Q[data[:, c], 0] * Q[data[:, (c + 1) % k], 1]
+                    - Q[data[:, (c + 1) % k], 0] * Q[data[:, c], 1]
+                )
             )
     assert area == pytest.approx(dom.area, rel=area_rtol)
     # input vertices are mesh points
@@ -179,7 +184,9 @@ class TestFit:
         _interior_squares(res.mesh, h)
 
     def test_constraints_are_chains(self):
-        dom = parse_domain(l_shape(), [[[0.2, 0.3], [1.7, 0.6]], [[0.5, 1.8], [0.5, 0.5], [0.8, 0.9]]])
+        dom = parse_domain(
+            l_shape(), [[[0.2, 0.3], [1.7, 0.6]], [[0.5, 1.8], [0.5, 0.5], [0.8, 0.9]]]
+        )
         res = grid(dom, size=0.11)
         assert_fitted(dom, res.mesh)
 
@@ -191,7 +198,10 @@ class TestFit:
             move, hh, o = (lambda p: [p[0] + 1e6, p[1] + 1e6]), h, [1e6, 1e6]
         else:
             move, hh, o = (lambda p: [p[0] * 1e-6, p[1] * 1e-6]), h * 1e-6, [0.0, 0.0]
-        moved = {"type": "Polygon", "coordinates": [[move(p) for p in r] for r in domain["coordinates"]]}
+        moved = {
+            "type": "Polygon",
+            "coordinates": [[move(p) for p in r] for r in domain["coordinates"]],
+        }
         res = grid(moved, size=hh, origin=o)
         assert_fitted(moved, res.mesh, area_rtol=1e-9 if f == "shift" else 1e-12)
         assert res.stats["quads"] == base.stats["quads"]
@@ -205,7 +215,7 @@ class TestFit:
         rng = np.random.default_rng(seed)
         n = data.draw(st.integers(6, 40))
         th = np.sort((np.arange(n) + rng.uniform(-0.4, 0.4, n)) * 2 * np.pi / n)
-        outer = (np.asarray(circle(0, 0, 1, n)) * 0 + np.column_stack([np.cos(th), np.sin(th)]))
+        outer = np.asarray(circle(0, 0, 1, n)) * 0 + np.column_stack([np.cos(th), np.sin(th)])
         outer = (outer * rng.uniform(0.55, 1.0, (n, 1))).tolist()
         rings = [outer]
         for k in range(data.draw(st.integers(0, 3))):

@@ -1,0 +1,103 @@
+"""Params and run functions of the grid methods (§8.2).
+
+Each params model refuses, with the field's location, what JSON Schema can
+say (choices, signs, NaN and infinities); its :meth:`check` runs meshcore's
+own checks before the job is queued: the domain (every error of
+``triangulate``'s domain, located under ``domain`` or ``segments``) and the
+grid's size against ``max_cells`` (a 422 on ``size`` giving the estimate).
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field
+
+from meshcore.errors import InputError
+from meshcore.grid import cartesian
+from meshcore.mesh import quality
+from service.methods.domain_schema import ConstraintPolylines, DomainIn, Position
+from service.schemas import MethodParams
+
+Progress = object  # the registry's Progress: callable(fraction, message)
+
+
+class GridParams(MethodParams):
+    """A mesh of a planar domain by a regular grid of squares (§8.2)."""
+
+    domain: DomainIn
+    segments: ConstraintPolylines | None = None
+    size: float | None = Field(
+        None,
+        gt=0,
+        allow_inf_nan=False,
+        description="Cell side. Default: the smallest distance between two boundary vertices, "
+        "enlarged to keep the grid under max_cells.",
+    )
+    origin: Position | None = Field(
+        None, description="A grid node (default: the lower-left corner of the domain's box)."
+    )
+    angle: float = Field(
+        0.0, allow_inf_nan=False, description="Rotation of the grid, degrees counter-clockwise."
+    )
+    boundary: Literal["keep", "fit", "split"] = Field(
+        "fit",
+        description="keep: every cell meeting the domain whole (the staircase); fit: boundary "
+        "nodes snapped onto the boundary and cut cells split by templates into quads and "
+        "triangles, the domain covered exactly; split: as fit, cut cells as triangles only.",
+    )
+    cells: Literal["quad", "triangle"] = Field(
+        "quad", description="Squares, or each square as two right triangles."
+    )
+    max_cells: int = Field(
+        cartesian.MAX_CELLS,
+        ge=1,
+        le=cartesian.MAX_CELLS,
+        description="Largest number of cells of the grid's bounding box.",
+    )
+
+    def check(self) -> None:
+        super().check()
+        dom = self.domain.to_domain(self.segments)
+        if self.size is not None:
+            est = cartesian.estimated_cells(dom, size=self.size, angle=self.angle)
+            if est > self.max_cells:
+                raise InputError(
+                    f"size {self.size:g} makes a grid of about {est} cells, more than "
+                    f"max_cells={self.max_cells}",
+                    loc=("size",),
+                    code="too_many_cells",
+                )
+
+    def grid_kwargs(self) -> dict:
+        """Keyword arguments of :func:`meshcore.grid.grid`."""
+        return {
+            "domain": self.domain.to_domain(self.segments),
+            "size": self.size,
+            "origin": self.origin,
+            "angle": self.angle,
+            "boundary": self.boundary,
+            "cells": self.cells,
+            "max_cells": self.max_cells,
+        }
+
+
+def run_grid(params: GridParams, progress: Progress) -> dict:
+    """The grid mesh, its quality report and the counts by kind and template."""
+    res = cartesian.grid(**params.grid_kwargs(), progress=progress)
+    stats = {**res.stats, "seconds": res.timings}
+    return {"mesh": res.mesh, "quality": quality.report(res.mesh), "stats": stats}
+
+
+#: The unit square with a round hole, cells of side 0.05, the boundary fitted.
+GRID_EXAMPLE = {
+    "domain": {
+        "type": "Polygon",
+        "coordinates": [
+            [[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]],
+            [[0.75, 0.5], [0.5, 0.75], [0.25, 0.5], [0.5, 0.25], [0.75, 0.5]],
+        ],
+    },
+    "size": 0.05,
+    "boundary": "fit",
+}
