@@ -165,6 +165,16 @@ def default_registry() -> Registry:
             example=grid.GRID_EXAMPLE,
         ),
         MethodSpec(
+            name="quad_grid",
+            summary="All-quad mesh by grid superposition: the grid's inner squares kept, the band "
+            "along the boundary triangulated with their outline kept and turned into quads "
+            "(combination, all_quad), optionally smoothed; only quads, exact area, corners kept.",
+            section="§8.5.2 (grid superposition), §8.2, Figure 8.13",
+            params=grid.QuadGridParams,
+            run=grid.run_quad_grid,
+            example=grid.QUAD_GRID_EXAMPLE,
+        ),
+        MethodSpec(
             name="medial_axis",
             summary="Medial axis of a polygon (holes allowed) or of a boundary point cloud: "
             "circumcentres of the empty Delaunay triangulation joined across interior edges, "

@@ -66,3 +66,28 @@ class TestGrid:
         assert "§8.2" in m["section"]
         props = m["params_schema"]["properties"]
         assert {"domain", "size", "origin", "angle", "boundary", "cells"} <= set(props)
+
+
+class TestQuadGrid:
+    @pytest.mark.parametrize(
+        "params, loc",
+        [
+            ({"domain": SQUARE, "size": 1e-5}, ["size"]),
+            ({"domain": SQUARE, "layers": 0}, ["layers"]),
+            ({"domain": BOWTIE}, ["domain", "coordinates", 0]),
+        ],
+    )
+    def test_bad_params_are_422_naming_the_field(self, client, params, loc):
+        assert_problem(submit(client, "quad_grid", params), 422, ["body", "params", *loc])
+
+    def test_example_is_only_quads(self, client):
+        from service.methods.grid import QUAD_GRID_EXAMPLE
+
+        r = submit(client, "quad_grid", QUAD_GRID_EXAMPLE, wait=30)
+        assert r.status_code == 200, r.text
+        res = client.get(f"/v1/jobs/{r.json()['id']}/result").json()
+        assert list(res["quality"]) == ["quad", "conformity"] or "triangle" not in res["quality"]
+        assert res["quality"]["quad"]["invalid"] == 0
+        mesh = io.from_json(res["mesh"])
+        area = quality.signed_area(mesh.points, mesh.cells[0].data, "quad").sum()
+        assert area == pytest.approx(parse_domain(QUAD_GRID_EXAMPLE["domain"]).area, rel=1e-12)
