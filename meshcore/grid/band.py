@@ -201,7 +201,7 @@ def split_into_quads(points: np.ndarray, blocks: list[tuple[str, np.ndarray]]):
         e = np.stack([data, np.roll(data, -1, axis=1)], axis=2)  # (m, k, 2): edge c = (c, c+1)
         edges.append(e.reshape(-1, 2))
         cent.append(points[data].mean(axis=1))
-        cells.append((kind, data, k))
+        cells.append((data, k))
     e = np.sort(np.concatenate(edges), axis=1)
     ue, inv = np.unique(e, axis=0, return_inverse=True)
     mids = 0.5 * (points[ue[:, 0]] + points[ue[:, 1]])
@@ -211,7 +211,7 @@ def split_into_quads(points: np.ndarray, blocks: list[tuple[str, np.ndarray]]):
     quads = []
     pos = 0
     c_off = 0
-    for kind, data, k in cells:
+    for data, k in cells:
         m = len(data)
         mid = m_id[pos : pos + m * k].reshape(m, k)  # midpoint of edge (c, c+1)
         pos += m * k

@@ -51,6 +51,7 @@ import time
 
 import numpy as np
 
+from meshcore.errors import InputError
 from meshcore.grid import cartesian
 from meshcore.grid.band import fill_gap
 from meshcore.grid.cartesian import (
@@ -67,7 +68,6 @@ from meshcore.grid.cartesian import (
     _quad_jacobian,
     _smallest_distance,
 )
-from meshcore.errors import InputError
 from meshcore.mesh import Mesh
 from meshcore.mesh.quality import quad_quality
 from meshcore.quads.combination import combine
