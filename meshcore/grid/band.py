@@ -196,7 +196,7 @@ def split_into_quads(points: np.ndarray, blocks: list[tuple[str, np.ndarray]]):
     same edge gives the same point.
     """
     edges, cent, cells = [], [], []
-    for kind, data in blocks:
+    for _, data in blocks:
         k = data.shape[1]
         e = np.stack([data, np.roll(data, -1, axis=1)], axis=2)  # (m, k, 2): edge c = (c, c+1)
         edges.append(e.reshape(-1, 2))
