@@ -31,6 +31,7 @@ _ENTRY_POINTS = {
     "radial": "meshcore.product",
     "combine": "meshcore.quads",
     "quad_grid": "meshcore.grid",
+    "pattern": "meshcore.grid",
     "optimize_quads": "meshcore.quads",
     "medial_axis": "meshcore.medial",
     "medial_transform": "meshcore.medial",

@@ -165,6 +165,16 @@ def default_registry() -> Registry:
             example=grid.GRID_EXAMPLE,
         ),
         MethodSpec(
+            name="pattern",
+            summary="Pattern-based mesh: parallelogram, hexagon or radial patterns strictly "
+            "inside and away from the boundary kept, the gap to the boundary meshed by "
+            "triangulate with their outline kept (or all quads), merged; cell sets pattern, gap.",
+            section="§8.2 (Figures 8.6, 8.7)",
+            params=grid.PatternParams,
+            run=grid.run_pattern,
+            example=grid.PATTERN_EXAMPLE,
+        ),
+        MethodSpec(
             name="quad_grid",
             summary="All-quad mesh by grid superposition: the grid's inner squares kept, the band "
             "along the boundary triangulated with their outline kept and turned into quads "

@@ -91,3 +91,37 @@ class TestQuadGrid:
         mesh = io.from_json(res["mesh"])
         area = quality.signed_area(mesh.points, mesh.cells[0].data, "quad").sum()
         assert area == pytest.approx(parse_domain(QUAD_GRID_EXAMPLE["domain"]).area, rel=1e-12)
+
+
+class TestPattern:
+    @pytest.mark.parametrize(
+        "params, loc",
+        [
+            ({"pattern": {"type": "hexagon", "size": 0}}, ["pattern", "hexagon", "size"]),
+            ({"pattern": {"type": "spiral"}}, ["pattern"]),
+            (
+                {"pattern": {"type": "parallelogram", "vectors": [[1, 0], [2, 0]]}},
+                ["pattern", "vectors"],
+            ),
+            (
+                {"pattern": {"type": "radial", "center": [0, 0], "radii": [0, 1], "segments": 8}},
+                ["pattern", "radial", "radii", 0],
+            ),
+            ({"pattern": {"type": "hexagon", "size": 0.1}, "margin": 0}, ["margin"]),
+        ],
+    )
+    def test_bad_params_are_422_naming_the_field(self, client, params, loc):
+        r = submit(client, "pattern", {"domain": SQUARE, **params})
+        assert_problem(r, 422, ["body", "params", *loc])
+
+    def test_example_carries_cell_sets(self, client):
+        from service.methods.grid import PATTERN_EXAMPLE
+
+        r = submit(client, "pattern", PATTERN_EXAMPLE, wait=30)
+        assert r.status_code == 200, r.text
+        job = r.json()
+        res = client.get(f"/v1/jobs/{job['id']}/result").json()
+        assert set(res["mesh"]["cell_sets"]) == {"pattern", "gap"}
+        assert res["stats"]["steps"]["ii"] > 0
+        r = client.get(f"/v1/jobs/{job['id']}/result", params={"format": "gmsh"})
+        assert r.status_code == 200, r.text
