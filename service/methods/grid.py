@@ -105,7 +105,7 @@ class QuadGridParams(MethodParams):
         1, ge=1, le=8, description="Width of the band along the boundary, in cells of 2 size."
     )
     smooth: bool = Field(
-        False,
+        True,
         description="Optimize the band's quads: operators and smoothing that never inverts a "
         "cell; the interface and the boundary stay.",
     )

@@ -190,10 +190,11 @@ class TestFit:
         res = grid(dom, size=0.11)
         assert_fitted(dom, res.mesh)
 
+    @pytest.mark.parametrize("boundary", ["fit", "split"])
     @pytest.mark.parametrize("f", ["shift", "shrink"])
-    def test_translation_and_scale(self, f):
+    def test_translation_and_scale(self, f, boundary):
         domain, h = NAMED["square_with_hole"]
-        base = grid(domain, size=h)
+        base = grid(domain, size=h, boundary=boundary)
         if f == "shift":
             move, hh, o = (lambda p: [p[0] + 1e6, p[1] + 1e6]), h, [1e6, 1e6]
         else:
@@ -202,7 +203,7 @@ class TestFit:
             "type": "Polygon",
             "coordinates": [[move(p) for p in r] for r in domain["coordinates"]],
         }
-        res = grid(moved, size=hh, origin=o)
+        res = grid(moved, size=hh, origin=o, boundary=boundary)
         assert_fitted(moved, res.mesh, area_rtol=1e-9 if f == "shift" else 1e-12)
         assert res.stats["quads"] == base.stats["quads"]
         assert res.stats["triangles"] == base.stats["triangles"]
@@ -300,10 +301,21 @@ class TestBadInput:
         assert err.value.code == code
         assert tuple(err.value.errors[0]["loc"]) == loc
 
-    def test_bad_domain(self):
-        bow = {"type": "Polygon", "coordinates": [[[0, 0], [1, 1], [1, 0], [0, 1]]]}
+    @pytest.mark.parametrize(
+        "rings, code",
+        [
+            ([[[0, 0], [1, 1], [1, 0], [0, 1]]], "self_intersection"),
+            ([[[0, 0], [1, 0], [1, 0], [0, 1]]], "duplicate_point"),
+            ([[[0, 0], [1, 0]]], "too_few_points"),
+            ([[[0, 0], [1, 0], [2, 0]]], "zero_area"),
+            ([[[0, 0], [1, 0], [0, float("nan")]]], "non_finite"),
+            ([[[0, 0], [1, 0], [1, 1], [0, 1]], [[2, 2], [3, 2], [3, 3]]], "hole_outside"),
+        ],
+    )
+    def test_bad_domain(self, rings, code):
         with pytest.raises(InputError) as err:
-            grid(bow, size=0.1)
+            grid({"type": "Polygon", "coordinates": rings}, size=0.1)
+        assert err.value.code == code
         assert err.value.errors[0]["loc"][0] == "domain"
 
     def test_default_size_is_bounded(self):
