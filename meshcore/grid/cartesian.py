@@ -761,6 +761,16 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
             par = np.bincount(rows[:, 0], minlength=len(test)) % 2 == 1
             keep[test] = par
     cons = np.column_stack([u0[keep], u1[keep]])
+    # chained along grid lines (fewer polylines for the domain check)
+    pe_of = np.repeat(np.arange(E), seq_len - 1)[keep]
+    n0 = edges[pe_of, 0]
+    vertical = edges[pe_of, 1] - n0 != 1
+    line_key = np.where(vertical, (n0 % nx1) * (ny + 1) + n0 // nx1, n0)
+    order = np.lexsort((np.flatnonzero(keep), line_key, vertical))
+    cons = cons[order]
+    vertical = vertical[order]
+    brk = np.r_[True, (cons[1:, 0] != cons[:-1, 1]) | (vertical[1:] != vertical[:-1])]
+    run = np.cumsum(brk) - 1
     lap("pieces")
 
     # -- rings of the band ----------------------------------------------------
@@ -784,7 +794,7 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
             rings_ids.append(loop[::-1])
             ring_outer.append(area2 < 0)
     constraint_lines = [chain(s) + [N + int(seg[s, 1])] for s in range(nb, S)]
-    lines = (constraint_lines, cons)
+    lines = (constraint_lines, cons, run)
     band_dom = _band_domain(rings_ids, ring_outer, lines, coords_L)
     lap("band rings")
     try:
@@ -888,17 +898,20 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
         whole = np.zeros(0, dtype=bool)
 
     # -- assemble ----------------------------------------------------------
-    cj, ci = np.nonzero(core)
-    c00 = cj * nx1 + ci
-    core_quads = np.column_stack([c00, c00 + 1, c00 + nx1 + 1, c00 + nx1])
     if mode == "fit" and len(band_quads):
-        interior_q = np.concatenate([core_quads, band_quads[whole]])
-        boundary_q = band_quads[~whole]
+        extra_interior, boundary_q = band_quads[whole], band_quads[~whole]
     else:
-        interior_q, boundary_q = core_quads, np.zeros((0, 4), dtype=np.int64)
-    used = _used(
-        np.concatenate([interior_q.ravel(), boundary_q.ravel(), band_tris.ravel()]), N + V + n_extra
-    )
+        extra_interior, boundary_q = np.zeros((0, 4), np.int64), np.zeros((0, 4), np.int64)
+    # used ids: the corners of the core cells (a dilation of the core mask), then the band's
+    mask = np.zeros(N + V + n_extra, dtype=bool)
+    nm = mask[:N].reshape(ny + 1, nx1)
+    nm[:-1, :-1] |= core
+    nm[:-1, 1:] |= core
+    nm[1:, :-1] |= core
+    nm[1:, 1:] |= core
+    mask[band_quads.ravel()] = True
+    mask[band_tris.ravel()] = True
+    used = np.flatnonzero(mask)
     remap = np.full(N + V + n_extra, -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
     pts = np.empty((len(used), 2))
@@ -917,7 +930,16 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
     e = used >= N + V
     if e.any():
         pts[e] = np.concatenate(extraP)[used[e] - N - V]
-    interior_q, boundary_q, band_tris = remap[interior_q], remap[boundary_q], remap[band_tris]
+    # the quads, interior first, written once into their final array
+    cid = np.flatnonzero(core.ravel())
+    c00 = cid + cid // nx  # cell (i, j) -> its node (i, j)
+    n_core, n_extra_int = len(cid), len(extra_interior)
+    quads_out = np.empty((n_core + n_extra_int + len(boundary_q), 4), dtype=np.int64)
+    for c, off in enumerate((0, 1, nx1 + 1, nx1)):
+        quads_out[:n_core, c] = remap[c00 + off]
+    quads_out[n_core : n_core + n_extra_int] = remap[extra_interior]
+    quads_out[n_core + n_extra_int :] = remap[boundary_q]
+    band_tris = remap[band_tris]
     lap("assemble")
     stats = {
         "snapped_nodes": int(len(snodes) + len(vnodes)),
@@ -925,9 +947,9 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
         "crossings": int(n_extra),
         "pieces": int(n_pieces),
         "templates": templates,
-        "core_cells": int(len(core_quads)),
+        "core_cells": int(core.sum()),
     }
-    return pts, interior_q, boundary_q, band_tris, stats, timings
+    return pts, quads_out, n_core + n_extra_int, band_tris, stats, timings
 
 
 def _used(ids: np.ndarray, n: int) -> np.ndarray:
@@ -975,8 +997,17 @@ def _band_domain(rings_ids, ring_outer, lines, coords_L) -> Domain:
         polys[owner[i]].append(coords[k].tolist())
     geometry = {"type": "MultiPolygon", "coordinates": polys}
     segments = [coords_L(np.asarray(line, dtype=np.int64)).tolist() for line in lines[0]]
-    if len(lines[1]):
-        segments += coords_L(lines[1].ravel()).reshape(-1, 2, 2).tolist()
+    cons, run = lines[1], lines[2]
+    if len(cons):
+        starts = np.flatnonzero(np.r_[True, run[1:] != run[:-1]])
+        # a run's ids: the first start, then every end
+        ids = np.empty(len(cons) + len(starts), dtype=np.int64)
+        slot = np.arange(len(cons)) + run + 1
+        ids[slot] = cons[:, 1]
+        ids[starts + np.arange(len(starts))] = cons[starts, 0]
+        xy = coords_L(ids)
+        bounds = starts + np.arange(len(starts))
+        segments += [a for a in np.split(xy, bounds[1:])]
     try:
         return parse_domain(geometry, segments or None)
     except InputError as exc:
@@ -1150,11 +1181,7 @@ def grid(
         remap = np.full(nx1 * (ny + 1), -1, dtype=np.int64)
         remap[used] = np.arange(len(used))
         pts = frame.world(np.column_stack([used % nx1, used // nx1]).astype(np.float64))
-        interior_q, boundary_q, band_tris = (
-            remap[quads],
-            np.zeros((0, 4), np.int64),
-            np.zeros((0, 3), np.int64),
-        )
+        quads_all, n_interior, band_tris = remap[quads], len(quads), np.zeros((0, 3), np.int64)
         lap("staircase")
         out = _outline_edges(kept)
         oL = np.column_stack([out.ravel() % nx1, out.ravel() // nx1]).astype(np.float64)
@@ -1167,14 +1194,14 @@ def grid(
         )
         lap("errors")
     else:
-        pts, interior_q, boundary_q, band_tris, fstats, ft = _fit(
+        pts, quads_all, n_interior, band_tris, fstats, ft = _fit(
             dom, frame, L, nx, ny, boundary, cells
         )
         timings.update(ft)
         stats.update(fstats)
         clock = time.process_time()
     report(0.9, "grid: assembling")
-    n_interior = len(interior_q)
+    interior_q, boundary_q = quads_all[:n_interior], quads_all[n_interior:]
     if cells == "triangle":
         tris = np.concatenate([_split_quads(interior_q), _split_quads(boundary_q), band_tris])
         blocks = [CellBlock("triangle", tris)]
@@ -1184,7 +1211,7 @@ def grid(
             "boundary": [np.arange(n_int, len(tris))],
         }
     else:
-        quads = np.concatenate([interior_q, boundary_q])
+        quads = quads_all
         blocks = [CellBlock("quad", quads)]
         sets = {
             "interior": [np.arange(n_interior)],
