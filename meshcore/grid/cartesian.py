@@ -67,9 +67,11 @@ Fitting the boundary (``fit`` and ``split``)
       polygon    k >= 6 (several crossings, a vertex)   -> quads and triangles
 
   Inside a piece, adjacent triangles are paired into strictly convex quads
-  greedily, best quad quality (8.4) first (a sequential loop, compiled):
-  a pentagon gets its best quad, a polygon as many good quads as pairing
-  finds.
+  (exact orientation) whose scaled Jacobian is at least 0.5, greedily, best
+  quad quality (8.4) first (a sequential loop, compiled): a pentagon gets
+  its best quad, a polygon as many good quads as pairing finds; a pair
+  failing the Jacobian bound stays two triangles (counted as ``concave``
+  for a four-corner piece).
 
 Guarantees (``fit``, ``split``): the cell areas sum to the domain's area
 (up to rounding of the crossing points, relative 1e-12), every input
