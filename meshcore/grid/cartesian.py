@@ -118,6 +118,7 @@ from scipy.spatial import cKDTree
 from meshcore.domain.planar import Domain, parse_domain, ray_parity
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import orient2d
+from meshcore.grid.band import outline_loops
 from meshcore.mesh import CellBlock, Mesh
 from meshcore.mesh.quality import quad_quality, triangle_shape
 from meshcore.triangulation.refinement import triangulate
@@ -444,29 +445,6 @@ def _drop_pinches(core: np.ndarray) -> int:
 
 
 @njit(cache=True)
-def _cycles(succ_from, succ_to, n_nodes):  # pragma: no cover - compiled
-    """Order directed edges into cycles (each node has at most one successor)."""
-    nxt = np.full(n_nodes, -1, dtype=np.int64)
-    for k in range(len(succ_from)):
-        nxt[succ_from[k]] = succ_to[k]
-    seen = np.zeros(n_nodes, dtype=np.bool_)
-    order = np.empty(len(succ_from), dtype=np.int64)
-    starts = [0]
-    pos = 0
-    for k in range(len(succ_from)):
-        v = succ_from[k]
-        if seen[v]:
-            continue
-        while not seen[v]:
-            seen[v] = True
-            order[pos] = v
-            pos += 1
-            v = nxt[v]
-        starts.append(pos)
-    return order, np.array(starts, dtype=np.int64)
-
-
-@njit(cache=True)
 def _greedy_pairs(cand_a, cand_b, n_tri):  # pragma: no cover - compiled
     """Greedy matching over candidates given best first (inherently sequential)."""
     used = np.zeros(n_tri, dtype=np.bool_)
@@ -785,9 +763,7 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
         rings_ids.append(np.array(ids, dtype=np.int64))
         ring_outer.append(not bool(dom.ring_is_hole[k]))
     if len(core_out):
-        order, starts = _cycles(core_out[:, 0], core_out[:, 1], N)
-        for k in range(len(starts) - 1):
-            loop = order[starts[k] : starts[k + 1]]
+        for loop in outline_loops(core_out, N):
             xy = np.column_stack([loop % nx1, loop // nx1]).astype(np.float64)
             area2 = float(
                 np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1])
