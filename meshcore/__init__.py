@@ -3,14 +3,15 @@
 The packages are the table of contents of the methods text: the shared
 kernel (:mod:`.geometry`, :mod:`.mesh`, :mod:`.domain`, :mod:`.delaunay`)
 below one package per method family (:mod:`.triangulation`,
-:mod:`.product`, :mod:`.quads`, :mod:`.medial`). Each method's entry point
+:mod:`.product`, :mod:`.quads`, :mod:`.medial`, :mod:`.grid`). Each method's entry point
 is re-exported here, loaded on first use so that ``import meshcore`` stays
 cheap::
 
     from meshcore import parse_domain, triangulate, medial_axis, extrude
 
-A name that is also a subpackage (``delaunay``) is imported from its
-package instead: ``from meshcore.delaunay import delaunay``.
+A name that is also a subpackage (``delaunay``, ``grid``) is imported from
+its package instead: ``from meshcore.delaunay import delaunay``,
+``from meshcore.grid import grid``.
 """
 
 from __future__ import annotations
@@ -29,6 +30,8 @@ _ENTRY_POINTS = {
     "merged": "meshcore.product",
     "radial": "meshcore.product",
     "combine": "meshcore.quads",
+    "quad_grid": "meshcore.grid",
+    "pattern": "meshcore.grid",
     "optimize_quads": "meshcore.quads",
     "medial_axis": "meshcore.medial",
     "medial_transform": "meshcore.medial",

@@ -19,7 +19,7 @@ from typing import Any
 
 from meshcore.errors import InputError
 from meshcore.mesh import io, quality
-from service.methods import delaunay, medial, product, quads, triangulation
+from service.methods import delaunay, grid, medial, product, quads, triangulation
 from service.schemas import MeshIn, MethodParams
 
 Progress = Callable[[float, str], None]
@@ -162,6 +162,37 @@ def default_registry() -> Registry:
             params=quads.QuadCombineParams,
             run=quads.run_quad_combine,
             example=quads.QUAD_COMBINE_EXAMPLE,
+        ),
+        MethodSpec(
+            name="grid",
+            summary="Grid mesh of a planar domain (holes, constraints): squares of a placed, "
+            "rotated grid; boundary cells kept whole (staircase, with its area and Hausdorff "
+            "errors), fitted (nodes snapped, cut cells split by templates, the domain covered "
+            "exactly) or split into triangles; interior cells perfect squares or their halves.",
+            section="§8.2 (grid methods, steps 1-3)",
+            params=grid.GridParams,
+            run=grid.run_grid,
+            example=grid.GRID_EXAMPLE,
+        ),
+        MethodSpec(
+            name="pattern",
+            summary="Pattern-based mesh: parallelogram, hexagon or radial patterns strictly "
+            "inside and away from the boundary kept, the gap to the boundary meshed by "
+            "triangulate with their outline kept (or all quads), merged; cell sets pattern, gap.",
+            section="§8.2 (Figures 8.6, 8.7)",
+            params=grid.PatternParams,
+            run=grid.run_pattern,
+            example=grid.PATTERN_EXAMPLE,
+        ),
+        MethodSpec(
+            name="quad_grid",
+            summary="All-quad mesh by grid superposition: the grid's inner squares kept, the band "
+            "along the boundary triangulated with their outline kept and turned into quads "
+            "(combination, all_quad), optionally smoothed; only quads, exact area, corners kept.",
+            section="§8.5.2 (grid superposition), §8.2, Figure 8.13",
+            params=grid.QuadGridParams,
+            run=grid.run_quad_grid,
+            example=grid.QUAD_GRID_EXAMPLE,
         ),
         MethodSpec(
             name="medial_axis",

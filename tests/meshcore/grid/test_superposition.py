@@ -1,0 +1,89 @@
+"""Facts about ``quad_grid`` (§8.5.2): only quads, exact area, corners kept, conforming.
+
+Each mesh goes through :func:`assert_fitted` of ``test_cartesian`` (cells
+strictly convex by exact orientation, input vertices present, input
+segments chains of edges, border edges exactly those chains, area exact),
+and holds only quads.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from meshcore.errors import InputError
+from meshcore.grid import quad_grid
+from tests.meshcore.grid.test_cartesian import NAMED, assert_fitted, circle, square_with_hole
+
+
+def _only_quads(mesh):
+    assert [b.type for b in mesh.cells] == ["quad"]
+
+
+class TestQuadGrid:
+    @pytest.mark.parametrize("smooth", [False, True])
+    @pytest.mark.parametrize("name", NAMED)
+    def test_named_domains(self, name, smooth):
+        domain, h = NAMED[name]
+        res = quad_grid(domain, size=h / 2, smooth=smooth)
+        _only_quads(res.mesh)
+        assert_fitted(domain, res.mesh)
+        assert res.stats["min_scaled_jacobian"] > 0
+
+    def test_interior_cells_are_squares(self):
+        domain, h = NAMED["square_with_hole"]
+        res = quad_grid(domain, size=h / 2)
+        P = res.mesh.points
+        q = res.mesh.cells[0].data[res.mesh.cell_sets["interior"][0]]
+        assert len(q) == res.stats["interior_squares"] > 0
+        np.testing.assert_allclose(np.linalg.norm(P[q] - P[np.roll(q, -1, axis=1)], axis=2), h / 2)
+
+    def test_layers_widen_the_band(self):
+        domain, h = NAMED["square_with_hole"]
+        one = quad_grid(domain, size=h / 2, layers=1)
+        two = quad_grid(domain, size=h / 2, layers=2)
+        assert two.stats["interior_squares"] < one.stats["interior_squares"]
+        assert_fitted(domain, two.mesh)
+
+    def test_translation_and_scale(self):
+        domain, h = NAMED["l_shape"]
+        base = quad_grid(domain, size=h / 2)
+        moved = {
+            "type": "Polygon",
+            "coordinates": [[[1e-6 * x, 1e-6 * y] for x, y in r] for r in domain["coordinates"]],
+        }
+        res = quad_grid(moved, size=1e-6 * h / 2)
+        assert_fitted(moved, res.mesh)
+        assert res.stats["quads"] == base.stats["quads"]
+
+    @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+    @given(data=st.data())
+    def test_random_polygons_with_holes(self, data):
+        seed = data.draw(st.integers(0, 2**32 - 1))
+        rng = np.random.default_rng(seed)
+        n = data.draw(st.integers(6, 30))
+        th = np.sort((np.arange(n) + rng.uniform(-0.4, 0.4, n)) * 2 * np.pi / n)
+        outer = (
+            np.column_stack([np.cos(th), np.sin(th)]) * rng.uniform(0.55, 1.0, (n, 1))
+        ).tolist()
+        rings = [outer]
+        for k in range(data.draw(st.integers(0, 2))):
+            c = 0.3 * np.array([math.cos(2 * math.pi * k / 3), math.sin(2 * math.pi * k / 3)])
+            rings.append((c + np.asarray(circle(0, 0, rng.uniform(0.05, 0.12), 8))).tolist())
+        domain = {"type": "Polygon", "coordinates": rings}
+        res = quad_grid(domain, size=data.draw(st.floats(0.02, 0.08)))
+        _only_quads(res.mesh)
+        assert_fitted(domain, res.mesh)
+
+    @pytest.mark.parametrize(
+        "kw, loc",
+        [({"size": 1e-6}, ("size",)), ({"size": 0}, ("size",)), ({"layers": 0}, ("layers",))],
+    )
+    def test_bad_input(self, kw, loc):
+        with pytest.raises(InputError) as err:
+            quad_grid(square_with_hole(), **kw)
+        assert tuple(err.value.errors[0]["loc"]) == loc
