@@ -10,7 +10,8 @@ tetrahedra at 1M), and points uniformly on the unit sphere (nearly
 co-spherical: every insphere test is close to zero, the exact stage runs
 often). Each run is a child process (its own peak resident memory, a time
 limit); the time is that of the tetrahedralization call alone, after a
-warm-up call that loads numba's cache. Qhull runs only where asked
+warm-up call that loads numba's cache (wall and CPU seconds: on a loaded
+machine the CPU time is the steadier figure; ratios are of wall times). Qhull runs only where asked
 (``random:100000:qhull`` by default): it takes minutes at 1M and does not
 finish on the sphere. Where it ran, our tetrahedra are compared with its
 own as sets (sorted rows). Peers: ``tetgen`` (its low-level
@@ -43,17 +44,17 @@ out = None
 if peer == "ours":
     from meshcore.delaunay import delaunay3d
     delaunay3d(np.random.default_rng(1).random((100, 3)))
-    t = time.perf_counter()
+    t = time.perf_counter(); c = time.process_time()
     out = delaunay3d(p).tetra
-    dt = time.perf_counter() - t
+    dt = time.perf_counter() - t; cpu = time.process_time() - c
 elif peer == "tetgen":
     from tetgen import _tetgen
     g = _tetgen.PyTetgen()
-    t = time.perf_counter()
+    t = time.perf_counter(); c = time.process_time()
     g.load_mesh(p, np.empty((0, 3), np.int32))
     g.tetrahedralize(plc=0, quality=0, quiet=1)
     out = g.return_tets()
-    dt = time.perf_counter() - t
+    dt = time.perf_counter() - t; cpu = time.process_time() - c
 elif peer.startswith("gmsh"):
     import gmsh
     gmsh.initialize()
@@ -61,19 +62,19 @@ elif peer.startswith("gmsh"):
     gmsh.option.setNumber("General.NumThreads", 1)
     gmsh.option.setNumber("Mesh.Algorithm3D", 10 if peer == "gmsh-hxt" else 1)
     flat = p.ravel()
-    t = time.perf_counter()
+    t = time.perf_counter(); c = time.process_time()
     tets, _ = gmsh.algorithm.tetrahedralize(flat)
-    dt = time.perf_counter() - t
+    dt = time.perf_counter() - t; cpu = time.process_time() - c
     out = np.asarray(tets, np.int64).reshape(-1, 4) - 1
 elif peer == "qhull":
     from scipy.spatial import Delaunay
-    t = time.perf_counter()
+    t = time.perf_counter(); c = time.process_time()
     out = Delaunay(p).simplices
-    dt = time.perf_counter() - t
+    dt = time.perf_counter() - t; cpu = time.process_time() - c
 if len(sys.argv) > 4:
     np.save(sys.argv[4], np.asarray(out))
 rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-print(json.dumps({"seconds": dt, "tetra": int(len(out)), "peak_mb": rss}))
+print(json.dumps({"seconds": dt, "cpu": cpu, "tetra": int(len(out)), "peak_mb": rss}))
 """
 
 PEERS = ["ours", "tetgen", "gmsh-hxt", "gmsh-delaunay", "qhull"]
@@ -134,7 +135,8 @@ def main() -> None:
     args = parser.parse_args()
 
     header = (
-        f"{'input':<8} {'n':>8} {'peer':<14} {'seconds':>8} {'tetra':>10} {'peak MB':>8} "
+        f"{'input':<8} {'n':>8} {'peer':<14} {'seconds':>8} {'cpu s':>7} {'tetra':>10} "
+        f"{'peak MB':>8} "
         f"{'ours/peer':>9} {'= qhull':>8}"
     )
     print(header)
@@ -172,7 +174,8 @@ def main() -> None:
                 if ref is not None and peer in saved:
                     same = "yes" if np.array_equal(canon(np.load(saved[peer])), ref) else "no"
                 print(
-                    f"{name:<8} {len(p):>8} {peer:<14} {r['seconds']:>8.2f} {r['tetra']:>10} "
+                    f"{name:<8} {len(p):>8} {peer:<14} {r['seconds']:>8.2f} {r['cpu']:>7.2f} "
+                    f"{r['tetra']:>10} "
                     f"{r['peak_mb']:>8.0f} {ratio:>9} {same:>8}",
                     flush=True,
                 )
