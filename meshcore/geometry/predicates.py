@@ -72,6 +72,7 @@ __all__ = [
     "insphere_filtered",
     "insphere_perturbed",
     "insphere_scalar",
+    "insphere_tie",
     "orient2d",
     "orient2d_exact",
     "orient2d_filtered",
@@ -1432,35 +1433,47 @@ def insphere_perturbed(p, work):
     )  # fmt: skip
     if s != 0:
         return s
-    return _insphere_tie(p, work)
+    return insphere_tie(p, work)
 
 
 @njit(cache=True)
-def _insphere_tie(p, work):
-    """The symbolic-perturbation sign of an exact co-spherical tie (see insphere_perturbed)."""
-    done = np.zeros(5, np.bool_)
+def insphere_tie(p, work):
+    """The sign :func:`insphere_perturbed` gives to an exact co-spherical tie.
+
+    Parameters
+    ----------
+    p : (5, 3) float64
+        Rows a, b, c, d, e with ``insphere_exact(a, b, c, d, e) == 0``.
+    work : (WORK_SIZE,) float64
+        Scratch buffer, overwritten.
+
+    Returns
+    -------
+    int
+        The coefficient sign of the first point, in lexicographic order,
+        whose lifting's coefficient is not zero (see
+        :func:`insphere_perturbed`); 0 only when a, b, c, d are coplanar.
+        For callers that already know the exact sign is 0.
+    """
+    done = 0
     for _ in range(5):
         m = -1
         for i in range(5):
-            if not done[i] and (m < 0 or _lex_less3(p[i], p[m])):
+            if not (done >> i) & 1 and (m < 0 or _lex_less3(p[i], p[m])):
                 m = i
-        done[m] = True
-        if m == 4:
-            s = orient3d_filtered(
-                p[0, 0], p[0, 1], p[0, 2], p[1, 0], p[1, 1], p[1, 2],
-                p[2, 0], p[2, 1], p[2, 2], p[3, 0], p[3, 1], p[3, 2], work,
-            )  # fmt: skip
-            return -s
-        # orient3d of the tetrahedron with row m replaced by e.
-        q = np.empty((4, 3))
-        for i in range(4):
-            src = 4 if i == m else i
-            for c in range(3):
-                q[i, c] = p[src, c]
+        done |= 1 << m
+        # orient3d of a, b, c, d with row m replaced by e (m == 4: the
+        # coefficient of e's lifting, -orient3d(a, b, c, d)).
+        i0 = 4 if m == 0 else 0
+        i1 = 4 if m == 1 else 1
+        i2 = 4 if m == 2 else 2
+        i3 = 4 if m == 3 else 3
         s = orient3d_filtered(
-            q[0, 0], q[0, 1], q[0, 2], q[1, 0], q[1, 1], q[1, 2],
-            q[2, 0], q[2, 1], q[2, 2], q[3, 0], q[3, 1], q[3, 2], work,
+            p[i0, 0], p[i0, 1], p[i0, 2], p[i1, 0], p[i1, 1], p[i1, 2],
+            p[i2, 0], p[i2, 1], p[i2, 2], p[i3, 0], p[i3, 1], p[i3, 2], work,
         )  # fmt: skip
+        if m == 4:
+            return -s
         if s != 0:
             return s
     return 0
