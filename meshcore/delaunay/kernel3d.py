@@ -97,7 +97,7 @@ from meshcore.errors import InputError
 from meshcore.geometry.predicates import (
     WORK_SIZE,
     insphere_exact,
-    insphere_perturbed,
+    insphere_tie,
     orient2d_filtered,
     orient3d_exact,
 )
@@ -348,7 +348,8 @@ def _insphere(pts, a, b, c, d, e, work, pbuf):
     """Perturbed insphere sign of e against positive (a, b, c, d); never 0.
 
     The float filter of predicates.insphere_filtered inlined; undecided
-    cases go to predicates.insphere_perturbed (exact, then symbolic).
+    cases go to predicates.insphere_exact, exact ties to insphere_tie (the
+    symbolic perturbation of insphere_perturbed).
     """
     ex = pts[e, 0]
     ey = pts[e, 1]
@@ -425,7 +426,7 @@ def _insphere(pts, a, b, c, d, e, work, pbuf):
         pbuf[2, k] = pts[c, k]
         pbuf[3, k] = pts[d, k]
         pbuf[4, k] = pts[e, k]
-    return insphere_perturbed(pbuf, work)
+    return insphere_tie(pbuf, work)
 
 
 @njit(cache=True, inline="always")

@@ -72,6 +72,7 @@ __all__ = [
     "insphere_filtered",
     "insphere_perturbed",
     "insphere_scalar",
+    "insphere_tie",
     "orient2d",
     "orient2d_exact",
     "orient2d_filtered",
@@ -90,6 +91,11 @@ _O3D_ERRBOUND_A = (7.0 + 56.0 * _EPS) * _EPS
 _ICC_ERRBOUND_A = (10.0 + 96.0 * _EPS) * _EPS
 _ISP_ERRBOUND_A = (16.0 + 224.0 * _EPS) * _EPS
 _ISP_ERRBOUND_B = (5.0 + 72.0 * _EPS) * _EPS
+_ISP_ERRBOUND_C = (71.0 + 1408.0 * _EPS) * _EPS * _EPS
+_RESULT_ERRBOUND = (3.0 + 8.0 * _EPS) * _EPS
+# Double-double insphere: 256 u**2 of the permanent, well above the ~100 u**2
+# its operations can stack up (see _insphere_dd).
+_ISP_ERRBOUND_DD = 256.0 * _EPS * _EPS
 
 #: Length of the scratch buffer the ``*_exact`` scalar functions need.
 WORK_SIZE = 16384
@@ -842,17 +848,18 @@ def _pair_index(i, j):
     return i * 4 - i * (i + 1) // 2 + j - 1
 
 
-@njit(cache=True, inline="always")
-def _triple_index(i, j, k):
-    # Position of (i, j, k), i < j < k, in _TRIPLES.
-    idx = 0
-    for a in range(5):
-        for b in range(a + 1, 5):
-            for c in range(b + 1, 5):
-                if a == i and b == j and c == k:
-                    return idx
-                idx += 1
-    return -1
+def _m4_triples() -> np.ndarray:
+    """For each omitted row r and each position of the four others, the triple left."""
+    index = {tuple(t): k for k, t in enumerate(_TRIPLES.tolist())}
+    out = np.empty((5, 4), np.int64)
+    for r in range(5):
+        rows = [s for s in range(5) if s != r]
+        for pos in range(4):
+            out[r, pos] = index[tuple(rows[:pos] + rows[pos + 1 :])]
+    return out
+
+
+_M4_TRIPLE = _m4_triples()
 
 
 @njit(cache=True)
@@ -903,26 +910,15 @@ def _insphere_raw(p, work):
     t48b = work[824:920]
     for r in range(5):
         # det of the four rows other than r, columns (x, y, z, 1), along the
-        # column of ones: sum over the omitted row s of (-1)**(pos(s) + 4) m3.
-        rows = np.empty(4, np.int64)
-        c = 0
-        for s in range(5):
-            if s != r:
-                rows[c] = s
-                c += 1
+        # column of ones: sum over the row position pos of (-1)**(pos + 1 + 4)
+        # times the 3 x 3 minor of the other three rows (_M4_TRIPLE[r, pos]).
         out = m4[96 * r : 96 * r + 96]
         alen = 0
         for pos in range(4):
-            tri = np.empty(3, np.int64)
-            c = 0
-            for s in range(4):
-                if s != pos:
-                    tri[c] = rows[s]
-                    c += 1
-            q = _triple_index(tri[0], tri[1], tri[2])
+            q = _M4_TRIPLE[r, pos]
             ln = m3len[q]
             src = m3[24 * q : 24 * q + 24]
-            if pos % 2 == 0:  # (-1)**(pos + 1 + 4) = -1 for pos = 0, 2
+            if pos % 2 == 0:
                 for z in range(ln):
                     t48a[z] = -src[z]
             else:
@@ -1052,6 +1048,97 @@ def _insphere_from_diffs(aex, aey, aez, bex, bey, bez, cex, cey, cez, dex, dey, 
     return alen
 
 
+# ---------------------------------------------------------------------------
+# Double-double arithmetic (an insphere stage between the float filter and
+# the expansions)
+# ---------------------------------------------------------------------------
+
+
+@njit(cache=True, inline="always")
+def _dd_add(ah, al, bh, bl):
+    """Accurate double-double sum (relative error below 3u**2, Joldes et al. 2017)."""
+    s, e = _two_sum(ah, bh)
+    t, f = _two_sum(al, bl)
+    e += t
+    x = s + e
+    e = e - (x - s)
+    e += f
+    s = x + e
+    return s, e - (s - x)
+
+
+@njit(cache=True, inline="always")
+def _dd_mul(ah, al, bh, bl):
+    """Double-double product (relative error below 7u**2 without FMA)."""
+    p, e = _two_product(ah, bh)
+    e += ah * bl + al * bh
+    x = p + e
+    return x, e - (x - p)
+
+
+@njit(cache=True, inline="always")
+def _dd_cross(ah, al, bh, bl, ch, cl, dh, dl):
+    """a*b - c*d in double-double."""
+    xh, xl = _dd_mul(ah, al, bh, bl)
+    yh, yl = _dd_mul(ch, cl, dh, dl)
+    return _dd_add(xh, xl, -yh, -yl)
+
+
+@njit(cache=True, inline="always")
+def _dd_lift(xh, xl, yh, yl, zh, zl):
+    ah, al = _dd_mul(xh, xl, xh, xl)
+    bh, bl = _dd_mul(yh, yl, yh, yl)
+    ch, cl = _dd_mul(zh, zl, zh, zl)
+    ah, al = _dd_add(ah, al, bh, bl)
+    return _dd_add(ah, al, ch, cl)
+
+
+@njit(cache=True, inline="always")
+def _dd_minor3(z1h, z1l, m1h, m1l, z2h, z2l, m2h, m2l, z3h, z3l, m3h, m3l):
+    """z1*m1 + z2*m2 + z3*m3 in double-double."""
+    ah, al = _dd_mul(z1h, z1l, m1h, m1l)
+    bh, bl = _dd_mul(z2h, z2l, m2h, m2l)
+    ch, cl = _dd_mul(z3h, z3l, m3h, m3l)
+    ah, al = _dd_add(ah, al, bh, bl)
+    return _dd_add(ah, al, ch, cl)
+
+
+@njit(cache=True)
+def _insphere_dd(
+    aex, aext, aey, aeyt, aez, aezt, bex, bext, bey, beyt, bez, bezt,
+    cex, cext, cey, ceyt, cez, cezt, dex, dext, dey, deyt, dez, dezt,
+):  # fmt: skip
+    """Shewchuk's insphere formula in double-double on the exact differences.
+
+    Returns the double-double determinant's high part; its error is below
+    about 100 u**2 times the permanent (every operation errs by at most
+    7u**2 of its own magnitude, about a dozen of them stacked on any term).
+    """
+    abh, abl = _dd_cross(aex, aext, bey, beyt, bex, bext, aey, aeyt)
+    bch, bcl = _dd_cross(bex, bext, cey, ceyt, cex, cext, bey, beyt)
+    cdh, cdl = _dd_cross(cex, cext, dey, deyt, dex, dext, cey, ceyt)
+    dah, dal = _dd_cross(dex, dext, aey, aeyt, aex, aext, dey, deyt)
+    ach, acl = _dd_cross(aex, aext, cey, ceyt, cex, cext, aey, aeyt)
+    bdh, bdl = _dd_cross(bex, bext, dey, deyt, dex, dext, bey, beyt)
+    # abc = aez*bc - bez*ac + cez*ab, ... (Shewchuk's insphere)
+    abch, abcl = _dd_minor3(aez, aezt, bch, bcl, -bez, -bezt, ach, acl, cez, cezt, abh, abl)
+    bcdh, bcdl = _dd_minor3(bez, bezt, cdh, cdl, -cez, -cezt, bdh, bdl, dez, dezt, bch, bcl)
+    cdah, cdal = _dd_minor3(cez, cezt, dah, dal, dez, dezt, ach, acl, aez, aezt, cdh, cdl)
+    dabh, dabl = _dd_minor3(dez, dezt, abh, abl, aez, aezt, bdh, bdl, bez, bezt, dah, dal)
+    alh, all_ = _dd_lift(aex, aext, aey, aeyt, aez, aezt)
+    blh, bll = _dd_lift(bex, bext, bey, beyt, bez, bezt)
+    clh, cll = _dd_lift(cex, cext, cey, ceyt, cez, cezt)
+    dlh, dll = _dd_lift(dex, dext, dey, deyt, dez, dezt)
+    t1h, t1l = _dd_mul(dlh, dll, abch, abcl)
+    t2h, t2l = _dd_mul(clh, cll, dabh, dabl)
+    t3h, t3l = _dd_mul(blh, bll, cdah, cdal)
+    t4h, t4l = _dd_mul(alh, all_, bcdh, bcdl)
+    xh, xl = _dd_add(t1h, t1l, -t2h, -t2l)
+    yh, yl = _dd_add(t3h, t3l, -t4h, -t4l)
+    h, _ = _dd_add(xh, xl, yh, yl)
+    return h
+
+
 @njit(cache=True)
 def insphere_exact(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, ex, ey, ez, work):
     """Exact sign of Shewchuk's insphere determinant; ``work`` is scratch.
@@ -1072,11 +1159,14 @@ def insphere_exact(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, ex, ey, ez, w
 
     Notes
     -----
-    Two stages: the determinant of the rounded differences ``p - e`` is
-    formed exactly; it is the exact answer when the differences are exact,
-    and otherwise decides whenever it exceeds Shewchuk's ``isperrboundB``
-    times the permanent. The rest is recomputed from the original
-    coordinates (the 5 x 5 lifted determinant, Shewchuk's ``insphereexact``).
+    Stages: (DD) the determinant of the exact differences in double-double
+    arithmetic, trusted beyond 256 u**2 times the permanent; then Shewchuk's
+    adaptive stages: (B) the determinant of the rounded
+    differences ``p - e`` formed exactly, the exact answer when the
+    differences are exact and otherwise trusted beyond ``isperrboundB``
+    times the permanent; (C) first-order corrections for the differences'
+    rounding errors, trusted beyond ``isperrboundC``; then the 5 x 5 lifted
+    determinant of the original coordinates (``insphereexact``).
     """
     aex, aext = _two_diff(ax, ex)
     aey, aeyt = _two_diff(ay, ey)
@@ -1090,6 +1180,17 @@ def insphere_exact(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, ex, ey, ez, w
     dex, dext = _two_diff(dx, ex)
     dey, deyt = _two_diff(dy, ey)
     dez, dezt = _two_diff(dz, ez)
+    permanent = _insphere_permanent(aex, aey, aez, bex, bey, bez, cex, cey, cez, dex, dey, dez)
+    # Stage DD: the exact differences in double-double arithmetic.
+    det = _insphere_dd(
+        aex, aext, aey, aeyt, aez, aezt, bex, bext, bey, beyt, bez, bezt,
+        cex, cext, cey, ceyt, cez, cezt, dex, dext, dey, deyt, dez, dezt,
+    )  # fmt: skip
+    errbound = _ISP_ERRBOUND_DD * permanent
+    if det > errbound:
+        return 1
+    if -det > errbound:
+        return -1
     n = _insphere_from_diffs(aex, aey, aez, bex, bey, bez, cex, cey, cez, dex, dey, dez, work)
     exact = (
         aext == 0.0
@@ -1110,11 +1211,58 @@ def insphere_exact(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, ex, ey, ez, w
     est = 0.0
     for i in range(n):
         est += work[1100 + i]
-    permanent = _insphere_permanent(aex, aey, aez, bex, bey, bez, cex, cey, cez, dex, dey, dez)
     errbound = _ISP_ERRBOUND_B * permanent
     if est >= errbound and est > 0.0:
         return 1
     if -est >= errbound and est < 0.0:
+        return -1
+    # Stage C (Shewchuk's insphereadapt): first-order corrections for the
+    # tails of the differences, with the bound isperrboundC.
+    m = work[3500:3504]
+    n_ = _cross4(aex, bey, bex, aey, m)
+    ab3 = m[n_ - 1] if n_ > 0 else 0.0
+    n_ = _cross4(bex, cey, cex, bey, m)
+    bc3 = m[n_ - 1] if n_ > 0 else 0.0
+    n_ = _cross4(cex, dey, dex, cey, m)
+    cd3 = m[n_ - 1] if n_ > 0 else 0.0
+    n_ = _cross4(dex, aey, aex, dey, m)
+    da3 = m[n_ - 1] if n_ > 0 else 0.0
+    n_ = _cross4(aex, cey, cex, aey, m)
+    ac3 = m[n_ - 1] if n_ > 0 else 0.0
+    n_ = _cross4(bex, dey, dex, bey, m)
+    bd3 = m[n_ - 1] if n_ > 0 else 0.0
+    det = est
+    errbound = _ISP_ERRBOUND_C * permanent + _RESULT_ERRBOUND * abs(det)
+    abeps = (aex * beyt + bey * aext) - (aey * bext + bex * aeyt)
+    bceps = (bex * ceyt + cey * bext) - (bey * cext + cex * beyt)
+    cdeps = (cex * deyt + dey * cext) - (cey * dext + dex * ceyt)
+    daeps = (dex * aeyt + aey * dext) - (dey * aext + aex * deyt)
+    aceps = (aex * ceyt + cey * aext) - (aey * cext + cex * aeyt)
+    bdeps = (bex * deyt + dey * bext) - (bey * dext + dex * beyt)
+    det += (
+        (bex * bex + bey * bey + bez * bez)
+        * ((cez * daeps + dez * aceps + aez * cdeps) + (cezt * da3 + dezt * ac3 + aezt * cd3))
+        + (dex * dex + dey * dey + dez * dez)
+        * ((aez * bceps - bez * aceps + cez * abeps) + (aezt * bc3 - bezt * ac3 + cezt * ab3))
+    ) - (
+        (aex * aex + aey * aey + aez * aez)
+        * ((bez * cdeps - cez * bdeps + dez * bceps) + (bezt * cd3 - cezt * bd3 + dezt * bc3))
+        + (cex * cex + cey * cey + cez * cez)
+        * ((dez * abeps + aez * bdeps + bez * daeps) + (dezt * ab3 + aezt * bd3 + bezt * da3))
+    )
+    det += 2.0 * (
+        (
+            (bex * bext + bey * beyt + bez * bezt) * (cez * da3 + dez * ac3 + aez * cd3)
+            + (dex * dext + dey * deyt + dez * dezt) * (aez * bc3 - bez * ac3 + cez * ab3)
+        )
+        - (
+            (aex * aext + aey * aeyt + aez * aezt) * (bez * cd3 - cez * bd3 + dez * bc3)
+            + (cex * cext + cey * ceyt + cez * cezt) * (dez * ab3 + aez * bd3 + bez * da3)
+        )
+    )
+    if det >= errbound and det > 0.0:
+        return 1
+    if -det >= errbound and det < 0.0:
         return -1
     p = np.empty((5, 3))
     p[0, 0], p[0, 1], p[0, 2] = ax, ay, az
@@ -1285,35 +1433,47 @@ def insphere_perturbed(p, work):
     )  # fmt: skip
     if s != 0:
         return s
-    return _insphere_tie(p, work)
+    return insphere_tie(p, work)
 
 
 @njit(cache=True)
-def _insphere_tie(p, work):
-    """The symbolic-perturbation sign of an exact co-spherical tie (see insphere_perturbed)."""
-    done = np.zeros(5, np.bool_)
+def insphere_tie(p, work):
+    """The sign :func:`insphere_perturbed` gives to an exact co-spherical tie.
+
+    Parameters
+    ----------
+    p : (5, 3) float64
+        Rows a, b, c, d, e with ``insphere_exact(a, b, c, d, e) == 0``.
+    work : (WORK_SIZE,) float64
+        Scratch buffer, overwritten.
+
+    Returns
+    -------
+    int
+        The coefficient sign of the first point, in lexicographic order,
+        whose lifting's coefficient is not zero (see
+        :func:`insphere_perturbed`); 0 only when a, b, c, d are coplanar.
+        For callers that already know the exact sign is 0.
+    """
+    done = 0
     for _ in range(5):
         m = -1
         for i in range(5):
-            if not done[i] and (m < 0 or _lex_less3(p[i], p[m])):
+            if not (done >> i) & 1 and (m < 0 or _lex_less3(p[i], p[m])):
                 m = i
-        done[m] = True
-        if m == 4:
-            s = orient3d_filtered(
-                p[0, 0], p[0, 1], p[0, 2], p[1, 0], p[1, 1], p[1, 2],
-                p[2, 0], p[2, 1], p[2, 2], p[3, 0], p[3, 1], p[3, 2], work,
-            )  # fmt: skip
-            return -s
-        # orient3d of the tetrahedron with row m replaced by e.
-        q = np.empty((4, 3))
-        for i in range(4):
-            src = 4 if i == m else i
-            for c in range(3):
-                q[i, c] = p[src, c]
+        done |= 1 << m
+        # orient3d of a, b, c, d with row m replaced by e (m == 4: the
+        # coefficient of e's lifting, -orient3d(a, b, c, d)).
+        i0 = 4 if m == 0 else 0
+        i1 = 4 if m == 1 else 1
+        i2 = 4 if m == 2 else 2
+        i3 = 4 if m == 3 else 3
         s = orient3d_filtered(
-            q[0, 0], q[0, 1], q[0, 2], q[1, 0], q[1, 1], q[1, 2],
-            q[2, 0], q[2, 1], q[2, 2], q[3, 0], q[3, 1], q[3, 2], work,
+            p[i0, 0], p[i0, 1], p[i0, 2], p[i1, 0], p[i1, 1], p[i1, 2],
+            p[i2, 0], p[i2, 1], p[i2, 2], p[i3, 0], p[i3, 1], p[i3, 2], work,
         )  # fmt: skip
+        if m == 4:
+            return -s
         if s != 0:
             return s
     return 0

@@ -91,7 +91,11 @@ def check_points(p: np.ndarray) -> None:
                 for i, j in pairs
             ],
         )
-    # Points are distinct: p[0] and p[1] span a line.
+    # Points are distinct: p[0] and p[1] span a line. The predicates see the
+    # points scaled by a power of two (exact) so that no product overflows.
+    big = float(np.abs(p).max())
+    if big > 0.0:
+        p = p * np.ldexp(1.0, -int(np.frexp(big)[1]))
     if d == 2:
         if not orient2d(p[0], p[1], p).any():
             raise _error(f"all {n} points are collinear: there is no triangle", "collinear_points")

@@ -227,6 +227,17 @@ class TestIncremental:
         assert loc.kind in ("inside", "face")
         assert loc.tet in set(dt.alive().tolist())
 
+    def test_a_cavity_of_every_tetrahedron(self):
+        # The centre of 192 co-spherical points is in every circumsphere: the
+        # cavity (905 tetrahedra) outgrows the initial buffers.
+        dt = IncrementalDelaunay3d(sphere_integer_points(146))
+        before = dt.alive()
+        res = dt.insert([0.0, 0.0, 0.0])
+        assert set(before.tolist()) <= set(res.removed.tolist())
+        tz = dt.tetrahedralization()
+        assert len(tz.tetra) == len(res.created) == len(tz.hull_facets)
+        check_delaunay(tz)
+
     def test_bad_points(self):
         dt = IncrementalDelaunay3d(lattice(2))
         with pytest.raises(InputError):

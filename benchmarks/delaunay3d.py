@@ -1,0 +1,185 @@
+"""Side by side: our 3D Delaunay kernel, TetGen, Gmsh (Delaunay, HXT) and scipy's Qhull.
+
+Run from the repository root::
+
+    .venv/bin/python benchmarks/delaunay3d.py                  # the three inputs below
+    .venv/bin/python benchmarks/delaunay3d.py --inputs random:100000 --timeout 60
+
+Inputs: uniform random points in the unit cube (seed 0: Qhull's 6,749,025
+tetrahedra at 1M), and points uniformly on the unit sphere (nearly
+co-spherical: every insphere test is close to zero, the exact stage runs
+often). Each run is a child process (its own peak resident memory, a time
+limit); the time is that of the tetrahedralization call alone, after a
+warm-up call that loads numba's cache (wall and CPU seconds: on a loaded
+machine the CPU time is the steadier figure; ratios are of wall times). Qhull runs only where asked
+(``random:100000:qhull`` by default): it takes minutes at 1M and does not
+finish on the sphere. Where it ran, our tetrahedra are compared with its
+own as sets (sorted rows). Peers: ``tetgen`` (its low-level
+``PyTetgen.tetrahedralize(plc=0)``: the high-level wrapper refuses a bare
+point set and its ``switches="Q"`` path segfaults) and ``gmsh``
+(``gmsh.algorithm.tetrahedralize`` with ``Mesh.Algorithm3D`` 1, Delaunay,
+and 10, HXT); a missing peer is reported as n/a.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+
+_CHILD = r"""
+import json, resource, sys, time
+import numpy as np
+sys.path.insert(0, sys.argv[3])
+peer, path = sys.argv[1], sys.argv[2]
+p = np.load(path)
+out = None
+if peer == "ours":
+    from meshcore.delaunay import delaunay3d
+    delaunay3d(np.random.default_rng(1).random((100, 3)))
+    t = time.perf_counter(); c = time.process_time()
+    out = delaunay3d(p).tetra
+    dt = time.perf_counter() - t; cpu = time.process_time() - c
+elif peer == "tetgen":
+    from tetgen import _tetgen
+    g = _tetgen.PyTetgen()
+    t = time.perf_counter(); c = time.process_time()
+    g.load_mesh(p, np.empty((0, 3), np.int32))
+    g.tetrahedralize(plc=0, quality=0, quiet=1)
+    out = g.return_tets()
+    dt = time.perf_counter() - t; cpu = time.process_time() - c
+elif peer.startswith("gmsh"):
+    import gmsh
+    gmsh.initialize()
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.option.setNumber("General.NumThreads", 1)
+    gmsh.option.setNumber("Mesh.Algorithm3D", 10 if peer == "gmsh-hxt" else 1)
+    flat = p.ravel()
+    t = time.perf_counter(); c = time.process_time()
+    tets, _ = gmsh.algorithm.tetrahedralize(flat)
+    dt = time.perf_counter() - t; cpu = time.process_time() - c
+    out = np.asarray(tets, np.int64).reshape(-1, 4) - 1
+elif peer == "qhull":
+    from scipy.spatial import Delaunay
+    t = time.perf_counter(); c = time.process_time()
+    out = Delaunay(p).simplices
+    dt = time.perf_counter() - t; cpu = time.process_time() - c
+if len(sys.argv) > 4:
+    np.save(sys.argv[4], np.asarray(out))
+rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+print(json.dumps({"seconds": dt, "cpu": cpu, "tetra": int(len(out)), "peak_mb": rss}))
+"""
+
+PEERS = ["ours", "tetgen", "gmsh-hxt", "gmsh-delaunay", "qhull"]
+
+
+def random_cube(n: int) -> np.ndarray:
+    return np.random.default_rng(0).random((n, 3))
+
+
+def sphere(n: int) -> np.ndarray:
+    x = np.random.default_rng(0).normal(size=(n, 3))
+    return x / np.linalg.norm(x, axis=1)[:, None]
+
+
+MAKERS = {"random": random_cube, "sphere": sphere}
+
+
+def available(peer: str) -> bool:
+    mod = {"tetgen": "tetgen", "gmsh-hxt": "gmsh", "gmsh-delaunay": "gmsh"}.get(peer)
+    if mod is None:
+        return True
+    try:
+        __import__(mod)
+    except ImportError:
+        return False
+    return True
+
+
+def run(peer: str, path: str, timeout: float, save: str | None) -> dict | str:
+    cmd = [sys.executable, "-c", _CHILD, peer, path, ROOT]
+    if save:
+        cmd.append(save)
+    try:
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, check=False)
+    except subprocess.TimeoutExpired:
+        return f">{timeout:g} s"
+    if out.returncode != 0:
+        tail = (out.stderr.strip().splitlines() or [f"exit {out.returncode}"])[-1]
+        return "error: " + tail[:40]
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def canon(t: np.ndarray) -> np.ndarray:
+    t = np.sort(t, axis=1)
+    return t[np.lexsort(t.T[::-1])]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--inputs",
+        nargs="+",
+        default=["random:100000:qhull", "random:1000000", "sphere:1000000"],
+        help="name:n[:qhull] with name in " + ", ".join(MAKERS),
+    )
+    parser.add_argument("--peers", nargs="+", default=PEERS[:-1], choices=PEERS[:-1])
+    parser.add_argument("--timeout", type=float, default=120.0)
+    args = parser.parse_args()
+
+    header = (
+        f"{'input':<8} {'n':>8} {'peer':<14} {'seconds':>8} {'cpu s':>7} {'tetra':>10} "
+        f"{'peak MB':>8} "
+        f"{'ours/peer':>9} {'= qhull':>8}"
+    )
+    print(header)
+    print("-" * len(header))
+    with tempfile.TemporaryDirectory() as tmp:
+        for spec in args.inputs:
+            name, n, *flags = spec.split(":")
+            p = MAKERS[name](int(n))
+            path = os.path.join(tmp, "points.npy")
+            np.save(path, p)
+            peers = list(args.peers) + (["qhull"] if "qhull" in flags else [])
+            results: dict[str, dict | str] = {}
+            saved: dict[str, str] = {}
+            for peer in peers:
+                if not available(peer):
+                    results[peer] = "n/a"
+                    continue
+                save = os.path.join(tmp, f"{peer}.npy") if "qhull" in peers else None
+                results[peer] = run(peer, path, args.timeout, save)
+                if save and isinstance(results[peer], dict):
+                    saved[peer] = save
+            ref = canon(np.load(saved["qhull"])) if "qhull" in saved else None
+            ours = results.get("ours")
+            for peer in peers:
+                r = results[peer]
+                if isinstance(r, str):
+                    print(f"{name:<8} {len(p):>8} {peer:<14} {r:>8}", flush=True)
+                    continue
+                ratio = (
+                    f"{ours['seconds'] / r['seconds']:.2f}"
+                    if isinstance(ours, dict) and peer != "ours"
+                    else ""
+                )
+                same = ""
+                if ref is not None and peer in saved:
+                    same = "yes" if np.array_equal(canon(np.load(saved[peer])), ref) else "no"
+                print(
+                    f"{name:<8} {len(p):>8} {peer:<14} {r['seconds']:>8.2f} {r['cpu']:>7.2f} "
+                    f"{r['tetra']:>10} "
+                    f"{r['peak_mb']:>8.0f} {ratio:>9} {same:>8}",
+                    flush=True,
+                )
+
+
+if __name__ == "__main__":
+    main()
