@@ -197,7 +197,14 @@ def check_topology(mesh: Mesh, cells: np.ndarray | None = None) -> np.ndarray:
     f = _facets(cells)
     per = 3 if cells.shape[1] == 3 else 4
     key = np.sort(f, axis=1)
-    _, inv, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    n = int(cells.max()) + 1
+    if n ** key.shape[1] < 2**62:
+        flat = key[:, 0] * n + key[:, 1]
+        if key.shape[1] == 3:
+            flat = flat * n + key[:, 2]
+        _, inv, count = np.unique(flat, return_inverse=True, return_counts=True)
+    else:
+        _, inv, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
     inv = inv.ravel()
     word = "edge" if per == 3 else "face"
     many = count[inv] > 2
@@ -327,7 +334,7 @@ class _State2D:
         return self.P[: int(self.cnt[k2.N_PTS])]
 
     def sur(self) -> float:
-        return float(np.sum(np.abs(quality.signed_area(self.points(), self.triangles()))))
+        return float(k2.sur(self.P, self.T, self.alive, self.cnt[k2.N_ROWS]))
 
     def signs(self) -> np.ndarray:
         T, P = self.triangles(), self.points()

@@ -542,3 +542,16 @@ def insert_centroids(P, T, alive, head, nxt, prv, freeT, cnt, fixed, rows, cand)
         touched[c] = 1
         added += 1
     return added
+
+
+@njit(cache=True)
+def sur(P, T, alive, rows):
+    """Sur(𝒯): the sum of the unsigned areas of the live triangles of ``T[:rows]``."""
+    s = 0.0
+    for t in range(rows):
+        if alive[t]:
+            a, b, c = T[t, 0], T[t, 1], T[t, 2]
+            s += 0.5 * abs(
+                (P[b, 0] - P[a, 0]) * (P[c, 1] - P[a, 1]) - (P[b, 1] - P[a, 1]) * (P[c, 0] - P[a, 0])
+            )
+    return s
