@@ -412,20 +412,73 @@ def _loop2d(state: _State2D, allow_remove: bool, measure: int, max_sweeps: int, 
         ops[name] = ops.get(name, 0) + int(counters[c])
 
 
-def _initial_topology(dom_points: np.ndarray, segments: np.ndarray) -> np.ndarray:
-    """Op(P, δ𝒮): P the boundary vertex nearest the centroid, joined to every other segment."""
-    c = dom_points.mean(axis=0)
-    p = int(np.argmin(np.sum((dom_points - c) ** 2, axis=1)))
-    keep = (segments[:, 0] != p) & (segments[:, 1] != p)
-    s = segments[keep]
-    return np.column_stack([s[:, 0], s[:, 1], np.full(len(s), p)])
+def _initial_topology(P: np.ndarray, S: np.ndarray, seg_ring: np.ndarray, dom: Domain) -> np.ndarray:
+    """The initial mesh topology: Op(P, δ𝒮) per polygon, each hole zipped into it.
+
+    For each polygon, P is the vertex of its outer ring nearest the ring's
+    centroid, joined to every segment of the ring not incident to it (§8.3.2,
+    "Initialization"). A hole cannot come from the same operator (P joined to
+    a hole's segments would make a cone pinched at P, not an annulus, and no
+    replacement of a disk by a disk changes that), so each hole replaces the
+    triangle of the current topology whose centroid is nearest the hole's
+    centroid by the annulus between the two, zipped spoke by spoke: a mesh
+    topology with the right boundary, left to the optimization to untangle.
+    """
+    tris = []
+    holes = []
+    for r in range(dom.ring_count):
+        ring_segs = S[seg_ring == r]
+        if dom.ring_is_hole[r]:
+            holes.append(ring_segs)
+            continue
+        ring = ring_segs[:, 0]
+        c = P[ring].mean(axis=0)
+        p = int(ring[np.argmin(np.sum((P[ring] - c) ** 2, axis=1))])
+        keep = (ring_segs[:, 0] != p) & (ring_segs[:, 1] != p)
+        s = ring_segs[keep]
+        tris.append(np.column_stack([s[:, 0], s[:, 1], np.full(len(s), p)]))
+    T = np.concatenate(tris)
+    # one short loop per hole (rings, not cells)
+    for hs in holes:
+        # the hole's vertices along its segments (clockwise: the domain on the left); a
+        # reversed ring lists its segments backwards
+        hv = hs[:, 0] if hs[0, 1] == hs[1 % len(hs), 0] else hs[::-1, 0]
+        c = P[hv].mean(axis=0)
+        t = int(np.argmin(np.sum((P[T].mean(axis=1) - c) ** 2, axis=1)))
+        T = np.concatenate([np.delete(T, t, axis=0), _zipper(P, T[t], hv[::-1])])
+    return T
+
+
+def _zipper(P: np.ndarray, outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
+    """Triangles of the annulus between a counter-clockwise triangle and a CCW ring inside it."""
+    k = len(inner)
+    b0 = int(np.argmin(np.sum((P[inner] - P[outer[0]]) ** 2, axis=1)))
+    inner = np.roll(inner, -b0)
+    rows = []
+    a = b = 0
+    # a short loop over the k + 3 spokes of one annulus
+    while a < 3 or b < k:
+        if b >= k or (a < 3 and a / 3 <= b / k):
+            rows.append((outer[a % 3], outer[(a + 1) % 3], inner[b % k]))
+            a += 1
+        else:
+            rows.append((inner[(b + 1) % k], inner[b % k], outer[a % 3]))
+            b += 1
+    return np.array(rows, np.int64)
+
+
+def _split_counts(dom: Domain, size: float) -> np.ndarray:
+    """Pieces of each boundary segment split evenly to at most ``size``."""
+    P, S = dom.points, dom.segments
+    length = np.linalg.norm(P[S[:, 1]] - P[S[:, 0]], axis=1)
+    return np.maximum(1, np.ceil(length / size).astype(np.int64))
 
 
 def _split_boundary(dom: Domain, size: float) -> tuple[np.ndarray, np.ndarray]:
     """The domain's points and segments with each segment split evenly to at most ``size``."""
     P, S = dom.points, dom.segments
     a, b = P[S[:, 0]], P[S[:, 1]]
-    k = np.maximum(1, np.ceil(np.linalg.norm(b - a, axis=1) / size).astype(np.int64))
+    k = _split_counts(dom, size)
     extra = k - 1
     n = len(P)
     start = n + np.r_[0, np.cumsum(extra)[:-1]]
@@ -688,7 +741,11 @@ def _generate2d(dom: Domain, insert, size, measure, max_sweeps, keep_boundary, m
         P, S = dom.points, dom.segments
     else:
         P, S = _split_boundary(dom, h)
-    T = _initial_topology(P, S)
+    if keep_boundary:
+        seg_ring = dom.segment_ring
+    else:
+        seg_ring = np.repeat(dom.segment_ring, _split_counts(dom, h))
+    T = _initial_topology(P, S, seg_ring, dom)
     fixed = np.ones(len(P), np.uint8)
     state = _State2D(P, T, fixed, spare_points=len(P) if insert else 0)
     inverted = int(np.sum(state.signs() <= 0))

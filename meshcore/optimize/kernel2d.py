@@ -14,8 +14,9 @@ A pass visits sub-topologies 𝒮 of one kind:
 * ``PAIR``: the two triangles sharing an edge, for every edge of a triangle
   with a dirty vertex (the text's "pairs of adjacent triangles");
 * ``UNION``: the union of the balls of the two ends of each edge of an
-  inverted or flat triangle, then of its three vertices (the text's "larger
-  connected sets").
+  inverted or flat triangle, then of its three vertices, then of every
+  vertex of those (the text's "larger connected sets"), up to ``KMAX``
+  triangles.
 
 For each 𝒮 the boundary δ𝒮 must be one simple cycle (else 𝒮 is skipped).
 The candidates are Op(Q, δ𝒮) for every Q of the cycle (a fan; it removes the
@@ -475,7 +476,7 @@ def sweep(P, T, alive, head, nxt, prv, freeT, cnt, fixed, todo, dirty, kind, all
             a0, a1, a2 = T[t, 0], T[t, 1], T[t, 2]
             if orient2d_scalar(P[a0, 0], P[a0, 1], P[a1, 0], P[a1, 1], P[a2, 0], P[a2, 1]) > 0:
                 continue
-            for g in range(4):
+            for g in range(5):
                 if not alive[t]:
                     break
                 cnt[STAMP] += 1
@@ -488,6 +489,13 @@ def sweep(P, T, alive, head, nxt, prv, freeT, cnt, fixed, todo, dirty, kind, all
                     for w in (a1, a2):
                         if k > 0:
                             k = _ball(head, nxt, w, st, tmark, cnt[STAMP], k)
+                    if g == 4:
+                        # the second ring: the balls of every vertex of the three balls
+                        k1 = k
+                        for i in range(k1):
+                            for jj in range(3):
+                                if k > 0:
+                                    k = _ball(head, nxt, T[st[i], jj], st, tmark, cnt[STAMP], k)
                 if k <= 0:
                     continue
                 r = _try(P, T, alive, head, nxt, prv, freeT, cnt, fixed, dirty, st, k, -1,
