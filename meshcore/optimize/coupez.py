@@ -30,9 +30,10 @@ Choices where the text leaves freedom
   Sur(Op(G, δℬ_P)) is least. In 3D, G and, failing it, points on the
   segment from P to G.
 * **Removal.** A fan Op(Q, δℬ_P) with Q on δℬ_P removes the free vertex P.
-  It is a candidate only where the ball is not positive (a correction, never
-  a quality move), and only when ``insert_points`` is true: with
-  ``insert_points=false`` the point set is kept.
+  It is a candidate only where the ball is not positive and no move of P
+  makes Sur smaller (a correction, never a quality move), and only when
+  ``insert_points`` is true: with ``insert_points=false`` the point set is
+  kept.
 * **Stages** (§8.3.3): a first stage without insertion; then, for generation
   with ``insert_points``, a second stage that inserts G = the centroid of a
   triangle whose longest edge exceeds ``size`` (Op(G, δK), K one element, a
@@ -229,9 +230,7 @@ def check_topology(mesh: Mesh, cells: np.ndarray | None = None) -> np.ndarray:
         _refuse(
             mesh,
             np.r_[h1[same], h2[same]] // per,
-            "are oriented against a neighbour (a shared "
-            + word
-            + " runs the same way in both)",
+            "are oriented against a neighbour (a shared " + word + " runs the same way in both)",
             "inconsistent_orientation",
         )
     return f[count[inv] == 1]
@@ -245,9 +244,7 @@ def check_input(mesh=None, domain=None, surface=None, *, keep_boundary=True) -> 
 def _inputs(mesh, domain, surface, keep_boundary):
     given = [x is not None for x in (mesh, domain, surface)]
     if sum(given) != 1:
-        raise InputError(
-            "give exactly one of mesh, domain or surface", loc=(), code="bad_input"
-        )
+        raise InputError("give exactly one of mesh, domain or surface", loc=(), code="bad_input")
     if surface is not None:
         raise InputError(
             "generation of tetrahedra from a closed surface is not available in this build",
@@ -368,8 +365,17 @@ def _shape3(P, C):
         return np.where(s > 0, 12.0 * (3.0 * V) ** (2.0 / 3.0) / s, 0.0)
 
 
-def _loop2d(state: _State2D, allow_remove: bool, measure: int, max_sweeps: int, sweeps: list,
-            sur: list, ops: dict, progress: Progress, frac: tuple[float, float]) -> None:
+def _loop2d(
+    state: _State2D,
+    allow_remove: bool,
+    measure: int,
+    max_sweeps: int,
+    sweeps: list,
+    sur: list,
+    ops: dict,
+    progress: Progress,
+    frac: tuple[float, float],
+) -> None:
     """Passes of the synthetic algorithm until stable or ``max_sweeps`` (shared count)."""
     cap = len(state.P)
     todo_ball = np.ones(cap, np.uint8)
@@ -383,10 +389,24 @@ def _loop2d(state: _State2D, allow_remove: bool, measure: int, max_sweeps: int, 
             dirty = np.zeros(cap, np.uint8)
             while True:
                 changed, status = k2.sweep(
-                    state.P, state.T, state.alive, state.head, state.nxt, state.prv,
-                    state.free, state.cnt, state.fixed, todo, dirty, kind, allow_remove,
-                    measure, TOL.sur_tie, TOL.quality_gain, counters,
-                )  # fmt: skip
+                    state.P,
+                    state.T,
+                    state.alive,
+                    state.head,
+                    state.nxt,
+                    state.prv,
+                    state.free,
+                    state.cnt,
+                    state.fixed,
+                    todo,
+                    dirty,
+                    kind,
+                    allow_remove,
+                    measure,
+                    TOL.sur_tie,
+                    TOL.quality_gain,
+                    counters,
+                )
                 if status != 2:
                     break
                 state.grow_rows()
@@ -398,7 +418,10 @@ def _loop2d(state: _State2D, allow_remove: bool, measure: int, max_sweeps: int, 
         sweeps[0] += 1
         sur.append(state.sur())
         if progress is not None:
-            progress(frac[0] + (frac[1] - frac[0]) * min(1.0, sweeps[0] / max_sweeps), f"pass {sweeps[0]}")
+            progress(
+                frac[0] + (frac[1] - frac[0]) * min(1.0, sweeps[0] / max_sweeps),
+                f"pass {sweeps[0]}",
+            )
         if not changed:
             break
     for name, c in (
@@ -412,7 +435,9 @@ def _loop2d(state: _State2D, allow_remove: bool, measure: int, max_sweeps: int, 
         ops[name] = ops.get(name, 0) + int(counters[c])
 
 
-def _initial_topology(P: np.ndarray, S: np.ndarray, seg_ring: np.ndarray, dom: Domain) -> np.ndarray:
+def _initial_topology(
+    P: np.ndarray, S: np.ndarray, seg_ring: np.ndarray, dom: Domain
+) -> np.ndarray:
     """The initial mesh topology: Op(P, δ𝒮) per polygon, each hole zipped into it.
 
     For each polygon, P is the vertex of its outer ring nearest the ring's
@@ -505,9 +530,19 @@ def _on_boundary(T, j, bkeys, n):
     return np.isin(key, bkeys[:, 0] * n + bkeys[:, 1])
 
 
-def _insert_stage(state: _State2D, S: np.ndarray, size: float, min_angle: float, measure: int,
-                  max_sweeps: int, sweeps: list, sur: list, ops: dict, progress: Progress,
-                  rounds: int) -> int:
+def _insert_stage(
+    state: _State2D,
+    S: np.ndarray,
+    size: float,
+    min_angle: float,
+    measure: int,
+    max_sweeps: int,
+    sweeps: list,
+    sur: list,
+    ops: dict,
+    progress: Progress,
+    rounds: int,
+) -> int:
     """Second stage (§8.3.3): Op(G, δK) at the centroid G of large or badly shaped triangles.
 
     A round picks the triangles whose longest edge exceeds ``size``, or whose
@@ -537,9 +572,18 @@ def _insert_stage(state: _State2D, S: np.ndarray, size: float, min_angle: float,
             state.grow_points(len(cand) + n0)
         while True:
             added = k2.insert_centroids(
-                state.P, state.T, state.alive, state.head, state.nxt, state.prv, state.free,
-                state.cnt, state.fixed, T, cand,
-            )  # fmt: skip
+                state.P,
+                state.T,
+                state.alive,
+                state.head,
+                state.nxt,
+                state.prv,
+                state.free,
+                state.cnt,
+                state.fixed,
+                T,
+                cand,
+            )
             if added >= 0:
                 break
             state.grow_rows()
@@ -561,7 +605,10 @@ def _failure(P: np.ndarray, cells: np.ndarray, bad: np.ndarray, use: str, sweeps
         for i in idx[:10]
     )
     more = f" (and {len(idx) - 10} more)" if len(idx) > 10 else ""
-    lo, hi = P[cells[idx]].reshape(-1, P.shape[1]).min(0), P[cells[idx]].reshape(-1, P.shape[1]).max(0)
+    lo, hi = (
+        P[cells[idx]].reshape(-1, P.shape[1]).min(0),
+        P[cells[idx]].reshape(-1, P.shape[1]).max(0),
+    )
     raise AlgorithmError(
         f"{use}: no valid mesh reached after {sweeps} passes: {len(idx)} element(s) still "
         f"inverted or flat, within the box {lo.tolist()} - {hi.tolist()}: {where}{more}",
@@ -652,7 +699,9 @@ def optimize(
             f"quality must be one of {', '.join(MEASURES)}", loc=("quality",), code="bad_choice"
         )
     if not (isinstance(max_sweeps, int) and max_sweeps >= 1):
-        raise InputError("max_sweeps must be a positive integer", loc=("max_sweeps",), code="bad_value")
+        raise InputError(
+            "max_sweeps must be a positive integer", loc=("max_sweeps",), code="bad_value"
+        )
     if size is not None and not (math.isfinite(size) and size > 0):
         raise InputError("size must be a positive number", loc=("size",), code="bad_value")
     kind, data = _inputs(mesh, domain, surface, keep_boundary)
@@ -662,11 +711,20 @@ def optimize(
         if P.shape[1] == 3:
             from meshcore.optimize.coupez3d import optimize3d
 
-            return optimize3d(mesh, P, cells, bnd, total, bool(insert_points), measure,
-                              max_sweeps, progress)  # fmt: skip
+            return optimize3d(
+                mesh, P, cells, bnd, total, bool(insert_points), measure, max_sweeps, progress
+            )
         return _mesh2d(P, cells, bnd, total, bool(insert_points), measure, max_sweeps, progress)
-    return _generate2d(data, insert_points is not False, size, measure, max_sweeps,
-                       keep_boundary, min_angle, progress)  # fmt: skip
+    return _generate2d(
+        data,
+        insert_points is not False,
+        size,
+        measure,
+        max_sweeps,
+        keep_boundary,
+        min_angle,
+        progress,
+    )
 
 
 def _report(P, cells, measure, stats):
@@ -716,7 +774,9 @@ def _verify(P, cells, bnd, use, sweeps):
         sign = -orient3d(P[cells[:, 0]], P[cells[:, 1]], P[cells[:, 2]], P[cells[:, 3]])
     if (sign <= 0).any():
         _failure(P, cells, sign <= 0, use, sweeps)
-    got = check_topology(Mesh(P, (CellBlock("triangle" if cells.shape[1] == 3 else "tetra", cells),)), cells)
+    got = check_topology(
+        Mesh(P, (CellBlock("triangle" if cells.shape[1] == 3 else "tetra", cells),)), cells
+    )
 
     def canon(f):
         if f.shape[1] == 2:
@@ -751,13 +811,14 @@ def _generate2d(dom: Domain, insert, size, measure, max_sweeps, keep_boundary, m
     inverted = int(np.sum(state.signs() <= 0))
     sweeps, sur, ops = [0], [state.sur()], {}
     _loop2d(state, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 0.5))
-    stages, inserted = 1, 0
+    stages = 1
     Pn, Tn = state.points(), state.triangles()
     _verify(Pn, Tn, S, "generation", sweeps[0])
     if insert:
         stages = 2
-        inserted = _insert_stage(state, S, h, min_angle, measure, max_sweeps, sweeps, sur, ops,
-                                 progress, rounds=60)  # fmt: skip
+        _insert_stage(
+            state, S, h, min_angle, measure, max_sweeps, sweeps, sur, ops, progress, rounds=60
+        )
         Pn, Tn = state.points(), state.triangles()
         _verify(Pn, Tn, S, "generation", sweeps[0])
     stats = {

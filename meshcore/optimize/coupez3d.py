@@ -45,8 +45,23 @@ def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progre
     sweeps = 0
     for _ in range(max_sweeps):
         dirty = np.zeros(n, np.uint8)
-        changed = k3.sweep(P, Tw, alive, head, nxt, prv, cnt, fixed, todo, dirty, allow_remove,
-                           measure, _c.TOL.sur_tie, _c.TOL.quality_gain, counters)  # fmt: skip
+        changed = k3.sweep(
+            P,
+            Tw,
+            alive,
+            head,
+            nxt,
+            prv,
+            cnt,
+            fixed,
+            todo,
+            dirty,
+            allow_remove,
+            measure,
+            _c.TOL.sur_tie,
+            _c.TOL.quality_gain,
+            counters,
+        )
         todo |= dirty
         sweeps += 1
         sur.append(float(k3.sur(P, Tw, alive, m)))

@@ -309,8 +309,37 @@ def _kernel_centroid(P, cyc, L, px, py, qx, qy):
 
 
 @njit(cache=True)
-def _try(P, T, alive, head, nxt, prv, freeT, cnt, fixed, dirty, st, k, center, allow_remove,
-         measure, tie_rel, gain, cyc, ea, eb, tmark, vmark, vpos, px, py, qx, qy, counters, kind):
+def _try(
+    P,
+    T,
+    alive,
+    head,
+    nxt,
+    prv,
+    freeT,
+    cnt,
+    fixed,
+    dirty,
+    st,
+    k,
+    center,
+    allow_remove,
+    measure,
+    tie_rel,
+    gain,
+    cyc,
+    ea,
+    eb,
+    tmark,
+    vmark,
+    vpos,
+    px,
+    py,
+    qx,
+    qy,
+    counters,
+    kind,
+):
     """Replace the sub-topology st[:k] by its best candidate; 1 if replaced, 2 if out of rows."""
     stamp = cnt[STAMP]
     L = _cycle(T, st, k, cyc, ea, eb)
@@ -353,7 +382,8 @@ def _try(P, T, alive, head, nxt, prv, freeT, cnt, fixed, dirty, st, k, center, a
                 if _better(p, s, q, best_p, best_s, best_q, tie, gain):
                     best_p, best_s, best_q, best = p, s, q, -1
     removes = n_inner > 0
-    if not removes or (allow_remove and inner_free and not cur_p):
+    # a fan removing free vertices only where the ball is not positive and no move helps
+    if not removes or (allow_remove and inner_free and not cur_p and best == -3):
         for i in range(L):
             q_ = cyc[i]
             p, s, q = _evaluate_apex(P, cyc, L, i, P[q_, 0], P[q_, 1], measure)
@@ -404,8 +434,25 @@ def _neighbour(T, head, nxt, a, b):
 
 
 @njit(cache=True)
-def sweep(P, T, alive, head, nxt, prv, freeT, cnt, fixed, todo, dirty, kind, allow_remove,
-          measure, tie_rel, gain, counters):
+def sweep(
+    P,
+    T,
+    alive,
+    head,
+    nxt,
+    prv,
+    freeT,
+    cnt,
+    fixed,
+    todo,
+    dirty,
+    kind,
+    allow_remove,
+    measure,
+    tie_rel,
+    gain,
+    counters,
+):
     """One pass over sub-topologies of ``kind``; returns (replacements, status).
 
     ``todo`` marks the vertices whose balls (BALL), or the triangles touching
@@ -436,9 +483,37 @@ def sweep(P, T, alive, head, nxt, prv, freeT, cnt, fixed, todo, dirty, kind, all
             k = _ball(head, nxt, v, st, tmark, cnt[STAMP], 0)
             if k <= 0:
                 continue
-            r = _try(P, T, alive, head, nxt, prv, freeT, cnt, fixed, dirty, st, k, v,
-                     allow_remove, measure, tie_rel, gain, cyc, ea, eb, tmark, vmark, vpos,
-                     px, py, qx, qy, counters, kind)
+            r = _try(
+                P,
+                T,
+                alive,
+                head,
+                nxt,
+                prv,
+                freeT,
+                cnt,
+                fixed,
+                dirty,
+                st,
+                k,
+                v,
+                allow_remove,
+                measure,
+                tie_rel,
+                gain,
+                cyc,
+                ea,
+                eb,
+                tmark,
+                vmark,
+                vpos,
+                px,
+                py,
+                qx,
+                qy,
+                counters,
+                kind,
+            )
             if r == 2:
                 todo[v] = 1
                 return changed, 2
@@ -460,9 +535,37 @@ def sweep(P, T, alive, head, nxt, prv, freeT, cnt, fixed, todo, dirty, kind, all
                 cnt[STAMP] += 1
                 tmark[t] = cnt[STAMP]
                 tmark[u] = cnt[STAMP]
-                r = _try(P, T, alive, head, nxt, prv, freeT, cnt, fixed, dirty, st, 2, -1,
-                         allow_remove, measure, tie_rel, gain, cyc, ea, eb, tmark, vmark,
-                         vpos, px, py, qx, qy, counters, kind)
+                r = _try(
+                    P,
+                    T,
+                    alive,
+                    head,
+                    nxt,
+                    prv,
+                    freeT,
+                    cnt,
+                    fixed,
+                    dirty,
+                    st,
+                    2,
+                    -1,
+                    allow_remove,
+                    measure,
+                    tie_rel,
+                    gain,
+                    cyc,
+                    ea,
+                    eb,
+                    tmark,
+                    vmark,
+                    vpos,
+                    px,
+                    py,
+                    qx,
+                    qy,
+                    counters,
+                    kind,
+                )
                 if r == 2:
                     return changed, 2
                 changed += r
@@ -498,9 +601,37 @@ def sweep(P, T, alive, head, nxt, prv, freeT, cnt, fixed, todo, dirty, kind, all
                                     k = _ball(head, nxt, T[st[i], jj], st, tmark, cnt[STAMP], k)
                 if k <= 0:
                     continue
-                r = _try(P, T, alive, head, nxt, prv, freeT, cnt, fixed, dirty, st, k, -1,
-                         allow_remove, measure, tie_rel, gain, cyc, ea, eb, tmark, vmark,
-                         vpos, px, py, qx, qy, counters, kind)
+                r = _try(
+                    P,
+                    T,
+                    alive,
+                    head,
+                    nxt,
+                    prv,
+                    freeT,
+                    cnt,
+                    fixed,
+                    dirty,
+                    st,
+                    k,
+                    -1,
+                    allow_remove,
+                    measure,
+                    tie_rel,
+                    gain,
+                    cyc,
+                    ea,
+                    eb,
+                    tmark,
+                    vmark,
+                    vpos,
+                    px,
+                    py,
+                    qx,
+                    qy,
+                    counters,
+                    kind,
+                )
                 if r == 2:
                     return changed, 2
                 changed += r
@@ -560,6 +691,7 @@ def sur(P, T, alive, rows):
         if alive[t]:
             a, b, c = T[t, 0], T[t, 1], T[t, 2]
             s += 0.5 * abs(
-                (P[b, 0] - P[a, 0]) * (P[c, 1] - P[a, 1]) - (P[b, 1] - P[a, 1]) * (P[c, 0] - P[a, 0])
+                (P[b, 0] - P[a, 0]) * (P[c, 1] - P[a, 1])
+                - (P[b, 1] - P[a, 1]) * (P[c, 0] - P[a, 0])
             )
     return s

@@ -45,9 +45,19 @@ def _positive(P, a, b, c, d):
     """True when tet (a, b, c, d) has a positive volume det[b-a, c-a, d-a] (exact)."""
     return (
         orient3d_scalar(
-            P[a, 0], P[a, 1], P[a, 2], P[b, 0], P[b, 1], P[b, 2],
-            P[c, 0], P[c, 1], P[c, 2], P[d, 0], P[d, 1], P[d, 2],
-        )  # fmt: skip
+            P[a, 0],
+            P[a, 1],
+            P[a, 2],
+            P[b, 0],
+            P[b, 1],
+            P[b, 2],
+            P[c, 0],
+            P[c, 1],
+            P[c, 2],
+            P[d, 0],
+            P[d, 1],
+            P[d, 2],
+        )
         < 0
     )
 
@@ -79,7 +89,11 @@ def _vol_q(P, a, b, c, d, measure):
         + math.sqrt(cax * cax + cay * cay + caz * caz)
         + math.sqrt(gx * gx + gy * gy + gz * gz)
     )
-    uu, vv, ww = ux * ux + uy * uy + uz * uz, vx * vx + vy * vy + vz * vz, wx * wx + wy * wy + wz * wz
+    uu, vv, ww = (
+        ux * ux + uy * uy + uz * uz,
+        vx * vx + vy * vy + vz * vz,
+        wx * wx + wy * wy + wz * wz,
+    )
     nx = bcx * uu + cax * vv + abx * ww
     ny = bcy * uu + cay * vv + aby * ww
     nz = bcz * uu + caz * vv + abz * ww
@@ -239,8 +253,23 @@ def _collapse_allowed(T, head, nxt, st, pos_of, k, v, q, tmark, stamp, vmark):
 
 
 @njit(cache=True)
-def sweep(P, T, alive, head, nxt, prv, cnt, fixed, todo, dirty, allow_remove, measure,
-          tie_rel, gain, counters):
+def sweep(
+    P,
+    T,
+    alive,
+    head,
+    nxt,
+    prv,
+    cnt,
+    fixed,
+    todo,
+    dirty,
+    allow_remove,
+    measure,
+    tie_rel,
+    gain,
+    counters,
+):
     """One pass over the balls of the free vertices marked in ``todo``; the replacements."""
     n = cnt[N_PTS]
     st = np.empty(KMAX, np.int64)
@@ -264,8 +293,9 @@ def sweep(P, T, alive, head, nxt, prv, cnt, fixed, todo, dirty, allow_remove, me
             s = nxt[s]
         if s >= 0:
             continue
-        cur_p, cur_s, cur_q = _evaluate(P, T, st, pos_of, k, v, P[v, 0], P[v, 1], P[v, 2], -1,
-                                        measure)  # fmt: skip
+        cur_p, cur_s, cur_q = _evaluate(
+            P, T, st, pos_of, k, v, P[v, 0], P[v, 1], P[v, 2], -1, measure
+        )
         tie = tie_rel * cur_s
         gx = gy = gz = 0.0
         nl = 0
@@ -279,8 +309,11 @@ def sweep(P, T, alive, head, nxt, prv, cnt, fixed, todo, dirty, allow_remove, me
                     gx += P[w, 0]
                     gy += P[w, 1]
                     gz += P[w, 2]
-                    h += math.sqrt((P[w, 0] - P[v, 0]) ** 2 + (P[w, 1] - P[v, 1]) ** 2
-                                   + (P[w, 2] - P[v, 2]) ** 2)  # fmt: skip
+                    h += math.sqrt(
+                        (P[w, 0] - P[v, 0]) ** 2
+                        + (P[w, 1] - P[v, 1]) ** 2
+                        + (P[w, 2] - P[v, 2]) ** 2
+                    )
                     nl += 1
         gx /= nl
         gy /= nl
@@ -310,8 +343,9 @@ def sweep(P, T, alive, head, nxt, prv, cnt, fixed, todo, dirty, allow_remove, me
                         # membership marks of the ball under the new stamp
                         for ii in range(k):
                             tmark[st[ii]] = cnt[STAMP]
-                        if _collapse_allowed(T, head, nxt, st, pos_of, k, v, w, tmark,
-                                             cnt[STAMP], vmark):  # fmt: skip
+                        if _collapse_allowed(
+                            T, head, nxt, st, pos_of, k, v, w, tmark, cnt[STAMP], vmark
+                        ):
                             best, bp, bs, bq = w, p, s_, q
         if best == -3:
             continue

@@ -29,7 +29,7 @@ TANGLED = {
 
 
 def noisy_grid(nx: int = 8, noise: float = 0.9, seed: int = 0) -> dict:
-    """Triangles of an nx x nx grid of the unit square, interior nodes moved by U(-noise h, noise h)."""
+    """An nx x nx grid of the unit square in triangles, interior nodes moved by U(-a h, a h)."""
     h = 1.0 / nx
     x, y = np.meshgrid(np.linspace(0, 1, nx + 1), np.linspace(0, 1, nx + 1), indexing="ij")
     P = np.column_stack([x.ravel(), y.ravel()])

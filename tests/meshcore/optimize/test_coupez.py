@@ -99,8 +99,13 @@ class TestGeneration:
         P, S = dom.points, dom.segments
         u = P[S[:, 1]] - P[S[:, 0]]
         w = np.roll(u, -1, axis=0)
-        corner = np.degrees(np.pi - np.arccos(np.einsum("ij,ij->i", u, w) / (
-            np.linalg.norm(u, axis=1) * np.linalg.norm(w, axis=1))))
+        corner = np.degrees(
+            np.pi
+            - np.arccos(
+                np.einsum("ij,ij->i", u, w)
+                / (np.linalg.norm(u, axis=1) * np.linalg.norm(w, axis=1))
+            )
+        )
         assume(corner.min() >= 60)
         res = optimize(domain=dom, size=0.12, keep_boundary=False)
         P, T = _tri(res)
