@@ -15,7 +15,8 @@ A pass visits sub-topologies 𝒮 of one kind:
   with a dirty vertex (the text's "pairs of adjacent triangles");
 * ``UNION``: the union of the balls of the two ends of each edge of an
   inverted or flat triangle, then of its three vertices, then of every
-  vertex of those (the text's "larger connected sets"), up to ``KMAX``
+  vertex of those, then sets of 6, 12 and 24 triangles grown across
+  edges from it (the text's "larger connected sets"), up to ``KMAX``
   triangles.
 
 For each 𝒮 the boundary δ𝒮 must be one simple cycle (else 𝒮 is skipped).
@@ -52,6 +53,8 @@ from meshcore.geometry.predicates import orient2d_scalar
 BALL, PAIR, UNION = 0, 1, 2
 #: Largest sub-topology considered (triangles); larger balls are skipped.
 KMAX = 96
+#: Sizes of the edge-adjacent sets grown around a non-positive triangle (UNION).
+GROW = (6, 12, 24)
 #: ``counters`` entries: accepted replacements by operator.
 C_FAN, C_MOVE, C_KERNEL, C_FLIP, C_UNION, C_REMOVED = range(6)
 #: ``cnt`` entries: points used, triangle rows used, free rows, stamp.
@@ -421,6 +424,25 @@ def _try(
 
 
 @njit(cache=True)
+def _grow(T, head, nxt, t, st, tmark, stamp, size):
+    """Up to ``size`` triangles reached from t across edges, breadth first, in st."""
+    st[0] = t
+    tmark[t] = stamp
+    k = 1
+    i = 0
+    while i < k and k < size:
+        u = st[i]
+        for j in range(3):
+            w = _neighbour(T, head, nxt, T[u, j], T[u, (j + 1) % 3])
+            if w >= 0 and tmark[w] != stamp and k < size:
+                tmark[w] = stamp
+                st[k] = w
+                k += 1
+        i += 1
+    return k
+
+
+@njit(cache=True)
 def _neighbour(T, head, nxt, a, b):
     """The triangle holding the oriented edge b -> a, or -1."""
     s = head[b]
@@ -579,11 +601,15 @@ def sweep(
             a0, a1, a2 = T[t, 0], T[t, 1], T[t, 2]
             if orient2d_scalar(P[a0, 0], P[a0, 1], P[a1, 0], P[a1, 1], P[a2, 0], P[a2, 1]) > 0:
                 continue
-            for g in range(5):
+            for g in range(5 + len(GROW)):
                 if not alive[t]:
                     break
                 cnt[STAMP] += 1
-                if g < 3:
+                if g >= 5:
+                    # triangles reached from t across edges, breadth first: a disk that
+                    # does not depend on vertex degrees
+                    k = _grow(T, head, nxt, t, st, tmark, cnt[STAMP], GROW[g - 5])
+                elif g < 3:
                     k = _ball(head, nxt, T[t, g], st, tmark, cnt[STAMP], 0)
                     if k > 0:
                         k = _ball(head, nxt, T[t, (g + 1) % 3], st, tmark, cnt[STAMP], k)
