@@ -545,7 +545,7 @@ def _insert_stage(
 ) -> int:
     """Second stage (§8.3.3): Op(G, δK) at the centroid G of large or badly shaped triangles.
 
-    A round picks the triangles whose longest edge exceeds ``size``, or whose
+    A round picks the triangles whose longest edge exceeds √2 ``size``, or whose
     least angle is below ``min_angle`` while their longest edge exceeds
     ``size / 2``, worst first, none sharing a vertex with one already picked,
     splits each at its centroid, and optimizes (no removal). Rounds repeat
@@ -560,13 +560,14 @@ def _insert_stage(
         angle = quality.triangle_angles(P, T).min(axis=1)
         # a triangle whose longest edge is a boundary segment is left to the optimization:
         # its centroid would only crowd that segment (it cannot be split)
-        bad = ((longest > size) | ((angle < min_angle) & (longest > 0.5 * size))) & ~_on_boundary(
+        long = longest > math.sqrt(2.0) * size
+        bad = (long | ((angle < min_angle) & (longest > 0.5 * size))) & ~_on_boundary(
             T, np.argmax(np.sum(e * e, axis=2), axis=0), bkeys, len(P)
         )
         if not bad.any():
             break
         cand = np.flatnonzero(bad)
-        cand = cand[np.argsort(angle[cand] - 90.0 * (longest[cand] > size), kind="stable")]
+        cand = cand[np.argsort(angle[cand] - 90.0 * long[cand], kind="stable")]
         n0 = int(state.cnt[k2.N_PTS])
         if len(state.P) < n0 + len(cand):
             state.grow_points(len(cand) + n0)
@@ -774,9 +775,15 @@ def _verify(P, cells, bnd, use, sweeps):
         sign = -orient3d(P[cells[:, 0]], P[cells[:, 1]], P[cells[:, 2]], P[cells[:, 3]])
     if (sign <= 0).any():
         _failure(P, cells, sign <= 0, use, sweeps)
-    got = check_topology(
-        Mesh(P, (CellBlock("triangle" if cells.shape[1] == 3 else "tetra", cells),)), cells
-    )
+    try:
+        got = check_topology(
+            Mesh(P, (CellBlock("triangle" if cells.shape[1] == 3 else "tetra", cells),)), cells
+        )
+    except InputError as exc:  # the loop broke the topology: a failure, never a bad mesh
+        raise AlgorithmError(
+            f"{use}: the result is not a mesh topology ({exc.message}); no mesh is returned",
+            code="topology_broken",
+        ) from None
 
     def canon(f):
         if f.shape[1] == 2:
