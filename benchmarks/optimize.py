@@ -7,7 +7,10 @@ Run from the repository root::
 
 Input (correction): the unit square cut into ``nx x nx`` squares, each split
 into two triangles; the boundary fixed, interior nodes moved by U(-a h, a h)
-(``a`` = 0.5 and 0.9) or put at uniformly random positions in the square.
+(``a`` = 0.5 and 0.9) or put at uniformly random positions in the square
+(20k only). The mesh and the tangle are Gmsh's own (a transfinite square,
+nodes moved by ``setNode``) when Gmsh is installed, so that both work on
+the same input; at 100k cells our structured grid, Gmsh not run.
 Ours: :func:`meshcore.optimize.optimize` on the tangled mesh (the point set
 kept), timed after a warm-up that loads numba's cache; the time to the first
 valid state (``passes to valid``) and to the stable state (the whole run,
@@ -153,9 +156,11 @@ def correction(sizes, gmsh_timeout):
     P, T = grid(4, 0.9)
     optimize(Mesh(P, (CellBlock("triangle", T),)))  # warm-up: loads numba's cache
     for nx in sizes:
-        for noise in (0.5, 0.9, None):
-            # Gmsh's mesh and tangle when Gmsh is there (it runs only where it can finish)
-            g = gmsh_case(nx, noise, gmsh_timeout if nx <= 100 else 1e-3)
+        for noise in (0.5, 0.9, None) if nx <= 100 else (0.5, 0.9):
+            # Gmsh's mesh and tangle, Gmsh's untangler run where it can finish (at 100k cells
+            # it did not finish in two minutes: issue 15); random positions only at 20k
+            # (ours needs about 1300 passes there)
+            g = gmsh_case(nx, noise, gmsh_timeout) if nx <= 100 else None
             P, T = (g[0], g[1]) if g is not None else grid(nx, noise)
             label = f"{len(T)} tri, " + (f"U(+-{noise}h)" if noise else "random")
             before = inverted2(P, T)
@@ -179,7 +184,7 @@ def correction(sizes, gmsh_timeout):
                 f"passes {res.stats['sweeps']}, valid after pass {to_valid}",
             )
             if g is None:
-                print(f"{'gmsh':<34} not installed")
+                print(f"{'gmsh':<34} not run (absent, or past 20k cells)")
             elif isinstance(g[2], str):
                 print(f"{'gmsh UntangleMeshGeometry':<34} {g[2]}")
             else:
