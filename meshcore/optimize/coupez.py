@@ -13,6 +13,10 @@ One method, three uses named by §8.3 and §8.3.5:
    replaces a sub-topology when its worst quality rises, so the least
    quality never decreases.
 
+Generation is planar only: generation of tetrahedra from a closed surface
+(Figure 8.11) is not implemented (it needs fans on the balls of boundary
+vertices and edge shells in 3D, which :mod:`.kernel3d` does not have).
+
 The loop (the synthetic algorithm of §8.3.2) is in :mod:`.kernel2d` and
 :mod:`.kernel3d`: balls of vertices first; when a pass changes nothing,
 pairs of adjacent triangles (2D); when that changes nothing either and an
@@ -27,8 +31,8 @@ Choices where the text leaves freedom
 * **G.** The centroid of the vertices of δℬ_P; when moving P there leaves an
   element non-positive, also the centroid of the kernel of δℬ_P (2D), the
   region of positions from which all of δℬ_P is seen, i.e. where
-  Sur(Op(G, δℬ_P)) is least. In 3D, G and, failing it, points on the
-  segment from P to G.
+  Sur(Op(G, δℬ_P)) is least. In 3D, G and, failing it, a point of the
+  kernel found by relaxation (:mod:`.kernel3d`).
 * **Removal.** A fan Op(Q, δℬ_P) with Q on δℬ_P removes the free vertex P.
   It is a candidate only where the ball is not positive and no move of P
   makes Sur smaller (a correction, never a quality move), and only when
@@ -236,21 +240,14 @@ def check_topology(mesh: Mesh, cells: np.ndarray | None = None) -> np.ndarray:
     return f[count[inv] == 1]
 
 
-def check_input(mesh=None, domain=None, surface=None, *, keep_boundary=True) -> None:
+def check_input(mesh=None, domain=None, *, keep_boundary=True) -> None:
     """Raise the InputError :func:`optimize` would raise for these inputs (before running)."""
-    _inputs(mesh, domain, surface, keep_boundary)
+    _inputs(mesh, domain, keep_boundary)
 
 
-def _inputs(mesh, domain, surface, keep_boundary):
-    given = [x is not None for x in (mesh, domain, surface)]
-    if sum(given) != 1:
-        raise InputError("give exactly one of mesh, domain or surface", loc=(), code="bad_input")
-    if surface is not None:
-        raise InputError(
-            "generation of tetrahedra from a closed surface is not available in this build",
-            loc=("surface",),
-            code="unsupported_input",
-        )
+def _inputs(mesh, domain, keep_boundary):
+    if (mesh is None) == (domain is None):
+        raise InputError("give exactly one of mesh or domain", loc=(), code="bad_input")
     if mesh is not None:
         if not keep_boundary:
             raise InputError(
@@ -618,7 +615,10 @@ def _failure(P: np.ndarray, cells: np.ndarray, bad: np.ndarray, use: str, sweeps
 
 
 def _compact(P: np.ndarray, cells: np.ndarray, n_keep: int) -> tuple[np.ndarray, np.ndarray, int]:
-    """Drop unreferenced points (removed by fans) beyond... keeping order; returns removed count."""
+    """Points referenced by ``cells`` (or among the first ``n_keep``), in order; cells renumbered.
+
+    Returns the points, the cells and how many points were dropped (removed by fans).
+    """
     used = np.zeros(len(P), bool)
     used[cells.ravel()] = True
     used[:n_keep] = True
@@ -630,7 +630,6 @@ def optimize(
     mesh: Mesh | None = None,
     *,
     domain=None,
-    surface=None,
     insert_points: bool | None = None,
     size: float | None = None,
     quality: str = "shape",
@@ -650,9 +649,6 @@ def optimize(
     domain : Domain or dict, optional
         Or a planar domain (GeoJSON polygon, holes allowed): a triangle mesh
         is generated from its boundary discretization (Figure 8.10).
-    surface : dict, optional
-        Generation of tetrahedra from a closed surface; not available in this
-        build (refused with ``unsupported_input``).
     insert_points : bool, optional
         Domain input (default true): the second stage of §8.3.3 adds interior
         points until no edge exceeds ``size`` and the least angle reaches
@@ -705,7 +701,7 @@ def optimize(
         )
     if size is not None and not (math.isfinite(size) and size > 0):
         raise InputError("size must be a positive number", loc=("size",), code="bad_value")
-    kind, data = _inputs(mesh, domain, surface, keep_boundary)
+    kind, data = _inputs(mesh, domain, keep_boundary)
     measure = MEASURES.index(quality)
     if kind == "mesh":
         P, cells, bnd, total = data
