@@ -542,7 +542,7 @@ def _insert_stage(
 ) -> int:
     """Second stage (§8.3.3): Op(G, δK) at the centroid G of large or badly shaped triangles.
 
-    A round picks the triangles whose longest edge exceeds √2 ``size``, or whose
+    A round picks the triangles whose longest edge exceeds ``size``, or whose
     least angle is below ``min_angle`` while their longest edge exceeds
     ``size / 2``, worst first, none sharing a vertex with one already picked,
     splits each at its centroid, and optimizes (no removal). Rounds repeat
@@ -557,7 +557,7 @@ def _insert_stage(
         angle = quality.triangle_angles(P, T).min(axis=1)
         # a triangle whose longest edge is a boundary segment is left to the optimization:
         # its centroid would only crowd that segment (it cannot be split)
-        long = longest > math.sqrt(2.0) * size
+        long = longest > size
         bad = (long | ((angle < min_angle) & (longest > 0.5 * size))) & ~_on_boundary(
             T, np.argmax(np.sum(e * e, axis=2), axis=0), bkeys, len(P)
         )
