@@ -283,3 +283,46 @@ class TestBadInput:
             optimize(m, max_sweeps=0)
         with pytest.raises(InputError, match="keep_boundary"):
             optimize(m, keep_boundary=False)
+
+
+class TestTetrahedra:
+    #: two tets on the face 1 2 3, apexes 0 (below) and 4 (above): positive as numbered
+    P = np.array([[0, 0, -1], [1, 0, 0], [0, 1, 0], [0, 0, 0], [0.2, 0.2, 1]], float)
+
+    def test_a_face_held_the_same_way_twice_is_named(self):
+        T = np.array([[0, 1, 2, 3], [4, 1, 2, 3]])  # the second one is numbered the other way
+        with pytest.raises(InputError) as exc:
+            optimize(Mesh(self.P, (CellBlock("tetra", T),)))
+        assert exc.value.code == "inconsistent_orientation"
+        assert {tuple(e["loc"]) for e in exc.value.errors} == {
+            ("mesh", "cells", 0, "data", 0),
+            ("mesh", "cells", 0, "data", 1),
+        }
+
+    def test_a_face_in_three_tets_is_named(self):
+        P = np.vstack([self.P, [[0.3, 0.3, 2]]])
+        T = np.array([[0, 1, 2, 3], [4, 1, 3, 2], [5, 1, 3, 2]])
+        with pytest.raises(InputError) as exc:
+            optimize(Mesh(P, (CellBlock("tetra", T),)))
+        assert exc.value.code == "nonmanifold_face"
+
+    def test_optimization_never_lowers_the_least_quality(self):
+        sq = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
+        m = extrude(triangulate(sq, size=0.25).mesh, Translate([0, 0, 1], layers=4), simplices=True)
+        T = m.mesh.cells_by_type["tetra"]
+        res = optimize(Mesh(m.mesh.points, (CellBlock("tetra", T),)), quality="radius_ratio")
+        assert res.stats["use"] == "optimization"
+        assert res.stats["least_quality_after"] >= res.stats["least_quality_before"]
+        Pn, Tn = res.mesh.points, res.mesh.cells[0].data
+        assert math.fsum(quality.signed_volume(Pn, Tn)) == pytest.approx(1.0, rel=1e-12)
+
+
+def test_generation_does_not_depend_on_translation_or_scale():
+    ring = star(np.array([1.0, 0.5, 0.9, 0.45, 0.95, 0.5, 1.0, 0.55]))
+    a = optimize(domain={"type": "Polygon", "coordinates": [ring]}, insert_points=False)
+    for shift, scale in ((1e6, 1.0), (0.0, 1e-6)):
+        moved = (np.asarray(ring) * scale + shift).tolist()
+        b = optimize(domain={"type": "Polygon", "coordinates": [moved]}, insert_points=False)
+        assert len(b.mesh.cells[0].data) == len(a.mesh.cells[0].data)
+        P, T = _tri(b)
+        assert (orient2d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]) > 0).all()
