@@ -19,7 +19,7 @@ from typing import Any
 
 from meshcore.errors import InputError
 from meshcore.mesh import io, quality
-from service.methods import delaunay, grid, medial, product, quads, triangulation
+from service.methods import delaunay, grid, medial, optimize, product, quads, triangulation
 from service.schemas import MeshIn, MethodParams
 
 Progress = Callable[[float, str], None]
@@ -193,6 +193,17 @@ def default_registry() -> Registry:
             params=grid.QuadGridParams,
             run=grid.run_quad_grid,
             example=grid.QUAD_GRID_EXAMPLE,
+        ),
+        MethodSpec(
+            name="optimize",
+            summary="Optimization-based meshing (Coupez): triangles generated from a domain's "
+            "boundary, or a tangled triangle or tetrahedral mesh made valid with the same "
+            "boundary, or a valid one's worst quality raised, by replacing balls, pairs and "
+            "larger sub-topologies with Op(P, δS) while Sur decreases; Sur series in stats.",
+            section="§8.3 (Definition 8.1, (8.1)-(8.2), §8.3.2-§8.3.5, Figures 8.9-8.11)",
+            params=optimize.OptimizeParams,
+            run=optimize.run_optimize,
+            example=optimize.OPTIMIZE_EXAMPLE,
         ),
         MethodSpec(
             name="medial_axis",

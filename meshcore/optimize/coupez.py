@@ -1,0 +1,841 @@
+"""Optimization-based meshing, mesh correction and optimization (Coupez, §8.3).
+
+One method, three uses named by §8.3 and §8.3.5:
+
+1. **Generation** from a boundary discretization (Figure 8.10): the initial
+   mesh topology is Op(P, δ𝒮) with P the boundary vertex nearest the
+   centroid of δ𝒮 (joined to every boundary edge not incident to it), then
+   sub-topologies are replaced until the topology is a valid mesh.
+2. **Correction** of a tangled mesh (the forming-process use): the input
+   triangles or tetrahedra, some inverted, are the initial topology; the
+   boundary stays as given.
+3. **Optimization** of a valid mesh: the same loop on a positive mesh only
+   replaces a sub-topology when its worst quality rises, so the least
+   quality never decreases.
+
+Generation is planar only: generation of tetrahedra from a closed surface
+(Figure 8.11) is not implemented (it needs fans on the balls of boundary
+vertices and edge shells in 3D, which :mod:`.kernel3d` does not have).
+
+The loop (the synthetic algorithm of §8.3.2) is in :mod:`.kernel2d` and
+:mod:`.kernel3d`: balls of vertices first; when a pass changes nothing,
+pairs of adjacent triangles (2D); when that changes nothing either and an
+element is still non-positive, unions of balls (the "larger connected
+sets"). Passes repeat until none changes anything or ``max_sweeps`` passes
+ran. ``stats["sur"]`` is Sur(𝒯), the sum of unsigned areas (volumes), after
+the start and after every pass: it never increases, and it equals the
+domain's area (volume) exactly when every element is positive.
+
+Choices where the text leaves freedom
+-------------------------------------
+* **G.** The centroid of the vertices of δℬ_P; when moving P there leaves an
+  element non-positive, also the centroid of the kernel of δℬ_P (2D), the
+  region of positions from which all of δℬ_P is seen, i.e. where
+  Sur(Op(G, δℬ_P)) is least. In 3D, G and, failing it, a point of the
+  kernel found by relaxation (:mod:`.kernel3d`).
+* **Removal.** A fan Op(Q, δℬ_P) with Q on δℬ_P removes the free vertex P.
+  It is a candidate only where the ball is not positive and no move of P
+  makes Sur smaller (a correction, never a quality move), and only when
+  ``insert_points`` is true: with ``insert_points=false`` the point set is
+  kept.
+* **Stages** (§8.3.3): a first stage without insertion; then, for generation
+  with ``insert_points``, a second stage that inserts G = the centroid of a
+  triangle whose longest edge exceeds ``size`` (Op(G, δK), K one element, a
+  connected set of one), followed by the same optimization loop, in rounds,
+  until no edge is longer than ``size`` and no triangle with an edge longer
+  than ``size / 2`` is worse than the target quality. ``size`` defaults to
+  the median boundary segment.
+* **keep_boundary=false** (generation only): the boundary segments are first
+  split evenly to at most ``size``; boundary vertices never move.
+* **Quality** (8.2): ``shape`` (4√3 A / Σl², 1 for the equilateral
+  triangle; 12 (3V)^(2/3) / Σl² for tetrahedra) or ``radius_ratio`` (2r/R
+  in 2D, 3r/R in 3D), from the unsigned measure as the text says.
+
+Guarantees: on return, every element is positive by the exact predicates,
+the topology is a mesh topology (every edge, face in 3D, in one or two
+elements, consistently oriented) whose boundary is exactly the input
+boundary. When the loop stops short of that, :class:`AlgorithmError` says
+how many elements are still inverted and where; no invalid mesh is returned.
+
+References
+----------
+Methods text §8.3.1-§8.3.5 (Definition 8.1, Op(P, δ𝒯), (8.1)-(8.2), the
+synthetic algorithm, the validity condition of §8.3.3 and Figure 8.9,
+Figures 8.10-8.11); T. Coupez, "Génération de maillage et adaptation de
+maillage par optimisation locale", Revue européenne des éléments finis 9
+(2000).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from meshcore.domain.planar import Domain, parse_domain
+from meshcore.errors import AlgorithmError, InputError
+from meshcore.geometry.predicates import orient2d, orient3d
+from meshcore.mesh import CellBlock, Mesh, quality
+from meshcore.optimize import kernel2d as k2
+
+Progress = Callable[[float, str], None] | None
+
+MEASURES = ("shape", "radius_ratio")
+
+
+@dataclass(frozen=True)
+class _Tolerances:
+    """Decisions of the loop that are not signs.
+
+    Attributes
+    ----------
+    sur_tie : float
+        Two non-positive configurations whose Sur differ by less than this
+        fraction of the current one tie on (8.1); the quality decides.
+    quality_gain : float
+        A replacement on quality alone must raise the worst quality of the
+        sub-topology by at least this much (it stops endless tiny moves).
+    """
+
+    sur_tie: float = 1e-12
+    quality_gain: float = 1e-4
+
+
+TOL = _Tolerances()
+
+
+@dataclass(frozen=True, eq=False)
+class OptimizationResult:
+    """A valid mesh, its quality report and the figures of the run.
+
+    Attributes
+    ----------
+    mesh : Mesh
+        Triangles (2D) or tetrahedra (3D), every one positive.
+    quality : dict
+        :func:`meshcore.mesh.quality.report` of the mesh.
+    stats : dict
+        ``use`` (generation, correction or optimization), ``sur`` (Sur(𝒯)
+        at the start and after each pass), ``measure`` (the area or volume
+        the series tends to), ``sweeps`` (passes), ``inverted_before`` and
+        ``inverted_after`` (non-positive elements), ``points_inserted``,
+        ``points_removed``, ``operators`` (replacements by sub-topology and
+        operator), ``least_quality_before`` / ``least_quality_after`` (the
+        measure of (8.2)), ``stages``.
+    """
+
+    mesh: Mesh
+    quality: dict
+    stats: dict = field(default_factory=dict)
+
+
+# ----------------------------------------------------------------------------- input checks
+
+
+def _cell_loc(mesh: Mesh, c: int) -> list:
+    for b, block in enumerate(mesh.cells):
+        if c < len(block):
+            return ["mesh", "cells", b, "data", int(c)]
+        c -= len(block)
+    return ["mesh", "cells"]
+
+
+def _refuse(mesh: Mesh, cells: np.ndarray, what: str, code: str) -> None:
+    cells = np.unique(cells)
+    listed = ", ".join(str(int(i)) for i in cells[:10])
+    more = f" (and {len(cells) - 10} more)" if len(cells) > 10 else ""
+    msg = f"{len(cells)} cell(s) {what}: {listed}{more}"
+    errors = [{"loc": _cell_loc(mesh, int(i)), "msg": msg, "type": code} for i in cells[:10]]
+    raise InputError(msg, code=code, errors=errors)
+
+
+def _mesh_cells(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Points and the one cell type's rows (triangles in the plane, or tetrahedra)."""
+    if not isinstance(mesh, Mesh):
+        raise InputError("mesh must be a Mesh", loc=("mesh",), code="bad_shape")
+    try:
+        mesh.check()
+    except InputError as exc:
+        raise exc.prefixed("mesh") from None
+    want = "triangle" if mesh.dim == 2 else "tetra"
+    for b, block in enumerate(mesh.cells):
+        if block.type != want and len(block):
+            raise InputError(
+                f"cell block {b} holds {block.type} cells; with {mesh.dim}D points the method "
+                f"takes {want} cells only",
+                loc=("mesh", "cells", b, "type"),
+                code="unsupported_cell_type",
+            )
+    blocks = [b.data for b in mesh.cells if b.type == want]
+    cells = np.concatenate(blocks) if len(blocks) > 1 else blocks[0]
+    return mesh.points, np.ascontiguousarray(cells, dtype=np.int64)
+
+
+_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])  # outward for a positive tet
+
+
+def _facets(cells: np.ndarray) -> np.ndarray:
+    """Oriented facets ``(m * f, d)``: triangle edges, or tet faces seen from outside."""
+    if cells.shape[1] == 3:
+        return np.stack([cells, np.roll(cells, -1, axis=1)], axis=2).reshape(-1, 2)
+    return cells[:, _FACES].reshape(-1, 3)
+
+
+def check_topology(mesh: Mesh, cells: np.ndarray | None = None) -> np.ndarray:
+    """Refuse a cell set that is not a mesh topology (Definition 8.1); its boundary facets.
+
+    Every edge (2D) or face (3D) must be held by one or two cells, and two
+    cells sharing one must run through it in opposite directions (a
+    consistent orientation). Returns the oriented boundary facets, sorted
+    rows ``(k, 2)`` or ``(k, 3)`` as they appear in the cells.
+
+    Raises
+    ------
+    InputError
+        ``nonmanifold_edge`` / ``nonmanifold_face`` or
+        ``inconsistent_orientation``, naming the cells.
+    """
+    if cells is None:
+        cells = _mesh_cells(mesh)[1]
+    f = _facets(cells)
+    per = 3 if cells.shape[1] == 3 else 4
+    key = np.sort(f, axis=1)
+    n = int(cells.max()) + 1
+    if n ** key.shape[1] < 2**62:
+        flat = key[:, 0] * n + key[:, 1]
+        if key.shape[1] == 3:
+            flat = flat * n + key[:, 2]
+        _, inv, count = np.unique(flat, return_inverse=True, return_counts=True)
+    else:
+        _, inv, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    inv = inv.ravel()
+    word = "edge" if per == 3 else "face"
+    many = count[inv] > 2
+    if many.any():
+        _refuse(
+            mesh,
+            np.flatnonzero(many) // per,
+            f"share an {word} with two or more others (not a mesh topology, Definition 8.1)",
+            f"nonmanifold_{word}",
+        )
+    two = np.flatnonzero(count[inv] == 2)
+    order = two[np.argsort(inv[two], kind="stable")]
+    h1, h2 = order[0::2], order[1::2]
+    # the same facet with the same orientation in both cells
+    if per == 3:
+        same = f[h1, 0] == f[h2, 0]
+    else:
+        r1 = np.roll(f[h2], 1, axis=1)
+        r2 = np.roll(f[h2], 2, axis=1)
+        same = (f[h1] == f[h2]).all(1) | (f[h1] == r1).all(1) | (f[h1] == r2).all(1)
+    if same.any():
+        _refuse(
+            mesh,
+            np.r_[h1[same], h2[same]] // per,
+            "are oriented against a neighbour (a shared " + word + " runs the same way in both)",
+            "inconsistent_orientation",
+        )
+    return f[count[inv] == 1]
+
+
+def check_input(mesh=None, domain=None, *, keep_boundary=True) -> None:
+    """Raise the InputError :func:`optimize` would raise for these inputs (before running)."""
+    _inputs(mesh, domain, keep_boundary)
+
+
+def _inputs(mesh, domain, keep_boundary):
+    if (mesh is None) == (domain is None):
+        raise InputError("give exactly one of mesh or domain", loc=(), code="bad_input")
+    if mesh is not None:
+        if not keep_boundary:
+            raise InputError(
+                "keep_boundary=false goes with domain input (the boundary is split first)",
+                loc=("keep_boundary",),
+                code="bad_input",
+            )
+        P, cells = _mesh_cells(mesh)
+        bnd = check_topology(mesh, cells)
+        if P.shape[1] == 2:
+            total = float(np.sum(quality.signed_area(P, cells)))
+        else:
+            total = float(np.sum(quality.signed_volume(P, cells)))
+        if not total != 0.0:
+            raise InputError(
+                "the cells enclose no area or volume (their signed measures sum to zero)",
+                loc=("mesh", "cells"),
+                code="degenerate_mesh",
+            )
+        return "mesh", (P, cells, bnd, total)
+    dom = domain if isinstance(domain, Domain) else parse_domain(domain)
+    if len(dom.constraints):
+        raise InputError(
+            "interior constraint segments are not supported by this method",
+            loc=("segments",),
+            code="unsupported_input",
+        )
+    return "domain", dom
+
+
+# ----------------------------------------------------------------------------- the 2D state
+
+
+class _State2D:
+    """Arrays of the compiled loop (triangle rows, corner lists, free rows)."""
+
+    def __init__(self, P: np.ndarray, T: np.ndarray, fixed: np.ndarray, spare_points: int = 0):
+        n, m = len(P), len(T)
+        ncap = n + spare_points
+        self.P = np.zeros((ncap, 2))
+        self.P[:n] = P
+        self.fixed = np.zeros(ncap, np.uint8)
+        self.fixed[:n] = fixed
+        self.cnt = np.array([n, 0, 0, 0], np.int64)
+        self._rows(T, 2 * m + 64)
+
+    def _rows(self, T: np.ndarray, mcap: int) -> None:
+        m = len(T)
+        self.T = np.zeros((mcap, 3), np.int64)
+        self.T[:m] = T
+        self.alive = np.zeros(mcap, np.uint8)
+        self.alive[:m] = 1
+        self.head = np.full(len(self.P), -1, np.int64)
+        self.nxt = np.full(3 * mcap, -1, np.int64)
+        self.prv = np.full(3 * mcap, -1, np.int64)
+        self.free = np.zeros(mcap, np.int64)
+        self.cnt[k2.N_ROWS] = m
+        self.cnt[k2.N_FREE] = 0
+        k2.build(self.T, m, len(self.P), self.head, self.nxt, self.prv)
+
+    def grow_rows(self) -> None:
+        self._rows(self.triangles(), 2 * self.T.shape[0])
+
+    def grow_points(self, spare: int) -> None:
+        n = int(self.cnt[k2.N_PTS])
+        P, fixed = self.P[:n].copy(), self.fixed[:n].copy()
+        self.P = np.zeros((n + spare, 2))
+        self.P[:n] = P
+        self.fixed = np.zeros(n + spare, np.uint8)
+        self.fixed[:n] = fixed
+        self._rows(self.triangles(), self.T.shape[0])
+
+    def triangles(self) -> np.ndarray:
+        rows = int(self.cnt[k2.N_ROWS])
+        return self.T[:rows][self.alive[:rows].astype(bool)].copy()
+
+    def points(self) -> np.ndarray:
+        return self.P[: int(self.cnt[k2.N_PTS])]
+
+    def sur(self) -> float:
+        return float(k2.sur(self.P, self.T, self.alive, self.cnt[k2.N_ROWS]))
+
+    def signs(self) -> np.ndarray:
+        T, P = self.triangles(), self.points()
+        return orient2d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]])
+
+
+def _measure_q(P: np.ndarray, cells: np.ndarray, measure: str) -> np.ndarray:
+    """The (8.2) measure of every cell from its unsigned area or volume."""
+    if cells.shape[1] == 3:
+        q = quality.triangle_shape(P, cells) if measure == "shape" else _radius2(P, cells)
+    else:
+        q = _shape3(P, cells) if measure == "shape" else quality.tetra_radius_ratio(P, cells)
+    return np.abs(q)
+
+
+def _radius2(P, T):
+    a = np.linalg.norm(P[T[:, 1]] - P[T[:, 2]], axis=1)
+    b = np.linalg.norm(P[T[:, 2]] - P[T[:, 0]], axis=1)
+    c = np.linalg.norm(P[T[:, 0]] - P[T[:, 1]], axis=1)
+    A = quality.signed_area(P, T)
+    den = 0.5 * (a + b + c) * a * b * c
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(den > 0, 8.0 * A * A / den, 0.0)
+
+
+def _shape3(P, C):
+    V = np.abs(quality.signed_volume(P, C))
+    e = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
+    s = sum(np.sum((P[C[:, i]] - P[C[:, j]]) ** 2, axis=1) for i, j in e)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(s > 0, 12.0 * (3.0 * V) ** (2.0 / 3.0) / s, 0.0)
+
+
+def _loop2d(
+    state: _State2D,
+    allow_remove: bool,
+    measure: int,
+    max_sweeps: int,
+    sweeps: list,
+    sur: list,
+    ops: dict,
+    progress: Progress,
+    frac: tuple[float, float],
+) -> None:
+    """Passes of the synthetic algorithm until stable or ``max_sweeps`` (shared count)."""
+    cap = len(state.P)
+    todo_ball = np.ones(cap, np.uint8)
+    todo_pair = np.ones(cap, np.uint8)
+    counters = np.zeros(6, np.int64)
+    for _ in range(max_sweeps):
+        changed = 0
+        for kind, todo in ((k2.BALL, todo_ball), (k2.PAIR, todo_pair), (k2.UNION, todo_ball)):
+            if kind == k2.UNION and (state.signs() > 0).all():
+                break
+            dirty = np.zeros(cap, np.uint8)
+            while True:
+                changed, status = k2.sweep(
+                    state.P,
+                    state.T,
+                    state.alive,
+                    state.head,
+                    state.nxt,
+                    state.prv,
+                    state.free,
+                    state.cnt,
+                    state.fixed,
+                    todo,
+                    dirty,
+                    kind,
+                    allow_remove,
+                    measure,
+                    TOL.sur_tie,
+                    TOL.quality_gain,
+                    counters,
+                )
+                if status != 2:
+                    break
+                state.grow_rows()
+                todo[:] = 1
+            todo_ball |= dirty
+            todo_pair |= dirty
+            if changed:
+                break
+        sweeps[0] += 1
+        sur.append(state.sur())
+        if progress is not None:
+            progress(
+                frac[0] + (frac[1] - frac[0]) * min(1.0, sweeps[0] / max_sweeps),
+                f"pass {sweeps[0]}",
+            )
+        if not changed:
+            break
+    for name, c in (
+        ("ball_fan", k2.C_FAN),
+        ("ball_move", k2.C_MOVE),
+        ("ball_kernel_move", k2.C_KERNEL),
+        ("pair_flip", k2.C_FLIP),
+        ("union_fan", k2.C_UNION),
+        ("removed", k2.C_REMOVED),
+    ):
+        ops[name] = ops.get(name, 0) + int(counters[c])
+
+
+def _initial_topology(
+    P: np.ndarray, S: np.ndarray, seg_ring: np.ndarray, dom: Domain
+) -> np.ndarray:
+    """The initial mesh topology: Op(P, δ𝒮) per polygon, each hole zipped into it.
+
+    For each polygon, P is the vertex of its outer ring nearest the ring's
+    centroid, joined to every segment of the ring not incident to it (§8.3.2,
+    "Initialization"). A hole cannot come from the same operator (P joined to
+    a hole's segments would make a cone pinched at P, not an annulus, and no
+    replacement of a disk by a disk changes that), so each hole replaces the
+    triangle of the current topology whose centroid is nearest the hole's
+    centroid by the annulus between the two, zipped spoke by spoke: a mesh
+    topology with the right boundary, left to the optimization to untangle.
+    """
+    tris = []
+    holes = []
+    for r in range(dom.ring_count):
+        ring_segs = S[seg_ring == r]
+        if dom.ring_is_hole[r]:
+            holes.append(ring_segs)
+            continue
+        ring = ring_segs[:, 0]
+        c = P[ring].mean(axis=0)
+        p = int(ring[np.argmin(np.sum((P[ring] - c) ** 2, axis=1))])
+        keep = (ring_segs[:, 0] != p) & (ring_segs[:, 1] != p)
+        s = ring_segs[keep]
+        tris.append(np.column_stack([s[:, 0], s[:, 1], np.full(len(s), p)]))
+    T = np.concatenate(tris)
+    # one short loop per hole (rings, not cells)
+    for hs in holes:
+        # the hole's vertices along its segments (clockwise: the domain on the left); a
+        # reversed ring lists its segments backwards
+        hv = hs[:, 0] if hs[0, 1] == hs[1 % len(hs), 0] else hs[::-1, 0]
+        c = P[hv].mean(axis=0)
+        t = int(np.argmin(np.sum((P[T].mean(axis=1) - c) ** 2, axis=1)))
+        T = np.concatenate([np.delete(T, t, axis=0), _zipper(P, T[t], hv[::-1])])
+    return T
+
+
+def _zipper(P: np.ndarray, outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
+    """Triangles of the annulus between a counter-clockwise triangle and a CCW ring inside it."""
+    k = len(inner)
+    b0 = int(np.argmin(np.sum((P[inner] - P[outer[0]]) ** 2, axis=1)))
+    inner = np.roll(inner, -b0)
+    rows = []
+    a = b = 0
+    # a short loop over the k + 3 spokes of one annulus
+    while a < 3 or b < k:
+        if b >= k or (a < 3 and a / 3 <= b / k):
+            rows.append((outer[a % 3], outer[(a + 1) % 3], inner[b % k]))
+            a += 1
+        else:
+            rows.append((inner[(b + 1) % k], inner[b % k], outer[a % 3]))
+            b += 1
+    return np.array(rows, np.int64)
+
+
+def _split_counts(dom: Domain, size: float) -> np.ndarray:
+    """Pieces of each boundary segment split evenly to at most ``size``."""
+    P, S = dom.points, dom.segments
+    length = np.linalg.norm(P[S[:, 1]] - P[S[:, 0]], axis=1)
+    return np.maximum(1, np.ceil(length / size).astype(np.int64))
+
+
+def _split_boundary(dom: Domain, size: float) -> tuple[np.ndarray, np.ndarray]:
+    """The domain's points and segments with each segment split evenly to at most ``size``."""
+    P, S = dom.points, dom.segments
+    a, b = P[S[:, 0]], P[S[:, 1]]
+    k = _split_counts(dom, size)
+    extra = k - 1
+    n = len(P)
+    start = n + np.r_[0, np.cumsum(extra)[:-1]]
+    seg_id = np.repeat(np.arange(len(S)), extra)
+    step = np.arange(extra.sum()) - np.repeat(start - n, extra) + 1
+    t = (step / k[seg_id])[:, None]
+    newP = a[seg_id] * (1 - t) + b[seg_id] * t
+    chain_first = S[:, 0]
+    rows = []
+    for_ids = np.repeat(np.arange(len(S)), k)
+    j = np.arange(k.sum()) - np.repeat(np.r_[0, np.cumsum(k)[:-1]], k)
+    base = start[for_ids] + j - 1
+    u = np.where(j == 0, chain_first[for_ids], base)
+    v = np.where(j == k[for_ids] - 1, S[for_ids, 1], base + 1)
+    rows = np.column_stack([u, v])
+    return np.vstack([P, newP]), rows
+
+
+def _on_boundary(T, j, bkeys, n):
+    """Whether edge ``j`` (opposite corner j) of each triangle is a boundary segment."""
+    a = T[np.arange(len(T)), (j + 1) % 3]
+    b = T[np.arange(len(T)), (j + 2) % 3]
+    key = np.minimum(a, b) * n + np.maximum(a, b)
+    return np.isin(key, bkeys[:, 0] * n + bkeys[:, 1])
+
+
+def _insert_stage(
+    state: _State2D,
+    S: np.ndarray,
+    size: float,
+    min_angle: float,
+    measure: int,
+    max_sweeps: int,
+    sweeps: list,
+    sur: list,
+    ops: dict,
+    progress: Progress,
+    rounds: int,
+) -> int:
+    """Second stage (§8.3.3): Op(G, δK) at the centroid G of large or badly shaped triangles.
+
+    A round picks the triangles whose longest edge exceeds ``size``, or whose
+    least angle is below ``min_angle`` while their longest edge exceeds
+    ``size / 2``, worst first, none sharing a vertex with one already picked,
+    splits each at its centroid, and optimizes (no removal). Rounds repeat
+    until none is picked or ``rounds`` ran; returns the points inserted.
+    """
+    inserted = 0
+    bkeys = np.sort(S, axis=1)
+    for _ in range(rounds):
+        P, T = state.points(), state.triangles()
+        e = np.stack([P[T[:, 1]] - P[T[:, 2]], P[T[:, 2]] - P[T[:, 0]], P[T[:, 0]] - P[T[:, 1]]])
+        longest = np.sqrt(np.max(np.sum(e * e, axis=2), axis=0))
+        angle = quality.triangle_angles(P, T).min(axis=1)
+        # a triangle whose longest edge is a boundary segment is left to the optimization:
+        # its centroid would only crowd that segment (it cannot be split)
+        long = longest > size
+        bad = (long | ((angle < min_angle) & (longest > 0.5 * size))) & ~_on_boundary(
+            T, np.argmax(np.sum(e * e, axis=2), axis=0), bkeys, len(P)
+        )
+        if not bad.any():
+            break
+        cand = np.flatnonzero(bad)
+        cand = cand[np.argsort(angle[cand] - 90.0 * long[cand], kind="stable")]
+        n0 = int(state.cnt[k2.N_PTS])
+        if len(state.P) < n0 + len(cand):
+            state.grow_points(len(cand) + n0)
+        while True:
+            added = k2.insert_centroids(
+                state.P,
+                state.T,
+                state.alive,
+                state.head,
+                state.nxt,
+                state.prv,
+                state.free,
+                state.cnt,
+                state.fixed,
+                T,
+                cand,
+            )
+            if added >= 0:
+                break
+            state.grow_rows()
+        inserted += added
+        if not added:
+            break
+        _loop2d(state, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.5, 0.95))
+    return inserted
+
+
+# ----------------------------------------------------------------------------- the method
+
+
+def _failure(P: np.ndarray, cells: np.ndarray, bad: np.ndarray, use: str, sweeps: int) -> None:
+    """Raise the AlgorithmError of a run that did not reach a valid mesh."""
+    idx = np.flatnonzero(bad)
+    where = "; ".join(
+        f"cell {int(i)} at ({', '.join(f'{x:.6g}' for x in P[cells[i]].mean(axis=0))})"
+        for i in idx[:10]
+    )
+    more = f" (and {len(idx) - 10} more)" if len(idx) > 10 else ""
+    lo, hi = (
+        P[cells[idx]].reshape(-1, P.shape[1]).min(0),
+        P[cells[idx]].reshape(-1, P.shape[1]).max(0),
+    )
+    raise AlgorithmError(
+        f"{use}: no valid mesh reached after {sweeps} passes: {len(idx)} element(s) still "
+        f"inverted or flat, within the box {lo.tolist()} - {hi.tolist()}: {where}{more}",
+        code="not_converged",
+    )
+
+
+def _compact(P: np.ndarray, cells: np.ndarray, n_keep: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """Points referenced by ``cells`` (or among the first ``n_keep``), in order; cells renumbered.
+
+    Returns the points, the cells and how many points were dropped (removed by fans).
+    """
+    used = np.zeros(len(P), bool)
+    used[cells.ravel()] = True
+    used[:n_keep] = True
+    new = np.cumsum(used) - 1
+    return P[used], new[cells], int(len(P) - used.sum())
+
+
+def optimize(
+    mesh: Mesh | None = None,
+    *,
+    domain=None,
+    insert_points: bool | None = None,
+    size: float | None = None,
+    quality: str = "shape",
+    max_sweeps: int = 200,
+    keep_boundary: bool = True,
+    min_angle: float = 25.0,
+    progress: Progress = None,
+) -> OptimizationResult:
+    """Generate, correct or optimize a simplicial mesh by local sub-topology replacement (§8.3).
+
+    Parameters
+    ----------
+    mesh : Mesh, optional
+        Triangles with ``(n, 2)`` points, or tetrahedra with ``(n, 3)``
+        points: a mesh topology (Definition 8.1), possibly tangled. Its
+        boundary vertices, edges and faces stay as given.
+    domain : Domain or dict, optional
+        Or a planar domain (GeoJSON polygon, holes allowed): a triangle mesh
+        is generated from its boundary discretization (Figure 8.10).
+    insert_points : bool, optional
+        Domain input (default true): the second stage of §8.3.3 adds interior
+        points until no edge exceeds ``size`` and the least angle reaches
+        ``min_angle`` away from the boundary constraints; false keeps the
+        boundary points only. Mesh input (default false): true lets a fan
+        remove a free vertex where its ball is inverted; false keeps the
+        point set.
+    size : float, optional
+        Domain input: target edge length (default: the median boundary segment).
+    quality : {"shape", "radius_ratio"}
+        The measure of (8.2), from the unsigned area or volume.
+    max_sweeps : int
+        Most passes over the sub-topologies (per stage).
+    keep_boundary : bool
+        True: the boundary as given. False (domain input only): its
+        segments are first split evenly to at most ``size``.
+    min_angle : float
+        Degrees: the quality target of the insertion stage.
+    progress : callable(fraction, message), optional
+        May raise to cancel.
+
+    Returns
+    -------
+    OptimizationResult
+        Every element positive by the exact predicates; boundary facets
+        exactly the input's (the domain's segments, the mesh's boundary);
+        area or volume preserved; ``stats["sur"]`` non-increasing.
+
+    Raises
+    ------
+    InputError
+        Not exactly one input; a mesh that is not a mesh topology (an edge or
+        face in three or more cells, a neighbour oriented against another),
+        mixed or unsupported cell types, NaN, a bad domain; each named by ``loc``.
+    AlgorithmError
+        When no valid mesh is reached: how many elements are still inverted
+        and where.
+
+    References
+    ----------
+    Methods text §8.3.1-§8.3.5.
+    """
+    if quality not in MEASURES:
+        raise InputError(
+            f"quality must be one of {', '.join(MEASURES)}", loc=("quality",), code="bad_choice"
+        )
+    if not (isinstance(max_sweeps, int) and max_sweeps >= 1):
+        raise InputError(
+            "max_sweeps must be a positive integer", loc=("max_sweeps",), code="bad_value"
+        )
+    if size is not None and not (math.isfinite(size) and size > 0):
+        raise InputError("size must be a positive number", loc=("size",), code="bad_value")
+    kind, data = _inputs(mesh, domain, keep_boundary)
+    measure = MEASURES.index(quality)
+    if kind == "mesh":
+        P, cells, bnd, total = data
+        if P.shape[1] == 3:
+            from meshcore.optimize.coupez3d import optimize3d
+
+            return optimize3d(
+                mesh, P, cells, bnd, total, bool(insert_points), measure, max_sweeps, progress
+            )
+        return _mesh2d(P, cells, bnd, total, bool(insert_points), measure, max_sweeps, progress)
+    return _generate2d(
+        data,
+        insert_points is not False,
+        size,
+        measure,
+        max_sweeps,
+        keep_boundary,
+        min_angle,
+        progress,
+    )
+
+
+def _report(P, cells, measure, stats):
+    mesh = Mesh(P, (CellBlock("triangle" if cells.shape[1] == 3 else "tetra", cells),))
+    stats["least_quality_after"] = float(_measure_q(P, cells, MEASURES[measure]).min())
+    return OptimizationResult(mesh, quality.report(mesh), stats)
+
+
+def _mesh2d(P, T, bnd, total, allow_remove, measure, max_sweeps, progress):
+    if total < 0:  # clockwise throughout: normalized to counter-clockwise
+        T = T[:, ::-1].copy()
+        bnd = bnd[:, ::-1]
+    n = len(P)
+    fixed = np.zeros(n, np.uint8)
+    fixed[bnd.ravel()] = 1
+    sign = orient2d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]])
+    inverted = int(np.sum(sign <= 0))
+    use = "correction" if inverted else "optimization"
+    q0 = float(_measure_q(P, T, MEASURES[measure]).min())
+    state = _State2D(P, T, fixed)
+    sweeps, sur, ops = [0], [state.sur()], {}
+    _loop2d(state, allow_remove, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 1.0))
+    Pn, Tn = state.points(), state.triangles()
+    _verify(Pn, Tn, bnd, use, sweeps[0])
+    Pn, Tn, removed = _compact(Pn, Tn, 0)
+    stats = {
+        "use": use,
+        "sur": sur,
+        "measure": abs(total),
+        "sweeps": sweeps[0],
+        "inverted_before": inverted,
+        "inverted_after": 0,
+        "points_inserted": 0,
+        "points_removed": removed,
+        "operators": ops,
+        "least_quality_before": q0,
+        "stages": 1,
+    }
+    return _report(Pn, Tn, measure, stats)
+
+
+def _verify(P, cells, bnd, use, sweeps):
+    """Every cell positive (exact), a mesh topology, boundary facets exactly ``bnd``."""
+    if cells.shape[1] == 3:
+        sign = orient2d(P[cells[:, 0]], P[cells[:, 1]], P[cells[:, 2]])
+    else:
+        sign = -orient3d(P[cells[:, 0]], P[cells[:, 1]], P[cells[:, 2]], P[cells[:, 3]])
+    if (sign <= 0).any():
+        _failure(P, cells, sign <= 0, use, sweeps)
+    try:
+        got = check_topology(
+            Mesh(P, (CellBlock("triangle" if cells.shape[1] == 3 else "tetra", cells),)), cells
+        )
+    except InputError as exc:  # the loop broke the topology: a failure, never a bad mesh
+        raise AlgorithmError(
+            f"{use}: the result is not a mesh topology ({exc.message}); no mesh is returned",
+            code="topology_broken",
+        ) from None
+
+    def canon(f):
+        if f.shape[1] == 2:
+            return np.unique(f, axis=0)
+        r = np.argmin(f, axis=1)
+        f = np.stack([f[np.arange(len(f)), (r + i) % 3] for i in range(3)], axis=1)
+        return np.unique(f, axis=0)
+
+    a, b = canon(got), canon(bnd)
+    if a.shape != b.shape or not (a == b).all():
+        raise AlgorithmError(
+            f"{use}: the boundary changed ({len(got)} boundary facets for {len(bnd)} given); "
+            "no mesh is returned",
+            code="boundary_changed",
+        )
+
+
+def _generate2d(dom: Domain, insert, size, measure, max_sweeps, keep_boundary, min_angle, progress):
+    seglen = np.linalg.norm(dom.points[dom.segments[:, 1]] - dom.points[dom.segments[:, 0]], axis=1)
+    h = float(size) if size is not None else float(np.median(seglen))
+    if keep_boundary:
+        P, S = dom.points, dom.segments
+    else:
+        P, S = _split_boundary(dom, h)
+    if keep_boundary:
+        seg_ring = dom.segment_ring
+    else:
+        seg_ring = np.repeat(dom.segment_ring, _split_counts(dom, h))
+    T = _initial_topology(P, S, seg_ring, dom)
+    fixed = np.ones(len(P), np.uint8)
+    state = _State2D(P, T, fixed, spare_points=len(P) if insert else 0)
+    inverted = int(np.sum(state.signs() <= 0))
+    sweeps, sur, ops = [0], [state.sur()], {}
+    _loop2d(state, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 0.5))
+    stages = 1
+    Pn, Tn = state.points(), state.triangles()
+    _verify(Pn, Tn, S, "generation", sweeps[0])
+    if insert:
+        stages = 2
+        _insert_stage(
+            state, S, h, min_angle, measure, max_sweeps, sweeps, sur, ops, progress, rounds=60
+        )
+        Pn, Tn = state.points(), state.triangles()
+        _verify(Pn, Tn, S, "generation", sweeps[0])
+    stats = {
+        "use": "generation",
+        "sur": sur,
+        "measure": float(dom.area),
+        "sweeps": sweeps[0],
+        "inverted_before": inverted,
+        "inverted_after": 0,
+        "points_inserted": int(len(Pn) - len(P)),
+        "points_removed": 0,
+        "operators": ops,
+        "least_quality_before": float(_measure_q(P, T, MEASURES[measure]).min()),
+        "stages": stages,
+        "boundary_points": int(len(P)),
+    }
+    return _report(Pn, Tn, measure, stats)

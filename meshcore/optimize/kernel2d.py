@@ -1,0 +1,723 @@
+"""Compiled sub-topology loop of the optimization-based method in the plane (§8.3.2).
+
+The state is a mesh topology (Definition 8.1) of triangles: ``T`` rows with
+an ``alive`` flag, a free list of dead rows, and per vertex a doubly linked
+list of its corners (slot ``3 t + j`` is corner ``j`` of triangle ``t``), so
+that the ball of a vertex is a walk and replacing a sub-topology costs its
+size. The loop over vertices, edges or inverted triangles is inherently
+sequential (each replacement changes the next ball), so it is one numba
+function per pass (``cache=True``); Python runs the passes.
+
+A pass visits sub-topologies 𝒮 of one kind:
+
+* ``BALL``: the ball ℬ_P of every vertex marked dirty;
+* ``PAIR``: the two triangles sharing an edge, for every edge of a triangle
+  with a dirty vertex (the text's "pairs of adjacent triangles");
+* ``UNION``: the union of the balls of the two ends of each edge of an
+  inverted or flat triangle, then of its three vertices, then of every
+  vertex of those, then sets of 6, 12 and 24 triangles grown across
+  edges from it (the text's "larger connected sets"), up to ``KMAX``
+  triangles.
+
+For each 𝒮 the boundary δ𝒮 must be one simple cycle (else 𝒮 is skipped).
+The candidates are Op(Q, δ𝒮) for every Q of the cycle (a fan; it removes the
+vertices interior to 𝒮, so it is a candidate only where they may be removed
+or there are none) and, for the ball of a free interior vertex P, Op(G, δℬ_P)
+with G the centroid of the cycle's vertices, which moves P to G, and, when
+that leaves an element non-positive, G' the centroid of the kernel of δℬ_P
+(the region from which the whole cycle is seen: the positions minimizing
+Sur(Op(G, δℬ_P)), a choice the text leaves open by allowing any G). A fan is
+refused when one of its new edges already joins two vertices outside 𝒮: that
+is the validity condition (𝒯 − 𝒮) ∩ Op(Q, δ𝒮) = δ𝒮 of §8.3.3 (Figure 8.9),
+which keeps every edge in at most two triangles.
+
+Criteria (8.1)-(8.2): a candidate is *positive* when every new triangle has
+orient2d > 0 (exact); a positive configuration has the least Sur possible
+(the signed area of δ𝒮), so two positive configurations tie on Sur exactly
+and the quality decides; otherwise the smaller float Sur wins, ties (within
+``sur_tie`` relative) going to the better worst quality. The best candidate
+replaces 𝒮 only when it beats the current configuration by the same rule,
+with a quality gain of at least ``quality_gain``: Sur never increases and the
+least quality of a positive region never decreases.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from meshcore.geometry.predicates import orient2d_scalar
+
+BALL, PAIR, UNION = 0, 1, 2
+#: Largest sub-topology considered (triangles); larger balls are skipped.
+KMAX = 96
+#: Sizes of the edge-adjacent sets grown around a non-positive triangle (UNION).
+GROW = (6, 12, 24)
+#: ``counters`` entries: accepted replacements by operator.
+C_FAN, C_MOVE, C_KERNEL, C_FLIP, C_UNION, C_REMOVED = range(6)
+#: ``cnt`` entries: points used, triangle rows used, free rows, stamp.
+N_PTS, N_ROWS, N_FREE, STAMP = range(4)
+
+_SQ3x4 = 4.0 * math.sqrt(3.0)
+
+
+@njit(cache=True, inline="always")
+def _quality(ax, ay, bx, by, cx, cy, measure):
+    """Quality from the unsigned area (§8.3.1): shape 4√3|A|/Σl², or radius ratio 2r/R."""
+    area = 0.5 * abs((bx - ax) * (cy - ay) - (by - ay) * (cx - ax))
+    l0 = (bx - cx) ** 2 + (by - cy) ** 2
+    l1 = (cx - ax) ** 2 + (cy - ay) ** 2
+    l2 = (ax - bx) ** 2 + (ay - by) ** 2
+    if measure == 0:
+        s = l0 + l1 + l2
+        return _SQ3x4 * area / s if s > 0.0 else 0.0
+    a, b, c = math.sqrt(l0), math.sqrt(l1), math.sqrt(l2)
+    den = 0.5 * (a + b + c) * a * b * c
+    return 8.0 * area * area / den if den > 0.0 else 0.0
+
+
+@njit(cache=True, inline="always")
+def _better(pa, sa, qa, pb, sb, qb, tie, gain):
+    """Configuration a beats b by (8.1) then (8.2): positive first, then Sur, then quality."""
+    if pa != pb:
+        return pa
+    if not pa:
+        if sa < sb - tie:
+            return True
+        if sa > sb + tie:
+            return False
+    return qa > qb + gain
+
+
+@njit(cache=True)
+def _link_corner(head, nxt, prv, s, v):
+    nxt[s] = head[v]
+    prv[s] = -1
+    if head[v] >= 0:
+        prv[head[v]] = s
+    head[v] = s
+
+
+@njit(cache=True)
+def _unlink_corner(head, nxt, prv, s, v):
+    if prv[s] >= 0:
+        nxt[prv[s]] = nxt[s]
+    else:
+        head[v] = nxt[s]
+    if nxt[s] >= 0:
+        prv[nxt[s]] = prv[s]
+
+
+@njit(cache=True)
+def _add(T, alive, head, nxt, prv, freeT, cnt, a, b, c):
+    if cnt[N_FREE] > 0:
+        cnt[N_FREE] -= 1
+        t = freeT[cnt[N_FREE]]
+    else:
+        t = cnt[N_ROWS]
+        cnt[N_ROWS] += 1
+    T[t, 0] = a
+    T[t, 1] = b
+    T[t, 2] = c
+    alive[t] = 1
+    for j in range(3):
+        _link_corner(head, nxt, prv, 3 * t + j, T[t, j])
+    return t
+
+
+@njit(cache=True)
+def _remove(T, alive, head, nxt, prv, freeT, cnt, t):
+    for j in range(3):
+        _unlink_corner(head, nxt, prv, 3 * t + j, T[t, j])
+    alive[t] = 0
+    freeT[cnt[N_FREE]] = t
+    cnt[N_FREE] += 1
+
+
+@njit(cache=True)
+def build(T, m, n, head, nxt, prv):
+    """Corner lists of the first ``m`` rows of ``T`` over ``n`` vertices."""
+    head[:n] = -1
+    for t in range(m):
+        for j in range(3):
+            _link_corner(head, nxt, prv, 3 * t + j, T[t, j])
+
+
+@njit(cache=True)
+def _ball(head, nxt, v, st, tmark, stamp, k):
+    """Append the triangles of v's ball not yet in st[:k]; -1 past KMAX."""
+    s = head[v]
+    while s >= 0:
+        t = s // 3
+        if tmark[t] != stamp:
+            if k >= KMAX:
+                return -1
+            tmark[t] = stamp
+            st[k] = t
+            k += 1
+        s = nxt[s]
+    return k
+
+
+@njit(cache=True)
+def _cycle(T, st, k, cyc, ea, eb):
+    """The boundary of st[:k] as one simple cycle in cyc; its length, or -1."""
+    ne = 0
+    for i in range(k):
+        t = st[i]
+        for j in range(3):
+            ea[ne] = T[t, j]
+            eb[ne] = T[t, (j + 1) % 3]
+            ne += 1
+    nb = 0  # boundary edges go to ea[ne:], eb[ne:]
+    for e in range(ne):
+        a, b = ea[e], eb[e]
+        inner = False
+        for f in range(ne):
+            if ea[f] == b and eb[f] == a:
+                inner = True
+                break
+        if not inner:
+            ea[ne + nb] = a
+            eb[ne + nb] = b
+            nb += 1
+    if nb < 3:
+        return -1
+    first = ea[ne]
+    cur = first
+    for i in range(nb):
+        cyc[i] = cur
+        nxt_v = -1
+        for e in range(ne, ne + nb):
+            if ea[e] == cur:
+                if nxt_v >= 0:
+                    return -1
+                nxt_v = eb[e]
+        if nxt_v < 0:
+            return -1
+        cur = nxt_v
+        if cur == first and i < nb - 1:
+            return -1
+    if cur != first:
+        return -1
+    return nb
+
+
+@njit(cache=True)
+def _evaluate_current(P, T, st, k, measure):
+    pos = True
+    sur = 0.0
+    q = 2.0
+    for i in range(k):
+        a, b, c = T[st[i], 0], T[st[i], 1], T[st[i], 2]
+        ax, ay, bx, by, cx, cy = P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1]
+        if orient2d_scalar(ax, ay, bx, by, cx, cy) <= 0:
+            pos = False
+        sur += 0.5 * abs((bx - ax) * (cy - ay) - (by - ay) * (cx - ax))
+        q = min(q, _quality(ax, ay, bx, by, cx, cy, measure))
+    return pos, sur, q
+
+
+@njit(cache=True)
+def _evaluate_apex(P, cyc, L, skip, gx, gy, measure):
+    """Triangles (c_j, c_j+1, apex) for j not in {skip - 1, skip} (skip < 0: all)."""
+    pos = True
+    sur = 0.0
+    q = 2.0
+    for j in range(L):
+        if skip >= 0 and (j == skip or (j + 1) % L == skip):
+            continue
+        a, b = cyc[j], cyc[(j + 1) % L]
+        ax, ay, bx, by = P[a, 0], P[a, 1], P[b, 0], P[b, 1]
+        if orient2d_scalar(ax, ay, bx, by, gx, gy) <= 0:
+            pos = False
+        sur += 0.5 * abs((bx - ax) * (gy - ay) - (by - ay) * (gx - ax))
+        q = min(q, _quality(ax, ay, bx, by, gx, gy, measure))
+    return pos, sur, q
+
+
+@njit(cache=True)
+def _fan_allowed(T, head, nxt, cyc, L, i, tmark, stamp, vmark, vpos):
+    """Validity condition of §8.3.3 for Op(c_i, δ𝒮): no new edge exists outside 𝒮."""
+    q = cyc[i]
+    for j in range(L):
+        vmark[cyc[j]] = stamp
+        vpos[cyc[j]] = j
+    s = head[q]
+    while s >= 0:
+        t = s // 3
+        if tmark[t] != stamp:
+            for jj in range(3):
+                w = T[t, jj]
+                if w != q and vmark[w] == stamp:
+                    d = (vpos[w] - i) % L
+                    if d != 1 and d != L - 1:
+                        return False
+        s = nxt[s]
+    return True
+
+
+@njit(cache=True)
+def _kernel_centroid(P, cyc, L, px, py, qx, qy):
+    """Centroid of the kernel of the cycle (float clipping of its bounding box), or NaN."""
+    x0, y0, x1, y1 = np.inf, np.inf, -np.inf, -np.inf
+    for j in range(L):
+        x0 = min(x0, P[cyc[j], 0])
+        y0 = min(y0, P[cyc[j], 1])
+        x1 = max(x1, P[cyc[j], 0])
+        y1 = max(y1, P[cyc[j], 1])
+    px[0], py[0], px[1], py[1] = x0, y0, x1, y0
+    px[2], py[2], px[3], py[3] = x1, y1, x0, y1
+    m = 4
+    for j in range(L):
+        a, b = cyc[j], cyc[(j + 1) % L]
+        ax, ay = P[a, 0], P[a, 1]
+        dx, dy = P[b, 0] - ax, P[b, 1] - ay
+        r = 0
+        for i in range(m):
+            ux, uy = px[i], py[i]
+            vx, vy = px[(i + 1) % m], py[(i + 1) % m]
+            su = dx * (uy - ay) - dy * (ux - ax)
+            sv = dx * (vy - ay) - dy * (vx - ax)
+            if su >= 0.0:
+                qx[r] = ux
+                qy[r] = uy
+                r += 1
+            if (su >= 0.0) != (sv >= 0.0):
+                f = su / (su - sv)
+                qx[r] = ux + f * (vx - ux)
+                qy[r] = uy + f * (vy - uy)
+                r += 1
+        m = r
+        if m < 3:
+            return np.nan, np.nan
+        for i in range(m):
+            px[i] = qx[i]
+            py[i] = qy[i]
+    area = 0.0
+    cx = 0.0
+    cy = 0.0
+    for i in range(m):
+        ux, uy = px[i], py[i]
+        vx, vy = px[(i + 1) % m], py[(i + 1) % m]
+        w = ux * vy - vx * uy
+        area += w
+        cx += (ux + vx) * w
+        cy += (uy + vy) * w
+    if not area > 0.0:
+        return np.nan, np.nan
+    return cx / (3.0 * area), cy / (3.0 * area)
+
+
+@njit(cache=True)
+def _try(
+    P,
+    T,
+    alive,
+    head,
+    nxt,
+    prv,
+    freeT,
+    cnt,
+    fixed,
+    dirty,
+    st,
+    k,
+    center,
+    allow_remove,
+    measure,
+    tie_rel,
+    gain,
+    cyc,
+    ea,
+    eb,
+    tmark,
+    vmark,
+    vpos,
+    px,
+    py,
+    qx,
+    qy,
+    counters,
+    kind,
+):
+    """Replace the sub-topology st[:k] by its best candidate; 1 if replaced, 2 if out of rows."""
+    stamp = cnt[STAMP]
+    L = _cycle(T, st, k, cyc, ea, eb)
+    if L < 3:
+        return 0
+    # vertices interior to 𝒮: in st but not on the cycle (marked -stamp, apart
+    # from the +stamp marks of _fan_allowed)
+    for j in range(L):
+        vmark[cyc[j]] = -stamp
+    n_inner = 0
+    inner_free = True
+    center_inner = False
+    for i in range(k):
+        for jj in range(3):
+            w = T[st[i], jj]
+            if vmark[w] != -stamp:
+                vmark[w] = -stamp
+                n_inner += 1
+                center_inner = center_inner or w == center
+                if fixed[w]:
+                    inner_free = False
+    cur_p, cur_s, cur_q = _evaluate_current(P, T, st, k, measure)
+    tie = tie_rel * cur_s
+    best_p, best_s, best_q = cur_p, cur_s, cur_q
+    best = -3  # -3: keep, -2: move to G, -1: move to kernel centroid, i >= 0: fan from cyc[i]
+    gx, gy, hx, hy = 0.0, 0.0, np.nan, np.nan
+    if center_inner and n_inner == 1 and not fixed[center]:
+        for j in range(L):
+            gx += P[cyc[j], 0]
+            gy += P[cyc[j], 1]
+        gx /= L
+        gy /= L
+        p, s, q = _evaluate_apex(P, cyc, L, -1, gx, gy, measure)
+        if _better(p, s, q, best_p, best_s, best_q, tie, gain):
+            best_p, best_s, best_q, best = p, s, q, -2
+        if not p:
+            hx, hy = _kernel_centroid(P, cyc, L, px, py, qx, qy)
+            if hx == hx:
+                p, s, q = _evaluate_apex(P, cyc, L, -1, hx, hy, measure)
+                if _better(p, s, q, best_p, best_s, best_q, tie, gain):
+                    best_p, best_s, best_q, best = p, s, q, -1
+    removes = n_inner > 0
+    # a fan removing free vertices only where the ball is not positive and no move helps
+    if not removes or (allow_remove and inner_free and not cur_p and best == -3):
+        for i in range(L):
+            q_ = cyc[i]
+            p, s, q = _evaluate_apex(P, cyc, L, i, P[q_, 0], P[q_, 1], measure)
+            if _better(p, s, q, best_p, best_s, best_q, tie, gain):
+                if _fan_allowed(T, head, nxt, cyc, L, i, tmark, stamp, vmark, vpos):
+                    best_p, best_s, best_q, best = p, s, q, i
+    if best == -3:
+        return 0
+    if best == -2 or best == -1:
+        P[center, 0] = gx if best == -2 else hx
+        P[center, 1] = gy if best == -2 else hy
+        counters[C_MOVE if best == -2 else C_KERNEL] += 1
+    else:
+        if cnt[N_FREE] + T.shape[0] - cnt[N_ROWS] < L - 2 + k:
+            return 2
+        for i in range(k):
+            _remove(T, alive, head, nxt, prv, freeT, cnt, st[i])
+        q_ = cyc[best]
+        for j in range(L):
+            if j == best or (j + 1) % L == best:
+                continue
+            _add(T, alive, head, nxt, prv, freeT, cnt, cyc[j], cyc[(j + 1) % L], q_)
+        counters[C_REMOVED] += n_inner
+        if kind == BALL:
+            counters[C_FAN] += 1
+        elif kind == PAIR:
+            counters[C_FLIP] += 1
+        else:
+            counters[C_UNION] += 1
+    for j in range(L):
+        dirty[cyc[j]] = 1
+    if center >= 0:
+        dirty[center] = 1
+    return 1
+
+
+@njit(cache=True)
+def _grow(T, head, nxt, t, st, tmark, stamp, size):
+    """Up to ``size`` triangles reached from t across edges, breadth first, in st."""
+    st[0] = t
+    tmark[t] = stamp
+    k = 1
+    i = 0
+    while i < k and k < size:
+        u = st[i]
+        for j in range(3):
+            w = _neighbour(T, head, nxt, T[u, j], T[u, (j + 1) % 3])
+            if w >= 0 and tmark[w] != stamp and k < size:
+                tmark[w] = stamp
+                st[k] = w
+                k += 1
+        i += 1
+    return k
+
+
+@njit(cache=True)
+def _neighbour(T, head, nxt, a, b):
+    """The triangle holding the oriented edge b -> a, or -1."""
+    s = head[b]
+    while s >= 0:
+        t = s // 3
+        j = s % 3
+        if T[t, (j + 1) % 3] == a:
+            return t
+        s = nxt[s]
+    return -1
+
+
+@njit(cache=True)
+def sweep(
+    P,
+    T,
+    alive,
+    head,
+    nxt,
+    prv,
+    freeT,
+    cnt,
+    fixed,
+    todo,
+    dirty,
+    kind,
+    allow_remove,
+    measure,
+    tie_rel,
+    gain,
+    counters,
+):
+    """One pass over sub-topologies of ``kind``; returns (replacements, status).
+
+    ``todo`` marks the vertices whose balls (BALL), or the triangles touching
+    them (PAIR), are visited; UNION visits the non-positive triangles.
+    ``dirty`` receives the vertices of every replaced sub-topology. Status 0:
+    done; 2: out of triangle rows (the caller grows the arrays and repeats).
+    """
+    n = cnt[N_PTS]
+    mcap = T.shape[0]
+    st = np.empty(3 * KMAX, np.int64)
+    cyc = np.empty(3 * KMAX + 3, np.int64)
+    ea = np.empty(9 * KMAX, np.int64)
+    eb = np.empty(9 * KMAX, np.int64)
+    px = np.empty(3 * KMAX + 8)
+    py = np.empty(3 * KMAX + 8)
+    qx = np.empty(3 * KMAX + 8)
+    qy = np.empty(3 * KMAX + 8)
+    tmark = np.zeros(mcap, np.int64)
+    vmark = np.zeros(P.shape[0], np.int64)
+    vpos = np.zeros(P.shape[0], np.int64)
+    changed = 0
+    if kind == BALL:
+        for v in range(n):
+            if not todo[v] or head[v] < 0:
+                continue
+            todo[v] = 0
+            cnt[STAMP] += 1
+            k = _ball(head, nxt, v, st, tmark, cnt[STAMP], 0)
+            if k <= 0:
+                continue
+            r = _try(
+                P,
+                T,
+                alive,
+                head,
+                nxt,
+                prv,
+                freeT,
+                cnt,
+                fixed,
+                dirty,
+                st,
+                k,
+                v,
+                allow_remove,
+                measure,
+                tie_rel,
+                gain,
+                cyc,
+                ea,
+                eb,
+                tmark,
+                vmark,
+                vpos,
+                px,
+                py,
+                qx,
+                qy,
+                counters,
+                kind,
+            )
+            if r == 2:
+                todo[v] = 1
+                return changed, 2
+            changed += r
+    elif kind == PAIR:
+        rows = cnt[N_ROWS]
+        for t in range(rows):
+            if not alive[t] or not (todo[T[t, 0]] or todo[T[t, 1]] or todo[T[t, 2]]):
+                continue
+            for j in range(3):
+                if not alive[t]:
+                    break
+                a, b = T[t, j], T[t, (j + 1) % 3]
+                u = _neighbour(T, head, nxt, a, b)
+                if u < 0 or u == t:
+                    continue
+                st[0] = t
+                st[1] = u
+                cnt[STAMP] += 1
+                tmark[t] = cnt[STAMP]
+                tmark[u] = cnt[STAMP]
+                r = _try(
+                    P,
+                    T,
+                    alive,
+                    head,
+                    nxt,
+                    prv,
+                    freeT,
+                    cnt,
+                    fixed,
+                    dirty,
+                    st,
+                    2,
+                    -1,
+                    allow_remove,
+                    measure,
+                    tie_rel,
+                    gain,
+                    cyc,
+                    ea,
+                    eb,
+                    tmark,
+                    vmark,
+                    vpos,
+                    px,
+                    py,
+                    qx,
+                    qy,
+                    counters,
+                    kind,
+                )
+                if r == 2:
+                    return changed, 2
+                changed += r
+        for v in range(n):
+            todo[v] = 0
+    else:
+        rows = cnt[N_ROWS]
+        for t in range(rows):
+            if not alive[t]:
+                continue
+            a0, a1, a2 = T[t, 0], T[t, 1], T[t, 2]
+            if orient2d_scalar(P[a0, 0], P[a0, 1], P[a1, 0], P[a1, 1], P[a2, 0], P[a2, 1]) > 0:
+                continue
+            for g in range(5 + len(GROW)):
+                if not alive[t]:
+                    break
+                cnt[STAMP] += 1
+                if g >= 5:
+                    # triangles reached from t across edges, breadth first: a disk that
+                    # does not depend on vertex degrees
+                    k = _grow(T, head, nxt, t, st, tmark, cnt[STAMP], GROW[g - 5])
+                elif g < 3:
+                    k = _ball(head, nxt, T[t, g], st, tmark, cnt[STAMP], 0)
+                    if k > 0:
+                        k = _ball(head, nxt, T[t, (g + 1) % 3], st, tmark, cnt[STAMP], k)
+                else:
+                    k = _ball(head, nxt, a0, st, tmark, cnt[STAMP], 0)
+                    for w in (a1, a2):
+                        if k > 0:
+                            k = _ball(head, nxt, w, st, tmark, cnt[STAMP], k)
+                    if g == 4:
+                        # the second ring: the balls of every vertex of the three balls
+                        k1 = k
+                        for i in range(k1):
+                            for jj in range(3):
+                                if k > 0:
+                                    k = _ball(head, nxt, T[st[i], jj], st, tmark, cnt[STAMP], k)
+                if k <= 0:
+                    continue
+                r = _try(
+                    P,
+                    T,
+                    alive,
+                    head,
+                    nxt,
+                    prv,
+                    freeT,
+                    cnt,
+                    fixed,
+                    dirty,
+                    st,
+                    k,
+                    -1,
+                    allow_remove,
+                    measure,
+                    tie_rel,
+                    gain,
+                    cyc,
+                    ea,
+                    eb,
+                    tmark,
+                    vmark,
+                    vpos,
+                    px,
+                    py,
+                    qx,
+                    qy,
+                    counters,
+                    kind,
+                )
+                if r == 2:
+                    return changed, 2
+                changed += r
+    return changed, 0
+
+
+@njit(cache=True)
+def insert_centroids(P, T, alive, head, nxt, prv, freeT, cnt, fixed, rows, cand):
+    """Op(G, δK) for the triangles ``rows[cand]`` in order, none sharing a vertex.
+
+    A candidate is taken when its row still holds the same triangle, no
+    vertex of it was touched in this call, and the three triangles on its
+    centroid G are positive (exact). Returns the points added, or -1 (and
+    nothing done beyond the points already added) when out of triangle rows.
+    """
+    touched = np.zeros(P.shape[0], np.uint8)
+    added = 0
+    for i in range(len(cand)):
+        r = rows[cand[i]]
+        a, b, c = r[0], r[1], r[2]
+        if touched[a] or touched[b] or touched[c]:
+            continue
+        t = _neighbour(T, head, nxt, b, a)  # the triangle holding a -> b
+        if t < 0 or not (T[t, 0] == c or T[t, 1] == c or T[t, 2] == c):
+            continue
+        gx = (P[a, 0] + P[b, 0] + P[c, 0]) / 3.0
+        gy = (P[a, 1] + P[b, 1] + P[c, 1]) / 3.0
+        if (
+            orient2d_scalar(P[a, 0], P[a, 1], P[b, 0], P[b, 1], gx, gy) <= 0
+            or orient2d_scalar(P[b, 0], P[b, 1], P[c, 0], P[c, 1], gx, gy) <= 0
+            or orient2d_scalar(P[c, 0], P[c, 1], P[a, 0], P[a, 1], gx, gy) <= 0
+        ):
+            continue
+        if cnt[N_FREE] + T.shape[0] - cnt[N_ROWS] < 3 or cnt[N_PTS] >= P.shape[0]:
+            return -1 if added == 0 else added
+        g = cnt[N_PTS]
+        cnt[N_PTS] += 1
+        P[g, 0] = gx
+        P[g, 1] = gy
+        fixed[g] = 0
+        _remove(T, alive, head, nxt, prv, freeT, cnt, t)
+        _add(T, alive, head, nxt, prv, freeT, cnt, a, b, g)
+        _add(T, alive, head, nxt, prv, freeT, cnt, b, c, g)
+        _add(T, alive, head, nxt, prv, freeT, cnt, c, a, g)
+        touched[a] = 1
+        touched[b] = 1
+        touched[c] = 1
+        added += 1
+    return added
+
+
+@njit(cache=True)
+def sur(P, T, alive, rows):
+    """Sur(𝒯): the sum of the unsigned areas of the live triangles of ``T[:rows]``."""
+    s = 0.0
+    for t in range(rows):
+        if alive[t]:
+            a, b, c = T[t, 0], T[t, 1], T[t, 2]
+            s += 0.5 * abs(
+                (P[b, 0] - P[a, 0]) * (P[c, 1] - P[a, 1])
+                - (P[b, 1] - P[a, 1]) * (P[c, 0] - P[a, 0])
+            )
+    return s

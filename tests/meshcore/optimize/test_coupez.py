@@ -1,0 +1,328 @@
+"""Facts about :func:`meshcore.optimize.optimize` (Coupez's method, §8.3).
+
+Generation: every triangle positive by the exact orient2d, a mesh topology
+whose boundary edges are exactly the input segments, the area exact.
+Correction: a tangled mesh back to valid with the same boundary and area, Sur
+non-increasing. Optimization: the least quality never decreases, an optimal
+mesh comes back unchanged. Bad input: InputError naming the entity; no valid
+mesh reached: AlgorithmError saying how many cells and where.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from meshcore.domain.planar import parse_domain
+from meshcore.errors import AlgorithmError, InputError
+from meshcore.geometry.predicates import orient2d, orient3d
+from meshcore.mesh import CellBlock, Mesh, quality
+from meshcore.mesh.topology import boundary
+from meshcore.optimize import check_topology, optimize
+from meshcore.product import Translate, extrude
+from meshcore.triangulation import triangulate
+
+SUR_SLACK = 1e-12  # float rounding of a sum of areas that is equal in exact arithmetic
+
+
+def _tri(res) -> tuple[np.ndarray, np.ndarray]:
+    return res.mesh.points, res.mesh.cells[0].data
+
+
+def assert_valid_2d(P, T, segments=None, area=None):
+    assert (orient2d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]) > 0).all()
+    bnd = check_topology(Mesh(P, (CellBlock("triangle", T),)), T)
+    if segments is not None:
+        assert sorted(map(tuple, bnd.tolist())) == sorted(map(tuple, segments.tolist()))
+    if area is not None:
+        assert math.fsum(quality.signed_area(P, T)) == pytest.approx(area, rel=1e-12)
+
+
+def assert_monotone(sur):
+    s = np.asarray(sur)
+    assert (s[1:] <= s[:-1] * (1 + SUR_SLACK)).all(), s
+
+
+def star(radii, phase=0.0, scale=1.0):
+    n = len(radii)
+    a = phase + 2 * np.pi * np.arange(n) / n
+    return (scale * np.column_stack([radii * np.cos(a), radii * np.sin(a)])).tolist()
+
+
+radii = st.lists(st.floats(0.35, 1.0), min_size=5, max_size=30).map(np.array)
+
+
+class TestGeneration:
+    @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+    @given(radii)
+    def test_polygon_without_insertion_is_valid_with_the_input_segments(self, r):
+        dom = parse_domain({"type": "Polygon", "coordinates": [star(r)]})
+        res = optimize(domain=dom, insert_points=False)
+        P, T = _tri(res)
+        assert len(P) == len(dom.points)
+        assert_valid_2d(P, T, dom.segments, dom.area)
+        assert len(T) == len(P) - 2
+        assert_monotone(res.stats["sur"])
+        assert res.stats["use"] == "generation"
+
+    @settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+    @given(radii, st.lists(st.floats(0.08, 0.25), min_size=3, max_size=9).map(np.array))
+    def test_polygon_with_a_hole_is_valid_or_refused_never_wrong(self, r, rh):
+        dom = parse_domain({"type": "Polygon", "coordinates": [star(r), star(rh, 0.1)]})
+        try:
+            res = optimize(domain=dom, insert_points=False)
+        except AlgorithmError as exc:
+            assert "inverted" in exc.message
+            return
+        P, T = _tri(res)
+        assert_valid_2d(P, T, dom.segments, dom.area)
+        # Euler: an annulus with only boundary vertices has as many triangles as vertices
+        assert len(T) == len(P)
+
+    @pytest.mark.parametrize("holes", [1, 2])
+    def test_square_with_holes(self, holes):
+        rings = [[[0, 0], [4, 0], [4, 4], [0, 4]]]
+        rings += [[[1, 1], [1, 2], [2, 2], [2, 1]], [[2.5, 2.5], [2.5, 3.5], [3.5, 3.5]]][:holes]
+        dom = parse_domain({"type": "Polygon", "coordinates": rings})
+        res = optimize(domain=dom, insert_points=False)
+        assert_valid_2d(*_tri(res), dom.segments, dom.area)
+
+    @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+    @given(st.lists(st.floats(0.8, 1.0), min_size=6, max_size=12).map(np.array))
+    def test_with_insertion_least_angle_at_least_20(self, r):
+        dom = parse_domain({"type": "Polygon", "coordinates": [star(r)]})
+        # input corners of at least 60 degrees, so that 20 is reachable
+        P, S = dom.points, dom.segments
+        u = P[S[:, 1]] - P[S[:, 0]]
+        w = np.roll(u, -1, axis=0)
+        corner = np.degrees(
+            np.pi
+            - np.arccos(
+                np.einsum("ij,ij->i", u, w)
+                / (np.linalg.norm(u, axis=1) * np.linalg.norm(w, axis=1))
+            )
+        )
+        assume(corner.min() >= 60)
+        res = optimize(domain=dom, size=0.12, keep_boundary=False)
+        P, T = _tri(res)
+        assert_valid_2d(P, T, area=dom.area)
+        assert quality.triangle_angles(P, T).min() >= 20
+        assert res.stats["points_inserted"] > 0
+
+    def test_l_shape_example(self):
+        L = {"type": "Polygon", "coordinates": [[[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]]]}
+        res = optimize(domain=L, size=0.1, keep_boundary=False)
+        P, T = _tri(res)
+        assert_valid_2d(P, T, area=3.0)
+        assert res.quality["triangle"]["angle"]["min"] >= 25
+        assert_monotone(res.stats["sur"])
+        assert res.stats["sur"][-1] == pytest.approx(3.0, rel=1e-12)
+
+
+def _tangled(nx=30, noise=1.5, seed=0):
+    """A triangulate mesh of the unit square, interior nodes moved up to ``noise`` local edges."""
+    sq = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
+    mesh = triangulate(sq, size=1.0 / nx).mesh
+    P, T = mesh.points.copy(), mesh.cells[0].data
+    bnd = check_topology(mesh, T)
+    free = np.setdiff1d(np.arange(len(P)), bnd.ravel())
+    e = np.vstack([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
+    length = np.linalg.norm(P[e[:, 0]] - P[e[:, 1]], axis=1)
+    h = np.zeros(len(P))
+    np.add.at(h, e[:, 0], length)
+    h /= np.maximum(np.bincount(e[:, 0], minlength=len(P)), 1)
+    rng = np.random.default_rng(seed)
+    d = rng.normal(size=(len(free), 2))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    P[free] += d * (rng.uniform(0, noise, len(free)) * h[free])[:, None]
+    return P, T, bnd
+
+
+class TestCorrection:
+    def test_tangled_triangle_mesh_is_made_valid_with_the_same_boundary(self):
+        P, T, bnd = _tangled()
+        inverted = np.mean(orient2d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]) <= 0)
+        assert 0.05 <= inverted <= 0.30
+        res = optimize(Mesh(P, (CellBlock("triangle", T),)))
+        Pn, Tn = _tri(res)
+        assert_valid_2d(Pn, Tn, bnd, 1.0)
+        on_bnd = np.unique(bnd)
+        assert (Pn[on_bnd] == P[on_bnd]).all()
+        assert len(Pn) == len(P)  # insert_points=false keeps the point set
+        assert res.stats["use"] == "correction"
+        assert res.stats["inverted_before"] == int(round(inverted * len(T)))
+        assert_monotone(res.stats["sur"])
+        assert res.stats["sur"][0] > 1.0
+
+    @pytest.mark.parametrize("shift, scale", [(1e6, 1.0), (0.0, 1e-6)])
+    def test_translation_and_scaling_change_nothing_but_rounding(self, shift, scale):
+        P, T, bnd = _tangled(nx=12, seed=3)
+        a = optimize(Mesh(P, (CellBlock("triangle", T),)))
+        b = optimize(Mesh(P * scale + shift, (CellBlock("triangle", T),)))
+        assert_valid_2d(*_tri(b), bnd)
+        assert math.fsum(quality.signed_area(*_tri(b))) == pytest.approx(scale**2, rel=1e-9)
+        assert a.stats["least_quality_after"] == pytest.approx(
+            b.stats["least_quality_after"], abs=0.05
+        )
+
+    def test_tetrahedral_mesh_is_made_valid_with_the_same_volume(self):
+        sq = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
+        base = triangulate(sq, size=0.15).mesh
+        m = extrude(base, Translate([0, 0, 1], layers=6), simplices=True).mesh
+        T = m.cells_by_type["tetra"]
+        P = m.points.copy()
+        tets = Mesh(P, (CellBlock("tetra", T),))
+        faces = boundary(tets).cells[0].data
+        free = np.setdiff1d(np.arange(len(P)), faces.ravel())
+        rng = np.random.default_rng(2)
+        P[free] += rng.uniform(-1, 1, (len(free), 3)) * np.array([0.15, 0.15, 1 / 6])
+        sign = -orient3d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]], P[T[:, 3]])
+        assert (sign <= 0).sum() > 0.05 * len(T)
+        res = optimize(Mesh(P, (CellBlock("tetra", T),)))
+        Pn, Tn = res.mesh.points, res.mesh.cells[0].data
+        assert (-orient3d(Pn[Tn[:, 0]], Pn[Tn[:, 1]], Pn[Tn[:, 2]], Pn[Tn[:, 3]]) > 0).all()
+        assert math.fsum(quality.signed_volume(Pn, Tn)) == pytest.approx(1.0, rel=1e-12)
+        got = boundary(Mesh(Pn, (CellBlock("tetra", Tn),))).cells[0].data
+        assert sorted(map(tuple, np.sort(got, 1).tolist())) == sorted(
+            map(tuple, np.sort(faces, 1).tolist())
+        )
+        assert_monotone(res.stats["sur"])
+
+    def test_no_valid_mesh_fails_saying_how_many_and_where(self):
+        P, T, _ = _tangled()
+        with pytest.raises(AlgorithmError, match=r"element\(s\) still inverted") as exc:
+            optimize(Mesh(P, (CellBlock("triangle", T),)), max_sweeps=1)
+        assert exc.value.code == "not_converged"
+        assert "cell " in exc.value.message and " at (" in exc.value.message
+
+
+def _hexagon():
+    a = np.pi / 3 * np.arange(6)
+    P = np.vstack([[0.0, 0.0], np.column_stack([np.cos(a), np.sin(a)])])
+    T = np.array([[0, 1 + i, 1 + (i + 1) % 6] for i in range(6)])
+    return P, T
+
+
+class TestOptimization:
+    def test_an_optimal_mesh_comes_back_unchanged(self):
+        P, T = _hexagon()
+        res = optimize(Mesh(P, (CellBlock("triangle", T),)))
+        Pn, Tn = _tri(res)
+        assert (Pn == P).all()
+        assert sorted(map(tuple, np.sort(Tn, 1).tolist())) == sorted(
+            map(tuple, np.sort(T, 1).tolist())
+        )
+        assert res.stats["use"] == "optimization"
+
+    @settings(max_examples=15, deadline=None)
+    @given(st.integers(0, 10_000), st.sampled_from(["shape", "radius_ratio"]))
+    def test_least_quality_never_decreases(self, seed, measure):
+        sq = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
+        mesh = triangulate(sq, size=0.2).mesh
+        P, T = mesh.points.copy(), mesh.cells[0].data
+        bnd = np.unique(check_topology(mesh, T))
+        free = np.setdiff1d(np.arange(len(P)), bnd)
+        rng = np.random.default_rng(seed)
+        for _ in range(20):  # a valid perturbation: a random move kept only if all stay positive
+            Q = P.copy()
+            Q[free] += rng.uniform(-0.05, 0.05, (len(free), 2))
+            if (orient2d(Q[T[:, 0]], Q[T[:, 1]], Q[T[:, 2]]) > 0).all():
+                P = Q
+        res = optimize(Mesh(P, (CellBlock("triangle", T),)), quality=measure)
+        assert res.stats["least_quality_after"] >= res.stats["least_quality_before"]
+        assert_valid_2d(*_tri(res), area=1.0)
+
+
+SQUARE = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+
+
+class TestBadInput:
+    def test_non_manifold_edge_is_named(self):
+        P = np.vstack([SQUARE, [[0.5, -1.0]]])
+        T = np.array([[0, 1, 2], [0, 2, 3], [1, 0, 4], [0, 1, 3]])
+        with pytest.raises(InputError) as exc:
+            optimize(Mesh(P, (CellBlock("triangle", T),)))
+        assert exc.value.code == "nonmanifold_edge"
+        assert exc.value.errors[0]["loc"][:4] == ["mesh", "cells", 0, "data"]
+
+    def test_inconsistent_orientation_is_named(self):
+        T = np.array([[0, 1, 2], [0, 3, 2]])
+        with pytest.raises(InputError) as exc:
+            optimize(Mesh(SQUARE, (CellBlock("triangle", T),)))
+        assert exc.value.code == "inconsistent_orientation"
+        assert {tuple(e["loc"]) for e in exc.value.errors} == {
+            ("mesh", "cells", 0, "data", 0),
+            ("mesh", "cells", 0, "data", 1),
+        }
+
+    def test_nan_is_named(self):
+        P = SQUARE.copy()
+        P[2, 1] = np.nan
+        with pytest.raises(InputError) as exc:
+            optimize(Mesh(P, (CellBlock("triangle", [[0, 1, 2], [0, 2, 3]]),)))
+        assert exc.value.errors[0]["loc"] == ["mesh", "points", 2, 1]
+
+    def test_exactly_one_input(self):
+        with pytest.raises(InputError):
+            optimize()
+        with pytest.raises(InputError):
+            optimize(
+                Mesh(SQUARE, (CellBlock("triangle", [[0, 1, 2], [0, 2, 3]]),)),
+                domain={"type": "Polygon", "coordinates": [SQUARE.tolist()]},
+            )
+
+    def test_bad_choices(self):
+        m = Mesh(SQUARE, (CellBlock("triangle", [[0, 1, 2], [0, 2, 3]]),))
+        with pytest.raises(InputError, match="quality"):
+            optimize(m, quality="jacobian")
+        with pytest.raises(InputError, match="max_sweeps"):
+            optimize(m, max_sweeps=0)
+        with pytest.raises(InputError, match="keep_boundary"):
+            optimize(m, keep_boundary=False)
+
+
+class TestTetrahedra:
+    #: two tets on the face 1 2 3, apexes 0 (below) and 4 (above): positive as numbered
+    P = np.array([[0, 0, -1], [1, 0, 0], [0, 1, 0], [0, 0, 0], [0.2, 0.2, 1]], float)
+
+    def test_a_face_held_the_same_way_twice_is_named(self):
+        T = np.array([[0, 1, 2, 3], [4, 1, 2, 3]])  # the second one is numbered the other way
+        with pytest.raises(InputError) as exc:
+            optimize(Mesh(self.P, (CellBlock("tetra", T),)))
+        assert exc.value.code == "inconsistent_orientation"
+        assert {tuple(e["loc"]) for e in exc.value.errors} == {
+            ("mesh", "cells", 0, "data", 0),
+            ("mesh", "cells", 0, "data", 1),
+        }
+
+    def test_a_face_in_three_tets_is_named(self):
+        P = np.vstack([self.P, [[0.3, 0.3, 2]]])
+        T = np.array([[0, 1, 2, 3], [4, 1, 3, 2], [5, 1, 3, 2]])
+        with pytest.raises(InputError) as exc:
+            optimize(Mesh(P, (CellBlock("tetra", T),)))
+        assert exc.value.code == "nonmanifold_face"
+
+    def test_optimization_never_lowers_the_least_quality(self):
+        sq = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
+        m = extrude(triangulate(sq, size=0.25).mesh, Translate([0, 0, 1], layers=4), simplices=True)
+        T = m.mesh.cells_by_type["tetra"]
+        res = optimize(Mesh(m.mesh.points, (CellBlock("tetra", T),)), quality="radius_ratio")
+        assert res.stats["use"] == "optimization"
+        assert res.stats["least_quality_after"] >= res.stats["least_quality_before"]
+        Pn, Tn = res.mesh.points, res.mesh.cells[0].data
+        assert math.fsum(quality.signed_volume(Pn, Tn)) == pytest.approx(1.0, rel=1e-12)
+
+
+def test_generation_does_not_depend_on_translation_or_scale():
+    ring = star(np.array([1.0, 0.5, 0.9, 0.45, 0.95, 0.5, 1.0, 0.55]))
+    a = optimize(domain={"type": "Polygon", "coordinates": [ring]}, insert_points=False)
+    for shift, scale in ((1e6, 1.0), (0.0, 1e-6)):
+        moved = (np.asarray(ring) * scale + shift).tolist()
+        b = optimize(domain={"type": "Polygon", "coordinates": [moved]}, insert_points=False)
+        assert len(b.mesh.cells[0].data) == len(a.mesh.cells[0].data)
+        P, T = _tri(b)
+        assert (orient2d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]) > 0).all()
