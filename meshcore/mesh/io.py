@@ -420,7 +420,7 @@ def to_glb(mesh: Mesh, extras: dict | None = None) -> bytes:
     Parameters
     ----------
     mesh : Mesh
-        Checked; 2D points are drawn at z = 0.
+        Checked (so it has cells); 2D points are drawn at z = 0.
     extras : dict, optional
         JSON put in the glTF's top-level ``extras`` (the service puts the
         result's quality report and stats there).
@@ -432,11 +432,6 @@ def to_glb(mesh: Mesh, extras: dict | None = None) -> bytes:
         centre), one mesh of up to four primitives (``cells`` triangles
         with ``_QUALITY`` in [0, 1], ``edges`` lines, ``lines`` of the line
         cells, ``points`` of the vertex cells).
-
-    Raises
-    ------
-    InputError
-        ``format_mismatch`` for a mesh without cells to draw.
     """
     points = mesh.points
     if points.shape[1] == 2:
@@ -495,12 +490,6 @@ def to_glb(mesh: Mesh, extras: dict | None = None) -> bytes:
         indices = out.add(np.concatenate(blocks).ravel(), "SCALAR_U", 34963)
         primitives.append(
             {"attributes": attributes, "indices": indices, "mode": mode, "extras": {"layer": layer}}
-        )
-    if not primitives:
-        raise InputError(
-            "format 'glb' draws lines, faces and cells; this mesh has none",
-            loc=("format",),
-            code="format_mismatch",
         )
     gltf: dict = {
         "asset": {"version": "2.0", "generator": "meshcore"},

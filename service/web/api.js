@@ -96,7 +96,9 @@ export async function streamEvents(jobId, onEvent, signal) {
 export function describe(err) {
   if (err instanceof ApiError) {
     if (err.status === 401) {
-      return `The service refused the API key (401: ${err.message}). Enter a valid key under Settings.`;
+      return settings.key
+        ? `The service refused the API key (401: ${err.message}). Enter a valid key under Settings.`
+        : `This service needs an API key (401: ${err.message}). Enter it under Settings.`;
     }
     const title = err.problem.title && err.problem.title !== err.message ? `${err.problem.title}: ` : "";
     return `${title}${err.message}${err.status ? ` (${err.status})` : ""}`;

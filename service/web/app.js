@@ -13,6 +13,7 @@ import { Viewer } from "./viewer.js";
 const $ = (id) => document.getElementById(id);
 // Results whose JSON is larger than this are drawn from the glb alone (never parsed as JSON).
 const JSON_LIMIT = 4 << 20;
+const WIREFRAME_LIMIT = 100000;
 const FALLBACK_FORMATS = ["vtu", "gmsh", "gmsh22", "xdmf", "abaqus", "obj", "stl", "ply", "glb"];
 
 const state = {
@@ -299,6 +300,7 @@ async function follow(job) {
   $("submit").disabled = false;
   loadJobs(state.page);
   if (last.status === "succeeded") {
+    setProgress(1, "done");
     say("run-status", `Job ${last.id} succeeded.`);
     await showResult(last.id);
   } else if (last.status === "failed") {
@@ -330,7 +332,7 @@ async function loadJobs(page) {
   try {
     data = await getJSON(`/v1/jobs?${q}`);
   } catch (err) {
-    if (!(err instanceof ApiError && err.status === 401)) say("jobs-status", describe(err));
+    apiFailure(err, "jobs-status");
     return;
   }
   state.page = page;
@@ -406,6 +408,9 @@ async function showResult(id) {
   const overlayOnly = !model;
   const shapes = json ? overlayShapes(json, Boolean(model?.primitives.some((p) => p.radius))) : null;
   const shown = model || { primitives: [], translation: [0, 0, 0], is3d: false };
+  // edges cost about 3x to draw: on by default for small meshes only
+  const drawn = shown.primitives.find((p) => p.layer === "cells");
+  viewer.wireframe = $("wireframe").checked = Boolean(drawn) && drawn.position.count / 3 <= WIREFRAME_LIMIT;
   const ms = await viewer.setModel(shown, overlayOnly && shapes ? shapes.bounds : null);
   viewer.drawOverlay = shapes ? (ctx, P) => drawShapes(ctx, P, shapes) : null;
   viewer.requestRender();
@@ -508,7 +513,12 @@ function tableRow(cells, header = false) {
 }
 
 function showStats(stats) {
-  const rows = Object.entries(stats || {}).map(([k, v]) => tableRow([k, typeof v === "object" && v !== null ? JSON.stringify(v) : fmt(v)]));
+  const show = (v) => {
+    if (Array.isArray(v)) return v.map(show).join(", ");
+    if (v && typeof v === "object") return Object.entries(v).map(([k, x]) => `${k}: ${show(x)}`).join(", ");
+    return fmt(v);
+  };
+  const rows = Object.entries(stats || {}).map(([k, v]) => tableRow([k, show(v)]));
   $("stats-body").replaceChildren(...rows);
   $("stats-table").hidden = !rows.length;
 }
