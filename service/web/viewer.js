@@ -12,6 +12,7 @@ in float aValue;
 uniform mat4 uMvp;
 uniform mat4 uMv;
 uniform float uPointSize;
+uniform float uDepthBias;
 out float vValue;
 out vec3 vView;
 out vec3 vModel;
@@ -20,6 +21,7 @@ void main() {
   vModel = aPos;
   vView = (uMv * vec4(aPos, 1.0)).xyz;
   gl_Position = uMvp * vec4(aPos, 1.0);
+  gl_Position.z -= uDepthBias * gl_Position.w;
   gl_PointSize = uPointSize;
 }`;
 
@@ -115,7 +117,7 @@ export class Viewer {
     if (!gl.getProgramParameter(prog, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(prog));
     this.prog = prog;
     this.u = {};
-    for (const n of ["uMvp", "uMv", "uPointSize", "uColorBy", "uColor", "uShade", "uClipOn", "uClip", "uStops"]) {
+    for (const n of ["uMvp", "uMv", "uPointSize", "uDepthBias", "uColorBy", "uColor", "uShade", "uClipOn", "uClip", "uStops"]) {
       this.u[n] = gl.getUniformLocation(prog, n);
     }
     this.layers = [];
@@ -314,13 +316,13 @@ export class Viewer {
     gl.uniform4fv(this.u.uClip, plane);
     if (this.is3d) gl.enable(gl.DEPTH_TEST);
     else gl.disable(gl.DEPTH_TEST);
-    gl.enable(gl.POLYGON_OFFSET_FILL);
-    gl.polygonOffset(2, 8); // faces pushed back so that the edges drawn on them show whole
     for (const l of this.layers) {
       if (l.layer === "edges" && !this.wireframe) continue;
       gl.bindVertexArray(l.vao);
       const cells = l.layer === "cells";
       gl.uniform1i(this.u.uShade, cells && this.is3d ? 1 : 0);
+      // lines drawn on faces are pulled towards the eye so that they show whole
+      gl.uniform1f(this.u.uDepthBias, cells ? 0 : 1e-3);
       gl.uniform1i(this.u.uColorBy, l.colored ? 1 : 0);
       gl.uniform3fv(this.u.uColor, l.layer === "edges" ? [0.12, 0.14, 0.18] : [0.1, 0.25, 0.55]);
       if (l.indexed) gl.drawElements(l.mode, l.count, gl.UNSIGNED_INT, 0);
