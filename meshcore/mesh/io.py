@@ -395,10 +395,14 @@ class _Bin:
         self.views: list[dict] = []
         self.accessors: list[dict] = []
 
-    def add(self, array: np.ndarray, kind: str, target: int, bounds: bool = False) -> int:
+    def add(
+        self, array: np.ndarray, kind: str, target: int, bounds: np.ndarray | None = None
+    ) -> int:
+        """A view and an accessor over ``array``; ``bounds``: the (2, 3) min and max to state."""
         data = np.ascontiguousarray(array, dtype=np.uint32 if kind == "SCALAR_U" else np.float32)
-        self.views.append({"buffer": 0, "byteOffset": self.size, "byteLength": data.nbytes})
-        self.views[-1]["target"] = target
+        self.views.append(
+            {"buffer": 0, "byteOffset": self.size, "byteLength": data.nbytes, "target": target}
+        )
         self.parts.append(data.tobytes())
         self.size += data.nbytes  # 4-byte components: every view stays aligned
         accessor = {
@@ -407,11 +411,18 @@ class _Bin:
             "count": len(data),
             "type": "VEC3" if kind == "VEC3" else "SCALAR",
         }
-        if bounds:
-            accessor["min"] = data.min(axis=0).tolist()
-            accessor["max"] = data.max(axis=0).tolist()
+        if bounds is not None:
+            accessor["min"], accessor["max"] = bounds.tolist()
         self.accessors.append(accessor)
         return len(self.accessors) - 1
+
+
+def _bounds(local: np.ndarray, used: np.ndarray) -> np.ndarray:
+    """(2, 3) min and max of the points ``used`` (indices, repeats allowed)."""
+    mask = np.zeros(len(local), dtype=bool)
+    mask[used] = True
+    pts = local[mask]
+    return np.stack([pts.min(axis=0), pts.max(axis=0)])
 
 
 def to_glb(mesh: Mesh, extras: dict | None = None) -> bytes:
@@ -443,23 +454,25 @@ def to_glb(mesh: Mesh, extras: dict | None = None) -> bytes:
     primitives = []
     runs = _drawn_faces(mesh)
     if runs:
-        tris, quality, edge_keys, edge_ids, cell_types = [], [], [], [], []
-        first = 0
+        tris, quality, edge_keys, edge_ends, cell_types = [], [], [], [], []
+        first, n = 0, len(points)
         for ftype, nodes, q, source in runs:
             split, fe = _SPLIT[ftype], _FACE_EDGES[ftype]
             f, s = len(nodes), len(split)
-            tris.append(nodes[:, split].reshape(-1, 3))
-            quality.append(np.repeat(q, 3 * s))
-            corner = 3 * (first + np.arange(f)[:, None] * s + fe[:, 0])  # (f, e) first vertex
-            ends = nodes[:, split[fe[:, 0], fe[:, 1]]], nodes[:, split[fe[:, 0], fe[:, 2]]]
-            edge_keys.append(np.stack([np.minimum(*ends), np.maximum(*ends)], -1).reshape(-1, 2))
-            edge_ids.append(np.stack([corner + fe[:, 1], corner + fe[:, 2]], -1).reshape(-1, 2))
+            tris.append(nodes[:, split].reshape(-1))
+            quality.append(np.repeat(q.astype(np.float32), 3 * s))
+            # edge j of face i joins the split vertices corner + fe[j, 1] and corner + fe[j, 2]
+            corner = 3 * (first + np.arange(f)[:, None] * s + fe[:, 0])  # (f, e)
+            a = nodes[:, split[fe[:, 0], fe[:, 1]]].ravel()
+            b = nodes[:, split[fe[:, 0], fe[:, 2]]].ravel()
+            edge_keys.append(np.minimum(a, b) * n + np.maximum(a, b))
+            edge_ends.append(((corner + fe[:, 1]).ravel(), (corner + fe[:, 2]).ravel()))
             cell_types.append([source, first])
             first += f * s
-        corners = np.concatenate(tris).ravel()
-        position = out.add(local[corners], "VEC3", 34962, bounds=True)
-        keys = np.concatenate(edge_keys)
-        _, once = np.unique(keys[:, 0] * len(points) + keys[:, 1], return_index=True)
+        corners = np.concatenate(tris)
+        position = out.add(local[corners], "VEC3", 34962, bounds=_bounds(local, corners))
+        _, once = np.unique(np.concatenate(edge_keys), return_index=True)
+        ends = np.column_stack([np.concatenate([e[k] for e in edge_ends])[once] for k in (0, 1)])
         primitives.append(
             {
                 "attributes": {
@@ -474,7 +487,7 @@ def to_glb(mesh: Mesh, extras: dict | None = None) -> bytes:
         primitives.append(
             {
                 "attributes": {"POSITION": position},
-                "indices": out.add(np.concatenate(edge_ids)[once].ravel(), "SCALAR_U", 34963),
+                "indices": out.add(ends.ravel(), "SCALAR_U", 34963),
                 "mode": _LINES,
                 "extras": {"layer": "edges"},
             }
@@ -483,13 +496,19 @@ def to_glb(mesh: Mesh, extras: dict | None = None) -> bytes:
         blocks = [b.data for b in mesh.cells if b.type == ctype and len(b)]
         if not blocks:
             continue
-        attributes = {"POSITION": out.add(local, "VEC3", 34962, bounds=True)}
+        indices = np.concatenate(blocks).ravel()
+        every = np.arange(len(local))  # the accessor holds every point, used or not
+        attributes = {"POSITION": out.add(local, "VEC3", 34962, bounds=_bounds(local, every))}
         radius = mesh.point_data.get("radius")
         if radius is not None and radius.shape == (len(points),):
             attributes["_RADIUS"] = out.add(radius, "SCALAR", 34962)
-        indices = out.add(np.concatenate(blocks).ravel(), "SCALAR_U", 34963)
         primitives.append(
-            {"attributes": attributes, "indices": indices, "mode": mode, "extras": {"layer": layer}}
+            {
+                "attributes": attributes,
+                "indices": out.add(indices, "SCALAR_U", 34963),
+                "mode": mode,
+                "extras": {"layer": layer},
+            }
         )
     gltf: dict = {
         "asset": {"version": "2.0", "generator": "meshcore"},
