@@ -231,6 +231,7 @@ async function submit(e) {
   state.timings = { submit: performance.now() };
   window.meshPage.timings = state.timings;
   setProgress(0, "submitting…");
+  say("result-status", "Waiting for the job…");
   $("submit").disabled = true;
   try {
     const job = await getJSON("/v1/jobs", { method: "POST", json: body });
@@ -406,7 +407,7 @@ async function showResult(id) {
   const quality = json?.quality || extras.quality || null;
   const stats = json?.stats || extras.stats || null;
   const overlayOnly = !model;
-  const shapes = json ? overlayShapes(json, Boolean(model?.primitives.some((p) => p.radius))) : null;
+  const shapes = json ? overlayShapes(json, Boolean(model)) : null;
   const shown = model || { primitives: [], translation: [0, 0, 0], is3d: false };
   // edges cost about 3x to draw: on by default for small meshes only
   const drawn = shown.primitives.find((p) => p.layer === "cells");
@@ -434,13 +435,21 @@ async function showResult(id) {
   say("result-status", `Job ${id}: ${triangles ? `${triangles} triangles drawn` : "drawn"}${json ? "" : ` from the glb (the JSON is ${(size / 1e6).toFixed(0)} MB)`}; first frame ${ms.toFixed(0)} ms.`);
 }
 
-function overlayShapes(json, axisInMesh) {
+/** What the 2D overlay draws: the domain, the regions (filled unless a mesh is drawn under
+ * them: its quality colours must stay true) and the medial axis coloured by radius. */
+function overlayShapes(json, withMesh) {
   const rings = (g) => (g.type === "MultiPolygon" ? g.coordinates.flat() : g.coordinates);
-  const shapes = { domain: json.domain?.coordinates ? rings(json.domain) : [], regions: (json.regions || []).filter((r) => r && r.coordinates).map(rings), axis: null, radius: null };
-  if (json.axis && !axisInMesh) {
+  const shapes = {
+    domain: json.domain?.coordinates ? rings(json.domain) : [],
+    regions: (json.regions || []).filter((r) => r && r.coordinates).map(rings),
+    fill: !withMesh,
+    axis: null,
+    radius: null,
+  };
+  if (json.axis) {
     const r = json.axis.radius || [];
     shapes.axis = json.axis;
-    shapes.radius = r.length ? [Math.min(...r), Math.max(...r)] : null;
+    shapes.radius = r.length ? r.reduce(([a, b], v) => [Math.min(a, v), Math.max(b, v)], [Infinity, -Infinity]) : null;
   }
   let [x0, y0, x1, y1] = [Infinity, Infinity, -Infinity, -Infinity];
   const grow = ([x, y]) => { x0 = Math.min(x0, x); y0 = Math.min(y0, y); x1 = Math.max(x1, x); y1 = Math.max(y1, y); };
@@ -456,10 +465,12 @@ function drawShapes(ctx, P, shapes) {
   shapes.regions.forEach((rs, i) => {
     ctx.beginPath();
     rs.forEach((r) => { ring(r); ctx.closePath(); });
-    ctx.fillStyle = `hsla(${(i * 137.5) % 360}, 65%, 55%, 0.45)`;
-    ctx.fill("evenodd");
-    ctx.strokeStyle = "rgba(20, 20, 30, 0.7)";
-    ctx.lineWidth = 1;
+    if (shapes.fill) {
+      ctx.fillStyle = `hsla(${(i * 137.5) % 360}, 65%, 55%, 0.45)`;
+      ctx.fill("evenodd");
+    }
+    ctx.strokeStyle = "rgba(20, 20, 30, 0.8)";
+    ctx.lineWidth = shapes.fill ? 1 : 2;
     ctx.stroke();
   });
   if (shapes.domain.length) {
@@ -539,6 +550,7 @@ async function formats() {
 
 async function showDownloads(id, hasMesh) {
   const box = $("downloads");
+  $("downloads-h").hidden = !hasMesh;
   if (!hasMesh) {
     box.replaceChildren();
     return;

@@ -100,14 +100,14 @@ def bare_page(browser):
     assert errors == []
 
 
-def shot(page, name: str, selector: str | None = None) -> Path:
-    """A screenshot of an element, or of the whole page."""
+def shot(page, name: str, selector: str | None = None, full: bool = True) -> Path:
+    """A screenshot of an element, of the whole page, or (``full=False``) of the window."""
     ARTIFACTS.mkdir(exist_ok=True)
     path = ARTIFACTS / f"web-{name}.png"
     if selector:
         page.locator(selector).screenshot(path=path)
     else:
-        page.screenshot(path=path, full_page=True)
+        page.screenshot(path=path, full_page=full)
     return path
 
 
@@ -189,6 +189,8 @@ def test_triangulate_a_drawn_square_with_a_hole(keyed, page, tmp_path):
     area = 0.5 * np.abs(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])[:, 2])
     assert area.sum() == pytest.approx(1 - 0.4 * 0.4)
     shot(page, "4-page")
+    page.evaluate("window.scrollTo(0, 0)")
+    shot(page, "4-window", full=False)  # docs/web-page.png
     page.set_viewport_size({"width": 700, "height": 1000})  # 200 % zoom of a 1400 px window
     page.wait_for_timeout(100)
     assert page.evaluate("document.documentElement.scrollWidth <= window.innerWidth")
@@ -200,6 +202,11 @@ def test_a_bow_tie_shows_the_422_and_highlights_the_crossing(keyed, page):
     draw_rings(page, [[(0, 0), (1, 1), (1, 0), (0, 1)]])
     choose(page, "triangulate")
     page.get_by_label("use curves").uncheck()
+    page.get_by_label("min_angle", exact=True).fill("40")  # the schema's maximum is 34
+    page.click("#submit")
+    assert "Fix 1 field" in page.text_content("#run-status")  # checked in the page, not sent
+    assert "at most 34" in page.locator(".field.invalid .field-error").first.text_content()
+    page.get_by_label("min_angle", exact=True).fill("30")
     page.click("#submit")
     page.wait_for_function("document.getElementById('run-status').textContent.includes('Refused')")
     assert "intersects itself" in page.text_content("#run-status")
@@ -207,6 +214,14 @@ def test_a_bow_tie_shows_the_422_and_highlights_the_crossing(keyed, page):
     marks = page.evaluate("meshPage.editor.marks")
     assert marks["segments"] == [[0, 0, 0, 1], [0, 0, 2, 3]]
     shot(page, "6-bow-tie", "#domain")
+    page.select_option("#example", "gear")  # an example replaces the drawing
+    assert len(page.evaluate("meshPage.editor.geometry()")["coordinates"]) == 2
+    page.click("#domain summary")  # pasted GeoJSON does too
+    page.fill("#geojson", '{"type": "Polygon", "coordinates": [[[0, 0], [2, 0], [0, 2]]]}')
+    page.click("#use-geojson")
+    assert page.evaluate("meshPage.editor.geometry()")["coordinates"] == [
+        [[0, 0], [2, 0], [0, 2], [0, 0]]
+    ]
 
 
 def test_an_uploaded_mesh_extruded_shows_a_3d_view(keyed, page, tmp_path):
