@@ -86,7 +86,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
             allow_origins=settings.cors_origin_list,
             allow_methods=["GET", "POST", "DELETE"],
             allow_headers=["Authorization", "Content-Type", "Idempotency-Key", "If-None-Match"],
-            expose_headers=["Location", "Retry-After", "ETag"],
+            expose_headers=["Location", "Retry-After", "ETag", "Content-Disposition"],
         )
     app.add_middleware(BodySizeLimit, max_bytes=settings.max_body_bytes)
     logging.getLogger("meshservice").setLevel(logging.INFO)
