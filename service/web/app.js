@@ -374,15 +374,31 @@ function age(iso) {
 
 let viewer;
 
+/** The result's JSON when it is at most JSON_LIMIT bytes (read up to the limit, whatever
+ * the Content-Length says), else {json: null} and the size seen. */
 async function fetchResultJSON(id) {
   const controller = new AbortController();
   const response = await request(`/v1/jobs/${id}/result`, { signal: controller.signal });
-  const size = Number(response.headers.get("Content-Length") || 0);
-  if (size > JSON_LIMIT) {
+  const declared = Number(response.headers.get("Content-Length") || 0);
+  if (declared > JSON_LIMIT) {
     controller.abort();
-    return { json: null, size };
+    return { json: null, size: declared };
   }
-  return { json: await response.json(), size };
+  const reader = response.body.getReader();
+  const chunks = [];
+  let size = 0;
+  for (;;) {
+    const { value, done } = await reader.read();
+    if (done) break;
+    size += value.length;
+    if (size > JSON_LIMIT) {
+      controller.abort();
+      return { json: null, size: Math.max(size, declared) };
+    }
+    chunks.push(value);
+  }
+  const text = new TextDecoder().decode(await new Blob(chunks).arrayBuffer());
+  return { json: JSON.parse(text), size };
 }
 
 async function showResult(id) {

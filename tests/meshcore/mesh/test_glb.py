@@ -99,13 +99,28 @@ def test_3d_mesh_draws_its_boundary_with_the_cells_quality() -> None:
     assert set(kinds) == {"hexahedron", "pyramid", "wedge", "tetra"}
 
 
-def test_positions_keep_their_precision_far_from_the_origin() -> None:
+@pytest.mark.parametrize(("shift", "scale"), [(1e6, 1.0), (0.0, 1e-6)])
+def test_positions_keep_their_precision_when_moved_or_scaled(shift: float, scale: float) -> None:
     mesh = mesh_2d()
-    moved = Mesh(mesh.points + 1e6, mesh.cells).check()
+    moved = Mesh(mesh.points * scale + shift, mesh.cells).check()
     gltf, layers = read_glb(io.to_bytes(moved, "glb"))
-    assert gltf["nodes"][0]["translation"][0] == pytest.approx(1e6 + 1)
+    assert gltf["nodes"][0]["translation"][0] == pytest.approx(shift + scale)
     back = world(gltf, layers["lines"]["POSITION"])[:, :2]
-    np.testing.assert_allclose(back, moved.points, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(back, moved.points, rtol=0, atol=1e-6 * scale)
+    _, plain = read_glb(io.to_bytes(mesh, "glb"))  # the same qualities
+    np.testing.assert_allclose(layers["cells"]["_QUALITY"], plain["cells"]["_QUALITY"], atol=1e-6)
+
+
+def test_reported_quality_is_what_the_report_summarizes() -> None:
+    from meshcore.mesh.quality import report
+
+    mesh = mesh_3d()
+    rep = report(mesh)
+    for block in mesh.cells:
+        q = reported_quality(mesh.points, block.data, block.type)
+        assert np.all((q >= 0) & (q <= 1))
+        assert q.min() == pytest.approx(rep[block.type]["quality"]["min"])
+        assert q.mean() == pytest.approx(rep[block.type]["quality"]["mean"])
 
 
 def test_extras_and_radius() -> None:
