@@ -537,29 +537,36 @@ def to_glb(mesh: Mesh, extras: dict | None = None) -> bytes:
     return header + text + bin_header + binary
 
 
+#: Suffixes an upload may have: meshio's, less TetGen's two-file format (its reader
+#: also loops forever on an empty ``.node``).
+UPLOAD_SUFFIXES = frozenset(meshio.extension_to_filetypes) - {".node", ".ele"}
+
+
 def from_file(data: bytes, filename: str) -> Mesh:
     """A checked :class:`Mesh` from the bytes of a file in any format meshio reads.
 
     The reader is chosen by the suffix of ``filename`` (as meshio does, the
-    longest known suffix wins: ``.vol.gz`` before ``.gz``); the mesh keeps
+    longest known suffix wins: ``.vol.gz`` before ``.gz``; TetGen's two-file
+    ``.node``/``.ele`` is not taken); the mesh keeps
     the cell types of :data:`~meshcore.mesh.mesh.CELL_TYPES` as
     :func:`from_meshio` does.
 
     Raises
     ------
     InputError
-        ``unsupported_format`` when meshio has no reader for the suffix;
+        ``unsupported_format`` when meshio has no one-file reader for the suffix;
         ``unreadable_file`` when the reader fails on the bytes; ``no_cells``
         when the file holds no cell of a known type; and the codes of
         :meth:`Mesh.check`.
     """
     name = os.path.basename(filename).lower()
-    suffixes = sorted(meshio.extension_to_filetypes, key=len, reverse=True)
+    suffixes = sorted(UPLOAD_SUFFIXES, key=len, reverse=True)
     suffix = next((s for s in suffixes if name.endswith(s)), None)
     if suffix is None:
         raise InputError(
             f"no reader for {filename!r}: name the file with one of meshio's suffixes "
-            f"({', '.join(sorted(meshio.extension_to_filetypes))})",
+            f"({', '.join(sorted(UPLOAD_SUFFIXES))}; TetGen's .node and .ele come as two files "
+            "and cannot be uploaded as one)",
             loc=("filename",),
             code="unsupported_format",
         )

@@ -12,6 +12,8 @@ import struct
 import meshio
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from meshcore.errors import InputError
 from meshcore.mesh import CellBlock, Mesh, io
@@ -159,6 +161,7 @@ def test_from_file_picks_the_reader_by_suffix(tmp_path) -> None:
     [
         (b"anything", "mesh.xyz", "unsupported_format"),
         (b"anything", "no-suffix", "unsupported_format"),
+        (b"", "mesh.node", "unsupported_format"),  # TetGen: two files
         (b"garbage", "mesh.msh", "unreadable_file"),
         (b"<VTKFile", "mesh.vtu", "unreadable_file"),
         (b"", "mesh.stl", "unreadable_file"),
@@ -169,3 +172,47 @@ def test_from_file_refuses_with_a_code(data: bytes, name: str, code: str) -> Non
     with pytest.raises(InputError) as err:
         io.from_file(data, name)
     assert err.value.code == code
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    data=st.one_of(
+        st.binary(max_size=300),
+        st.text(alphabet="0123456789 .-\nvfxyz$<>/=", max_size=300).map(str.encode),
+    ),
+    suffix=st.sampled_from(sorted(io.UPLOAD_SUFFIXES)),
+)
+def test_from_file_raises_only_input_errors(data: bytes, suffix: str) -> None:
+    try:
+        mesh = io.from_file(data, "upload" + suffix)
+    except InputError as exc:
+        assert exc.code
+    else:
+        assert mesh.check() is mesh
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    nx=st.integers(1, 6),
+    ny=st.integers(1, 6),
+    seed=st.integers(0, 2**32 - 1),
+    quads=st.booleans(),
+)
+def test_glb_of_a_jittered_grid_keeps_area_and_counts(nx, ny, seed, quads) -> None:
+    """A grid of nx x ny cells, interior points jittered: the drawn area is the square's."""
+    rng = np.random.default_rng(seed)
+    x, y = np.meshgrid(np.linspace(0, 1, nx + 1), np.linspace(0, 1, ny + 1))
+    pts = np.column_stack([x.ravel(), y.ravel()])
+    inner = (pts[:, 0] > 0) & (pts[:, 0] < 1) & (pts[:, 1] > 0) & (pts[:, 1] < 1)
+    pts[inner] += rng.uniform(-0.2, 0.2, (inner.sum(), 2)) / max(nx, ny)
+    i = (np.arange(ny)[:, None] * (nx + 1) + np.arange(nx)[None, :]).ravel()
+    quad = np.stack([i, i + 1, i + nx + 2, i + nx + 1], -1)
+    cells = quad if quads else np.concatenate([quad[:, [0, 1, 2]], quad[:, [0, 2, 3]]])
+    mesh = Mesh(pts, (CellBlock("quad" if quads else "triangle", cells),)).check()
+    gltf, layers = read_glb(io.to_bytes(mesh, "glb"))
+    tri = world(gltf, layers["cells"]["POSITION"]).reshape(-1, 3, 3)
+    area = 0.5 * np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])[:, 2]
+    assert area.sum() == pytest.approx(1.0, rel=1e-6)
+    assert len(tri) == 2 * nx * ny
+    edges = nx * (ny + 1) + ny * (nx + 1) + (0 if quads else nx * ny)
+    assert len(layers["edges"]["indices"]) == 2 * edges
