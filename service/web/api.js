@@ -19,7 +19,7 @@ export const settings = {
   set base(v) { v ? localStorage.setItem(BASE, v.replace(/\/+$/, "")) : localStorage.removeItem(BASE); },
 };
 
-export function url(path) {
+function url(path) {
   return (settings.base || "") + path;
 }
 

@@ -528,10 +528,11 @@ function showQuality(quality) {
   say("conformity", c ? `Conformity: ${c.nonmanifold} non-manifold facets, ${c.boundary_edges} boundary edges not on the input boundary.` : "");
 }
 
-function tableRow(cells, header = false) {
+/** A table row, its first cell the row's header. */
+function tableRow(cells) {
   const tr = document.createElement("tr");
   cells.forEach((c, i) => {
-    const td = document.createElement(header || i === 0 ? "th" : "td");
+    const td = document.createElement(i === 0 ? "th" : "td");
     if (i === 0) td.scope = "row";
     td.textContent = String(c);
     tr.append(td);
