@@ -16,12 +16,14 @@ from service.api import convert, health, jobs, methods
 from service.executors import Executor
 from service.executors.local import LocalExecutor
 from service.jobs import JobManager
-from service.limits import BodySizeLimit
+from service.limits import BodySizeLimit, ClientTimeouts
 from service.methods.registry import Registry, default_registry
 from service.metrics import Metrics
 from service.problems import install_handlers
 from service.settings import Settings
-from service.store import Store
+from service.store import Store, StoreDamaged
+
+log = logging.getLogger("meshservice")
 
 DESCRIPTION = """\
 Meshing jobs over HTTP: submit a method and its params as JSON, poll or
@@ -40,7 +42,11 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        store = Store(settings.data_dir)
+        try:
+            store = Store(settings.data_dir)
+        except StoreDamaged as exc:
+            log.error("refusing to start: %s", exc)
+            raise
         metrics = Metrics(store.counts_by_status)
         executor: Executor
         if settings.dask_scheduler:
@@ -89,5 +95,8 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
             expose_headers=["Location", "Retry-After", "ETag", "Content-Disposition"],
         )
     app.add_middleware(BodySizeLimit, max_bytes=settings.max_body_bytes)
+    app.add_middleware(
+        ClientTimeouts, body_timeout=settings.body_timeout, send_timeout=settings.send_timeout
+    )
     logging.getLogger("meshservice").setLevel(logging.INFO)
     return app

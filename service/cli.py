@@ -46,6 +46,7 @@ def _serve(args: argparse.Namespace) -> int:
         port=settings.port,
         log_level="info",
         timeout_graceful_shutdown=10,
+        timeout_keep_alive=settings.keep_alive,
     )
     return 0
 

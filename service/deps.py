@@ -1,7 +1,13 @@
-"""``Annotated`` dependencies shared by the routers."""
+"""``Annotated`` dependencies shared by the routers.
+
+They are coroutines: FastAPI runs a plain ``def`` dependency in its thread
+pool, a hop per dependency per request that costs more than the dependency
+itself under load.
+"""
 
 from __future__ import annotations
 
+import hmac
 from typing import Annotated
 
 from fastapi import Depends, Request
@@ -13,21 +19,24 @@ from service.settings import Settings
 from service.store import Job, Store
 
 _bearer = HTTPBearer(auto_error=False, description="An API key from MESHSERVICE_API_KEYS.")
+_metrics_bearer = HTTPBearer(
+    auto_error=False, scheme_name="MetricsToken", description="MESHSERVICE_METRICS_TOKEN."
+)
 
 
-def _settings(request: Request) -> Settings:
+async def _settings(request: Request) -> Settings:
     return request.app.state.settings
 
 
-def _manager(request: Request) -> JobManager:
+async def _manager(request: Request) -> JobManager:
     return request.app.state.manager
 
 
-def _store(request: Request) -> Store:
+async def _store(request: Request) -> Store:
     return request.app.state.manager.store
 
 
-def _client(
+async def _client(
     settings: Annotated[Settings, Depends(_settings)],
     credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)],
 ) -> str:
@@ -43,13 +52,32 @@ def _client(
     return client
 
 
+async def authenticated(client: Annotated[str, Depends(_client)]) -> None:
+    """A route dependency: the caller must send a valid API key when keys are set."""
+
+
+async def metrics_access(
+    settings: Annotated[Settings, Depends(_settings)],
+    credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_metrics_bearer)],
+) -> None:
+    """``/metrics`` is open without API keys; with keys, it needs ``MESHSERVICE_METRICS_TOKEN``."""
+    if not settings.clients_by_key and not settings.metrics_token:
+        return
+    if not settings.metrics_token:
+        raise Unauthorized("with API keys set, /metrics needs MESHSERVICE_METRICS_TOKEN to be set")
+    if credentials is None or not hmac.compare_digest(
+        credentials.credentials, settings.metrics_token
+    ):
+        raise Unauthorized("send the metrics token as 'Authorization: Bearer TOKEN'")
+
+
 SettingsDep = Annotated[Settings, Depends(_settings)]
 ManagerDep = Annotated[JobManager, Depends(_manager)]
 StoreDep = Annotated[Store, Depends(_store)]
 ClientDep = Annotated[str, Depends(_client)]
 
 
-def _job(job_id: str, store: StoreDep, client: ClientDep) -> Job:
+async def _job(job_id: str, store: StoreDep, client: ClientDep) -> Job:
     """The caller's job; another client's job is as absent as a missing one."""
     job = store.get(job_id, client)
     if job is None:

@@ -5,7 +5,10 @@ task starts the oldest queued jobs while the executor has room; each run is
 an asyncio task around :meth:`Executor.run` with the job's time limit, so
 cancelling the task (a user's cancel, the time limit, shutdown) stops the
 job's process. Every change of a job wakes whoever waits on it (``?wait=``
-long-polls and event streams) through a per-job event.
+long-polls and event streams) through a per-job watch: the row is read once
+per change and handed to every waiter of that job, so a thousand open
+streams cost one SQLite read per change, not one per stream; the watch goes
+when its last waiter leaves.
 
 On start-up, jobs the store still shows as running were interrupted: they go
 back to the queue unless they have used ``max_attempts`` runs. On shutdown,
@@ -18,17 +21,28 @@ import asyncio
 import contextlib
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 from service.executors import Executor, Task
 from service.methods.registry import Registry
 from service.metrics import Metrics
-from service.problems import problem_document
+from service.problems import TooManyStreams, problem_document
 from service.runner import JobFailed
 from service.settings import Settings
-from service.store import Job, Store
+from service.store import DiskFull, Job, Store
 
 log = logging.getLogger("meshservice.jobs")
+
+
+class _Watch:
+    """The waiters of one job: an event set on each change, and the row read then."""
+
+    __slots__ = ("event", "job", "waiters")
+
+    def __init__(self) -> None:
+        self.event = asyncio.Event()
+        self.job: Job | None = None
+        self.waiters = 0
 
 
 class JobManager:
@@ -48,7 +62,8 @@ class JobManager:
         self.settings = settings
         self.metrics = metrics
         self._running: dict[str, asyncio.Task] = {}
-        self._changed: dict[str, asyncio.Event] = {}
+        self._watches: dict[str, _Watch] = {}
+        self._streams: dict[str, int] = {}
         self._wakeup = asyncio.Event()
         self._background: list[asyncio.Task] = []
         self._closing = False
@@ -80,8 +95,10 @@ class JobManager:
     # -- notifications ------------------------------------------------------------
 
     def _notify(self, job_id: str) -> None:
-        event = self._changed.pop(job_id, None)
-        if event is not None:
+        watch = self._watches.get(job_id)
+        if watch is not None:
+            watch.job = self.store.get(job_id)  # one read, shared by every waiter
+            event, watch.event = watch.event, asyncio.Event()
             event.set()
 
     def wake(self) -> None:
@@ -92,14 +109,55 @@ class JobManager:
         """The job once ``until(job)`` holds or ``timeout`` seconds pass (None: deleted)."""
         loop = asyncio.get_running_loop()
         deadline = loop.time() + timeout
-        while True:
-            job = self.store.get(job_id)
-            remaining = deadline - loop.time()
-            if job is None or until(job) or remaining <= 0:
-                return job
-            event = self._changed.setdefault(job_id, asyncio.Event())
-            with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(event.wait(), remaining)
+        job = self.store.get(job_id)
+        if job is None or until(job) or timeout <= 0:
+            return job
+        watch = self._watches.setdefault(job_id, _Watch())
+        watch.waiters += 1
+        try:
+            while True:
+                remaining = deadline - loop.time()
+                if remaining <= 0:
+                    return job
+                try:
+                    await asyncio.wait_for(watch.event.wait(), remaining)
+                except TimeoutError:
+                    return job
+                job = watch.job
+                if job is None or until(job):
+                    return job
+        finally:
+            watch.waiters -= 1
+            if watch.waiters == 0 and self._watches.get(job_id) is watch:
+                del self._watches[job_id]
+
+    def check_stream(self, client: str) -> None:
+        """Raise a 429 when ``client`` already holds ``max_streams`` streams and long-polls."""
+        if self._streams.get(client, 0) >= self.settings.max_streams:
+            raise TooManyStreams(
+                f"you hold {self.settings.max_streams} open event streams and long-polls "
+                "(MESHSERVICE_MAX_STREAMS); close some first",
+                headers={"Retry-After": "5"},
+            )
+
+    @contextlib.contextmanager
+    def stream(self, client: str) -> Iterator[None]:
+        """Count one open stream or long-poll of ``client`` while the block runs (429 beyond)."""
+        self.check_stream(client)
+        self._streams[client] = self._streams.get(client, 0) + 1
+        try:
+            yield
+        finally:
+            left = self._streams[client] - 1
+            if left:
+                self._streams[client] = left
+            else:
+                del self._streams[client]
+
+    @property
+    def watched(self) -> int:
+        """Jobs with at least one waiter (every watch goes with its last waiter)."""
+        return len(self._watches)
 
     # -- control ----------------------------------------------------------------------
 
@@ -177,7 +235,18 @@ class JobManager:
                 self.executor.run(task, self._progress(job_id), self._restarted(job_id)),
                 self.settings.job_time_limit,
             )
-            await asyncio.to_thread(self.store.write_result, job_id, result)
+            try:
+                await asyncio.to_thread(self.store.write_result, job_id, result)
+            except DiskFull as exc:
+                raise JobFailed(
+                    problem_document(
+                        507,
+                        "disk_full",
+                        "Not enough space to store the result",
+                        f"the result did not fit in the data directory: {exc}; "
+                        "no partial result was kept; free space and submit the job again",
+                    )
+                ) from None
             status = "succeeded"
             self.store.finish(job_id, status)
         except JobFailed as exc:

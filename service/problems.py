@@ -120,6 +120,24 @@ class TooManyJobs(Problem):
     status, code, title = 429, "too_many_jobs", "Too many unfinished jobs"
 
 
+class TooManyStreams(Problem):
+    status, code, title = 429, "too_many_streams", "Too many open streams"
+
+
+class RequestTimeout(Problem):
+    status, code, title = 408, "request_timeout", "The request body came too slowly"
+
+
+class Damaged(Problem):
+    """A stored file no longer matches its checksum: it is never served."""
+
+    status, code, title = 500, "result_damaged", "The stored result is damaged"
+
+
+class InsufficientStorage(Problem):
+    status, code, title = 507, "disk_full", "Not enough space to store it"
+
+
 class Unavailable(Problem):
     status, code, title = 503, "unavailable", "Service not ready"
 

@@ -56,6 +56,21 @@ class Settings(BaseSettings):
     max_points: int = Field(5_000_000, ge=1, description="Most input points per job.")
     max_queued: int = Field(100, ge=1, description="Most unfinished jobs per client.")
     max_attempts: int = Field(3, ge=1, description="Runs of a job interrupted by restarts.")
+    max_streams: int = Field(
+        256, ge=1, description="Most open event streams and long-polls per client."
+    )
+    body_timeout: float = Field(
+        60.0, gt=0, description="Seconds a client may take to send its whole request body."
+    )
+    keep_alive: float = Field(
+        30.0,
+        gt=0,
+        description="Seconds an idle connection is kept open; above the usual client pool "
+        "expiry (httpx: 5 s), so a client never reuses a connection the service is closing.",
+    )
+    send_timeout: float = Field(
+        60.0, gt=0, description="Seconds a response may wait for a client that does not read."
+    )
     retention: float = Field(
         7 * 24 * 3600.0,
         gt=0,
@@ -66,6 +81,9 @@ class Settings(BaseSettings):
         None, description="A dask.distributed scheduler address: run jobs on its workers."
     )
     api_keys: str = Field("", description="Comma-separated key:client pairs.")
+    metrics_token: str = Field(
+        "", description="Bearer token of /metrics; with API keys set, /metrics needs it."
+    )
     cors_origins: str = Field("", description="Comma-separated web origins allowed.")
 
     @field_validator("api_keys")

@@ -7,13 +7,24 @@ Layout under the data directory::
     jobs/<id>/result.json   the result, written atomically (temporary file + rename)
     jobs/<id>/result.<fmt>  downloads converted from it, cached the same way
 
-The store is used from the event-loop thread only; every statement is short.
+The store is used from the event-loop thread, and for result files from
+worker threads (SQLite runs in serialized mode); every statement is short.
 Each change of a row bumps its ``version``, which is the job's ``ETag``.
+
+Every result file's size and SHA-256 are recorded in the ``files`` table
+when it is written, and checked before it is served (a file truncated or
+changed on disk is never served as a result: :class:`DamagedFile`). A
+database that SQLite cannot read refuses to open (:class:`StoreDamaged`):
+the service never starts empty over it. A full disk while writing a result
+leaves no partial file (:class:`DiskFull`).
 """
 
 from __future__ import annotations
 
+import errno
+import hashlib
 import json
+import logging
 import os
 import shutil
 import sqlite3
@@ -50,7 +61,30 @@ CREATE TABLE IF NOT EXISTS jobs (
 );
 CREATE INDEX IF NOT EXISTS jobs_by_status ON jobs (status, seq);
 CREATE INDEX IF NOT EXISTS jobs_by_client ON jobs (client, seq);
+CREATE TABLE IF NOT EXISTS files (
+    job_id TEXT NOT NULL,
+    name TEXT NOT NULL,
+    size INTEGER NOT NULL,
+    sha256 TEXT NOT NULL,
+    PRIMARY KEY (job_id, name)
+);
 """
+
+log = logging.getLogger("meshservice.store")
+
+_NO_SPACE = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
+
+
+class StoreDamaged(RuntimeError):
+    """The SQLite file cannot be read: the service refuses to start over it."""
+
+
+class DamagedFile(RuntimeError):
+    """A result file on disk no longer matches the size and checksum recorded for it."""
+
+
+class DiskFull(RuntimeError):
+    """A file did not fit on the data directory's disk; nothing partial was left."""
 
 
 @dataclass(frozen=True)
@@ -84,13 +118,33 @@ class Job:
 
 
 def write_atomically(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` so that readers see the old file or the whole new one."""
+    """Write ``data`` to ``path`` so that readers see the old file or the whole new one.
+
+    Raises :class:`DiskFull` (and removes the partial temporary file) when
+    the disk or a quota is full.
+    """
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
-    with open(tmp, "wb") as f:
-        f.write(data)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        if exc.errno in _NO_SPACE:
+            raise DiskFull(
+                f"{len(data)} bytes did not fit in {path.parent} ({os.strerror(exc.errno)})"
+            ) from exc
+        raise
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        while chunk := f.read(1 << 20):
+            digest.update(chunk)
+    return digest.hexdigest()
 
 
 class Store:
@@ -100,13 +154,23 @@ class Store:
         self.data_dir = Path(data_dir)
         self.jobs_dir = self.data_dir / "jobs"
         self.jobs_dir.mkdir(parents=True, exist_ok=True)
-        self._db = sqlite3.connect(
-            self.data_dir / "jobs.sqlite3", isolation_level=None, check_same_thread=False
-        )
-        self._db.row_factory = sqlite3.Row
-        self._db.execute("PRAGMA journal_mode=WAL")
-        self._db.execute("PRAGMA synchronous=NORMAL")
-        self._db.executescript(_SCHEMA)
+        path = self.data_dir / "jobs.sqlite3"
+        self._db = sqlite3.connect(path, isolation_level=None, check_same_thread=False)
+        try:
+            self._db.row_factory = sqlite3.Row
+            self._db.execute("PRAGMA journal_mode=WAL")
+            self._db.execute("PRAGMA synchronous=NORMAL")
+            check = self._db.execute("PRAGMA quick_check").fetchone()[0]
+            if check != "ok":
+                raise sqlite3.DatabaseError(check)
+            self._db.executescript(_SCHEMA)
+        except sqlite3.DatabaseError as exc:
+            self._db.close()
+            raise StoreDamaged(
+                f"the job store {path.resolve()} is damaged ({exc}); it was left untouched: "
+                "restore it from a backup, or move it aside to start with an empty store"
+            ) from exc
+        self._verified: set[tuple] = set()
 
     def close(self) -> None:
         self._db.close()
@@ -133,7 +197,45 @@ class Store:
         return self.params_path(job_id).read_bytes()
 
     def write_result(self, job_id: str, data: bytes, fmt: str = "json") -> None:
-        write_atomically(self.result_path(job_id, fmt), data)
+        """Write a result file atomically and record its size and SHA-256 (blocking I/O)."""
+        path = self.result_path(job_id, fmt)
+        write_atomically(path, data)
+        self._db.execute(
+            "INSERT OR REPLACE INTO files (job_id, name, size, sha256) VALUES (?, ?, ?, ?)",
+            (job_id, path.name, len(data), hashlib.sha256(data).hexdigest()),
+        )
+
+    def verified_result(self, job_id: str, fmt: str = "json") -> Path | None:
+        """The result file, checked against its record (blocking I/O); None if absent.
+
+        Raises :class:`DamagedFile` when its size or SHA-256 differs from what
+        was written. A file is hashed once per state (inode, size, mtime).
+        """
+        path = self.result_path(job_id, fmt)
+        row = self._db.execute(
+            "SELECT size, sha256 FROM files WHERE job_id = ? AND name = ?", (job_id, path.name)
+        ).fetchone()
+        try:
+            st = path.stat()
+        except FileNotFoundError:
+            return None
+        if row is None:  # written before checksums were kept
+            return path
+        state = (str(path), st.st_ino, st.st_size, st.st_mtime_ns)
+        if state in self._verified:
+            return path
+        if st.st_size != row["size"]:
+            raise DamagedFile(f"{path} has {st.st_size} bytes on disk, {row['size']} were written")
+        if _sha256(path) != row["sha256"]:
+            raise DamagedFile(f"{path} was changed on disk: its SHA-256 differs from the record")
+        self._verified.add(state)
+        return path
+
+    def forget_file(self, job_id: str, fmt: str) -> None:
+        """Remove a derived file (a damaged download cache) and its record."""
+        path = self.result_path(job_id, fmt)
+        path.unlink(missing_ok=True)
+        self._db.execute("DELETE FROM files WHERE job_id = ? AND name = ?", (job_id, path.name))
 
     # -- rows -------------------------------------------------------------------
 
@@ -148,8 +250,14 @@ class Store:
     def write_params(self, params: bytes) -> str:
         """Write a new job's params file (blocking I/O, run it off the event loop); its id."""
         job_id = uuid.uuid4().hex
-        self.job_dir(job_id).mkdir(parents=True)
-        write_atomically(self.params_path(job_id), params)
+        try:
+            self.job_dir(job_id).mkdir(parents=True)
+            write_atomically(self.params_path(job_id), params)
+        except (DiskFull, OSError) as exc:
+            shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
+            if isinstance(exc, DiskFull) or exc.errno in _NO_SPACE:
+                raise DiskFull(f"the job's params ({len(params)} bytes) did not fit") from exc
+            raise
         return job_id
 
     def create(
@@ -305,6 +413,7 @@ class Store:
     def delete(self, job_id: str) -> None:
         """Remove the job's row and its files."""
         self._db.execute("DELETE FROM jobs WHERE id = ?", (job_id,))
+        self._db.execute("DELETE FROM files WHERE job_id = ?", (job_id,))
         shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
 
     def expire(self, now: float, retention: float) -> tuple[int, int]:
@@ -318,6 +427,7 @@ class Store:
         ).fetchall()
         for (job_id,) in old:
             shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
+            self._db.execute("DELETE FROM files WHERE job_id = ?", (job_id,))
             self._db.execute(
                 "UPDATE jobs SET expired = 1, version = version + 1 WHERE id = ?", (job_id,)
             )

@@ -18,6 +18,8 @@ import numpy as np
 
 from meshcore.errors import InputError
 
+__all__ = ["CELL_TYPES", "CellBlock", "Mesh"]
+
 #: meshio cell type -> (nodes per cell, topological dimension)
 CELL_TYPES: dict[str, tuple[int, int]] = {
     "vertex": (1, 0),

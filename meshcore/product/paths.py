@@ -18,6 +18,8 @@ import numpy as np
 from meshcore.errors import InputError
 from meshcore.geometry.tolerances import MAX_COORDINATE
 
+__all__ = ["Helix", "Path", "Rotate", "Sections", "Transforms", "Translate"]
+
 
 def _vector(value, loc: tuple, name: str, *, nonzero: bool = False) -> np.ndarray:
     try:

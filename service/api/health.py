@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Request, Response
+from fastapi import APIRouter, Depends, Request, Response
 
-from service.deps import ManagerDep
+from service.deps import ManagerDep, metrics_access
 from service.problems import Unavailable
 
 api = APIRouter(tags=["health"])
@@ -34,7 +34,11 @@ async def readyz(manager: ManagerDep) -> dict:
     operation_id="metrics",
     summary="Prometheus metrics",
     response_class=Response,
-    responses={200: {"content": {"text/plain": {}}, "description": "Prometheus text format."}},
+    dependencies=[Depends(metrics_access)],
+    responses={
+        200: {"content": {"text/plain": {}}, "description": "Prometheus text format."},
+        401: {"description": "Missing or wrong metrics token (API keys are set)."},
+    },
 )
 async def metrics(request: Request) -> Response:
     return Response(

@@ -6,11 +6,12 @@ import binascii
 import functools
 import hashlib
 import json
+import logging
 import operator
 from collections.abc import AsyncIterator
 from typing import Annotated, Any, Literal
 
-from fastapi import APIRouter, Header, Query, Response
+from fastapi import APIRouter, Depends, Header, Query, Response
 from fastapi.responses import FileResponse
 from fastapi.sse import EventSourceResponse, ServerSentEvent
 from pydantic import ConfigDict, Field, create_model
@@ -19,7 +20,9 @@ from service.deps import ClientDep, JobDep, ManagerDep, SettingsDep, StoreDep
 from service.methods.registry import FORMATS, InputError, Registry, mesh_file
 from service.preview import render_svg
 from service.problems import (
+    Damaged,
     Gone,
+    InsufficientStorage,
     Invalid,
     NoResult,
     NotFound,
@@ -29,7 +32,9 @@ from service.problems import (
     from_input_error,
 )
 from service.schemas import JobOut, JobPage, ProblemOut, ResultOut
-from service.store import Job
+from service.store import DamagedFile, DiskFull, Job
+
+log = logging.getLogger("meshservice.api")
 
 MAX_WAIT = 30.0
 Format = Literal[tuple(FORMATS)]  # type: ignore[valid-type]
@@ -81,6 +86,12 @@ def _seq_of(token: str) -> int:
                 {"loc": ["query", "page_token"], "msg": "invalid token", "type": "value_error"}
             ],
         ) from None
+
+
+async def _stream_slot(manager: ManagerDep, client: ClientDep) -> str:
+    """The client, once it is known to have a free stream slot (a 429 before streaming)."""
+    manager.check_stream(client)
+    return client
 
 
 def _job_response(job: Job, response: Response) -> JobOut:
@@ -145,7 +156,12 @@ def router(registry: Registry) -> APIRouter:
                     "wait for some to finish",
                     headers={"Retry-After": "5"},
                 )
-            job_id = await asyncio.to_thread(store.write_params, params_json)
+            try:
+                job_id = await asyncio.to_thread(store.write_params, params_json)
+            except DiskFull as exc:
+                raise InsufficientStorage(
+                    f"the job could not be stored: {exc}; try again later"
+                ) from None
             job = store.create(
                 job_id,
                 client=client,
@@ -168,7 +184,8 @@ def router(registry: Registry) -> APIRouter:
                 ],
             )
         if wait > 0 and not job.finished:
-            job = await manager.wait(job.id, lambda j: j.finished, wait) or job
+            with manager.stream(client):
+                job = await manager.wait(job.id, lambda j: j.finished, wait) or job
         if job.finished:
             response.status_code = 200
         return _job_response(job, response)
@@ -206,6 +223,7 @@ def router(registry: Registry) -> APIRouter:
         job: JobDep,
         response: Response,
         manager: ManagerDep,
+        client: ClientDep,
         wait: Annotated[float, Query(ge=0, le=MAX_WAIT, description="Seconds to wait.")] = 0,
         if_none_match: Annotated[str | None, Header()] = None,
     ) -> Any:
@@ -223,7 +241,8 @@ def router(registry: Registry) -> APIRouter:
                 def changed(j: Job) -> bool:
                     return j.status != status
 
-            job = await manager.wait(job.id, changed, wait)
+            with manager.stream(client):
+                job = await manager.wait(job.id, changed, wait)
             if job is None:
                 raise NotFound("the job was deleted")
         if if_none_match is not None and if_none_match == job.etag:
@@ -235,24 +254,27 @@ def router(registry: Registry) -> APIRouter:
         operation_id="streamJobEvents",
         summary="Progress of a job as server-sent events",
         response_class=EventSourceResponse,
-        responses=_problems(401, 404),
+        responses=_problems(401, 404, 429),
     )
-    async def events(job: JobDep, manager: ManagerDep) -> AsyncIterator[ServerSentEvent]:
+    async def events(
+        job: JobDep, manager: ManagerDep, client: Annotated[str, Depends(_stream_slot)]
+    ) -> AsyncIterator[ServerSentEvent]:
         """One ``progress`` event per change of the job, then an ``end`` event."""
-        version = -1
-        current: Job | None = job
-        while current is not None:
-            if current.version != version:
-                version = current.version
-                data = JobOut.of(current).model_dump(mode="json")
-                yield ServerSentEvent(
-                    event="end" if current.finished else "progress",
-                    id=str(version),
-                    data=data,
-                )
-            if current.finished:
-                return
-            current = await manager.wait(job.id, functools.partial(_changed, current), 15.0)
+        with manager.stream(client):
+            version = -1
+            current: Job | None = job
+            while current is not None:
+                if current.version != version:
+                    version = current.version
+                    data = JobOut.of(current).model_dump(mode="json")
+                    yield ServerSentEvent(
+                        event="end" if current.finished else "progress",
+                        id=str(version),
+                        data=data,
+                    )
+                if current.finished:
+                    return
+                current = await manager.wait(job.id, functools.partial(_changed, current), 15.0)
 
     @api.post(
         "/{job_id}/cancel",
@@ -276,15 +298,23 @@ def router(registry: Registry) -> APIRouter:
         await manager.delete(job.id)
         return Response(status_code=204)
 
-    def _result_path(job: Job, store: Any) -> Any:
+    async def _result_path(job: Job, store: Any) -> Any:
+        """The job's checked result file (a damaged one is a 500 and a log line, never served)."""
         if job.expired:
             raise Gone(f"the result of job {job.id} has expired and was removed")
         if not job.finished:
             raise NotReady(f"job {job.id} is {job.status}", headers={"Retry-After": "1"})
         if job.status != "succeeded":
             raise NoResult(f"job {job.id} {job.status}; see its error")
-        path = store.result_path(job.id)
-        if not path.exists():  # expired between the row's read and now
+        try:
+            path = await asyncio.to_thread(store.verified_result, job.id)
+        except DamagedFile as exc:
+            log.error("job %s: damaged result file: %s", job.id, exc)
+            raise Damaged(
+                f"the stored result of job {job.id} is damaged ({exc}); it is not served: "
+                "submit the job again"
+            ) from None
+        if path is None:  # expired between the row's read and now
             raise Gone(f"the result of job {job.id} has expired and was removed")
         return path
 
@@ -309,12 +339,23 @@ def router(registry: Registry) -> APIRouter:
         store: StoreDep,
         format: Annotated[Format | None, Query(description="Download the mesh.")] = None,
     ) -> Response:
-        path = _result_path(job, store)
+        path = await _result_path(job, store)
         if format is None:
             return FileResponse(path, media_type="application/json")
         spec = FORMATS[format]
         target = store.result_path(job.id, format)
-        if not target.exists():
+
+        def cached() -> bool:
+            try:
+                return store.verified_result(job.id, format) is not None
+            except DamagedFile as exc:  # a derived file: made again from the result
+                log.warning(
+                    "job %s: damaged %s download, converting again: %s", job.id, format, exc
+                )
+                store.forget_file(job.id, format)
+                return False
+
+        if not await asyncio.to_thread(cached):
 
             def convert() -> None:
                 data = json.loads(path.read_bytes())
@@ -324,6 +365,8 @@ def router(registry: Registry) -> APIRouter:
                 await asyncio.to_thread(convert)
             except InputError as exc:
                 raise from_input_error(exc) from None
+            except DiskFull as exc:
+                raise InsufficientStorage(f"the {format} file could not be stored: {exc}") from None
         filename = f"{job.id}{spec.suffix}"
         return FileResponse(target, media_type=spec.media_type, filename=filename)
 
@@ -338,7 +381,7 @@ def router(registry: Registry) -> APIRouter:
         },
     )
     async def preview(job: JobDep, store: StoreDep) -> Response:
-        path = _result_path(job, store)
+        path = await _result_path(job, store)
 
         def draw() -> str:
             return render_svg(json.loads(path.read_bytes()))

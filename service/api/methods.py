@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Depends
 
+from service.deps import authenticated
 from service.methods.registry import MethodSpec, Registry
 from service.problems import NotFound
 from service.schemas import MethodOut, ProblemOut
@@ -20,9 +21,14 @@ def _out(spec: MethodSpec) -> MethodOut:
 
 
 def router(registry: Registry) -> APIRouter:
-    api = APIRouter(prefix="/v1/methods", tags=["methods"])
+    api = APIRouter(prefix="/v1/methods", tags=["methods"], dependencies=[Depends(authenticated)])
 
-    @api.get("", operation_id="listMethods", summary="The methods and their params")
+    @api.get(
+        "",
+        operation_id="listMethods",
+        summary="The methods and their params",
+        responses={401: {"model": ProblemOut, "content": {"application/problem+json": {}}}},
+    )
     async def list_methods() -> list[MethodOut]:
         return [_out(spec) for spec in registry.values()]
 
@@ -30,7 +36,10 @@ def router(registry: Registry) -> APIRouter:
         "/{name}",
         operation_id="getMethod",
         summary="One method and its params",
-        responses={404: {"model": ProblemOut, "content": {"application/problem+json": {}}}},
+        responses={
+            s: {"model": ProblemOut, "content": {"application/problem+json": {}}}
+            for s in (401, 404)
+        },
     )
     async def get_method(name: str) -> MethodOut:
         spec = registry.get(name)

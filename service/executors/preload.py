@@ -9,11 +9,12 @@ keeping its boundary, runs the domain checks, the Delaunay kernel, the
 admissible boundary, the constrained triangulation and the refinement; a
 quad mesh on the medial-axis partition runs the medial-axis kernels; quad
 combination by each algorithm, optimized, runs the combination and
-optimization kernels.
+optimization kernels; a cube's corners run the 3D Delaunay kernel.
 """
 
 import gc
 
+from meshcore.delaunay import delaunay3d
 from meshcore.domain.planar import parse_domain
 from meshcore.medial.axis import medial_axis
 from meshcore.medial.partitioning import quad_medial
@@ -34,6 +35,8 @@ for _keep in (False, True):
 # the medial axis kernels (polygon and point cloud), the partition's faces
 quad_medial(_SQUARE_WITH_HOLE, levels=0, h=0.05)
 medial_axis(points=[[0, 0], [1, 0], [1, 1], [0, 1]])
+# the 3D Delaunay kernel, co-spherical ties included
+delaunay3d([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)])
 # the quad combination kernels: the four selection algorithms and the optimizer
 for _alg in ("stack", "heap", "frontal", "matching"):
     combine(domain=_SQUARE_WITH_HOLE, size=0.2, algorithm=_alg, optimize=True)

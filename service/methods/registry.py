@@ -19,7 +19,7 @@ from typing import Any
 
 from meshcore.errors import InputError
 from meshcore.mesh import io, quality
-from service.methods import medial, product, quads, triangulation
+from service.methods import delaunay, medial, product, quads, triangulation
 from service.schemas import MeshIn, MethodParams
 
 Progress = Callable[[float, str], None]
@@ -144,6 +144,16 @@ def default_registry() -> Registry:
             params=triangulation.TriangulateParams,
             run=triangulation.run_triangulate,
             example=triangulation.TRIANGULATE_EXAMPLE,
+        ),
+        MethodSpec(
+            name="delaunay",
+            summary="Delaunay triangulation (2D points) or tetrahedralization (3D points) of a "
+            "point set with exact predicates, co-circular and co-spherical ties broken by "
+            "symbolic perturbation; the convex hull's facets as cell set hull.",
+            section="§9.1, §9.2-§9.3 (Delaunay triangulation, empty spheres)",
+            params=delaunay.DelaunayParams,
+            run=delaunay.run_delaunay,
+            example=delaunay.DELAUNAY_EXAMPLE,
         ),
         MethodSpec(
             name="delaunay_admissible",

@@ -28,6 +28,7 @@ def main() -> None:
         port=settings.port,
         log_level="warning",
         timeout_graceful_shutdown=5,
+        timeout_keep_alive=settings.keep_alive,
     )
 
 

@@ -63,6 +63,14 @@ def run_crash(params: CrashParams, progress: Progress) -> dict:
         blocks.append(bytearray(256 << 20))
 
 
+class BlobParams(MethodParams):
+    megabytes: float = Field(ge=0, le=256)
+
+
+def run_blob(params: BlobParams, progress: Progress) -> dict:
+    return {"stats": {"blob": "x" * int(params.megabytes * 1e6)}}
+
+
 class BoomParams(MethodParams):
     pass
 
@@ -84,6 +92,9 @@ def testing_registry() -> Registry:
             "crash", "Kill the job's own process.", "tests", CrashParams, run_crash, {"how": "exit"}
         ),
         MethodSpec("boom", "Raise an unexpected exception.", "tests", BoomParams, run_boom, {}),
+        MethodSpec(
+            "blob", "A result of the given size.", "tests", BlobParams, run_blob, {"megabytes": 1}
+        ),
     ]:
         registry[spec.name] = spec
     return registry
