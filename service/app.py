@@ -5,11 +5,14 @@ from __future__ import annotations
 import logging
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
+from pathlib import Path
 
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
+from fastapi.responses import FileResponse
+from fastapi.staticfiles import StaticFiles
 
-from service.api import health, jobs, methods
+from service.api import convert, health, jobs, methods
 from service.executors import Executor
 from service.executors.local import LocalExecutor
 from service.jobs import JobManager
@@ -25,8 +28,11 @@ log = logging.getLogger("meshservice")
 DESCRIPTION = """\
 Meshing jobs over HTTP: submit a method and its params as JSON, poll or
 stream the job, fetch the result as JSON or download its mesh in a file
-format. Errors are RFC 9457 problem documents.
+format. Errors are RFC 9457 problem documents. The service's own web page
+is at `/`.
 """
+
+WEB = Path(__file__).parent / "web"
 
 
 def create_app(settings: Settings | None = None, registry: Registry | None = None) -> FastAPI:
@@ -70,14 +76,23 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     install_handlers(app)
     app.include_router(jobs.router(registry))
     app.include_router(methods.router(registry))
+    app.include_router(convert.router())
     app.include_router(health.api)
+    # The web page: static files, public like /healthz (they hold no data; the
+    # page sends the API key on its /v1 calls). Mounts stay out of the schema.
+    app.mount("/static", StaticFiles(directory=WEB), name="static")
+
+    @app.get("/", include_in_schema=False)
+    async def page() -> FileResponse:
+        return FileResponse(WEB / "index.html", headers={"Cache-Control": "no-cache"})
+
     if settings.cors_origin_list:
         app.add_middleware(
             CORSMiddleware,
             allow_origins=settings.cors_origin_list,
             allow_methods=["GET", "POST", "DELETE"],
             allow_headers=["Authorization", "Content-Type", "Idempotency-Key", "If-None-Match"],
-            expose_headers=["Location", "Retry-After", "ETag"],
+            expose_headers=["Location", "Retry-After", "ETag", "Content-Disposition"],
         )
     app.add_middleware(BodySizeLimit, max_bytes=settings.max_body_bytes)
     app.add_middleware(

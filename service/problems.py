@@ -108,6 +108,10 @@ class TooLarge(Problem):
     status, code, title = 413, "too_large", "Request too large"
 
 
+class UnsupportedMediaType(Problem):
+    status, code, title = 415, "unsupported_media_type", "Unsupported file format"
+
+
 class Invalid(Problem):
     status, code, title = 422, "validation_error", "Invalid request"
 

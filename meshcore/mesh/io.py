@@ -18,10 +18,31 @@ Gmsh physical groups (``gmsh:physical`` cell data with named ``field_data``;
 a cell in several sets takes the first set's tag, and cells in no set get
 tag 0), Abaqus ``*ELSET``\\ s, and for the other formats one 0/1 cell data
 array per set named ``set:<name>``.
+
+``glb`` (glTF 2.0 binary, for web viewers) is written here with numpy, not
+through meshio, by :func:`to_glb`. glTF attributes are per vertex, so to
+colour each cell by its own quality the drawn triangles do not share
+vertices: every triangle has its three own vertices (``POSITION`` and
+``_QUALITY``, non-indexed), the price of flat per-cell colours (48 bytes a
+triangle against about 20 shared). What is drawn: triangles as they are,
+quads split along their 0-2 diagonal, and of 3D cells their boundary faces
+(held by one cell; quads split likewise), each with its cell's quality (the
+values the quality report summarizes). The cell edges (a quad's four, not
+its diagonal) are a second, indexed ``LINES`` primitive over the same
+vertices (the optional wireframe layer); line cells and vertex cells are
+indexed ``LINES`` and ``POINTS`` primitives over the mesh's own points (with
+the point data ``radius`` as ``_RADIUS`` when present). Positions are
+float32 relative to the bounding-box centre, which is the node's float64
+``translation``, so a mesh far from the origin keeps its precision. Each
+primitive's ``extras.layer`` names it (``cells``, ``edges``, ``lines``,
+``points``); ``extras.cell_types`` of ``cells`` gives the source cell type of
+each run of triangles (``[[type, first triangle], ...]``). Cell sets are not
+carried.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import tempfile
 from dataclasses import dataclass
@@ -30,7 +51,9 @@ import meshio
 import numpy as np
 
 from meshcore.errors import InputError
+from meshcore.mesh import topology
 from meshcore.mesh.mesh import CELL_TYPES, CellBlock, Mesh
+from meshcore.mesh.quality import reported_quality
 
 
 @dataclass(frozen=True)
@@ -64,6 +87,7 @@ FORMATS: dict[str, FileFormat] = {
     "obj": FileFormat("obj", ".obj", "model/obj", frozenset({"triangle", "quad"}), False),
     "stl": FileFormat("stl", ".stl", "model/stl", frozenset({"triangle"})),
     "ply": FileFormat("ply", ".ply", "application/vnd.ply", frozenset({"triangle", "quad"})),
+    "glb": FileFormat("glb", ".glb", "model/gltf-binary"),  # written by to_glb, not meshio
 }
 
 
@@ -268,6 +292,8 @@ def to_bytes(mesh: Mesh, fmt: str) -> bytes:
             loc=("format",),
             code="format_mismatch",
         )
+    if fmt == "glb":
+        return to_glb(mesh)
     m = _meshio_for(mesh, fmt)
     with tempfile.TemporaryDirectory(prefix="meshcore-") as tmp:
         path = os.path.join(tmp, "mesh" + spec.suffix)
@@ -308,7 +334,7 @@ def _abaqus_elsets(mesh: Mesh) -> str:
 
 
 def from_bytes(data: bytes, fmt: str) -> Mesh:
-    """Read a mesh written by :func:`to_bytes` (used to check round trips)."""
+    """Read a mesh written by :func:`to_bytes` (used to check round trips; not ``glb``)."""
     spec = FORMATS[fmt]
     with tempfile.TemporaryDirectory(prefix="meshcore-") as tmp:
         path = os.path.join(tmp, "mesh" + spec.suffix)
@@ -316,3 +342,265 @@ def from_bytes(data: bytes, fmt: str) -> Mesh:
             f.write(data)
         reader = "gmsh" if fmt.startswith("gmsh") else spec.meshio_name
         return from_meshio(meshio.read(path, file_format=reader))
+
+
+# ----------------------------------------------------------------------------- glb
+
+_GLB_MAGIC, _GLB_JSON, _GLB_BIN = 0x46546C67, 0x4E4F534A, 0x004E4942
+_FLOAT32, _UINT32 = 5126, 5125
+_POINTS, _LINES, _TRIANGLES = 0, 1, 4
+#: The triangles a face is drawn with, as local corners.
+_SPLIT = {"triangle": np.array([[0, 1, 2]]), "quad": np.array([[0, 1, 2], [0, 2, 3]])}
+#: A face's own edges (not a quad's diagonal) as (triangle of the split, corner, corner).
+_FACE_EDGES = {
+    "triangle": np.array([[0, 0, 1], [0, 1, 2], [0, 2, 0]]),
+    "quad": np.array([[0, 0, 1], [0, 1, 2], [1, 1, 2], [1, 2, 0]]),
+}
+
+
+def _drawn_faces(mesh: Mesh) -> list[tuple[str, np.ndarray, np.ndarray, str]]:
+    """``(face type, (f, k) nodes, (f,) quality, source cell type)`` runs to draw.
+
+    A 2D mesh's triangles and quads; a 3D mesh's boundary faces with the
+    quality of the cell holding them, grouped by that cell's type.
+    """
+    dim = max((CELL_TYPES[b.type][1] for b in mesh.cells), default=0)
+    if dim == 2:
+        return [
+            (b.type, b.data, reported_quality(mesh.points, b.data, b.type), b.type)
+            for b in mesh.cells
+            if b.type in _SPLIT and len(b)
+        ]
+    if dim < 3:
+        return []
+    top = tuple(b for b in mesh.cells if CELL_TYPES[b.type][1] == 3)
+    quality = np.concatenate([reported_quality(mesh.points, b.data, b.type) for b in top])
+    source = np.concatenate([np.full(len(b), i) for i, b in enumerate(top)])
+    bnd = topology.boundary(Mesh(mesh.points, top))
+    runs = []
+    for i, b in enumerate(top):
+        for face, holder in zip(bnd.cells, bnd.cell_data["cell"], strict=True):
+            mine = source[holder] == i
+            if np.any(mine):
+                runs.append((face.type, face.data[mine], quality[holder[mine]], b.type))
+    return runs
+
+
+class _Bin:
+    """The BIN chunk being built: buffer views and accessors over float32/uint32 arrays."""
+
+    def __init__(self) -> None:
+        self.parts: list[bytes] = []
+        self.size = 0
+        self.views: list[dict] = []
+        self.accessors: list[dict] = []
+
+    def add(
+        self, array: np.ndarray, kind: str, target: int, bounds: np.ndarray | None = None
+    ) -> int:
+        """A view and an accessor over ``array``; ``bounds``: the (2, 3) min and max to state."""
+        data = np.ascontiguousarray(array, dtype=np.uint32 if kind == "SCALAR_U" else np.float32)
+        self.views.append(
+            {"buffer": 0, "byteOffset": self.size, "byteLength": data.nbytes, "target": target}
+        )
+        self.parts.append(data.tobytes())
+        self.size += data.nbytes  # 4-byte components: every view stays aligned
+        accessor = {
+            "bufferView": len(self.views) - 1,
+            "componentType": _UINT32 if kind == "SCALAR_U" else _FLOAT32,
+            "count": len(data),
+            "type": "VEC3" if kind == "VEC3" else "SCALAR",
+        }
+        if bounds is not None:
+            accessor["min"], accessor["max"] = bounds.tolist()
+        self.accessors.append(accessor)
+        return len(self.accessors) - 1
+
+
+def _bounds(local: np.ndarray, used: np.ndarray) -> np.ndarray:
+    """(2, 3) min and max of the points ``used`` (indices, repeats allowed)."""
+    mask = np.zeros(len(local), dtype=bool)
+    mask[used] = True
+    pts = local[mask]
+    return np.stack([pts.min(axis=0), pts.max(axis=0)])
+
+
+def to_glb(mesh: Mesh, extras: dict | None = None) -> bytes:
+    """The mesh as glTF 2.0 binary (``.glb``) for web viewers; see the module docstring.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        Checked (so it has cells); 2D points are drawn at z = 0.
+    extras : dict, optional
+        JSON put in the glTF's top-level ``extras`` (the service puts the
+        result's quality report and stats there).
+
+    Returns
+    -------
+    bytes
+        A valid glb: one scene, one node (translated to the bounding-box
+        centre), one mesh of up to four primitives (``cells`` triangles
+        with ``_QUALITY`` in [0, 1], ``edges`` lines, ``lines`` of the line
+        cells, ``points`` of the vertex cells).
+    """
+    points = mesh.points
+    if points.shape[1] == 2:
+        points = np.column_stack([points, np.zeros(len(points))])
+    lo, hi = (points.min(axis=0), points.max(axis=0)) if len(points) else (np.zeros(3),) * 2
+    center = (lo + hi) / 2
+    local = (points - center).astype(np.float32)
+    out = _Bin()
+    primitives = []
+    runs = _drawn_faces(mesh)
+    if runs:
+        tris, quality, edge_keys, edge_ends, cell_types = [], [], [], [], []
+        first, n = 0, len(points)
+        for ftype, nodes, q, source in runs:
+            split, fe = _SPLIT[ftype], _FACE_EDGES[ftype]
+            f, s = len(nodes), len(split)
+            tris.append(nodes[:, split].reshape(-1))
+            quality.append(np.repeat(q.astype(np.float32), 3 * s))
+            # edge j of face i joins the split vertices corner + fe[j, 1] and corner + fe[j, 2]
+            corner = 3 * (first + np.arange(f)[:, None] * s + fe[:, 0])  # (f, e)
+            a = nodes[:, split[fe[:, 0], fe[:, 1]]].ravel()
+            b = nodes[:, split[fe[:, 0], fe[:, 2]]].ravel()
+            edge_keys.append(np.minimum(a, b) * n + np.maximum(a, b))
+            edge_ends.append(((corner + fe[:, 1]).ravel(), (corner + fe[:, 2]).ravel()))
+            cell_types.append([source, first])
+            first += f * s
+        corners = np.concatenate(tris)
+        position = out.add(local[corners], "VEC3", 34962, bounds=_bounds(local, corners))
+        _, once = np.unique(np.concatenate(edge_keys), return_index=True)
+        ends = np.column_stack([np.concatenate([e[k] for e in edge_ends])[once] for k in (0, 1)])
+        primitives.append(
+            {
+                "attributes": {
+                    "POSITION": position,
+                    "_QUALITY": out.add(np.concatenate(quality), "SCALAR", 34962),
+                },
+                "mode": _TRIANGLES,
+                "material": 0,
+                "extras": {"layer": "cells", "cell_types": cell_types},
+            }
+        )
+        primitives.append(
+            {
+                "attributes": {"POSITION": position},
+                "indices": out.add(ends.ravel(), "SCALAR_U", 34963),
+                "mode": _LINES,
+                "extras": {"layer": "edges"},
+            }
+        )
+    for ctype, mode, layer in (("line", _LINES, "lines"), ("vertex", _POINTS, "points")):
+        blocks = [b.data for b in mesh.cells if b.type == ctype and len(b)]
+        if not blocks:
+            continue
+        indices = np.concatenate(blocks).ravel()
+        every = np.arange(len(local))  # the accessor holds every point, used or not
+        attributes = {"POSITION": out.add(local, "VEC3", 34962, bounds=_bounds(local, every))}
+        radius = mesh.point_data.get("radius")
+        if radius is not None and radius.shape == (len(points),):
+            attributes["_RADIUS"] = out.add(radius, "SCALAR", 34962)
+        primitives.append(
+            {
+                "attributes": attributes,
+                "indices": out.add(indices, "SCALAR_U", 34963),
+                "mode": mode,
+                "extras": {"layer": layer},
+            }
+        )
+    gltf: dict = {
+        "asset": {"version": "2.0", "generator": "meshcore"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0, "translation": center.tolist()}],
+        "meshes": [{"primitives": primitives}],
+        "materials": [
+            {
+                "doubleSided": True,
+                "pbrMetallicRoughness": {"metallicFactor": 0.0, "roughnessFactor": 1.0},
+            }
+        ],
+        "buffers": [{"byteLength": out.size}],
+        "bufferViews": out.views,
+        "accessors": out.accessors,
+    }
+    if extras:
+        gltf["extras"] = extras
+    text = json.dumps(gltf, separators=(",", ":")).encode()
+    text += b" " * (-len(text) % 4)
+    binary = b"".join(out.parts)
+    total = 12 + 8 + len(text) + 8 + len(binary)
+    header = np.array([_GLB_MAGIC, 2, total, len(text), _GLB_JSON], dtype="<u4").tobytes()
+    bin_header = np.array([len(binary), _GLB_BIN], dtype="<u4").tobytes()
+    return header + text + bin_header + binary
+
+
+#: Suffixes an upload may have: meshio's, less TetGen's two-file format (its reader
+#: also loops forever on an empty ``.node``).
+UPLOAD_SUFFIXES = frozenset(meshio.extension_to_filetypes) - {".node", ".ele"}
+
+
+def from_file(data: bytes, filename: str) -> Mesh:
+    """A checked :class:`Mesh` from the bytes of a file in any format meshio reads.
+
+    The reader is chosen by the suffix of ``filename`` (as meshio does, the
+    longest known suffix wins: ``.vol.gz`` before ``.gz``; TetGen's two-file
+    ``.node``/``.ele`` is not taken); the mesh keeps
+    the cell types of :data:`~meshcore.mesh.mesh.CELL_TYPES` as
+    :func:`from_meshio` does.
+
+    Raises
+    ------
+    InputError
+        ``unsupported_format`` when meshio has no one-file reader for the suffix;
+        ``unreadable_file`` when the reader fails on the bytes; ``no_cells``
+        when the file holds no cell of a known type; and the codes of
+        :meth:`Mesh.check`.
+    """
+    name = os.path.basename(filename).lower()
+    suffixes = sorted(UPLOAD_SUFFIXES, key=len, reverse=True)
+    suffix = next((s for s in suffixes if name.endswith(s)), None)
+    if suffix is None:
+        raise InputError(
+            f"no reader for {filename!r}: name the file with one of meshio's suffixes "
+            f"({', '.join(sorted(UPLOAD_SUFFIXES))}; TetGen's .node and .ele come as two files "
+            "and cannot be uploaded as one)",
+            loc=("filename",),
+            code="unsupported_format",
+        )
+    with tempfile.TemporaryDirectory(prefix="meshcore-") as tmp:
+        path = os.path.join(tmp, "upload" + suffix)
+        with open(path, "wb") as f:
+            f.write(data)
+        try:
+            m = meshio.read(path)
+        # any reader on untrusted bytes: a 4xx, never a 500; and meshio calls
+        # sys.exit(1) when every reader of the suffix refused the file
+        except (Exception, SystemExit) as exc:  # noqa: BLE001
+            why = (
+                "refused by meshio"
+                if isinstance(exc, SystemExit)
+                else f"{type(exc).__name__}: {exc}"
+            )
+            raise InputError(
+                f"the file could not be read as {suffix}: {why}"[:500],
+                loc=("body",),
+                code="unreadable_file",
+            ) from None
+    try:
+        mesh = from_meshio(m)
+    except (ValueError, TypeError, IndexError, KeyError) as exc:
+        raise InputError(
+            f"the file's mesh does not fit the mesh shape: {exc}"[:500],
+            loc=("body",),
+            code="unreadable_file",
+        ) from None
+    if not any(len(b) for b in mesh.cells):
+        raise InputError(
+            f"the file holds no cells of a known type ({', '.join(CELL_TYPES)})",
+            loc=("body",),
+            code="no_cells",
+        )
+    return mesh.check()

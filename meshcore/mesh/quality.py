@@ -56,6 +56,7 @@ __all__ = [
     "quad_shape",
     "quad_warp",
     "report",
+    "reported_quality",
     "scaled_jacobian",
     "signed_area",
     "signed_volume",
@@ -921,6 +922,38 @@ def cell_quality(points: np.ndarray, cells: np.ndarray, cell_type: str, metric=N
     return _block_measures(pts, data, cell_type, _metric(metric, pts.shape[1]), angles=False)[0]
 
 
+def _reported(q: np.ndarray, measure: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(quality clipped into [0, 1] with invalid cells at 0, invalid mask) of one block."""
+    bad = ~(measure > 0)  # NaN (overflow) counts as invalid
+    q = np.clip(q, 0.0, 1.0, out=q)
+    q[bad | np.isnan(q)] = 0.0
+    return q, bad
+
+
+@_quiet
+def reported_quality(points: np.ndarray, cells: np.ndarray, cell_type: str) -> np.ndarray:
+    """The per-cell values that :func:`report` summarizes for one block of cells.
+
+    :func:`cell_quality` clipped into ``[0, 1]``, with invalid cells (area or
+    volume ``<= 0``, see the module docstring) at 0: the values the report's
+    min, mean, max and histogram are taken over.
+
+    Parameters
+    ----------
+    points : (n, 2) or (n, 3) float64
+    cells : (m, k) int
+    cell_type : str
+        A 2D or 3D cell type.
+
+    Returns
+    -------
+    (m,) float64 in [0, 1]
+    """
+    pts, data = _prepare(points, cells, cell_type, _2D + _3D)
+    q, measure, _ = _block_measures(pts, data, cell_type, None, angles=False)
+    return _reported(q, measure)[0]
+
+
 def _block_measures(pts, data, cell_type, L, angles=True):
     """(quality, area or volume, (min, max) angle in degrees or None) of one cell type."""
     P = _gather(pts, data)
@@ -1049,9 +1082,7 @@ def report(
         elif cell_type != "vertex":
             if len(data):
                 q, measure, (amin, amax) = _block_measures(pts, data, cell_type, L)
-                bad = ~(measure > 0)  # NaN (overflow) counts as invalid
-                q = np.clip(q, 0.0, 1.0, out=q)
-                q[bad | np.isnan(q)] = 0.0
+                q, bad = _reported(q, measure)
                 entry["invalid"] = int(np.count_nonzero(bad))
             else:
                 q, amin, amax = np.zeros(0), None, None

@@ -39,7 +39,20 @@ def mesh_file(result: dict, fmt: str) -> bytes:
         raise InputError(
             "this result holds no mesh to download", loc=("query", "format"), code="no_mesh"
         )
-    return io.to_bytes(io.from_json(result["mesh"]), fmt)
+    mesh = io.from_json(result["mesh"])
+    if fmt == "glb":  # the web page reads the report and stats from the file, not the JSON
+        return io.to_glb(mesh, {k: result[k] for k in ("quality", "stats") if k in result})
+    return io.to_bytes(mesh, fmt)
+
+
+def mesh_of_file(data: bytes, filename: str) -> dict:
+    """The JSON mesh of DESIGN.md read from a file in any format meshio reads.
+
+    The reader is picked by ``filename``'s suffix. Raises :class:`InputError`:
+    ``unsupported_format`` (no reader for the suffix), ``unreadable_file``,
+    ``no_cells``, or a mesh check's code (see :func:`meshcore.mesh.io.from_file`).
+    """
+    return io.to_json(io.from_file(data, filename))
 
 
 @dataclass(frozen=True)

@@ -392,7 +392,7 @@ class TestResult:
         assert report["triangle"]["angle"]["min"] == pytest.approx(45)
         assert report["triangle"]["angle"]["max"] == pytest.approx(90)
 
-    @pytest.mark.parametrize("fmt", sorted(io.FORMATS))
+    @pytest.mark.parametrize("fmt", sorted(set(io.FORMATS) - {"glb"}))  # glb: test_convert.py
     def test_download_reads_back(self, client, fmt):
         mesh = {
             "points": [[0, 0], [1, 0], [2, 0], [0, 1], [1, 1], [2, 1]],

@@ -92,7 +92,7 @@ def fits(mesh: Mesh, fmt: str) -> bool:
     return types is None or {b.type for b in mesh.cells} <= types
 
 
-@pytest.mark.parametrize("fmt", list(io.FORMATS))
+@pytest.mark.parametrize("fmt", [f for f in io.FORMATS if f != "glb"])  # glb: test_glb.py
 @pytest.mark.parametrize("make", [mesh_2d, mesh_3d], ids=["2d", "3d"])
 def test_round_trip_keeps_points_and_cells(fmt: str, make) -> None:
     mesh = make()
