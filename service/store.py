@@ -7,8 +7,12 @@ Layout under the data directory::
     jobs/<id>/result.json   the result, written atomically (temporary file + rename)
     jobs/<id>/result.<fmt>  downloads converted from it, cached the same way
 
-The store is used from the event-loop thread only; every statement is short.
-Each change of a row bumps its ``version``, which is the job's ``ETag``.
+The store's rows are used from the event-loop thread only; every statement
+is short. Each change of a row bumps its ``version``, which is the job's
+``ETag``. Result files are written from worker threads: removing a job's
+files waits for the writes in flight, and a write into a removed job's
+folder leaves nothing behind (DELETE or expiry racing a result or a
+conversion).
 """
 
 from __future__ import annotations
@@ -17,8 +21,10 @@ import json
 import os
 import shutil
 import sqlite3
+import threading
 import time
 import uuid
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -107,6 +113,9 @@ class Store:
         self._db.execute("PRAGMA journal_mode=WAL")
         self._db.execute("PRAGMA synchronous=NORMAL")
         self._db.executescript(_SCHEMA)
+        self._files = threading.Condition()  # guards the two below
+        self._writers: Counter[str] = Counter()  # result writes in flight, by job
+        self._removing: set[str] = set()  # jobs whose folder is being removed
 
     def close(self) -> None:
         self._db.close()
@@ -132,8 +141,37 @@ class Store:
     def read_params(self, job_id: str) -> bytes:
         return self.params_path(job_id).read_bytes()
 
-    def write_result(self, job_id: str, data: bytes, fmt: str = "json") -> None:
-        write_atomically(self.result_path(job_id, fmt), data)
+    def write_result(self, job_id: str, data: bytes, fmt: str = "json") -> bool:
+        """Write a result file (blocking I/O); False, writing nothing, when the job's
+        folder is gone or being removed."""
+        with self._files:
+            if job_id in self._removing or not self.job_dir(job_id).is_dir():
+                return False
+            self._writers[job_id] += 1
+        try:
+            write_atomically(self.result_path(job_id, fmt), data)
+            return True
+        except FileNotFoundError:  # the folder was removed under the write
+            return False
+        finally:
+            with self._files:
+                self._writers[job_id] -= 1
+                if not self._writers[job_id]:
+                    del self._writers[job_id]
+                self._files.notify_all()
+
+    def remove_files(self, job_id: str) -> None:
+        """Remove the job's folder once the result writes in flight have ended
+        (blocking: run it off the event loop when a write may be running)."""
+        with self._files:
+            self._removing.add(job_id)
+            self._files.wait_for(lambda: not self._writers[job_id])
+            self._writers.pop(job_id, None)
+        try:
+            shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
+        finally:
+            with self._files:
+                self._removing.discard(job_id)
 
     # -- rows -------------------------------------------------------------------
 
@@ -160,21 +198,36 @@ class Store:
         method: str,
         idempotency_key: str | None,
         body_hash: str,
-    ) -> Job:
-        """Commit a queued row for params written by :meth:`write_params`.
+        max_unfinished: int,
+    ) -> Job | None:
+        """Commit a queued row for params written by :meth:`write_params`, unless the
+        client has ``max_unfinished`` queued or running jobs (None).
 
-        When another request committed the same ``(client, idempotency_key)``
-        first, this job's files are removed and that job is returned instead.
+        The count and the insert are one statement, so concurrent submits
+        cannot pass the limit together. When another request committed the
+        same ``(client, idempotency_key)`` first, that job is returned instead.
+        Either way, this job's files are removed when no row was inserted.
         """
         inserted = self._db.execute(
             "INSERT INTO jobs (id, client, method, status, created_at, idempotency_key,"
-            " body_hash) VALUES (?, ?, ?, 'queued', ?, ?, ?)"
+            " body_hash) SELECT ?, ?, ?, 'queued', ?, ?, ?"
+            " WHERE (SELECT COUNT(*) FROM jobs WHERE client = ?"
+            " AND status IN ('queued', 'running')) < ?"
             " ON CONFLICT (client, idempotency_key) DO NOTHING",
-            (job_id, client, method, time.time(), idempotency_key, body_hash),
+            (
+                job_id,
+                client,
+                method,
+                time.time(),
+                idempotency_key,
+                body_hash,
+                client,
+                max_unfinished,
+            ),
         ).rowcount
         if not inserted:
             shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
-            return self.by_idempotency_key(client, idempotency_key)
+            return self.by_idempotency_key(client, idempotency_key) if idempotency_key else None
         return self.get(job_id)
 
     def get(self, job_id: str, client: str | None = None) -> Job | None:
@@ -302,22 +355,26 @@ class Store:
                 failed += self.finish(job.id, "failed", error)
         return requeued, failed
 
-    def delete(self, job_id: str) -> None:
-        """Remove the job's row and its files."""
+    def delete_row(self, job_id: str) -> None:
+        """Remove the job's row (its files stay: see :meth:`remove_files`)."""
         self._db.execute("DELETE FROM jobs WHERE id = ?", (job_id,))
-        shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
 
-    def expire(self, now: float, retention: float) -> tuple[int, int]:
+    def delete(self, job_id: str) -> None:
+        """Remove the job's row, then its files."""
+        self.delete_row(job_id)
+        self.remove_files(job_id)
+
+    def expire(self, now: float, retention: float) -> tuple[list[str], list[str]]:
         """Drop results older than ``retention`` and rows older than twice that.
 
-        Returns (results expired, jobs removed).
+        Returns the ids of (results expired, jobs removed).
         """
         old = self._db.execute(
             "SELECT id FROM jobs WHERE finished_at IS NOT NULL AND finished_at < ? AND expired = 0",
             (now - retention,),
         ).fetchall()
         for (job_id,) in old:
-            shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
+            self.remove_files(job_id)
             self._db.execute(
                 "UPDATE jobs SET expired = 1, version = version + 1 WHERE id = ?", (job_id,)
             )
@@ -327,4 +384,4 @@ class Store:
         ).fetchall()
         for (job_id,) in ancient:
             self.delete(job_id)
-        return len(old), len(ancient)
+        return [j for (j,) in old], [j for (j,) in ancient]

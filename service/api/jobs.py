@@ -11,11 +11,11 @@ from collections.abc import AsyncIterator
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Header, Query, Response
-from fastapi.responses import FileResponse
 from fastapi.sse import EventSourceResponse, ServerSentEvent
 from pydantic import ConfigDict, Field, create_model
 
 from service.deps import ClientDep, JobDep, ManagerDep, SettingsDep, StoreDep
+from service.files import OpenedFileResponse
 from service.methods.registry import FORMATS, InputError, Registry, mesh_file
 from service.preview import render_svg
 from service.problems import (
@@ -32,6 +32,7 @@ from service.schemas import JobOut, JobPage, ProblemOut, ResultOut
 from service.store import Job
 
 MAX_WAIT = 30.0
+MAX_SEQ = 2**62  # page tokens beyond it were not given out (and overflow SQLite's integers)
 Format = Literal[tuple(FORMATS)]  # type: ignore[valid-type]
 
 
@@ -71,7 +72,7 @@ def _seq_of(token: str) -> int:
     try:
         raw = base64.urlsafe_b64decode(token + "=" * (-len(token) % 4)).decode()
         prefix, _, seq = raw.partition(":")
-        if prefix != "seq" or not seq.isdigit():
+        if prefix != "seq" or not seq.isdigit() or int(seq) > MAX_SEQ:
             raise ValueError(raw)
         return int(seq)
     except (ValueError, binascii.Error, UnicodeDecodeError):
@@ -81,6 +82,12 @@ def _seq_of(token: str) -> int:
                 {"loc": ["query", "page_token"], "msg": "invalid token", "type": "value_error"}
             ],
         ) from None
+
+
+def _etag_matches(if_none_match: str, etag: str) -> bool:
+    """``If-None-Match`` holds ``etag`` or is ``*`` (weak comparison, RFC 9110 §13.1.2)."""
+    tags = [t.strip() for t in if_none_match.split(",")]
+    return "*" in tags or etag in (t.removeprefix("W/") for t in tags)
 
 
 def _job_response(job: Job, response: Response) -> JobOut:
@@ -119,15 +126,17 @@ def router(registry: Registry) -> APIRouter:
     ) -> JobOut:
         """Queue a job; with ``?wait=S`` answer 200 with the finished job if it ends by then.
 
-        A repeated ``Idempotency-Key`` returns the first job for the same body
-        and answers 422 for a different one.
+        A repeated ``Idempotency-Key`` returns the first job (200) for the same
+        body and answers 422 for a different one; an empty key is no key.
         """
+        idempotency_key = idempotency_key or None
+        replayed = False
         params = body.params
         params_json = params.model_dump_json().encode()
         body_hash = hashlib.sha256(body.method.encode() + b"\0" + params_json).hexdigest()
         job = store.by_idempotency_key(client, idempotency_key) if idempotency_key else None
         if job is not None:
-            response.headers["Idempotent-Replayed"] = "true"
+            replayed = True
         else:
             try:  # deep checks (a million-vertex domain takes a while): off the event loop
                 await asyncio.to_thread(params.check)
@@ -139,23 +148,28 @@ def router(registry: Registry) -> APIRouter:
                     f"the job has {points} input points; this service takes at most "
                     f"{settings.max_points} (MESHSERVICE_MAX_POINTS)"
                 )
-            if store.unfinished_count(client) >= settings.max_queued:
-                raise TooManyJobs(
-                    f"you have {settings.max_queued} unfinished jobs (MESHSERVICE_MAX_QUEUED); "
-                    "wait for some to finish",
-                    headers={"Retry-After": "5"},
-                )
+            too_many = TooManyJobs(
+                f"you have {settings.max_queued} unfinished jobs (MESHSERVICE_MAX_QUEUED); "
+                "wait for some to finish",
+                headers={"Retry-After": "5"},
+            )
+            if store.unfinished_count(client) >= settings.max_queued:  # early, before writing
+                raise too_many
             job_id = await asyncio.to_thread(store.write_params, params_json)
-            job = store.create(
+            job = store.create(  # counts again and inserts in one statement
                 job_id,
                 client=client,
                 method=body.method,
                 idempotency_key=idempotency_key,
                 body_hash=body_hash,
+                max_unfinished=settings.max_queued,
             )
-            if job.id != job_id:  # another request with this key committed first
-                response.headers["Idempotent-Replayed"] = "true"
+            if job is None:
+                raise too_many
+            replayed = job.id != job_id  # another request with this key committed first
             manager.wake()
+        if replayed:
+            response.headers["Idempotent-Replayed"] = "true"
         if job.body_hash != body_hash:
             raise Invalid(
                 "this Idempotency-Key was used for a different request body",
@@ -169,7 +183,7 @@ def router(registry: Registry) -> APIRouter:
             )
         if wait > 0 and not job.finished:
             job = await manager.wait(job.id, lambda j: j.finished, wait) or job
-        if job.finished:
+        if job.finished or replayed:
             response.status_code = 200
         return _job_response(job, response)
 
@@ -216,7 +230,7 @@ def router(registry: Registry) -> APIRouter:
                 tag = if_none_match
 
                 def changed(j: Job) -> bool:
-                    return j.etag != tag
+                    return not _etag_matches(tag, j.etag)
             else:
                 status = job.status
 
@@ -226,7 +240,7 @@ def router(registry: Registry) -> APIRouter:
             job = await manager.wait(job.id, changed, wait)
             if job is None:
                 raise NotFound("the job was deleted")
-        if if_none_match is not None and if_none_match == job.etag:
+        if if_none_match is not None and _etag_matches(if_none_match, job.etag):
             return Response(status_code=304, headers={"ETag": job.etag})
         return _job_response(job, response)
 
@@ -276,6 +290,11 @@ def router(registry: Registry) -> APIRouter:
         await manager.delete(job.id)
         return Response(status_code=204)
 
+    def _removed(job: Job, store: Any) -> Exception:
+        if store.get(job.id) is None:
+            return NotFound("the job was deleted")
+        return Gone(f"the result of job {job.id} has expired and was removed")
+
     def _result_path(job: Job, store: Any) -> Any:
         if job.expired:
             raise Gone(f"the result of job {job.id} has expired and was removed")
@@ -310,22 +329,26 @@ def router(registry: Registry) -> APIRouter:
         format: Annotated[Format | None, Query(description="Download the mesh.")] = None,
     ) -> Response:
         path = _result_path(job, store)
-        if format is None:
-            return FileResponse(path, media_type="application/json")
-        spec = FORMATS[format]
-        target = store.result_path(job.id, format)
-        if not target.exists():
+        try:
+            if format is None:
+                return OpenedFileResponse(path, media_type="application/json")
+            spec = FORMATS[format]
+            target = store.result_path(job.id, format)
+            if not target.exists():
 
-            def convert() -> None:
-                data = json.loads(path.read_bytes())
-                store.write_result(job.id, mesh_file(data, format), format)
+                def convert() -> bool:
+                    data = json.loads(path.read_bytes())
+                    return store.write_result(job.id, mesh_file(data, format), format)
 
-            try:
-                await asyncio.to_thread(convert)
-            except InputError as exc:
-                raise from_input_error(exc) from None
-        filename = f"{job.id}{spec.suffix}"
-        return FileResponse(target, media_type=spec.media_type, filename=filename)
+                try:
+                    if not await asyncio.to_thread(convert):
+                        raise FileNotFoundError(target)
+                except InputError as exc:
+                    raise from_input_error(exc) from None
+            filename = f"{job.id}{spec.suffix}"
+            return OpenedFileResponse(target, media_type=spec.media_type, filename=filename)
+        except FileNotFoundError:  # deleted or expired meanwhile
+            raise _removed(job, store) from None
 
     @api.get(
         "/{job_id}/preview.svg",
@@ -347,6 +370,8 @@ def router(registry: Registry) -> APIRouter:
             svg = await asyncio.to_thread(draw)
         except InputError as exc:
             raise from_input_error(exc) from None
+        except FileNotFoundError:  # deleted or expired meanwhile
+            raise _removed(job, store) from None
         return Response(svg, media_type="image/svg+xml")
 
     return api
