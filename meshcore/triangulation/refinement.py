@@ -344,7 +344,8 @@ def _expected_points(domain: Domain, sizing: _Sizing) -> int:
         inv = 1.0 / sizing.H[0, 0] ** 2
     else:
         inv = float(np.mean(1.0 / sizing.H**2))
-    return int(min(domain.area * inv / (math.sqrt(3.0) / 2.0), _ESTIMATE_CAP))
+    points = domain.area * inv / (math.sqrt(3.0) / 2.0)
+    return _ESTIMATE_CAP if math.isnan(points) else int(min(points, _ESTIMATE_CAP))  # 0 * inf
 
 
 def estimated_triangles(domain, *, max_area=None, size=None, size_field=None) -> int:
