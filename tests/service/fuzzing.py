@@ -82,7 +82,10 @@ LENGTHS = POSITIONS | {
 def _numbers(obj: Any, keys: set[str], key: str | None = None, inside: bool = False):
     """(container, index) of every number under a key in ``keys``."""
     inside = inside or key in keys
-    items = obj.items() if isinstance(obj, dict) else enumerate(obj) if isinstance(obj, list) else []
+    if isinstance(obj, dict):
+        items = obj.items()
+    else:
+        items = enumerate(obj) if isinstance(obj, list) else ()
     for k, v in items:
         if isinstance(v, bool):
             continue

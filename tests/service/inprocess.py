@@ -69,13 +69,8 @@ class App:
         return self.manager.store
 
     async def submit(self, method: str, job_params: dict, **kwargs) -> httpx.Response:
-        return await self.client.post("/v1/jobs", json={"method": method, "params": job_params}, **kwargs)
-
-    async def finished(self, job_id: str, timeout: float = 30) -> dict:
-        r = await self.client.get(f"/v1/jobs/{job_id}", params={"wait": timeout})
-        job = r.json()
-        assert job["status"] in ("succeeded", "failed", "cancelled"), job
-        return job
+        body = {"method": method, "params": job_params}
+        return await self.client.post("/v1/jobs", json=body, **kwargs)
 
 
 @asynccontextmanager

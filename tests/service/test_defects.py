@@ -2,8 +2,9 @@
 
 Races are timed in process (:mod:`tests.service.inprocess`): the write or
 the conversion is held at a gate while the DELETE or the expiry runs. The
-rest go through the same app and routes; the stray Dask cancel runs on a
-real scheduler.
+rest go through the same app and routes. The stray Dask cancel runs on a
+real scheduler, in ``tests/service/test_dask.py`` (its cluster):
+``test_run_cancelled_by_the_scheduler_is_requeued``.
 """
 
 from __future__ import annotations
@@ -21,10 +22,8 @@ import service.api.jobs
 import service.store
 from service.methods.registry import default_registry
 from service.runner import JobFailed, run_job
-from tests.service.conftest import ROOT, wait_status
+from tests.service.conftest import ROOT
 from tests.service.inprocess import Gate, running_app
-from tests.service.test_dask import cluster, dask_server  # noqa: F401 (fixtures)
-from tests.service.test_jobs import submit, wait_file
 from tests.service.testing_methods import SQUARE
 
 RECT = {"type": "Polygon", "coordinates": [[[0, 0], [2, 0], [2, 1], [0, 1], [0, 0]]]}
@@ -313,24 +312,3 @@ def test_replayed_unfinished_job_answers_as_openapi_says(tmp_path):
             app.executor.gate.set()
 
     run(scenario())
-
-
-def test_run_cancelled_by_the_dask_scheduler_is_requeued(dask_server, cluster, tmp_path):  # noqa: F811
-    from distributed import Client, Future
-
-    marker = tmp_path / "pids"
-    with dask_server.client() as c:
-        job = submit(c, "sleep", {"seconds": 1, "marker": str(marker)}).json()
-        wait_file(marker, 60)
-        with Client(cluster.address, timeout=30) as other:
-
-            def keys(dask_scheduler):
-                return [k for k in dask_scheduler.tasks if str(k).startswith("meshservice-")]
-
-            running = [k for k in other.run_on_scheduler(keys) if job["id"] in k]
-            assert len(running) == 1
-            other.cancel([Future(running[0], client=other)], force=True)
-        done = wait_status(c, job["id"], {"succeeded", "failed", "cancelled"}, timeout=60)
-        assert done["status"] == "succeeded", done
-        assert done["attempt"] == 2
-        assert len(marker.read_text().split()) == 2  # it ran again
