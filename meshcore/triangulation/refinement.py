@@ -991,7 +991,8 @@ def triangulate(
         # below 60 degrees above that (their rule, as Triangle: terminates).
         small = min_angle if min_angle <= GUARANTEED_MIN_ANGLE else MPW_SMALL_ANGLE
         prm[cdt.PR_COS] = math.cos(math.radians(small))
-        prm[cdt.PR_OFF] = TOL.offcenter / math.tan(math.radians(min_angle) / 2.0)
+        half = math.tan(math.radians(min_angle) / 2.0)  # 0 for a subnormal min_angle
+        prm[cdt.PR_OFF] = TOL.offcenter / half if half > 0 else 0.0  # 0: circumcentres
         prm[cdt.PR_AREA] = max_area if max_area is not None else np.inf
         prm[cdt.PR_SIZE2] = TOL.circumradius**2 if sizing is not None else 0.0
         prm[cdt.PR_KEEP] = 1.0 if keep_boundary else 0.0
