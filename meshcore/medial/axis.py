@@ -314,7 +314,8 @@ def _sampled(domain: Domain, h: float | None):
         count = np.ones(len(seg), dtype=np.int64)
     else:
         length = np.hypot(*(b - a).T)
-        wanted = np.maximum(1, np.ceil(length / h))  # float: a tiny h overflows int64
+        with np.errstate(over="ignore"):  # float, inf for a tiny h: int64 would overflow
+            wanted = np.maximum(1, np.ceil(length / h))
         total = float(wanted.sum())
         if total > MAX_SAMPLES:
             raise InputError(
