@@ -18,6 +18,7 @@ running jobs are stopped and re-queued, so a restart loses nothing.
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
 import contextlib
 import logging
 import time
@@ -175,13 +176,17 @@ class JobManager:
         task = self._running.get(job_id)
         if task is not None:
             await asyncio.gather(task, return_exceptions=True)
-        self.store.delete(job_id)
+        self.store.delete_row(job_id)
         self._notify(job_id)
+        # a result write the cancel abandoned (or a conversion) may still run in its thread
+        await asyncio.to_thread(self.store.remove_files, job_id)
 
     # -- background tasks -----------------------------------------------------------
 
     async def _dispatch(self) -> None:
-        while True:
+        # not ``while True``: Python 3.11's wait_for below may swallow close()'s cancel
+        # when the wakeup fires at the same moment (a run ending as it is stopped)
+        while not self._closing:
             self._wakeup.clear()
             free = self.executor.capacity - len(self._running)
             if free > 0:
@@ -200,8 +205,10 @@ class JobManager:
         interval = min(60.0, self.settings.retention / 4)
         while True:
             expired, removed = self.store.expire(time.time(), self.settings.retention)
+            for job_id in (*expired, *removed):
+                self._notify(job_id)
             if expired or removed:
-                log.info("expiry: %d results expired, %d jobs removed", expired, removed)
+                log.info("expiry: %d results expired, %d jobs removed", len(expired), len(removed))
             await asyncio.sleep(interval)
 
     def _progress(self, job_id: str) -> Callable[[float, str], None]:
@@ -217,6 +224,28 @@ class JobManager:
                 self._notify(job_id)
 
         return count
+
+    def _lost(self, job_id: str, exc: BaseException) -> None:
+        """Requeue (or fail, out of attempts) a running job whose run was cancelled by
+        neither a user nor the shutdown, e.g. a Dask future the scheduler cancelled."""
+        job = self.store.get(job_id)
+        if job is None or job.status != "running":
+            return
+        reason = str(exc) or type(exc).__name__
+        log.warning("job %s: its run was cancelled by the executor (%s)", job_id, reason)
+        if job.attempt < self.settings.max_attempts:
+            self.store.requeue(job_id)
+        else:
+            self.store.finish(
+                job_id,
+                "failed",
+                problem_document(
+                    503,
+                    "run_cancelled",
+                    "The job's runs were cancelled",
+                    f"the executor cancelled each of its {job.attempt} runs (last: {reason})",
+                ),
+            )
 
     async def _execute(self, job_id: str, method: str, attempt: int) -> None:
         started = time.monotonic()
@@ -263,10 +292,12 @@ class JobManager:
                     f"the job ran longer than the time limit of {limit:g} s and was stopped",
                 ),
             )
-        except asyncio.CancelledError:
+        except (asyncio.CancelledError, concurrent.futures.CancelledError) as exc:
             status = "cancelled"
             if self._closing:
                 self.store.requeue(job_id)
+            else:  # not a user's cancel (the row would say so): the executor dropped the run
+                self._lost(job_id, exc)
         except Exception:
             log.exception("job %s: unexpected error in the service", job_id)
             self.store.finish(

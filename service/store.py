@@ -16,7 +16,9 @@ when it is written, and checked before it is served (a file truncated or
 changed on disk is never served as a result: :class:`DamagedFile`). A
 database that SQLite cannot read refuses to open (:class:`StoreDamaged`):
 the service never starts empty over it. A full disk while writing a result
-leaves no partial file (:class:`DiskFull`).
+leaves no partial file (:class:`DiskFull`). Removing a job's files waits
+for the writes in flight, and a write into a removed job's folder leaves
+nothing behind (DELETE or expiry racing a result or a conversion).
 """
 
 from __future__ import annotations
@@ -28,8 +30,10 @@ import logging
 import os
 import shutil
 import sqlite3
+import threading
 import time
 import uuid
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -171,6 +175,9 @@ class Store:
                 "restore it from a backup, or move it aside to start with an empty store"
             ) from exc
         self._verified: set[tuple] = set()
+        self._files = threading.Condition()  # guards the two below
+        self._writers: Counter[str] = Counter()  # result writes in flight, by job
+        self._removing: set[str] = set()  # jobs whose folder is being removed
 
     def close(self) -> None:
         self._db.close()
@@ -196,14 +203,32 @@ class Store:
     def read_params(self, job_id: str) -> bytes:
         return self.params_path(job_id).read_bytes()
 
-    def write_result(self, job_id: str, data: bytes, fmt: str = "json") -> None:
-        """Write a result file atomically and record its size and SHA-256 (blocking I/O)."""
-        path = self.result_path(job_id, fmt)
-        write_atomically(path, data)
-        self._db.execute(
-            "INSERT OR REPLACE INTO files (job_id, name, size, sha256) VALUES (?, ?, ?, ?)",
-            (job_id, path.name, len(data), hashlib.sha256(data).hexdigest()),
-        )
+    def write_result(self, job_id: str, data: bytes, fmt: str = "json") -> bool:
+        """Write a result file atomically and record its size and SHA-256 (blocking I/O).
+
+        False, writing nothing, when the job's folder is gone or being removed;
+        :class:`DiskFull` when it does not fit.
+        """
+        with self._files:
+            if job_id in self._removing or not self.job_dir(job_id).is_dir():
+                return False
+            self._writers[job_id] += 1
+        try:
+            path = self.result_path(job_id, fmt)
+            write_atomically(path, data)
+            self._db.execute(
+                "INSERT OR REPLACE INTO files (job_id, name, size, sha256) VALUES (?, ?, ?, ?)",
+                (job_id, path.name, len(data), hashlib.sha256(data).hexdigest()),
+            )
+            return True
+        except FileNotFoundError:  # the folder was removed under the write
+            return False
+        finally:
+            with self._files:
+                self._writers[job_id] -= 1
+                if not self._writers[job_id]:
+                    del self._writers[job_id]
+                self._files.notify_all()
 
     def verified_result(self, job_id: str, fmt: str = "json") -> Path | None:
         """The result file, checked against its record (blocking I/O); None if absent.
@@ -237,6 +262,20 @@ class Store:
         path.unlink(missing_ok=True)
         self._db.execute("DELETE FROM files WHERE job_id = ? AND name = ?", (job_id, path.name))
 
+    def remove_files(self, job_id: str) -> None:
+        """Remove the job's folder once the result writes in flight have ended
+        (blocking: run it off the event loop when a write may be running)."""
+        with self._files:
+            self._removing.add(job_id)
+            self._files.wait_for(lambda: not self._writers[job_id])
+            self._writers.pop(job_id, None)
+        try:
+            shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
+            self._db.execute("DELETE FROM files WHERE job_id = ?", (job_id,))
+        finally:
+            with self._files:
+                self._removing.discard(job_id)
+
     # -- rows -------------------------------------------------------------------
 
     def _row(self, row: sqlite3.Row | None) -> Job | None:
@@ -268,21 +307,36 @@ class Store:
         method: str,
         idempotency_key: str | None,
         body_hash: str,
-    ) -> Job:
-        """Commit a queued row for params written by :meth:`write_params`.
+        max_unfinished: int,
+    ) -> Job | None:
+        """Commit a queued row for params written by :meth:`write_params`, unless the
+        client has ``max_unfinished`` queued or running jobs (None).
 
-        When another request committed the same ``(client, idempotency_key)``
-        first, this job's files are removed and that job is returned instead.
+        The count and the insert are one statement, so concurrent submits
+        cannot pass the limit together. When another request committed the
+        same ``(client, idempotency_key)`` first, that job is returned instead.
+        Either way, this job's files are removed when no row was inserted.
         """
         inserted = self._db.execute(
             "INSERT INTO jobs (id, client, method, status, created_at, idempotency_key,"
-            " body_hash) VALUES (?, ?, ?, 'queued', ?, ?, ?)"
+            " body_hash) SELECT ?, ?, ?, 'queued', ?, ?, ?"
+            " WHERE (SELECT COUNT(*) FROM jobs WHERE client = ?"
+            " AND status IN ('queued', 'running')) < ?"
             " ON CONFLICT (client, idempotency_key) DO NOTHING",
-            (job_id, client, method, time.time(), idempotency_key, body_hash),
+            (
+                job_id,
+                client,
+                method,
+                time.time(),
+                idempotency_key,
+                body_hash,
+                client,
+                max_unfinished,
+            ),
         ).rowcount
         if not inserted:
             shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
-            return self.by_idempotency_key(client, idempotency_key)
+            return self.by_idempotency_key(client, idempotency_key) if idempotency_key else None
         return self.get(job_id)
 
     def get(self, job_id: str, client: str | None = None) -> Job | None:
@@ -410,24 +464,26 @@ class Store:
                 failed += self.finish(job.id, "failed", error)
         return requeued, failed
 
-    def delete(self, job_id: str) -> None:
-        """Remove the job's row and its files."""
+    def delete_row(self, job_id: str) -> None:
+        """Remove the job's row (its files stay: see :meth:`remove_files`)."""
         self._db.execute("DELETE FROM jobs WHERE id = ?", (job_id,))
-        self._db.execute("DELETE FROM files WHERE job_id = ?", (job_id,))
-        shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
 
-    def expire(self, now: float, retention: float) -> tuple[int, int]:
+    def delete(self, job_id: str) -> None:
+        """Remove the job's row, then its files."""
+        self.delete_row(job_id)
+        self.remove_files(job_id)
+
+    def expire(self, now: float, retention: float) -> tuple[list[str], list[str]]:
         """Drop results older than ``retention`` and rows older than twice that.
 
-        Returns (results expired, jobs removed).
+        Returns the ids of (results expired, jobs removed).
         """
         old = self._db.execute(
             "SELECT id FROM jobs WHERE finished_at IS NOT NULL AND finished_at < ? AND expired = 0",
             (now - retention,),
         ).fetchall()
         for (job_id,) in old:
-            shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
-            self._db.execute("DELETE FROM files WHERE job_id = ?", (job_id,))
+            self.remove_files(job_id)
             self._db.execute(
                 "UPDATE jobs SET expired = 1, version = version + 1 WHERE id = ?", (job_id,)
             )
@@ -437,4 +493,4 @@ class Store:
         ).fetchall()
         for (job_id,) in ancient:
             self.delete(job_id)
-        return len(old), len(ancient)
+        return [j for (j,) in old], [j for (j,) in ancient]

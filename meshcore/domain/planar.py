@@ -47,7 +47,7 @@ indices are those of the input lists.
     that is not two numbers (3D positions are refused: the domain is planar).
 ``non_finite``, ``out_of_range``
     NaN or infinite coordinates; magnitudes above ``1e150`` (the area would
-    overflow).
+    overflow); a diameter below ``1e-100`` (it would underflow), at ``("coordinates",)``.
 ``too_few_points``
     A ring with fewer than 3 distinct points, a polyline with fewer than 2.
 ``duplicate_point``
@@ -111,7 +111,7 @@ from numba import njit
 
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d, orient2d_scalar
-from meshcore.geometry.tolerances import MAX_COORDINATE
+from meshcore.geometry.tolerances import MAX_COORDINATE, MIN_DIAMETER
 
 __all__ = ["Domain", "parse_domain"]
 
@@ -1106,6 +1106,13 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
     diameter = math.hypot(
         float(pts[:, 0].max() - pts[:, 0].min()), float(pts[:, 1].max() - pts[:, 1].min())
     )
+    if diameter < MIN_DIAMETER:
+        raise InputError(
+            f"the domain spans only {diameter:.3g}, below {MIN_DIAMETER:g}: its area and the "
+            "methods' squared lengths would underflow float64; scale it up",
+            loc=("coordinates",),
+            code="out_of_range",
+        )
     return Domain(
         points=points,
         ring_offsets=offsets,

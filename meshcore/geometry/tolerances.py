@@ -3,7 +3,8 @@
 Every method decides "the same point" and "too large for float64" the same
 way: a distance below :attr:`Tolerances.coincident` times the diameter of
 the input's bounding box is zero, and no coordinate may exceed
-:data:`MAX_COORDINATE` (squares of coordinate differences stay finite).
+:data:`MAX_COORDINATE` (squares of coordinate differences stay finite) nor,
+where squares are formed, may an input be smaller than :data:`MIN_DIAMETER`.
 Signs never use a tolerance: they come exactly from
 :mod:`meshcore.geometry.predicates`. Tolerances that belong to one
 algorithm only (a refinement's split fractions, a search cap) stay in a
@@ -17,10 +18,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["MAX_COORDINATE", "TOLERANCES", "Tolerances"]
+__all__ = ["MAX_COORDINATE", "MIN_DIAMETER", "TOLERANCES", "Tolerances"]
 
 MAX_COORDINATE = 1e150
 """Largest coordinate magnitude accepted: squared differences stay below 1e301."""
+
+MIN_DIAMETER = 1e-100
+"""Smallest input diameter accepted where squared distances are formed (circumcentres,
+radii): a feature 1e-50 of the diameter still squares to a normal float64 (above 1e-300)."""
 
 
 @dataclass(frozen=True)

@@ -111,6 +111,7 @@ from meshcore.delaunay.admissible import admissible_segments, edges_present
 from meshcore.delaunay.kernel2d import delaunay
 from meshcore.domain.planar import Domain, parse_domain, ray_parity
 from meshcore.errors import AlgorithmError, InputError
+from meshcore.geometry.tolerances import MIN_DIAMETER
 from meshcore.mesh import CellBlock, Mesh
 
 __all__ = [
@@ -313,15 +314,17 @@ def _sampled(domain: Domain, h: float | None):
         count = np.ones(len(seg), dtype=np.int64)
     else:
         length = np.hypot(*(b - a).T)
-        count = np.maximum(1, np.ceil(length / h)).astype(np.int64)
-        total = int(count.sum())
+        with np.errstate(over="ignore"):  # float, inf for a tiny h: int64 would overflow
+            wanted = np.maximum(1, np.ceil(length / h))
+        total = float(wanted.sum())
         if total > MAX_SAMPLES:
             raise InputError(
                 f"h = {h:.6g} would sample the boundary (perimeter {length.sum():.6g}) with "
-                f"{total:,} points; at most {MAX_SAMPLES:,}: give a larger h",
+                f"{total:.3g} points; at most {MAX_SAMPLES:,}: give a larger h",
                 loc=("h",),
                 code="too_many_samples",
             )
+        count = wanted.astype(np.int64)
     order = _travel_order(domain)
     ring_of_seg = domain.segment_ring[order]
     last_of_ring = np.r_[ring_of_seg[1:] != ring_of_seg[:-1], True]
@@ -1252,6 +1255,14 @@ def medial_axis(
         domain, cloud_ids = _cloud_domain(points)
     elif h is None:
         h = _default_h(domain)
+    if not domain.diameter >= MIN_DIAMETER:
+        raise InputError(
+            f"the {'points span' if points is not None else 'domain spans'} only "
+            f"{domain.diameter:.3g}: circumcentres need a diameter of at least {MIN_DIAMETER:g} "
+            "(squared distances underflow float64); scale the input up",
+            loc=("points",) if points is not None else ("domain",),
+            code="out_of_range",
+        )
     report(0.05, "sampling the boundary")
     pts, succ, source = _sampled(domain, h)
     h_used = float(h) if h is not None else float(np.hypot(*(pts[succ] - pts).T).max())

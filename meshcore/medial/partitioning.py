@@ -779,7 +779,8 @@ def _quads_on(part: Partition, size: float | None, levels: int | None):
     else:
         length = np.array([np.hypot(*np.diff(xy, axis=0).T).sum() for xy in seg_xy])
         count = np.zeros(n_classes, dtype=np.int64)
-        np.maximum.at(count, label, np.maximum(1, np.ceil(length / size)).astype(np.int64))
+        per_side = np.clip(np.ceil(length / size), 1, MAX_QUADS + 1)  # tiny sizes: no int overflow
+        np.maximum.at(count, label, per_side.astype(np.int64))
     n_of = count[label]
     total = sum(int(n_of[s0[0]] * n_of[s1]) for s0, s1, _, _ in patches)
     if total > MAX_QUADS:

@@ -70,7 +70,7 @@ import shapely
 
 from meshcore.domain.planar import Domain
 from meshcore.errors import InputError
-from meshcore.geometry.tolerances import MAX_COORDINATE
+from meshcore.geometry.tolerances import MAX_COORDINATE, MIN_DIAMETER
 
 __all__ = ["TOLERANCES", "MedialTransform", "Tolerances", "checked_axis", "medial_transform"]
 
@@ -245,6 +245,13 @@ def checked_axis(nodes, radius, edges, boundary=None, h=None):
             "every radius is zero: the union of the disks is empty",
             loc=("radius",),
             code="empty_union",
+        )
+    if r.max() < MIN_DIAMETER:
+        raise InputError(
+            f"the largest radius is {r.max():.3g}, below {MIN_DIAMETER:g}: the disks' areas "
+            "underflow float64; scale the axis up",
+            loc=("radius", int(np.argmax(r))),
+            code="out_of_range",
         )
     if boundary is not None and not isinstance(boundary, Domain):
         raise InputError(
@@ -444,7 +451,8 @@ def medial_transform(
         ``("edges",)``), ``empty`` (no node), ``non_finite`` (``("nodes", i,
         c)``, ``("radius", i)``), ``shape_mismatch`` (radius count),
         ``negative_radius`` (``("radius", i)``), ``out_of_range`` (a disk
-        beyond magnitude 1e150, ``("nodes", i)``), ``bad_index`` and
+        beyond magnitude 1e150, ``("nodes", i)``; a largest radius below
+        ``MIN_DIAMETER``, ``("radius", i)``), ``bad_index`` and
         ``index_out_of_range`` (``("edges", e, c)``), ``self_loop``
         (``("edges", e)``), ``empty_union`` (every radius zero),
         ``bad_type`` (``("boundary",)``), ``bad_value`` (``("h",)``).

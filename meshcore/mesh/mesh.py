@@ -17,6 +17,7 @@ from functools import cached_property
 import numpy as np
 
 from meshcore.errors import InputError
+from meshcore.geometry.tolerances import MAX_COORDINATE
 
 __all__ = ["CELL_TYPES", "CellBlock", "Mesh"]
 
@@ -104,8 +105,9 @@ class Mesh:
     def check(self) -> Mesh:
         """Validate the mesh and return it.
 
-        Guarantees on return: points are ``(n, 2)`` or ``(n, 3)`` and finite;
-        there is at least one cell; every block has a known type, the right
+        Guarantees on return: points are ``(n, 2)`` or ``(n, 3)``, finite and
+        at most ``MAX_COORDINATE`` in magnitude; there is at least one cell;
+        every block has a known type no higher in dimension than the points, the right
         number of nodes per cell and indices in ``[0, n)``; no cell repeats a
         point; point data, cell data and cell sets have matching lengths.
 
@@ -131,6 +133,14 @@ class Mesh:
                 loc=("points", int(i), int(j)),
                 code="non_finite",
             )
+        big = np.abs(pts) > MAX_COORDINATE
+        if big.any():
+            i, j = np.argwhere(big)[0]
+            raise InputError(
+                f"point {i} has a coordinate of magnitude above {MAX_COORDINATE:g} ({pts[i, j]:g})",
+                loc=("points", int(i), int(j)),
+                code="out_of_range",
+            )
         if not self.cells or self.n_cells == 0:
             raise InputError("the mesh has no cells", loc=("cells",), code="empty_mesh")
         n = len(pts)
@@ -142,7 +152,14 @@ class Mesh:
                     loc=("cells", b, "type"),
                     code="unknown_cell_type",
                 )
-            k = CELL_TYPES[block.type][0]
+            k, cell_dim = CELL_TYPES[block.type]
+            if cell_dim > pts.shape[1]:
+                raise InputError(
+                    f"cell block {b} ({block.type}) is {cell_dim}D but the points are "
+                    f"{pts.shape[1]}D",
+                    loc=("cells", b, "type"),
+                    code="bad_dimension",
+                )
             data = block.data
             if data.ndim != 2 or data.shape[1] != k:
                 raise InputError(

@@ -54,7 +54,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from meshcore.errors import InputError
-from meshcore.geometry.tolerances import TOLERANCES
+from meshcore.geometry.tolerances import MAX_COORDINATE, MIN_DIAMETER, TOLERANCES
 from meshcore.mesh import CellBlock, Mesh, quality, topology
 from meshcore.product.extrusion import Rotate, extrude
 
@@ -132,6 +132,29 @@ def _checked(center, inner_radius, outer_radius, angle, radial_layers, segments)
     a = _number(angle, "angle", low=0.0, strict=True, high=360.0)
     layers = _count(radial_layers, "radial_layers", 1)
     n = _count(segments, "segments", 3 if a == 360 else 1)
+    if r1 < MIN_DIAMETER:
+        raise InputError(
+            f"outer_radius {r1:g} is below {MIN_DIAMETER:g} (squared radii underflow float64)",
+            loc=("outer_radius",),
+            code="out_of_range",
+        )
+    reach = float(np.abs(c).max()) + r1
+    if reach > MAX_COORDINATE:
+        raise InputError(
+            f"the mesh would reach coordinate magnitude {reach:.3g}, beyond {MAX_COORDINATE:g}",
+            loc=("center",) if np.abs(c).max() > r1 else ("outer_radius",),
+            code="out_of_range",
+        )
+    # the closest two vertices: on a radial line, or on the innermost ring with n vertices
+    inner = r0 if r0 > 0 else (r1 - r0) / layers
+    spacing = min((r1 - r0) / layers, inner * math.radians(a) / n)
+    if not spacing > TOLERANCES.coincident * reach:
+        raise InputError(
+            f"vertices {spacing:.3g} apart cannot be told apart at distance {reach:.3g} from the "
+            "origin: give a larger radius, fewer layers or segments, or a centre nearer 0",
+            loc=("center",) if np.abs(c).max() > r1 else ("outer_radius",),
+            code="out_of_range",
+        )
     return c, r0, r1, a, layers, n
 
 
@@ -144,7 +167,7 @@ def _classical(c, r0, r1, angle, layers, n) -> Mesh:
     )
     res = extrude(segment, Rotate([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], angle, n))
     m = res.mesh
-    pts = m.points[:, :2] + c
+    pts = m.points[:, :2]
     swept = [i for i, b in enumerate(m.cells) if b.type in ("quad", "triangle")]
     # which band each cell is in: its source segment
     cells = tuple(m.cells[i] for i in swept)
@@ -182,7 +205,7 @@ def _balanced(c, r0, r1, angle, layers, n):
             continue
         t = arad * np.arange(nv[j]) / counts[j]
         pts.append(r[j] * np.column_stack([np.cos(t), np.sin(t)]))
-    pts = np.concatenate(pts) + c
+    pts = np.concatenate(pts)
 
     def vid(j: int, i: np.ndarray) -> np.ndarray:
         if counts[j] == 0:
@@ -213,7 +236,9 @@ def _balanced(c, r0, r1, angle, layers, n):
 
 
 def _with_boundary(pts, blocks, ring, c, r0, r1, angle) -> Mesh:
-    """Add the boundary lines (sets outer, inner, start, end) to the cells of a radial mesh.
+    """Add the boundary lines (sets outer, inner, start, end) to the cells of a radial mesh
+    whose points ``pts`` are relative to the centre; the mesh is moved to ``c`` last, so
+    that the classification does not depend on where the centre lies.
 
     A boundary line is ``outer`` (``inner``) when both its ends lie on the
     outer (inner) circle, else ``start`` when both lie on the ray at angle
@@ -221,7 +246,7 @@ def _with_boundary(pts, blocks, ring, c, r0, r1, angle) -> Mesh:
     """
     bnd = topology.boundary(Mesh(pts, tuple(blocks)))
     lines, holder = bnd.cells[0].data, bnd.cell_data["cell"][0]
-    rel = pts - c
+    rel = pts
     radius = np.linalg.norm(rel, axis=1)
     tol = TOLERANCES.coincident * 2 * r1
     outer = np.all(np.abs(radius[lines] - r1) <= tol, axis=1)
@@ -242,7 +267,7 @@ def _with_boundary(pts, blocks, ring, c, r0, r1, angle) -> Mesh:
     }
     line_ring = np.concatenate([cell_ring[holder[kinds[k]]] for k in names])
     return Mesh(
-        pts,
+        pts + c,
         (*blocks, CellBlock("line", np.concatenate(order))),
         cell_data={"ring": [*ring, line_ring]},
         cell_sets=sets,
@@ -287,7 +312,10 @@ def radial(
     Raises
     ------
     InputError
-        ``bad_value`` naming the parameter.
+        ``bad_value`` naming the parameter; ``out_of_range`` when the mesh would
+        reach beyond ``MAX_COORDINATE``, the outer radius is below
+        ``MIN_DIAMETER``, or two vertices would be closer than the coincidence
+        tolerance at the mesh's distance from the origin.
 
     References
     ----------

@@ -344,7 +344,8 @@ def _expected_points(domain: Domain, sizing: _Sizing) -> int:
         inv = 1.0 / sizing.H[0, 0] ** 2
     else:
         inv = float(np.mean(1.0 / sizing.H**2))
-    return int(min(domain.area * inv / (math.sqrt(3.0) / 2.0), _ESTIMATE_CAP))
+    points = domain.area * inv / (math.sqrt(3.0) / 2.0)
+    return _ESTIMATE_CAP if math.isnan(points) else int(min(points, _ESTIMATE_CAP))  # 0 * inf
 
 
 def estimated_triangles(domain, *, max_area=None, size=None, size_field=None) -> int:
@@ -990,7 +991,8 @@ def triangulate(
         # below 60 degrees above that (their rule, as Triangle: terminates).
         small = min_angle if min_angle <= GUARANTEED_MIN_ANGLE else MPW_SMALL_ANGLE
         prm[cdt.PR_COS] = math.cos(math.radians(small))
-        prm[cdt.PR_OFF] = TOL.offcenter / math.tan(math.radians(min_angle) / 2.0)
+        half = math.tan(math.radians(min_angle) / 2.0)  # 0 for a subnormal min_angle
+        prm[cdt.PR_OFF] = TOL.offcenter / half if half > 0 else 0.0  # 0: circumcentres
         prm[cdt.PR_AREA] = max_area if max_area is not None else np.inf
         prm[cdt.PR_SIZE2] = TOL.circumradius**2 if sizing is not None else 0.0
         prm[cdt.PR_KEEP] = 1.0 if keep_boundary else 0.0

@@ -12,11 +12,11 @@ from collections.abc import AsyncIterator
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Depends, Header, Query, Response
-from fastapi.responses import FileResponse
 from fastapi.sse import EventSourceResponse, ServerSentEvent
 from pydantic import ConfigDict, Field, create_model
 
 from service.deps import ClientDep, JobDep, ManagerDep, SettingsDep, StoreDep
+from service.files import OpenedFileResponse
 from service.methods.registry import FORMATS, InputError, Registry, mesh_file
 from service.preview import render_svg
 from service.problems import (
@@ -37,6 +37,7 @@ from service.store import DamagedFile, DiskFull, Job
 log = logging.getLogger("meshservice.api")
 
 MAX_WAIT = 30.0
+MAX_SEQ = 2**62  # page tokens beyond it were not given out (and overflow SQLite's integers)
 Format = Literal[tuple(FORMATS)]  # type: ignore[valid-type]
 
 
@@ -76,7 +77,7 @@ def _seq_of(token: str) -> int:
     try:
         raw = base64.urlsafe_b64decode(token + "=" * (-len(token) % 4)).decode()
         prefix, _, seq = raw.partition(":")
-        if prefix != "seq" or not seq.isdigit():
+        if prefix != "seq" or not seq.isdigit() or int(seq) > MAX_SEQ:
             raise ValueError(raw)
         return int(seq)
     except (ValueError, binascii.Error, UnicodeDecodeError):
@@ -92,6 +93,12 @@ async def _stream_slot(manager: ManagerDep, client: ClientDep) -> str:
     """The client, once it is known to have a free stream slot (a 429 before streaming)."""
     manager.check_stream(client)
     return client
+
+
+def _etag_matches(if_none_match: str, etag: str) -> bool:
+    """``If-None-Match`` holds ``etag`` or is ``*`` (weak comparison, RFC 9110 §13.1.2)."""
+    tags = [t.strip() for t in if_none_match.split(",")]
+    return "*" in tags or etag in (t.removeprefix("W/") for t in tags)
 
 
 def _job_response(job: Job, response: Response) -> JobOut:
@@ -130,15 +137,17 @@ def router(registry: Registry) -> APIRouter:
     ) -> JobOut:
         """Queue a job; with ``?wait=S`` answer 200 with the finished job if it ends by then.
 
-        A repeated ``Idempotency-Key`` returns the first job for the same body
-        and answers 422 for a different one.
+        A repeated ``Idempotency-Key`` returns the first job (200) for the same
+        body and answers 422 for a different one; an empty key is no key.
         """
+        idempotency_key = idempotency_key or None
+        replayed = False
         params = body.params
         params_json = params.model_dump_json().encode()
         body_hash = hashlib.sha256(body.method.encode() + b"\0" + params_json).hexdigest()
         job = store.by_idempotency_key(client, idempotency_key) if idempotency_key else None
         if job is not None:
-            response.headers["Idempotent-Replayed"] = "true"
+            replayed = True
         else:
             try:  # deep checks (a million-vertex domain takes a while): off the event loop
                 await asyncio.to_thread(params.check)
@@ -150,28 +159,33 @@ def router(registry: Registry) -> APIRouter:
                     f"the job has {points} input points; this service takes at most "
                     f"{settings.max_points} (MESHSERVICE_MAX_POINTS)"
                 )
-            if store.unfinished_count(client) >= settings.max_queued:
-                raise TooManyJobs(
-                    f"you have {settings.max_queued} unfinished jobs (MESHSERVICE_MAX_QUEUED); "
-                    "wait for some to finish",
-                    headers={"Retry-After": "5"},
-                )
+            too_many = TooManyJobs(
+                f"you have {settings.max_queued} unfinished jobs (MESHSERVICE_MAX_QUEUED); "
+                "wait for some to finish",
+                headers={"Retry-After": "5"},
+            )
+            if store.unfinished_count(client) >= settings.max_queued:  # early, before writing
+                raise too_many
             try:
                 job_id = await asyncio.to_thread(store.write_params, params_json)
             except DiskFull as exc:
                 raise InsufficientStorage(
                     f"the job could not be stored: {exc}; try again later"
                 ) from None
-            job = store.create(
+            job = store.create(  # counts again and inserts in one statement
                 job_id,
                 client=client,
                 method=body.method,
                 idempotency_key=idempotency_key,
                 body_hash=body_hash,
+                max_unfinished=settings.max_queued,
             )
-            if job.id != job_id:  # another request with this key committed first
-                response.headers["Idempotent-Replayed"] = "true"
+            if job is None:
+                raise too_many
+            replayed = job.id != job_id  # another request with this key committed first
             manager.wake()
+        if replayed:
+            response.headers["Idempotent-Replayed"] = "true"
         if job.body_hash != body_hash:
             raise Invalid(
                 "this Idempotency-Key was used for a different request body",
@@ -186,7 +200,7 @@ def router(registry: Registry) -> APIRouter:
         if wait > 0 and not job.finished:
             with manager.stream(client):
                 job = await manager.wait(job.id, lambda j: j.finished, wait) or job
-        if job.finished:
+        if job.finished or replayed:
             response.status_code = 200
         return _job_response(job, response)
 
@@ -234,7 +248,7 @@ def router(registry: Registry) -> APIRouter:
                 tag = if_none_match
 
                 def changed(j: Job) -> bool:
-                    return j.etag != tag
+                    return not _etag_matches(tag, j.etag)
             else:
                 status = job.status
 
@@ -245,7 +259,7 @@ def router(registry: Registry) -> APIRouter:
                 job = await manager.wait(job.id, changed, wait)
             if job is None:
                 raise NotFound("the job was deleted")
-        if if_none_match is not None and if_none_match == job.etag:
+        if if_none_match is not None and _etag_matches(if_none_match, job.etag):
             return Response(status_code=304, headers={"ETag": job.etag})
         return _job_response(job, response)
 
@@ -298,6 +312,11 @@ def router(registry: Registry) -> APIRouter:
         await manager.delete(job.id)
         return Response(status_code=204)
 
+    def _removed(job: Job, store: Any) -> Exception:
+        if store.get(job.id) is None:
+            return NotFound("the job was deleted")
+        return Gone(f"the result of job {job.id} has expired and was removed")
+
     async def _result_path(job: Job, store: Any) -> Any:
         """The job's checked result file (a damaged one is a 500 and a log line, never served)."""
         if job.expired:
@@ -314,8 +333,8 @@ def router(registry: Registry) -> APIRouter:
                 f"the stored result of job {job.id} is damaged ({exc}); it is not served: "
                 "submit the job again"
             ) from None
-        if path is None:  # expired between the row's read and now
-            raise Gone(f"the result of job {job.id} has expired and was removed")
+        if path is None:  # deleted or expired between the row's read and now
+            raise _removed(job, store)
         return path
 
     @api.get(
@@ -340,35 +359,41 @@ def router(registry: Registry) -> APIRouter:
         format: Annotated[Format | None, Query(description="Download the mesh.")] = None,
     ) -> Response:
         path = await _result_path(job, store)
-        if format is None:
-            return FileResponse(path, media_type="application/json")
-        spec = FORMATS[format]
-        target = store.result_path(job.id, format)
+        try:
+            if format is None:
+                return OpenedFileResponse(path, media_type="application/json")
+            spec = FORMATS[format]
+            target = store.result_path(job.id, format)
 
-        def cached() -> bool:
-            try:
-                return store.verified_result(job.id, format) is not None
-            except DamagedFile as exc:  # a derived file: made again from the result
-                log.warning(
-                    "job %s: damaged %s download, converting again: %s", job.id, format, exc
-                )
-                store.forget_file(job.id, format)
-                return False
+            def cached() -> bool:
+                try:
+                    return store.verified_result(job.id, format) is not None
+                except DamagedFile as exc:  # a derived file: made again from the result
+                    log.warning(
+                        "job %s: damaged %s download, converting again: %s", job.id, format, exc
+                    )
+                    store.forget_file(job.id, format)
+                    return False
 
-        if not await asyncio.to_thread(cached):
+            if not await asyncio.to_thread(cached):
 
-            def convert() -> None:
-                data = json.loads(path.read_bytes())
-                store.write_result(job.id, mesh_file(data, format), format)
+                def convert() -> bool:
+                    data = json.loads(path.read_bytes())
+                    return store.write_result(job.id, mesh_file(data, format), format)
 
-            try:
-                await asyncio.to_thread(convert)
-            except InputError as exc:
-                raise from_input_error(exc) from None
-            except DiskFull as exc:
-                raise InsufficientStorage(f"the {format} file could not be stored: {exc}") from None
-        filename = f"{job.id}{spec.suffix}"
-        return FileResponse(target, media_type=spec.media_type, filename=filename)
+                try:
+                    if not await asyncio.to_thread(convert):
+                        raise FileNotFoundError(target)
+                except InputError as exc:
+                    raise from_input_error(exc) from None
+                except DiskFull as exc:
+                    raise InsufficientStorage(
+                        f"the {format} file could not be stored: {exc}"
+                    ) from None
+            filename = f"{job.id}{spec.suffix}"
+            return OpenedFileResponse(target, media_type=spec.media_type, filename=filename)
+        except FileNotFoundError:  # deleted or expired meanwhile
+            raise _removed(job, store) from None
 
     @api.get(
         "/{job_id}/preview.svg",
@@ -390,6 +415,8 @@ def router(registry: Registry) -> APIRouter:
             svg = await asyncio.to_thread(draw)
         except InputError as exc:
             raise from_input_error(exc) from None
+        except FileNotFoundError:  # deleted or expired meanwhile
+            raise _removed(job, store) from None
         return Response(svg, media_type="image/svg+xml")
 
     return api

@@ -36,6 +36,7 @@ import uuid
 from collections.abc import Callable
 
 from distributed import Client, Event, get_worker
+from distributed.client import FutureCancelledError
 from distributed.scheduler import KilledWorker
 
 from service.executors import Task
@@ -170,6 +171,9 @@ class DaskExecutor:
         except asyncio.CancelledError:
             await cancel.set()
             await future.cancel()
+            raise
+        except FutureCancelledError:  # the scheduler dropped the run: stop its process too
+            await cancel.set()
             raise
         except KilledWorker as exc:
             raise JobFailed(

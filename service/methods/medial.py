@@ -277,7 +277,7 @@ class QuadMedialParams(PartitionParams):
         super().check()
         dom = self.domain.to_domain()
         if self.size is not None:
-            estimate = dom.area / self.size**2
+            estimate = dom.area / self.size / self.size  # not size**2: it overflows
             if estimate > 4_000_000:
                 raise InputError(
                     f"size {self.size:g} would make about {estimate:,.0f} quads on a domain of "

@@ -183,3 +183,25 @@ class TestDask:
                 done = wait_status(c, job["id"], {"succeeded", "failed"}, timeout=120)
                 assert done["status"] == "succeeded", done
             assert c.get(f"/v1/jobs/{running['id']}").json()["attempt"] == 2
+
+    def test_run_cancelled_by_the_scheduler_is_requeued(self, dask_server, cluster, tmp_path):
+        """Issue 22: a run the scheduler cancels (neither a user's cancel nor shutdown)
+        goes back to the queue instead of failing as an internal error."""
+        from distributed import Client, Future
+
+        marker = tmp_path / "pids"
+        with dask_server.client() as c:
+            job = submit(c, "sleep", {"seconds": 1, "marker": str(marker)}).json()
+            wait_file(marker, 60)
+            with Client(cluster.address, timeout=30) as other:
+
+                def keys(dask_scheduler):
+                    return [k for k in dask_scheduler.tasks if str(k).startswith("meshservice-")]
+
+                running = [k for k in other.run_on_scheduler(keys) if job["id"] in k]
+                assert len(running) == 1
+                other.cancel([Future(running[0], client=other)], force=True)
+            done = wait_status(c, job["id"], {"succeeded", "failed", "cancelled"}, timeout=60)
+            assert done["status"] == "succeeded", done
+            assert done["attempt"] == 2
+            assert len(marker.read_text().split()) == 2  # it ran again
