@@ -229,7 +229,9 @@ class Surface:
     @property
     def region_volume(self) -> np.ndarray:
         """(R,) float64: the volume of each region (its shells' signed volumes summed)."""
-        return np.bincount(self.shell_region, weights=self.shell_volume, minlength=self.region_count)
+        return np.bincount(
+            self.shell_region, weights=self.shell_volume, minlength=self.region_count
+        )
 
     @property
     def vertices(self) -> np.ndarray:
