@@ -16,15 +16,27 @@ from meshcore.delaunay.admissible import (
     restricted_triangles,
 )
 from meshcore.delaunay.kernel2d import Triangulation, delaunay
+from meshcore.delaunay.kernel3d import (
+    IncrementalDelaunay3d,
+    Insertion,
+    Location,
+    Tetrahedralization,
+    delaunay3d,
+)
 
 __all__ = [
     "AdmissibleBoundary",
     "AdmissibleSegments",
+    "IncrementalDelaunay3d",
+    "Insertion",
+    "Location",
+    "Tetrahedralization",
     "Triangulation",
     "admissible_segments",
     "circles_of",
     "classify_segments",
     "delaunay",
+    "delaunay3d",
     "make_admissible",
     "restricted_triangles",
 ]

@@ -6,7 +6,14 @@ coordinates (circumcentres) and may round.
 """
 
 from meshcore.geometry.constructions import circumcenter, circumradius
-from meshcore.geometry.predicates import dot2d, incircle, indiametral, orient2d, orient3d
+from meshcore.geometry.predicates import (
+    dot2d,
+    incircle,
+    indiametral,
+    insphere,
+    orient2d,
+    orient3d,
+)
 
 __all__ = [
     "circumcenter",
@@ -14,6 +21,7 @@ __all__ = [
     "dot2d",
     "incircle",
     "indiametral",
+    "insphere",
     "orient2d",
     "orient3d",
 ]

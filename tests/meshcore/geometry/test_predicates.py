@@ -1,4 +1,4 @@
-"""Exact signs of orient2d, incircle and orient3d, checked against rational arithmetic.
+"""Exact signs of orient2d, incircle, orient3d and insphere, checked against rational arithmetic.
 
 Every expected sign here is computed with :class:`fractions.Fraction`, which
 is exact for float inputs, so a reader can trust it by inspection.
@@ -17,6 +17,9 @@ from meshcore.geometry.predicates import (
     incircle,
     incircle_scalar,
     indiametral,
+    insphere,
+    insphere_perturbed,
+    insphere_scalar,
     orient2d,
     orient2d_scalar,
     orient3d,
@@ -53,6 +56,25 @@ def exact_orient3d(a, b, c, d) -> int:
         + bdz * (cdx * ady - adx * cdy)
         + cdz * (adx * bdy - bdx * ady)
     )
+
+
+def exact_insphere(a, b, c, d, e) -> int:
+    """Shewchuk's insphere: the 4 x 4 lifted determinant of the rows p - e."""
+    e = tuple(map(Fraction, e))
+    rows = []
+    for q in (a, b, c, d):
+        r = [Fraction(x) - y for x, y in zip(q, e, strict=True)]
+        rows.append([*r, sum(x * x for x in r)])
+
+    def det(m):
+        if len(m) == 1:
+            return m[0][0]
+        return sum(
+            (-1) ** j * m[0][j] * det([row[:j] + row[j + 1 :] for row in m[1:]])
+            for j in range(len(m))
+        )
+
+    return _sign(det(rows))
 
 
 def naive_orient2d(a, b, c) -> np.ndarray:
@@ -350,3 +372,57 @@ def test_dot2d_vectorized_batch_matches_fractions():
     with pytest.raises(InputError) as info:
         indiametral([0, np.nan], [1, 0], [0, 1])
     assert info.value.code == "non_finite"
+
+
+# ---------------------------------------------------------------------------
+# insphere
+# ---------------------------------------------------------------------------
+
+
+@settings(max_examples=300, deadline=None)
+@given(degenerate_points(5, dim=3))
+def test_insphere_degenerate_matches_fractions(p):
+    a, b, c, d, e = p
+    assert insphere(a, b, c, d, e) == exact_insphere(a, b, c, d, e)
+    assert insphere_scalar(*a, *b, *c, *d, *e) == exact_insphere(a, b, c, d, e)
+
+
+def test_insphere_vectorized_batch_matches_fractions():
+    # Lattice points far from the origin: rounded differences are inexact.
+    rng = np.random.default_rng(11)
+    p = rng.integers(-2, 3, size=(600, 5, 3)) * 0.1 + np.array([1e6, -3.0, 0.7])
+    got = insphere(*(p[:, i] for i in range(5)))
+    exp = [exact_insphere(*q) for q in p]
+    np.testing.assert_array_equal(got, exp)
+    assert 0 in exp and 1 in exp and -1 in exp
+
+
+def test_insphere_sign_convention():
+    # Positively oriented (orient3d > 0) tetrahedron, its circumcentre inside.
+    a, b, c, d = [1.0, 0, 0], [0.0, 0, 0], [0.0, 1, 0], [0.0, 0, 1]
+    assert orient3d(a, b, c, d) == 1
+    assert insphere(a, b, c, d, [0.5, 0.5, 0.5]) == 1
+    assert insphere(a, b, c, d, [1.0, 1.0, 1.0]) == 0
+    assert insphere(a, b, c, d, [2.0, 2.0, 2.0]) == -1
+    assert insphere(b, a, c, d, [0.5, 0.5, 0.5]) == -1
+
+
+def test_insphere_perturbation_breaks_ties_consistently():
+    # The 8 corners of a cube are co-spherical: every tie is broken, the
+    # answer never 0, and a point's role (tested or on the sphere) flips it.
+    g = np.array([[x, y, z] for x in (0.0, 1) for y in (0.0, 1) for z in (0.0, 1)])
+    work = np.empty(16384)
+    for idx in np.random.default_rng(2).choice(8, size=(40, 5)):
+        if len(set(idx)) < 5 or orient3d(*g[idx[:4]]) == 0:
+            continue
+        q = g[idx]
+        if orient3d(*q[:4]) < 0:
+            q[[0, 1]] = q[[1, 0]]
+        s = insphere_perturbed(q, work)
+        assert s in (-1, 1)
+        assert insphere(*q, perturbed=True) == s
+        # Exchanging d and e exchanges two rows of the perturbed determinant:
+        # the sign flips (the perturbation belongs to the points, not the roles).
+        r = q[[0, 1, 2, 4, 3]]
+        if orient3d(*r[:4]) != 0:
+            assert insphere_perturbed(r, work) == -s
