@@ -117,7 +117,7 @@ class _Knobs:
     #: Recovery rounds before giving up (each splits every missing piece once).
     recovery_rounds: int = 200
     #: Refinement rounds (encroachment fixes and one pass over bad tetrahedra each).
-    refinement_rounds: int = 400
+    refinement_rounds: int = 60
     #: Sliver rounds.
     sliver_rounds: int = 8
     #: Circumradius bound of the size criterion, in units of ``size`` (a
@@ -127,6 +127,16 @@ class _Knobs:
     #: below this fraction of the circumradius (float: keeps co-circular
     #: facet points, at the radius up to rounding, from counting).
     subface_ball: float = 1.0 - 1e-9
+    #: Refinement never splits (for encroachment) a subsegment shorter than this
+    #: fraction of its input edge, or a subface whose circumradius is below it
+    #: times its facet's shortest edge (or of ``size``, if smaller): the guard
+    #: against endless cascades next to small input angles. The bad
+    #: tetrahedra whose circumcentre encroaches only such pieces are given up.
+    protect: float = 1.0 / 16.0
+    #: Candidate points closer than this fraction of their circumradius to a
+    #: vertex or to another candidate are dropped (co-circular subfaces, co-spherical
+    #: tetrahedra give the same centre up to rounding).
+    merge: float = 1e-9
     #: Points added at most, as a multiple of the estimated need, plus a floor.
     max_points: int = 20_000_000
 
@@ -205,10 +215,9 @@ def _tri_circumcenters(P: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.nda
     v = P[F[:, 2]] - a
     w = np.cross(u, v)
     ww = np.einsum("ij,ij->i", w, w)
-    num = (
-        np.einsum("ij,ij->i", u, u)[:, None] * np.cross(v, w)
-        + np.einsum("ij,ij->i", v, v)[:, None] * np.cross(w, u)
-    )
+    num = np.einsum("ij,ij->i", u, u)[:, None] * np.cross(v, w) + np.einsum("ij,ij->i", v, v)[
+        :, None
+    ] * np.cross(w, u)
     with np.errstate(divide="ignore", invalid="ignore"):
         off = num / (2.0 * ww)[:, None]
     return a + off, np.sqrt(np.einsum("ij,ij->i", off, off))
@@ -221,9 +230,7 @@ def _shortest_edge(P: np.ndarray, T: np.ndarray) -> np.ndarray:
 
 def _volumes(P: np.ndarray, T: np.ndarray) -> np.ndarray:
     a = P[T[:, 0]]
-    return (
-        np.einsum("ij,ij->i", P[T[:, 1]] - a, np.cross(P[T[:, 2]] - a, P[T[:, 3]] - a)) / 6.0
-    )
+    return np.einsum("ij,ij->i", P[T[:, 1]] - a, np.cross(P[T[:, 2]] - a, P[T[:, 3]] - a)) / 6.0
 
 
 def tetra_dihedral_angles(points: np.ndarray, tetra: np.ndarray) -> np.ndarray:
@@ -346,9 +353,7 @@ def _edge_keys(E: np.ndarray) -> np.ndarray:
 def _face_keys(F: np.ndarray) -> np.ndarray:
     s = np.sort(F, axis=1)
     if s.size and s.max() >= 1 << 21:
-        raise AlgorithmError(
-            "more than 2**21 points: face keys overflow", code="too_many_points"
-        )
+        raise AlgorithmError("more than 2**21 points: face keys overflow", code="too_many_points")
     return (s[:, 0] << 42) | (s[:, 1] << 21) | s[:, 2]
 
 
@@ -400,6 +405,10 @@ class _Builder:
         w = v - np.einsum("ij,ij->i", v, e1)[:, None] * e1
         e2 = w / np.linalg.norm(w, axis=1)[:, None]
         self.frame = (a, e1, e2)
+        lengths = np.linalg.norm(self.P[edges[:, 0]] - self.P[edges[:, 1]], axis=1)
+        self.edge_length = lengths
+        self.facet_short = lengths[self.facet_edges].min(axis=1)
+        self.size_cap = math.inf
         self.sub = facets.copy()  # subfaces, oriented as their facet (outward)
         self.sub_facet = np.arange(F)
         self.dt = IncrementalDelaunay3d(self.P)
@@ -437,12 +446,30 @@ class _Builder:
     # -- subsegments -------------------------------------------------------------
 
     def split_segments(self, rows: np.ndarray) -> int:
-        """Split subsegments ``rows`` at their midpoints; the number split."""
+        """Split subsegments ``rows``; the number split.
+
+        Ruppert's concentric shells: a subsegment with exactly one endpoint
+        at an input vertex is split at the power of two of distance from it
+        nearest to half its length (so the points put on the edges leaving
+        one vertex lie on common spheres around it and do not encroach each
+        other's subsegments, whatever the angle between the edges); the
+        others at their midpoints.
+        """
         rows = np.unique(rows)
         if rows.size == 0:
             return 0
         s = self.seg[rows]
-        mid = 0.5 * (self.P[s[:, 0]] + self.P[s[:, 1]])
+        pa, pb = self.P[s[:, 0]], self.P[s[:, 1]]
+        L = np.linalg.norm(pb - pa, axis=1)
+        t = np.full(len(rows), 0.5)
+        ia = s[:, 0] < self.n_surface
+        ib = s[:, 1] < self.n_surface
+        one = ia ^ ib
+        if one.any():
+            d = np.exp2(np.round(np.log2(0.5 * L[one])))
+            frac = d / L[one]
+            t[one] = np.where(ia[one], frac, 1.0 - frac)
+        mid = pa + t[:, None] * (pb - pa)
         e = self.seg_edge[rows]
         ids = self.add(mid, e, np.full(len(rows), -1))
         ok = ids >= 0
@@ -468,9 +495,7 @@ class _Builder:
         edge_bounds = np.searchsorted(self.pt_edge[by_edge], np.arange(len(self.edges) + 1))
         inner = np.flatnonzero(self.pt_facet >= 0)
         by_facet = inner[np.argsort(self.pt_facet[inner], kind="stable")]
-        facet_bounds = np.searchsorted(
-            self.pt_facet[by_facet], np.arange(len(self.facets) + 1)
-        )
+        facet_bounds = np.searchsorted(self.pt_facet[by_facet], np.arange(len(self.facets) + 1))
         origin, e1, e2 = self.frame
         new_sub, new_facet = [], []
         for f in facets.tolist():  # a loop over changed facets
@@ -511,7 +536,10 @@ class _Builder:
         rows = np.unique(rows)
         if rows.size == 0:
             return 0, 0
-        c, _ = _tri_circumcenters(self.P, self.sub[rows])
+        c, R = _tri_circumcenters(self.P, self.sub[rows])
+        # Co-circular subfaces share a circumcentre up to rounding: keep one.
+        near = self.crowded(c, R)
+        rows, c, R = rows[~near], c[~near], R[~near]
         f = self.sub_facet[rows]
         enc_c, enc_s = self.encroached_segments(c)
         hit = np.zeros(len(rows), dtype=bool)
@@ -529,6 +557,30 @@ class _Builder:
         self.retriangulate(np.unique(f[use][ids >= 0]))
         return int((ids >= 0).sum()), n_seg
 
+    def crowded(self, X: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """Candidates within ``merge`` times their radius of a vertex or an earlier candidate."""
+        r = self.knobs.merge * R
+        d, _ = cKDTree(self.P).query(X)
+        out = d <= r
+        if len(X) > 1:
+            pairs = cKDTree(X).query_pairs(float(r.max()), output_type="ndarray")
+            if len(pairs):
+                i, j = pairs.min(axis=1), pairs.max(axis=1)
+                dd = np.linalg.norm(X[i] - X[j], axis=1)
+                out[j[dd <= np.minimum(r[i], r[j])]] = True
+        return out
+
+    def protected_segments(self, rows: np.ndarray) -> np.ndarray:
+        s = self.seg[rows]
+        L = np.linalg.norm(self.P[s[:, 0]] - self.P[s[:, 1]], axis=1)
+        ref = np.minimum(self.edge_length[self.seg_edge[rows]], self.size_cap)
+        return L < self.knobs.protect * ref
+
+    def protected_subfaces(self, rows: np.ndarray) -> np.ndarray:
+        _, R = _tri_circumcenters(self.P, self.sub[rows])
+        ref = np.minimum(self.facet_short[self.sub_facet[rows]], self.size_cap)
+        return R < self.knobs.protect * ref
+
     def in_facet(self, X: np.ndarray, f: np.ndarray) -> np.ndarray:
         """Whether points (in their facet's plane) lie inside the facet (float)."""
         tri = self.facets[f]
@@ -542,7 +594,11 @@ class _Builder:
     # -- encroachment --------------------------------------------------------------
 
     def encroached_segments(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Pairs (point row, subsegment) with the point strictly inside the diametral ball.
+        """Pairs (point row, subsegment) with the point in the closed diametral ball.
+
+        Closed: a candidate point on the sphere (the circumcentre of a right
+        triangle, on its hypotenuse) splits the subsegment rather than land
+        next to its midpoint.
 
         Candidates from KD-trees of subsegment midpoints (one per power of two
         of the radius); the sign is exact
@@ -553,7 +609,7 @@ class _Builder:
         mid = 0.5 * (a + b)
         half = 0.5 * np.linalg.norm(b - a, axis=1)
         xi, si = _ball_pairs(X, mid, half * (1 + 1e-9))
-        inside = dot3d(a[si], b[si], X[xi]) < 0
+        inside = dot3d(a[si], b[si], X[xi]) <= 0
         return xi[inside], si[inside]
 
     def encroached_by_vertices(self) -> tuple[np.ndarray, np.ndarray]:
@@ -594,9 +650,9 @@ class _Builder:
 
     def missing(self, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Subsegments that are not edges, subfaces that are not faces of ``T``."""
-        ek = np.unique(_edge_keys(T[:, _EDGES].reshape(-1, 2)))
+        ek = np.sort(_edge_keys(T[:, _EDGES].reshape(-1, 2)))
         seg_missing = np.flatnonzero(~_member(_edge_keys(self.seg), ek))
-        fk = np.unique(_face_keys(T[:, _FACES].reshape(-1, 3)))
+        fk = np.sort(_face_keys(T[:, _FACES].reshape(-1, 3)))
         sub_missing = np.flatnonzero(~_member(_face_keys(self.sub), fk))
         return seg_missing, sub_missing
 
@@ -643,9 +699,7 @@ def _regions(b: _Builder, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
     # Links across ordinary faces between real tetrahedra.
     link = ~is_sub & (nb >= 0)
     r_i, f_i = np.nonzero(link)
-    graph = sp.csr_matrix(
-        (np.ones(len(r_i), dtype=np.int8), (r_i, nb[r_i, f_i])), shape=(m, m)
-    )
+    graph = sp.csr_matrix((np.ones(len(r_i), dtype=np.int8), (r_i, nb[r_i, f_i])), shape=(m, m))
     n_comp, comp = connected_components(graph, directed=False)
     label = np.full(n_comp, -2, dtype=np.int64)  # -2 unknown
     # A tetrahedron on a hull face (neighbour a ghost) across a non-subface is outside.
@@ -711,18 +765,30 @@ def _insert_interior(b: _Builder, slots, region, rows, centres) -> tuple[int, in
     """
     xi, si = b.encroached_segments(centres)
     done = 0
+    blocked = np.zeros(len(rows), dtype=bool)
+    split_seg = np.zeros(0, dtype=np.int64)
+    split_sub = np.zeros(0, dtype=np.int64)
+    given_up = 0
     if si.size:
-        return b.split_segments(si), 0
+        guard = b.protected_segments(si)
+        blocked[xi] = True
+        split_seg = si[~guard]
+        given_up += len(np.setdiff1d(xi[guard], xi[~guard]))
     if len(b.sub):
         xf, fi = b.encroached_subfaces(centres)
         if fi.size:
-            n_sub, n_seg = b.split_subfaces(fi)
-            return n_sub + n_seg, 0
+            guard = b.protected_subfaces(fi)
+            fresh = ~blocked[xf]
+            blocked[xf] = True
+            split_sub = fi[~guard & fresh]
+            given_up += len(np.setdiff1d(xf[guard & fresh], xf[~guard & fresh]))
+    keep = ~blocked
+    rows, centres = rows[keep], centres[keep]
     top = int(slots.max()) + 1
     slot_region = np.full(top, -1, dtype=np.int64)
     slot_region[slots] = region
     stale = np.zeros(top, dtype=bool)
-    outside = 0
+    outside = given_up
     for k in range(len(rows)):  # sequential: each insertion may destroy later candidates
         s = int(slots[rows[k]])
         if stale[s]:
@@ -742,6 +808,12 @@ def _insert_interior(b: _Builder, slots, region, rows, centres) -> tuple[int, in
         done += 1
         for arr in (res.removed, res.created):
             stale[arr[arr < top]] = True
+    # The surface pieces the other candidates encroach, split last (an interior
+    # insertion never removes a subsegment or subface from the lists).
+    done += b.split_segments(split_seg)
+    if split_sub.size:
+        n_sub, n_seg = b.split_subfaces(split_sub)
+        done += n_sub + n_seg
     return done, outside
 
 
@@ -754,6 +826,8 @@ def _refine(b: _Builder, criteria, progress, sliver_bound=None) -> tuple[int, in
     for rounds in range(1, cap + 1):
         _recover(b, None)
         seg_bad, sub_bad = b.encroached_by_vertices()
+        seg_bad = seg_bad[~b.protected_segments(seg_bad)]
+        sub_bad = sub_bad[~b.protected_subfaces(sub_bad)]
         if size is not None:
             L = np.linalg.norm(b.P[b.seg[:, 0]] - b.P[b.seg[:, 1]], axis=1)
             seg_bad = np.union1d(seg_bad, np.flatnonzero(L > size))
@@ -780,11 +854,11 @@ def _refine(b: _Builder, criteria, progress, sliver_bound=None) -> tuple[int, in
         left = len(rows)
         if left == 0:
             return rounds, 0
-        done, _ = _insert_interior(b, slots[inside], region[inside], rows, centres)
+        done, skipped = _insert_interior(b, slots[inside], region[inside], rows, centres)
         if progress is not None:
             progress(0.5, f"refinement round {rounds}: {left} bad tetrahedra")
         if done == 0:
-            return rounds, left
+            return rounds, skipped
     return rounds, left
 
 
@@ -953,6 +1027,8 @@ def tetrahedralize(
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     b = _Builder(surface, _KNOBS)
+    if criteria[3] is not None:
+        b.size_cap = criteria[3]
     timings["delaunay"] = time.perf_counter() - t0
     rounds = 0
     given_up = 0
@@ -1002,9 +1078,7 @@ def tetrahedralize(
     sub_src = np.arange(len(b.facets)) if keep_boundary else b.sub_facet
     # Kernel order (orient3d > 0) to meshio's positive volume: swap two vertices.
     tetra = tetra[:, [0, 1, 3, 2]]
-    cell_sets = {
-        f"region_{r}": [np.flatnonzero(region == r)] for r in range(surface.region_count)
-    }
+    cell_sets = {f"region_{r}": [np.flatnonzero(region == r)] for r in range(surface.region_count)}
     mesh = Mesh(b.P, (CellBlock("tetra", tetra),), cell_sets=cell_sets)
     timings["total"] = time.perf_counter() - t0
     return TetrahedralizationResult(
