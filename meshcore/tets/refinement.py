@@ -137,8 +137,10 @@ class _Knobs:
     #: vertex or to another candidate are dropped (co-circular subfaces, co-spherical
     #: tetrahedra give the same centre up to rounding).
     merge: float = 1e-9
-    #: Points added at most, as a multiple of the estimated need, plus a floor.
-    max_points: int = 20_000_000
+    #: Refinement stops once the mesh has this many points (the bad tetrahedra
+    #: left are counted in ``given_up``): Delaunay refinement with a radius-edge
+    #: bound of 2 can cascade next to small input angles.
+    max_points: int = 300_000
 
 
 _KNOBS = _Knobs()
@@ -229,8 +231,12 @@ def _shortest_edge(P: np.ndarray, T: np.ndarray) -> np.ndarray:
 
 
 def _volumes(P: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """Unsigned volumes of tetrahedra (constructions)."""
     a = P[T[:, 0]]
-    return np.einsum("ij,ij->i", P[T[:, 1]] - a, np.cross(P[T[:, 2]] - a, P[T[:, 3]] - a)) / 6.0
+    return (
+        np.abs(np.einsum("ij,ij->i", P[T[:, 1]] - a, np.cross(P[T[:, 2]] - a, P[T[:, 3]] - a)))
+        / 6.0
+    )
 
 
 def tetra_dihedral_angles(points: np.ndarray, tetra: np.ndarray) -> np.ndarray:
@@ -746,7 +752,12 @@ def _bad_tets(P, T, max_radius_edge, max_volume, size, knobs) -> tuple[np.ndarra
         bad |= _volumes(P, T) > max_volume
     if size is not None:
         bad |= R > knobs.size_radius * size
-    rows = np.flatnonzero(bad & np.isfinite(R))
+    # A tetrahedron too flat for its float circumcentre (positive by the exact
+    # sign, zero in float) is bad; its centroid is inserted instead.
+    flat = ~np.isfinite(R)
+    c[flat] = P[T[flat]].mean(axis=1)
+    R[flat] = np.inf
+    rows = np.flatnonzero(bad | flat)
     rows = rows[np.argsort(-R[rows], kind="stable")]
     return rows, c[rows]
 
@@ -824,6 +835,8 @@ def _refine(b: _Builder, criteria, progress, sliver_bound=None) -> tuple[int, in
     left = 0
     cap = b.knobs.sliver_rounds if sliver_bound is not None else b.knobs.refinement_rounds
     for rounds in range(1, cap + 1):
+        if b.n >= b.knobs.max_points:
+            break
         _recover(b, None)
         seg_bad, sub_bad = b.encroached_by_vertices()
         seg_bad = seg_bad[~b.protected_segments(seg_bad)]
