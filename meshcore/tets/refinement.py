@@ -42,8 +42,8 @@ phases and only ever grown by point insertion):
    sign of :func:`~meshcore.geometry.predicates.dot3d`) or a subface
    (equatorial ball), which is split instead; a circumcentre outside the
    surface's box (a tetrahedron leaning flat on the surface) splits the
-   tetrahedron's faces that are subfaces. Insertions of one round skip a tetrahedron already destroyed
-   by an earlier one (a lazy queue).
+   tetrahedron's faces that are subfaces. Insertions of one round skip a
+   tetrahedron already destroyed by an earlier one (a lazy queue).
 5. **Slivers** (``min_dihedral``): rounds of the same rule applied to the
    tetrahedra whose least dihedral angle is below the bound. Delaunay
    refinement bounds the radius-edge ratio but not slivers; this pass lowers
