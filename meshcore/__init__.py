@@ -23,6 +23,8 @@ from meshcore.mesh import CELL_TYPES, CellBlock, Mesh
 
 _ENTRY_POINTS = {
     "parse_domain": "meshcore.domain",
+    "parse_surface": "meshcore.domain",
+    "tetrahedralize": "meshcore.tets",
     "make_admissible": "meshcore.delaunay",
     "triangulate": "meshcore.triangulation",
     "extrude": "meshcore.product",

@@ -62,6 +62,7 @@ __all__ = [
     "dot2d",
     "dot2d_exact",
     "dot2d_filtered",
+    "dot3d",
     "incircle",
     "incircle_exact",
     "incircle_filtered",
@@ -1897,4 +1898,53 @@ def insphere(a, b, c, d, e, *, perturbed: bool = False) -> np.ndarray:
             out[rows] = sub
         else:
             _insphere_rows(a, b, c, d, e, rows, out)
+    return out.reshape(lead)
+
+
+def dot3d(a, b, c) -> np.ndarray:
+    """Exact sign of the dot product ``(a - c) . (b - c)`` in 3D, row by row.
+
+    Parameters
+    ----------
+    a, b, c : (n, 3) float64 or (3,) float64
+        Points; shapes broadcast.
+
+    Returns
+    -------
+    (n,) int8
+        +1 where the angle a-c-b is acute (c strictly outside the closed
+        diametral ball of ab), -1 where it is obtuse (c strictly inside the
+        open ball: c *encroaches* the segment ab, §9.2), 0 on the sphere or
+        where c coincides with a or b.
+
+    Raises
+    ------
+    InputError
+        ``bad_shape`` or ``non_finite`` as :func:`orient3d`.
+
+    Notes
+    -----
+    Float evaluation with the bound ``6 eps * sum |terms|`` (each of the
+    three differences, products and sums rounds once per operation; the
+    bound is Shewchuk's ``ccwerrboundA`` argument with one more term), then
+    exact rational arithmetic for the rows it cannot decide (rare: points
+    within rounding of the sphere). Used by Delaunay refinement in 3D
+    (:mod:`meshcore.tets.refinement`) for encroached subsegments.
+    References: methods text §9.2 (the ball B_AB); DESIGN.md "Geometry robustness".
+    """
+    from fractions import Fraction
+
+    (a, b, c), lead = _prepare((a, b, c), 3, "abc")
+    t = (a - c) * (b - c)
+    det = t.sum(axis=1)
+    errbound = (6.0 + 64.0 * _EPS) * _EPS * np.abs(t).sum(axis=1)
+    out = _sign_int8(det)
+    rows = np.flatnonzero(~(np.abs(det) > errbound))
+    for r in rows.tolist():  # only rows within rounding of zero
+        s = sum(
+            (Fraction(float(a[r, k])) - Fraction(float(c[r, k])))
+            * (Fraction(float(b[r, k])) - Fraction(float(c[r, k])))
+            for k in range(3)
+        )
+        out[r] = (s > 0) - (s < 0)
     return out.reshape(lead)

@@ -19,7 +19,7 @@ from typing import Any
 
 from meshcore.errors import InputError
 from meshcore.mesh import io, quality
-from service.methods import delaunay, grid, medial, optimize, product, quads, triangulation
+from service.methods import delaunay, grid, medial, optimize, product, quads, tets, triangulation
 from service.schemas import MeshIn, MethodParams
 
 Progress = Callable[[float, str], None]
@@ -164,6 +164,18 @@ def default_registry() -> Registry:
             params=triangulation.DelaunayAdmissibleParams,
             run=triangulation.run_delaunay_admissible,
             example=triangulation.DELAUNAY_ADMISSIBLE_EXAMPLE,
+        ),
+        MethodSpec(
+            name="tetrahedralize",
+            summary="Tetrahedra filling a closed triangulated surface (bodies, cavities): exact "
+            "3D Delaunay, conforming boundary recovery (points on the surface; with "
+            "keep_boundary, one interior point for star-shaped regions), Delaunay refinement "
+            "to a radius-edge, volume and size bound, optional sliver rounds; a cell set per "
+            "region.",
+            section="§9.2, §9.3.4-§9.3.5 (edges then faces, points on the surface), §9.5",
+            params=tets.TetrahedralizeParams,
+            run=tets.run_tetrahedralize,
+            example=tets.TETRAHEDRALIZE_EXAMPLE,
         ),
         MethodSpec(
             name="quad_combine",

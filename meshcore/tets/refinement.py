@@ -1,0 +1,1139 @@
+"""Tetrahedral meshes of closed surfaces: boundary recovery, then Delaunay refinement.
+
+:func:`tetrahedralize` fills the regions a closed surface bounds
+(:func:`meshcore.domain.surface.parse_surface`: bodies, cavities, nested
+bodies) with positively oriented tetrahedra whose faces cover every input
+triangle, and refines them (Shewchuk's Delaunay refinement in 3D) until
+the requested radius-edge ratio, volume and size hold.
+
+Pipeline (every tetrahedralization is our kernel's,
+:class:`meshcore.delaunay.kernel3d.IncrementalDelaunay3d`, kept between
+phases and only ever grown by point insertion):
+
+1. **Delaunay of the surface points** (the vertices the triangles use).
+2. **Boundary recovery, conforming** (§9.2, §9.3.4, §9.3.5): the input edges
+   are cut into *subsegments* and every input triangle (a *facet*) into
+   *subfaces*, the 2D Delaunay triangulation (kernel2d, in the facet's
+   plane) of the facet's corners, the points added on its edges and the
+   points added inside it. Rounds: every subsegment that is not an edge of
+   the tetrahedralization is split at its midpoint (edges first, §9.3.4 (A));
+   when all are edges, every subface that is not a face is split at its
+   circumcentre, unless that point lies outside the facet or encroaches a
+   subsegment (lies in its diametral ball, the ball B_AB of §9.2), in which
+   case the subsegments it encroaches are split instead (Shewchuk's rule;
+   the "projection of the point of maximal angle" of §9.2 and Pebay's
+   heuristics are replaced by these circumcentre / midpoint rules, which
+   terminate for input angles of at least 90 degrees). Every new point lies
+   on the input surface (§9.3.5): on an input edge or in an input triangle,
+   up to the rounding of its coordinates.
+3. **Regions**: the tetrahedra are grouped by flood fill across the faces
+   that are not subfaces; a group takes the region of the facets it meets
+   from their inner side (``orient3d`` of the subface and the opposite
+   vertex, exact), groups touching the convex hull's outside are dropped.
+4. **Delaunay refinement** (Shewchuk, "Tetrahedral mesh generation by
+   Delaunay refinement", 1998), in rounds, *lazy*: the surface pieces that
+   went missing are recovered as in 2. (the eager variant, ``_Knobs.eager``,
+   also splits every subsegment and subface any vertex encroaches; measured
+   on the torus it adds 4x more points); then
+   the bad tetrahedra (circumradius over shortest edge above
+   ``max_radius_edge``, volume above ``max_volume``, circumradius above
+   ``0.7 size``) in decreasing order of circumradius: the circumcentre is
+   inserted unless it encroaches a subsegment (closed diametral ball, exact
+   sign of :func:`~meshcore.geometry.predicates.dot3d`) or a subface
+   (equatorial ball), which is split instead; a circumcentre outside the
+   surface's box (a tetrahedron leaning flat on the surface) splits the
+   tetrahedron's faces that are subfaces. Insertions of one round skip a
+   tetrahedron already destroyed by an earlier one (a lazy queue).
+5. **Slivers** (``min_dihedral``): rounds of the same rule applied to the
+   tetrahedra whose least dihedral angle is below the bound. Delaunay
+   refinement bounds the radius-edge ratio but not slivers; this pass lowers
+   their number but guarantees nothing. The least dihedral reached is
+   reported.
+
+Choices the methods text leaves open
+------------------------------------
+* Recovery is *conforming* (Steiner points on the surface, TetGen's
+  default), not constrained: our kernel only inserts points.
+  ``keep_boundary`` (no point on the surface) is supported for a surface
+  whose recovery needs no Steiner point (a Delaunay-admissible surface) or
+  that is star-shaped from a point of its kernel: then the tetrahedra are
+  the cone from one interior Steiner point (the Chebyshev centre of the
+  kernel polyhedron, from a linear program) to every input triangle, each
+  checked positive by exact ``orient3d`` (Schönhardt's prism: exactly one
+  point). Other surfaces that need Steiner points are refused with
+  ``keep_boundary`` (``AlgorithmError``): constrained recovery with only
+  interior points (TetGen's ``-Y``) is not implemented.
+* The refinement decisions of *where* to insert (a circumcentre in a facet,
+  a vertex inside an equatorial ball) use float constructions; only the
+  subsegment encroachment and every validity fact (orientation, region
+  sides) are exact signs. A misjudged tie only changes which point is
+  added.
+* Small input angles: a subsegment is split at its midpoint (no concentric
+  shells), so refinement next to input angles below 90 degrees may not
+  terminate by itself; the rounds are capped (``_Knobs``) and the
+  tetrahedra left bad are counted in ``given_up`` and next to which input
+  vertices they lie reported by the quality figures.
+
+References
+----------
+Methods text §9.2 (Delaunay-admissible segments in R^3, the ball B_AB),
+§9.3 (faces: Case 1, empty B_f^min, is Delaunay; §9.3.4 edges first, then
+faces; §9.3.5 new points on the surface), §9.5 (the empty
+tetrahedralization of the surface points); J. R. Shewchuk, "Tetrahedral
+Mesh Generation by Delaunay Refinement" (SoCG 1998); H. Si, "TetGen"
+(ACM TOMS 2015) for the ``-q`` radius-edge convention.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from meshcore.delaunay.kernel2d import delaunay as delaunay2d
+from meshcore.delaunay.kernel3d import IncrementalDelaunay3d
+from meshcore.domain.surface import Surface, parse_surface
+from meshcore.errors import AlgorithmError, InputError
+from meshcore.geometry.predicates import dot3d, orient3d
+from meshcore.mesh import CellBlock, Mesh
+
+__all__ = ["TetrahedralizationResult", "tetrahedralize", "tetra_dihedral_angles"]
+
+#: Faces of a positively oriented tetrahedron, opposite vertex i, normals outward.
+_FACES = np.array([[1, 3, 2], [0, 2, 3], [0, 3, 1], [0, 1, 2]], np.int64)
+_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]], np.int64)
+#: Smallest radius-edge bound accepted (Shewchuk's analysis needs > 2; below ~1.1 no
+#: tetrahedralization exists).
+MIN_RADIUS_EDGE = 1.1
+
+
+@dataclass(frozen=True)
+class _Knobs:
+    """Caps and factors of the refinement (not tolerances of any sign)."""
+
+    #: Recovery rounds before giving up (each splits every missing piece once).
+    recovery_rounds: int = 200
+    #: Refinement rounds (encroachment fixes and one pass over bad tetrahedra each).
+    refinement_rounds: int = 60
+    #: Sliver rounds.
+    sliver_rounds: int = 8
+    #: Circumradius bound of the size criterion, in units of ``size`` (a
+    #: regular tetrahedron of edge h has circumradius 0.61 h).
+    size_radius: float = 0.7
+    #: A vertex encroaches a subface when its distance to the circumcentre is
+    #: below this fraction of the circumradius (float: keeps co-circular
+    #: facet points, at the radius up to rounding, from counting).
+    subface_ball: float = 1.0 - 1e-9
+    #: Refinement never splits (for encroachment) a subsegment shorter than this
+    #: fraction of its input edge, or a subface whose circumradius is below it
+    #: times its facet's shortest edge (or of ``size``, if smaller): the guard
+    #: against endless cascades next to small input angles. The bad
+    #: tetrahedra whose circumcentre encroaches only such pieces are given up.
+    protect: float = 1.0 / 16.0
+    #: Split every subsegment and subface a vertex encroaches before each round
+    #: (Shewchuk's eager rule), rather than only those missing or encroached by
+    #: a candidate circumcentre (lazy).
+    eager: bool = False
+    #: Candidate points closer than this fraction of their circumradius to a
+    #: vertex or to another candidate are dropped (co-circular subfaces, co-spherical
+    #: tetrahedra give the same centre up to rounding).
+    merge: float = 1e-9
+    #: Refinement stops once the mesh has this many points (the bad tetrahedra
+    #: left are counted in ``given_up``): Delaunay refinement with a radius-edge
+    #: bound of 2 can cascade next to small input angles.
+    max_points: int = 300_000
+
+
+_KNOBS = _Knobs()
+
+
+@dataclass(frozen=True, eq=False)
+class TetrahedralizationResult:
+    """What :func:`tetrahedralize` returns.
+
+    Attributes
+    ----------
+    mesh : Mesh
+        3D points and one ``tetra`` block, positively oriented (meshio's
+        order: ``orient3d(p0, p1, p2, p3) < 0`` in Shewchuk's sign, i.e. a
+        positive signed volume ``(p1 - p0) . ((p2 - p0) x (p3 - p0)) / 6``).
+        The surface's vertices come first, in increasing input index, then
+        the points added. Cell sets ``region_k`` per region of the surface.
+    region : (m,) int64
+        The region of each tetrahedron (``Surface.shell_region`` numbering).
+    boundary_faces : (k, 3) int64
+        The mesh faces on the surface, oriented outward (out of the region).
+    boundary_source : (k,) int64
+        The input triangle each boundary face lies in.
+    surface_points_added, interior_points_added : int
+    rounds : int
+        Recovery plus refinement rounds.
+    given_up : int
+        Bad tetrahedra left (their circumcentre could not be used, or the
+        round cap was reached).
+    timings : dict
+        Seconds per phase.
+    """
+
+    mesh: Mesh
+    region: np.ndarray
+    boundary_faces: np.ndarray
+    boundary_source: np.ndarray
+    surface_points_added: int
+    interior_points_added: int
+    rounds: int
+    given_up: int
+    timings: dict = field(default_factory=dict)
+
+
+# ---------------------------------------------------------------------------
+# Geometry helpers (constructions, rounded)
+# ---------------------------------------------------------------------------
+
+
+def _tet_circumcenters(P: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Circumcentres and circumradii of tetrahedra (constructions)."""
+    a = P[T[:, 0]]
+    u = P[T[:, 1]] - a
+    v = P[T[:, 2]] - a
+    w = P[T[:, 3]] - a
+    vw = np.cross(v, w)
+    wu = np.cross(w, u)
+    uv = np.cross(u, v)
+    den = 2.0 * np.einsum("ij,ij->i", u, vw)
+    num = (
+        np.einsum("ij,ij->i", u, u)[:, None] * vw
+        + np.einsum("ij,ij->i", v, v)[:, None] * wu
+        + np.einsum("ij,ij->i", w, w)[:, None] * uv
+    )
+    with np.errstate(divide="ignore", invalid="ignore"):
+        off = num / den[:, None]
+    return a + off, np.sqrt(np.einsum("ij,ij->i", off, off))
+
+
+def _tri_circumcenters(P: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Circumcentres (in the triangle's plane) and circumradii of triangles."""
+    a = P[F[:, 0]]
+    u = P[F[:, 1]] - a
+    v = P[F[:, 2]] - a
+    w = np.cross(u, v)
+    ww = np.einsum("ij,ij->i", w, w)
+    num = np.einsum("ij,ij->i", u, u)[:, None] * np.cross(v, w) + np.einsum("ij,ij->i", v, v)[
+        :, None
+    ] * np.cross(w, u)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        off = num / (2.0 * ww)[:, None]
+    return a + off, np.sqrt(np.einsum("ij,ij->i", off, off))
+
+
+def _shortest_edge(P: np.ndarray, T: np.ndarray) -> np.ndarray:
+    d = P[T[:, _EDGES[:, 0]]] - P[T[:, _EDGES[:, 1]]]
+    return np.sqrt(np.einsum("ijk,ijk->ij", d, d).min(axis=1))
+
+
+def _volumes(P: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """Unsigned volumes of tetrahedra (constructions)."""
+    a = P[T[:, 0]]
+    return (
+        np.abs(np.einsum("ij,ij->i", P[T[:, 1]] - a, np.cross(P[T[:, 2]] - a, P[T[:, 3]] - a)))
+        / 6.0
+    )
+
+
+def tetra_dihedral_angles(points: np.ndarray, tetra: np.ndarray) -> np.ndarray:
+    """The six dihedral angles of each tetrahedron, in degrees.
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+    tetra : (m, 4) int64
+
+    Returns
+    -------
+    (m, 6) float64
+        The angle between the two faces at each edge, edges in the order
+        01, 02, 03, 12, 13, 23 (70.53 degrees for all six of a regular
+        tetrahedron). A flat tetrahedron has angles 0 and 180.
+
+    References
+    ----------
+    Quality of tetrahedra (DESIGN.md "Quality measures"); the least dihedral
+    angle is TetGen's and Gmsh's sliver measure.
+    """
+    P = np.asarray(points, dtype=np.float64)
+    T = np.asarray(tetra, dtype=np.int64)
+    # Face normals (outward), opposite each vertex.
+    n = []
+    for i in range(4):
+        f = T[:, _FACES[i]]
+        a = P[f[:, 0]]
+        nrm = np.cross(P[f[:, 1]] - a, P[f[:, 2]] - a)
+        norm = np.linalg.norm(nrm, axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            n.append(nrm / norm[:, None])
+    out = np.empty((len(T), 6))
+    for k, (i, j) in enumerate(_EDGES.tolist()):
+        # The edge ij is shared by the faces opposite the two other vertices.
+        p, q = (x for x in range(4) if x not in (i, j))
+        cos = -np.einsum("ij,ij->i", n[p], n[q])
+        out[:, k] = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    return np.nan_to_num(out, nan=0.0)
+
+
+def _ball_pairs(X: np.ndarray, centres: np.ndarray, radii: np.ndarray):
+    """All pairs (i, j) with ``|X[i] - centres[j]| < radii[j]`` (float).
+
+    Balls are grouped by the power of two of their radius, one KD-tree per
+    group queried with the group's largest radius, so a query meets only
+    balls of comparable size.
+    """
+    z = np.zeros(0, dtype=np.int64)
+    ok = np.isfinite(radii) & (radii > 0)
+    if len(X) == 0 or not ok.any():
+        return z, z
+    level = np.full(len(radii), 0, dtype=np.int64)
+    level[ok] = np.frexp(radii[ok])[1]
+    xs, js = [], []
+    for lv in np.unique(level[ok]).tolist():  # a loop over radius scales
+        group = np.flatnonzero(ok & (level == lv))
+        tree = cKDTree(centres[group])
+        hits = tree.query_ball_point(X, r=float(radii[group].max()))
+        counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
+        if counts.sum() == 0:
+            continue
+        xi = np.repeat(np.arange(len(X)), counts)
+        gi = group[np.concatenate([np.asarray(h, dtype=np.int64) for h in hits if h])]
+        d = np.linalg.norm(X[xi] - centres[gi], axis=1)
+        keep = d < radii[gi]
+        xs.append(xi[keep])
+        js.append(gi[keep])
+    if not xs:
+        return z, z
+    return np.concatenate(xs), np.concatenate(js)
+
+
+def _without_edge_slivers(tri: np.ndarray, sizes: list[int], uv: np.ndarray) -> np.ndarray:
+    """Drop the triangles of three points of one facet edge that lie outside the facet.
+
+    The facet's points are numbered: its corners 0, 1, 2, then the points on
+    its edges 01, 12, 20 (``sizes[1:4]`` of them), then its inner points. A
+    point added on an edge is rounded and may fall a hair inside the facet:
+    the facet's boundary then has a reflex kink there, and the 2D Delaunay
+    triangulation (of the convex hull) holds a sliver of three points of
+    that edge outside the kinked boundary. A triangle on three points of
+    edge k is outside when its counter-clockwise order runs against the
+    boundary's direction along the edge (corner k to corner k + 1); in the
+    boundary's direction it is an ear of the facet and stays.
+    """
+    first = np.cumsum([0, *sizes])
+    on = np.zeros((first[-1], 3), dtype=bool)  # point on facet edge k (01, 12, 20)
+    on[[0, 1], 0] = True
+    on[[1, 2], 1] = True
+    on[[2, 0], 2] = True
+    for k in range(3):
+        on[first[k + 1] : first[k + 2], k] = True
+    all_on = on[tri].all(axis=1)  # (t, 3): the triangle's corners all on edge k
+    rows = np.flatnonzero(all_on.any(axis=1))
+    if rows.size == 0:
+        return tri
+    k = np.argmax(all_on[rows], axis=1)
+    direction = uv[(k + 1) % 3] - uv[k]
+    pos = np.einsum("tij,tj->ti", uv[tri[rows]], direction)  # position along the edge
+    # Counter-clockwise order p -> m -> q: along the boundary iff the positions
+    # increase cyclically once (two of the three steps forward).
+    forward = (np.roll(pos, -1, axis=1) > pos).sum(axis=1) == 2
+    drop = rows[~forward]
+    return np.delete(tri, drop, axis=0)
+
+
+# ---------------------------------------------------------------------------
+# Keys of edges and faces
+# ---------------------------------------------------------------------------
+
+
+def _edge_keys(E: np.ndarray) -> np.ndarray:
+    lo = np.minimum(E[:, 0], E[:, 1])
+    hi = np.maximum(E[:, 0], E[:, 1])
+    return (lo << 32) | hi
+
+
+def _face_keys(F: np.ndarray) -> np.ndarray:
+    s = np.sort(F, axis=1)
+    if s.size and s.max() >= 1 << 21:
+        raise AlgorithmError("more than 2**21 points: face keys overflow", code="too_many_points")
+    return (s[:, 0] << 42) | (s[:, 1] << 21) | s[:, 2]
+
+
+def _member(keys: np.ndarray, table_sorted: np.ndarray) -> np.ndarray:
+    if table_sorted.size == 0:
+        return np.zeros(len(keys), dtype=bool)
+    pos = np.minimum(np.searchsorted(table_sorted, keys), len(table_sorted) - 1)
+    return table_sorted[pos] == keys
+
+
+# ---------------------------------------------------------------------------
+# The builder: the kernel, the surface's pieces, the points
+# ---------------------------------------------------------------------------
+
+
+class _Builder:
+    """The growing tetrahedralization and the subsegments and subfaces it must hold."""
+
+    def __init__(self, surface: Surface, knobs: _Knobs) -> None:
+        self.knobs = knobs
+        used = surface.vertices
+        remap = np.full(len(surface.points), -1, dtype=np.int64)
+        remap[used] = np.arange(len(used))
+        self.source = used
+        self.n_surface = len(used)
+        self.P = np.array(surface.points[used], dtype=np.float64)
+        self.n = len(used)
+        facets = remap[surface.triangles]
+        self.facets = facets
+        self.facet_region = surface.triangle_region
+        F = len(facets)
+        e = np.concatenate([facets[:, [0, 1]], facets[:, [1, 2]], facets[:, [2, 0]]])
+        e.sort(axis=1)
+        edges, inv = np.unique(e, axis=0, return_inverse=True)
+        self.edges = edges
+        self.facet_edges = inv.reshape(3, F).T
+        order = np.argsort(inv.reshape(-1), kind="stable")
+        self.edge_facets = (order % F).reshape(-1, 2)  # row k of e belongs to facet k % F
+        self.seg = edges.copy()
+        self.seg_edge = np.arange(len(edges))
+        self.pt_edge = np.full(self.n, -1, dtype=np.int64)
+        self.pt_facet = np.full(self.n, -1, dtype=np.int64)
+        # Facet frames for the 2D triangulations: origin, two orthonormal axes
+        # (counter-clockwise in the frame is outward).
+        a = self.P[facets[:, 0]]
+        u = self.P[facets[:, 1]] - a
+        v = self.P[facets[:, 2]] - a
+        e1 = u / np.linalg.norm(u, axis=1)[:, None]
+        w = v - np.einsum("ij,ij->i", v, e1)[:, None] * e1
+        e2 = w / np.linalg.norm(w, axis=1)[:, None]
+        self.frame = (a, e1, e2)
+        lengths = np.linalg.norm(self.P[edges[:, 0]] - self.P[edges[:, 1]], axis=1)
+        self.edge_length = lengths
+        self.facet_short = lengths[self.facet_edges].min(axis=1)
+        self.size_cap = math.inf
+        self.sub = facets.copy()  # subfaces, oriented as their facet (outward)
+        self.sub_facet = np.arange(F)
+        self.dt = IncrementalDelaunay3d(self.P)
+        self.surface_added = 0
+        self.interior_added = 0
+
+    # -- points ----------------------------------------------------------------
+
+    def add(self, X: np.ndarray, edge: np.ndarray, facet: np.ndarray) -> np.ndarray:
+        """Insert points (batch); their vertex ids (-1 where one coincided with a vertex)."""
+        if len(X) == 0:
+            return np.zeros(0, dtype=np.int64)
+        ids = self.dt.insert_many(X)
+        n0 = self.n
+        new = ids >= n0
+        keep = np.zeros(len(X), dtype=bool)
+        _, first = np.unique(ids, return_index=True)
+        keep[first] = True
+        keep &= new
+        order = np.argsort(ids[keep], kind="stable")
+        rows = np.flatnonzero(keep)[order]
+        self.P = np.concatenate([self.P, X[rows]])
+        self.pt_edge = np.concatenate([self.pt_edge, edge[rows]])
+        self.pt_facet = np.concatenate([self.pt_facet, facet[rows]])
+        self.n = len(self.P)
+        on_surface = (edge[rows] >= 0) | (facet[rows] >= 0)
+        self.surface_added += int(on_surface.sum())
+        self.interior_added += int((~on_surface).sum())
+        return np.where(new & keep, ids, -1)
+
+    def tets(self) -> tuple[np.ndarray, np.ndarray]:
+        slots = self.dt.alive()
+        return slots, self.dt.tets(slots)
+
+    # -- subsegments -------------------------------------------------------------
+
+    def split_segments(self, rows: np.ndarray) -> int:
+        """Split subsegments ``rows``; the number split.
+
+        Ruppert's concentric shells: a subsegment with exactly one endpoint
+        at an input vertex is split at the power of two of distance from it
+        nearest to half its length (so the points put on the edges leaving
+        one vertex lie on common spheres around it and do not encroach each
+        other's subsegments, whatever the angle between the edges); the
+        others at their midpoints.
+        """
+        rows = np.unique(rows)
+        if rows.size == 0:
+            return 0
+        s = self.seg[rows]
+        pa, pb = self.P[s[:, 0]], self.P[s[:, 1]]
+        L = np.linalg.norm(pb - pa, axis=1)
+        t = np.full(len(rows), 0.5)
+        ia = s[:, 0] < self.n_surface
+        ib = s[:, 1] < self.n_surface
+        one = ia ^ ib
+        if one.any():
+            d = np.exp2(np.round(np.log2(0.5 * L[one])))
+            frac = d / L[one]
+            t[one] = np.where(ia[one], frac, 1.0 - frac)
+        mid = pa + t[:, None] * (pb - pa)
+        e = self.seg_edge[rows]
+        ids = self.add(mid, e, np.full(len(rows), -1))
+        ok = ids >= 0
+        rows, s, e, ids = rows[ok], s[ok], e[ok], ids[ok]
+        self.seg[rows, 1] = ids
+        self.seg = np.concatenate([self.seg, np.stack([ids, s[:, 1]], 1)])
+        self.seg_edge = np.concatenate([self.seg_edge, e])
+        self.retriangulate(np.unique(self.edge_facets[e]))
+        return int(ok.sum())
+
+    # -- subfaces ----------------------------------------------------------------
+
+    def retriangulate(self, facets: np.ndarray) -> None:
+        """Recompute the subfaces of ``facets``: 2D Delaunay of each facet's points.
+
+        A loop over the facets whose point set changed (each a compiled
+        kernel2d call).
+        """
+        if facets.size == 0:
+            return
+        on_edge = np.flatnonzero(self.pt_edge >= 0)
+        by_edge = on_edge[np.argsort(self.pt_edge[on_edge], kind="stable")]
+        edge_bounds = np.searchsorted(self.pt_edge[by_edge], np.arange(len(self.edges) + 1))
+        inner = np.flatnonzero(self.pt_facet >= 0)
+        by_facet = inner[np.argsort(self.pt_facet[inner], kind="stable")]
+        facet_bounds = np.searchsorted(self.pt_facet[by_facet], np.arange(len(self.facets) + 1))
+        origin, e1, e2 = self.frame
+        new_sub, new_facet = [], []
+        for f in facets.tolist():  # a loop over changed facets
+            parts = [self.facets[f]]
+            for e in self.facet_edges[f].tolist():
+                parts.append(by_edge[edge_bounds[e] : edge_bounds[e + 1]])
+            parts.append(by_facet[facet_bounds[f] : facet_bounds[f + 1]])
+            ids = np.concatenate(parts)
+            if len(ids) == 3:
+                tri = self.facets[f : f + 1]
+            else:
+                d = self.P[ids] - origin[f]
+                uv = np.stack([d @ e1[f], d @ e2[f]], 1)
+                try:
+                    tri = _without_edge_slivers(
+                        delaunay2d(uv).triangles, [len(p) for p in parts], uv
+                    )
+                    tri = ids[tri]
+                except InputError as exc:  # rounding made two projections coincide
+                    raise AlgorithmError(
+                        f"the points added on input triangle {f} could not be triangulated "
+                        f"in its plane ({exc.message})",
+                        code="recovery_failed",
+                    ) from None
+            new_sub.append(tri)
+            new_facet.append(np.full(len(tri), f))
+        keep = ~np.isin(self.sub_facet, facets)
+        self.sub = np.concatenate([self.sub[keep], *new_sub])
+        self.sub_facet = np.concatenate([self.sub_facet[keep], *new_facet])
+
+    def split_subfaces(self, rows: np.ndarray) -> tuple[int, int]:
+        """Split subfaces ``rows`` at their circumcentres (Shewchuk's rule).
+
+        A circumcentre outside its facet, or in the diametral ball of a
+        subsegment, splits the subsegments it encroaches instead. Returns
+        (subfaces split, subsegments split).
+        """
+        rows = np.unique(rows)
+        if rows.size == 0:
+            return 0, 0
+        c, R = _tri_circumcenters(self.P, self.sub[rows])
+        # Co-circular subfaces share a circumcentre up to rounding: keep one.
+        near = self.crowded(c, R)
+        rows, c, R = rows[~near], c[~near], R[~near]
+        f = self.sub_facet[rows]
+        enc_c, enc_s = self.encroached_segments(c)
+        hit = np.zeros(len(rows), dtype=bool)
+        hit[enc_c] = True
+        inside = self.in_facet(c, f)
+        lost = ~inside & ~hit
+        if lost.any():
+            # Outside its facet and encroaching no subsegment (rounding): split the
+            # subface's longest subsegment-free edge's facet edge... use the centroid.
+            c[lost] = self.P[self.sub[rows[lost]]].mean(axis=1)
+            inside[lost] = True
+        use = inside & ~hit
+        n_seg = self.split_segments(enc_s)
+        ids = self.add(c[use], np.full(int(use.sum()), -1), f[use])
+        self.retriangulate(np.unique(f[use][ids >= 0]))
+        return int((ids >= 0).sum()), n_seg
+
+    def crowded(self, X: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """Candidates within ``merge`` times their radius of a vertex or an earlier candidate."""
+        r = self.knobs.merge * R
+        d, _ = cKDTree(self.P).query(X)
+        out = d <= r
+        if len(X) > 1:
+            pairs = cKDTree(X).query_pairs(float(r.max()), output_type="ndarray")
+            if len(pairs):
+                i, j = pairs.min(axis=1), pairs.max(axis=1)
+                dd = np.linalg.norm(X[i] - X[j], axis=1)
+                out[j[dd <= np.minimum(r[i], r[j])]] = True
+        return out
+
+    def protected_segments(self, rows: np.ndarray) -> np.ndarray:
+        s = self.seg[rows]
+        L = np.linalg.norm(self.P[s[:, 0]] - self.P[s[:, 1]], axis=1)
+        ref = np.minimum(self.edge_length[self.seg_edge[rows]], self.size_cap)
+        return L < self.knobs.protect * ref
+
+    def protected_subfaces(self, rows: np.ndarray) -> np.ndarray:
+        _, R = _tri_circumcenters(self.P, self.sub[rows])
+        ref = np.minimum(self.facet_short[self.sub_facet[rows]], self.size_cap)
+        return R < self.knobs.protect * ref
+
+    def in_facet(self, X: np.ndarray, f: np.ndarray) -> np.ndarray:
+        """Whether points (in their facet's plane) lie inside the facet (float)."""
+        tri = self.facets[f]
+        a, b, c = self.P[tri[:, 0]], self.P[tri[:, 1]], self.P[tri[:, 2]]
+        n = np.cross(b - a, c - a)
+        s1 = np.einsum("ij,ij->i", np.cross(b - a, X - a), n)
+        s2 = np.einsum("ij,ij->i", np.cross(c - b, X - b), n)
+        s3 = np.einsum("ij,ij->i", np.cross(a - c, X - c), n)
+        return (s1 > 0) & (s2 > 0) & (s3 > 0)
+
+    # -- encroachment --------------------------------------------------------------
+
+    def encroached_segments(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Pairs (point row, subsegment) with the point in the closed diametral ball.
+
+        Closed: a candidate point on the sphere (the circumcentre of a right
+        triangle, on its hypotenuse) splits the subsegment rather than land
+        next to its midpoint.
+
+        Candidates from KD-trees of subsegment midpoints (one per power of two
+        of the radius); the sign is exact
+        (:func:`~meshcore.geometry.predicates.dot3d`).
+        """
+        a = self.P[self.seg[:, 0]]
+        b = self.P[self.seg[:, 1]]
+        mid = 0.5 * (a + b)
+        half = 0.5 * np.linalg.norm(b - a, axis=1)
+        xi, si = _ball_pairs(X, mid, half * (1 + 1e-9))
+        inside = dot3d(a[si], b[si], X[xi]) <= 0
+        return xi[inside], si[inside]
+
+    def encroached_by_vertices(self) -> tuple[np.ndarray, np.ndarray]:
+        """Subsegments and subfaces with a vertex inside their diametral / equatorial ball."""
+        tree = cKDTree(self.P)
+        a = self.P[self.seg[:, 0]]
+        b = self.P[self.seg[:, 1]]
+        mid = 0.5 * (a + b)
+        half = 0.5 * np.linalg.norm(b - a, axis=1)
+        seg_bad = np.zeros(len(self.seg), dtype=bool)
+        hits = tree.query_ball_point(mid, r=half * (1 + 1e-9))
+        counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
+        if counts.sum():
+            si = np.repeat(np.arange(len(self.seg)), counts)
+            pi = np.concatenate([np.asarray(h, dtype=np.int64) for h in hits if h])
+            other = (pi != self.seg[si, 0]) & (pi != self.seg[si, 1])
+            si, pi = si[other], pi[other]
+            inside = dot3d(a[si], b[si], self.P[pi]) < 0
+            seg_bad[si[inside]] = True
+        o, r = _tri_circumcenters(self.P, self.sub)
+        sub_bad = np.zeros(len(self.sub), dtype=bool)
+        hits = tree.query_ball_point(o, r=r * self.knobs.subface_ball)
+        counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
+        if counts.sum():
+            fi = np.repeat(np.arange(len(self.sub)), counts)
+            pi = np.concatenate([np.asarray(h, dtype=np.int64) for h in hits if h])
+            s = self.sub[fi]
+            other = (pi != s[:, 0]) & (pi != s[:, 1]) & (pi != s[:, 2])
+            sub_bad[fi[other]] = True
+        return np.flatnonzero(seg_bad), np.flatnonzero(sub_bad)
+
+    def encroached_subfaces(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Pairs (point row, subface) with the point inside the equatorial ball (float)."""
+        o, r = _tri_circumcenters(self.P, self.sub)
+        return _ball_pairs(X, o, r * self.knobs.subface_ball)
+
+    # -- presence ------------------------------------------------------------------
+
+    def missing(self, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Subsegments that are not edges, subfaces that are not faces of ``T``."""
+        ek = np.sort(_edge_keys(T[:, _EDGES].reshape(-1, 2)))
+        seg_missing = np.flatnonzero(~_member(_edge_keys(self.seg), ek))
+        fk = np.sort(_face_keys(T[:, _FACES].reshape(-1, 3)))
+        sub_missing = np.flatnonzero(~_member(_face_keys(self.sub), fk))
+        return seg_missing, sub_missing
+
+
+# ---------------------------------------------------------------------------
+# Phases
+# ---------------------------------------------------------------------------
+
+
+def _recover(b: _Builder, progress) -> int:
+    """Split missing subsegments, then missing subfaces, until all are present."""
+    for r in range(b.knobs.recovery_rounds):
+        _, T = b.tets()
+        seg_missing, sub_missing = b.missing(T)
+        if seg_missing.size:
+            b.split_segments(seg_missing)
+        elif sub_missing.size:
+            b.split_subfaces(sub_missing)
+        else:
+            return r
+        if progress is not None:
+            progress(0.1, f"boundary recovery: round {r + 1}")
+    raise AlgorithmError(
+        f"boundary recovery did not finish in {b.knobs.recovery_rounds} rounds "
+        f"({len(seg_missing)} subsegments and {len(sub_missing)} subfaces missing)",
+        code="recovery_failed",
+    )
+
+
+def _regions(b: _Builder, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """Region of each tetrahedron of ``T`` (-1 outside), by flood fill across non-subfaces."""
+    m = len(T)
+    row_of = np.full(int(slots.max()) + 1 if m else 1, -1, dtype=np.int64)
+    row_of[slots] = np.arange(m)
+    adj = b.dt.adjacent(slots)
+    nb = np.where(adj >= 0, row_of[np.clip(adj, 0, len(row_of) - 1)], -1)
+    nb[adj >= len(row_of)] = -1
+    faces = T[:, _FACES]  # (m, 4, 3), outward
+    fkeys = _face_keys(faces.reshape(-1, 3)).reshape(m, 4)
+    sub_keys = _face_keys(b.sub)
+    order = np.argsort(sub_keys)
+    sk = sub_keys[order]
+    is_sub = _member(fkeys.reshape(-1), sk).reshape(m, 4)
+    # Links across ordinary faces between real tetrahedra.
+    link = ~is_sub & (nb >= 0)
+    r_i, f_i = np.nonzero(link)
+    graph = sp.csr_matrix((np.ones(len(r_i), dtype=np.int8), (r_i, nb[r_i, f_i])), shape=(m, m))
+    n_comp, comp = connected_components(graph, directed=False)
+    label = np.full(n_comp, -2, dtype=np.int64)  # -2 unknown
+    # A tetrahedron on a hull face (neighbour a ghost) across a non-subface is outside.
+    outside = np.unique(comp[np.nonzero(~is_sub & (nb < 0))[0]])
+    # Subfaces: the tetrahedron on the inner side takes the facet's region.
+    t_i, f_j = np.nonzero(is_sub)
+    pos = np.searchsorted(sk, fkeys[t_i, f_j])
+    s_rows = order[pos]
+    sf = b.sub[s_rows]
+    d = T[t_i, f_j]
+    side = orient3d(b.P[sf[:, 0]], b.P[sf[:, 1]], b.P[sf[:, 2]], b.P[d])
+    inner = side > 0
+    reg = b.facet_region[b.sub_facet[s_rows]]
+    ci = comp[t_i[inner]]
+    ri = reg[inner]
+    label[ci] = ri
+    conflict = np.zeros(n_comp, dtype=bool)
+    chk = label[ci] != ri
+    conflict[ci[chk]] = True
+    co = comp[t_i[~inner]]
+    outer_reg = reg[~inner]
+    # A tetrahedron on the outer side of a facet is in another region or outside:
+    # never in the facet's own region.
+    same = label[co] == outer_reg
+    conflict[co[same]] = True
+    conflict[np.intersect1d(outside, ci)] = True
+    if conflict.any():
+        raise AlgorithmError(
+            "the recovered surface does not separate the regions (a subface is "
+            "missing or doubled): the tetrahedra could not be classified",
+            code="recovery_failed",
+        )
+    label[label == -2] = -1
+    label[outside] = -1
+    return label[comp]
+
+
+def _bad_tets(P, T, max_radius_edge, max_volume, size, knobs) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of bad tetrahedra and their circumcentres, worst (largest radius) first."""
+    c, R = _tet_circumcenters(P, T)
+    short = _shortest_edge(P, T)
+    bad = R > max_radius_edge * short
+    if max_volume is not None:
+        bad |= _volumes(P, T) > max_volume
+    if size is not None:
+        bad |= R > knobs.size_radius * size
+    # A tetrahedron too flat for its float circumcentre (positive by the exact
+    # sign, zero in float) is bad; its centroid is inserted instead.
+    flat = ~np.isfinite(R)
+    c[flat] = P[T[flat]].mean(axis=1)
+    R[flat] = np.inf
+    rows = np.flatnonzero(bad | flat)
+    rows = rows[np.argsort(-R[rows], kind="stable")]
+    return rows, c[rows]
+
+
+def _insert_interior(b: _Builder, slots, region, rows, centres, tets) -> tuple[int, int]:
+    """Insert circumcentres of tetrahedra ``rows``, or split what they encroach.
+
+    ``slots`` and ``region`` (per tetrahedron row) describe the structure at
+    the start of the round. A circumcentre that encroaches a subsegment or a
+    subface splits it instead (and the round's other candidates wait for the
+    next round, the surface having changed). The others are inserted one at
+    a time, in the given order, skipping those whose tetrahedron an earlier
+    insertion destroyed and those that do not fall in a tetrahedron of the
+    mesh (outside the regions). Returns (points inserted or splits made,
+    candidates skipped as outside).
+    """
+    xi, si = b.encroached_segments(centres)
+    done = 0
+    blocked = np.zeros(len(rows), dtype=bool)
+    split_seg = np.zeros(0, dtype=np.int64)
+    split_sub = np.zeros(0, dtype=np.int64)
+    given_up = 0
+    if si.size:
+        guard = b.protected_segments(si)
+        blocked[xi] = True
+        split_seg = si[~guard]
+        given_up += len(np.setdiff1d(xi[guard], xi[~guard]))
+    if len(b.sub):
+        xf, fi = b.encroached_subfaces(centres)
+        if fi.size:
+            guard = b.protected_subfaces(fi)
+            fresh = ~blocked[xf]
+            blocked[xf] = True
+            split_sub = fi[~guard & fresh]
+            given_up += len(np.setdiff1d(xf[guard & fresh], xf[~guard & fresh]))
+    # Far circumcentres (of nearly flat tetrahedra) lie outside the surface's box:
+    # outside every region.
+    lo, hi = b.P[: b.n_surface].min(axis=0), b.P[: b.n_surface].max(axis=0)
+    far = ~((centres >= lo) & (centres <= hi)).all(axis=1) & ~blocked
+    if far.any():
+        # Such a tetrahedron leans on the surface: split its faces that are
+        # subfaces (Shewchuk's rule for a circumcentre beyond a subface), or
+        # insert its centroid when it has none.
+        faces = tets[rows[far]][:, _FACES].reshape(-1, 3)
+        fk = _face_keys(faces)
+        sk = _face_keys(b.sub)
+        order = np.argsort(sk)
+        pos = np.minimum(np.searchsorted(sk[order], fk), len(sk) - 1)
+        hit = sk[order][pos] == fk
+        leaning = hit.reshape(-1, 4).any(axis=1)
+        sub_rows = order[pos[hit]]
+        sub_rows = sub_rows[~b.protected_subfaces(sub_rows)]
+        split_sub = np.union1d(split_sub, sub_rows)
+        idx = np.flatnonzero(far)
+        given_up += int(leaning.sum())
+        centres[idx[~leaning]] = b.P[tets[rows[idx[~leaning]]]].mean(axis=1)
+        far[idx[~leaning]] = False
+    keep = ~blocked & ~far
+    rows, centres = rows[keep], centres[keep]
+    top = int(slots.max()) + 1
+    slot_region = np.full(top, -1, dtype=np.int64)
+    slot_region[slots] = region
+    stale = np.zeros(top, dtype=bool)
+    outside = given_up
+    for k in range(len(rows)):  # sequential: each insertion may destroy later candidates
+        s = int(slots[rows[k]])
+        if stale[s]:
+            continue
+        loc = b.dt.locate(centres[k])
+        if loc.tet < 0 or loc.tet >= top or stale[loc.tet] or slot_region[loc.tet] < 0:
+            outside += int(loc.tet < 0 or (loc.tet < top and slot_region[loc.tet] < 0))
+            continue
+        res = b.dt.insert(centres[k], near=None)
+        if res.duplicate:
+            continue
+        b.P = np.concatenate([b.P, centres[k : k + 1]])
+        b.pt_edge = np.append(b.pt_edge, -1)
+        b.pt_facet = np.append(b.pt_facet, -1)
+        b.n += 1
+        b.interior_added += 1
+        done += 1
+        for arr in (res.removed, res.created):
+            stale[arr[arr < top]] = True
+    # The surface pieces the other candidates encroach, split last (an interior
+    # insertion never removes a subsegment or subface from the lists).
+    done += b.split_segments(split_seg)
+    if split_sub.size:
+        n_sub, n_seg = b.split_subfaces(split_sub)
+        done += n_sub + n_seg
+    return done, outside
+
+
+def _refine(b: _Builder, criteria, progress, sliver_bound=None) -> tuple[int, int]:
+    """Delaunay refinement rounds; returns (rounds, bad tetrahedra left)."""
+    max_radius_edge, max_volume, size = criteria
+    rounds = 0
+    left = 0
+    cap = b.knobs.sliver_rounds if sliver_bound is not None else b.knobs.refinement_rounds
+    for rounds in range(1, cap + 1):
+        if b.n >= b.knobs.max_points:
+            break
+        _recover(b, None)
+        if b.knobs.eager:
+            seg_bad, sub_bad = b.encroached_by_vertices()
+            seg_bad = seg_bad[~b.protected_segments(seg_bad)]
+            sub_bad = sub_bad[~b.protected_subfaces(sub_bad)]
+        else:
+            seg_bad = sub_bad = np.zeros(0, dtype=np.int64)
+        if size is not None:
+            L = np.linalg.norm(b.P[b.seg[:, 0]] - b.P[b.seg[:, 1]], axis=1)
+            seg_bad = np.union1d(seg_bad, np.flatnonzero(L > size))
+        if seg_bad.size:
+            b.split_segments(seg_bad)
+            continue
+        if size is not None:
+            _, r = _tri_circumcenters(b.P, b.sub)
+            sub_bad = np.union1d(sub_bad, np.flatnonzero(r > b.knobs.size_radius * size))
+        if sub_bad.size:
+            b.split_subfaces(sub_bad)
+            continue
+        slots, T = b.tets()
+        region = _regions(b, slots, T)
+        inside = np.flatnonzero(region >= 0)
+        Ti = T[inside]
+        if sliver_bound is None:
+            rows, centres = _bad_tets(b.P, Ti, max_radius_edge, max_volume, size, b.knobs)
+        else:
+            dih = tetra_dihedral_angles(b.P, Ti).min(axis=1)
+            rows = np.flatnonzero(dih < sliver_bound)
+            rows = rows[np.argsort(dih[rows], kind="stable")]
+            centres, _ = _tet_circumcenters(b.P, Ti[rows])
+        left = len(rows)
+        if left == 0:
+            return rounds, 0
+        done, skipped = _insert_interior(b, slots[inside], region[inside], rows, centres, Ti)
+        if progress is not None:
+            progress(0.5, f"refinement round {rounds}: {left} bad tetrahedra")
+        if done == 0:
+            return rounds, skipped
+    return rounds, left
+
+
+# ---------------------------------------------------------------------------
+# keep_boundary: the cone from one interior point
+# ---------------------------------------------------------------------------
+
+
+def _kernel_centre(P: np.ndarray, F: np.ndarray) -> np.ndarray | None:
+    """Chebyshev centre of the kernel of a closed outward surface (LP), or None."""
+    from scipy.optimize import linprog
+
+    a = P[F[:, 0]]
+    n = np.cross(P[F[:, 1]] - a, P[F[:, 2]] - a)
+    norm = np.linalg.norm(n, axis=1)
+    n = n / norm[:, None]
+    # n . x + r <= n . a  for every face; maximize r.
+    A = np.column_stack([n, np.ones(len(n))])
+    rhs = np.einsum("ij,ij->i", n, a)
+    res = linprog(
+        c=[0, 0, 0, -1.0], A_ub=A, b_ub=rhs, bounds=[(None, None)] * 3 + [(0, None)],
+        method="highs",
+    )  # fmt: skip
+    if not res.success or res.x[3] <= 0:
+        return None
+    return res.x[:3]
+
+
+def _cone(b: _Builder, region_count: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """Tetrahedra of the cone from one interior point per region, if each is star-shaped."""
+    tets, regs = [], []
+    for r in range(region_count):  # a loop over regions
+        F = b.facets[b.facet_region == r]
+        c = _kernel_centre(b.P, F)
+        if c is None:
+            return None
+        a, bb, cc = b.P[F[:, 0]], b.P[F[:, 1]], b.P[F[:, 2]]
+        if not (orient3d(a, bb, cc, c) > 0).all():
+            return None  # rounding put the centre on a face's plane
+        v = b.n
+        b.P = np.concatenate([b.P, c[None]])
+        b.n += 1
+        b.interior_added += 1
+        tets.append(np.column_stack([F, np.full(len(F), v)]))  # orient3d > 0
+        regs.append(np.full(len(F), r))
+    return np.concatenate(tets), np.concatenate(regs)
+
+
+# ---------------------------------------------------------------------------
+# Entry point
+# ---------------------------------------------------------------------------
+
+
+def _criteria_checked(max_radius_edge, min_dihedral, max_volume, size):
+    def positive(name, value, upper=None):
+        if value is None:
+            return None
+        try:
+            x = float(value)
+        except (TypeError, ValueError):
+            x = math.nan
+        if not math.isfinite(x) or x <= 0 or (upper is not None and x > upper):
+            rng = f"in (0, {upper}]" if upper is not None else "above 0"
+            raise InputError(
+                f"{name} must be a finite number {rng}, got {value!r}",
+                loc=(name,),
+                code="bad_parameter",
+            )
+        return x
+
+    mre = positive("max_radius_edge", max_radius_edge)
+    if mre is not None and mre < MIN_RADIUS_EDGE:
+        raise InputError(
+            f"max_radius_edge must be at least {MIN_RADIUS_EDGE} (no tetrahedralization "
+            f"reaches lower ratios in general), got {max_radius_edge!r}",
+            loc=("max_radius_edge",),
+            code="bad_parameter",
+        )
+    return (
+        mre,
+        positive("min_dihedral", min_dihedral, 70.0),
+        positive("max_volume", max_volume),
+        positive("size", size),
+    )
+
+
+def tetrahedralize(
+    surface,
+    *,
+    empty: bool = False,
+    max_radius_edge: float | None = 2.0,
+    min_dihedral: float | None = None,
+    max_volume: float | None = None,
+    size: float | None = None,
+    keep_boundary: bool = False,
+    progress: Callable[[float, str], None] | None = None,
+) -> TetrahedralizationResult:
+    """Tetrahedra filling the regions of a closed surface, refined to the given bounds.
+
+    Parameters
+    ----------
+    surface : Surface or dict
+        A validated surface (:func:`meshcore.domain.surface.parse_surface`),
+        or ``{"points": ..., "triangles": ...}`` (parsed here).
+    empty : bool
+        Only the surface points and the Steiner points on the surface that
+        recovery needs (the empty tetrahedralization of §9.5); the bounds
+        below are ignored.
+    max_radius_edge : float or None
+        Refine until every tetrahedron's circumradius over its shortest edge
+        is at most this (TetGen's ``-q``; default 2.0, at least 1.1), except
+        next to input angles too small for it (the rounds are capped and the
+        rest counted in ``given_up``). None: no radius-edge bound.
+    min_dihedral : float, optional
+        Degrees in (0, 70]: sliver rounds after refinement, inserting the
+        circumcentres of the tetrahedra whose least dihedral angle is below
+        it (or splitting what they encroach). Nothing is guaranteed: see
+        ``quality`` for what was reached.
+    max_volume : float, optional
+        Every tetrahedron's volume at most this.
+    size : float, optional
+        Target edge length: subsegments longer than it are split, subfaces
+        and tetrahedra with a circumradius above ``0.7 size``.
+    keep_boundary : bool
+        Add no point on the surface: the boundary faces are exactly the
+        input triangles. Supported when the surface needs no Steiner point
+        or each region is star-shaped (one interior point, the cone); no
+        refinement then (the bounds are ignored).
+    progress : callable, optional
+        ``progress(fraction, message)``; it may raise to cancel.
+
+    Returns
+    -------
+    TetrahedralizationResult
+        Positively oriented tetrahedra, each in one region; their volumes
+        add up to the enclosed volume (to rounding); the boundary faces are
+        exactly the subfaces, which tile every input triangle; no face is
+        shared by more than two tetrahedra.
+
+    Raises
+    ------
+    InputError
+        Invalid surface (as :func:`parse_surface`) or bounds
+        (``bad_parameter``).
+    AlgorithmError
+        ``recovery_failed`` (recovery did not finish, or ``keep_boundary``
+        on a surface that needs Steiner points and is not star-shaped).
+
+    References
+    ----------
+    Methods text §9.2, §9.3 (edges then faces), §9.3.5, §9.5; Shewchuk
+    (1998) for the refinement.
+    """
+    if not isinstance(surface, Surface):
+        if not isinstance(surface, dict):
+            raise InputError(
+                'surface must be a Surface or {"points": ..., "triangles": ...}',
+                loc=("surface",),
+                code="bad_geometry",
+            )
+        try:
+            surface = parse_surface(surface.get("points"), surface.get("triangles"))
+        except InputError as exc:
+            raise exc.prefixed("surface") from None
+    criteria = _criteria_checked(max_radius_edge, min_dihedral, max_volume, size)
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    b = _Builder(surface, _KNOBS)
+    if criteria[3] is not None:
+        b.size_cap = criteria[3]
+    timings["delaunay"] = time.perf_counter() - t0
+    rounds = 0
+    given_up = 0
+    if keep_boundary:
+        t1 = time.perf_counter()
+        slots, T = b.tets()
+        seg_missing, sub_missing = b.missing(T)
+        if seg_missing.size == 0 and sub_missing.size == 0:
+            region = _regions(b, slots, T)
+            keep = region >= 0
+            tetra, region = T[keep], region[keep]
+        else:
+            cone = _cone(b, surface.region_count)
+            if cone is None:
+                raise AlgorithmError(
+                    f"keep_boundary: the surface needs Steiner points ({len(seg_missing)} "
+                    f"edges and {len(sub_missing)} triangles are not Delaunay) and a region "
+                    "is not star-shaped; constrained recovery with interior points only is "
+                    "not implemented: allow points on the surface (keep_boundary false)",
+                    code="recovery_failed",
+                )
+            tetra, region = cone
+        timings["recovery"] = time.perf_counter() - t1
+    else:
+        t1 = time.perf_counter()
+        rounds += _recover(b, progress)
+        timings["recovery"] = time.perf_counter() - t1
+        mre, mdh, mvol, sz = criteria
+        if not empty and (mre is not None or mvol is not None or sz is not None):
+            t2 = time.perf_counter()
+            r, given_up = _refine(b, (mre or math.inf, mvol, sz), progress)
+            rounds += r
+            timings["refinement"] = time.perf_counter() - t2
+        if not empty and mdh is not None:
+            t3 = time.perf_counter()
+            r, _ = _refine(b, (mre or math.inf, mvol, sz), progress, sliver_bound=mdh)
+            rounds += r
+            timings["slivers"] = time.perf_counter() - t3
+        # Encroachment fixes may have left pieces missing: recover again (no-op if whole).
+        rounds += _recover(b, progress)
+        slots, T = b.tets()
+        region = _regions(b, slots, T)
+        keep = region >= 0
+        tetra, region = T[keep], region[keep]
+    # Boundary faces: the subfaces (with keep_boundary, the input triangles).
+    sub = b.facets if keep_boundary else b.sub
+    sub_src = np.arange(len(b.facets)) if keep_boundary else b.sub_facet
+    # Kernel order (orient3d > 0) to meshio's positive volume: swap two vertices.
+    tetra = tetra[:, [0, 1, 3, 2]]
+    cell_sets = {f"region_{r}": [np.flatnonzero(region == r)] for r in range(surface.region_count)}
+    mesh = Mesh(b.P, (CellBlock("tetra", tetra),), cell_sets=cell_sets)
+    timings["total"] = time.perf_counter() - t0
+    return TetrahedralizationResult(
+        mesh=mesh,
+        region=region,
+        boundary_faces=sub,
+        boundary_source=sub_src,
+        surface_points_added=b.surface_added,
+        interior_points_added=b.interior_added,
+        rounds=rounds,
+        given_up=given_up,
+        timings=timings,
+    )

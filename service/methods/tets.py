@@ -1,0 +1,110 @@
+"""Params and run function of ``tetrahedralize`` (§9.2, §9.3, §9.5; Delaunay refinement).
+
+The params model refuses, with the field's location, what JSON Schema can
+say (shapes, signs, ranges, NaN and infinities); its :meth:`check` runs
+:func:`meshcore.domain.surface.parse_surface` (open, non-manifold,
+inconsistently oriented or self-intersecting surfaces, ...) and raises
+:class:`~meshcore.errors.InputError` located under ``surface``.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import numpy as np
+from pydantic import Field
+
+from meshcore.mesh import quality
+from meshcore.tets import tetra_dihedral_angles, tetrahedralize
+from meshcore.tets.refinement import MIN_RADIUS_EDGE
+from service.methods.surface_schema import UNIT_CUBE, SurfaceIn
+from service.schemas import MethodParams
+
+PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+
+
+class TetrahedralizeParams(MethodParams):
+    """Tetrahedra filling a closed surface, refined to the given bounds."""
+
+    surface: SurfaceIn
+    empty: bool = Field(
+        default=False,
+        description="Only the surface points and the Steiner points on the surface that make "
+        "every input triangle a union of Delaunay faces (the empty tetrahedralization of §9.5); "
+        "the bounds below are ignored.",
+    )
+    max_radius_edge: Annotated[float, Field(ge=MIN_RADIUS_EDGE, allow_inf_nan=False)] | None = (
+        Field(
+            default=2.0,
+            description="Circumradius over shortest edge of every tetrahedron at most this "
+            "(TetGen's -q), except where the refinement gives up (stats.given_up); null for no "
+            "bound.",
+        )
+    )
+    min_dihedral: Annotated[float, Field(gt=0, le=70, allow_inf_nan=False)] | None = Field(
+        default=None,
+        description="Degrees: sliver rounds after refinement for the tetrahedra whose least "
+        "dihedral angle is below it. Best effort: quality.tetra.dihedral says what was reached.",
+    )
+    max_volume: PositiveFloat | None = Field(
+        default=None, description="Largest tetrahedron volume."
+    )
+    size: PositiveFloat | None = Field(default=None, description="Target edge length.")
+    keep_boundary: bool = Field(
+        default=False,
+        description="No point on the surface: the boundary faces are exactly the input "
+        "triangles (interior Steiner points only; supported for surfaces that need none or "
+        "whose regions are star-shaped, e.g. Schönhardt's prism with one point).",
+    )
+
+    def check(self) -> None:
+        super().check()
+        self.surface.to_surface()
+
+
+def run_tetrahedralize(params: TetrahedralizeParams, progress) -> dict:
+    """The tetrahedral mesh, its quality report (with dihedral angles) and the counts."""
+    surface = params.surface.to_surface()
+
+    def sub(fraction: float, message: str) -> None:
+        progress(0.9 * fraction, message)
+
+    res = tetrahedralize(
+        surface,
+        empty=params.empty,
+        max_radius_edge=params.max_radius_edge,
+        min_dihedral=params.min_dihedral,
+        max_volume=params.max_volume,
+        size=params.size,
+        keep_boundary=params.keep_boundary,
+        progress=sub,
+    )
+    progress(0.9, "quality report")
+    report = quality.report(res.mesh)
+    P, K = res.mesh.points, res.mesh.cells[0].data
+    dihedral = tetra_dihedral_angles(P, K) if len(K) else np.zeros((0, 6))
+    report["tetra"]["dihedral"] = {
+        "min": float(dihedral.min()) if len(K) else None,
+        "max": float(dihedral.max()) if len(K) else None,
+    }
+    return {
+        "mesh": res.mesh,
+        "quality": report,
+        "stats": {
+            "points": len(P),
+            "tetrahedra": len(K),
+            "regions": {k: len(v[0]) for k, v in res.mesh.cell_sets.items()},
+            "input_points": int(len(surface.vertices)),
+            "input_triangles": int(len(surface.triangles)),
+            "volume": surface.volume,
+            "surface_points_added": res.surface_points_added,
+            "interior_points_added": res.interior_points_added,
+            "rounds": res.rounds,
+            "given_up": res.given_up,
+            "seconds": {k: round(v, 6) for k, v in res.timings.items()},
+        },
+    }
+
+
+#: The unit cube, refined to edges of about 0.25.
+TETRAHEDRALIZE_EXAMPLE = {"surface": UNIT_CUBE, "size": 0.25, "max_radius_edge": None}
