@@ -5,7 +5,7 @@ Layout under the data directory::
     jobs.sqlite3            one row per job (status, progress, timestamps, error)
     jobs/<id>/params.json   the submitted params, written before the row commits
     jobs/<id>/result.json   the result, written atomically (temporary file + rename)
-    jobs/<id>/result.<fmt>  downloads converted from it, cached the same way
+    jobs/<id>/result.<fmt>  downloads, the mesh's arrays (npz), previews: service.downloads
 
 The store is used from the event-loop thread only; every statement is short.
 Each change of a row bumps its ``version``, which is the job's ``ETag``.
@@ -134,6 +134,13 @@ class Store:
 
     def write_result(self, job_id: str, data: bytes, fmt: str = "json") -> None:
         write_atomically(self.result_path(job_id, fmt), data)
+
+    def write_results(self, job_id: str, files: dict[str, bytes]) -> None:
+        """Write a finished job's files by name, ``result.json`` last (it marks them complete)."""
+        for name, data in files.items():
+            if name != "json":
+                self.write_result(job_id, data, name)
+        self.write_result(job_id, files["json"])
 
     # -- rows -------------------------------------------------------------------
 

@@ -5,19 +5,17 @@ import base64
 import binascii
 import functools
 import hashlib
-import json
 import operator
 from collections.abc import AsyncIterator
 from typing import Annotated, Any, Literal
 
-from fastapi import APIRouter, Header, Query, Response
-from fastapi.responses import FileResponse
+from fastapi import APIRouter, Header, Query, Request, Response
 from fastapi.sse import EventSourceResponse, ServerSentEvent
 from pydantic import ConfigDict, Field, create_model
 
+from service import downloads
 from service.deps import ClientDep, JobDep, ManagerDep, SettingsDep, StoreDep
-from service.methods.registry import FORMATS, InputError, Registry, mesh_file
-from service.preview import render_svg
+from service.methods.registry import FORMATS, InputError, Registry
 from service.problems import (
     Gone,
     Invalid,
@@ -288,65 +286,99 @@ def router(registry: Registry) -> APIRouter:
             raise Gone(f"the result of job {job.id} has expired and was removed")
         return path
 
+    binary = {"type": "string", "format": "binary"}
+    download_types = sorted({spec.media_type for spec in FORMATS.values()})
+    format_table = "; ".join(f"`{name}`: {spec.media_type}" for name, spec in FORMATS.items())
+    ranges = {
+        206: {"description": "Part of the file (a `Range` request)."},
+        304: {"description": "Not modified (`If-None-Match`)."},
+        416: {"description": "The range is outside the file."},
+    }
+
     @api.get(
         "/{job_id}/result",
         operation_id="getJobResult",
         summary="The result as JSON, or its mesh as a file (?format=)",
+        description="Every answer is a file with `ETag`, `Content-Length`, "
+        "`Content-Disposition` (`<job>-<format>.<suffix>`) and range requests. "
+        f"Media types by format: {format_table}.",
         response_model=None,
         responses={
             200: {
                 "description": "The result, or with ?format= the mesh file.",
                 "content": {
                     "application/json": {"schema": ResultOut.model_json_schema()},
-                    "application/octet-stream": {},
+                    **{t: {"schema": binary} for t in download_types},
                 },
             },
+            **ranges,
             **_problems(401, 404, 409, 410, 422),
         },
     )
     async def result(
         job: JobDep,
         store: StoreDep,
-        format: Annotated[Format | None, Query(description="Download the mesh.")] = None,
+        request: Request,
+        format: Annotated[
+            Format | None, Query(description=f"Download the mesh: {format_table}.")
+        ] = None,
     ) -> Response:
         path = _result_path(job, store)
         if format is None:
-            return FileResponse(path, media_type="application/json")
-        spec = FORMATS[format]
-        target = store.result_path(job.id, format)
-        if not target.exists():
-
-            def convert() -> None:
-                data = json.loads(path.read_bytes())
-                store.write_result(job.id, mesh_file(data, format), format)
-
-            try:
-                await asyncio.to_thread(convert)
-            except InputError as exc:
-                raise from_input_error(exc) from None
-        filename = f"{job.id}{spec.suffix}"
-        return FileResponse(target, media_type=spec.media_type, filename=filename)
-
-    @api.get(
-        "/{job_id}/preview.svg",
-        operation_id="getJobPreview",
-        summary="An SVG drawing of a 2D result",
-        response_class=Response,
-        responses={
-            200: {"content": {"image/svg+xml": {}}, "description": "The drawing."},
-            **_problems(401, 404, 409, 410, 422),
-        },
-    )
-    async def preview(job: JobDep, store: StoreDep) -> Response:
-        path = _result_path(job, store)
-
-        def draw() -> str:
-            return render_svg(json.loads(path.read_bytes()))
-
+            return downloads.answer(
+                request,
+                path,
+                media_type="application/json",
+                filename=f"{job.id}-result.json",
+                etag=f'"{job.id}-json"',
+                attachment=False,
+            )
         try:
-            svg = await asyncio.to_thread(draw)
+            target = await asyncio.to_thread(downloads.mesh_download, store, job.id, format)
         except InputError as exc:
             raise from_input_error(exc) from None
-        return Response(svg, media_type="image/svg+xml")
+        spec = FORMATS[format]
+        return downloads.answer(
+            request,
+            target,
+            media_type=spec.media_type,
+            filename=f"{job.id}-{format}{spec.suffix}",
+            etag=f'"{job.id}-{format}"',
+        )
+
+    def preview_route(kind: str, media_type: str, summary: str) -> None:
+        @api.get(
+            f"/{{job_id}}/preview.{kind}",
+            operation_id="getJobPreview" if kind == "svg" else f"getJobPreview{kind.title()}",
+            summary=summary,
+            response_class=Response,
+            responses={
+                200: {"content": {media_type: {}}, "description": "The drawing."},
+                **ranges,
+                **_problems(401, 404, 409, 410, 422),
+            },
+        )
+        async def preview(job: JobDep, store: StoreDep, request: Request) -> Response:
+            _result_path(job, store)  # 409 while running, 410 once expired
+            try:
+                target = await asyncio.to_thread(downloads.preview_file, store, job.id, kind)
+            except InputError as exc:
+                raise from_input_error(exc) from None
+            return downloads.answer(
+                request,
+                target,
+                media_type=media_type,
+                filename=f"{job.id}-preview.{kind}",
+                etag=f'"{job.id}-preview-{kind}"',
+                attachment=False,
+            )
+
+    for kind, (media_type, _) in downloads.PREVIEWS.items():
+        preview_route(
+            kind,
+            media_type,
+            "A drawing of the result (2D; a 3D mesh as its boundary surface from a fixed view), "
+            + ("at most about 2 MB" if kind == "svg" else "800 pixels wide or high"),
+        )
 
     return api

@@ -83,7 +83,7 @@ def _child(task: Task, conn: Connection, memory_limit: int) -> None:
             conn.send(("progress", min(max(float(fraction), 0.0), 1.0), str(message)[:200]))
 
     try:
-        conn.send(("ok", run_job(task.spec, task.params, progress)))
+        conn.send(("ok", run_job(task.spec, task.params, progress, task.formats)))
     except JobFailed as exc:
         conn.send(("error", exc.problem))
     conn.close()
@@ -115,8 +115,8 @@ def run_in_child(
     progress: Callable[[float, str], None],
     should_stop: Callable[[], bool],
     poll: float = 0.1,
-) -> bytes:
-    """Run ``task`` in a new child process and return its result bytes.
+) -> dict[str, bytes]:
+    """Run ``task`` in a new child process and return its result files.
 
     Blocks until the child answers or dies; checks ``should_stop`` every
     ``poll`` seconds while waiting.

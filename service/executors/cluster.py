@@ -54,7 +54,7 @@ def _cancel_event(job_id: str, attempt: int) -> str:
     return f"meshservice-cancel-{job_id}-{attempt}"
 
 
-def run_on_worker(task: Task, memory_limit: int) -> bytes:
+def run_on_worker(task: Task, memory_limit: int) -> dict[str, bytes]:
     """The Dask task: run ``task`` in a killable child on this worker.
 
     Raises
@@ -146,7 +146,7 @@ class DaskExecutor:
         task: Task,
         progress: Callable[[float, str], None],
         restarted: Callable[[], None],
-    ) -> bytes:
+    ) -> dict[str, bytes]:
         client = self._client
         topic = _topic(task)
         starts = 0

@@ -54,7 +54,7 @@ class LocalExecutor:
         task: Task,
         progress: Callable[[float, str], None],
         restarted: Callable[[], None],
-    ) -> bytes:
+    ) -> dict[str, bytes]:
         loop = asyncio.get_running_loop()
         stop = threading.Event()
         self._stops.add(stop)
