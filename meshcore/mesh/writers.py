@@ -26,8 +26,8 @@ binary encoding:
   (the formats have no binary form), formatted by one ``%`` operation per
   section with shortest round-trip floats (``repr``), so no digit is lost.
 
-Point data and cell data go with every format that can hold them (vtu,
-xdmf, ply: scalars and vectors); cell sets go as Gmsh physical groups,
+Point data goes with vtu, xdmf, gmsh (``$NodeData``) and ply (scalars);
+cell data with vtu and xdmf; cell sets go as Gmsh physical groups,
 Abaqus ``*ELSET``\\ s, and elsewhere as one 0/1 cell data array per set
 named ``set:<name>`` (as in :mod:`meshcore.mesh.io`). Node orders are
 meshio's, which every format here shares except VTK's wedge (its two
@@ -165,13 +165,14 @@ def _vtu_encode(array: np.ndarray, compression: str | None) -> bytes:
 def write_vtu(mesh: Mesh, out: BinaryIO, compression: str | None = None) -> None:
     """Write ``mesh`` as a VTK XML UnstructuredGrid with appended binary data.
 
-    ``compression`` is None (raw) or ``"zlib"``.
+    ``compression`` is None (raw) or ``"zlib"``. The arrays are appended in
+    the reverse of their order in the XML: meshio's reader rewrites offsets in
+    place while it looks them up, and with this order a rewritten offset never
+    shadows one still to look up.
     """
     arrays: list[bytes] = []
-    offset = 0
 
     def item(name: str | None, array: np.ndarray) -> str:
-        nonlocal offset
         array = np.asarray(array)
         if array.dtype not in _VTK_NUMPY:
             array = array.astype(np.float64 if array.dtype.kind == "f" else np.int64)
@@ -182,9 +183,8 @@ def write_vtu(mesh: Mesh, out: BinaryIO, compression: str | None = None) -> None
             f'<DataArray type="{_VTK_NUMPY[array.dtype]}"'
             + (f' Name="{_xml_attr(name)}"' if name else "")
             + (f' NumberOfComponents="{comps}"' if comps > 1 or name is None else "")
-            + f' format="appended" offset="{offset}"/>'
+            + f' format="appended" offset="\0{len(arrays) - 1}\0"/>'
         )
-        offset += len(encoded)
         return tag
 
     points = _points3(mesh)
@@ -218,16 +218,21 @@ def write_vtu(mesh: Mesh, out: BinaryIO, compression: str | None = None) -> None
         head += [item(k, v) for k, v in cell_arrays.items()]
         head.append("</CellData>")
     head.append("</Piece>")
+    xml = "\n".join(head)
+    position = 0
+    for i in reversed(range(len(arrays))):  # a NUL never occurs in escaped XML text
+        xml = xml.replace(f"\0{i}\0", str(position))
+        position += len(arrays[i])
     compressor = ' compressor="vtkZLibDataCompressor"' if compression else ""
     out.write(
         (
             '<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="1.0" '
             f'byte_order="LittleEndian" header_type="UInt64"{compressor}>\n'
-            "<UnstructuredGrid>\n" + "\n".join(head) + "\n</UnstructuredGrid>\n"
+            "<UnstructuredGrid>\n" + xml + "\n</UnstructuredGrid>\n"
             '<AppendedData encoding="raw">\n_'
         ).encode()
     )
-    for a in arrays:
+    for a in reversed(arrays):
         out.write(a)
     out.write(b"\n</AppendedData>\n</VTKFile>\n")
 
@@ -265,12 +270,15 @@ def _used(cells: np.ndarray, n: int) -> np.ndarray:
     return np.flatnonzero(mask)
 
 
-def _node_data(mesh: Mesh, tag_dtype: str) -> bytes:
-    """Point data as binary ``$NodeData`` sections (1, 3 or 9 components each)."""
+def _node_data(mesh: Mesh, order: np.ndarray | None = None) -> bytes:
+    """Point data as binary ``$NodeData`` sections; node tag ``t`` is point ``order[t - 1]``."""
     out = []
     n = len(mesh.points)
+    tag_dtype = "<i4"  # post-processing sections keep int tags in MSH 4.1
     for name, values in mesh.point_data.items():
         values = np.asarray(values, dtype=np.float64).reshape(n, -1)
+        if order is not None:
+            values = values[order]
         rec = np.empty(n, dtype=[("tag", tag_dtype), ("v", "<f8", (values.shape[1],))])
         rec["tag"] = np.arange(1, n + 1)
         rec["v"] = values
@@ -336,17 +344,20 @@ def write_gmsh41(mesh: Mesh, out: BinaryIO) -> None:
         out.write(b"".join(d))
     out.write(b"\n$EndEntities\n")
 
-    order = np.lexsort((np.arange(n), node_entity))  # nodes grouped by entity
-    starts = np.flatnonzero(np.r_[True, np.diff(node_entity[order]) != 0])
+    # nodes grouped by entity and tagged in that order, so tags rise block after block
+    # (meshio then reads the points in tag order, their data aligned)
+    order = np.argsort(node_entity, kind="stable")
+    tag_of = np.empty(n, dtype=np.uint64)
+    tag_of[order] = np.arange(1, n + 1, dtype=np.uint64)
+    starts = np.flatnonzero(np.r_[True, np.diff(node_entity[order]) != 0]) if n else []
     ends = np.r_[starts[1:], n]
     out.write(b"$Nodes\n" + np.array([len(starts), n, 1, n], np.uint64).tobytes())
     for s, t in zip(starts, ends, strict=True):
-        ids = order[s:t]
-        v = ids[0]
+        v = order[s]
         out.write(np.array([node_dim[v], node_entity[v], 0], np.int32).tobytes())
-        out.write(np.uint64(len(ids)).tobytes())
-        out.write((ids + 1).astype(np.uint64).tobytes())
-        out.write(points[ids].tobytes())
+        out.write(np.uint64(t - s).tobytes())
+        out.write(np.arange(s + 1, t + 1, dtype=np.uint64).tobytes())
+        out.write(points[order[s:t]].tobytes())
     out.write(b"\n$EndNodes\n")
 
     total = sum(len(d) for _, _, d, _ in entities)
@@ -357,11 +368,11 @@ def write_gmsh41(mesh: Mesh, out: BinaryIO) -> None:
         out.write(np.uint64(len(data)).tobytes())
         rows = np.empty((len(data), data.shape[1] + 1), dtype=np.uint64)
         rows[:, 0] = np.arange(first, first + len(data))
-        rows[:, 1:] = data + 1
+        rows[:, 1:] = tag_of[data]
         out.write(rows.tobytes())
         first += len(data)
     out.write(b"\n$EndElements\n")
-    out.write(_node_data(mesh, "<u8"))
+    out.write(_node_data(mesh, order))
 
 
 def write_gmsh22(mesh: Mesh, out: BinaryIO) -> None:
@@ -390,7 +401,7 @@ def write_gmsh22(mesh: Mesh, out: BinaryIO) -> None:
         out.write(rows.tobytes())
         first += len(block)
     out.write(b"\n$EndElements\n")
-    out.write(_node_data(mesh, "<i4"))
+    out.write(_node_data(mesh))
 
 
 # -- xdmf -----------------------------------------------------------------------------
@@ -487,7 +498,11 @@ def write_stl(mesh: Mesh, out: BinaryIO) -> None:
 
 
 def write_ply(mesh: Mesh, out: BinaryIO) -> None:
-    """Write ``mesh`` (triangles, quads) as binary little-endian PLY with its scalar data."""
+    """Write ``mesh`` (triangles, quads) as binary little-endian PLY with its scalar point data.
+
+    Cell data and sets are left out: meshio cannot read face properties back
+    beside a face list of varying length.
+    """
     points = _points3(mesh)
     vertex = [("x", "<f8"), ("y", "<f8"), ("z", "<f8")]
     pdata = {k: np.asarray(v, dtype=np.float64) for k, v in mesh.point_data.items() if v.ndim == 1}
@@ -496,23 +511,17 @@ def write_ply(mesh: Mesh, out: BinaryIO) -> None:
     rows["x"], rows["y"], rows["z"] = points.T
     for k, v in pdata.items():
         rows[k] = v
-    arrays = {**mesh.cell_data, **_set_flags(mesh)}
-    scalars = {k: v for k, v in arrays.items() if all(np.asarray(a).ndim == 1 for a in v)}
     header = ["ply", "format binary_little_endian 1.0", "comment written by meshcore"]
     header.append(f"element vertex {len(points)}")
     header += [f"property double {k}" for k, _ in vertex]
     header.append(f"element face {sum(len(b) for b in mesh.cells)}")
     header.append("property list uchar int vertex_indices")
-    header += [f"property double {k}" for k in scalars]
     out.write(("\n".join(header) + "\nend_header\n").encode() + rows.tobytes())
-    for b, block in enumerate(mesh.cells):
+    for block in mesh.cells:
         k = block.data.shape[1]
-        face = [("n", "u1"), ("v", "<i4", (k,))] + [(name, "<f8") for name in scalars]
-        rec = np.empty(len(block), dtype=face)
-        rec["n"] = k
-        rec["v"] = block.data
-        for name, v in scalars.items():
-            rec[name] = v[b]
+        rec = np.empty((len(block), 4 * k + 1), dtype=np.uint8)  # a count byte, k int32 ids
+        rec[:, 0] = k
+        rec[:, 1:] = block.data.astype("<i4").view(np.uint8).reshape(len(block), 4 * k)
         out.write(rec.tobytes())
 
 
