@@ -18,6 +18,9 @@ from typing import Protocol
 
 from service.methods.registry import MethodSpec
 
+#: The file where the fork server records its warm-up (see service.executors.preload).
+WARMUP_STATUS_ENV = "MESHSERVICE_WARMUP_STATUS"
+
 
 @dataclass(frozen=True)
 class Task:
