@@ -12,14 +12,13 @@ validation errors and Starlette's own 404/405 into
 from __future__ import annotations
 
 import logging
-from typing import Any
-
-from fastapi import FastAPI, Request
-from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
-from starlette.exceptions import HTTPException as StarletteHTTPException
+from typing import TYPE_CHECKING, Any
 
 from meshcore.errors import InputError, MeshcoreError
+
+if TYPE_CHECKING:  # imported where used: a job's process needs problem_document only
+    from fastapi import FastAPI, Request
+    from fastapi.responses import JSONResponse
 
 log = logging.getLogger("meshservice")
 
@@ -129,6 +128,8 @@ def from_input_error(exc: InputError, *prefix: str | int) -> Invalid:
 
 
 def _response(status: int, doc: dict, headers: dict[str, str] | None = None) -> JSONResponse:
+    from fastapi.responses import JSONResponse
+
     return JSONResponse(doc, status_code=status, headers=headers, media_type=PROBLEM_MEDIA_TYPE)
 
 
@@ -160,6 +161,8 @@ def _jsonable_errors(errors: list[dict], body: Any) -> list[dict]:
 
 def install_handlers(app: FastAPI) -> None:
     """Map every error the app can meet to a problem document."""
+    from fastapi.exceptions import RequestValidationError
+    from starlette.exceptions import HTTPException as StarletteHTTPException
 
     @app.exception_handler(Problem)
     async def _problem(_: Request, exc: Problem) -> JSONResponse:
