@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import functools
 import logging
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
+from fastapi.openapi.utils import get_openapi
 
 from service.api import health, jobs, methods
 from service.executors import Executor
@@ -25,6 +27,22 @@ Meshing jobs over HTTP: submit a method and its params as JSON, poll or
 stream the job, fetch the result as JSON or download its mesh in a file
 format. Errors are RFC 9457 problem documents.
 """
+
+
+def _openapi(app: FastAPI, keys: bool) -> dict:
+    """The app's OpenAPI document; the bearer scheme and 401s only when API keys are set."""
+    if app.openapi_schema is None:
+        schema = get_openapi(
+            title=app.title, version=app.version, description=app.description, routes=app.routes
+        )
+        if not keys:
+            schema.get("components", {}).pop("securitySchemes", None)
+            for path in schema["paths"].values():
+                for operation in path.values():
+                    operation.pop("security", None)
+                    operation.get("responses", {}).pop("401", None)
+        app.openapi_schema = schema
+    return app.openapi_schema
 
 
 def create_app(settings: Settings | None = None, registry: Registry | None = None) -> FastAPI:
@@ -61,6 +79,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
         lifespan=lifespan,
     )
     app.state.settings = settings
+    app.openapi = functools.partial(_openapi, app, bool(settings.clients_by_key))
     install_handlers(app)
     app.include_router(jobs.router(registry))
     app.include_router(methods.router(registry))

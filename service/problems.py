@@ -107,6 +107,10 @@ class TooLarge(Problem):
     status, code, title = 413, "too_large", "Request too large"
 
 
+class UnsupportedMediaType(Problem):
+    status, code, title = 415, "unsupported_media_type", "Unsupported media type"
+
+
 class Invalid(Problem):
     status, code, title = 422, "validation_error", "Invalid request"
 
@@ -181,6 +185,11 @@ def install_handlers(app: FastAPI) -> None:
     @app.exception_handler(RequestValidationError)
     async def _validation(_: Request, exc: RequestValidationError) -> JSONResponse:
         errors = _jsonable_errors(exc.errors(), exc.body)
+        if any(e["type"] == "json_invalid" for e in errors):
+            bad = BadRequest(
+                "the request body is not valid JSON: " + errors[0]["msg"], errors=errors
+            )
+            return _response(400, bad.document())
         first = errors[0] if errors else {"loc": [], "msg": "invalid request"}
         where = ".".join(str(p) for p in first["loc"])
         detail = f"{where}: {first['msg']}" if where else first["msg"]

@@ -9,7 +9,7 @@ import operator
 from collections.abc import AsyncIterator
 from typing import Annotated, Any, Literal
 
-from fastapi import APIRouter, Header, Query, Request, Response
+from fastapi import APIRouter, Depends, Header, Query, Request, Response
 from fastapi.sse import EventSourceResponse, ServerSentEvent
 from pydantic import ConfigDict, Field, create_model
 
@@ -24,6 +24,7 @@ from service.problems import (
     NotReady,
     TooLarge,
     TooManyJobs,
+    UnsupportedMediaType,
     from_input_error,
 )
 from service.schemas import JobOut, JobPage, ProblemOut, ResultOut
@@ -81,6 +82,16 @@ def _seq_of(token: str) -> int:
         ) from None
 
 
+def _json_body(request: Request) -> None:
+    """Refuse a body that is not JSON (415); no ``Content-Type`` is taken as JSON."""
+    kind = request.headers.get("content-type")
+    if kind is None:
+        return
+    media = kind.split(";", 1)[0].strip().lower()
+    if media != "application/json" and not media.endswith("+json"):
+        raise UnsupportedMediaType(f"send the job as application/json, not {media or kind!r}")
+
+
 def _job_response(job: Job, response: Response) -> JobOut:
     response.headers["ETag"] = job.etag
     response.headers["Location"] = f"/v1/jobs/{job.id}"
@@ -102,8 +113,9 @@ def router(registry: Registry) -> APIRouter:
         response_model=JobOut,
         responses={
             200: {"model": JobOut, "description": "Finished within ?wait=, or replayed."},
-            **_problems(401, 413, 422, 429),
+            **_problems(400, 401, 413, 415, 422, 429),
         },
+        dependencies=[Depends(_json_body)],
     )
     async def submit(
         body: JobRequest,  # type: ignore[valid-type]
