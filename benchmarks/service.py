@@ -13,17 +13,22 @@ first and second request of its result in every download format and of its
 previews, with the size of each answer; the ratio column is the first
 request over the job's own run time (the target is below 0.5).
 
+``submit`` posts a 1M-vertex domain (about 40 MB of JSON) and reports the
+time of the call and the server's peak memory above its idle size (its
+``VmHWM`` reset just before).
+
 ``fresh`` starts the service with an empty numba cache (``NUMBA_CACHE_DIR``
 in a temporary directory) and reports when the port answers and when
 ``/readyz`` says ready. ``--root DIR`` runs the service from another checkout
 (for before/after tables).
 
-    .venv/bin/python benchmarks/service.py [small|large|fresh] [--jobs 300] [--root DIR]
+    .venv/bin/python benchmarks/service.py [small|large|fresh|submit] [--jobs 300] [--root DIR]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import socket
 import subprocess
@@ -230,13 +235,62 @@ def _fresh(args: argparse.Namespace) -> None:
     print(f"{opened:>15.2f}{ready:>9.2f}")
 
 
+def _rss(pid: int, field: str) -> int:
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith(field + ":"):
+                return int(line.split()[1]) * 1024
+    raise KeyError(field)
+
+
+def _big_submit(args: argparse.Namespace) -> None:
+    """Submit a 1M-vertex domain (a circle's ring) and measure the call: time and peak memory."""
+    n = 1_000_000
+    angles = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    ring = np.column_stack([np.cos(angles), np.sin(angles)]).round(12).tolist()
+    body = {
+        "method": "triangulate",
+        "params": {"domain": {"type": "Polygon", "coordinates": [ring]}, "empty": True},
+    }
+    payload = json.dumps(body).encode()
+    port = _port()
+    with tempfile.TemporaryDirectory() as data:
+        proc = _serve(args.root, data, port, MESHSERVICE_WORKERS="1")
+        url = f"http://127.0.0.1:{port}"
+        try:
+            _wait_ready(url)
+            with httpx.Client(base_url=url, timeout=300) as c:
+                c.post("/v1/jobs", json={"method": "quality", "params": {"mesh": SQUARE}})
+                before = _rss(proc.pid, "VmRSS")
+                with open(f"/proc/{proc.pid}/clear_refs", "w") as f:
+                    f.write("5")  # reset the peak (VmHWM) to the current size
+                t0 = time.perf_counter()
+                r = c.post(
+                    "/v1/jobs", content=payload, headers={"Content-Type": "application/json"}
+                )
+                elapsed = time.perf_counter() - t0
+                peak = _rss(proc.pid, "VmHWM")
+                assert r.status_code == 202, r.text[:500]
+                c.post(f"/v1/jobs/{r.json()['id']}/cancel")
+        finally:
+            proc.terminate()
+            proc.wait(30)
+    size = len(payload)
+    print(f"submit of a {n}-vertex domain ({size / 1e6:.1f} MB of JSON), {os.cpu_count()} cores")
+    print(f"{'call s':>8}{'peak above idle MB':>20}{'peak / body':>13}")
+    print(f"{elapsed:>8.2f}{(peak - before) / 1e6:>20.0f}{(peak - before) / size:>13.1f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("mode", nargs="?", default="small", choices=("small", "large", "fresh"))
+    parser.add_argument(
+        "mode", nargs="?", default="small", choices=("small", "large", "fresh", "submit")
+    )
     parser.add_argument("--jobs", type=int, default=300)
     parser.add_argument("--root", type=Path, default=ROOT, help="the checkout to serve from")
     args = parser.parse_args()
-    {"small": _small, "large": _large, "fresh": _fresh}[args.mode](args)
+    modes = {"small": _small, "large": _large, "fresh": _fresh, "submit": _big_submit}
+    modes[args.mode](args)
 
 
 if __name__ == "__main__":

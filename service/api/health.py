@@ -41,8 +41,10 @@ async def readyz(manager: ManagerDep) -> Any:
             else:
                 left = ", ".join(warming["left"]) or "none"
                 where = (
-                    f"compiling kernels {warming['done']}/{warming['total']} "
+                    f"compiling kernels {warming['done'] + 1}/{warming['total']} "
                     f"({warming['current']}); left: {left}"
+                    if warming["current"]
+                    else "the kernels are compiled; the executor is starting"
                 )
             doc = Unavailable(
                 f"warming: {where}. Jobs submitted now queue and run when it is done."
