@@ -35,6 +35,10 @@ def _openapi(app: FastAPI, keys: bool) -> dict:
         schema = get_openapi(
             title=app.title, version=app.version, description=app.description, routes=app.routes
         )
+        components = schema.setdefault("components", {}).setdefault("schemas", {})
+        for path in schema["paths"].values():
+            for operation in path.values():
+                components.update(operation.pop("x-schemas", {}))
         if not keys:
             schema.get("components", {}).pop("securitySchemes", None)
             for path in schema["paths"].values():
