@@ -4,6 +4,7 @@ import asyncio
 import base64
 import binascii
 import functools
+import gc
 import hashlib
 import operator
 from collections.abc import AsyncIterator
@@ -109,15 +110,26 @@ def router(registry: Registry) -> APIRouter:
     body_schema = adapter.json_schema(ref_template="#/components/schemas/{model}")
     body_defs = body_schema.pop("$defs", {})
 
+    def validate(raw: bytes) -> Any:
+        # Building a million small lists runs the cyclic collector over and over (its full
+        # passes walk every object made so far): 4 s instead of 21 s here with it paused.
+        paused = gc.isenabled()
+        gc.disable()
+        try:
+            return adapter.validate_json(raw)
+        finally:
+            if paused:
+                gc.enable()
+
     async def parsed_body(request: Request) -> Any:
-        """The body parsed and validated in one pass from its bytes (no dict in between).
+        """The body parsed and validated in one pass from its bytes, off the event loop.
 
         A million-vertex domain is 40 MB of JSON; parsing it to Python
         objects first and validating those after would hold both at once.
         """
         raw = await request.body()
         try:
-            return adapter.validate_json(raw)
+            return await asyncio.to_thread(validate, raw)
         except ValidationError as exc:
             errors = [{**e, "loc": ("body", *e["loc"])} for e in exc.errors()]
             loc = errors[0]["loc"] if errors else ()
