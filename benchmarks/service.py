@@ -113,7 +113,7 @@ def _serve(root: Path, data: str, port: int, **env: str) -> subprocess.Popen:
     )
 
 
-def _wait_ready(url: str, timeout: float = 600) -> tuple[float, float]:
+def _wait_ready(url: str, timeout: float = 900) -> tuple[float, float]:
     """Seconds until the port answers, and until ``/readyz`` says ready."""
     t0 = time.perf_counter()
     opened = None
