@@ -41,7 +41,15 @@ from service.runner import JobFailed, run_job
 log = logging.getLogger("meshservice.child")
 
 PROGRESS_INTERVAL = 0.1  # seconds between progress messages a job sends
-PRELOAD = ["service.executors.child", "service.methods.registry", "service.executors.preload"]
+# fastapi and uvicorn too: a forked child re-imports the server's main module (multiprocessing's
+# main-module fixup), which imports them; preloaded, that costs the job nothing
+PRELOAD = [
+    "fastapi",
+    "uvicorn",
+    "service.executors.child",
+    "service.methods.registry",
+    "service.executors.preload",
+]
 
 try:
     _LIBC = ctypes.CDLL(None, use_errno=True)
