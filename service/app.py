@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import logging
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -9,6 +10,7 @@ from pathlib import Path
 
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
+from fastapi.openapi.utils import get_openapi
 from fastapi.responses import FileResponse
 from fastapi.staticfiles import StaticFiles
 
@@ -33,6 +35,26 @@ is at `/`.
 """
 
 WEB = Path(__file__).parent / "web"
+
+
+def _openapi(app: FastAPI, keys: bool) -> dict:
+    """The app's OpenAPI document; the bearer scheme and 401s only when API keys are set."""
+    if app.openapi_schema is None:
+        schema = get_openapi(
+            title=app.title, version=app.version, description=app.description, routes=app.routes
+        )
+        components = schema.setdefault("components", {}).setdefault("schemas", {})
+        for path in schema["paths"].values():
+            for operation in path.values():
+                components.update(operation.pop("x-schemas", {}))
+        if not keys:
+            schema.get("components", {}).pop("securitySchemes", None)
+            for path in schema["paths"].values():
+                for operation in path.values():
+                    operation.pop("security", None)
+                    operation.get("responses", {}).pop("401", None)
+        app.openapi_schema = schema
+    return app.openapi_schema
 
 
 def create_app(settings: Settings | None = None, registry: Registry | None = None) -> FastAPI:
@@ -73,6 +95,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
         lifespan=lifespan,
     )
     app.state.settings = settings
+    app.openapi = functools.partial(_openapi, app, bool(settings.clients_by_key))
     install_handlers(app)
     app.include_router(jobs.router(registry))
     app.include_router(methods.router(registry))

@@ -52,13 +52,18 @@ def _serve(args: argparse.Namespace) -> int:
 
 
 def openapi_yaml() -> str:
-    """The OpenAPI document of the app with the default methods, as YAML."""
+    """The OpenAPI document of the app with the default methods and API keys set, as YAML.
+
+    With keys (as every deployment beyond loopback has them) the document
+    carries the bearer security scheme and the 401 answers; a service
+    without keys serves its own document without them at ``/openapi.json``.
+    """
     import yaml
 
     from service.app import create_app
     from service.settings import Settings
 
-    spec = create_app(Settings()).openapi()
+    spec = create_app(Settings(api_keys="KEY:client")).openapi()
     return yaml.safe_dump(spec, sort_keys=False, allow_unicode=True, width=100)
 
 

@@ -259,13 +259,15 @@ class JobManager:
                     )
                 )
             params = self.store.read_params(job_id)
-            task = Task(job_id, attempt, spec, params, self.settings.job_time_limit)
+            task = Task(
+                job_id, attempt, spec, params, self.settings.job_time_limit, self.settings.formats
+            )
             result = await asyncio.wait_for(
                 self.executor.run(task, self._progress(job_id), self._restarted(job_id)),
                 self.settings.job_time_limit,
             )
             try:
-                await asyncio.to_thread(self.store.write_result, job_id, result)
+                await asyncio.to_thread(self.store.write_results, job_id, result)
             except DiskFull as exc:
                 raise JobFailed(
                     problem_document(

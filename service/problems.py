@@ -12,14 +12,13 @@ validation errors and Starlette's own 404/405 into
 from __future__ import annotations
 
 import logging
-from typing import Any
-
-from fastapi import FastAPI, Request
-from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
-from starlette.exceptions import HTTPException as StarletteHTTPException
+from typing import TYPE_CHECKING, Any
 
 from meshcore.errors import InputError, MeshcoreError
+
+if TYPE_CHECKING:  # imported where used: a job's process needs problem_document only
+    from fastapi import FastAPI, Request
+    from fastapi.responses import JSONResponse
 
 log = logging.getLogger("meshservice")
 
@@ -109,7 +108,7 @@ class TooLarge(Problem):
 
 
 class UnsupportedMediaType(Problem):
-    status, code, title = 415, "unsupported_media_type", "Unsupported file format"
+    status, code, title = 415, "unsupported_media_type", "Unsupported media type"
 
 
 class Invalid(Problem):
@@ -151,6 +150,8 @@ def from_input_error(exc: InputError, *prefix: str | int) -> Invalid:
 
 
 def _response(status: int, doc: dict, headers: dict[str, str] | None = None) -> JSONResponse:
+    from fastapi.responses import JSONResponse
+
     return JSONResponse(doc, status_code=status, headers=headers, media_type=PROBLEM_MEDIA_TYPE)
 
 
@@ -182,6 +183,8 @@ def _jsonable_errors(errors: list[dict], body: Any) -> list[dict]:
 
 def install_handlers(app: FastAPI) -> None:
     """Map every error the app can meet to a problem document."""
+    from fastapi.exceptions import RequestValidationError
+    from starlette.exceptions import HTTPException as StarletteHTTPException
 
     @app.exception_handler(Problem)
     async def _problem(_: Request, exc: Problem) -> JSONResponse:
@@ -200,6 +203,11 @@ def install_handlers(app: FastAPI) -> None:
     @app.exception_handler(RequestValidationError)
     async def _validation(_: Request, exc: RequestValidationError) -> JSONResponse:
         errors = _jsonable_errors(exc.errors(), exc.body)
+        if any(e["type"] == "json_invalid" for e in errors):
+            bad = BadRequest(
+                "the request body is not valid JSON: " + errors[0]["msg"], errors=errors
+            )
+            return _response(400, bad.document())
         first = errors[0] if errors else {"loc": [], "msg": "invalid request"}
         where = ".".join(str(p) for p in first["loc"])
         detail = f"{where}: {first['msg']}" if where else first["msg"]

@@ -1,4 +1,4 @@
-"""The job function: a method name plus JSON params in, result JSON bytes out.
+"""The job function: a method name plus JSON params in, the result's files out.
 
 It is the same function for every executor: it runs inside the job's own
 process (locally, or on a distributed worker), knows nothing of the store,
@@ -75,8 +75,30 @@ def failure(exc: BaseException, method: str) -> dict:
     )
 
 
-def run_job(spec: MethodSpec, params_json: bytes, progress: Progress) -> bytes:
-    """Validate the params, run the method, and encode its result.
+def result_files(result: dict, formats: tuple[str, ...] = ()) -> dict[str, bytes]:
+    """A finished job's files, by store name (see :mod:`service.downloads`).
+
+    ``json``: the result; for a result holding a mesh, also ``npz`` (its
+    arrays), ``meta.json`` (the result without the mesh) and the mesh in each
+    of ``formats`` that can hold it.
+    """
+    files = {"json": encode_result(result)}
+    mesh = result.get("mesh")
+    if isinstance(mesh, Mesh):
+        files["npz"] = io.to_npz(mesh)
+        files["meta.json"] = encode_result({k: v for k, v in result.items() if k != "mesh"})
+        for fmt in formats:
+            try:
+                files[fmt] = io.to_bytes(mesh, fmt)
+            except InputError:  # the format cannot hold this mesh: its request answers 422
+                pass
+    return files
+
+
+def run_job(
+    spec: MethodSpec, params_json: bytes, progress: Progress, formats: tuple[str, ...] = ()
+) -> dict[str, bytes]:
+    """Validate the params, run the method, and encode its result as :func:`result_files`.
 
     Raises
     ------
@@ -86,7 +108,7 @@ def run_job(spec: MethodSpec, params_json: bytes, progress: Progress) -> bytes:
     """
     try:
         params = spec.params.model_validate_json(params_json)
-        return encode_result(spec.run(params, progress))
+        return result_files(spec.run(params, progress), formats)
     except (MeshcoreError, ValidationError, MemoryError) as exc:
         raise JobFailed(failure(exc, spec.name)) from None
     except Exception as exc:

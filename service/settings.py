@@ -80,6 +80,11 @@ class Settings(BaseSettings):
     dask_scheduler: str | None = Field(
         None, description="A dask.distributed scheduler address: run jobs on its workers."
     )
+    job_formats: str = Field(
+        "vtu",
+        description="Comma-separated download formats a job writes itself when it finishes "
+        "(others are written on their first request).",
+    )
     api_keys: str = Field("", description="Comma-separated key:client pairs.")
     metrics_token: str = Field(
         "", description="Bearer token of /metrics; with API keys set, /metrics needs it."
@@ -93,6 +98,18 @@ class Settings(BaseSettings):
             key, sep, client = pair.partition(":")
             if not sep or not key or not client:
                 raise ValueError(f"API key entry {pair!r} is not of the form key:client")
+        return value
+
+    @field_validator("job_formats")
+    @classmethod
+    def _known_formats(cls, value: str) -> str:
+        from meshcore.mesh.io import FORMATS
+
+        unknown = [f for f in _split(value) if f not in FORMATS]
+        if unknown:
+            raise ValueError(
+                f"unknown job format(s) {', '.join(unknown)}; choose among {', '.join(FORMATS)}"
+            )
         return value
 
     @model_validator(mode="after")
@@ -112,4 +129,13 @@ class Settings(BaseSettings):
 
     @cached_property
     def cors_origin_list(self) -> list[str]:
-        return [o.strip() for o in self.cors_origins.split(",") if o.strip()]
+        return _split(self.cors_origins)
+
+    @cached_property
+    def formats(self) -> tuple[str, ...]:
+        """The downloads a job writes itself."""
+        return tuple(_split(self.job_formats))
+
+
+def _split(value: str) -> list[str]:
+    return [v.strip() for v in value.split(",") if v.strip()]

@@ -5,7 +5,7 @@ Layout under the data directory::
     jobs.sqlite3            one row per job (status, progress, timestamps, error)
     jobs/<id>/params.json   the submitted params, written before the row commits
     jobs/<id>/result.json   the result, written atomically (temporary file + rename)
-    jobs/<id>/result.<fmt>  downloads converted from it, cached the same way
+    jobs/<id>/result.<fmt>  downloads, the mesh's arrays (npz), previews: service.downloads
 
 The store is used from the event-loop thread, and for result files from
 worker threads (SQLite runs in serialized mode); every statement is short.
@@ -275,6 +275,24 @@ class Store:
         finally:
             with self._files:
                 self._removing.discard(job_id)
+
+    def write_results(self, job_id: str, files: dict[str, bytes]) -> bool:
+        """Write a finished job's files by name, ``result.json`` last (it marks them complete).
+
+        False when the job's folder is gone or being removed; on
+        :class:`DiskFull` the files already written are removed again.
+        """
+        written: list[str] = []
+        try:
+            for name in [*(n for n in files if n != "json"), "json"]:
+                if not self.write_result(job_id, files[name], name):
+                    return False
+                written.append(name)
+        except DiskFull:
+            for name in written:
+                self.forget_file(job_id, name)
+            raise
+        return True
 
     # -- rows -------------------------------------------------------------------
 

@@ -1,4 +1,4 @@
-"""The only module that knows file formats: meshio and the JSON mesh shape.
+"""The file-format module (with its writers, :mod:`meshcore.mesh.writers`): meshio and JSON.
 
 JSON shape (DESIGN.md)::
 
@@ -12,12 +12,15 @@ in Gmsh files; ``$PhysicalNames`` names it for its highest dimension only,
 as a Gmsh physical group has one dimension, and :func:`from_meshio` matches
 the tag in every dimension so the set round-trips whole.
 
-Downloads go through meshio, which cannot write to buffers, so
-:func:`to_bytes` writes a temporary file and reads it back. Cell sets become
-Gmsh physical groups (``gmsh:physical`` cell data with named ``field_data``;
-a cell in several sets takes the first set's tag, and cells in no set get
-tag 0), Abaqus ``*ELSET``\\ s, and for the other formats one 0/1 cell data
-array per set named ``set:<name>``.
+Downloads are written by the fast writers of :mod:`meshcore.mesh.writers`
+(numpy, binary wherever the format has it; meshio's own writers take
+seconds per million cells) and read back through meshio. Cell sets become
+Gmsh physical groups (a cell in several sets takes the first set's tag, and
+cells in no set get tag 0), Abaqus ``*ELSET``\\ s, and for the other formats
+one 0/1 cell data array per set named ``set:<name>``. XDMF downloads are a
+zip archive of ``mesh.xdmf`` and its heavy data ``mesh.h5``.
+:func:`to_npz` / :func:`from_npz` keep a job's mesh as raw arrays for the
+service's later downloads and previews.
 
 ``glb`` (glTF 2.0 binary, for web viewers) is written here with numpy, not
 through meshio, by :func:`to_glb`. glTF attributes are per vertex, so to
@@ -45,13 +48,15 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+import zipfile
 from dataclasses import dataclass
+from io import BytesIO
 
 import meshio
 import numpy as np
 
 from meshcore.errors import InputError
-from meshcore.mesh import topology
+from meshcore.mesh import topology, writers
 from meshcore.mesh.mesh import CELL_TYPES, CellBlock, Mesh
 from meshcore.mesh.quality import reported_quality
 
@@ -71,10 +76,10 @@ FORMATS: dict[str, FileFormat] = {
     "vtu": FileFormat("vtu", ".vtu", "application/vnd.vtk.vtu+xml"),
     "gmsh": FileFormat("gmsh", ".msh", "model/x-gmsh"),
     "gmsh22": FileFormat("gmsh22", ".msh", "model/x-gmsh"),
-    "xdmf": FileFormat(  # meshio cannot read vertex cells back from mixed XDMF
+    "xdmf": FileFormat(  # a zip of mesh.xdmf and mesh.h5; no vertex cells in mixed XDMF
         "xdmf",
-        ".xdmf",
-        "application/xml",
+        ".xdmf.zip",
+        "application/zip",
         frozenset({"line", "triangle", "quad", "tetra", "pyramid", "wedge", "hexahedron"}),
     ),
     "abaqus": FileFormat(
@@ -193,89 +198,19 @@ def from_json(obj: dict) -> Mesh:
     ).check()
 
 
-def _gmsh_mesh(mesh: Mesh, split: bool) -> meshio.Mesh:
-    """The mesh as Gmsh wants it, cell sets as physical tags.
-
-    MSH 2.2 tags each element. MSH 4.1 (``split``) attaches physical tags to
-    entities, not elements, so each block is split by set tag into one entity
-    each (cells then come out grouped by set); each node is classified on the
-    lowest-dimensional entity holding it (Gmsh's own convention).
-    """
-    tags = [np.zeros(len(b), dtype=np.int64) for b in mesh.cells]
-    field_data = {}
-    for tag, (name, ids) in enumerate(mesh.cell_sets.items(), start=1):
-        dim = max(
-            (CELL_TYPES[b.type][1] for b, a in zip(mesh.cells, ids, strict=True) if len(a)),
-            default=0,
-        )
-        field_data[name] = np.array([tag, dim])
-        for t, a in zip(tags, ids, strict=True):
-            t[a[t[a] == 0]] = tag
-    cells, physical, entity = [], [], []
-    node_dim = np.full(len(mesh.points), 4, dtype=np.int64)
-    node_entity = np.zeros(len(mesh.points), dtype=np.int64)
-    for block, t in zip(mesh.cells, tags, strict=True):
-        dim = CELL_TYPES[block.type][1]
-        for tag in np.unique(t) if split else [None]:
-            data = block.data if tag is None else block.data[t == tag]
-            cells.append((block.type, data))
-            physical.append(t if tag is None else np.full(len(data), tag, dtype=np.int64))
-            entity.append(np.full(len(data), len(cells), dtype=np.int64))
-            nodes = np.unique(data)
-            lower = nodes[node_dim[nodes] > dim]
-            node_dim[lower], node_entity[lower] = dim, len(cells)
-    if split:  # MSH 4.1 lists an entity only when it holds a node: lend one to any that holds none
-        owned = np.bincount(node_entity, minlength=len(cells) + 1)
-        for e, (ctype, data) in enumerate(cells, start=1):
-            nodes = np.unique(data)
-            spare = nodes[owned[node_entity[nodes]] > 1]
-            if owned[e] == 0 and len(spare):
-                owned[node_entity[spare[0]]] -= 1
-                owned[e] += 1
-                node_dim[spare[0]], node_entity[spare[0]] = CELL_TYPES[ctype][1], e
-    unused = node_dim == 4
-    node_dim[unused], node_entity[unused] = 0, 0
-    points = mesh.points
-    if points.shape[1] == 2:
-        points = np.column_stack([points, np.zeros(len(points))])
-    return meshio.Mesh(
-        points,
-        cells,
-        point_data={**mesh.point_data, "gmsh:dim_tags": np.column_stack([node_dim, node_entity])},
-        cell_data={"gmsh:physical": physical, "gmsh:geometrical": entity},
-        field_data=field_data,
-    )
-
-
-def _meshio_for(mesh: Mesh, fmt: str) -> meshio.Mesh:
-    """The meshio mesh to write in ``fmt``, cell sets translated as the module says."""
-    if fmt in ("gmsh", "gmsh22"):
-        return _gmsh_mesh(mesh, split=fmt == "gmsh")
-    m = to_meshio(mesh)
-    if fmt != "abaqus":
-        for name, ids in mesh.cell_sets.items():
-            flags = []
-            for block, a in zip(mesh.cells, ids, strict=True):
-                f = np.zeros(len(block), dtype=np.int32)
-                f[a] = 1
-                flags.append(f)
-            m.cell_data[f"set:{name}"] = flags
-    m.cell_sets = {}  # Abaqus: written by _abaqus_elsets
-    if m.points.shape[1] == 2 and fmt != "abaqus":
-        m.points = np.column_stack([m.points, np.zeros(len(m.points))])
-    if fmt in ("obj", "stl"):
-        m.point_data, m.cell_data = {}, {}
-    return m
+#: Components of point data each format stores (None: any).
+_COMPONENTS = {"gmsh": {1, 3, 9}, "gmsh22": {1, 3, 9}, "xdmf": {1, 3, 9}}
 
 
 def to_bytes(mesh: Mesh, fmt: str) -> bytes:
-    """The mesh written in format ``fmt`` (a key of :data:`FORMATS`).
+    """The mesh written in format ``fmt`` (a key of :data:`FORMATS`) by its fast writer.
 
     Raises
     ------
     InputError
         ``unknown_format`` for a format not in :data:`FORMATS`;
-        ``format_mismatch`` when the format cannot hold the mesh's cell types.
+        ``format_mismatch`` when the format cannot hold the mesh's cell types
+        or its point data.
     """
     spec = FORMATS.get(fmt)
     if spec is None:
@@ -294,43 +229,59 @@ def to_bytes(mesh: Mesh, fmt: str) -> bytes:
         )
     if fmt == "glb":
         return to_glb(mesh)
-    m = _meshio_for(mesh, fmt)
-    with tempfile.TemporaryDirectory(prefix="meshcore-") as tmp:
-        path = os.path.join(tmp, "mesh" + spec.suffix)
-        try:
-            if fmt == "xdmf":  # heavy data inline, so that the download is one file
-                meshio.xdmf.write(path, m, data_format="XML")
-            elif fmt in ("stl", "ply", "gmsh", "gmsh22"):
-                meshio.write(path, m, file_format=spec.meshio_name, binary=True)
-            else:
-                meshio.write(path, m, file_format=spec.meshio_name)
-        except (meshio.WriteError, meshio.ReadError, ValueError, KeyError, TypeError) as exc:
-            # what the table above cannot foresee (data meshio cannot store): a 4xx, not a 500
+    allowed = _COMPONENTS.get(fmt)
+    for name, values in mesh.point_data.items():
+        k = 1 if values.ndim == 1 else int(np.prod(values.shape[1:]))
+        if allowed is not None and k not in allowed:
             raise InputError(
-                f"format {fmt!r} cannot hold this mesh: {exc}",
+                f"format {fmt!r} stores point data of {sorted(allowed)} components; "
+                f"{name!r} has {k}",
                 loc=("format",),
                 code="format_mismatch",
-            ) from None
-        with open(path, "rb") as f:
-            data = f.read()
-    return data + _abaqus_elsets(mesh).encode() if fmt == "abaqus" else data
+            )
+    return writers.to_bytes(mesh, fmt)
 
 
-def _abaqus_elsets(mesh: Mesh) -> str:
-    """One ``*ELSET`` per cell set, with 1-based element ids counted over all blocks.
+def to_npz(mesh: Mesh) -> bytes:
+    """The mesh's arrays as an uncompressed ``.npz`` (read back by :func:`from_npz`).
 
-    meshio writes one ``*ELSET`` per set and block, and its reader keeps only
-    the last of equally named sets, so a set spanning blocks would lose cells.
+    The job's own copy of its mesh: loading it takes milliseconds where
+    parsing the result's JSON takes seconds.
     """
-    offsets = np.cumsum([0] + [len(b) for b in mesh.cells])
-    out = []
-    for name, ids in mesh.cell_sets.items():
-        parts = [a + 1 + off for a, off in zip(ids, offsets[:-1], strict=True)]
-        els = np.concatenate(parts).tolist() if parts else []
-        if els:
-            rows = (",".join(map(str, els[i : i + 8])) for i in range(0, len(els), 8))
-            out.append(f"*ELSET, ELSET={name}\n" + ",\n".join(rows) + "\n")
-    return "".join(out)
+    arrays = {"points": mesh.points}
+    layout = {"cells": [], "point_data": list(mesh.point_data), "cell_data": [], "cell_sets": []}
+    for b, block in enumerate(mesh.cells):
+        layout["cells"].append(block.type)
+        arrays[f"cells{b}"] = block.data
+    for i, v in enumerate(mesh.point_data.values()):
+        arrays[f"point_data{i}"] = v
+    for kind in ("cell_data", "cell_sets"):
+        for i, (name, per_block) in enumerate(getattr(mesh, kind).items()):
+            layout[kind].append(name)
+            for b, a in enumerate(per_block):
+                arrays[f"{kind}{i}_{b}"] = np.asarray(a)
+    arrays["layout"] = np.frombuffer(json.dumps(layout).encode(), dtype=np.uint8)
+    buf = BytesIO()
+    np.savez(buf, **arrays)
+    return buf.getvalue()
+
+
+def from_npz(source: str | os.PathLike | bytes) -> Mesh:
+    """The mesh saved by :func:`to_npz` (a path or the bytes)."""
+    with np.load(BytesIO(source) if isinstance(source, bytes) else source) as z:
+        layout = json.loads(z["layout"].tobytes())
+        nblocks = len(layout["cells"])
+
+        def per_block(kind: str, i: int) -> list[np.ndarray]:
+            return [z[f"{kind}{i}_{b}"] for b in range(nblocks)]
+
+        return Mesh(
+            z["points"],
+            tuple(CellBlock(t, z[f"cells{b}"]) for b, t in enumerate(layout["cells"])),
+            point_data={k: z[f"point_data{i}"] for i, k in enumerate(layout["point_data"])},
+            cell_data={k: per_block("cell_data", i) for i, k in enumerate(layout["cell_data"])},
+            cell_sets={k: per_block("cell_sets", i) for i, k in enumerate(layout["cell_sets"])},
+        )
 
 
 def from_bytes(data: bytes, fmt: str) -> Mesh:
@@ -340,6 +291,10 @@ def from_bytes(data: bytes, fmt: str) -> Mesh:
         path = os.path.join(tmp, "mesh" + spec.suffix)
         with open(path, "wb") as f:
             f.write(data)
+        if fmt == "xdmf":  # the archive of mesh.xdmf and mesh.h5
+            with zipfile.ZipFile(path) as z:
+                z.extractall(tmp)
+            path = os.path.join(tmp, "mesh.xdmf")
         reader = "gmsh" if fmt.startswith("gmsh") else spec.meshio_name
         return from_meshio(meshio.read(path, file_format=reader))
 

@@ -3,7 +3,8 @@
 An executor runs :func:`service.runner.run_job` for a :class:`Task` somewhere
 it can stop: cancelling the coroutine returned by :meth:`Executor.run` must
 stop the job's process (that is how cancellation and time limits work). It
-returns the result bytes or raises :class:`~service.runner.JobFailed`; it
+returns the result's files (:func:`service.runner.result_files`) or raises
+:class:`~service.runner.JobFailed`; it
 calls ``progress(fraction, message)`` as the job reports, and
 ``restarted()`` when the engine runs the job again on its own (a
 distributed worker died under it).
@@ -17,6 +18,9 @@ from typing import Protocol
 
 from service.methods.registry import MethodSpec
 
+#: The file where the fork server records its warm-up (see service.executors.preload).
+WARMUP_STATUS_ENV = "MESHSERVICE_WARMUP_STATUS"
+
 
 @dataclass(frozen=True)
 class Task:
@@ -27,6 +31,7 @@ class Task:
     spec: MethodSpec
     params: bytes
     time_limit: float
+    formats: tuple[str, ...] = ()  # downloads the job writes itself (MESHSERVICE_JOB_FORMATS)
 
 
 class Executor(Protocol):
@@ -51,4 +56,4 @@ class Executor(Protocol):
         task: Task,
         progress: Callable[[float, str], None],
         restarted: Callable[[], None],
-    ) -> bytes: ...
+    ) -> dict[str, bytes]: ...

@@ -10,6 +10,10 @@ child gets an address-space limit and a CPU-time limit and dies with its
 parent (``PR_SET_PDEATHSIG``). Progress and the result come back over a
 pipe. The call blocks; it kills the child as soon as ``should_stop()``
 turns true (cancellation, time limit, shutdown) and raises :class:`Stopped`.
+
+:func:`run_in_subprocess` does the same with a process started by
+``subprocess`` (:mod:`service.executors.spawned`), for daemonic hosts such
+as a stock Dask worker, where ``multiprocessing`` may not start children.
 """
 
 from __future__ import annotations
@@ -18,11 +22,17 @@ import ctypes
 import logging
 import multiprocessing
 import os
+import pickle
 import resource
+import select
 import signal
+import struct
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from multiprocessing.connection import Connection
+from pathlib import Path
 
 from service.executors import Task
 from service.problems import problem_document
@@ -31,7 +41,15 @@ from service.runner import JobFailed, run_job
 log = logging.getLogger("meshservice.child")
 
 PROGRESS_INTERVAL = 0.1  # seconds between progress messages a job sends
-PRELOAD = ["service.executors.child", "service.methods.registry", "service.executors.preload"]
+# fastapi and uvicorn too: a forked child re-imports the server's main module (multiprocessing's
+# main-module fixup), which imports them; preloaded, that costs the job nothing
+PRELOAD = [
+    "fastapi",
+    "uvicorn",
+    "service.executors.child",
+    "service.methods.registry",
+    "service.executors.preload",
+]
 
 try:
     _LIBC = ctypes.CDLL(None, use_errno=True)
@@ -67,8 +85,8 @@ def _die_with_parent() -> None:
         _LIBC.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
 
 
-def _child(task: Task, conn: Connection, memory_limit: int) -> None:
-    """Body of a job's process: limits, run, send the outcome, exit."""
+def job_body(task: Task, memory_limit: int, send: Callable[[tuple], None]) -> None:
+    """Body of a job's process (forked or spawned): limits, run, send the outcome, exit."""
     _die_with_parent()
     resource.setrlimit(resource.RLIMIT_AS, (memory_limit, memory_limit))
     cpu = int(task.time_limit) + 5
@@ -80,14 +98,17 @@ def _child(task: Task, conn: Connection, memory_limit: int) -> None:
         now = time.monotonic()
         if now - last >= PROGRESS_INTERVAL:
             last = now
-            conn.send(("progress", min(max(float(fraction), 0.0), 1.0), str(message)[:200]))
+            send(("progress", min(max(float(fraction), 0.0), 1.0), str(message)[:200]))
 
     try:
-        conn.send(("ok", run_job(task.spec, task.params, progress)))
+        send(("ok", run_job(task.spec, task.params, progress, task.formats)))
     except JobFailed as exc:
-        conn.send(("error", exc.problem))
-    conn.close()
+        send(("error", exc.problem))
     os._exit(0)  # the answer is sent: skip interpreter teardown
+
+
+def _child(task: Task, conn: Connection, memory_limit: int) -> None:
+    job_body(task, memory_limit, conn.send)
 
 
 def death_problem(exitcode: int | None) -> dict:
@@ -115,8 +136,8 @@ def run_in_child(
     progress: Callable[[float, str], None],
     should_stop: Callable[[], bool],
     poll: float = 0.1,
-) -> bytes:
-    """Run ``task`` in a new child process and return its result bytes.
+) -> dict[str, bytes]:
+    """Run ``task`` in a new child process and return its result files.
 
     Blocks until the child answers or dies; checks ``should_stop`` every
     ``poll`` seconds while waiting.
@@ -158,3 +179,80 @@ def run_in_child(
             proc.kill()
         proc.join(5)
         receiver.close()
+
+
+def _frames(proc: subprocess.Popen, poll: float, should_stop: Callable[[], bool], job_id: str):
+    """The messages of a spawned job's stdout, checking ``should_stop`` every ``poll`` s."""
+    fd = proc.stdout.fileno()
+    buffer = bytearray()
+    while True:
+        ready, _, _ = select.select([fd], [], [], poll)
+        if not ready:
+            if should_stop():
+                raise Stopped(job_id)
+            continue
+        chunk = os.read(fd, 1 << 20)
+        if not chunk:
+            return
+        buffer += chunk
+        while len(buffer) >= 8:
+            (size,) = struct.unpack_from("<Q", buffer)
+            if len(buffer) < 8 + size:
+                break
+            yield pickle.loads(bytes(buffer[8 : 8 + size]))
+            del buffer[: 8 + size]
+
+
+def run_in_subprocess(
+    task: Task,
+    memory_limit: int,
+    progress: Callable[[float, str], None],
+    should_stop: Callable[[], bool],
+    poll: float = 0.1,
+) -> dict[str, bytes]:
+    """:func:`run_in_child`, but the job's process is a new interpreter started by ``subprocess``.
+
+    For hosts where ``multiprocessing`` may not start children (daemonic
+    processes such as a stock Dask worker). The job pays the interpreter's
+    start and its imports (about a second, kernels from numba's disk cache);
+    limits, death with the parent and kill on ``should_stop`` are the same.
+
+    Raises
+    ------
+    JobFailed
+        the job failed (its problem document), or its process died.
+    Stopped
+        ``should_stop()`` turned true; the process has been killed.
+    """
+    import service
+
+    root = str(Path(service.__file__).resolve().parents[1])  # the same code as this process
+    path = os.environ.get("PYTHONPATH")
+    env = {**os.environ, "PYTHONPATH": root + (os.pathsep + path if path else "")}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "service.executors.spawned"],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        env=env,
+    )
+    try:
+        proc.stdin.write(pickle.dumps((task, memory_limit), protocol=pickle.HIGHEST_PROTOCOL))
+        proc.stdin.close()
+    except BrokenPipeError:
+        pass  # it died at once: its exit code says why, below
+    try:
+        for kind, *payload in _frames(proc, poll, should_stop, task.job_id):
+            if kind == "progress":
+                progress(*payload)
+            elif kind == "ok":
+                return payload[0]
+            else:
+                raise JobFailed(payload[0])
+        code = proc.wait(5)
+        log.warning("job %s: process died with exit code %s", task.job_id, code)
+        raise JobFailed(death_problem(code))
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait(5)
+        proc.stdout.close()

@@ -5,8 +5,13 @@ the store and the result files; workers never touch them. Each run of a job
 is submitted under its own key (``pure=False`` and a random suffix: Dask
 would otherwise merge identical submissions) and runs :func:`run_on_worker`,
 which runs the same job function as the ``local`` executor in a killable
-child process on the worker (:func:`service.executors.child.run_in_child`),
-because Dask cannot stop a running task.
+process of its own on the worker, because Dask cannot stop a running task.
+That process is a new interpreter started by ``subprocess``
+(:func:`service.executors.child.run_in_subprocess`), not by
+``multiprocessing``: stock workers (``dask worker tcp://HOST:8786``, under
+the nanny) are daemonic processes, which ``multiprocessing`` forbids to have
+children. Limits, kill on cancel and time limit, and crash isolation are
+those of the local executor.
 
 - **Cancellation and time limits.** A ``distributed.Event`` per run
   (``meshservice-cancel-<job>-<attempt>``): the API sets it, the worker
@@ -22,15 +27,11 @@ because Dask cannot stop a running task.
 - **Restarts of the API.** Runs left over from before are told to stop
   (:meth:`DaskExecutor.forget`) before their jobs are queued again.
 
-Workers must be started with ``DASK_DISTRIBUTED__WORKER__DAEMON=False``:
-Dask's nanny makes workers daemonic by default, and a daemonic process may
-not start the job's child process.
 """
 
 from __future__ import annotations
 
 import asyncio
-import multiprocessing
 import time
 import uuid
 from collections.abc import Callable
@@ -40,7 +41,7 @@ from distributed.client import FutureCancelledError
 from distributed.scheduler import KilledWorker
 
 from service.executors import Task
-from service.executors.child import Stopped, context, run_in_child
+from service.executors.child import Stopped, run_in_subprocess
 from service.problems import problem_document
 from service.runner import JobFailed
 
@@ -55,24 +56,14 @@ def _cancel_event(job_id: str, attempt: int) -> str:
     return f"meshservice-cancel-{job_id}-{attempt}"
 
 
-def run_on_worker(task: Task, memory_limit: int) -> bytes:
+def run_on_worker(task: Task, memory_limit: int) -> dict[str, bytes]:
     """The Dask task: run ``task`` in a killable child on this worker.
 
     Raises
     ------
     JobFailed
-        the job failed, its process died, or the worker cannot start children.
+        the job failed or its process died.
     """
-    if multiprocessing.current_process().daemon:
-        raise JobFailed(
-            problem_document(
-                500,
-                "worker_misconfigured",
-                "The worker cannot run jobs",
-                "this Dask worker is a daemonic process and cannot start the job's process: "
-                "start workers with DASK_DISTRIBUTED__WORKER__DAEMON=False",
-            )
-        )
     worker = get_worker()
     topic = _topic(task)
     worker.log_event(topic, {"kind": "started", "worker": worker.address})
@@ -93,7 +84,7 @@ def run_on_worker(task: Task, memory_limit: int) -> bytes:
         worker.log_event(topic, {"kind": "progress", "fraction": fraction, "message": message})
 
     try:
-        return run_in_child(context(), task, memory_limit, progress, should_stop)
+        return run_in_subprocess(task, memory_limit, progress, should_stop)
     except Stopped:
         cancel.clear()  # acted upon: the scheduler may forget it
         raise JobFailed(
@@ -147,7 +138,7 @@ class DaskExecutor:
         task: Task,
         progress: Callable[[float, str], None],
         restarted: Callable[[], None],
-    ) -> bytes:
+    ) -> dict[str, bytes]:
         client = self._client
         topic = _topic(task)
         starts = 0

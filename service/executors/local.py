@@ -4,47 +4,95 @@ Each job runs through :func:`service.executors.child.run_in_child` on a
 thread of a pool sized to the executor's capacity; cancelling
 :meth:`LocalExecutor.run` (a user's cancel, the time limit, shutdown) tells
 that thread to kill the child, which it does within one poll interval.
+
+The fork server warms up (:mod:`service.executors.preload`: numba kernels,
+up to a minute on an empty cache) in the background: the service answers at
+once, ``/readyz`` says ``warming`` with the kernels left, and the executor's
+capacity is zero until it is done, so jobs submitted meanwhile stay queued
+and start when it is ready.
 """
 
 from __future__ import annotations
 
 import asyncio
+import json
+import logging
+import os
+import shutil
+import tempfile
 import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
-from service.executors import Task
+from service.executors import WARMUP_STATUS_ENV, Task
 from service.executors.child import context, run_in_child, warm_up
+
+log = logging.getLogger("meshservice.executor")
 
 
 class LocalExecutor:
-    """Jobs in killable child processes on this machine, ``capacity`` at a time."""
+    """Jobs in killable child processes on this machine, ``workers`` at a time."""
 
     name = "local"
 
     def __init__(self, workers: int, memory_limit: int) -> None:
-        self.capacity = workers
+        self.workers = workers
         self.memory_limit = memory_limit
         self._ctx = context()
         self._threads = ThreadPoolExecutor(workers, thread_name_prefix="job")
         self._stops: set[threading.Event] = set()
         self._started = False
+        self._warming: asyncio.Task | None = None
+        self._status_dir = Path(tempfile.mkdtemp(prefix="meshservice-warmup-"))
+        self._status = self._status_dir / "status.json"
+
+    @property
+    def capacity(self) -> int:
+        """Jobs run at once: none until the fork server is warm."""
+        return self.workers if self._started else 0
 
     async def start(self) -> None:
-        await asyncio.to_thread(warm_up, self._ctx)
+        """Start warming the fork server; returns at once."""
+        os.environ[WARMUP_STATUS_ENV] = str(self._status)  # the fork server inherits it
+        self._warming = asyncio.create_task(self._warm(), name="warm-up")
+
+    async def _warm(self) -> None:
+        try:
+            await asyncio.to_thread(warm_up, self._ctx)
+        except Exception:  # jobs then fail one by one with their own reason
+            log.exception("the fork server failed to warm up")
         self._started = True
+        log.info("executor ready: %d workers", self.workers)
 
     async def close(self) -> None:
+        if self._warming is not None and not self._warming.done():
+            self._warming.cancel()
         self._started = False
         for stop in list(self._stops):
             stop.set()
         await asyncio.to_thread(self._threads.shutdown, wait=True)
+        shutil.rmtree(self._status_dir, ignore_errors=True)
 
     def ready(self) -> bool:
         return self._started
 
+    def warming(self) -> dict | None:
+        """While warming: ``{"done", "total", "current", "left"}`` (None once ready)."""
+        if self._started:
+            return None
+        try:
+            return json.loads(self._status.read_text())
+        except (OSError, ValueError):
+            return {
+                "done": 0,
+                "total": None,
+                "current": "starting the job fork server (imports)",
+                "left": [],
+            }
+
     def describe(self) -> dict:
-        return {"executor": self.name, "workers": self.capacity}
+        return {"executor": self.name, "workers": self.workers}
 
     async def forget(self, job_id: str, attempt: int) -> None:
         """Nothing to do: a job's process dies with the service that started it."""
@@ -54,7 +102,7 @@ class LocalExecutor:
         task: Task,
         progress: Callable[[float, str], None],
         restarted: Callable[[], None],
-    ) -> bytes:
+    ) -> dict[str, bytes]:
         loop = asyncio.get_running_loop()
         stop = threading.Event()
         self._stops.add(stop)

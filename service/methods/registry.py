@@ -17,7 +17,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from meshcore.errors import InputError
 from meshcore.mesh import io, quality
 from service.methods import delaunay, grid, medial, optimize, product, quads, tets, triangulation
 from service.schemas import MeshIn, MethodParams
@@ -26,23 +25,6 @@ Progress = Callable[[float, str], None]
 
 #: Download formats of a result's mesh, by ``?format=`` name.
 FORMATS = io.FORMATS
-
-
-def mesh_file(result: dict, fmt: str) -> bytes:
-    """The mesh of a method's ``result`` (its JSON object) as a file in format ``fmt``.
-
-    Raises :class:`InputError` (a 422) when the result holds no mesh or the
-    format cannot hold its cells. The API reaches meshcore only through this
-    module.
-    """
-    if not result.get("mesh"):
-        raise InputError(
-            "this result holds no mesh to download", loc=("query", "format"), code="no_mesh"
-        )
-    mesh = io.from_json(result["mesh"])
-    if fmt == "glb":  # the web page reads the report and stats from the file, not the JSON
-        return io.to_glb(mesh, {k: result[k] for k in ("quality", "stats") if k in result})
-    return io.to_bytes(mesh, fmt)
 
 
 def mesh_of_file(data: bytes, filename: str) -> dict:

@@ -1,7 +1,8 @@
 """The ``dask`` executor on a real cluster: a scheduler and two workers on loopback.
 
 The processes are started with the same commands as docker/compose.yaml
-(``dask scheduler``, ``dask worker``, the API with MESHSERVICE_DASK_SCHEDULER).
+(``dask scheduler``, a stock ``dask worker`` under its nanny, so daemonic,
+the API with MESHSERVICE_DASK_SCHEDULER).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from tests.service.conftest import ROOT, _free_port, wait_status
 from tests.service.test_jobs import pid_alive, submit, wait_file
 
 BIN = Path(sys.executable).parent
-WORKER_ENV = {"DASK_DISTRIBUTED__WORKER__DAEMON": "False", "PYTHONPATH": str(ROOT)}
+WORKER_ENV = {"PYTHONPATH": str(ROOT)}
 
 
 def _parent(pid: int) -> int:
@@ -97,7 +98,20 @@ def dask_server(start_server, cluster):
     return server
 
 
+def _is_daemon() -> bool:
+    import multiprocessing
+
+    return multiprocessing.current_process().daemon
+
+
 class TestDask:
+    def test_workers_are_stock_daemonic_processes(self, cluster):
+        from distributed import Client
+
+        with Client(cluster.address, timeout=30) as client:
+            client.wait_for_workers(2, timeout=60)
+            assert set(client.run(_is_daemon).values()) == {True}
+
     def test_readyz_reports_scheduler_and_workers(self, dask_server, cluster):
         ready = httpx.get(dask_server.url + "/readyz").json()
         assert ready == {
@@ -113,8 +127,10 @@ class TestDask:
             "cells": [{"type": "quad", "data": [[0, 1, 4, 3], [1, 2, 5, 4]]}],
         }
         with dask_server.client() as c:
-            remote = submit(c, "quality", {"mesh": mesh}, wait=30).json()
-            assert remote["status"] == "succeeded"
+            remote = submit(c, "quality", {"mesh": mesh}).json()
+            # a job's process on a worker is a new interpreter: its imports take a moment
+            remote = wait_status(c, remote["id"], {"succeeded", "failed"}, timeout=120)
+            assert remote["status"] == "succeeded", remote
             remote_result = c.get(f"/v1/jobs/{remote['id']}/result").content
         local = submit(client, "quality", {"mesh": mesh}, wait=30).json()
         assert client.get(f"/v1/jobs/{local['id']}/result").content == remote_result
@@ -144,7 +160,7 @@ class TestDask:
 
     def test_time_limit_kills_the_process_on_the_worker(self, start_server, cluster, tmp_path):
         server = start_server(
-            MESHSERVICE_DASK_SCHEDULER=cluster.address, MESHSERVICE_JOB_TIME_LIMIT="3"
+            MESHSERVICE_DASK_SCHEDULER=cluster.address, MESHSERVICE_JOB_TIME_LIMIT="30"
         )
         marker = tmp_path / "pid"
         with server.client() as c:
@@ -162,7 +178,7 @@ class TestDask:
         with dask_server.client() as c:
             job = submit(c, "sleep", {"seconds": 3, "marker": str(marker)}).json()
             child = int(wait_file(marker, 60).split()[0])
-            worker = _parent(_parent(child))  # job process <- fork server <- worker
+            worker = _parent(child)  # the job's process is the worker's own child
             os.kill(worker, signal.SIGKILL)
             job = wait_status(c, job["id"], {"succeeded", "failed"}, timeout=120)
             assert job["status"] == "succeeded", job

@@ -59,13 +59,17 @@ def wait_file(path, timeout: float = 20) -> str:
 
 
 class TestSubmit:
-    def test_malformed_json_is_a_422_problem(self, client):
+    def test_malformed_json_is_a_400_problem(self, client):
         r = client.post(
             "/v1/jobs",
             content=b'{"method": "quality", ',
             headers={"content-type": "application/json"},
         )
-        assert_problem(r, 422, ["body"])
+        assert_problem(r, 400, ["body"])
+
+    def test_a_body_of_another_media_type_is_415(self, client):
+        r = client.post("/v1/jobs", content=b"{}", headers={"content-type": "text/plain"})
+        assert_problem(r, 415)
 
     def test_unknown_method_names_the_method_field(self, client):
         assert_problem(submit(client, "no_such_method", {}), 422, ["body"])

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 import sys
 import time
 
+import httpx
 import pytest
 
 from service.methods.registry import default_registry
@@ -173,3 +175,52 @@ def test_sigterm_stops_promptly(start_server):
     # uvicorn shuts down gracefully, then re-raises the signal it caught
     assert server.stop(signal.SIGTERM) in (0, -signal.SIGTERM)
     assert time.monotonic() - t0 < 15
+
+
+class TestFirstStart:
+    def test_port_answers_while_warming_and_queued_jobs_run_when_ready(self, tmp_path):
+        """The port opens before the fork server is warm; a job submitted then waits and runs."""
+        server = LiveServer(tmp_path / "data")
+        env = {**os.environ, "MESHSERVICE_WORKERS": "1"}
+        server.proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                server.module,
+                "--port",
+                str(server.port),
+                "--data-dir",
+                str(server.data_dir),
+            ],
+            cwd=ROOT,
+            env=env,
+            stdout=open(server.log, "ab"),
+            stderr=subprocess.STDOUT,
+        )
+        try:
+            warming, job = [], None
+            deadline = time.monotonic() + 120
+            while time.monotonic() < deadline:
+                try:
+                    r = httpx.get(server.url + "/readyz", timeout=2)
+                except httpx.HTTPError:
+                    time.sleep(0.05)
+                    continue
+                if job is None:
+                    job = httpx.post(
+                        server.url + "/v1/jobs",
+                        json={"method": "quality", "params": {"mesh": SQUARE}},
+                    ).json()
+                if r.status_code == 200:
+                    break
+                assert r.status_code == 503
+                warming.append(r.json()["warming"])
+                time.sleep(0.05)
+            assert warming, "the port answered only once everything was warm"
+            assert set(warming[-1]) == {"done", "total", "current", "left"}
+            assert job["status"] in ("queued", "running", "succeeded")
+            with server.client() as c:
+                assert wait_status(c, job["id"], {"succeeded", "failed"})["status"] == "succeeded"
+            assert "compiling kernels 1/" in server.log.read_text()
+        finally:
+            server.stop()
