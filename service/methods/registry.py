@@ -17,6 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from meshcore.errors import InputError as InputError  # re-exported: the API answers it as a 422
 from meshcore.mesh import io, quality
 from service.methods import delaunay, grid, medial, optimize, product, quads, tets, triangulation
 from service.schemas import MeshIn, MethodParams
