@@ -12,6 +12,7 @@ from meshcore.partition.recursive import (
     recursive_partition,
     split_triangles,
 )
+from meshcore.partition.smoothing import smooth_quads
 
 __all__ = [
     "BoundaryResampling",
@@ -21,5 +22,6 @@ __all__ = [
     "recursive_partition",
     "resample_boundary",
     "size_map",
+    "smooth_quads",
     "split_triangles",
 ]

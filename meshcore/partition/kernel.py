@@ -38,6 +38,9 @@ ANGLE = 1
 _SAMPLE = 30  # sampled positions per polygon above this count (twice, for parity)
 _ANGLE_WEIGHT = 1.5
 _FLAT_BONUS = 0.5  # quads: score bonus per separator end at a flat vertex
+_MIN_Q = 0.1  # quads: least corner quality (8.3) of a leaf or pattern quad
+_FLAT_ANGLE = 0.15  # radians from a straight angle: a flat vertex
+_CLOSABLE_MAX = 8  # quads: parts up to this many sides must have a pattern
 _CENTRE_MAX = 12  # largest polygon closed by the centre pattern when no split is valid
 
 
@@ -142,13 +145,36 @@ def _angle(P, v, u, w):
 
 
 @njit(cache=True)
-def _convex4(P, a, b, c, d):
-    return (
+def _convex4(P, a, b, c, d, nfix):
+    """Strictly convex (exact signs), corner quality (8.3) at least _MIN_Q at fixed points."""
+    if not (
         orient(P, a, b, c) > 0
         and orient(P, b, c, d) > 0
         and orient(P, c, d, a) > 0
         and orient(P, d, a, b) > 0
+    ):
+        return False
+    # corners at fixed points (index < nfix) must be good; the others may be
+    # nearly flat: smoothing moves them afterwards
+    return (
+        (b >= nfix or _corner_q(_angle(P, b, c, a)) >= _MIN_Q)
+        and (c >= nfix or _corner_q(_angle(P, c, d, b)) >= _MIN_Q)
+        and (d >= nfix or _corner_q(_angle(P, d, a, c)) >= _MIN_Q)
+        and (a >= nfix or _corner_q(_angle(P, a, b, d)) >= _MIN_Q)
     )
+
+
+@njit(cache=True)
+def _corner_q(theta):
+    if theta < math.pi / 2:
+        return 2.0 * theta / math.pi
+    return max(0.0, 2.0 - 2.0 * theta / math.pi)
+
+
+@njit(cache=True)
+def _flat(P, p, v, q):
+    """Whether the corner (p, v, q) is within _FLAT_ANGLE of a straight angle."""
+    return abs(_angle(P, v, q, p) - math.pi) < _FLAT_ANGLE
 
 
 @njit(cache=True)
@@ -181,7 +207,7 @@ def _positions(n):
 
 
 @njit(cache=True)
-def _score(P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch):
+def _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch):
     """(score, pieces) of the separator (i, j), i < j; score inf when not allowed."""
     m1 = j - i
     m2 = n - m1
@@ -202,16 +228,28 @@ def _score(P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch):
     if quad and k >= 3 and min(m1, m2) == 3:
         # a hexagon with two flat neighbours has no convex quad pattern
         k = 1
-    if quad and k == 1 and scratch < len(P):
-        if m1 == 5 and not _closable6(P, poly, n, i, scratch):
+    if quad and min(m1, m2) + k <= _CLOSABLE_MAX:
+        # a small part must have a convex quad pattern: look ahead
+        if scratch + k + 1 > len(P):
             return np.inf, 0
-        if m2 == 5 and not _closable6(P, poly, n, j, scratch):
-            return np.inf, 0
-    if quad and k == 1:
-        if m1 == 3 and not _convex4(P, poly[i], poly[i + 1], poly[i + 2], poly[j]):
-            return np.inf, 0
-        if m2 == 3 and not _convex4(P, poly[j], poly[(j + 1) % n], poly[(j + 2) % n], poly[i]):
-            return np.inf, 0
+        for q in range(1, k):
+            _sep_point(P, a, b, q, k, ha, hb, scratch + q - 1)
+        if m1 + k <= _CLOSABLE_MAX:
+            part = np.empty(m1 + k, np.int64)
+            for q in range(m1 + 1):
+                part[q] = poly[i + q]
+            for q in range(k - 1):
+                part[m1 + 1 + q] = scratch + k - 2 - q
+            if not _closable(nfix, P, part, scratch + k - 1):
+                return np.inf, 0
+        if m2 + k <= _CLOSABLE_MAX:
+            part = np.empty(m2 + k, np.int64)
+            for q in range(m2 + 1):
+                part[q] = poly[(j + q) % n]
+            for q in range(k - 1):
+                part[m2 + 1 + q] = scratch + q
+            if not _closable(nfix, P, part, scratch + k - 1):
+                return np.inf, 0
     # the four angles the separator makes at its ends
     pa = poly[(i - 1) % n]
     na = poly[i + 1]
@@ -227,9 +265,9 @@ def _score(P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch):
     c_len = t / min(m1, m2)
     if quad:
         # a flat vertex can only be a quad corner once a separator splits it
-        if orient(P, pa, a, na) == 0:
+        if _flat(P, pa, a, na):
             c_len -= _FLAT_BONUS
-        if orient(P, pb, b, nb) == 0:
+        if _flat(P, pb, b, nb):
             c_len -= _FLAT_BONUS
     if strategy == ANGLE and reflex_angle > 0.0:
         return abs(a1 - a2) / reflex_angle + 0.3 * c_len + _ANGLE_WEIGHT * c_ang, k
@@ -237,7 +275,7 @@ def _score(P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch):
 
 
 @njit(cache=True)
-def _best_split(P, poly, n, H, grid, quad, strategy, full, scratch):
+def _best_split(nfix, P, poly, n, H, grid, quad, strategy, full, scratch):
     """Best valid separator (i, j, k) of the polygon, or (-1, -1, 0)."""
     pos = np.arange(n) if full else _positions(n)
     reflex_at = -1
@@ -264,7 +302,7 @@ def _best_split(P, poly, n, H, grid, quad, strategy, full, scratch):
             j = max(reflex_at, q)
             if i == j:
                 continue
-            s, k = _score(P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch)
+            s, k = _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch)
             if s < np.inf:
                 sc[c] = s
                 ci[c] = i
@@ -276,7 +314,7 @@ def _best_split(P, poly, n, H, grid, quad, strategy, full, scratch):
             for w in range(u + 1, m):
                 i = pos[u]
                 j = pos[w]
-                s, k = _score(P, poly, n, i, j, H, grid, quad, strategy, 0.0, scratch)
+                s, k = _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, 0.0, scratch)
                 if s < np.inf:
                     sc[c] = s
                     ci[c] = i
@@ -291,7 +329,7 @@ def _best_split(P, poly, n, H, grid, quad, strategy, full, scratch):
 
 
 @njit(cache=True)
-def _centre_pattern(P, c, poly, n):
+def _centre_pattern(nfix, P, c, poly, n):
     """Put the vertex average at P[c]; the rotation r (0 or 1) whose n/2 quads
     (c, poly[r + 2q], poly[r + 2q + 1], poly[r + 2q + 2]) are all strictly convex, or -1."""
     x = 0.0
@@ -307,7 +345,7 @@ def _centre_pattern(P, c, poly, n):
             a = poly[(r + 2 * q) % n]
             b = poly[(r + 2 * q + 1) % n]
             d = poly[(r + 2 * q + 2) % n]
-            if not _convex4(P, c, a, b, d):
+            if not _convex4(P, c, a, b, d, nfix):
                 good = False
                 break
         if good:
@@ -316,22 +354,53 @@ def _centre_pattern(P, c, poly, n):
 
 
 @njit(cache=True)
-def _closable6(P, poly, n, start, scratch):
-    """Whether the hexagon poly[start .. start + 5] (cyclic) has a convex quad pattern:
-    a diagonal into two strictly convex quads, or the centre pattern (scratch point)."""
-    h = np.empty(6, np.int64)
-    for q in range(6):
-        h[q] = poly[(start + q) % n]
-    for q in range(3):
-        if _convex4(P, h[q], h[q + 1], h[q + 2], h[q + 3]) and _convex4(
-            P, h[q + 3], h[(q + 4) % 6], h[(q + 5) % 6], h[q]
-        ):
-            return True
-    return _centre_pattern(P, scratch, h, 6) >= 0
+def _sep_point(P, a, b, q, k, ha, hb, out):
+    """Point q of k pieces on segment ab, at equal steps of the integral of 1/h
+    for h linear from ha to hb, written to P[out]."""
+    f = q / k
+    if abs(hb - ha) > 1e-9 * ha:
+        f = (math.exp(f * math.log(hb / ha)) - 1.0) * ha / (hb - ha)
+    P[out, 0] = P[a, 0] + f * (P[b, 0] - P[a, 0])
+    P[out, 1] = P[a, 1] + f * (P[b, 1] - P[a, 1])
 
 
 @njit(cache=True)
-def recurse(P, npts, buf, st_start, st_len, st_depth, nst, H, grid, quad, strategy, cells, stats):
+def _closable6(nfix, P, h, scratch):
+    """Whether the hexagon h (6,) has a convex quad pattern: a diagonal into two
+    strictly convex quads, or the centre pattern (the centre at P[scratch])."""
+    for q in range(3):
+        if _convex4(P, h[q], h[q + 1], h[q + 2], h[q + 3], nfix) and _convex4(
+            P, h[q + 3], h[(q + 4) % 6], h[(q + 5) % 6], h[q], nfix
+        ):
+            return True
+    return _centre_pattern(nfix, P, scratch, h, 6) >= 0
+
+
+@njit(cache=True)
+def _closable(nfix, P, h, scratch):
+    """Whether the polygon h of 4, 6 or 8 vertices has a convex quad pattern
+    (8: a valid diagonal leaving a convex quad and a closable hexagon, or the
+    centre pattern)."""
+    m = len(h)
+    if m == 4:
+        return _convex4(P, h[0], h[1], h[2], h[3], nfix)
+    if m == 6:
+        return _closable6(nfix, P, h, scratch)
+    if m != 8:
+        return False
+    six = np.empty(6, np.int64)
+    for q in range(8):
+        if not _convex4(P, h[q], h[(q + 1) % 8], h[(q + 2) % 8], h[(q + 3) % 8], nfix):
+            continue
+        for t in range(6):
+            six[t] = h[(q + 3 + t) % 8]
+        if _closable6(nfix, P, six, scratch) and _valid(P, h, 8, q, (q + 3) % 8):
+            return True
+    return _centre_pattern(nfix, P, scratch, h, 8) >= 0
+
+
+@njit(cache=True)
+def recurse(nfix, P, npts, buf, st_start, st_len, st_depth, nst, H, grid, quad, strategy, cells, stats):
     """Split the polygons on the stack until only triangles (or convex quads) are left.
 
     ``P`` (cap, 2) holds ``npts`` points; new separator points are appended.
@@ -354,7 +423,7 @@ def recurse(P, npts, buf, st_start, st_len, st_depth, nst, H, grid, quad, strate
             stats[2] = depth
         poly = buf[s0 : s0 + n].copy()
         leaf = (n == 3 and not quad) or (
-            n == 4 and quad and _convex4(P, poly[0], poly[1], poly[2], poly[3])
+            n == 4 and quad and _convex4(P, poly[0], poly[1], poly[2], poly[3], nfix)
         )
         if leaf:
             if ncell >= len(cells):
@@ -368,15 +437,15 @@ def recurse(P, npts, buf, st_start, st_len, st_depth, nst, H, grid, quad, strate
             else:
                 stats[8] += 1
             continue
-        i, j, k = _best_split(P, poly, n, H, grid, quad, strategy, False, npts)
+        i, j, k = _best_split(nfix, P, poly, n, H, grid, quad, strategy, False, npts)
         if i < 0:
             stats[9] += 1
-            i, j, k = _best_split(P, poly, n, H, grid, quad, strategy, True, npts)
+            i, j, k = _best_split(nfix, P, poly, n, H, grid, quad, strategy, True, npts)
         if i < 0 and quad and n <= _CENTRE_MAX:
             # the centre pattern: n/2 quads around the vertex average
             if ncell + n // 2 > len(cells) or npts >= len(P):
                 return FULL
-            r = _centre_pattern(P, npts, poly, n)
+            r = _centre_pattern(nfix, P, npts, poly, n)
             if r >= 0:
                 for q in range(n // 2):
                     cells[ncell, 0] = npts
@@ -400,11 +469,7 @@ def recurse(P, npts, buf, st_start, st_len, st_depth, nst, H, grid, quad, strate
         hb = size_at(H, grid, P[b, 0], P[b, 1])
         first = npts
         for q in range(1, k):
-            f = q / k
-            if abs(hb - ha) > 1e-9 * ha:
-                f = (math.exp(f * math.log(hb / ha)) - 1.0) * ha / (hb - ha)
-            P[npts, 0] = P[a, 0] + f * (P[b, 0] - P[a, 0])
-            P[npts, 1] = P[a, 1] + f * (P[b, 1] - P[a, 1])
+            _sep_point(P, a, b, q, k, ha, hb, npts)
             npts += 1
         if k == 1:
             stats[3] += 1
@@ -480,3 +545,15 @@ def bridge_candidates_valid(P, a_ids, b_ids, prev_a, next_a, prev_b, next_b, ea,
             continue
         return r
     return -1
+
+
+@njit(cache=True)
+def strictly_convex_rows(P, quads):
+    """(m,) bool: each quad strictly convex."""
+    out = np.ones(len(quads), np.bool_)
+    for r in range(len(quads)):
+        for c in range(4):
+            if orient(P, quads[r, c], quads[r, (c + 1) % 4], quads[r, (c + 2) % 4]) <= 0:
+                out[r] = False
+                break
+    return out

@@ -84,6 +84,7 @@ from meshcore.errors import AlgorithmError, InputError
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.partition import kernel
 from meshcore.partition.boundary import SizeMap, resample_boundary, size_map
+from meshcore.partition.smoothing import smooth_quads
 
 __all__ = ["PartitionResult", "partition_polygon", "recursive_partition", "split_triangles"]
 
@@ -223,6 +224,7 @@ def partition_polygon(
     ----------
     Methods text §8.7.2; module docstring.
     """
+    n_fixed = len(points)
     P0, cycles, bridges = _join_holes(np.asarray(points, np.float64), loops, ring_polygon, sizes)
     strat = kernel.ANGLE if strategy == "angle" else kernel.BALANCED
     total = sum(len(c) for c in cycles)
@@ -247,7 +249,7 @@ def partition_polygon(
         cells = np.full((est + 4 * total, 4), -1, np.int64)
         st = np.zeros(13, np.int64)
         status = kernel.recurse(
-            P, len(P0), buf, st_start, st_len, st_depth, len(cycles), sizes.H, sizes.grid,
+            n_fixed, P, len(P0), buf, st_start, st_len, st_depth, len(cycles), sizes.H, sizes.grid,
             quad, strat, cells, st,
         )  # fmt: skip
         if status == kernel.FULL:
@@ -323,6 +325,7 @@ def recursive_partition(
     size_field=None,
     element: str = "triangle",
     strategy: str = "balanced",
+    smooth: bool = True,
     progress: Callable[[float, str], None] | None = None,
 ) -> PartitionResult:
     """Mesh a planar domain by recursive partition into two (§8.7.2).
@@ -339,6 +342,10 @@ def recursive_partition(
     element : {"triangle", "quad"}
     strategy : {"balanced", "angle"}
         Separator ranking (module docstring).
+    smooth : bool
+        Quads: relocate the separator points by
+        :func:`~meshcore.partition.smoothing.smooth_quads` (never inverting a
+        cell nor lowering the least quality). Triangles are not smoothed.
     progress : callable, optional
         ``progress(fraction, message)``; may raise to cancel.
 
@@ -411,6 +418,13 @@ def recursive_partition(
         )
         pts, cells = split_triangles(pts, tri)
     lap("recursion")
+    undone = 0
+    if quad and smooth:
+        report(0.8, "smoothing")
+        fixed = np.zeros(len(pts), bool)
+        fixed[: len(bnd.points)] = True
+        pts, undone = smooth_quads(pts, cells, fixed)
+        lap("smoothing")
     mesh = Mesh(pts, (CellBlock("quad" if quad else "triangle", cells),))
     report(0.9, "quality")
     q = quality.report(mesh)
@@ -421,6 +435,7 @@ def recursive_partition(
         "points": int(len(pts)),
         "fallback": fallback,
         "parity_repairs": bnd.repairs,
+        "smoothing_undone": int(undone),
         "seconds": timings,
     }
     report(1.0, "done")

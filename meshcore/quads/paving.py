@@ -86,16 +86,22 @@ from scipy.spatial import cKDTree
 from meshcore.domain.planar import Domain, parse_domain
 from meshcore.errors import InputError
 from meshcore.mesh import CellBlock, Mesh, quality
-from meshcore.mesh.quality import quad_quality
-from meshcore.partition import SizeMap, partition_polygon, resample_boundary, size_map
+from meshcore.partition import (
+    SizeMap,
+    partition_polygon,
+    resample_boundary,
+    size_map,
+    smooth_quads,
+)
+from meshcore.partition.smoothing import SWEEPS
 from meshcore.quads import paving_kernel as pk
 
-__all__ = ["PavingResult", "paving", "smooth_quads"]
+__all__ = ["PavingResult", "paving"]
 
 _END, _SIDE, _CORNER, _REVERSAL = 0, 1, 2, 3
 _SMALL_FRONT = 8  # fronts with this many nodes or fewer go to the closure
 _SEAM = 0.4  # new nodes closer than this times h are seamed
-_SWEEPS = 8
+_CLEARANCE = 0.75  # a row's new nodes stay this far (times h) from the other fronts
 
 
 @dataclass(frozen=True)
@@ -268,6 +274,12 @@ def _try_row(P, fronts, which, sizes):
     n_new = int(np.count_nonzero(first < int(newset.sum())))
     if not _segments_ok(Q, seg_a, seg_b, np.arange(n_new)):
         return None
+    # keep clear of the other fronts: the region left must stay closable
+    if fa:
+        other = np.unique(np.concatenate(fa))
+        gap, _ = cKDTree(Q[other]).query(Q[nf])
+        if (gap < _CLEARANCE * sizes(Q[nf])).any():
+            return None
     # no node of another front inside a new quad
     if fa:
         other_nodes = np.unique(np.concatenate(fa))
@@ -332,63 +344,6 @@ def _valence(cells: np.ndarray, n: int, boundary: np.ndarray) -> dict:
     return {str(int(v)): int(c) for v, c in zip(vals, cnt)}
 
 
-def smooth_quads(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray, sweeps: int = _SWEEPS):
-    """Length-weighted Laplacian smoothing that never inverts nor lowers the least quality.
-
-    Parameters
-    ----------
-    points : (n, 2) float64
-    quads : (m, 4) int64, counter-clockwise, strictly convex
-    fixed : (n,) bool
-        Points that stay (the boundary).
-    sweeps : int
-
-    Returns
-    -------
-    points : (n, 2) float64
-    undone : int
-        Moves undone because a quad would have turned non-strictly-convex
-        (exact test) or dropped below the least quality (8.4) before the sweep.
-
-    References
-    ----------
-    Methods text §8.5.1 (smoothing of paved meshes), §8.4.4 (8.4).
-    """
-    P = points.copy()
-    e = np.sort(np.stack([quads, np.roll(quads, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
-    e = np.unique(e, axis=0)
-    a, b = np.concatenate([e[:, 0], e[:, 1]]), np.concatenate([e[:, 1], e[:, 0]])
-    free = ~fixed
-    undone = 0
-    n = len(P)
-    for _ in range(sweeps):
-        q_old = quad_quality(P, quads)
-        floor = float(q_old.min())
-        w = np.hypot(*(P[b] - P[a]).T)
-        sw = np.bincount(a, weights=w, minlength=n)
-        tx = np.bincount(a, weights=w * P[b, 0], minlength=n)
-        ty = np.bincount(a, weights=w * P[b, 1], minlength=n)
-        target = P.copy()
-        ok = free & (sw > 0)
-        target[ok, 0] = tx[ok] / sw[ok]
-        target[ok, 1] = ty[ok] / sw[ok]
-        moved = ok.copy()
-        for _ in range(20):
-            Q = np.where(moved[:, None], target, P)
-            good = pk.strictly_convex_rows(Q, quads)
-            good &= quad_quality(Q, quads) >= np.minimum(q_old, floor)
-            bad_nodes = np.unique(quads[~good])
-            bad_nodes = bad_nodes[moved[bad_nodes]]
-            if len(bad_nodes) == 0:
-                break
-            undone += len(bad_nodes)
-            moved[bad_nodes] = False
-        else:
-            moved[:] = False
-        P = np.where(moved[:, None], target, P)
-    return P, undone
-
-
 def _split_all(points: np.ndarray, cells: list[np.ndarray]):
     """Quads into four, triangles into three, through shared edge midpoints and centres."""
     n = len(points)
@@ -423,8 +378,10 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
     stats = {"rows": 0, "row_quads": 0, "seams": 0, "frozen": 0}
     classes = np.zeros(4, np.int64)
     rows = 0
+    history: list[tuple[list[np.ndarray], int]] = []
     while any(active) and (max_rows is None or rows < max_rows):
         rows += 1
+        history.append((list(fronts), len(quads)))
         for k in range(len(fronts)):
             if not active[k]:
                 continue
@@ -443,12 +400,19 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
                 active[k] = False
         stats["rows"] = rows
     stats["node_classes"] = dict(zip(("end", "side", "corner", "reversal"), classes.tolist()))
-    # the seams leave unused points: renumber at the end
-    P2, cells, cstats = partition_polygon(
-        P, fronts, np.asarray(ring_polygon), sizes, quad=quad_closure, strategy=strategy
-    )
-    if cells is None:
-        return None
+    # closure; when the quad closure is stuck, rows are taken back one round at a time
+    stats["rows_taken_back"] = 0
+    while True:
+        P2, cells, cstats = partition_polygon(
+            P, fronts, np.asarray(ring_polygon), sizes, quad=quad_closure, strategy=strategy
+        )
+        if cells is not None:
+            break
+        if not history:
+            return None
+        fronts, nq = history.pop()
+        quads = quads[:nq]
+        stats["rows_taken_back"] += 1
     stats["closure"] = cstats
     row_q = np.concatenate(quads) if quads else np.zeros((0, 4), np.int64)
     return P2, row_q, cells, stats
@@ -578,7 +542,7 @@ def paving(
         "fallback": fallback,
         "parity_repairs": bnd.repairs,
         "valence": _valence(cells, len(P), np.flatnonzero(fixed)),
-        "smoothing": {"sweeps": _SWEEPS if smooth else 0, "undone": int(undone)},
+        "smoothing": {"sweeps": SWEEPS if smooth else 0, "undone": int(undone)},
         "seconds": timings,
     }
     report(1.0, "done")

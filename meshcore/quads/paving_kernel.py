@@ -10,7 +10,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from meshcore.partition.kernel import orient, touch
+from meshcore.partition.kernel import orient, strictly_convex_rows, touch
+
+__all__ = ["pairs_touch", "points_in_quads", "strictly_convex_rows"]
 
 
 @njit(cache=True)
@@ -71,15 +73,3 @@ def points_in_quads(P, quads, pts, cand):
         if inside:
             return True
     return False
-
-
-@njit(cache=True)
-def strictly_convex_rows(P, quads):
-    """(m,) bool: each quad strictly convex."""
-    out = np.ones(len(quads), np.bool_)
-    for r in range(len(quads)):
-        for c in range(4):
-            if orient(P, quads[r, c], quads[r, (c + 1) % 4], quads[r, (c + 2) % 4]) <= 0:
-                out[r] = False
-                break
-    return out
