@@ -12,12 +12,13 @@ from meshcore.partition.recursive import (
     recursive_partition,
     split_triangles,
 )
-from meshcore.partition.smoothing import smooth_quads
+from meshcore.partition.smoothing import boundary_points, smooth_quads
 
 __all__ = [
     "BoundaryResampling",
     "PartitionResult",
     "SizeMap",
+    "boundary_points",
     "partition_polygon",
     "recursive_partition",
     "resample_boundary",

@@ -247,7 +247,8 @@ def resample_boundary(domain: Domain, sizes: SizeMap, even: bool) -> BoundaryRes
     seg = domain.segments
     a, b = P[seg[:, 0]], P[seg[:, 1]]
     integral = _pieces(a, b, sizes)
-    n = np.maximum(np.rint(integral), 1).astype(np.int64)
+    # rounded first: lengths equal up to rounding get equal counts after any scaling
+    n = np.maximum(np.rint(np.round(integral, 7)), 1).astype(np.int64)
     repairs = []
     if even:
         for k in range(domain.ring_count):

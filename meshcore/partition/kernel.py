@@ -37,6 +37,9 @@ ANGLE = 1
 
 _SAMPLE = 30  # sampled positions per polygon above this count (twice, for parity)
 _ANGLE_WEIGHT = 1.5
+_MIN_SPLIT_ANGLE = 0.05  # radians: separators closer to an edge only in the full search
+_TINY_ANGLE = 1e-6  # radians: never closer than this
+_RESOLUTION = 1e-7  # scores and separator integrals are compared at this resolution
 _FLAT_BONUS = 0.5  # quads: score bonus per separator end at a flat vertex
 _MIN_Q = 0.1  # quads: least corner quality (8.3) of a leaf or pattern quad
 _FLAT_ANGLE = 0.15  # radians from a straight angle: a flat vertex
@@ -133,13 +136,14 @@ def _valid(P, poly, n, i, j):
 
 @njit(cache=True)
 def _angle(P, v, u, w):
-    """Counter-clockwise angle at v from direction v->u to direction v->w, in (0, 2pi]."""
+    """Counter-clockwise angle at v from direction v->u to direction v->w, in [0, 2pi)
+    (0 when the directions agree in floating point, whatever the exact sign)."""
     ux = P[u, 0] - P[v, 0]
     uy = P[u, 1] - P[v, 1]
     wx = P[w, 0] - P[v, 0]
     wy = P[w, 1] - P[v, 1]
     t = math.atan2(ux * wy - uy * wx, ux * wx + uy * wy)
-    if t <= 0.0:
+    if t < 0.0:
         t += 2.0 * math.pi
     return t
 
@@ -188,6 +192,12 @@ def _pieces(t, quad):
 
 
 @njit(cache=True)
+def _rounded(x):
+    """x rounded to _RESOLUTION: scores and counts that differ by rounding tie."""
+    return math.floor(x / _RESOLUTION + 0.5) * _RESOLUTION
+
+
+@njit(cache=True)
 def _integral(L, ha, hb):
     if abs(hb - ha) <= 1e-9 * ha:
         return L / ha
@@ -207,7 +217,7 @@ def _positions(n):
 
 
 @njit(cache=True)
-def _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch):
+def _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch, full):
     """(score, pieces) of the separator (i, j), i < j; score inf when not allowed."""
     m1 = j - i
     m2 = n - m1
@@ -223,7 +233,8 @@ def _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratc
     L = math.sqrt(dx * dx + dy * dy)
     ha = size_at(H, grid, P[a, 0], P[a, 1])
     hb = size_at(H, grid, P[b, 0], P[b, 1])
-    t = _integral(L, ha, hb)
+    # rounded: equal up to rounding means equal (the same mesh after scaling)
+    t = _rounded(_integral(L, ha, hb))
     k = _pieces(t, quad)
     if quad and k >= 3 and min(m1, m2) == 3:
         # a hexagon with two flat neighbours has no convex quad pattern
@@ -261,6 +272,10 @@ def _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratc
     b2 = _angle(P, b, nb, a)  # part 2 at b
     target = math.pi / 2.0 if quad else math.pi / 3.0
     amin = min(min(a1, a2), min(b1, b2))
+    if amin < (_TINY_ANGLE if full else _MIN_SPLIT_ANGLE):
+        # exactly inside but nearly along an edge (a subdivided separator, its
+        # points rounded off the line): slivers and coincident points
+        return np.inf, 0
     c_ang = max(0.0, 1.0 - amin / target)
     c_len = t / min(m1, m2)
     if quad:
@@ -270,8 +285,8 @@ def _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratc
         if _flat(P, pb, b, nb):
             c_len -= _FLAT_BONUS
     if strategy == ANGLE and reflex_angle > 0.0:
-        return abs(a1 - a2) / reflex_angle + 0.3 * c_len + _ANGLE_WEIGHT * c_ang, k
-    return c_len + _ANGLE_WEIGHT * c_ang, k
+        return _rounded(abs(a1 - a2) / reflex_angle + 0.3 * c_len + _ANGLE_WEIGHT * c_ang), k
+    return _rounded(c_len + _ANGLE_WEIGHT * c_ang), k
 
 
 @njit(cache=True)
@@ -302,7 +317,7 @@ def _best_split(nfix, P, poly, n, H, grid, quad, strategy, full, scratch):
             j = max(reflex_at, q)
             if i == j:
                 continue
-            s, k = _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch)
+            s, k = _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch, full)
             if s < np.inf:
                 sc[c] = s
                 ci[c] = i
@@ -314,14 +329,14 @@ def _best_split(nfix, P, poly, n, H, grid, quad, strategy, full, scratch):
             for w in range(u + 1, m):
                 i = pos[u]
                 j = pos[w]
-                s, k = _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, 0.0, scratch)
+                s, k = _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, 0.0, scratch, full)
                 if s < np.inf:
                     sc[c] = s
                     ci[c] = i
                     cj[c] = j
                     ck[c] = k
                     c += 1
-    order = np.argsort(sc[:c])
+    order = np.argsort(sc[:c], kind="mergesort")
     for r in order:
         if _valid(P, poly, n, ci[r], cj[r]):
             return ci[r], cj[r], ck[r]

@@ -52,7 +52,8 @@ Choices the text leaves open
   or more pieces leave flat vertices; a hexagon with two of them side by
   side has no split into convex quads. When some polygon has no valid even
   split, the whole domain is meshed again by the guaranteed route: triangles
-  by this recursion at twice the size, each cut into three quads by its edge
+  by this recursion at 2.5 times the size (so that the median edge of the
+  result is near the size), each cut into three quads by its edge
   midpoints and centroid (§8.4, Figure 8.13). Conforming, only quads, areas
   exact; ``stats["fallback"]`` says it happened.
 * No smoothing: points stay where the separators put them (the text allows
@@ -84,12 +85,15 @@ from meshcore.errors import AlgorithmError, InputError
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.partition import kernel
 from meshcore.partition.boundary import SizeMap, resample_boundary, size_map
-from meshcore.partition.smoothing import smooth_quads
+from meshcore.partition.smoothing import boundary_points, smooth_quads
 
-__all__ = ["PartitionResult", "partition_polygon", "recursive_partition", "split_triangles"]
+__all__ = ["FALLBACK_SCALE", "PartitionResult", "partition_polygon", "recursive_partition", "split_triangles"]
 
 _NEAREST = 16  # outer vertices tried per hole vertex before every pair
 _MAX_CELLS = 20_000_000
+#: The guaranteed quad route meshes triangles at this many times the size: a
+#: triangle of side H gives half edges H / 2 and spokes 0.29 H, median near H / 2.5.
+FALLBACK_SCALE = 2.5
 
 
 @dataclass(frozen=True)
@@ -411,7 +415,7 @@ def recursive_partition(
     fallback = False
     if cells is None:
         fallback = True
-        twice = SizeMap(2.0 * sizes.H, sizes.grid)
+        twice = SizeMap(FALLBACK_SCALE * sizes.H, sizes.grid)
         bnd = resample_boundary(dom, twice, even=False)
         pts, tri, stats = partition_polygon(
             bnd.points, bnd.loops, bnd.ring_polygon, twice, quad=False, strategy=strategy
@@ -421,9 +425,7 @@ def recursive_partition(
     undone = 0
     if quad and smooth:
         report(0.8, "smoothing")
-        fixed = np.zeros(len(pts), bool)
-        fixed[: len(bnd.points)] = True
-        pts, undone = smooth_quads(pts, cells, fixed)
+        pts, undone = smooth_quads(pts, cells, boundary_points(pts, cells))
         lap("smoothing")
     mesh = Mesh(pts, (CellBlock("quad" if quad else "triangle", cells),))
     report(0.9, "quality")

@@ -18,11 +18,23 @@ import numpy as np
 from meshcore.mesh.quality import quad_quality
 from meshcore.partition.kernel import strictly_convex_rows
 
-__all__ = ["SWEEPS", "smooth_quads"]
+__all__ = ["SWEEPS", "boundary_points", "smooth_quads"]
 
 #: Default number of sweeps.
 SWEEPS = 8
 _UNDO_ROUNDS = 20
+_REPAIR_Q = 0.3  # quads below this quality get their free corners repaired one by one
+_REPAIR_ROUNDS = 3
+_REPAIR_STEPS = (1.0, 0.75, 0.5, 0.25)
+
+
+def boundary_points(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """(n,) bool: the points on an edge of one cell only (the mesh's boundary)."""
+    e = np.sort(np.stack([cells, np.roll(cells, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+    eu, cnt = np.unique(e, axis=0, return_counts=True)
+    out = np.zeros(len(points), bool)
+    out[eu[cnt == 1].ravel()] = True
+    return out
 
 
 def smooth_quads(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray, sweeps: int = SWEEPS):
@@ -83,6 +95,39 @@ def smooth_quads(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray, sweep
         else:
             moved[:] = False
         P = np.where(moved[:, None], target, P)
+    P = _repair(P, quads, free)
     return P, undone
+
+
+def _repair(P: np.ndarray, quads: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """Point by point (the few free corners of quads below _REPAIR_Q): the best of a
+    few positions between the point and the centre of its quads, kept when the least
+    quality around it rises (exact convexity as in the sweeps)."""
+    q = quad_quality(P, quads)
+    order = np.argsort(quads.ravel(), kind="stable")
+    flat = quads.ravel()[order]
+    cells = np.repeat(np.arange(len(quads)), 4)[order]
+    starts = np.searchsorted(flat, np.arange(len(P) + 1))
+    for _ in range(_REPAIR_ROUNDS):
+        bad = np.unique(quads[q < _REPAIR_Q])
+        bad = bad[free[bad]]
+        if len(bad) == 0:
+            break
+        for v in bad:  # sequential by nature (each move changes the next); few points
+            around = cells[starts[v] : starts[v + 1]]
+            centre = P[quads[around]].reshape(-1, 2).mean(axis=0)
+            best, best_q = P[v].copy(), float(q[around].min())
+            for t in _REPAIR_STEPS:
+                old = P[v].copy()
+                P[v] = (1 - t) * old + t * centre
+                sub = quads[around]
+                ok = strictly_convex_rows(P, sub).all()
+                qq = float(quad_quality(P, sub).min()) if ok else -1.0
+                P[v] = old
+                if qq > best_q:
+                    best, best_q = (1 - t) * old + t * centre, qq
+            P[v] = best
+            q[around] = quad_quality(P, quads[around])
+    return P
 
 

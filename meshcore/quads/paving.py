@@ -88,6 +88,7 @@ from meshcore.errors import InputError
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.partition import (
     SizeMap,
+    boundary_points,
     partition_polygon,
     resample_boundary,
     size_map,
@@ -522,11 +523,7 @@ def paving(
         P, cells = _split_all(P, [row_q, closure])
     lap("rows and closure")
     P, cells = _compact(P, cells)
-    # the boundary: every point on an edge of one cell only
-    fixed = np.zeros(len(P), bool)
-    e = np.sort(np.stack([cells, np.roll(cells, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
-    eu, cnt = np.unique(e, axis=0, return_counts=True)
-    fixed[eu[cnt == 1].ravel()] = True
+    fixed = boundary_points(P, cells)
     undone = 0
     if smooth:
         report(0.8, "smoothing")
