@@ -3,7 +3,7 @@
 The packages are the table of contents of the methods text: the shared
 kernel (:mod:`.geometry`, :mod:`.mesh`, :mod:`.domain`, :mod:`.delaunay`)
 below one package per method family (:mod:`.triangulation`,
-:mod:`.product`, :mod:`.quads`, :mod:`.medial`). Each method's entry point
+:mod:`.product`, :mod:`.quads`, :mod:`.medial`, :mod:`.partition`). Each method's entry point
 is re-exported here, loaded on first use so that ``import meshcore`` stays
 cheap::
 
@@ -30,11 +30,12 @@ _ENTRY_POINTS = {
     "radial": "meshcore.product",
     "combine": "meshcore.quads",
     "optimize_quads": "meshcore.quads",
+    "paving": "meshcore.quads",
     "medial_axis": "meshcore.medial",
     "medial_transform": "meshcore.medial",
-    "partition": "meshcore.medial",
     "quad_medial": "meshcore.medial",
     "simplify": "meshcore.medial",
+    "recursive_partition": "meshcore.partition",
     "report": "meshcore.mesh.quality",
 }
 
