@@ -3,14 +3,16 @@
 The packages are the table of contents of the methods text: the shared
 kernel (:mod:`.geometry`, :mod:`.mesh`, :mod:`.domain`, :mod:`.delaunay`)
 below one package per method family (:mod:`.triangulation`,
-:mod:`.product`, :mod:`.quads`, :mod:`.medial`, :mod:`.partition`). Each method's entry point
-is re-exported here, loaded on first use so that ``import meshcore`` stays
+:mod:`.product`, :mod:`.quads`, :mod:`.medial`, :mod:`.partition`). Each
+method's entry point is re-exported here, loaded on first use so that ``import meshcore`` stays
 cheap::
 
     from meshcore import parse_domain, triangulate, medial_axis, extrude
 
-A name that is also a subpackage (``delaunay``) is imported from its
-package instead: ``from meshcore.delaunay import delaunay``.
+A name that is also a subpackage (``delaunay``, ``partition``) is imported
+from its package instead: ``from meshcore.delaunay import delaunay``,
+``from meshcore.medial import partition`` (the medial-axis partition;
+``meshcore.partition`` is the recursive-partition package).
 """
 
 from __future__ import annotations

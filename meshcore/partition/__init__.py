@@ -12,12 +12,13 @@ from meshcore.partition.recursive import (
     recursive_partition,
     split_triangles,
 )
-from meshcore.partition.smoothing import boundary_points, smooth_quads
+from meshcore.partition.smoothing import boundary_edges, boundary_points, smooth_quads
 
 __all__ = [
     "BoundaryResampling",
     "PartitionResult",
     "SizeMap",
+    "boundary_edges",
     "boundary_points",
     "partition_polygon",
     "recursive_partition",

@@ -85,7 +85,7 @@ from meshcore.errors import AlgorithmError, InputError
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.partition import kernel
 from meshcore.partition.boundary import SizeMap, resample_boundary, size_map
-from meshcore.partition.smoothing import boundary_points, smooth_quads
+from meshcore.partition.smoothing import boundary_edges, boundary_points, smooth_quads
 
 __all__ = ["FALLBACK_SCALE", "PartitionResult", "partition_polygon", "recursive_partition", "split_triangles"]
 
@@ -429,7 +429,8 @@ def recursive_partition(
         lap("smoothing")
     mesh = Mesh(pts, (CellBlock("quad" if quad else "triangle", cells),))
     report(0.9, "quality")
-    q = quality.report(mesh)
+    # the edges of one cell are the resampled rings (tested: input segments as chains)
+    q = quality.report(mesh, boundary_edges(cells))
     lap("quality")
     stats = {
         **stats,

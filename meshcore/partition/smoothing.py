@@ -18,7 +18,7 @@ import numpy as np
 from meshcore.mesh.quality import quad_quality
 from meshcore.partition.kernel import strictly_convex_rows
 
-__all__ = ["SWEEPS", "boundary_points", "smooth_quads"]
+__all__ = ["SWEEPS", "boundary_edges", "boundary_points", "smooth_quads"]
 
 #: Default number of sweeps.
 SWEEPS = 8
@@ -28,12 +28,17 @@ _REPAIR_ROUNDS = 3
 _REPAIR_STEPS = (1.0, 0.75, 0.5, 0.25)
 
 
-def boundary_points(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """(n,) bool: the points on an edge of one cell only (the mesh's boundary)."""
+def boundary_edges(cells: np.ndarray) -> np.ndarray:
+    """(b, 2) int64: the edges of one cell only (the mesh's boundary), sorted pairs."""
     e = np.sort(np.stack([cells, np.roll(cells, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
     eu, cnt = np.unique(e, axis=0, return_counts=True)
+    return eu[cnt == 1]
+
+
+def boundary_points(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """(n,) bool: the points on an edge of one cell only (the mesh's boundary)."""
     out = np.zeros(len(points), bool)
-    out[eu[cnt == 1].ravel()] = True
+    out[boundary_edges(cells).ravel()] = True
     return out
 
 

@@ -88,6 +88,7 @@ from meshcore.errors import InputError
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.partition import (
     SizeMap,
+    boundary_edges,
     boundary_points,
     partition_polygon,
     resample_boundary,
@@ -530,7 +531,8 @@ def paving(
         P, undone = smooth_quads(P, cells, fixed)
     lap("smoothing")
     mesh = Mesh(P, (CellBlock("quad", cells),))
-    q = quality.report(mesh)
+    # the edges of one cell are the resampled rings (tested: input segments as chains)
+    q = quality.report(mesh, boundary_edges(cells))
     lap("quality")
     stats = {
         **stats,

@@ -19,7 +19,7 @@ from typing import Any
 
 from meshcore.errors import InputError
 from meshcore.mesh import io, quality
-from service.methods import medial, product, quads, triangulation
+from service.methods import medial, partition, product, quads, triangulation
 from service.schemas import MeshIn, MethodParams
 
 Progress = Callable[[float, str], None]
@@ -152,6 +152,27 @@ def default_registry() -> Registry:
             params=quads.QuadCombineParams,
             run=quads.run_quad_combine,
             example=quads.QUAD_COMBINE_EXAMPLE,
+        ),
+        MethodSpec(
+            name="paving",
+            summary="All-quad mesh by paving: the boundary resampled with even rings, rows of "
+            "quads laid from the boundary inward (row ends, sides, corners, seams), every row "
+            "checked by exact front-front intersection tests, the rest closed by even "
+            "recursive partition, smoothed without inverting; only quads.",
+            section="§8.5.1 (advancing-front quads), Remark 8.9",
+            params=quads.PavingParams,
+            run=quads.run_paving,
+            example=quads.PAVING_EXAMPLE,
+        ),
+        MethodSpec(
+            name="recursive_partition",
+            summary="Triangles or quads by recursive partition: separators between boundary "
+            "vertices tested exactly, ranked by balance and angles, subdivided by the size "
+            "map; holes joined first; recursion to triangles or to convex quads (even parts).",
+            section="§8.7.2 (recursive partition), Remark 8.10",
+            params=partition.RecursivePartitionParams,
+            run=partition.run_recursive_partition,
+            example=partition.RECURSIVE_PARTITION_EXAMPLE,
         ),
         MethodSpec(
             name="medial_axis",
