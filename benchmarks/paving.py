@@ -69,7 +69,9 @@ def gmsh_model(domain: str, h: float):
     gmsh.option.setNumber("Mesh.MeshSizeMax", h)
     occ = gmsh.model.occ
     if domain == "L":
-        occ.cut([(2, occ.addRectangle(0, 0, 0, 1, 1))], [(2, occ.addRectangle(0.5, 0.5, 0, 0.5, 0.5))])
+        occ.cut(
+            [(2, occ.addRectangle(0, 0, 0, 1, 1))], [(2, occ.addRectangle(0.5, 0.5, 0, 0.5, 0.5))]
+        )
     else:
         occ.cut([(2, occ.addRectangle(0, 0, 0, 1, 1))], [(2, occ.addDisk(0.5, 0.5, 0, 0.25, 0.25))])
     occ.synchronize()
@@ -247,7 +249,8 @@ def main(script: str = __file__, child_fn=child, labels=LABELS, ours_tool="ours"
             print(f"| **{domain}, ~{n:,} cells** | | | | | | | | | |", flush=True)
             res = {t: run_child(script, t, domain, n, args.timeout) for t in tools}
             for t in tools:
-                print(row(labels[t], res[t], res.get(ours_tool)), flush=True)
+                ref = res.get(ours_tool + "-tri" if t.endswith("-tri") else ours_tool)
+                print(row(labels[t], res[t], ref), flush=True)
             if isinstance(res.get(ours_tool), dict) and "stats" in res[ours_tool]:
                 print(f"<!-- ours: {res[ours_tool]['stats']} {res[ours_tool]['phases']} -->")
 

@@ -317,7 +317,9 @@ def _best_split(nfix, P, poly, n, H, grid, quad, strategy, full, scratch):
             j = max(reflex_at, q)
             if i == j:
                 continue
-            s, k = _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch, full)
+            s, k = _score(
+                nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch, full
+            )
             if s < np.inf:
                 sc[c] = s
                 ci[c] = i
@@ -415,7 +417,9 @@ def _closable(nfix, P, h, scratch):
 
 
 @njit(cache=True)
-def recurse(nfix, P, npts, buf, st_start, st_len, st_depth, nst, H, grid, quad, strategy, cells, stats):
+def recurse(
+    nfix, P, npts, buf, st_start, st_len, st_depth, nst, H, grid, quad, strategy, cells, stats
+):
     """Split the polygons on the stack until only triangles (or convex quads) are left.
 
     ``P`` (cap, 2) holds ``npts`` points; new separator points are appended.

@@ -87,7 +87,13 @@ from meshcore.partition import kernel
 from meshcore.partition.boundary import SizeMap, resample_boundary, size_map
 from meshcore.partition.smoothing import boundary_edges, boundary_points, smooth_quads
 
-__all__ = ["FALLBACK_SCALE", "PartitionResult", "partition_polygon", "recursive_partition", "split_triangles"]
+__all__ = [
+    "FALLBACK_SCALE",
+    "PartitionResult",
+    "partition_polygon",
+    "recursive_partition",
+    "split_triangles",
+]
 
 _NEAREST = 16  # outer vertices tried per hole vertex before every pair
 _MAX_CELLS = 20_000_000

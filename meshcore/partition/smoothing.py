@@ -134,5 +134,3 @@ def _repair(P: np.ndarray, quads: np.ndarray, free: np.ndarray) -> np.ndarray:
             P[v] = best
             q[around] = quad_quality(P, quads[around])
     return P
-
-

@@ -75,7 +75,6 @@ quadrilateral mesh generation", IJNME 32 (1991).
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -343,13 +342,15 @@ def _valence(cells: np.ndarray, n: int, boundary: np.ndarray) -> dict:
     inner[boundary] = False
     inner &= deg > 0
     vals, cnt = np.unique(deg[inner], return_counts=True)
-    return {str(int(v)): int(c) for v, c in zip(vals, cnt)}
+    return {str(int(v)): int(c) for v, c in zip(vals, cnt, strict=True)}
 
 
 def _split_all(points: np.ndarray, cells: list[np.ndarray]):
     """Quads into four, triangles into three, through shared edge midpoints and centres."""
     n = len(points)
-    edges = [np.sort(np.stack([c, np.roll(c, -1, axis=1)], axis=2).reshape(-1, 2), axis=1) for c in cells]
+    edges = [
+        np.sort(np.stack([c, np.roll(c, -1, axis=1)], axis=2).reshape(-1, 2), axis=1) for c in cells
+    ]
     alle = np.concatenate(edges)
     uniq, inv = np.unique(alle, axis=0, return_inverse=True)
     inv = inv.ravel()
@@ -401,7 +402,9 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
             if len(nf) <= _SMALL_FRONT:
                 active[k] = False
         stats["rows"] = rows
-    stats["node_classes"] = dict(zip(("end", "side", "corner", "reversal"), classes.tolist()))
+    stats["node_classes"] = dict(
+        zip(("end", "side", "corner", "reversal"), classes.tolist(), strict=True)
+    )
     # closure; when the quad closure is stuck, rows are taken back one round at a time
     stats["rows_taken_back"] = 0
     while True:
@@ -492,7 +495,9 @@ def paving(
             code="unsupported",
         )
     if max_rows is not None and (not isinstance(max_rows, int) or max_rows < 0):
-        raise InputError("max_rows must be an integer >= 0", loc=("max_rows",), code="bad_parameter")
+        raise InputError(
+            "max_rows must be an integer >= 0", loc=("max_rows",), code="bad_parameter"
+        )
     sizes = size_map(dom, size, size_field)
     timings: dict[str, float] = {}
     clock = time.perf_counter()

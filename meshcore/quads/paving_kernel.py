@@ -7,7 +7,6 @@ Every sign is :func:`~meshcore.geometry.predicates.orient2d_scalar` (through
 
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
 
 from meshcore.partition.kernel import orient, strictly_convex_rows, touch

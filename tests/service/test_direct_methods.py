@@ -35,7 +35,10 @@ class TestRefused:
             ({"domain": SQUARE}, []),
             ({"domain": SQUARE, "size": 0}, ["size"]),
             ({"domain": SQUARE, "size": 1e-5}, ["size"]),
-            ({"domain": SQUARE, "size_field": {"points": [[0, 0]], "values": [-1]}}, ["size_field"]),
+            (
+                {"domain": SQUARE, "size_field": {"points": [[0, 0]], "values": [-1]}},
+                ["size_field"],
+            ),
             ({"domain": SQUARE, "size": 0.1, "unknown": 1}, ["unknown"]),
         ],
     )
@@ -66,7 +69,9 @@ class TestResults:
 
     @pytest.mark.parametrize("element", ["triangle", "quad"])
     def test_recursive_partition(self, client, element):
-        out = finished(client, "recursive_partition", {**RECURSIVE_PARTITION_EXAMPLE, "element": element})
+        out = finished(
+            client, "recursive_partition", {**RECURSIVE_PARTITION_EXAMPLE, "element": element}
+        )
         assert [b["type"] for b in out["mesh"]["cells"]] == [element]
         assert out["quality"][element]["invalid"] == 0
         assert out["stats"]["bridges"] == 1

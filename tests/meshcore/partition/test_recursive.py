@@ -21,7 +21,10 @@ from meshcore.mesh import quality
 from meshcore.partition import recursive_partition, resample_boundary, size_map
 
 SQUARE = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
-L_SHAPE = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 0.5], [0.5, 0.5], [0.5, 1], [0, 1]]]}
+L_SHAPE = {
+    "type": "Polygon",
+    "coordinates": [[[0, 0], [1, 0], [1, 0.5], [0.5, 0.5], [0.5, 1], [0, 1]]],
+}
 
 
 def circle(cx, cy, r, n, clockwise=False):
@@ -82,7 +85,9 @@ def check_mesh(geometry, res, size, element, median=True):
     mid = (P[bnd[:, 0]] + P[bnd[:, 1]]) / 2
     for s in range(len(a)):
         d = b[s] - a[s]
-        on = np.abs(d[0] * (mid[:, 1] - a[s, 1]) - d[1] * (mid[:, 0] - a[s, 0])) <= 1e-9 * seg_len[s]
+        on = (
+            np.abs(d[0] * (mid[:, 1] - a[s, 1]) - d[1] * (mid[:, 0] - a[s, 0])) <= 1e-9 * seg_len[s]
+        )
         t = np.einsum("ij,j->i", mid - a[s], b[s] - a[s]) / seg_len[s] ** 2
         on &= (t > 0) & (t < 1)
         assert math.isclose(bl[on].sum(), seg_len[s], rel_tol=1e-9)
@@ -177,12 +182,12 @@ class TestCanonical:
     @pytest.mark.parametrize("shift, scale", [(1e6, 1.0), (0.0, 1e-6)])
     def test_translation_and_scale(self, shift, scale):
         ref = recursive_partition(L_SHAPE, size=0.1)
-        coords = [[[x * scale + shift, y * scale + shift] for x, y in r] for r in L_SHAPE["coordinates"]]
+        coords = [
+            [[x * scale + shift, y * scale + shift] for x, y in r] for r in L_SHAPE["coordinates"]
+        ]
         moved = recursive_partition({"type": "Polygon", "coordinates": coords}, size=0.1 * scale)
         assert len(moved.mesh.cells[0].data) == len(ref.mesh.cells[0].data)
-        np.testing.assert_allclose(
-            (moved.mesh.points - shift) / scale, ref.mesh.points, atol=1e-6
-        )
+        np.testing.assert_allclose((moved.mesh.points - shift) / scale, ref.mesh.points, atol=1e-6)
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])

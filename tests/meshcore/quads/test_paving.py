@@ -9,7 +9,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
 
 from meshcore import InputError, parse_domain
 from meshcore.mesh.quality import quad_quality
