@@ -56,9 +56,16 @@ Choices the text leaves open
   result is near the size), each cut into three quads by its edge
   midpoints and centroid (§8.4, Figure 8.13). Conforming, only quads, areas
   exact; ``stats["fallback"]`` says it happened.
-* No smoothing: points stay where the separators put them (the text allows
-  "a point relocation step"; we do not take it), so ``quality`` is that of
-  the partition itself.
+* Smoothing ("a point relocation step", which the text allows): for quads
+  only (``smooth``), by :func:`~meshcore.partition.smoothing.smooth_quads`,
+  never inverting a cell nor lowering the least quality; the separators
+  stay chains of edges, slightly moved. Quads may leave the recursion with
+  nearly flat corners at separator points (the exact test accepts them;
+  corners at input points need corner quality 0.1), which it repairs.
+  Triangles are not smoothed.
+* Ties between candidates (symmetric domains are full of them) are broken
+  by position after rounding the scores to 1e-7, so that a translated or
+  scaled domain gives the same mesh.
 * Interior constraints are refused (``code="unsupported"``).
 
 Not done: the 3D part of §8.7.2 (separator surfaces, the Schönhardt prism)

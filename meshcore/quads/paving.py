@@ -22,10 +22,12 @@ Algorithm
    count changes by ``-2`` per row end and ``+2`` per corner: every front
    stays even.
 3. **Seams.** Where two consecutive new nodes of a row fall closer than
-   ``0.4 h`` (the front folding below about 60 degrees), they are merged
-   into their midpoint when both quads stay strictly convex (a front
-   node count then drops by one on each side... so seams are only made in
-   pairs on one front, keeping it even).
+   ``0.4 h`` (the front folding sharply), they are merged into their
+   midpoint. Seams are made in pairs on a front, so that it stays even, and
+   kept only when every quad of the row stays strictly convex. (The seam of
+   the paving literature closes a front node of angle below about 60
+   degrees by merging its two neighbours; ours acts on the new row instead,
+   before it is committed, so that committed quads never move.)
 4. **Checks before commit** (exact :func:`orient2d`): every quad of the row
    strictly convex; no segment of the new front or of the new quads'
    spokes touches a segment of any front (its own included) except at a
@@ -38,11 +40,12 @@ Algorithm
    the front nodes): fronts of 4 and 6 nodes are the standard patterns
    (one quad; two quads or three around a centre), larger ones are cut
    by separators into even parts first.
-6. **Smoothing** (``smooth``): length-weighted Laplacian of the interior
-   nodes (each moved to the mean of its neighbours weighted by the edge
-   lengths), a Jacobi sweep at a time; a move is undone where it would
-   leave a quad not strictly convex (exact) or below the least quality
-   (8.4) of the mesh before the sweep. So smoothing never inverts a cell
+6. **Smoothing** (``smooth``):
+   :func:`~meshcore.partition.smoothing.smooth_quads`, a length-weighted
+   Laplacian of the interior nodes (Jacobi sweeps, a move undone where the
+   least quality (8.4) around the moved node would drop, a quad that is not
+   strictly convex by the exact test counting as -1), then a point-by-point
+   repair of the corners of the quads below 0.3. It never inverts a cell
    nor lowers the least quality. The boundary-node angle correction of the
    paving literature is not applied.
 
@@ -52,14 +55,16 @@ Rows add only quads, each checked strictly convex before it is committed,
 and keep every front even. The closure works on even polygons; when the
 recursive partition finds a polygon without a valid even split (it can:
 flat vertices, see :mod:`meshcore.partition.recursive`) the *guaranteed
-route* is taken instead: the whole paving is run again at twice the size
-with the region closed by triangles (the recursive partition's triangle
+route* is taken instead (first the rows are taken back one round at a time,
+the closure retried each time): the whole paving is run again at 2.5 times
+the size with the region closed by triangles (the recursive partition's triangle
 mode always succeeds on a polygon with holes), then every quad is cut into
 four and every triangle into three through the edge midpoints and the
 cell's centre (§8.4, Figure 8.13). Shared midpoints keep it conforming,
 the pieces of a strictly convex quad or of a triangle are strictly convex,
-and the boundary is split at the midpoints of its 2h segments, which
-gives spacing h again. ``stats["fallback"]`` counts it (0 or 1).
+and the boundary is split at the midpoints of its segments. The median
+edge then comes out near the size (a triangle of side ``H`` gives half
+edges ``H / 2`` and spokes ``0.29 H``). ``stats["fallback"]`` counts it (0 or 1).
 
 Not done: front merging and splitting when two fronts meet (a row that
 would meet another front freezes its front instead, and the closure covers
@@ -94,6 +99,7 @@ from meshcore.partition import (
     size_map,
     smooth_quads,
 )
+from meshcore.partition.recursive import FALLBACK_SCALE
 from meshcore.partition.smoothing import SWEEPS
 from meshcore.quads import paving_kernel as pk
 
@@ -523,7 +529,7 @@ def paving(
         cells = np.concatenate([row_q, closure])
     else:
         fallback = 1
-        twice = SizeMap(2.0 * sizes.H, sizes.grid)
+        twice = SizeMap(FALLBACK_SCALE * sizes.H, sizes.grid)
         bnd = resample_boundary(dom, twice, even=True)
         P, row_q, closure, stats = _pave(bnd, twice, max_rows, False, "balanced")
         P, cells = _split_all(P, [row_q, closure])

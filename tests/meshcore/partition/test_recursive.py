@@ -196,3 +196,19 @@ def test_random_polygons_with_holes(case, element):
     geometry, size = case
     res = recursive_partition(geometry, size=size, element=element)
     check_mesh(geometry, res, size, element)
+
+
+def test_guaranteed_quad_route_when_stuck(monkeypatch):
+    import meshcore.partition.recursive as module
+
+    real = module.partition_polygon
+
+    def stuck(points, loops, ring_polygon, sizes, *, quad, strategy="balanced"):
+        if quad:
+            return points, None, None
+        return real(points, loops, ring_polygon, sizes, quad=quad, strategy=strategy)
+
+    monkeypatch.setattr(module, "partition_polygon", stuck)
+    res = recursive_partition(SQUARE_HOLE, size=0.05, element="quad")
+    assert res.stats["fallback"] is True
+    check_mesh(SQUARE_HOLE, res, 0.05, "quad")
