@@ -3,15 +3,18 @@
 The packages are the table of contents of the methods text: the shared
 kernel (:mod:`.geometry`, :mod:`.mesh`, :mod:`.domain`, :mod:`.delaunay`)
 below one package per method family (:mod:`.triangulation`,
-:mod:`.product`, :mod:`.quads`, :mod:`.medial`, :mod:`.grid`). Each method's entry point
-is re-exported here, loaded on first use so that ``import meshcore`` stays
+:mod:`.product`, :mod:`.quads`, :mod:`.medial`, :mod:`.grid`, :mod:`.partition`,
+:mod:`.optimize`, :mod:`.tets`). Each method's entry point is re-exported
+here, loaded on first use so that ``import meshcore`` stays
 cheap::
 
     from meshcore import parse_domain, triangulate, medial_axis, extrude
 
-A name that is also a subpackage (``delaunay``, ``grid``) is imported from
-its package instead: ``from meshcore.delaunay import delaunay``,
-``from meshcore.grid import grid``.
+A name that is also a subpackage (``delaunay``, ``grid``, ``optimize``,
+``partition``) is imported from its package instead: ``from
+meshcore.delaunay import delaunay``, ``from meshcore.grid import grid``,
+``from meshcore.medial import partition`` (the medial-axis partition;
+``meshcore.partition`` is the recursive-partition package).
 """
 
 from __future__ import annotations
@@ -35,11 +38,12 @@ _ENTRY_POINTS = {
     "quad_grid": "meshcore.grid",
     "pattern": "meshcore.grid",
     "optimize_quads": "meshcore.quads",
+    "paving": "meshcore.quads",
     "medial_axis": "meshcore.medial",
     "medial_transform": "meshcore.medial",
-    "partition": "meshcore.medial",
     "quad_medial": "meshcore.medial",
     "simplify": "meshcore.medial",
+    "recursive_partition": "meshcore.partition",
     "report": "meshcore.mesh.quality",
 }
 

@@ -1,19 +1,23 @@
-"""Quadrilateral meshes from triangles: combination and quad optimization (§8.4).
+"""Quadrilateral meshes: triangle combination, quad optimization (§8.4), paving (§8.5.1).
 
 :func:`combine` pairs the triangles of a mesh into quads (§8.4.2-§8.4.4),
 :func:`optimize_quads` improves a quad mesh by topological operators and
-smoothing (§8.4.3).
+smoothing (§8.4.3), :func:`paving` lays rows of quads from the boundary
+inward, without a triangle mesh (§8.5.1).
 """
 
 from meshcore.quads.combination import QuadResult, check_input, check_metric_2d, combine, split_all
 from meshcore.quads.optimization import OptimizeResult, optimize_quads
+from meshcore.quads.paving import PavingResult, paving
 
 __all__ = [
     "OptimizeResult",
+    "PavingResult",
     "QuadResult",
     "check_input",
     "check_metric_2d",
     "combine",
     "optimize_quads",
+    "paving",
     "split_all",
 ]

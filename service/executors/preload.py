@@ -15,8 +15,9 @@ the admissible boundary, the constrained triangulation and the refinement;
 a quad mesh on the medial-axis partition runs the medial-axis kernels;
 quad combination by each algorithm, optimized, runs the combination and
 optimization kernels; a cube's corners run the 3D Delaunay kernel; the text
-writers and the preview's edge kernels (which run in the API process) are compiled into numba's disk cache here
-too. Each step is logged as ``compiling kernels 4/12: triangulate`` and,
+writers and the preview's edge kernels (which run in the API process) are
+compiled into numba's disk cache here too. Each step is logged as
+``compiling kernels 4/12: triangulate`` and,
 when ``MESHSERVICE_WARMUP_STATUS`` names a file, recorded there as JSON
 (``{"done", "total", "current", "left"}``) for ``/readyz``.
 """

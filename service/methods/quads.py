@@ -1,4 +1,5 @@
-"""Params and run function of ``quad_combine``: quads by triangle combination (§8.4).
+"""Params and run functions of ``quad_combine`` (triangle combination, §8.4) and
+``paving`` (rows of quads from the boundary inward, §8.5.1).
 
 The params model refuses, with the field's location, what JSON Schema can
 say (choices, ranges, shapes, NaN and infinities, mesh or domain but not
@@ -16,8 +17,9 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from meshcore.quads import combination
+from meshcore.quads import combination, paving
 from service.methods.domain_schema import ConstraintPolylines, DomainIn
+from service.methods.partition import SizedDomainParams
 from service.methods.triangulation import (
     MAX_MIN_ANGLE,
     SizeField,
@@ -197,4 +199,37 @@ QUAD_COMBINE_EXAMPLE = {
     "all_quad": True,
     "twice_size": True,
     "optimize": True,
+}
+
+
+class PavingParams(SizedDomainParams):
+    """An all-quad mesh by paving: rows of quads from the boundary inward (§8.5.1)."""
+
+    smooth: bool = Field(
+        True,
+        description="Length-weighted Laplacian smoothing, never inverting a cell nor lowering "
+        "the least quality.",
+    )
+    max_rows: int | None = Field(
+        None, ge=0, le=100_000, description="Rows per front at most (default: until frozen)."
+    )
+
+
+def run_paving(params: PavingParams, progress: Progress) -> dict:
+    """The quad mesh, its quality report, rows, seams, closures and valences."""
+    res = paving(
+        params.domain.to_domain(),
+        size=params.size,
+        size_field=params.field(),
+        smooth=params.smooth,
+        max_rows=params.max_rows,
+        progress=progress,
+    )
+    return {"mesh": res.mesh, "quality": res.quality, "stats": res.stats}
+
+
+#: The unit square with a round hole, quads of side 0.05.
+PAVING_EXAMPLE = {
+    "domain": QUAD_COMBINE_EXAMPLE["domain"],
+    "size": 0.05,
 }

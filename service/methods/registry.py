@@ -19,7 +19,17 @@ from typing import Any
 
 from meshcore.errors import InputError as InputError  # re-exported: the API answers it as a 422
 from meshcore.mesh import io, quality
-from service.methods import delaunay, grid, medial, optimize, product, quads, tets, triangulation
+from service.methods import (
+    delaunay,
+    grid,
+    medial,
+    optimize,
+    partition,
+    product,
+    quads,
+    tets,
+    triangulation,
+)
 from service.schemas import MeshIn, MethodParams
 
 Progress = Callable[[float, str], None]
@@ -212,6 +222,27 @@ def default_registry() -> Registry:
             params=optimize.OptimizeParams,
             run=optimize.run_optimize,
             example=optimize.OPTIMIZE_EXAMPLE,
+        ),
+        MethodSpec(
+            name="paving",
+            summary="All-quad mesh by paving: the boundary resampled with even rings, rows of "
+            "quads laid from the boundary inward (row ends, sides, corners, seams), every row "
+            "checked by exact front-front intersection tests, the rest closed by even "
+            "recursive partition, smoothed without inverting; only quads.",
+            section="§8.5.1 (advancing-front quads), Remark 8.9",
+            params=quads.PavingParams,
+            run=quads.run_paving,
+            example=quads.PAVING_EXAMPLE,
+        ),
+        MethodSpec(
+            name="recursive_partition",
+            summary="Triangles or quads by recursive partition: separators between boundary "
+            "vertices tested exactly, ranked by balance and angles, subdivided by the size "
+            "map; holes joined first; recursion to triangles or to convex quads (even parts).",
+            section="§8.7.2 (recursive partition), Remark 8.10",
+            params=partition.RecursivePartitionParams,
+            run=partition.run_recursive_partition,
+            example=partition.RECURSIVE_PARTITION_EXAMPLE,
         ),
         MethodSpec(
             name="medial_axis",

@@ -1,0 +1,458 @@
+r"""Mesh generation by recursive partition (divide and conquer, §8.7.2): 2D.
+
+Input: a planar :class:`~meshcore.domain.planar.Domain` (holes allowed, no
+interior constraints) and a size map (``size`` / ``size_field``, the control
+space of Remark 8.10). Output: triangles, or only quads, whose edges contain
+every input segment and every separator.
+
+Algorithm
+---------
+1. **Boundary.** Every ring segment is split following ``h``
+   (:func:`~meshcore.partition.boundary.resample_boundary`); for quads every
+   ring gets an even count (Remark 8.9), the repairs listed in ``stats``.
+2. **Holes first.** Each hole is joined to the outer ring by a separator
+   (a *bridge*): among the 16 nearest outer vertices of each hole vertex,
+   the shortest segment that leaves both ends inside their interior angles
+   and touches no edge of any ring (exact :func:`orient2d`); every pair
+   when none of those is valid. The bridge is subdivided by the sizes and
+   the polygon walks it twice, once each way (a weakly simple polygon).
+3. **Recursion** (:mod:`meshcore.partition.kernel`, one compiled loop over a
+   stack of polygons). A separator is a segment between two vertices of the
+   current polygon, *valid* when it leaves both ends strictly inside the
+   interior angle of that occurrence of the vertex and touches no other
+   polygon edge (closed test, collinear overlaps included): then it lies
+   inside the polygon. Candidates (every pair of vertices, or of 60 sampled
+   positions above 60 vertices, all pairs when no sampled pair is valid) are
+   ranked, the best valid one is taken:
+
+   * ``balanced``: ``I / min(m1, m2) + 1.5 * c`` where ``I`` is the
+     integral of ``1 / h`` along the separator (its length in local sizes),
+     ``m1``, ``m2`` the boundary sides on either side, and ``c = max(0,
+     1 - a / a*)`` with ``a`` the least of the four angles the separator
+     makes at its ends, ``a*`` 60 degrees (triangles) or 90 (quads): short
+     separators cutting the polygon into parts of similar size with good
+     angles;
+   * ``angle``: separators from the vertex of largest reflex angle first,
+     ranked by how evenly they bisect it (``balanced`` once no vertex is
+     reflex).
+
+   The separator gets ``k`` pieces, ``k`` the integral rounded (odd for
+   quads), its points at equal steps of that integral for ``h`` varying
+   linearly between its ends, "as in Delaunay point insertion". The
+   separators stay in the mesh.
+4. **Patterns.** The recursion ends at triangles, or for quads at strictly
+   convex quads: only separators with an odd number of sides on each side
+   are allowed and their piece counts are odd, so every polygon keeps an
+   even side count; a split that would leave a four-sided part that is not
+   strictly convex is refused.
+
+Choices the text leaves open
+----------------------------
+* **Quads when the even recursion is stuck.** Straight separators of three
+  or more pieces leave flat vertices; a hexagon with two of them side by
+  side has no split into convex quads. When some polygon has no valid even
+  split, the whole domain is meshed again by the guaranteed route: triangles
+  by this recursion at 2.5 times the size (so that the median edge of the
+  result is near the size), each cut into three quads by its edge
+  midpoints and centroid (§8.4, Figure 8.13). Conforming, only quads, areas
+  exact; ``stats["fallback"]`` says it happened.
+* Smoothing ("a point relocation step", which the text allows): for quads
+  only (``smooth``), by :func:`~meshcore.partition.smoothing.smooth_quads`,
+  never inverting a cell nor lowering the least quality; the separators
+  stay chains of edges, slightly moved. Quads may leave the recursion with
+  nearly flat corners at separator points (the exact test accepts them;
+  corners at input points need corner quality 0.1), which it repairs.
+  Triangles are not smoothed.
+* Ties between candidates (symmetric domains are full of them) are broken
+  by position after rounding the scores to 1e-7, so that a translated or
+  scaled domain gives the same mesh.
+* Interior constraints are refused (``code="unsupported"``).
+
+Not done: the 3D part of §8.7.2 (separator surfaces, the Schönhardt prism)
+waits for the 3D input (surfaces, ``orient3d`` kernels).
+
+References
+----------
+Methods text §8.7.2 (recursive partition), Remark 8.10 (control space),
+Remark 8.9 (even counts), §8.4 Figure 8.13 (a triangle into three quads).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from meshcore.domain.planar import Domain, parse_domain
+from meshcore.errors import AlgorithmError, InputError
+from meshcore.mesh import CellBlock, Mesh, quality
+from meshcore.partition import kernel
+from meshcore.partition.boundary import SizeMap, resample_boundary, size_map
+from meshcore.partition.smoothing import boundary_edges, boundary_points, smooth_quads
+
+__all__ = [
+    "FALLBACK_SCALE",
+    "PartitionResult",
+    "partition_polygon",
+    "recursive_partition",
+    "split_triangles",
+]
+
+_NEAREST = 16  # outer vertices tried per hole vertex before every pair
+_MAX_CELLS = 20_000_000
+#: The guaranteed quad route meshes triangles at this many times the size: a
+#: triangle of side H gives half edges H / 2 and spokes 0.29 H, median near H / 2.5.
+FALLBACK_SCALE = 2.5
+
+
+@dataclass(frozen=True)
+class PartitionResult:
+    """Result of :func:`recursive_partition`.
+
+    Attributes
+    ----------
+    mesh : Mesh
+        Triangles (counter-clockwise) or only quads.
+    quality : dict
+        :func:`meshcore.mesh.quality.report` of the mesh.
+    stats : dict
+        ``depth`` (recursion depth), ``separators`` by pieces (``"1"``,
+        ``"2-3"``, ``"4-7"``, ``"8+"``), ``bridges``, ``patterns`` (leaves
+        met: triangles, quads), ``full_searches``, ``fallback``,
+        ``parity_repairs``, ``seconds`` per phase.
+    """
+
+    mesh: Mesh
+    quality: dict
+    stats: dict = field(default_factory=dict)
+
+
+def _edges(loops: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    ea = np.concatenate(loops)
+    eb = np.concatenate([np.roll(lp, -1) for lp in loops])
+    return ea, eb
+
+
+def _pieces(P: np.ndarray, a: int, b: int, sizes: SizeMap) -> int:
+    L = float(np.hypot(*(P[b] - P[a])))
+    ha, hb = sizes(np.array([P[a], P[b]]))
+    t = L / ha if abs(hb - ha) <= 1e-9 * ha else L * math.log(hb / ha) / (hb - ha)
+    return max(1, int(math.floor(t + 0.5)))
+
+
+def _bridge(P, outer: np.ndarray, hole: np.ndarray, others: list[np.ndarray]):
+    """(position in outer, position in hole) of the shortest valid bridge."""
+    ea, eb = _edges([outer, hole, *others])
+    n_o, n_h = len(outer), len(hole)
+    tree = cKDTree(P[outer])
+    for full in (False, True):
+        if full:
+            ia = np.repeat(np.arange(n_o), n_h)
+            ib = np.tile(np.arange(n_h), n_o)
+        else:
+            k = min(_NEAREST, n_o)
+            _, nn = tree.query(P[hole], k=k)
+            nn = np.asarray(nn).reshape(n_h, k)
+            ia = nn.ravel()
+            ib = np.repeat(np.arange(n_h), k)
+        d = P[outer[ia]] - P[hole[ib]]
+        order = np.argsort(np.einsum("ij,ij->i", d, d), kind="stable")
+        ia, ib = ia[order], ib[order]
+        r = kernel.bridge_candidates_valid(
+            P,
+            outer[ia],
+            hole[ib],
+            outer[(ia - 1) % n_o],
+            outer[(ia + 1) % n_o],
+            hole[(ib - 1) % n_h],
+            hole[(ib + 1) % n_h],
+            ea,
+            eb,
+        )
+        if r >= 0:
+            return int(ia[r]), int(ib[r])
+    raise AlgorithmError("no bridge joins a hole to its outer ring", code="no_bridge")
+
+
+def _join_holes(P: np.ndarray, loops, ring_polygon, sizes: SizeMap):
+    """One polygon cycle per part: holes joined to the outer ring by subdivided bridges."""
+    cycles = []
+    bridges = 0
+    for p in np.unique(ring_polygon):
+        rings = [loops[k] for k in np.flatnonzero(ring_polygon == p)]
+        cyc, holes = rings[0], list(rings[1:])
+        while holes:
+            # the hole closest to the current cycle first: its bridge is short
+            tree = cKDTree(P[cyc])
+            dist = [float(tree.query(P[h])[0].min()) for h in holes]
+            h = holes.pop(int(np.argmin(dist)))
+            ia, ib = _bridge(P, cyc, h, holes)
+            a, b = int(cyc[ia]), int(h[ib])
+            k = _pieces(P, a, b, sizes)
+            f = np.arange(1, k) / k
+            ids = len(P) + np.arange(k - 1)
+            P = np.concatenate([P, P[a] + f[:, None] * (P[b] - P[a])])
+            hrot = np.roll(h, -ib)
+            cyc = np.concatenate([cyc[: ia + 1], ids, hrot, [b], ids[::-1], cyc[ia:]])
+            bridges += 1
+        cycles.append(cyc.astype(np.int64))
+    return P, cycles, bridges
+
+
+def partition_polygon(
+    points: np.ndarray,
+    loops: list[np.ndarray],
+    ring_polygon: np.ndarray,
+    sizes: SizeMap,
+    *,
+    quad: bool,
+    strategy: str = "balanced",
+):
+    """Mesh polygons given as point loops by recursive partition, keeping their vertices.
+
+    Parameters
+    ----------
+    points : (n, 2) float64
+    loops : list of (n_k,) int64
+        Rings as cycles of point indices, domain on the left; the first ring
+        of each polygon is its outer ring.
+    ring_polygon : (R,) int64
+        Polygon of each ring.
+    sizes : SizeMap
+    quad : bool
+        Only strictly convex quads (every polygon's side count must be even).
+    strategy : {"balanced", "angle"}
+
+    Returns
+    -------
+    points : (N, 2) float64
+        ``points`` then the bridge and separator points.
+    cells : (m, 3) or (m, 4) int64
+        Counter-clockwise cells; no point is added on the loops.
+    stats : dict or None
+        As :class:`PartitionResult` ``stats``; None when quad mode is stuck
+        (a polygon without a valid even split).
+
+    References
+    ----------
+    Methods text §8.7.2; module docstring.
+    """
+    n_fixed = len(points)
+    P0, cycles, bridges = _join_holes(np.asarray(points, np.float64), loops, ring_polygon, sizes)
+    strat = kernel.ANGLE if strategy == "angle" else kernel.BALANCED
+    total = sum(len(c) for c in cycles)
+    h = sizes.smallest
+    # rough capacity: the cells the sizes ask for, grown when a buffer fills
+    lo, hi = P0.min(axis=0), P0.max(axis=0)
+    est = int(min(4.0 * float(np.prod(hi - lo)) / h**2, _MAX_CELLS)) + 4 * total + 64
+    while True:
+        P = np.empty((len(P0) + est, 2))
+        P[: len(P0)] = P0
+        buf = np.empty(4 * total + 64 * int(math.sqrt(est)) + 4096, np.int64)
+        nstack = 2 * int(math.log2(est + 2)) + 64 + 4 * len(cycles)
+        nstack = max(nstack, 4096)
+        st_start = np.empty(nstack, np.int64)
+        st_len = np.empty(nstack, np.int64)
+        st_depth = np.zeros(nstack, np.int64)
+        w = 0
+        for c, cyc in enumerate(cycles):
+            buf[w : w + len(cyc)] = cyc
+            st_start[c], st_len[c] = w, len(cyc)
+            w += len(cyc)
+        cells = np.full((est + 4 * total, 4), -1, np.int64)
+        st = np.zeros(13, np.int64)
+        status = kernel.recurse(
+            n_fixed, P, len(P0), buf, st_start, st_len, st_depth, len(cycles), sizes.H, sizes.grid,
+            quad, strat, cells, st,
+        )  # fmt: skip
+        if status == kernel.FULL:
+            if est >= 4 * _MAX_CELLS:
+                raise AlgorithmError("recursive partition past its cell budget", code="runaway")
+            est *= 2
+            continue
+        if status == kernel.STUCK:
+            return P0, None, None
+        break
+    ncell, npts = int(st[0]), int(st[1])
+    cells = cells[:ncell, : (4 if quad else 3)].copy()
+    stats = {
+        "depth": int(st[2]),
+        "separators": {"1": int(st[3]), "2-3": int(st[4]), "4-7": int(st[5]), "8+": int(st[6])},
+        "bridges": bridges,
+        "patterns": {"quad": int(st[7]), "triangle": int(st[8]), "centre": int(st[12])},
+        "full_searches": int(st[9]),
+    }
+    return P[:npts].copy(), cells, stats
+
+
+def split_triangles(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each triangle into three quads by its edge midpoints and centroid (Figure 8.13).
+
+    Parameters
+    ----------
+    points : (n, 2) float64
+    triangles : (m, 3) int64, counter-clockwise
+
+    Returns
+    -------
+    points : (n + e + m, 2) float64
+        The points, the edge midpoints (one per edge, shared), the centroids.
+    quads : (3 m, 4) int64
+        Counter-clockwise, strictly convex, conforming.
+    """
+    n, m = len(points), len(triangles)
+    e = np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    uniq, inv = np.unique(e, axis=0, return_inverse=True)
+    mid = (points[uniq[:, 0]] + points[uniq[:, 1]]) / 2.0
+    cen = points[triangles].mean(axis=1)
+    mids = (n + inv.ravel()).reshape(m, 3)  # m01, m12, m20
+    c = n + len(uniq) + np.arange(m)
+    v0, v1, v2 = triangles.T
+    m01, m12, m20 = mids.T
+    quads = np.concatenate(
+        [
+            np.column_stack([v0, m01, c, m20]),
+            np.column_stack([v1, m12, c, m01]),
+            np.column_stack([v2, m20, c, m12]),
+        ]
+    )
+    return np.concatenate([points, mid, cen]), quads
+
+
+def _as_domain(domain) -> Domain:
+    if isinstance(domain, Domain):
+        return domain
+    if isinstance(domain, dict):
+        return parse_domain(domain)
+    raise InputError(
+        "domain must be a Domain or a GeoJSON Polygon / MultiPolygon mapping",
+        loc=("domain",),
+        code="bad_geometry",
+    )
+
+
+def recursive_partition(
+    domain,
+    *,
+    size: float | None = None,
+    size_field=None,
+    element: str = "triangle",
+    strategy: str = "balanced",
+    smooth: bool = True,
+    progress: Callable[[float, str], None] | None = None,
+) -> PartitionResult:
+    """Mesh a planar domain by recursive partition into two (§8.7.2).
+
+    Parameters
+    ----------
+    domain : Domain or dict
+        Holes allowed; interior constraints are refused.
+    size : float, optional
+        Target edge length.
+    size_field : dict, optional
+        ``{"points": (k, 2), "values": (k,)}`` (Remark 8.10); ``size``
+        bounds it.
+    element : {"triangle", "quad"}
+    strategy : {"balanced", "angle"}
+        Separator ranking (module docstring).
+    smooth : bool
+        Quads: relocate the separator points by
+        :func:`~meshcore.partition.smoothing.smooth_quads` (never inverting a
+        cell nor lowering the least quality). Triangles are not smoothed.
+    progress : callable, optional
+        ``progress(fraction, message)``; may raise to cancel.
+
+    Returns
+    -------
+    PartitionResult
+        Guarantees: only triangles (or only quads), every cell of positive
+        area (strictly convex quads), the cells' areas adding up to the
+        domain's, every input segment a chain of mesh edges, every separator
+        inside the domain and a chain of mesh edges, conforming.
+
+    Raises
+    ------
+    InputError
+        Bad domain, size, element or strategy (``loc`` names it), or
+        interior constraints (``code="unsupported"``).
+
+    References
+    ----------
+    Methods text §8.7.2, Remarks 8.9, 8.10; module docstring.
+    """
+    dom = _as_domain(domain)
+    if element not in ("triangle", "quad"):
+        raise InputError(
+            f"element must be 'triangle' or 'quad', got {element!r}",
+            loc=("element",),
+            code="bad_parameter",
+        )
+    if strategy not in ("balanced", "angle"):
+        raise InputError(
+            f"strategy must be 'balanced' or 'angle', got {strategy!r}",
+            loc=("strategy",),
+            code="bad_parameter",
+        )
+    if len(dom.constraints):
+        raise InputError(
+            "recursive_partition does not take interior constraint segments",
+            loc=("segments",),
+            code="unsupported",
+        )
+    sizes = size_map(dom, size, size_field)
+    timings: dict[str, float] = {}
+    clock = time.perf_counter()
+
+    def lap(name: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        timings[name] = timings.get(name, 0.0) + now - clock
+        clock = now
+
+    def report(fraction: float, message: str) -> None:
+        if progress is not None:
+            progress(fraction, message)
+
+    quad = element == "quad"
+    report(0.0, "boundary")
+    bnd = resample_boundary(dom, sizes, even=quad)
+    lap("boundary")
+    report(0.1, "recursion")
+    pts, cells, stats = partition_polygon(
+        bnd.points, bnd.loops, bnd.ring_polygon, sizes, quad=quad, strategy=strategy
+    )
+    fallback = False
+    if cells is None:
+        fallback = True
+        twice = SizeMap(FALLBACK_SCALE * sizes.H, sizes.grid)
+        bnd = resample_boundary(dom, twice, even=False)
+        pts, tri, stats = partition_polygon(
+            bnd.points, bnd.loops, bnd.ring_polygon, twice, quad=False, strategy=strategy
+        )
+        pts, cells = split_triangles(pts, tri)
+    lap("recursion")
+    undone = 0
+    if quad and smooth:
+        report(0.8, "smoothing")
+        pts, undone = smooth_quads(pts, cells, boundary_points(pts, cells))
+        lap("smoothing")
+    mesh = Mesh(pts, (CellBlock("quad" if quad else "triangle", cells),))
+    report(0.9, "quality")
+    # the edges of one cell are the resampled rings (tested: input segments as chains)
+    q = quality.report(mesh, boundary_edges(cells))
+    lap("quality")
+    stats = {
+        **stats,
+        "cells": int(len(cells)),
+        "points": int(len(pts)),
+        "fallback": fallback,
+        "parity_repairs": bnd.repairs,
+        "smoothing_undone": int(undone),
+        "seconds": timings,
+    }
+    report(1.0, "done")
+    return PartitionResult(mesh, q, stats)

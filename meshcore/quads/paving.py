@@ -1,0 +1,559 @@
+r"""All-quad meshes by paving: rows of quads from the boundary inward (§8.5.1).
+
+After Blacker and Stephenson: no triangle mesh is made first; rows of quads
+are laid on the closed fronts, starting from the boundary.
+
+Algorithm
+---------
+1. **Boundary** (Remark 8.9): every ring resampled to the size map with an
+   even number of segments (:func:`~meshcore.partition.boundary.resample_boundary`;
+   an odd ring gets one more split where it costs least in size error, and
+   ``stats["parity_repairs"]`` says where). The rings are the first fronts.
+2. **Rows.** Each front node is classified by its interior angle ``a``:
+   *row end* (``a < 135``), *side* (``135 <= a < 225``), *corner*
+   (``225 <= a < 315``) and *reversal* (``a >= 315``). A side node gets one
+   new node on its bisector at distance ``h / sin(a / 2)`` (at most
+   ``2 h``); a row end gets none: its two neighbours share one new node
+   (the parallelogram on them), closing the row there with one quad; a
+   corner gets three (``h`` along the normals of its two edges and their
+   parallelogram), so three quads turn around it; a reversal is treated as
+   a corner (the paving literature gives it five new nodes; not done). Row
+   ends closer than three nodes apart are demoted to sides. A front node
+   count changes by ``-2`` per row end and ``+2`` per corner: every front
+   stays even.
+3. **Seams.** Where two consecutive new nodes of a row fall closer than
+   ``0.4 h`` (the front folding sharply), they are merged into their
+   midpoint. Seams are made in pairs on a front, so that it stays even, and
+   kept only when every quad of the row stays strictly convex. (The seam of
+   the paving literature closes a front node of angle below about 60
+   degrees by merging its two neighbours; ours acts on the new row instead,
+   before it is committed, so that committed quads never move.)
+4. **Checks before commit** (exact :func:`orient2d`): every quad of the row
+   strictly convex; no segment of the new front or of the new quads'
+   spokes touches a segment of any front (its own included) except at a
+   shared node; no node of another front inside a new quad. A row that
+   fails is not committed and its front is *frozen*. A front is frozen
+   too when it has 8 nodes or fewer, or after ``max_rows`` rows.
+5. **Closure.** The region left inside the frozen fronts (one per polygon
+   of the domain, holes included) is closed by the recursive partition in
+   its quad mode (:func:`meshcore.partition.partition_polygon`, which keeps
+   the front nodes): fronts of 4 and 6 nodes are the standard patterns
+   (one quad; two quads or three around a centre), larger ones are cut
+   by separators into even parts first.
+6. **Smoothing** (``smooth``):
+   :func:`~meshcore.partition.smoothing.smooth_quads`, a length-weighted
+   Laplacian of the interior nodes (Jacobi sweeps, a move undone where the
+   least quality (8.4) around the moved node would drop, a quad that is not
+   strictly convex by the exact test counting as -1), then a point-by-point
+   repair of the corners of the quads below 0.3. It never inverts a cell
+   nor lowers the least quality. The boundary-node angle correction of the
+   paving literature is not applied.
+
+Why it always ends with only quads
+----------------------------------
+Rows add only quads, each checked strictly convex before it is committed,
+and keep every front even. The closure works on even polygons; when the
+recursive partition finds a polygon without a valid even split (it can:
+flat vertices, see :mod:`meshcore.partition.recursive`) the *guaranteed
+route* is taken instead (first the rows are taken back one round at a time,
+the closure retried each time): the whole paving is run again at 2.5 times
+the size with the region closed by triangles (the recursive partition's triangle
+mode always succeeds on a polygon with holes), then every quad is cut into
+four and every triangle into three through the edge midpoints and the
+cell's centre (§8.4, Figure 8.13). Shared midpoints keep it conforming,
+the pieces of a strictly convex quad or of a triangle are strictly convex,
+and the boundary is split at the midpoints of its segments. The median
+edge then comes out near the size (a triangle of side ``H`` gives half
+edges ``H / 2`` and spokes ``0.29 H``). ``stats["fallback"]`` counts it (0 or 1).
+
+Not done: front merging and splitting when two fronts meet (a row that
+would meet another front freezes its front instead, and the closure covers
+the rest), reversal nodes' five-node pattern, the boundary angle correction
+of the smoothing, interior constraint segments (refused).
+
+References
+----------
+Methods text §8.5.1 (advancing-front quads), Remark 8.9 (even counts);
+T. D. Blacker, M. B. Stephenson, "Paving: a new approach to automated
+quadrilateral mesh generation", IJNME 32 (1991).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from meshcore.domain.planar import Domain, parse_domain
+from meshcore.errors import InputError
+from meshcore.mesh import CellBlock, Mesh, quality
+from meshcore.partition import (
+    SizeMap,
+    boundary_edges,
+    boundary_points,
+    partition_polygon,
+    resample_boundary,
+    size_map,
+    smooth_quads,
+)
+from meshcore.partition.recursive import FALLBACK_SCALE
+from meshcore.partition.smoothing import SWEEPS
+from meshcore.quads import paving_kernel as pk
+
+__all__ = ["PavingResult", "paving"]
+
+_END, _SIDE, _CORNER, _REVERSAL = 0, 1, 2, 3
+_SMALL_FRONT = 8  # fronts with this many nodes or fewer go to the closure
+_SEAM = 0.4  # new nodes closer than this times h are seamed
+_CLEARANCE = 0.75  # a row's new nodes stay this far (times h) from the other fronts
+
+
+@dataclass(frozen=True)
+class PavingResult:
+    """Result of :func:`paving`.
+
+    Attributes
+    ----------
+    mesh : Mesh
+        Only quads, counter-clockwise, strictly convex, conforming.
+    quality : dict
+        :func:`meshcore.mesh.quality.report` of the mesh.
+    stats : dict
+        ``rows``, ``row_quads``, ``node_classes`` (end, side, corner,
+        reversal counts over all rows), ``seams``, ``frozen`` (fronts frozen
+        by a failed check), ``closure`` (the partition's stats: patterns,
+        separators), ``fallback``, ``parity_repairs``, ``valence`` (histogram
+        of interior vertex valences), ``smoothing`` (sweeps, moves undone),
+        ``seconds`` per phase.
+    """
+
+    mesh: Mesh
+    quality: dict
+    stats: dict = field(default_factory=dict)
+
+
+def _angles(P: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Interior angle (radians, domain on the left) at each node of front f."""
+    prv, nxt = np.roll(f, 1), np.roll(f, -1)
+    u = P[prv] - P[f]
+    w = P[nxt] - P[f]
+    t = np.arctan2(w[:, 0] * u[:, 1] - w[:, 1] * u[:, 0], np.einsum("ij,ij->i", w, u))
+    return np.where(t <= 0, t + 2 * np.pi, t)
+
+
+def _classify(theta: np.ndarray) -> np.ndarray:
+    deg = np.degrees(theta)
+    cls = np.full(len(theta), _SIDE)
+    cls[deg < 135] = _END
+    cls[(deg >= 225) & (deg < 315)] = _CORNER
+    cls[deg >= 315] = _REVERSAL
+    # row ends need side neighbours and at least two nodes between them
+    n = len(cls)
+    for i in np.flatnonzero(cls == _END):
+        for d in (1, 2):
+            for j in ((i - d) % n, (i + d) % n):
+                if cls[j] == _END and j < i or (d == 1 and cls[j] in (_CORNER, _REVERSAL)):
+                    cls[i] = _SIDE
+    return cls
+
+
+def _row(P: np.ndarray, f: np.ndarray, sizes: SizeMap):
+    """One row on front f: (new points, new front, quads) with new ids from len(P)."""
+    n = len(f)
+    theta = _angles(P, f)
+    cls = _classify(theta)
+    X = P[f]
+    h = sizes(X)
+    prv, nxt = np.roll(np.arange(n), 1), np.roll(np.arange(n), -1)
+    e_in = X - X[prv]
+    e_out = X[nxt] - X
+    e_in /= np.hypot(e_in[:, 0], e_in[:, 1])[:, None]
+    e_out /= np.hypot(e_out[:, 0], e_out[:, 1])[:, None]
+    # bisector: e_out turned by theta / 2 counter-clockwise
+    c, s = np.cos(theta / 2), np.sin(theta / 2)
+    bis = np.column_stack([c * e_out[:, 0] - s * e_out[:, 1], s * e_out[:, 0] + c * e_out[:, 1]])
+    dist = np.minimum(h / np.maximum(np.sin(theta / 2), 1e-12), 2 * h)
+    side_pt = X + dist[:, None] * bis
+    left = lambda v: np.column_stack([-v[:, 1], v[:, 0]])  # noqa: E731
+    a_pt = X + h[:, None] * left(e_in)
+    b_pt = X + h[:, None] * left(e_out)
+    d_pt = a_pt + b_pt - X
+    base = len(P)
+    new_pts: list[np.ndarray] = []
+    # L[i], R[i]: new node ids at the left (edge from prev) and right (edge to next) of node i
+    L = np.full(n, -1, np.int64)
+    R = np.full(n, -1, np.int64)
+    quads = []
+    front: list[int] = []
+
+    def add(p) -> int:
+        new_pts.append(np.asarray(p, np.float64))
+        return base + len(new_pts) - 1
+
+    ends = cls == _END
+    for i in range(n):
+        if ends[i]:
+            continue
+        if ends[prv[i]] or ends[nxt[i]]:
+            continue  # shared with a row end, made below
+        if cls[i] == _SIDE:
+            L[i] = R[i] = add(side_pt[i])
+        else:
+            L[i] = add(a_pt[i])
+            m = add(d_pt[i])
+            R[i] = add(b_pt[i])
+            quads.append([f[i], R[i], m, L[i]])
+    for i in np.flatnonzero(ends):
+        j, k = prv[i], nxt[i]
+        x = add(X[j] + X[k] - X[i])
+        R[j] = L[j] = x
+        L[k] = R[k] = x
+        quads.append([f[j], f[i], f[k], x])
+    # quads on the edges (i, i+1) whose ends are not row ends
+    for i in range(n):
+        k = nxt[i]
+        if ends[i] or ends[k]:
+            continue
+        quads.append([f[i], f[k], L[k], R[i]])
+    # the new front, in order
+    for i in range(n):
+        if ends[i]:
+            continue
+        if cls[i] in (_CORNER, _REVERSAL) and not (ends[prv[i]] or ends[nxt[i]]):
+            front.extend([L[i], L[i] + 1, R[i]])
+        elif not front or front[-1] != L[i]:
+            front.append(L[i])
+    if len(front) > 1 and front[0] == front[-1]:
+        front.pop()
+    pts = np.array(new_pts).reshape(-1, 2)
+    return pts, np.array(front, np.int64), np.array(quads, np.int64).reshape(-1, 4), cls
+
+
+def _segments_ok(P, seg_a, seg_b, new_rows) -> bool:
+    """No two segments touch except at shared nodes (pairs near a new segment only)."""
+    mid = (P[seg_a] + P[seg_b]) / 2
+    ln = np.hypot(*(P[seg_b] - P[seg_a]).T)
+    tree = cKDTree(mid)
+    r = float(ln.max())
+    near = tree.query_ball_point(mid[new_rows], r)
+    cnt = np.array([len(x) for x in near])
+    if cnt.sum() == 0:
+        return True
+    s = np.repeat(new_rows, cnt)
+    t = np.concatenate([np.asarray(x, np.int64) for x in near])
+    keep = s != t
+    pairs = np.column_stack([s[keep], t[keep]])
+    return pk.pairs_touch(P, seg_a, seg_b, pairs) < 0
+
+
+def _try_row(P, fronts, which, sizes):
+    """(points, new front, quads, node classes, seams) of the row on fronts[which]
+    if it passes every check, else None."""
+    f = fronts[which]
+    pts, nf, quads, cls = _row(P, f, sizes)
+    Q = np.concatenate([P, pts])
+    Q, nf, quads, seams = _seam(Q, nf, quads, sizes(Q[nf]), len(P))
+    if len(nf) < 4 or len(nf) % 2:
+        return None
+    if not pk.strictly_convex_rows(Q, quads).all():
+        return None
+    # segments: all fronts (the old one replaced by the new) plus the spokes
+    others = [g for k, g in enumerate(fronts) if k != which]
+    fa = [np.asarray(g) for g in others]
+    fb = [np.roll(g, -1) for g in fa]
+    qa = quads.ravel()
+    qb = np.roll(quads, -1, axis=1).ravel()
+    new_a = np.concatenate([qa, nf])
+    new_b = np.concatenate([qb, np.roll(nf, -1)])
+    # quad edges on the old front coincide with it; drop them from the new set
+    newset = new_a >= len(P)
+    newset |= new_b >= len(P)
+    seg_a = np.concatenate([new_a[newset], f, *fa])
+    seg_b = np.concatenate([new_b[newset], np.roll(f, -1), *fb])
+    # dedupe undirected segments
+    key = np.sort(np.column_stack([seg_a, seg_b]), axis=1)
+    _, first = np.unique(key, axis=0, return_index=True)
+    first = np.sort(first)
+    seg_a, seg_b = seg_a[first], seg_b[first]
+    n_new = int(np.count_nonzero(first < int(newset.sum())))
+    if not _segments_ok(Q, seg_a, seg_b, np.arange(n_new)):
+        return None
+    # keep clear of the other fronts: the region left must stay closable
+    if fa:
+        other = np.unique(np.concatenate(fa))
+        gap, _ = cKDTree(Q[other]).query(Q[nf])
+        if (gap < _CLEARANCE * sizes(Q[nf])).any():
+            return None
+    # no node of another front inside a new quad
+    if fa:
+        other_nodes = np.unique(np.concatenate(fa))
+        cen = Q[quads].mean(axis=1)
+        rad = np.sqrt(((Q[quads] - cen[:, None, :]) ** 2).sum(axis=2)).max(axis=1)
+        near = cKDTree(Q[other_nodes]).query_ball_point(cen, rad * 1.0001)
+        cnt = np.array([len(x) for x in near])
+        if cnt.sum():
+            cand = np.column_stack(
+                [np.repeat(np.arange(len(quads)), cnt), np.concatenate(near).astype(np.int64)]
+            )
+            if pk.points_in_quads(Q, quads, other_nodes, cand):
+                return None
+    return Q, nf, quads, cls, seams
+
+
+def _seam(P: np.ndarray, front: np.ndarray, quads: np.ndarray, h: np.ndarray, n_old: int):
+    """Merge pairs of consecutive new front nodes closer than _SEAM h into their midpoint.
+
+    Seams come in pairs so that the front stays even; a seam is kept only when
+    every quad stays strictly convex. Only new nodes (ids >= n_old) move.
+    """
+    n = len(front)
+    if n <= _SMALL_FRONT + 2:
+        return P, front, quads, 0
+    d = np.hypot(*(P[np.roll(front, -1)] - P[front]).T)
+    nxt = np.roll(front, -1)
+    close = np.flatnonzero((d < _SEAM * h) & (front >= n_old) & (nxt >= n_old))
+    picked: list[int] = []
+    used: set[int] = set()
+    for i in close:  # a few per row: a short loop
+        j = (i + 1) % n
+        if i in used or j in used:
+            continue
+        picked.append(int(i))
+        used.update((int(i), j, (int(i) - 1) % n, (j + 1) % n))
+    picked = picked[: 2 * (len(picked) // 2)]
+    if not picked:
+        return P, front, quads, 0
+    Q = P.copy()
+    remap = np.arange(len(P))
+    drop = np.zeros(n, bool)
+    for i in picked:
+        a, b = front[i], front[(i + 1) % n]
+        Q[a] = (P[a] + P[b]) / 2
+        remap[b] = a
+        drop[(i + 1) % n] = True
+    q2 = remap[quads]
+    if not pk.strictly_convex_rows(Q, q2).all():
+        return P, front, quads, 0
+    return Q, front[~drop], q2, len(picked)
+
+
+def _valence(cells: np.ndarray, n: int, boundary: np.ndarray) -> dict:
+    e = np.sort(np.stack([cells, np.roll(cells, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+    e = np.unique(e, axis=0)
+    deg = np.bincount(e.ravel(), minlength=n)
+    inner = np.ones(n, bool)
+    inner[boundary] = False
+    inner &= deg > 0
+    vals, cnt = np.unique(deg[inner], return_counts=True)
+    return {str(int(v)): int(c) for v, c in zip(vals, cnt, strict=True)}
+
+
+def _split_all(points: np.ndarray, cells: list[np.ndarray]):
+    """Quads into four, triangles into three, through shared edge midpoints and centres."""
+    n = len(points)
+    edges = [
+        np.sort(np.stack([c, np.roll(c, -1, axis=1)], axis=2).reshape(-1, 2), axis=1) for c in cells
+    ]
+    alle = np.concatenate(edges)
+    uniq, inv = np.unique(alle, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    mid = (points[uniq[:, 0]] + points[uniq[:, 1]]) / 2
+    out_pts = [points, mid]
+    out = []
+    off = 0
+    base_c = n + len(uniq)
+    for c in cells:
+        m, k = c.shape
+        em = (n + inv[off : off + m * k]).reshape(m, k)  # midpoint of edge (j, j+1)
+        off += m * k
+        cen = points[c].mean(axis=1)
+        cid = base_c + np.arange(m)
+        base_c += m
+        out_pts.append(cen)
+        for j in range(k):
+            out.append(np.column_stack([c[:, j], em[:, j], cid, em[:, (j - 1) % k]]))
+    return np.concatenate(out_pts), np.concatenate(out)
+
+
+def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strategy: str):
+    P = bnd.points
+    fronts = [np.asarray(lp, np.int64) for lp in bnd.loops]
+    ring_polygon = list(bnd.ring_polygon)
+    active = [len(f) > _SMALL_FRONT for f in fronts]
+    quads: list[np.ndarray] = []
+    stats = {"rows": 0, "row_quads": 0, "seams": 0, "frozen": 0}
+    classes = np.zeros(4, np.int64)
+    rows = 0
+    history: list[tuple[list[np.ndarray], int]] = []
+    while any(active) and (max_rows is None or rows < max_rows):
+        rows += 1
+        history.append((list(fronts), len(quads)))
+        for k in range(len(fronts)):
+            if not active[k]:
+                continue
+            res = _try_row(P, fronts, k, sizes)
+            if res is None:
+                active[k] = False
+                stats["frozen"] += 1
+                continue
+            P, nf, q, cls, seams = res
+            stats["seams"] += seams
+            classes += np.bincount(cls, minlength=4)
+            quads.append(q)
+            fronts[k] = nf
+            stats["row_quads"] += len(q)
+            if len(nf) <= _SMALL_FRONT:
+                active[k] = False
+        stats["rows"] = rows
+    stats["node_classes"] = dict(
+        zip(("end", "side", "corner", "reversal"), classes.tolist(), strict=True)
+    )
+    # closure; when the quad closure is stuck, rows are taken back one round at a time
+    stats["rows_taken_back"] = 0
+    while True:
+        P2, cells, cstats = partition_polygon(
+            P, fronts, np.asarray(ring_polygon), sizes, quad=quad_closure, strategy=strategy
+        )
+        if cells is not None:
+            break
+        if not history:
+            return None
+        fronts, nq = history.pop()
+        quads = quads[:nq]
+        stats["rows_taken_back"] += 1
+    stats["closure"] = cstats
+    row_q = np.concatenate(quads) if quads else np.zeros((0, 4), np.int64)
+    return P2, row_q, cells, stats
+
+
+def _compact(P: np.ndarray, cells: np.ndarray):
+    used = np.unique(cells)
+    remap = np.full(len(P), -1, np.int64)
+    remap[used] = np.arange(len(used))
+    return P[used], remap[cells]
+
+
+def _as_domain(domain) -> Domain:
+    if isinstance(domain, Domain):
+        return domain
+    if isinstance(domain, dict):
+        return parse_domain(domain)
+    raise InputError(
+        "domain must be a Domain or a GeoJSON Polygon / MultiPolygon mapping",
+        loc=("domain",),
+        code="bad_geometry",
+    )
+
+
+def paving(
+    domain,
+    *,
+    size: float | None = None,
+    size_field=None,
+    smooth: bool = True,
+    max_rows: int | None = None,
+    progress: Callable[[float, str], None] | None = None,
+) -> PavingResult:
+    """All-quad mesh of a planar domain by paving: rows from the boundary inward (§8.5.1).
+
+    Parameters
+    ----------
+    domain : Domain or dict
+        Holes allowed; interior constraints are refused.
+    size : float, optional
+        Target edge length.
+    size_field : dict, optional
+        ``{"points": (k, 2), "values": (k,)}`` (as :func:`recursive_partition`).
+    smooth : bool
+        Length-weighted Laplacian smoothing, never inverting a cell nor
+        lowering the least quality.
+    max_rows : int, optional
+        Rows laid at most on each front (default: until every front is
+        frozen).
+    progress : callable, optional
+        ``progress(fraction, message)``; may raise to cancel.
+
+    Returns
+    -------
+    PavingResult
+        Guarantees: only quads, each strictly convex (exact test),
+        conforming, their areas adding up to the domain's, every input
+        segment a chain of mesh edges (module docstring: why).
+
+    Raises
+    ------
+    InputError
+        Bad domain or sizes (``loc`` names them), interior constraints
+        (``code="unsupported"``), ``max_rows`` below 0.
+
+    References
+    ----------
+    Methods text §8.5.1, Remark 8.9; module docstring.
+    """
+    dom = _as_domain(domain)
+    if len(dom.constraints):
+        raise InputError(
+            "paving does not take interior constraint segments",
+            loc=("segments",),
+            code="unsupported",
+        )
+    if max_rows is not None and (not isinstance(max_rows, int) or max_rows < 0):
+        raise InputError(
+            "max_rows must be an integer >= 0", loc=("max_rows",), code="bad_parameter"
+        )
+    sizes = size_map(dom, size, size_field)
+    timings: dict[str, float] = {}
+    clock = time.perf_counter()
+
+    def lap(name: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        timings[name] = timings.get(name, 0.0) + now - clock
+        clock = now
+
+    def report(fraction: float, message: str) -> None:
+        if progress is not None:
+            progress(fraction, message)
+
+    report(0.0, "boundary")
+    bnd = resample_boundary(dom, sizes, even=True)
+    lap("boundary")
+    report(0.1, "rows")
+    res = _pave(bnd, sizes, max_rows, True, "balanced")
+    fallback = 0
+    if res is not None:
+        P, row_q, closure, stats = res
+        cells = np.concatenate([row_q, closure])
+    else:
+        fallback = 1
+        twice = SizeMap(FALLBACK_SCALE * sizes.H, sizes.grid)
+        bnd = resample_boundary(dom, twice, even=True)
+        P, row_q, closure, stats = _pave(bnd, twice, max_rows, False, "balanced")
+        P, cells = _split_all(P, [row_q, closure])
+    lap("rows and closure")
+    P, cells = _compact(P, cells)
+    fixed = boundary_points(P, cells)
+    undone = 0
+    if smooth:
+        report(0.8, "smoothing")
+        P, undone = smooth_quads(P, cells, fixed)
+    lap("smoothing")
+    mesh = Mesh(P, (CellBlock("quad", cells),))
+    # the edges of one cell are the resampled rings (tested: input segments as chains)
+    q = quality.report(mesh, boundary_edges(cells))
+    lap("quality")
+    stats = {
+        **stats,
+        "quads": int(len(cells)),
+        "points": int(len(P)),
+        "fallback": fallback,
+        "parity_repairs": bnd.repairs,
+        "valence": _valence(cells, len(P), np.flatnonzero(fixed)),
+        "smoothing": {"sweeps": SWEEPS if smooth else 0, "undone": int(undone)},
+        "seconds": timings,
+    }
+    report(1.0, "done")
+    return PavingResult(mesh, q, stats)
