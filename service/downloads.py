@@ -118,6 +118,9 @@ def mesh_download(store: Store, job_id: str, fmt: str) -> Path:
         mesh = _mesh(store, job_id)
         if mesh is None:
             raise _no_mesh()
+        if fmt == "glb":  # the web page reads the report and stats from the file, not the JSON
+            meta = _meta(store, job_id)
+            return io.to_glb(mesh, {k: meta[k] for k in ("quality", "stats") if k in meta})
         return io.to_bytes(mesh, fmt)
 
     return _cached(store, job_id, fmt, make)

@@ -122,7 +122,7 @@ from scipy.sparse.csgraph import connected_components
 
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d, orient2d_scalar, orient3d_scalar
-from meshcore.geometry.tolerances import MAX_COORDINATE
+from meshcore.geometry.tolerances import MAX_COORDINATE_3D, MIN_DIAMETER_3D
 
 __all__ = ["Surface", "parse_surface"]
 
@@ -303,11 +303,11 @@ def _points(value: object) -> np.ndarray:
             loc=("points", v, c),
             code="non_finite",
         )
-    big = np.abs(arr) > MAX_COORDINATE
+    big = np.abs(arr) > MAX_COORDINATE_3D
     if big.any():
         v, c = (int(x) for x in np.argwhere(big)[0])
         raise InputError(
-            f"point {v} has a coordinate of magnitude above {MAX_COORDINATE:g} "
+            f"point {v} has a coordinate of magnitude above {MAX_COORDINATE_3D:g} "
             f"({float(arr[v, c])!r})",
             loc=("points", v, c),
             code="out_of_range",
@@ -317,6 +317,14 @@ def _points(value: object) -> np.ndarray:
             f"a closed surface needs at least 4 points, got {len(arr)}",
             loc=("points",),
             code="too_few_points",
+        )
+    diameter = float(np.linalg.norm(arr.max(axis=0) - arr.min(axis=0)))
+    if diameter < MIN_DIAMETER_3D:
+        raise InputError(
+            f"the surface spans only {diameter:.3g}, below {MIN_DIAMETER_3D:g}: its volumes and "
+            "the methods' products of lengths would underflow float64; scale it up",
+            loc=("points",),
+            code="out_of_range",
         )
     return arr
 

@@ -18,7 +18,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["MAX_COORDINATE", "MIN_DIAMETER", "TOLERANCES", "Tolerances"]
+__all__ = [
+    "MAX_COORDINATE",
+    "MAX_COORDINATE_3D",
+    "MIN_DIAMETER",
+    "MIN_DIAMETER_3D",
+    "TOLERANCES",
+    "Tolerances",
+]
 
 MAX_COORDINATE = 1e150
 """Largest coordinate magnitude accepted: squared differences stay below 1e301."""
@@ -26,6 +33,13 @@ MAX_COORDINATE = 1e150
 MIN_DIAMETER = 1e-100
 """Smallest input diameter accepted where squared distances are formed (circumcentres,
 radii): a feature 1e-50 of the diameter still squares to a normal float64 (above 1e-300)."""
+
+MAX_COORDINATE_3D = 1e50
+"""Largest coordinate of a closed surface: the 3D constructions (circumspheres, volumes)
+multiply up to six lengths, which stay below 1e300."""
+
+MIN_DIAMETER_3D = 1e-50
+"""Smallest diameter of a closed surface, for the same products at the small end."""
 
 
 @dataclass(frozen=True)

@@ -174,12 +174,12 @@ def router(registry: Registry) -> APIRouter:
         },
     )
     async def submit(
+        client: ClientDep,  # first: a missing key is a 401 before the body is read
         body: Annotated[Any, Depends(parsed_body)],
         response: Response,
         manager: ManagerDep,
         store: StoreDep,
         settings: SettingsDep,
-        client: ClientDep,
         wait: Annotated[float, Query(ge=0, le=MAX_WAIT, description="Seconds to wait.")] = 0,
         idempotency_key: Annotated[str | None, Header(max_length=255)] = None,
     ) -> JobOut:

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import meshcore
+import meshcore.medial
 from meshcore.errors import InputError
 from meshcore.mesh import Mesh
 
@@ -29,7 +30,7 @@ def refused(call, *args, **kwargs) -> InputError:
 @pytest.mark.parametrize("entry", ["medial_axis", "partition", "simplify", "quad_medial"])
 def test_medial_h_too_small_to_count_samples_is_too_many_samples(entry):
     kwargs = {"levels": 0} if entry == "quad_medial" else {}
-    e = refused(getattr(meshcore, entry), meshcore.parse_domain(RECT), h=1e-300, **kwargs)
+    e = refused(getattr(meshcore.medial, entry), meshcore.parse_domain(RECT), h=1e-300, **kwargs)
     assert e.code == "too_many_samples" and e.errors[0]["loc"] == ["h"]
 
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-import service.api.jobs
+import service.downloads
 import service.store
 from service.methods.registry import default_registry
 from service.runner import JobFailed, run_job
@@ -79,20 +79,20 @@ def test_delete_waits_for_the_result_write_in_flight(tmp_path, monkeypatch):
 @pytest.mark.parametrize("remove", ["delete", "expire"])
 def test_removal_during_a_conversion_answers_404_or_410(tmp_path, monkeypatch, remove):
     gate = Gate()
-    convert = service.api.jobs.mesh_file
+    convert = service.downloads.io.to_bytes
 
-    def held(result, fmt):
+    def held(mesh, fmt):
         gate.hold()
-        return convert(result, fmt)
+        return convert(mesh, fmt)
 
-    monkeypatch.setattr(service.api.jobs, "mesh_file", held)
+    monkeypatch.setattr(service.downloads.io, "to_bytes", held)
 
     async def scenario():
         async with running_app(tmp_path) as app:
             job = (await app.submit("echo_mesh", {"mesh": SQUARE}, params={"wait": 10})).json()
             assert job["status"] == "succeeded"
             url = f"/v1/jobs/{job['id']}"
-            download = asyncio.create_task(app.client.get(f"{url}/result?format=vtu"))
+            download = asyncio.create_task(app.client.get(f"{url}/result?format=ply"))
             await gate.wait_entered()
             if remove == "delete":
                 assert (await app.client.delete(url)).status_code == 204

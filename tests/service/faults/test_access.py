@@ -19,6 +19,7 @@ V1_ROUTES = [
     ("DELETE", f"/v1/jobs/{JOB}"),
     ("GET", f"/v1/jobs/{JOB}/result"),
     ("GET", f"/v1/jobs/{JOB}/preview.svg"),
+    ("GET", f"/v1/jobs/{JOB}/preview.png"),
     ("POST", "/v1/convert"),
 ]
 
