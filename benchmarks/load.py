@@ -22,6 +22,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import traceback
 from pathlib import Path
@@ -67,28 +68,31 @@ async def one_client(c: httpx.AsyncClient, k: int) -> float:
     return time.perf_counter() - t0
 
 
-async def _prober(url: str, job: str, stop: asyncio.Event, out: list[float]) -> None:
-    async with httpx.AsyncClient(base_url=url, timeout=30) as c:
+def _prober(url: str, job: str, stop: threading.Event, out: list[float]) -> None:
+    """Status reads every 50 ms from a thread of its own (not the clients' event loop,
+    whose own load would otherwise count as the service's latency)."""
+    with httpx.Client(base_url=url, timeout=30) as c:
         while not stop.is_set():
             t0 = time.perf_counter()
-            await c.get(f"/v1/jobs/{job}")
+            c.get(f"/v1/jobs/{job}")
             out.append(time.perf_counter() - t0)
-            await asyncio.sleep(0.05)
+            stop.wait(0.05)
 
 
 async def load_round(url: str, n: int, probe_job: str) -> dict:
     limits = httpx.Limits(max_connections=n + 10, max_keepalive_connections=n + 10)
     reads: list[float] = []
-    stop = asyncio.Event()
+    stop = threading.Event()
     async with httpx.AsyncClient(base_url=url, timeout=300, limits=limits) as c:
-        prober = asyncio.create_task(_prober(url, probe_job, stop, reads))
+        prober = threading.Thread(target=_prober, args=(url, probe_job, stop, reads))
+        prober.start()
         t0 = time.perf_counter()
         results = await asyncio.gather(
             *(one_client(c, k) for k in range(n)), return_exceptions=True
         )
         wall = time.perf_counter() - t0
         stop.set()
-        await prober
+        prober.join()
     times = [r for r in results if isinstance(r, float)]
     errors = [r for r in results if not isinstance(r, float)]
     for e in errors[:3]:
