@@ -38,7 +38,8 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-from meshcore.geometry.predicates import orient2d, orient3d
+from meshcore.geometry.predicates import orient2d
+from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.mesh.topology import boundary
 from meshcore.optimize import optimize

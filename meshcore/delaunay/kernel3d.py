@@ -39,7 +39,7 @@ beyond that facet.
 Choices where the methods text leaves freedom:
 
 * **Ties.** Co-spherical points are resolved by symbolic perturbation
-  (:func:`meshcore.geometry.predicates.insphere_perturbed`): each point's
+  (:func:`meshcore.geometry.predicates3d.insphere_perturbed`): each point's
   lifting ``x**2 + y**2 + z**2`` is raised by ``eps**(r + 1)``, ``r`` its
   rank in lexicographic ``(x, y, z)`` order, exactly the 2D kernel's rule.
   The perturbed points are in general position, so their Delaunay
@@ -94,13 +94,8 @@ from numba import njit
 
 from meshcore.delaunay.kernel2d import _walk_hints
 from meshcore.errors import InputError
-from meshcore.geometry.predicates import (
-    WORK_SIZE,
-    insphere_exact,
-    insphere_tie,
-    orient2d_filtered,
-    orient3d_exact,
-)
+from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered
+from meshcore.geometry.predicates3d import insphere_exact, insphere_tie, orient3d_exact
 
 __all__ = ["Insertion", "IncrementalDelaunay3d", "Location", "Tetrahedralization", "delaunay3d"]
 
@@ -304,7 +299,7 @@ def _brio_hilbert_keys(pts, nbits, salt):
 
 @njit(cache=True, inline="always")
 def _orient(pts, a, b, c, d, work):
-    """orient3d of the vertices a, b, c, d (predicates.orient3d_filtered, inlined)."""
+    """orient3d of the vertices a, b, c, d (predicates3d.orient3d_filtered, inlined)."""
     ax = pts[a, 0]
     ay = pts[a, 1]
     az = pts[a, 2]
@@ -347,8 +342,8 @@ def _orient(pts, a, b, c, d, work):
 def _insphere(pts, a, b, c, d, e, work, pbuf):
     """Perturbed insphere sign of e against positive (a, b, c, d); never 0.
 
-    The float filter of predicates.insphere_filtered inlined; undecided
-    cases go to predicates.insphere_exact, exact ties to insphere_tie (the
+    The float filter of predicates3d.insphere_filtered inlined; undecided
+    cases go to predicates3d.insphere_exact, exact ties to insphere_tie (the
     symbolic perturbation of insphere_perturbed).
     """
     ex = pts[e, 0]

@@ -66,7 +66,7 @@ input. Faults that involve several triangles list one entry per triangle
 Robustness
 ----------
 Every decision is a sign of
-:func:`~meshcore.geometry.predicates.orient3d_scalar` /
+:func:`~meshcore.geometry.predicates3d.orient3d_scalar` /
 :func:`~meshcore.geometry.predicates.orient2d_scalar` (the latter on the
 projection of coplanar points onto a coordinate plane where their triangle
 does not degenerate) or an exact comparison of coordinates; no tolerance
@@ -121,7 +121,8 @@ from numba import njit
 from scipy.sparse.csgraph import connected_components
 
 from meshcore.errors import InputError
-from meshcore.geometry.predicates import orient2d, orient2d_scalar, orient3d_scalar
+from meshcore.geometry.predicates import orient2d, orient2d_scalar
+from meshcore.geometry.predicates3d import orient3d_scalar
 from meshcore.geometry.tolerances import MAX_COORDINATE_3D, MIN_DIAMETER_3D
 
 __all__ = ["Surface", "parse_surface"]

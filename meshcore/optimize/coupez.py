@@ -76,7 +76,8 @@ import numpy as np
 
 from meshcore.domain.planar import Domain, parse_domain
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.geometry.predicates import orient2d, orient3d
+from meshcore.geometry.predicates import orient2d
+from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.optimize import kernel2d as k2
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from meshcore.geometry.predicates import orient3d
+from meshcore.geometry.predicates3d import orient3d
 from meshcore.optimize import coupez as _c
 from meshcore.optimize import kernel3d as k3
 

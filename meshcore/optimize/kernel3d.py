@@ -31,7 +31,7 @@ import math
 import numpy as np
 from numba import njit
 
-from meshcore.geometry.predicates import orient3d_scalar
+from meshcore.geometry.predicates3d import orient3d_scalar
 
 KMAX = 256
 C_MOVE, C_KERNEL, C_COLLAPSE = range(3)

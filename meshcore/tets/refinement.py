@@ -39,7 +39,7 @@ phases and only ever grown by point insertion):
    ``max_radius_edge``, volume above ``max_volume``, circumradius above
    ``0.7 size``) in decreasing order of circumradius: the circumcentre is
    inserted unless it encroaches a subsegment (closed diametral ball, exact
-   sign of :func:`~meshcore.geometry.predicates.dot3d`) or a subface
+   sign of :func:`~meshcore.geometry.predicates3d.dot3d`) or a subface
    (equatorial ball), which is split instead; a circumcentre outside the
    surface's box (a tetrahedron leaning flat on the surface) splits the
    tetrahedron's faces that are subfaces. Insertions of one round skip a
@@ -100,7 +100,7 @@ from meshcore.delaunay.kernel2d import delaunay as delaunay2d
 from meshcore.delaunay.kernel3d import IncrementalDelaunay3d
 from meshcore.domain.surface import Surface, parse_surface
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.geometry.predicates import dot3d, orient3d
+from meshcore.geometry.predicates3d import dot3d, orient3d
 from meshcore.mesh import CellBlock, Mesh
 
 __all__ = ["TetrahedralizationResult", "tetrahedralize", "tetra_dihedral_angles"]
@@ -615,7 +615,7 @@ class _Builder:
 
         Candidates from KD-trees of subsegment midpoints (one per power of two
         of the radius); the sign is exact
-        (:func:`~meshcore.geometry.predicates.dot3d`).
+        (:func:`~meshcore.geometry.predicates3d.dot3d`).
         """
         a = self.P[self.seg[:, 0]]
         b = self.P[self.seg[:, 1]]

@@ -17,7 +17,8 @@ from pydantic import Field
 
 from meshcore.delaunay import delaunay, delaunay3d
 from meshcore.errors import InputError
-from meshcore.geometry.predicates import orient2d, orient3d
+from meshcore.geometry.predicates import orient2d
+from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh
 from service.schemas import Coordinates, MethodParams
 

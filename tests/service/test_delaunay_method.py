@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
 
-from meshcore.geometry.predicates import orient2d, orient3d
+from meshcore.geometry.predicates import orient2d
+from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import io
 from service.methods.delaunay import DELAUNAY_EXAMPLE
 from tests.service.test_jobs import assert_problem, submit

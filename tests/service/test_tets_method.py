@@ -12,7 +12,7 @@ import json
 import numpy as np
 import pytest
 
-from meshcore.geometry.predicates import orient3d
+from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import io
 from service.methods.surface_schema import UNIT_CUBE
 from service.methods.tets import TETRAHEDRALIZE_EXAMPLE

@@ -17,11 +17,13 @@ from meshcore.geometry.predicates import (
     incircle,
     incircle_scalar,
     indiametral,
+    orient2d,
+    orient2d_scalar,
+)
+from meshcore.geometry.predicates3d import (
     insphere,
     insphere_perturbed,
     insphere_scalar,
-    orient2d,
-    orient2d_scalar,
     orient3d,
     orient3d_scalar,
 )

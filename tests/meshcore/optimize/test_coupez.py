@@ -19,7 +19,8 @@ from hypothesis import strategies as st
 
 from meshcore.domain.planar import parse_domain
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.geometry.predicates import orient2d, orient3d
+from meshcore.geometry.predicates import orient2d
+from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.mesh.topology import boundary
 from meshcore.optimize import check_topology, optimize

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from meshcore.domain import parse_surface
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.geometry.predicates import orient3d
+from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import io
 from meshcore.tets import tetra_dihedral_angles, tetrahedralize
 from tests.meshcore.domain import shapes
