@@ -6,7 +6,7 @@ orientation; the boundary discretization every 2D method of chapters 8 and
 3D (shells, nesting, outward orientation; §9.3.1, §9.3.5).
 """
 
-from meshcore.domain.planar import Domain, parse_domain
+from meshcore.domain.planar import Domain, as_domain, parse_domain, parse_size_field
 from meshcore.domain.surface import Surface, parse_surface
 
-__all__ = ["Domain", "Surface", "parse_domain", "parse_surface"]
+__all__ = ["Domain", "Surface", "as_domain", "parse_domain", "parse_size_field", "parse_surface"]

@@ -113,7 +113,7 @@ from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d, orient2d_scalar
 from meshcore.geometry.tolerances import MAX_COORDINATE, MIN_DIAMETER
 
-__all__ = ["Domain", "parse_domain"]
+__all__ = ["Domain", "as_domain", "parse_domain", "parse_size_field"]
 
 # Candidate search: (segment, cell) entries allowed per segment before the
 # grid coarsens, and ray-test candidate pairs processed per chunk (bounds memory).
@@ -1491,3 +1491,88 @@ def _check_containment(
             loc=loc,
             code="constraint_outside",
         )
+
+
+def as_domain(domain) -> Domain:
+    """``domain`` itself if it is a :class:`Domain`, else the GeoJSON mapping parsed."""
+    if isinstance(domain, Domain):
+        return domain
+    if isinstance(domain, Mapping):
+        return parse_domain(domain)
+    raise InputError(
+        "domain must be a Domain or a GeoJSON Polygon / MultiPolygon mapping",
+        loc=("domain",),
+        code="bad_geometry",
+    )
+
+
+def parse_size_field(size_field) -> tuple[np.ndarray, np.ndarray]:
+    """A size field's sample points and sizes, checked (the control space of Remark 8.10).
+
+    Parameters
+    ----------
+    size_field : mapping, object or pair
+        ``{"points": [[x, y], ...], "values": [h, ...]}``, an object with
+        ``points`` and ``values``, or the pair itself.
+
+    Returns
+    -------
+    points : (k, 2) float64
+    values : (k,) float64
+        Finite, distinct points and finite sizes above 0.
+
+    Raises
+    ------
+    InputError
+        Located at the bad point or value (``bad_parameter``, ``non_finite``,
+        ``duplicate_points``).
+    """
+    if isinstance(size_field, Mapping):
+        pts, vals = size_field.get("points"), size_field.get("values")
+    elif hasattr(size_field, "points") and hasattr(size_field, "values"):
+        pts, vals = size_field.points, size_field.values
+    else:
+        pts, vals = size_field
+    try:
+        pts = np.asarray(pts, dtype=np.float64)
+        vals = np.asarray(vals, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(
+            "size_field needs numeric points and values", loc=("size_field",), code="bad_parameter"
+        ) from None
+    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) == 0:
+        raise InputError(
+            f"size_field.points must be a non-empty list of [x, y], got shape {pts.shape}",
+            loc=("size_field", "points"),
+            code="bad_parameter",
+        )
+    if vals.shape != (len(pts),):
+        raise InputError(
+            f"size_field has {len(pts)} points but {vals.size} values",
+            loc=("size_field", "values"),
+            code="bad_parameter",
+        )
+    bad = np.flatnonzero(~np.isfinite(pts).all(axis=1))
+    if bad.size:
+        raise InputError(
+            f"size_field point {bad[0]} is not finite",
+            loc=("size_field", "points", int(bad[0])),
+            code="non_finite",
+        )
+    bad = np.flatnonzero(~(np.isfinite(vals) & (vals > 0)))
+    if bad.size:
+        raise InputError(
+            f"size_field value {bad[0]} must be a finite number above 0, got {vals[bad[0]]}",
+            loc=("size_field", "values", int(bad[0])),
+            code="bad_parameter",
+        )
+    order = np.lexsort((pts[:, 1], pts[:, 0]))
+    same = np.flatnonzero((pts[order][1:] == pts[order][:-1]).all(axis=1))
+    if same.size:
+        i, j = sorted((int(order[same[0]]), int(order[same[0] + 1])))
+        raise InputError(
+            f"size_field points {i} and {j} coincide",
+            loc=("size_field", "points", j),
+            code="duplicate_points",
+        )
+    return pts, vals

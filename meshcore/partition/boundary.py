@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from meshcore.domain.planar import Domain
+from meshcore.domain.planar import Domain, parse_size_field
 from meshcore.errors import InputError
 
 __all__ = ["BoundaryResampling", "SizeMap", "resample_boundary", "size_map"]
@@ -93,47 +93,6 @@ def _positive(value, name: str) -> float | None:
     return x
 
 
-def _field(size_field) -> tuple[np.ndarray, np.ndarray]:
-    if isinstance(size_field, dict):
-        pts, vals = size_field.get("points"), size_field.get("values")
-    else:
-        pts, vals = getattr(size_field, "points", None), getattr(size_field, "values", None)
-    try:
-        pts = np.asarray(pts, dtype=np.float64)
-        vals = np.asarray(vals, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(
-            "size_field needs numeric points and values", loc=("size_field",), code="bad_parameter"
-        ) from None
-    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) == 0:
-        raise InputError(
-            f"size_field.points must be a non-empty list of [x, y], got shape {pts.shape}",
-            loc=("size_field", "points"),
-            code="bad_parameter",
-        )
-    if vals.shape != (len(pts),):
-        raise InputError(
-            f"size_field has {len(pts)} points but {vals.size} values",
-            loc=("size_field", "values"),
-            code="bad_parameter",
-        )
-    bad = np.flatnonzero(~np.isfinite(pts).all(axis=1))
-    if bad.size:
-        raise InputError(
-            f"size_field point {bad[0]} is not finite",
-            loc=("size_field", "points", int(bad[0])),
-            code="non_finite",
-        )
-    bad = np.flatnonzero(~(np.isfinite(vals) & (vals > 0)))
-    if bad.size:
-        raise InputError(
-            f"size_field value {bad[0]} must be a finite number above 0",
-            loc=("size_field", "values", int(bad[0])),
-            code="bad_parameter",
-        )
-    return pts, vals
-
-
 def size_map(domain: Domain, size=None, size_field=None) -> SizeMap:
     """The control space ``h(x)`` of Remark 8.10 from ``size`` and/or ``size_field``.
 
@@ -164,7 +123,7 @@ def size_map(domain: Domain, size=None, size_field=None) -> SizeMap:
         if size is None:
             raise InputError("give size or size_field", loc=("size",), code="missing_size")
         return SizeMap(np.array([[size]]), np.zeros(4))
-    fp, fv = _field(size_field)
+    fp, fv = parse_size_field(size_field)
     lo = domain.points.min(axis=0)
     ext = domain.points.max(axis=0) - lo
     step = float(ext.max()) / _GRID_CELLS

@@ -87,7 +87,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from meshcore.domain.planar import Domain, parse_domain
+from meshcore.domain.planar import as_domain
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.partition import kernel
@@ -323,18 +323,6 @@ def split_triangles(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarr
     return np.concatenate([points, mid, cen]), quads
 
 
-def _as_domain(domain) -> Domain:
-    if isinstance(domain, Domain):
-        return domain
-    if isinstance(domain, dict):
-        return parse_domain(domain)
-    raise InputError(
-        "domain must be a Domain or a GeoJSON Polygon / MultiPolygon mapping",
-        loc=("domain",),
-        code="bad_geometry",
-    )
-
-
 def recursive_partition(
     domain,
     *,
@@ -384,7 +372,7 @@ def recursive_partition(
     ----------
     Methods text §8.7.2, Remarks 8.9, 8.10; module docstring.
     """
-    dom = _as_domain(domain)
+    dom = as_domain(domain)
     if element not in ("triangle", "quad"):
         raise InputError(
             f"element must be 'triangle' or 'quad', got {element!r}",

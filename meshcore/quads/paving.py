@@ -87,7 +87,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from meshcore.domain.planar import Domain, parse_domain
+from meshcore.domain.planar import as_domain
 from meshcore.errors import InputError
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.partition import (
@@ -436,18 +436,6 @@ def _compact(P: np.ndarray, cells: np.ndarray):
     return P[used], remap[cells]
 
 
-def _as_domain(domain) -> Domain:
-    if isinstance(domain, Domain):
-        return domain
-    if isinstance(domain, dict):
-        return parse_domain(domain)
-    raise InputError(
-        "domain must be a Domain or a GeoJSON Polygon / MultiPolygon mapping",
-        loc=("domain",),
-        code="bad_geometry",
-    )
-
-
 def paving(
     domain,
     *,
@@ -493,7 +481,7 @@ def paving(
     ----------
     Methods text §8.5.1, Remark 8.9; module docstring.
     """
-    dom = _as_domain(domain)
+    dom = as_domain(domain)
     if len(dom.constraints):
         raise InputError(
             "paving does not take interior constraint segments",

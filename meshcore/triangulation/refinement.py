@@ -100,7 +100,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -109,7 +109,7 @@ from scipy.spatial import cKDTree
 from meshcore.delaunay import cdt
 from meshcore.delaunay.admissible import admissible_segments, circles_of
 from meshcore.delaunay.kernel2d import delaunay
-from meshcore.domain.planar import Domain, parse_domain
+from meshcore.domain.planar import Domain, as_domain, parse_size_field
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import WORK_SIZE
 from meshcore.mesh import CellBlock, Mesh
@@ -255,58 +255,6 @@ def _positive(value, name: str, upper: float | None = None) -> float | None:
     return x
 
 
-def _field_arrays(size_field) -> tuple[np.ndarray, np.ndarray]:
-    if isinstance(size_field, Mapping):
-        pts, vals = size_field.get("points"), size_field.get("values")
-    elif hasattr(size_field, "points") and hasattr(size_field, "values"):
-        pts, vals = size_field.points, size_field.values
-    else:
-        pts, vals = size_field
-    try:
-        pts = np.asarray(pts, dtype=np.float64)
-        vals = np.asarray(vals, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(
-            "size_field needs numeric points and values", loc=("size_field",), code="bad_parameter"
-        ) from None
-    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) == 0:
-        raise InputError(
-            f"size_field.points must be a non-empty list of [x, y], got shape {pts.shape}",
-            loc=("size_field", "points"),
-            code="bad_parameter",
-        )
-    if vals.shape != (len(pts),):
-        raise InputError(
-            f"size_field has {len(pts)} points but {vals.size} values",
-            loc=("size_field", "values"),
-            code="bad_parameter",
-        )
-    bad = np.flatnonzero(~np.isfinite(pts).all(axis=1))
-    if bad.size:
-        raise InputError(
-            f"size_field point {bad[0]} is not finite",
-            loc=("size_field", "points", int(bad[0])),
-            code="non_finite",
-        )
-    bad = np.flatnonzero(~(np.isfinite(vals) & (vals > 0)))
-    if bad.size:
-        raise InputError(
-            f"size_field value {bad[0]} must be a finite number above 0, got {vals[bad[0]]}",
-            loc=("size_field", "values", int(bad[0])),
-            code="bad_parameter",
-        )
-    order = np.lexsort((pts[:, 1], pts[:, 0]))
-    same = np.flatnonzero((pts[order][1:] == pts[order][:-1]).all(axis=1))
-    if same.size:
-        i, j = sorted((int(order[same[0]]), int(order[same[0] + 1])))
-        raise InputError(
-            f"size_field points {i} and {j} coincide",
-            loc=("size_field", "points", j),
-            code="duplicate_points",
-        )
-    return pts, vals
-
-
 # ---------------------------------------------------------------------------
 # Sizing: the control space
 # ---------------------------------------------------------------------------
@@ -369,12 +317,12 @@ def estimated_triangles(domain, *, max_area=None, size=None, size_field=None) ->
     InputError
         As :func:`triangulate` for the same arguments.
     """
-    dom = _as_domain(domain)
+    dom = as_domain(domain)
     max_area = _positive(max_area, "max_area")
     size = _positive(size, "size")
     fp = fv = None
     if size_field is not None:
-        fp, fv = _field_arrays(size_field)
+        fp, fv = parse_size_field(size_field)
     # nearest field values: an estimate needs no triangulation of the field
     sizing = _sizing(dom, size, max_area, fp, fv, linear=False)
     return 0 if sizing is None else 2 * _expected_points(dom, sizing)
@@ -780,18 +728,6 @@ class _Work:
         self.grow_queue()
 
 
-def _as_domain(domain) -> Domain:
-    if isinstance(domain, Domain):
-        return domain
-    if isinstance(domain, Mapping):
-        return parse_domain(domain)
-    raise InputError(
-        "domain must be a Domain or a GeoJSON Polygon / MultiPolygon mapping",
-        loc=("domain",),
-        code="bad_geometry",
-    )
-
-
 def triangulate(
     domain,
     *,
@@ -867,13 +803,13 @@ def triangulate(
         if progress is not None:
             progress(fraction, message)
 
-    dom = _as_domain(domain)
+    dom = as_domain(domain)
     min_angle = _positive(min_angle, "min_angle", MAX_MIN_ANGLE)
     max_area = _positive(max_area, "max_area")
     size = _positive(size, "size")
     field_pts = field_vals = None
     if size_field is not None:
-        field_pts, field_vals = _field_arrays(size_field)
+        field_pts, field_vals = parse_size_field(size_field)
     if empty:
         given = [
             n
