@@ -40,6 +40,8 @@ import numpy as np
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 sys.path.insert(0, ROOT)
 
+from benchmarks.quads import ccw, gmsh_cells  # noqa: E402 (the peers' mesh readers)
+
 HOLE_AREA = 1.0 - math.pi / 16
 L_AREA = 0.75
 AREAS = {"hole": HOLE_AREA, "L": L_AREA}
@@ -76,33 +78,6 @@ def gmsh_model(domain: str, h: float):
         occ.cut([(2, occ.addRectangle(0, 0, 0, 1, 1))], [(2, occ.addDisk(0.5, 0.5, 0, 0.25, 0.25))])
     occ.synchronize()
     return gmsh
-
-
-def gmsh_cells(gmsh):
-    tags, coords, _ = gmsh.model.mesh.getNodes()
-    P = coords.reshape(-1, 3)[:, :2].copy()
-    index = np.empty(int(tags.max()) + 1, np.int64)
-    index[tags.astype(np.int64)] = np.arange(len(tags))
-    out = {}
-    for etype, k, name in ((2, 3, "triangle"), (3, 4, "quad")):
-        try:
-            _, nodes = gmsh.model.mesh.getElementsByType(etype)
-        except Exception:  # noqa: BLE001 (no element of this type)
-            nodes = np.zeros(0)
-        out[name] = index[np.asarray(nodes, np.int64).reshape(-1, k)]
-    return P, out
-
-
-def ccw(P, cells):
-    from meshcore.mesh.quality import signed_area
-
-    if not len(cells):
-        return cells
-    kind = "quad" if cells.shape[1] == 4 else "triangle"
-    cw = signed_area(P, cells, kind) < 0
-    cells = cells.copy()
-    cells[cw] = cells[cw, ::-1]
-    return cells
 
 
 def valences(P, cells):

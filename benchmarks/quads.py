@@ -104,7 +104,7 @@ def _gmsh_model(h: float, algorithm: int | None = None):
     return gmsh
 
 
-def _gmsh_cells(gmsh):
+def gmsh_cells(gmsh):
     tags, coords, _ = gmsh.model.mesh.getNodes()
     P = coords.reshape(-1, 3)[:, :2].copy()
     index = np.empty(int(tags.max()) + 1, np.int64)
@@ -119,7 +119,7 @@ def _gmsh_cells(gmsh):
     return P, out
 
 
-def _ccw(P, cells):
+def ccw(P, cells):
     from meshcore.mesh.quality import signed_area
 
     if not len(cells):
@@ -133,7 +133,7 @@ def _ccw(P, cells):
 def _describe(P, quads, tris, seconds) -> dict:
     from meshcore.mesh.quality import quad_quality
 
-    quads = _ccw(P, np.asarray(quads, np.int64))
+    quads = ccw(P, np.asarray(quads, np.int64))
     q = quad_quality(P, quads) if len(quads) else np.zeros(1)
     return {
         "seconds": seconds,
@@ -152,9 +152,9 @@ def child(tool: str, n: int, path: str) -> dict:
         t = time.perf_counter()
         gmsh.model.mesh.generate(2)
         seconds = time.perf_counter() - t
-        P, cells = _gmsh_cells(gmsh)
+        P, cells = gmsh_cells(gmsh)
         gmsh.finalize()
-        T = _ccw(P, cells["triangle"])
+        T = ccw(P, cells["triangle"])
         np.savez(path, P=P, T=T)
         return {
             "seconds": seconds,
@@ -175,7 +175,7 @@ def child(tool: str, n: int, path: str) -> dict:
         t = time.perf_counter()
         gmsh.model.mesh.generate(2)
         seconds = time.perf_counter() - t
-        P, cells = _gmsh_cells(gmsh)
+        P, cells = gmsh_cells(gmsh)
         gmsh.finalize()
         out = _describe(P, cells["quad"], cells["triangle"], seconds)
         out["total"] = seconds
@@ -190,7 +190,7 @@ def child(tool: str, n: int, path: str) -> dict:
         t = time.perf_counter()
         gmsh.model.mesh.generate(2)
         seconds = time.perf_counter() - t
-        P, cells = _gmsh_cells(gmsh)
+        P, cells = gmsh_cells(gmsh)
         gmsh.finalize()
         return _describe(P, cells["quad"], cells["triangle"], seconds)
     from meshcore.mesh import CellBlock, Mesh

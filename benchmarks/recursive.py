@@ -33,10 +33,10 @@ from benchmarks.paving import (  # noqa: E402
     AREAS,
     describe,
     geometry,
-    gmsh_cells,
     gmsh_model,
     main,
 )
+from benchmarks.quads import gmsh_cells  # noqa: E402
 
 
 def describe_triangles(P, T, seconds) -> dict:
