@@ -37,8 +37,11 @@ def test_a_body_sent_a_byte_a_second_is_cut_off(start_server):
             if answer:
                 break
         s.settimeout(5.0)
-        while chunk := s.recv(65536):  # the rest of the answer, until the server closes
-            answer += chunk
+        try:  # the rest of the answer, until the server closes (a reset: unread body bytes)
+            while chunk := s.recv(65536):
+                answer += chunk
+        except ConnectionResetError:
+            pass
         elapsed = time.monotonic() - start
     assert answer.startswith(b"HTTP/1.1 408"), answer[:200]
     assert b"MESHSERVICE_BODY_TIMEOUT" in answer
