@@ -1,0 +1,765 @@
+"""Delaunay-admissible closed surfaces in 3D (methods text §9.2, §9.3, §9.3.5).
+
+A set of triangular faces is *Delaunay-admissible* when every face is a
+face of the Delaunay tetrahedralization of the faces' vertices (§9.3).
+:func:`make_admissible_surface` takes a closed surface
+(:func:`meshcore.domain.surface.parse_surface`), refines it with points ON
+the surface until it is, and returns the refined surface (each output
+triangle lies in one input triangle) and the *empty* Delaunay
+tetrahedralization of the inside (only surface points: the starting point
+of §9.5).
+
+Algorithm
+---------
+The state is our kernel's tetrahedralization
+(:class:`meshcore.delaunay.kernel3d.IncrementalDelaunay3d`), only ever grown
+by point insertion (never rebuilt), and the subsegments and subfaces of
+:mod:`meshcore.tets.refinement`'s builder: each input edge cut into
+subsegments, each input triangle (*facet*) triangulated in its plane by the
+2D Delaunay triangulation (kernel2d) of its corners and of the points added
+on its edges and inside it. That 2D Delaunay triangulation is what makes the
+great circles ``gc_f`` empty (the reduced classification of §9.3.2: the
+in-plane swaps). Rounds, each vectorized over all missing pieces:
+
+1. **Coplanar swaps** (Pébay's second heuristic, §9.3.4): a subface that is
+   not a face of the tetrahedralization, whose neighbour in the same facet
+   forms with it a convex quadrilateral whose other diagonal gives two
+   faces of the tetrahedralization, is swapped (nearly co-circular points,
+   whose diagonal the 3D kernel decides differently from the 2D one).
+2. **Edges first** (§9.3.4 (A), §9.2): every subface edge that is not an
+   edge of the tetrahedralization is split at the projection onto it of
+   the point ``P`` of its closed diametral ball ``B_AB`` with the largest
+   angle ``APB`` (exact membership by
+   :func:`~meshcore.geometry.predicates3d.dot3d`). The projection rules of
+   the 2D module apply unchanged (:data:`~meshcore.delaunay.admissible.NEAR_END_TRIGGER`,
+   ``NEAR_END_FRACTION``, ``NUDGE``): the balls of the two halves lie in
+   ``B_AB`` and miss ``P`` (Relationship 9.2).
+3. **Then faces** (§9.3.4, face enforcement): every subface still missing
+   (its edges all present) gets the point ``P`` of its closed ball
+   ``B_f^min`` with the largest solid angle over ``f``; ``P``'s projection
+   ``M`` onto the facet's plane is a candidate when it lies inside ``f``,
+   and so are the projections of ``P`` onto the three edges of ``f``; the
+   candidate whose split of ``f`` has the largest least angle wins
+   (Pébay's first heuristic).
+
+A round splits every missing piece once; the facets whose points changed
+are re-triangulated (only those), and the next round looks up the missing
+pieces again in the grown tetrahedralization.
+
+Choices where the text leaves freedom
+-------------------------------------
+* **New points on the surface (§9.3.5)** are constructed from the *input*
+  coordinates: a point on input edge ``E0 E1`` is ``E0 + s (E1 - E0)``
+  (``s`` its parameter along the edge, kept), a point inside input
+  triangle ``ABC`` is ``A + u (B - A) + v (C - A)``. They lie on the input
+  edge / triangle up to the rounding of those few operations, not exactly:
+  a float point exactly on a general plane (``orient3d == 0``) does not
+  exist in general. Their distance to the input plane is checked in the
+  tests (a few ulps of the coordinates).
+* **Which points.** The largest angle / solid angle is computed in floating
+  point: any encroaching point gives a valid split, so it is a choice, not
+  a sign decision. Ball memberships for the candidates of faces are float
+  (with a relative slack of 1e-9; the points on the sphere count).
+* **Case 0 and Case 1 faces.** Only missing subfaces are split. A face whose
+  closed half-space (all points but its corners strictly on one side) is
+  empty is a hull facet and stays a face whatever is added inside the
+  hull: it is never split. A Case 1 face (empty ball) is a face at the
+  start; it is split only if points added for its neighbours enter its
+  ball (the coupling of §9.3, Figure 9.6): on the test surfaces none is.
+* **Termination.** The text postulates convergence for faces (§9.3.4); the
+  rounds stop with :class:`~meshcore.errors.AlgorithmError`
+  (``recovery_failed``) after :data:`MAX_ROUNDS` rounds or
+  :data:`MAX_ADDED_FACTOR` times the input's vertices plus
+  :data:`MAX_ADDED_BASE` points.
+
+Classification (:func:`classify_faces`, §9.3.2, Table 9.2) uses the text's
+open sets: Case 0 (one open half-space of the face's plane holds no point,
+exact ``orient3d``), Case 1 (the open ball ``B_f^min``, whose great circle is
+the face's circumcircle, holds no point), Case 2 otherwise; faces whose
+open great disc ``gc_f`` holds a point are counted as well. The ball test
+is a float filter whose uncertain cases are decided exactly with rationals.
+
+References
+----------
+Methods text §9.2 (segments in 3D, the ball B_AB, the point of maximal
+angle), §9.3.1-§9.3.4 (Table 9.2, the classification, edges then faces,
+Pébay's heuristics), §9.3.5 (new points on the surface Σ), §9.5 (the
+empty tetrahedralization); P. P. Pébay, "Planar quadrangle quality
+measures" and "A priori Delaunay-conformity" (1998).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from meshcore.delaunay.admissible import NEAR_END_FRACTION, NEAR_END_TRIGGER, NUDGE
+from meshcore.domain.surface import Surface, parse_surface
+from meshcore.errors import AlgorithmError, InputError
+from meshcore.geometry.predicates3d import dot3d, orient3d
+from meshcore.mesh import CellBlock, Mesh
+from meshcore.tets.refinement import (
+    _EDGES,
+    _FACES,
+    _KNOBS,
+    _Builder,
+    _edge_keys,
+    _face_keys,
+    _member,
+    _regions,
+)
+
+__all__ = ["AdmissibleSurface", "classify_faces", "make_admissible_surface"]
+
+Progress = Callable[[float, str], None]
+
+#: At most this many rounds.
+MAX_ROUNDS = 500
+#: Added points allowed: this factor times the input's vertices ...
+MAX_ADDED_FACTOR = 64
+#: ... plus this many.
+MAX_ADDED_BASE = 10_000
+#: Relative slack of the float ball queries (candidates only; see the docstring).
+BALL_SLACK = 1e-9
+#: A face split point inside the subface must have barycentric coordinates
+#: above this (else only the edge candidates are considered).
+INSIDE_MARGIN = 1e-3
+
+
+@dataclass(frozen=True, eq=False)
+class AdmissibleSurface:
+    """A Delaunay-admissible closed surface and its empty tetrahedralization.
+
+    Attributes
+    ----------
+    points : (n, 3) float64
+        The input points first (all of them, indices unchanged, unused ones
+        included), then the added points.
+    triangles : (m, 3) int64
+        The output triangles, oriented outward like the surface; each is a
+        face of the Delaunay tetrahedralization of :attr:`points`' used
+        points.
+    source : (m,) int64
+        The input triangle each output triangle lies in.
+    cases_before, cases_after : dict
+        :func:`classify_faces` counts of the input and of the output.
+    added_on_edges, added_on_faces : int
+        Points added on input edges and inside input triangles.
+    rounds : int
+        Rounds run (the last one finds nothing missing).
+    swaps : int
+        Coplanar swaps made in the last round's surface.
+    mesh : Mesh
+        The empty Delaunay tetrahedralization of the inside: the Delaunay
+        tetrahedra of the surface points (input and added) inside the
+        surface, one ``tetra`` block, positively oriented (meshio order),
+        cell sets ``region_k``.
+    timings : dict
+        Seconds per phase.
+    """
+
+    points: np.ndarray
+    triangles: np.ndarray
+    source: np.ndarray
+    cases_before: dict[str, int]
+    cases_after: dict[str, int]
+    added_on_edges: int
+    added_on_faces: int
+    rounds: int
+    swaps: int
+    mesh: Mesh
+    timings: dict = field(default_factory=dict)
+
+
+# ---------------------------------------------------------------------------
+# Classification (§9.3.2, Table 9.2)
+# ---------------------------------------------------------------------------
+
+
+def _circumcentres(P: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centres and radii of the faces' great circles (float)."""
+    a = P[F[:, 0]]
+    b = P[F[:, 1]] - a
+    c = P[F[:, 2]] - a
+    n = np.cross(b, c)
+    nn = np.einsum("ij,ij->i", n, n)
+    off = (
+        np.einsum("ij,ij->i", b, b)[:, None] * np.cross(c, n)
+        + np.einsum("ij,ij->i", c, c)[:, None] * np.cross(n, b)
+    ) / (2.0 * nn)[:, None]
+    return a + off, np.linalg.norm(off, axis=1)
+
+
+def _as_integers(X: np.ndarray) -> np.ndarray:
+    """The coordinates times one common power of two: exact Python integers (object array)."""
+    ratios = [v.as_integer_ratio() for v in X.ravel().tolist()]
+    den = max((d for _, d in ratios), default=1)
+    return np.array([n * (den // d) for n, d in ratios], dtype=object).reshape(X.shape)
+
+
+def _in_ball_exact(P: np.ndarray, F: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Exact signs of ``|X - O|^2 - R^2`` for the faces' balls, and whether X lies in
+    the face's plane (integer arithmetic on the coordinates scaled to integers).
+
+    With ``b, c, x`` the corners and the point relative to ``A``, ``n = b x c``
+    and ``W = |b|^2 (c x n) + |c|^2 (n x b)`` the centre is ``A + W / (2 |n|^2)``,
+    so the sign is that of ``2 |n|^2 |x|^2 - 2 x.W``.
+    """
+    rows = np.concatenate([F, x[:, None]], axis=1)
+    used, inv = np.unique(rows, return_inverse=True)
+    Z = _as_integers(P[used])[inv.reshape(rows.shape)]  # (k, 4, 3) objects
+    A = Z[:, 0]
+    b, c, v = Z[:, 1] - A, Z[:, 2] - A, Z[:, 3] - A
+
+    def cross(u, w):
+        return np.stack(
+            [
+                u[:, 1] * w[:, 2] - u[:, 2] * w[:, 1],
+                u[:, 2] * w[:, 0] - u[:, 0] * w[:, 2],
+                u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0],
+            ],
+            axis=1,
+        )
+
+    def dot(u, w):
+        return u[:, 0] * w[:, 0] + u[:, 1] * w[:, 1] + u[:, 2] * w[:, 2]
+
+    n = cross(b, c)
+    W = dot(b, b)[:, None] * cross(c, n) + dot(c, c)[:, None] * cross(n, b)
+    s = 2 * dot(n, n) * dot(v, v) - 2 * dot(v, W)
+    sign = np.array([(t > 0) - (t < 0) for t in s.tolist()], dtype=np.int64)
+    planar = np.array([t == 0 for t in dot(v, n).tolist()], dtype=bool)
+    return sign, planar
+
+
+def classify_faces(points, faces) -> dict[str, int]:
+    """Counts of the faces of each case of §9.3.2 (Table 9.2) against a point set.
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+        The point set 𝓢 (every point counts; unused rows are the caller's
+        to drop).
+    faces : (m, 3) int64
+        The face set 𝓕, rows of point indices.
+
+    Returns
+    -------
+    dict
+        ``case0`` (one open half-space of the face's plane is empty, exact
+        ``orient3d``), ``case1`` (not Case 0, and the open ball ``B_f^min``
+        whose great circle is the face's circumcircle is empty), ``case2``
+        (the others), and ``great_circle`` (faces whose open great disc
+        ``gc_f`` holds a point: Cases 0.2 and 2.2 of the text, which the
+        in-plane swaps remove).
+
+    Notes
+    -----
+    Case 0 takes a float filter over all points with a generous error band
+    and decides the points in the band with exact ``orient3d``; the ball
+    tests take candidates from a KD-tree with a relative slack of 1e-9,
+    decide the clear ones in floating point and the others exactly with
+    rationals. Cost: ``O(n m)`` multiply-adds for Case 0 (chunked).
+
+    References
+    ----------
+    Methods text §9.3.1 (Table 9.2), §9.3.2.
+    """
+    P = np.asarray(points, dtype=np.float64)
+    F = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    m = len(F)
+    centre = P.mean(axis=0) if len(P) else np.zeros(3)
+    Q = P - centre
+    case0 = np.zeros(m, dtype=bool)
+    chunk = max(1, min(m, 2_000_000 // max(len(P), 1)))
+    for lo in range(0, m, chunk):
+        f = F[lo : lo + chunk]
+        a, b, c = Q[f[:, 0]], Q[f[:, 1]], Q[f[:, 2]]
+        n = np.cross(b - a, c - a)
+        d = Q @ n.T - np.einsum("ij,ij->i", a, n)[None, :]  # (n, k)
+        reach = np.abs(Q).max(axis=1)[:, None] + np.abs(a).max(axis=1)[None, :]
+        band = 1e-12 * np.linalg.norm(n, axis=1)[None, :] * (reach + 1e-300)
+        pos = (d > band).any(axis=0)
+        neg = (d < -band).any(axis=0)
+        near = np.flatnonzero(~(pos & neg))  # faces near Case 0: decide the band exactly
+        xi, ji = np.nonzero(np.abs(d[:, near]) <= band[:, near])
+        ji = near[ji]
+        other = (xi != f[ji, 0]) & (xi != f[ji, 1]) & (xi != f[ji, 2])
+        xi, ji = xi[other], ji[other]
+        s_ = -orient3d(P[f[ji, 0]], P[f[ji, 1]], P[f[ji, 2]], P[xi])
+        p_ = pos.copy()
+        q_ = neg.copy()
+        p_[ji[s_ > 0]] = True
+        q_[ji[s_ < 0]] = True
+        case0[lo : lo + len(f)] = ~(p_ & q_)
+    centres, R = _circumcentres(P, F)
+    hits = cKDTree(P).query_ball_point(centres, R * (1 + BALL_SLACK))
+    counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=m)
+    fi = np.repeat(np.arange(m), counts)
+    xi = np.concatenate([np.asarray(h, dtype=np.int64) for h in hits]) if fi.size else fi
+    other = (xi != F[fi, 0]) & (xi != F[fi, 1]) & (xi != F[fi, 2])
+    fi, xi = fi[other], xi[other]
+    d2 = np.einsum("ij,ij->i", P[xi] - centres[fi], P[xi] - centres[fi])
+    r2 = R[fi] ** 2
+    sign = np.where(
+        d2 < r2 * (1 - 4 * BALL_SLACK), -1, np.where(d2 > r2 * (1 + 4 * BALL_SLACK), 1, 0)
+    )
+    planar = np.zeros(len(fi), dtype=bool)
+    near = np.flatnonzero(sign == 0)  # near the sphere: exact, integers
+    if near.size:
+        sign[near], planar[near] = _in_ball_exact(P, F[fi[near]], xi[near])
+    inside = sign < 0
+    fi, xi, planar = fi[inside], xi[inside], planar[inside]
+    clear = np.flatnonzero(~planar)
+    planar[clear] = (
+        orient3d(P[F[fi[clear], 0]], P[F[fi[clear], 1]], P[F[fi[clear], 2]], P[xi[clear]]) == 0
+    )
+    in_ball = np.zeros(m, dtype=bool)
+    in_ball[fi] = True
+    in_disc = np.zeros(m, dtype=bool)
+    in_disc[fi[planar]] = True
+    return {
+        "case0": int(case0.sum()),
+        "case1": int((~case0 & ~in_ball).sum()),
+        "case2": int((~case0 & in_ball).sum()),
+        "great_circle": int(in_disc.sum()),
+    }
+
+
+# ---------------------------------------------------------------------------
+# The state: the tets builder plus the points' positions on the input
+# ---------------------------------------------------------------------------
+
+
+class _State:
+    """The builder (kernel, subsegments, subfaces) and each added point's
+    parameter on its input edge (points on edges) or barycentric
+    coordinates in its input triangle (points inside)."""
+
+    def __init__(self, surface: Surface) -> None:
+        self.b = _Builder(surface, _KNOBS)
+        self.P0 = self.b.P.copy()  # the surface's vertices (input coordinates)
+        self.s = np.full(self.b.n, np.nan)  # parameter along the input edge
+        self.added_on_edges = 0
+        self.added_on_faces = 0
+        # The facets' subface edges are kept consistent by retriangulate.
+
+    # -- positions ----------------------------------------------------------
+
+    def edge_param(self, v: np.ndarray, e: np.ndarray) -> np.ndarray:
+        """Parameter of vertices ``v`` along input edges ``e`` (0 at ``edges[e, 0]``)."""
+        E = self.b.edges[e]
+        return np.where(v == E[:, 0], 0.0, np.where(v == E[:, 1], 1.0, self.s[v]))
+
+    def on_edge(self, e: np.ndarray, s: np.ndarray) -> np.ndarray:
+        E = self.b.edges[e]
+        a, c = self.P0[E[:, 0]], self.P0[E[:, 1]]
+        return a + s[:, None] * (c - a)
+
+    def in_facet(self, f: np.ndarray, X: np.ndarray) -> np.ndarray:
+        """``X`` moved onto input triangle ``f``'s plane: ``A + u (B - A) + v (C - A)``
+        with ``(u, v)`` from the orthogonal projection."""
+        T = self.b.facets[f]
+        a = self.P0[T[:, 0]]
+        u = self.P0[T[:, 1]] - a
+        w = self.P0[T[:, 2]] - a
+        x = X - a
+        uu = np.einsum("ij,ij->i", u, u)
+        ww = np.einsum("ij,ij->i", w, w)
+        uw = np.einsum("ij,ij->i", u, w)
+        xu = np.einsum("ij,ij->i", x, u)
+        xw = np.einsum("ij,ij->i", x, w)
+        det = uu * ww - uw * uw
+        s = (xu * ww - xw * uw) / det
+        t = (xw * uu - xu * uw) / det
+        return a + s[:, None] * u + t[:, None] * w
+
+    # -- insertion ----------------------------------------------------------
+
+    def add(self, X, edge, s, facet) -> int:
+        """Insert points (on input ``edge`` at parameter ``s``, or inside ``facet``),
+        update the subsegments and re-triangulate the facets touched."""
+        b = self.b
+        if len(X) == 0:
+            return 0
+        ids = b.add(X, edge, facet)
+        ok = ids >= 0
+        ids, edge, s, facet = ids[ok], edge[ok], s[ok], facet[ok]
+        self.s = np.concatenate([self.s, np.full(len(ok.nonzero()[0]), np.nan)])
+        on = edge >= 0
+        self.s[ids[on]] = s[on]
+        self.added_on_edges += int(on.sum())
+        self.added_on_faces += int((~on).sum())
+        touched = [facet[~on]]
+        if on.any():
+            # Split the subsegments the new edge points fall in (by parameter).
+            for v, e, sv in zip(ids[on].tolist(), edge[on].tolist(), s[on].tolist(), strict=True):
+                rows = np.flatnonzero(b.seg_edge == e)
+                seg = b.seg[rows]
+                lo = self.edge_param(seg[:, 0], np.full(len(rows), e))
+                hi = self.edge_param(seg[:, 1], np.full(len(rows), e))
+                inside = np.flatnonzero((np.minimum(lo, hi) < sv) & (sv < np.maximum(lo, hi)))
+                r = int(rows[inside[0]])
+                a, c = b.seg[r]
+                b.seg[r] = [a, v]
+                b.seg = np.concatenate([b.seg, [[v, c]]])
+                b.seg_edge = np.concatenate([b.seg_edge, [e]])
+            touched.append(b.edge_facets[edge[on]].reshape(-1))
+        b.retriangulate(np.unique(np.concatenate(touched)))
+        return int(ok.sum())
+
+
+# ---------------------------------------------------------------------------
+# One round
+# ---------------------------------------------------------------------------
+
+
+def _subface_edges(sub: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unique edges of the subfaces ([lo, hi] rows) and, per edge, one subface holding it."""
+    e = np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]])
+    e.sort(axis=1)
+    owner = np.tile(np.arange(len(sub)), 3)
+    edges, first = np.unique(e, axis=0, return_index=True)
+    return edges, owner[first]
+
+
+def _coplanar_swaps(st: _State, fk: np.ndarray) -> int:
+    """Swap the missing subfaces whose quad's other diagonal is present (Pébay).
+
+    A loop over the missing subfaces (few): each one's neighbour across each
+    edge in the same facet; if both triangles of the other diagonal are faces
+    of the tetrahedralization and positively oriented in the facet's frame,
+    the pair is replaced.
+    """
+    b = st.b
+    swaps = 0
+    for _ in range(4):
+        missing = np.flatnonzero(~_member(_face_keys(b.sub), fk))
+        if missing.size == 0:
+            break
+        done = False
+        origin, e1, e2 = b.frame
+        for r in missing.tolist():  # a loop over the missing subfaces
+            f = int(b.sub_facet[r])
+            same = np.flatnonzero(b.sub_facet == f)
+            tri = b.sub[r]
+            for k in range(3):
+                p, q, a = int(tri[k]), int(tri[(k + 1) % 3]), int(tri[(k + 2) % 3])
+                # neighbour holding edge q -> p
+                nb = same[((b.sub[same] == q) & (np.roll(b.sub[same], -1, axis=1) == p)).any(1)]
+                if nb.size == 0:
+                    continue
+                g = int(nb[0])
+                c = int(np.setdiff1d(b.sub[g], [p, q])[0])
+                new = np.array([[a, p, c], [a, c, q]], dtype=np.int64)
+                if not _member(_face_keys(new), fk).all():
+                    continue
+                uv = np.stack(
+                    [(b.P[new] - origin[f]) @ e1[f], (b.P[new] - origin[f]) @ e2[f]], axis=-1
+                )
+                d = uv[:, 1] - uv[:, 0]
+                w = uv[:, 2] - uv[:, 0]
+                if ((d[:, 0] * w[:, 1] - d[:, 1] * w[:, 0]) <= 0).any():
+                    continue
+                b.sub[r] = new[0]
+                b.sub[g] = new[1]
+                swaps += 1
+                done = True
+                break
+        if not done:
+            break
+    return swaps
+
+
+def _angles_min(uv: np.ndarray) -> np.ndarray:
+    """Least angle (radians) of triangles given as (k, 3, 2) coordinates."""
+    out = np.full(len(uv), np.pi)
+    for i in range(3):
+        u = uv[:, (i + 1) % 3] - uv[:, i]
+        v = uv[:, (i + 2) % 3] - uv[:, i]
+        cross = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+        ang = np.arctan2(np.abs(cross), np.einsum("ij,ij->i", u, v))
+        out = np.minimum(out, np.where(cross > 0, ang, 0.0))
+    return out
+
+
+def _project_on_segment(P, A, B):
+    """Projection parameter of ``P`` on ``AB`` with the 2D module's near-end rules."""
+    d = B - A
+    L2 = np.einsum("ij,ij->i", d, d)
+    t = np.einsum("ij,ij->i", P - A, d) / L2
+    t = np.clip(t, 0.0, 1.0)
+    near_a = t <= 0.5
+    te = np.where(near_a, t, 1.0 - t)  # fraction from the nearer end E
+    L = np.sqrt(L2)
+    ep = np.linalg.norm(P - np.where(near_a[:, None], A, B), axis=1)
+    close = te * L < NEAR_END_TRIGGER * ep
+    te = np.where(close, np.minimum(NEAR_END_FRACTION * ep / L, 0.5), te)
+    te = np.minimum(te * (1.0 + NUDGE), 0.5)
+    return np.where(near_a, te, 1.0 - te)
+
+
+def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, tree: cKDTree) -> int:
+    """Split the missing subface edges ``E`` at the projection of their point
+    of largest angle in the closed diametral ball (§9.2)."""
+    b = st.b
+    A, B = b.P[E[:, 0]], b.P[E[:, 1]]
+    mid = 0.5 * (A + B)
+    half = 0.5 * np.linalg.norm(B - A, axis=1)
+    hits = tree.query_ball_point(mid, half * (1 + BALL_SLACK))
+    counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
+    ei = np.repeat(np.arange(len(E)), counts)
+    pi = np.concatenate([np.asarray(h, dtype=np.int64) for h in hits]) if len(ei) else ei
+    keep = (pi != E[ei, 0]) & (pi != E[ei, 1])
+    ei, pi = ei[keep], pi[keep]
+    inside = dot3d(A[ei], B[ei], b.P[pi]) <= 0
+    ei, pi = ei[inside], pi[inside]
+    u = A[ei] - b.P[pi]
+    v = B[ei] - b.P[pi]
+    ang = np.arctan2(np.linalg.norm(np.cross(u, v), axis=1), np.einsum("ij,ij->i", u, v))
+    best = np.full(len(E), -1, dtype=np.int64)
+    order = np.lexsort((pi, -ang, ei))  # per edge: largest angle, then smallest index
+    first = np.unique(ei[order], return_index=True)[1]
+    best[ei[order][first]] = pi[order][first]
+    X = np.where(best[:, None] >= 0, b.P[np.maximum(best, 0)], mid)
+    t = np.where(best >= 0, _project_on_segment(X, A, B), 0.5)
+    return _insert_on_edges(st, E, b.sub_facet[holder], t)
+
+
+def _insert_on_edges(st: _State, E, facet, t) -> int:
+    """Insert the points at parameter ``t`` of subface edges ``E``: on the input
+    edge when ``E`` is a subsegment, else inside input triangle ``facet``."""
+    b = st.b
+    seg_rows = _match_rows(_edge_keys(E), _edge_keys(b.seg))
+    is_seg = seg_rows >= 0
+    e = np.where(is_seg, b.seg_edge[np.maximum(seg_rows, 0)], -1)
+    s0 = st.edge_param(E[:, 0], np.maximum(e, 0))
+    s1 = st.edge_param(E[:, 1], np.maximum(e, 0))
+    s = s0 + t * (s1 - s0)
+    f = np.where(is_seg, -1, facet)
+    X = b.P[E[:, 0]] + t[:, None] * (b.P[E[:, 1]] - b.P[E[:, 0]])
+    X[is_seg] = st.on_edge(e[is_seg], s[is_seg])
+    X[~is_seg] = st.in_facet(f[~is_seg], X[~is_seg])
+    crowded = b.crowded(X, np.linalg.norm(b.P[E[:, 1]] - b.P[E[:, 0]], axis=1))
+    keep = ~crowded
+    return st.add(X[keep], e[keep], s[keep], f[keep])
+
+
+def _match_rows(keys: np.ndarray, table: np.ndarray) -> np.ndarray:
+    """Row of ``table`` holding each key, -1 where none."""
+    order = np.argsort(table, kind="stable")
+    st = table[order]
+    if st.size == 0:
+        return np.full(len(keys), -1, dtype=np.int64)
+    pos = np.minimum(np.searchsorted(st, keys), len(st) - 1)
+    return np.where(st[pos] == keys, order[pos], -1)
+
+
+def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree) -> int:
+    """Split the missing subfaces ``rows`` (§9.3.4 face enforcement, Pébay)."""
+    b = st.b
+    F = b.sub[rows]
+    f = b.sub_facet[rows]
+    centres, R = _circumcentres(b.P, F)
+    hits = tree.query_ball_point(centres, R * (1 + BALL_SLACK))
+    origin, e1, e2 = b.frame
+    pts_edge: list[tuple[np.ndarray, int, float]] = []
+    pts_face: list[tuple[int, np.ndarray, float]] = []
+    seen_edges: set[tuple[int, int]] = set()
+    for j, h in enumerate(hits):  # a loop over the missing subfaces (few per round)
+        cand = np.array([x for x in h if x not in F[j]], dtype=np.int64)
+        fj = int(f[j])
+        tri = F[j]
+        if cand.size:
+            a, bb, c = (b.P[tri[k]] - b.P[cand] for k in range(3))
+            num = np.abs(np.einsum("ij,ij->i", a, np.cross(bb, c)))
+            la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, bb, c))
+            den = (
+                la * lb * lc
+                + np.einsum("ij,ij->i", a, bb) * lc
+                + np.einsum("ij,ij->i", a, c) * lb
+                + np.einsum("ij,ij->i", bb, c) * la
+            )
+            solid = 2.0 * np.arctan2(num, den)
+            p = int(cand[np.lexsort((cand, -solid))[0]])
+            X = b.P[p]
+        else:  # ties broken against the face: its centre is a fine wall
+            X = centres[j]
+        frame = np.stack([e1[fj], e2[fj]], axis=1)
+        uv = (b.P[tri] - origin[fj]) @ frame
+        m = (X - origin[fj]) @ frame
+        # Candidates: the projection M inside f, and the projections on the edges.
+        options: list[tuple[float, str, object]] = []
+        T = np.array([uv[[1, 2]], uv[[2, 0]], uv[[0, 1]]])  # sub-triangles with M
+        lam = _angles_min(np.concatenate([T, np.broadcast_to(m, (3, 1, 2))], axis=1))
+        bary = _barycentric(uv, m)
+        if bary.min() > INSIDE_MARGIN:
+            options.append((float(lam.min()), "face", None))
+        for k in range(3):
+            i, jj, o = tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]
+            t = float(_project_on_segment(X[None], b.P[i][None], b.P[jj][None])[0])
+            x = uv[k] + t * (uv[(k + 1) % 3] - uv[k])
+            two = np.array([[uv[k], x, uv[(k + 2) % 3]], [x, uv[(k + 1) % 3], uv[(k + 2) % 3]]])
+            options.append((float(_angles_min(two).min()), "edge", (i, jj, o, t)))
+        _, kind, data = max(options, key=lambda z: z[0])
+        if kind == "face":
+            pts_face.append((fj, origin[fj] + frame @ m, float(R[j])))
+        else:
+            i, jj, _, t = data
+            key = (min(i, jj), max(i, jj))
+            if key in seen_edges:
+                continue
+            seen_edges.add(key)
+            pts_edge.append((np.array([i, jj]), fj, t))
+    added = 0
+    if pts_face:
+        ff = np.array([x[0] for x in pts_face], dtype=np.int64)
+        X = st.in_facet(ff, np.array([x[1] for x in pts_face]))
+        keep = ~b.crowded(X, np.array([x[2] for x in pts_face]))
+        X, ff = X[keep], ff[keep]
+        added += st.add(X, np.full(len(X), -1), np.full(len(X), np.nan), ff)
+    if pts_edge:
+        E = np.array([x[0] for x in pts_edge], dtype=np.int64)
+        facet = np.array([x[1] for x in pts_edge], dtype=np.int64)
+        t = np.array([x[2] for x in pts_edge])
+        added += _insert_on_edges(st, E, facet, t)
+    return added
+
+
+def _barycentric(uv: np.ndarray, m: np.ndarray) -> np.ndarray:
+    a, b_, c = uv
+    d = (b_[0] - a[0]) * (c[1] - a[1]) - (b_[1] - a[1]) * (c[0] - a[0])
+    l1 = ((m[0] - a[0]) * (c[1] - a[1]) - (m[1] - a[1]) * (c[0] - a[0])) / d
+    l2 = ((b_[0] - a[0]) * (m[1] - a[1]) - (b_[1] - a[1]) * (m[0] - a[0])) / d
+    return np.array([1.0 - l1 - l2, l1, l2])
+
+
+# ---------------------------------------------------------------------------
+# Entry point
+# ---------------------------------------------------------------------------
+
+
+def make_admissible_surface(surface, progress: Progress | None = None) -> AdmissibleSurface:
+    """A Delaunay-admissible refinement of a closed surface (§9.2, §9.3, §9.3.5).
+
+    Parameters
+    ----------
+    surface : Surface or dict
+        A validated surface (:func:`meshcore.domain.surface.parse_surface`)
+        or ``{"points": ..., "triangles": ...}`` (parsed here).
+    progress : callable, optional
+        ``progress(fraction, message)``; it may raise to cancel.
+
+    Returns
+    -------
+    AdmissibleSurface
+        Every output triangle is a face of the Delaunay tetrahedralization
+        (our kernel's, exact with symbolic perturbation) of the output's
+        surface points; the output triangles of each input triangle tile it
+        (their areas add up to its area, up to rounding); every added point
+        lies on an input edge or inside an input triangle (up to rounding,
+        see the module docstring); input faces whose other points all lie
+        strictly on one side of their plane are never split.
+
+    Raises
+    ------
+    InputError
+        An invalid surface (as :func:`parse_surface`, located under
+        ``surface``).
+    AlgorithmError
+        ``recovery_failed`` if the rounds or points cap is reached.
+
+    References
+    ----------
+    Methods text §9.2, §9.3.2-§9.3.5, §9.5.
+    """
+    t0 = time.perf_counter()
+    if not isinstance(surface, Surface):
+        if not isinstance(surface, dict):
+            raise InputError(
+                'surface must be a Surface or {"points": ..., "triangles": ...}',
+                loc=("surface",),
+                code="bad_geometry",
+            )
+        try:
+            surface = parse_surface(surface.get("points"), surface.get("triangles"))
+        except InputError as exc:
+            raise exc.prefixed("surface") from None
+    timings: dict[str, float] = {}
+    st = _State(surface)
+    b = st.b
+    timings["delaunay"] = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    cases_before = classify_faces(b.P, b.facets)
+    timings["classify"] = time.perf_counter() - t1
+    t2 = time.perf_counter()
+    cap = MAX_ADDED_FACTOR * b.n_surface + MAX_ADDED_BASE
+    swaps = 0
+    for rounds in range(1, MAX_ROUNDS + 1):
+        _, T = b.tets()
+        ek = np.sort(_edge_keys(T[:, _EDGES].reshape(-1, 2)))
+        fk = np.sort(_face_keys(T[:, _FACES].reshape(-1, 3)))
+        swaps = _coplanar_swaps(st, fk)
+        edges, holder = _subface_edges(b.sub)
+        missing_e = np.flatnonzero(~_member(_edge_keys(edges), ek))
+        missing_f = np.flatnonzero(~_member(_face_keys(b.sub), fk))
+        if missing_e.size == 0 and missing_f.size == 0:
+            break
+        if b.n - b.n_surface > cap:
+            break
+        tree = cKDTree(b.P)
+        if missing_e.size:
+            added = _split_edges(st, edges[missing_e], holder[missing_e], tree)
+        else:
+            added = _split_faces(st, missing_f, tree)
+        if added == 0:
+            raise AlgorithmError(
+                f"the surface could not be made Delaunay-admissible: {missing_e.size} edges "
+                f"and {missing_f.size} triangles are missing and no point could be added "
+                "(points at float64 resolution)",
+                code="recovery_failed",
+            )
+        if progress is not None:
+            progress(min(0.9, 0.05 + 0.01 * rounds), f"round {rounds}: {added} points added")
+    else:
+        rounds = MAX_ROUNDS + 1
+    if rounds > MAX_ROUNDS or b.n - b.n_surface > cap:
+        raise AlgorithmError(
+            f"the surface could not be made Delaunay-admissible within {MAX_ROUNDS} rounds "
+            f"and {cap} added points",
+            code="recovery_failed",
+        )
+    timings["enforcement"] = time.perf_counter() - t2
+    t3 = time.perf_counter()
+    slots, T = b.tets()
+    region = _regions(b, slots, T)
+    keep = region >= 0
+    tetra, region = T[keep][:, [0, 1, 3, 2]], region[keep]
+    timings["regions"] = time.perf_counter() - t3
+    t4 = time.perf_counter()
+    cases_after = classify_faces(b.P, b.sub)
+    timings["classify"] += time.perf_counter() - t4
+    # Output numbering: every input point (unused ones too), then the added ones.
+    n_in = len(surface.points)
+    out_index = np.concatenate([b.source, n_in + np.arange(b.n - b.n_surface)])
+    points = np.concatenate([np.asarray(surface.points, dtype=np.float64), b.P[b.n_surface :]])
+    cell_sets = {f"region_{r}": [np.flatnonzero(region == r)] for r in range(surface.region_count)}
+    mesh = Mesh(points, (CellBlock("tetra", out_index[tetra]),), cell_sets=cell_sets)
+    timings["total"] = time.perf_counter() - t0
+    return AdmissibleSurface(
+        points=points,
+        triangles=out_index[b.sub],
+        source=b.sub_facet.copy(),
+        cases_before=cases_before,
+        cases_after=cases_after,
+        added_on_edges=st.added_on_edges,
+        added_on_faces=st.added_on_faces,
+        rounds=rounds,
+        swaps=swaps,
+        mesh=mesh,
+        timings=timings,
+    )
