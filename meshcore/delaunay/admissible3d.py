@@ -98,6 +98,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from meshcore.delaunay.admissible import NEAR_END_FRACTION, NEAR_END_TRIGGER, NUDGE
+from meshcore.delaunay.kernel3d import delaunay3d
 from meshcore.domain.surface import Surface, parse_surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates3d import dot3d, orient3d
@@ -242,8 +243,8 @@ def classify_faces(points, faces) -> dict[str, int]:
     Parameters
     ----------
     points : (n, 3) float64
-        The point set 𝓢 (every point counts; unused rows are the caller's
-        to drop).
+        Coordinates; the point set 𝓢 is the faces' vertices (rows no face
+        uses are ignored).
     faces : (m, 3) int64
         The face set 𝓕, rows of point indices.
 
@@ -259,11 +260,14 @@ def classify_faces(points, faces) -> dict[str, int]:
 
     Notes
     -----
-    Case 0 takes a float filter over all points with a generous error band
-    and decides the points in the band with exact ``orient3d``; the ball
+    Case 0 is looked for among the faces whose corners are all on the
+    boundary of the convex hull (from our kernel's tetrahedralization of the
+    faces' vertices), against the hull's vertices: a float filter with a
+    generous error band, the points in the band decided by exact
+    ``orient3d``; the ball
     tests take candidates from a KD-tree with a relative slack of 1e-9,
     decide the clear ones in floating point and the others exactly with
-    rationals. Cost: ``O(n m)`` multiply-adds for Case 0 (chunked).
+    integers. Only the faces' vertices count as 𝓢.
 
     References
     ----------
@@ -272,22 +276,31 @@ def classify_faces(points, faces) -> dict[str, int]:
     P = np.asarray(points, dtype=np.float64)
     F = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
     m = len(F)
-    centre = P.mean(axis=0) if len(P) else np.zeros(3)
-    Q = P - centre
+    # Case 0: the face's plane supports the hull, so its corners lie on the hull's
+    # boundary, all of whose points are vertices of the hull facets of our kernel's
+    # tetrahedralization; only the hull's vertices can then be on the other side.
+    used = np.unique(F)
+    hull = used[np.unique(delaunay3d(P[used]).hull_facets)]
+    on_hull = np.zeros(len(P), dtype=bool)
+    on_hull[hull] = True
+    cand = np.flatnonzero(on_hull[F].all(axis=1))
+    centre = P[hull].mean(axis=0)
+    Q = P[hull] - centre
     case0 = np.zeros(m, dtype=bool)
-    chunk = max(1, min(m, 2_000_000 // max(len(P), 1)))
-    for lo in range(0, m, chunk):
-        f = F[lo : lo + chunk]
-        a, b, c = Q[f[:, 0]], Q[f[:, 1]], Q[f[:, 2]]
+    chunk = max(1, min(len(cand), 2_000_000 // len(hull)))
+    for lo in range(0, len(cand), chunk):
+        rows = cand[lo : lo + chunk]
+        f = F[rows]
+        a, b, c = (P[f[:, k]] - centre for k in range(3))
         n = np.cross(b - a, c - a)
-        d = Q @ n.T - np.einsum("ij,ij->i", a, n)[None, :]  # (n, k)
+        d = Q @ n.T - np.einsum("ij,ij->i", a, n)[None, :]  # (hull, k)
         reach = np.abs(Q).max(axis=1)[:, None] + np.abs(a).max(axis=1)[None, :]
         band = 1e-12 * np.linalg.norm(n, axis=1)[None, :] * (reach + 1e-300)
         pos = (d > band).any(axis=0)
         neg = (d < -band).any(axis=0)
         near = np.flatnonzero(~(pos & neg))  # faces near Case 0: decide the band exactly
         xi, ji = np.nonzero(np.abs(d[:, near]) <= band[:, near])
-        ji = near[ji]
+        xi, ji = hull[xi], near[ji]
         other = (xi != f[ji, 0]) & (xi != f[ji, 1]) & (xi != f[ji, 2])
         xi, ji = xi[other], ji[other]
         s_ = -orient3d(P[f[ji, 0]], P[f[ji, 1]], P[f[ji, 2]], P[xi])
@@ -295,12 +308,12 @@ def classify_faces(points, faces) -> dict[str, int]:
         q_ = neg.copy()
         p_[ji[s_ > 0]] = True
         q_[ji[s_ < 0]] = True
-        case0[lo : lo + len(f)] = ~(p_ & q_)
+        case0[rows] = ~(p_ & q_)
     centres, R = _circumcentres(P, F)
-    hits = cKDTree(P).query_ball_point(centres, R * (1 + BALL_SLACK))
+    hits = cKDTree(P[used]).query_ball_point(centres, R * (1 + BALL_SLACK))
     counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=m)
     fi = np.repeat(np.arange(m), counts)
-    xi = np.concatenate([np.asarray(h, dtype=np.int64) for h in hits]) if fi.size else fi
+    xi = used[np.concatenate([np.asarray(h, dtype=np.int64) for h in hits])] if fi.size else fi
     other = (xi != F[fi, 0]) & (xi != F[fi, 1]) & (xi != F[fi, 2])
     fi, xi = fi[other], xi[other]
     d2 = np.einsum("ij,ij->i", P[xi] - centres[fi], P[xi] - centres[fi])
@@ -423,8 +436,8 @@ def _subface_edges(sub: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     e = np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]])
     e.sort(axis=1)
     owner = np.tile(np.arange(len(sub)), 3)
-    edges, first = np.unique(e, axis=0, return_index=True)
-    return edges, owner[first]
+    _, first = np.unique(_edge_keys(e), return_index=True)
+    return e[first], owner[first]
 
 
 def _coplanar_swaps(st: _State, fk: np.ndarray) -> int:
@@ -443,7 +456,8 @@ def _coplanar_swaps(st: _State, fk: np.ndarray) -> int:
             break
         done = False
         origin, e1, e2 = b.frame
-        for r in missing.tolist():  # a loop over the missing subfaces
+        pieces = np.bincount(b.sub_facet, minlength=len(b.facets))
+        for r in missing[pieces[b.sub_facet[missing]] > 1].tolist():  # missing subfaces
             f = int(b.sub_facet[r])
             same = np.flatnonzero(b.sub_facet == f)
             tri = b.sub[r]
