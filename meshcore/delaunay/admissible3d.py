@@ -129,6 +129,10 @@ BALL_SLACK = 1e-9
 #: A face split point inside the subface must have barycentric coordinates
 #: above this (else only the edge candidates are considered).
 INSIDE_MARGIN = 1e-3
+#: An edge of a missing face is a split candidate when the projection of the
+#: encroaching point has a barycentric coordinate below this for the
+#: opposite vertex (it lies near or beyond that edge).
+EDGE_NEAR = 0.25
 
 
 @dataclass(frozen=True, eq=False)
@@ -273,7 +277,23 @@ def classify_faces(points, faces) -> dict[str, int]:
     ----------
     Methods text §9.3.1 (Table 9.2), §9.3.2.
     """
-    P = np.asarray(points, dtype=np.float64)
+    case, _, disc = _classify(np.asarray(points, dtype=np.float64), faces)
+    return _counts(case, disc)
+
+
+def _counts(case: np.ndarray, disc: np.ndarray) -> dict[str, int]:
+    return {
+        "case0": int((case == 0).sum()),
+        "case1": int((case == 1).sum()),
+        "case2": int((case == 2).sum()),
+        "great_circle": int(disc.sum()),
+    }
+
+
+def _classify(P: np.ndarray, faces) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per face: its case (0, 1, 2), whether it is in *strict* Case 0 (every
+    other point strictly on one side: a hull facet in every triangulation),
+    and whether its open great disc holds a point (see :func:`classify_faces`)."""
     F = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
     m = len(F)
     # Case 0: the face's plane supports the hull, so its corners lie on the hull's
@@ -287,6 +307,7 @@ def classify_faces(points, faces) -> dict[str, int]:
     centre = P[hull].mean(axis=0)
     Q = P[hull] - centre
     case0 = np.zeros(m, dtype=bool)
+    strict = np.zeros(m, dtype=bool)
     chunk = max(1, min(len(cand), 2_000_000 // len(hull)))
     for lo in range(0, len(cand), chunk):
         rows = cand[lo : lo + chunk]
@@ -309,6 +330,9 @@ def classify_faces(points, faces) -> dict[str, int]:
         p_[ji[s_ > 0]] = True
         q_[ji[s_ < 0]] = True
         case0[rows] = ~(p_ & q_)
+        zero = np.zeros(len(f), dtype=bool)
+        zero[ji[s_ == 0]] = True
+        strict[rows] = case0[rows] & ~zero
     centres, R = _circumcentres(P, F)
     hits = cKDTree(P[used]).query_ball_point(centres, R * (1 + BALL_SLACK))
     counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=m)
@@ -335,12 +359,8 @@ def classify_faces(points, faces) -> dict[str, int]:
     in_ball[fi] = True
     in_disc = np.zeros(m, dtype=bool)
     in_disc[fi[planar]] = True
-    return {
-        "case0": int(case0.sum()),
-        "case1": int((~case0 & ~in_ball).sum()),
-        "case2": int((~case0 & in_ball).sum()),
-        "great_circle": int(in_disc.sum()),
-    }
+    case = np.where(case0, 0, np.where(in_ball, 2, 1))
+    return case, strict, in_disc
 
 
 # ---------------------------------------------------------------------------
@@ -359,6 +379,8 @@ class _State:
         self.s = np.full(self.b.n, np.nan)  # parameter along the input edge
         self.added_on_edges = 0
         self.added_on_faces = 0
+        #: Edge keys of the strict Case 0 input faces (never split).
+        self.protected = np.zeros(0, dtype=np.int64)
         # The facets' subface edges are kept consistent by retriangulate.
 
     # -- positions ----------------------------------------------------------
@@ -613,17 +635,25 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree) -> int:
         bary = _barycentric(uv, m)
         if bary.min() > INSIDE_MARGIN:
             options.append((float(lam.min()), "face", None))
-        for k in range(3):
-            i, jj, o = tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]
+        # Edges: those M lies near or beyond (the walls between P and f), never
+        # an edge of a whole strict Case 0 input face; all free edges if none.
+        edge_keys = _edge_keys(np.stack([tri, np.roll(tri, -1)], axis=1))
+        free = ~np.isin(edge_keys, st.protected)
+        near = free & (np.roll(bary, -2) < EDGE_NEAR)  # bary of the vertex opposite edge k
+        for k in np.flatnonzero(near if near.any() or options else free).tolist():
+            i, jj = tri[k], tri[(k + 1) % 3]
             t = float(_project_on_segment(X[None], b.P[i][None], b.P[jj][None])[0])
             x = uv[k] + t * (uv[(k + 1) % 3] - uv[k])
             two = np.array([[uv[k], x, uv[(k + 2) % 3]], [x, uv[(k + 1) % 3], uv[(k + 2) % 3]]])
-            options.append((float(_angles_min(two).min()), "edge", (i, jj, o, t)))
+            options.append((float(_angles_min(two).min()), "edge", (i, jj, t)))
+        if not options:  # every edge protected and M outside f: its centroid
+            m = uv.mean(axis=0)
+            options.append((0.0, "face", None))
         _, kind, data = max(options, key=lambda z: z[0])
         if kind == "face":
             pts_face.append((fj, origin[fj] + frame @ m, float(R[j])))
         else:
-            i, jj, _, t = data
+            i, jj, t = data
             key = (min(i, jj), max(i, jj))
             if key in seen_edges:
                 continue
@@ -708,7 +738,12 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     b = st.b
     timings["delaunay"] = time.perf_counter() - t0
     t1 = time.perf_counter()
-    cases_before = classify_faces(b.P, b.facets)
+    case, strict0, disc = _classify(b.P, b.facets)
+    cases_before = _counts(case, disc)
+    F0 = b.facets[strict0]
+    st.protected = np.unique(
+        _edge_keys(np.concatenate([F0[:, [0, 1]], F0[:, [1, 2]], F0[:, [2, 0]]]))
+    )
     timings["classify"] = time.perf_counter() - t1
     t2 = time.perf_counter()
     cap = MAX_ADDED_FACTOR * b.n_surface + MAX_ADDED_BASE
@@ -755,7 +790,8 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     tetra, region = T[keep][:, [0, 1, 3, 2]], region[keep]
     timings["regions"] = time.perf_counter() - t3
     t4 = time.perf_counter()
-    cases_after = classify_faces(b.P, b.sub)
+    case, _, disc = _classify(b.P, b.sub)
+    cases_after = _counts(case, disc)
     timings["classify"] += time.perf_counter() - t4
     # Output numbering: every input point (unused ones too), then the added ones.
     n_in = len(surface.points)

@@ -150,10 +150,13 @@ def default_registry() -> Registry:
         ),
         MethodSpec(
             name="delaunay_admissible",
-            summary="Delaunay-admissible boundary discretization: segments split at projections "
-            "of encroaching points (on declared circles for curved rings) until every one is a "
-            "Delaunay edge; per-case counts and the empty Delaunay triangulation of the domain.",
-            section="§9.1.2-§9.1.5 (classification, splitting, curves), Exercises 9.2-9.4; §9.4.1",
+            summary="Delaunay-admissible boundary discretization: a domain's segments (2D) split "
+            "at projections of encroaching points (on declared circles for curved rings) until "
+            "every one is a Delaunay edge, or a closed surface's triangles (3D) refined with "
+            "points on the surface until every one is a Delaunay face; per-case counts and the "
+            "empty Delaunay triangulation (tetrahedralization) of the inside.",
+            section="§9.1.2-§9.1.5 (classification, splitting, curves), Exercises 9.2-9.4; "
+            "§9.4.1; §9.2-§9.3.5 (surfaces)",
             params=triangulation.DelaunayAdmissibleParams,
             run=triangulation.run_delaunay_admissible,
             example=triangulation.DELAUNAY_ADMISSIBLE_EXAMPLE,

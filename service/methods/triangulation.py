@@ -15,10 +15,12 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from meshcore.delaunay.admissible import circles_of, make_admissible
+from meshcore.delaunay.admissible3d import make_admissible_surface
 from meshcore.errors import InputError
 from meshcore.mesh import quality
 from meshcore.triangulation.refinement import MAX_MIN_ANGLE, estimated_triangles, triangulate
 from service.methods.domain_schema import ConstraintPolylines, DomainIn, Position
+from service.methods.surface_schema import SurfaceIn
 from service.schemas import MethodParams
 
 Progress = object  # the registry's Progress: callable(fraction, message)
@@ -195,28 +197,54 @@ TRIANGULATE_EXAMPLE = {
 
 
 class DelaunayAdmissibleParams(MethodParams):
-    """A Delaunay-admissible boundary discretization and the empty triangulation."""
+    """A Delaunay-admissible boundary: a planar domain's segments (§9.1) or a closed
+    surface's triangles (§9.2-§9.3), and the empty triangulation / tetrahedralization."""
 
-    domain: DomainIn
+    domain: DomainIn | None = Field(
+        None, description="A planar domain (GeoJSON Polygon or MultiPolygon); or give surface."
+    )
+    surface: SurfaceIn | None = Field(
+        None,
+        description="A closed triangulated surface (3D, §9.2-§9.3): refined with points on it "
+        "until every triangle is a Delaunay face; or give domain.",
+    )
     segments: ConstraintPolylines | None = None
     curves: list[CircleCurve] | None = Field(
         None,
         description="Rings that sample circles (rings numbered in the order of the "
-        "geometry): points added on them go on the circle, not on the chord (§9.1.5).",
+        "geometry): points added on them go on the circle, not on the chord (§9.1.5). "
+        "With domain only.",
     )
 
+    @model_validator(mode="after")
+    def _one_input(self) -> DelaunayAdmissibleParams:
+        if (self.domain is None) == (self.surface is None):
+            raise ValueError("give exactly one of domain (2D) and surface (3D)")
+        if self.surface is not None and (self.segments or self.curves):
+            raise ValueError("segments and curves apply to a domain, not to a surface")
+        return self
+
     def point_count(self) -> int:
-        """The domain's positions plus the constraint polylines' positions."""
+        """The domain's positions plus the constraint polylines' positions, or the
+        surface's points."""
+        if self.surface is not None:
+            return self.surface.point_count()
         return self.domain.point_count() + sum(len(line) for line in self.segments or [])
 
     def check(self) -> None:
         super().check()
+        if self.surface is not None:
+            self.surface.to_surface()
+            return
         dom = self.domain.to_domain(self.segments)
         circles_of(dom, [c.model_dump() for c in self.curves or []])
 
 
 def run_delaunay_admissible(params: DelaunayAdmissibleParams, progress) -> dict:
-    """The new boundary discretization, the empty Delaunay triangulation and the counts."""
+    """The new boundary discretization, the empty Delaunay triangulation (2D) or
+    tetrahedralization (3D) and the counts."""
+    if params.surface is not None:
+        return _run_surface_admissible(params.surface.to_surface(), progress)
     dom = params.domain.to_domain(params.segments)
     res = make_admissible(
         dom, curves=[c.model_dump() for c in params.curves or []], progress=progress
@@ -241,6 +269,34 @@ def run_delaunay_admissible(params: DelaunayAdmissibleParams, progress) -> dict:
             "rounds": res.rounds,
             "protected_vertices": len(res.protected),
             "triangles": len(res.triangulation.cells[0].data),
+        },
+    }
+
+
+def _run_surface_admissible(surface, progress) -> dict:
+    """The 3D form (§9.2-§9.3.5): refined surface, empty tetrahedralization, counts."""
+    res = make_admissible_surface(surface, progress=progress)
+    tetra = res.mesh.cells[0].data
+    return {
+        "surface": {
+            "points": res.points,
+            "triangles": res.triangles,
+            "source": res.source,
+        },
+        "mesh": res.mesh,
+        "stats": {
+            "input_points": int(len(surface.vertices)),
+            "input_triangles": int(len(surface.triangles)),
+            "triangles": len(res.triangles),
+            "points_added": res.added_on_edges + res.added_on_faces,
+            "points_added_on_edges": res.added_on_edges,
+            "points_added_on_faces": res.added_on_faces,
+            "cases_before": res.cases_before,
+            "cases_after": res.cases_after,
+            "rounds": res.rounds,
+            "coplanar_swaps": res.swaps,
+            "tetrahedra": len(tetra),
+            "seconds": {k: round(v, 6) for k, v in res.timings.items()},
         },
     }
 

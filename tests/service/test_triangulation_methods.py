@@ -12,6 +12,7 @@ import math
 import numpy as np
 import pytest
 
+from service.methods.surface_schema import UNIT_CUBE
 from service.methods.triangulation import DELAUNAY_ADMISSIBLE_EXAMPLE
 from tests.service.test_jobs import assert_problem, submit
 
@@ -141,3 +142,49 @@ class TestDelaunayAdmissible:
         assert "§9.1" in spec["section"]
         assert spec["example"] == DELAUNAY_ADMISSIBLE_EXAMPLE
         assert {"domain", "segments", "curves"} <= set(spec["params_schema"]["properties"])
+
+
+# ---------------------------------------------------------------------------
+# The surface form (§9.2-§9.3.5)
+# ---------------------------------------------------------------------------
+
+
+class TestDelaunayAdmissibleSurface:
+    def test_schonhardt_prism_comes_back_admissible(self, client):
+        from meshcore.delaunay.kernel3d import delaunay3d
+        from tests.meshcore.domain.shapes import schonhardt
+
+        P, T = schonhardt()
+        res = finished(client, {"surface": {"points": P.tolist(), "triangles": T.tolist()}})
+        surf, stats = res["surface"], res["stats"]
+        points = np.asarray(surf["points"])
+        tri = np.asarray(surf["triangles"])
+        assert stats["input_triangles"] == 8 and stats["points_added"] == len(points) - 6 > 0
+        assert len(tri) == stats["triangles"] == len(surf["source"])
+        assert sorted(set(surf["source"])) == list(range(8))
+        faces = delaunay3d(points).tetra[:, [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]]]
+        have = {tuple(sorted(f)) for f in faces.reshape(-1, 3).tolist()}
+        assert all(tuple(sorted(t)) in have for t in tri.tolist())
+        (block,) = res["mesh"]["cells"]
+        assert block["type"] == "tetra" and len(block["data"]) == stats["tetrahedra"]
+
+    @pytest.mark.parametrize(
+        ("params", "loc"),
+        [
+            ({"surface": {**UNIT_CUBE, "triangles": UNIT_CUBE["triangles"][1:]}}, ["surface"]),
+            ({"surface": {**UNIT_CUBE, "points": UNIT_CUBE["points"][:2]}}, ["surface"]),
+            ({"surface": UNIT_CUBE, **polygon(SQUARE)}, []),
+            ({}, []),
+            ({"surface": UNIT_CUBE, "curves": []}, []),
+        ],
+        ids=["open-surface", "two-points", "both-inputs", "no-input", "curves-with-surface"],
+    )
+    def test_bad_surfaces_are_422(self, client, params, loc):
+        r = submit(client, "delaunay_admissible", params)
+        assert_problem(r, 422, ["body", "params", *loc])
+
+    def test_nan_in_a_surface_is_422(self, client):
+        body = json.dumps({"method": "delaunay_admissible", "params": {"surface": UNIT_CUBE}})
+        body = body.replace("[1, 1, 1]", "[1, NaN, 1]")
+        r = client.post("/v1/jobs", content=body, headers={"content-type": "application/json"})
+        assert_problem(r, 422, ["body", "params", "surface", "points", 7, 1])
