@@ -563,7 +563,23 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, tree: cKDTree) -
     best[ei[order][first]] = pi[order][first]
     X = np.where(best[:, None] >= 0, b.P[np.maximum(best, 0)], mid)
     t = np.where(best >= 0, _project_on_segment(X, A, B), 0.5)
-    return _insert_on_edges(st, E, b.sub_facet[holder], t)
+    keep = _independent(A + t[:, None] * (B - A), mid, half, -half)
+    return _insert_on_edges(st, E[keep], b.sub_facet[holder[keep]], t[keep])
+
+
+def _independent(X: np.ndarray, centres: np.ndarray, radii: np.ndarray, key) -> np.ndarray:
+    """Rows of the split points to insert this round, greedily in increasing ``key``:
+    a split is postponed when a split point already taken lies in its piece's
+    closed ball (that point may make the piece present; the next round sees).
+    Fewer points than splitting every missing piece at once, for one more round."""
+    order = np.argsort(key, kind="stable")
+    tree = cKDTree(X)
+    taken = np.zeros(len(X), dtype=bool)
+    hits = tree.query_ball_point(centres[order], radii[order] * (1 + BALL_SLACK))
+    for i, h in zip(order.tolist(), hits, strict=True):  # a loop over this round's splits
+        if not taken[h].any():
+            taken[i] = True
+    return np.flatnonzero(taken)
 
 
 def _insert_on_edges(st: _State, E, facet, t) -> int:

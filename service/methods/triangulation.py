@@ -220,7 +220,7 @@ class DelaunayAdmissibleParams(MethodParams):
     def _one_input(self) -> DelaunayAdmissibleParams:
         if (self.domain is None) == (self.surface is None):
             raise ValueError("give exactly one of domain (2D) and surface (3D)")
-        if self.surface is not None and (self.segments or self.curves):
+        if self.surface is not None and (self.segments is not None or self.curves is not None):
             raise ValueError("segments and curves apply to a domain, not to a surface")
         return self
 
