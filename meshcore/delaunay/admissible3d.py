@@ -558,12 +558,14 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, tree: cKDTree) -
     v = B[ei] - b.P[pi]
     ang = np.arctan2(np.linalg.norm(np.cross(u, v), axis=1), np.einsum("ij,ij->i", u, v))
     best = np.full(len(E), -1, dtype=np.int64)
+    widest = np.zeros(len(E))
     order = np.lexsort((pi, -ang, ei))  # per edge: largest angle, then smallest index
     first = np.unique(ei[order], return_index=True)[1]
     best[ei[order][first]] = pi[order][first]
+    widest[ei[order][first]] = ang[order][first]
     X = np.where(best[:, None] >= 0, b.P[np.maximum(best, 0)], mid)
     t = np.where(best >= 0, _project_on_segment(X, A, B), 0.5)
-    keep = _independent(A + t[:, None] * (B - A), mid, half, -half)
+    keep = _independent(A + t[:, None] * (B - A), mid, half, -widest)
     return _insert_on_edges(st, E[keep], b.sub_facet[holder[keep]], t[keep])
 
 
