@@ -129,6 +129,9 @@ BALL_SLACK = 1e-9
 #: A face split point inside the subface must have barycentric coordinates
 #: above this (else only the edge candidates are considered).
 INSIDE_MARGIN = 1e-3
+#: An edge split moved into the common interval of its encroachers stays this
+#: fraction of the interval's length away from its ends.
+COMMON_MARGIN = 0.05
 #: An edge of a missing face is a split candidate when the projection of the
 #: encroaching point has a barycentric coordinate below this for the
 #: opposite vertex (it lies near or beyond that edge).
@@ -565,6 +568,24 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, tree: cKDTree) -
     widest[ei[order][first]] = ang[order][first]
     X = np.where(best[:, None] >= 0, b.P[np.maximum(best, 0)], mid)
     t = np.where(best >= 0, _project_on_segment(X, A, B), 0.5)
+    # Every encroacher Q leaves both halves' balls for t in [t1, t2] (Thales:
+    # (A - Q).(M - Q) >= 0 and (M - Q).(B - Q) >= 0); where the intervals of all
+    # of an edge's encroachers meet, the split is moved into their common part
+    # (float: a choice, the next round checks), so one split clears them all.
+    d = B[ei] - A[ei]
+    a = A[ei] - b.P[pi]
+    bq = B[ei] - b.P[pi]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1 = -np.einsum("ij,ij->i", a, bq) / np.einsum("ij,ij->i", d, bq)
+        t2 = np.einsum("ij,ij->i", a, a) / -np.einsum("ij,ij->i", a, d)
+    lo = np.zeros(len(E))
+    hi = np.ones(len(E))
+    np.maximum.at(lo, ei, np.nan_to_num(t1, nan=1.0))
+    np.minimum.at(hi, ei, np.nan_to_num(t2, nan=0.0))
+    room = hi - lo
+    common = (best >= 0) & (room > 0)
+    margin = COMMON_MARGIN * room
+    t = np.where(common, np.clip(t, lo + margin, hi - margin), t)
     keep = _independent(A + t[:, None] * (B - A), mid, half, -widest)
     return _insert_on_edges(st, E[keep], b.sub_facet[holder[keep]], t[keep])
 
