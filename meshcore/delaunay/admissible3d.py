@@ -586,16 +586,19 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, tree: cKDTree) -
     common = (best >= 0) & (room > 0)
     margin = COMMON_MARGIN * room
     t = np.where(common, np.clip(t, lo + margin, hi - margin), t)
-    keep = _independent(A + t[:, None] * (B - A), mid, half, -widest)
+    # Longest first (lengths equal to 1e-6 relative tie), then widest angle.
+    length = np.round(np.log2(half) * 2.0**20)
+    keep = _independent(A + t[:, None] * (B - A), mid, half, (-widest, -length))
     return _insert_on_edges(st, E[keep], b.sub_facet[holder[keep]], t[keep])
 
 
 def _independent(X: np.ndarray, centres: np.ndarray, radii: np.ndarray, key) -> np.ndarray:
-    """Rows of the split points to insert this round, greedily in increasing ``key``:
+    """Rows of the split points to insert this round, greedily in increasing ``key``
+    (a tuple of keys, the last one primary, as :func:`numpy.lexsort`):
     a split is postponed when a split point already taken lies in its piece's
     closed ball (that point may make the piece present; the next round sees).
     Fewer points than splitting every missing piece at once, for one more round."""
-    order = np.argsort(key, kind="stable")
+    order = np.lexsort(key)
     tree = cKDTree(X)
     taken = np.zeros(len(X), dtype=bool)
     hits = tree.query_ball_point(centres[order], radii[order] * (1 + BALL_SLACK))
