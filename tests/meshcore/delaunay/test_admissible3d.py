@@ -208,3 +208,12 @@ def star_polyhedra(draw):
 @given(star_polyhedra())
 def test_star_shaped_polyhedra(surf):
     run(*surf, case1=False)
+
+
+def test_box_with_a_cavity():
+    # Two shells: the empty tetrahedralization fills the body minus the cavity
+    # (the volume check), and the cavity's faces are Delaunay faces too.
+    P1, T1 = shapes.box((0, 0, 0), (3, 3, 3), 2)
+    P2, T2 = shapes.box((1, 1, 1), (2, 2, 2))
+    res = run(np.concatenate([P1, P2]), np.concatenate([T1, T2 + len(P1)]))
+    assert set(res.mesh.cell_sets) == {"region_0"}
