@@ -6,15 +6,13 @@ not asserted here.
 
 from __future__ import annotations
 
-import importlib
-
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 
 from meshcore import InputError, parse_domain
 from meshcore.mesh.quality import quad_quality
-from meshcore.quads import paving
+from meshcore.quads import advancing_front, paving
 from tests.meshcore.partition.test_recursive import (
     L_SHAPE,
     SQUARE,
@@ -91,16 +89,14 @@ def test_random_polygons_with_holes_only_quads(case):
 def test_guaranteed_route_when_the_closure_is_stuck(monkeypatch):
     # force the even closure to fail: the rows are taken back, then the whole mesh is
     # made at 2.5 h with a triangle closure and split into quads
-    module = importlib.import_module("meshcore.quads.paving")  # the name is the function
-
-    real = module.partition_polygon
+    real = advancing_front.partition_polygon
 
     def stuck(points, loops, ring_polygon, sizes, *, quad, strategy="balanced"):
         if quad:
             return points, None, None
         return real(points, loops, ring_polygon, sizes, quad=quad, strategy=strategy)
 
-    monkeypatch.setattr(module, "partition_polygon", stuck)
+    monkeypatch.setattr(advancing_front, "partition_polygon", stuck)
     res = paving(SQUARE_HOLE, size=0.05)
     assert res.stats["fallback"] == 1
     check_mesh(SQUARE_HOLE, res, 0.05, "quad")
