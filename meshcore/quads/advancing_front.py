@@ -41,13 +41,27 @@ Algorithm
    (one quad; two quads or three around a centre), larger ones are cut
    by separators into even parts first.
 6. **Smoothing** (``smooth``):
-   :func:`~meshcore.partition.smoothing.smooth_quads`, a length-weighted
-   Laplacian of the interior nodes (Jacobi sweeps, a move undone where the
-   least quality (8.4) around the moved node would drop, a quad that is not
-   strictly convex by the exact test counting as -1), then a point-by-point
-   repair of the corners of the quads below 0.3. It never inverts a cell
-   nor lowers the least quality. The boundary-node angle correction of the
-   paving literature is not applied.
+   :func:`~meshcore.partition.smoothing.smooth_quads`, one compiled
+   Gauss-Seidel loop: the length-weighted Laplacian of Blacker and
+   Stephenson on the interior points, with their boundary angle correction
+   (a point joined to a boundary point is also pulled to where its edge
+   splits the boundary angle evenly), each move tried at 1, 1/2, 1/4 of
+   its step and kept only when every quad around the point stays strictly
+   convex (exact test) and its least quality (8.4) does not drop below
+   ``min(old, max(0.5, least of the mesh))``. It never inverts a cell nor
+   lowers the least quality.
+7. **Clean-up** (``smooth``): the quads below quality 0.85 or at an
+   interior point of valence other than 4 (the closure's region, mostly),
+   with two rings of quads around them, go through
+   :func:`~meshcore.quads.optimize_quads` (§8.4.3: valence-2 and valence-3
+   removal, doublet collapse, hexagon rebuilds, edge swaps, smoothing; every
+   cell strictly convex, the least quality never lowered). The border of
+   that region is kept, so it fits back in place. The paving literature
+   follows paving by such a clean-up (Canann, Muthukrishnan, Phillips,
+   "Topological improvement procedures for quadrilateral finite element
+   meshes", 1998); measured on the square with a hole at 10k quads it
+   lifts the least quality from 0.37 (smoothing alone) to 0.55 and the
+   interior valence-4 share from 95.7 % to 96.7 %.
 
 Why it always ends with only quads
 ----------------------------------
@@ -68,8 +82,8 @@ edges ``H / 2`` and spokes ``0.29 H``). ``stats["fallback"]`` counts it (0 or 1)
 
 Not done: front merging and splitting when two fronts meet (a row that
 would meet another front freezes its front instead, and the closure covers
-the rest), reversal nodes' five-node pattern, the boundary angle correction
-of the smoothing, interior constraint segments (refused).
+the rest), reversal nodes' five-node pattern, interior constraint segments
+(refused).
 
 References
 ----------
@@ -90,6 +104,8 @@ from scipy.spatial import cKDTree
 from meshcore.domain.planar import as_domain
 from meshcore.errors import InputError
 from meshcore.mesh import CellBlock, Mesh, quality
+from meshcore.mesh.quality import quad_quality
+from meshcore.mesh.topology import unique_edges
 from meshcore.partition import (
     SizeMap,
     boundary_edges,
@@ -102,6 +118,7 @@ from meshcore.partition import (
 from meshcore.partition.recursive import FALLBACK_SCALE
 from meshcore.partition.smoothing import SWEEPS
 from meshcore.quads import paving_kernel as pk
+from meshcore.quads.optimization import optimize_quads
 
 __all__ = ["PavingResult", "paving"]
 
@@ -109,6 +126,8 @@ _END, _SIDE, _CORNER, _REVERSAL = 0, 1, 2, 3
 _SMALL_FRONT = 8  # fronts with this many nodes or fewer go to the closure
 _SEAM = 0.4  # new nodes closer than this times h are seamed
 _CLEARANCE = 0.75  # a row's new nodes stay this far (times h) from the other fronts
+_CLEAN_Q = 0.85  # quads below this quality (8.4) seed the clean-up region
+_CLEAN_RINGS = 2  # rings of quads around the seeds in the clean-up region
 
 
 @dataclass(frozen=True)
@@ -341,14 +360,55 @@ def _seam(P: np.ndarray, front: np.ndarray, quads: np.ndarray, h: np.ndarray, n_
 
 
 def _valence(cells: np.ndarray, n: int, boundary: np.ndarray) -> dict:
-    e = np.sort(np.stack([cells, np.roll(cells, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
-    e = np.unique(e, axis=0)
-    deg = np.bincount(e.ravel(), minlength=n)
-    inner = np.ones(n, bool)
-    inner[boundary] = False
-    inner &= deg > 0
-    vals, cnt = np.unique(deg[inner], return_counts=True)
+    vals, cnt = np.unique(_degrees(cells, n)[_interior(cells, n, boundary)], return_counts=True)
     return {str(int(v)): int(c) for v, c in zip(vals, cnt, strict=True)}
+
+
+def _degrees(cells: np.ndarray, n: int) -> np.ndarray:
+    """(n,) the number of mesh edges at each point."""
+    e, _ = unique_edges(cells, "quad")
+    return np.bincount(e.ravel(), minlength=n)
+
+
+def _interior(cells: np.ndarray, n: int, boundary: np.ndarray) -> np.ndarray:
+    inner = np.zeros(n, bool)
+    inner[cells.ravel()] = True
+    inner[boundary] = False
+    return inner
+
+
+def _clean_up(P: np.ndarray, cells: np.ndarray, boundary: np.ndarray):
+    """The topological clean-up of the paving literature, where it is needed.
+
+    The quads below ``_CLEAN_Q`` or at an interior point of valence other
+    than 4, and ``_CLEAN_RINGS`` rings of quads around them, are handed to
+    :func:`~meshcore.quads.optimization.optimize_quads` (§8.4.3: valence-2 and
+    valence-3 removal, doublet collapse, hexagon rebuilds, edge swaps,
+    smoothing, every cell kept strictly convex, the least quality never
+    lowered). The points on the region's border never move nor go, so the
+    region fits back in place. Returns (points, cells, operators applied,
+    quads in the region).
+    """
+    n = len(P)
+    deg = _degrees(cells, n)
+    odd = _interior(cells, n, boundary) & (deg != 4)
+    mark = (quad_quality(P, cells) < _CLEAN_Q) | odd[cells].any(axis=1)
+    if not mark.any():
+        return P, cells, {}, 0
+    for _ in range(_CLEAN_RINGS):
+        near = np.zeros(n, bool)
+        near[cells[mark]] = True
+        mark = near[cells].any(axis=1)
+    used, local = np.unique(cells[mark], return_inverse=True)
+    sub = Mesh(P[used], (CellBlock("quad", local.reshape(-1, 4)),))
+    res = optimize_quads(sub)
+    kept = res.point_map >= 0
+    P = P.copy()
+    P[used[kept]] = res.mesh.points[res.point_map[kept]]
+    back = used[np.flatnonzero(kept)]  # new sub index -> global index
+    new = back[res.mesh.cells_by_type["quad"]]
+    ops = {k: int(v) for k, v in res.operators.items() if v}
+    return P, np.concatenate([cells[~mark], new]), ops, int(mark.sum())
 
 
 def _split_all(points: np.ndarray, cells: list[np.ndarray]):
@@ -525,10 +585,17 @@ def paving(
     P, cells = _compact(P, cells)
     fixed = boundary_points(P, cells)
     undone = 0
+    clean: dict = {"region": 0, "operators": {}}
     if smooth:
-        report(0.8, "smoothing")
+        report(0.7, "smoothing")
         P, undone = smooth_quads(P, cells, fixed)
-    lap("smoothing")
+        lap("smoothing")
+        report(0.8, "clean-up")
+        P, cells, ops, region = _clean_up(P, cells, np.flatnonzero(fixed))
+        P, cells = _compact(P, cells)
+        fixed = boundary_points(P, cells)
+        clean = {"region": region, "operators": ops}
+        lap("clean-up")
     mesh = Mesh(P, (CellBlock("quad", cells),))
     # the edges of one cell are the resampled rings (tested: input segments as chains)
     q = quality.report(mesh, boundary_edges(cells))
@@ -541,6 +608,7 @@ def paving(
         "parity_repairs": bnd.repairs,
         "valence": _valence(cells, len(P), np.flatnonzero(fixed)),
         "smoothing": {"sweeps": SWEEPS if smooth else 0, "undone": int(undone)},
+        "clean_up": clean,
         "seconds": timings,
     }
     report(1.0, "done")
