@@ -120,7 +120,7 @@ from meshcore.partition.smoothing import SWEEPS
 from meshcore.quads import paving_kernel as pk
 from meshcore.quads.optimization import optimize_quads
 
-__all__ = ["PavingResult", "paving"]
+__all__ = ["PavingResult", "clean_up", "paving"]
 
 _END, _SIDE, _CORNER, _REVERSAL = 0, 1, 2, 3
 _SMALL_FRONT = 8  # fronts with this many nodes or fewer go to the closure
@@ -377,8 +377,30 @@ def _interior(cells: np.ndarray, n: int, boundary: np.ndarray) -> np.ndarray:
     return inner
 
 
-def _clean_up(P: np.ndarray, cells: np.ndarray, boundary: np.ndarray):
-    """The topological clean-up of the paving literature, where it is needed.
+def clean_up(P: np.ndarray, cells: np.ndarray, boundary: np.ndarray):
+    """The topological clean-up of the paving literature, where it is needed (§8.4.3).
+
+    Parameters
+    ----------
+    P : (n, 2) float64
+    cells : (m, 4) int64
+        Quads, counter-clockwise, strictly convex, conforming.
+    boundary : (b,) int64
+        The points on the mesh's boundary (never moved nor removed).
+
+    Returns
+    -------
+    points : (n', 2) float64
+        The points of the quads (removed ones dropped, the rest in order).
+    cells : (m', 4) int64
+        Still only quads, strictly convex, conforming, the same boundary.
+    operators : dict
+        Applications per operator of :func:`~meshcore.quads.optimize_quads`.
+    region : int
+        Quads in the region handed to it.
+
+    Notes
+    -----
 
     The quads below ``_CLEAN_Q`` or at an interior point of valence other
     than 4, and ``_CLEAN_RINGS`` rings of quads around them, are handed to
@@ -386,15 +408,14 @@ def _clean_up(P: np.ndarray, cells: np.ndarray, boundary: np.ndarray):
     valence-3 removal, doublet collapse, hexagon rebuilds, edge swaps,
     smoothing, every cell kept strictly convex, the least quality never
     lowered). The points on the region's border never move nor go, so the
-    region fits back in place. Returns (points, cells, operators applied,
-    quads in the region).
+    region fits back in place.
     """
     n = len(P)
     deg = _degrees(cells, n)
     odd = _interior(cells, n, boundary) & (deg != 4)
     mark = (quad_quality(P, cells) < _CLEAN_Q) | odd[cells].any(axis=1)
     if not mark.any():
-        return P, cells, {}, 0
+        return (*_compact(P, cells), {}, 0)
     for _ in range(_CLEAN_RINGS):
         near = np.zeros(n, bool)
         near[cells[mark]] = True
@@ -408,7 +429,7 @@ def _clean_up(P: np.ndarray, cells: np.ndarray, boundary: np.ndarray):
     back = used[np.flatnonzero(kept)]  # new sub index -> global index
     new = back[res.mesh.cells_by_type["quad"]]
     ops = {k: int(v) for k, v in res.operators.items() if v}
-    return P, np.concatenate([cells[~mark], new]), ops, int(mark.sum())
+    return (*_compact(P, np.concatenate([cells[~mark], new])), ops, int(mark.sum()))
 
 
 def _split_all(points: np.ndarray, cells: list[np.ndarray]):
@@ -591,8 +612,7 @@ def paving(
         P, undone = smooth_quads(P, cells, fixed)
         lap("smoothing")
         report(0.8, "clean-up")
-        P, cells, ops, region = _clean_up(P, cells, np.flatnonzero(fixed))
-        P, cells = _compact(P, cells)
+        P, cells, ops, region = clean_up(P, cells, np.flatnonzero(fixed))
         fixed = boundary_points(P, cells)
         clean = {"region": region, "operators": ops}
         lap("clean-up")
