@@ -69,8 +69,8 @@ Rows add only quads, each checked strictly convex before it is committed,
 and keep every front even. The closure works on even polygons; when the
 recursive partition finds a polygon without a valid even split (it can:
 flat vertices, see :mod:`meshcore.partition.recursive`) the *guaranteed
-route* is taken instead (first the rows are taken back one round at a time,
-the closure retried each time): the whole paving is run again at 2.5 times
+route* is taken instead (first the rows are taken back, one round, then
+two, four... more, the closure retried each time): the whole paving is run again at 2.5 times
 the size with the region closed by triangles (the recursive partition's triangle
 mode always succeeds on a polygon with holes), then every quad is cut into
 four and every triangle into three through the edge midpoints and the
@@ -492,8 +492,10 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
     stats["node_classes"] = dict(
         zip(("end", "side", "corner", "reversal"), classes.tolist(), strict=True)
     )
-    # closure; when the quad closure is stuck, rows are taken back one round at a time
+    # closure; when the quad closure is stuck, rows are taken back: one round, then
+    # two more, four more... (a stuck closure is costly; a few tries at most)
     stats["rows_taken_back"] = 0
+    back = 1
     while True:
         P2, cells, cstats = partition_polygon(
             P, fronts, np.asarray(ring_polygon), sizes, quad=quad_closure, strategy=strategy
@@ -502,9 +504,12 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
             break
         if not history:
             return None
-        fronts, nq = history.pop()
+        take = min(back, len(history))
+        fronts, nq = history[-take]
+        del history[-take:]
         quads = quads[:nq]
-        stats["rows_taken_back"] += 1
+        stats["rows_taken_back"] += take
+        back *= 2
     stats["closure"] = cstats
     row_q = np.concatenate(quads) if quads else np.zeros((0, 4), np.int64)
     return P2, row_q, cells, stats
