@@ -201,70 +201,56 @@ def _row(P: np.ndarray, f: np.ndarray, sizes: SizeMap):
     b_pt = X + h[:, None] * left(e_out)
     d_pt = a_pt + b_pt - X
     base = len(P)
-    new_pts: list[np.ndarray] = []
-    # L[i], R[i]: new node ids at the left (edge from prev) and right (edge to next) of node i
-    L = np.full(n, -1, np.int64)
-    R = np.full(n, -1, np.int64)
-    quads = []
-    front: list[int] = []
-
-    def add(p) -> int:
-        new_pts.append(np.asarray(p, np.float64))
-        return base + len(new_pts) - 1
-
     ends = cls == _END
-    for i in range(n):
-        if ends[i]:
-            continue
-        if ends[prv[i]] or ends[nxt[i]]:
-            continue  # shared with a row end, made below
-        if cls[i] == _SIDE:
-            L[i] = R[i] = add(side_pt[i])
-        else:
-            L[i] = add(a_pt[i])
-            m = add(d_pt[i])
-            R[i] = add(b_pt[i])
-            quads.append([f[i], R[i], m, L[i]])
-    for i in np.flatnonzero(ends):
-        j, k = prv[i], nxt[i]
-        x = add(X[j] + X[k] - X[i])
-        R[j] = L[j] = x
-        L[k] = R[k] = x
-        quads.append([f[j], f[i], f[k], x])
-    # quads on the edges (i, i+1) whose ends are not row ends
-    for i in range(n):
-        k = nxt[i]
-        if ends[i] or ends[k]:
-            continue
-        quads.append([f[i], f[k], L[k], R[i]])
-    # the new front, in order
-    for i in range(n):
-        if ends[i]:
-            continue
-        if cls[i] in (_CORNER, _REVERSAL) and not (ends[prv[i]] or ends[nxt[i]]):
-            front.extend([L[i], L[i] + 1, R[i]])
-        elif not front or front[-1] != L[i]:
-            front.append(L[i])
-    if len(front) > 1 and front[0] == front[-1]:
-        front.pop()
-    pts = np.array(new_pts).reshape(-1, 2)
-    return pts, np.array(front, np.int64), np.array(quads, np.int64).reshape(-1, 4), cls
+    near_end = ends[prv] | ends[nxt]
+    # new nodes: one per side, three per corner (not next to a row end), then one per end
+    corner = ((cls == _CORNER) | (cls == _REVERSAL)) & ~ends & ~near_end
+    side = (cls == _SIDE) & ~near_end
+    count = np.where(corner, 3, np.where(side, 1, 0))
+    first = base + np.cumsum(count) - count
+    n_own = int(count.sum())
+    end_at = np.flatnonzero(ends)
+    x_end = base + n_own + np.arange(len(end_at))
+    # L[i], R[i]: new node ids at the left (edge from prev) and right (edge to next) of node i
+    L = np.where(count > 0, first, -1)
+    R = np.where(corner, first + 2, L)
+    L[prv[end_at]] = R[prv[end_at]] = x_end
+    L[nxt[end_at]] = R[nxt[end_at]] = x_end
+    pts = np.empty((n_own + len(end_at), 2))
+    pts[first[side] - base] = side_pt[side]
+    ci = np.flatnonzero(corner)
+    pts[first[ci] - base] = a_pt[ci]
+    pts[first[ci] + 1 - base] = d_pt[ci]
+    pts[first[ci] + 2 - base] = b_pt[ci]
+    pts[n_own:] = X[prv[end_at]] + X[nxt[end_at]] - X[end_at]
+    ei = np.flatnonzero(~ends & ~ends[nxt])
+    quads = np.concatenate(
+        [
+            np.column_stack([f[ci], R[ci], first[ci] + 1, L[ci]]),
+            np.column_stack([f[prv[end_at]], f[end_at], f[nxt[end_at]], x_end]),
+            np.column_stack([f[ei], f[nxt[ei]], L[nxt[ei]], R[ei]]),
+        ]
+    )
+    # the new front, in order: L of each node (three for a corner), repeats dropped
+    keep = ~ends
+    seq = np.column_stack([L, np.where(corner, first + 1, -1), np.where(corner, R, -1)])[keep]
+    seq = seq[seq >= 0]
+    if len(seq) > 1:
+        seq = seq[np.append(True, seq[1:] != seq[:-1])]
+        if seq[0] == seq[-1]:
+            seq = seq[:-1]
+    return pts, seq.astype(np.int64), quads.astype(np.int64), cls
 
 
-def _segments_ok(P, seg_a, seg_b, new_rows) -> bool:
-    """No two segments touch except at shared nodes (pairs near a new segment only)."""
+def _segments_ok(P, seg_a, seg_b, n_new: int) -> bool:
+    """No two segments touch except at shared nodes (pairs near one of the first
+    n_new segments only)."""
     mid = (P[seg_a] + P[seg_b]) / 2
     ln = np.hypot(*(P[seg_b] - P[seg_a]).T)
-    tree = cKDTree(mid)
     r = float(ln.max())
-    near = tree.query_ball_point(mid[new_rows], r)
-    cnt = np.array([len(x) for x in near])
-    if cnt.sum() == 0:
-        return True
-    s = np.repeat(new_rows, cnt)
-    t = np.concatenate([np.asarray(x, np.int64) for x in near])
-    keep = s != t
-    pairs = np.column_stack([s[keep], t[keep]])
+    near = cKDTree(mid[:n_new]).sparse_distance_matrix(cKDTree(mid), r, output_type="ndarray")
+    pairs = np.column_stack([near["i"], near["j"]]).astype(np.int64)
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
     return pk.pairs_touch(P, seg_a, seg_b, pairs) < 0
 
 
@@ -293,12 +279,12 @@ def _try_row(P, fronts, which, sizes):
     seg_a = np.concatenate([new_a[newset], f, *fa])
     seg_b = np.concatenate([new_b[newset], np.roll(f, -1), *fb])
     # dedupe undirected segments
-    key = np.sort(np.column_stack([seg_a, seg_b]), axis=1)
-    _, first = np.unique(key, axis=0, return_index=True)
+    key = np.minimum(seg_a, seg_b) * len(Q) + np.maximum(seg_a, seg_b)
+    _, first = np.unique(key, return_index=True)
     first = np.sort(first)
     seg_a, seg_b = seg_a[first], seg_b[first]
     n_new = int(np.count_nonzero(first < int(newset.sum())))
-    if not _segments_ok(Q, seg_a, seg_b, np.arange(n_new)):
+    if not _segments_ok(Q, seg_a, seg_b, n_new):
         return None
     # keep clear of the other fronts: the region left must stay closable
     if fa:
@@ -311,14 +297,13 @@ def _try_row(P, fronts, which, sizes):
         other_nodes = np.unique(np.concatenate(fa))
         cen = Q[quads].mean(axis=1)
         rad = np.sqrt(((Q[quads] - cen[:, None, :]) ** 2).sum(axis=2)).max(axis=1)
-        near = cKDTree(Q[other_nodes]).query_ball_point(cen, rad * 1.0001)
-        cnt = np.array([len(x) for x in near])
-        if cnt.sum():
-            cand = np.column_stack(
-                [np.repeat(np.arange(len(quads)), cnt), np.concatenate(near).astype(np.int64)]
-            )
-            if pk.points_in_quads(Q, quads, other_nodes, cand):
-                return None
+        near = cKDTree(cen).sparse_distance_matrix(
+            cKDTree(Q[other_nodes]), float(rad.max()) * 1.0001, output_type="ndarray"
+        )
+        cand = np.column_stack([near["i"], near["j"]]).astype(np.int64)
+        cand = cand[near["v"] <= rad[cand[:, 0]] * 1.0001]
+        if len(cand) and pk.points_in_quads(Q, quads, other_nodes, cand):
+            return None
     return Q, nf, quads, cls, seams
 
 
