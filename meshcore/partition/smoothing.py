@@ -39,7 +39,7 @@ from numba import njit
 from meshcore.mesh.topology import unique_edges
 from meshcore.partition.kernel import orient
 
-__all__ = ["SWEEPS", "boundary_edges", "boundary_points", "smooth_quads"]
+__all__ = ["SWEEPS", "boundary_edges", "boundary_points", "quad_q", "smooth_quads"]
 
 #: Default number of sweeps.
 SWEEPS = 8
@@ -163,7 +163,11 @@ def smooth_quads(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray, sweep
 
 @njit(cache=True)
 def quad_q(P, quads, c):
-    """Quality (8.4) of quad c (0 when a corner does not turn left in floating point)."""
+    """Quality (8.4) of quad row c (0 when a corner does not turn left in floating point).
+
+    The same operations as :func:`meshcore.mesh.quality.quad_quality`, for one
+    quad: the compiled loops ask for a few quads at a time.
+    """
     big = 0.0
     for j in range(4):
         u = quads[c, j]
