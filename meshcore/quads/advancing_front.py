@@ -146,7 +146,8 @@ class PavingResult:
         by a failed check), ``closure`` (the partition's stats: patterns,
         separators), ``fallback``, ``parity_repairs``, ``valence`` (histogram
         of interior vertex valences), ``smoothing`` (sweeps, moves undone),
-        ``seconds`` per phase.
+        ``clean_up`` (``region``: quads handed to the clean-up,
+        ``operators``: applications), ``seconds`` per phase.
     """
 
     mesh: Mesh
@@ -527,8 +528,9 @@ def paving(
     size_field : dict, optional
         ``{"points": (k, 2), "values": (k,)}`` (as :func:`recursive_partition`).
     smooth : bool
-        Length-weighted Laplacian smoothing, never inverting a cell nor
-        lowering the least quality.
+        Length-weighted Laplacian smoothing with the boundary angle
+        correction, then the topological clean-up (module docstring, steps 6
+        and 7); neither inverts a cell nor lowers the least quality.
     max_rows : int, optional
         Rows laid at most on each front (default: until every front is
         frozen).
