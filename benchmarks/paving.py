@@ -5,17 +5,23 @@ Run from the repository root::
     .venv/bin/python benchmarks/paving.py                    # 10k and 100k quads
     .venv/bin/python benchmarks/paving.py --sizes 10000
 
-Domains: the unit square minus a centred disk of radius 0.25 (ours: the
-circle sampled by a 256-gon; Gmsh: its OpenCASCADE geometry) and the
-L-shape ``[0, 1]^2`` minus ``[0.5, 1]^2``. Sizes ``h = sqrt(area / N)`` for
-about N quads. Peers (Gmsh, ``Mesh.MeshSizeMin = MeshSizeMax = h``,
-``Mesh.RecombineAll = 1``, all options set before ``generate``):
+Domains (polygons, circles sampled at about the mesh size with a multiple
+of 4 vertices, :func:`benchmarks.quad_grid._circle`; Gmsh gets the same
+polygon as OpenCASCADE lines): the unit square minus a centred disk of
+radius 0.25, the L-shape ``[0, 1]^2`` minus ``[0.5, 1]^2``, a plate (the
+unit square with 5 x 4 round holes of radius 0.06) and a 24-tooth gear with
+a round hole (:func:`benchmarks.quad_grid.domains`). Sizes
+``h = sqrt(area / N)`` for about N quads. Peers (Gmsh,
+``Mesh.MeshSizeMin = MeshSizeMax``, calibrated by a first untimed run to
+about N quads, ``Mesh.RecombineAll = 1``, all
+options set before ``generate``, one thread):
 algorithm 8 (Frontal-Delaunay for quads) with ``RecombinationAlgorithm = 3``
 (Blossom full-quad), algorithm 9 (packing of parallelograms), algorithm 11
-(quasi-structured quad). Ours: ``paving`` with smoothing (timed after a
-warm-up call that loads numba's cache).
+(quasi-structured quad). Ours: ``paving`` with smoothing and clean-up
+(timed after a warm-up call that loads numba's cache).
 
-Columns: wall seconds, quads (and triangles left, if any), least and mean
+Columns: CPU seconds of the meshing call (the machine is shared: wall
+times follow the load), wall seconds, quads (and triangles left, if any), least and mean
 corner quality (8.4), least scaled Jacobian (the least
 sine of a corner), the share of interior
 vertices of valence 4, and irregular boundary vertices (a boundary vertex
@@ -40,25 +46,40 @@ import numpy as np
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 sys.path.insert(0, ROOT)
 
+from benchmarks.quad_grid import _circle, area  # noqa: E402 (the same domains)
+from benchmarks.quad_grid import domains as quad_grid_domains  # noqa: E402
 from benchmarks.quads import ccw, gmsh_cells  # noqa: E402 (the peers' mesh readers)
 
-HOLE_AREA = 1.0 - math.pi / 16
-L_AREA = 0.75
-AREAS = {"hole": HOLE_AREA, "L": L_AREA}
+DOMAINS = ("hole", "L", "plate", "gear")
 
 
-def geometry(domain: str) -> dict:
+def rings(domain: str, h: float) -> list[np.ndarray]:
+    """The domain's rings (outer counter-clockwise, holes clockwise) for size h."""
     if domain == "L":
-        return {
-            "type": "Polygon",
-            "coordinates": [[[0, 0], [1, 0], [1, 0.5], [0.5, 0.5], [0.5, 1], [0, 1]]],
-        }
-    th = np.linspace(0, 2 * np.pi, 256, endpoint=False)
-    circ = 0.5 + 0.25 * np.column_stack([np.cos(th), np.sin(th)])
-    return {
-        "type": "Polygon",
-        "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]], circ[::-1].tolist()],
-    }
+        return [np.array([[0.0, 0], [1, 0], [1, 0.5], [0.5, 0.5], [0.5, 1], [0, 1]])]
+    sq = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1]])
+    if domain == "hole":
+        return [sq, _circle(0.5, 0.5, 0.25, h)]
+    if domain == "plate":
+        return [
+            sq,
+            *(
+                _circle(0.1 + 0.2 * i, 0.125 + 0.25 * j, 0.06, h)
+                for i in range(5)
+                for j in range(4)
+            ),
+        ]
+    return quad_grid_domains(h)["gear"][1]
+
+
+def size_for(domain: str, n: int) -> float:
+    """h = sqrt(area / n), the area at that size's sampling of the circles."""
+    h = math.sqrt(area(rings(domain, 0.01)) / n)
+    return math.sqrt(area(rings(domain, h)) / n)
+
+
+def geometry(domain: str, h: float) -> dict:
+    return {"type": "Polygon", "coordinates": [r.tolist() for r in rings(domain, h)]}
 
 
 def gmsh_model(domain: str, h: float):
@@ -70,12 +91,12 @@ def gmsh_model(domain: str, h: float):
     gmsh.option.setNumber("Mesh.MeshSizeMin", h)
     gmsh.option.setNumber("Mesh.MeshSizeMax", h)
     occ = gmsh.model.occ
-    if domain == "L":
-        occ.cut(
-            [(2, occ.addRectangle(0, 0, 0, 1, 1))], [(2, occ.addRectangle(0.5, 0.5, 0, 0.5, 0.5))]
-        )
-    else:
-        occ.cut([(2, occ.addRectangle(0, 0, 0, 1, 1))], [(2, occ.addDisk(0.5, 0.5, 0, 0.25, 0.25))])
+    loops = []
+    for r in rings(domain, h):
+        pts = [occ.addPoint(x, y, 0) for x, y in r]
+        lines = [occ.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
+        loops.append(occ.addCurveLoop(lines))
+    occ.addPlaneSurface(loops)
     occ.synchronize()
     return gmsh
 
@@ -105,7 +126,7 @@ def valences(P, cells):
     return share4, irregular
 
 
-def describe(P, quads, triangles, seconds) -> dict:
+def describe(P, quads, triangles, seconds, cpu=float("nan")) -> dict:
     from meshcore.mesh.quality import quad_angles, quad_quality
 
     quads = ccw(P, quads)
@@ -115,6 +136,7 @@ def describe(P, quads, triangles, seconds) -> dict:
     share4, irregular = valences(P, quads) if not len(triangles) else (float("nan"), -1)
     return {
         "seconds": seconds,
+        "cpu": cpu,
         "quads": int(len(quads)),
         "triangles": int(len(triangles)),
         "min": float(q.min()),
@@ -125,29 +147,39 @@ def describe(P, quads, triangles, seconds) -> dict:
     }
 
 
-def child(tool: str, domain: str, n: int) -> dict:
-    h = math.sqrt(AREAS[domain] / n)
-    if tool.startswith("gmsh"):
-        algo = int(tool[4:])
+def gmsh_quads(domain: str, algo: int, h: float, n: int) -> dict:
+    """Gmsh's quads, its size calibrated by a first (untimed) run to about n quads."""
+    for calibrate in (True, False):
         gmsh = gmsh_model(domain, h)
         gmsh.option.setNumber("Mesh.Algorithm", algo)
         gmsh.option.setNumber("Mesh.RecombineAll", 1)
         if algo == 8:
             gmsh.option.setNumber("Mesh.RecombinationAlgorithm", 3)
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         gmsh.model.mesh.generate(2)
-        seconds = time.perf_counter() - t
+        seconds, cpu = time.perf_counter() - t, time.process_time() - c
         P, cells = gmsh_cells(gmsh)
         gmsh.finalize()
-        return describe(P, cells["quad"], cells["triangle"], seconds)
+        if calibrate:
+            h *= math.sqrt(max(len(cells["quad"]), 1) / n)
+    return describe(P, cells["quad"], cells["triangle"], seconds, cpu)
+
+
+def child(tool: str, domain: str, n: int) -> dict:
+    h = size_for(domain, n)
+    if tool.startswith("gmsh"):
+        return gmsh_quads(domain, int(tool[4:]), h, n)
     from meshcore.quads import paving
 
-    paving(geometry(domain), size=0.1)  # warm-up: numba's cache
-    t = time.perf_counter()
-    res = paving(geometry(domain), size=h)
-    seconds = time.perf_counter() - t
-    out = describe(res.mesh.points, res.mesh.cells[0].data, np.zeros((0, 3)), seconds)
-    out["stats"] = {k: res.stats[k] for k in ("rows", "fallback", "rows_taken_back", "seams")}
+    paving(geometry(domain, 0.1), size=0.1)  # warm-up: numba's cache
+    g = geometry(domain, h)
+    t, c = time.perf_counter(), time.process_time()
+    res = paving(g, size=h)
+    seconds, cpu = time.perf_counter() - t, time.process_time() - c
+    out = describe(res.mesh.points, res.mesh.cells[0].data, np.zeros((0, 3)), seconds, cpu)
+    out["stats"] = {
+        k: res.stats[k] for k in ("rows", "fallback", "rows_taken_back", "seams", "clean_up")
+    }
     out["phases"] = res.stats["seconds"]
     return out
 
@@ -184,21 +216,22 @@ LABELS = {
 }
 
 HEADER = (
-    "| run | seconds | quads | triangles | min Q | mean Q | min SJ | valence-4 interior | "
-    "irregular boundary | time ratio ours / peer |"
+    "| run | CPU s | wall s | quads | triangles | min Q | mean Q | min SJ | valence-4 interior | "
+    "irregular boundary | CPU ratio ours / peer |"
 )
 
 
 def row(label: str, r, ours) -> str:
     if isinstance(r, str):
-        return f"| {label} | {r} | | | | | | | | |"
+        return f"| {label} | {r} | | | | | | | | | |"
     ratio = ""
     if isinstance(ours, dict) and ours is not r:
-        ratio = f"{ours['seconds'] / r['seconds']:.2f}"
+        ratio = f"{ours['cpu'] / r['cpu']:.2f}"
     v4 = "" if math.isnan(r["valence4"]) else f"{100 * r['valence4']:.2f} %"
     irr = "" if r["irregular_boundary"] < 0 else str(r["irregular_boundary"])
     return (
-        f"| {label} | {r['seconds']:.2f} | {r['quads']:,} | {r['triangles']:,} | {r['min']:.3f} | "
+        f"| {label} | {r['cpu']:.2f} | {r['seconds']:.2f} | {r['quads']:,} | {r['triangles']:,} | "
+        f"{r['min']:.3f} | "
         f"{r['mean']:.3f} | {r['min_sj']:.3f} | {v4} | {irr} | {ratio} |"
     )
 
@@ -206,22 +239,23 @@ def row(label: str, r, ours) -> str:
 def main(script: str = __file__, child_fn=child, labels=LABELS, ours_tool="ours") -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", type=int, nargs="*", default=[10_000, 100_000])
-    ap.add_argument("--domains", nargs="*", default=["hole", "L"])
+    ap.add_argument("--domains", nargs="*", default=list(DOMAINS))
     ap.add_argument("--timeout", type=float, default=300)
+    ap.add_argument("--tools", nargs="*", default=list(labels), help="default: all")
     ap.add_argument("--child", nargs=3, metavar=("TOOL", "DOMAIN", "N"))
     args = ap.parse_args()
     if args.child:
         tool, domain, n = args.child
         print(json.dumps(child_fn(tool, domain, int(n))))
         return
-    tools = [t for t in labels if not t.startswith("gmsh") or available("gmsh")]
+    tools = [t for t in args.tools if not t.startswith("gmsh") or available("gmsh")]
     if not available("gmsh"):
         print("note: Gmsh not installed (pip install -e .[bench]): ours only")
     print(HEADER)
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---|")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     for domain in args.domains:
         for n in args.sizes:
-            print(f"| **{domain}, ~{n:,} cells** | | | | | | | | | |", flush=True)
+            print(f"| **{domain}, ~{n:,} cells** | | | | | | | | | | |", flush=True)
             res = {t: run_child(script, t, domain, n, args.timeout) for t in tools}
             for t in tools:
                 ref = res.get(ours_tool + "-tri" if t.endswith("-tri") else ours_tool)

@@ -5,11 +5,12 @@ Run from the repository root::
     .venv/bin/python benchmarks/recursive.py                    # 10k and 100k cells
     .venv/bin/python benchmarks/recursive.py --sizes 10000
 
-Domains and columns as in ``benchmarks/paving.py`` (the square with a hole
-and the L-shape; ``h = sqrt(area / N)`` for quads, ``h = sqrt(4 area / (sqrt(3) N))``
-for about N triangles). Triangles: Gmsh's default 2D algorithm (6,
-Frontal-Delaunay) and our ``triangulate`` against ``recursive_partition``
-with ``element="triangle"``; quality is the normalized shape ratio
+Domains and columns as in ``benchmarks/paving.py`` (the square with a hole,
+the L-shape, the plate with 20 holes and the gear; ``h = sqrt(area / N)``
+for quads, ``h = sqrt(4 area / (sqrt(3) N))`` for about N triangles).
+Triangles: Gmsh's default 2D algorithm (6, Frontal-Delaunay) and our
+``triangulate`` against ``recursive_partition`` with ``element="triangle"``;
+quality is the normalized shape ratio
 (:func:`meshcore.mesh.quality.triangle_shape`, 1 for equilateral). Quads:
 Gmsh algorithms 8 (with ``RecombinationAlgorithm = 3``), 9 and 11
 (``RecombineAll = 1``) against ``recursive_partition`` with
@@ -30,16 +31,17 @@ ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 sys.path.insert(0, ROOT)
 
 from benchmarks.paving import (  # noqa: E402
-    AREAS,
     describe,
     geometry,
     gmsh_model,
+    gmsh_quads,
     main,
+    size_for,
 )
 from benchmarks.quads import gmsh_cells  # noqa: E402
 
 
-def describe_triangles(P, T, seconds) -> dict:
+def describe_triangles(P, T, seconds, cpu) -> dict:
     from meshcore.mesh.quality import signed_area, triangle_angles, triangle_shape
 
     cw = signed_area(P, T, "triangle") < 0
@@ -56,6 +58,7 @@ def describe_triangles(P, T, seconds) -> dict:
     inner = used & ~on_b
     return {
         "seconds": seconds,
+        "cpu": cpu,
         "quads": 0,
         "triangles": int(len(T)),
         "min": float(q.min()),
@@ -68,40 +71,40 @@ def describe_triangles(P, T, seconds) -> dict:
 
 def child(tool: str, domain: str, n: int) -> dict:
     tri = tool.endswith("-tri")
-    h = math.sqrt(4 * AREAS[domain] / (math.sqrt(3) * n)) if tri else math.sqrt(AREAS[domain] / n)
+    # about n triangles: the quad size for n / 2 quads, times sqrt(4 / (2 sqrt(3)))
+    h = size_for(domain, n // 2) * math.sqrt(2 / math.sqrt(3)) if tri else size_for(domain, n)
+    if tool.startswith("gmsh") and not tri:
+        return gmsh_quads(domain, int(tool[4:]), h, n)
     if tool.startswith("gmsh"):
         gmsh = gmsh_model(domain, h)
-        if not tri:
-            algo = int(tool[4:])
-            gmsh.option.setNumber("Mesh.Algorithm", algo)
-            gmsh.option.setNumber("Mesh.RecombineAll", 1)
-            if algo == 8:
-                gmsh.option.setNumber("Mesh.RecombinationAlgorithm", 3)
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         gmsh.model.mesh.generate(2)
-        seconds = time.perf_counter() - t
+        seconds, cpu = time.perf_counter() - t, time.process_time() - c
         P, cells = gmsh_cells(gmsh)
         gmsh.finalize()
-        if tri:
-            return describe_triangles(P, cells["triangle"], seconds)
-        return describe(P, cells["quad"], cells["triangle"], seconds)
+        return describe_triangles(P, cells["triangle"], seconds, cpu)
     from meshcore.partition import recursive_partition
     from meshcore.triangulation import triangulate
 
-    g = geometry(domain)
+    g = geometry(domain, h)
+    warm = geometry(domain, 0.1)
     if tool == "triangulate-tri":
-        triangulate(g, size=0.1)  # warm-up: numba's cache
-        t = time.perf_counter()
+        triangulate(warm, size=0.1)  # warm-up: numba's cache
+        t, c = time.perf_counter(), time.process_time()
         res = triangulate(g, size=h)
-        seconds = time.perf_counter() - t
-        return describe_triangles(res.mesh.points, res.mesh.cells[0].data, seconds)
+        seconds, cpu = time.perf_counter() - t, time.process_time() - c
+        return describe_triangles(res.mesh.points, res.mesh.cells[0].data, seconds, cpu)
     element = "triangle" if tri else "quad"
-    recursive_partition(g, size=0.1, element=element)  # warm-up
-    t = time.perf_counter()
+    recursive_partition(warm, size=0.1, element=element)  # warm-up
+    t, c = time.perf_counter(), time.process_time()
     res = recursive_partition(g, size=h, element=element)
-    seconds = time.perf_counter() - t
+    seconds, cpu = time.perf_counter() - t, time.process_time() - c
     P, C = res.mesh.points, res.mesh.cells[0].data
-    out = describe_triangles(P, C, seconds) if tri else describe(P, C, np.zeros((0, 3)), seconds)
+    out = (
+        describe_triangles(P, C, seconds, cpu)
+        if tri
+        else describe(P, C, np.zeros((0, 3)), seconds, cpu)
+    )
     out["stats"] = {k: res.stats[k] for k in ("depth", "fallback", "separators", "patterns")}
     out["phases"] = res.stats["seconds"]
     return out

@@ -62,7 +62,14 @@ Choices the text leaves open
   stay chains of edges, slightly moved. Quads may leave the recursion with
   nearly flat corners at separator points (the exact test accepts them;
   corners at input points need corner quality 0.1), which it repairs.
-  Triangles are not smoothed.
+  Then the topological clean-up of paving
+  (:func:`meshcore.quads.advancing_front.clean_up`: the operators of §8.4.3
+  where quads are poor or valences irregular, the boundary kept), which
+  the separators' flat points and valence-6 ends need: on the square with
+  a hole at 10k quads the least quality (8.4) goes from 0.18-0.30 to 0.55,
+  the mean to 0.85. The separators are then no longer all chains of edges
+  (the clean-up may swap or remove their inner edges); the input segments
+  still are. Triangles are not smoothed.
 * Ties between candidates (symmetric domains are full of them) are broken
   by position after rounding the scores to 1e-7, so that a translated or
   scaled domain gives the same mesh.
@@ -349,8 +356,9 @@ def recursive_partition(
         Separator ranking (module docstring).
     smooth : bool
         Quads: relocate the separator points by
-        :func:`~meshcore.partition.smoothing.smooth_quads` (never inverting a
-        cell nor lowering the least quality). Triangles are not smoothed.
+        :func:`~meshcore.partition.smoothing.smooth_quads`, then the
+        topological clean-up (both never inverting a cell nor lowering the
+        least quality). Triangles are not smoothed.
     progress : callable, optional
         ``progress(fraction, message)``; may raise to cancel.
 
@@ -424,10 +432,19 @@ def recursive_partition(
         pts, cells = split_triangles(pts, tri)
     lap("recursion")
     undone = 0
+    clean: dict = {"region": 0, "operators": {}}
     if quad and smooth:
-        report(0.8, "smoothing")
-        pts, undone = smooth_quads(pts, cells, boundary_points(pts, cells))
+        # here, not at the top: meshcore.quads imports this package (paving)
+        from meshcore.quads.advancing_front import clean_up
+
+        report(0.7, "smoothing")
+        fixed = boundary_points(pts, cells)
+        pts, undone = smooth_quads(pts, cells, fixed)
         lap("smoothing")
+        report(0.8, "clean-up")
+        pts, cells, ops, region = clean_up(pts, cells, np.flatnonzero(fixed))
+        clean = {"region": region, "operators": ops}
+        lap("clean-up")
     mesh = Mesh(pts, (CellBlock("quad" if quad else "triangle", cells),))
     report(0.9, "quality")
     # the edges of one cell are the resampled rings (tested: input segments as chains)
@@ -440,6 +457,7 @@ def recursive_partition(
         "fallback": fallback,
         "parity_repairs": bnd.repairs,
         "smoothing_undone": int(undone),
+        "clean_up": clean,
         "seconds": timings,
     }
     report(1.0, "done")

@@ -1,38 +1,56 @@
 """Length-weighted Laplacian smoothing of quad meshes that never inverts a cell.
 
 Used by the direct quad methods (paving §8.5.1, recursive partition §8.7.2,
-"a point relocation step"). Each sweep moves every free point to the mean of
-its neighbours weighted by the edge lengths (Jacobi); a move is then undone
-wherever the least quality (8.4) of the quads around the moved point would
-drop, a quad that is not strictly convex (exact
-:func:`~meshcore.geometry.predicates.orient2d`) counting as -1, until no
-moved point sees a drop. Every quad that changed has a moved corner whose
-least quality did not drop, so a sweep never inverts a cell nor lowers the
-least quality of the mesh.
+"a point relocation step"). One compiled loop (numba) visits the free points
+in turn (Gauss-Seidel: each move sees the moves before it), ``sweeps`` times:
+
+* **Length-weighted Laplacian** (Blacker and Stephenson's paving smoother):
+  the point ``x`` goes to ``x + sum_i |c_i| c_i / sum_i |c_i|`` with
+  ``c_i = x_i - x`` the edges to its neighbours: long edges pull harder,
+  which evens out the lengths.
+* **Boundary angle correction** (the same paper): a free point ``x`` joined
+  to a boundary point ``b`` is also pulled to where the edge ``b x`` splits
+  the interior angle at ``b`` evenly (a single interior edge on the
+  bisector; ``k`` interior edges at ``j / (k + 1)`` of the angle, in their
+  counter-clockwise order), at its current length. The two targets are
+  averaged, so rows next to the boundary leave it at right angles.
+* **Acceptance.** The move is tried at the full step, then at one half and
+  one quarter; it is kept at the first step where every quad around the
+  point is strictly convex (exact
+  :func:`~meshcore.geometry.predicates.orient2d_scalar`) and their least
+  quality (8.4) is at least ``min(its old value, floor)``, where ``floor`` is
+  the larger of 0.5 and the least quality of the mesh at the start.
+  So no cell inverts and the least quality of the mesh never drops, while
+  cells above 0.5 may give a little to lift their neighbours (a strict
+  "never lower a cell" rule stalls the smoothing).
+
+The angle-correction directions are computed once (boundary points never
+move); a free point's order of neighbours around a boundary point is that
+of the input.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
 
-from meshcore.mesh.quality import quad_quality
-from meshcore.partition.kernel import strictly_convex_rows
+from meshcore.mesh.topology import unique_edges
+from meshcore.partition.kernel import orient
 
-__all__ = ["SWEEPS", "boundary_edges", "boundary_points", "smooth_quads"]
+__all__ = ["SWEEPS", "boundary_edges", "boundary_points", "quad_q", "smooth_quads"]
 
 #: Default number of sweeps.
 SWEEPS = 8
-_UNDO_ROUNDS = 20
-_REPAIR_Q = 0.3  # quads below this quality get their free corners repaired one by one
-_REPAIR_ROUNDS = 3
-_REPAIR_STEPS = (1.0, 0.75, 0.5, 0.25)
+_FLOOR = 0.5  # cells above this may drop to it when a neighbour gains
+_STEPS = (1.0, 0.5, 0.25)
 
 
 def boundary_edges(cells: np.ndarray) -> np.ndarray:
     """(b, 2) int64: the edges of one cell only (the mesh's boundary), sorted pairs."""
-    e = np.sort(np.stack([cells, np.roll(cells, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
-    eu, cnt = np.unique(e, axis=0, return_counts=True)
-    return eu[cnt == 1]
+    e, cell_edges = unique_edges(cells, "quad" if cells.shape[1] == 4 else "triangle")
+    return e[np.bincount(cell_edges.ravel(), minlength=len(e)) == 1]
 
 
 def boundary_points(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
@@ -42,8 +60,72 @@ def boundary_points(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return out
 
 
+def _csr(src: np.ndarray, dst: np.ndarray, n: int):
+    order = np.argsort(src, kind="stable")
+    ptr = np.zeros(n + 1, np.int64)
+    np.cumsum(np.bincount(src, minlength=n), out=ptr[1:])
+    return ptr, dst[order]
+
+
+def _angle_targets(P, quads, fixed, nptr, nidx):
+    """(n_adj,) unit directions: for each adjacency entry (x -> b), x free and b a
+    boundary point, the direction from b that splits b's interior angle evenly among
+    its interior edges (NaN elsewhere)."""
+    n = len(P)
+    direc = np.full((len(nidx), 2), np.nan)
+    # at a boundary point b: the cell corners there give its wedge, in ccw order
+    corner_v = quads.ravel()
+    nxt = np.roll(quads, -1, axis=1).ravel()
+    prv = np.roll(quads, 1, axis=1).ravel()
+    on_b = fixed[corner_v]
+    if not on_b.any():
+        return direc
+    bv, bn, bp = corner_v[on_b], nxt[on_b], prv[on_b]
+    # a corner (b; next, prev) spans the angle from b->next ccw to b->prev
+    # the wedge at b starts at the edge b->s whose s is no corner's prev at b
+    key_next = bv * n + bn
+    key_prev = bv * n + bp
+    start = ~np.isin(key_next, key_prev)
+    order = np.argsort(bv, kind="stable")
+    bv, bn, bp, start = bv[order], bn[order], bp[order], start[order]
+    cuts = np.flatnonzero(np.diff(bv)) + 1
+    lookup = {}
+    for grp in np.split(np.arange(len(bv)), cuts):  # per boundary point: a few corners
+        b = int(bv[grp[0]])
+        first = grp[start[grp]]
+        if len(first) != 1:
+            continue  # a pinched boundary point: no correction
+        chain = [int(bn[first[0]])]
+        nmap = dict(zip(bn[grp].tolist(), bp[grp].tolist(), strict=True))
+        while chain[-1] in nmap and len(chain) <= len(grp):
+            chain.append(nmap[chain[-1]])
+        if len(chain) != len(grp) + 1:
+            continue
+        e0 = P[chain[0]] - P[b]
+        e1 = P[chain[-1]] - P[b]
+        a0 = math.atan2(e0[1], e0[0])
+        span = math.atan2(e0[0] * e1[1] - e0[1] * e1[0], e0 @ e1)
+        if span <= 0:
+            span += 2 * math.pi
+        k = len(chain) - 2
+        for j, x in enumerate(chain[1:-1], start=1):
+            if not fixed[x]:
+                t = a0 + span * j / (k + 1)
+                lookup[(x, b)] = (math.cos(t), math.sin(t))
+    if not lookup:
+        return direc
+    owner = np.repeat(np.arange(n), np.diff(nptr))
+    for r in np.flatnonzero(fixed[nidx] & ~fixed[owner]):
+        d = lookup.get((int(owner[r]), int(nidx[r])))
+        if d is not None:
+            direc[r] = d
+    return direc
+
+
 def smooth_quads(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray, sweeps: int = SWEEPS):
-    """Length-weighted Laplacian smoothing that never inverts nor lowers the least quality.
+    """Length-weighted Laplacian smoothing with the boundary angle correction.
+
+    Never inverts a cell nor lowers the least quality (8.4) of the mesh.
 
     Parameters
     ----------
@@ -57,80 +139,145 @@ def smooth_quads(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray, sweep
     -------
     points : (n, 2) float64
     undone : int
-        Moves undone because the least quality around the point would drop
-        (a quad not strictly convex, by the exact test, counting as -1).
+        Moves refused at every step (a quad would not stay strictly convex,
+        by the exact test, or the least quality around the point would drop;
+        module docstring).
 
     References
     ----------
-    Methods text §8.5.1 (smoothing of paved meshes), §8.4.4 (8.4).
+    Methods text §8.5.1 (smoothing of paved meshes), §8.4.4 (8.4); Blacker and
+    Stephenson, "Paving", IJNME 32 (1991), the length-weighted Laplacian and
+    its boundary angle correction.
     """
-    P = points.copy()
-    e = np.sort(np.stack([quads, np.roll(quads, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
-    e = np.unique(e, axis=0)
-    a, b = np.concatenate([e[:, 0], e[:, 1]]), np.concatenate([e[:, 1], e[:, 0]])
-    free = ~fixed
-    undone = 0
+    P = np.ascontiguousarray(points, dtype=np.float64).copy()
+    quads = np.ascontiguousarray(quads, dtype=np.int64)
     n = len(P)
-    corner = quads.ravel()
-    cell_of = np.repeat(np.arange(len(quads)), 4)
+    e, _ = unique_edges(quads, "quad")
+    nptr, nidx = _csr(np.concatenate([e[:, 0], e[:, 1]]), np.concatenate([e[:, 1], e[:, 0]]), n)
+    cptr, cidx = _csr(quads.ravel(), np.repeat(np.arange(len(quads)), 4), n)
+    fixed = np.asarray(fixed, bool)
+    direc = _angle_targets(P, quads, fixed, nptr, nidx)
+    undone = _sweeps(P, quads, fixed, nptr, nidx, cptr, cidx, direc, sweeps, np.array(_STEPS))
+    return P, int(undone)
+
+
+@njit(cache=True)
+def quad_q(P, quads, c):
+    """Quality (8.4) of quad row c (0 when a corner does not turn left in floating point).
+
+    The same operations as :func:`meshcore.mesh.quality.quad_quality`, for one
+    quad: the compiled loops ask for a few quads at a time.
+    """
+    big = 0.0
+    for j in range(4):
+        u = quads[c, j]
+        v = quads[c, (j + 1) % 4]
+        w = quads[c, (j + 3) % 4]
+        ax = P[v, 0] - P[u, 0]
+        ay = P[v, 1] - P[u, 1]
+        bx = P[w, 0] - P[u, 0]
+        by = P[w, 1] - P[u, 1]
+        if ax * by - ay * bx <= 0:
+            return 0.0
+        den = math.sqrt((ax * ax + ay * ay) * (bx * bx + by * by))
+        cs = (ax * bx + ay * by) / den if den > 0 else 1.0
+        big = max(big, abs(cs))
+    return 1.0 - (2.0 / math.pi) * math.asin(min(big, 1.0))
+
+
+@njit(cache=True)
+def _local_new(P, quads, cptr, cidx, v, need, qnew):
+    """Whether every quad around v is strictly convex (exact) with quality (8.4) at
+    least need; their qualities in qnew."""
+    k = 0
+    for r in range(cptr[v], cptr[v + 1]):
+        q = quad_q(P, quads, cidx[r])
+        if q < need:
+            return False
+        qnew[k] = q
+        k += 1
+    for r in range(cptr[v], cptr[v + 1]):
+        c = cidx[r]
+        for j in range(4):
+            if orient(P, quads[c, j], quads[c, (j + 1) % 4], quads[c, (j + 2) % 4]) <= 0:
+                return False
+    return True
+
+
+@njit(cache=True)
+def _sweeps(P, quads, fixed, nptr, nidx, cptr, cidx, direc, sweeps, steps):
+    """The Gauss-Seidel sweeps (module docstring); after the first, only the points
+    next to a point that moved by more than 1e-3 of its mean edge are visited."""
+    n = len(P)
+    qc = np.empty(len(quads))
+    least = 2.0
+    for c in range(len(quads)):
+        qc[c] = quad_q(P, quads, c)
+        least = min(least, qc[c])
+    floor = max(_FLOOR, least)
+    qnew = np.empty(64)
+    active = np.ones(n, np.bool_)
+    undone = 0
     for _ in range(sweeps):
-        q_old = quad_quality(P, quads)
-        local_old = np.full(n, np.inf)
-        np.minimum.at(local_old, corner, q_old[cell_of])
-        w = np.hypot(*(P[b] - P[a]).T)
-        sw = np.bincount(a, weights=w, minlength=n)
-        tx = np.bincount(a, weights=w * P[b, 0], minlength=n)
-        ty = np.bincount(a, weights=w * P[b, 1], minlength=n)
-        target = P.copy()
-        ok = free & (sw > 0)
-        target[ok, 0] = tx[ok] / sw[ok]
-        target[ok, 1] = ty[ok] / sw[ok]
-        moved = ok.copy()
-        for _ in range(_UNDO_ROUNDS):
-            Q = np.where(moved[:, None], target, P)
-            convex = strictly_convex_rows(Q, quads)
-            q_new = np.where(convex, quad_quality(Q, quads), -1.0)
-            local_new = np.full(n, np.inf)
-            np.minimum.at(local_new, corner, q_new[cell_of])
-            bad = moved & (local_new < local_old)
-            if not bad.any():
-                break
-            undone += int(bad.sum())
-            moved &= ~bad
-        else:
-            moved[:] = False
-        P = np.where(moved[:, None], target, P)
-    P = _repair(P, quads, free)
-    return P, undone
-
-
-def _repair(P: np.ndarray, quads: np.ndarray, free: np.ndarray) -> np.ndarray:
-    """Point by point (the few free corners of quads below _REPAIR_Q): the best of a
-    few positions between the point and the centre of its quads, kept when the least
-    quality around it rises (exact convexity as in the sweeps)."""
-    q = quad_quality(P, quads)
-    order = np.argsort(quads.ravel(), kind="stable")
-    flat = quads.ravel()[order]
-    cells = np.repeat(np.arange(len(quads)), 4)[order]
-    starts = np.searchsorted(flat, np.arange(len(P) + 1))
-    for _ in range(_REPAIR_ROUNDS):
-        bad = np.unique(quads[q < _REPAIR_Q])
-        bad = bad[free[bad]]
-        if len(bad) == 0:
-            break
-        for v in bad:  # sequential by nature (each move changes the next); few points
-            around = cells[starts[v] : starts[v + 1]]
-            centre = P[quads[around]].reshape(-1, 2).mean(axis=0)
-            best, best_q = P[v].copy(), float(q[around].min())
-            for t in _REPAIR_STEPS:
-                old = P[v].copy()
-                P[v] = (1 - t) * old + t * centre
-                sub = quads[around]
-                ok = strictly_convex_rows(P, sub).all()
-                qq = float(quad_quality(P, sub).min()) if ok else -1.0
-                P[v] = old
-                if qq > best_q:
-                    best, best_q = (1 - t) * old + t * centre, qq
-            P[v] = best
-            q[around] = quad_quality(P, quads[around])
-    return P
+        woke = np.zeros(n, np.bool_)
+        for v in range(n):
+            if fixed[v] or not active[v] or nptr[v + 1] == nptr[v]:
+                continue
+            if cptr[v + 1] - cptr[v] > 64:
+                continue
+            x = P[v, 0]
+            y = P[v, 1]
+            sw = 0.0
+            dx = 0.0
+            dy = 0.0
+            ax = 0.0
+            ay = 0.0
+            na = 0
+            for r in range(nptr[v], nptr[v + 1]):
+                u = nidx[r]
+                cx = P[u, 0] - x
+                cy = P[u, 1] - y
+                w = math.sqrt(cx * cx + cy * cy)
+                sw += w
+                dx += w * cx
+                dy += w * cy
+                if not math.isnan(direc[r, 0]):
+                    # where the edge would split the angle at u evenly, at its length
+                    ax += P[u, 0] + w * direc[r, 0] - x
+                    ay += P[u, 1] + w * direc[r, 1] - y
+                    na += 1
+            if sw <= 0.0:
+                continue
+            dx /= sw
+            dy /= sw
+            if na > 0:
+                dx = 0.5 * (dx + ax / na)
+                dy = 0.5 * (dy + ay / na)
+            deg = nptr[v + 1] - nptr[v]
+            if math.sqrt(dx * dx + dy * dy) < 1e-3 * sw / deg:
+                continue
+            old = 2.0
+            for r in range(cptr[v], cptr[v + 1]):
+                old = min(old, qc[cidx[r]])
+            need = min(old, floor)
+            kept = False
+            for t in steps:
+                P[v, 0] = x + t * dx
+                P[v, 1] = y + t * dy
+                if _local_new(P, quads, cptr, cidx, v, need, qnew):
+                    kept = True
+                    break
+            if not kept:
+                P[v, 0] = x
+                P[v, 1] = y
+                undone += 1
+                continue
+            k = 0
+            for r in range(cptr[v], cptr[v + 1]):
+                qc[cidx[r]] = qnew[k]
+                k += 1
+            woke[v] = True
+            for r in range(nptr[v], nptr[v + 1]):
+                woke[nidx[r]] = True
+        active = woke
+    return undone

@@ -6,9 +6,9 @@ smoothing (§8.4.3), :func:`paving` lays rows of quads from the boundary
 inward, without a triangle mesh (§8.5.1).
 """
 
+from meshcore.quads.advancing_front import PavingResult, paving
 from meshcore.quads.combination import QuadResult, check_input, check_metric_2d, combine, split_all
 from meshcore.quads.optimization import OptimizeResult, optimize_quads
-from meshcore.quads.paving import PavingResult, paving
 
 __all__ = [
     "OptimizeResult",

@@ -95,6 +95,7 @@ from numba import njit
 
 from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered
 from meshcore.mesh import CellBlock, Mesh, quality
+from meshcore.partition.smoothing import quad_q
 
 __all__ = ["OPERATORS", "OptimizeResult", "optimize_quads"]
 
@@ -828,17 +829,7 @@ def _angle_quality(P, C, c):
         den = (e0x * e0x + e0y * e0y) + (e1x * e1x + e1y * e1y) + (e2x * e2x + e2y * e2y)
         area = 0.5 * (e2x * e0y - e2y * e0x)
         return (4 * math.sqrt(3.0)) * area / den if den > 0 else 0.0
-    big = 0.0
-    for j in range(4):
-        u, v, w = C[c, j], C[c, (j + 1) % 4], C[c, (j + 3) % 4]
-        ax, ay = P[v, 0] - P[u, 0], P[v, 1] - P[u, 1]
-        bx, by = -(P[u, 0] - P[w, 0]), -(P[u, 1] - P[w, 1])
-        if ax * by - ay * bx <= 0:
-            return 0.0
-        den = math.sqrt((ax * ax + ay * ay) * (bx * bx + by * by))
-        cs = (ax * bx + ay * by) / den if den > 0 else 1.0
-        big = max(big, abs(cs))
-    return 1.0 - (2.0 / math.pi) * math.asin(min(big, 1.0))
+    return quad_q(P, C, c)
 
 
 @njit(cache=True)

@@ -74,7 +74,9 @@ class RecursivePartitionParams(SizedDomainParams):
         "size with good angles; angle: separators from the sharpest reflex vertex first.",
     )
     smooth: bool = Field(
-        True, description="Quads: relocate the separator points (never inverting a cell)."
+        True,
+        description="Quads: smoothing and the topological clean-up (§8.4.3), never inverting "
+        "a cell nor lowering the least quality.",
     )
 
 

@@ -207,8 +207,9 @@ class PavingParams(SizedDomainParams):
 
     smooth: bool = Field(
         True,
-        description="Length-weighted Laplacian smoothing, never inverting a cell nor lowering "
-        "the least quality.",
+        description="Length-weighted Laplacian smoothing with the boundary angle correction, "
+        "then the topological clean-up (§8.4.3) where quads are poor or valences irregular; "
+        "never inverting a cell nor lowering the least quality.",
     )
     max_rows: int | None = Field(
         None, ge=0, le=100_000, description="Rows per front at most (default: until frozen)."

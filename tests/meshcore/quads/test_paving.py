@@ -6,15 +6,14 @@ not asserted here.
 
 from __future__ import annotations
 
-import importlib
-
-import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 
 from meshcore import InputError, parse_domain
 from meshcore.mesh.quality import quad_quality
-from meshcore.quads import paving
+from meshcore.partition import boundary_points, smooth_quads
+from meshcore.partition.kernel import strictly_convex_rows
+from meshcore.quads import advancing_front, paving
 from tests.meshcore.partition.test_recursive import (
     L_SHAPE,
     SQUARE,
@@ -68,11 +67,19 @@ class TestCanonical:
 
     def test_smoothing_never_lowers_least_quality(self):
         raw = paving(SQUARE_HOLE, size=0.05, smooth=False)
-        smooth = paving(SQUARE_HOLE, size=0.05)
-        q0 = quad_quality(raw.mesh.points, raw.mesh.cells[0].data)
-        q1 = quad_quality(smooth.mesh.points, smooth.mesh.cells[0].data)
-        assert np.array_equal(raw.mesh.cells[0].data, smooth.mesh.cells[0].data)
+        P, C = raw.mesh.points, raw.mesh.cells[0].data
+        q0 = quad_quality(P, C)
+        P1, _ = smooth_quads(P, C, boundary_points(P, C))
+        q1 = quad_quality(P1, C)
         assert q1.min() >= q0.min()
+        assert q1.mean() > q0.mean()
+        assert strictly_convex_rows(P1, C).all()
+        # then the clean-up: still only quads, valid, and better still
+        smooth = paving(SQUARE_HOLE, size=0.05)
+        check_mesh(SQUARE_HOLE, smooth, 0.05, "quad")
+        q2 = quad_quality(smooth.mesh.points, smooth.mesh.cells[0].data)
+        assert q2.min() >= q1.min()
+        assert smooth.stats["clean_up"]["region"] > 0
 
     def test_zero_rows_is_the_closure_alone(self):
         res = paving(L_SHAPE, size=0.1, max_rows=0)
@@ -91,16 +98,14 @@ def test_random_polygons_with_holes_only_quads(case):
 def test_guaranteed_route_when_the_closure_is_stuck(monkeypatch):
     # force the even closure to fail: the rows are taken back, then the whole mesh is
     # made at 2.5 h with a triangle closure and split into quads
-    module = importlib.import_module("meshcore.quads.paving")  # the name is the function
-
-    real = module.partition_polygon
+    real = advancing_front.partition_polygon
 
     def stuck(points, loops, ring_polygon, sizes, *, quad, strategy="balanced"):
         if quad:
             return points, None, None
         return real(points, loops, ring_polygon, sizes, quad=quad, strategy=strategy)
 
-    monkeypatch.setattr(module, "partition_polygon", stuck)
+    monkeypatch.setattr(advancing_front, "partition_polygon", stuck)
     res = paving(SQUARE_HOLE, size=0.05)
     assert res.stats["fallback"] == 1
     check_mesh(SQUARE_HOLE, res, 0.05, "quad")
