@@ -117,6 +117,12 @@ __all__ = ["quad_grid"]
 #: A ring vertex turning by more than 60 degrees (cosine of the turn below
 #: this) is a sharp convex corner: it gets the corner pattern.
 SHARP_COS = 0.5
+#: Edges on either side over which the outline's normal is averaged.
+NORMAL_SPAN = 3
+#: Weight of the even spacing in a line's end (the rest: its projection).
+UNIFORM = 0.2
+#: Rounds of anchor moves repairing quads that are not strictly convex.
+REPAIR_ROUNDS = 4
 #: Rings of core squares optimized with the band.
 SMOOTH_RINGS = 2
 # ----------------------------------------------------------------------------- projection
@@ -191,8 +197,14 @@ def _loop_band(V, C, h, sharp_cos):
     nin = np.column_stack([ein[:, 1], -ein[:, 0]]) / h  # towards the band (right side)
     nout = np.column_stack([eout[:, 1], -eout[:, 0]]) / h
     turn = ein[:, 0] * eout[:, 1] - ein[:, 1] * eout[:, 0]
+    # the outline's normal smoothed over NORMAL_SPAN edges on either side: the
+    # staircase's steps then send their lines along the boundary's normal
     bis = nin + nout
-    bis /= np.hypot(*bis.T)[:, None]
+    for k in range(1, NORMAL_SPAN):
+        bis = bis + np.roll(nin, k, axis=0) + np.roll(nout, -k, axis=0)
+    bis /= np.maximum(np.hypot(*bis.T), 1e-300)[:, None]
+    flat = np.hypot(*bis.T) < 0.5  # opposite normals cancel: fall back on the corner's
+    bis[flat] = (nin + nout)[flat] / np.maximum(np.hypot(*(nin + nout)[flat].T), 1e-300)[:, None]
     # sharp convex corners of the ring take a corner quad at the nearest salient node
     vin = V - np.roll(V, 1, axis=0)
     vout = W - V
@@ -224,15 +236,16 @@ def _loop_band(V, C, h, sharp_cos):
         )[0]
     ).query(C)
     # pushed by the distance to the boundary, measured along the outline's normals
-    push = dist[node] / np.maximum(np.abs((dirs * nin[node]).sum(axis=1)), 0.5)
+    push = dist[node] / np.maximum((dirs * bis[node]).sum(axis=1), 0.5)
     q = C[node] + push[:, None] * dirs
     t = _closest_params(V, cum, q, 0.25 * h)
     # a corner pattern's middle line ends at its corner, the other two on either side
     mid = np.flatnonzero(tn & (sub == 1))
     tc = cum[corner_of[node[mid]]]
     t[mid] = tc
-    t[mid - 1] = tc - ((tc - t[mid - 1]) % total).clip(0.25 * h, 0.5 * total)
-    t[mid + 1] = tc + ((t[mid + 1] - tc) % total).clip(0.25 * h, 0.5 * total)
+    half = 0.5 * total
+    t[mid - 1] = tc - np.maximum((tc - t[mid - 1] + half) % total - half, 0.25 * h)
+    t[mid + 1] = tc + np.maximum((t[mid + 1] - tc + half) % total - half, 0.25 * h)
     d = np.diff(np.concatenate([t, t[:1]]))
     d = (d + 0.5 * total) % total - 0.5 * total
     if abs(d.sum() - total) > 0.25 * total:
@@ -251,7 +264,48 @@ def _loop_band(V, C, h, sharp_cos):
     j = np.minimum(j, M - K + ks)
     if j[0] < 0 or (np.diff(j) <= 0).any():
         return None
-    # parameters of the other lines: between their anchors, half projection, half uniform
+    u = np.full(M, UNIFORM)  # weight of the even spacing, per line
+    B, B_vertex = _ends(V, W, t, j, order, total, u)
+    # repair: a quad not strictly convex moves a neighbouring anchor by one line,
+    # pushing the next anchors along when they are on consecutive lines
+    ks = np.arange(K)
+    nbad = int(_bad_pairs(C, node, B).sum())
+    for _ in range(REPAIR_ROUNDS):
+        if nbad == 0:
+            break
+        for a in np.flatnonzero(_bad_pairs(C, node, B)):
+            # first, even spacing between the two anchors around the pair
+            lo = j[(np.searchsorted(j, a, side="right") - 1) % K]
+            span = (np.arange(M) - lo) % M
+            uu = np.where(span <= (j[np.searchsorted(j, a, side="right") % K] - lo) % M, 1.0, u)
+            BB, BV = _ends(V, W, t, j, order, total, uu)
+            nb = int(_bad_pairs(C, node, BB).sum())
+            if nb < nbad:
+                u, B, B_vertex, nbad = uu, BB, BV, nb
+                continue
+            best = None
+            for kk in np.flatnonzero(np.abs(((j - a + 1) % M) - 1.5) <= 1.5):
+                for step in (-1, 1):
+                    jj = j.copy()
+                    jj[kk] += step
+                    if step < 0:
+                        jj[:kk] = np.minimum(jj[:kk], jj[kk] - kk + ks[:kk])
+                    else:
+                        jj[kk:] = np.maximum(jj[kk:], jj[kk] + ks[: K - kk])
+                    if jj[0] < 0 or jj[-1] >= jj[0] + M:
+                        continue
+                    BB, BV = _ends(V, W, t, jj, order, total, u)
+                    nb = int(_bad_pairs(C, node, BB).sum())
+                    if nb < nbad:
+                        best, nbad = (jj, BB, BV), nb
+            if best is not None:
+                j, B, B_vertex = best
+    return node, template, B, B_vertex
+
+
+def _ends(V, W, t, j, order, total, u):
+    """Line ends: anchors at their ring vertex, the others on the segment between anchors."""
+    M, K = len(t), len(j)
     ja = np.concatenate([j, [j[0] + M]])
     tt = np.maximum.accumulate(np.concatenate([t, t[: j[0] + 1] + total]))
     line = np.arange(j[0], j[0] + M)
@@ -259,11 +313,10 @@ def _loop_band(V, C, h, sharp_cos):
     a, b = ja[seg], ja[seg + 1]
     uni = (line - a) / (b - a)
     span = tt[b] - tt[a]
-    proj = np.where(
-        span > 0, (tt[np.minimum(line, len(tt) - 1)] - tt[a]) / np.where(span > 0, span, 1.0), uni
-    )
-    w = 0.5 * np.clip(proj, 0.0, 1.0) + 0.5 * uni
-    vid = order[seg]  # ring vertex at the start of this line's interval
+    proj = np.where(span > 0, (tt[line] - tt[a]) / np.where(span > 0, span, 1.0), uni)
+    uu = u[line % M]
+    w = (1 - uu) * np.clip(proj, 0.0, 1.0) + uu * uni
+    vid = order[seg % K]  # ring vertex at the start of this line's interval
     end = V[vid] + w[:, None] * (W[vid] - V[vid])
     end[w == 0] = V[vid[w == 0]]
     line = line % M
@@ -271,7 +324,19 @@ def _loop_band(V, C, h, sharp_cos):
     B[line] = end
     B_vertex = np.full(M, -1, dtype=np.int64)
     B_vertex[line[w == 0]] = vid[w == 0]
-    return node, template, B, B_vertex
+    return B, B_vertex
+
+
+def _bad_pairs(C, node, B):
+    """Whether the quad between line ``a`` and line ``a + 1`` is not strictly convex."""
+    M = len(node)
+    a = np.arange(M)
+    b = (a + 1) % M
+    q = [C[node[a]], B[a], B[b], C[node[b]]]
+    ok = np.ones(M, dtype=bool)
+    for c in range(4):
+        ok &= orient2d(q[c], q[(c + 1) % 4], q[(c + 2) % 4]) > 0
+    return ~ok & (node[a] != node[b])
 
 
 def _projected_band(dom: Domain, P: np.ndarray, core: np.ndarray, h: float, layers: int):
