@@ -323,6 +323,7 @@ def quad_grid_main(argv: list[str]) -> None:
     ap = argparse.ArgumentParser(description="quad_grid against Gmsh's quad algorithms")
     ap.add_argument("--domains", nargs="+", default=["square_hole", "l_shape", "plate", "gear"])
     ap.add_argument("--limit", type=float, default=60.0, help="wall seconds per Gmsh run")
+    ap.add_argument("--algorithms", type=int, nargs="+", default=[8, 9, 11])
     args = ap.parse_args(argv)
     quad_grid({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}, size=0.1)
     combine(domain=domain(0.1), size=0.1, all_quad=True, optimize=True)
@@ -347,7 +348,7 @@ def quad_grid_main(argv: list[str]) -> None:
             ours_quad_combine(rings, h),
         ]
         if have_gmsh:
-            rows += [gmsh_row(name, h, alg, GMSH_SIZE * h, args.limit) for alg in (8, 9, 11)]
+            rows += [gmsh_row(name, h, alg, GMSH_SIZE * h, args.limit) for alg in args.algorithms]
         ref = rows[1]["cpu"]
         for r in rows:
             if "note" in r:
