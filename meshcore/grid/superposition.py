@@ -21,13 +21,17 @@ Steps
    into the band, one per band node it gets on the boundary:
 
    * a straight node or a *reflex* corner of the core (the band's angle
-     there is 90°): one line along the bisector of the two edge normals;
-   * a *salient* corner of the core (band angle 270°): one line along the
-     bisector, so the two quads beside it have 135° there; when a sharp
+     there is 90°): one line along the outline's normal averaged over
+     ``NORMAL_SPAN`` edges on either side (at a corner, with no averaging,
+     the bisector of the two edge normals), so the staircase's steps send
+     their lines along the boundary's normal rather than at 45°;
+   * a *salient* corner of the core (band angle 270°): one line likewise,
+     so the two quads beside it share the corner's 270°; when a sharp
      convex corner of the ring (turning by more than 60°) is nearest to this
      node, the *corner pattern* instead: three lines (the two edge normals
-     and the bisector) and a corner quad (node, three line ends), so that
-     the domain's corner gets a quad of its own rather than a flat angle.
+     and the bisector) and a corner quad (node, three line ends), the
+     middle line ending at the domain's corner, so that the corner gets a
+     quad of its own rather than a flat angle.
 
    Each line aims at the closest boundary point to the node pushed along its
    direction by its distance to the boundary, which gives a parameter
@@ -39,7 +43,11 @@ Steps
    spacing (strictly increasing). Layer ``k`` of a line is at ``k / layers``
    of the way from the node to its end, and the quads join consecutive lines
    layer by layer (the corner quad in the first layer, two quads in each
-   following one).
+   following one). **Repair**: a quad between two lines that is not strictly
+   convex (an end pulled sideways by its anchor) first gets even spacing
+   between the anchors around it, then the move by one line of a nearby
+   anchor (pushing the next anchors along) that lowers the count of such
+   quads, for ``REPAIR_ROUNDS`` rounds.
 3. **Check.** Every band quad must be strictly convex at its four corners
    (exact :func:`~meshcore.geometry.predicates.orient2d`). Then, the band
    being a strip of cells glued along the outline, positively oriented, with
