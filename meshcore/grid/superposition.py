@@ -189,10 +189,10 @@ def _pair_loops(dom: Domain, P: np.ndarray, loops: list[np.ndarray], h: float):
 def _loop_band(V, C, h, sharp_cos):
     """One ring of the band: the core loop ``C`` (core on its left) projected onto ``V``.
 
-    Returns the lines (``node`` index into C, new points per layer) and the
-    quads in terms of ``C``'s positions and new points, or None when the
-    projection does not give a monotone correspondence with room for every
-    ring vertex.
+    Returns ``node`` (the outline node of each line, in order), ``template``
+    (per node: whether it takes the corner pattern) and ``B`` (each line's
+    end on the ring), or None when the projection does not give a monotone
+    correspondence with a line for every ring vertex.
     """
     m = len(C)
     K = len(V)
@@ -273,7 +273,7 @@ def _loop_band(V, C, h, sharp_cos):
     if j[0] < 0 or (np.diff(j) <= 0).any():
         return None
     u = np.full(M, UNIFORM)  # weight of the even spacing, per line
-    B, B_vertex = _ends(V, W, t, j, order, total, u)
+    B = _ends(V, W, t, j, order, total, u)
     # repair: a quad not strictly convex moves a neighbouring anchor by one line,
     # pushing the next anchors along when they are on consecutive lines
     ks = np.arange(K)
@@ -286,10 +286,10 @@ def _loop_band(V, C, h, sharp_cos):
             lo = j[(np.searchsorted(j, a, side="right") - 1) % K]
             span = (np.arange(M) - lo) % M
             uu = np.where(span <= (j[np.searchsorted(j, a, side="right") % K] - lo) % M, 1.0, u)
-            BB, BV = _ends(V, W, t, j, order, total, uu)
+            BB = _ends(V, W, t, j, order, total, uu)
             nb = int(_bad_pairs(C, node, BB).sum())
             if nb < nbad:
-                u, B, B_vertex, nbad = uu, BB, BV, nb
+                u, B, nbad = uu, BB, nb
                 continue
             best = None
             for kk in np.flatnonzero(np.abs(((j - a + 1) % M) - 1.5) <= 1.5):
@@ -302,13 +302,13 @@ def _loop_band(V, C, h, sharp_cos):
                         jj[kk:] = np.maximum(jj[kk:], jj[kk] + ks[: K - kk])
                     if jj[0] < 0 or jj[-1] >= jj[0] + M:
                         continue
-                    BB, BV = _ends(V, W, t, jj, order, total, u)
+                    BB = _ends(V, W, t, jj, order, total, u)
                     nb = int(_bad_pairs(C, node, BB).sum())
                     if nb < nbad:
-                        best, nbad = (jj, BB, BV), nb
+                        best, nbad = (jj, BB), nb
             if best is not None:
-                j, B, B_vertex = best
-    return node, template, B, B_vertex
+                j, B = best
+    return node, template, B
 
 
 def _ends(V, W, t, j, order, total, u):
@@ -330,9 +330,7 @@ def _ends(V, W, t, j, order, total, u):
     line = line % M
     B = np.empty((M, 2))
     B[line] = end
-    B_vertex = np.full(M, -1, dtype=np.int64)
-    B_vertex[line[w == 0]] = vid[w == 0]
-    return B, B_vertex
+    return B
 
 
 def _bad_pairs(C, node, B):
@@ -364,7 +362,7 @@ def _projected_band(dom: Domain, P: np.ndarray, core: np.ndarray, h: float, laye
         got = _loop_band(V, C, h, SHARP_COS)
         if got is None:
             return None, f"ring {r}: no monotone projection with a line for each vertex"
-        node, template, B, _ = got
+        node, template, B = got
         M = len(node)
         k = np.arange(1, L + 1) / L
         X = C[node][:, None, :] + k[None, :, None] * (B - C[node])[:, None, :]
