@@ -99,15 +99,15 @@ class QuadGridParams(MethodParams):
         None,
         gt=0,
         allow_inf_nan=False,
-        description="Quad side (the interior squares'). Default as for grid.",
+        description="Grid side (the interior squares'). Default as for grid.",
     )
     layers: int = Field(
-        1, ge=1, le=8, description="Width of the band along the boundary, in cells of 2 size."
+        1, ge=1, le=8, description="Quads across the band between the squares and the boundary."
     )
     smooth: bool = Field(
         True,
-        description="Optimize the band's quads: operators and smoothing that never inverts a "
-        "cell; the interface and the boundary stay.",
+        description="Optimize the band and two rings of squares along it: operators and "
+        "smoothing that never inverts a cell; the boundary stays.",
     )
     max_cells: int = Field(cartesian.MAX_CELLS, ge=1, le=cartesian.MAX_CELLS)
 
