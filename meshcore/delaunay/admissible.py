@@ -8,17 +8,26 @@ arrays, for the triangulator) split the offending segments until it is, and
 :func:`make_admissible` also returns the "empty" Delaunay triangulation of
 the domain (§9.4.1: no vertex inside, only boundary points).
 
-Algorithm (§9.1.4), in rounds, each one vectorized over all segments:
+Algorithm (§9.1.4), in rounds, each one vectorized over the segments it
+splits:
 
-1. Triangulate the current points with :func:`meshcore.delaunay.kernel2d.delaunay`
+1. Triangulate the input points with :func:`meshcore.delaunay.kernel2d.delaunay`
    (our exact kernel) and look every segment up among its edges (a
    compiled, linear-time scan of the vertex adjacency). Stop when all are
-   there.
-2. For each missing segment ``f = AB`` gather the points of its closed
-   diametral ball (a ``cKDTree`` ball query around the midpoint, enlarged
-   by a rounding slack, then the exact predicate
-   :func:`~meshcore.geometry.predicates.dot2d` decides membership) and pick
-   the one with the largest angle ``APB`` (§9.1.2).
+   there. Otherwise the rounds go on in one
+   :class:`~meshcore.delaunay.kernel2d.IncrementalDelaunay`: each round
+   inserts its split points (the same triangles as triangulating anew: the
+   kernel's ties depend only on the point set) and checks again only the
+   pieces it made or shortened and those whose two ends an insertion
+   touched (an edge an insertion removes joins two neighbours of the
+   inserted point). The last triangulation is made anew from the final
+   points, so that it is the one :func:`delaunay` gives.
+2. For each missing segment ``f = AB`` find the point of its closed
+   diametral ball (the exact predicate
+   :func:`~meshcore.geometry.predicates.dot2d` decides membership) with the
+   largest angle ``APB`` (§9.1.2): a compiled search over the triangles
+   meeting the ball, from those the segment crosses, narrowed to the lens
+   of the points that could still beat the best angle found.
 3. Split ``f`` at the projection of ``P`` on ``f`` (§9.1.4, Figure 9.4), or,
    for a segment of a ring that declares a circle, at that projection moved
    radially onto the circle (§9.1.5). Segments meeting at an acute angle
@@ -131,14 +140,15 @@ kernel's triangulation (its exact tie-breaking), and a Delaunay code with
 other tie-breaking may need a swap to show it (§9.1.3, footnote 4);
 floating-point codes such as Qhull may take either diagonal.
 
-Cost: each round re-triangulates all points (``O(n log n)``), looks the
-segments up in linear time (compiled), and queries the balls of the missing
-segments (linear in the points found in them). Rounds are few on the test
-polygons (2 to 8); a 1,000-vertex random star with 0.4° between spikes
-takes 32 rounds and 9,300 points, 0.7 s; a 10,000-vertex one 146 rounds and
-604,000 points, 126 s, most rounds at the end splitting one or two segments
-each (each spike's chain of splits is sequential, and every round
-re-triangulates everything).
+Cost: a round costs time in the pieces it splits and checks (insertions,
+edge look-ups, lens searches in compiled code; numpy on those rows), not
+in all points, plus one whole triangulation at the start and one at the
+end. Rounds are few on the test polygons (2 to 8); a 10,000-vertex random
+star (``benchmarks/admissible.py``) takes 146 rounds and 604,000 points,
+most rounds at the end splitting one or two segments each (each spike's
+chain of splits is sequential): 126 s when every round re-triangulated
+everything, about 7 s of CPU now (see the benchmark for this machine's
+figures). The case counts of the result are computed when first read.
 
 The restricted triangulation (:func:`restricted_triangles`) keeps the
 triangles reached by a flood fill across non-segment edges from the left
@@ -156,7 +166,8 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from numba import njit
@@ -262,7 +273,8 @@ class AdmissibleSegments:
         The input segment each output segment comes from (non-decreasing).
     cases_before, cases_after : dict
         Counts of Case 0, 1 and 2 segments (§9.1.2) among the input and the
-        output segments, keys ``"case0"``, ``"case1"``, ``"case2"``.
+        output segments, keys ``"case0"``, ``"case1"``, ``"case2"``
+        (classified on first access: the triangulator does not ask).
     added : int
         Number of points added (Steiner points).
     rounds : int
@@ -279,13 +291,26 @@ class AdmissibleSegments:
     points: np.ndarray
     segments: np.ndarray
     source: np.ndarray
-    cases_before: dict[str, int]
-    cases_after: dict[str, int]
     added: int
     rounds: int
     protected: np.ndarray
     protection_radius: np.ndarray
     delaunay: Triangulation
+    _input: tuple = field(repr=False)  # (points, segments, their triangulation)
+    _tolerances: Tolerances = field(repr=False)
+
+    @cached_property
+    def cases_before(self) -> dict[str, int]:
+        P, S, tri = self._input
+        return _counts(classify_segments(P, S, triangulation=tri, tolerances=self._tolerances))
+
+    @cached_property
+    def cases_after(self) -> dict[str, int]:
+        return _counts(
+            classify_segments(
+                self.points, self.segments, triangulation=self.delaunay, tolerances=self._tolerances
+            )
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -1423,8 +1448,7 @@ def admissible_segments(
         n0=n0,
     )
     budget = _Budget(n0=n0, max_added=MAX_ADDED_FACTOR * (n0 + m0) + MAX_ADDED_BASE)
-    tri = delaunay(P)
-    cases_before = _counts(classify_segments(P, S, triangulation=tri, tolerances=tolerances))
+    tri = first = delaunay(P)
     if origin.any() and not _present(tri, S).all():
         _rounds(st, budget, local_circles, tolerances, progress)
         # Back to the input's frame: the input points come back exactly; the
@@ -1436,7 +1460,6 @@ def admissible_segments(
     else:
         st.P = P
     tri = _rounds(st, budget, circles, tolerances, progress, first=tri)
-    cases_after = _counts(classify_segments(st.P, st.S, triangulation=tri, tolerances=tolerances))
     protected = np.flatnonzero(~np.isnan(st.radius))
     radius = st.radius[protected]
     for arr in (st.P, st.S, st.source, protected, radius):
@@ -1445,13 +1468,13 @@ def admissible_segments(
         points=st.P,
         segments=st.S,
         source=st.source,
-        cases_before=cases_before,
-        cases_after=cases_after,
         added=len(st.P) - n0,
         rounds=budget.rounds,
         protected=protected,
         protection_radius=radius,
         delaunay=tri,
+        _input=(P, S, first),
+        _tolerances=tolerances,
     )
 
 
