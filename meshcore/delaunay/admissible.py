@@ -367,10 +367,10 @@ def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
 
 
 @njit(cache=True)
-def edges_present(triangles, n, segments):
-    """Whether each segment is an edge of the triangles: vertex adjacency in
-    CSR form (counting sort, linear time), then a scan of each segment's
-    first vertex's neighbours (a sequential compiled loop)."""
+def _fans(triangles, n):
+    """Vertex adjacency in CSR form (counting sort, linear time): for vertex
+    ``v`` and ``j`` in ``start[v]:start[v + 1]``, ``(v, nxt[j], prv[j])`` is
+    one of its triangles, counter-clockwise."""
     start = np.zeros(n + 1, np.int64)
     for t in range(triangles.shape[0]):
         for i in range(3):
@@ -386,6 +386,15 @@ def edges_present(triangles, n, segments):
             nxt[fill[v]] = triangles[t, (i + 1) % 3]
             prv[fill[v]] = triangles[t, (i + 2) % 3]
             fill[v] += 1
+    return start, nxt, prv
+
+
+@njit(cache=True)
+def edges_present(triangles, n, segments):
+    """Whether each segment is an edge of the triangles: vertex adjacency in
+    CSR form (counting sort, linear time), then a scan of each segment's
+    first vertex's neighbours (a sequential compiled loop)."""
+    start, nxt, prv = _fans(triangles, n)
     out = np.zeros(segments.shape[0], np.bool_)
     for k in range(segments.shape[0]):
         a = segments[k, 0]
@@ -403,21 +412,7 @@ def _edge_apexes(triangles, n, segments):
     and of the one on its right (-1: none, a hull edge); -2 for both when
     the segment is not an edge (vertex adjacency in CSR form, as
     :func:`edges_present`)."""
-    start = np.zeros(n + 1, np.int64)
-    for t in range(triangles.shape[0]):
-        for i in range(3):
-            start[triangles[t, i] + 1] += 1
-    for v in range(n):
-        start[v + 1] += start[v]
-    fill = start[:-1].copy()
-    nxt = np.empty(3 * triangles.shape[0], np.int64)
-    prv = np.empty(3 * triangles.shape[0], np.int64)
-    for t in range(triangles.shape[0]):
-        for i in range(3):
-            v = triangles[t, i]
-            nxt[fill[v]] = triangles[t, (i + 1) % 3]
-            prv[fill[v]] = triangles[t, (i + 2) % 3]
-            fill[v] += 1
+    start, nxt, prv = _fans(triangles, n)
     out = np.full((segments.shape[0], 2), -1, np.int64)
     for k in range(segments.shape[0]):
         a = segments[k, 0]
