@@ -147,8 +147,8 @@ def main() -> None:
     inputs["star-10000"] = star(10_000)
     admissible_segments(*star(10)[:2])  # warm-up: numba's cache
     head = (
-        f"{'input':<13}{'pts':>6}{'segs':>6} | {'ours +pts':>9}{'non-Del':>8}{'ms':>8} | "
-        f"{'pD +pts':>8}{'non-Del':>8}{'ms':>7} | {'ours/pD':>7}{'t ours/pD':>10} | "
+        f"{'input':<13}{'pts':>6}{'segs':>6} | {'ours +pts':>9}{'non-Del':>8}{'ms':>9} | "
+        f"{'pD +pts':>9}{'non-Del':>9}{'ms':>9} | {'ours/pD':>7}{'t ours/pD':>10} | "
         f"{'CGAL*':>5}{'proto*':>7}"
     )
     print(head)
@@ -157,13 +157,13 @@ def main() -> None:
         repeat = 1 if len(points) > 1000 else 3
         ours, ours_left, ours_s = run_ours(points, segments, repeat)
         row = f"{name:<13}{len(points):>6}{len(segments):>6} | {ours:>9}{ours_left:>8}"
-        row += f"{1e3 * ours_s:>8.1f} | "
+        row += f"{1e3 * ours_s:>9.1f} | "
         if triangle is not None:
             pd, pd_left, pd_s = run_triangle(points, segments, holes, repeat)
             ratio = f"{ours / pd:.2f}" if pd else "-"
-            row += f"{pd:>8}{pd_left:>8}{1e3 * pd_s:>7.1f} | {ratio:>7}{ours_s / pd_s:>10.1f} | "
+            row += f"{pd:>9}{pd_left:>9}{1e3 * pd_s:>9.1f} | {ratio:>7}{ours_s / pd_s:>10.1f} | "
         else:
-            row += f"{'-':>8}{'-':>8}{'-':>7} | {'-':>7}{'-':>10} | "
+            row += f"{'-':>9}{'-':>9}{'-':>9} | {'-':>7}{'-':>10} | "
         row += f"{CGAL.get(name, '-'):>5}{PROTOTYPE.get(name, '-'):>7}"
         print(row)
     print(
