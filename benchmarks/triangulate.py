@@ -4,6 +4,8 @@ Run from the repository root::
 
     .venv/bin/python benchmarks/triangulate.py                 # 10k, 100k, 1M triangles
     .venv/bin/python benchmarks/triangulate.py --sizes 10000 100000 --no-gmsh
+    .venv/bin/python benchmarks/triangulate.py --scaling            # 10k .. 1M, ours and Triangle
+    .venv/bin/python benchmarks/triangulate.py --scaling 10000 100000 1000000 10000000
 
 Inputs (one planar straight-line graph, the same for every tool):
 
@@ -30,8 +32,16 @@ after a warm-up call that loads numba's cache; parsing the domain is not
 timed), peak resident memory of the child (``getrusage``, whole process,
 Python and imports included), and the quality of the result (smallest
 angle, fraction of triangles with an angle under 30 degrees) computed by
-:mod:`meshcore.mesh.quality`. Triangle and Gmsh are bench-only dependencies
-(``pip install -e .[bench]``) and are skipped with a note when absent.
+:mod:`meshcore.mesh.quality`.
+
+``--scaling``: the square with a hole at 10k, 100k, 1M (and, asked for,
+10M) triangles, ours and Triangle only: seconds and peak memory of each,
+the ratio, and the exponent ``b`` of ``seconds ~ triangles**b`` fitted by
+least squares on the log-log points of each tool (1 is linear). The
+10M-triangle runs need about 4 GB each: run them alone on a quiet machine.
+
+Triangle and Gmsh are bench-only dependencies (``pip install -e .[bench]``)
+and are skipped with a note when absent.
 """
 
 from __future__ import annotations
@@ -234,16 +244,64 @@ def fmt_row(label, tool, r, ours):
     )
 
 
+def fitted_exponent(sizes, seconds) -> float:
+    """Least-squares slope of log(seconds) against log(size)."""
+    if len(sizes) < 2:
+        return float("nan")
+    return float(np.polyfit(np.log(sizes), np.log(seconds), 1)[0])
+
+
+def scaling(sizes, timeout: float) -> None:
+    """Seconds and peak memory against size, ours and Triangle, one child each."""
+    tools = ["ours"] + (["triangle"] if available("triangle") else [])
+    print(
+        "| target | ours triangles | ours s | ours peak MB | Triangle triangles | "
+        "Triangle s | Triangle peak MB | ours/Triangle time |"
+    )
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
+    fits = {tool: ([], []) for tool in tools}
+    for n in sizes:
+        res = {tool: run_child(tool, "square-hole", n, timeout) for tool in tools}
+        cells = []
+        for tool in ("ours", "triangle"):
+            r = res.get(tool, "skipped")
+            if isinstance(r, dict):
+                cells += [f"{r['triangles']:,}", f"{r['seconds']:.3f}", f"{r['peak_mb']:.0f}"]
+                fits[tool][0].append(r["triangles"])
+                fits[tool][1].append(r["seconds"])
+            else:
+                cells += [str(r), "", ""]
+        ours, tri = res.get("ours"), res.get("triangle")
+        ratio = (
+            f"{ours['seconds'] / tri['seconds']:.2f}"
+            if isinstance(ours, dict) and isinstance(tri, dict)
+            else ""
+        )
+        print(f"| {n:,} | " + " | ".join(cells) + f" | {ratio} |", flush=True)
+    for tool, (tris, secs) in fits.items():
+        print(f"{tool}: seconds ~ triangles**{fitted_exponent(tris, secs):.3f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", type=int, nargs="*", default=[10_000, 100_000, 1_000_000])
     ap.add_argument("--no-gmsh", action="store_true")
     ap.add_argument("--timeout", type=float, default=600)
     ap.add_argument("--child", nargs=3, metavar=("TOOL", "CASE", "N"))
+    ap.add_argument(
+        "--scaling",
+        type=int,
+        nargs="*",
+        metavar="N",
+        help="scaling table of the square with a hole (default sizes 10k 100k 1M)",
+    )
     args = ap.parse_args()
     if args.child:
         tool, case, n = args.child
         print(json.dumps(child(tool, case, int(n))))
+        return
+    if args.scaling is not None:
+        scaling(args.scaling or [10_000, 100_000, 1_000_000], args.timeout)
         return
     tools = ["ours"]
     notes = []

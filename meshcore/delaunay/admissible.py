@@ -8,17 +8,26 @@ arrays, for the triangulator) split the offending segments until it is, and
 :func:`make_admissible` also returns the "empty" Delaunay triangulation of
 the domain (§9.4.1: no vertex inside, only boundary points).
 
-Algorithm (§9.1.4), in rounds, each one vectorized over all segments:
+Algorithm (§9.1.4), in rounds, each one vectorized over the segments it
+splits:
 
-1. Triangulate the current points with :func:`meshcore.delaunay.kernel2d.delaunay`
+1. Triangulate the input points with :func:`meshcore.delaunay.kernel2d.delaunay`
    (our exact kernel) and look every segment up among its edges (a
    compiled, linear-time scan of the vertex adjacency). Stop when all are
-   there.
-2. For each missing segment ``f = AB`` gather the points of its closed
-   diametral ball (a ``cKDTree`` ball query around the midpoint, enlarged
-   by a rounding slack, then the exact predicate
-   :func:`~meshcore.geometry.predicates.dot2d` decides membership) and pick
-   the one with the largest angle ``APB`` (§9.1.2).
+   there. Otherwise the rounds go on in one
+   :class:`~meshcore.delaunay.kernel2d.IncrementalDelaunay`: each round
+   inserts its split points (the same triangles as triangulating anew: the
+   kernel's ties depend only on the point set) and checks again only the
+   pieces it made or shortened and those whose two ends an insertion
+   touched (an edge an insertion removes joins two neighbours of the
+   inserted point). The last triangulation is made anew from the final
+   points, so that it is the one :func:`delaunay` gives.
+2. For each missing segment ``f = AB`` find the point of its closed
+   diametral ball (the exact predicate
+   :func:`~meshcore.geometry.predicates.dot2d` decides membership) with the
+   largest angle ``APB`` (§9.1.2): a compiled search over the triangles
+   meeting the ball, from those the segment crosses, narrowed to the lens
+   of the points that could still beat the best angle found.
 3. Split ``f`` at the projection of ``P`` on ``f`` (§9.1.4, Figure 9.4), or,
    for a segment of a ring that declares a circle, at that projection moved
    radially onto the circle (§9.1.5). Segments meeting at an acute angle
@@ -131,14 +140,15 @@ kernel's triangulation (its exact tie-breaking), and a Delaunay code with
 other tie-breaking may need a swap to show it (§9.1.3, footnote 4);
 floating-point codes such as Qhull may take either diagonal.
 
-Cost: each round re-triangulates all points (``O(n log n)``), looks the
-segments up in linear time (compiled), and queries the balls of the missing
-segments (linear in the points found in them). Rounds are few on the test
-polygons (2 to 8); a 1,000-vertex random star with 0.4° between spikes
-takes 32 rounds and 9,300 points, 0.7 s; a 10,000-vertex one 146 rounds and
-604,000 points, 126 s, most rounds at the end splitting one or two segments
-each (each spike's chain of splits is sequential, and every round
-re-triangulates everything).
+Cost: a round costs time in the pieces it splits and checks (insertions,
+edge look-ups, lens searches in compiled code; numpy on those rows), not
+in all points, plus one whole triangulation at the start and one at the
+end. Rounds are few on the test polygons (2 to 8); a 10,000-vertex random
+star (``benchmarks/admissible.py``) takes 146 rounds and 604,000 points,
+most rounds at the end splitting one or two segments each (each spike's
+chain of splits is sequential): 126 s when every round re-triangulated
+everything, about 7 s of CPU now (see the benchmark for this machine's
+figures). The case counts of the result are computed when first read.
 
 The restricted triangulation (:func:`restricted_triangles`) keeps the
 triangles reached by a flood fill across non-segment edges from the left
@@ -156,7 +166,8 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from numba import njit
@@ -164,10 +175,23 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from meshcore.delaunay.kernel2d import Triangulation, delaunay
+from meshcore.delaunay.kernel2d import (
+    IncrementalDelaunay,
+    Triangulation,
+    _corner,
+    _nxt,
+    _prv,
+    delaunay,
+)
 from meshcore.domain.planar import Domain
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.geometry.predicates import dot2d, orient2d
+from meshcore.geometry.predicates import (
+    WORK_SIZE,
+    dot2d,
+    dot2d_filtered,
+    orient2d,
+    orient2d_filtered,
+)
 from meshcore.mesh import CellBlock, Mesh
 
 __all__ = [
@@ -249,7 +273,8 @@ class AdmissibleSegments:
         The input segment each output segment comes from (non-decreasing).
     cases_before, cases_after : dict
         Counts of Case 0, 1 and 2 segments (§9.1.2) among the input and the
-        output segments, keys ``"case0"``, ``"case1"``, ``"case2"``.
+        output segments, keys ``"case0"``, ``"case1"``, ``"case2"``
+        (classified on first access: the triangulator does not ask).
     added : int
         Number of points added (Steiner points).
     rounds : int
@@ -266,13 +291,26 @@ class AdmissibleSegments:
     points: np.ndarray
     segments: np.ndarray
     source: np.ndarray
-    cases_before: dict[str, int]
-    cases_after: dict[str, int]
     added: int
     rounds: int
     protected: np.ndarray
     protection_radius: np.ndarray
     delaunay: Triangulation
+    _input: tuple = field(repr=False)  # (points, segments, their triangulation)
+    _tolerances: Tolerances = field(repr=False)
+
+    @cached_property
+    def cases_before(self) -> dict[str, int]:
+        P, S, tri = self._input
+        return _counts(classify_segments(P, S, triangulation=tri, tolerances=self._tolerances))
+
+    @cached_property
+    def cases_after(self) -> dict[str, int]:
+        return _counts(
+            classify_segments(
+                self.points, self.segments, triangulation=self.delaunay, tolerances=self._tolerances
+            )
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -329,10 +367,10 @@ def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
 
 
 @njit(cache=True)
-def edges_present(triangles, n, segments):
-    """Whether each segment is an edge of the triangles: vertex adjacency in
-    CSR form (counting sort, linear time), then a scan of each segment's
-    first vertex's neighbours (a sequential compiled loop)."""
+def _fans(triangles, n):
+    """Vertex adjacency in CSR form (counting sort, linear time): for vertex
+    ``v`` and ``j`` in ``start[v]:start[v + 1]``, ``(v, nxt[j], prv[j])`` is
+    one of its triangles, counter-clockwise."""
     start = np.zeros(n + 1, np.int64)
     for t in range(triangles.shape[0]):
         for i in range(3):
@@ -348,6 +386,15 @@ def edges_present(triangles, n, segments):
             nxt[fill[v]] = triangles[t, (i + 1) % 3]
             prv[fill[v]] = triangles[t, (i + 2) % 3]
             fill[v] += 1
+    return start, nxt, prv
+
+
+@njit(cache=True)
+def edges_present(triangles, n, segments):
+    """Whether each segment is an edge of the triangles: vertex adjacency in
+    CSR form (counting sort, linear time), then a scan of each segment's
+    first vertex's neighbours (a sequential compiled loop)."""
+    start, nxt, prv = _fans(triangles, n)
     out = np.zeros(segments.shape[0], np.bool_)
     for k in range(segments.shape[0]):
         a = segments[k, 0]
@@ -356,6 +403,30 @@ def edges_present(triangles, n, segments):
             if nxt[j] == b or prv[j] == b:
                 out[k] = True
                 break
+    return out
+
+
+@njit(cache=True)
+def _edge_apexes(triangles, n, segments):
+    """Per segment ``a -> b``: the third vertex of the triangle on its left
+    and of the one on its right (-1: none, a hull edge); -2 for both when
+    the segment is not an edge (vertex adjacency in CSR form, as
+    :func:`edges_present`)."""
+    start, nxt, prv = _fans(triangles, n)
+    out = np.full((segments.shape[0], 2), -1, np.int64)
+    for k in range(segments.shape[0]):
+        a = segments[k, 0]
+        b = segments[k, 1]
+        edge = False
+        for j in range(start[a], start[a + 1]):
+            if nxt[j] == b:
+                out[k, 0] = prv[j]
+                edge = True
+            elif prv[j] == b:
+                out[k, 1] = nxt[j]
+                edge = True
+        if not edge:
+            out[k, 0] = out[k, 1] = -2
     return out
 
 
@@ -475,10 +546,23 @@ def classify_segments(
     P, S = _validated(points, segments)
     tri = triangulation if triangulation is not None else delaunay(P)
     cases = np.full(len(S), 2, dtype=np.int8)
-    tree = cKDTree(P)
-    q, _, d = _closed_ball_members(P, tree, S[:, 0], S[:, 1], _scale(P), tolerances)
-    strictly = np.bincount(q[d < 0], minlength=len(S))
-    cases[strictly == 0] = 1
+    # A Delaunay edge's open diametral ball is empty iff neither triangle on
+    # it has its third vertex strictly inside (that half of the ball lies in
+    # the triangle's empty circumdisk otherwise); other segments: ball query.
+    apex = _edge_apexes(tri.triangles, len(P), S)
+    edge = np.flatnonzero(apex[:, 0] != -2)
+    inside = np.zeros(len(edge), dtype=bool)
+    for side in range(2):
+        has = np.flatnonzero(apex[edge, side] >= 0)
+        e = edge[has]
+        inside[has] |= dot2d(P[S[e, 0]], P[S[e, 1]], P[apex[e, side]]) < 0
+    cases[edge[~inside]] = 1
+    other = np.flatnonzero(apex[:, 0] == -2)
+    if other.size:
+        a, b = S[other, 0], S[other, 1]
+        q, _, d = _closed_ball_members(P, cKDTree(P), a, b, _scale(P), tolerances)
+        strictly = np.bincount(q[d < 0], minlength=len(other))
+        cases[other[strictly == 0]] = 1
     cases[_hull_case0(P, tri, S)] = 0
     return cases
 
@@ -595,14 +679,9 @@ def _point_segment_distance(X: np.ndarray, U: np.ndarray, V: np.ndarray) -> np.n
     return np.hypot(X[:, 0] - foot[:, 0], X[:, 1] - foot[:, 1])
 
 
-def _protection_bounds(P, S, acute, tree, verts, tol) -> np.ndarray:
-    """Largest safe protection radius of each vertex (Exercise 9.4).
-
-    The smallest of: :data:`PROTECT_FRACTION` times the distance to the
-    nearest other point, the same fraction of the distance to the nearest
-    segment not incident to the vertex, and :data:`SHARE_FRACTION` times the
-    shortest segment of the vertex's acute cluster (so that the protection
-    points of both ends of a segment stay apart).
+def _segment_reach(P, S, reach, verts, tol) -> np.ndarray:
+    """``reach`` lowered to the distance from each vertex to the nearest
+    segment of ``S`` not incident to it, where that is closer.
 
     Segments are searched by length class (lengths in ``[2**k, 2**(k+1))``),
     each class in a ``cKDTree`` of midpoints with the query radius enlarged
@@ -610,8 +689,7 @@ def _protection_bounds(P, S, acute, tree, verts, tol) -> np.ndarray:
     scanning all of them.
     """
     X = P[verts]
-    dist, _ = tree.query(X, k=2)
-    reach = dist[:, 1].copy()  # nearest other point
+    reach = reach.copy()
     U, V = P[S[:, 0]], P[S[:, 1]]
     length = np.hypot(V[:, 0] - U[:, 0], V[:, 1] - U[:, 1])
     cls = np.frexp(length)[1]
@@ -628,14 +706,27 @@ def _protection_bounds(P, S, acute, tree, verts, tol) -> np.ndarray:
         if q.size:
             d = _point_segment_distance(X[q], U[seg], V[seg])
             np.minimum.at(reach, q, d)
-    # Shortest piece of the acute cluster at each vertex.
+    return reach
+
+
+def _protection_bounds(P, S, acute, reach, verts) -> np.ndarray:
+    """Largest safe protection radius of each vertex (Exercise 9.4).
+
+    The smallest of: :data:`PROTECT_FRACTION` times ``reach`` (k,), the
+    distance to the nearest other point or segment not incident to the
+    vertex, and :data:`SHARE_FRACTION` times the shortest segment of the
+    vertex's acute cluster (so that the protection points of both ends of a
+    segment stay apart).
+    """
     slot = np.full(len(P), -1, dtype=np.int64)
     slot[verts] = np.arange(len(verts))
     ends = np.flatnonzero(acute.ravel())
     end_vertex = S.ravel()[ends]
     mine = slot[end_vertex] >= 0
+    seg = ends[mine] // 2
+    d = P[S[seg, 1]] - P[S[seg, 0]]
     shortest = np.full(len(verts), np.inf)
-    np.minimum.at(shortest, slot[end_vertex[mine]], length[ends[mine] // 2])
+    np.minimum.at(shortest, slot[end_vertex[mine]], np.hypot(d[:, 0], d[:, 1]))
     return np.minimum(PROTECT_FRACTION * reach, SHARE_FRACTION * shortest)
 
 
@@ -712,32 +803,286 @@ def _projection_points(P, S, rows, enc, circles, seg_circle):
     return M, np.where(from_a, 0, 1)
 
 
-def _choose_encroachers(P, S, rows, tree, scale, tol):
+@njit(cache=True, inline="always")
+def _near_segment(pts, u, v, cx, cy, r2):
+    """Float test, padded by the caller: segment uv comes within sqrt(r2) of (cx, cy)."""
+    ux = pts[u, 0] - cx
+    uy = pts[u, 1] - cy
+    dx = pts[v, 0] - pts[u, 0]
+    dy = pts[v, 1] - pts[u, 1]
+    ll = dx * dx + dy * dy
+    s = 0.0
+    if ll > 0.0:
+        s = min(1.0, max(0.0, -(ux * dx + uy * dy) / ll))
+    fx = ux + s * dx
+    fy = uy + s * dy
+    return fx * fx + fy * fy <= r2
+
+
+@njit(cache=True)
+def _crossed_triangles(pts, V, A, vt, ia, ib, tstamp, stamp, queue):
+    """Seeds of :func:`_widest_angle_points`: a triangle at ``ia``, then the
+    triangles the segment ``ia ib`` crosses, walked in float arithmetic (a
+    heuristic: the search is correct from the first seed alone), stamped
+    and put in ``queue``. Returns how many (at most the queue's length)."""
+    t0 = vt[ia]
+    tstamp[t0] = stamp
+    queue[0] = t0
+    count = 1
+    ax = pts[ia, 0]
+    ay = pts[ia, 1]
+    ex = pts[ib, 0] - ax
+    ey = pts[ib, 1] - ay
+    t = t0
+    kin = -1
+    while True:  # the triangle at ia whose angle holds the direction to ib
+        k = _corner(V, t, ia)
+        u = V[_nxt(k)]
+        w = V[_prv(k)]
+        if u >= 0 and w >= 0:
+            su = ex * (pts[u, 1] - ay) - ey * (pts[u, 0] - ax)
+            sw = ex * (pts[w, 1] - ay) - ey * (pts[w, 0] - ax)
+            if su <= 0.0 <= sw:
+                kin = A[k]
+                break
+        t = A[_prv(k)] // 3
+        if t == t0:
+            return count
+    while count < queue.shape[0]:
+        x = V[kin]
+        if x < 0:
+            break
+        t = kin // 3
+        if tstamp[t] != stamp:
+            tstamp[t] = stamp
+            queue[count] = t
+            count += 1
+        if x == ib:
+            break
+        sx = ex * (pts[x, 1] - ay) - ey * (pts[x, 0] - ax)
+        p1 = V[_nxt(kin)]
+        s1 = ex * (pts[p1, 1] - ay) - ey * (pts[p1, 0] - ax)
+        if sx == 0.0:
+            break
+        kin = A[_nxt(kin)] if (sx > 0.0) == (s1 > 0.0) else A[_prv(kin)]
+    return count
+
+
+@njit(cache=True)
+def _widest_angle_points(pts, V, A, vt, order, a, b, radius, tie, tstamp, vstamp, counter, work):
+    """Per segment (a[i], b[i]) of the triangulation's points, the point of
+    its closed diametral ball seen under the widest angle (§9.1.2).
+
+    A search over the triangles that meet the region still worth looking
+    in: first the ball (radius ``radius[i]``, enlarged), then, once a point
+    with angle ``w`` is found, the lens of the points that see the segment
+    under at least ``w - tie`` (the intersection of two discs through both
+    ends; convex, so the triangles meeting it are connected, and each one
+    meets the segment). Regions only shrink, so no point that can still
+    win is missed. The points of the seeds (:func:`_crossed_triangles`)
+    come first, so that the lens is tight before the search spreads.
+    Triangle tests are float, padded; ball membership is exact (``dot2d``);
+    angles are float. Returns the chosen point (input index; -1 for an
+    empty ball) and whether it lies on the segment's line.
+    """
+    k = a.shape[0]
+    choice = np.full(k, -1, np.int64)
+    collinear = np.zeros(k, np.bool_)
+    queue = np.empty(256, np.int64)
+    cand = np.empty(64, np.int64)
+    cang = np.empty(64)
+    cflat = np.empty(64, np.bool_)
+    stamp = counter[0]
+    for i in range(k):
+        stamp += 1
+        ia = a[i]
+        ib = b[i]
+        ax = pts[ia, 0]
+        ay = pts[ia, 1]
+        bx = pts[ib, 0]
+        by = pts[ib, 1]
+        cx = 0.5 * (ax + bx)
+        cy = 0.5 * (ay + by)
+        r2 = radius[i] * radius[i]
+        ball2 = r2 * (1.0 + 1e-6)
+        half = 0.5 * np.hypot(bx - ax, by - ay)
+        nx = -(by - ay) / (2.0 * half)
+        ny = (bx - ax) / (2.0 * half)
+        lens = False
+        lx1 = ly1 = lx2 = ly2 = lens2 = 0.0
+        best = -np.inf
+        nc = 0
+        seeds = _crossed_triangles(pts, V, A, vt, ia, ib, tstamp, stamp, queue)
+        tail = seeds
+        head = 0
+        spreading = False
+        while True:
+            if head == tail or (not spreading and head == seeds):
+                if spreading:
+                    break
+                spreading = True
+                head = 0
+                continue
+            t = queue[head]
+            head += 1
+            for j in range(3):
+                v = V[3 * t + j]
+                if vstamp[v] == stamp or v == ia or v == ib:
+                    continue
+                vstamp[v] = stamp
+                px = pts[v, 0]
+                py = pts[v, 1]
+                if (px - cx) ** 2 + (py - cy) ** 2 > r2:
+                    continue
+                if dot2d_filtered(ax, ay, bx, by, px, py, work) > 0:
+                    continue
+                ux = ax - px
+                uy = ay - py
+                wx = bx - px
+                wy = by - py
+                angle = np.arctan2(abs(ux * wy - uy * wx), ux * wx + uy * wy)
+                flat = orient2d_filtered(ax, ay, bx, by, px, py, work) == 0
+                if flat:
+                    angle = np.pi
+                if nc == cand.shape[0]:
+                    cand = np.concatenate((cand, np.empty(nc, np.int64)))
+                    cang = np.concatenate((cang, np.empty(nc)))
+                    cflat = np.concatenate((cflat, np.empty(nc, np.bool_)))
+                cand[nc] = v
+                cang[nc] = angle
+                cflat[nc] = flat
+                nc += 1
+                if angle > best:
+                    best = angle
+                    # Lens of the angles >= best - tie, a little wider.
+                    phi = np.pi - (best - tie - 1e-9)
+                    if 1e-6 < phi < 0.5 * np.pi:
+                        d = half / np.tan(phi)
+                        rr = half / np.sin(phi)
+                        lx1 = cx + nx * d
+                        ly1 = cy + ny * d
+                        lx2 = cx - nx * d
+                        ly2 = cy - ny * d
+                        lens2 = (rr * (1.0 + 1e-9) + 1e-9 * half) ** 2
+                        lens = True
+            if not spreading:
+                continue
+            for j in range(3):
+                kk = 3 * t + j
+                u = V[_nxt(kk)]
+                w = V[_prv(kk)]
+                t2 = A[kk] // 3
+                if tstamp[t2] == stamp or V[A[kk]] < 0:
+                    continue  # seen, or a ghost across a hull edge
+                if not _near_segment(pts, u, w, cx, cy, ball2):
+                    continue
+                if lens and not (
+                    _near_segment(pts, u, w, lx1, ly1, lens2)
+                    and _near_segment(pts, u, w, lx2, ly2, lens2)
+                ):
+                    continue
+                tstamp[t2] = stamp
+                if tail == queue.shape[0]:
+                    queue = np.concatenate((queue, np.empty(tail, np.int64)))
+                queue[tail] = t2
+                tail += 1
+        best_id = -1
+        for c in range(nc):
+            if cang[c] >= best - tie:
+                idx = order[cand[c]]
+                if best_id < 0 or idx < best_id:
+                    best_id = idx
+                    collinear[i] = cflat[c]
+        choice[i] = best_id
+    counter[0] = stamp
+    return choice, collinear
+
+
+@njit(cache=True)
+def _disc_edges(pts, V, A, vt, verts, radius, tstamp, counter):
+    """Edges that come within ``radius[i]`` (padded) of vertex ``verts[i]``
+    and do not end at it: the edges of the triangles meeting that disc (a
+    search from the vertex's triangles). Returns (query, u, w) slot triples."""
+    queue = np.empty(64, np.int64)
+    qs = np.empty(64, np.int64)
+    us = np.empty(64, np.int64)
+    ws = np.empty(64, np.int64)
+    m = 0
+    stamp = counter[0]
+    for i in range(verts.shape[0]):
+        stamp += 1
+        x = verts[i]
+        cx = pts[x, 0]
+        cy = pts[x, 1]
+        r2 = (radius[i] * (1.0 + 1e-6)) ** 2
+        t = vt[x]
+        tstamp[t] = stamp
+        queue[0] = t
+        head = 0
+        tail = 1
+        while head < tail:
+            t = queue[head]
+            head += 1
+            for j in range(3):
+                kk = 3 * t + j
+                u = V[_nxt(kk)]
+                w = V[_prv(kk)]
+                if not _near_segment(pts, u, w, cx, cy, r2):
+                    continue
+                if u != x and w != x:
+                    if m == qs.shape[0]:
+                        qs = np.concatenate((qs, np.empty(m, np.int64)))
+                        us = np.concatenate((us, np.empty(m, np.int64)))
+                        ws = np.concatenate((ws, np.empty(m, np.int64)))
+                    qs[m] = i
+                    us[m] = u
+                    ws[m] = w
+                    m += 1
+                t2 = A[kk] // 3
+                if tstamp[t2] == stamp or V[A[kk]] < 0:
+                    continue
+                tstamp[t2] = stamp
+                if tail == queue.shape[0]:
+                    queue = np.concatenate((queue, np.empty(tail, np.int64)))
+                queue[tail] = t2
+                tail += 1
+    counter[0] = stamp
+    return qs[:m], us[:m], ws[:m]
+
+
+def _choose_encroachers(P, S, rows, st: _Pieces, scale, tol):
     """Per missing segment, the point of its closed diametral ball with the
-    largest angle APB (ties within ``angle_tie``: smallest index)."""
+    largest angle APB (ties within ``angle_tie``: smallest index), found by
+    :func:`_widest_angle_points` in the rounds' triangulation; and whether
+    it lies on the segment (collinear)."""
     a, b = S[rows, 0], S[rows, 1]
-    q, p, _ = _closed_ball_members(P, tree, a, b, scale, tol)
-    found = np.bincount(q, minlength=len(rows))
-    if (found == 0).any():
-        i = int(rows[np.flatnonzero(found == 0)[0]])
+    _, radii = _query_radii(P[a], P[b], scale, tol)
+    pts, V, A, vt, order, slot = st.dt.arrays()
+    if len(st.tstamp) < len(V) // 3 or len(st.vstamp) < len(pts):
+        st.tstamp = np.zeros(len(V) // 3, np.int64)
+        st.vstamp = np.zeros(len(pts), np.int64)
+        st.counter[0] = 0
+    choice, on_segment = _widest_angle_points(
+        pts,
+        V,
+        A,
+        vt,
+        order,
+        slot[a],
+        slot[b],
+        radii * st.dt.scale,
+        tol.angle_tie,
+        st.tstamp,
+        st.vstamp,
+        st.counter,
+        st.work,
+    )
+    if (choice < 0).any():
+        i = int(rows[np.flatnonzero(choice < 0)[0]])
         raise AlgorithmError(
             f"segment {i} is not a Delaunay edge yet its closed diametral ball is empty "
             "(inconsistent predicates)"
         )
-    u = P[a[q]] - P[p]
-    v = P[b[q]] - P[p]
-    cross = np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])
-    dot = u[:, 0] * v[:, 0] + u[:, 1] * v[:, 1]
-    angle = np.arctan2(cross, dot)
-    collinear = orient2d(P[a[q]], P[b[q]], P[p]) == 0
-    angle[collinear] = np.pi
-    best = np.full(len(rows), -np.inf)
-    np.maximum.at(best, q, angle)
-    tied = angle >= best[q] - tol.angle_tie
-    choice = np.full(len(rows), np.iinfo(np.int64).max, dtype=np.int64)
-    np.minimum.at(choice, q[tied], p[tied])
-    on_segment = np.zeros(len(rows), dtype=bool)
-    on_segment[q[collinear & (p == choice[q])]] = True
     return choice, on_segment
 
 
@@ -759,56 +1104,250 @@ class _State:
     n0: int  # input points (the first rows of P)
 
 
-def _apply_splits(st: _State, seg, t, new_xy, protect_side, near_side) -> None:
-    """Split segments ``seg`` at the new points; keep pieces in order.
+@njit(cache=True)
+def _chain_order(head, nxt, m):
+    """Piece ids chain by chain (input segment order), each from its first end."""
+    out = np.empty(m, np.int64)
+    k = 0
+    for s in range(head.shape[0]):
+        r = head[s]
+        while r >= 0:
+            out[k] = r
+            k += 1
+            r = nxt[r]
+    return out
 
-    ``t`` orders the points along their segment, ``protect_side`` is 0 / 1
-    for a protection point of
-    that end, -1 otherwise; ``near_side`` is the end a projection split is
-    nearer to (-1 for protection splits).
+
+def _grown(arr: np.ndarray, size: int, fill) -> np.ndarray:
+    out = np.full((size,) + arr.shape[1:], fill, dtype=arr.dtype)
+    out[: len(arr)] = arr
+    return out
+
+
+class _Pieces:
+    """The segments during the rounds, by piece id, in growable arrays.
+
+    A split keeps the piece's id for its first part and gives each new
+    point the id of the piece that starts there, so a round costs time in
+    the pieces it splits and checks, not in all of them; :meth:`to_state`
+    puts the pieces back in chain order and numbers the added points as
+    the whole-array rounds did (by round, then along the chains), so the
+    output does not depend on this bookkeeping.
     """
-    order = np.lexsort((t, seg))
-    seg, new_xy = seg[order], new_xy[order]
-    protect_side, near_side = protect_side[order], near_side[order]
-    n = len(st.P)
-    idx = n + np.arange(len(seg))
-    st.P = np.concatenate([st.P, new_xy])
-    st.radius = np.concatenate([st.radius, np.full(len(seg), np.nan)])
-    m = len(st.S)
-    k = np.bincount(seg, minlength=m)
-    pieces = 1 + k
-    off = np.concatenate([[0], np.cumsum(pieces)[:-1]])
-    total = int(pieces.sum())
-    owner = np.repeat(np.arange(m), pieces)
-    starts = np.empty(total, dtype=np.int64)
-    ends = np.empty(total, dtype=np.int64)
-    starts[off] = st.S[:, 0]
-    ends[off + k] = st.S[:, 1]
-    seg_start = np.concatenate([[0], np.cumsum(k)[:-1]])
-    rank = np.arange(len(seg)) - seg_start[seg]
-    starts[off[seg] + 1 + rank] = idx
-    ends[off[seg] + rank] = idx
-    acute = np.zeros((total, 2), dtype=bool)
-    done = np.zeros((total, 2), dtype=bool)
-    acute[off, 0] = st.acute[:, 0]
-    done[off, 0] = st.done[:, 0]
-    acute[off + k, 1] = st.acute[:, 1]
-    done[off + k, 1] = st.done[:, 1]
-    near = np.zeros((total, 2), dtype=np.int64)
-    near[off, 0] = st.near[:, 0]
-    near[off + k, 1] = st.near[:, 1]
-    first_split = protect_side == 0
-    done[off[seg[first_split]], 0] = True
-    last_split = protect_side == 1
-    done[off[seg[last_split]] + k[seg[last_split]], 1] = True
-    near[off[seg[near_side == 0]], 0] += 1
-    near[off[seg[near_side == 1]] + k[seg[near_side == 1]], 1] += 1
-    st.near = near
-    st.S = np.column_stack([starts, ends])
-    st.source = st.source[owner]
-    st.seg_circle = st.seg_circle[owner]
-    st.acute = acute
-    st.done = done
+
+    _ROW = ("a", "b", "nxt", "src", "circ", "acute", "done", "near")
+    _POINT = ("xy", "radius", "left", "right", "born")
+
+    def __init__(self, st: _State, dt: IncrementalDelaunay) -> None:
+        S, m, n = st.S, len(st.S), len(st.P)
+        self.dt, self.n0, self.base, self.m, self.n = dt, st.n0, n, m, n
+        self.a, self.b = S[:, 0].copy(), S[:, 1].copy()
+        self.src = st.source.copy()
+        self.circ = st.seg_circle.copy()
+        self.acute, self.done, self.near = st.acute.copy(), st.done.copy(), st.near.copy()
+        last = np.ones(m, dtype=bool)
+        last[:-1] = self.src[1:] != self.src[:-1]
+        self.nxt = np.where(last, -1, np.arange(1, m + 1))
+        m0 = int(self.src[-1]) + 1 if m else 0
+        self.head = np.full(m0, -1, dtype=np.int64)
+        self.head[self.src[::-1]] = np.arange(m)[::-1]
+        self.tail = np.full(m0, -1, dtype=np.int64)
+        self.tail[self.src[last]] = np.flatnonzero(last)
+        self.xy, self.radius = st.P.copy(), st.radius.copy()
+        self.left = np.full(n, -1, dtype=np.int64)
+        self.right = np.full(n, -1, dtype=np.int64)
+        self.left[S[:, 1]] = np.arange(m)
+        self.right[S[:, 0]] = np.arange(m)
+        self.born = np.zeros(n, dtype=np.int64)
+        # Chain ends at the input points: (chain, side) per point, CSR.
+        ends = np.concatenate([S[self.head, 0], S[self.tail, 1]])
+        chain = np.concatenate([np.arange(m0), np.arange(m0)])
+        side = np.repeat([0, 1], m0)
+        order = np.argsort(ends, kind="stable")
+        self.end_chain, self.end_side = chain[order], side[order]
+        self.end_start = np.searchsorted(ends[order], np.arange(n + 1))
+        # Position of a point along its input segment (ordering key only).
+        self.origin = st.P[S[self.head, 0]]
+        self.direction = st.P[S[self.tail, 1]] - self.origin
+        keys = _edge_keys(S[self.head, 0], S[self.tail, 1], st.n0)
+        self.input_chain = np.argsort(keys)
+        self.input_keys = keys[self.input_chain]
+        # Scratch of the compiled searches.
+        self.tstamp = np.zeros(0, np.int64)
+        self.vstamp = np.zeros(0, np.int64)
+        self.counter = np.zeros(1, np.int64)
+        self.work = np.empty(WORK_SIZE)
+
+    # Views of the live rows, as _split_round reads them.
+    @property
+    def P(self) -> np.ndarray:
+        return self.xy[: self.n]
+
+    @property
+    def S(self) -> np.ndarray:
+        return np.column_stack([self.a[: self.m], self.b[: self.m]])
+
+    @property
+    def source(self) -> np.ndarray:
+        return self.src[: self.m]
+
+    @property
+    def seg_circle(self) -> np.ndarray:
+        return self.circ[: self.m]
+
+    def _reserve(self, rows: int, points: int) -> None:
+        if self.m + rows > len(self.a):
+            size = max(self.m + rows, 2 * len(self.a))
+            for name in self._ROW:
+                arr = getattr(self, name)
+                setattr(self, name, _grown(arr, size, np.nan if arr.dtype.kind == "f" else 0))
+        if self.n + points > len(self.xy):
+            size = max(self.n + points, 2 * len(self.xy))
+            for name in self._POINT:
+                arr = getattr(self, name)
+                setattr(self, name, _grown(arr, size, np.nan if arr.dtype.kind == "f" else -1))
+
+    def split(self, rows, t, xy, protect_side, near_side, near_vertex, round_no) -> None:
+        """Split pieces ``rows`` at the points ``xy`` (ordered along each piece
+        by ``t``); the new points go into the triangulation, walked to from
+        ``near_vertex``. ``protect_side``/``near_side`` as in the module's
+        protection bookkeeping (-1: none)."""
+        key = np.einsum(
+            "ij,ij->i", xy - self.origin[self.src[rows]], self.direction[self.src[rows]]
+        )
+        order = np.lexsort((t, key, self.src[rows]))
+        rows, xy, near_vertex = rows[order], xy[order], near_vertex[order]
+        protect_side, near_side = protect_side[order], near_side[order]
+        ends_a, ends_b = self.xy[self.a[rows]], self.xy[self.b[rows]]
+        k = len(rows)
+        self._reserve(k, k)
+        m, n = self.m, self.n
+        new_p = n + np.arange(k)
+        new_r = m + np.arange(k)
+        first = np.ones(k, dtype=bool)
+        first[1:] = rows[1:] != rows[:-1]
+        last = np.ones(k, dtype=bool)
+        last[:-1] = first[1:]
+        grp = rows[first]
+        grp_last = new_r[last]
+        old_b, old_nxt = self.b[grp].copy(), self.nxt[grp].copy()
+        # Pieces: row keeps [a, x1]; new piece i is [x_i, x_{i+1} or old b].
+        self.a[new_r] = new_p
+        self.b[new_r[:-1]] = new_p[1:]
+        self.b[grp_last] = old_b
+        self.b[grp] = new_p[first]
+        self.nxt[new_r[:-1]] = new_r[1:]
+        self.nxt[grp_last] = old_nxt
+        self.nxt[grp] = new_r[first]
+        self.src[new_r] = self.src[rows]
+        self.circ[new_r] = self.circ[rows]
+        for name in ("acute", "done", "near"):
+            arr = getattr(self, name)
+            arr[new_r] = 0
+            arr[grp_last, 1] = arr[grp, 1]
+            arr[grp, 1] = 0
+        ends = old_nxt < 0
+        self.tail[self.src[grp[ends]]] = grp_last[ends]
+        moved = old_b >= self.n0
+        self.left[old_b[moved]] = grp_last[moved]
+        prev = np.empty(k, dtype=np.int64)
+        prev[first] = grp
+        prev[~first] = new_r[:-1][~first[1:]]
+        self.left[new_p], self.right[new_p] = prev, new_r
+        self.done[grp[protect_side[first] == 0], 0] = True
+        self.done[grp_last[protect_side[last] == 1], 1] = True
+        self.near[grp[near_side[first] == 0], 0] += 1
+        self.near[grp_last[near_side[last] == 1], 1] += 1
+        self.xy[new_p] = xy
+        self.radius[new_p] = np.nan
+        self.born[new_p] = round_no
+        self.m, self.n = m + k, n + k
+        dup = self.dt.insert(xy, near_vertex)
+        if dup is not None:
+            i = dup[0] - n
+            raise AlgorithmError(
+                f"cannot split the segment from {ends_a[i].tolist()} to {ends_b[i].tolist()}: "
+                f"the split "
+                f"point {xy[i].tolist()} is an existing point (do segments cross or touch?)"
+            )
+        self.fresh = np.concatenate([grp, new_r])
+
+    def edge_pieces_near(self, verts, radius):
+        """(query, piece) pairs: pieces that are edges of the triangulation,
+        come within ``radius[i]`` (padded) of ``verts[i]`` and do not end there."""
+        pts, V, A, vt, order, slot = self.dt.arrays()
+        if len(self.tstamp) < len(V) // 3 or len(self.vstamp) < len(pts):
+            self.tstamp = np.zeros(len(V) // 3, np.int64)
+            self.vstamp = np.zeros(len(pts), np.int64)
+            self.counter[0] = 0
+        q, u, w = _disc_edges(
+            pts, V, A, vt, slot[verts], radius * self.dt.scale, self.tstamp, self.counter
+        )
+        u, w = order[u], order[w]
+        # Candidate pieces: those at an added end, and the unsplit input
+        # segment joining two input points.
+        cand = [self.left[u], self.right[u], self.left[w], self.right[w]]
+        both = (u < self.n0) & (w < self.n0)
+        s = self._input_segment(u[both], w[both])
+        row = np.full(len(u), -1, dtype=np.int64)
+        row[np.flatnonzero(both)[s >= 0]] = self.head[s[s >= 0]]
+        cand.append(row)
+        qq = np.tile(q, len(cand))
+        uu, ww = np.tile(u, len(cand)), np.tile(w, len(cand))
+        rows = np.concatenate(cand)
+        ok = rows >= 0
+        qq, uu, ww, rows = qq[ok], uu[ok], ww[ok], rows[ok]
+        ra, rb = self.a[rows], self.b[rows]
+        match = ((ra == uu) & (rb == ww)) | ((ra == ww) & (rb == uu))
+        return qq[match], rows[match]
+
+    def _input_segment(self, u, w) -> np.ndarray:
+        """The chain (input segment) joining input points u and w, or -1."""
+        keys = _edge_keys(u, w, self.n0)
+        pos = np.minimum(np.searchsorted(self.input_keys, keys), len(self.input_keys) - 1)
+        return np.where(self.input_keys[pos] == keys, self.input_chain[pos], -1)
+
+    def to_check(self) -> np.ndarray:
+        """The pieces the last split made or may have removed from the
+        triangulation: new and shortened pieces, and those whose two ends
+        the insertions touched."""
+        verts = self.dt.touched_vertices()
+        added = verts[verts >= self.n0]
+        inp = verts[verts < self.n0]
+        lo, hi = self.end_start[inp], self.end_start[inp + 1]
+        cnt = hi - lo
+        idx = np.repeat(lo - np.cumsum(cnt) + cnt, cnt) + np.arange(int(cnt.sum()))
+        chain, side = self.end_chain[idx], self.end_side[idx]
+        rows = np.concatenate(
+            [
+                self.left[added],
+                self.right[added],
+                np.where(side == 0, self.head[chain], self.tail[chain]),
+            ]
+        )
+        rows = rows[rows >= 0]
+        rows = rows[self.dt.touched(self.a[rows]) & self.dt.touched(self.b[rows])]
+        mask = np.zeros(self.m, dtype=bool)
+        mask[rows] = True
+        mask[self.fresh] = True
+        return np.flatnonzero(mask)
+
+    def to_state(self, st: _State) -> None:
+        """Back to chain order; the points added here numbered by round, then
+        along the chains (as the whole-array rounds numbered them)."""
+        order = _chain_order(self.head, self.nxt, self.m)
+        pos = np.empty(self.m, dtype=np.int64)
+        pos[order] = np.arange(self.m)
+        new = np.arange(self.base, self.n)
+        new = new[np.lexsort((pos[self.right[new]], self.born[new]))]
+        label = np.arange(self.n)
+        label[new] = np.arange(self.base, self.n)
+        st.P = np.concatenate([self.xy[: self.base], self.xy[new]])
+        st.radius = np.concatenate([self.radius[: self.base], self.radius[new]])
+        st.S = label[np.column_stack([self.a[order], self.b[order]])]
+        st.source = self.src[order]
+        st.seg_circle = self.circ[order]
+        st.acute, st.done, st.near = self.acute[order], self.done[order], self.near[order]
 
 
 def admissible_segments(
@@ -904,8 +1443,7 @@ def admissible_segments(
         n0=n0,
     )
     budget = _Budget(n0=n0, max_added=MAX_ADDED_FACTOR * (n0 + m0) + MAX_ADDED_BASE)
-    tri = delaunay(P)
-    cases_before = _counts(classify_segments(P, S, triangulation=tri, tolerances=tolerances))
+    tri = first = delaunay(P)
     if origin.any() and not _present(tri, S).all():
         _rounds(st, budget, local_circles, tolerances, progress)
         # Back to the input's frame: the input points come back exactly; the
@@ -917,7 +1455,6 @@ def admissible_segments(
     else:
         st.P = P
     tri = _rounds(st, budget, circles, tolerances, progress, first=tri)
-    cases_after = _counts(classify_segments(st.P, st.S, triangulation=tri, tolerances=tolerances))
     protected = np.flatnonzero(~np.isnan(st.radius))
     radius = st.radius[protected]
     for arr in (st.P, st.S, st.source, protected, radius):
@@ -926,13 +1463,13 @@ def admissible_segments(
         points=st.P,
         segments=st.S,
         source=st.source,
-        cases_before=cases_before,
-        cases_after=cases_after,
         added=len(st.P) - n0,
         rounds=budget.rounds,
         protected=protected,
         protection_radius=radius,
         delaunay=tri,
+        _input=(P, S, first),
+        _tolerances=tolerances,
     )
 
 
@@ -961,34 +1498,67 @@ class _Budget:
 
 
 def _rounds(st, budget, circles, tol, progress, first=None) -> Triangulation:
-    """Rounds of §9.1.4 until every segment is an edge; the last triangulation."""
+    """Rounds of §9.1.4 until every segment is an edge; the last triangulation.
+
+    The first check runs on a whole triangulation (``first``, or one made
+    here); if segments are missing, the rounds go on incrementally
+    (:func:`_incremental_rounds`) and the last triangulation is made anew
+    from the final points (so that it is the one :func:`delaunay` gives).
+    """
+    tri = first if first is not None else delaunay(st.P)
+    budget.rounds += 1
+    missing = np.flatnonzero(~_present(tri, st.S))
+    if _report(budget, st, missing, progress):
+        return tri
+    _incremental_rounds(st, budget, missing, circles, tol, progress)
+    return delaunay(st.P)
+
+
+def _report(budget, st, missing, progress) -> bool:
+    """Progress of a round; True when nothing is missing; the guard."""
+    added = len(st.P) - budget.n0
+    if progress is not None:
+        progress(
+            budget.rounds / (budget.rounds + 4.0),
+            f"round {budget.rounds}: {missing.size} segment(s) not Delaunay, "
+            f"{added} point(s) added",
+        )
+    if missing.size == 0:
+        return True
+    if budget.rounds >= MAX_ROUNDS or added > budget.max_added:
+        raise AlgorithmError(
+            f"no Delaunay-admissible discretization after {budget.rounds} rounds and "
+            f"{added} added points ({missing.size} segments still missing): "
+            "do segments cross?"
+        )
+    return False
+
+
+def _incremental_rounds(st, budget, missing, circles, tol, progress) -> None:
+    """Split rounds on one triangulation that grows by insertion.
+
+    Each round inserts its split points into the triangulation
+    (:class:`~meshcore.delaunay.kernel2d.IncrementalDelaunay`: the same
+    triangles as triangulating anew) and checks again only the pieces it
+    made or shortened and those whose two ends an insertion touched (an
+    edge that an insertion removes joins two neighbours of the inserted
+    point); ball and nearest-point queries walk the triangulation. The
+    decisions are those of whole-array rounds, in time proportional to the
+    pieces split and checked.
+    """
     scale = _scale(st.P)
-    tri = first
+    pc = _Pieces(st, IncrementalDelaunay(st.P))
     while True:
-        if tri is None:
-            tri = delaunay(st.P)
+        _split_round(pc, missing, scale, circles, tol, budget.rounds)
+        check = pc.to_check()
         budget.rounds += 1
-        missing = np.flatnonzero(~_present(tri, st.S))
-        added = len(st.P) - budget.n0
-        if progress is not None:
-            progress(
-                budget.rounds / (budget.rounds + 4.0),
-                f"round {budget.rounds}: {missing.size} segment(s) not Delaunay, "
-                f"{added} point(s) added",
-            )
-        if missing.size == 0:
-            return tri
-        if budget.rounds >= MAX_ROUNDS or added > budget.max_added:
-            raise AlgorithmError(
-                f"no Delaunay-admissible discretization after {budget.rounds} rounds and "
-                f"{added} added points ({missing.size} segments still missing): "
-                "do segments cross?"
-            )
-        _split_round(st, missing, cKDTree(st.P), scale, circles, tol)
-        tri = None
+        missing = check[~pc.dt.has_edges(pc.a[check], pc.b[check])]
+        if _report(budget, pc, missing, progress):
+            break
+    pc.to_state(st)
 
 
-def _split_round(st: _State, missing, tree, scale, circles, tol) -> None:
+def _split_round(st: _Pieces, missing, scale, circles, tol, round_no) -> None:
     """One round of splits of the missing segments (§9.1.4, Exercises 9.2-9.4).
 
     Each missing segment gets its projection split point ``M``, nearer its
@@ -1000,41 +1570,55 @@ def _split_round(st: _State, missing, tree, scale, circles, tol) -> None:
     missing piece of its cluster is split at exactly that distance from
     ``E`` (and gets no projection split that round).
     """
-    S = st.S
-    enc, on_segment = _choose_encroachers(st.P, S, missing, tree, scale, tol)
+    # The missing pieces' own rows: a round costs time in them, not in all.
+    P = st.P
+    S = np.column_stack([st.a[missing], st.b[missing]])
+    local = np.arange(len(missing))
+    circ = st.circ[missing]
+    enc, on_segment = _choose_encroachers(P, S, local, st, scale, tol)
     if on_segment.any():
         _not_planar(st, missing[on_segment][0], enc[on_segment][0])
-    M, near = _projection_points(st.P, S, missing, enc, circles, st.seg_circle)
+    M, near = _projection_points(P, S, local, enc, circles, circ)
     pending = st.acute[missing] & ~st.done[missing]  # (k, 2)
     near_side = np.arange(2)[None, :] == near[:, None]
     # A second projection split near the same acute vertex on the same
     # segment: the chase of Exercise 9.3 may have begun; protect the vertex.
-    again = pending & near_side & (st.near[missing] >= 1) & np.isnan(st.radius[S[missing]])
+    again = pending & near_side & (st.near[missing] >= 1) & np.isnan(st.radius[S])
     if again.any():
         rows = np.flatnonzero(again.any(axis=1))
-        E = S[missing[rows], near[rows]]
-        x = np.hypot(M[rows, 0] - st.P[E, 0], M[rows, 1] - st.P[E, 1])
+        E = S[rows, near[rows]]
+        x = np.hypot(M[rows, 0] - P[E, 0], M[rows, 1] - P[E, 1])
         verts, inv = np.unique(E, return_inverse=True)
-        r = _protection_bounds(st.P, S, st.acute, tree, verts, tol)
+        # Nearest other point (a Delaunay neighbour), nearest missing piece,
+        # nearest piece that is an edge (an edge of a triangle meeting the
+        # disc of that radius).
+        reach = st.dt.nearest_distance(verts)
+        reach = _segment_reach(P, S, reach, verts, tol)
+        q, near_rows = st.edge_pieces_near(verts, reach)
+        if q.size:
+            d = _point_segment_distance(P[verts[q]], P[st.a[near_rows]], P[st.b[near_rows]])
+            np.minimum.at(reach, q, d)
+        r = _protection_bounds(P, st.S, st.acute[: st.m], reach, verts)
         np.minimum.at(r, inv, x)
         st.radius[verts] = r
-    protect = pending & ~np.isnan(st.radius[S[missing]])
+    protect = pending & ~np.isnan(st.radius[S])
     prot_rows, prot_side = np.nonzero(protect)
     segs = missing[prot_rows]
-    apex = S[segs, prot_side]
-    prot_xy = _protection_points(st.P, S, segs, prot_side, st.radius[apex], circles, st.seg_circle)
+    apex = S[prot_rows, prot_side]
+    prot_xy = _protection_points(P, S, prot_rows, prot_side, st.radius[apex], circles, circ)
     plain = ~protect.any(axis=1)
     proj_rows = missing[plain]
     rows = np.concatenate([segs, proj_rows])
     xy = np.concatenate([prot_xy, M[plain]])
-    _check_split_points(st, tree, rows, xy)
-    _apply_splits(
-        st,
+    _check_split_points(st, rows, xy)
+    st.split(
         rows,
         np.concatenate([prot_side.astype(np.float64), np.full(len(proj_rows), 0.5)]),
         xy,
         np.concatenate([prot_side, np.full(len(proj_rows), -1)]),
         np.concatenate([np.full(len(segs), -1), near[plain]]),
+        np.concatenate([apex, S[plain, near[plain]]]),
+        round_no,
     )
 
 
@@ -1056,15 +1640,16 @@ def _not_planar(st: _State, row: int, point: int) -> None:
     )
 
 
-def _check_split_points(st: _State, tree, rows, xy) -> None:
+def _check_split_points(st: _Pieces, rows, xy) -> None:
     """Every new split point must lie strictly inside its segment's diametral
-    ball (so it differs from both ends) and differ from every other point:
-    the first fails only for segments too short for float64 at their
-    distance from the origin, the second only where segments cross or touch
-    (two segments would share the point)."""
+    ball (so it differs from both ends) and differ from every other new
+    point (the insertion finds one that coincides with an older point): the
+    first fails only for segments too short for float64 at their distance
+    from the origin, the others only where segments cross or touch (two
+    segments would share the point)."""
     if not len(rows):
         return
-    a, b = st.P[st.S[rows, 0]], st.P[st.S[rows, 1]]
+    a, b = st.P[st.a[rows]], st.P[st.b[rows]]
     bad = np.flatnonzero(dot2d(a, b, xy) >= 0)
     if bad.size:
         i = int(bad[0])
@@ -1072,11 +1657,8 @@ def _check_split_points(st: _State, tree, rows, xy) -> None:
             f"cannot split the segment from {a[i].tolist()} to {b[i].tolist()}: it is too "
             "short for float64 at that distance from the origin (or segments cross there)"
         )
-    hit, _ = tree.query(xy, k=1)
-    bad = np.flatnonzero(hit == 0.0)
-    if not bad.size:
-        _, first, count = np.unique(xy, axis=0, return_index=True, return_counts=True)
-        bad = first[count > 1]
+    _, first, count = np.unique(xy, axis=0, return_index=True, return_counts=True)
+    bad = first[count > 1]
     if bad.size:
         i = int(bad[0])
         raise AlgorithmError(

@@ -62,7 +62,7 @@ from numba import njit
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import WORK_SIZE, incircle_exact, orient2d_exact
 
-__all__ = ["Triangulation", "delaunay"]
+__all__ = ["IncrementalDelaunay", "Triangulation", "delaunay"]
 
 _CCW_ERRBOUND_A = (3.0 + 16.0 * 2.0**-53) * 2.0**-53
 _ICC_ERRBOUND_A = (10.0 + 96.0 * 2.0**-53) * 2.0**-53
@@ -664,6 +664,225 @@ def _output(V, A, ntri, order):
 
 
 # ---------------------------------------------------------------------------
+# Incremental use: insert more points into a built triangulation
+# ---------------------------------------------------------------------------
+
+
+@njit(cache=True, inline="always")
+def _corner(V, t, v):
+    """The corner of triangle t holding vertex v."""
+    k = 3 * t
+    if V[k] == v:
+        return k
+    if V[k + 1] == v:
+        return k + 1
+    return k + 2
+
+
+@njit(cache=True)
+def _insert_marked(pts, V, A, stack, vt, hint, state, work, start, stop, mark, stamp):
+    """Insert points start..stop-1 one by one; after each, mark it and its
+    neighbours with ``stamp``: every edge an insertion removes joins two
+    neighbours of the inserted point (the cavity's vertices), so a present
+    edge whose ends are not both marked is still present."""
+    for p in range(start, stop):
+        _insert_range(pts, V, A, stack, vt, hint, state, work, p, p + 1)
+        if state[2] != _OK:
+            return
+        mark[p] = stamp
+        t0 = vt[p]
+        t = t0
+        while True:
+            k = _corner(V, t, p)
+            u = V[_nxt(k)]
+            if u >= 0:
+                mark[u] = stamp
+            t = A[_prv(k)] // 3
+            if t == t0:
+                break
+
+
+@njit(cache=True)
+def _has_edges(V, A, vt, a, b):
+    """Whether each (a[i], b[i]) is an edge: a turn around a's triangles."""
+    out = np.zeros(a.shape[0], np.bool_)
+    for i in range(a.shape[0]):
+        t0 = vt[a[i]]
+        t = t0
+        while True:
+            k = _corner(V, t, a[i])
+            if V[_nxt(k)] == b[i]:
+                out[i] = True
+                break
+            t = A[_prv(k)] // 3
+            if t == t0:
+                break
+    return out
+
+
+@njit(cache=True)
+def _nearest_neighbour(pts, V, A, vt, verts):
+    """Squared distance from each vertex to its nearest other point: one of
+    its Delaunay neighbours (the nearest-neighbour graph is a subgraph of
+    every Delaunay triangulation)."""
+    out = np.empty(verts.shape[0])
+    for i in range(verts.shape[0]):
+        v = verts[i]
+        best = np.inf
+        t0 = vt[v]
+        t = t0
+        while True:
+            k = _corner(V, t, v)
+            u = V[_nxt(k)]
+            if u >= 0:
+                dx = pts[u, 0] - pts[v, 0]
+                dy = pts[u, 1] - pts[v, 1]
+                best = min(best, dx * dx + dy * dy)
+            t = A[_prv(k)] // 3
+            if t == t0:
+                break
+        out[i] = best
+    return out
+
+
+class IncrementalDelaunay:
+    """The Delaunay triangulation of a growing point set (§9.1.4's rounds).
+
+    Built like :func:`delaunay` from the first points; :meth:`insert` adds
+    more, each located by a walk from a given nearby vertex and inserted by
+    the kernel's own insertion and Lawson flips. The ties are broken by the
+    same symbolic perturbation, so the triangles are at every moment those
+    :func:`delaunay` gives for the same point set. Points are named by their
+    index: the first ones as given, then each inserted batch in order.
+
+    Queries for :mod:`meshcore.delaunay.admissible`: which segments are
+    edges (:meth:`has_edges`), each vertex's nearest other point
+    (:meth:`nearest_distance`), the vertices whose neighbourhood the last
+    :meth:`insert` changed (:meth:`touched`).
+
+    Added points must lie in the convex hull of the first ones (split
+    points of segments do), so that the power-of-two scale stays valid.
+    """
+
+    def __init__(self, points) -> None:
+        pts_in = _validated(points)
+        pts, order, V, A, vt, state, work, factor = _build(pts_in, None)
+        n = len(pts_in)
+        self._factor = factor
+        self._n = n
+        self._pts = pts
+        self._slot = np.empty(n, np.int64)  # index -> slot
+        self._slot[order] = np.arange(n)
+        self._order = order  # slot -> index
+        self._V, self._A, self._vt = V, A, vt
+        self._state, self._work = state, work
+        self._stack = np.empty(n + 8, np.int32)
+        self._hint = np.full(n, -1, np.int32)
+        self._mark = np.zeros(n, np.int64)
+        self._stamp = 0
+
+    def __len__(self) -> int:
+        return self._n
+
+    def _reserve(self, extra: int) -> None:
+        need = self._n + extra
+        if need <= len(self._pts):
+            return
+        cap = max(need, 2 * len(self._pts))
+
+        def grown(arr, size, fill=None):
+            out = np.empty((size,) + arr.shape[1:], arr.dtype)
+            out[: len(arr)] = arr
+            if fill is not None:
+                out[len(arr) :] = fill
+            return out
+
+        self._pts = grown(self._pts, cap)
+        self._order = grown(self._order, cap)
+        self._slot = grown(self._slot, cap)
+        self._V = grown(self._V, 6 * cap)
+        self._A = grown(self._A, 6 * cap)
+        self._vt = grown(self._vt, cap)
+        self._stack = np.empty(cap + 8, np.int32)
+        self._hint = grown(self._hint, cap, -1)
+        self._mark = grown(self._mark, cap, 0)
+
+    def insert(self, xy: np.ndarray, near: np.ndarray) -> tuple[int, int] | None:
+        """Insert points ``xy`` (k, 2), walking from vertices ``near`` (k,).
+
+        Returns None, or ``(i, j)`` when new point ``i`` coincides with point
+        ``j`` (the insertion stops there, the triangulation is then unusable).
+        """
+        k = len(xy)
+        self._reserve(k)
+        n = self._n
+        slots = np.arange(n, n + k)
+        self._pts[n : n + k] = np.asarray(xy, dtype=np.float64) * self._factor
+        self._order[n : n + k] = slots
+        self._slot[n : n + k] = slots
+        self._hint[n : n + k] = self._slot[near]
+        self._stamp += 1
+        _insert_marked(
+            self._pts,
+            self._V,
+            self._A,
+            self._stack,
+            self._vt,
+            self._hint,
+            self._state,
+            self._work,
+            n,
+            n + k,
+            self._mark,
+            self._stamp,
+        )
+        if self._state[2] == _DUPLICATE:
+            return int(self._order[self._state[3]]), int(self._order[self._state[4]])
+        self._n = n + k
+        return None
+
+    def touched(self, verts: np.ndarray) -> np.ndarray:
+        """(k,) bool: which vertices the last :meth:`insert` added or gave
+        new neighbours (an edge it removed joins two of them)."""
+        return self._mark[self._slot[verts]] == self._stamp
+
+    def touched_vertices(self) -> np.ndarray:
+        """The vertices :meth:`touched` holds for, as indices."""
+        return self._order[np.flatnonzero(self._mark[: self._n] == self._stamp)]
+
+    def has_edges(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """(m,) bool: whether each ``(a[i], b[i])`` is an edge."""
+        return _has_edges(self._V, self._A, self._vt, self._slot[a], self._slot[b])
+
+    def nearest_distance(self, verts: np.ndarray) -> np.ndarray:
+        """(k,) float64: distance from each vertex to its nearest other point."""
+        d2 = _nearest_neighbour(self._pts, self._V, self._A, self._vt, self._slot[verts])
+        return np.sqrt(d2) / self._factor
+
+    def arrays(self):
+        """The kernel's arrays, for compiled searches in this package.
+
+        ``(pts, V, A, vt, order, slot)``: the points times the power-of-two
+        scale, by slot; the corner arrays (module comment above); each
+        slot's walk-start triangle; the index of each slot and the slot of
+        each index.
+        """
+        return self._pts, self._V, self._A, self._vt, self._order, self._slot
+
+    @property
+    def scale(self) -> float:
+        """The power of two the kernel's coordinates are multiplied by."""
+        return self._factor
+
+    def triangulation(self, points: np.ndarray) -> Triangulation:
+        """The current triangulation; ``points`` are the current points (n, 2)."""
+        triangles, neighbors = _output(self._V, self._A, int(self._state[0]), self._order)
+        for arr in (triangles, neighbors):
+            arr.flags.writeable = False
+        return Triangulation(points=points, triangles=triangles, neighbors=neighbors)
+
+
+# ---------------------------------------------------------------------------
 # Public entry point
 # ---------------------------------------------------------------------------
 
@@ -752,6 +971,60 @@ def _duplicates_error(pts: np.ndarray, i: int, j: int) -> InputError:
     )
 
 
+def _build(pts_in: np.ndarray, progress):
+    """Insert validated points (BRIO / Hilbert order); the kernel's arrays.
+
+    Returns ``(pts, order, V, A, vt, state, work, factor)``: the scaled
+    points in insertion order, the input index of each, the corner arrays,
+    each vertex's walk start, the kernel state, the exact-arithmetic work
+    space and the scale factor.
+    """
+    n = len(pts_in)
+    factor = _scale_factor(pts_in)
+    # Hilbert cells: about 4n per side, so that even points sampling a curve
+    # (boundaries) rarely share a cell.
+    nbits = min(_HILBERT_BITS, max(8, n.bit_length() + 2))
+    keys, curve = _brio_hilbert_keys(pts_in, factor, nbits)
+    order = np.argsort(keys)
+    del keys
+    along = np.argsort(curve[order])
+    hint = _walk_hints(along, curve[order][along])
+    del curve, along
+    pts = _gather(pts_in, order, factor)
+
+    ntri_max = 2 * n
+    V = np.empty(3 * ntri_max, np.int32)
+    A = np.empty(3 * ntri_max, np.int32)
+    stack = np.empty(n + 8, np.int32)
+    state = np.zeros(5, np.int64)
+    work = np.empty(WORK_SIZE)
+    vt = np.zeros(n, np.int32)
+    _start(pts, order, V, A, vt, state, work)
+    if state[2] == _DUPLICATE:
+        raise _duplicates_error(pts_in, int(state[3]), int(state[4]))
+    if state[2] == _COLLINEAR:
+        # Duplicates would also make the input collinear; name them first.
+        s = pts_in[np.lexsort((pts_in[:, 1], pts_in[:, 0]))]
+        if (s[1:] == s[:-1]).all(axis=1).any():
+            raise _duplicates_error(pts_in, 0, 0)
+        raise InputError(
+            f"all {n} points are collinear: there is no triangle to make",
+            loc=("points",),
+            code="collinear_points",
+        )
+    done = 3
+    while done < n:
+        stop = min(n, done + _CHUNK)
+        _insert_range(pts, V, A, stack, vt, hint, state, work, done, stop)
+        if state[2] == _DUPLICATE:
+            raise _duplicates_error(pts_in, int(order[state[3]]), int(order[state[4]]))
+        done = stop
+        if progress is not None:
+            progress(done / n, f"inserted {done} of {n} points")
+
+    return pts, order, V, A, vt, state, work, factor
+
+
 def delaunay(
     points,
     *,
@@ -807,49 +1080,7 @@ def delaunay(
     Methods text §9.1; DESIGN.md "One Delaunay kernel".
     """
     pts_in = _validated(points)
-    n = len(pts_in)
-    factor = _scale_factor(pts_in)
-    # Hilbert cells: about 4n per side, so that even points sampling a curve
-    # (boundaries) rarely share a cell.
-    nbits = min(_HILBERT_BITS, max(8, n.bit_length() + 2))
-    keys, curve = _brio_hilbert_keys(pts_in, factor, nbits)
-    order = np.argsort(keys)
-    del keys
-    along = np.argsort(curve[order])
-    hint = _walk_hints(along, curve[order][along])
-    del curve, along
-    pts = _gather(pts_in, order, factor)
-
-    ntri_max = 2 * n
-    V = np.empty(3 * ntri_max, np.int32)
-    A = np.empty(3 * ntri_max, np.int32)
-    stack = np.empty(n + 8, np.int32)
-    state = np.zeros(5, np.int64)
-    work = np.empty(WORK_SIZE)
-    vt = np.zeros(n, np.int32)
-    _start(pts, order, V, A, vt, state, work)
-    if state[2] == _DUPLICATE:
-        raise _duplicates_error(pts_in, int(state[3]), int(state[4]))
-    if state[2] == _COLLINEAR:
-        # Duplicates would also make the input collinear; name them first.
-        s = pts_in[np.lexsort((pts_in[:, 1], pts_in[:, 0]))]
-        if (s[1:] == s[:-1]).all(axis=1).any():
-            raise _duplicates_error(pts_in, 0, 0)
-        raise InputError(
-            f"all {n} points are collinear: there is no triangle to make",
-            loc=("points",),
-            code="collinear_points",
-        )
-    done = 3
-    while done < n:
-        stop = min(n, done + _CHUNK)
-        _insert_range(pts, V, A, stack, vt, hint, state, work, done, stop)
-        if state[2] == _DUPLICATE:
-            raise _duplicates_error(pts_in, int(order[state[3]]), int(order[state[4]]))
-        done = stop
-        if progress is not None:
-            progress(done / n, f"inserted {done} of {n} points")
-
+    pts, order, V, A, vt, state, work, _ = _build(pts_in, progress)
     triangles, neighbors = _output(V, A, int(state[0]), order)
     pts_out = pts_in if pts_in is not points else pts_in.copy()
     for arr in (pts_out, triangles, neighbors):

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from scipy.spatial import ConvexHull, QhullError
 from scipy.spatial import Delaunay as QhullDelaunay
 
-from meshcore.delaunay.kernel2d import Triangulation, delaunay
+from meshcore.delaunay.kernel2d import IncrementalDelaunay, Triangulation, delaunay
 from meshcore.errors import Cancelled, InputError
 from meshcore.geometry.predicates import incircle, orient2d
 
@@ -328,3 +328,37 @@ def test_result_is_read_only_and_input_untouched():
     assert np.array_equal(p, before)
     with pytest.raises(ValueError):
         tri.triangles[0, 0] = 1
+
+
+# ---------------------------------------------------------------------------
+# Incremental insertion (the rounds of delaunay_admissible)
+# ---------------------------------------------------------------------------
+
+
+def test_incremental_insertion_gives_the_triangles_of_the_whole_set():
+    # A 6 x 6 grid (co-circular everywhere: the ties decide) and random
+    # points, then three batches inside the hull, some on grid lines and
+    # circles: after each batch, the triangles are those delaunay() makes of
+    # all points so far, and has_edges / touched say what they should.
+    rng = np.random.default_rng(7)
+    first = np.vstack([square_grid(6), rng.random((40, 2)) * 5])
+    inc = IncrementalDelaunay(first)
+    points = first
+    for batch in (rng.random((30, 2)) * 5, rng.integers(0, 11, (20, 2)) / 2, [[2.5, 2.5]]):
+        batch = np.asarray(batch, dtype=float)
+        batch = batch[~(batch[:, None, :] == points[None, :, :]).all(axis=2).any(axis=1)]
+        batch = np.unique(batch, axis=0)
+        near = np.zeros(len(batch), dtype=np.int64)
+        assert inc.insert(batch, near) is None
+        points = np.vstack([points, batch])
+        tri = inc.triangulation(points)
+        assert_delaunay(points, tri)
+        assert canonical(tri.triangles) == canonical(delaunay(points).triangles)
+        t = tri.triangles
+        new = np.arange(len(points) - len(batch), len(points))
+        assert inc.touched(new).all()
+        edges = np.vstack([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
+        assert inc.has_edges(edges[:, 0], edges[:, 1]).all()
+        assert not inc.has_edges(np.array([0]), np.array([35])).any()  # (0, 0) and (5, 5)
+    # A point inserted on an existing one is named, not inserted.
+    assert inc.insert(np.array([points[3]]), np.array([0])) == (len(points), 3)
