@@ -180,7 +180,7 @@ def _loop3d(state, allow_remove, insert, measure, max_sweeps, sweeps, sur, ops, 
     cap = len(state.P)
     todo = np.ones(cap, np.uint8)
     todo_shell = np.ones(cap, np.uint8)
-    counters = np.zeros(7, np.int64)
+    counters = np.zeros(8, np.int64)
     for _ in range(max_sweeps):
         changed = 0
         for kind in ("move", k3.BALL, k3.SHELL, k3.UNION):
@@ -231,7 +231,8 @@ def _loop3d(state, allow_remove, insert, measure, max_sweeps, sweeps, sur, ops, 
         ("ball_fan", k3.C_BALL_FAN),
         ("shell_fan", k3.C_SHELL_FAN),
         ("union_fan", k3.C_UNION_FAN),
-        ("union_insert", k3.C_UNION_INSERT),
+        ("inserted_g", k3.C_INSERT),
+        ("closed_removed", k3.C_CLOSED),
     ):
         ops[name] = ops.get(name, 0) + int(counters[c])
 
@@ -320,7 +321,7 @@ def generate3d(surface, insert, size, measure, max_sweeps, progress):
         _c._verify(state.points(), state.tets(), bnd, "generation", sweeps[0])
         _insert_stage3d(state, h, measure, max_sweeps, sweeps, sur, ops, progress, rounds=30)
     _c._verify(state.points(), state.tets(), bnd, "generation", sweeps[0])
-    Pn, Tn = state.points().copy(), state.tets()
+    Pn, Tn, _ = _c._compact(state.points(), state.tets(), len(P))  # G of a removed pillow
     stats = {
         "use": "generation",
         "sur": sur,
