@@ -39,7 +39,7 @@ def icosphere(level: int) -> tuple[np.ndarray, np.ndarray]:
     for _ in range(level):
         mids: dict = {}
 
-        def mid(a, b):
+        def mid(a, b, mids=mids):
             key = (min(a, b), max(a, b))
             if key not in mids:
                 m = V[a] + V[b]
@@ -78,7 +78,7 @@ def grid_cube(k: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def ring(sections: int, sides: int, R: float = 1.0, r: float = 0.4):
-    """A pipe closing on itself (Figure 8.11): ``sections`` regular ``sides``-gons round a circle."""
+    """A pipe closing on itself (Figure 8.11): ``sections`` regular ``sides``-gons on a circle."""
     a = 2 * np.pi * np.arange(sections)[:, None]
     b = 2 * np.pi * np.arange(sides)[None, :]
     a, b = a / sections + 0 * b, b / sides + 0 * a
@@ -110,7 +110,9 @@ def assert_valid_3d(res, surf):
     def canon(f):
         f = np.asarray(f)
         r = np.argmin(f, axis=1)
-        return sorted(map(tuple, np.stack([f[np.arange(len(f)), (r + i) % 3] for i in range(3)], 1)))
+        return sorted(
+            map(tuple, np.stack([f[np.arange(len(f)), (r + i) % 3] for i in range(3)], 1))
+        )
 
     new = np.full(len(surf.points), -1)
     new[verts] = np.arange(len(verts))
