@@ -677,10 +677,10 @@ def optimize(
         ``min_angle`` away from the boundary constraints; false keeps the
         boundary points only. Surface input (default true): where the first
         stage is stuck, Op(G, δ𝒮) adds a point G around what is still
-        inverted, then tets with an edge over ``size`` are split at their
-        centroid; false keeps the surface's points only. Mesh input (default false): true lets a fan
-        remove a free vertex where its ball is inverted; false keeps the
-        point set.
+        inverted, then interior edges over ``size`` are bisected (their
+        shell joined to the midpoint); false keeps the surface's points
+        only. Mesh input (default false): true lets a fan remove a free
+        vertex where its ball is inverted; false keeps the point set.
     size : float, optional
         Domain or surface input: target edge length (default: the median
         boundary segment or surface edge).

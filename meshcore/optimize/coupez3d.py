@@ -20,8 +20,10 @@ sets of 8 to 64 tets. Choices the text leaves open:
 * Stages: the first without insertion; with ``insert_points``, if tets are
   still not positive, the same passes where the larger sets may also take
   Op(G, δ𝒮) with G a new point seeing all of δ𝒮 (relaxation from the
-  centroid), then rounds splitting tets with an edge over ``size`` at their
-  centroid (Op(G, δK)), each followed by the passes without insertion.
+  centroid), then rounds bisecting interior edges over ``size`` at their
+  midpoint M (Op(M, δ𝒮), 𝒮 the edge's shell), each followed by the passes
+  without insertion. Splitting a tet at its centroid would leave its long
+  edges in place, so the edge is split instead; surface edges never are.
 
 The result is verified (every tet positive by the exact orient3d, a mesh
 topology, the boundary faces exactly the input's) before it is returned;
@@ -253,40 +255,40 @@ def initial_topology(P: np.ndarray, F: np.ndarray) -> np.ndarray:
     return np.column_stack([np.full(len(f), p), f]).astype(np.int64)
 
 
-def _long_tets(state, size):
-    """Rows of the live tets whose longest edge exceeds ``size``, longest first."""
-    rows = int(state.cnt[k3.N_ROWS])
-    live = np.flatnonzero(state.alive[:rows])
-    T = state.T[live]
-    e = state.P[T[:, k3._EDGES[:, 0]]] - state.P[T[:, k3._EDGES[:, 1]]]
-    longest = np.sqrt(np.max(np.sum(e * e, axis=2), axis=1))
-    pick = longest > size
-    return live[pick][np.argsort(-longest[pick], kind="stable")]
+def _long_edges(state, size):
+    """The distinct edges of the live tets longer than ``size``, longest first."""
+    T = state.tets()
+    e = np.sort(T[:, k3._EDGES].reshape(-1, 2), axis=1)
+    e = np.unique(e, axis=0)
+    d = state.P[e[:, 0]] - state.P[e[:, 1]]
+    length = np.sqrt(np.sum(d * d, axis=1))
+    pick = length > size
+    return np.ascontiguousarray(e[pick][np.argsort(-length[pick], kind="stable")])
 
 
 def _insert_stage3d(state, size, measure, max_sweeps, sweeps, sur, ops, progress, rounds):
-    """Second stage (§8.3.3) in 3D: Op(G, δK) at the centroid of tets with an edge over ``size``.
+    """Second stage (§8.3.3) in 3D: Op(M, δ𝒮) on the shells of interior edges over ``size``.
 
-    Rounds split the tets whose longest edge exceeds ``size`` (longest first,
-    none sharing a vertex with one split in the round), then optimize (moves
-    of the new free points, fans); until none is left or ``rounds`` ran.
-    Returns the points inserted.
+    A round bisects the interior edges longer than ``size`` at their midpoint
+    M (longest first, none sharing a vertex with a shell already split in the
+    round: 𝒮 is the edge's shell), then optimizes (moves of the new free
+    points, fans); until none is split or ``rounds`` ran. Surface edges are
+    never split (the boundary is kept). Returns the points inserted.
     """
     inserted = 0
     for _ in range(rounds):
-        cand = _long_tets(state, size)
-        if not len(cand):
+        edges = _long_edges(state, size)
+        if not len(edges):
             break
         n0 = int(state.cnt[k3.N_PTS])
-        if len(state.P) < n0 + len(cand):
-            state.grow_points(len(cand) + n0)
+        if len(state.P) < n0 + len(edges):
+            state.grow_points(len(edges) + n0)
         room = state.cnt[k3.N_FREE] + state.T.shape[0] - state.cnt[k3.N_ROWS]
-        if room < 3 * len(cand) + 3:
-            state._rows(state.tets(), 2 * state.T.shape[0] + 4 * len(cand))
-        cand = _long_tets(state, size)  # rows renumbered by a growth
-        added = k3.insert_centroids(
+        if room < 8 * len(edges) + 64:
+            state._rows(state.tets(), 2 * state.T.shape[0] + 8 * len(edges))
+        added = k3.insert_midpoints(
             state.P, state.T, state.alive, state.head, state.nxt, state.prv,
-            state.free, state.cnt, state.fixed, cand,
+            state.free, state.cnt, state.fixed, edges,
         )  # fmt: skip
         if added <= 0:
             break

@@ -971,41 +971,58 @@ def fan_sweep(
 
 
 @njit(cache=True)
-def insert_centroids(P, T, alive, head, nxt, prv, freeT, cnt, fixed, rows):
-    """Op(G, δK) for the live tets ``rows`` in order, none sharing a vertex with one done.
+def insert_midpoints(P, T, alive, head, nxt, prv, freeT, cnt, fixed, edges):
+    """Op(M, δ𝒮) for 𝒮 the shell of each interior edge ``edges[i]``, M its midpoint.
 
-    A tet is split at its centroid G (four tets) when it is positive, so are
-    the four new ones (exact), and no vertex of it was touched in this call.
-    Returns the points added, or -1 when out of rows before the first.
+    In order, skipping an edge with a vertex touched in this call, one on the
+    boundary (a face of δ𝒮 holds both ends) and one whose new tets would not
+    all be positive (exact). Returns the points added; -1 when out of rows
+    or points before the first.
     """
     touched = np.zeros(P.shape[0], np.uint8)
+    st = np.empty(SMAX, np.int64)
+    tmark = np.zeros(T.shape[0], np.int64)
+    bf = np.empty((4 * SMAX, 3), np.int64)
     added = 0
-    for i in range(len(rows)):
-        t = rows[i]
-        if not alive[t]:
+    for i in range(edges.shape[0]):
+        a, b = edges[i, 0], edges[i, 1]
+        if touched[a] or touched[b]:
             continue
-        a, b, c, d = T[t, 0], T[t, 1], T[t, 2], T[t, 3]
-        if touched[a] or touched[b] or touched[c] or touched[d]:
+        cnt[STAMP] += 1
+        k = _gather(head, nxt, a, b, T, st, tmark, cnt[STAMP], 0)
+        if k <= 0:
             continue
-        if cnt[N_FREE] + T.shape[0] - cnt[N_ROWS] < 3 or cnt[N_PTS] >= P.shape[0]:
+        n = cnt[N_PTS]
+        nb = _boundary(T, st, k, n + 1, bf)
+        if nb < 4:
+            continue
+        inner = True
+        for f in range(nb):
+            ha = bf[f, 0] == a or bf[f, 1] == a or bf[f, 2] == a
+            hb = bf[f, 0] == b or bf[f, 1] == b or bf[f, 2] == b
+            if ha and hb:
+                inner = False
+        if not inner:
+            continue
+        if cnt[N_FREE] + T.shape[0] - cnt[N_ROWS] + k < nb or n >= P.shape[0]:
             return -1 if added == 0 else added
-        g = cnt[N_PTS]
         for x in range(3):
-            P[g, x] = 0.25 * (P[a, x] + P[b, x] + P[c, x] + P[d, x])
+            P[n, x] = 0.5 * (P[a, x] + P[b, x])
         ok = True
-        for j in range(4):
-            f = _FACE[j]
-            if not _positive(P, g, T[t, f[0]], T[t, f[1]], T[t, f[2]]):
+        for f in range(nb):
+            if not _positive(P, n, bf[f, 0], bf[f, 1], bf[f, 2]):
                 ok = False
+                break
         if not ok:
             continue
         cnt[N_PTS] += 1
-        fixed[g] = 0
-        _remove_tet(T, alive, head, nxt, prv, freeT, cnt, t)
-        for j in range(4):
-            f = _FACE[j]
-            w = (a, b, c, d)
-            _add_tet(T, alive, head, nxt, prv, freeT, cnt, g, w[f[0]], w[f[1]], w[f[2]])
-        touched[a] = touched[b] = touched[c] = touched[d] = 1
+        fixed[n] = 0
+        for j in range(k):
+            t = st[j]
+            for c in range(4):
+                touched[T[t, c]] = 1
+            _remove_tet(T, alive, head, nxt, prv, freeT, cnt, t)
+        for f in range(nb):
+            _add_tet(T, alive, head, nxt, prv, freeT, cnt, n, bf[f, 0], bf[f, 1], bf[f, 2])
         added += 1
     return added

@@ -145,7 +145,7 @@ def test_insertion_to_size():
     surf = parse_surface(*grid_cube(2))
     res = optimize(surface=surf, size=0.6)
     assert_valid_3d(res, surf)
-    assert res.stats["points_inserted"] > 0
+    assert res.stats["points_inserted"] > 1  # G where stuck, then midpoints of long edges
     assert res.stats["stages"] == 2
 
 
