@@ -21,7 +21,9 @@ cells inverted before and after (exact orient2d), least shape quality and
 least angle after. Also a tetrahedral tangle (an extruded triangle mesh,
 free nodes moved) and generation from a boundary (without insertion from
 10k boundary points; with insertion against ``triangulate`` at the same
-point count). Gmsh is a bench-only dependency, skipped with a note when absent.
+point count), and tetrahedra from closed surfaces (a cube, an icosphere,
+torus-like rings) against TetGen ``pY`` on the same surface. Gmsh is a
+bench-only dependency, skipped with a note when absent.
 """
 
 from __future__ import annotations
@@ -280,14 +282,68 @@ def generation():
     )
 
 
+def generation3d():
+    """Tetrahedra from closed surfaces (Figure 8.11): ours against TetGen ``pY`` on the same one."""
+    from meshcore.domain.surface import parse_surface
+    from tests.meshcore.optimize.test_generate3d import grid_cube, icosphere, ring
+
+    print(
+        f"\n{'generation from a surface':<34} {'time s':>8} {'points':>8} {'tets':>8} "
+        f"{'min rr':>8} {'vol rel err':>11}"
+    )
+    shapes = {
+        "cube 6x6 per face": grid_cube(6),
+        "icosphere level 3": icosphere(3),
+        "ring 16x5": ring(16, 5),
+        "ring 12x6": ring(12, 6),
+        "ring 24x8": ring(24, 8),
+    }
+    for name, (P, F) in shapes.items():
+        surf = parse_surface(P, F)
+        for label, kw in (("no ins.", {"insert_points": False}), ("G only", {"size": 1e9})):
+            t = time.perf_counter()
+            try:
+                res = optimize(surface=surf, **kw)
+            except Exception as exc:
+                print(f"{'ours ' + name + ', ' + label:<34} {time.perf_counter() - t:>8.2f}  "
+                      f"{str(exc)[:60]}")  # fmt: skip
+                continue
+            dt = time.perf_counter() - t
+            Pn, Tn = res.mesh.points, res.mesh.cells[0].data
+            err = abs(np.sum(quality.signed_volume(Pn, Tn)) - surf.volume) / surf.volume
+            q = float(quality.tetra_radius_ratio(Pn, Tn).min())
+            print(
+                f"{'ours ' + name + ', ' + label:<34} {dt:>8.2f} {len(Pn):>8} {len(Tn):>8} "
+                f"{q:>8.3g} {err:>11.1e}"
+            )
+        try:
+            import tetgen
+        except ImportError:
+            print("  (tetgen not installed)")
+            continue
+        t = time.perf_counter()
+        tg = tetgen.TetGen(np.asarray(surf.points, float), np.asarray(surf.triangles, np.int32))
+        nodes, elems = tg.tetrahedralize(switches="pYQ")[:2]
+        dt = time.perf_counter() - t
+        q = float(np.abs(quality.tetra_radius_ratio(nodes, elems)).min())
+        err = abs(np.sum(np.abs(quality.signed_volume(nodes, elems))) - surf.volume) / surf.volume
+        print(f"{'TetGen pY ' + name:<34} {dt:>8.2f} {len(nodes):>8} {len(elems):>8} {q:>8.3g} "
+              f"{err:>11.1e}")  # fmt: skip
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--sizes", type=int, nargs="+", default=[100, 224], help="grid nx (2 nx^2 tri)")
     ap.add_argument("--gmsh-timeout", type=float, default=60.0)
+    ap.add_argument("--only", choices=["correction", "generation", "3d"], default=None)
     args = ap.parse_args()
-    correction(args.sizes, args.gmsh_timeout)
-    correction3d()
-    generation()
+    if args.only in (None, "correction"):
+        correction(args.sizes, args.gmsh_timeout)
+        correction3d()
+    if args.only in (None, "generation"):
+        generation()
+    if args.only in (None, "3d"):
+        generation3d()
     print(json.dumps({"note": "times are wall seconds on this machine"}))
 
 

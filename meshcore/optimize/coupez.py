@@ -13,9 +13,9 @@ One method, three uses named by §8.3 and §8.3.5:
    replaces a sub-topology when its worst quality rises, so the least
    quality never decreases.
 
-Generation is planar only: generation of tetrahedra from a closed surface
-(Figure 8.11) is not implemented (it needs fans on the balls of boundary
-vertices and edge shells in 3D, which :mod:`.kernel3d` does not have).
+Generation of tetrahedra from one closed surface (Figure 8.11) is in
+:mod:`.coupez3d`: the same initialization Op(P, δ𝒮), then fans on vertex
+balls, edge shells and larger sets (:func:`.kernel3d.fan_sweep`).
 
 The loop (the synthetic algorithm of §8.3.2) is in :mod:`.kernel2d` and
 :mod:`.kernel3d`: balls of vertices first; when a pass changes nothing,
@@ -75,6 +75,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from meshcore.domain.planar import Domain, parse_domain
+from meshcore.domain.surface import Surface, parse_surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.geometry.predicates3d import orient3d
@@ -241,14 +242,30 @@ def check_topology(mesh: Mesh, cells: np.ndarray | None = None) -> np.ndarray:
     return f[count[inv] == 1]
 
 
-def check_input(mesh=None, domain=None, *, keep_boundary=True) -> None:
+def check_input(mesh=None, domain=None, *, surface=None, keep_boundary=True) -> None:
     """Raise the InputError :func:`optimize` would raise for these inputs (before running)."""
-    _inputs(mesh, domain, keep_boundary)
+    _inputs(mesh, domain, keep_boundary, surface)
 
 
-def _inputs(mesh, domain, keep_boundary):
-    if (mesh is None) == (domain is None):
-        raise InputError("give exactly one of mesh or domain", loc=(), code="bad_input")
+def _inputs(mesh, domain, keep_boundary, surface=None):
+    if sum(x is not None for x in (mesh, domain, surface)) != 1:
+        raise InputError("give exactly one of mesh, domain or surface", loc=(), code="bad_input")
+    if surface is not None:
+        if not keep_boundary:
+            raise InputError(
+                "keep_boundary=false goes with domain input",
+                loc=("keep_boundary",),
+                code="bad_input",
+            )
+        surf = surface if isinstance(surface, Surface) else parse_surface(*surface)
+        if surf.shell_count != 1:
+            raise InputError(
+                f"the surface has {surf.shell_count} shells; generation takes one closed shell "
+                "(no cavities, one body)",
+                loc=("surface", "triangles"),
+                code="unsupported_input",
+            )
+        return "surface", surf
     if mesh is not None:
         if not keep_boundary:
             raise InputError(
@@ -631,6 +648,7 @@ def optimize(
     mesh: Mesh | None = None,
     *,
     domain=None,
+    surface=None,
     insert_points: bool | None = None,
     size: float | None = None,
     quality: str = "shape",
@@ -650,15 +668,22 @@ def optimize(
     domain : Domain or dict, optional
         Or a planar domain (GeoJSON polygon, holes allowed): a triangle mesh
         is generated from its boundary discretization (Figure 8.10).
+    surface : Surface or (points, triangles), optional
+        Or one closed triangulated surface (a single shell): tetrahedra are
+        generated from it (Figure 8.11), its vertices and triangles kept.
     insert_points : bool, optional
         Domain input (default true): the second stage of §8.3.3 adds interior
         points until no edge exceeds ``size`` and the least angle reaches
         ``min_angle`` away from the boundary constraints; false keeps the
-        boundary points only. Mesh input (default false): true lets a fan
-        remove a free vertex where its ball is inverted; false keeps the
-        point set.
+        boundary points only. Surface input (default true): where the first
+        stage is stuck, Op(G, δ𝒮) adds a point G around what is still
+        inverted, then interior edges over ``size`` are bisected (their
+        shell joined to the midpoint); false keeps the surface's points
+        only. Mesh input (default false): true lets a fan remove a free
+        vertex where its ball is inverted; false keeps the point set.
     size : float, optional
-        Domain input: target edge length (default: the median boundary segment).
+        Domain or surface input: target edge length (default: the median
+        boundary segment or surface edge).
     quality : {"shape", "radius_ratio"}
         The measure of (8.2), from the unsigned area or volume.
     max_sweeps : int
@@ -702,8 +727,12 @@ def optimize(
         )
     if size is not None and not (math.isfinite(size) and size > 0):
         raise InputError("size must be a positive number", loc=("size",), code="bad_value")
-    kind, data = _inputs(mesh, domain, keep_boundary)
+    kind, data = _inputs(mesh, domain, keep_boundary, surface)
     measure = MEASURES.index(quality)
+    if kind == "surface":
+        from meshcore.optimize.coupez3d import generate3d
+
+        return generate3d(data, insert_points is not False, size, measure, max_sweeps, progress)
     if kind == "mesh":
         P, cells, bnd, total = data
         if P.shape[1] == 3:

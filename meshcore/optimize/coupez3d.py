@@ -1,10 +1,33 @@
-"""The tetrahedral part of :func:`meshcore.optimize.optimize`: correction and optimization (§8.3.4).
+"""The tetrahedral part of :func:`meshcore.optimize.optimize` (§8.3.3-§8.3.4, Figure 8.11).
 
-The balls of the free vertices (those not on the boundary) are the
-sub-topologies; the compiled pass is :func:`meshcore.optimize.kernel3d.sweep`.
-Passes repeat until one changes nothing or ``max_sweeps`` ran; the result is
-verified (every tet positive by the exact orient3d, a mesh topology, the
-boundary faces exactly the input's) before it is returned.
+Correction and optimization of a tet mesh: the balls of the free vertices
+(those not on the boundary) are the sub-topologies; the compiled pass is
+:func:`meshcore.optimize.kernel3d.sweep`. Passes repeat until one changes
+nothing or ``max_sweeps`` ran.
+
+Generation from one closed surface (:func:`generate3d`): the initial
+topology is Op(P, δ𝒮), P the surface vertex nearest the centroid of the
+surface's vertices joined to every triangle not holding it. Then passes
+(:func:`_loop3d`) of, in order, moves of free vertices, fans Op(Q, δ𝒮) on
+the balls of all vertices, on edge shells, and (while a tet is not
+positive) on larger sets around it: the tet and a face neighbour, the
+union of the balls of an edge's ends, of its four vertices, face-connected
+sets of 8 to 64 tets. Choices the text leaves open:
+
+* Flat tets (four coplanar surface points, common on planar faces) add
+  nothing to Sur, so (8.1) cannot see them: among configurations of equal
+  Sur, fewer non-positive tets wins before the quality.
+* Stages: the first without insertion; with ``insert_points``, if tets are
+  still not positive, the same passes where the larger sets may also take
+  Op(G, δ𝒮) with G a new point seeing all of δ𝒮 (relaxation from the
+  centroid), then rounds bisecting interior edges over ``size`` at their
+  midpoint M (Op(M, δ𝒮), 𝒮 the edge's shell), each followed by the passes
+  without insertion. Splitting a tet at its centroid would leave its long
+  edges in place, so the edge is split instead; surface edges never are.
+
+The result is verified (every tet positive by the exact orient3d, a mesh
+topology, the boundary faces exactly the input's) before it is returned;
+otherwise the job fails saying how many tets are still inverted and where.
 """
 
 from __future__ import annotations
@@ -88,5 +111,231 @@ def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progre
         },
         "least_quality_before": q0,
         "stages": 1,
+    }
+    return _c._report(Pn, Tn, measure, stats)
+
+
+# ----------------------------------------------------------------------------- generation
+
+
+class _State3D:
+    """Arrays of the compiled 3D loop: tet rows, corner lists, free rows, spare points."""
+
+    def __init__(self, P: np.ndarray, T: np.ndarray, fixed: np.ndarray, spare_points: int = 0):
+        n = len(P)
+        self.P = np.zeros((n + spare_points, 3))
+        self.P[:n] = P
+        self.fixed = np.zeros(n + spare_points, np.uint8)
+        self.fixed[:n] = fixed
+        self.cnt = np.array([n, 0, 0, 0], np.int64)
+        self._rows(T, 2 * len(T) + 256)
+
+    def _rows(self, T: np.ndarray, mcap: int) -> None:
+        m = len(T)
+        self.T = np.zeros((mcap, 4), np.int64)
+        self.T[:m] = T
+        self.alive = np.zeros(mcap, np.uint8)
+        self.alive[:m] = 1
+        self.head = np.full(len(self.P), -1, np.int64)
+        self.nxt = np.full(4 * mcap, -1, np.int64)
+        self.prv = np.full(4 * mcap, -1, np.int64)
+        self.free = np.zeros(mcap, np.int64)
+        self.cnt[k3.N_ROWS] = m
+        self.cnt[k3.N_FREE] = 0
+        k3.build(self.T, m, len(self.P), self.head, self.nxt, self.prv)
+
+    def grow_rows(self) -> None:
+        self._rows(self.tets(), 2 * self.T.shape[0])
+
+    def grow_points(self, spare: int) -> None:
+        n = int(self.cnt[k3.N_PTS])
+        P, fixed = self.P[:n].copy(), self.fixed[:n].copy()
+        self.P = np.zeros((n + spare, 3))
+        self.P[:n] = P
+        self.fixed = np.zeros(n + spare, np.uint8)
+        self.fixed[:n] = fixed
+        self._rows(self.tets(), self.T.shape[0])
+
+    def tets(self) -> np.ndarray:
+        rows = int(self.cnt[k3.N_ROWS])
+        return self.T[:rows][self.alive[:rows].astype(bool)].copy()
+
+    def points(self) -> np.ndarray:
+        return self.P[: int(self.cnt[k3.N_PTS])]
+
+    def sur(self) -> float:
+        return float(k3.sur(self.P, self.T, self.alive, int(self.cnt[k3.N_ROWS])))
+
+    def inverted(self) -> int:
+        return int(np.sum(_signs(self.points(), self.tets()) <= 0))
+
+
+def _loop3d(state, allow_remove, insert, measure, max_sweeps, sweeps, sur, ops, progress, frac):
+    """Passes of the synthetic algorithm on tetrahedra until stable or ``max_sweeps``.
+
+    A pass tries, in order, moves of free vertices (:func:`.kernel3d.sweep`),
+    fans on vertex balls, fans on edge shells, then (while a tet is not
+    positive) fans on larger sets around it, and with ``insert`` the new
+    point G of Op(G, δ𝒮) there; it stops at the first kind that changed
+    something.
+    """
+    cap = len(state.P)
+    todo = np.ones(cap, np.uint8)
+    todo_shell = np.ones(cap, np.uint8)
+    counters = np.zeros(8, np.int64)
+    for _ in range(max_sweeps):
+        changed = 0
+        for kind in ("move", k3.BALL, k3.SHELL, k3.UNION):
+            dirty = np.zeros(cap, np.uint8)
+            if kind == "move":
+                mark = todo.copy()
+                changed = k3.sweep(
+                    state.P, state.T, state.alive, state.head, state.nxt, state.prv,
+                    state.cnt, state.fixed, mark, dirty, False, measure,
+                    _c.TOL.sur_tie, _c.TOL.quality_gain, counters,
+                )  # fmt: skip
+            else:
+                if kind == k3.UNION and state.inverted() == 0:
+                    break
+                mark = todo if kind == k3.BALL else todo_shell
+                while True:
+                    changed, status = k3.fan_sweep(
+                        state.P, state.T, state.alive, state.head, state.nxt, state.prv,
+                        state.free, state.cnt, state.fixed, mark, dirty, kind, allow_remove,
+                        insert, measure, _c.TOL.sur_tie, _c.TOL.quality_gain, counters,
+                    )  # fmt: skip
+                    if status != 2:
+                        break
+                    if state.cnt[k3.N_PTS] >= len(state.P):
+                        state.grow_points(len(state.P))
+                        cap = len(state.P)
+                        todo = np.ones(cap, np.uint8)
+                        todo_shell = np.ones(cap, np.uint8)
+                        dirty = np.zeros(cap, np.uint8)
+                        mark = todo
+                    state.grow_rows()
+                    mark[:] = 1
+                if kind == k3.SHELL:
+                    todo_shell[:] = 0
+            todo |= dirty
+            todo_shell |= dirty
+            if changed:
+                break
+        sweeps[0] += 1
+        sur.append(state.sur())
+        if progress is not None:
+            progress(frac[0] + (frac[1] - frac[0]) * min(1.0, sweeps[0] / max_sweeps), "pass")
+        if not changed:
+            break
+    for name, c in (
+        ("ball_move", k3.C_MOVE),
+        ("ball_kernel_move", k3.C_KERNEL),
+        ("ball_fan", k3.C_BALL_FAN),
+        ("shell_fan", k3.C_SHELL_FAN),
+        ("union_fan", k3.C_UNION_FAN),
+        ("inserted_g", k3.C_INSERT),
+        ("closed_removed", k3.C_CLOSED),
+    ):
+        ops[name] = ops.get(name, 0) + int(counters[c])
+
+
+def initial_topology(P: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Op(P, δ𝒮) on a closed surface: P, the surface vertex nearest the centroid of its vertices,
+    joined to every outward triangle not holding it (§8.3.2, "Initialization"; Figure 8.11).
+
+    A mesh topology (every face in one or two tets) whose boundary faces are
+    exactly the surface's triangles and whose signed volumes add up to the
+    enclosed volume; tets may be flat or inverted.
+    """
+    verts = np.unique(F)
+    c = P[verts].mean(axis=0)
+    p = int(verts[np.argmin(np.sum((P[verts] - c) ** 2, axis=1))])
+    keep = ~(F == p).any(axis=1)
+    f = F[keep]
+    return np.column_stack([np.full(len(f), p), f]).astype(np.int64)
+
+
+def _long_edges(state, size):
+    """The distinct edges of the live tets longer than ``size``, longest first."""
+    T = state.tets()
+    e = np.sort(T[:, k3._EDGES].reshape(-1, 2), axis=1)
+    e = np.unique(e, axis=0)
+    d = state.P[e[:, 0]] - state.P[e[:, 1]]
+    length = np.sqrt(np.sum(d * d, axis=1))
+    pick = length > size
+    return np.ascontiguousarray(e[pick][np.argsort(-length[pick], kind="stable")])
+
+
+def _insert_stage3d(state, size, measure, max_sweeps, sweeps, sur, ops, progress, rounds):
+    """Second stage (§8.3.3) in 3D: Op(M, δ𝒮) on the shells of interior edges over ``size``.
+
+    A round bisects the interior edges longer than ``size`` at their midpoint
+    M (longest first, none sharing a vertex with a shell already split in the
+    round: 𝒮 is the edge's shell), then optimizes (moves of the new free
+    points, fans); until none is split or ``rounds`` ran. Surface edges are
+    never split (the boundary is kept). Returns the points inserted.
+    """
+    inserted = 0
+    for _ in range(rounds):
+        edges = _long_edges(state, size)
+        if not len(edges):
+            break
+        n0 = int(state.cnt[k3.N_PTS])
+        if len(state.P) < n0 + len(edges):
+            state.grow_points(len(edges) + n0)
+        room = state.cnt[k3.N_FREE] + state.T.shape[0] - state.cnt[k3.N_ROWS]
+        if room < 8 * len(edges) + 64:
+            state._rows(state.tets(), 2 * state.T.shape[0] + 8 * len(edges))
+        added = k3.insert_midpoints(
+            state.P, state.T, state.alive, state.head, state.nxt, state.prv,
+            state.free, state.cnt, state.fixed, edges,
+        )  # fmt: skip
+        if added <= 0:
+            break
+        inserted += added
+        _loop3d(state, False, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.5, 0.95))
+    return inserted
+
+
+def generate3d(surface, insert, size, measure, max_sweeps, progress):
+    """Tetrahedra of the volume a closed surface bounds (§8.3.3, Figure 8.11); see optimize."""
+    F = surface.triangles
+    verts = np.unique(F)
+    Pall = surface.points
+    # only the surface's vertices, renumbered
+    new = np.full(len(Pall), -1, np.int64)
+    new[verts] = np.arange(len(verts))
+    P, S = Pall[verts], new[F]
+    e = P[S] - P[np.roll(S, -1, axis=1)]
+    h = float(size) if size is not None else float(np.median(np.sqrt(np.sum(e * e, axis=2))))
+    T = initial_topology(P, S)
+    state = _State3D(P, T, np.ones(len(P), np.uint8), spare_points=len(P) if insert else 0)
+    inverted = state.inverted()
+    q0 = float(_c._measure_q(P, T, _c.MEASURES[measure]).min())
+    sweeps, sur, ops = [0], [state.sur()], {}
+    _loop3d(state, False, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 0.4))
+    bnd = S
+    stages = 1
+    if insert:
+        stages = 2
+        if state.inverted():  # stuck without points: Op(G, δ𝒮) around what is left
+            _loop3d(state, False, True, measure, max_sweeps, sweeps, sur, ops, progress, (0.4, 0.5))
+        _c._verify(state.points(), state.tets(), bnd, "generation", sweeps[0])
+        _insert_stage3d(state, h, measure, max_sweeps, sweeps, sur, ops, progress, rounds=30)
+    _c._verify(state.points(), state.tets(), bnd, "generation", sweeps[0])
+    Pn, Tn, _ = _c._compact(state.points(), state.tets(), len(P))  # G of a removed pillow
+    stats = {
+        "use": "generation",
+        "sur": sur,
+        "measure": float(surface.volume),
+        "sweeps": sweeps[0],
+        "inverted_before": inverted,
+        "inverted_after": 0,
+        "points_inserted": int(len(Pn) - len(P)),
+        "points_removed": 0,
+        "operators": ops,
+        "least_quality_before": q0,
+        "stages": stages,
+        "boundary_points": int(len(P)),
     }
     return _c._report(Pn, Tn, measure, stats)

@@ -21,7 +21,12 @@ Sur = the sum of unsigned volumes, then the worst quality):
   condition of §8.3.3 is checked: no new edge or face (holding Q) may exist
   outside the ball.
 
-Edge shells and larger sets (named by §8.3.4) are not used.
+:func:`fan_sweep` replaces any sub-topology 𝒮 (balls of all vertices,
+boundary ones included; shells of edges; larger sets around a non-positive
+tet, §8.3.4) by the best fan Op(Q, δ𝒮), Q a vertex of δ𝒮 or a new point G,
+checked by :func:`_fan_valid` (the §8.3.3 condition on faces: each new
+inner face in exactly two new tets and in no tet outside 𝒮, the new
+boundary exactly δ𝒮). It needs free rows (``freeT``) as :mod:`.kernel2d`.
 """
 
 from __future__ import annotations
@@ -38,6 +43,7 @@ C_MOVE, C_KERNEL, C_COLLAPSE = range(3)
 N_PTS, N_ROWS, N_FREE, STAMP = range(4)
 
 _FACE = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]], np.int64)  # outward faces
+_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]], np.int64)
 
 
 @njit(cache=True, inline="always")
@@ -386,3 +392,637 @@ def sur(P, T, alive, rows):
         if alive[t]:
             s += _vol_q(P, T[t, 0], T[t, 1], T[t, 2], T[t, 3], 0)[0]
     return s
+
+
+# ----------------------------------------------------------------------------- fans on any 𝒮
+
+#: Sub-topology kinds of :func:`fan_sweep`.
+BALL, SHELL, UNION = 0, 1, 2
+#: Largest sub-topology of :func:`fan_sweep` (tetrahedra); larger ones are skipped.
+SMAX = 512
+#: Sizes of the face-adjacent sets grown around a non-positive tetrahedron (UNION).
+GROW = (8, 16, 32, 64)
+#: ``counters`` entries of :func:`fan_sweep` (after C_MOVE, C_KERNEL, C_COLLAPSE).
+C_BALL_FAN, C_SHELL_FAN, C_UNION_FAN, C_INSERT, C_CLOSED = 3, 4, 5, 6, 7
+
+
+@njit(cache=True)
+def _add_tet(T, alive, head, nxt, prv, freeT, cnt, a, b, c, d):
+    if cnt[N_FREE] > 0:
+        cnt[N_FREE] -= 1
+        t = freeT[cnt[N_FREE]]
+    else:
+        t = cnt[N_ROWS]
+        cnt[N_ROWS] += 1
+    T[t, 0], T[t, 1], T[t, 2], T[t, 3] = a, b, c, d
+    alive[t] = 1
+    for j in range(4):
+        _link_corner(head, nxt, prv, 4 * t + j, T[t, j])
+    return t
+
+
+@njit(cache=True)
+def _remove_tet(T, alive, head, nxt, prv, freeT, cnt, t):
+    for j in range(4):
+        _unlink_corner(head, nxt, prv, 4 * t + j, T[t, j])
+    alive[t] = 0
+    freeT[cnt[N_FREE]] = t
+    cnt[N_FREE] += 1
+
+
+@njit(cache=True)
+def _holds(T, t, v):
+    return T[t, 0] == v or T[t, 1] == v or T[t, 2] == v or T[t, 3] == v
+
+
+@njit(cache=True)
+def _gather(head, nxt, v, w, T, st, tmark, stamp, k):
+    """Append the tets of v's ball (holding w too when w >= 0) not yet in st[:k]; -1 past SMAX."""
+    s = head[v]
+    while s >= 0:
+        t = s // 4
+        if tmark[t] != stamp and (w < 0 or _holds(T, t, w)):
+            if k >= SMAX:
+                return -1
+            tmark[t] = stamp
+            st[k] = t
+            k += 1
+        s = nxt[s]
+    return k
+
+
+@njit(cache=True)
+def _face_key(a, b, c, n):
+    lo = min(a, min(b, c))
+    hi = max(a, max(b, c))
+    mid = a + b + c - lo - hi
+    return (lo * n + mid) * n + hi
+
+
+@njit(cache=True)
+def _boundary(T, st, k, n, bf):
+    """δ𝒮: the faces of st[:k] held once within it, outward; their count, -1 if one is held 3+."""
+    keys = np.empty(4 * k, np.int64)
+    for i in range(k):
+        t = st[i]
+        for j in range(4):
+            f = _FACE[j]
+            keys[4 * i + j] = _face_key(T[t, f[0]], T[t, f[1]], T[t, f[2]], n)
+    order = np.argsort(keys)
+    nb = 0
+    i = 0
+    while i < 4 * k:
+        j = i
+        while j + 1 < 4 * k and keys[order[j + 1]] == keys[order[i]]:
+            j += 1
+        if j - i >= 2:
+            return -1
+        if j == i:
+            s = order[i]
+            t = st[s // 4]
+            f = _FACE[s % 4]
+            bf[nb, 0], bf[nb, 1], bf[nb, 2] = T[t, f[0]], T[t, f[1]], T[t, f[2]]
+            nb += 1
+        i = j + 1
+    return nb
+
+
+@njit(cache=True)
+def _fan_valid(T, head, nxt, bf, nb, q, n, tmark, stamp):
+    """§8.3.3 for Op(q, δ𝒮): a mesh topology bounded by δ𝒮, no new face already outside 𝒮.
+
+    The new faces (q, x, y) come from the edges (x, y) of the faces of δ𝒮
+    not holding q: an edge met twice (once each way) makes an inner face,
+    which must not be a face of δ𝒮 nor of a tet outside 𝒮; an edge met once
+    must close a face of δ𝒮 holding q, and those must all be closed.
+    """
+    m = 0
+    ek = np.empty(3 * nb, np.int64)
+    ed = np.empty(3 * nb, np.int64)
+    withq = 0
+    for i in range(nb):
+        a, b, c = bf[i, 0], bf[i, 1], bf[i, 2]
+        if a == q or b == q or c == q:
+            withq += 1
+            continue
+        for e in range(3):
+            x = bf[i, e]
+            y = bf[i, (e + 1) % 3]
+            ek[m] = min(x, y) * n + max(x, y)
+            ed[m] = 1 if x < y else -1
+            m += 1
+    order = np.argsort(ek[:m])
+    once = 0
+    i = 0
+    while i < m:
+        j = i
+        while j + 1 < m and ek[order[j + 1]] == ek[order[i]]:
+            j += 1
+        key = ek[order[i]]
+        x, y = key // n, key % n
+        if j - i >= 2:
+            return False
+        if j == i:
+            # must close a face (q, x, y) of δ𝒮
+            found = False
+            for f in range(nb):
+                a, b, c = bf[f, 0], bf[f, 1], bf[f, 2]
+                if (a == q or b == q or c == q) and (a == x or b == x or c == x):
+                    if a == y or b == y or c == y:
+                        found = True
+                        break
+            if not found:
+                return False
+            once += 1
+        else:
+            if ed[order[i]] == ed[order[j]]:
+                return False
+            for f in range(nb):
+                a, b, c = bf[f, 0], bf[f, 1], bf[f, 2]
+                if (a == q or b == q or c == q) and (a == x or b == x or c == x):
+                    if a == y or b == y or c == y:
+                        return False
+            s = head[q]
+            while s >= 0:
+                t = s // 4
+                if tmark[t] != stamp and _holds(T, t, x) and _holds(T, t, y):
+                    return False
+                s = nxt[s]
+        i = j + 1
+    return once == withq
+
+
+@njit(cache=True, inline="always")
+def _better_n(na, sa, qa, nb, sb, qb, tie, gain):
+    """(8.1) then (8.2) with the count of non-positive tets: fewer first, then Sur, then quality."""
+    if (na == 0) != (nb == 0):
+        return na == 0
+    if na > 0:
+        if sa < sb - tie:
+            return True
+        if sa > sb + tie:
+            return False
+        if na != nb:
+            return na < nb
+    return qa > qb + gain
+
+
+@njit(cache=True)
+def _fan_measure(P, bf, nb, q, measure):
+    """(non-positive count, Sur, worst quality) of Op(q, δ𝒮)."""
+    nn = 0
+    s_ = 0.0
+    qmin = 2.0
+    for f in range(nb):
+        a, b, c = bf[f, 0], bf[f, 1], bf[f, 2]
+        if a == q or b == q or c == q:
+            continue
+        if not _positive(P, q, a, b, c):
+            nn += 1
+        vol, qq = _vol_q(P, q, a, b, c, measure)
+        s_ += vol
+        qmin = min(qmin, qq)
+    return nn, s_, qmin
+
+
+@njit(cache=True)
+def _kernel_point(P, bf, nb, g):
+    """Put in row g a point meant inside every face of δ𝒮 (outward), by relaxation.
+
+    Each step pushes the point past the face that sees it worst, to 5 % of
+    the mean radius inside (Agmon-Motzkin); after 100 steps the last point
+    is kept and the exact signs of Op(G, δ𝒮) decide. False: a flat face.
+    """
+    x = y = z = 0.0
+    h = 0.0
+    for f in range(nb):
+        for e in range(3):
+            x += P[bf[f, e], 0]
+            y += P[bf[f, e], 1]
+            z += P[bf[f, e], 2]
+    x /= 3 * nb
+    y /= 3 * nb
+    z /= 3 * nb
+    for f in range(nb):
+        a = bf[f, 0]
+        h += math.sqrt((P[a, 0] - x) ** 2 + (P[a, 1] - y) ** 2 + (P[a, 2] - z) ** 2)
+    h /= nb
+    for _ in range(100):
+        worst = np.inf
+        w0 = w1 = w2 = 0.0
+        for f in range(nb):
+            a, b, c = bf[f, 0], bf[f, 1], bf[f, 2]
+            ux, uy, uz = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1], P[b, 2] - P[a, 2]
+            vx, vy, vz = P[c, 0] - P[a, 0], P[c, 1] - P[a, 1], P[c, 2] - P[a, 2]
+            n0, n1, n2 = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+            nn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+            if nn == 0.0:
+                return False
+            n0, n1, n2 = -n0 / nn, -n1 / nn, -n2 / nn
+            d = (x - P[a, 0]) * n0 + (y - P[a, 1]) * n1 + (z - P[a, 2]) * n2
+            if d < worst:
+                worst, w0, w1, w2 = d, n0, n1, n2
+        if worst >= 0.05 * h:
+            P[g, 0], P[g, 1], P[g, 2] = x, y, z
+            return True
+        step = 0.05 * h - worst
+        x += step * w0
+        y += step * w1
+        z += step * w2
+    P[g, 0], P[g, 1], P[g, 2] = x, y, z  # short of the margin: the exact signs decide
+    return True
+
+
+@njit(cache=True)
+def _try_fans(
+    P,
+    T,
+    alive,
+    head,
+    nxt,
+    prv,
+    freeT,
+    cnt,
+    fixed,
+    st,
+    k,
+    tmark,
+    vmark,
+    bf,
+    allow_remove,
+    insert,
+    measure,
+    tie_rel,
+    gain,
+    dirty,
+    counters,
+):
+    """Replace 𝒮 = st[:k] by its best Op(q, δ𝒮) when it beats 𝒮; 1, 0, or 2 (out of room).
+
+    q runs over the vertices of δ𝒮 and, with ``insert`` while no fan is
+    positive, a new point G seeing every face of δ𝒮 (the kernel point found by
+    relaxation from the centroid of δ𝒮's vertices).
+    """
+    n = cnt[N_PTS]
+    stamp = cnt[STAMP]
+    nb = _boundary(T, st, k, n, bf)
+    if nb == 0:
+        # 𝒮 is closed (a pillow of tets glued face to face, signed volume zero): Op(q, ∅) is
+        # empty, Sur drops by Sur(𝒮) and the rest keeps its faces
+        for i in range(k):
+            t = st[i]
+            for j in range(4):
+                dirty[T[t, j]] = 1
+            _remove_tet(T, alive, head, nxt, prv, freeT, cnt, t)
+        counters[C_CLOSED] += 1
+        return 1
+    if nb < 4:
+        return 0
+    # vertices of 𝒮 off δ𝒮 vanish with a fan: only free ones whose whole ball is 𝒮
+    cnt[STAMP] += 1
+    vst = cnt[STAMP]
+    for i in range(nb):
+        for e in range(3):
+            vmark[bf[i, e]] = vst
+    for i in range(k):
+        for j in range(4):
+            w = T[st[i], j]
+            if vmark[w] != vst:
+                if not allow_remove or fixed[w]:
+                    return 0
+                s = head[w]
+                while s >= 0:
+                    if tmark[s // 4] != stamp:
+                        return 0
+                    s = nxt[s]
+    cur_n = 0
+    cur_s = 0.0
+    cur_q = 2.0
+    for i in range(k):
+        t = st[i]
+        a, b, c, d = T[t, 0], T[t, 1], T[t, 2], T[t, 3]
+        if not _positive(P, a, b, c, d):
+            cur_n += 1
+        vol, qq = _vol_q(P, a, b, c, d, measure)
+        cur_s += vol
+        cur_q = min(cur_q, qq)
+    tie = tie_rel * cur_s
+    best = -1
+    bn, bs, bq = cur_n, cur_s, cur_q
+    cnt[STAMP] += 1
+    qst = cnt[STAMP]
+    for i in range(nb):
+        for e in range(3):
+            q = bf[i, e]
+            if vmark[q] == qst:
+                continue
+            vmark[q] = qst
+            nn, s_, qmin = _fan_measure(P, bf, nb, q, measure)
+            if _better_n(nn, s_, qmin, bn, bs, bq, tie, gain) and _fan_valid(
+                T, head, nxt, bf, nb, q, n + 1, tmark, stamp
+            ):
+                best, bn, bs, bq = q, nn, s_, qmin
+    if insert and bn > 0:
+        g = cnt[N_PTS]
+        if g >= P.shape[0]:
+            return 2
+        if _kernel_point(P, bf, nb, g):
+            nn, s_, qmin = _fan_measure(P, bf, nb, g, measure)
+            if _better_n(nn, s_, qmin, bn, bs, bq, tie, gain) and _fan_valid(
+                T, head, nxt, bf, nb, g, n + 1, tmark, stamp
+            ):
+                best, bn, bs, bq = g, nn, s_, qmin
+    if best < 0:
+        return 0
+    if best == cnt[N_PTS]:
+        cnt[N_PTS] += 1
+        fixed[best] = 0
+        counters[C_INSERT] += 1
+    new = 0
+    for f in range(nb):
+        if not (bf[f, 0] == best or bf[f, 1] == best or bf[f, 2] == best):
+            new += 1
+    if cnt[N_FREE] + T.shape[0] - cnt[N_ROWS] + k < new:
+        return 2
+    for i in range(k):
+        t = st[i]
+        for j in range(4):
+            dirty[T[t, j]] = 1
+        _remove_tet(T, alive, head, nxt, prv, freeT, cnt, t)
+    for f in range(nb):
+        a, b, c = bf[f, 0], bf[f, 1], bf[f, 2]
+        if not (a == best or b == best or c == best):
+            _add_tet(T, alive, head, nxt, prv, freeT, cnt, best, a, b, c)
+    dirty[best] = 1
+    return 1
+
+
+@njit(cache=True)
+def _grow_tets(T, head, nxt, st, k, tmark, stamp, size):
+    """Grow st[:k] across faces (breadth first) to ``size`` tets; the new count."""
+    i = 0
+    while i < k and k < size:
+        t = st[i]
+        for j in range(4):
+            f = _FACE[j]
+            a, b, c = T[t, f[0]], T[t, f[1]], T[t, f[2]]
+            s = head[a]
+            while s >= 0 and k < size:
+                u = s // 4
+                if tmark[u] != stamp and _holds(T, u, b) and _holds(T, u, c):
+                    tmark[u] = stamp
+                    st[k] = u
+                    k += 1
+                s = nxt[s]
+        i += 1
+    return k
+
+
+@njit(cache=True)
+def fan_sweep(
+    P,
+    T,
+    alive,
+    head,
+    nxt,
+    prv,
+    freeT,
+    cnt,
+    fixed,
+    todo,
+    dirty,
+    kind,
+    allow_remove,
+    insert,
+    measure,
+    tie_rel,
+    gain,
+    counters,
+):
+    """One pass of fans Op(q, δ𝒮) over sub-topologies of ``kind``; (replacements, status).
+
+    ``BALL``: the ball of every vertex marked in ``todo`` (boundary vertices
+    included); ``SHELL``: the shell of every edge of a tet with a marked
+    vertex; ``UNION``: around every non-positive tet, sets of ``GROW`` tets
+    grown across faces. Status 2: out of rows (grow them and call again).
+    """
+    n = cnt[N_PTS]
+    st = np.empty(SMAX, np.int64)
+    tmark = np.zeros(T.shape[0], np.int64)
+    vmark = np.zeros(P.shape[0], np.int64)
+    bf = np.empty((4 * SMAX, 3), np.int64)
+    changed = 0
+    if kind == BALL:
+        for v in range(n):
+            if not todo[v] or head[v] < 0:
+                continue
+            todo[v] = 0
+            cnt[STAMP] += 1
+            k = _gather(head, nxt, v, -1, T, st, tmark, cnt[STAMP], 0)
+            if k < 0:
+                continue
+            r = _try_fans(
+                P,
+                T,
+                alive,
+                head,
+                nxt,
+                prv,
+                freeT,
+                cnt,
+                fixed,
+                st,
+                k,
+                tmark,
+                vmark,
+                bf,
+                allow_remove,
+                insert,
+                measure,
+                tie_rel,
+                gain,
+                dirty,
+                counters,
+            )
+            if r == 2:
+                todo[v] = 1
+                return changed, 2
+            if r == 1:
+                counters[C_BALL_FAN] += 1
+                changed += 1
+        return changed, 0
+    rows = cnt[N_ROWS]
+    for t0 in range(rows):
+        if not alive[t0]:
+            continue
+        if kind == SHELL:
+            hot = False
+            for j in range(4):
+                hot = hot or todo[T[t0, j]] == 1
+            if not hot:
+                continue
+            for e in range(6):
+                if not alive[t0]:
+                    break
+                a = T[t0, _EDGES[e, 0]]
+                b = T[t0, _EDGES[e, 1]]
+                cnt[STAMP] += 1
+                k = _gather(head, nxt, a, b, T, st, tmark, cnt[STAMP], 0)
+                if k < 0:
+                    continue
+                r = _try_fans(
+                    P,
+                    T,
+                    alive,
+                    head,
+                    nxt,
+                    prv,
+                    freeT,
+                    cnt,
+                    fixed,
+                    st,
+                    k,
+                    tmark,
+                    vmark,
+                    bf,
+                    allow_remove,
+                    insert,
+                    measure,
+                    tie_rel,
+                    gain,
+                    dirty,
+                    counters,
+                )
+                if r == 2:
+                    return changed, 2
+                if r == 1:
+                    counters[C_SHELL_FAN] += 1
+                    changed += 1
+        else:
+            a, b, c, d = T[t0, 0], T[t0, 1], T[t0, 2], T[t0, 3]
+            if _positive(P, a, b, c, d):
+                continue
+            # t0 and a face neighbour (4 sets), the balls of an edge's ends (6), of its
+            # four vertices (1), then face-connected sets of GROW tets
+            for g in range(11 + len(GROW)):
+                if not alive[t0] or T[t0, 0] != a or T[t0, 1] != b or T[t0, 2] != c:
+                    break
+                cnt[STAMP] += 1
+                stamp = cnt[STAMP]
+                st[0] = t0
+                tmark[t0] = stamp
+                k = 1
+                if g < 4:
+                    f = _FACE[g]
+                    x, y, z = T[t0, f[0]], T[t0, f[1]], T[t0, f[2]]
+                    s = head[x]
+                    while s >= 0:
+                        u = s // 4
+                        if u != t0 and _holds(T, u, y) and _holds(T, u, z):
+                            tmark[u] = stamp
+                            st[k] = u
+                            k += 1
+                            break
+                        s = nxt[s]
+                    if k == 1:
+                        continue
+                elif g < 10:
+                    k = _gather(head, nxt, T[t0, _EDGES[g - 4, 0]], -1, T, st, tmark, stamp, k)
+                    if k >= 0:
+                        k = _gather(head, nxt, T[t0, _EDGES[g - 4, 1]], -1, T, st, tmark, stamp, k)
+                elif g == 10:
+                    for j in range(4):
+                        if k >= 0:
+                            k = _gather(head, nxt, T[t0, j], -1, T, st, tmark, stamp, k)
+                else:
+                    k = _grow_tets(T, head, nxt, st, 1, tmark, stamp, GROW[g - 11])
+                if k < 0:
+                    continue
+                r = _try_fans(
+                    P,
+                    T,
+                    alive,
+                    head,
+                    nxt,
+                    prv,
+                    freeT,
+                    cnt,
+                    fixed,
+                    st,
+                    k,
+                    tmark,
+                    vmark,
+                    bf,
+                    allow_remove,
+                    insert,
+                    measure,
+                    tie_rel,
+                    gain,
+                    dirty,
+                    counters,
+                )
+                if r == 2:
+                    return changed, 2
+                if r == 1:
+                    counters[C_UNION_FAN] += 1
+                    changed += 1
+                    break
+    return changed, 0
+
+
+@njit(cache=True)
+def insert_midpoints(P, T, alive, head, nxt, prv, freeT, cnt, fixed, edges):
+    """Op(M, δ𝒮) for 𝒮 the shell of each interior edge ``edges[i]``, M its midpoint.
+
+    In order, skipping an edge with a vertex touched in this call, one on the
+    boundary (a face of δ𝒮 holds both ends) and one whose new tets would not
+    all be positive (exact). Returns the points added; -1 when out of rows
+    or points before the first.
+    """
+    touched = np.zeros(P.shape[0], np.uint8)
+    st = np.empty(SMAX, np.int64)
+    tmark = np.zeros(T.shape[0], np.int64)
+    bf = np.empty((4 * SMAX, 3), np.int64)
+    added = 0
+    for i in range(edges.shape[0]):
+        a, b = edges[i, 0], edges[i, 1]
+        if touched[a] or touched[b]:
+            continue
+        cnt[STAMP] += 1
+        k = _gather(head, nxt, a, b, T, st, tmark, cnt[STAMP], 0)
+        if k <= 0:
+            continue
+        n = cnt[N_PTS]
+        nb = _boundary(T, st, k, n + 1, bf)
+        if nb < 4:
+            continue
+        inner = True
+        for f in range(nb):
+            ha = bf[f, 0] == a or bf[f, 1] == a or bf[f, 2] == a
+            hb = bf[f, 0] == b or bf[f, 1] == b or bf[f, 2] == b
+            if ha and hb:
+                inner = False
+        if not inner:
+            continue
+        if cnt[N_FREE] + T.shape[0] - cnt[N_ROWS] + k < nb or n >= P.shape[0]:
+            return -1 if added == 0 else added
+        for x in range(3):
+            P[n, x] = 0.5 * (P[a, x] + P[b, x])
+        ok = True
+        for f in range(nb):
+            if not _positive(P, n, bf[f, 0], bf[f, 1], bf[f, 2]):
+                ok = False
+                break
+        if not ok:
+            continue
+        cnt[N_PTS] += 1
+        fixed[n] = 0
+        for j in range(k):
+            t = st[j]
+            for c in range(4):
+                touched[T[t, c]] = 1
+            _remove_tet(T, alive, head, nxt, prv, freeT, cnt, t)
+        for f in range(nb):
+            _add_tet(T, alive, head, nxt, prv, freeT, cnt, n, bf[f, 0], bf[f, 1], bf[f, 2])
+        added += 1
+    return added

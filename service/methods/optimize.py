@@ -12,17 +12,21 @@ from __future__ import annotations
 
 from typing import Literal
 
+import numpy as np
 from pydantic import Field, model_validator
 
 from meshcore.errors import InputError
 from meshcore.optimize import check_input, optimize
 from service.methods.domain_schema import DomainIn
+from service.methods.surface_schema import SurfaceIn
 from service.schemas import MeshIn, MethodParams
 
 Progress = object  # the registry's Progress: callable(fraction, message)
 
 #: Domain requests whose size would make more triangles than this are refused (422).
 MAX_TRIANGLES = 2_000_000
+#: Surface requests whose size would make more tetrahedra than this are refused (422).
+MAX_TETRAHEDRA = 200_000
 
 
 class OptimizeParams(MethodParams):
@@ -38,17 +42,24 @@ class OptimizeParams(MethodParams):
         description="Or a planar domain: triangles generated from its boundary discretization "
         "(Figure 8.10), used as given unless keep_boundary is false.",
     )
+    surface: SurfaceIn | None = Field(
+        None,
+        description="Or one closed triangulated surface (one shell): tetrahedra generated from "
+        "it (Figure 8.11); its points and triangles are kept.",
+    )
     insert_points: bool | None = Field(
         None,
         description="Domain (default true): the second stage adds interior points up to size "
-        "and min_angle; false keeps the boundary points only. Mesh (default false): true lets "
+        "and min_angle; false keeps the boundary points only. Surface (default true): points "
+        "where the first stage is stuck, then up to size. Mesh (default false): true lets "
         "a fan remove a free vertex where its ball is inverted; false keeps the point set.",
     )
     size: float | None = Field(
         None,
         gt=0,
         allow_inf_nan=False,
-        description="Domain input: target edge length (default: the median boundary segment).",
+        description="Domain or surface input: target edge length (default: the median "
+        "boundary segment or surface edge).",
     )
     quality: Literal["shape", "radius_ratio"] = Field(
         "shape",
@@ -72,11 +83,11 @@ class OptimizeParams(MethodParams):
 
     @model_validator(mode="after")
     def _one_input(self) -> OptimizeParams:
-        if (self.mesh is None) == (self.domain is None):
-            raise ValueError("give either mesh or domain")
+        if sum(x is not None for x in (self.mesh, self.domain, self.surface)) != 1:
+            raise ValueError("give exactly one of mesh, domain or surface")
         if self.mesh is not None and self.size is not None:
             raise ValueError("size goes with domain input, not with mesh")
-        if self.mesh is not None and not self.keep_boundary:
+        if self.domain is None and not self.keep_boundary:
             raise ValueError("keep_boundary=false goes with domain input")
         return self
 
@@ -84,6 +95,20 @@ class OptimizeParams(MethodParams):
         super().check()
         if self.mesh is not None:
             check_input(self.mesh.to_mesh())
+            return
+        if self.surface is not None:
+            surf = self.surface.to_surface()
+            check_input(surface=surf)
+            if self.size is not None and self.insert_points is not False:
+                estimate = 6.0 * np.sqrt(2.0) * surf.volume / self.size**3
+                if estimate > MAX_TETRAHEDRA:
+                    raise InputError(
+                        f"size {self.size:.6g} would make about {int(estimate):,} tetrahedra in "
+                        f"a volume of {surf.volume:.6g}; this service makes at most "
+                        f"{MAX_TETRAHEDRA:,} here: ask for a larger size",
+                        loc=("size",),
+                        code="too_many_tetrahedra",
+                    )
             return
         dom = self.domain.to_domain()
         check_input(domain=dom)
@@ -109,6 +134,8 @@ class OptimizeParams(MethodParams):
         }
         if self.mesh is not None:
             kw["mesh"] = self.mesh.to_mesh()
+        elif self.surface is not None:
+            kw.update(surface=self.surface.to_surface(), size=self.size)
         else:
             kw.update(domain=self.domain.to_domain(), size=self.size)
         return kw

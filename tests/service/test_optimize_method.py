@@ -129,3 +129,39 @@ class TestOptimize:
         assert "§8.3" in m["section"]
         props = m["params_schema"]["properties"]
         assert {"mesh", "domain", "insert_points", "size", "quality", "max_sweeps"} <= set(props)
+
+    def test_open_surface_is_named(self, client):
+        from service.methods.surface_schema import UNIT_CUBE
+
+        surface = {**UNIT_CUBE, "triangles": UNIT_CUBE["triangles"][1:]}
+        doc = assert_problem(
+            submit(client, "optimize", {"surface": surface}),
+            422,
+            ["body", "params", "surface", "triangles"],
+        )
+        assert "open" in doc["detail"] or "edge" in doc["detail"]
+
+    def test_two_shells_are_refused(self, client):
+        from service.methods.surface_schema import UNIT_CUBE
+
+        far = [[x + 5, y, z] for x, y, z in UNIT_CUBE["points"]]
+        tris = UNIT_CUBE["triangles"] + [
+            [i + 8, j + 8, k + 8] for i, j, k in UNIT_CUBE["triangles"]
+        ]
+        surface = {"points": UNIT_CUBE["points"] + far, "triangles": tris}
+        assert_problem(
+            submit(client, "optimize", {"surface": surface}),
+            422,
+            ["body", "params", "surface", "triangles"],
+        )
+
+    def test_cube_surface_gives_tetrahedra_of_its_volume(self, client):
+        from meshcore.geometry.predicates3d import orient3d
+        from service.methods.surface_schema import UNIT_CUBE
+
+        res = finished(client, {"surface": UNIT_CUBE, "size": 10})
+        mesh = io.from_json(res["mesh"])
+        P, T = mesh.points, mesh.cells[0].data
+        assert (orient3d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]], P[T[:, 3]]) < 0).all()
+        assert quality.signed_volume(P, T).sum() == pytest.approx(1.0, rel=1e-12)
+        assert res["stats"]["use"] == "generation"
