@@ -176,6 +176,13 @@ class _Tolerances:
     #: A candidate whose corner at an end of the removed edge is within this
     #: of 0 or 180 degrees (in the metric) is a flat quad: not combined.
     flat_corner: float = 5.0
+    #: With ``all_quad``: the same bound, wider. The split keeps each coarse
+    #: corner as a corner of a final quad, so a coarse corner near 180 degrees at
+    #: a boundary vertex of a curved boundary (174 degrees on a 64-gon disk) is a
+    #: final flat quad that no smoothing can repair (boundary vertices stay);
+    #: refused, its two triangles become three quads each. 45 measured against 5
+    #: and 30 (benchmarks/quads.py, disk, ellipse, annulus; README).
+    all_quad_flat_corner: float = 45.0
     #: Qualities (in [0, 1]) are rounded to this before they are compared.
     quality_resolution: float = 1e-9
     #: Least gain of summed quality for a 4-cycle swap (qualities are <= 1).
@@ -927,7 +934,7 @@ def _measure(points, quads, name: str, metric) -> np.ndarray:
     return quality.quad_shape(points, quads, metric)
 
 
-def _candidates(P, tri, nb, measure: str, metric, min_quality: float):
+def _candidates(P, tri, nb, measure: str, metric, min_quality: float, flat: float):
     """Quads ``(m, 3, 4)`` of every (triangle, edge) and their weights ``(m, 3)`` (< 0: refused)."""
     m = len(tri)
     t = np.repeat(np.arange(m), 3)
@@ -942,7 +949,7 @@ def _candidates(P, tri, nb, measure: str, metric, min_quality: float):
     ts = tri[s_in]
     w2 = ts.sum(axis=1) - u - v
     quads = np.column_stack([u, w2, v, w1])
-    ok = _allowed(P, quads, metric)
+    ok = _allowed(P, quads, metric, flat)
     q = np.where(ok, _quantized(_measure(P, quads, measure, metric)), -1.0)
     q[q < min_quality] = -1.0
     w = np.full(3 * m, -1.0)
@@ -956,8 +963,9 @@ def _candidates(P, tri, nb, measure: str, metric, min_quality: float):
     return allq.reshape(m, 3, 4), w.reshape(m, 3)
 
 
-def _allowed(P, quads, metric) -> np.ndarray:
-    """Strictly convex candidates without a flat corner at the ends of the removed edge."""
+def _allowed(P, quads, metric, flat: float) -> np.ndarray:
+    """Strictly convex candidates without a corner within ``flat`` degrees of 0 or 180
+    at the ends of the removed edge."""
     u, w2, v, w1 = (P[quads[:, i]] for i in range(4))
     if P.shape[1] == 2:
         convex = (orient2d(w1, u, w2) > 0) & (orient2d(w2, v, w1) > 0)
@@ -966,7 +974,7 @@ def _allowed(P, quads, metric) -> np.ndarray:
     # (8.7) at u and v is 2 theta / pi or 2 - 2 theta / pi: within f of 0 or 180 degrees
     # is a value under f / 90; 0 for a reflex corner (on a surface, the convexity test).
     corner = quality.quad_quality_simplified(P, quads, metric)
-    return convex & (corner > TOL.flat_corner / 90.0)
+    return convex & (corner > flat / 90.0)
 
 
 def _check_metric(metric, P) -> np.ndarray | None:
@@ -1340,7 +1348,8 @@ def combine(
     report(0.4, "dual graph")
     nb = _neighbours(mesh, P, tri)
     boundary = _boundary_edges(tri, nb)  # the input's, or the domain's chains
-    quads_of, w = _candidates(P, tri, nb, measure, metric, min_quality)
+    flat = TOL.all_quad_flat_corner if all_quad else TOL.flat_corner
+    quads_of, w = _candidates(P, tri, nb, measure, metric, min_quality, flat)
     lap("candidates")
     report(0.5, f"selecting pairs ({algorithm})")
     m = len(tri)
@@ -1367,7 +1376,7 @@ def combine(
         nbound = (nb < 0).sum(axis=1)
         starts = np.argsort(-nbound, kind="stable")
         start_edge = np.argmax(nb[starts] < 0, axis=1)
-        w3 = _three_quads_allowed(P, tri, nb, measure, metric, min_quality)
+        w3 = _three_quads_allowed(P, tri, nb, measure, metric, min_quality, flat)
         buf = np.zeros((m // 4 + 1, 4), np.int64)
         ntr = _stack_kernel(nb, w, w3, starts, start_edge, mate, buf)
         triples = buf[:ntr]
@@ -1446,7 +1455,7 @@ def combine(
     )
 
 
-def _three_quads_allowed(P, tri, nb, measure, metric, min_quality) -> np.ndarray:
+def _three_quads_allowed(P, tri, nb, measure, metric, min_quality, flat) -> np.ndarray:
     """Whether a triangle and its three neighbours make three allowed quads (Figure 8.12)."""
     m = len(tri)
     full = (nb >= 0).all(axis=1)
@@ -1465,7 +1474,7 @@ def _three_quads_allowed(P, tri, nb, measure, metric, min_quality) -> np.ndarray
         s = nb[K, k]
         d = tri[s].sum(axis=1) - u - v
         q4 = np.column_stack([u, d, v, g])
-        allowed = _allowed(Pg, q4, mg)
+        allowed = _allowed(Pg, q4, mg, flat)
         q = _measure(Pg, q4, measure, mg)
         good &= allowed & (q >= min_quality)
     ok[K] = good
