@@ -720,17 +720,16 @@ def quad_medial(
     return QuadMedial(mesh=mesh, partition=part, stats={**stats, "quality": report})
 
 
-def _relaxed(points: np.ndarray, quads: np.ndarray, corner_ids: list, ax: MedialAxis):
+def _relaxed(points: np.ndarray, quads: np.ndarray, corner: np.ndarray, ax: MedialAxis):
     """The fill untangled and smoothed (:func:`meshcore.quads.optimization.relax_quads`):
-    the corners of the coarse quads and the boundary samples that are input vertices
-    stay, the other boundary points slide along their input segment. Kept when it
-    leaves no more folded quads and a better least quality than the fill; returns
-    the points and whether they were kept."""
+    the coarse quads' corners on the boundary (``corner``) and the boundary samples
+    that are input vertices stay, the other boundary points slide along their input
+    segment. Kept when it leaves fewer folded quads, or as many and a better least
+    quality, than the fill; returns the points and whether they were kept."""
     from meshcore.geometry.predicates import orient2d
     from meshcore.quads.optimization import relax_quads, sliding_nodes
 
-    fixed = np.zeros(len(points), bool)
-    fixed[np.asarray(corner_ids, np.int64)] = True
+    fixed = corner.copy()
     p = len(ax.samples)
     pred = np.empty(p, dtype=np.int64)
     pred[ax.succ] = np.arange(p)
@@ -829,10 +828,8 @@ def _butterfly(ax: MedialAxis) -> Partition | None:
     a = min(reach(e1), reach(-e1)) * INNER_FRACTION
     b = min(reach(e2), reach(-e2)) * INNER_FRACTION
     inner = c + np.array([-a * e1 - b * e2, a * e1 - b * e2, a * e1 + b * e2, -a * e1 + b * e2])
-    di = inner - c
-    foot = [
-        int(np.argmin(np.abs(np.angle(np.exp(1j * (ang - math.atan2(q[1], q[0]))))))) for q in di
-    ]
+    # each corner is cut to its nearest sample: cuts about normal to the boundary
+    foot = [int(np.argmin(np.hypot(*(xy - q).T))) for q in inner]
     if len(set(foot)) < 4 or not all(
         (foot[(i + 1) % 4] - foot[i]) % len(ring) < (foot[(i + 2) % 4] - foot[i]) % len(ring)
         for i in range(4)
@@ -981,6 +978,9 @@ def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bo
         # average (the largest would multiply the count along chains of classes)
         mean = np.bincount(label, length, n_classes) / np.bincount(label, None, n_classes)
         count = np.clip(np.round(mean / size), 1, MAX_QUADS + 1).astype(np.int64)
+        # enough points for every input vertex of a side (a polygon covered exactly)
+        need = np.array([int(f[1:-1].sum()) + 1 for f in seg_fixed], dtype=np.int64)
+        np.maximum.at(count, label, need)
     n_of = count[label]
     total = sum(int(n_of[s0[0]] * n_of[s1[0]]) for s0, s1, _, _ in patches)
     if total > MAX_QUADS:
@@ -1024,7 +1024,9 @@ def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bo
     fixed = np.zeros(len(uniq), dtype=bool)
     fixed[boundary.ravel()] = True
     uniq = _smoothed(uniq, quads, fixed, SMOOTHING_SWEEPS)
-    uniq, relaxed = _relaxed(uniq, quads, corner_ids, ax)
+    corner = np.zeros(len(uniq), dtype=bool)
+    corner[np.asarray(corner_ids, np.int64)] = True
+    uniq, relaxed = _relaxed(uniq, quads, corner & fixed, ax)
     mesh = Mesh(uniq, (CellBlock("quad", quads),))
     area = quality.signed_area(uniq, quads, "quad")
     stats = {
