@@ -523,7 +523,8 @@ def poisson_main(timeout: float) -> None:
             r = json.loads(out.stdout.strip().splitlines()[-1])
             r2 = f"{math.log2(last['l2'] / r['l2']):.2f}" if last else ""
             r1 = f"{math.log2(last['h1'] / r['h1']):.2f}" if last else ""
-            row = f"| {tool} | {size} | {r['quads']:,} | {r['l2']:.3e} | {r2} | {r['h1']:.3e} | {r1} |"
+            row = f"| {tool} | {size} | {r['quads']:,} | {r['l2']:.3e} | {r2} "
+            row += f"| {r['h1']:.3e} | {r1} |"
             print(row, flush=True)
             last = r
 
