@@ -17,7 +17,12 @@ Pipeline
    its corners at ``u`` and ``v`` is within ``flat_corner`` degrees of 0 or
    180 (measured in the metric: the first drawback of §8.4.4, "a triangle
    with an edge aligned with one of its neighbour", gives a quad with a flat
-   corner), and when its quality reaches ``min_quality``. Its weight is its
+   corner; with ``all_quad``, within ``all_quad_flat_corner`` = 45 degrees:
+   the split keeps every coarse corner as a final corner, and a coarse quad
+   spanning a boundary vertex of a curved boundary left 174-degree quads on
+   a 64-gon disk; measured on the disk, ellipse and annulus against 5 and 30
+   degrees, 45 gave corners in [45, 135] and the best mean there, see
+   README), and when its quality reaches ``min_quality``. Its weight is its
    quality: ``angle`` (8.3)/(8.4) or (8.6) with a metric, ``simplified``
    (8.7), or ``shape`` (8.8), all from :mod:`meshcore.mesh.quality`.
 2. **Selection** of the pairs, one compiled sequential kernel (numba) per
