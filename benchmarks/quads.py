@@ -516,7 +516,13 @@ def poisson_main(timeout: float) -> None:
         last = None
         for size in (0.2, 0.1, 0.05, 0.025):
             cmd = [sys.executable, __file__, "--poisson-child", tool, repr(size)]
-            out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, check=False)
+            try:
+                out = subprocess.run(
+                    cmd, capture_output=True, text=True, timeout=timeout, check=False
+                )
+            except subprocess.TimeoutExpired:
+                print(f"| {tool} | {size} | timed out at {timeout:.0f} s | | | | |", flush=True)
+                continue
             if out.returncode:
                 print(f"| {tool} | {size} | failed: {out.stderr.strip()[-80:]} | | | | |")
                 continue
