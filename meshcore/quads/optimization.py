@@ -1339,7 +1339,8 @@ def relax_quads(
         p = Q[Ca]
         a, b = np.roll(p, -1, axis=1) - p, np.roll(p, 1, axis=1) - p
         least = float((a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]).min())
-        delta = math.sqrt(eps * (eps - least)) if least < eps else 1e-6
+        # untangling rounds (Escobar's delta) only while a corner is folded
+        delta = math.sqrt(eps * (eps - least)) if least <= 0 else 1e-6
         res = minimize(
             fun,
             x,
@@ -1350,7 +1351,7 @@ def relax_quads(
             options={"maxiter": iterations},
         )
         x = res.x
-        if least >= eps:
+        if least > 0:
             break
     out = P0.copy()
     out[free] = x[: 2 * nf].reshape(-1, 2) * scale + centre
