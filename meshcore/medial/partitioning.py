@@ -1012,7 +1012,8 @@ def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bo
         # the mean length of a class: its sides' points come out about `size` apart on
         # average (the largest would multiply the count along chains of classes)
         mean = np.bincount(label, length, n_classes) / np.bincount(label, None, n_classes)
-        count = np.clip(np.round(mean / size), 1, MAX_QUADS + 1).astype(np.int64)
+        with np.errstate(over="ignore"):  # tiny sizes: inf, clipped (no int overflow)
+            count = np.clip(np.round(mean / size), 1, MAX_QUADS + 1).astype(np.int64)
         # enough points for every input vertex of a side (a polygon covered exactly)
         need = np.array([int(f[1:-1].sum()) + 1 for f in seg_fixed], dtype=np.int64)
         np.maximum.at(count, label, need)
