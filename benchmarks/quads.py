@@ -36,6 +36,17 @@ Every row: wall time, quads, triangles left, mean and min quad quality
 first: Gmsh orients by its surface normal), the fraction of quads under 0.5.
 Every run is a child process. Gmsh is a bench-only dependency (``pip
 install -e .[bench]``) and is skipped with a note when absent.
+
+``--curved [SIZES]`` instead: the all-quad methods (``quad_combine`` with
+``all_quad``, ``twice_size`` and ``optimize``; ``quad_medial``; ``paving``)
+on a disk, an annulus, a 2:1 ellipse and an 8-tooth gear sampled about
+``size`` apart, each followed by Gmsh a8r3 (``Mesh.Algorithm`` 8,
+``RecombinationAlgorithm`` 3 = Blossom full-quad, on the exact OpenCASCADE
+curve) at the mesh size that gives about as many quads: least and mean
+quality (8.4), corner range, seconds. ``--poisson``: scikit-fem's Q1
+solution of a Poisson problem on the disk meshed by both methods at sizes
+0.2 to 0.025, its L2 and H1 errors and their rates per halving (2 and 1
+expected).
 """
 
 from __future__ import annotations
@@ -288,13 +299,272 @@ def fmt_row(label, r, ref, ref_name):
     )
 
 
+# ---------------------------------------------------------------------------
+# Curved domains: the all-quad methods against Gmsh a8r3 (issue 20)
+# ---------------------------------------------------------------------------
+
+CURVED = {
+    "disk": lambda t: np.column_stack([np.cos(t), np.sin(t)]),
+    "ellipse": lambda t: np.column_stack([2 * np.cos(t), np.sin(t)]),
+    "gear": lambda t: (
+        (1 + 0.12 * np.tanh(4 * np.sin(8 * t)))[:, None] * np.column_stack([np.cos(t), np.sin(t)])
+    ),
+}
+
+
+def _curve_points(name: str, size: float) -> np.ndarray:
+    """The closed curve sampled about ``size`` apart (counter-clockwise)."""
+    f = CURVED["disk" if name == "annulus" else name]
+    t = np.linspace(0, 2 * np.pi, 4000, endpoint=False)
+    xy = f(t)
+    s = np.concatenate([[0], np.cumsum(np.hypot(*np.diff(np.vstack([xy, xy[:1]]), axis=0).T))])
+    n = max(8, int(round(s[-1] / size)))
+    return f(np.interp(np.arange(n) * s[-1] / n, s[:-1], t))
+
+
+def curved_geometry(name: str, size: float) -> dict:
+    outer = _curve_points(name, size)
+    rings = [np.vstack([outer, outer[:1]])]
+    if name == "annulus":
+        hole = 0.45 * _curve_points("disk", size / 0.45)[::-1]
+        rings.append(np.vstack([hole, hole[:1]]))
+    return {"type": "Polygon", "coordinates": [r.tolist() for r in rings]}
+
+
+def _corner_range(P, quads) -> tuple[float, float]:
+    p = P[ccw(P, np.asarray(quads, np.int64))]
+    a, b = np.roll(p, 1, axis=1) - p, np.roll(p, -1, axis=1) - p
+    cos = (a * b).sum(-1) / np.linalg.norm(a, axis=-1) / np.linalg.norm(b, axis=-1)
+    ang = np.degrees(np.arccos(np.clip(cos, -1, 1)))
+    return float(ang.min()), float(ang.max())
+
+
+def curved_child(tool: str, name: str, size: float) -> dict:
+    """One all-quad run on a curved domain: ours from the sampled polygon, Gmsh a8r3
+    from the exact curve (OpenCASCADE), both timed after a warm-up."""
+    if tool == "gmsh-a8r3":
+        import gmsh
+
+        def run():
+            gmsh.initialize(["-noenv"])
+            gmsh.option.setNumber("General.Terminal", 0)
+            gmsh.option.setNumber("General.NumThreads", 1)
+            gmsh.option.setNumber("Mesh.MeshSizeMin", size)
+            gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+            gmsh.option.setNumber("Mesh.Algorithm", 8)
+            gmsh.option.setNumber("Mesh.RecombinationAlgorithm", 3)
+            gmsh.option.setNumber("Mesh.RecombineAll", 1)
+            occ = gmsh.model.occ
+            if name == "gear":
+                pts = [occ.addPoint(x, y, 0) for x, y in _curve_points("gear", 0.02)]
+                curve = occ.addBSpline(pts + pts[:1])
+                occ.addPlaneSurface([occ.addCurveLoop([curve])])
+            elif name == "ellipse":
+                occ.addDisk(0, 0, 0, 2, 1)
+            elif name == "annulus":
+                occ.cut([(2, occ.addDisk(0, 0, 0, 1, 1))], [(2, occ.addDisk(0, 0, 0, 0.45, 0.45))])
+            else:
+                occ.addDisk(0, 0, 0, 1, 1)
+            occ.synchronize()
+            t0 = time.perf_counter()
+            gmsh.model.mesh.generate(2)
+            sec = time.perf_counter() - t0
+            P, cells = gmsh_cells(gmsh)
+            gmsh.finalize()
+            return P, cells["quad"], cells["triangle"], sec
+
+        P, quads, tris, sec = run()
+    else:
+        from meshcore.domain.planar import parse_domain
+        from meshcore.medial import quad_medial
+        from meshcore.quads import combine, paving
+
+        dom = parse_domain(curved_geometry(name, size))
+        calls = {
+            "quad_combine": lambda: combine(
+                domain=dom, size=size, all_quad=True, twice_size=True, optimize=True
+            ),
+            "quad_medial": lambda: quad_medial(dom, size=size),
+            "paving": lambda: paving(dom, size=size),
+        }
+        calls[tool]()  # warm-up (numba's cache)
+        t0 = time.perf_counter()
+        res = calls[tool]()
+        sec = time.perf_counter() - t0
+        P = res.mesh.points
+        quads = res.mesh.cells_by_type.get("quad", np.zeros((0, 4), np.int64))
+        tris = res.mesh.cells_by_type.get("triangle", np.zeros((0, 3), np.int64))
+    out = _describe(P, quads, tris, sec)
+    out["corners"] = _corner_range(P, quads)
+    return out
+
+
+def curved_main(sizes, timeout: float) -> None:
+    """Tables of the curved domains (``--curved``): each of ours, then Gmsh a8r3 at
+    the size that gives about as many quads (one calibration run)."""
+    print("| domain | size | run | quads | least Q | mean Q | corners | seconds |")
+    print("|---|---:|---|---:|---:|---:|---|---:|")
+    for name in ("disk", "annulus", "ellipse", "gear"):
+        for size in sizes:
+            for tool in ("quad_combine", "quad_medial", "paving"):
+                r = _curved_run(tool, name, size, timeout)
+                _curved_row(name, size, tool, r)
+                if not isinstance(r, dict):
+                    continue
+                g = _curved_run("gmsh-a8r3", name, size, timeout)
+                if isinstance(g, dict) and g["quads"]:
+                    h = size * math.sqrt(g["quads"] / r["quads"])
+                    g = _curved_run("gmsh-a8r3", name, h, timeout)
+                _curved_row(name, size, "  Gmsh a8r3 (matched)", g)
+
+
+def _curved_run(tool, name, size, timeout):
+    cmd = [sys.executable, __file__, "--curved-child", tool, name, repr(size)]
+    try:
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, check=False)
+    except subprocess.TimeoutExpired:
+        return f"timed out at {timeout:.0f} s"
+    if out.returncode:
+        return "failed: " + (out.stderr.strip().splitlines() or ["?"])[-1][:80]
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def _curved_row(name, size, label, r):
+    if not isinstance(r, dict):
+        print(f"| {name} | {size} | {label} | {r} | | | | |", flush=True)
+        return
+    lo, hi = r["corners"]
+    print(
+        f"| {name} | {size} | {label} | {r['quads']:,} | {r['min']:.3f} | {r['mean']:.3f} | "
+        f"{lo:.1f}-{hi:.1f} | {r['seconds']:.2f} |",
+        flush=True,
+    )
+
+
+def poisson_child(tool: str, size: float) -> dict:
+    """L2 and H1 errors of scikit-fem's Q1 solution of -lap u = f on the disk
+    (u = sin(pi x) sin(pi y) + x y, Dirichlet data from u at the boundary nodes)."""
+    from skfem import (
+        Basis,
+        BilinearForm,
+        ElementQuad1,
+        Functional,
+        LinearForm,
+        MeshQuad,
+        condense,
+        solve,
+    )
+    from skfem.helpers import dot, grad
+
+    from meshcore.domain.planar import parse_domain
+    from meshcore.medial import quad_medial
+    from meshcore.quads import combine
+
+    dom = parse_domain(curved_geometry("disk", size))
+    if tool == "quad_medial":
+        mesh = quad_medial(dom, size=size).mesh
+    else:
+        mesh = combine(domain=dom, size=size, all_quad=True, twice_size=True, optimize=True).mesh
+    P, Q = mesh.points, ccw(mesh.points, mesh.cells_by_type["quad"])
+    m = MeshQuad(P.T.copy(), Q.T.copy())
+    basis = Basis(m, ElementQuad1(), intorder=4)
+    pi = np.pi
+
+    def exact(x, y):
+        return np.sin(pi * x) * np.sin(pi * y) + x * y
+
+    @BilinearForm
+    def lap(u, v, w):
+        return dot(grad(u), grad(v))
+
+    @LinearForm
+    def load(v, w):
+        x, y = w.x
+        return 2 * pi**2 * np.sin(pi * x) * np.sin(pi * y) * v
+
+    A, b = lap.assemble(basis), load.assemble(basis)
+    D = basis.get_dofs().all()
+    u = basis.zeros()
+    u[D] = exact(*m.p[:, D])
+    u = solve(*condense(A, b, x=u, D=D))
+    uh = basis.interpolate(u)
+
+    @Functional
+    def l2(w):
+        x, y = w.x
+        return (w["uh"] - exact(x, y)) ** 2
+
+    @Functional
+    def h1(w):
+        x, y = w.x
+        gx = pi * np.cos(pi * x) * np.sin(pi * y) + y
+        gy = pi * np.sin(pi * x) * np.cos(pi * y) + x
+        return (w["uh"].grad[0] - gx) ** 2 + (w["uh"].grad[1] - gy) ** 2
+
+    return {
+        "quads": int(len(Q)),
+        "l2": float(np.sqrt(l2.assemble(basis, uh=uh))),
+        "h1": float(np.sqrt(h1.assemble(basis, uh=uh))),
+    }
+
+
+def poisson_main(timeout: float) -> None:
+    """The convergence table (``--poisson``): sizes halved four times on the disk."""
+    print("| method | size | quads | L2 error | rate | H1 error | rate |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    for tool in ("quad_combine", "quad_medial"):
+        last = None
+        for size in (0.2, 0.1, 0.05, 0.025):
+            cmd = [sys.executable, __file__, "--poisson-child", tool, repr(size)]
+            try:
+                out = subprocess.run(
+                    cmd, capture_output=True, text=True, timeout=timeout, check=False
+                )
+            except subprocess.TimeoutExpired:
+                print(f"| {tool} | {size} | timed out at {timeout:.0f} s | | | | |", flush=True)
+                continue
+            if out.returncode:
+                print(f"| {tool} | {size} | failed: {out.stderr.strip()[-80:]} | | | | |")
+                continue
+            r = json.loads(out.stdout.strip().splitlines()[-1])
+            r2 = f"{math.log2(last['l2'] / r['l2']):.2f}" if last else ""
+            r1 = f"{math.log2(last['h1'] / r['h1']):.2f}" if last else ""
+            row = f"| {tool} | {size} | {r['quads']:,} | {r['l2']:.3e} | {r2} "
+            row += f"| {r['h1']:.3e} | {r1} |"
+            print(row, flush=True)
+            last = r
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", type=int, nargs="*", default=[10_000, 100_000, 1_000_000])
     ap.add_argument("--timeout", type=float, default=900)
     ap.add_argument("--tools", nargs="*", default=None, help="only these runs (names as in LABELS)")
     ap.add_argument("--child", nargs=3, metavar=("TOOL", "N", "PATH"))
+    ap.add_argument(
+        "--curved",
+        type=float,
+        nargs="*",
+        default=None,
+        help="sizes: the all-quad methods on a disk, annulus, ellipse and gear against Gmsh a8r3",
+    )
+    ap.add_argument("--curved-child", nargs=3, metavar=("TOOL", "DOMAIN", "SIZE"))
+    ap.add_argument("--poisson", action="store_true", help="Q1 Poisson convergence on the disk")
+    ap.add_argument("--poisson-child", nargs=2, metavar=("TOOL", "SIZE"))
     args = ap.parse_args()
+    if args.poisson_child:
+        print(json.dumps(poisson_child(args.poisson_child[0], float(args.poisson_child[1]))))
+        return
+    if args.poisson:
+        poisson_main(args.timeout)
+        return
+    if args.curved_child:
+        tool, name, size = args.curved_child
+        print(json.dumps(curved_child(tool, name, float(size))))
+        return
+    if args.curved is not None:
+        curved_main(args.curved or [0.1, 0.05, 0.025], args.timeout)
+        return
     if args.child:
         tool, n, path = args.child
         print(json.dumps(child(tool, int(n), path)))

@@ -43,6 +43,27 @@ hole is reached by a cut), and one on an axis that is a single path
 between two terminals: so every region is simply connected and has at
 least three sides.
 
+Degenerate axes (smooth shapes). Where the axis of a disk is one node and
+an ellipse's a short segment between co-circular fans, the cut lines give
+regions of fewer than three sides, or many thin ones. Two partitions of the
+text's idea ("regions with a simple geometry ... that can be covered by
+quads") come first, each used when it applies and its fill is valid:
+
+* a domain of one convex ring with exactly four corners (boundary turns
+  above 40 degrees) is one four-sided region: the algebraic method alone,
+  so a rectangle gives the structured grid (quality 1.0);
+* a *smooth* domain of one ring (no turn above 40 degrees: disks, ellipses,
+  stadiums, rounded rectangles, regular polygons of 9 sides or more),
+  star-shaped from its area centroid, gets the "butterfly": a central quad
+  along the principal directions of the ring (its half-extents half the
+  distance from the centroid to the boundary along each), and four sectors
+  cut from each of its corners to the nearest boundary sample (cuts about
+  normal to the boundary).
+
+Four-sided regions are one patch each (§9.7.2: "if the polygon is not a
+quad itself, the midpoint subdivision completes"); the others get the
+medial partition below.
+
 Quads (§9.7.2, §8.5.3). Every region is split by midpoint subdivision: a
 point inside (the centroid of its side points, or of its corners, or its
 area centroid, whichever gives the best smallest corner area) joined to
@@ -52,7 +73,12 @@ then filled by transfinite (Coons) interpolation of its four sides on an
 ``n1 x n2`` grid. Conformity: the two pairs of opposite sides of every
 coarse quad must have equal counts and a side shared by two coarse quads
 one count, so counts are constant on classes of sides (a union-find), each
-class taking the largest ``ceil(length / size)`` of its members
+class taking ``round(mean length / size)`` of its members (the largest, as
+before, multiplied the count along chains of classes: 24,600 quads for
+1,300 asked on a 128-gon disk), but at least one more than the input
+vertices inside each member side, so that every input vertex is a mesh
+point (polygons covered exactly; a boundary sampled more finely than
+``size`` then raises the count)
 (``levels`` instead gives ``2**levels`` everywhere: repeated midpoint
 subdivision). Boundary points are placed by arclength along the boundary
 pieces (so they lie on the input boundary) and the input vertices of a
@@ -63,7 +89,14 @@ coarse quad cuts a corner). The transfinite fill folds cells next to reflex
 corners; Gauss-Seidel Laplacian sweeps over the interior points then keep
 each move that raises the smallest corner area around the point or keeps it
 above half of what the fill gave (untangling without flattening quads
-against a concave boundary). On 150 random star polygons the ``critical``
+against a concave boundary). Then the whole mesh is relaxed
+(:func:`meshcore.quads.optimization.relax_quads`: the regularized condition
+number of every corner minimized, which untangles and smooths at once),
+with the coarse corners on the boundary and the input vertices fixed, the
+other boundary points sliding along their input segment and the interior
+coarse corners free (the butterfly's valence-3 corners open from 90/135/135
+to about 120 degrees); kept when it leaves fewer folded corners, or as many
+and a better least quality. On 150 random star polygons the ``critical``
 partition so gives only valid quads; the ``terminal`` one's 5- and 6-sided
 regions around reflex corners still folded on 19 of them, so when it does
 the mesh is made on the ``critical`` partition instead (said in
@@ -99,6 +132,13 @@ Progress = Callable[[float, str], None]
 MAX_QUADS = 4_000_000
 #: Gauss-Seidel smoothing sweeps after the transfinite fill (at most).
 SMOOTHING_SWEEPS = 50
+#: A boundary turn above this (radians) is a corner of the domain: 40 degrees,
+#: so a regular polygon of 9 or more sides is smooth (butterfly) and a rectangle
+#: has four corners (one patch).
+SMOOTH_TURN = math.radians(40.0)
+#: The butterfly's central quad spans this fraction of the distance from the
+#: centroid to the boundary along each principal direction.
+INNER_FRACTION = 0.5
 
 _BOUNDARY, _AXIS, _CUT = 0, 1, 2
 
@@ -656,7 +696,9 @@ def quad_medial(
         boundary points on the input boundary (snapped onto its corners
         where the counts allow, which covers a polygonal domain exactly).
         ``stats["fallback"]`` says when a ``terminal`` partition folded and
-        the ``critical`` one was meshed instead.
+        the ``critical`` one was meshed instead; ``stats["partition"]`` is
+        ``"four-sided"`` or ``"butterfly"`` when one of those was used
+        (module docstring).
 
     Raises
     ------
@@ -681,7 +723,17 @@ def quad_medial(
         raise InputError(
             f"levels must be between 0 and 10, got {levels!r}", loc=("levels",), code="bad_value"
         )
-    part = partition(domain, method=method, h=h, prune=prune, progress=progress)
+    axis = medial_axis(domain, h=h, prune=prune, progress=progress)
+    special = _four_sided(axis) or _butterfly(axis)
+    if special is not None:
+        mesh, stats = _quads_on(special, size, levels, whole=True)
+        if not stats["invalid"]:
+            kind = "four-sided" if len(special.regions) == 1 else "butterfly"
+            report = quality.report(mesh)
+            return QuadMedial(
+                mesh=mesh, partition=special, stats={**stats, "partition": kind, "quality": report}
+            )
+    part = partition(axis=axis, method=method)
     mesh, stats = _quads_on(part, size, levels)
     if stats["invalid"] and method == "terminal":
         # regions of 5 or 6 sides around reflex corners can fold; the critical
@@ -703,9 +755,167 @@ def quad_medial(
     return QuadMedial(mesh=mesh, partition=part, stats={**stats, "quality": report})
 
 
-def _quads_on(part: Partition, size: float | None, levels: int | None):
+def _relaxed(points: np.ndarray, quads: np.ndarray, corner: np.ndarray, ax: MedialAxis):
+    """The fill untangled and smoothed (:func:`meshcore.quads.optimization.relax_quads`):
+    the coarse quads' corners on the boundary (``corner``) and the boundary samples
+    that are input vertices stay, the other boundary points slide along their input
+    segment. Kept when it leaves fewer folded quads, or as many and a better least
+    quality, than the fill; returns the points and whether they were kept."""
+    from meshcore.geometry.predicates import orient2d
+    from meshcore.quads.optimization import relax_quads, sliding_nodes
+
+    fixed = corner.copy()
+    p = len(ax.samples)
+    pred = np.empty(p, dtype=np.int64)
+    pred[ax.succ] = np.arange(p)
+    vertex = ax.samples[ax.segment_source[pred] != ax.segment_source]
+    order = np.lexsort(points.T[::-1])
+    srt = points[order]
+    at = np.searchsorted(srt[:, 0], vertex[:, 0])
+    for v, i in zip(vertex, at, strict=True):  # exact matches only
+        while i < len(srt) and srt[i, 0] == v[0]:
+            if srt[i, 1] == v[1]:
+                fixed[order[i]] = True
+            i += 1
+
+    def folded(P):
+        c = P[quads]
+        return int(
+            sum(
+                (orient2d(np.roll(c, 1, axis=1)[:, k], c[:, k], np.roll(c, -1, axis=1)[:, k]) <= 0)
+                .astype(np.int64)
+                .sum()
+                for k in range(4)
+            )
+        )
+
+    new = relax_quads(points, quads, fixed, slide=sliding_nodes(points, quads, fixed))
+    before, after = folded(points), folded(new)
+    q0 = quality.cell_quality(points, quads, "quad").min()
+    q1 = quality.cell_quality(new, quads, "quad").min()
+    if after < before or (after == before and q1 > q0):
+        return new, True
+    return points, False
+
+
+def _turns(ax: MedialAxis) -> np.ndarray:
+    """Turning angle (radians, positive to the left) of the boundary at each sample."""
+    p = len(ax.samples)
+    pred = np.empty(p, dtype=np.int64)
+    pred[ax.succ] = np.arange(p)
+    a = ax.samples - ax.samples[pred]
+    b = ax.samples[ax.succ] - ax.samples
+    return np.arctan2(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], (a * b).sum(axis=1))
+
+
+def _one_ring(ax: MedialAxis) -> np.ndarray | None:
+    """The samples of a domain bounded by one ring, in boundary order (None otherwise)."""
+    ring = [0]
+    while len(ring) <= len(ax.succ):
+        nxt = int(ax.succ[ring[-1]])
+        if nxt == 0:
+            break
+        ring.append(nxt)
+    return np.array(ring, np.int64) if len(ring) == len(ax.succ) else None
+
+
+def _four_sided(ax: MedialAxis) -> Partition | None:
+    """The whole domain as one four-sided region when it is one convex ring with
+    exactly four corners (turns above :data:`SMOOTH_TURN`): a rectangle gives the
+    structured grid."""
+    ring = _one_ring(ax)
+    if ring is None:
+        return None
+    turn = _turns(ax)[ring]
+    if (turn < -1e-12).any() or int((turn > SMOOTH_TURN).sum()) != 4:
+        return None
+    return _made(ax, ax.samples, [ring], [turn > SMOOTH_TURN])
+
+
+def _butterfly(ax: MedialAxis) -> Partition | None:
+    """The "butterfly" (O-grid) partition of a smooth star-shaped domain of one ring:
+    a central quad along the principal directions and four sectors joining it to
+    the boundary (module docstring). None when the domain has a corner (a turn
+    above :data:`SMOOTH_TURN`) or is not star-shaped from its centroid."""
+    ring = _one_ring(ax)
+    if ring is None or (np.abs(_turns(ax)[ring]) > SMOOTH_TURN).any():
+        return None
+    xy = ax.samples[ring]
+    x, y = xy[:, 0], xy[:, 1]
+    cross = x * np.roll(y, -1) - np.roll(x, -1) * y
+    area = cross.sum() / 2
+    c = np.array([((x + np.roll(x, -1)) * cross).sum(), ((y + np.roll(y, -1)) * cross).sum()]) / (
+        6 * area
+    )
+    d = xy - c
+    if ((d[:, 0] * np.roll(d[:, 1], -1) - np.roll(d[:, 0], -1) * d[:, 1]) <= 0).any():
+        return None  # not star-shaped from c
+    _, vec = np.linalg.eigh(d.T @ d)
+    e1, e2 = vec[:, 1], vec[:, 0]
+    if e1[0] * e2[1] - e1[1] * e2[0] < 0:
+        e2 = -e2
+    ang = np.arctan2(d[:, 1], d[:, 0])
+
+    def reach(u):  # distance from c to the boundary along u (nearest sample by angle)
+        k = int(np.argmin(np.abs(np.angle(np.exp(1j * (ang - math.atan2(u[1], u[0])))))))
+        return float(np.hypot(*d[k]))
+
+    a = min(reach(e1), reach(-e1)) * INNER_FRACTION
+    b = min(reach(e2), reach(-e2)) * INNER_FRACTION
+    inner = c + np.array([-a * e1 - b * e2, a * e1 - b * e2, a * e1 + b * e2, -a * e1 + b * e2])
+    # each corner is cut to its nearest sample: cuts about normal to the boundary
+    foot = [int(np.argmin(np.hypot(*(xy - q).T))) for q in inner]
+    if len(set(foot)) < 4 or not all(
+        (foot[(i + 1) % 4] - foot[i]) % len(ring) < (foot[(i + 2) % 4] - foot[i]) % len(ring)
+        for i in range(4)
+    ):
+        return None
+    p = len(ax.samples)
+    points = np.concatenate([ax.samples, inner])
+    cycles = [p + np.arange(4)]
+    corners = [np.ones(4, bool)]
+    for i in range(4):
+        j = (i + 1) % 4
+        run = np.roll(ring, -foot[i])[: (foot[j] - foot[i]) % len(ring) + 1]
+        cyc = np.concatenate([[p + i], run, [p + j]])
+        flag = np.zeros(len(cyc), bool)
+        flag[[0, 1, -2, -1]] = True
+        cycles.append(cyc)
+        corners.append(flag)
+    return _made(ax, points, cycles, corners)
+
+
+def _made(ax: MedialAxis, points, cycles, corners) -> Partition:
+    """A Partition of given regions (vertex cycles over ``points``, the samples first)."""
+    regions = []
+    for cyc, flag in zip(cycles, corners, strict=True):
+        ring = points[cyc]
+        coords = np.concatenate([ring, ring[:1]]).tolist()
+        regions.append(
+            {
+                "type": "Polygon",
+                "coordinates": [coords],
+                "sides": int(flag.sum()),
+                "area": _ring_area(ring),
+            }
+        )
+    kinds = tuple(np.zeros(len(c), np.int8) for c in cycles)
+    return Partition(
+        regions=regions,
+        cuts=np.zeros((0, 2, 2)),
+        axis=ax,
+        points=points,
+        cycles=tuple(cycles),
+        corners=tuple(corners),
+        edge_kind=kinds,
+        stats={"regions": len(regions), "area": sum(r["area"] for r in regions)},
+    )
+
+
+def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bool = False):
     """Midpoint subdivision and transfinite fill of a partition's regions, then
-    smoothing; the mesh and its counts (``invalid``: quads of area <= 0)."""
+    smoothing; the mesh and its counts (``invalid``: quads of area <= 0).
+    ``whole``: every region has four sides and is one patch (no subdivision)."""
     ax = part.axis
     points = part.points
     p = len(ax.samples)
@@ -735,6 +945,23 @@ def _quads_on(part: Partition, size: float | None, levels: int | None):
         bounds = np.append(ci, len(verts))
         halves = []  # per side: (first-half id, reversed?), (second-half id, reversed?)
         mids = []
+        if whole:  # a four-sided region is one patch (its sides are not halved)
+            refs = []
+            for j in range(k):
+                side = np.append(
+                    verts[bounds[j] : bounds[j + 1]], verts[bounds[j + 1] % len(verts)]
+                )
+                flipped = not (side[0] < side[-1] or (side[0] == side[-1] and side[1] < side[-2]))
+                canon = side[::-1] if flipped else side
+                key = canon.tobytes()
+                if (key, 0) not in half_id:
+                    fixed = is_corner[canon].copy()
+                    fixed[[0, -1]] = True
+                    half_id[(key, 0)] = new_segment(points[canon], fixed)
+                refs.append((half_id[(key, 0)], flipped))
+            b, r, t, lft = refs
+            patches.append((b, r, (t[0], not t[1]), (lft[0], not lft[1])))
+            continue
         for j in range(k):
             side = np.append(verts[bounds[j] : bounds[j + 1]], verts[bounds[(j + 1)] % len(verts)])
             canon = (
@@ -766,11 +993,15 @@ def _quads_on(part: Partition, size: float | None, levels: int | None):
         g = _inner_point(ring, cpts, np.array(mids))
         spokes = [new_segment(np.vstack([mids[j], g]), np.ones(2, bool)) for j in range(k)]
         for j in range(k):
-            patches.append((halves[j][0], spokes[j], spokes[j - 1], halves[j - 1][1]))
+            h = halves[j - 1][1]
+            patches.append(
+                (halves[j][0], (spokes[j], False), (spokes[j - 1], False), (h[0], not h[1]))
+            )
     # conformity classes: opposite patch sides, shared sides
     n_seg = len(seg_xy)
     pairs = np.array(
-        [[s0[0], s2] for s0, s1, s2, s3 in patches] + [[s1, s3[0]] for s0, s1, s2, s3 in patches],
+        [[s0[0], s2[0]] for s0, s1, s2, s3 in patches]
+        + [[s1[0], s3[0]] for s0, s1, s2, s3 in patches],
         dtype=np.int64,
     )
     label, n_classes = _classes(n_seg, pairs)
@@ -778,11 +1009,16 @@ def _quads_on(part: Partition, size: float | None, levels: int | None):
         count = np.full(n_classes, 2 ** int(levels), dtype=np.int64)
     else:
         length = np.array([np.hypot(*np.diff(xy, axis=0).T).sum() for xy in seg_xy])
-        count = np.zeros(n_classes, dtype=np.int64)
-        per_side = np.clip(np.ceil(length / size), 1, MAX_QUADS + 1)  # tiny sizes: no int overflow
-        np.maximum.at(count, label, per_side.astype(np.int64))
+        # the mean length of a class: its sides' points come out about `size` apart on
+        # average (the largest would multiply the count along chains of classes)
+        mean = np.bincount(label, length, n_classes) / np.bincount(label, None, n_classes)
+        with np.errstate(over="ignore"):  # tiny sizes: inf, clipped (no int overflow)
+            count = np.clip(np.round(mean / size), 1, MAX_QUADS + 1).astype(np.int64)
+        # enough points for every input vertex of a side (a polygon covered exactly)
+        need = np.array([int(f[1:-1].sum()) + 1 for f in seg_fixed], dtype=np.int64)
+        np.maximum.at(count, label, need)
     n_of = count[label]
-    total = sum(int(n_of[s0[0]] * n_of[s1]) for s0, s1, _, _ in patches)
+    total = sum(int(n_of[s0[0]] * n_of[s1[0]]) for s0, s1, _, _ in patches)
     if total > MAX_QUADS:
         raise InputError(
             f"this would make {total:,} quads; at most {MAX_QUADS:,}: ask for a larger size "
@@ -800,12 +1036,9 @@ def _quads_on(part: Partition, size: float | None, levels: int | None):
         return seg_pts[sid][::-1] if rev else seg_pts[sid]
 
     grids = []
+    corner_ids = []
     for s0, s1, s2, s3 in patches:
-        bottom = along(s0)
-        right = seg_pts[s1]
-        top = seg_pts[s2]
-        left = along(s3)[::-1]
-        grids.append(_coons(bottom, right, top, left))
+        grids.append(_coons(along(s0), along(s1), along(s2), along(s3)))
     allpts = np.concatenate([g.reshape(-1, 2) for g in grids])
     uniq, inverse = np.unique(allpts, axis=0, return_inverse=True)
     inverse = inverse.ravel()
@@ -815,6 +1048,7 @@ def _quads_on(part: Partition, size: float | None, levels: int | None):
         n1, n2 = g.shape[0] - 1, g.shape[1] - 1
         ids = inverse[offset : offset + g.shape[0] * g.shape[1]].reshape(g.shape[0], g.shape[1])
         offset += g.shape[0] * g.shape[1]
+        corner_ids += [ids[0, 0], ids[-1, 0], ids[0, -1], ids[-1, -1]]
         quads.append(
             np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], axis=-1).reshape(
                 n1 * n2, 4
@@ -826,6 +1060,9 @@ def _quads_on(part: Partition, size: float | None, levels: int | None):
     fixed = np.zeros(len(uniq), dtype=bool)
     fixed[boundary.ravel()] = True
     uniq = _smoothed(uniq, quads, fixed, SMOOTHING_SWEEPS)
+    corner = np.zeros(len(uniq), dtype=bool)
+    corner[np.asarray(corner_ids, np.int64)] = True
+    uniq, relaxed = _relaxed(uniq, quads, corner & fixed, ax)
     mesh = Mesh(uniq, (CellBlock("quad", quads),))
     area = quality.signed_area(uniq, quads, "quad")
     stats = {
@@ -836,6 +1073,7 @@ def _quads_on(part: Partition, size: float | None, levels: int | None):
         "side_classes": int(n_classes),
         "area": float(area.sum()),
         "not_convex_before_smoothing": int((before <= 0).sum()),
+        "relaxed": relaxed,
         "invalid": int((area <= 0).sum()),
         "domain_area": ax.domain.area,
     }

@@ -17,7 +17,12 @@ Pipeline
    its corners at ``u`` and ``v`` is within ``flat_corner`` degrees of 0 or
    180 (measured in the metric: the first drawback of §8.4.4, "a triangle
    with an edge aligned with one of its neighbour", gives a quad with a flat
-   corner), and when its quality reaches ``min_quality``. Its weight is its
+   corner; with ``all_quad``, within ``all_quad_flat_corner`` = 45 degrees:
+   the split keeps every coarse corner as a final corner, and a coarse quad
+   spanning a boundary vertex of a curved boundary left 174-degree quads on
+   a 64-gon disk; measured on the disk, ellipse and annulus against 5 and 30
+   degrees, 45 gave corners in [45, 135] and the best mean there, see
+   README), and when its quality reaches ``min_quality``. Its weight is its
    quality: ``angle`` (8.3)/(8.4) or (8.6) with a metric, ``simplified``
    (8.7), or ``shape`` (8.8), all from :mod:`meshcore.mesh.quality`.
 2. **Selection** of the pairs, one compiled sequential kernel (numba) per
@@ -176,6 +181,24 @@ class _Tolerances:
     #: A candidate whose corner at an end of the removed edge is within this
     #: of 0 or 180 degrees (in the metric) is a flat quad: not combined.
     flat_corner: float = 5.0
+    #: With ``all_quad``: the same bound, wider. The split keeps each coarse
+    #: corner as a corner of a final quad, so a coarse corner near 180 degrees at
+    #: a boundary vertex of a curved boundary (174 degrees on a 64-gon disk) is a
+    #: final flat quad that no smoothing can repair (boundary vertices stay);
+    #: refused, its two triangles become three quads each. 45 measured against 5
+    #: and 30 (benchmarks/quads.py, disk, ellipse, annulus; README).
+    all_quad_flat_corner: float = 45.0
+    #: The all-quad mesh of a domain gets its corner angles optimized last over
+    #: the quads under this quality and their neighbours ...
+    relax_below: float = 0.95
+    #: ... minimizing the summed (1 / sin angle) ** relax_power: 1 raised the
+    #: mean most but lowered the least (disk, 1,488 quads: 0.866 -> 0.888,
+    #: least 0.528 -> 0.434), 3 gave 0.885 / 0.511, 6 gave 0.884 / 0.559 but
+    #: folded a quad on an ellipse (then refused).
+    relax_power: float = 4.0
+    #: More quads than this in that band: not optimized (a 1,488-quad disk spends
+    #: 0.7 s CPU there, against 0.5 s for the rest of the combination).
+    relax_most: int = 50_000
     #: Qualities (in [0, 1]) are rounded to this before they are compared.
     quality_resolution: float = 1e-9
     #: Least gain of summed quality for a 4-cycle swap (qualities are <= 1).
@@ -927,7 +950,7 @@ def _measure(points, quads, name: str, metric) -> np.ndarray:
     return quality.quad_shape(points, quads, metric)
 
 
-def _candidates(P, tri, nb, measure: str, metric, min_quality: float):
+def _candidates(P, tri, nb, measure: str, metric, min_quality: float, flat: float):
     """Quads ``(m, 3, 4)`` of every (triangle, edge) and their weights ``(m, 3)`` (< 0: refused)."""
     m = len(tri)
     t = np.repeat(np.arange(m), 3)
@@ -942,7 +965,7 @@ def _candidates(P, tri, nb, measure: str, metric, min_quality: float):
     ts = tri[s_in]
     w2 = ts.sum(axis=1) - u - v
     quads = np.column_stack([u, w2, v, w1])
-    ok = _allowed(P, quads, metric)
+    ok = _allowed(P, quads, metric, flat)
     q = np.where(ok, _quantized(_measure(P, quads, measure, metric)), -1.0)
     q[q < min_quality] = -1.0
     w = np.full(3 * m, -1.0)
@@ -956,8 +979,9 @@ def _candidates(P, tri, nb, measure: str, metric, min_quality: float):
     return allq.reshape(m, 3, 4), w.reshape(m, 3)
 
 
-def _allowed(P, quads, metric) -> np.ndarray:
-    """Strictly convex candidates without a flat corner at the ends of the removed edge."""
+def _allowed(P, quads, metric, flat: float) -> np.ndarray:
+    """Strictly convex candidates without a corner within ``flat`` degrees of 0 or 180
+    at the ends of the removed edge."""
     u, w2, v, w1 = (P[quads[:, i]] for i in range(4))
     if P.shape[1] == 2:
         convex = (orient2d(w1, u, w2) > 0) & (orient2d(w2, v, w1) > 0)
@@ -966,7 +990,7 @@ def _allowed(P, quads, metric) -> np.ndarray:
     # (8.7) at u and v is 2 theta / pi or 2 - 2 theta / pi: within f of 0 or 180 degrees
     # is a value under f / 90; 0 for a reflex corner (on a surface, the convexity test).
     corner = quality.quad_quality_simplified(P, quads, metric)
-    return convex & (corner > TOL.flat_corner / 90.0)
+    return convex & (corner > flat / 90.0)
 
 
 def _check_metric(metric, P) -> np.ndarray | None:
@@ -1340,7 +1364,8 @@ def combine(
     report(0.4, "dual graph")
     nb = _neighbours(mesh, P, tri)
     boundary = _boundary_edges(tri, nb)  # the input's, or the domain's chains
-    quads_of, w = _candidates(P, tri, nb, measure, metric, min_quality)
+    flat = TOL.all_quad_flat_corner if all_quad else TOL.flat_corner
+    quads_of, w = _candidates(P, tri, nb, measure, metric, min_quality, flat)
     lap("candidates")
     report(0.5, f"selecting pairs ({algorithm})")
     m = len(tri)
@@ -1367,7 +1392,7 @@ def combine(
         nbound = (nb < 0).sum(axis=1)
         starts = np.argsort(-nbound, kind="stable")
         start_edge = np.argmax(nb[starts] < 0, axis=1)
-        w3 = _three_quads_allowed(P, tri, nb, measure, metric, min_quality)
+        w3 = _three_quads_allowed(P, tri, nb, measure, metric, min_quality, flat)
         buf = np.zeros((m // 4 + 1, 4), np.int64)
         ntr = _stack_kernel(nb, w, w3, starts, start_edge, mate, buf)
         triples = buf[:ntr]
@@ -1419,6 +1444,8 @@ def combine(
         ops = opt.operators
         if boundary is not None:  # boundary vertices are never removed
             boundary = opt.point_map[boundary]
+        if domain is not None and all_quad and metric is None and measure == "angle":
+            out_mesh, ops["relax"] = _relaxed(out_mesh, _dom)
         if metric is not None and metric.ndim == 3:
             metric = metric[opt.point_map >= 0]
         lap("optimize")
@@ -1446,7 +1473,39 @@ def combine(
     )
 
 
-def _three_quads_allowed(P, tri, nb, measure, metric, min_quality) -> np.ndarray:
+def _relaxed(mesh: Mesh, dom) -> tuple[Mesh, int]:
+    """The all-quad mesh of a domain with its corner angles optimized
+    (:func:`meshcore.quads.optimization.relax_quads` with ``angle_power``
+    ``TOL.relax_power``) over the quads under ``TOL.relax_below`` and their
+    neighbours (at most ``TOL.relax_most`` of them), the input vertices fixed
+    and the other boundary points sliding along their input segment. Kept
+    (returns 1) when every quad stays strictly convex (exact) and the mean
+    quality (8.4) rises while the least stays at or above the lower of its
+    value and 0.5."""
+    from meshcore.quads.optimization import _valid, relax_quads, sliding_nodes
+
+    P = mesh.points
+    Q = mesh.cells_by_type["quad"]
+    q = quality.quad_quality(P, Q)
+    bad = np.zeros(len(P), bool)
+    bad[Q[q < TOL.relax_below].ravel()] = True
+    active = bad[Q].any(axis=1)
+    if not active.any() or active.sum() > TOL.relax_most:
+        return mesh, 0
+    fixed = np.zeros(len(P), bool)
+    fixed[: len(dom.points)] = True  # the input vertices come first
+    new = relax_quads(
+        P, Q, fixed, slide=sliding_nodes(P, Q, fixed), active=active, angle_power=TOL.relax_power
+    )
+    if not _valid(new, Q).all():
+        return mesh, 0
+    q2 = quality.quad_quality(new, Q)
+    if q2.mean() <= q.mean() or q2.min() < min(q.min(), 0.5):
+        return mesh, 0
+    return Mesh(new, mesh.cells), 1
+
+
+def _three_quads_allowed(P, tri, nb, measure, metric, min_quality, flat) -> np.ndarray:
     """Whether a triangle and its three neighbours make three allowed quads (Figure 8.12)."""
     m = len(tri)
     full = (nb >= 0).all(axis=1)
@@ -1465,7 +1524,7 @@ def _three_quads_allowed(P, tri, nb, measure, metric, min_quality) -> np.ndarray
         s = nb[K, k]
         d = tri[s].sum(axis=1) - u - v
         q4 = np.column_stack([u, d, v, g])
-        allowed = _allowed(Pg, q4, mg)
+        allowed = _allowed(Pg, q4, mg, flat)
         q = _measure(Pg, q4, measure, mg)
         good &= allowed & (q >= min_quality)
     ok[K] = good

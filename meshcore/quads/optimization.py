@@ -97,7 +97,7 @@ from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.partition.smoothing import quad_q
 
-__all__ = ["OPERATORS", "OptimizeResult", "optimize_quads"]
+__all__ = ["OPERATORS", "OptimizeResult", "optimize_quads", "relax_quads", "sliding_nodes"]
 
 OPERATORS = ("valence2", "valence3", "collapse", "swap", "hexagon", "smooth", "lift")
 
@@ -1099,3 +1099,252 @@ def optimize_quads(
     if progress is not None:
         progress(1.0, "optimization done")
     return OptimizeResult(Mesh(st.P[used], tuple(out)), ops, np.where(used, new, -1))
+
+
+# ----------------------------------------------------------------------------- relaxation
+# Simultaneous untangling and smoothing (Escobar et al. 2003): every quad corner
+# contributes its condition number (|a|^2 + |b|^2) / (2 h(sigma)), a and b its two
+# edges, sigma = a x b, with the regularized h(sigma) = (sigma + sqrt(sigma^2 +
+# 4 delta^2)) / 2, which is positive for every sigma, so that a folded mesh has a
+# finite energy (untangling) and a valid one the plain condition number as
+# delta -> 0 (its minimum, 1, is a right angle between equal edges).
+
+
+def _loops(C: np.ndarray, n: int) -> list[np.ndarray]:
+    """The boundary loops of a quad mesh (vertex ids, counter-clockwise)."""
+    a, b = C.ravel(), np.roll(C, -1, axis=1).ravel()
+    key = np.minimum(a, b) * n + np.maximum(a, b)
+    uk, cnt = np.unique(key, return_counts=True)
+    once = np.isin(key, uk[cnt == 1])
+    nxt = np.full(n, -1, np.int64)
+    nxt[a[once]] = b[once]
+    seen = np.zeros(n, bool)
+    loops = []
+    for s in a[once]:
+        if seen[s]:
+            continue
+        loop = [s]
+        seen[s] = True
+        v = nxt[s]
+        while v != s and v >= 0 and not seen[v]:
+            loop.append(v)
+            seen[v] = True
+            v = nxt[v]
+        loops.append(np.array(loop, np.int64))
+    return loops
+
+
+def sliding_nodes(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray):
+    """Boundary nodes that may slide along a straight piece of the boundary.
+
+    Between two consecutive ``fixed`` nodes of a boundary loop, the nodes are
+    free to slide on the segment joining those two when all of them lie on it
+    (exact :func:`~meshcore.geometry.predicates.orient2d`); every other
+    boundary node stays where it is.
+
+    Parameters
+    ----------
+    points : (n, 2) float64
+    quads : (q, 4) int
+        Counter-clockwise, conforming.
+    fixed : (n,) bool
+        Nodes that never move (input vertices, corners of partition regions).
+
+    Returns
+    -------
+    node, a, b : (s,) int64
+        Node ``node[i]`` slides on the segment from ``a[i]`` to ``b[i]``.
+    """
+    from meshcore.geometry.predicates import orient2d
+
+    P = np.asarray(points, np.float64)
+    n = len(P)
+    node, sa, sb = [], [], []
+    for loop in _loops(np.asarray(quads, np.int64), n):
+        at = np.flatnonzero(fixed[loop])
+        if at.size == 0:
+            continue
+        loop = np.roll(loop, -at[0])
+        at = np.append(at - at[0], len(loop))
+        for i, j in zip(at[:-1], at[1:], strict=True):
+            inner = loop[i + 1 : j]
+            if not inner.size:
+                continue
+            a, b = loop[i], loop[j % len(loop)]
+            if a == b:
+                continue
+            on = orient2d(
+                np.broadcast_to(P[a], (len(inner), 2)),
+                np.broadcast_to(P[b], (len(inner), 2)),
+                P[inner],
+            )
+            if np.all(on == 0):
+                node.append(inner)
+                sa.append(np.full(len(inner), a))
+                sb.append(np.full(len(inner), b))
+    if not node:
+        z = np.zeros(0, np.int64)
+        return z, z, z
+    return np.concatenate(node), np.concatenate(sa), np.concatenate(sb)
+
+
+def _relax_energy(P, C, delta, angle: bool = False, power: float = 1.0):
+    """Summed corner energy and its gradient (n, 2): the regularized condition number
+    ``(|a|^2 + |b|^2) / (2 h)``, or with ``angle`` ``(|a| |b| / h) ** power`` (the
+    regularized ``1 / sin`` of the corner angle: angles only, the power weighting
+    the worst corners)."""
+    p = P[C]
+    a = np.roll(p, -1, axis=1) - p
+    b = np.roll(p, 1, axis=1) - p
+    sigma = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    root = np.sqrt(sigma * sigma + 4.0 * delta * delta)
+    h = 0.5 * (sigma + root)
+    dh = 0.5 * (1.0 + sigma / root)
+    if angle:
+        la = np.sqrt((a * a).sum(-1))
+        lb = np.sqrt((b * b).sum(-1))
+        base = la * lb / h
+        e = base**power
+        f = power * base ** (power - 1)
+        ca, cb = f * lb / (h * la), f * la / (h * lb)
+        dsig = -f * base / h * dh
+    else:
+        S = (a * a).sum(-1) + (b * b).sum(-1)
+        e = S / (2.0 * h)
+        ca = cb = 1.0 / h
+        dsig = -S / (2.0 * h * h) * dh
+    ga = ca[..., None] * a + dsig[..., None] * np.stack([b[..., 1], -b[..., 0]], -1)
+    gb = cb[..., None] * b + dsig[..., None] * np.stack([-a[..., 1], a[..., 0]], -1)
+    n = len(P)
+    g = np.zeros((n, 2))
+    nxt, prv = np.roll(C, -1, axis=1), np.roll(C, 1, axis=1)
+    for d in range(2):
+        g[:, d] = (
+            np.bincount(nxt.ravel(), ga[..., d].ravel(), n)
+            + np.bincount(prv.ravel(), gb[..., d].ravel(), n)
+            - np.bincount(C.ravel(), (ga[..., d] + gb[..., d]).ravel(), n)
+        )
+    return float(e.sum()), g
+
+
+def relax_quads(
+    points: np.ndarray,
+    quads: np.ndarray,
+    fixed: np.ndarray,
+    *,
+    slide: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    active: np.ndarray | None = None,
+    iterations: int = 200,
+    angle_power: float | None = None,
+) -> np.ndarray:
+    """Untangle and smooth a planar quad mesh (quads of §8.4.3, §8.5.3).
+
+    Minimizes the summed condition number of the quad corners over the free
+    nodes (L-BFGS-B), regularized so that folded quads have a finite energy
+    (Escobar et al., "Simultaneous untangling and smoothing of tetrahedral
+    meshes", 2003, here for quad corners): a folded mesh is untangled and a
+    valid one is smoothed toward right-angled corners in one process. Nodes
+    in ``slide`` move only along their segment (between its two ends), so the
+    boundary and the area of a polygonal domain are kept.
+
+    Parameters
+    ----------
+    points : (n, 2) float64
+    quads : (q, 4) int
+        Counter-clockwise.
+    fixed : (n,) bool
+        Nodes that do not move (besides the sliding ones, which are fixed too
+        except along their segment).
+    slide : (node, a, b), optional
+        As :func:`sliding_nodes`.
+    active : (q,) bool, optional
+        Only these quads enter the energy, and only nodes all of whose quads
+        are active move (a band around the bad quads of a large mesh).
+    iterations : int
+        L-BFGS-B iterations per round at most.
+    angle_power : float, optional
+        Minimize ``(1 / sin(corner angle)) ** angle_power`` (regularized the
+        same way) instead: angles only, closer to (8.4) than the condition
+        number, which also evens the edge lengths.
+
+    Returns
+    -------
+    (n, 2) float64
+        The moved points. Whether they are valid is the caller's check
+        (exact predicates): a tangle that cannot be undone with the fixed
+        nodes stays tangled.
+    """
+    from scipy.optimize import minimize
+
+    P0 = np.asarray(points, np.float64)
+    C = np.asarray(quads, np.int64)
+    n = len(P0)
+    if active is None:
+        active = np.ones(len(C), bool)
+    Ca = C[active]
+    if not len(Ca):
+        return P0.copy()
+    movable = np.zeros(n, bool)
+    movable[Ca.ravel()] = True
+    inactive = C[~active]
+    movable[inactive.ravel()] = False
+    movable &= ~fixed
+    for loop in _loops(C, n):  # boundary nodes move only along their segment
+        movable[loop] = False
+    node, sa, sb = slide if slide is not None else (np.zeros(0, np.int64),) * 3
+    ok = np.zeros(n, bool)
+    ok[Ca.ravel()] = True
+    ok[inactive.ravel()] = False
+    keep = ok[node] & ~fixed[node]
+    node, sa, sb = node[keep], sa[keep], sb[keep]
+    free = np.flatnonzero(movable)
+    if not free.size and not node.size:
+        return P0.copy()
+    centre = P0[Ca.ravel()].mean(axis=0)
+    edge = np.hypot(*(P0[np.roll(Ca, -1, axis=1)] - P0[Ca]).reshape(-1, 2).T)
+    scale = float(np.median(edge)) or 1.0
+    P = (P0 - centre) / scale
+    A, D = P[sa], P[sb] - P[sa]
+    t0 = ((P[node] - A) * D).sum(-1) / (D * D).sum(-1)
+    nf = free.size
+
+    def unpack(x):
+        Q = P.copy()
+        Q[free] = x[: 2 * nf].reshape(-1, 2)
+        Q[node] = A + x[2 * nf :, None] * D
+        return Q
+
+    def fun(x, delta):
+        # a trial step of the line search may collapse an edge: inf / nan, rejected
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            e, g = _relax_energy(unpack(x), Ca, delta, angle_power is not None, angle_power or 1.0)
+        if not np.isfinite(e) or not np.isfinite(g).all():
+            return np.inf, np.zeros(len(x))
+        return e, np.concatenate([g[free].ravel(), (g[node] * D).sum(-1)])
+
+    x = np.concatenate([P[free].ravel(), t0])
+    bounds = [(None, None)] * (2 * nf) + [(0.0, 1.0)] * len(node)
+    eps = 1e-2
+    for _ in range(6):
+        Q = unpack(x)
+        p = Q[Ca]
+        a, b = np.roll(p, -1, axis=1) - p, np.roll(p, 1, axis=1) - p
+        least = float((a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]).min())
+        # untangling rounds (Escobar's delta) only while a corner is folded
+        delta = math.sqrt(eps * (eps - least)) if least <= 0 else 1e-6
+        res = minimize(
+            fun,
+            x,
+            args=(delta,),
+            jac=True,
+            method="L-BFGS-B",
+            bounds=bounds,
+            options={"maxiter": iterations},
+        )
+        x = res.x
+        if least > 0:
+            break
+    out = P0.copy()
+    out[free] = x[: 2 * nf].reshape(-1, 2) * scale + centre
+    out[node] = P0[sa] + x[2 * nf :, None] * (P0[sb] - P0[sa])
+    return out

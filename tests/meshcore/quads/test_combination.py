@@ -224,12 +224,12 @@ class TestRandomDomains:
         # fine meshes (a few thousand triangles) leave work for the forest search
         import networkx as nx
 
-        from meshcore.quads.combination import _candidates, _neighbours
+        from meshcore.quads.combination import TOL, _candidates, _neighbours
 
         mesh = random_mesh(seed, 0.04 if fine else 0.12)
         P, tri = mesh.points, mesh.cells[0].data.astype(np.int64)
         nb = _neighbours(mesh, P, tri)
-        _, w = _candidates(P, tri, nb, "angle", None, 0.0)
+        _, w = _candidates(P, tri, nb, "angle", None, 0.0, TOL.flat_corner)
         t, k = np.nonzero((w >= 0) & (nb > np.arange(len(tri))[:, None]))
         g = nx.Graph()
         g.add_edges_from(zip(t.tolist(), nb[t, k].tolist(), strict=True))
