@@ -101,6 +101,7 @@ def run_tetrahedralize(params: TetrahedralizeParams, progress) -> dict:
             "interior_points_added": res.interior_points_added,
             "rounds": res.rounds,
             "given_up": res.given_up,
+            "left": res.left,
             "seconds": {k: round(v, 6) for k, v in res.timings.items()},
         },
     }

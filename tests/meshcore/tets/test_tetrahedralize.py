@@ -62,16 +62,28 @@ def assert_valid(result, surface, *, exact_boundary=False):
     boundary = keys[counts == 1]
     sub = np.unique(np.sort(result.boundary_faces, axis=1), axis=0)
     assert np.array_equal(boundary, sub)
-    # The boundary faces tile every input triangle: areas per input triangle.
+    # The boundary faces tile every input triangle: areas per facet (the input
+    # triangles joined across exactly coplanar edges), each face's source
+    # triangle in its facet.
     src = result.boundary_source
-    area = np.bincount(
-        src, weights=tri_area(P, result.boundary_faces), minlength=len(surface.triangles)
-    )
+    facet = result.triangle_facet
     first = surface.vertices
     remap = np.full(len(surface.points), -1)
     remap[first] = np.arange(len(first))
     T = remap[surface.triangles]
-    assert np.allclose(area, tri_area(P, T), rtol=1e-12, atol=0)
+    n_facets = facet.max() + 1
+    area = np.bincount(
+        facet[src], weights=tri_area(P, result.boundary_faces), minlength=n_facets
+    )
+    assert np.allclose(area, np.bincount(facet, weights=tri_area(P, T)), rtol=1e-12, atol=0)
+    # A facet's triangles are exactly coplanar: every face lies in its source's plane
+    # (its input vertices exactly, the points added up to rounding).
+    a, b, c = (P[T[src, k]] for k in range(3))
+    nrm = np.cross(b - a, c - a)
+    nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+    for k in range(3):
+        off = np.einsum("ij,ij->i", P[result.boundary_faces[:, k]] - a, nrm)
+        assert np.abs(off).max() <= 1e-12 * np.abs(P).max()
     if exact_boundary:
         assert np.array_equal(np.sort(result.boundary_faces, axis=1), np.sort(T, axis=1))
     # Each boundary face lies in its input triangle's plane (exactly, for input vertices).
