@@ -344,8 +344,13 @@ def _ball_pairs(X: np.ndarray, centres: np.ndarray, radii: np.ndarray):
     return np.concatenate(xs), np.concatenate(js)
 
 
-def _facet_triangles(tri: np.ndarray, uv: np.ndarray, loop: np.ndarray, pos: np.ndarray,
-                     inside: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+def _facet_triangles(
+    tri: np.ndarray,
+    uv: np.ndarray,
+    loop: np.ndarray,
+    pos: np.ndarray,
+    inside: Callable[[np.ndarray], np.ndarray],
+) -> np.ndarray:
     """Keep the triangles of a facet's 2D Delaunay triangulation that lie in the facet.
 
     ``loop[i]`` and ``pos[i]`` give the boundary loop of the facet point
@@ -639,7 +644,9 @@ class _Builder:
                     # Non-strict up to rounding: a centroid may lie on an edge inside
                     # the facet (a diagonal its input triangles share).
                     tol = -1e-9 * float(np.ptp(tu.reshape(-1, 2), axis=0).max()) ** 2
-                    return ((cr(a, b, X) >= tol) & (cr(b, c, X) >= tol) & (cr(c, a, X) >= tol)).any(1)
+                    return ((cr(a, b, X) >= tol) & (cr(b, c, X) >= tol) & (cr(c, a, X) >= tol)).any(
+                        1
+                    )
 
                 try:
                     tri = ids[_facet_triangles(delaunay2d(uv).triangles, uv, loop, pos, inside)]
@@ -1083,11 +1090,14 @@ def _sliver_pass(b: _Builder, bound: float, max_radius_edge: float, progress) ->
     holds it, float, grown from the tetrahedron holding it) and the
     tetrahedra it would create are evaluated; the candidate is rejected if
     its cavity leaves the sliver's region (it would cut the surface). The
-    best candidate (largest least dihedral angle of the new tetrahedra) is
-    inserted only if that angle beats the least dihedral angle of the
+    best candidate (largest least dihedral angle of the new tetrahedra; the
+    first one, in the order above, that reaches ``bound``) is inserted only if that angle beats the least dihedral angle of the
     tetrahedra it removes and no new tetrahedron exceeds the radius-edge
     bound (or the cavity's worst): every insertion raises the local minimum,
-    so the pass cannot cascade. Rounds stop when one inserts nothing.
+    so the pass cannot cascade. A sliver with a face on the surface also
+    gets points off that face along its normal (a tetrahedron filling a fold
+    of nearly 180 degrees between two facets has its circumcentre on the
+    surface). Rounds stop when one inserts nothing.
     """
     rng = np.random.default_rng(0)
     k = b.knobs.sliver_candidates
@@ -1103,6 +1113,7 @@ def _sliver_pass(b: _Builder, bound: float, max_radius_edge: float, progress) ->
         rows = rows[np.argsort(dih[rows], kind="stable")]
         top = int(max(slots.max(), b.dt.adjacent(slots).max())) + 1
         cache = _SlotCache(b, top, slots, region)
+        sub_keys = np.sort(_face_keys(b.sub))
         done = 0
         for row in rows.tolist():  # sequential: each insertion changes the next cavities
             s = int(slots[row])
@@ -1111,15 +1122,30 @@ def _sliver_pass(b: _Builder, bound: float, max_radius_edge: float, progress) ->
             reg = int(region[row])
             c, R = _tet_circumcenters(b.P, T[row : row + 1])
             if not np.isfinite(R[0]):
-                continue
+                c, R = b.P[T[row]].mean(axis=0)[None], np.zeros(1)
             d = rng.normal(size=(k, 3))
             d *= (rng.random(k) ** (1 / 3) / np.linalg.norm(d, axis=1))[:, None]
             X = np.concatenate([c, c + b.knobs.sliver_ball * R[0] * d])
+            fk = _face_keys(T[row][_FACES])
+            on = _member(fk, sub_keys)
+            if on.any():
+                # Leaning on the surface (a fold): also points off the subface's
+                # plane along its normal, on both sides (the wrong side is outside
+                # the region and rejected).
+                # From the centroid: a flat tetrahedron's circumcentre is rounding.
+                f = T[row][_FACES[int(np.argmax(on))]]
+                nrm = np.cross(b.P[f[1]] - b.P[f[0]], b.P[f[2]] - b.P[f[0]])
+                _, rf = _tri_circumcenters(b.P, f[None])
+                nrm *= rf[0] / np.linalg.norm(nrm)
+                t = np.array([0.05, 0.1, 0.2, 0.35, 0.5, -0.05, -0.1, -0.2, -0.35, -0.5])
+                X = np.concatenate([X, b.P[T[row]].mean(axis=0) + t[:, None] * nrm])
             best = None
             for x in X:  # a loop over candidates (cavity walks)
                 ev = cache.evaluate(x, reg, max_radius_edge)
                 if ev is not None and (best is None or ev[0] > best[0]):
                     best = (ev[0], x)
+                    if ev[0] >= bound:
+                        break  # good enough: the first candidate that reaches the bound
             if best is None:
                 continue
             res = b.dt.insert(best[1], near=None)

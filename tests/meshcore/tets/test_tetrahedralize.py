@@ -72,9 +72,7 @@ def assert_valid(result, surface, *, exact_boundary=False):
     remap[first] = np.arange(len(first))
     T = remap[surface.triangles]
     n_facets = facet.max() + 1
-    area = np.bincount(
-        facet[src], weights=tri_area(P, result.boundary_faces), minlength=n_facets
-    )
+    area = np.bincount(facet[src], weights=tri_area(P, result.boundary_faces), minlength=n_facets)
     assert np.allclose(area, np.bincount(facet, weights=tri_area(P, T)), rtol=1e-12, atol=0)
     # A facet's triangles are exactly coplanar: every face lies in its source's plane
     # (its input vertices exactly, the points added up to rounding).
@@ -156,17 +154,33 @@ class TestKeepBoundary:
 
 
 class TestRefinement:
-    @pytest.mark.parametrize("name", ["cube", "icosphere", "box_with_cavity"])
-    def test_radius_edge_bound(self, name):
+    @pytest.mark.parametrize("name", ["cube", "icosphere", "box_with_cavity", "l_block", "torus"])
+    def test_radius_edge_and_dihedral_bounds(self, name):
+        """max_radius_edge 2 and min_dihedral 15 hold except where ``left`` names the cause.
+
+        The only exception on these shapes: on the torus a tetrahedron on four
+        input vertices fills the fold between two input triangles that are
+        coplanar up to rounding (``fold``); no other tetrahedron is under 15
+        degrees or above ratio 2.
+        """
         s = parse_surface(*SHAPES[name]())
-        r = tetrahedralize(s, max_radius_edge=2.0)
+        r = tetrahedralize(s, max_radius_edge=2.0, min_dihedral=15)
         assert_valid(r, s)
         assert r.given_up == 0
         P, K = r.mesh.points, r.mesh.cells[0].data
         from meshcore.tets.refinement import _shortest_edge, _tet_circumcenters
 
         _, R = _tet_circumcenters(P, K)
-        assert (R / _shortest_edge(P, K)).max() <= 2.0 + 1e-9
+        ratio = R / _shortest_edge(P, K)
+        dih = tetra_dihedral_angles(P, K).min(axis=1)
+        left = r.left
+        assert left["radius_edge_above"] == {"fold": 0, "surface": 0, "interior": 0}
+        assert (ratio <= 2.0 + 1e-9).all()
+        below = left["dihedral_below"]
+        assert below["surface"] == below["interior"] == 0
+        assert (dih < 15).sum() == below["fold"] <= (1 if name == "torus" else 0)
+        for w in left["worst"][: below["fold"]]:
+            assert w["cause"] == "fold" and dih[w["tetrahedron"]] < 15
 
     def test_size_and_volume(self):
         s = parse_surface(*shapes.box())
@@ -190,11 +204,13 @@ class TestRefinement:
 
     def test_min_dihedral_is_reported(self):
         s = parse_surface(*shapes.box())
-        r = tetrahedralize(s, size=0.5, max_radius_edge=None, min_dihedral=10)
+        r = tetrahedralize(s, size=0.5, max_radius_edge=None, min_dihedral=15)
         assert_valid(r, s)
         d = tetra_dihedral_angles(r.mesh.points, r.mesh.cells[0].data)
         assert d.shape == (len(r.mesh.cells[0].data), 6)
-        assert 0 < d.min() <= d.max() < 180
+        # With size alone (no radius-edge bound) the sliver pass reaches the bound too.
+        assert 15 <= d.min() <= d.max() < 180
+        assert r.left["dihedral_below"] == {"fold": 0, "surface": 0, "interior": 0}
 
     def test_bad_parameters(self):
         s = parse_surface(*shapes.box())
@@ -274,19 +290,20 @@ def test_download_formats_open_in_meshio(tmp_path, fmt, ext):
 def test_poisson_converges():
     """P1 tetrahedra, -Δu = 3π² u with u = sin πx sin πy sin πz, exact boundary values.
 
-    Measured max-norm errors 0.068, 0.050, 0.017 for size 0.5, 0.25, 0.125:
-    an overall rate of 1, not the rate 2 of a quality mesh (the size-only
-    meshes keep slivers, and a radius-edge bound of 2 with ``size`` cascades
-    on this cube; see the module docstring of :mod:`meshcore.tets.refinement`).
-    The test states what holds.
+    Max-norm errors at the nodes 0.0554 and 0.0148 for size 0.25 and 0.125
+    with ``min_dihedral=15``: rate 1.90. (Size 0.5 is pre-asymptotic: 66
+    points, two edges across the cube.) The rate was about 1 before the
+    batch of subface centres was kept apart (two centres of one round could
+    land 1e-4 apart, edges of 0.0001 at size 0.125) and before the sliver
+    pass: with size alone the rate is 1.85.
     """
     from skfem import Basis, ElementTetP1, LinearForm, MeshTet, asm, condense, solve
     from skfem.models.poisson import laplace
 
     s = parse_surface(*shapes.box())
     errors = []
-    for h in (0.5, 0.25, 0.125):
-        r = tetrahedralize(s, size=h, max_radius_edge=None, min_dihedral=5)
+    for h in (0.25, 0.125):
+        r = tetrahedralize(s, size=h, max_radius_edge=None, min_dihedral=15)
         P, K = r.mesh.points, r.mesh.cells[0].data
         mesh = MeshTet(P.T.copy(), K.T.copy())
         basis = Basis(mesh, ElementTetP1())
@@ -299,5 +316,5 @@ def test_poisson_converges():
         exact = np.sin(np.pi * P[:, 0]) * np.sin(np.pi * P[:, 1]) * np.sin(np.pi * P[:, 2])
         u = solve(*condense(asm(laplace, basis), asm(rhs, basis), x=exact, D=basis.get_dofs()))
         errors.append(np.abs(u - exact).max())
-    overall = np.log2(errors[0] / errors[-1]) / (len(errors) - 1)
-    assert errors[-1] < errors[1] < errors[0] and overall > 0.8, errors
+    rate = np.log2(errors[0] / errors[1])
+    assert rate >= 1.8, errors
