@@ -5,18 +5,19 @@ Run from the repository root::
     .venv/bin/python benchmarks/tetrahedralize.py
     .venv/bin/python benchmarks/tetrahedralize.py --shapes torus --size 0.08
 
-Inputs: an icosphere (1,280 triangles), a torus (32 x 16 quads split), a
-box with a box-shaped cavity, an L-block and a thin slab (1 x 1 x 0.01), each given to every tool as the same points
-and triangles. Ours runs with the default ``max_radius_edge=2`` with
-``min_dihedral=15`` added, and with ``size`` alone (no radius-edge bound);
-TetGen with ``pq2`` (radius-edge 2), ``pq1.414`` and ``pY`` (boundary kept,
-no quality), all with ``-a`` from the same volume bound where ``--size`` is
-given; Gmsh's Delaunay (``Mesh.Algorithm3D`` 1) and HXT (10) on the same
-triangles as one discrete surface per shell (``Mesh.MeshSizeMax`` the
-size where given). TetGen gets ``add_hole`` for the cavity. Each row: wall seconds of the meshing call (ours after a
-warm-up that loads numba's cache), tetrahedra, tetrahedra per second,
-points added, least and largest dihedral angle (degrees), the share of
-tetrahedra under 10 degrees, the largest radius-edge ratio, the peak
+Inputs: an icosphere (1,280 triangles), a torus (32 x 16 quads split), a box
+with a box-shaped cavity, an L-block and a thin slab (1 x 1 x 0.01), each
+given to every tool as the same points and triangles. Ours runs with the
+default ``max_radius_edge=2`` with ``min_dihedral=15`` added, and with
+``size`` alone (no radius-edge bound); TetGen with ``pq2`` (radius-edge 2),
+``pq1.414`` and ``pY`` (boundary kept, no quality), all with ``-a`` from the
+same volume bound where ``--size`` is given; Gmsh's Delaunay
+(``Mesh.Algorithm3D`` 1) and HXT (10) on the same triangles as one discrete
+surface per shell (``Mesh.MeshSizeMax`` the size where given). TetGen gets
+``add_hole`` for the cavity. Each row: wall seconds of the meshing call
+(ours after a warm-up that loads numba's cache), tetrahedra, tetrahedra per
+second, points added, least and largest dihedral angle (degrees), the share
+of tetrahedra under 10 degrees, the largest radius-edge ratio, the peak
 resident memory of the process so far (MB, ``ru_maxrss``: monotone, so read
 it as an upper bound for the row) and the ratio of our time to TetGen's
 ``pq2``. TetGen and Gmsh are bench-only dependencies, skipped with a note

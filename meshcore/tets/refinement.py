@@ -605,7 +605,7 @@ class _Builder:
         new_sub, new_facet = [], []
         for f in facets.tolist():  # a loop over changed facets
             corners = np.unique(self.facets[self.group_tris[f]])
-            parts, loops, poss = [], [], []
+            parts, loops = [], []
             for li, (de, ei) in enumerate(self.group_loops[f]):
                 for (u, w), e in zip(de.tolist(), ei.tolist(), strict=True):
                     on = by_edge[edge_bounds[e] : edge_bounds[e + 1]]
@@ -1083,21 +1083,22 @@ def _insert_interior(b: _Builder, slots, region, rows, centres, tets) -> tuple[i
 def _sliver_pass(b: _Builder, bound: float, max_radius_edge: float, progress) -> int:
     """Slivers removed by perturbed insertion (Chew; Li and Teng); returns the rounds.
 
-    Each tetrahedron whose least dihedral angle is below ``bound`` is offered its
-    circumcentre and ``sliver_candidates`` random points of the ball of
-    radius ``sliver_ball`` times its circumradius around it. For each
-    candidate the cavity it would open (the tetrahedra whose circumsphere
-    holds it, float, grown from the tetrahedron holding it) and the
-    tetrahedra it would create are evaluated; the candidate is rejected if
-    its cavity leaves the sliver's region (it would cut the surface). The
+    Each tetrahedron whose least dihedral angle is below ``bound`` is
+    offered its circumcentre and ``sliver_candidates`` random points of the
+    ball of radius ``sliver_ball`` times its circumradius around it. For
+    each candidate the cavity it would open (the tetrahedra whose
+    circumsphere holds it, float, grown from the tetrahedron holding it) and
+    the tetrahedra it would create are evaluated; the candidate is rejected
+    if its cavity leaves the sliver's region (it would cut the surface). The
     best candidate (largest least dihedral angle of the new tetrahedra; the
-    first one, in the order above, that reaches ``bound``) is inserted only if that angle beats the least dihedral angle of the
-    tetrahedra it removes and no new tetrahedron exceeds the radius-edge
-    bound (or the cavity's worst): every insertion raises the local minimum,
-    so the pass cannot cascade. A sliver with a face on the surface also
-    gets points off that face along its normal (a tetrahedron filling a fold
-    of nearly 180 degrees between two facets has its circumcentre on the
-    surface). Rounds stop when one inserts nothing.
+    first one, in the order above, that reaches ``bound``) is inserted only
+    if that angle beats the least dihedral angle of the tetrahedra it
+    removes and no new tetrahedron exceeds the radius-edge bound (or the
+    cavity's worst): every insertion raises the local minimum, so the pass
+    cannot cascade. A sliver with a face on the surface also gets points off
+    that face along its normal (a tetrahedron filling a fold of nearly 180
+    degrees between two facets has its circumcentre on the surface). Rounds
+    stop when one inserts nothing.
     """
     rng = np.random.default_rng(0)
     k = b.knobs.sliver_candidates
