@@ -486,33 +486,10 @@ class _Builder:
         by_group = np.argsort(group, kind="stable")
         bounds = np.searchsorted(group[by_group], np.arange(n_groups + 1))
         self.group_tris = [by_group[bounds[g] : bounds[g + 1]] for g in range(n_groups)]
-        directed = np.stack([facets[:, [0, 1]], facets[:, [1, 2]], facets[:, [2, 0]]], 1)
-        edge_id = inv.reshape(3, F).T
-        self.group_loops = []
-        for g in range(n_groups):  # a loop over facets (chaining their boundary edges)
-            rows = self.group_tris[g]
-            de = directed[rows].reshape(-1, 2)
-            ei = edge_id[rows].reshape(-1)
-            keep = ~flat[ei]
-            de, ei = de[keep], ei[keep]
-            nxt = {}
-            for k, (u, _) in enumerate(de.tolist()):
-                nxt.setdefault(u, []).append(k)
-            used_e = np.zeros(len(de), dtype=bool)
-            loops = []
-            for k0 in range(len(de)):
-                if used_e[k0]:
-                    continue
-                loop, k = [], k0
-                while not used_e[k]:
-                    used_e[k] = True
-                    loop.append(k)
-                    cands = [c for c in nxt[int(de[k, 1])] if not used_e[c]]
-                    if not cands:
-                        break
-                    k = cands[0]
-                loops.append((de[loop], ei[loop]))
-            self.group_loops.append(loops)
+        self._directed = np.stack([facets[:, [0, 1]], facets[:, [1, 2]], facets[:, [2, 0]]], 1)
+        self._edge_id = inv.reshape(3, F).T
+        self._flat = flat
+        self._loops: dict[int, list] = {}
         # Facet frames for the 2D triangulations: origin, two orthonormal axes
         # (counter-clockwise in the frame is outward), from the facet's first triangle.
         first = facets[[t[0] for t in self.group_tris]]
@@ -530,13 +507,43 @@ class _Builder:
         np.minimum.at(short, self.edge_groups[seg_edges, 1], lengths[seg_edges])
         self.facet_short = short
         self.size_cap = math.inf
-        self.sub = np.zeros((0, 3), dtype=np.int64)  # subfaces, outward
-        self.sub_facet = np.zeros(0, dtype=np.int64)  # their facet (group)
+        # Subfaces, outward, and their facet: with no point added, the input
+        # triangles (what retriangulate gives a facet without added points).
+        self.sub = facets.copy()
+        self.sub_facet = group.copy()
         self.unsettled: dict[int, np.ndarray] = {}  # subsegments missing from a facet's 2D mesh
         self.dt = IncrementalDelaunay3d(self.P)
         self.surface_added = 0
         self.interior_added = 0
-        self.retriangulate(np.arange(n_groups))
+
+    def loops(self, g: int) -> list:
+        """Boundary loops of facet ``g``: (directed input edges, edge ids), chained."""
+        if g in self._loops:
+            return self._loops[g]
+        rows = self.group_tris[g]
+        de = self._directed[rows].reshape(-1, 2)
+        ei = self._edge_id[rows].reshape(-1)
+        keep = ~self._flat[ei]
+        de, ei = de[keep], ei[keep]
+        nxt: dict[int, list[int]] = {}
+        for k, (u, _) in enumerate(de.tolist()):
+            nxt.setdefault(u, []).append(k)
+        used_e = np.zeros(len(de), dtype=bool)
+        loops = []
+        for k0 in range(len(de)):  # chaining a facet's boundary edges
+            if used_e[k0]:
+                continue
+            loop, k = [], k0
+            while not used_e[k]:
+                used_e[k] = True
+                loop.append(k)
+                cands = [c for c in nxt[int(de[k, 1])] if not used_e[c]]
+                if not cands:
+                    break
+                k = cands[0]
+            loops.append((de[loop], ei[loop]))
+        self._loops[g] = loops
+        return loops
 
     # -- points ----------------------------------------------------------------
 
@@ -629,7 +636,7 @@ class _Builder:
         for f in facets.tolist():  # a loop over changed facets
             corners = np.unique(self.facets[self.group_tris[f]])
             parts, loops = [], []
-            for li, (de, ei) in enumerate(self.group_loops[f]):
+            for li, (de, ei) in enumerate(self.loops(f)):
                 for (u, w), e in zip(de.tolist(), ei.tolist(), strict=True):
                     on = by_edge[edge_bounds[e] : edge_bounds[e + 1]]
                     t = (self.P[on] - self.P[u]) @ (self.P[w] - self.P[u])
@@ -682,7 +689,7 @@ class _Builder:
                     ) from None
             # Boundary subsegments of the facet that the 2D triangulation misses.
             seg_rows = np.flatnonzero(np.isin(self.seg_edge, np.concatenate(
-                [ei for _, ei in self.group_loops[f]] or [np.zeros(0, np.int64)])))  # fmt: skip
+                [ei for _, ei in self.loops(f)] or [np.zeros(0, np.int64)])))  # fmt: skip
             tk = np.unique(_edge_keys(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)))
             sk = _edge_keys(self.seg[seg_rows])
             self.unsettled[f] = sk[~_member(sk, tk)]
