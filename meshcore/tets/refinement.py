@@ -146,6 +146,9 @@ class _Knobs:
     refinement_rounds: int = 60
     #: Sliver rounds.
     sliver_rounds: int = 8
+    #: Degrees: a tetrahedron with two faces on the surface and a least dihedral
+    #: angle below this fills a fold of two facets coplanar up to rounding.
+    flat_fold: float = 1e-6
     #: Random candidates per sliver, besides its circumcentre, and the radius of
     #: the ball they are drawn from, in units of the circumradius.
     sliver_candidates: int = 16
@@ -955,15 +958,78 @@ def _regions(b: _Builder, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
     return label[comp]
 
 
-def _boundary_face_count(b: _Builder, T: np.ndarray) -> np.ndarray:
-    """How many faces of each tetrahedron are subfaces."""
+def _boundary_face_count(b: _Builder, T: np.ndarray, sub: np.ndarray | None = None) -> np.ndarray:
+    """How many faces of each tetrahedron are subfaces (of ``b``, or ``sub``)."""
     if len(T) == 0:
         return np.zeros(0, dtype=np.int64)
     fk = _face_keys(T[:, _FACES].reshape(-1, 3))
-    return _member(fk, np.sort(_face_keys(b.sub))).reshape(-1, 4).sum(axis=1)
+    sk = _face_keys(b.sub if sub is None else sub)
+    return _member(fk, np.sort(sk)).reshape(-1, 4).sum(axis=1)
 
 
-def _left_report(b: _Builder, T: np.ndarray, max_radius_edge, min_dihedral) -> dict:
+def _flat_folds(b: _Builder, T: np.ndarray) -> np.ndarray:
+    """Tetrahedra on a fold of two facets coplanar up to rounding (a mask).
+
+    Two of its faces are subfaces and its least dihedral angle is below
+    ``flat_fold`` degrees: the four corners of a planar quadrilateral whose
+    coordinates are not exactly coplanar (a torus's trapezoids). No point
+    can improve it; it is kept out of refinement and, at the end, out of
+    the mesh (:func:`_drop_flat_folds`).
+    """
+    if len(T) == 0:
+        return np.zeros(0, dtype=bool)
+    two = _boundary_face_count(b, T) >= 2
+    out = np.zeros(len(T), dtype=bool)
+    rows = np.flatnonzero(two)
+    if rows.size:
+        out[rows] = tetra_dihedral_angles(b.P, T[rows]).min(axis=1) < b.knobs.flat_fold
+    return out
+
+
+def _drop_flat_folds(b: _Builder, T: np.ndarray, region: np.ndarray):
+    """Remove the flat fold tetrahedra; the surface takes their two other faces.
+
+    The boundary moves by the tetrahedron's volume (rounding: its corners
+    are coplanar up to rounding); the two input triangles and the two new
+    faces tile the same quadrilateral, so their facets are reported as one
+    (``triangle_facet``). Returns (tetra, region, subfaces, sources, facet
+    of each input triangle).
+    """
+    src = b.sources()
+    flat = _flat_folds(b, T)
+    facet = b.group
+    if not flat.any():
+        return T, region, b.sub, src, facet
+    drop = T[flat]
+    fk = _face_keys(drop[:, _FACES].reshape(-1, 3))
+    sk = _face_keys(b.sub)
+    order = np.argsort(sk)
+    is_sub = _member(fk, sk[order])
+    pos = np.minimum(np.searchsorted(sk[order], fk), len(sk) - 1)
+    gone = order[pos[is_sub]]  # the subfaces the dropped tetrahedra hold
+    faces = drop[:, _FACES].reshape(-1, 3)[~is_sub][:, ::-1]  # out of the region
+    owner = np.repeat(np.arange(len(drop)), 4)
+    first_sub = order[pos].reshape(-1, 4)[np.arange(len(drop)), np.argmax(is_sub.reshape(-1, 4), 1)]
+    new_src = src[first_sub][owner[~is_sub]]
+    keep = np.ones(len(b.sub), dtype=bool)
+    keep[gone] = False
+    # The facets of each dropped tetrahedron's subfaces are reported as one.
+    g = b.sub_facet[gone].reshape(-1, 2)
+    n_g = len(b.group_tris)
+    graph = sp.csr_matrix((np.ones(len(g)), (g[:, 0], g[:, 1])), shape=(n_g, n_g))
+    _, merged = connected_components(graph, directed=False)
+    return (
+        T[~flat],
+        region[~flat],
+        np.concatenate([b.sub[keep], faces]),
+        np.concatenate([src[keep], new_src]),
+        merged[facet],
+    )
+
+
+def _left_report(
+    b: _Builder, T: np.ndarray, sub: np.ndarray, max_radius_edge, min_dihedral
+) -> dict:
     """The tetrahedra left above ``max_radius_edge`` or below ``min_dihedral``, and why.
 
     Causes: ``fold`` (two faces on the surface: the tetrahedron fills the
@@ -978,7 +1044,7 @@ def _left_report(b: _Builder, T: np.ndarray, max_radius_edge, min_dihedral) -> d
     dih = tetra_dihedral_angles(b.P, T).min(axis=1) if len(T) else np.zeros(0)
     on_surface = np.ones(b.n, dtype=bool)
     on_surface[b.n_surface :] = (b.pt_edge[b.n_surface :] >= 0) | (b.pt_facet[b.n_surface :] >= 0)
-    folds = _boundary_face_count(b, T) >= 2
+    folds = _boundary_face_count(b, T, sub) >= 2
     surf = ~folds & on_surface[T].all(axis=1)
     cause = np.where(folds, 0, np.where(surf, 1, 2))
     names = ("fold", "surface", "interior")
@@ -1139,6 +1205,7 @@ def _sliver_pass(b: _Builder, bound: float, max_radius_edge: float, progress) ->
         region = _regions(b, slots, T)
         dih = tetra_dihedral_angles(b.P, T).min(axis=1)
         rows = np.flatnonzero((region >= 0) & (dih < bound))
+        rows = rows[~_flat_folds(b, T[rows])]
         if rows.size == 0:
             break
         rows = rows[np.argsort(dih[rows], kind="stable")]
@@ -1319,6 +1386,8 @@ def _refine(b: _Builder, criteria, progress, sliver_bound=None) -> tuple[int, in
         inside = np.flatnonzero(region >= 0)
         Ti = T[inside]
         rows, centres = _bad_tets(b.P, Ti, max_radius_edge, max_volume, size, b.knobs)
+        fold = ~_flat_folds(b, Ti[rows])
+        rows, centres = rows[fold], centres[fold]
         if sliver_bound is not None:
             # The radius-edge, volume and size bounds first, then the slivers that
             # are not held between two facets (those the input's fold forces).
@@ -1555,10 +1624,11 @@ def tetrahedralize(
         region = _regions(b, slots, T)
         keep = region >= 0
         tetra, region = T[keep], region[keep]
-        left = _left_report(b, tetra, None if empty else mre, None if empty else mdh)
-    # Boundary faces: the subfaces (with keep_boundary, the input triangles).
-    sub = b.facets if keep_boundary else b.sub
-    sub_src = np.arange(len(b.facets)) if keep_boundary else b.sources()
+        tetra, region, sub, sub_src, triangle_facet = _drop_flat_folds(b, tetra, region)
+        left = _left_report(b, tetra, sub, None if empty else mre, None if empty else mdh)
+    if keep_boundary:
+        # Boundary faces: the input triangles.
+        sub, sub_src, triangle_facet = b.facets, np.arange(len(b.facets)), b.group
     # Kernel order (orient3d > 0) to meshio's positive volume: swap two vertices.
     tetra = tetra[:, [0, 1, 3, 2]]
     cell_sets = {f"region_{r}": [np.flatnonzero(region == r)] for r in range(surface.region_count)}
@@ -1569,7 +1639,7 @@ def tetrahedralize(
         region=region,
         boundary_faces=sub,
         boundary_source=sub_src,
-        triangle_facet=b.group,
+        triangle_facet=triangle_facet,
         surface_points_added=b.surface_added,
         interior_points_added=b.interior_added,
         rounds=rounds,
