@@ -1,27 +1,34 @@
-"""Side by side: ``tetrahedralize`` (ours) and TetGen on the same closed surfaces.
+"""Side by side: ``tetrahedralize`` (ours), TetGen and Gmsh on the same closed surfaces.
 
 Run from the repository root::
 
     .venv/bin/python benchmarks/tetrahedralize.py
     .venv/bin/python benchmarks/tetrahedralize.py --shapes torus --size 0.08
 
-Inputs: an icosphere (1,280 triangles), a torus (32 x 16 quads split) and a
-box with a box-shaped cavity, each given to every tool as the same points
-and triangles. Ours runs with the default ``max_radius_edge=2`` and with
-``size`` alone (no radius-edge bound), TetGen with ``pq2`` (radius-edge 2),
-``pq1.414`` and ``pY`` (boundary kept, no quality), all with ``-a`` from
-the same volume bound where ``--size`` is given. TetGen gets ``add_hole``
-for the cavity. Each row: wall seconds of the meshing call (ours after a
-warm-up that loads numba's cache), tetrahedra, tetrahedra per second,
-points added, least and largest dihedral angle (degrees), the largest
-radius-edge ratio, and the ratio of our time to TetGen's ``pq2``.
-TetGen is a bench-only dependency, skipped with a note when absent.
+Inputs: an icosphere (1,280 triangles), a torus (32 x 16 quads split), a box
+with a box-shaped cavity, an L-block and a thin slab (1 x 1 x 0.01), each
+given to every tool as the same points and triangles. Ours runs with the
+default ``max_radius_edge=2`` with ``min_dihedral=15`` added, and with
+``size`` alone (no radius-edge bound); TetGen with ``pq2`` (radius-edge 2),
+``pq1.414`` and ``pY`` (boundary kept, no quality), all with ``-a`` from the
+same volume bound where ``--size`` is given; Gmsh's Delaunay
+(``Mesh.Algorithm3D`` 1) and HXT (10) on the same triangles as one discrete
+surface per shell (``Mesh.MeshSizeMax`` the size where given). TetGen gets
+``add_hole`` for the cavity. Each row: wall seconds of the meshing call
+(ours after a warm-up that loads numba's cache), tetrahedra, tetrahedra per
+second, points added, least and largest dihedral angle (degrees), the share
+of tetrahedra under 10 degrees, the largest radius-edge ratio, the peak
+resident memory of the process so far (MB, ``ru_maxrss``: monotone, so read
+it as an upper bound for the row) and the ratio of our time to TetGen's
+``pq2``. TetGen and Gmsh are bench-only dependencies, skipped with a note
+when absent.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import resource
 import sys
 import time
 
@@ -46,14 +53,55 @@ SHAPES = {
     "icosphere": lambda: (*shapes.icosphere(3), []),
     "torus": lambda: (*shapes.torus(nu=32, nv=16), []),
     "cavity": _cavity,
+    "l_block": lambda: (*shapes.l_block(), []),
+    "slab": lambda: (*shapes.box((0, 0, 0), (1, 1, 0.01)), []),
 }
 
 
-def _figures(P, K) -> tuple[float, float, float]:
+def _figures(P, K) -> tuple[float, float, float, float]:
     d = tetra_dihedral_angles(P, K)
     _, R = _tet_circumcenters(P, K)
     ratio = R / _shortest_edge(P, K)
-    return float(d.min()), float(d.max()), float(np.nanmax(ratio))
+    under = 100.0 * float((d.min(axis=1) < 10).mean())
+    return float(d.min()), float(d.max()), under, float(np.nanmax(ratio))
+
+
+def run_gmsh(P, T, algorithm: int, size: float | None):
+    """Gmsh 3D on the given triangles (one discrete surface per shell)."""
+    import gmsh
+
+    shells = parse_surface(P, T).triangle_shell
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("s")
+        loops = []
+        for k in np.unique(shells).tolist():
+            tri = T[shells == k]
+            used = np.unique(tri)
+            tag = gmsh.model.addDiscreteEntity(2)
+            gmsh.model.mesh.addNodes(2, tag, (used + 1).tolist(), P[used].ravel().tolist())
+            gmsh.model.mesh.addElementsByType(tag, 2, [], (tri + 1).ravel().tolist())
+            loops.append(gmsh.model.geo.addSurfaceLoop([tag]))
+        gmsh.model.geo.addVolume(loops)
+        gmsh.model.geo.synchronize()
+        gmsh.option.setNumber("Mesh.Algorithm3D", algorithm)
+        if size is not None:
+            gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        t = time.perf_counter()
+        gmsh.model.mesh.generate(3)
+        dt = time.perf_counter() - t
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        X = np.zeros((int(tags.max()) + 1, 3))
+        X[tags.astype(np.int64)] = coords.reshape(-1, 3)
+        _, elem = gmsh.model.mesh.getElementsByType(4)
+        K = elem.astype(np.int64).reshape(-1, 4)
+        keep = np.unique(K)
+        remap = np.full(len(X), -1)
+        remap[keep] = np.arange(len(keep))
+        return dt, X[keep], remap[K], len(keep) - len(np.unique(T))
+    finally:
+        gmsh.finalize()
 
 
 def run_ours(P, T, **kw):
@@ -91,8 +139,15 @@ def main() -> None:
     except ImportError:
         have_tetgen = False
         print("tetgen not installed (pip install -e .[bench]): TetGen rows skipped")
+    try:
+        import gmsh  # noqa: F401
+
+        have_gmsh = True
+    except ImportError:
+        have_gmsh = False
+        print("gmsh not installed (pip install -e .[bench]): Gmsh rows skipped")
     head = f"{'input':<10} {'tool':<26} {'s':>7} {'tets':>8} {'tets/s':>8} {'added':>7} "
-    head += f"{'dih min':>7} {'dih max':>7} {'r/e max':>8} {'x pq2':>6}"
+    head += f"{'dih min':>7} {'dih max':>7} {'%<10':>6} {'r/e max':>8} {'MB':>6} {'x pq2':>6}"
     print(head)
     for name in args.shapes:
         P, T, holes = SHAPES[name]()
@@ -100,6 +155,8 @@ def main() -> None:
         extra = {} if args.size is None else {"size": args.size}
         dt, X, K, added, gu = run_ours(P, T, **extra)
         rows.append((f"ours r/e 2 (given up {gu})", dt, X, K, added))
+        dt, X, K, added, gu = run_ours(P, T, min_dihedral=15, **extra)
+        rows.append(("ours r/e 2, dihedral 15", dt, X, K, added))
         if args.size is not None:
             dt, X, K, added, gu = run_ours(P, T, size=args.size, max_radius_edge=None)
             rows.append(("ours size only", dt, X, K, added))
@@ -111,12 +168,17 @@ def main() -> None:
                 rows.append((f"tetgen -{sw}", dt, X, K, added))
                 if sw == "pq2":
                     ref = dt
+        if have_gmsh:
+            for alg, label in ((1, "gmsh Delaunay"), (10, "gmsh HXT")):
+                dt, X, K, added = run_gmsh(P, T, alg, args.size)
+                rows.append((label, dt, X, K, added))
         for tool, dt, X, K, added in rows:
-            dmin, dmax, rmax = _figures(X, K)
+            dmin, dmax, under, rmax = _figures(X, K)
             ratio = f"{dt / ref:6.2f}" if ref else "     -"
+            mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
             print(
                 f"{name:<10} {tool:<26} {dt:7.3f} {len(K):8d} {len(K) / dt:8.0f} {added:7d} "
-                f"{dmin:7.2f} {dmax:7.2f} {rmax:8.2f} {ratio}"
+                f"{dmin:7.2f} {dmax:7.2f} {under:6.2f} {rmax:8.2f} {mb:6.0f} {ratio}"
             )
 
 

@@ -12,7 +12,8 @@ phases and only ever grown by point insertion):
 
 1. **Delaunay of the surface points** (the vertices the triangles use).
 2. **Boundary recovery, conforming** (§9.2, §9.3.4, §9.3.5): the input edges
-   are cut into *subsegments* and every input triangle (a *facet*) into
+   between facets are cut into *subsegments* and every *facet* (an input
+   triangle, or exactly coplanar neighbours merged: see below) into
    *subfaces*, the 2D Delaunay triangulation (kernel2d, in the facet's
    plane) of the facet's corners, the points added on its edges and the
    points added inside it. Rounds: every subsegment that is not an edge of
@@ -44,11 +45,16 @@ phases and only ever grown by point insertion):
    surface's box (a tetrahedron leaning flat on the surface) splits the
    tetrahedron's faces that are subfaces. Insertions of one round skip a
    tetrahedron already destroyed by an earlier one (a lazy queue).
-5. **Slivers** (``min_dihedral``): rounds of the same rule applied to the
-   tetrahedra whose least dihedral angle is below the bound. Delaunay
-   refinement bounds the radius-edge ratio but not slivers; this pass lowers
-   their number but guarantees nothing. The least dihedral reached is
-   reported.
+5. **Slivers** (``min_dihedral``): rounds of perturbed insertion
+   (:func:`_sliver_pass`; Chew's random points near the circumcentre, as
+   Li and Teng analyse them): each tetrahedron whose least dihedral angle is
+   below the bound is offered its circumcentre and random points of a ball
+   around it; the cavity each would open is evaluated in float, and the
+   best one is inserted only when it raises the least dihedral angle of the
+   tetrahedra it replaces, keeps them within the radius-edge bound and does
+   not cut the surface. The pass cannot cascade. Then the radius-edge
+   refinement runs once more for what the pass's recovery splits left.
+   What is left is reported with its cause (``left``).
 
 Choices the methods text leaves open
 ------------------------------------
@@ -68,11 +74,28 @@ Choices the methods text leaves open
   subsegment encroachment and every validity fact (orientation, region
   sides) are exact signs. A misjudged tie only changes which point is
   added.
-* Small input angles: a subsegment is split at its midpoint (no concentric
-  shells), so refinement next to input angles below 90 degrees may not
-  terminate by itself; the rounds are capped (``_Knobs``) and the
-  tetrahedra left bad are counted in ``given_up`` and next to which input
-  vertices they lie reported by the quality figures.
+* **Facets.** Input triangles joined across an edge whose four points are
+  exactly coplanar (exact ``orient3d == 0``) form one facet, meshed as one
+  polygon (TetGen merges coplanar facets too): the diagonals a planar face
+  was triangulated with are no constraints, so they make no small input
+  angles (the L-block's caps are fans with 18-degree angles: refined to
+  radius-edge 2 it took 29,867 tetrahedra and gave up 1,679 before, 61
+  tetrahedra now). A facet with no point added keeps its input triangles;
+  otherwise its subfaces are the 2D Delaunay triangulation of its points,
+  the pockets outside a non-convex facet dropped (:func:`_facet_triangles`).
+  Triangles coplanar only up to rounding are not merged: the tetrahedron
+  on their four corners is then a sliver forced by the input (``left``
+  names it ``fold``).
+* **Batches.** Subface centres split in one round are kept at least
+  ``separation`` times their circumradius apart (two neighbouring subfaces
+  of nearly one circle gave points 1e-4 apart at size 0.125, and with them
+  Poisson convergence of rate 1).
+* Small input angles: subsegments at one input vertex are split on
+  concentric shells; refinement next to input angles below 90 degrees may
+  still not terminate by itself, so pieces smaller than ``protect`` times
+  their input edge are not split and the rounds are capped (``_Knobs``);
+  the tetrahedra left bad are counted in ``given_up`` and, by cause, in
+  ``left``.
 
 References
 ----------
@@ -123,6 +146,13 @@ class _Knobs:
     refinement_rounds: int = 60
     #: Sliver rounds.
     sliver_rounds: int = 8
+    #: Degrees: a tetrahedron with two faces on the surface and a least dihedral
+    #: angle below this fills a fold of two facets coplanar up to rounding.
+    flat_fold: float = 1e-6
+    #: Random candidates per sliver, besides its circumcentre, and the radius of
+    #: the ball they are drawn from, in units of the circumradius.
+    sliver_candidates: int = 16
+    sliver_ball: float = 0.5
     #: Circumradius bound of the size criterion, in units of ``size`` (a
     #: regular tetrahedron of edge h has circumradius 0.61 h).
     size_radius: float = 0.7
@@ -144,6 +174,9 @@ class _Knobs:
     #: vertex or to another candidate are dropped (co-circular subfaces, co-spherical
     #: tetrahedra give the same centre up to rounding).
     merge: float = 1e-9
+    #: Of two subface centres of one batch closer than this fraction of the
+    #: smaller circumradius, only the one of larger radius is inserted.
+    separation: float = 0.5
     #: Refinement stops once the mesh has this many points (the bad tetrahedra
     #: left are counted in ``given_up``): Delaunay refinement with a radius-edge
     #: bound of 2 can cascade next to small input angles.
@@ -170,13 +203,30 @@ class TetrahedralizationResult:
     boundary_faces : (k, 3) int64
         The mesh faces on the surface, oriented outward (out of the region).
     boundary_source : (k,) int64
-        The input triangle each boundary face lies in.
+        The input triangle each boundary face lies in (the one holding its
+        centroid: a face of a facet merged from coplanar input triangles may
+        straddle their common edge).
+    triangle_facet : (t,) int64
+        The facet of each input triangle: input triangles joined across
+        edges whose four points are exactly coplanar form one facet, meshed
+        as one polygon (the edges inside it are no constraints). The
+        boundary faces of a facet tile exactly the union of its triangles.
     surface_points_added, interior_points_added : int
     rounds : int
         Recovery plus refinement rounds.
     given_up : int
         Bad tetrahedra left (their circumcentre could not be used, or the
         round cap was reached).
+    left : dict
+        The tetrahedra of the result above ``max_radius_edge``
+        (``radius_edge_above``) and below ``min_dihedral``
+        (``dihedral_below``), counted by cause: ``fold`` (two of its faces
+        on the surface: it fills the angle between two facets, which the
+        input forces when that angle is near 180 degrees, e.g. two input
+        triangles coplanar up to rounding), ``surface`` (four vertices on the
+        surface, its centre encroaching pieces too small to split: next to an
+        input angle below 90 degrees), ``interior``; and the ten worst by
+        least dihedral angle (row in ``tetra``, cause, angle, ratio).
     timings : dict
         Seconds per phase.
     """
@@ -185,10 +235,12 @@ class TetrahedralizationResult:
     region: np.ndarray
     boundary_faces: np.ndarray
     boundary_source: np.ndarray
+    triangle_facet: np.ndarray
     surface_points_added: int
     interior_points_added: int
     rounds: int
     given_up: int
+    left: dict = field(default_factory=dict)
     timings: dict = field(default_factory=dict)
 
 
@@ -318,38 +370,34 @@ def _ball_pairs(X: np.ndarray, centres: np.ndarray, radii: np.ndarray):
     return np.concatenate(xs), np.concatenate(js)
 
 
-def _without_edge_slivers(tri: np.ndarray, sizes: list[int], uv: np.ndarray) -> np.ndarray:
-    """Drop the triangles of three points of one facet edge that lie outside the facet.
+def _facet_triangles(
+    tri: np.ndarray,
+    uv: np.ndarray,
+    loop: np.ndarray,
+    pos: np.ndarray,
+    inside: Callable[[np.ndarray], np.ndarray],
+) -> np.ndarray:
+    """Keep the triangles of a facet's 2D Delaunay triangulation that lie in the facet.
 
-    The facet's points are numbered: its corners 0, 1, 2, then the points on
-    its edges 01, 12, 20 (``sizes[1:4]`` of them), then its inner points. A
-    point added on an edge is rounded and may fall a hair inside the facet:
-    the facet's boundary then has a reflex kink there, and the 2D Delaunay
-    triangulation (of the convex hull) holds a sliver of three points of
-    that edge outside the kinked boundary. A triangle on three points of
-    edge k is outside when its counter-clockwise order runs against the
-    boundary's direction along the edge (corner k to corner k + 1); in the
-    boundary's direction it is an ear of the facet and stays.
+    ``loop[i]`` and ``pos[i]`` give the boundary loop of the facet point
+    ``i`` and its rank along it (in the loop's direction, the facet on its
+    left), -1 for a point inside the facet. A triangle of a triangulation of
+    the facet whose three corners lie on one loop visits them in the loop's
+    cyclic order when counter-clockwise (two of its three steps forward);
+    the triangles of the convex hull's pockets outside the facet (and the
+    slivers of three points of one edge that rounding put a hair inside it)
+    run against it. Other triangles are kept when their centroid lies in the
+    facet (``inside``, float: such a triangle is not flat).
     """
-    first = np.cumsum([0, *sizes])
-    on = np.zeros((first[-1], 3), dtype=bool)  # point on facet edge k (01, 12, 20)
-    on[[0, 1], 0] = True
-    on[[1, 2], 1] = True
-    on[[2, 0], 2] = True
-    for k in range(3):
-        on[first[k + 1] : first[k + 2], k] = True
-    all_on = on[tri].all(axis=1)  # (t, 3): the triangle's corners all on edge k
-    rows = np.flatnonzero(all_on.any(axis=1))
-    if rows.size == 0:
-        return tri
-    k = np.argmax(all_on[rows], axis=1)
-    direction = uv[(k + 1) % 3] - uv[k]
-    pos = np.einsum("tij,tj->ti", uv[tri[rows]], direction)  # position along the edge
-    # Counter-clockwise order p -> m -> q: along the boundary iff the positions
-    # increase cyclically once (two of the three steps forward).
-    forward = (np.roll(pos, -1, axis=1) > pos).sum(axis=1) == 2
-    drop = rows[~forward]
-    return np.delete(tri, drop, axis=0)
+    lp = loop[tri]
+    ps = pos[tri]
+    one = (lp[:, 0] >= 0) & (lp[:, 0] == lp[:, 1]) & (lp[:, 1] == lp[:, 2])
+    forward = (np.roll(ps, -1, axis=1) > ps).sum(axis=1) == 2
+    keep = np.where(one, forward, False)
+    other = np.flatnonzero(~one)
+    if other.size:
+        keep[other] = inside(uv[tri[other]].mean(axis=1))
+    return tri[keep]
 
 
 # ---------------------------------------------------------------------------
@@ -383,9 +431,17 @@ def _member(keys: np.ndarray, table_sorted: np.ndarray) -> np.ndarray:
 
 
 class _Builder:
-    """The growing tetrahedralization and the subsegments and subfaces it must hold."""
+    """The growing tetrahedralization and the subsegments and subfaces it must hold.
 
-    def __init__(self, surface: Surface, knobs: _Knobs) -> None:
+    A *facet* is a maximal set of input triangles joined across edges whose
+    four points are exactly coplanar (``orient3d == 0``), as TetGen merges
+    coplanar facets; with ``merge=False`` every input triangle is a facet.
+    The *segments* are the input edges between two facets; the edges inside
+    a facet are no constraints (the diagonals a planar face was triangulated
+    with make no small input angles).
+    """
+
+    def __init__(self, surface: Surface, knobs: _Knobs, merge: bool = True) -> None:
         self.knobs = knobs
         used = surface.vertices
         remap = np.full(len(surface.points), -1, dtype=np.int64)
@@ -395,38 +451,102 @@ class _Builder:
         self.P = np.array(surface.points[used], dtype=np.float64)
         self.n = len(used)
         facets = remap[surface.triangles]
-        self.facets = facets
+        self.facets = facets  # the input triangles
         self.facet_region = surface.triangle_region
         F = len(facets)
         e = np.concatenate([facets[:, [0, 1]], facets[:, [1, 2]], facets[:, [2, 0]]])
         e.sort(axis=1)
         edges, inv = np.unique(e, axis=0, return_inverse=True)
+        inv = inv.reshape(-1)
+        order = np.argsort(inv, kind="stable")
+        edge_tris = (order % F).reshape(-1, 2)  # row k of e belongs to triangle k % F
+        # Coplanar neighbours (exact sign) form one facet.
+        if merge:
+            t1, t2 = edge_tris[:, 0], edge_tris[:, 1]
+            tri2 = facets[t2]
+            far = tri2[np.arange(len(edges)), np.argmax(
+                (tri2 != edges[:, :1]) & (tri2 != edges[:, 1:]), axis=1)]  # fmt: skip
+            a0, a1, a2 = (self.P[facets[t1, k]] for k in range(3))
+            flat = orient3d(a0, a1, a2, self.P[far]) == 0
+        else:
+            flat = np.zeros(len(edges), dtype=bool)
+        graph = sp.csr_matrix(
+            (np.ones(int(flat.sum())), (edge_tris[flat, 0], edge_tris[flat, 1])), shape=(F, F)
+        )
+        n_groups, group = connected_components(graph, directed=False)
+        self.group = group  # facet of each input triangle
+        self.group_region = np.zeros(n_groups, dtype=np.int64)
+        self.group_region[group] = self.facet_region
+        seg_edges = np.flatnonzero(~flat)
         self.edges = edges
-        self.facet_edges = inv.reshape(3, F).T
-        order = np.argsort(inv.reshape(-1), kind="stable")
-        self.edge_facets = (order % F).reshape(-1, 2)  # row k of e belongs to facet k % F
-        self.seg = edges.copy()
-        self.seg_edge = np.arange(len(edges))
+        self.edge_groups = group[edge_tris]  # (E, 2): the facets on each side
+        self.seg = edges[seg_edges].copy()
+        self.seg_edge = seg_edges.copy()
         self.pt_edge = np.full(self.n, -1, dtype=np.int64)
-        self.pt_facet = np.full(self.n, -1, dtype=np.int64)
+        self.pt_facet = np.full(self.n, -1, dtype=np.int64)  # facet (group) of inner points
+        # Per facet: its triangles, its vertices and its boundary loops (directed
+        # input edges, the facet on their left seen from outside).
+        by_group = np.argsort(group, kind="stable")
+        bounds = np.searchsorted(group[by_group], np.arange(n_groups + 1))
+        self.group_tris = [by_group[bounds[g] : bounds[g + 1]] for g in range(n_groups)]
+        self._directed = np.stack([facets[:, [0, 1]], facets[:, [1, 2]], facets[:, [2, 0]]], 1)
+        self._edge_id = inv.reshape(3, F).T
+        self._flat = flat
+        self._loops: dict[int, list] = {}
         # Facet frames for the 2D triangulations: origin, two orthonormal axes
-        # (counter-clockwise in the frame is outward).
-        a = self.P[facets[:, 0]]
-        u = self.P[facets[:, 1]] - a
-        v = self.P[facets[:, 2]] - a
+        # (counter-clockwise in the frame is outward), from the facet's first triangle.
+        first = facets[[t[0] for t in self.group_tris]]
+        a = self.P[first[:, 0]]
+        u = self.P[first[:, 1]] - a
+        v = self.P[first[:, 2]] - a
         e1 = u / np.linalg.norm(u, axis=1)[:, None]
         w = v - np.einsum("ij,ij->i", v, e1)[:, None] * e1
         e2 = w / np.linalg.norm(w, axis=1)[:, None]
         self.frame = (a, e1, e2)
         lengths = np.linalg.norm(self.P[edges[:, 0]] - self.P[edges[:, 1]], axis=1)
         self.edge_length = lengths
-        self.facet_short = lengths[self.facet_edges].min(axis=1)
+        short = np.full(n_groups, np.inf)
+        np.minimum.at(short, self.edge_groups[seg_edges, 0], lengths[seg_edges])
+        np.minimum.at(short, self.edge_groups[seg_edges, 1], lengths[seg_edges])
+        self.facet_short = short
         self.size_cap = math.inf
-        self.sub = facets.copy()  # subfaces, oriented as their facet (outward)
-        self.sub_facet = np.arange(F)
+        # Subfaces, outward, and their facet: with no point added, the input
+        # triangles (what retriangulate gives a facet without added points).
+        self.sub = facets.copy()
+        self.sub_facet = group.copy()
+        self.unsettled: dict[int, np.ndarray] = {}  # subsegments missing from a facet's 2D mesh
         self.dt = IncrementalDelaunay3d(self.P)
         self.surface_added = 0
         self.interior_added = 0
+
+    def loops(self, g: int) -> list:
+        """Boundary loops of facet ``g``: (directed input edges, edge ids), chained."""
+        if g in self._loops:
+            return self._loops[g]
+        rows = self.group_tris[g]
+        de = self._directed[rows].reshape(-1, 2)
+        ei = self._edge_id[rows].reshape(-1)
+        keep = ~self._flat[ei]
+        de, ei = de[keep], ei[keep]
+        nxt: dict[int, list[int]] = {}
+        for k, (u, _) in enumerate(de.tolist()):
+            nxt.setdefault(u, []).append(k)
+        used_e = np.zeros(len(de), dtype=bool)
+        loops = []
+        for k0 in range(len(de)):  # chaining a facet's boundary edges
+            if used_e[k0]:
+                continue
+            loop, k = [], k0
+            while not used_e[k]:
+                used_e[k] = True
+                loop.append(k)
+                cands = [c for c in nxt[int(de[k, 1])] if not used_e[c]]
+                if not cands:
+                    break
+                k = cands[0]
+            loops.append((de[loop], ei[loop]))
+        self._loops[g] = loops
+        return loops
 
     # -- points ----------------------------------------------------------------
 
@@ -490,7 +610,7 @@ class _Builder:
         self.seg[rows, 1] = ids
         self.seg = np.concatenate([self.seg, np.stack([ids, s[:, 1]], 1)])
         self.seg_edge = np.concatenate([self.seg_edge, e])
-        self.retriangulate(np.unique(self.edge_facets[e]))
+        self.retriangulate(np.unique(self.edge_groups[e]))
         return int(ok.sum())
 
     # -- subfaces ----------------------------------------------------------------
@@ -498,8 +618,13 @@ class _Builder:
     def retriangulate(self, facets: np.ndarray) -> None:
         """Recompute the subfaces of ``facets``: 2D Delaunay of each facet's points.
 
-        A loop over the facets whose point set changed (each a compiled
-        kernel2d call).
+        The points: the facet's input vertices, the points added on its
+        boundary edges and inside it; the triangles outside the facet are
+        dropped (:func:`_facet_triangles`). A subsegment of the facet's
+        boundary that is not an edge of the result (its diametral circle
+        holds a facet point) is *unsettled*: :meth:`missing` reports it, and
+        recovery splits it. A loop over the facets whose point set changed
+        (each a compiled kernel2d call).
         """
         if facets.size == 0:
             return
@@ -508,31 +633,69 @@ class _Builder:
         edge_bounds = np.searchsorted(self.pt_edge[by_edge], np.arange(len(self.edges) + 1))
         inner = np.flatnonzero(self.pt_facet >= 0)
         by_facet = inner[np.argsort(self.pt_facet[inner], kind="stable")]
-        facet_bounds = np.searchsorted(self.pt_facet[by_facet], np.arange(len(self.facets) + 1))
+        facet_bounds = np.searchsorted(self.pt_facet[by_facet], np.arange(len(self.group_tris) + 1))
         origin, e1, e2 = self.frame
         new_sub, new_facet = [], []
         for f in facets.tolist():  # a loop over changed facets
-            parts = [self.facets[f]]
-            for e in self.facet_edges[f].tolist():
-                parts.append(by_edge[edge_bounds[e] : edge_bounds[e + 1]])
-            parts.append(by_facet[facet_bounds[f] : facet_bounds[f + 1]])
-            ids = np.concatenate(parts)
-            if len(ids) == 3:
-                tri = self.facets[f : f + 1]
+            corners = np.unique(self.facets[self.group_tris[f]])
+            parts, loops = [], []
+            for li, (de, ei) in enumerate(self.loops(f)):
+                for (u, w), e in zip(de.tolist(), ei.tolist(), strict=True):
+                    on = by_edge[edge_bounds[e] : edge_bounds[e + 1]]
+                    t = (self.P[on] - self.P[u]) @ (self.P[w] - self.P[u])
+                    parts.append(np.concatenate([[u], on[np.argsort(t, kind="stable")]]))
+                    loops.append(np.full(len(on) + 1, li))
+            ids = np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
+            loop = np.concatenate(loops) if loops else np.zeros(0, dtype=np.int64)
+            pos = np.arange(len(ids))
+            rest = np.concatenate(
+                [np.setdiff1d(corners, ids), by_facet[facet_bounds[f] : facet_bounds[f + 1]]]
+            )
+            ids = np.concatenate([ids, rest]).astype(np.int64)
+            loop = np.concatenate([loop, np.full(len(rest), -1)])
+            pos = np.concatenate([pos, np.full(len(rest), -1)])
+            tris = self.group_tris[f]
+            if len(ids) == len(corners):
+                # No point added: the input triangles (what the 3D mesh most likely
+                # holds when the facet's corners are co-circular, as a square's).
+                tri = self.facets[tris]
             else:
                 d = self.P[ids] - origin[f]
                 uv = np.stack([d @ e1[f], d @ e2[f]], 1)
-                try:
-                    tri = _without_edge_slivers(
-                        delaunay2d(uv).triangles, [len(p) for p in parts], uv
+                T2 = self.facets[tris]
+
+                def inside(X, T2=T2, f=f):
+                    q = self.P[T2] - origin[f]
+                    tu = np.stack([q @ e1[f], q @ e2[f]], -1)  # (k, 3, 2)
+                    a, b, c = tu[:, 0], tu[:, 1], tu[:, 2]
+
+                    def cr(p, q, x):
+                        return (q[:, 0] - p[:, 0]) * (x[:, None, 1] - p[:, 1]) - (
+                            q[:, 1] - p[:, 1]
+                        ) * (x[:, None, 0] - p[:, 0])
+
+                    # Non-strict up to rounding: a centroid may lie on an edge inside
+                    # the facet (a diagonal its input triangles share).
+                    tol = -1e-9 * float(np.ptp(tu.reshape(-1, 2), axis=0).max()) ** 2
+                    return ((cr(a, b, X) >= tol) & (cr(b, c, X) >= tol) & (cr(c, a, X) >= tol)).any(
+                        1
                     )
-                    tri = ids[tri]
+
+                try:
+                    tri = ids[_facet_triangles(delaunay2d(uv).triangles, uv, loop, pos, inside)]
                 except InputError as exc:  # rounding made two projections coincide
                     raise AlgorithmError(
-                        f"the points added on input triangle {f} could not be triangulated "
-                        f"in its plane ({exc.message})",
+                        f"the points added on facet {f} (input triangles "
+                        f"{tris[:5].tolist()}) could not be triangulated in its plane "
+                        f"({exc.message})",
                         code="recovery_failed",
                     ) from None
+            # Boundary subsegments of the facet that the 2D triangulation misses.
+            seg_rows = np.flatnonzero(np.isin(self.seg_edge, np.concatenate(
+                [ei for _, ei in self.loops(f)] or [np.zeros(0, np.int64)])))  # fmt: skip
+            tk = np.unique(_edge_keys(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)))
+            sk = _edge_keys(self.seg[seg_rows])
+            self.unsettled[f] = sk[~_member(sk, tk)]
             new_sub.append(tri)
             new_facet.append(np.full(len(tri), f))
         keep = ~np.isin(self.sub_facet, facets)
@@ -571,14 +734,25 @@ class _Builder:
         return int((ids >= 0).sum()), n_seg
 
     def crowded(self, X: np.ndarray, R: np.ndarray) -> np.ndarray:
-        """Candidates within ``merge`` times their radius of a vertex or an earlier candidate."""
-        r = self.knobs.merge * R
+        """Candidates to drop from one batch of insertions.
+
+        Within ``merge`` times their radius of a vertex (co-circular subfaces
+        give the same centre up to rounding), or within ``separation`` times
+        the smaller radius of a candidate of larger radius (neighbouring
+        subfaces of nearly the same circle: inserted together they would make
+        an edge far shorter than the local size; the survivor's insertion
+        settles the other's subface, or the next round splits it).
+        """
         d, _ = cKDTree(self.P).query(X)
-        out = d <= r
+        out = d <= self.knobs.merge * R
         if len(X) > 1:
+            r = self.knobs.separation * R
             pairs = cKDTree(X).query_pairs(float(r.max()), output_type="ndarray")
             if len(pairs):
-                i, j = pairs.min(axis=1), pairs.max(axis=1)
+                i, j = pairs[:, 0], pairs[:, 1]
+                # j is the one of smaller radius (ties: the later index).
+                swap = (R[i] < R[j]) | ((R[i] == R[j]) & (i > j))
+                i, j = np.where(swap, j, i), np.where(swap, i, j)
                 dd = np.linalg.norm(X[i] - X[j], axis=1)
                 out[j[dd <= np.minimum(r[i], r[j])]] = True
         return out
@@ -595,14 +769,44 @@ class _Builder:
         return R < self.knobs.protect * ref
 
     def in_facet(self, X: np.ndarray, f: np.ndarray) -> np.ndarray:
-        """Whether points (in their facet's plane) lie inside the facet (float)."""
-        tri = self.facets[f]
+        """Whether points (in their facet's plane) lie inside facet ``f`` (float)."""
+        out = np.zeros(len(X), dtype=bool)
+        for g in np.unique(f).tolist():  # a loop over the facets concerned
+            rows = np.flatnonzero(f == g)
+            tri = self.facets[self.group_tris[g]]
+            a, b, c = (self.P[tri[:, k]][None] for k in range(3))
+            n = np.cross(b - a, c - a)
+            x = X[rows][:, None]
+            s1 = np.einsum("ijk,ijk->ij", np.cross(b - a, x - a), n)
+            s2 = np.einsum("ijk,ijk->ij", np.cross(c - b, x - b), n)
+            s3 = np.einsum("ijk,ijk->ij", np.cross(a - c, x - c), n)
+            out[rows] = ((s1 > 0) & (s2 > 0) & (s3 > 0)).any(axis=1)
+        return out
+
+    def sources(self) -> np.ndarray:
+        """The input triangle each subface lies in (the one that best holds its centroid)."""
+        sizes = np.array([len(t) for t in self.group_tris])
+        start = np.concatenate([[0], np.cumsum(sizes)])
+        flat = np.concatenate(self.group_tris)
+        g = self.sub_facet
+        k = np.repeat(np.arange(len(g)), sizes[g])
+        j = flat[np.arange(len(k)) - np.repeat(np.cumsum(sizes[g]) - sizes[g], sizes[g])
+                 + np.repeat(start[g], sizes[g])]  # fmt: skip
+        x = self.P[self.sub[k]].mean(axis=1)
+        tri = self.facets[j]
         a, b, c = self.P[tri[:, 0]], self.P[tri[:, 1]], self.P[tri[:, 2]]
         n = np.cross(b - a, c - a)
-        s1 = np.einsum("ij,ij->i", np.cross(b - a, X - a), n)
-        s2 = np.einsum("ij,ij->i", np.cross(c - b, X - b), n)
-        s3 = np.einsum("ij,ij->i", np.cross(a - c, X - c), n)
-        return (s1 > 0) & (s2 > 0) & (s3 > 0)
+        s = np.stack(
+            [
+                np.einsum("ij,ij->i", np.cross(b - a, x - a), n),
+                np.einsum("ij,ij->i", np.cross(c - b, x - b), n),
+                np.einsum("ij,ij->i", np.cross(a - c, x - c), n),
+            ],
+            1,
+        ).min(axis=1)
+        order = np.lexsort((-s, k))
+        first = np.unique(k[order], return_index=True)[1]
+        return j[order[first]]
 
     # -- encroachment --------------------------------------------------------------
 
@@ -664,7 +868,11 @@ class _Builder:
     def missing(self, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Subsegments that are not edges, subfaces that are not faces of ``T``."""
         ek = np.sort(_edge_keys(T[:, _EDGES].reshape(-1, 2)))
-        seg_missing = np.flatnonzero(~_member(_edge_keys(self.seg), ek))
+        keys = _edge_keys(self.seg)
+        seg_missing = ~_member(keys, ek)
+        if self.unsettled:
+            seg_missing |= np.isin(keys, np.concatenate(list(self.unsettled.values())))
+        seg_missing = np.flatnonzero(seg_missing)
         fk = np.sort(_face_keys(T[:, _FACES].reshape(-1, 3)))
         sub_missing = np.flatnonzero(~_member(_face_keys(self.sub), fk))
         return seg_missing, sub_missing
@@ -725,7 +933,7 @@ def _regions(b: _Builder, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
     d = T[t_i, f_j]
     side = orient3d(b.P[sf[:, 0]], b.P[sf[:, 1]], b.P[sf[:, 2]], b.P[d])
     inner = side > 0
-    reg = b.facet_region[b.sub_facet[s_rows]]
+    reg = b.group_region[b.sub_facet[s_rows]]
     ci = comp[t_i[inner]]
     ri = reg[inner]
     label[ci] = ri
@@ -748,6 +956,119 @@ def _regions(b: _Builder, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
     label[label == -2] = -1
     label[outside] = -1
     return label[comp]
+
+
+def _boundary_face_count(b: _Builder, T: np.ndarray, sub: np.ndarray | None = None) -> np.ndarray:
+    """How many faces of each tetrahedron are subfaces (of ``b``, or ``sub``)."""
+    if len(T) == 0:
+        return np.zeros(0, dtype=np.int64)
+    fk = _face_keys(T[:, _FACES].reshape(-1, 3))
+    sk = _face_keys(b.sub if sub is None else sub)
+    return _member(fk, np.sort(sk)).reshape(-1, 4).sum(axis=1)
+
+
+def _flat_folds(b: _Builder, T: np.ndarray) -> np.ndarray:
+    """Tetrahedra on a fold of two facets coplanar up to rounding (a mask).
+
+    Two of its faces are subfaces and its least dihedral angle is below
+    ``flat_fold`` degrees: the four corners of a planar quadrilateral whose
+    coordinates are not exactly coplanar (a torus's trapezoids). No point
+    can improve it; it is kept out of the sliver pass and, at the end, out
+    of the mesh (:func:`_drop_flat_folds`). (The radius-edge refinement
+    still treats it as bad: its subfaces are split until they are protected,
+    then it is given up; skipping it there made the 32 x 16 torus cascade.)
+    """
+    if len(T) == 0:
+        return np.zeros(0, dtype=bool)
+    two = _boundary_face_count(b, T) >= 2
+    out = np.zeros(len(T), dtype=bool)
+    rows = np.flatnonzero(two)
+    if rows.size:
+        out[rows] = tetra_dihedral_angles(b.P, T[rows]).min(axis=1) < b.knobs.flat_fold
+    return out
+
+
+def _drop_flat_folds(b: _Builder, T: np.ndarray, region: np.ndarray):
+    """Remove the flat fold tetrahedra; the surface takes their two other faces.
+
+    The boundary moves by the tetrahedron's volume (rounding: its corners
+    are coplanar up to rounding); the two input triangles and the two new
+    faces tile the same quadrilateral, so their facets are reported as one
+    (``triangle_facet``). Returns (tetra, region, subfaces, sources, facet
+    of each input triangle).
+    """
+    src = b.sources()
+    flat = _flat_folds(b, T)
+    facet = b.group
+    if not flat.any():
+        return T, region, b.sub, src, facet
+    drop = T[flat]
+    fk = _face_keys(drop[:, _FACES].reshape(-1, 3))
+    sk = _face_keys(b.sub)
+    order = np.argsort(sk)
+    is_sub = _member(fk, sk[order])
+    pos = np.minimum(np.searchsorted(sk[order], fk), len(sk) - 1)
+    gone = order[pos[is_sub]]  # the subfaces the dropped tetrahedra hold
+    faces = drop[:, _FACES].reshape(-1, 3)[~is_sub][:, ::-1]  # out of the region
+    owner = np.repeat(np.arange(len(drop)), 4)
+    first_sub = order[pos].reshape(-1, 4)[np.arange(len(drop)), np.argmax(is_sub.reshape(-1, 4), 1)]
+    new_src = src[first_sub][owner[~is_sub]]
+    keep = np.ones(len(b.sub), dtype=bool)
+    keep[gone] = False
+    # The facets of each dropped tetrahedron's subfaces are reported as one.
+    g = b.sub_facet[gone].reshape(-1, 2)
+    n_g = len(b.group_tris)
+    graph = sp.csr_matrix((np.ones(len(g)), (g[:, 0], g[:, 1])), shape=(n_g, n_g))
+    _, merged = connected_components(graph, directed=False)
+    return (
+        T[~flat],
+        region[~flat],
+        np.concatenate([b.sub[keep], faces]),
+        np.concatenate([src[keep], new_src]),
+        merged[facet],
+    )
+
+
+def _left_report(
+    b: _Builder, T: np.ndarray, sub: np.ndarray, max_radius_edge, min_dihedral
+) -> dict:
+    """The tetrahedra left above ``max_radius_edge`` or below ``min_dihedral``, and why.
+
+    Causes: ``fold`` (two faces on the surface: the tetrahedron fills the
+    angle between two facets, forced by the input where that angle is near
+    180 degrees or small), ``surface`` (its four vertices on the surface,
+    its circumcentre encroaching a subface too small to split: next to an
+    input angle below 90 degrees), ``interior`` (the round cap was reached).
+    """
+    c, R = _tet_circumcenters(b.P, T)
+    ratio = R / _shortest_edge(b.P, T)
+    ratio = np.where(np.isfinite(ratio), ratio, np.inf)
+    dih = tetra_dihedral_angles(b.P, T).min(axis=1) if len(T) else np.zeros(0)
+    on_surface = np.ones(b.n, dtype=bool)
+    on_surface[b.n_surface :] = (b.pt_edge[b.n_surface :] >= 0) | (b.pt_facet[b.n_surface :] >= 0)
+    folds = _boundary_face_count(b, T, sub) >= 2
+    surf = ~folds & on_surface[T].all(axis=1)
+    cause = np.where(folds, 0, np.where(surf, 1, 2))
+    names = ("fold", "surface", "interior")
+    out: dict = {}
+    for key, bad in (
+        ("radius_edge_above", ratio > max_radius_edge if max_radius_edge else None),
+        ("dihedral_below", dih < min_dihedral if min_dihedral else None),
+    ):
+        if bad is None:
+            continue
+        out[key] = {n: int((bad & (cause == k)).sum()) for k, n in enumerate(names)}
+    worst = np.argsort(dih, kind="stable")[:10]
+    out["worst"] = [
+        {
+            "tetrahedron": int(t),
+            "cause": names[int(cause[t])],
+            "min_dihedral": round(float(dih[t]), 4),
+            "radius_edge": round(float(ratio[t]), 4) if np.isfinite(ratio[t]) else None,
+        }
+        for t in worst.tolist()
+    ]
+    return out
 
 
 def _bad_tets(P, T, max_radius_edge, max_volume, size, knobs) -> tuple[np.ndarray, np.ndarray]:
@@ -857,6 +1178,183 @@ def _insert_interior(b: _Builder, slots, region, rows, centres, tets) -> tuple[i
     return done, outside
 
 
+def _sliver_pass(b: _Builder, bound: float, max_radius_edge: float, progress) -> int:
+    """Slivers removed by perturbed insertion (Chew; Li and Teng); returns the rounds.
+
+    Each tetrahedron whose least dihedral angle is below ``bound`` is
+    offered its circumcentre and ``sliver_candidates`` random points of the
+    ball of radius ``sliver_ball`` times its circumradius around it. For
+    each candidate the cavity it would open (the tetrahedra whose
+    circumsphere holds it, float, grown from the tetrahedron holding it) and
+    the tetrahedra it would create are evaluated; the candidate is rejected
+    if its cavity leaves the sliver's region (it would cut the surface). The
+    best candidate (largest least dihedral angle of the new tetrahedra; the
+    first one, in the order above, that reaches ``bound``) is inserted only
+    if that angle beats the least dihedral angle of the tetrahedra it
+    removes and no new tetrahedron exceeds the radius-edge bound (or the
+    cavity's worst): every insertion raises the local minimum, so the pass
+    cannot cascade. A sliver with a face on the surface also gets points off
+    that face along its normal (a tetrahedron filling a fold of nearly 180
+    degrees between two facets has its circumcentre on the surface). Rounds
+    stop when one inserts nothing.
+    """
+    rng = np.random.default_rng(0)
+    k = b.knobs.sliver_candidates
+    rounds = 0
+    for rounds in range(1, b.knobs.sliver_rounds + 1):
+        _recover(b, None)
+        slots, T = b.tets()
+        region = _regions(b, slots, T)
+        dih = tetra_dihedral_angles(b.P, T).min(axis=1)
+        rows = np.flatnonzero((region >= 0) & (dih < bound))
+        rows = rows[~_flat_folds(b, T[rows])]
+        if rows.size == 0:
+            break
+        rows = rows[np.argsort(dih[rows], kind="stable")]
+        top = int(max(slots.max(), b.dt.adjacent(slots).max())) + 1
+        cache = _SlotCache(b, top, slots, region)
+        sub_keys = np.sort(_face_keys(b.sub))
+        done = 0
+        for row in rows.tolist():  # sequential: each insertion changes the next cavities
+            s = int(slots[row])
+            if cache.stale[s]:
+                continue
+            reg = int(region[row])
+            c, R = _tet_circumcenters(b.P, T[row : row + 1])
+            if not np.isfinite(R[0]):
+                c, R = b.P[T[row]].mean(axis=0)[None], np.zeros(1)
+            d = rng.normal(size=(k, 3))
+            d *= (rng.random(k) ** (1 / 3) / np.linalg.norm(d, axis=1))[:, None]
+            X = np.concatenate([c, c + b.knobs.sliver_ball * R[0] * d])
+            fk = _face_keys(T[row][_FACES])
+            on = _member(fk, sub_keys)
+            if on.any():
+                # Leaning on the surface (a fold): also points off the subface's
+                # plane along its normal, on both sides (the wrong side is outside
+                # the region and rejected).
+                # From the centroid: a flat tetrahedron's circumcentre is rounding.
+                f = T[row][_FACES[int(np.argmax(on))]]
+                nrm = np.cross(b.P[f[1]] - b.P[f[0]], b.P[f[2]] - b.P[f[0]])
+                _, rf = _tri_circumcenters(b.P, f[None])
+                nrm *= rf[0] / np.linalg.norm(nrm)
+                t = np.array([0.05, 0.1, 0.2, 0.35, 0.5, -0.05, -0.1, -0.2, -0.35, -0.5])
+                X = np.concatenate([X, b.P[T[row]].mean(axis=0) + t[:, None] * nrm])
+            best = None
+            for x in X:  # a loop over candidates (cavity walks)
+                ev = cache.evaluate(x, reg, max_radius_edge)
+                if ev is not None and (best is None or ev[0] > best[0]):
+                    best = (ev[0], x)
+                    if ev[0] >= bound:
+                        break  # good enough: the first candidate that reaches the bound
+            if best is None:
+                continue
+            res = b.dt.insert(best[1], near=None)
+            if res.duplicate:
+                continue
+            b.P = np.concatenate([b.P, best[1][None]])
+            b.pt_edge = np.append(b.pt_edge, -1)
+            b.pt_facet = np.append(b.pt_facet, -1)
+            b.n += 1
+            b.interior_added += 1
+            done += 1
+            cache.update(res, reg)
+        if progress is not None:
+            progress(0.8, f"sliver round {rounds}: {len(rows)} slivers, {done} points")
+        if done == 0:
+            break
+    return rounds
+
+
+class _SlotCache:
+    """Vertices, neighbours, circumspheres and regions of the kernel's slots (one round)."""
+
+    def __init__(self, b: _Builder, top: int, slots: np.ndarray, region: np.ndarray) -> None:
+        self.b = b
+        self.V = np.full((top, 4), -1, dtype=np.int64)
+        self.A = np.full((top, 4), -1, dtype=np.int64)
+        self.C = np.zeros((top, 3))
+        self.R = np.full(top, -1.0)
+        self.reg = np.full(top, -1, dtype=np.int64)
+        self.stale = np.zeros(top, dtype=bool)
+        self._set(slots)
+        self.reg[slots] = region
+
+    def _grow(self, top: int) -> None:
+        if top <= len(self.V):
+            return
+        extra = max(top, 2 * len(self.V)) - len(self.V)
+        self.V = np.concatenate([self.V, np.full((extra, 4), -1, dtype=np.int64)])
+        self.A = np.concatenate([self.A, np.full((extra, 4), -1, dtype=np.int64)])
+        self.C = np.concatenate([self.C, np.zeros((extra, 3))])
+        self.R = np.concatenate([self.R, np.full(extra, -1.0)])
+        self.reg = np.concatenate([self.reg, np.full(extra, -1, dtype=np.int64)])
+        self.stale = np.concatenate([self.stale, np.zeros(extra, dtype=bool)])
+
+    def _set(self, slots: np.ndarray) -> None:
+        V = self.b.dt.tets(slots)
+        self.V[slots] = V
+        self.A[slots] = self.b.dt.adjacent(slots)
+        real = (V >= 0).all(axis=1)
+        c, R = _tet_circumcenters(self.b.P, V[real])
+        self.C[slots[real]] = c
+        self.R[slots[real]] = np.where(np.isfinite(R), R, -1.0)
+        self.R[slots[~real]] = -1.0
+
+    def update(self, res, reg: int) -> None:
+        created = np.asarray(res.created, dtype=np.int64)
+        self._grow(int(max(created.max(), self.b.dt.adjacent(created).max())) + 1)
+        self.stale[res.removed] = True
+        self._set(created)
+        self.reg[created] = np.where((self.V[created] >= 0).all(axis=1), reg, -1)
+        nb = np.unique(self.A[created])
+        nb = nb[nb >= 0]
+        self.A[nb] = self.b.dt.adjacent(nb)
+
+    def evaluate(self, x: np.ndarray, reg: int, max_radius_edge: float):
+        """(least dihedral of the new tetrahedra,) if inserting ``x`` improves; else None."""
+        loc = self.b.dt.locate(x)
+        t = loc.tet
+        if t < 0 or loc.kind != "inside" or t >= len(self.V) or self.reg[t] != reg:
+            return None
+        cav = [t]
+        seen = {t}
+        faces = []
+        i = 0
+        while i < len(cav):
+            u = cav[i]
+            i += 1
+            for j in range(4):
+                n = int(self.A[u, j])
+                if n in seen:
+                    continue
+                r = self.R[n] if n < len(self.R) else -1.0
+                if r > 0 and ((x - self.C[n]) ** 2).sum() < r * r:
+                    if self.reg[n] != reg:
+                        return None  # the cavity would cross the surface
+                    seen.add(n)
+                    cav.append(n)
+                else:
+                    faces.append((u, j))
+        cav_a = np.array(cav)
+        old = self.V[cav_a]
+        P = self.b.P
+        old_dih = tetra_dihedral_angles(P, old).min()
+        _, oR = _tet_circumcenters(P, old)
+        old_ratio = (oR / _shortest_edge(P, old)).max()
+        fu = np.array([f[0] for f in faces])
+        fj = np.array([f[1] for f in faces])
+        X = P[self.V[fu]]
+        X[np.arange(len(fu)), fj] = x
+        idx = np.arange(4 * len(fu)).reshape(-1, 4)
+        pts = X.reshape(-1, 3)
+        new_dih = tetra_dihedral_angles(pts, idx).min()
+        _, nR = _tet_circumcenters(pts, idx)
+        new_ratio = (nR / _shortest_edge(pts, idx)).max()
+        if new_dih <= old_dih or new_ratio > max(max_radius_edge, old_ratio):
+            return None
+        return (new_dih,)
+
+
 def _refine(b: _Builder, criteria, progress, sliver_bound=None) -> tuple[int, int]:
     """Delaunay refinement rounds; returns (rounds, bad tetrahedra left)."""
     max_radius_edge, max_volume, size = criteria
@@ -889,13 +1387,18 @@ def _refine(b: _Builder, criteria, progress, sliver_bound=None) -> tuple[int, in
         region = _regions(b, slots, T)
         inside = np.flatnonzero(region >= 0)
         Ti = T[inside]
-        if sliver_bound is None:
-            rows, centres = _bad_tets(b.P, Ti, max_radius_edge, max_volume, size, b.knobs)
-        else:
+        rows, centres = _bad_tets(b.P, Ti, max_radius_edge, max_volume, size, b.knobs)
+        if sliver_bound is not None:
+            # The radius-edge, volume and size bounds first, then the slivers that
+            # are not held between two facets (those the input's fold forces).
             dih = tetra_dihedral_angles(b.P, Ti).min(axis=1)
-            rows = np.flatnonzero(dih < sliver_bound)
-            rows = rows[np.argsort(dih[rows], kind="stable")]
-            centres, _ = _tet_circumcenters(b.P, Ti[rows])
+            sl = np.flatnonzero(dih < sliver_bound)
+            sl = np.setdiff1d(sl, rows)
+            sl = sl[_boundary_face_count(b, Ti[sl]) < 2]
+            sl = sl[np.argsort(dih[sl], kind="stable")]
+            c_sl, _ = _tet_circumcenters(b.P, Ti[sl])
+            rows = np.concatenate([rows, sl])
+            centres = np.concatenate([centres, c_sl])
         left = len(rows)
         if left == 0:
             return rounds, 0
@@ -1018,10 +1521,9 @@ def tetrahedralize(
         next to input angles too small for it (the rounds are capped and the
         rest counted in ``given_up``). None: no radius-edge bound.
     min_dihedral : float, optional
-        Degrees in (0, 70]: sliver rounds after refinement, inserting the
-        circumcentres of the tetrahedra whose least dihedral angle is below
-        it (or splitting what they encroach). Nothing is guaranteed: see
-        ``quality`` for what was reached.
+        Degrees in (0, 70]: sliver rounds after refinement (perturbed
+        insertion that never lowers the local least dihedral angle). Best
+        effort: ``left`` counts the tetrahedra still below it, by cause.
     max_volume : float, optional
         Every tetrahedron's volume at most this.
     size : float, optional
@@ -1071,12 +1573,13 @@ def tetrahedralize(
     criteria = _criteria_checked(max_radius_edge, min_dihedral, max_volume, size)
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
-    b = _Builder(surface, _KNOBS)
+    b = _Builder(surface, _KNOBS, merge=not keep_boundary)
     if criteria[3] is not None:
         b.size_cap = criteria[3]
     timings["delaunay"] = time.perf_counter() - t0
     rounds = 0
     given_up = 0
+    left: dict = {}
     if keep_boundary:
         t1 = time.perf_counter()
         slots, T = b.tets()
@@ -1109,8 +1612,11 @@ def tetrahedralize(
             timings["refinement"] = time.perf_counter() - t2
         if not empty and mdh is not None:
             t3 = time.perf_counter()
-            r, _ = _refine(b, (mre or math.inf, mvol, sz), progress, sliver_bound=mdh)
-            rounds += r
+            rounds += _sliver_pass(b, mdh, mre or math.inf, progress)
+            if mre is not None or mvol is not None or sz is not None:
+                # The sliver rounds' surface splits may have left bad tetrahedra.
+                r, given_up = _refine(b, (mre or math.inf, mvol, sz), progress)
+                rounds += r
             timings["slivers"] = time.perf_counter() - t3
         # Encroachment fixes may have left pieces missing: recover again (no-op if whole).
         rounds += _recover(b, progress)
@@ -1118,9 +1624,11 @@ def tetrahedralize(
         region = _regions(b, slots, T)
         keep = region >= 0
         tetra, region = T[keep], region[keep]
-    # Boundary faces: the subfaces (with keep_boundary, the input triangles).
-    sub = b.facets if keep_boundary else b.sub
-    sub_src = np.arange(len(b.facets)) if keep_boundary else b.sub_facet
+        tetra, region, sub, sub_src, triangle_facet = _drop_flat_folds(b, tetra, region)
+        left = _left_report(b, tetra, sub, None if empty else mre, None if empty else mdh)
+    if keep_boundary:
+        # Boundary faces: the input triangles.
+        sub, sub_src, triangle_facet = b.facets, np.arange(len(b.facets)), b.group
     # Kernel order (orient3d > 0) to meshio's positive volume: swap two vertices.
     tetra = tetra[:, [0, 1, 3, 2]]
     cell_sets = {f"region_{r}": [np.flatnonzero(region == r)] for r in range(surface.region_count)}
@@ -1131,9 +1639,11 @@ def tetrahedralize(
         region=region,
         boundary_faces=sub,
         boundary_source=sub_src,
+        triangle_facet=triangle_facet,
         surface_points_added=b.surface_added,
         interior_points_added=b.interior_added,
         rounds=rounds,
         given_up=given_up,
+        left=left,
         timings=timings,
     )

@@ -44,7 +44,10 @@ class TetrahedralizeParams(MethodParams):
     min_dihedral: Annotated[float, Field(gt=0, le=70, allow_inf_nan=False)] | None = Field(
         default=None,
         description="Degrees: sliver rounds after refinement for the tetrahedra whose least "
-        "dihedral angle is below it. Best effort: quality.tetra.dihedral says what was reached.",
+        "dihedral angle is below it (perturbed insertion that never lowers the local least "
+        "angle). Best effort: quality.tetra.dihedral says what was reached, stats.left counts "
+        "the tetrahedra still below it by cause (fold: between two input triangles at nearly "
+        "180 degrees; surface; interior).",
     )
     max_volume: PositiveFloat | None = Field(
         default=None, description="Largest tetrahedron volume."
@@ -101,6 +104,7 @@ def run_tetrahedralize(params: TetrahedralizeParams, progress) -> dict:
             "interior_points_added": res.interior_points_added,
             "rounds": res.rounds,
             "given_up": res.given_up,
+            "left": res.left,
             "seconds": {k: round(v, 6) for k, v in res.timings.items()},
         },
     }

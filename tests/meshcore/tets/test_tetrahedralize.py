@@ -62,16 +62,26 @@ def assert_valid(result, surface, *, exact_boundary=False):
     boundary = keys[counts == 1]
     sub = np.unique(np.sort(result.boundary_faces, axis=1), axis=0)
     assert np.array_equal(boundary, sub)
-    # The boundary faces tile every input triangle: areas per input triangle.
+    # The boundary faces tile every input triangle: areas per facet (the input
+    # triangles joined across exactly coplanar edges), each face's source
+    # triangle in its facet.
     src = result.boundary_source
-    area = np.bincount(
-        src, weights=tri_area(P, result.boundary_faces), minlength=len(surface.triangles)
-    )
+    facet = result.triangle_facet
     first = surface.vertices
     remap = np.full(len(surface.points), -1)
     remap[first] = np.arange(len(first))
     T = remap[surface.triangles]
-    assert np.allclose(area, tri_area(P, T), rtol=1e-12, atol=0)
+    n_facets = facet.max() + 1
+    area = np.bincount(facet[src], weights=tri_area(P, result.boundary_faces), minlength=n_facets)
+    assert np.allclose(area, np.bincount(facet, weights=tri_area(P, T)), rtol=1e-12, atol=0)
+    # A facet's triangles are exactly coplanar: every face lies in its source's plane
+    # (its input vertices exactly, the points added up to rounding).
+    a, b, c = (P[T[src, k]] for k in range(3))
+    nrm = np.cross(b - a, c - a)
+    nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+    for k in range(3):
+        off = np.einsum("ij,ij->i", P[result.boundary_faces[:, k]] - a, nrm)
+        assert np.abs(off).max() <= 1e-12 * np.abs(P).max()
     if exact_boundary:
         assert np.array_equal(np.sort(result.boundary_faces, axis=1), np.sort(T, axis=1))
     # Each boundary face lies in its input triangle's plane (exactly, for input vertices).
@@ -144,17 +154,32 @@ class TestKeepBoundary:
 
 
 class TestRefinement:
-    @pytest.mark.parametrize("name", ["cube", "icosphere", "box_with_cavity"])
-    def test_radius_edge_bound(self, name):
+    @pytest.mark.parametrize("name", ["cube", "icosphere", "box_with_cavity", "l_block", "torus"])
+    def test_radius_edge_and_dihedral_bounds(self, name):
+        """max_radius_edge 2 and min_dihedral 15 hold except where ``left`` names the cause.
+
+        No exception on these shapes: on the torus the tetrahedra on the four
+        corners of a trapezoid whose two input triangles are coplanar up to
+        rounding (flat folds) are dropped, the surface taking their other two
+        faces (``triangle_facet`` reports the two triangles as one facet).
+        """
         s = parse_surface(*SHAPES[name]())
-        r = tetrahedralize(s, max_radius_edge=2.0)
+        r = tetrahedralize(s, max_radius_edge=2.0, min_dihedral=15)
         assert_valid(r, s)
         assert r.given_up == 0
         P, K = r.mesh.points, r.mesh.cells[0].data
         from meshcore.tets.refinement import _shortest_edge, _tet_circumcenters
 
         _, R = _tet_circumcenters(P, K)
-        assert (R / _shortest_edge(P, K)).max() <= 2.0 + 1e-9
+        ratio = R / _shortest_edge(P, K)
+        dih = tetra_dihedral_angles(P, K).min(axis=1)
+        left = r.left
+        assert left["radius_edge_above"] == {"fold": 0, "surface": 0, "interior": 0}
+        assert (ratio <= 2.0 + 1e-9).all()
+        below = left["dihedral_below"]
+        assert below["surface"] == below["interior"] == 0
+        assert (dih < 15).sum() == below["fold"] == 0
+        assert left["worst"][0]["min_dihedral"] == pytest.approx(dih.min(), abs=1e-4)
 
     def test_size_and_volume(self):
         s = parse_surface(*shapes.box())
@@ -178,11 +203,13 @@ class TestRefinement:
 
     def test_min_dihedral_is_reported(self):
         s = parse_surface(*shapes.box())
-        r = tetrahedralize(s, size=0.5, max_radius_edge=None, min_dihedral=10)
+        r = tetrahedralize(s, size=0.5, max_radius_edge=None, min_dihedral=15)
         assert_valid(r, s)
         d = tetra_dihedral_angles(r.mesh.points, r.mesh.cells[0].data)
         assert d.shape == (len(r.mesh.cells[0].data), 6)
-        assert 0 < d.min() <= d.max() < 180
+        # With size alone (no radius-edge bound) the sliver pass reaches the bound too.
+        assert 15 <= d.min() <= d.max() < 180
+        assert r.left["dihedral_below"] == {"fold": 0, "surface": 0, "interior": 0}
 
     def test_bad_parameters(self):
         s = parse_surface(*shapes.box())
@@ -262,19 +289,20 @@ def test_download_formats_open_in_meshio(tmp_path, fmt, ext):
 def test_poisson_converges():
     """P1 tetrahedra, -Δu = 3π² u with u = sin πx sin πy sin πz, exact boundary values.
 
-    Measured max-norm errors 0.068, 0.050, 0.017 for size 0.5, 0.25, 0.125:
-    an overall rate of 1, not the rate 2 of a quality mesh (the size-only
-    meshes keep slivers, and a radius-edge bound of 2 with ``size`` cascades
-    on this cube; see the module docstring of :mod:`meshcore.tets.refinement`).
-    The test states what holds.
+    Max-norm errors at the nodes 0.0554 and 0.0148 for size 0.25 and 0.125
+    with ``min_dihedral=15``: rate 1.90. (Size 0.5 is pre-asymptotic: 66
+    points, two edges across the cube.) The rate was about 1 before the
+    batch of subface centres was kept apart (two centres of one round could
+    land 1e-4 apart, edges of 0.0001 at size 0.125) and before the sliver
+    pass: with size alone the rate is 1.85.
     """
     from skfem import Basis, ElementTetP1, LinearForm, MeshTet, asm, condense, solve
     from skfem.models.poisson import laplace
 
     s = parse_surface(*shapes.box())
     errors = []
-    for h in (0.5, 0.25, 0.125):
-        r = tetrahedralize(s, size=h, max_radius_edge=None, min_dihedral=5)
+    for h in (0.25, 0.125):
+        r = tetrahedralize(s, size=h, max_radius_edge=None, min_dihedral=15)
         P, K = r.mesh.points, r.mesh.cells[0].data
         mesh = MeshTet(P.T.copy(), K.T.copy())
         basis = Basis(mesh, ElementTetP1())
@@ -287,5 +315,5 @@ def test_poisson_converges():
         exact = np.sin(np.pi * P[:, 0]) * np.sin(np.pi * P[:, 1]) * np.sin(np.pi * P[:, 2])
         u = solve(*condense(asm(laplace, basis), asm(rhs, basis), x=exact, D=basis.get_dofs()))
         errors.append(np.abs(u - exact).max())
-    overall = np.log2(errors[0] / errors[-1]) / (len(errors) - 1)
-    assert errors[-1] < errors[1] < errors[0] and overall > 0.8, errors
+    rate = np.log2(errors[0] / errors[1])
+    assert rate >= 1.8, errors
