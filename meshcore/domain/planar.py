@@ -500,19 +500,6 @@ def _power_of_two_scale(points: np.ndarray) -> float:
     return float(np.ldexp(1.0, -int(np.frexp(big)[1])))
 
 
-def _two_product(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Dekker's exact product: a * b == hi + lo exactly (|a|, |b| < 1, no overflow)."""
-    hi = a * b
-    c = 134217729.0 * a
-    ahi = c - (c - a)
-    alo = a - ahi
-    c = 134217729.0 * b
-    bhi = c - (c - b)
-    blo = b - bhi
-    lo = alo * blo - (((hi - ahi * bhi) - alo * bhi) - ahi * blo)
-    return hi, lo
-
-
 # ---------------------------------------------------------------------------
 # Candidate pairs: uniform grid over segment bounding boxes
 # ---------------------------------------------------------------------------
@@ -600,7 +587,7 @@ def _grid_cells(x0, y0, x1, y1, ox, oy, h, pad, nx, ny, key, seg, fill):
 
 
 def _grid_entries(p0: np.ndarray, p1: np.ndarray):
-    """Segments entered in the cells of a uniform grid, sorted by cell.
+    """Segments entered in the cells of a uniform grid, grouped by cell.
 
     Parameters
     ----------
@@ -610,7 +597,9 @@ def _grid_entries(p0: np.ndarray, p1: np.ndarray):
     Returns
     -------
     key, seg : (e,) int64
-        Cell key and segment of each entry, sorted by key.
+        Cell key and segment of each entry, grouped by :func:`_bucket_sort`.
+    starts : (b + 1,) int64
+        Where each bucket of entries starts.
     grid : tuple
         ``(decodable, ny, ox, oy, h, short)``: whether ``key = cx * ny + cy``
         (else keys are hashed cell numbers), the grid's origin and cell size,
@@ -648,17 +637,46 @@ def _grid_entries(p0: np.ndarray, p1: np.ndarray):
     key = np.empty(total, dtype=np.int64)
     seg = np.empty(total, dtype=np.int64)
     _grid_cells(x0, y0, x1, y1, ox, oy, h, pad, nx, ny, key, seg, True)
-    # Packing (cell, segment) into one int64 lets numpy's fast value sort order
-    # the entries; a cell number too wide to pack is hashed, which can only
-    # merge cells (extra candidates, removed by the box test).
-    bits = max(1, (s - 1).bit_length())
-    room = 63 - bits
-    decodable = nx * ny <= (1 << room)
-    if not decodable:
-        mixed = key.astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
-        key = (mixed >> np.uint64(64 - room)).astype(np.int64)
-    packed = np.sort((key << bits) | seg)
-    return packed >> bits, packed & ((1 << bits) - 1), (decodable, ny, ox, oy, h, short)
+    # A cell number too wide for int64 wrapped around in _grid_cells: that can only
+    # merge cells (extra candidates, removed by the box test), but it is not decodable.
+    decodable = nx * ny < (1 << 62)
+    key, seg, starts = _bucket_sort(key, seg)
+    return key, seg, starts, (decodable, ny, ox, oy, h, short)
+
+
+@njit(cache=True)
+def _bucket_sort(key, seg):
+    """Entries grouped by a hash of their cell (a counting sort, linear time).
+
+    Returns the reordered ``key`` and ``seg`` and ``starts``, the first entry
+    of each bucket (and the end). Entries of one cell share a bucket; a
+    bucket may also hold other cells (compare ``key`` within it).
+    """
+    n = len(key)
+    shift = 64
+    size = 1
+    while size < n:
+        size *= 2
+        shift -= 1
+    count = np.zeros(size + 1, dtype=np.int64)
+    bucket = np.empty(n, dtype=np.int64)
+    for e in range(n):
+        b = np.int64((np.uint64(key[e]) * np.uint64(0x9E3779B97F4A7C15)) >> np.uint64(shift))
+        if shift == 64:
+            b = 0
+        bucket[e] = b
+        count[b + 1] += 1
+    for b in range(size):
+        count[b + 1] += count[b]
+    fill = count[:-1].copy()
+    key_out = np.empty(n, dtype=np.int64)
+    seg_out = np.empty(n, dtype=np.int64)
+    for e in range(n):
+        b = bucket[e]
+        key_out[fill[b]] = key[e]
+        seg_out[fill[b]] = seg[e]
+        fill[b] += 1
+    return key_out, seg_out, count
 
 
 # ---------------------------------------------------------------------------
@@ -725,10 +743,11 @@ def _classify_pair(P, ends, i, j):
 
 
 @njit(cache=True)
-def _scan_cells(key, seg, P, ends, succ, short, decodable, ny, ox, oy, h, cap):
+def _scan_cells(key, seg, starts, P, ends, succ, short, decodable, ny, ox, oy, h, cap):
     """Test every pair of segments sharing a grid cell; collect the bad ones.
 
-    A compiled loop over the pairs of each cell (no pair arrays are built).
+    A compiled loop over the pairs of entries of each bucket of
+    :func:`_bucket_sort` that share a cell (no pair arrays are built).
     A pair is skipped when its bounding boxes are disjoint (exact
     comparisons), when the segments are consecutive in a ring, or, for two
     bounding-box-entered segments, in every cell but the one holding the
@@ -739,7 +758,6 @@ def _scan_cells(key, seg, P, ends, succ, short, decodable, ny, ox, oy, h, cap):
     """
     out = np.empty((cap, 4), dtype=np.int64)
     nout = 0
-    n = len(key)
     x0 = P[ends[:, 0], 0]
     x1 = P[ends[:, 1], 0]
     y0 = P[ends[:, 0], 1]
@@ -748,16 +766,16 @@ def _scan_cells(key, seg, P, ends, succ, short, decodable, ny, ox, oy, h, cap):
     hix = np.maximum(x0, x1)
     loy = np.minimum(y0, y1)
     hiy = np.maximum(y0, y1)
-    start = 0
-    while start < n:
-        stop = start + 1
-        while stop < n and key[stop] == key[start]:
-            stop += 1
+    for b in range(len(starts) - 1):
+        start = starts[b]
+        stop = starts[b + 1]
         if stop - start >= 2:
-            cx = key[start] // ny
-            cy = key[start] % ny
             for p in range(start, stop - 1):
+                cx = key[p] // ny
+                cy = key[p] % ny
                 for q in range(p + 1, stop):
+                    if key[q] != key[p]:
+                        continue
                     i = min(seg[p], seg[q])
                     j = max(seg[p], seg[q])
                     if i == j:
@@ -780,7 +798,6 @@ def _scan_cells(key, seg, P, ends, succ, short, decodable, ny, ox, oy, h, cap):
                         nout += 1
                         if nout == cap:
                             return out, nout, True
-        start = stop
     return out, nout, False
 
 
@@ -809,9 +826,9 @@ def _intersections(P: np.ndarray, ends: np.ndarray, succ: np.ndarray, p0, p1):
     """
     if len(ends) < 2:
         return np.zeros((0, 4), dtype=np.int64), False
-    key, seg, (decodable, ny, ox, oy, h, short) = _grid_entries(p0, p1)
+    key, seg, starts, (decodable, ny, ox, oy, h, short) = _grid_entries(p0, p1)
     out, count, capped = _scan_cells(
-        key, seg, P, ends, succ, short, decodable, ny, ox, oy, h, _MAX_FOUND
+        key, seg, starts, P, ends, succ, short, decodable, ny, ox, oy, h, _MAX_FOUND
     )
     rows = out[:count]
     if count:
@@ -1171,8 +1188,7 @@ def _check_ring_points(pts, ring_of, offsets, lengths, prv, nxt, names: _Names) 
             loc=names.vertex_loc(k, v),
             code="duplicate_point",
         )
-    P = pts * _power_of_two_scale(pts)
-    turn = orient2d(_rolled(P, offsets, -1), P, _rolled(P, offsets, 1))
+    turn = _ring_turns(pts * _power_of_two_scale(pts), offsets)
     # Every consecutive triple collinear (and no repeats): the whole ring is on a line.
     flat = np.bincount(ring_of[turn != 0], minlength=n_rings) == 0
     for k in np.flatnonzero(flat):
@@ -1202,6 +1218,58 @@ def _check_ring_points(pts, ring_of, offsets, lengths, prv, nxt, names: _Names) 
                 loc=names.vertex_loc(k, v),
                 code="self_intersection",
             )
+
+
+@njit(cache=True)
+def _ring_turns(P, offsets):
+    """(n,) int8: the exact turn (orient2d sign) of each ring at each of its vertices.
+
+    One compiled pass of :func:`~meshcore.geometry.predicates.orient2d_scalar`
+    over (previous, vertex, next) within each ring.
+    """
+    turn = np.empty(len(P), dtype=np.int8)
+    for k in range(len(offsets) - 1):
+        lo, hi = offsets[k], offsets[k + 1]
+        for i in range(lo, hi):
+            a = i - 1 if i > lo else hi - 1
+            c = i + 1 if i < hi - 1 else lo
+            turn[i] = orient2d_scalar(P[a, 0], P[a, 1], P[i, 0], P[i, 1], P[c, 0], P[c, 1])
+    return turn
+
+
+@njit(cache=True)
+def _shoelace_terms(x, y, offsets, sign):
+    """The rounded leading terms ``x_i y_{i+1} - x_{i+1} y_i`` (times ``sign``) and the
+    sum of their exact remainders (Dekker products, two-sum), in one compiled pass."""
+    lead = np.empty(len(x))
+    small = 0.0
+    for k in range(len(offsets) - 1):
+        lo, hi = offsets[k], offsets[k + 1]
+        for i in range(lo, hi):
+            j = i + 1 if i < hi - 1 else lo
+            a, b, c, d = x[i], y[j], x[j], y[i]
+            h1 = a * b
+            t = 134217729.0 * a
+            ahi = t - (t - a)
+            alo = a - ahi
+            t = 134217729.0 * b
+            bhi = t - (t - b)
+            blo = b - bhi
+            l1 = alo * blo - (((h1 - ahi * bhi) - alo * bhi) - ahi * blo)
+            h2 = c * d
+            t = 134217729.0 * c
+            chi = t - (t - c)
+            clo = c - chi
+            t = 134217729.0 * d
+            dhi = t - (t - d)
+            dlo = d - dhi
+            l2 = clo * dlo - (((h2 - chi * dhi) - clo * dhi) - chi * dlo)
+            s = h1 - h2
+            bv = s - h1
+            e = (h1 - (s - bv)) + (-h2 - bv)
+            lead[i] = s * sign[i]
+            small += (e + l1 - l2) * sign[i]
+    return lead, small
 
 
 def _rolled(a: np.ndarray, offsets: np.ndarray, step: int) -> np.ndarray:
@@ -1243,14 +1311,10 @@ def _area(P: np.ndarray, offsets: np.ndarray, sign: np.ndarray) -> float:
     """
     x = _exact_shift(P[:, 0])
     y = _exact_shift(P[:, 1])
-    h1, l1 = _two_product(x, _rolled(y, offsets, 1))
-    h2, l2 = _two_product(_rolled(x, offsets, 1), y)
-    d = h1 - h2
-    bv = d - h1
-    e = (h1 - (d - bv)) + (-h2 - bv)
-    lead = (d * sign).tolist()
-    lead.append(float(((e + l1 - l2) * sign).sum()))
-    return 0.5 * math.fsum(lead)
+    lead, small = _shoelace_terms(x, y, offsets, sign)
+    terms = lead.tolist()
+    terms.append(small)
+    return 0.5 * math.fsum(terms)
 
 
 def _lexmin_index(P, ring_of, offsets) -> np.ndarray:

@@ -41,7 +41,7 @@ from distributed.client import FutureCancelledError
 from distributed.scheduler import KilledWorker
 
 from service.executors import Task
-from service.executors.child import Stopped, run_in_subprocess
+from service.executors.child import Stopped, run_in_subprocess, spawned_spares
 from service.problems import problem_document
 from service.runner import JobFailed
 
@@ -84,7 +84,7 @@ def run_on_worker(task: Task, memory_limit: int) -> dict[str, bytes]:
         worker.log_event(topic, {"kind": "progress", "fraction": fraction, "message": message})
 
     try:
-        return run_in_subprocess(task, memory_limit, progress, should_stop)
+        return run_in_subprocess(task, memory_limit, progress, should_stop, spares=spawned_spares())
     except Stopped:
         cancel.clear()  # acted upon: the scheduler may forget it
         raise JobFailed(
