@@ -26,6 +26,11 @@ those of the local executor.
   counts as a new attempt of the job.
 - **Restarts of the API.** Runs left over from before are told to stop
   (:meth:`DaskExecutor.forget`) before their jobs are queued again.
+- **Spare runners.** A fresh interpreter's imports take 1-2 s; each worker
+  keeps one job process started ahead, done with its imports and waiting
+  for a job (:func:`service.executors.child.spawned_spares`). The API
+  registers :class:`SpareRunners`, a worker plugin, so that every worker,
+  stock ones included and those joining later, starts its spare at once.
 
 """
 
@@ -38,6 +43,7 @@ from collections.abc import Callable
 
 from distributed import Client, Event, get_worker
 from distributed.client import FutureCancelledError
+from distributed.diagnostics.plugin import WorkerPlugin
 from distributed.scheduler import KilledWorker
 
 from service.executors import Task
@@ -92,6 +98,16 @@ def run_on_worker(task: Task, memory_limit: int) -> dict[str, bytes]:
         ) from None
 
 
+class SpareRunners(WorkerPlugin):
+    """Worker plugin: start the worker's spare job process as soon as it has the plugin."""
+
+    name = "meshservice-spare-runners"
+    idempotent = True  # an API restart does not set the workers up again
+
+    def setup(self, worker) -> None:
+        spawned_spares().fill()
+
+
 class DaskExecutor:
     """Jobs on the workers of a ``dask.distributed`` scheduler."""
 
@@ -106,6 +122,7 @@ class DaskExecutor:
         self._client = await Client(
             self.address, asynchronous=True, name="meshservice-api", timeout=30
         )
+        await self._client.register_plugin(SpareRunners())
 
     async def close(self) -> None:
         if self._client is not None:
