@@ -20,6 +20,17 @@ vertex 3 of ring 0); :meth:`DomainIn.to_domain` runs
 duplicates, ...) and locates its errors the same way, relative to the
 params object. See DESIGN.md "Domain input (2D)" and the module
 documentation of :mod:`meshcore.domain.planar` for what is accepted.
+
+After validation ``DomainIn.coordinates`` holds numpy arrays: a Polygon's
+rings as ``(k, 2)`` float64 arrays, a MultiPolygon's polygons as lists of
+them (plain JSON again when dumped; a big body's rings come straight from
+its bytes, see :mod:`service.bodies`). :meth:`DomainIn.to_domain` keeps
+what it built, so the checks run once per model, and the job gets the
+domain the submit validated: the submit dumps the params with a marker in
+place of each domain's coordinates and :func:`pack` stores the arrays and
+the validated :class:`~meshcore.domain.planar.Domain` beside them
+(``params.npz``); the job's :func:`unpack` hands both back to the model.
+A restarted or distributed job reads the same two files.
 """
 
 from __future__ import annotations
@@ -133,12 +144,6 @@ class DomainIn(BaseModel):
     fewer than 3 distinct points, non-finite numbers, duplicate consecutive
     points, self-intersecting or mutually intersecting rings, holes outside
     their outer ring, overlapping polygons (DESIGN.md "Domain input (2D)").
-
-    After validation ``coordinates`` holds numpy arrays: a Polygon's rings as
-    ``(k, 2)`` float64 arrays, a MultiPolygon's polygons as lists of them
-    (plain JSON again when dumped). :meth:`to_domain` keeps what it built,
-    so the checks run once per model; the job gets the domain the submit
-    validated through :func:`pack` and :func:`unpack`.
     """
 
     model_config = ConfigDict(
