@@ -1153,14 +1153,13 @@ def _check_ring_points(pts, ring_of, offsets, lengths, prv, nxt, names: _Names) 
     """Distinct points, consecutive duplicates, collinear rings, spikes."""
     n_rings = len(lengths)
     starts = offsets[:-1]
-    x, y = pts[:, 0], pts[:, 1]
-    before = _rolled(pts, offsets, -1)
-    same_prev = (x == before[:, 0]) & (y == before[:, 1])
+    turn, same_prev, ccount, turning = _ring_turns(pts, _power_of_two_scale(pts), offsets)
     keep = ~same_prev
-    ccount = np.bincount(ring_of[keep], minlength=n_rings)
     distinct = np.maximum(ccount, 1)
-    # Without consecutive repeats, 2 distinct points must alternate a, b, a, b.
-    if (ccount >= 3).any():
+    # Every consecutive triple collinear (and no repeats): the whole ring is on a line.
+    flat = turning == 0
+    # Without consecutive repeats, 2 distinct points must alternate a, b, a, b (a flat ring).
+    if (flat & (ccount >= 3)).any():
         cp = pts[keep]
         cr = ring_of[keep]
         coff = np.concatenate([[0], np.cumsum(ccount)])
@@ -1188,9 +1187,6 @@ def _check_ring_points(pts, ring_of, offsets, lengths, prv, nxt, names: _Names) 
             loc=names.vertex_loc(k, v),
             code="duplicate_point",
         )
-    turn = _ring_turns(pts * _power_of_two_scale(pts), offsets)
-    # Every consecutive triple collinear (and no repeats): the whole ring is on a line.
-    flat = np.bincount(ring_of[turn != 0], minlength=n_rings) == 0
     for k in np.flatnonzero(flat):
         raise InputError(
             f"{names.ring(k)} has zero area: all its vertices are collinear",
@@ -1221,20 +1217,46 @@ def _check_ring_points(pts, ring_of, offsets, lengths, prv, nxt, names: _Names) 
 
 
 @njit(cache=True)
-def _ring_turns(P, offsets):
-    """(n,) int8: the exact turn (orient2d sign) of each ring at each of its vertices.
+def _ring_turns(pts, scale, offsets):
+    """Per ring vertex and per ring, in one compiled pass (turns on ``pts * scale``).
 
-    One compiled pass of :func:`~meshcore.geometry.predicates.orient2d_scalar`
-    over (previous, vertex, next) within each ring.
+    Returns
+    -------
+    turn : (n,) int8
+        The exact turn (sign of :func:`~meshcore.geometry.predicates.orient2d_scalar`)
+        of (previous, vertex, next) within the ring.
+    same_prev : (n,) bool
+        The vertex equals the previous one (cyclically).
+    kept, turning : (R,) int64
+        Per ring, the vertices not equal to their previous one, and those
+        with a non-zero turn.
     """
-    turn = np.empty(len(P), dtype=np.int8)
+    n = len(pts)
+    turn = np.empty(n, dtype=np.int8)
+    same_prev = np.empty(n, dtype=np.bool_)
+    kept = np.zeros(len(offsets) - 1, dtype=np.int64)
+    turning = np.zeros(len(offsets) - 1, dtype=np.int64)
     for k in range(len(offsets) - 1):
         lo, hi = offsets[k], offsets[k + 1]
         for i in range(lo, hi):
             a = i - 1 if i > lo else hi - 1
             c = i + 1 if i < hi - 1 else lo
-            turn[i] = orient2d_scalar(P[a, 0], P[a, 1], P[i, 0], P[i, 1], P[c, 0], P[c, 1])
-    return turn
+            t = orient2d_scalar(
+                pts[a, 0] * scale,
+                pts[a, 1] * scale,
+                pts[i, 0] * scale,
+                pts[i, 1] * scale,
+                pts[c, 0] * scale,
+                pts[c, 1] * scale,
+            )
+            turn[i] = t
+            same = pts[a, 0] == pts[i, 0] and pts[a, 1] == pts[i, 1]
+            same_prev[i] = same
+            if not same:
+                kept[k] += 1
+            if t != 0:
+                turning[k] += 1
+    return turn, same_prev, kept, turning
 
 
 @njit(cache=True)
