@@ -587,7 +587,7 @@ def _grid_cells(x0, y0, x1, y1, ox, oy, h, pad, nx, ny, key, seg, fill):
 
 
 def _grid_entries(p0: np.ndarray, p1: np.ndarray):
-    """Segments entered in the cells of a uniform grid, grouped by cell.
+    """Segments entered in the cells of a uniform grid, sorted by cell.
 
     Parameters
     ----------
@@ -597,9 +597,7 @@ def _grid_entries(p0: np.ndarray, p1: np.ndarray):
     Returns
     -------
     key, seg : (e,) int64
-        Cell key and segment of each entry, grouped by :func:`_bucket_sort`.
-    starts : (b + 1,) int64
-        Where each bucket of entries starts.
+        Cell key and segment of each entry, sorted by key.
     grid : tuple
         ``(decodable, ny, ox, oy, h, short)``: whether ``key = cx * ny + cy``
         (else keys are hashed cell numbers), the grid's origin and cell size,
@@ -637,46 +635,17 @@ def _grid_entries(p0: np.ndarray, p1: np.ndarray):
     key = np.empty(total, dtype=np.int64)
     seg = np.empty(total, dtype=np.int64)
     _grid_cells(x0, y0, x1, y1, ox, oy, h, pad, nx, ny, key, seg, True)
-    # A cell number too wide for int64 wrapped around in _grid_cells: that can only
-    # merge cells (extra candidates, removed by the box test), but it is not decodable.
-    decodable = nx * ny < (1 << 62)
-    key, seg, starts = _bucket_sort(key, seg)
-    return key, seg, starts, (decodable, ny, ox, oy, h, short)
-
-
-@njit(cache=True)
-def _bucket_sort(key, seg):
-    """Entries grouped by a hash of their cell (a counting sort, linear time).
-
-    Returns the reordered ``key`` and ``seg`` and ``starts``, the first entry
-    of each bucket (and the end). Entries of one cell share a bucket; a
-    bucket may also hold other cells (compare ``key`` within it).
-    """
-    n = len(key)
-    shift = 64
-    size = 1
-    while size < n:
-        size *= 2
-        shift -= 1
-    count = np.zeros(size + 1, dtype=np.int64)
-    bucket = np.empty(n, dtype=np.int64)
-    for e in range(n):
-        b = np.int64((np.uint64(key[e]) * np.uint64(0x9E3779B97F4A7C15)) >> np.uint64(shift))
-        if shift == 64:
-            b = 0
-        bucket[e] = b
-        count[b + 1] += 1
-    for b in range(size):
-        count[b + 1] += count[b]
-    fill = count[:-1].copy()
-    key_out = np.empty(n, dtype=np.int64)
-    seg_out = np.empty(n, dtype=np.int64)
-    for e in range(n):
-        b = bucket[e]
-        key_out[fill[b]] = key[e]
-        seg_out[fill[b]] = seg[e]
-        fill[b] += 1
-    return key_out, seg_out, count
+    # Packing (cell, segment) into one int64 lets numpy's fast value sort order
+    # the entries; a cell number too wide to pack is hashed, which can only
+    # merge cells (extra candidates, removed by the box test).
+    bits = max(1, (s - 1).bit_length())
+    room = 63 - bits
+    decodable = nx * ny <= (1 << room)
+    if not decodable:
+        mixed = key.astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
+        key = (mixed >> np.uint64(64 - room)).astype(np.int64)
+    packed = np.sort((key << bits) | seg)
+    return packed >> bits, packed & ((1 << bits) - 1), (decodable, ny, ox, oy, h, short)
 
 
 # ---------------------------------------------------------------------------
@@ -743,11 +712,10 @@ def _classify_pair(P, ends, i, j):
 
 
 @njit(cache=True)
-def _scan_cells(key, seg, starts, P, ends, succ, short, decodable, ny, ox, oy, h, cap):
+def _scan_cells(key, seg, P, ends, succ, short, decodable, ny, ox, oy, h, cap):
     """Test every pair of segments sharing a grid cell; collect the bad ones.
 
-    A compiled loop over the pairs of entries of each bucket of
-    :func:`_bucket_sort` that share a cell (no pair arrays are built).
+    A compiled loop over the pairs of each cell (no pair arrays are built).
     A pair is skipped when its bounding boxes are disjoint (exact
     comparisons), when the segments are consecutive in a ring, or, for two
     bounding-box-entered segments, in every cell but the one holding the
@@ -758,6 +726,7 @@ def _scan_cells(key, seg, starts, P, ends, succ, short, decodable, ny, ox, oy, h
     """
     out = np.empty((cap, 4), dtype=np.int64)
     nout = 0
+    n = len(key)
     x0 = P[ends[:, 0], 0]
     x1 = P[ends[:, 1], 0]
     y0 = P[ends[:, 0], 1]
@@ -766,16 +735,16 @@ def _scan_cells(key, seg, starts, P, ends, succ, short, decodable, ny, ox, oy, h
     hix = np.maximum(x0, x1)
     loy = np.minimum(y0, y1)
     hiy = np.maximum(y0, y1)
-    for b in range(len(starts) - 1):
-        start = starts[b]
-        stop = starts[b + 1]
+    start = 0
+    while start < n:
+        stop = start + 1
+        while stop < n and key[stop] == key[start]:
+            stop += 1
         if stop - start >= 2:
+            cx = key[start] // ny
+            cy = key[start] % ny
             for p in range(start, stop - 1):
-                cx = key[p] // ny
-                cy = key[p] % ny
                 for q in range(p + 1, stop):
-                    if key[q] != key[p]:
-                        continue
                     i = min(seg[p], seg[q])
                     j = max(seg[p], seg[q])
                     if i == j:
@@ -798,6 +767,7 @@ def _scan_cells(key, seg, starts, P, ends, succ, short, decodable, ny, ox, oy, h
                         nout += 1
                         if nout == cap:
                             return out, nout, True
+        start = stop
     return out, nout, False
 
 
@@ -826,9 +796,9 @@ def _intersections(P: np.ndarray, ends: np.ndarray, succ: np.ndarray, p0, p1):
     """
     if len(ends) < 2:
         return np.zeros((0, 4), dtype=np.int64), False
-    key, seg, starts, (decodable, ny, ox, oy, h, short) = _grid_entries(p0, p1)
+    key, seg, (decodable, ny, ox, oy, h, short) = _grid_entries(p0, p1)
     out, count, capped = _scan_cells(
-        key, seg, starts, P, ends, succ, short, decodable, ny, ox, oy, h, _MAX_FOUND
+        key, seg, P, ends, succ, short, decodable, ny, ox, oy, h, _MAX_FOUND
     )
     rows = out[:count]
     if count:
