@@ -259,8 +259,17 @@ class JobManager:
                     )
                 )
             params = self.store.read_params(job_id)
+            arrays = b""
+            if self.store.arrays_path(job_id).exists():  # tens of MB: off the event loop
+                arrays = await asyncio.to_thread(self.store.read_arrays, job_id)
             task = Task(
-                job_id, attempt, spec, params, self.settings.job_time_limit, self.settings.formats
+                job_id,
+                attempt,
+                spec,
+                params,
+                self.settings.job_time_limit,
+                self.settings.formats,
+                arrays,
             )
             result = await asyncio.wait_for(
                 self.executor.run(task, self._progress(job_id), self._restarted(job_id)),

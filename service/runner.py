@@ -17,6 +17,7 @@ from pydantic import ValidationError
 
 from meshcore.errors import AlgorithmError, InputError, MeshcoreError
 from meshcore.mesh import Mesh, io
+from service.methods.domain_schema import unpack
 from service.methods.registry import MethodSpec, Progress
 from service.problems import problem_document
 
@@ -96,9 +97,17 @@ def result_files(result: dict, formats: tuple[str, ...] = ()) -> dict[str, bytes
 
 
 def run_job(
-    spec: MethodSpec, params_json: bytes, progress: Progress, formats: tuple[str, ...] = ()
+    spec: MethodSpec,
+    params_json: bytes,
+    progress: Progress,
+    formats: tuple[str, ...] = (),
+    arrays: bytes = b"",
 ) -> dict[str, bytes]:
     """Validate the params, run the method, and encode its result as :func:`result_files`.
+
+    ``arrays`` (:func:`service.methods.domain_schema.pack`) holds the
+    coordinates the params refer to and the domains the submit validated:
+    the job uses them as they are, without parsing or checking them again.
 
     Raises
     ------
@@ -107,7 +116,7 @@ def run_job(
         unexpected exception is also logged with its traceback.
     """
     try:
-        params = spec.params.model_validate_json(params_json)
+        params = spec.params.model_validate_json(params_json, context=unpack(arrays) or None)
         return result_files(spec.run(params, progress), formats)
     except (MeshcoreError, ValidationError, MemoryError) as exc:
         raise JobFailed(failure(exc, spec.name)) from None

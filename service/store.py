@@ -200,8 +200,18 @@ class Store:
     def result_path(self, job_id: str, fmt: str = "json") -> Path:
         return self.job_dir(job_id) / f"result.{fmt}"
 
+    def arrays_path(self, job_id: str) -> Path:
+        return self.job_dir(job_id) / "params.npz"
+
     def read_params(self, job_id: str) -> bytes:
         return self.params_path(job_id).read_bytes()
+
+    def read_arrays(self, job_id: str) -> bytes:
+        """The params' arrays (``domain_schema.pack``; blocking I/O); empty if it has none."""
+        try:
+            return self.arrays_path(job_id).read_bytes()
+        except FileNotFoundError:
+            return b""
 
     def write_result(self, job_id: str, data: bytes, fmt: str = "json") -> bool:
         """Write a result file atomically and record its size and SHA-256 (blocking I/O).
@@ -304,16 +314,20 @@ class Store:
         values["expired"] = bool(values["expired"])
         return Job(**values)
 
-    def write_params(self, params: bytes) -> str:
-        """Write a new job's params file (blocking I/O, run it off the event loop); its id."""
+    def write_params(self, params: bytes, arrays: bytes = b"") -> str:
+        """Write a new job's params file and its arrays if any (blocking I/O, run it off
+        the event loop); its id."""
         job_id = uuid.uuid4().hex
         try:
             self.job_dir(job_id).mkdir(parents=True)
+            if arrays:
+                write_atomically(self.arrays_path(job_id), arrays)
             write_atomically(self.params_path(job_id), params)
         except (DiskFull, OSError) as exc:
             shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
             if isinstance(exc, DiskFull) or exc.errno in _NO_SPACE:
-                raise DiskFull(f"the job's params ({len(params)} bytes) did not fit") from exc
+                size = len(params) + len(arrays)
+                raise DiskFull(f"the job's params ({size} bytes) did not fit") from exc
             raise
         return job_id
 

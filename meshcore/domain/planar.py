@@ -500,19 +500,6 @@ def _power_of_two_scale(points: np.ndarray) -> float:
     return float(np.ldexp(1.0, -int(np.frexp(big)[1])))
 
 
-def _two_product(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Dekker's exact product: a * b == hi + lo exactly (|a|, |b| < 1, no overflow)."""
-    hi = a * b
-    c = 134217729.0 * a
-    ahi = c - (c - a)
-    alo = a - ahi
-    c = 134217729.0 * b
-    bhi = c - (c - b)
-    blo = b - bhi
-    lo = alo * blo - (((hi - ahi * bhi) - alo * bhi) - ahi * blo)
-    return hi, lo
-
-
 # ---------------------------------------------------------------------------
 # Candidate pairs: uniform grid over segment bounding boxes
 # ---------------------------------------------------------------------------
@@ -1136,14 +1123,13 @@ def _check_ring_points(pts, ring_of, offsets, lengths, prv, nxt, names: _Names) 
     """Distinct points, consecutive duplicates, collinear rings, spikes."""
     n_rings = len(lengths)
     starts = offsets[:-1]
-    x, y = pts[:, 0], pts[:, 1]
-    before = _rolled(pts, offsets, -1)
-    same_prev = (x == before[:, 0]) & (y == before[:, 1])
+    turn, same_prev, ccount, turning = _ring_turns(pts, _power_of_two_scale(pts), offsets)
     keep = ~same_prev
-    ccount = np.bincount(ring_of[keep], minlength=n_rings)
     distinct = np.maximum(ccount, 1)
-    # Without consecutive repeats, 2 distinct points must alternate a, b, a, b.
-    if (ccount >= 3).any():
+    # Every consecutive triple collinear (and no repeats): the whole ring is on a line.
+    flat = turning == 0
+    # Without consecutive repeats, 2 distinct points must alternate a, b, a, b (a flat ring).
+    if (flat & (ccount >= 3)).any():
         cp = pts[keep]
         cr = ring_of[keep]
         coff = np.concatenate([[0], np.cumsum(ccount)])
@@ -1171,10 +1157,6 @@ def _check_ring_points(pts, ring_of, offsets, lengths, prv, nxt, names: _Names) 
             loc=names.vertex_loc(k, v),
             code="duplicate_point",
         )
-    P = pts * _power_of_two_scale(pts)
-    turn = orient2d(_rolled(P, offsets, -1), P, _rolled(P, offsets, 1))
-    # Every consecutive triple collinear (and no repeats): the whole ring is on a line.
-    flat = np.bincount(ring_of[turn != 0], minlength=n_rings) == 0
     for k in np.flatnonzero(flat):
         raise InputError(
             f"{names.ring(k)} has zero area: all its vertices are collinear",
@@ -1202,6 +1184,84 @@ def _check_ring_points(pts, ring_of, offsets, lengths, prv, nxt, names: _Names) 
                 loc=names.vertex_loc(k, v),
                 code="self_intersection",
             )
+
+
+@njit(cache=True)
+def _ring_turns(pts, scale, offsets):
+    """Per ring vertex and per ring, in one compiled pass (turns on ``pts * scale``).
+
+    Returns
+    -------
+    turn : (n,) int8
+        The exact turn (sign of :func:`~meshcore.geometry.predicates.orient2d_scalar`)
+        of (previous, vertex, next) within the ring.
+    same_prev : (n,) bool
+        The vertex equals the previous one (cyclically).
+    kept, turning : (R,) int64
+        Per ring, the vertices not equal to their previous one, and those
+        with a non-zero turn.
+    """
+    n = len(pts)
+    turn = np.empty(n, dtype=np.int8)
+    same_prev = np.empty(n, dtype=np.bool_)
+    kept = np.zeros(len(offsets) - 1, dtype=np.int64)
+    turning = np.zeros(len(offsets) - 1, dtype=np.int64)
+    for k in range(len(offsets) - 1):
+        lo, hi = offsets[k], offsets[k + 1]
+        for i in range(lo, hi):
+            a = i - 1 if i > lo else hi - 1
+            c = i + 1 if i < hi - 1 else lo
+            t = orient2d_scalar(
+                pts[a, 0] * scale,
+                pts[a, 1] * scale,
+                pts[i, 0] * scale,
+                pts[i, 1] * scale,
+                pts[c, 0] * scale,
+                pts[c, 1] * scale,
+            )
+            turn[i] = t
+            same = pts[a, 0] == pts[i, 0] and pts[a, 1] == pts[i, 1]
+            same_prev[i] = same
+            if not same:
+                kept[k] += 1
+            if t != 0:
+                turning[k] += 1
+    return turn, same_prev, kept, turning
+
+
+@njit(cache=True)
+def _shoelace_terms(x, y, offsets, sign):
+    """The rounded leading terms ``x_i y_{i+1} - x_{i+1} y_i`` (times ``sign``) and the
+    sum of their exact remainders (Dekker products, two-sum), in one compiled pass."""
+    lead = np.empty(len(x))
+    small = 0.0
+    for k in range(len(offsets) - 1):
+        lo, hi = offsets[k], offsets[k + 1]
+        for i in range(lo, hi):
+            j = i + 1 if i < hi - 1 else lo
+            a, b, c, d = x[i], y[j], x[j], y[i]
+            h1 = a * b
+            t = 134217729.0 * a
+            ahi = t - (t - a)
+            alo = a - ahi
+            t = 134217729.0 * b
+            bhi = t - (t - b)
+            blo = b - bhi
+            l1 = alo * blo - (((h1 - ahi * bhi) - alo * bhi) - ahi * blo)
+            h2 = c * d
+            t = 134217729.0 * c
+            chi = t - (t - c)
+            clo = c - chi
+            t = 134217729.0 * d
+            dhi = t - (t - d)
+            dlo = d - dhi
+            l2 = clo * dlo - (((h2 - chi * dhi) - clo * dhi) - chi * dlo)
+            s = h1 - h2
+            bv = s - h1
+            e = (h1 - (s - bv)) + (-h2 - bv)
+            lead[i] = s * sign[i]
+            small += (e + l1 - l2) * sign[i]
+    return lead, small
 
 
 def _rolled(a: np.ndarray, offsets: np.ndarray, step: int) -> np.ndarray:
@@ -1243,14 +1303,10 @@ def _area(P: np.ndarray, offsets: np.ndarray, sign: np.ndarray) -> float:
     """
     x = _exact_shift(P[:, 0])
     y = _exact_shift(P[:, 1])
-    h1, l1 = _two_product(x, _rolled(y, offsets, 1))
-    h2, l2 = _two_product(_rolled(x, offsets, 1), y)
-    d = h1 - h2
-    bv = d - h1
-    e = (h1 - (d - bv)) + (-h2 - bv)
-    lead = (d * sign).tolist()
-    lead.append(float(((e + l1 - l2) * sign).sum()))
-    return 0.5 * math.fsum(lead)
+    lead, small = _shoelace_terms(x, y, offsets, sign)
+    terms = lead.tolist()
+    terms.append(small)
+    return 0.5 * math.fsum(terms)
 
 
 def _lexmin_index(P, ring_of, offsets) -> np.ndarray:

@@ -32,6 +32,7 @@ class Task:
     params: bytes
     time_limit: float
     formats: tuple[str, ...] = ()  # downloads the job writes itself (MESHSERVICE_JOB_FORMATS)
+    arrays: bytes = b""  # the params' arrays and validated domains (domain_schema.pack)
 
 
 class Executor(Protocol):

@@ -14,10 +14,17 @@ turns true (cancellation, time limit, shutdown) and raises :class:`Stopped`.
 :func:`run_in_subprocess` does the same with a process started by
 ``subprocess`` (:mod:`service.executors.spawned`), for daemonic hosts such
 as a stock Dask worker, where ``multiprocessing`` may not start children.
+
+Both keep spare processes (:class:`Spares`): a job's process is started
+before its job arrives and waits for it on a pipe, so a job does not wait
+for a fork (about 10 ms from the fork server) or for a fresh interpreter's
+imports (1-2 s); a new spare is started in the background as each one is
+taken. Every job still gets a process of its own, used once.
 """
 
 from __future__ import annotations
 
+import atexit
 import ctypes
 import logging
 import multiprocessing
@@ -29,10 +36,14 @@ import signal
 import struct
 import subprocess
 import sys
+import threading
 import time
+from collections import deque
 from collections.abc import Callable
+from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from pathlib import Path
+from typing import Any
 
 from service.executors import Task
 from service.problems import problem_document
@@ -79,7 +90,7 @@ def warm_up(ctx: multiprocessing.context.BaseContext) -> None:
     proc.join()
 
 
-def _die_with_parent() -> None:
+def die_with_parent() -> None:
     """Ask Linux to SIGKILL this process when its parent (the fork server) exits."""
     if _LIBC is not None:
         _LIBC.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
@@ -87,7 +98,7 @@ def _die_with_parent() -> None:
 
 def job_body(task: Task, memory_limit: int, send: Callable[[tuple], None]) -> None:
     """Body of a job's process (forked or spawned): limits, run, send the outcome, exit."""
-    _die_with_parent()
+    die_with_parent()
     resource.setrlimit(resource.RLIMIT_AS, (memory_limit, memory_limit))
     cpu = int(task.time_limit) + 5
     resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 5))
@@ -101,14 +112,128 @@ def job_body(task: Task, memory_limit: int, send: Callable[[tuple], None]) -> No
             send(("progress", min(max(float(fraction), 0.0), 1.0), str(message)[:200]))
 
     try:
-        send(("ok", run_job(task.spec, task.params, progress, task.formats)))
+        send(("ok", run_job(task.spec, task.params, progress, task.formats, task.arrays)))
     except JobFailed as exc:
         send(("error", exc.problem))
     os._exit(0)  # the answer is sent: skip interpreter teardown
 
 
-def _child(task: Task, conn: Connection, memory_limit: int) -> None:
-    job_body(task, memory_limit, conn.send)
+class Spares:
+    """Processes started ahead of their jobs: at most ``size`` wait, one thread refills.
+
+    ``start()`` makes one (blocking), ``alive(p)`` says whether it still
+    waits, ``discard(p)`` ends one. The refill thread lives as long as the
+    process: a job's process asks Linux to die with the thread that started
+    it (``PR_SET_PDEATHSIG``), so that thread must not end before it.
+    """
+
+    def __init__(
+        self,
+        start: Callable[[], Any],
+        alive: Callable[[Any], bool],
+        discard: Callable[[Any], None],
+        size: int,
+    ) -> None:
+        self._start, self._alive, self._discard, self.size = start, alive, discard, size
+        self._ready: deque = deque()
+        self._lock = threading.Lock()
+        self._wanted = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._closed = False
+
+    def fill(self) -> None:
+        """Start the refill thread (once) and have it top the spares up."""
+        with self._lock:
+            if self._closed:
+                return
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._refill, name="spares", daemon=True)
+                self._thread.start()
+        self._wanted.set()
+
+    def take(self) -> Any | None:
+        """A waiting process, or None when none is ready (the caller starts its own)."""
+        spare = None
+        with self._lock:
+            while self._ready:
+                candidate = self._ready.popleft()
+                if self._alive(candidate):
+                    spare = candidate
+                    break
+                self._discard(candidate)
+        self.fill()
+        return spare
+
+    def close(self) -> None:
+        """End the waiting processes; no more are started."""
+        with self._lock:
+            self._closed = True
+            waiting, self._ready = list(self._ready), deque()
+        for spare in waiting:
+            self._discard(spare)
+        self._wanted.set()
+
+    def _refill(self) -> None:
+        while not self._closed:
+            self._wanted.wait()
+            self._wanted.clear()
+            while True:
+                with self._lock:
+                    if self._closed or len(self._ready) >= self.size:
+                        break
+                try:
+                    spare = self._start()
+                except Exception:  # e.g. out of processes: jobs then start their own
+                    log.exception("could not start a spare job process")
+                    break
+                with self._lock:
+                    if not self._closed:
+                        self._ready.append(spare)
+                        continue
+                self._discard(spare)
+
+
+@dataclass
+class _Forked:
+    """A forked job process waiting for its task on ``tasks``; it answers on ``answers``."""
+
+    proc: multiprocessing.process.BaseProcess
+    tasks: Connection
+    answers: Connection
+
+
+def _waiting_child(tasks: Connection, answers: Connection) -> None:
+    die_with_parent()
+    try:
+        task, memory_limit = tasks.recv()
+    except EOFError:  # never given a job (the service stopped)
+        os._exit(0)
+    tasks.close()
+    job_body(task, memory_limit, answers.send)
+
+
+def _fork(ctx: multiprocessing.context.BaseContext) -> _Forked:
+    tasks_r, tasks_w = ctx.Pipe(duplex=False)
+    answers_r, answers_w = ctx.Pipe(duplex=False)
+    proc = ctx.Process(target=_waiting_child, args=(tasks_r, answers_w), name="job", daemon=True)
+    proc.start()
+    tasks_r.close()
+    answers_w.close()
+    return _Forked(proc, tasks_w, answers_r)
+
+
+def _end_forked(spare: _Forked) -> None:
+    spare.tasks.close()  # it exits on EOF
+    spare.proc.join(1)
+    if spare.proc.is_alive():
+        spare.proc.kill()
+        spare.proc.join(5)
+    spare.answers.close()
+
+
+def forked_spares(ctx: multiprocessing.context.BaseContext, size: int) -> Spares:
+    """Spare job processes forked from ``ctx``'s fork server, for :func:`run_in_child`."""
+    return Spares(lambda: _fork(ctx), lambda s: s.proc.is_alive(), _end_forked, size)
 
 
 def death_problem(exitcode: int | None) -> dict:
@@ -136,11 +261,13 @@ def run_in_child(
     progress: Callable[[float, str], None],
     should_stop: Callable[[], bool],
     poll: float = 0.1,
+    spares: Spares | None = None,
 ) -> dict[str, bytes]:
     """Run ``task`` in a new child process and return its result files.
 
-    Blocks until the child answers or dies; checks ``should_stop`` every
-    ``poll`` seconds while waiting.
+    The child is a spare of ``spares`` when one waits (:func:`forked_spares`),
+    else forked now. Blocks until the child answers or dies; checks
+    ``should_stop`` every ``poll`` seconds while waiting.
 
     Raises
     ------
@@ -149,11 +276,13 @@ def run_in_child(
     Stopped
         ``should_stop()`` turned true; the child has been killed.
     """
-    receiver, sender = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=_child, args=(task, sender, memory_limit), name=f"job-{task.job_id}")
-    proc.daemon = True
-    proc.start()
-    sender.close()
+    child = (spares.take() if spares is not None else None) or _fork(ctx)
+    proc, receiver = child.proc, child.answers
+    try:
+        child.tasks.send((task, memory_limit))
+    except OSError:
+        pass  # it died meanwhile: its exit code says why, below
+    child.tasks.close()
     try:
         # Sequential by nature: one blocking reader per job's pipe.
         while True:
@@ -203,19 +332,60 @@ def _frames(proc: subprocess.Popen, poll: float, should_stop: Callable[[], bool]
             del buffer[: 8 + size]
 
 
+def _spawn() -> subprocess.Popen:
+    import service
+
+    root = str(Path(service.__file__).resolve().parents[1])  # the same code as this process
+    path = os.environ.get("PYTHONPATH")
+    env = {**os.environ, "PYTHONPATH": root + (os.pathsep + path if path else "")}
+    return subprocess.Popen(
+        [sys.executable, "-m", "service.executors.spawned"],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        env=env,
+    )
+
+
+def _end_spawned(proc: subprocess.Popen) -> None:
+    proc.stdin.close()  # it exits on EOF
+    try:
+        proc.wait(1)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(5)
+    proc.stdout.close()
+
+
+_SPAWNED: Spares | None = None
+_SPAWNED_LOCK = threading.Lock()
+
+
+def spawned_spares() -> Spares:
+    """This process's spare interpreters for :func:`run_in_subprocess` (one, made on first use)."""
+    global _SPAWNED
+    with _SPAWNED_LOCK:
+        if _SPAWNED is None:
+            _SPAWNED = Spares(_spawn, lambda p: p.poll() is None, _end_spawned, 1)
+            atexit.register(_SPAWNED.close)
+        return _SPAWNED
+
+
 def run_in_subprocess(
     task: Task,
     memory_limit: int,
     progress: Callable[[float, str], None],
     should_stop: Callable[[], bool],
     poll: float = 0.1,
+    spares: Spares | None = None,
 ) -> dict[str, bytes]:
     """:func:`run_in_child`, but the job's process is a new interpreter started by ``subprocess``.
 
     For hosts where ``multiprocessing`` may not start children (daemonic
-    processes such as a stock Dask worker). The job pays the interpreter's
-    start and its imports (about a second, kernels from numba's disk cache);
-    limits, death with the parent and kill on ``should_stop`` are the same.
+    processes such as a stock Dask worker). A fresh interpreter pays its
+    start and imports (1-2 s): the job takes a spare of ``spares``
+    (:func:`spawned_spares`) that has done them while waiting, when one is
+    ready. Limits, death with the parent and kill on ``should_stop`` are the
+    same.
 
     Raises
     ------
@@ -224,17 +394,7 @@ def run_in_subprocess(
     Stopped
         ``should_stop()`` turned true; the process has been killed.
     """
-    import service
-
-    root = str(Path(service.__file__).resolve().parents[1])  # the same code as this process
-    path = os.environ.get("PYTHONPATH")
-    env = {**os.environ, "PYTHONPATH": root + (os.pathsep + path if path else "")}
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "service.executors.spawned"],
-        stdin=subprocess.PIPE,
-        stdout=subprocess.PIPE,
-        env=env,
-    )
+    proc = (spares.take() if spares is not None else None) or _spawn()
     try:
         proc.stdin.write(pickle.dumps((task, memory_limit), protocol=pickle.HIGHEST_PROTOCOL))
         proc.stdin.close()

@@ -26,6 +26,11 @@ those of the local executor.
   counts as a new attempt of the job.
 - **Restarts of the API.** Runs left over from before are told to stop
   (:meth:`DaskExecutor.forget`) before their jobs are queued again.
+- **Spare runners.** A fresh interpreter's imports take 1-2 s; each worker
+  keeps one job process started ahead, done with its imports and waiting
+  for a job (:func:`service.executors.child.spawned_spares`). The API
+  registers :class:`SpareRunners`, a worker plugin, so that every worker,
+  stock ones included and those joining later, starts its spare at once.
 
 """
 
@@ -38,10 +43,11 @@ from collections.abc import Callable
 
 from distributed import Client, Event, get_worker
 from distributed.client import FutureCancelledError
+from distributed.diagnostics.plugin import WorkerPlugin
 from distributed.scheduler import KilledWorker
 
 from service.executors import Task
-from service.executors.child import Stopped, run_in_subprocess
+from service.executors.child import Stopped, run_in_subprocess, spawned_spares
 from service.problems import problem_document
 from service.runner import JobFailed
 
@@ -84,12 +90,22 @@ def run_on_worker(task: Task, memory_limit: int) -> dict[str, bytes]:
         worker.log_event(topic, {"kind": "progress", "fraction": fraction, "message": message})
 
     try:
-        return run_in_subprocess(task, memory_limit, progress, should_stop)
+        return run_in_subprocess(task, memory_limit, progress, should_stop, spares=spawned_spares())
     except Stopped:
         cancel.clear()  # acted upon: the scheduler may forget it
         raise JobFailed(
             problem_document(409, "stopped", "The run was stopped", "cancelled or out of time")
         ) from None
+
+
+class SpareRunners(WorkerPlugin):
+    """Worker plugin: start the worker's spare job process as soon as it has the plugin."""
+
+    name = "meshservice-spare-runners"
+    idempotent = True  # an API restart does not set the workers up again
+
+    def setup(self, worker) -> None:
+        spawned_spares().fill()
 
 
 class DaskExecutor:
@@ -106,6 +122,7 @@ class DaskExecutor:
         self._client = await Client(
             self.address, asynchronous=True, name="meshservice-api", timeout=30
         )
+        await self._client.register_plugin(SpareRunners())
 
     async def close(self) -> None:
         if self._client is not None:

@@ -26,7 +26,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from service.executors import WARMUP_STATUS_ENV, Task
-from service.executors.child import context, run_in_child, warm_up
+from service.executors.child import context, forked_spares, run_in_child, warm_up
 
 log = logging.getLogger("meshservice.executor")
 
@@ -40,6 +40,7 @@ class LocalExecutor:
         self.workers = workers
         self.memory_limit = memory_limit
         self._ctx = context()
+        self._spares = forked_spares(self._ctx, workers)
         self._threads = ThreadPoolExecutor(workers, thread_name_prefix="job")
         self._stops: set[threading.Event] = set()
         self._started = False
@@ -62,6 +63,7 @@ class LocalExecutor:
             await asyncio.to_thread(warm_up, self._ctx)
         except Exception:  # jobs then fail one by one with their own reason
             log.exception("the fork server failed to warm up")
+        self._spares.fill()
         self._started = True
         log.info("executor ready: %d workers", self.workers)
 
@@ -72,6 +74,7 @@ class LocalExecutor:
         for stop in list(self._stops):
             stop.set()
         await asyncio.to_thread(self._threads.shutdown, wait=True)
+        await asyncio.to_thread(self._spares.close)
         shutil.rmtree(self._status_dir, ignore_errors=True)
 
     def ready(self) -> bool:
@@ -118,6 +121,8 @@ class LocalExecutor:
             self.memory_limit,
             report,
             stop.is_set,
+            0.1,
+            self._spares,
         )
         try:
             return await asyncio.shield(done)

@@ -2,9 +2,10 @@
 
 :func:`service.executors.child.run_in_subprocess` starts it where
 ``multiprocessing`` may not start children (a stock Dask worker is a
-daemonic process): it reads one pickled ``(task, memory_limit)`` from
-stdin, sets the same limits as a forked job (address space, CPU time, death
-with its parent), runs :func:`service.runner.run_job` and writes its
+daemonic process): it imports every method first (it may wait as a spare
+meanwhile), then reads one pickled ``(task, memory_limit)`` from stdin
+(none, at end of file: it exits), sets the same limits as a forked job
+(address space, CPU time, death with its parent), runs :func:`service.runner.run_job` and writes its
 messages to stdout as length-prefixed pickles: ``("progress", fraction,
 message)`` any number of times, then ``("ok", files)`` or ``("error",
 problem)``. The job's own prints go to stderr, so they cannot corrupt the
@@ -22,9 +23,14 @@ import sys
 def main() -> None:
     out = os.fdopen(os.dup(sys.stdout.fileno()), "wb", buffering=0)
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())  # stray prints go to stderr
-    task, memory_limit = pickle.loads(sys.stdin.buffer.read())
+    from service.executors.child import die_with_parent, job_body
+    from service.methods import registry  # noqa: F401  (every method, before the job comes)
 
-    from service.executors.child import job_body
+    die_with_parent()
+    data = sys.stdin.buffer.read()
+    if not data:
+        os._exit(0)
+    task, memory_limit = pickle.loads(data)
 
     def send(message: tuple) -> None:
         data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)

@@ -20,24 +20,59 @@ vertex 3 of ring 0); :meth:`DomainIn.to_domain` runs
 duplicates, ...) and locates its errors the same way, relative to the
 params object. See DESIGN.md "Domain input (2D)" and the module
 documentation of :mod:`meshcore.domain.planar` for what is accepted.
+
+After validation ``DomainIn.coordinates`` holds numpy arrays: a Polygon's
+rings as ``(k, 2)`` float64 arrays, a MultiPolygon's polygons as lists of
+them (plain JSON again when dumped; a big body's rings come straight from
+its bytes, see :mod:`service.bodies`). :meth:`DomainIn.to_domain` keeps
+what it built, so the checks run once per model, and the job gets the
+domain the submit validated: the submit dumps the params with a marker in
+place of each domain's coordinates and :func:`pack` stores the arrays and
+the validated :class:`~meshcore.domain.planar.Domain` beside them
+(``params.npz``); the job's :func:`unpack` hands both back to the model.
+A restarted or distributed job reads the same two files.
 """
 
 from __future__ import annotations
 
+import hashlib
+import io
+import json
 from typing import Annotated, Any, Literal
 
+import numpy as np
 from pydantic import (
     BaseModel,
     ConfigDict,
     Field,
+    PrivateAttr,
+    SerializationInfo,
     TypeAdapter,
     ValidationInfo,
     WithJsonSchema,
+    field_serializer,
     field_validator,
+    model_validator,
 )
 
 from meshcore.domain.planar import Domain, parse_domain
 from meshcore.errors import InputError
+from service.bodies import MARKER
+
+#: Validation context keys: coordinate arrays by marker (service.bodies, unpack) and the
+#: domains validated at submit by marker; serialization context key collecting the
+#: DomainIn models to pack, by the marker written in their place.
+ARRAYS, DOMAINS, PACK = "coordinate_arrays", "validated_domains", "pack_domains"
+_DOMAIN_ARRAYS = (
+    "points",
+    "ring_offsets",
+    "ring_polygon",
+    "ring_is_hole",
+    "ring_reversed",
+    "segments",
+    "constraints",
+    "constraint_source",
+)
 
 # Strict: JSON numbers only (true and "1" are not coordinates); NaN and infinities refused.
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False, strict=True)]
@@ -121,6 +156,17 @@ class DomainIn(BaseModel):
     bbox: list[FiniteFloat] | None = Field(
         default=None, description="GeoJSON bounding box; accepted and ignored."
     )
+    _domains: dict[str, Domain] = PrivateAttr(default_factory=dict)
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _validated_before(cls, value: Any, handler: Any, info: ValidationInfo) -> Any:
+        # A job's params: the domains the submit validated come with the arrays (unpack).
+        model = handler(value)
+        marker = value.get("coordinates") if isinstance(value, dict) else None
+        if isinstance(marker, str):
+            model._domains.update((info.context or {}).get(DOMAINS, {}).get(marker, {}))
+        return model
 
     @field_validator("coordinates", mode="wrap")
     @classmethod
@@ -128,16 +174,41 @@ class DomainIn(BaseModel):
         # Validate at the depth the type asks for, so that errors carry the exact
         # path (["coordinates", ring, vertex, axis]) rather than a union's branches.
         gtype = info.data.get("type")
+        arrays = (info.context or {}).get(ARRAYS, {})
+        if isinstance(value, str) and value in arrays:  # parsed from the bytes (service.bodies)
+            value = arrays[value]
+            if (gtype == "Polygon") == isinstance(value[0], np.ndarray):
+                return value
+            value = _lists(value)  # the other depth: the ordinary path says where
         if gtype == "Polygon":
-            return _POLYGON.validate_python(value)
+            return [_ring_array(r) for r in _POLYGON.validate_python(value)]
         if gtype == "MultiPolygon":
-            return _MULTIPOLYGON.validate_python(value)
+            polygons = _MULTIPOLYGON.validate_python(value)
+            return [[_ring_array(r) for r in poly] for poly in polygons]
         return handler(value)  # the type itself is invalid and already reported
+
+    @field_serializer("coordinates")
+    def _coordinates_out(self, value: list, info: SerializationInfo) -> Any:
+        packed = (info.context or {}).get(PACK)
+        if packed is not None:  # a job's params: arrays apart (pack), a marker here
+            marker = f"{MARKER}{len(packed)}"
+            packed[marker] = self
+            return marker
+        return _lists(value)
+
+    def rings(self) -> list[np.ndarray]:
+        """Every ring's ``(k, 2)`` positions, polygon after polygon."""
+        if self.type == "Polygon":
+            return list(self.coordinates)
+        return [ring for poly in self.coordinates for ring in poly]
+
+    def geometry(self) -> dict:
+        """The geometry as plain JSON values: ``{"type", "coordinates"}``."""
+        return {"type": self.type, "coordinates": _lists(self.coordinates)}
 
     def point_count(self) -> int:
         """Number of positions in the geometry (for ``MESHSERVICE_MAX_POINTS``)."""
-        polygons = [self.coordinates] if self.type == "Polygon" else self.coordinates
-        return sum(len(ring) for poly in polygons for ring in poly)
+        return sum(len(ring) for ring in self.rings())
 
     def to_domain(
         self,
@@ -163,9 +234,13 @@ class DomainIn(BaseModel):
             relative to the params object, e.g. ``["domain", "coordinates",
             1, 0]`` or ``["segments", 2, 5]``.
         """
+        key = _segments_key(segments)
+        known = self._domains.get(key)
+        if known is not None:
+            return known
         geometry = {"type": self.type, "coordinates": self.coordinates}
         try:
-            return parse_domain(geometry, segments)
+            domain = parse_domain(geometry, segments)
         except InputError as exc:
             errors = []
             for e in exc.errors:
@@ -176,3 +251,80 @@ class DomainIn(BaseModel):
                     path = [*loc, *path]
                 errors.append({**e, "loc": path})
             raise InputError(exc.message, code=exc.code, errors=errors) from None
+        self._domains[key] = domain
+        return domain
+
+
+def _ring_array(ring: list) -> np.ndarray:
+    return np.array(ring, dtype=np.float64).reshape(-1, 2)
+
+
+def _lists(value: Any) -> Any:
+    """Nested arrays and lists as plain lists of floats."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return [_lists(v) for v in value]
+
+
+def _segments_key(segments: list | None) -> str:
+    """Which constraints a domain was built with (the key of :meth:`DomainIn.to_domain`'s memo)."""
+    if segments is None:
+        return ""
+    return hashlib.sha256(json.dumps(segments).encode()).hexdigest()
+
+
+def pack(packed: dict[str, DomainIn]) -> bytes:
+    """The arrays of the models a params dump collected (``context={PACK: packed}``), as npz.
+
+    Holds each model's coordinates and the domains :meth:`DomainIn.to_domain`
+    built for it, so the job reads them instead of parsing and validating
+    again (:func:`unpack`). Empty bytes when there is nothing to pack.
+    """
+    if not packed:
+        return b""
+    arrays: dict[str, np.ndarray] = {}
+    index = []
+    for i, (marker, model) in enumerate(packed.items()):
+        rings = model.rings()
+        arrays[f"{i}.points"] = np.concatenate(rings) if rings else np.zeros((0, 2))
+        arrays[f"{i}.counts"] = np.array([len(r) for r in rings], dtype=np.int64)
+        sizes = [1] * len(rings) if model.type == "Polygon" else [len(p) for p in model.coordinates]
+        arrays[f"{i}.polygon_sizes"] = np.array(sizes, dtype=np.int64)
+        domains = []
+        for j, (key, dom) in enumerate(model._domains.items()):
+            for name in _DOMAIN_ARRAYS:
+                arrays[f"{i}.{j}.{name}"] = getattr(dom, name)
+            domains.append([key, dom.area, dom.diameter, dom.multi])
+        index.append({"marker": marker, "multi": model.type != "Polygon", "domains": domains})
+    arrays["index"] = np.frombuffer(json.dumps(index).encode(), np.uint8)
+    out = io.BytesIO()
+    np.savez(out, **arrays)
+    return out.getvalue()
+
+
+def unpack(data: bytes) -> dict[str, dict]:
+    """The validation context of a job's params from :func:`pack`'s bytes (``{}`` if empty)."""
+    if not data:
+        return {}
+    arrays, domains = {}, {}
+    with np.load(io.BytesIO(data)) as npz:
+        for i, entry in enumerate(json.loads(npz["index"].tobytes())):
+            points = npz[f"{i}.points"]
+            bounds = np.cumsum([0, *npz[f"{i}.counts"].tolist()])
+            rings = [points[a:b] for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+            if entry["multi"]:
+                cuts = np.cumsum([0, *npz[f"{i}.polygon_sizes"].tolist()])
+                coords: list = [rings[a:b] for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
+            else:
+                coords = rings
+            arrays[entry["marker"]] = coords
+            domains[entry["marker"]] = {
+                key: Domain(
+                    **{name: npz[f"{i}.{j}.{name}"] for name in _DOMAIN_ARRAYS},
+                    area=area,
+                    diameter=diameter,
+                    multi=multi,
+                )
+                for j, (key, area, diameter, multi) in enumerate(entry["domains"])
+            }
+    return {ARRAYS: arrays, DOMAINS: domains}

@@ -47,7 +47,7 @@ PruneField = Field(
 
 
 def _domain_geometry(domain: DomainIn) -> dict:
-    return {"type": domain.type, "coordinates": domain.coordinates}
+    return domain.geometry()
 
 
 # ---------------------------------------------------------------------------

@@ -49,7 +49,9 @@ class GatedExecutor:
     async def run(self, task: Task, progress: Callable, restarted: Callable) -> bytes:
         self.started.set()
         await self.gate.wait()
-        return await asyncio.to_thread(run_job, task.spec, task.params, lambda f, m: None)
+        return await asyncio.to_thread(
+            run_job, task.spec, task.params, lambda f, m: None, (), task.arrays
+        )
 
 
 class App:
