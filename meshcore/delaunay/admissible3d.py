@@ -117,20 +117,20 @@ from scipy.spatial import cKDTree
 
 from meshcore.delaunay.admissible import NEAR_END_FRACTION, NEAR_END_TRIGGER, NUDGE
 from meshcore.delaunay.kernel3d import delaunay3d
+from meshcore.delaunay.recovery3d import (
+    KNOBS,
+    TET_EDGES,
+    TET_FACES,
+    SurfaceRecovery,
+    edge_keys,
+    face_keys,
+    member,
+    regions,
+)
 from meshcore.domain.surface import Surface, parse_surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates3d import dot3d, orient3d
 from meshcore.mesh import CellBlock, Mesh
-from meshcore.tets.refinement import (
-    _EDGES,
-    _FACES,
-    _KNOBS,
-    _Builder,
-    _edge_keys,
-    _face_keys,
-    _member,
-    _regions,
-)
 
 __all__ = ["AdmissibleSurface", "classify_faces", "make_admissible_surface"]
 
@@ -395,7 +395,7 @@ class _State:
     coordinates in its input triangle (points inside)."""
 
     def __init__(self, surface: Surface) -> None:
-        self.b = _Builder(surface, _KNOBS)
+        self.b = SurfaceRecovery(surface, KNOBS, merge=False)
         self.P0 = self.b.P.copy()  # the surface's vertices (input coordinates)
         self.s = np.full(self.b.n, np.nan)  # parameter along the input edge
         self.added_on_edges = 0
@@ -464,7 +464,7 @@ class _State:
                 b.seg[r] = [a, v]
                 b.seg = np.concatenate([b.seg, [[v, c]]])
                 b.seg_edge = np.concatenate([b.seg_edge, [e]])
-            touched.append(b.edge_facets[edge[on]].reshape(-1))
+            touched.append(b.edge_groups[edge[on]].reshape(-1))
         b.retriangulate(np.unique(np.concatenate(touched)))
         return int(ok.sum())
 
@@ -479,7 +479,7 @@ def _subface_edges(sub: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     e = np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]])
     e.sort(axis=1)
     owner = np.tile(np.arange(len(sub)), 3)
-    _, first = np.unique(_edge_keys(e), return_index=True)
+    _, first = np.unique(edge_keys(e), return_index=True)
     return e[first], owner[first]
 
 
@@ -494,7 +494,7 @@ def _coplanar_swaps(st: _State, fk: np.ndarray) -> int:
     b = st.b
     swaps = 0
     for _ in range(4):
-        missing = np.flatnonzero(~_member(_face_keys(b.sub), fk))
+        missing = np.flatnonzero(~member(face_keys(b.sub), fk))
         if missing.size == 0:
             break
         done = False
@@ -513,7 +513,7 @@ def _coplanar_swaps(st: _State, fk: np.ndarray) -> int:
                 g = int(nb[0])
                 c = int(np.setdiff1d(b.sub[g], [p, q])[0])
                 new = np.array([[a, p, c], [a, c, q]], dtype=np.int64)
-                if not _member(_face_keys(new), fk).all():
+                if not member(face_keys(new), fk).all():
                     continue
                 uv = np.stack(
                     [(b.P[new] - origin[f]) @ e1[f], (b.P[new] - origin[f]) @ e2[f]], axis=-1
@@ -630,7 +630,7 @@ def _insert_on_edges(st: _State, E, facet, t) -> int:
     """Insert the points at parameter ``t`` of subface edges ``E``: on the input
     edge when ``E`` is a subsegment, else inside input triangle ``facet``."""
     b = st.b
-    seg_rows = _match_rows(_edge_keys(E), _edge_keys(b.seg))
+    seg_rows = _match_rows(edge_keys(E), edge_keys(b.seg))
     is_seg = seg_rows >= 0
     e = np.where(is_seg, b.seg_edge[np.maximum(seg_rows, 0)], -1)
     s0 = st.edge_param(E[:, 0], np.maximum(e, 0))
@@ -697,8 +697,8 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree) -> int:
             options.append((float(lam.min()), "face", None))
         # Edges: those M lies near or beyond (the walls between P and f), never
         # an edge of a whole strict Case 0 input face; all free edges if none.
-        edge_keys = _edge_keys(np.stack([tri, np.roll(tri, -1)], axis=1))
-        free = ~np.isin(edge_keys, st.protected)
+        own_keys = edge_keys(np.stack([tri, np.roll(tri, -1)], axis=1))
+        free = ~np.isin(own_keys, st.protected)
         near = free & (np.roll(bary, -2) < EDGE_NEAR)  # bary of the vertex opposite edge k
         for k in np.flatnonzero(near if near.any() or options else free).tolist():
             i, jj = tri[k], tri[(k + 1) % 3]
@@ -802,7 +802,7 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     cases_before = _counts(case, disc)
     F0 = b.facets[strict0]
     st.protected = np.unique(
-        _edge_keys(np.concatenate([F0[:, [0, 1]], F0[:, [1, 2]], F0[:, [2, 0]]]))
+        edge_keys(np.concatenate([F0[:, [0, 1]], F0[:, [1, 2]], F0[:, [2, 0]]]))
     )
     timings["classify"] = time.perf_counter() - t1
     t2 = time.perf_counter()
@@ -810,12 +810,12 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     swaps = 0
     for rounds in range(1, MAX_ROUNDS + 1):
         _, T = b.tets()
-        ek = np.sort(_edge_keys(T[:, _EDGES].reshape(-1, 2)))
-        fk = np.sort(_face_keys(T[:, _FACES].reshape(-1, 3)))
+        ek = np.sort(edge_keys(T[:, TET_EDGES].reshape(-1, 2)))
+        fk = np.sort(face_keys(T[:, TET_FACES].reshape(-1, 3)))
         swaps = _coplanar_swaps(st, fk)
         edges, holder = _subface_edges(b.sub)
-        missing_e = np.flatnonzero(~_member(_edge_keys(edges), ek))
-        missing_f = np.flatnonzero(~_member(_face_keys(b.sub), fk))
+        missing_e = np.flatnonzero(~member(edge_keys(edges), ek))
+        missing_f = np.flatnonzero(~member(face_keys(b.sub), fk))
         if missing_e.size == 0 and missing_f.size == 0:
             break
         if b.n - b.n_surface > cap:
@@ -845,7 +845,7 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     timings["enforcement"] = time.perf_counter() - t2
     t3 = time.perf_counter()
     slots, T = b.tets()
-    region = _regions(b, slots, T)
+    region = regions(b, slots, T)
     keep = region >= 0
     tetra, region = T[keep][:, [0, 1, 3, 2]], region[keep]
     timings["regions"] = time.perf_counter() - t3

@@ -33,7 +33,7 @@ phases and only ever grown by point insertion):
    vertex, exact), groups touching the convex hull's outside are dropped.
 4. **Delaunay refinement** (Shewchuk, "Tetrahedral mesh generation by
    Delaunay refinement", 1998), in rounds, *lazy*: the surface pieces that
-   went missing are recovered as in 2. (the eager variant, ``_Knobs.eager``,
+   went missing are recovered as in 2. (the eager variant, ``Knobs.eager``,
    also splits every subsegment and subface any vertex encroaches; measured
    on the torus it adds 4x more points); then
    the bad tetrahedra (circumradius over shortest edge above
@@ -82,7 +82,7 @@ Choices the methods text leaves open
   radius-edge 2 it took 29,867 tetrahedra and gave up 1,679 before, 61
   tetrahedra now). A facet with no point added keeps its input triangles;
   otherwise its subfaces are the 2D Delaunay triangulation of its points,
-  the pockets outside a non-convex facet dropped (:func:`_facet_triangles`).
+  the pockets outside a non-convex facet dropped (:func:`facet_triangles`).
   Triangles coplanar only up to rounding are not merged: the tetrahedron
   on their four corners is then a sliver forced by the input (``left``
   names it ``fold``).
@@ -93,7 +93,7 @@ Choices the methods text leaves open
 * Small input angles: subsegments at one input vertex are split on
   concentric shells; refinement next to input angles below 90 degrees may
   still not terminate by itself, so pieces smaller than ``protect`` times
-  their input edge are not split and the rounds are capped (``_Knobs``);
+  their input edge are not split and the rounds are capped (``Knobs``);
   the tetrahedra left bad are counted in ``given_up`` and, by cause, in
   ``left``.
 
@@ -117,73 +117,28 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
-from meshcore.delaunay.kernel2d import delaunay as delaunay2d
-from meshcore.delaunay.kernel3d import IncrementalDelaunay3d
+from meshcore.delaunay.recovery3d import (
+    KNOBS,
+    TET_EDGES,
+    TET_FACES,
+    SurfaceRecovery,
+    face_keys,
+    member,
+    recover,
+    regions,
+    tri_circumcenters,
+)
 from meshcore.domain.surface import Surface, parse_surface
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.geometry.predicates3d import dot3d, orient3d
+from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh
 
 __all__ = ["TetrahedralizationResult", "tetrahedralize", "tetra_dihedral_angles"]
 
-#: Faces of a positively oriented tetrahedron, opposite vertex i, normals outward.
-_FACES = np.array([[1, 3, 2], [0, 2, 3], [0, 3, 1], [0, 1, 2]], np.int64)
-_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]], np.int64)
 #: Smallest radius-edge bound accepted (Shewchuk's analysis needs > 2; below ~1.1 no
 #: tetrahedralization exists).
 MIN_RADIUS_EDGE = 1.1
-
-
-@dataclass(frozen=True)
-class _Knobs:
-    """Caps and factors of the refinement (not tolerances of any sign)."""
-
-    #: Recovery rounds before giving up (each splits every missing piece once).
-    recovery_rounds: int = 200
-    #: Refinement rounds (encroachment fixes and one pass over bad tetrahedra each).
-    refinement_rounds: int = 60
-    #: Sliver rounds.
-    sliver_rounds: int = 8
-    #: Degrees: a tetrahedron with two faces on the surface and a least dihedral
-    #: angle below this fills a fold of two facets coplanar up to rounding.
-    flat_fold: float = 1e-6
-    #: Random candidates per sliver, besides its circumcentre, and the radius of
-    #: the ball they are drawn from, in units of the circumradius.
-    sliver_candidates: int = 16
-    sliver_ball: float = 0.5
-    #: Circumradius bound of the size criterion, in units of ``size`` (a
-    #: regular tetrahedron of edge h has circumradius 0.61 h).
-    size_radius: float = 0.7
-    #: A vertex encroaches a subface when its distance to the circumcentre is
-    #: below this fraction of the circumradius (float: keeps co-circular
-    #: facet points, at the radius up to rounding, from counting).
-    subface_ball: float = 1.0 - 1e-9
-    #: Refinement never splits (for encroachment) a subsegment shorter than this
-    #: fraction of its input edge, or a subface whose circumradius is below it
-    #: times its facet's shortest edge (or of ``size``, if smaller): the guard
-    #: against endless cascades next to small input angles. The bad
-    #: tetrahedra whose circumcentre encroaches only such pieces are given up.
-    protect: float = 1.0 / 16.0
-    #: Split every subsegment and subface a vertex encroaches before each round
-    #: (Shewchuk's eager rule), rather than only those missing or encroached by
-    #: a candidate circumcentre (lazy).
-    eager: bool = False
-    #: Candidate points closer than this fraction of their circumradius to a
-    #: vertex or to another candidate are dropped (co-circular subfaces, co-spherical
-    #: tetrahedra give the same centre up to rounding).
-    merge: float = 1e-9
-    #: Of two subface centres of one batch closer than this fraction of the
-    #: smaller circumradius, only the one of larger radius is inserted.
-    separation: float = 0.5
-    #: Refinement stops once the mesh has this many points (the bad tetrahedra
-    #: left are counted in ``given_up``): Delaunay refinement with a radius-edge
-    #: bound of 2 can cascade next to small input angles.
-    max_points: int = 300_000
-
-
-_KNOBS = _Knobs()
 
 
 @dataclass(frozen=True, eq=False)
@@ -269,23 +224,8 @@ def _tet_circumcenters(P: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.nda
     return a + off, np.sqrt(np.einsum("ij,ij->i", off, off))
 
 
-def _tri_circumcenters(P: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Circumcentres (in the triangle's plane) and circumradii of triangles."""
-    a = P[F[:, 0]]
-    u = P[F[:, 1]] - a
-    v = P[F[:, 2]] - a
-    w = np.cross(u, v)
-    ww = np.einsum("ij,ij->i", w, w)
-    num = np.einsum("ij,ij->i", u, u)[:, None] * np.cross(v, w) + np.einsum("ij,ij->i", v, v)[
-        :, None
-    ] * np.cross(w, u)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        off = num / (2.0 * ww)[:, None]
-    return a + off, np.sqrt(np.einsum("ij,ij->i", off, off))
-
-
 def _shortest_edge(P: np.ndarray, T: np.ndarray) -> np.ndarray:
-    d = P[T[:, _EDGES[:, 0]]] - P[T[:, _EDGES[:, 1]]]
+    d = P[T[:, TET_EDGES[:, 0]]] - P[T[:, TET_EDGES[:, 1]]]
     return np.sqrt(np.einsum("ijk,ijk->ij", d, d).min(axis=1))
 
 
@@ -323,14 +263,14 @@ def tetra_dihedral_angles(points: np.ndarray, tetra: np.ndarray) -> np.ndarray:
     # Face normals (outward), opposite each vertex.
     n = []
     for i in range(4):
-        f = T[:, _FACES[i]]
+        f = T[:, TET_FACES[i]]
         a = P[f[:, 0]]
         nrm = np.cross(P[f[:, 1]] - a, P[f[:, 2]] - a)
         norm = np.linalg.norm(nrm, axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
             n.append(nrm / norm[:, None])
     out = np.empty((len(T), 6))
-    for k, (i, j) in enumerate(_EDGES.tolist()):
+    for k, (i, j) in enumerate(TET_EDGES.tolist()):
         # The edge ij is shared by the faces opposite the two other vertices.
         p, q = (x for x in range(4) if x not in (i, j))
         cos = -np.einsum("ij,ij->i", n[p], n[q])
@@ -338,91 +278,9 @@ def tetra_dihedral_angles(points: np.ndarray, tetra: np.ndarray) -> np.ndarray:
     return np.nan_to_num(out, nan=0.0)
 
 
-def _ball_pairs(X: np.ndarray, centres: np.ndarray, radii: np.ndarray):
-    """All pairs (i, j) with ``|X[i] - centres[j]| < radii[j]`` (float).
-
-    Balls are grouped by the power of two of their radius, one KD-tree per
-    group queried with the group's largest radius, so a query meets only
-    balls of comparable size.
-    """
-    z = np.zeros(0, dtype=np.int64)
-    ok = np.isfinite(radii) & (radii > 0)
-    if len(X) == 0 or not ok.any():
-        return z, z
-    level = np.full(len(radii), 0, dtype=np.int64)
-    level[ok] = np.frexp(radii[ok])[1]
-    xs, js = [], []
-    for lv in np.unique(level[ok]).tolist():  # a loop over radius scales
-        group = np.flatnonzero(ok & (level == lv))
-        tree = cKDTree(centres[group])
-        hits = tree.query_ball_point(X, r=float(radii[group].max()))
-        counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
-        if counts.sum() == 0:
-            continue
-        xi = np.repeat(np.arange(len(X)), counts)
-        gi = group[np.concatenate([np.asarray(h, dtype=np.int64) for h in hits if h])]
-        d = np.linalg.norm(X[xi] - centres[gi], axis=1)
-        keep = d < radii[gi]
-        xs.append(xi[keep])
-        js.append(gi[keep])
-    if not xs:
-        return z, z
-    return np.concatenate(xs), np.concatenate(js)
-
-
-def _facet_triangles(
-    tri: np.ndarray,
-    uv: np.ndarray,
-    loop: np.ndarray,
-    pos: np.ndarray,
-    inside: Callable[[np.ndarray], np.ndarray],
-) -> np.ndarray:
-    """Keep the triangles of a facet's 2D Delaunay triangulation that lie in the facet.
-
-    ``loop[i]`` and ``pos[i]`` give the boundary loop of the facet point
-    ``i`` and its rank along it (in the loop's direction, the facet on its
-    left), -1 for a point inside the facet. A triangle of a triangulation of
-    the facet whose three corners lie on one loop visits them in the loop's
-    cyclic order when counter-clockwise (two of its three steps forward);
-    the triangles of the convex hull's pockets outside the facet (and the
-    slivers of three points of one edge that rounding put a hair inside it)
-    run against it. Other triangles are kept when their centroid lies in the
-    facet (``inside``, float: such a triangle is not flat).
-    """
-    lp = loop[tri]
-    ps = pos[tri]
-    one = (lp[:, 0] >= 0) & (lp[:, 0] == lp[:, 1]) & (lp[:, 1] == lp[:, 2])
-    forward = (np.roll(ps, -1, axis=1) > ps).sum(axis=1) == 2
-    keep = np.where(one, forward, False)
-    other = np.flatnonzero(~one)
-    if other.size:
-        keep[other] = inside(uv[tri[other]].mean(axis=1))
-    return tri[keep]
-
-
 # ---------------------------------------------------------------------------
 # Keys of edges and faces
 # ---------------------------------------------------------------------------
-
-
-def _edge_keys(E: np.ndarray) -> np.ndarray:
-    lo = np.minimum(E[:, 0], E[:, 1])
-    hi = np.maximum(E[:, 0], E[:, 1])
-    return (lo << 32) | hi
-
-
-def _face_keys(F: np.ndarray) -> np.ndarray:
-    s = np.sort(F, axis=1)
-    if s.size and s.max() >= 1 << 21:
-        raise AlgorithmError("more than 2**21 points: face keys overflow", code="too_many_points")
-    return (s[:, 0] << 42) | (s[:, 1] << 21) | s[:, 2]
-
-
-def _member(keys: np.ndarray, table_sorted: np.ndarray) -> np.ndarray:
-    if table_sorted.size == 0:
-        return np.zeros(len(keys), dtype=bool)
-    pos = np.minimum(np.searchsorted(table_sorted, keys), len(table_sorted) - 1)
-    return table_sorted[pos] == keys
 
 
 # ---------------------------------------------------------------------------
@@ -430,544 +288,23 @@ def _member(keys: np.ndarray, table_sorted: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------------------
 
 
-class _Builder:
-    """The growing tetrahedralization and the subsegments and subfaces it must hold.
-
-    A *facet* is a maximal set of input triangles joined across edges whose
-    four points are exactly coplanar (``orient3d == 0``), as TetGen merges
-    coplanar facets; with ``merge=False`` every input triangle is a facet.
-    The *segments* are the input edges between two facets; the edges inside
-    a facet are no constraints (the diagonals a planar face was triangulated
-    with make no small input angles).
-    """
-
-    def __init__(self, surface: Surface, knobs: _Knobs, merge: bool = True) -> None:
-        self.knobs = knobs
-        used = surface.vertices
-        remap = np.full(len(surface.points), -1, dtype=np.int64)
-        remap[used] = np.arange(len(used))
-        self.source = used
-        self.n_surface = len(used)
-        self.P = np.array(surface.points[used], dtype=np.float64)
-        self.n = len(used)
-        facets = remap[surface.triangles]
-        self.facets = facets  # the input triangles
-        self.facet_region = surface.triangle_region
-        F = len(facets)
-        e = np.concatenate([facets[:, [0, 1]], facets[:, [1, 2]], facets[:, [2, 0]]])
-        e.sort(axis=1)
-        edges, inv = np.unique(e, axis=0, return_inverse=True)
-        inv = inv.reshape(-1)
-        order = np.argsort(inv, kind="stable")
-        edge_tris = (order % F).reshape(-1, 2)  # row k of e belongs to triangle k % F
-        # Coplanar neighbours (exact sign) form one facet.
-        if merge:
-            t1, t2 = edge_tris[:, 0], edge_tris[:, 1]
-            tri2 = facets[t2]
-            far = tri2[np.arange(len(edges)), np.argmax(
-                (tri2 != edges[:, :1]) & (tri2 != edges[:, 1:]), axis=1)]  # fmt: skip
-            a0, a1, a2 = (self.P[facets[t1, k]] for k in range(3))
-            flat = orient3d(a0, a1, a2, self.P[far]) == 0
-        else:
-            flat = np.zeros(len(edges), dtype=bool)
-        graph = sp.csr_matrix(
-            (np.ones(int(flat.sum())), (edge_tris[flat, 0], edge_tris[flat, 1])), shape=(F, F)
-        )
-        n_groups, group = connected_components(graph, directed=False)
-        self.group = group  # facet of each input triangle
-        self.group_region = np.zeros(n_groups, dtype=np.int64)
-        self.group_region[group] = self.facet_region
-        seg_edges = np.flatnonzero(~flat)
-        self.edges = edges
-        self.edge_groups = group[edge_tris]  # (E, 2): the facets on each side
-        self.seg = edges[seg_edges].copy()
-        self.seg_edge = seg_edges.copy()
-        self.pt_edge = np.full(self.n, -1, dtype=np.int64)
-        self.pt_facet = np.full(self.n, -1, dtype=np.int64)  # facet (group) of inner points
-        # Per facet: its triangles, its vertices and its boundary loops (directed
-        # input edges, the facet on their left seen from outside).
-        by_group = np.argsort(group, kind="stable")
-        bounds = np.searchsorted(group[by_group], np.arange(n_groups + 1))
-        self.group_tris = [by_group[bounds[g] : bounds[g + 1]] for g in range(n_groups)]
-        self._directed = np.stack([facets[:, [0, 1]], facets[:, [1, 2]], facets[:, [2, 0]]], 1)
-        self._edge_id = inv.reshape(3, F).T
-        self._flat = flat
-        self._loops: dict[int, list] = {}
-        # Facet frames for the 2D triangulations: origin, two orthonormal axes
-        # (counter-clockwise in the frame is outward), from the facet's first triangle.
-        first = facets[[t[0] for t in self.group_tris]]
-        a = self.P[first[:, 0]]
-        u = self.P[first[:, 1]] - a
-        v = self.P[first[:, 2]] - a
-        e1 = u / np.linalg.norm(u, axis=1)[:, None]
-        w = v - np.einsum("ij,ij->i", v, e1)[:, None] * e1
-        e2 = w / np.linalg.norm(w, axis=1)[:, None]
-        self.frame = (a, e1, e2)
-        lengths = np.linalg.norm(self.P[edges[:, 0]] - self.P[edges[:, 1]], axis=1)
-        self.edge_length = lengths
-        short = np.full(n_groups, np.inf)
-        np.minimum.at(short, self.edge_groups[seg_edges, 0], lengths[seg_edges])
-        np.minimum.at(short, self.edge_groups[seg_edges, 1], lengths[seg_edges])
-        self.facet_short = short
-        self.size_cap = math.inf
-        # Subfaces, outward, and their facet: with no point added, the input
-        # triangles (what retriangulate gives a facet without added points).
-        self.sub = facets.copy()
-        self.sub_facet = group.copy()
-        self.unsettled: dict[int, np.ndarray] = {}  # subsegments missing from a facet's 2D mesh
-        self.dt = IncrementalDelaunay3d(self.P)
-        self.surface_added = 0
-        self.interior_added = 0
-
-    def loops(self, g: int) -> list:
-        """Boundary loops of facet ``g``: (directed input edges, edge ids), chained."""
-        if g in self._loops:
-            return self._loops[g]
-        rows = self.group_tris[g]
-        de = self._directed[rows].reshape(-1, 2)
-        ei = self._edge_id[rows].reshape(-1)
-        keep = ~self._flat[ei]
-        de, ei = de[keep], ei[keep]
-        nxt: dict[int, list[int]] = {}
-        for k, (u, _) in enumerate(de.tolist()):
-            nxt.setdefault(u, []).append(k)
-        used_e = np.zeros(len(de), dtype=bool)
-        loops = []
-        for k0 in range(len(de)):  # chaining a facet's boundary edges
-            if used_e[k0]:
-                continue
-            loop, k = [], k0
-            while not used_e[k]:
-                used_e[k] = True
-                loop.append(k)
-                cands = [c for c in nxt[int(de[k, 1])] if not used_e[c]]
-                if not cands:
-                    break
-                k = cands[0]
-            loops.append((de[loop], ei[loop]))
-        self._loops[g] = loops
-        return loops
-
-    # -- points ----------------------------------------------------------------
-
-    def add(self, X: np.ndarray, edge: np.ndarray, facet: np.ndarray) -> np.ndarray:
-        """Insert points (batch); their vertex ids (-1 where one coincided with a vertex)."""
-        if len(X) == 0:
-            return np.zeros(0, dtype=np.int64)
-        ids = self.dt.insert_many(X)
-        n0 = self.n
-        new = ids >= n0
-        keep = np.zeros(len(X), dtype=bool)
-        _, first = np.unique(ids, return_index=True)
-        keep[first] = True
-        keep &= new
-        order = np.argsort(ids[keep], kind="stable")
-        rows = np.flatnonzero(keep)[order]
-        self.P = np.concatenate([self.P, X[rows]])
-        self.pt_edge = np.concatenate([self.pt_edge, edge[rows]])
-        self.pt_facet = np.concatenate([self.pt_facet, facet[rows]])
-        self.n = len(self.P)
-        on_surface = (edge[rows] >= 0) | (facet[rows] >= 0)
-        self.surface_added += int(on_surface.sum())
-        self.interior_added += int((~on_surface).sum())
-        return np.where(new & keep, ids, -1)
-
-    def tets(self) -> tuple[np.ndarray, np.ndarray]:
-        slots = self.dt.alive()
-        return slots, self.dt.tets(slots)
-
-    # -- subsegments -------------------------------------------------------------
-
-    def split_segments(self, rows: np.ndarray) -> int:
-        """Split subsegments ``rows``; the number split.
-
-        Ruppert's concentric shells: a subsegment with exactly one endpoint
-        at an input vertex is split at the power of two of distance from it
-        nearest to half its length (so the points put on the edges leaving
-        one vertex lie on common spheres around it and do not encroach each
-        other's subsegments, whatever the angle between the edges); the
-        others at their midpoints.
-        """
-        rows = np.unique(rows)
-        if rows.size == 0:
-            return 0
-        s = self.seg[rows]
-        pa, pb = self.P[s[:, 0]], self.P[s[:, 1]]
-        L = np.linalg.norm(pb - pa, axis=1)
-        t = np.full(len(rows), 0.5)
-        ia = s[:, 0] < self.n_surface
-        ib = s[:, 1] < self.n_surface
-        one = ia ^ ib
-        if one.any():
-            d = np.exp2(np.round(np.log2(0.5 * L[one])))
-            frac = d / L[one]
-            t[one] = np.where(ia[one], frac, 1.0 - frac)
-        mid = pa + t[:, None] * (pb - pa)
-        e = self.seg_edge[rows]
-        ids = self.add(mid, e, np.full(len(rows), -1))
-        ok = ids >= 0
-        rows, s, e, ids = rows[ok], s[ok], e[ok], ids[ok]
-        self.seg[rows, 1] = ids
-        self.seg = np.concatenate([self.seg, np.stack([ids, s[:, 1]], 1)])
-        self.seg_edge = np.concatenate([self.seg_edge, e])
-        self.retriangulate(np.unique(self.edge_groups[e]))
-        return int(ok.sum())
-
-    # -- subfaces ----------------------------------------------------------------
-
-    def retriangulate(self, facets: np.ndarray) -> None:
-        """Recompute the subfaces of ``facets``: 2D Delaunay of each facet's points.
-
-        The points: the facet's input vertices, the points added on its
-        boundary edges and inside it; the triangles outside the facet are
-        dropped (:func:`_facet_triangles`). A subsegment of the facet's
-        boundary that is not an edge of the result (its diametral circle
-        holds a facet point) is *unsettled*: :meth:`missing` reports it, and
-        recovery splits it. A loop over the facets whose point set changed
-        (each a compiled kernel2d call).
-        """
-        if facets.size == 0:
-            return
-        on_edge = np.flatnonzero(self.pt_edge >= 0)
-        by_edge = on_edge[np.argsort(self.pt_edge[on_edge], kind="stable")]
-        edge_bounds = np.searchsorted(self.pt_edge[by_edge], np.arange(len(self.edges) + 1))
-        inner = np.flatnonzero(self.pt_facet >= 0)
-        by_facet = inner[np.argsort(self.pt_facet[inner], kind="stable")]
-        facet_bounds = np.searchsorted(self.pt_facet[by_facet], np.arange(len(self.group_tris) + 1))
-        origin, e1, e2 = self.frame
-        new_sub, new_facet = [], []
-        for f in facets.tolist():  # a loop over changed facets
-            corners = np.unique(self.facets[self.group_tris[f]])
-            parts, loops = [], []
-            for li, (de, ei) in enumerate(self.loops(f)):
-                for (u, w), e in zip(de.tolist(), ei.tolist(), strict=True):
-                    on = by_edge[edge_bounds[e] : edge_bounds[e + 1]]
-                    t = (self.P[on] - self.P[u]) @ (self.P[w] - self.P[u])
-                    parts.append(np.concatenate([[u], on[np.argsort(t, kind="stable")]]))
-                    loops.append(np.full(len(on) + 1, li))
-            ids = np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
-            loop = np.concatenate(loops) if loops else np.zeros(0, dtype=np.int64)
-            pos = np.arange(len(ids))
-            rest = np.concatenate(
-                [np.setdiff1d(corners, ids), by_facet[facet_bounds[f] : facet_bounds[f + 1]]]
-            )
-            ids = np.concatenate([ids, rest]).astype(np.int64)
-            loop = np.concatenate([loop, np.full(len(rest), -1)])
-            pos = np.concatenate([pos, np.full(len(rest), -1)])
-            tris = self.group_tris[f]
-            if len(ids) == len(corners):
-                # No point added: the input triangles (what the 3D mesh most likely
-                # holds when the facet's corners are co-circular, as a square's).
-                tri = self.facets[tris]
-            else:
-                d = self.P[ids] - origin[f]
-                uv = np.stack([d @ e1[f], d @ e2[f]], 1)
-                T2 = self.facets[tris]
-
-                def inside(X, T2=T2, f=f):
-                    q = self.P[T2] - origin[f]
-                    tu = np.stack([q @ e1[f], q @ e2[f]], -1)  # (k, 3, 2)
-                    a, b, c = tu[:, 0], tu[:, 1], tu[:, 2]
-
-                    def cr(p, q, x):
-                        return (q[:, 0] - p[:, 0]) * (x[:, None, 1] - p[:, 1]) - (
-                            q[:, 1] - p[:, 1]
-                        ) * (x[:, None, 0] - p[:, 0])
-
-                    # Non-strict up to rounding: a centroid may lie on an edge inside
-                    # the facet (a diagonal its input triangles share).
-                    tol = -1e-9 * float(np.ptp(tu.reshape(-1, 2), axis=0).max()) ** 2
-                    return ((cr(a, b, X) >= tol) & (cr(b, c, X) >= tol) & (cr(c, a, X) >= tol)).any(
-                        1
-                    )
-
-                try:
-                    tri = ids[_facet_triangles(delaunay2d(uv).triangles, uv, loop, pos, inside)]
-                except InputError as exc:  # rounding made two projections coincide
-                    raise AlgorithmError(
-                        f"the points added on facet {f} (input triangles "
-                        f"{tris[:5].tolist()}) could not be triangulated in its plane "
-                        f"({exc.message})",
-                        code="recovery_failed",
-                    ) from None
-            # Boundary subsegments of the facet that the 2D triangulation misses.
-            seg_rows = np.flatnonzero(np.isin(self.seg_edge, np.concatenate(
-                [ei for _, ei in self.loops(f)] or [np.zeros(0, np.int64)])))  # fmt: skip
-            tk = np.unique(_edge_keys(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)))
-            sk = _edge_keys(self.seg[seg_rows])
-            self.unsettled[f] = sk[~_member(sk, tk)]
-            new_sub.append(tri)
-            new_facet.append(np.full(len(tri), f))
-        keep = ~np.isin(self.sub_facet, facets)
-        self.sub = np.concatenate([self.sub[keep], *new_sub])
-        self.sub_facet = np.concatenate([self.sub_facet[keep], *new_facet])
-
-    def split_subfaces(self, rows: np.ndarray) -> tuple[int, int]:
-        """Split subfaces ``rows`` at their circumcentres (Shewchuk's rule).
-
-        A circumcentre outside its facet, or in the diametral ball of a
-        subsegment, splits the subsegments it encroaches instead. Returns
-        (subfaces split, subsegments split).
-        """
-        rows = np.unique(rows)
-        if rows.size == 0:
-            return 0, 0
-        c, R = _tri_circumcenters(self.P, self.sub[rows])
-        # Co-circular subfaces share a circumcentre up to rounding: keep one.
-        near = self.crowded(c, R)
-        rows, c, R = rows[~near], c[~near], R[~near]
-        f = self.sub_facet[rows]
-        enc_c, enc_s = self.encroached_segments(c)
-        hit = np.zeros(len(rows), dtype=bool)
-        hit[enc_c] = True
-        inside = self.in_facet(c, f)
-        lost = ~inside & ~hit
-        if lost.any():
-            # Outside its facet and encroaching no subsegment (rounding): split the
-            # subface's longest subsegment-free edge's facet edge... use the centroid.
-            c[lost] = self.P[self.sub[rows[lost]]].mean(axis=1)
-            inside[lost] = True
-        use = inside & ~hit
-        n_seg = self.split_segments(enc_s)
-        ids = self.add(c[use], np.full(int(use.sum()), -1), f[use])
-        self.retriangulate(np.unique(f[use][ids >= 0]))
-        return int((ids >= 0).sum()), n_seg
-
-    def crowded(self, X: np.ndarray, R: np.ndarray) -> np.ndarray:
-        """Candidates to drop from one batch of insertions.
-
-        Within ``merge`` times their radius of a vertex (co-circular subfaces
-        give the same centre up to rounding), or within ``separation`` times
-        the smaller radius of a candidate of larger radius (neighbouring
-        subfaces of nearly the same circle: inserted together they would make
-        an edge far shorter than the local size; the survivor's insertion
-        settles the other's subface, or the next round splits it).
-        """
-        d, _ = cKDTree(self.P).query(X)
-        out = d <= self.knobs.merge * R
-        if len(X) > 1:
-            r = self.knobs.separation * R
-            pairs = cKDTree(X).query_pairs(float(r.max()), output_type="ndarray")
-            if len(pairs):
-                i, j = pairs[:, 0], pairs[:, 1]
-                # j is the one of smaller radius (ties: the later index).
-                swap = (R[i] < R[j]) | ((R[i] == R[j]) & (i > j))
-                i, j = np.where(swap, j, i), np.where(swap, i, j)
-                dd = np.linalg.norm(X[i] - X[j], axis=1)
-                out[j[dd <= np.minimum(r[i], r[j])]] = True
-        return out
-
-    def protected_segments(self, rows: np.ndarray) -> np.ndarray:
-        s = self.seg[rows]
-        L = np.linalg.norm(self.P[s[:, 0]] - self.P[s[:, 1]], axis=1)
-        ref = np.minimum(self.edge_length[self.seg_edge[rows]], self.size_cap)
-        return L < self.knobs.protect * ref
-
-    def protected_subfaces(self, rows: np.ndarray) -> np.ndarray:
-        _, R = _tri_circumcenters(self.P, self.sub[rows])
-        ref = np.minimum(self.facet_short[self.sub_facet[rows]], self.size_cap)
-        return R < self.knobs.protect * ref
-
-    def in_facet(self, X: np.ndarray, f: np.ndarray) -> np.ndarray:
-        """Whether points (in their facet's plane) lie inside facet ``f`` (float)."""
-        out = np.zeros(len(X), dtype=bool)
-        for g in np.unique(f).tolist():  # a loop over the facets concerned
-            rows = np.flatnonzero(f == g)
-            tri = self.facets[self.group_tris[g]]
-            a, b, c = (self.P[tri[:, k]][None] for k in range(3))
-            n = np.cross(b - a, c - a)
-            x = X[rows][:, None]
-            s1 = np.einsum("ijk,ijk->ij", np.cross(b - a, x - a), n)
-            s2 = np.einsum("ijk,ijk->ij", np.cross(c - b, x - b), n)
-            s3 = np.einsum("ijk,ijk->ij", np.cross(a - c, x - c), n)
-            out[rows] = ((s1 > 0) & (s2 > 0) & (s3 > 0)).any(axis=1)
-        return out
-
-    def sources(self) -> np.ndarray:
-        """The input triangle each subface lies in (the one that best holds its centroid)."""
-        sizes = np.array([len(t) for t in self.group_tris])
-        start = np.concatenate([[0], np.cumsum(sizes)])
-        flat = np.concatenate(self.group_tris)
-        g = self.sub_facet
-        k = np.repeat(np.arange(len(g)), sizes[g])
-        j = flat[np.arange(len(k)) - np.repeat(np.cumsum(sizes[g]) - sizes[g], sizes[g])
-                 + np.repeat(start[g], sizes[g])]  # fmt: skip
-        x = self.P[self.sub[k]].mean(axis=1)
-        tri = self.facets[j]
-        a, b, c = self.P[tri[:, 0]], self.P[tri[:, 1]], self.P[tri[:, 2]]
-        n = np.cross(b - a, c - a)
-        s = np.stack(
-            [
-                np.einsum("ij,ij->i", np.cross(b - a, x - a), n),
-                np.einsum("ij,ij->i", np.cross(c - b, x - b), n),
-                np.einsum("ij,ij->i", np.cross(a - c, x - c), n),
-            ],
-            1,
-        ).min(axis=1)
-        order = np.lexsort((-s, k))
-        first = np.unique(k[order], return_index=True)[1]
-        return j[order[first]]
-
-    # -- encroachment --------------------------------------------------------------
-
-    def encroached_segments(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Pairs (point row, subsegment) with the point in the closed diametral ball.
-
-        Closed: a candidate point on the sphere (the circumcentre of a right
-        triangle, on its hypotenuse) splits the subsegment rather than land
-        next to its midpoint.
-
-        Candidates from KD-trees of subsegment midpoints (one per power of two
-        of the radius); the sign is exact
-        (:func:`~meshcore.geometry.predicates3d.dot3d`).
-        """
-        a = self.P[self.seg[:, 0]]
-        b = self.P[self.seg[:, 1]]
-        mid = 0.5 * (a + b)
-        half = 0.5 * np.linalg.norm(b - a, axis=1)
-        xi, si = _ball_pairs(X, mid, half * (1 + 1e-9))
-        inside = dot3d(a[si], b[si], X[xi]) <= 0
-        return xi[inside], si[inside]
-
-    def encroached_by_vertices(self) -> tuple[np.ndarray, np.ndarray]:
-        """Subsegments and subfaces with a vertex inside their diametral / equatorial ball."""
-        tree = cKDTree(self.P)
-        a = self.P[self.seg[:, 0]]
-        b = self.P[self.seg[:, 1]]
-        mid = 0.5 * (a + b)
-        half = 0.5 * np.linalg.norm(b - a, axis=1)
-        seg_bad = np.zeros(len(self.seg), dtype=bool)
-        hits = tree.query_ball_point(mid, r=half * (1 + 1e-9))
-        counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
-        if counts.sum():
-            si = np.repeat(np.arange(len(self.seg)), counts)
-            pi = np.concatenate([np.asarray(h, dtype=np.int64) for h in hits if h])
-            other = (pi != self.seg[si, 0]) & (pi != self.seg[si, 1])
-            si, pi = si[other], pi[other]
-            inside = dot3d(a[si], b[si], self.P[pi]) < 0
-            seg_bad[si[inside]] = True
-        o, r = _tri_circumcenters(self.P, self.sub)
-        sub_bad = np.zeros(len(self.sub), dtype=bool)
-        hits = tree.query_ball_point(o, r=r * self.knobs.subface_ball)
-        counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
-        if counts.sum():
-            fi = np.repeat(np.arange(len(self.sub)), counts)
-            pi = np.concatenate([np.asarray(h, dtype=np.int64) for h in hits if h])
-            s = self.sub[fi]
-            other = (pi != s[:, 0]) & (pi != s[:, 1]) & (pi != s[:, 2])
-            sub_bad[fi[other]] = True
-        return np.flatnonzero(seg_bad), np.flatnonzero(sub_bad)
-
-    def encroached_subfaces(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Pairs (point row, subface) with the point inside the equatorial ball (float)."""
-        o, r = _tri_circumcenters(self.P, self.sub)
-        return _ball_pairs(X, o, r * self.knobs.subface_ball)
-
-    # -- presence ------------------------------------------------------------------
-
-    def missing(self, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Subsegments that are not edges, subfaces that are not faces of ``T``."""
-        ek = np.sort(_edge_keys(T[:, _EDGES].reshape(-1, 2)))
-        keys = _edge_keys(self.seg)
-        seg_missing = ~_member(keys, ek)
-        if self.unsettled:
-            seg_missing |= np.isin(keys, np.concatenate(list(self.unsettled.values())))
-        seg_missing = np.flatnonzero(seg_missing)
-        fk = np.sort(_face_keys(T[:, _FACES].reshape(-1, 3)))
-        sub_missing = np.flatnonzero(~_member(_face_keys(self.sub), fk))
-        return seg_missing, sub_missing
-
-
 # ---------------------------------------------------------------------------
 # Phases
 # ---------------------------------------------------------------------------
 
 
-def _recover(b: _Builder, progress) -> int:
-    """Split missing subsegments, then missing subfaces, until all are present."""
-    for r in range(b.knobs.recovery_rounds):
-        _, T = b.tets()
-        seg_missing, sub_missing = b.missing(T)
-        if seg_missing.size:
-            b.split_segments(seg_missing)
-        elif sub_missing.size:
-            b.split_subfaces(sub_missing)
-        else:
-            return r
-        if progress is not None:
-            progress(0.1, f"boundary recovery: round {r + 1}")
-    raise AlgorithmError(
-        f"boundary recovery did not finish in {b.knobs.recovery_rounds} rounds "
-        f"({len(seg_missing)} subsegments and {len(sub_missing)} subfaces missing)",
-        code="recovery_failed",
-    )
-
-
-def _regions(b: _Builder, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """Region of each tetrahedron of ``T`` (-1 outside), by flood fill across non-subfaces."""
-    m = len(T)
-    row_of = np.full(int(slots.max()) + 1 if m else 1, -1, dtype=np.int64)
-    row_of[slots] = np.arange(m)
-    adj = b.dt.adjacent(slots)
-    nb = np.where(adj >= 0, row_of[np.clip(adj, 0, len(row_of) - 1)], -1)
-    nb[adj >= len(row_of)] = -1
-    faces = T[:, _FACES]  # (m, 4, 3), outward
-    fkeys = _face_keys(faces.reshape(-1, 3)).reshape(m, 4)
-    sub_keys = _face_keys(b.sub)
-    order = np.argsort(sub_keys)
-    sk = sub_keys[order]
-    is_sub = _member(fkeys.reshape(-1), sk).reshape(m, 4)
-    # Links across ordinary faces between real tetrahedra.
-    link = ~is_sub & (nb >= 0)
-    r_i, f_i = np.nonzero(link)
-    graph = sp.csr_matrix((np.ones(len(r_i), dtype=np.int8), (r_i, nb[r_i, f_i])), shape=(m, m))
-    n_comp, comp = connected_components(graph, directed=False)
-    label = np.full(n_comp, -2, dtype=np.int64)  # -2 unknown
-    # A tetrahedron on a hull face (neighbour a ghost) across a non-subface is outside.
-    outside = np.unique(comp[np.nonzero(~is_sub & (nb < 0))[0]])
-    # Subfaces: the tetrahedron on the inner side takes the facet's region.
-    t_i, f_j = np.nonzero(is_sub)
-    pos = np.searchsorted(sk, fkeys[t_i, f_j])
-    s_rows = order[pos]
-    sf = b.sub[s_rows]
-    d = T[t_i, f_j]
-    side = orient3d(b.P[sf[:, 0]], b.P[sf[:, 1]], b.P[sf[:, 2]], b.P[d])
-    inner = side > 0
-    reg = b.group_region[b.sub_facet[s_rows]]
-    ci = comp[t_i[inner]]
-    ri = reg[inner]
-    label[ci] = ri
-    conflict = np.zeros(n_comp, dtype=bool)
-    chk = label[ci] != ri
-    conflict[ci[chk]] = True
-    co = comp[t_i[~inner]]
-    outer_reg = reg[~inner]
-    # A tetrahedron on the outer side of a facet is in another region or outside:
-    # never in the facet's own region.
-    same = label[co] == outer_reg
-    conflict[co[same]] = True
-    conflict[np.intersect1d(outside, ci)] = True
-    if conflict.any():
-        raise AlgorithmError(
-            "the recovered surface does not separate the regions (a subface is "
-            "missing or doubled): the tetrahedra could not be classified",
-            code="recovery_failed",
-        )
-    label[label == -2] = -1
-    label[outside] = -1
-    return label[comp]
-
-
-def _boundary_face_count(b: _Builder, T: np.ndarray, sub: np.ndarray | None = None) -> np.ndarray:
+def _boundary_face_count(
+    b: SurfaceRecovery, T: np.ndarray, sub: np.ndarray | None = None
+) -> np.ndarray:
     """How many faces of each tetrahedron are subfaces (of ``b``, or ``sub``)."""
     if len(T) == 0:
         return np.zeros(0, dtype=np.int64)
-    fk = _face_keys(T[:, _FACES].reshape(-1, 3))
-    sk = _face_keys(b.sub if sub is None else sub)
-    return _member(fk, np.sort(sk)).reshape(-1, 4).sum(axis=1)
+    fk = face_keys(T[:, TET_FACES].reshape(-1, 3))
+    sk = face_keys(b.sub if sub is None else sub)
+    return member(fk, np.sort(sk)).reshape(-1, 4).sum(axis=1)
 
 
-def _flat_folds(b: _Builder, T: np.ndarray) -> np.ndarray:
+def _flat_folds(b: SurfaceRecovery, T: np.ndarray) -> np.ndarray:
     """Tetrahedra on a fold of two facets coplanar up to rounding (a mask).
 
     Two of its faces are subfaces and its least dihedral angle is below
@@ -988,7 +325,7 @@ def _flat_folds(b: _Builder, T: np.ndarray) -> np.ndarray:
     return out
 
 
-def _drop_flat_folds(b: _Builder, T: np.ndarray, region: np.ndarray):
+def _drop_flat_folds(b: SurfaceRecovery, T: np.ndarray, region: np.ndarray):
     """Remove the flat fold tetrahedra; the surface takes their two other faces.
 
     The boundary moves by the tetrahedron's volume (rounding: its corners
@@ -1003,13 +340,13 @@ def _drop_flat_folds(b: _Builder, T: np.ndarray, region: np.ndarray):
     if not flat.any():
         return T, region, b.sub, src, facet
     drop = T[flat]
-    fk = _face_keys(drop[:, _FACES].reshape(-1, 3))
-    sk = _face_keys(b.sub)
+    fk = face_keys(drop[:, TET_FACES].reshape(-1, 3))
+    sk = face_keys(b.sub)
     order = np.argsort(sk)
-    is_sub = _member(fk, sk[order])
+    is_sub = member(fk, sk[order])
     pos = np.minimum(np.searchsorted(sk[order], fk), len(sk) - 1)
     gone = order[pos[is_sub]]  # the subfaces the dropped tetrahedra hold
-    faces = drop[:, _FACES].reshape(-1, 3)[~is_sub][:, ::-1]  # out of the region
+    faces = drop[:, TET_FACES].reshape(-1, 3)[~is_sub][:, ::-1]  # out of the region
     owner = np.repeat(np.arange(len(drop)), 4)
     first_sub = order[pos].reshape(-1, 4)[np.arange(len(drop)), np.argmax(is_sub.reshape(-1, 4), 1)]
     new_src = src[first_sub][owner[~is_sub]]
@@ -1030,7 +367,7 @@ def _drop_flat_folds(b: _Builder, T: np.ndarray, region: np.ndarray):
 
 
 def _left_report(
-    b: _Builder, T: np.ndarray, sub: np.ndarray, max_radius_edge, min_dihedral
+    b: SurfaceRecovery, T: np.ndarray, sub: np.ndarray, max_radius_edge, min_dihedral
 ) -> dict:
     """The tetrahedra left above ``max_radius_edge`` or below ``min_dihedral``, and why.
 
@@ -1090,7 +427,7 @@ def _bad_tets(P, T, max_radius_edge, max_volume, size, knobs) -> tuple[np.ndarra
     return rows, c[rows]
 
 
-def _insert_interior(b: _Builder, slots, region, rows, centres, tets) -> tuple[int, int]:
+def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> tuple[int, int]:
     """Insert circumcentres of tetrahedra ``rows``, or split what they encroach.
 
     ``slots`` and ``region`` (per tetrahedron row) describe the structure at
@@ -1129,9 +466,9 @@ def _insert_interior(b: _Builder, slots, region, rows, centres, tets) -> tuple[i
         # Such a tetrahedron leans on the surface: split its faces that are
         # subfaces (Shewchuk's rule for a circumcentre beyond a subface), or
         # insert its centroid when it has none.
-        faces = tets[rows[far]][:, _FACES].reshape(-1, 3)
-        fk = _face_keys(faces)
-        sk = _face_keys(b.sub)
+        faces = tets[rows[far]][:, TET_FACES].reshape(-1, 3)
+        fk = face_keys(faces)
+        sk = face_keys(b.sub)
         order = np.argsort(sk)
         pos = np.minimum(np.searchsorted(sk[order], fk), len(sk) - 1)
         hit = sk[order][pos] == fk
@@ -1178,7 +515,7 @@ def _insert_interior(b: _Builder, slots, region, rows, centres, tets) -> tuple[i
     return done, outside
 
 
-def _sliver_pass(b: _Builder, bound: float, max_radius_edge: float, progress) -> int:
+def _sliver_pass(b: SurfaceRecovery, bound: float, max_radius_edge: float, progress) -> int:
     """Slivers removed by perturbed insertion (Chew; Li and Teng); returns the rounds.
 
     Each tetrahedron whose least dihedral angle is below ``bound`` is
@@ -1202,9 +539,9 @@ def _sliver_pass(b: _Builder, bound: float, max_radius_edge: float, progress) ->
     k = b.knobs.sliver_candidates
     rounds = 0
     for rounds in range(1, b.knobs.sliver_rounds + 1):
-        _recover(b, None)
+        recover(b, None)
         slots, T = b.tets()
-        region = _regions(b, slots, T)
+        region = regions(b, slots, T)
         dih = tetra_dihedral_angles(b.P, T).min(axis=1)
         rows = np.flatnonzero((region >= 0) & (dih < bound))
         rows = rows[~_flat_folds(b, T[rows])]
@@ -1213,7 +550,7 @@ def _sliver_pass(b: _Builder, bound: float, max_radius_edge: float, progress) ->
         rows = rows[np.argsort(dih[rows], kind="stable")]
         top = int(max(slots.max(), b.dt.adjacent(slots).max())) + 1
         cache = _SlotCache(b, top, slots, region)
-        sub_keys = np.sort(_face_keys(b.sub))
+        sub_keys = np.sort(face_keys(b.sub))
         done = 0
         for row in rows.tolist():  # sequential: each insertion changes the next cavities
             s = int(slots[row])
@@ -1226,16 +563,16 @@ def _sliver_pass(b: _Builder, bound: float, max_radius_edge: float, progress) ->
             d = rng.normal(size=(k, 3))
             d *= (rng.random(k) ** (1 / 3) / np.linalg.norm(d, axis=1))[:, None]
             X = np.concatenate([c, c + b.knobs.sliver_ball * R[0] * d])
-            fk = _face_keys(T[row][_FACES])
-            on = _member(fk, sub_keys)
+            fk = face_keys(T[row][TET_FACES])
+            on = member(fk, sub_keys)
             if on.any():
                 # Leaning on the surface (a fold): also points off the subface's
                 # plane along its normal, on both sides (the wrong side is outside
                 # the region and rejected).
                 # From the centroid: a flat tetrahedron's circumcentre is rounding.
-                f = T[row][_FACES[int(np.argmax(on))]]
+                f = T[row][TET_FACES[int(np.argmax(on))]]
                 nrm = np.cross(b.P[f[1]] - b.P[f[0]], b.P[f[2]] - b.P[f[0]])
-                _, rf = _tri_circumcenters(b.P, f[None])
+                _, rf = tri_circumcenters(b.P, f[None])
                 nrm *= rf[0] / np.linalg.norm(nrm)
                 t = np.array([0.05, 0.1, 0.2, 0.35, 0.5, -0.05, -0.1, -0.2, -0.35, -0.5])
                 X = np.concatenate([X, b.P[T[row]].mean(axis=0) + t[:, None] * nrm])
@@ -1268,7 +605,7 @@ def _sliver_pass(b: _Builder, bound: float, max_radius_edge: float, progress) ->
 class _SlotCache:
     """Vertices, neighbours, circumspheres and regions of the kernel's slots (one round)."""
 
-    def __init__(self, b: _Builder, top: int, slots: np.ndarray, region: np.ndarray) -> None:
+    def __init__(self, b: SurfaceRecovery, top: int, slots: np.ndarray, region: np.ndarray) -> None:
         self.b = b
         self.V = np.full((top, 4), -1, dtype=np.int64)
         self.A = np.full((top, 4), -1, dtype=np.int64)
@@ -1355,7 +692,7 @@ class _SlotCache:
         return (new_dih,)
 
 
-def _refine(b: _Builder, criteria, progress, sliver_bound=None) -> tuple[int, int]:
+def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[int, int]:
     """Delaunay refinement rounds; returns (rounds, bad tetrahedra left)."""
     max_radius_edge, max_volume, size = criteria
     rounds = 0
@@ -1364,7 +701,7 @@ def _refine(b: _Builder, criteria, progress, sliver_bound=None) -> tuple[int, in
     for rounds in range(1, cap + 1):
         if b.n >= b.knobs.max_points:
             break
-        _recover(b, None)
+        recover(b, None)
         if b.knobs.eager:
             seg_bad, sub_bad = b.encroached_by_vertices()
             seg_bad = seg_bad[~b.protected_segments(seg_bad)]
@@ -1378,13 +715,13 @@ def _refine(b: _Builder, criteria, progress, sliver_bound=None) -> tuple[int, in
             b.split_segments(seg_bad)
             continue
         if size is not None:
-            _, r = _tri_circumcenters(b.P, b.sub)
+            _, r = tri_circumcenters(b.P, b.sub)
             sub_bad = np.union1d(sub_bad, np.flatnonzero(r > b.knobs.size_radius * size))
         if sub_bad.size:
             b.split_subfaces(sub_bad)
             continue
         slots, T = b.tets()
-        region = _regions(b, slots, T)
+        region = regions(b, slots, T)
         inside = np.flatnonzero(region >= 0)
         Ti = T[inside]
         rows, centres = _bad_tets(b.P, Ti, max_radius_edge, max_volume, size, b.knobs)
@@ -1435,7 +772,7 @@ def _kernel_centre(P: np.ndarray, F: np.ndarray) -> np.ndarray | None:
     return res.x[:3]
 
 
-def _cone(b: _Builder, region_count: int) -> tuple[np.ndarray, np.ndarray] | None:
+def _cone(b: SurfaceRecovery, region_count: int) -> tuple[np.ndarray, np.ndarray] | None:
     """Tetrahedra of the cone from one interior point per region, if each is star-shaped."""
     tets, regs = [], []
     for r in range(region_count):  # a loop over regions
@@ -1573,7 +910,7 @@ def tetrahedralize(
     criteria = _criteria_checked(max_radius_edge, min_dihedral, max_volume, size)
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
-    b = _Builder(surface, _KNOBS, merge=not keep_boundary)
+    b = SurfaceRecovery(surface, KNOBS, merge=not keep_boundary)
     if criteria[3] is not None:
         b.size_cap = criteria[3]
     timings["delaunay"] = time.perf_counter() - t0
@@ -1585,7 +922,7 @@ def tetrahedralize(
         slots, T = b.tets()
         seg_missing, sub_missing = b.missing(T)
         if seg_missing.size == 0 and sub_missing.size == 0:
-            region = _regions(b, slots, T)
+            region = regions(b, slots, T)
             keep = region >= 0
             tetra, region = T[keep], region[keep]
         else:
@@ -1602,7 +939,7 @@ def tetrahedralize(
         timings["recovery"] = time.perf_counter() - t1
     else:
         t1 = time.perf_counter()
-        rounds += _recover(b, progress)
+        rounds += recover(b, progress)
         timings["recovery"] = time.perf_counter() - t1
         mre, mdh, mvol, sz = criteria
         if not empty and (mre is not None or mvol is not None or sz is not None):
@@ -1619,9 +956,9 @@ def tetrahedralize(
                 rounds += r
             timings["slivers"] = time.perf_counter() - t3
         # Encroachment fixes may have left pieces missing: recover again (no-op if whole).
-        rounds += _recover(b, progress)
+        rounds += recover(b, progress)
         slots, T = b.tets()
-        region = _regions(b, slots, T)
+        region = regions(b, slots, T)
         keep = region >= 0
         tetra, region = T[keep], region[keep]
         tetra, region, sub, sub_src, triangle_facet = _drop_flat_folds(b, tetra, region)
