@@ -1,0 +1,543 @@
+"""The pieces of the admissible-boundary rounds and their compiled searches (§9.1).
+
+:class:`_Pieces` holds the boundary segments cut into pieces (chains of
+subsegments per input segment, their protecting circles, the split points)
+together with the one growing triangulation the rounds insert into
+(:class:`~meshcore.delaunay.kernel2d.IncrementalDelaunay`); the compiled
+functions here search that triangulation: the triangles a segment crosses,
+the vertex of widest angle in a segment's ball (the encroacher of §9.1 whose
+projection splits it), the edges inside a disc. Split from
+:mod:`meshcore.delaunay.admissible`, which runs the rounds; the names stay
+private to the package.
+
+References
+----------
+Methods text §9.1 (Delaunay-admissible boundaries in R^2: the ball of a
+segment, the point of maximal angle, splitting at its projection).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from meshcore.delaunay.kernel2d import IncrementalDelaunay, _corner, _nxt, _prv
+from meshcore.errors import AlgorithmError
+from meshcore.geometry.predicates import WORK_SIZE, dot2d_filtered, orient2d_filtered
+
+__all__: list[str] = []
+
+
+def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
+    """Undirected integer key of each edge (a, b)."""
+    lo = np.minimum(a, b)
+    hi = np.maximum(a, b)
+    return lo * np.int64(n) + hi
+
+
+@njit(cache=True, inline="always")
+def _near_segment(pts, u, v, cx, cy, r2):
+    """Float test, padded by the caller: segment uv comes within sqrt(r2) of (cx, cy)."""
+    ux = pts[u, 0] - cx
+    uy = pts[u, 1] - cy
+    dx = pts[v, 0] - pts[u, 0]
+    dy = pts[v, 1] - pts[u, 1]
+    ll = dx * dx + dy * dy
+    s = 0.0
+    if ll > 0.0:
+        s = min(1.0, max(0.0, -(ux * dx + uy * dy) / ll))
+    fx = ux + s * dx
+    fy = uy + s * dy
+    return fx * fx + fy * fy <= r2
+
+
+@njit(cache=True)
+def _crossed_triangles(pts, V, A, vt, ia, ib, tstamp, stamp, queue):
+    """Seeds of :func:`_widest_angle_points`: a triangle at ``ia``, then the
+    triangles the segment ``ia ib`` crosses, walked in float arithmetic (a
+    heuristic: the search is correct from the first seed alone), stamped
+    and put in ``queue``. Returns how many (at most the queue's length)."""
+    t0 = vt[ia]
+    tstamp[t0] = stamp
+    queue[0] = t0
+    count = 1
+    ax = pts[ia, 0]
+    ay = pts[ia, 1]
+    ex = pts[ib, 0] - ax
+    ey = pts[ib, 1] - ay
+    t = t0
+    kin = -1
+    while True:  # the triangle at ia whose angle holds the direction to ib
+        k = _corner(V, t, ia)
+        u = V[_nxt(k)]
+        w = V[_prv(k)]
+        if u >= 0 and w >= 0:
+            su = ex * (pts[u, 1] - ay) - ey * (pts[u, 0] - ax)
+            sw = ex * (pts[w, 1] - ay) - ey * (pts[w, 0] - ax)
+            if su <= 0.0 <= sw:
+                kin = A[k]
+                break
+        t = A[_prv(k)] // 3
+        if t == t0:
+            return count
+    while count < queue.shape[0]:
+        x = V[kin]
+        if x < 0:
+            break
+        t = kin // 3
+        if tstamp[t] != stamp:
+            tstamp[t] = stamp
+            queue[count] = t
+            count += 1
+        if x == ib:
+            break
+        sx = ex * (pts[x, 1] - ay) - ey * (pts[x, 0] - ax)
+        p1 = V[_nxt(kin)]
+        s1 = ex * (pts[p1, 1] - ay) - ey * (pts[p1, 0] - ax)
+        if sx == 0.0:
+            break
+        kin = A[_nxt(kin)] if (sx > 0.0) == (s1 > 0.0) else A[_prv(kin)]
+    return count
+
+
+@njit(cache=True)
+def _widest_angle_points(pts, V, A, vt, order, a, b, radius, tie, tstamp, vstamp, counter, work):
+    """Per segment (a[i], b[i]) of the triangulation's points, the point of
+    its closed diametral ball seen under the widest angle (§9.1.2).
+
+    A search over the triangles that meet the region still worth looking
+    in: first the ball (radius ``radius[i]``, enlarged), then, once a point
+    with angle ``w`` is found, the lens of the points that see the segment
+    under at least ``w - tie`` (the intersection of two discs through both
+    ends; convex, so the triangles meeting it are connected, and each one
+    meets the segment). Regions only shrink, so no point that can still
+    win is missed. The points of the seeds (:func:`_crossed_triangles`)
+    come first, so that the lens is tight before the search spreads.
+    Triangle tests are float, padded; ball membership is exact (``dot2d``);
+    angles are float. Returns the chosen point (input index; -1 for an
+    empty ball) and whether it lies on the segment's line.
+    """
+    k = a.shape[0]
+    choice = np.full(k, -1, np.int64)
+    collinear = np.zeros(k, np.bool_)
+    queue = np.empty(256, np.int64)
+    cand = np.empty(64, np.int64)
+    cang = np.empty(64)
+    cflat = np.empty(64, np.bool_)
+    stamp = counter[0]
+    for i in range(k):
+        stamp += 1
+        ia = a[i]
+        ib = b[i]
+        ax = pts[ia, 0]
+        ay = pts[ia, 1]
+        bx = pts[ib, 0]
+        by = pts[ib, 1]
+        cx = 0.5 * (ax + bx)
+        cy = 0.5 * (ay + by)
+        r2 = radius[i] * radius[i]
+        ball2 = r2 * (1.0 + 1e-6)
+        half = 0.5 * np.hypot(bx - ax, by - ay)
+        nx = -(by - ay) / (2.0 * half)
+        ny = (bx - ax) / (2.0 * half)
+        lens = False
+        lx1 = ly1 = lx2 = ly2 = lens2 = 0.0
+        best = -np.inf
+        nc = 0
+        seeds = _crossed_triangles(pts, V, A, vt, ia, ib, tstamp, stamp, queue)
+        tail = seeds
+        head = 0
+        spreading = False
+        while True:
+            if head == tail or (not spreading and head == seeds):
+                if spreading:
+                    break
+                spreading = True
+                head = 0
+                continue
+            t = queue[head]
+            head += 1
+            for j in range(3):
+                v = V[3 * t + j]
+                if vstamp[v] == stamp or v == ia or v == ib:
+                    continue
+                vstamp[v] = stamp
+                px = pts[v, 0]
+                py = pts[v, 1]
+                if (px - cx) ** 2 + (py - cy) ** 2 > r2:
+                    continue
+                if dot2d_filtered(ax, ay, bx, by, px, py, work) > 0:
+                    continue
+                ux = ax - px
+                uy = ay - py
+                wx = bx - px
+                wy = by - py
+                angle = np.arctan2(abs(ux * wy - uy * wx), ux * wx + uy * wy)
+                flat = orient2d_filtered(ax, ay, bx, by, px, py, work) == 0
+                if flat:
+                    angle = np.pi
+                if nc == cand.shape[0]:
+                    cand = np.concatenate((cand, np.empty(nc, np.int64)))
+                    cang = np.concatenate((cang, np.empty(nc)))
+                    cflat = np.concatenate((cflat, np.empty(nc, np.bool_)))
+                cand[nc] = v
+                cang[nc] = angle
+                cflat[nc] = flat
+                nc += 1
+                if angle > best:
+                    best = angle
+                    # Lens of the angles >= best - tie, a little wider.
+                    phi = np.pi - (best - tie - 1e-9)
+                    if 1e-6 < phi < 0.5 * np.pi:
+                        d = half / np.tan(phi)
+                        rr = half / np.sin(phi)
+                        lx1 = cx + nx * d
+                        ly1 = cy + ny * d
+                        lx2 = cx - nx * d
+                        ly2 = cy - ny * d
+                        lens2 = (rr * (1.0 + 1e-9) + 1e-9 * half) ** 2
+                        lens = True
+            if not spreading:
+                continue
+            for j in range(3):
+                kk = 3 * t + j
+                u = V[_nxt(kk)]
+                w = V[_prv(kk)]
+                t2 = A[kk] // 3
+                if tstamp[t2] == stamp or V[A[kk]] < 0:
+                    continue  # seen, or a ghost across a hull edge
+                if not _near_segment(pts, u, w, cx, cy, ball2):
+                    continue
+                if lens and not (
+                    _near_segment(pts, u, w, lx1, ly1, lens2)
+                    and _near_segment(pts, u, w, lx2, ly2, lens2)
+                ):
+                    continue
+                tstamp[t2] = stamp
+                if tail == queue.shape[0]:
+                    queue = np.concatenate((queue, np.empty(tail, np.int64)))
+                queue[tail] = t2
+                tail += 1
+        best_id = -1
+        for c in range(nc):
+            if cang[c] >= best - tie:
+                idx = order[cand[c]]
+                if best_id < 0 or idx < best_id:
+                    best_id = idx
+                    collinear[i] = cflat[c]
+        choice[i] = best_id
+    counter[0] = stamp
+    return choice, collinear
+
+
+@njit(cache=True)
+def _disc_edges(pts, V, A, vt, verts, radius, tstamp, counter):
+    """Edges that come within ``radius[i]`` (padded) of vertex ``verts[i]``
+    and do not end at it: the edges of the triangles meeting that disc (a
+    search from the vertex's triangles). Returns (query, u, w) slot triples."""
+    queue = np.empty(64, np.int64)
+    qs = np.empty(64, np.int64)
+    us = np.empty(64, np.int64)
+    ws = np.empty(64, np.int64)
+    m = 0
+    stamp = counter[0]
+    for i in range(verts.shape[0]):
+        stamp += 1
+        x = verts[i]
+        cx = pts[x, 0]
+        cy = pts[x, 1]
+        r2 = (radius[i] * (1.0 + 1e-6)) ** 2
+        t = vt[x]
+        tstamp[t] = stamp
+        queue[0] = t
+        head = 0
+        tail = 1
+        while head < tail:
+            t = queue[head]
+            head += 1
+            for j in range(3):
+                kk = 3 * t + j
+                u = V[_nxt(kk)]
+                w = V[_prv(kk)]
+                if not _near_segment(pts, u, w, cx, cy, r2):
+                    continue
+                if u != x and w != x:
+                    if m == qs.shape[0]:
+                        qs = np.concatenate((qs, np.empty(m, np.int64)))
+                        us = np.concatenate((us, np.empty(m, np.int64)))
+                        ws = np.concatenate((ws, np.empty(m, np.int64)))
+                    qs[m] = i
+                    us[m] = u
+                    ws[m] = w
+                    m += 1
+                t2 = A[kk] // 3
+                if tstamp[t2] == stamp or V[A[kk]] < 0:
+                    continue
+                tstamp[t2] = stamp
+                if tail == queue.shape[0]:
+                    queue = np.concatenate((queue, np.empty(tail, np.int64)))
+                queue[tail] = t2
+                tail += 1
+    counter[0] = stamp
+    return qs[:m], us[:m], ws[:m]
+
+
+@dataclass
+class _State:
+    P: np.ndarray
+    S: np.ndarray
+    source: np.ndarray
+    seg_circle: np.ndarray
+    acute: np.ndarray  # (m, 2) the end is in an acute cluster (of the input)
+    done: np.ndarray  # (m, 2): the end is protected (an apex subsegment)
+    radius: np.ndarray  # (n,) protection radius per vertex, NaN if none yet
+    near: np.ndarray  # (m, 2) projection splits made near that end of the piece
+    n0: int  # input points (the first rows of P)
+
+
+@njit(cache=True)
+def _chain_order(head, nxt, m):
+    """Piece ids chain by chain (input segment order), each from its first end."""
+    out = np.empty(m, np.int64)
+    k = 0
+    for s in range(head.shape[0]):
+        r = head[s]
+        while r >= 0:
+            out[k] = r
+            k += 1
+            r = nxt[r]
+    return out
+
+
+def _grown(arr: np.ndarray, size: int, fill) -> np.ndarray:
+    out = np.full((size,) + arr.shape[1:], fill, dtype=arr.dtype)
+    out[: len(arr)] = arr
+    return out
+
+
+class _Pieces:
+    """The segments during the rounds, by piece id, in growable arrays.
+
+    A split keeps the piece's id for its first part and gives each new
+    point the id of the piece that starts there, so a round costs time in
+    the pieces it splits and checks, not in all of them; :meth:`to_state`
+    puts the pieces back in chain order and numbers the added points as
+    the whole-array rounds did (by round, then along the chains), so the
+    output does not depend on this bookkeeping.
+    """
+
+    _ROW = ("a", "b", "nxt", "src", "circ", "acute", "done", "near")
+    _POINT = ("xy", "radius", "left", "right", "born")
+
+    def __init__(self, st: _State, dt: IncrementalDelaunay) -> None:
+        S, m, n = st.S, len(st.S), len(st.P)
+        self.dt, self.n0, self.base, self.m, self.n = dt, st.n0, n, m, n
+        self.a, self.b = S[:, 0].copy(), S[:, 1].copy()
+        self.src = st.source.copy()
+        self.circ = st.seg_circle.copy()
+        self.acute, self.done, self.near = st.acute.copy(), st.done.copy(), st.near.copy()
+        last = np.ones(m, dtype=bool)
+        last[:-1] = self.src[1:] != self.src[:-1]
+        self.nxt = np.where(last, -1, np.arange(1, m + 1))
+        m0 = int(self.src[-1]) + 1 if m else 0
+        self.head = np.full(m0, -1, dtype=np.int64)
+        self.head[self.src[::-1]] = np.arange(m)[::-1]
+        self.tail = np.full(m0, -1, dtype=np.int64)
+        self.tail[self.src[last]] = np.flatnonzero(last)
+        self.xy, self.radius = st.P.copy(), st.radius.copy()
+        self.left = np.full(n, -1, dtype=np.int64)
+        self.right = np.full(n, -1, dtype=np.int64)
+        self.left[S[:, 1]] = np.arange(m)
+        self.right[S[:, 0]] = np.arange(m)
+        self.born = np.zeros(n, dtype=np.int64)
+        # Chain ends at the input points: (chain, side) per point, CSR.
+        ends = np.concatenate([S[self.head, 0], S[self.tail, 1]])
+        chain = np.concatenate([np.arange(m0), np.arange(m0)])
+        side = np.repeat([0, 1], m0)
+        order = np.argsort(ends, kind="stable")
+        self.end_chain, self.end_side = chain[order], side[order]
+        self.end_start = np.searchsorted(ends[order], np.arange(n + 1))
+        # Position of a point along its input segment (ordering key only).
+        self.origin = st.P[S[self.head, 0]]
+        self.direction = st.P[S[self.tail, 1]] - self.origin
+        keys = _edge_keys(S[self.head, 0], S[self.tail, 1], st.n0)
+        self.input_chain = np.argsort(keys)
+        self.input_keys = keys[self.input_chain]
+        # Scratch of the compiled searches.
+        self.tstamp = np.zeros(0, np.int64)
+        self.vstamp = np.zeros(0, np.int64)
+        self.counter = np.zeros(1, np.int64)
+        self.work = np.empty(WORK_SIZE)
+
+    # Views of the live rows, as _split_round reads them.
+    @property
+    def P(self) -> np.ndarray:
+        return self.xy[: self.n]
+
+    @property
+    def S(self) -> np.ndarray:
+        return np.column_stack([self.a[: self.m], self.b[: self.m]])
+
+    @property
+    def source(self) -> np.ndarray:
+        return self.src[: self.m]
+
+    @property
+    def seg_circle(self) -> np.ndarray:
+        return self.circ[: self.m]
+
+    def _reserve(self, rows: int, points: int) -> None:
+        if self.m + rows > len(self.a):
+            size = max(self.m + rows, 2 * len(self.a))
+            for name in self._ROW:
+                arr = getattr(self, name)
+                setattr(self, name, _grown(arr, size, np.nan if arr.dtype.kind == "f" else 0))
+        if self.n + points > len(self.xy):
+            size = max(self.n + points, 2 * len(self.xy))
+            for name in self._POINT:
+                arr = getattr(self, name)
+                setattr(self, name, _grown(arr, size, np.nan if arr.dtype.kind == "f" else -1))
+
+    def split(self, rows, t, xy, protect_side, near_side, near_vertex, round_no) -> None:
+        """Split pieces ``rows`` at the points ``xy`` (ordered along each piece
+        by ``t``); the new points go into the triangulation, walked to from
+        ``near_vertex``. ``protect_side``/``near_side`` as in the module's
+        protection bookkeeping (-1: none)."""
+        key = np.einsum(
+            "ij,ij->i", xy - self.origin[self.src[rows]], self.direction[self.src[rows]]
+        )
+        order = np.lexsort((t, key, self.src[rows]))
+        rows, xy, near_vertex = rows[order], xy[order], near_vertex[order]
+        protect_side, near_side = protect_side[order], near_side[order]
+        ends_a, ends_b = self.xy[self.a[rows]], self.xy[self.b[rows]]
+        k = len(rows)
+        self._reserve(k, k)
+        m, n = self.m, self.n
+        new_p = n + np.arange(k)
+        new_r = m + np.arange(k)
+        first = np.ones(k, dtype=bool)
+        first[1:] = rows[1:] != rows[:-1]
+        last = np.ones(k, dtype=bool)
+        last[:-1] = first[1:]
+        grp = rows[first]
+        grp_last = new_r[last]
+        old_b, old_nxt = self.b[grp].copy(), self.nxt[grp].copy()
+        # Pieces: row keeps [a, x1]; new piece i is [x_i, x_{i+1} or old b].
+        self.a[new_r] = new_p
+        self.b[new_r[:-1]] = new_p[1:]
+        self.b[grp_last] = old_b
+        self.b[grp] = new_p[first]
+        self.nxt[new_r[:-1]] = new_r[1:]
+        self.nxt[grp_last] = old_nxt
+        self.nxt[grp] = new_r[first]
+        self.src[new_r] = self.src[rows]
+        self.circ[new_r] = self.circ[rows]
+        for name in ("acute", "done", "near"):
+            arr = getattr(self, name)
+            arr[new_r] = 0
+            arr[grp_last, 1] = arr[grp, 1]
+            arr[grp, 1] = 0
+        ends = old_nxt < 0
+        self.tail[self.src[grp[ends]]] = grp_last[ends]
+        moved = old_b >= self.n0
+        self.left[old_b[moved]] = grp_last[moved]
+        prev = np.empty(k, dtype=np.int64)
+        prev[first] = grp
+        prev[~first] = new_r[:-1][~first[1:]]
+        self.left[new_p], self.right[new_p] = prev, new_r
+        self.done[grp[protect_side[first] == 0], 0] = True
+        self.done[grp_last[protect_side[last] == 1], 1] = True
+        self.near[grp[near_side[first] == 0], 0] += 1
+        self.near[grp_last[near_side[last] == 1], 1] += 1
+        self.xy[new_p] = xy
+        self.radius[new_p] = np.nan
+        self.born[new_p] = round_no
+        self.m, self.n = m + k, n + k
+        dup = self.dt.insert(xy, near_vertex)
+        if dup is not None:
+            i = dup[0] - n
+            raise AlgorithmError(
+                f"cannot split the segment from {ends_a[i].tolist()} to {ends_b[i].tolist()}: "
+                f"the split "
+                f"point {xy[i].tolist()} is an existing point (do segments cross or touch?)"
+            )
+        self.fresh = np.concatenate([grp, new_r])
+
+    def edge_pieces_near(self, verts, radius):
+        """(query, piece) pairs: pieces that are edges of the triangulation,
+        come within ``radius[i]`` (padded) of ``verts[i]`` and do not end there."""
+        pts, V, A, vt, order, slot = self.dt.arrays()
+        if len(self.tstamp) < len(V) // 3 or len(self.vstamp) < len(pts):
+            self.tstamp = np.zeros(len(V) // 3, np.int64)
+            self.vstamp = np.zeros(len(pts), np.int64)
+            self.counter[0] = 0
+        q, u, w = _disc_edges(
+            pts, V, A, vt, slot[verts], radius * self.dt.scale, self.tstamp, self.counter
+        )
+        u, w = order[u], order[w]
+        # Candidate pieces: those at an added end, and the unsplit input
+        # segment joining two input points.
+        cand = [self.left[u], self.right[u], self.left[w], self.right[w]]
+        both = (u < self.n0) & (w < self.n0)
+        s = self._input_segment(u[both], w[both])
+        row = np.full(len(u), -1, dtype=np.int64)
+        row[np.flatnonzero(both)[s >= 0]] = self.head[s[s >= 0]]
+        cand.append(row)
+        qq = np.tile(q, len(cand))
+        uu, ww = np.tile(u, len(cand)), np.tile(w, len(cand))
+        rows = np.concatenate(cand)
+        ok = rows >= 0
+        qq, uu, ww, rows = qq[ok], uu[ok], ww[ok], rows[ok]
+        ra, rb = self.a[rows], self.b[rows]
+        match = ((ra == uu) & (rb == ww)) | ((ra == ww) & (rb == uu))
+        return qq[match], rows[match]
+
+    def _input_segment(self, u, w) -> np.ndarray:
+        """The chain (input segment) joining input points u and w, or -1."""
+        keys = _edge_keys(u, w, self.n0)
+        pos = np.minimum(np.searchsorted(self.input_keys, keys), len(self.input_keys) - 1)
+        return np.where(self.input_keys[pos] == keys, self.input_chain[pos], -1)
+
+    def to_check(self) -> np.ndarray:
+        """The pieces the last split made or may have removed from the
+        triangulation: new and shortened pieces, and those whose two ends
+        the insertions touched."""
+        verts = self.dt.touched_vertices()
+        added = verts[verts >= self.n0]
+        inp = verts[verts < self.n0]
+        lo, hi = self.end_start[inp], self.end_start[inp + 1]
+        cnt = hi - lo
+        idx = np.repeat(lo - np.cumsum(cnt) + cnt, cnt) + np.arange(int(cnt.sum()))
+        chain, side = self.end_chain[idx], self.end_side[idx]
+        rows = np.concatenate(
+            [
+                self.left[added],
+                self.right[added],
+                np.where(side == 0, self.head[chain], self.tail[chain]),
+            ]
+        )
+        rows = rows[rows >= 0]
+        rows = rows[self.dt.touched(self.a[rows]) & self.dt.touched(self.b[rows])]
+        mask = np.zeros(self.m, dtype=bool)
+        mask[rows] = True
+        mask[self.fresh] = True
+        return np.flatnonzero(mask)
+
+    def to_state(self, st: _State) -> None:
+        """Back to chain order; the points added here numbered by round, then
+        along the chains (as the whole-array rounds numbered them)."""
+        order = _chain_order(self.head, self.nxt, self.m)
+        pos = np.empty(self.m, dtype=np.int64)
+        pos[order] = np.arange(self.m)
+        new = np.arange(self.base, self.n)
+        new = new[np.lexsort((pos[self.right[new]], self.born[new]))]
+        label = np.arange(self.n)
+        label[new] = np.arange(self.base, self.n)
+        st.P = np.concatenate([self.xy[: self.base], self.xy[new]])
+        st.radius = np.concatenate([self.radius[: self.base], self.radius[new]])
+        st.S = label[np.column_stack([self.a[order], self.b[order]])]
+        st.source = self.src[order]
+        st.seg_circle = self.circ[order]
+        st.acute, st.done, st.near = self.acute[order], self.done[order], self.near[order]
