@@ -17,12 +17,14 @@ Pipeline
    its corners at ``u`` and ``v`` is within ``flat_corner`` degrees of 0 or
    180 (measured in the metric: the first drawback of §8.4.4, "a triangle
    with an edge aligned with one of its neighbour", gives a quad with a flat
-   corner; with ``all_quad``, within ``all_quad_flat_corner`` = 45 degrees:
+   corner; with ``all_quad`` on domain input, within ``all_quad_flat_corner`` = 45 degrees:
    the split keeps every coarse corner as a final corner, and a coarse quad
    spanning a boundary vertex of a curved boundary left 174-degree quads on
    a 64-gon disk; measured on the disk, ellipse and annulus against 5 and 30
    degrees, 45 gave corners in [45, 135] and the best mean there, see
-   README), and when its quality reaches ``min_quality``. Its weight is its
+   README; a given mesh keeps the 5-degree bound: the gap meshes of
+   :mod:`meshcore.grid` hold constraint chains as interior edges, which the
+   wider bound let pairs remove), and when its quality reaches ``min_quality``. Its weight is its
    quality: ``angle`` (8.3)/(8.4) or (8.6) with a metric, ``simplified``
    (8.7), or ``shape`` (8.8), all from :mod:`meshcore.mesh.quality`.
 2. **Selection** of the pairs, one compiled sequential kernel (numba) per
@@ -1364,7 +1366,8 @@ def combine(
     report(0.4, "dual graph")
     nb = _neighbours(mesh, P, tri)
     boundary = _boundary_edges(tri, nb)  # the input's, or the domain's chains
-    flat = TOL.all_quad_flat_corner if all_quad else TOL.flat_corner
+    # the 45-degree bound is measured on domains (curved boundaries); a given mesh keeps 5
+    flat = TOL.all_quad_flat_corner if all_quad and domain is not None else TOL.flat_corner
     quads_of, w = _candidates(P, tri, nb, measure, metric, min_quality, flat)
     lap("candidates")
     report(0.5, f"selecting pairs ({algorithm})")
@@ -1494,6 +1497,7 @@ def _relaxed(mesh: Mesh, dom) -> tuple[Mesh, int]:
         return mesh, 0
     fixed = np.zeros(len(P), bool)
     fixed[: len(dom.points)] = True  # the input vertices come first
+    fixed[_on_constraints(P, np.unique(Q[active]), dom)] = True
     new = relax_quads(
         P, Q, fixed, slide=sliding_nodes(P, Q, fixed), active=active, angle_power=TOL.relax_power
     )
@@ -1503,6 +1507,25 @@ def _relaxed(mesh: Mesh, dom) -> tuple[Mesh, int]:
     if q2.mean() <= q.mean() or q2.min() < min(q.min(), 0.5):
         return mesh, 0
     return Mesh(new, mesh.cells), 1
+
+
+def _on_constraints(P: np.ndarray, candidates: np.ndarray, dom) -> np.ndarray:
+    """The ``candidates`` (node ids) lying on an interior constraint segment of
+    ``dom`` (exact :func:`~meshcore.geometry.predicates.orient2d` and the
+    segment's box): they may not move, or the constraint would bend."""
+    from meshcore.geometry.predicates import orient2d
+
+    hits = []
+    X = P[candidates]
+    for a, b in P[dom.constraints].tolist():  # a loop over the input constraints
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        near = np.flatnonzero(((X >= lo) & (X <= hi)).all(axis=1))
+        if near.size:
+            side = orient2d(
+                np.broadcast_to(a, (near.size, 2)), np.broadcast_to(b, (near.size, 2)), X[near]
+            )
+            hits.append(candidates[near[side == 0]])
+    return np.concatenate(hits) if hits else np.zeros(0, np.int64)
 
 
 def _three_quads_allowed(P, tri, nb, measure, metric, min_quality, flat) -> np.ndarray:
