@@ -6,11 +6,11 @@ Run from the repository root::
     .venv/bin/python benchmarks/paving.py --sizes 10000
 
 Domains (polygons, circles sampled at about the mesh size with a multiple
-of 4 vertices, :func:`benchmarks.quad_grid._circle`; Gmsh gets the same
+of 4 vertices, :func:`benchmarks.grid._circle`; Gmsh gets the same
 polygon as OpenCASCADE lines): the unit square minus a centred disk of
 radius 0.25, the L-shape ``[0, 1]^2`` minus ``[0.5, 1]^2``, a plate (the
 unit square with 5 x 4 round holes of radius 0.06) and a 24-tooth gear with
-a round hole (:func:`benchmarks.quad_grid.domains`). Sizes
+a round hole (:func:`benchmarks.grid.qg_domains`). Sizes
 ``h = sqrt(area / N)`` for about N quads. Peers (Gmsh,
 ``Mesh.MeshSizeMin = MeshSizeMax``, calibrated by a first untimed run to
 about N quads, ``Mesh.RecombineAll = 1``, all
@@ -46,8 +46,9 @@ import numpy as np
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 sys.path.insert(0, ROOT)
 
-from benchmarks.quad_grid import _circle, area  # noqa: E402 (the same domains)
-from benchmarks.quad_grid import domains as quad_grid_domains  # noqa: E402
+from benchmarks.grid import _circle  # noqa: E402 (the same domains)
+from benchmarks.grid import qg_area as area  # noqa: E402
+from benchmarks.grid import qg_domains as quad_grid_domains  # noqa: E402
 from benchmarks.quads import ccw, gmsh_cells  # noqa: E402 (the peers' mesh readers)
 
 DOMAINS = ("hole", "L", "plate", "gear")
