@@ -127,8 +127,8 @@ from meshcore.delaunay.recovery3d import (
     member,
     regions,
 )
-from meshcore.domain.surface import Surface, parse_surface
-from meshcore.errors import AlgorithmError, InputError
+from meshcore.domain.surface import Surface, as_surface
+from meshcore.errors import AlgorithmError
 from meshcore.geometry.predicates3d import dot3d, orient3d
 from meshcore.mesh import CellBlock, Mesh
 
@@ -782,17 +782,7 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     Methods text §9.2, §9.3.2-§9.3.5, §9.5.
     """
     t0 = time.perf_counter()
-    if not isinstance(surface, Surface):
-        if not isinstance(surface, dict):
-            raise InputError(
-                'surface must be a Surface or {"points": ..., "triangles": ...}',
-                loc=("surface",),
-                code="bad_geometry",
-            )
-        try:
-            surface = parse_surface(surface.get("points"), surface.get("triangles"))
-        except InputError as exc:
-            raise exc.prefixed("surface") from None
+    surface = as_surface(surface)
     timings: dict[str, float] = {}
     st = _State(surface)
     b = st.b

@@ -111,7 +111,7 @@ text §9.3.1 (the face set 𝓕 and point set 𝓢), §9.3.5 (closed surface Σ)
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 
@@ -125,7 +125,7 @@ from meshcore.geometry.predicates import orient2d, orient2d_scalar
 from meshcore.geometry.predicates3d import orient3d_scalar
 from meshcore.geometry.tolerances import MAX_COORDINATE_3D, MIN_DIAMETER_3D
 
-__all__ = ["Surface", "parse_surface"]
+__all__ = ["Surface", "as_surface", "parse_surface"]
 
 # Candidate search: (triangle, cell) entries allowed per triangle before the grid coarsens.
 _ENTRIES_PER_TRIANGLE = 8
@@ -1152,3 +1152,30 @@ def parse_surface(points: object, triangles: object) -> Surface:
         volume=math.fsum(volume.tolist()),
         diameter=diameter,
     )
+
+
+def as_surface(surface) -> Surface:
+    """``surface`` itself if it is a :class:`Surface`, else the mapping
+    ``{"points": ..., "triangles": ...}`` or the pair ``(points, triangles)``
+    parsed by :func:`parse_surface`.
+
+    Raises
+    ------
+    InputError
+        Anything else, or a surface :func:`parse_surface` refuses; the
+        location is prefixed with ``surface``.
+    """
+    if isinstance(surface, Surface):
+        return surface
+    if isinstance(surface, tuple) and len(surface) == 2:
+        surface = {"points": surface[0], "triangles": surface[1]}
+    if not isinstance(surface, Mapping):
+        raise InputError(
+            'surface must be a Surface or {"points": ..., "triangles": ...}',
+            loc=("surface",),
+            code="bad_geometry",
+        )
+    try:
+        return parse_surface(surface.get("points"), surface.get("triangles"))
+    except InputError as exc:
+        raise exc.prefixed("surface") from None

@@ -75,7 +75,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from meshcore.domain.planar import Domain, parse_domain
-from meshcore.domain.surface import Surface, parse_surface
+from meshcore.domain.surface import as_surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.geometry.predicates3d import orient3d
@@ -257,7 +257,7 @@ def _inputs(mesh, domain, keep_boundary, surface=None):
                 loc=("keep_boundary",),
                 code="bad_input",
             )
-        surf = surface if isinstance(surface, Surface) else parse_surface(*surface)
+        surf = as_surface(surface)
         if surf.shell_count != 1:
             raise InputError(
                 f"the surface has {surf.shell_count} shells; generation takes one closed shell "
@@ -668,7 +668,7 @@ def optimize(
     domain : Domain or dict, optional
         Or a planar domain (GeoJSON polygon, holes allowed): a triangle mesh
         is generated from its boundary discretization (Figure 8.10).
-    surface : Surface or (points, triangles), optional
+    surface : Surface or {"points": ..., "triangles": ...}, optional
         Or one closed triangulated surface (a single shell): tetrahedra are
         generated from it (Figure 8.11), its vertices and triangles kept.
     insert_points : bool, optional

@@ -129,7 +129,7 @@ from meshcore.delaunay.recovery3d import (
     regions,
     tri_circumcenters,
 )
-from meshcore.domain.surface import Surface, parse_surface
+from meshcore.domain.surface import as_surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh
@@ -896,17 +896,7 @@ def tetrahedralize(
     Methods text §9.2, §9.3 (edges then faces), §9.3.5, §9.5; Shewchuk
     (1998) for the refinement.
     """
-    if not isinstance(surface, Surface):
-        if not isinstance(surface, dict):
-            raise InputError(
-                'surface must be a Surface or {"points": ..., "triangles": ...}',
-                loc=("surface",),
-                code="bad_geometry",
-            )
-        try:
-            surface = parse_surface(surface.get("points"), surface.get("triangles"))
-        except InputError as exc:
-            raise exc.prefixed("surface") from None
+    surface = as_surface(surface)
     criteria = _criteria_checked(max_radius_edge, min_dihedral, max_volume, size)
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
