@@ -158,6 +158,7 @@ from scipy.sparse import csgraph, csr_matrix
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
+from meshcore.quads.optimization import corners_relaxed, optimize_quads
 
 __all__ = [
     "ALGORITHMS",
@@ -1251,11 +1252,6 @@ def _mesh_of(P, quads, tris) -> Mesh:
     return Mesh(P, tuple(blocks))
 
 
-def _boundary_edges(tri: np.ndarray, nb: np.ndarray) -> np.ndarray:
-    t, k = np.nonzero(nb < 0)
-    return np.column_stack([tri[t, k], tri[t, (k + 1) % 3]])
-
-
 def combine(
     mesh: Mesh | None = None,
     *,
@@ -1365,7 +1361,8 @@ def combine(
     metric = _check_metric(metric, P)
     report(0.4, "dual graph")
     nb = _neighbours(mesh, P, tri)
-    boundary = _boundary_edges(tri, nb)  # the input's, or the domain's chains
+    t_b, k_b = np.nonzero(nb < 0)  # the input's boundary, or the domain's chains
+    boundary = np.column_stack([tri[t_b, k_b], tri[t_b, (k_b + 1) % 3]])
     # the 45-degree bound is measured on domains (curved boundaries); a given mesh keeps 5
     flat = TOL.all_quad_flat_corner if all_quad and domain is not None else TOL.flat_corner
     quads_of, w = _candidates(P, tri, nb, measure, metric, min_quality, flat)
@@ -1434,8 +1431,6 @@ def combine(
     ops: dict = {}
     quality_after = quality_before
     if optimize:
-        from meshcore.quads.optimization import optimize_quads
-
         report(0.7, "optimization")
         opt = optimize_quads(
             out_mesh,
@@ -1448,7 +1443,9 @@ def combine(
         if boundary is not None:  # boundary vertices are never removed
             boundary = opt.point_map[boundary]
         if domain is not None and all_quad and metric is None and measure == "angle":
-            out_mesh, ops["relax"] = _relaxed(out_mesh, _dom)
+            out_mesh, ops["relax"] = corners_relaxed(
+                out_mesh, _dom, TOL.relax_below, TOL.relax_power, TOL.relax_most
+            )
         if metric is not None and metric.ndim == 3:
             metric = metric[opt.point_map >= 0]
         lap("optimize")
@@ -1474,58 +1471,6 @@ def combine(
         operators=ops,
         stats=stats,
     )
-
-
-def _relaxed(mesh: Mesh, dom) -> tuple[Mesh, int]:
-    """The all-quad mesh of a domain with its corner angles optimized
-    (:func:`meshcore.quads.optimization.relax_quads` with ``angle_power``
-    ``TOL.relax_power``) over the quads under ``TOL.relax_below`` and their
-    neighbours (at most ``TOL.relax_most`` of them), the input vertices fixed
-    and the other boundary points sliding along their input segment. Kept
-    (returns 1) when every quad stays strictly convex (exact) and the mean
-    quality (8.4) rises while the least stays at or above the lower of its
-    value and 0.5."""
-    from meshcore.quads.optimization import _valid, relax_quads, sliding_nodes
-
-    P = mesh.points
-    Q = mesh.cells_by_type["quad"]
-    q = quality.quad_quality(P, Q)
-    bad = np.zeros(len(P), bool)
-    bad[Q[q < TOL.relax_below].ravel()] = True
-    active = bad[Q].any(axis=1)
-    if not active.any() or active.sum() > TOL.relax_most:
-        return mesh, 0
-    fixed = np.zeros(len(P), bool)
-    fixed[: len(dom.points)] = True  # the input vertices come first
-    fixed[_on_constraints(P, np.unique(Q[active]), dom)] = True
-    new = relax_quads(
-        P, Q, fixed, slide=sliding_nodes(P, Q, fixed), active=active, angle_power=TOL.relax_power
-    )
-    if not _valid(new, Q).all():
-        return mesh, 0
-    q2 = quality.quad_quality(new, Q)
-    if q2.mean() <= q.mean() or q2.min() < min(q.min(), 0.5):
-        return mesh, 0
-    return Mesh(new, mesh.cells), 1
-
-
-def _on_constraints(P: np.ndarray, candidates: np.ndarray, dom) -> np.ndarray:
-    """The ``candidates`` (node ids) lying on an interior constraint segment of
-    ``dom`` (exact :func:`~meshcore.geometry.predicates.orient2d` and the
-    segment's box): they may not move, or the constraint would bend."""
-    from meshcore.geometry.predicates import orient2d
-
-    hits = []
-    X = P[candidates]
-    for a, b in P[dom.constraints].tolist():  # a loop over the input constraints
-        lo, hi = np.minimum(a, b), np.maximum(a, b)
-        near = np.flatnonzero(((X >= lo) & (X <= hi)).all(axis=1))
-        if near.size:
-            side = orient2d(
-                np.broadcast_to(a, (near.size, 2)), np.broadcast_to(b, (near.size, 2)), X[near]
-            )
-            hits.append(candidates[near[side == 0]])
-    return np.concatenate(hits) if hits else np.zeros(0, np.int64)
 
 
 def _three_quads_allowed(P, tri, nb, measure, metric, min_quality, flat) -> np.ndarray:

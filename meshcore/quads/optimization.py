@@ -93,11 +93,18 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered
+from meshcore.geometry.predicates import WORK_SIZE, orient2d, orient2d_filtered
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.partition.smoothing import quad_q
 
-__all__ = ["OPERATORS", "OptimizeResult", "optimize_quads", "relax_quads", "sliding_nodes"]
+__all__ = [
+    "OPERATORS",
+    "OptimizeResult",
+    "corners_relaxed",
+    "optimize_quads",
+    "relax_quads",
+    "sliding_nodes",
+]
 
 OPERATORS = ("valence2", "valence3", "collapse", "swap", "hexagon", "smooth", "lift")
 
@@ -1348,3 +1355,51 @@ def relax_quads(
     out[free] = x[: 2 * nf].reshape(-1, 2) * scale + centre
     out[node] = P0[sa] + x[2 * nf :, None] * (P0[sb] - P0[sa])
     return out
+
+
+def corners_relaxed(mesh: Mesh, dom, below: float, power: float, most: int) -> tuple[Mesh, int]:
+    """The all-quad mesh of a domain with its corner angles optimized
+    (:func:`relax_quads` with ``angle_power`` ``power``) over the quads
+    under quality ``below`` and their neighbours (none if more than
+    ``most``), the input vertices fixed and the other boundary points
+    sliding along their input segment. Kept
+    (returns 1) when every quad stays strictly convex (exact) and the mean
+    quality (8.4) rises while the least stays at or above the lower of its
+    value and 0.5."""
+    P = mesh.points
+    Q = mesh.cells_by_type["quad"]
+    q = quality.quad_quality(P, Q)
+    bad = np.zeros(len(P), bool)
+    bad[Q[q < below].ravel()] = True
+    active = bad[Q].any(axis=1)
+    if not active.any() or active.sum() > most:
+        return mesh, 0
+    fixed = np.zeros(len(P), bool)
+    fixed[: len(dom.points)] = True  # the input vertices come first
+    fixed[_on_constraints(P, np.unique(Q[active]), dom)] = True
+    new = relax_quads(
+        P, Q, fixed, slide=sliding_nodes(P, Q, fixed), active=active, angle_power=power
+    )
+    if not _valid(new, Q).all():
+        return mesh, 0
+    q2 = quality.quad_quality(new, Q)
+    if q2.mean() <= q.mean() or q2.min() < min(q.min(), 0.5):
+        return mesh, 0
+    return Mesh(new, mesh.cells), 1
+
+
+def _on_constraints(P: np.ndarray, candidates: np.ndarray, dom) -> np.ndarray:
+    """The ``candidates`` (node ids) lying on an interior constraint segment of
+    ``dom`` (exact :func:`~meshcore.geometry.predicates.orient2d` and the
+    segment's box): they may not move, or the constraint would bend."""
+    hits = []
+    X = P[candidates]
+    for a, b in P[dom.constraints].tolist():  # a loop over the input constraints
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        near = np.flatnonzero(((X >= lo) & (X <= hi)).all(axis=1))
+        if near.size:
+            side = orient2d(
+                np.broadcast_to(a, (near.size, 2)), np.broadcast_to(b, (near.size, 2)), X[near]
+            )
+            hits.append(candidates[near[side == 0]])
+    return np.concatenate(hits) if hits else np.zeros(0, np.int64)
