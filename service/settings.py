@@ -80,6 +80,11 @@ class Settings(BaseSettings):
     dask_scheduler: str | None = Field(
         None, description="A dask.distributed scheduler address: run jobs on its workers."
     )
+    warmup: bool = Field(
+        True,
+        description="Load every numba kernel into the job fork server before the first job "
+        "runs; false: the port is ready at once and each job loads the kernels it uses.",
+    )
     job_formats: str = Field(
         "vtu",
         description="Comma-separated download formats a job writes itself when it finishes "

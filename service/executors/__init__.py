@@ -20,6 +20,8 @@ from service.methods.registry import MethodSpec
 
 #: The file where the fork server records its warm-up (see service.executors.preload).
 WARMUP_STATUS_ENV = "MESHSERVICE_WARMUP_STATUS"
+#: "0" when the fork server skips the warm-up steps (the ``warmup`` setting).
+WARMUP_ENV = "MESHSERVICE_WARMUP"
 
 
 @dataclass(frozen=True)

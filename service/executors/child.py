@@ -7,7 +7,9 @@ interpreter and dies alone: a segfault, ``os._exit`` or the out-of-memory
 killer fails that job with the reason, and the next job gets a new process
 (``ProcessPoolExecutor`` instead breaks every job once one child dies). The
 child gets an address-space limit and a CPU-time limit and dies with its
-parent (``PR_SET_PDEATHSIG``). Progress and the result come back over a
+parent (``PR_SET_PDEATHSIG``), and runs at a lower CPU priority than the API
+(:data:`JOB_NICE`): with every core busy with jobs, status reads and event
+streams still answer at once. Progress and the result come back over a
 pipe. The call blocks; it kills the child as soon as ``should_stop()``
 turns true (cancellation, time limit, shutdown) and raises :class:`Stopped`.
 
@@ -52,6 +54,8 @@ from service.runner import JobFailed, run_job
 log = logging.getLogger("meshservice.child")
 
 PROGRESS_INTERVAL = 0.1  # seconds between progress messages a job sends
+#: Niceness added to a job's process: the API (and a Dask worker's own threads) run first.
+JOB_NICE = 10
 # fastapi and uvicorn too: a forked child re-imports the server's main module (multiprocessing's
 # main-module fixup), which imports them; preloaded, that costs the job nothing
 PRELOAD = [
@@ -99,6 +103,7 @@ def die_with_parent() -> None:
 def job_body(task: Task, memory_limit: int, send: Callable[[tuple], None]) -> None:
     """Body of a job's process (forked or spawned): limits, run, send the outcome, exit."""
     die_with_parent()
+    os.nice(JOB_NICE)
     resource.setrlimit(resource.RLIMIT_AS, (memory_limit, memory_limit))
     cpu = int(task.time_limit) + 5
     resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 5))

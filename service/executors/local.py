@@ -25,7 +25,7 @@ from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from service.executors import WARMUP_STATUS_ENV, Task
+from service.executors import WARMUP_ENV, WARMUP_STATUS_ENV, Task
 from service.executors.child import context, forked_spares, run_in_child, warm_up
 
 log = logging.getLogger("meshservice.executor")
@@ -36,17 +36,17 @@ class LocalExecutor:
 
     name = "local"
 
-    def __init__(self, workers: int, memory_limit: int) -> None:
+    def __init__(self, workers: int, memory_limit: int, warm: bool = True) -> None:
         self.workers = workers
         self.memory_limit = memory_limit
+        self.warm = warm
         self._ctx = context()
         self._spares = forked_spares(self._ctx, workers)
         self._threads = ThreadPoolExecutor(workers, thread_name_prefix="job")
         self._stops: set[threading.Event] = set()
         self._started = False
         self._warming: asyncio.Task | None = None
-        self._status_dir = Path(tempfile.mkdtemp(prefix="meshservice-warmup-"))
-        self._status = self._status_dir / "status.json"
+        self._status_dir: Path | None = None  # the warm-up's progress file, while warming
 
     @property
     def capacity(self) -> int:
@@ -55,7 +55,9 @@ class LocalExecutor:
 
     async def start(self) -> None:
         """Start warming the fork server; returns at once."""
-        os.environ[WARMUP_STATUS_ENV] = str(self._status)  # the fork server inherits it
+        self._status_dir = Path(tempfile.mkdtemp(prefix="meshservice-warmup-"))
+        os.environ[WARMUP_STATUS_ENV] = str(self._status_dir / "status.json")  # inherited
+        os.environ[WARMUP_ENV] = "1" if self.warm else "0"
         self._warming = asyncio.create_task(self._warm(), name="warm-up")
 
     async def _warm(self) -> None:
@@ -63,6 +65,7 @@ class LocalExecutor:
             await asyncio.to_thread(warm_up, self._ctx)
         except Exception:  # jobs then fail one by one with their own reason
             log.exception("the fork server failed to warm up")
+        self._forget_status()
         self._spares.fill()
         self._started = True
         log.info("executor ready: %d workers", self.workers)
@@ -75,7 +78,12 @@ class LocalExecutor:
             stop.set()
         await asyncio.to_thread(self._threads.shutdown, wait=True)
         await asyncio.to_thread(self._spares.close)
-        shutil.rmtree(self._status_dir, ignore_errors=True)
+        self._forget_status()
+
+    def _forget_status(self) -> None:
+        if self._status_dir is not None:
+            shutil.rmtree(self._status_dir, ignore_errors=True)
+            self._status_dir = None
 
     def ready(self) -> bool:
         return self._started
@@ -85,14 +93,16 @@ class LocalExecutor:
         if self._started:
             return None
         try:
-            return json.loads(self._status.read_text())
+            if self._status_dir is not None:
+                return json.loads((self._status_dir / "status.json").read_text())
         except (OSError, ValueError):
-            return {
-                "done": 0,
-                "total": None,
-                "current": "starting the job fork server (imports)",
-                "left": [],
-            }
+            pass
+        return {
+            "done": 0,
+            "total": None,
+            "current": "starting the job fork server (imports)",
+            "left": [],
+        }
 
     def describe(self) -> dict:
         return {"executor": self.name, "workers": self.workers}

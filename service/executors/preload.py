@@ -19,7 +19,9 @@ writers and the preview's edge kernels (which run in the API process) are
 compiled into numba's disk cache here too. Each step is logged as
 ``compiling kernels 4/12: triangulate`` and,
 when ``MESHSERVICE_WARMUP_STATUS`` names a file, recorded there as JSON
-(``{"done", "total", "current", "left"}``) for ``/readyz``.
+(``{"done", "total", "current", "left"}``) for ``/readyz``. With the
+``warmup`` setting false (``MESHSERVICE_WARMUP=0``) no step runs: each job
+then loads, from numba's cache, the kernels it uses.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ import sys
 import time
 from collections.abc import Callable
 
-from service.executors import WARMUP_STATUS_ENV
+from service.executors import WARMUP_ENV, WARMUP_STATUS_ENV
 
 
 def _square_with_hole():
@@ -153,7 +155,8 @@ def _log(message: str) -> None:
     print(f"INFO:     {message}", file=sys.stderr, flush=True)
 
 
-warm(_log, os.environ.get(WARMUP_STATUS_ENV))
+if os.environ.get(WARMUP_ENV) != "0":
+    warm(_log, os.environ.get(WARMUP_STATUS_ENV))
 
 # Jobs are forked from here: keep the collector off what is loaded by now, so
 # a job's garbage collections do not touch (and copy) these pages.

@@ -36,7 +36,9 @@ class LiveServer:
         self.module = "tests.service.server"  # "service": the product alone
 
     def start(self) -> LiveServer:
-        env = {**os.environ, "MESHSERVICE_WORKERS": "2", **self.env}
+        # no warm-up unless asked: each job loads the kernels it uses from numba's cache
+        # (filled by ``compiled_kernels``); the warm-up itself is tested in TestFirstStart
+        env = {**os.environ, "MESHSERVICE_WORKERS": "2", "MESHSERVICE_WARMUP": "0", **self.env}
         self.proc = subprocess.Popen(
             [
                 sys.executable,
@@ -88,8 +90,9 @@ def compiled_kernels() -> None:
 
 @pytest.fixture(scope="session")
 def live(tmp_path_factory) -> Iterator[LiveServer]:
-    """One shared server: 2 workers, default limits."""
-    server = LiveServer(tmp_path_factory.mktemp("shared") / "data").start()
+    """One shared server: 2 workers, default limits, warmed up (it runs every method)."""
+    server = LiveServer(tmp_path_factory.mktemp("shared") / "data", MESHSERVICE_WARMUP="1")
+    server.start()
     yield server
     server.stop()
 

@@ -80,7 +80,7 @@ async def running_app(data_dir: Path, capacity: int = 1, **settings) -> AsyncIte
     """The test app (product and testing methods) with its lifespan, on a GatedExecutor."""
     executor = GatedExecutor(capacity)
     original = service.app.LocalExecutor
-    service.app.LocalExecutor = lambda workers, memory_limit: executor
+    service.app.LocalExecutor = lambda *_: executor
     try:
         app = create_app(Settings(data_dir=data_dir, **settings), testing_registry())
         async with app.router.lifespan_context(app):

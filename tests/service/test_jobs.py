@@ -33,8 +33,19 @@ def assert_problem(response: httpx.Response, status: int, loc: list | None = Non
 
 
 def submit(c: httpx.Client, method: str, params: dict, wait: float = 0, **kwargs) -> httpx.Response:
-    query = {"wait": wait} if wait else {}
-    return c.post("/v1/jobs", json={"method": method, "params": params}, params=query, **kwargs)
+    """POST the job; with ``wait``, wait for it to end (``?wait=``, then long-polls on the
+    job, ``max(wait, 180)`` seconds in all: a loaded CI machine is slow) and answer with
+    the finished job (200), or the submit's own answer when it was not a 202."""
+    query = {"wait": min(wait, 30)} if wait else {}
+    r = c.post("/v1/jobs", json={"method": method, "params": params}, params=query, **kwargs)
+    if not wait or r.status_code != 202:
+        return r
+    deadline = time.monotonic() + max(wait, 180)
+    while r.status_code in (200, 202) and not r.json()["finished_at"]:
+        if time.monotonic() > deadline:
+            break
+        r = c.get(f"/v1/jobs/{r.json()['id']}", params={"wait": 30}, headers=kwargs.get("headers"))
+    return r
 
 
 def pid_alive(pid: int) -> bool:

@@ -152,10 +152,10 @@ class TestMethods:
 
     def test_every_product_example_is_valid_input(self, client):
         product = default_registry()
-        for method in client.get("/v1/methods").json():
-            if method["name"] not in product:
-                continue
-            job = submit(client, method["name"], method["example"], wait=20).json()
+        examples = [m for m in client.get("/v1/methods").json() if m["name"] in product]
+        jobs = [submit(client, m["name"], m["example"]).json()["id"] for m in examples]
+        for method, job_id in zip(examples, jobs, strict=True):
+            job = wait_status(client, job_id, {"succeeded", "failed"}, timeout=180)
             assert job["status"] == "succeeded", (method["name"], job)
 
 
@@ -181,7 +181,7 @@ class TestFirstStart:
     def test_port_answers_while_warming_and_queued_jobs_run_when_ready(self, tmp_path):
         """The port opens before the fork server is warm; a job submitted then waits and runs."""
         server = LiveServer(tmp_path / "data")
-        env = {**os.environ, "MESHSERVICE_WORKERS": "1"}
+        env = {**os.environ, "MESHSERVICE_WORKERS": "1", "MESHSERVICE_WARMUP": "1"}
         server.proc = subprocess.Popen(
             [
                 sys.executable,

@@ -29,11 +29,14 @@ def _load_module():
 def test_many_streaming_clients_all_complete(start_server):
     load = _load_module()
     server = start_server(
-        MESHSERVICE_MAX_QUEUED=str(10 * CLIENTS), MESHSERVICE_MAX_STREAMS=str(10 * CLIENTS)
+        MESHSERVICE_MAX_QUEUED=str(10 * CLIENTS),
+        MESHSERVICE_MAX_STREAMS=str(10 * CLIENTS),
+        MESHSERVICE_WARMUP="1",  # as deployed: a hundred jobs share the loaded kernels
     )
     probe = httpx.post(
         server.url + "/v1/jobs", json=load.QUALITY, params={"wait": 20}, timeout=30
     ).json()["id"]
-    row = asyncio.run(load.load_round(server.url, CLIENTS, probe))
+    with load.Prober(server.url, probe) as prober:
+        row = asyncio.run(load.load_round(server.url, CLIENTS, prober))
     assert row["errors"] == 0, row
     assert row["done"] == CLIENTS
