@@ -10,7 +10,8 @@ run at a lower CPU priority than the service and the prober (they stand for
 clients on other machines; on 2 cores they would otherwise take the
 service's share). Prints, per N: jobs completed, errors (connection resets
 included), jobs per second, p50/p99 of a client's whole round trip, p99 of
-the prober's status read.
+the prober's status read over the round and after the last submit was
+answered (streams held, workers saturated).
 
     .venv/bin/python benchmarks/load.py [--clients 20 200 1000]
 """
@@ -61,15 +62,17 @@ def _port() -> int:
         return s.getsockname()[1]
 
 
-async def one_client(url: str, k: int, tls: ssl.SSLContext) -> float:
+async def one_client(url: str, k: int, tls: ssl.SSLContext, acked: list[float]) -> float:
     """One client of its own (its own connection, as N real clients have): submit,
     follow the event stream to its end, fetch the result; the round trip's seconds.
-    ``tls``: one context shared by all (httpx builds one per client otherwise, 50 ms)."""
+    ``tls``: one context shared by all (httpx builds one per client otherwise, 50 ms);
+    ``acked``: gets the time (monotonic) the submit was answered."""
     body = TRIANGULATE if k % 4 == 0 else QUALITY
     t0 = time.perf_counter()
     async with httpx.AsyncClient(base_url=url, timeout=300, verify=tls) as c:
         r = await c.post("/v1/jobs", json=body)
         r.raise_for_status()
+        acked.append(time.monotonic())
         job = r.json()["id"]
         async with c.stream("GET", f"/v1/jobs/{job}/events") as events:
             events.raise_for_status()
@@ -130,13 +133,19 @@ class Prober:
 
 
 async def load_round(url: str, n: int, prober: Prober) -> dict:
-    """``n`` clients at once (:func:`one_client`), the ``prober`` reading beside them."""
+    """``n`` clients at once (:func:`one_client`), the ``prober`` reading beside them.
+
+    Status reads are reported over the whole round and over its part after the
+    last submit was answered (the streams held, the workers saturated, no burst
+    of submits queued in front of the read)."""
     t0 = time.monotonic()
     tls = ssl.create_default_context()
-    clients = (one_client(url, k, tls) for k in range(n))
+    acked: list[float] = []
+    clients = (one_client(url, k, tls, acked) for k in range(n))
     results = await asyncio.gather(*clients, return_exceptions=True)
     wall = time.monotonic() - t0
     reads = prober.latencies(t0, t0 + wall)
+    held = prober.latencies(max(acked, default=t0), t0 + wall)
     times = [r for r in results if isinstance(r, float)]
     errors = [r for r in results if not isinstance(r, float)]
     for e in errors[:3]:
@@ -150,6 +159,7 @@ async def load_round(url: str, n: int, prober: Prober) -> dict:
         "p50": float(np.percentile(times, 50)) if times else float("nan"),
         "p99": float(np.percentile(times, 99)) if times else float("nan"),
         "read p99 ms": 1e3 * float(np.percentile(reads, 99)) if reads else float("nan"),
+        "held read p99 ms": 1e3 * float(np.percentile(held, 99)) if held else float("nan"),
     }
 
 
@@ -193,7 +203,8 @@ def main() -> None:
         finally:
             server.terminate()
             server.wait(30)
-    cols = ["clients", "done", "errors", "jobs/s", "p50", "p99", "read p99 ms", "first_error"]
+    cols = ["clients", "done", "errors", "jobs/s", "p50", "p99", "read p99 ms", "held read p99 ms"]
+    cols.append("first_error")
     print("| " + " | ".join(cols) + " |")
     print("|" + "---|" * len(cols))
     for row in rows:
