@@ -66,7 +66,7 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         try:
-            store = Store(settings.data_dir)
+            store = Store(settings.data_dir, settings.durable)
         except StoreDamaged as exc:
             log.error("refusing to start: %s", exc)
             raise

@@ -7,6 +7,13 @@ Layout under the data directory::
     jobs/<id>/result.json   the result, written atomically (temporary file + rename)
     jobs/<id>/result.<fmt>  downloads, the mesh's arrays (npz), previews: service.downloads
 
+Durability: a crash or SIGKILL of the service loses nothing acknowledged
+(files are renamed into place whole; SQLite commits before an answer). A
+power loss may lose the last jobs and results, as SQLite's
+``synchronous=NORMAL`` does, unless the store is ``durable``: then every
+file is ``fsync``-ed before it is renamed into place and SQLite runs with
+``synchronous=FULL`` (about 15 ms more per file on this machine's disk).
+
 The store is used from the event-loop thread, and for result files from
 worker threads (SQLite runs in serialized mode); every statement is short.
 Each change of a row bumps its ``version``, which is the job's ``ETag``.
@@ -121,19 +128,28 @@ class Job:
         return f'"{self.id[:8]}-{self.version}"'
 
 
-def write_atomically(path: Path, data: bytes) -> None:
+def write_atomically(path: Path, data: bytes, sync: bool) -> None:
     """Write ``data`` to ``path`` so that readers see the old file or the whole new one.
 
-    Raises :class:`DiskFull` (and removes the partial temporary file) when
-    the disk or a quota is full.
+    ``sync``: on the disk (``fsync``) before it replaces ``path``, so that it
+    survives a power loss too, not only a crash of the service. Raises
+    :class:`DiskFull` (and removes the partial temporary file) when the disk
+    or a quota is full.
     """
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
     try:
         with open(tmp, "wb") as f:
             f.write(data)
             f.flush()
-            os.fsync(f.fileno())
+            if sync:
+                os.fsync(f.fileno())
         os.replace(tmp, path)
+        if sync:  # the rename itself
+            folder = os.open(path.parent, os.O_RDONLY)
+            try:
+                os.fsync(folder)
+            finally:
+                os.close(folder)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
         if exc.errno in _NO_SPACE:
@@ -154,8 +170,9 @@ def _sha256(path: Path) -> str:
 class Store:
     """Jobs in SQLite (WAL) and their files under ``data_dir``."""
 
-    def __init__(self, data_dir: Path) -> None:
+    def __init__(self, data_dir: Path, durable: bool = False) -> None:
         self.data_dir = Path(data_dir)
+        self.durable = durable
         self.jobs_dir = self.data_dir / "jobs"
         self.jobs_dir.mkdir(parents=True, exist_ok=True)
         path = self.data_dir / "jobs.sqlite3"
@@ -163,7 +180,7 @@ class Store:
         try:
             self._db.row_factory = sqlite3.Row
             self._db.execute("PRAGMA journal_mode=WAL")
-            self._db.execute("PRAGMA synchronous=NORMAL")
+            self._db.execute(f"PRAGMA synchronous={'FULL' if durable else 'NORMAL'}")
             check = self._db.execute("PRAGMA quick_check").fetchone()[0]
             if check != "ok":
                 raise sqlite3.DatabaseError(check)
@@ -225,7 +242,7 @@ class Store:
             self._writers[job_id] += 1
         try:
             path = self.result_path(job_id, fmt)
-            write_atomically(path, data)
+            write_atomically(path, data, self.durable)
             self._db.execute(
                 "INSERT OR REPLACE INTO files (job_id, name, size, sha256) VALUES (?, ?, ?, ?)",
                 (job_id, path.name, len(data), hashlib.sha256(data).hexdigest()),
@@ -321,8 +338,8 @@ class Store:
         try:
             self.job_dir(job_id).mkdir(parents=True)
             if arrays:
-                write_atomically(self.arrays_path(job_id), arrays)
-            write_atomically(self.params_path(job_id), params)
+                write_atomically(self.arrays_path(job_id), arrays, self.durable)
+            write_atomically(self.params_path(job_id), params, self.durable)
         except (DiskFull, OSError) as exc:
             shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
             if isinstance(exc, DiskFull) or exc.errno in _NO_SPACE:

@@ -55,10 +55,10 @@ def test_delete_waits_for_the_result_write_in_flight(tmp_path, monkeypatch):
     gate = Gate()
     write = service.store.write_atomically
 
-    def held(path, data):
+    def held(path, data, sync):
         if path.name == "result.json":
             gate.hold()
-        write(path, data)
+        write(path, data, sync)
 
     monkeypatch.setattr(service.store, "write_atomically", held)
 
