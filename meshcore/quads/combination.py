@@ -145,19 +145,19 @@ algorithm" (2012).
 
 from __future__ import annotations
 
-import dataclasses
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
-from scipy.sparse import csgraph, csr_matrix
 
+from meshcore.domain.planar import Domain, parse_domain
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
+from meshcore.quads.boundary_layer import boundary_layer
+from meshcore.quads.lattice import triangulated
 from meshcore.quads.optimization import corners_relaxed, optimize_quads
 
 __all__ = [
@@ -222,8 +222,6 @@ class _Tolerances:
 
 
 TOL = _Tolerances()
-
-_SHEAR = np.array([[1.0, 0.5], [0.0, math.sqrt(3.0) / 2.0]])
 
 
 @dataclass(frozen=True)
@@ -1027,130 +1025,6 @@ def check_metric_2d(metric) -> None:
     quality.metric_factors(metric, 2, 0)
 
 
-# ----------------------------------------------------------------------------- domain input
-
-
-def _triangulated(domain, size, size_field, min_angle, pattern, keep_boundary, progress):
-    """Triangles of a domain laid for combination (sheared lattice), with even parts."""
-    from meshcore.domain.planar import Domain, parse_domain
-    from meshcore.triangulation.refinement import triangulate
-
-    dom = domain if isinstance(domain, Domain) else parse_domain(domain)
-    A = _SHEAR if pattern == "squares" else np.eye(2)
-    field_ = None
-    if size_field is not None:
-        fp = np.asarray(size_field["points"], dtype=np.float64)
-        field_ = {"points": fp @ A.T if len(fp) else fp, "values": size_field["values"]}
-    sheared = dataclasses.replace(
-        dom,
-        points=dom.points @ A.T,
-        area=dom.area * float(np.linalg.det(A)),
-    )
-    res = triangulate(
-        sheared,
-        size=size,
-        size_field=field_,
-        min_angle=min_angle,
-        keep_boundary=keep_boundary,
-        progress=progress,
-    )
-    P = res.mesh.points @ np.linalg.inv(A).T
-    P[: len(dom.points)] = dom.points  # the input vertices exactly, not their round trip
-    tri = res.mesh.cells[0].data
-    P, tri = _drop_lonely_boundary_points(P, tri, len(dom.points))
-    P, tri = _even_parts(P, tri)
-    return Mesh(P, (CellBlock("triangle", tri),)), dom
-
-
-def _drop_lonely_boundary_points(P, tri, n_input: int):
-    """Remove the added boundary points held by two triangles only.
-
-    Such a point ``v`` splits an input segment ``a d``, and its two triangles
-    ``a v c`` and ``v d c`` make a quad with a flat corner at ``v``: they can
-    never be combined (the first drawback of §8.4.4). The triangle ``a d c``
-    replaces them when it is counter-clockwise (exact predicate); ``a d``
-    is then the chain of the segment. Input vertices are never removed.
-    """
-    m = len(tri)
-    val = np.bincount(tri.ravel(), minlength=len(P))
-    cand = np.flatnonzero(val == 2)
-    cand = cand[cand >= n_input]
-    if not len(cand):
-        return P, tri
-    holders = np.flatnonzero(np.isin(tri, cand).any(axis=1))
-    corner = np.isin(tri[holders], cand)
-    # a triangle holding two candidates (two lonely points next to each other) is left alone
-    single = corner.sum(axis=1) == 1
-    holders, corner = holders[single], corner[single]
-    j = np.argmax(corner, axis=1)
-    v = tri[holders, j]
-    order = np.argsort(v, kind="stable")
-    v, holders, j = v[order], holders[order], j[order]
-    pair = np.flatnonzero(v[1:] == v[:-1])
-    pair = pair[np.r_[True, pair[1:] != pair[:-1] + 1]] if len(pair) else pair
-    t1, t2, j1, j2 = holders[pair], holders[pair + 1], j[pair], j[pair + 1]
-    # orient so that t1 = (v, d, c) and t2 = (a, v, c): t1's next vertex after v is
-    # t2's previous one (c, the shared apex)
-    c1 = tri[t1, (j1 + 2) % 3]
-    swap = c1 != tri[t2, (j2 + 1) % 3]
-    t1, t2 = np.where(swap, t2, t1), np.where(swap, t1, t2)
-    j1, j2 = np.where(swap, j2, j1), np.where(swap, j1, j2)
-    d = tri[t1, (j1 + 1) % 3]
-    c = tri[t1, (j1 + 2) % 3]
-    a = tri[t2, (j2 + 2) % 3]
-    ok = (tri[t2, (j2 + 1) % 3] == c) & (orient2d(P[a], P[d], P[c]) > 0)
-    t1, t2, a, d, c = t1[ok], t2[ok], a[ok], d[ok], c[ok]
-    if not len(t1):
-        return P, tri
-    tri = tri.copy()
-    tri[t1] = np.column_stack([a, d, c])
-    keep = np.ones(m, bool)
-    keep[t2] = False
-    tri = tri[keep]
-    used = np.zeros(len(P), bool)
-    used[tri.ravel()] = True
-    new = np.cumsum(used) - 1
-    return P[used], new[tri]
-
-
-def _even_parts(P, tri):
-    """Split the longest boundary edge of every part with an odd triangle count (Remark 8.3)."""
-    m = len(tri)
-    a = tri.ravel()
-    b = np.roll(tri, -1, axis=1).ravel()
-    n = len(P)
-    key = np.minimum(a, b) * n + np.maximum(a, b)
-    uniq, inv, cnt = np.unique(key, return_inverse=True, return_counts=True)
-    h = np.arange(3 * m)
-    inner = cnt[inv] == 2
-    order = np.argsort(inv[inner], kind="stable")
-    hh = h[inner][order]
-    t1, t2 = hh[0::2] // 3, hh[1::2] // 3
-    g = csr_matrix((np.ones(len(t1)), (t1, t2)), shape=(m, m))
-    nparts, label = csgraph.connected_components(g, directed=False)
-    odd = np.flatnonzero(np.bincount(label, minlength=nparts) % 2 == 1)
-    if not len(odd):
-        return P, tri
-    bh = h[cnt[inv] == 1]
-    blen = np.linalg.norm(P[b[bh]] - P[a[bh]], axis=1)
-    bpart = label[bh // 3]
-    pick = []
-    for part in odd:  # a loop over parts, not cells
-        cand = np.flatnonzero(bpart == part)
-        if len(cand):
-            pick.append(bh[cand[np.argmax(blen[cand])]])
-    pick = np.asarray(pick, dtype=np.int64)
-    t = pick // 3
-    k = pick % 3
-    u, v, x = tri[t, k], tri[t, (k + 1) % 3], tri[t, (k + 2) % 3]
-    mid = np.arange(n, n + len(pick))
-    P = np.concatenate([P, 0.5 * (P[u] + P[v])])
-    tri = tri.copy()
-    tri[t] = np.column_stack([u, mid, x])
-    tri = np.concatenate([tri, np.column_stack([mid, v, x])])
-    return P, tri
-
-
 # ----------------------------------------------------------------------------- splitting
 
 
@@ -1252,6 +1126,84 @@ def _mesh_of(P, quads, tris) -> Mesh:
     return Mesh(P, tuple(blocks))
 
 
+def _combined(mesh, metric, domain_input, algorithm, measure, min_quality, all_quad, report, lap):
+    """Steps 1, 2 and 4 of the module docstring: the selected pairs (and triples) of a
+    triangle mesh as a mixed mesh, or split into quads with ``all_quad``.
+
+    Returns (mesh, metric, boundary edges, stats, (pairs, triples, triangles left)).
+    """
+    P, tri = _check_mesh(mesh)
+    metric = _check_metric(metric, P)
+    report(0.4, "dual graph")
+    nb = _neighbours(mesh, P, tri)
+    t_b, k_b = np.nonzero(nb < 0)  # the input's boundary, or the domain's chains
+    boundary = np.column_stack([tri[t_b, k_b], tri[t_b, (k_b + 1) % 3]])
+    # the 45-degree bound is measured on domains (curved boundaries); a given mesh keeps 5
+    flat = TOL.all_quad_flat_corner if all_quad and domain_input else TOL.flat_corner
+    quads_of, w = _candidates(P, tri, nb, measure, metric, min_quality, flat)
+    lap("candidates")
+    report(0.5, f"selecting pairs ({algorithm})")
+    m = len(tri)
+    mate = np.full(m, -1, np.int64)
+    triples = np.zeros((0, 4), np.int64)
+    stats: dict = {"input_triangles": m, "input_points": len(P)}
+    if algorithm in ("heap", "matching"):
+        valid = np.flatnonzero((w.ravel() >= 0) & (np.arange(3 * m) // 3 < nb.ravel()))
+        order = valid[np.argsort(-w.ravel()[valid], kind="stable")]
+        _heap_kernel(nb, w, order, mate, algorithm == "matching" and TOL.urgent_start)
+        if algorithm == "matching":
+            stats["heap_triangles_left"] = int(np.count_nonzero(mate < 0))
+            gained = 0
+            good = max(TOL.good_quality, min_quality)
+            if TOL.search_cap > 0:
+                gained += _augment_kernel(nb, w, good, mate, TOL.search_cap, TOL.path_step)
+            gained += _forest_kernel(nb, w, min_quality, mate)
+            stats["augmentations"] = int(gained)
+            stats["swaps"] = int(_swap_kernel(nb, w, mate, TOL.gain, TOL.swap_sweeps))
+    elif algorithm == "frontal":
+        seeds = np.flatnonzero((nb < 0).any(axis=1))
+        _frontal_kernel(nb, w, seeds, mate)
+    else:
+        nbound = (nb < 0).sum(axis=1)
+        starts = np.argsort(-nbound, kind="stable")
+        start_edge = np.argmax(nb[starts] < 0, axis=1)
+        w3 = _three_quads_allowed(P, tri, nb, measure, metric, min_quality, flat)
+        buf = np.zeros((m // 4 + 1, 4), np.int64)
+        ntr = _stack_kernel(nb, w, w3, starts, start_edge, mate, buf)
+        triples = buf[:ntr]
+    lap("selection")
+    # -- the mixed mesh ------------------------------------------------------
+    t = np.flatnonzero((mate >= 0) & (np.arange(m) < mate))
+    k = np.argmax(nb[t] == mate[t][:, None], axis=1)
+    quads = quads_of[t, k]
+    used = mate >= 0
+    npts = len(P)
+    if len(triples):
+        Kt = triples[:, 0]
+        used[triples.ravel()] = True
+        g = np.arange(npts, npts + len(Kt))
+        P = np.concatenate([P, P[tri[Kt]].mean(axis=1)])
+        if metric is not None and metric.ndim == 3:
+            metric = np.concatenate([metric, metric[tri[Kt]].mean(axis=1)])
+        tq = []
+        for kk in range(3):
+            u, v = tri[Kt, kk], tri[Kt, (kk + 1) % 3]
+            d = tri[nb[Kt, kk]].sum(axis=1) - u - v
+            tq.append(np.column_stack([u, d, v, g]))
+        quads = np.concatenate([quads, *tq])
+    left = tri[~used]
+    stats.update(pairs=len(t), triples=len(triples), triangles_left=len(left))
+    out_mesh = _mesh_of(P, quads, left)
+    if all_quad:
+        report(0.6, "splitting into quads")
+        P2, q2, m2, boundary = split_all(P, quads, left, metric, boundary)
+        if metric is not None and metric.ndim == 3:
+            metric = m2
+        out_mesh = Mesh(P2, (CellBlock("quad", q2),))
+    lap("build")
+    return out_mesh, metric, boundary, stats, (len(t), len(triples), len(left))
+
+
 def combine(
     mesh: Mesh | None = None,
     *,
@@ -1340,6 +1292,8 @@ def combine(
             loc=("twice_size",),
             code="conflicting_parameters",
         )
+    layered = None
+    layer_fits = size is not None and size_field is None and metric is None
     if domain is not None:
         if metric is not None:
             check_metric_2d(metric)
@@ -1355,77 +1309,35 @@ def combine(
         def sub(f: float, msg: str) -> None:
             report(0.4 * f, msg)
 
-        mesh, _dom = _triangulated(domain, tsize, field_, min_angle, pattern, keep_boundary, sub)
+        _dom = domain if isinstance(domain, Domain) else parse_domain(domain)
+        if layer_fits and all_quad and twice_size and pattern == "squares" and not keep_boundary:
+            layered = boundary_layer(
+                _dom,
+                size,
+                lambda d: combine(
+                    domain=d,
+                    size=size,
+                    min_angle=min_angle,
+                    keep_boundary=True,
+                    algorithm=algorithm,
+                    measure=measure,
+                    min_quality=min_quality,
+                    all_quad=True,
+                    twice_size=True,
+                ),
+            )
+        if layered is None:
+            mesh, _dom = triangulated(_dom, tsize, field_, min_angle, pattern, keep_boundary, sub)
         lap("triangulate")
-    P, tri = _check_mesh(mesh)
-    metric = _check_metric(metric, P)
-    report(0.4, "dual graph")
-    nb = _neighbours(mesh, P, tri)
-    t_b, k_b = np.nonzero(nb < 0)  # the input's boundary, or the domain's chains
-    boundary = np.column_stack([tri[t_b, k_b], tri[t_b, (k_b + 1) % 3]])
-    # the 45-degree bound is measured on domains (curved boundaries); a given mesh keeps 5
-    flat = TOL.all_quad_flat_corner if all_quad and domain is not None else TOL.flat_corner
-    quads_of, w = _candidates(P, tri, nb, measure, metric, min_quality, flat)
-    lap("candidates")
-    report(0.5, f"selecting pairs ({algorithm})")
-    m = len(tri)
-    mate = np.full(m, -1, np.int64)
-    triples = np.zeros((0, 4), np.int64)
-    stats: dict = {"input_triangles": m, "input_points": len(P)}
-    if algorithm in ("heap", "matching"):
-        valid = np.flatnonzero((w.ravel() >= 0) & (np.arange(3 * m) // 3 < nb.ravel()))
-        order = valid[np.argsort(-w.ravel()[valid], kind="stable")]
-        _heap_kernel(nb, w, order, mate, algorithm == "matching" and TOL.urgent_start)
-        if algorithm == "matching":
-            stats["heap_triangles_left"] = int(np.count_nonzero(mate < 0))
-            gained = 0
-            good = max(TOL.good_quality, min_quality)
-            if TOL.search_cap > 0:
-                gained += _augment_kernel(nb, w, good, mate, TOL.search_cap, TOL.path_step)
-            gained += _forest_kernel(nb, w, min_quality, mate)
-            stats["augmentations"] = int(gained)
-            stats["swaps"] = int(_swap_kernel(nb, w, mate, TOL.gain, TOL.swap_sweeps))
-    elif algorithm == "frontal":
-        seeds = np.flatnonzero((nb < 0).any(axis=1))
-        _frontal_kernel(nb, w, seeds, mate)
+    if layered is None:
+        out_mesh, metric, boundary, stats, counts = _combined(
+            mesh, metric, domain is not None, algorithm, measure, min_quality, all_quad, report, lap
+        )
     else:
-        nbound = (nb < 0).sum(axis=1)
-        starts = np.argsort(-nbound, kind="stable")
-        start_edge = np.argmax(nb[starts] < 0, axis=1)
-        w3 = _three_quads_allowed(P, tri, nb, measure, metric, min_quality, flat)
-        buf = np.zeros((m // 4 + 1, 4), np.int64)
-        ntr = _stack_kernel(nb, w, w3, starts, start_edge, mate, buf)
-        triples = buf[:ntr]
-    lap("selection")
-    # -- the mixed mesh ------------------------------------------------------
-    t = np.flatnonzero((mate >= 0) & (np.arange(m) < mate))
-    k = np.argmax(nb[t] == mate[t][:, None], axis=1)
-    quads = quads_of[t, k]
-    used = mate >= 0
-    npts = len(P)
-    if len(triples):
-        Kt = triples[:, 0]
-        used[triples.ravel()] = True
-        g = np.arange(npts, npts + len(Kt))
-        P = np.concatenate([P, P[tri[Kt]].mean(axis=1)])
-        if metric is not None and metric.ndim == 3:
-            metric = np.concatenate([metric, metric[tri[Kt]].mean(axis=1)])
-        tq = []
-        for kk in range(3):
-            u, v = tri[Kt, kk], tri[Kt, (kk + 1) % 3]
-            d = tri[nb[Kt, kk]].sum(axis=1) - u - v
-            tq.append(np.column_stack([u, d, v, g]))
-        quads = np.concatenate([quads, *tq])
-    left = tri[~used]
-    stats.update(pairs=len(t), triples=len(triples), triangles_left=len(left))
-    out_mesh = _mesh_of(P, quads, left)
-    if all_quad:
-        report(0.6, "splitting into quads")
-        P2, q2, m2, boundary = split_all(P, quads, left, metric, boundary)
-        if metric is not None and metric.ndim == 3:
-            metric = m2
-        out_mesh = Mesh(P2, (CellBlock("quad", q2),))
-    lap("build")
+        out_mesh, boundary, inner = layered
+        counts = (inner.pairs, inner.triples, inner.triangles_left)
+        stats = dict(inner.stats, boundary_layer=len(boundary))
+        lap("layer")
     report(0.65, "quality report")
     quality_before = _report(out_mesh, metric, boundary)
     ops: dict = {}
@@ -1465,9 +1377,9 @@ def combine(
         mesh=out_mesh,
         quality_before=quality_before,
         quality_after=quality_after,
-        pairs=int(len(t)),
-        triples=int(len(triples)),
-        triangles_left=int(len(left)),
+        pairs=int(counts[0]),
+        triples=int(counts[1]),
+        triangles_left=int(counts[2]),
         operators=ops,
         stats=stats,
     )
