@@ -399,14 +399,15 @@ def curved_child(tool: str, name: str, size: float) -> dict:
     return out
 
 
-def curved_main(sizes, timeout: float) -> None:
-    """Tables of the curved domains (``--curved``): each of ours, then Gmsh a8r3 at
-    the size that gives about as many quads (one calibration run)."""
+def curved_main(sizes, timeout: float, tools=None) -> None:
+    """Tables of the curved domains (``--curved``): each of ours (``tools``, default
+    all three), then Gmsh a8r3 at the size that gives about as many quads (one
+    calibration run)."""
     print("| domain | size | run | quads | least Q | mean Q | corners | seconds |")
     print("|---|---:|---|---:|---:|---:|---|---:|")
     for name in ("disk", "annulus", "ellipse", "gear"):
         for size in sizes:
-            for tool in ("quad_combine", "quad_medial", "paving"):
+            for tool in tools or ("quad_combine", "quad_medial", "paving"):
                 r = _curved_run(tool, name, size, timeout)
                 _curved_row(name, size, tool, r)
                 if not isinstance(r, dict):
@@ -563,7 +564,7 @@ def main() -> None:
         print(json.dumps(curved_child(tool, name, float(size))))
         return
     if args.curved is not None:
-        curved_main(args.curved or [0.1, 0.05, 0.025], args.timeout)
+        curved_main(args.curved or [0.1, 0.05, 0.025], args.timeout, args.tools)
         return
     if args.child:
         tool, n, path = args.child
