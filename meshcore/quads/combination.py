@@ -81,7 +81,11 @@ Pipeline
    parity of its boundary edge count, and an odd part cannot be paired
    completely (Remark 8.3): for domain input, one boundary edge of each odd
    part (the longest) is split at its midpoint, which makes the count even
-   and keeps every input segment a chain of edges.
+   and keeps every input segment a chain of edges
+   (:mod:`meshcore.quads.lattice`). With ``all_quad`` and ``twice_size`` on
+   a smooth domain, a row of quads along the boundary comes first and the
+   lattice fills the inside of its offset rings
+   (:mod:`meshcore.quads.boundary_layer`: where and why).
 4. **all_quad** (Figure 8.13): every edge gets its midpoint, every cell its
    vertex centroid; a quad becomes four quads and a leftover triangle three,
    so the mesh stays conforming. The four pieces of a quad are the quad cut
@@ -1248,7 +1252,10 @@ def combine(
     all_quad : bool
         Split quads into four and leftover triangles into three (Figure 8.13).
     twice_size : bool
-        Domain input with ``all_quad``: mesh at ``2 * size`` first.
+        Domain input with ``all_quad``: mesh at ``2 * size`` first; on smooth
+        domains (``size`` given, no size field nor metric, the boundary not
+        kept) after a row of quads along the boundary
+        (:func:`meshcore.quads.boundary_layer.boundary_layer`).
     optimize : bool
         Apply the operators of §8.4.3 and smoothing (:mod:`meshcore.quads.optimization`).
     progress : callable(fraction, message), optional
