@@ -399,14 +399,15 @@ def curved_child(tool: str, name: str, size: float) -> dict:
     return out
 
 
-def curved_main(sizes, timeout: float) -> None:
-    """Tables of the curved domains (``--curved``): each of ours, then Gmsh a8r3 at
-    the size that gives about as many quads (one calibration run)."""
+def curved_main(sizes, timeout: float, tools=None, domains=None) -> None:
+    """Tables of the curved domains (``--curved``): each of ours (``tools``, default
+    all three), then Gmsh a8r3 at the size that gives about as many quads (one
+    calibration run)."""
     print("| domain | size | run | quads | least Q | mean Q | corners | seconds |")
     print("|---|---:|---|---:|---:|---:|---|---:|")
-    for name in ("disk", "annulus", "ellipse", "gear"):
+    for name in domains or ("disk", "annulus", "ellipse", "gear"):
         for size in sizes:
-            for tool in ("quad_combine", "quad_medial", "paving"):
+            for tool in tools or ("quad_combine", "quad_medial", "paving"):
                 r = _curved_run(tool, name, size, timeout)
                 _curved_row(name, size, tool, r)
                 if not isinstance(r, dict):
@@ -548,6 +549,7 @@ def main() -> None:
         default=None,
         help="sizes: the all-quad methods on a disk, annulus, ellipse and gear against Gmsh a8r3",
     )
+    ap.add_argument("--domains", nargs="*", default=None, help="--curved: only these domains")
     ap.add_argument("--curved-child", nargs=3, metavar=("TOOL", "DOMAIN", "SIZE"))
     ap.add_argument("--poisson", action="store_true", help="Q1 Poisson convergence on the disk")
     ap.add_argument("--poisson-child", nargs=2, metavar=("TOOL", "SIZE"))
@@ -563,7 +565,7 @@ def main() -> None:
         print(json.dumps(curved_child(tool, name, float(size))))
         return
     if args.curved is not None:
-        curved_main(args.curved or [0.1, 0.05, 0.025], args.timeout)
+        curved_main(args.curved or [0.1, 0.05, 0.025], args.timeout, args.tools, args.domains)
         return
     if args.child:
         tool, n, path = args.child

@@ -81,7 +81,11 @@ Pipeline
    parity of its boundary edge count, and an odd part cannot be paired
    completely (Remark 8.3): for domain input, one boundary edge of each odd
    part (the longest) is split at its midpoint, which makes the count even
-   and keeps every input segment a chain of edges.
+   and keeps every input segment a chain of edges
+   (:mod:`meshcore.quads.lattice`). With ``all_quad`` and ``twice_size`` on
+   a smooth domain, a row of quads along the boundary comes first and the
+   lattice fills the inside of its offset rings
+   (:mod:`meshcore.quads.boundary_layer`: where and why).
 4. **all_quad** (Figure 8.13): every edge gets its midpoint, every cell its
    vertex centroid; a quad becomes four quads and a leftover triangle three,
    so the mesh stays conforming. The four pieces of a quad are the quad cut
@@ -145,19 +149,19 @@ algorithm" (2012).
 
 from __future__ import annotations
 
-import dataclasses
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
-from scipy.sparse import csgraph, csr_matrix
 
+from meshcore.domain.planar import Domain, parse_domain
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
+from meshcore.quads.boundary_layer import boundary_layer
+from meshcore.quads.lattice import triangulated
 from meshcore.quads.optimization import corners_relaxed, optimize_quads
 
 __all__ = [
@@ -222,8 +226,6 @@ class _Tolerances:
 
 
 TOL = _Tolerances()
-
-_SHEAR = np.array([[1.0, 0.5], [0.0, math.sqrt(3.0) / 2.0]])
 
 
 @dataclass(frozen=True)
@@ -1027,130 +1029,6 @@ def check_metric_2d(metric) -> None:
     quality.metric_factors(metric, 2, 0)
 
 
-# ----------------------------------------------------------------------------- domain input
-
-
-def _triangulated(domain, size, size_field, min_angle, pattern, keep_boundary, progress):
-    """Triangles of a domain laid for combination (sheared lattice), with even parts."""
-    from meshcore.domain.planar import Domain, parse_domain
-    from meshcore.triangulation.refinement import triangulate
-
-    dom = domain if isinstance(domain, Domain) else parse_domain(domain)
-    A = _SHEAR if pattern == "squares" else np.eye(2)
-    field_ = None
-    if size_field is not None:
-        fp = np.asarray(size_field["points"], dtype=np.float64)
-        field_ = {"points": fp @ A.T if len(fp) else fp, "values": size_field["values"]}
-    sheared = dataclasses.replace(
-        dom,
-        points=dom.points @ A.T,
-        area=dom.area * float(np.linalg.det(A)),
-    )
-    res = triangulate(
-        sheared,
-        size=size,
-        size_field=field_,
-        min_angle=min_angle,
-        keep_boundary=keep_boundary,
-        progress=progress,
-    )
-    P = res.mesh.points @ np.linalg.inv(A).T
-    P[: len(dom.points)] = dom.points  # the input vertices exactly, not their round trip
-    tri = res.mesh.cells[0].data
-    P, tri = _drop_lonely_boundary_points(P, tri, len(dom.points))
-    P, tri = _even_parts(P, tri)
-    return Mesh(P, (CellBlock("triangle", tri),)), dom
-
-
-def _drop_lonely_boundary_points(P, tri, n_input: int):
-    """Remove the added boundary points held by two triangles only.
-
-    Such a point ``v`` splits an input segment ``a d``, and its two triangles
-    ``a v c`` and ``v d c`` make a quad with a flat corner at ``v``: they can
-    never be combined (the first drawback of §8.4.4). The triangle ``a d c``
-    replaces them when it is counter-clockwise (exact predicate); ``a d``
-    is then the chain of the segment. Input vertices are never removed.
-    """
-    m = len(tri)
-    val = np.bincount(tri.ravel(), minlength=len(P))
-    cand = np.flatnonzero(val == 2)
-    cand = cand[cand >= n_input]
-    if not len(cand):
-        return P, tri
-    holders = np.flatnonzero(np.isin(tri, cand).any(axis=1))
-    corner = np.isin(tri[holders], cand)
-    # a triangle holding two candidates (two lonely points next to each other) is left alone
-    single = corner.sum(axis=1) == 1
-    holders, corner = holders[single], corner[single]
-    j = np.argmax(corner, axis=1)
-    v = tri[holders, j]
-    order = np.argsort(v, kind="stable")
-    v, holders, j = v[order], holders[order], j[order]
-    pair = np.flatnonzero(v[1:] == v[:-1])
-    pair = pair[np.r_[True, pair[1:] != pair[:-1] + 1]] if len(pair) else pair
-    t1, t2, j1, j2 = holders[pair], holders[pair + 1], j[pair], j[pair + 1]
-    # orient so that t1 = (v, d, c) and t2 = (a, v, c): t1's next vertex after v is
-    # t2's previous one (c, the shared apex)
-    c1 = tri[t1, (j1 + 2) % 3]
-    swap = c1 != tri[t2, (j2 + 1) % 3]
-    t1, t2 = np.where(swap, t2, t1), np.where(swap, t1, t2)
-    j1, j2 = np.where(swap, j2, j1), np.where(swap, j1, j2)
-    d = tri[t1, (j1 + 1) % 3]
-    c = tri[t1, (j1 + 2) % 3]
-    a = tri[t2, (j2 + 2) % 3]
-    ok = (tri[t2, (j2 + 1) % 3] == c) & (orient2d(P[a], P[d], P[c]) > 0)
-    t1, t2, a, d, c = t1[ok], t2[ok], a[ok], d[ok], c[ok]
-    if not len(t1):
-        return P, tri
-    tri = tri.copy()
-    tri[t1] = np.column_stack([a, d, c])
-    keep = np.ones(m, bool)
-    keep[t2] = False
-    tri = tri[keep]
-    used = np.zeros(len(P), bool)
-    used[tri.ravel()] = True
-    new = np.cumsum(used) - 1
-    return P[used], new[tri]
-
-
-def _even_parts(P, tri):
-    """Split the longest boundary edge of every part with an odd triangle count (Remark 8.3)."""
-    m = len(tri)
-    a = tri.ravel()
-    b = np.roll(tri, -1, axis=1).ravel()
-    n = len(P)
-    key = np.minimum(a, b) * n + np.maximum(a, b)
-    uniq, inv, cnt = np.unique(key, return_inverse=True, return_counts=True)
-    h = np.arange(3 * m)
-    inner = cnt[inv] == 2
-    order = np.argsort(inv[inner], kind="stable")
-    hh = h[inner][order]
-    t1, t2 = hh[0::2] // 3, hh[1::2] // 3
-    g = csr_matrix((np.ones(len(t1)), (t1, t2)), shape=(m, m))
-    nparts, label = csgraph.connected_components(g, directed=False)
-    odd = np.flatnonzero(np.bincount(label, minlength=nparts) % 2 == 1)
-    if not len(odd):
-        return P, tri
-    bh = h[cnt[inv] == 1]
-    blen = np.linalg.norm(P[b[bh]] - P[a[bh]], axis=1)
-    bpart = label[bh // 3]
-    pick = []
-    for part in odd:  # a loop over parts, not cells
-        cand = np.flatnonzero(bpart == part)
-        if len(cand):
-            pick.append(bh[cand[np.argmax(blen[cand])]])
-    pick = np.asarray(pick, dtype=np.int64)
-    t = pick // 3
-    k = pick % 3
-    u, v, x = tri[t, k], tri[t, (k + 1) % 3], tri[t, (k + 2) % 3]
-    mid = np.arange(n, n + len(pick))
-    P = np.concatenate([P, 0.5 * (P[u] + P[v])])
-    tri = tri.copy()
-    tri[t] = np.column_stack([u, mid, x])
-    tri = np.concatenate([tri, np.column_stack([mid, v, x])])
-    return P, tri
-
-
 # ----------------------------------------------------------------------------- splitting
 
 
@@ -1252,111 +1130,12 @@ def _mesh_of(P, quads, tris) -> Mesh:
     return Mesh(P, tuple(blocks))
 
 
-def combine(
-    mesh: Mesh | None = None,
-    *,
-    domain=None,
-    size: float | None = None,
-    size_field: dict | None = None,
-    min_angle: float | None = None,
-    keep_boundary: bool = False,
-    pattern: str = "squares",
-    algorithm: str = "matching",
-    measure: str = "angle",
-    metric=None,
-    min_quality: float = 0.0,
-    all_quad: bool = False,
-    twice_size: bool = False,
-    optimize: bool = False,
-    progress: Progress | None = None,
-) -> QuadResult:
-    """Combine the triangles of a mesh (or of a domain meshed here) into quads.
+def _combined(mesh, metric, domain_input, algorithm, measure, min_quality, all_quad, report, lap):
+    """Steps 1, 2 and 4 of the module docstring: the selected pairs (and triples) of a
+    triangle mesh as a mixed mesh, or split into quads with ``all_quad``.
 
-    Parameters
-    ----------
-    mesh : Mesh, optional
-        Triangles only, counter-clockwise in the plane, consistently oriented
-        on a surface (points ``(n, 3)``), conforming and manifold.
-    domain : Domain or dict, optional
-        Instead of ``mesh``: a planar domain, triangulated by
-        :func:`meshcore.triangulation.refinement.triangulate` with ``size``,
-        ``size_field``, ``min_angle`` and ``keep_boundary`` (module
-        docstring, step 3).
-    pattern : {"squares", "equilateral"}
-        Domain input: triangles laid in pairs of near-squares (sheared
-        lattice) or the triangulator's equilateral lattice.
-    algorithm : {"stack", "heap", "frontal", "matching"}
-    measure : {"angle", "simplified", "shape"}
-        (8.4)/(8.6), (8.7) or (8.8): the weight of a candidate quad, and the
-        measure the optimization improves.
-    metric : (d, d) or (n, d, d) float64, optional
-        A constant SPD metric or one per point (domain input: constant only).
-    min_quality : float
-        Candidates of lower quality are not combined.
-    all_quad : bool
-        Split quads into four and leftover triangles into three (Figure 8.13).
-    twice_size : bool
-        Domain input with ``all_quad``: mesh at ``2 * size`` first.
-    optimize : bool
-        Apply the operators of §8.4.3 and smoothing (:mod:`meshcore.quads.optimization`).
-    progress : callable(fraction, message), optional
-
-    Returns
-    -------
-    QuadResult
-
-    Raises
-    ------
-    InputError
-        Bad parameters (``loc`` names them), a bad mesh (``loc`` under
-        ``mesh``: non-triangle blocks, indices out of range, inverted, flat,
-        non-manifold or inconsistently oriented triangles) or a bad domain.
-
-    References
-    ----------
-    §8.4 (module docstring).
+    Returns (mesh, metric, boundary edges, stats, (pairs, triples, triangles left)).
     """
-    report = progress if progress is not None else (lambda f, msg: None)
-    timings: dict[str, float] = {}
-    clock = time.perf_counter()
-
-    def lap(name: str) -> None:
-        nonlocal clock
-        now = time.perf_counter()
-        timings[name] = round(now - clock, 6)
-        clock = now
-
-    algorithm = _choose(algorithm, "algorithm", ALGORITHMS)
-    measure = _choose(measure, "quality", MEASURES)
-    pattern = _choose(pattern, "pattern", PATTERNS)
-    if (mesh is None) == (domain is None):
-        raise InputError("give either mesh or domain", loc=("mesh",), code="conflicting_parameters")
-    if not (0.0 <= min_quality <= 1.0):
-        raise InputError("min_quality must be in [0, 1]", loc=("min_quality",), code="bad_value")
-    if twice_size and (domain is None or not all_quad):
-        raise InputError(
-            "twice_size meshes a domain at twice the size for all_quad: it needs domain input "
-            "and all_quad=true",
-            loc=("twice_size",),
-            code="conflicting_parameters",
-        )
-    if domain is not None:
-        if metric is not None:
-            check_metric_2d(metric)
-        report(0.0, "triangulating the domain")
-        tsize = None if size is None else (2.0 * size if twice_size else size)
-        field_ = size_field
-        if twice_size and size_field is not None:
-            field_ = {
-                "points": size_field["points"],
-                "values": [2.0 * v for v in size_field["values"]],
-            }
-
-        def sub(f: float, msg: str) -> None:
-            report(0.4 * f, msg)
-
-        mesh, _dom = _triangulated(domain, tsize, field_, min_angle, pattern, keep_boundary, sub)
-        lap("triangulate")
     P, tri = _check_mesh(mesh)
     metric = _check_metric(metric, P)
     report(0.4, "dual graph")
@@ -1364,7 +1143,7 @@ def combine(
     t_b, k_b = np.nonzero(nb < 0)  # the input's boundary, or the domain's chains
     boundary = np.column_stack([tri[t_b, k_b], tri[t_b, (k_b + 1) % 3]])
     # the 45-degree bound is measured on domains (curved boundaries); a given mesh keeps 5
-    flat = TOL.all_quad_flat_corner if all_quad and domain is not None else TOL.flat_corner
+    flat = TOL.all_quad_flat_corner if all_quad and domain_input else TOL.flat_corner
     quads_of, w = _candidates(P, tri, nb, measure, metric, min_quality, flat)
     lap("candidates")
     report(0.5, f"selecting pairs ({algorithm})")
@@ -1426,6 +1205,146 @@ def combine(
             metric = m2
         out_mesh = Mesh(P2, (CellBlock("quad", q2),))
     lap("build")
+    return out_mesh, metric, boundary, stats, (len(t), len(triples), len(left))
+
+
+def combine(
+    mesh: Mesh | None = None,
+    *,
+    domain=None,
+    size: float | None = None,
+    size_field: dict | None = None,
+    min_angle: float | None = None,
+    keep_boundary: bool = False,
+    pattern: str = "squares",
+    algorithm: str = "matching",
+    measure: str = "angle",
+    metric=None,
+    min_quality: float = 0.0,
+    all_quad: bool = False,
+    twice_size: bool = False,
+    optimize: bool = False,
+    progress: Progress | None = None,
+) -> QuadResult:
+    """Combine the triangles of a mesh (or of a domain meshed here) into quads.
+
+    Parameters
+    ----------
+    mesh : Mesh, optional
+        Triangles only, counter-clockwise in the plane, consistently oriented
+        on a surface (points ``(n, 3)``), conforming and manifold.
+    domain : Domain or dict, optional
+        Instead of ``mesh``: a planar domain, triangulated by
+        :func:`meshcore.triangulation.refinement.triangulate` with ``size``,
+        ``size_field``, ``min_angle`` and ``keep_boundary`` (module
+        docstring, step 3).
+    pattern : {"squares", "equilateral"}
+        Domain input: triangles laid in pairs of near-squares (sheared
+        lattice) or the triangulator's equilateral lattice.
+    algorithm : {"stack", "heap", "frontal", "matching"}
+    measure : {"angle", "simplified", "shape"}
+        (8.4)/(8.6), (8.7) or (8.8): the weight of a candidate quad, and the
+        measure the optimization improves.
+    metric : (d, d) or (n, d, d) float64, optional
+        A constant SPD metric or one per point (domain input: constant only).
+    min_quality : float
+        Candidates of lower quality are not combined.
+    all_quad : bool
+        Split quads into four and leftover triangles into three (Figure 8.13).
+    twice_size : bool
+        Domain input with ``all_quad``: mesh at ``2 * size`` first; on smooth
+        domains (``size`` given, no size field nor metric, the boundary not
+        kept) after a row of quads along the boundary
+        (:func:`meshcore.quads.boundary_layer.boundary_layer`).
+    optimize : bool
+        Apply the operators of §8.4.3 and smoothing (:mod:`meshcore.quads.optimization`).
+    progress : callable(fraction, message), optional
+
+    Returns
+    -------
+    QuadResult
+
+    Raises
+    ------
+    InputError
+        Bad parameters (``loc`` names them), a bad mesh (``loc`` under
+        ``mesh``: non-triangle blocks, indices out of range, inverted, flat,
+        non-manifold or inconsistently oriented triangles) or a bad domain.
+
+    References
+    ----------
+    §8.4 (module docstring).
+    """
+    report = progress if progress is not None else (lambda f, msg: None)
+    timings: dict[str, float] = {}
+    clock = time.perf_counter()
+
+    def lap(name: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        timings[name] = round(now - clock, 6)
+        clock = now
+
+    algorithm = _choose(algorithm, "algorithm", ALGORITHMS)
+    measure = _choose(measure, "quality", MEASURES)
+    pattern = _choose(pattern, "pattern", PATTERNS)
+    if (mesh is None) == (domain is None):
+        raise InputError("give either mesh or domain", loc=("mesh",), code="conflicting_parameters")
+    if not (0.0 <= min_quality <= 1.0):
+        raise InputError("min_quality must be in [0, 1]", loc=("min_quality",), code="bad_value")
+    if twice_size and (domain is None or not all_quad):
+        raise InputError(
+            "twice_size meshes a domain at twice the size for all_quad: it needs domain input "
+            "and all_quad=true",
+            loc=("twice_size",),
+            code="conflicting_parameters",
+        )
+    layered = None
+    layer_fits = size is not None and size_field is None and metric is None
+    if domain is not None:
+        if metric is not None:
+            check_metric_2d(metric)
+        report(0.0, "triangulating the domain")
+        tsize = None if size is None else (2.0 * size if twice_size else size)
+        field_ = size_field
+        if twice_size and size_field is not None:
+            field_ = {
+                "points": size_field["points"],
+                "values": [2.0 * v for v in size_field["values"]],
+            }
+
+        def sub(f: float, msg: str) -> None:
+            report(0.4 * f, msg)
+
+        _dom = domain if isinstance(domain, Domain) else parse_domain(domain)
+        if layer_fits and all_quad and twice_size and pattern == "squares" and not keep_boundary:
+            layered = boundary_layer(
+                _dom,
+                size,
+                lambda d: combine(
+                    domain=d,
+                    size=size,
+                    min_angle=min_angle,
+                    keep_boundary=True,
+                    algorithm=algorithm,
+                    measure=measure,
+                    min_quality=min_quality,
+                    all_quad=True,
+                    twice_size=True,
+                ),
+            )
+        if layered is None:
+            mesh, _dom = triangulated(_dom, tsize, field_, min_angle, pattern, keep_boundary, sub)
+        lap("triangulate")
+    if layered is None:
+        out_mesh, metric, boundary, stats, counts = _combined(
+            mesh, metric, domain is not None, algorithm, measure, min_quality, all_quad, report, lap
+        )
+    else:
+        out_mesh, boundary, inner = layered
+        counts = (inner.pairs, inner.triples, inner.triangles_left)
+        stats = dict(inner.stats, boundary_layer=len(boundary))
+        lap("layer")
     report(0.65, "quality report")
     quality_before = _report(out_mesh, metric, boundary)
     ops: dict = {}
@@ -1465,9 +1384,9 @@ def combine(
         mesh=out_mesh,
         quality_before=quality_before,
         quality_after=quality_after,
-        pairs=int(len(t)),
-        triples=int(len(triples)),
-        triangles_left=int(len(left)),
+        pairs=int(counts[0]),
+        triples=int(counts[1]),
+        triangles_left=int(counts[2]),
         operators=ops,
         stats=stats,
     )

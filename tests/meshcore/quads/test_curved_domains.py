@@ -7,9 +7,12 @@ giving 100 to 2,000 quads. ``quad_combine`` (``all_quad``, ``twice_size``,
 ``optimize``) and ``quad_medial`` must both succeed with only quads, the
 boundary and the area kept exactly. The quality and count targets of the
 issue are asserted where they hold (the README says which): ``quad_combine``
-on the smooth shapes, corners in [30, 150] degrees, least quality 0.4 (not
-the 0.5 asked: 0.43 was measured on a 4:1 ellipse) and the count within 2x
-of area / size**2 (not the 1.5x asked: 1.68 at the coarsest size);
+with its boundary layer on the smooth shapes and on gears of about 10
+boundary points a tooth, corners in [30, 150] degrees, least quality 0.5
+and the count within 1.5x of area / size**2 (not asserted: gears of fewer
+points a tooth, measured least 0.30-0.43 and counts up to 1.77x, and the
+stars; nor the mean of 0.9 asked on disks, annuli and ellipses, reached
+from about 20 quads across: 0.78-0.95 at these sizes);
 ``quad_medial`` on disks and stadiums (the butterfly), corners in [30, 150]
 degrees.
 """
@@ -89,7 +92,9 @@ def curved_domains(draw):
     elif kind == "stadium":
         outer = _sampled(_stadium(draw(st.sampled_from([0.5, 1.5]))), size)
     elif kind == "gear":
-        outer = _sampled(_gear(draw(st.integers(6, 12)), 0.12), size)
+        teeth = draw(st.integers(6, 12))
+        outer = _sampled(_gear(teeth, 0.12), size)
+        kind = f"gear{teeth}"
     else:
         n = draw(st.integers(5, 40))
         jitter = draw(st.floats(0.1, 0.8))
@@ -137,10 +142,13 @@ def test_quad_combine_all_quad_on_curved_domains(case):
     dom = parse_domain(geo)
     res = combine(domain=dom, size=size, all_quad=True, twice_size=True, optimize=True)
     ang, q, ratio = _check(res.mesh, dom, size)
-    if kind in SMOOTH:  # measured: least Q 0.43-0.59, mean 0.72-0.90 (README)
+    # the boundary layer (README): smooth shapes, and gears sampled finely enough (about
+    # 10 points a tooth; coarser gears turn by more than 60 degrees and keep the lattice)
+    if kind in SMOOTH or (kind.startswith("gear") and int(kind[4:]) * size <= 0.6):
+        assert "boundary_layer" in res.stats
         assert ang.min() >= 30 and ang.max() <= 150
-        assert q.min() >= 0.4
-        assert 1 / 1.5 <= ratio <= 2.0  # 1.5x is the target: 1.68 measured at size 0.15
+        assert q.min() >= 0.5
+        assert 1 / 1.5 <= ratio <= 1.5
 
 
 @settings(SETTINGS, max_examples=3)
