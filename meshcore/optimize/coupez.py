@@ -43,8 +43,12 @@ Choices where the text leaves freedom
   triangle whose longest edge exceeds ``size`` (Op(G, δK), K one element, a
   connected set of one), followed by the same optimization loop, in rounds,
   until no edge is longer than ``size`` and no triangle with an edge longer
-  than ``size / 2`` is worse than the target quality. ``size`` defaults to
-  the median boundary segment.
+  than ``size / 2`` is worse than the target quality. The size rounds split
+  every such triangle at once (the number of points grows geometrically,
+  so the rounds are few), but not one whose centroid would come within
+  ``size / 2`` of a boundary segment; the quality rounds take triangles
+  sharing no vertex, worst first. ``size`` defaults to the median
+  boundary segment.
 * **keep_boundary=false** (generation only): the boundary segments are first
   split evenly to at most ``size``; boundary vertices never move.
 * **Quality** (8.2): ``shape`` (4√3 A / Σl², 1 for the equilateral
@@ -574,7 +578,10 @@ def _insert_stage(
 
     Size rounds first: every triangle whose longest edge exceeds ``size`` is
     split at its centroid (triangles are disjoint sub-topologies, so all of
-    them in one round), then the mesh is optimized (no removal). When no
+    them in one round), except where that centroid would lie nearer than
+    ``size / 2`` to a boundary segment of the triangle (no move could take
+    such a point away from the segment again); then the mesh is optimized
+    (no removal). When no
     edge exceeds ``size``, quality rounds: the triangles whose least angle is
     below ``min_angle`` while their longest edge exceeds ``size / 2`` (or
     whose longest edge exceeds ``size`` again), worst first, none sharing a
