@@ -43,8 +43,12 @@ Choices where the text leaves freedom
   triangle whose longest edge exceeds ``size`` (Op(G, δK), K one element, a
   connected set of one), followed by the same optimization loop, in rounds,
   until no edge is longer than ``size`` and no triangle with an edge longer
-  than ``size / 2`` is worse than the target quality. ``size`` defaults to
-  the median boundary segment.
+  than ``size / 2`` is worse than the target quality. The size rounds split
+  every such triangle at once (the number of points grows geometrically,
+  so the rounds are few), but not one whose centroid would come within
+  ``size / 2`` of a boundary segment; the quality rounds take triangles
+  sharing no vertex, worst first. ``size`` defaults to the median
+  boundary segment.
 * **keep_boundary=false** (generation only): the boundary segments are first
   split evenly to at most ``size``; boundary vertices never move.
 * **Quality** (8.2): ``shape`` (4√3 A / Σl², 1 for the equilateral
@@ -299,58 +303,70 @@ def _inputs(mesh, domain, keep_boundary, surface=None):
 # ----------------------------------------------------------------------------- the 2D state
 
 
-class _State2D:
-    """Arrays of the compiled loop (triangle rows, corner lists, free rows)."""
+class _State:
+    """Arrays of a compiled loop: cell rows, corner lists, free rows, spare points.
 
-    def __init__(self, P: np.ndarray, T: np.ndarray, fixed: np.ndarray, spare_points: int = 0):
-        n, m = len(P), len(T)
-        ncap = n + spare_points
-        self.P = np.zeros((ncap, 2))
+    ``kernel`` is :mod:`.kernel2d` (triangles) or :mod:`.kernel3d`
+    (tetrahedra); both keep ``cnt`` as (points, rows, free rows, stamp).
+    """
+
+    def __init__(self, kernel, P, cells, fixed, spare_points: int = 0):
+        self.k = kernel
+        n = len(P)
+        self.P = np.zeros((n + spare_points, P.shape[1]))
         self.P[:n] = P
-        self.fixed = np.zeros(ncap, np.uint8)
+        self.fixed = np.zeros(n + spare_points, np.uint8)
         self.fixed[:n] = fixed
         self.cnt = np.array([n, 0, 0, 0], np.int64)
-        self._rows(T, 2 * m + 64)
+        self._rows(cells, 2 * len(cells) + 256)
 
-    def _rows(self, T: np.ndarray, mcap: int) -> None:
-        m = len(T)
-        self.T = np.zeros((mcap, 3), np.int64)
-        self.T[:m] = T
+    def _rows(self, cells: np.ndarray, mcap: int) -> None:
+        m, per = cells.shape
+        self.T = np.zeros((mcap, per), np.int64)
+        self.T[:m] = cells
         self.alive = np.zeros(mcap, np.uint8)
         self.alive[:m] = 1
         self.head = np.full(len(self.P), -1, np.int64)
-        self.nxt = np.full(3 * mcap, -1, np.int64)
-        self.prv = np.full(3 * mcap, -1, np.int64)
+        self.nxt = np.full(per * mcap, -1, np.int64)
+        self.prv = np.full(per * mcap, -1, np.int64)
         self.free = np.zeros(mcap, np.int64)
-        self.cnt[k2.N_ROWS] = m
-        self.cnt[k2.N_FREE] = 0
-        k2.build(self.T, m, len(self.P), self.head, self.nxt, self.prv)
+        self.cnt[self.k.N_ROWS] = m
+        self.cnt[self.k.N_FREE] = 0
+        self.k.build(self.T, m, len(self.P), self.head, self.nxt, self.prv)
 
-    def grow_rows(self) -> None:
-        self._rows(self.triangles(), 2 * self.T.shape[0])
+    def grow_rows(self, extra: int = 0) -> None:
+        """Twice the rows (and ``extra`` more), the live cells kept."""
+        self._rows(self.cells(), 2 * self.T.shape[0] + extra)
 
     def grow_points(self, spare: int) -> None:
-        n = int(self.cnt[k2.N_PTS])
+        n = int(self.cnt[self.k.N_PTS])
         P, fixed = self.P[:n].copy(), self.fixed[:n].copy()
-        self.P = np.zeros((n + spare, 2))
+        self.P = np.zeros((n + spare, P.shape[1]))
         self.P[:n] = P
         self.fixed = np.zeros(n + spare, np.uint8)
         self.fixed[:n] = fixed
-        self._rows(self.triangles(), self.T.shape[0])
+        self._rows(self.cells(), self.T.shape[0])
 
-    def triangles(self) -> np.ndarray:
-        rows = int(self.cnt[k2.N_ROWS])
+    def cells(self) -> np.ndarray:
+        rows = int(self.cnt[self.k.N_ROWS])
         return self.T[:rows][self.alive[:rows].astype(bool)].copy()
 
     def points(self) -> np.ndarray:
-        return self.P[: int(self.cnt[k2.N_PTS])]
+        return self.P[: int(self.cnt[self.k.N_PTS])]
 
     def sur(self) -> float:
-        return float(k2.sur(self.P, self.T, self.alive, self.cnt[k2.N_ROWS]))
+        return float(self.k.sur(self.P, self.T, self.alive, int(self.cnt[self.k.N_ROWS])))
 
-    def signs(self) -> np.ndarray:
-        T, P = self.triangles(), self.points()
-        return orient2d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]])
+    def inverted(self) -> int:
+        """Cells that are not positive (exact orient2d / orient3d)."""
+        return int(np.sum(_signs(self.points(), self.cells()) <= 0))
+
+
+def _signs(P: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """Orientation of every triangle (orient2d) or tetrahedron (-orient3d); > 0 is positive."""
+    if cells.shape[1] == 3:
+        return orient2d(P[cells[:, 0]], P[cells[:, 1]], P[cells[:, 2]])
+    return -orient3d(P[cells[:, 0]], P[cells[:, 1]], P[cells[:, 2]], P[cells[:, 3]])
 
 
 def _measure_q(P: np.ndarray, cells: np.ndarray, measure: str) -> np.ndarray:
@@ -381,7 +397,7 @@ def _shape3(P, C):
 
 
 def _loop2d(
-    state: _State2D,
+    state: _State,
     allow_remove: bool,
     measure: int,
     max_sweeps: int,
@@ -399,7 +415,7 @@ def _loop2d(
     for _ in range(max_sweeps):
         changed = 0
         for kind, todo in ((k2.BALL, todo_ball), (k2.PAIR, todo_pair), (k2.UNION, todo_ball)):
-            if kind == k2.UNION and (state.signs() > 0).all():
+            if kind == k2.UNION and state.inverted() == 0:
                 break
             dirty = np.zeros(cap, np.uint8)
             while True:
@@ -546,7 +562,7 @@ def _on_boundary(T, j, bkeys, n):
 
 
 def _insert_stage(
-    state: _State2D,
+    state: _State,
     S: np.ndarray,
     size: float,
     min_angle: float,
@@ -560,29 +576,51 @@ def _insert_stage(
 ) -> int:
     """Second stage (§8.3.3): Op(G, δK) at the centroid G of large or badly shaped triangles.
 
-    A round picks the triangles whose longest edge exceeds ``size``, or whose
-    least angle is below ``min_angle`` while their longest edge exceeds
-    ``size / 2``, worst first, none sharing a vertex with one already picked,
-    splits each at its centroid, and optimizes (no removal). Rounds repeat
-    until none is picked or ``rounds`` ran; returns the points inserted.
+    Size rounds first: every triangle whose longest edge exceeds ``size`` is
+    split at its centroid (triangles are disjoint sub-topologies, so all of
+    them in one round), except where that centroid would lie nearer than
+    ``size / 2`` to a boundary segment of the triangle (no move could take
+    such a point away from the segment again); then the mesh is optimized
+    (no removal). When no
+    edge exceeds ``size``, quality rounds: the triangles whose least angle is
+    below ``min_angle`` while their longest edge exceeds ``size / 2`` (or
+    whose longest edge exceeds ``size`` again), worst first, none sharing a
+    vertex with one already picked (so that new points do not crowd), then
+    the same optimization. Rounds repeat until none is picked or ``rounds``
+    ran; returns the points inserted.
     """
     inserted = 0
     bkeys = np.sort(S, axis=1)
+    size_rounds = True
     for _ in range(rounds):
-        P, T = state.points(), state.triangles()
+        P, T = state.points(), state.cells()
         e = np.stack([P[T[:, 1]] - P[T[:, 2]], P[T[:, 2]] - P[T[:, 0]], P[T[:, 0]] - P[T[:, 1]]])
-        longest = np.sqrt(np.max(np.sum(e * e, axis=2), axis=0))
-        angle = quality.triangle_angles(P, T).min(axis=1)
+        e2 = np.sum(e * e, axis=2)
+        longest = np.sqrt(np.max(e2, axis=0))
         # a triangle whose longest edge is a boundary segment is left to the optimization:
         # its centroid would only crowd that segment (it cannot be split)
+        inside = ~_on_boundary(T, np.argmax(e2, axis=0), bkeys, len(P))
         long = longest > size
-        bad = (long | ((angle < min_angle) & (longest > 0.5 * size))) & ~_on_boundary(
-            T, np.argmax(np.sum(e * e, axis=2), axis=0), bkeys, len(P)
-        )
-        if not bad.any():
-            break
-        cand = np.flatnonzero(bad)
-        cand = cand[np.argsort(angle[cand] - 90.0 * long[cand], kind="stable")]
+        bad = long & inside
+        if size_rounds:
+            # a centroid nearer a boundary segment than size / 2 waits for the quality
+            # rounds: split all at once, such centroids crowd the segments for good
+            area2 = np.abs(e[1, :, 0] * e[2, :, 1] - e[1, :, 1] * e[2, :, 0])
+            on = np.zeros(len(T), bool)
+            for j in range(3):
+                near = area2 / (3.0 * np.sqrt(e2[j])) < 0.5 * size
+                on |= near & _on_boundary(T, j, bkeys, len(P))
+            size_rounds = bool((bad & ~on).any())
+        if size_rounds:
+            cand = np.flatnonzero(bad & ~on)
+            cand = cand[np.argsort(-longest[cand], kind="stable")]
+        else:
+            angle = quality.triangle_angles(P, T).min(axis=1)
+            bad |= (angle < min_angle) & (longest > 0.5 * size) & inside
+            if not bad.any():
+                break
+            cand = np.flatnonzero(bad)
+            cand = cand[np.argsort(angle[cand] - 90.0 * long[cand], kind="stable")]
         n0 = int(state.cnt[k2.N_PTS])
         if len(state.P) < n0 + len(cand):
             state.grow_points(len(cand) + n0)
@@ -599,6 +637,7 @@ def _insert_stage(
                 state.fixed,
                 T,
                 cand,
+                not size_rounds,
             )
             if added >= 0:
                 break
@@ -771,10 +810,10 @@ def _mesh2d(P, T, bnd, total, allow_remove, measure, max_sweeps, progress):
     inverted = int(np.sum(sign <= 0))
     use = "correction" if inverted else "optimization"
     q0 = float(_measure_q(P, T, MEASURES[measure]).min())
-    state = _State2D(P, T, fixed)
+    state = _State(k2, P, T, fixed)
     sweeps, sur, ops = [0], [state.sur()], {}
     _loop2d(state, allow_remove, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 1.0))
-    Pn, Tn = state.points(), state.triangles()
+    Pn, Tn = state.points(), state.cells()
     _verify(Pn, Tn, bnd, use, sweeps[0])
     Pn, Tn, removed = _compact(Pn, Tn, 0)
     stats = {
@@ -795,10 +834,7 @@ def _mesh2d(P, T, bnd, total, allow_remove, measure, max_sweeps, progress):
 
 def _verify(P, cells, bnd, use, sweeps):
     """Every cell positive (exact), a mesh topology, boundary facets exactly ``bnd``."""
-    if cells.shape[1] == 3:
-        sign = orient2d(P[cells[:, 0]], P[cells[:, 1]], P[cells[:, 2]])
-    else:
-        sign = -orient3d(P[cells[:, 0]], P[cells[:, 1]], P[cells[:, 2]], P[cells[:, 3]])
+    sign = _signs(P, cells)
     if (sign <= 0).any():
         _failure(P, cells, sign <= 0, use, sweeps)
     try:
@@ -840,19 +876,19 @@ def _generate2d(dom: Domain, insert, size, measure, max_sweeps, keep_boundary, m
         seg_ring = np.repeat(dom.segment_ring, _split_counts(dom, h))
     T = _initial_topology(P, S, seg_ring, dom)
     fixed = np.ones(len(P), np.uint8)
-    state = _State2D(P, T, fixed, spare_points=len(P) if insert else 0)
-    inverted = int(np.sum(state.signs() <= 0))
+    state = _State(k2, P, T, fixed, spare_points=len(P) if insert else 0)
+    inverted = state.inverted()
     sweeps, sur, ops = [0], [state.sur()], {}
     _loop2d(state, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 0.5))
     stages = 1
-    Pn, Tn = state.points(), state.triangles()
+    Pn, Tn = state.points(), state.cells()
     _verify(Pn, Tn, S, "generation", sweeps[0])
     if insert:
         stages = 2
         _insert_stage(
             state, S, h, min_angle, measure, max_sweeps, sweeps, sur, ops, progress, rounds=60
         )
-        Pn, Tn = state.points(), state.triangles()
+        Pn, Tn = state.points(), state.cells()
         _verify(Pn, Tn, S, "generation", sweeps[0])
     stats = {
         "use": "generation",

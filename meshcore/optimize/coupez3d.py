@@ -34,13 +34,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from meshcore.geometry.predicates3d import orient3d
 from meshcore.optimize import coupez as _c
 from meshcore.optimize import kernel3d as k3
-
-
-def _signs(P, T):
-    return -orient3d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]], P[T[:, 3]])
 
 
 def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progress):
@@ -48,51 +43,31 @@ def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progre
     if total < 0:  # every tet numbered the other way: normalized
         T = T[:, [0, 2, 1, 3]].copy()
         bnd = bnd[:, ::-1].copy()
-    n, m = len(P), len(T)
-    P = P.copy()
-    fixed = np.zeros(n, np.uint8)
+    fixed = np.zeros(len(P), np.uint8)
     fixed[bnd.ravel()] = 1
-    inverted = int(np.sum(_signs(P, T) <= 0))
+    inverted = int(np.sum(_c._signs(P, T) <= 0))
     use = "correction" if inverted else "optimization"
     q0 = float(_c._measure_q(P, T, _c.MEASURES[measure]).min())
-    Tw = T.copy()
-    alive = np.ones(m, np.uint8)
-    head = np.full(n, -1, np.int64)
-    nxt = np.full(4 * m, -1, np.int64)
-    prv = np.full(4 * m, -1, np.int64)
-    k3.build(Tw, m, n, head, nxt, prv)
-    cnt = np.array([n, m, 0, 0], np.int64)
+    state = _c._State(k3, P, T, fixed)
     counters = np.zeros(3, np.int64)
-    todo = np.ones(n, np.uint8)
-    sur = [float(k3.sur(P, Tw, alive, m))]
+    todo = np.ones(len(P), np.uint8)
+    sur = [state.sur()]
     sweeps = 0
     for _ in range(max_sweeps):
-        dirty = np.zeros(n, np.uint8)
+        dirty = np.zeros(len(P), np.uint8)
         changed = k3.sweep(
-            P,
-            Tw,
-            alive,
-            head,
-            nxt,
-            prv,
-            cnt,
-            fixed,
-            todo,
-            dirty,
-            allow_remove,
-            measure,
-            _c.TOL.sur_tie,
-            _c.TOL.quality_gain,
-            counters,
-        )
+            state.P, state.T, state.alive, state.head, state.nxt, state.prv, state.cnt,
+            state.fixed, todo, dirty, allow_remove, measure, _c.TOL.sur_tie,
+            _c.TOL.quality_gain, counters,
+        )  # fmt: skip
         todo |= dirty
         sweeps += 1
-        sur.append(float(k3.sur(P, Tw, alive, m)))
+        sur.append(state.sur())
         if progress is not None:
             progress(sweeps / max_sweeps, f"pass {sweeps}")
         if not changed:
             break
-    Tn = Tw[alive.astype(bool)]
+    P, Tn = state.points(), state.cells()
     _c._verify(P, Tn, bnd, use, sweeps)
     Pn, Tn, removed = _c._compact(P, Tn, 0)
     stats = {
@@ -116,58 +91,6 @@ def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progre
 
 
 # ----------------------------------------------------------------------------- generation
-
-
-class _State3D:
-    """Arrays of the compiled 3D loop: tet rows, corner lists, free rows, spare points."""
-
-    def __init__(self, P: np.ndarray, T: np.ndarray, fixed: np.ndarray, spare_points: int = 0):
-        n = len(P)
-        self.P = np.zeros((n + spare_points, 3))
-        self.P[:n] = P
-        self.fixed = np.zeros(n + spare_points, np.uint8)
-        self.fixed[:n] = fixed
-        self.cnt = np.array([n, 0, 0, 0], np.int64)
-        self._rows(T, 2 * len(T) + 256)
-
-    def _rows(self, T: np.ndarray, mcap: int) -> None:
-        m = len(T)
-        self.T = np.zeros((mcap, 4), np.int64)
-        self.T[:m] = T
-        self.alive = np.zeros(mcap, np.uint8)
-        self.alive[:m] = 1
-        self.head = np.full(len(self.P), -1, np.int64)
-        self.nxt = np.full(4 * mcap, -1, np.int64)
-        self.prv = np.full(4 * mcap, -1, np.int64)
-        self.free = np.zeros(mcap, np.int64)
-        self.cnt[k3.N_ROWS] = m
-        self.cnt[k3.N_FREE] = 0
-        k3.build(self.T, m, len(self.P), self.head, self.nxt, self.prv)
-
-    def grow_rows(self) -> None:
-        self._rows(self.tets(), 2 * self.T.shape[0])
-
-    def grow_points(self, spare: int) -> None:
-        n = int(self.cnt[k3.N_PTS])
-        P, fixed = self.P[:n].copy(), self.fixed[:n].copy()
-        self.P = np.zeros((n + spare, 3))
-        self.P[:n] = P
-        self.fixed = np.zeros(n + spare, np.uint8)
-        self.fixed[:n] = fixed
-        self._rows(self.tets(), self.T.shape[0])
-
-    def tets(self) -> np.ndarray:
-        rows = int(self.cnt[k3.N_ROWS])
-        return self.T[:rows][self.alive[:rows].astype(bool)].copy()
-
-    def points(self) -> np.ndarray:
-        return self.P[: int(self.cnt[k3.N_PTS])]
-
-    def sur(self) -> float:
-        return float(k3.sur(self.P, self.T, self.alive, int(self.cnt[k3.N_ROWS])))
-
-    def inverted(self) -> int:
-        return int(np.sum(_signs(self.points(), self.tets()) <= 0))
 
 
 def _loop3d(state, allow_remove, insert, measure, max_sweeps, sweeps, sur, ops, progress, frac):
@@ -257,7 +180,7 @@ def initial_topology(P: np.ndarray, F: np.ndarray) -> np.ndarray:
 
 def _long_edges(state, size):
     """The distinct edges of the live tets longer than ``size``, longest first."""
-    T = state.tets()
+    T = state.cells()
     e = np.sort(T[:, k3._EDGES].reshape(-1, 2), axis=1)
     e = np.unique(e, axis=0)
     d = state.P[e[:, 0]] - state.P[e[:, 1]]
@@ -285,7 +208,7 @@ def _insert_stage3d(state, size, measure, max_sweeps, sweeps, sur, ops, progress
             state.grow_points(len(edges) + n0)
         room = state.cnt[k3.N_FREE] + state.T.shape[0] - state.cnt[k3.N_ROWS]
         if room < 8 * len(edges) + 64:
-            state._rows(state.tets(), 2 * state.T.shape[0] + 8 * len(edges))
+            state.grow_rows(8 * len(edges))
         added = k3.insert_midpoints(
             state.P, state.T, state.alive, state.head, state.nxt, state.prv,
             state.free, state.cnt, state.fixed, edges,
@@ -309,7 +232,7 @@ def generate3d(surface, insert, size, measure, max_sweeps, progress):
     e = P[S] - P[np.roll(S, -1, axis=1)]
     h = float(size) if size is not None else float(np.median(np.sqrt(np.sum(e * e, axis=2))))
     T = initial_topology(P, S)
-    state = _State3D(P, T, np.ones(len(P), np.uint8), spare_points=len(P) if insert else 0)
+    state = _c._State(k3, P, T, np.ones(len(P), np.uint8), spare_points=len(P) if insert else 0)
     inverted = state.inverted()
     q0 = float(_c._measure_q(P, T, _c.MEASURES[measure]).min())
     sweeps, sur, ops = [0], [state.sur()], {}
@@ -320,10 +243,10 @@ def generate3d(surface, insert, size, measure, max_sweeps, progress):
         stages = 2
         if state.inverted():  # stuck without points: Op(G, δ𝒮) around what is left
             _loop3d(state, False, True, measure, max_sweeps, sweeps, sur, ops, progress, (0.4, 0.5))
-        _c._verify(state.points(), state.tets(), bnd, "generation", sweeps[0])
+        _c._verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
         _insert_stage3d(state, h, measure, max_sweeps, sweeps, sur, ops, progress, rounds=30)
-    _c._verify(state.points(), state.tets(), bnd, "generation", sweeps[0])
-    Pn, Tn, _ = _c._compact(state.points(), state.tets(), len(P))  # G of a removed pillow
+    _c._verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
+    Pn, Tn, _ = _c._compact(state.points(), state.cells(), len(P))  # G of a removed pillow
     stats = {
         "use": "generation",
         "sur": sur,

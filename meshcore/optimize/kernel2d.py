@@ -129,8 +129,10 @@ def _add(T, alive, head, nxt, prv, freeT, cnt, a, b, c):
 
 @njit(cache=True)
 def _remove(T, alive, head, nxt, prv, freeT, cnt, t):
-    for j in range(3):
-        _unlink_corner(head, nxt, prv, 3 * t + j, T[t, j])
+    """Row t freed: its corners unlinked (triangles or tetrahedra, by ``T``'s width)."""
+    per = T.shape[1]
+    for j in range(per):
+        _unlink_corner(head, nxt, prv, per * t + j, T[t, j])
     alive[t] = 0
     freeT[cnt[N_FREE]] = t
     cnt[N_FREE] += 1
@@ -138,11 +140,15 @@ def _remove(T, alive, head, nxt, prv, freeT, cnt, t):
 
 @njit(cache=True)
 def build(T, m, n, head, nxt, prv):
-    """Corner lists of the first ``m`` rows of ``T`` over ``n`` vertices."""
+    """Corner lists of the first ``m`` rows of ``T`` over ``n`` vertices (slot ``per * t + j``).
+
+    Triangles or tetrahedra: ``per`` is ``T``'s width; :mod:`.kernel3d` uses it too.
+    """
     head[:n] = -1
+    per = T.shape[1]
     for t in range(m):
-        for j in range(3):
-            _link_corner(head, nxt, prv, 3 * t + j, T[t, j])
+        for j in range(per):
+            _link_corner(head, nxt, prv, per * t + j, T[t, j])
 
 
 @njit(cache=True)
@@ -665,12 +671,12 @@ def sweep(
 
 
 @njit(cache=True)
-def insert_centroids(P, T, alive, head, nxt, prv, freeT, cnt, fixed, rows, cand):
-    """Op(G, δK) for the triangles ``rows[cand]`` in order, none sharing a vertex.
+def insert_centroids(P, T, alive, head, nxt, prv, freeT, cnt, fixed, rows, cand, disjoint):
+    """Op(G, δK) for the triangles ``rows[cand]`` in order (``disjoint``: none sharing a vertex).
 
-    A candidate is taken when its row still holds the same triangle, no
-    vertex of it was touched in this call, and the three triangles on its
-    centroid G are positive (exact). Returns the points added, or -1 (and
+    A candidate is taken when its row still holds the same triangle, (with
+    ``disjoint``) no vertex of it was touched in this call, and the three
+    triangles on its centroid G are positive (exact). Returns the points added, or -1 (and
     nothing done beyond the points already added) when out of triangle rows.
     """
     touched = np.zeros(P.shape[0], np.uint8)
@@ -678,7 +684,7 @@ def insert_centroids(P, T, alive, head, nxt, prv, freeT, cnt, fixed, rows, cand)
     for i in range(len(cand)):
         r = rows[cand[i]]
         a, b, c = r[0], r[1], r[2]
-        if touched[a] or touched[b] or touched[c]:
+        if disjoint and (touched[a] or touched[b] or touched[c]):
             continue
         t = _neighbour(T, head, nxt, b, a)  # the triangle holding a -> b
         if t < 0 or not (T[t, 0] == c or T[t, 1] == c or T[t, 2] == c):

@@ -37,6 +37,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.geometry.predicates3d import orient3d_scalar
+from meshcore.optimize.kernel2d import _link_corner, _remove, _unlink_corner, build  # noqa: F401 (the state builds through this module)
 
 KMAX = 256
 C_MOVE, C_KERNEL, C_COLLAPSE = range(3)
@@ -117,34 +118,6 @@ def _better(pa, sa, qa, pb, sb, qb, tie, gain):
         if sa > sb + tie:
             return False
     return qa > qb + gain
-
-
-@njit(cache=True)
-def _link_corner(head, nxt, prv, s, v):
-    nxt[s] = head[v]
-    prv[s] = -1
-    if head[v] >= 0:
-        prv[head[v]] = s
-    head[v] = s
-
-
-@njit(cache=True)
-def _unlink_corner(head, nxt, prv, s, v):
-    if prv[s] >= 0:
-        nxt[prv[s]] = nxt[s]
-    else:
-        head[v] = nxt[s]
-    if nxt[s] >= 0:
-        prv[nxt[s]] = prv[s]
-
-
-@njit(cache=True)
-def build(T, m, n, head, nxt, prv):
-    """Corner lists of the first ``m`` rows of ``T`` over ``n`` vertices."""
-    head[:n] = -1
-    for t in range(m):
-        for j in range(4):
-            _link_corner(head, nxt, prv, 4 * t + j, T[t, j])
 
 
 @njit(cache=True)
@@ -403,6 +376,7 @@ SMAX = 512
 #: Sizes of the face-adjacent sets grown around a non-positive tetrahedron (UNION).
 GROW = (8, 16, 32, 64)
 #: ``counters`` entries of :func:`fan_sweep` (after C_MOVE, C_KERNEL, C_COLLAPSE).
+#: fans accepted on balls, shells and unions: ``C_BALL_FAN + kind``
 C_BALL_FAN, C_SHELL_FAN, C_UNION_FAN, C_INSERT, C_CLOSED = 3, 4, 5, 6, 7
 
 
@@ -419,15 +393,6 @@ def _add_tet(T, alive, head, nxt, prv, freeT, cnt, a, b, c, d):
     for j in range(4):
         _link_corner(head, nxt, prv, 4 * t + j, T[t, j])
     return t
-
-
-@njit(cache=True)
-def _remove_tet(T, alive, head, nxt, prv, freeT, cnt, t):
-    for j in range(4):
-        _unlink_corner(head, nxt, prv, 4 * t + j, T[t, j])
-    alive[t] = 0
-    freeT[cnt[N_FREE]] = t
-    cnt[N_FREE] += 1
 
 
 @njit(cache=True)
@@ -673,7 +638,7 @@ def _try_fans(
             t = st[i]
             for j in range(4):
                 dirty[T[t, j]] = 1
-            _remove_tet(T, alive, head, nxt, prv, freeT, cnt, t)
+            _remove(T, alive, head, nxt, prv, freeT, cnt, t)
         counters[C_CLOSED] += 1
         return 1
     if nb < 4:
@@ -748,7 +713,7 @@ def _try_fans(
         t = st[i]
         for j in range(4):
             dirty[T[t, j]] = 1
-        _remove_tet(T, alive, head, nxt, prv, freeT, cnt, t)
+        _remove(T, alive, head, nxt, prv, freeT, cnt, t)
     for f in range(nb):
         a, b, c = bf[f, 0], bf[f, 1], bf[f, 2]
         if not (a == best or b == best or c == best):
@@ -779,6 +744,47 @@ def _grow_tets(T, head, nxt, st, k, tmark, stamp, size):
 
 
 @njit(cache=True)
+def _subtopology(T, head, nxt, kind, i, j, st, tmark, stamp):
+    """The j-th sub-topology of item i in st; its size, or -1 (none, or past SMAX).
+
+    ``BALL``: the ball of vertex i (j = 0); ``SHELL``: the shell of edge j of
+    tet i; ``UNION``: tet i and its neighbour across face j (j < 4), the
+    balls of the ends of edge j - 4 (j < 10), of its four vertices (j = 10),
+    then a face-connected set of ``GROW[j - 11]`` tets.
+    """
+    if kind == BALL:
+        return _gather(head, nxt, i, -1, T, st, tmark, stamp, 0)
+    if kind == SHELL:
+        return _gather(head, nxt, T[i, _EDGES[j, 0]], T[i, _EDGES[j, 1]], T, st, tmark, stamp, 0)
+    st[0] = i
+    tmark[i] = stamp
+    k = 1
+    if j < 4:
+        f = _FACE[j]
+        x, y, z = T[i, f[0]], T[i, f[1]], T[i, f[2]]
+        s = head[x]
+        while s >= 0:
+            u = s // 4
+            if u != i and _holds(T, u, y) and _holds(T, u, z):
+                tmark[u] = stamp
+                st[1] = u
+                return 2
+            s = nxt[s]
+        return -1
+    if j < 10:
+        k = _gather(head, nxt, T[i, _EDGES[j - 4, 0]], -1, T, st, tmark, stamp, k)
+        if k >= 0:
+            k = _gather(head, nxt, T[i, _EDGES[j - 4, 1]], -1, T, st, tmark, stamp, k)
+        return k
+    if j == 10:
+        for c in range(4):
+            if k >= 0:
+                k = _gather(head, nxt, T[i, c], -1, T, st, tmark, stamp, k)
+        return k
+    return _grow_tets(T, head, nxt, st, 1, tmark, stamp, GROW[j - 11])
+
+
+@njit(cache=True)
 def fan_sweep(
     P,
     T,
@@ -803,169 +809,53 @@ def fan_sweep(
 
     ``BALL``: the ball of every vertex marked in ``todo`` (boundary vertices
     included); ``SHELL``: the shell of every edge of a tet with a marked
-    vertex; ``UNION``: around every non-positive tet, sets of ``GROW`` tets
-    grown across faces. Status 2: out of rows (grow them and call again).
+    vertex; ``UNION``: around every non-positive tet, sets of growing size
+    (:func:`_subtopology`) until one is replaced. Status 2: out of rows
+    (grow them and call again).
     """
-    n = cnt[N_PTS]
     st = np.empty(SMAX, np.int64)
     tmark = np.zeros(T.shape[0], np.int64)
     vmark = np.zeros(P.shape[0], np.int64)
     bf = np.empty((4 * SMAX, 3), np.int64)
     changed = 0
-    if kind == BALL:
-        for v in range(n):
-            if not todo[v] or head[v] < 0:
+    items = cnt[N_PTS] if kind == BALL else cnt[N_ROWS]
+    per_item = 1 if kind == BALL else (6 if kind == SHELL else 11 + len(GROW))
+    for i in range(items):
+        a, b, c = -1, -1, -1
+        if kind == BALL:
+            if not todo[i] or head[i] < 0:
                 continue
-            todo[v] = 0
+            todo[i] = 0
+        elif not alive[i]:
+            continue
+        elif kind == SHELL:
+            if not (todo[T[i, 0]] or todo[T[i, 1]] or todo[T[i, 2]] or todo[T[i, 3]]):
+                continue
+        else:
+            a, b, c = T[i, 0], T[i, 1], T[i, 2]
+            if _positive(P, a, b, c, T[i, 3]):
+                continue
+        for j in range(per_item):
+            if kind != BALL and not alive[i]:
+                break
+            if kind == UNION and (T[i, 0] != a or T[i, 1] != b or T[i, 2] != c):
+                break
             cnt[STAMP] += 1
-            k = _gather(head, nxt, v, -1, T, st, tmark, cnt[STAMP], 0)
+            k = _subtopology(T, head, nxt, kind, i, j, st, tmark, cnt[STAMP])
             if k < 0:
                 continue
             r = _try_fans(
-                P,
-                T,
-                alive,
-                head,
-                nxt,
-                prv,
-                freeT,
-                cnt,
-                fixed,
-                st,
-                k,
-                tmark,
-                vmark,
-                bf,
-                allow_remove,
-                insert,
-                measure,
-                tie_rel,
-                gain,
-                dirty,
-                counters,
-            )
+                P, T, alive, head, nxt, prv, freeT, cnt, fixed, st, k, tmark, vmark, bf,
+                allow_remove, insert, measure, tie_rel, gain, dirty, counters,
+            )  # fmt: skip
             if r == 2:
-                todo[v] = 1
+                if kind == BALL:
+                    todo[i] = 1
                 return changed, 2
             if r == 1:
-                counters[C_BALL_FAN] += 1
+                counters[C_BALL_FAN + kind] += 1
                 changed += 1
-        return changed, 0
-    rows = cnt[N_ROWS]
-    for t0 in range(rows):
-        if not alive[t0]:
-            continue
-        if kind == SHELL:
-            hot = False
-            for j in range(4):
-                hot = hot or todo[T[t0, j]] == 1
-            if not hot:
-                continue
-            for e in range(6):
-                if not alive[t0]:
-                    break
-                a = T[t0, _EDGES[e, 0]]
-                b = T[t0, _EDGES[e, 1]]
-                cnt[STAMP] += 1
-                k = _gather(head, nxt, a, b, T, st, tmark, cnt[STAMP], 0)
-                if k < 0:
-                    continue
-                r = _try_fans(
-                    P,
-                    T,
-                    alive,
-                    head,
-                    nxt,
-                    prv,
-                    freeT,
-                    cnt,
-                    fixed,
-                    st,
-                    k,
-                    tmark,
-                    vmark,
-                    bf,
-                    allow_remove,
-                    insert,
-                    measure,
-                    tie_rel,
-                    gain,
-                    dirty,
-                    counters,
-                )
-                if r == 2:
-                    return changed, 2
-                if r == 1:
-                    counters[C_SHELL_FAN] += 1
-                    changed += 1
-        else:
-            a, b, c, d = T[t0, 0], T[t0, 1], T[t0, 2], T[t0, 3]
-            if _positive(P, a, b, c, d):
-                continue
-            # t0 and a face neighbour (4 sets), the balls of an edge's ends (6), of its
-            # four vertices (1), then face-connected sets of GROW tets
-            for g in range(11 + len(GROW)):
-                if not alive[t0] or T[t0, 0] != a or T[t0, 1] != b or T[t0, 2] != c:
-                    break
-                cnt[STAMP] += 1
-                stamp = cnt[STAMP]
-                st[0] = t0
-                tmark[t0] = stamp
-                k = 1
-                if g < 4:
-                    f = _FACE[g]
-                    x, y, z = T[t0, f[0]], T[t0, f[1]], T[t0, f[2]]
-                    s = head[x]
-                    while s >= 0:
-                        u = s // 4
-                        if u != t0 and _holds(T, u, y) and _holds(T, u, z):
-                            tmark[u] = stamp
-                            st[k] = u
-                            k += 1
-                            break
-                        s = nxt[s]
-                    if k == 1:
-                        continue
-                elif g < 10:
-                    k = _gather(head, nxt, T[t0, _EDGES[g - 4, 0]], -1, T, st, tmark, stamp, k)
-                    if k >= 0:
-                        k = _gather(head, nxt, T[t0, _EDGES[g - 4, 1]], -1, T, st, tmark, stamp, k)
-                elif g == 10:
-                    for j in range(4):
-                        if k >= 0:
-                            k = _gather(head, nxt, T[t0, j], -1, T, st, tmark, stamp, k)
-                else:
-                    k = _grow_tets(T, head, nxt, st, 1, tmark, stamp, GROW[g - 11])
-                if k < 0:
-                    continue
-                r = _try_fans(
-                    P,
-                    T,
-                    alive,
-                    head,
-                    nxt,
-                    prv,
-                    freeT,
-                    cnt,
-                    fixed,
-                    st,
-                    k,
-                    tmark,
-                    vmark,
-                    bf,
-                    allow_remove,
-                    insert,
-                    measure,
-                    tie_rel,
-                    gain,
-                    dirty,
-                    counters,
-                )
-                if r == 2:
-                    return changed, 2
-                if r == 1:
-                    counters[C_UNION_FAN] += 1
-                    changed += 1
+                if kind == UNION:
                     break
     return changed, 0
 
@@ -1021,7 +911,7 @@ def insert_midpoints(P, T, alive, head, nxt, prv, freeT, cnt, fixed, edges):
             t = st[j]
             for c in range(4):
                 touched[T[t, c]] = 1
-            _remove_tet(T, alive, head, nxt, prv, freeT, cnt, t)
+            _remove(T, alive, head, nxt, prv, freeT, cnt, t)
         for f in range(nb):
             _add_tet(T, alive, head, nxt, prv, freeT, cnt, n, bf[f, 0], bf[f, 1], bf[f, 2])
         added += 1
