@@ -687,8 +687,11 @@ def _segment_reach(P, S, reach, verts, tol) -> np.ndarray:
     length = np.hypot(V[:, 0] - U[:, 0], V[:, 1] - U[:, 1])
     cls = np.frexp(length)[1]
     scale = _scale(P)
-    for c in np.unique(cls):
-        members = np.flatnonzero(cls == c)
+    by_class = np.argsort(cls, kind="stable")
+    classes, first = np.unique(cls[by_class], return_index=True)
+    bounds = np.append(first, len(cls))
+    for c, lo, hi in zip(classes, bounds[:-1], bounds[1:], strict=True):
+        members = by_class[lo:hi]
         mtree = cKDTree(0.5 * (U[members] + V[members]))
         half_max = math.ldexp(1.0, int(c) - 1)
         radii = reach + half_max * (1.0 + tol.ball_slack) + tol.coordinate_slack * scale
@@ -1037,9 +1040,8 @@ def _incremental_rounds(st, budget, missing, circles, tol, progress) -> None:
     pc = _Pieces(st, IncrementalDelaunay(st.P))
     while True:
         _split_round(pc, missing, scale, circles, tol, budget.rounds)
-        check = pc.to_check()
         budget.rounds += 1
-        missing = check[~pc.dt.has_edges(pc.a[check], pc.b[check])]
+        missing = pc.missing()
         if _report(budget, pc, missing, progress):
             break
     pc.to_state(st)
@@ -1129,11 +1131,10 @@ def _not_planar(st: _State, row: int, point: int) -> None:
 
 def _check_split_points(st: _Pieces, rows, xy) -> None:
     """Every new split point must lie strictly inside its segment's diametral
-    ball (so it differs from both ends) and differ from every other new
-    point (the insertion finds one that coincides with an older point): the
-    first fails only for segments too short for float64 at their distance
-    from the origin, the others only where segments cross or touch (two
-    segments would share the point)."""
+    ball (so it differs from both ends); this fails only for segments too
+    short for float64 at their distance from the origin. A new point that
+    coincides with another point, new or old (segments that cross or touch
+    would share it), is found by the insertion (:meth:`_Pieces.split`)."""
     if not len(rows):
         return
     a, b = st.P[st.a[rows]], st.P[st.b[rows]]
@@ -1143,14 +1144,6 @@ def _check_split_points(st: _Pieces, rows, xy) -> None:
         raise AlgorithmError(
             f"cannot split the segment from {a[i].tolist()} to {b[i].tolist()}: it is too "
             "short for float64 at that distance from the origin (or segments cross there)"
-        )
-    _, first, count = np.unique(xy, axis=0, return_index=True, return_counts=True)
-    bad = first[count > 1]
-    if bad.size:
-        i = int(bad[0])
-        raise AlgorithmError(
-            f"cannot split the segment from {a[i].tolist()} to {b[i].tolist()}: the split "
-            f"point {xy[i].tolist()} is an existing point (do segments cross or touch?)"
         )
 
 
