@@ -935,7 +935,10 @@ def admissible_segments(
     budget = _Budget(n0=n0, max_added=MAX_ADDED_FACTOR * (n0 + m0) + MAX_ADDED_BASE)
     tri = first = delaunay(P)
     if origin.any() and not _present(tri, S).all():
-        _rounds(st, budget, local_circles, tolerances, progress)
+        # An exact translation changes no triangle (the kernel's ties depend
+        # on the point set alone), so the first check reuses ``tri``; the
+        # last triangulation is made in the input's frame only.
+        _rounds(st, budget, local_circles, tolerances, progress, first=tri, final=False)
         # Back to the input's frame: the input points come back exactly; the
         # added ones are rounded, which may (rarely) undo a near tie, so the
         # rounds go on there until every segment is an edge again.
@@ -987,13 +990,14 @@ class _Budget:
     rounds: int = 0
 
 
-def _rounds(st, budget, circles, tol, progress, first=None) -> Triangulation:
+def _rounds(st, budget, circles, tol, progress, first=None, final=True) -> Triangulation | None:
     """Rounds of §9.1.4 until every segment is an edge; the last triangulation.
 
     The first check runs on a whole triangulation (``first``, or one made
     here); if segments are missing, the rounds go on incrementally
     (:func:`_incremental_rounds`) and the last triangulation is made anew
-    from the final points (so that it is the one :func:`delaunay` gives).
+    from the final points (so that it is the one :func:`delaunay` gives),
+    unless ``final`` is False (then None is returned after such rounds).
     """
     tri = first if first is not None else delaunay(st.P)
     budget.rounds += 1
@@ -1001,7 +1005,7 @@ def _rounds(st, budget, circles, tol, progress, first=None) -> Triangulation:
     if _report(budget, st, missing, progress):
         return tri
     _incremental_rounds(st, budget, missing, circles, tol, progress)
-    return delaunay(st.P)
+    return delaunay(st.P) if final else None
 
 
 def _report(budget, st, missing, progress) -> bool:
