@@ -147,8 +147,9 @@ end. Rounds are few on the test polygons (2 to 8); a 10,000-vertex random
 star (``benchmarks/admissible.py``) takes 146 rounds and 604,000 points,
 most rounds at the end splitting one or two segments each (each spike's
 chain of splits is sequential): 126 s when every round re-triangulated
-everything, about 7 s of CPU now (see the benchmark for this machine's
-figures). The case counts of the result are computed when first read.
+everything, 11-12.5 s of CPU now (see the benchmark for this machine's
+figures), most of it in the widest-angle searches (a third), the checks of
+the touched pieces and the insertions. The case counts of the result are computed when first read.
 
 The restricted triangulation (:func:`restricted_triangles`) keeps the
 triangles reached by a flood fill across non-segment edges from the left
