@@ -29,8 +29,10 @@ rounds (each spike's chain of splits is sequential). Each round inserts its
 points into one growing triangulation and re-checks only the pieces it
 touched; it took 126 s when every round re-triangulated everything.
 
-Times are the best of three runs (one run for the 10k star; ours after a
-warm-up that loads numba's cache); ``t ours/pD`` is the ratio of times.
+Times are the medians of three runs (one run for the 10k star; ours after
+a warm-up that loads numba's cache); ``t ours/pD`` is the ratio of times.
+The machine's load average is printed first: on a shared machine the
+ratios, not the seconds, are what compare.
 """
 
 from __future__ import annotations
@@ -113,17 +115,18 @@ def not_delaunay(points: np.ndarray, segments: np.ndarray) -> int:
     return int((~np.isin(keys, edges)).sum())
 
 
-def best_of(fn, repeat: int = 3):
-    best, out = float("inf"), None
+def median_of(fn, repeat: int = 3):
+    """Median wall time of ``repeat`` runs and the last result."""
+    times, out = [], None
     for _ in range(repeat):
         t = time.perf_counter()
         out = fn()
-        best = min(best, time.perf_counter() - t)
-    return best, out
+        times.append(time.perf_counter() - t)
+    return float(np.median(times)), out
 
 
 def run_ours(points, segments, repeat=3):
-    seconds, res = best_of(lambda: admissible_segments(points, segments), repeat)
+    seconds, res = median_of(lambda: admissible_segments(points, segments), repeat)
     return res.added, not_delaunay(res.points, res.segments), seconds
 
 
@@ -131,7 +134,7 @@ def run_triangle(points, segments, holes, repeat=3):
     data = {"vertices": points.copy(), "segments": segments.copy()}
     if holes is not None and len(holes):
         data["holes"] = np.asarray(holes, dtype=float)
-    seconds, out = best_of(lambda: triangle.triangulate(data, "pD"), repeat)
+    seconds, out = median_of(lambda: triangle.triangulate(data, "pD"), repeat)
     added = len(out["vertices"]) - len(points)
     return added, not_delaunay(out["vertices"], out["segments"]), seconds
 
@@ -146,6 +149,7 @@ def main() -> None:
         print("      A / face / la inputs are skipped\n")
     inputs["star-10000"] = star(10_000)
     admissible_segments(*star(10)[:2])  # warm-up: numba's cache
+    print("load average (1, 5, 15 min): {:.1f} {:.1f} {:.1f}\n".format(*os.getloadavg()))
     head = (
         f"{'input':<13}{'pts':>6}{'segs':>6} | {'ours +pts':>9}{'non-Del':>8}{'ms':>9} | "
         f"{'pD +pts':>9}{'non-Del':>9}{'ms':>9} | {'ours/pD':>7}{'t ours/pD':>10} | "

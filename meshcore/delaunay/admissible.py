@@ -147,8 +147,9 @@ end. Rounds are few on the test polygons (2 to 8); a 10,000-vertex random
 star (``benchmarks/admissible.py``) takes 146 rounds and 604,000 points,
 most rounds at the end splitting one or two segments each (each spike's
 chain of splits is sequential): 126 s when every round re-triangulated
-everything, about 7 s of CPU now (see the benchmark for this machine's
-figures). The case counts of the result are computed when first read.
+everything, 11-12.5 s of CPU now (see the benchmark for this machine's
+figures), most of it in the widest-angle searches (a third), the checks of
+the touched pieces and the insertions. The case counts of the result are computed when first read.
 
 The restricted triangulation (:func:`restricted_triangles`) keeps the
 triangles reached by a flood fill across non-segment edges from the left
@@ -687,8 +688,11 @@ def _segment_reach(P, S, reach, verts, tol) -> np.ndarray:
     length = np.hypot(V[:, 0] - U[:, 0], V[:, 1] - U[:, 1])
     cls = np.frexp(length)[1]
     scale = _scale(P)
-    for c in np.unique(cls):
-        members = np.flatnonzero(cls == c)
+    by_class = np.argsort(cls, kind="stable")
+    classes, first = np.unique(cls[by_class], return_index=True)
+    bounds = np.append(first, len(cls))
+    for c, lo, hi in zip(classes, bounds[:-1], bounds[1:], strict=True):
+        members = by_class[lo:hi]
         mtree = cKDTree(0.5 * (U[members] + V[members]))
         half_max = math.ldexp(1.0, int(c) - 1)
         radii = reach + half_max * (1.0 + tol.ball_slack) + tol.coordinate_slack * scale
@@ -932,7 +936,10 @@ def admissible_segments(
     budget = _Budget(n0=n0, max_added=MAX_ADDED_FACTOR * (n0 + m0) + MAX_ADDED_BASE)
     tri = first = delaunay(P)
     if origin.any() and not _present(tri, S).all():
-        _rounds(st, budget, local_circles, tolerances, progress)
+        # An exact translation changes no triangle (the kernel's ties depend
+        # on the point set alone), so the first check reuses ``tri``; the
+        # last triangulation is made in the input's frame only.
+        _rounds(st, budget, local_circles, tolerances, progress, first=tri, final=False)
         # Back to the input's frame: the input points come back exactly; the
         # added ones are rounded, which may (rarely) undo a near tie, so the
         # rounds go on there until every segment is an edge again.
@@ -984,13 +991,14 @@ class _Budget:
     rounds: int = 0
 
 
-def _rounds(st, budget, circles, tol, progress, first=None) -> Triangulation:
+def _rounds(st, budget, circles, tol, progress, first=None, final=True) -> Triangulation | None:
     """Rounds of §9.1.4 until every segment is an edge; the last triangulation.
 
     The first check runs on a whole triangulation (``first``, or one made
     here); if segments are missing, the rounds go on incrementally
     (:func:`_incremental_rounds`) and the last triangulation is made anew
-    from the final points (so that it is the one :func:`delaunay` gives).
+    from the final points (so that it is the one :func:`delaunay` gives),
+    unless ``final`` is False (then None is returned after such rounds).
     """
     tri = first if first is not None else delaunay(st.P)
     budget.rounds += 1
@@ -998,7 +1006,7 @@ def _rounds(st, budget, circles, tol, progress, first=None) -> Triangulation:
     if _report(budget, st, missing, progress):
         return tri
     _incremental_rounds(st, budget, missing, circles, tol, progress)
-    return delaunay(st.P)
+    return delaunay(st.P) if final else None
 
 
 def _report(budget, st, missing, progress) -> bool:
@@ -1037,9 +1045,8 @@ def _incremental_rounds(st, budget, missing, circles, tol, progress) -> None:
     pc = _Pieces(st, IncrementalDelaunay(st.P))
     while True:
         _split_round(pc, missing, scale, circles, tol, budget.rounds)
-        check = pc.to_check()
         budget.rounds += 1
-        missing = check[~pc.dt.has_edges(pc.a[check], pc.b[check])]
+        missing = pc.missing()
         if _report(budget, pc, missing, progress):
             break
     pc.to_state(st)
@@ -1129,11 +1136,10 @@ def _not_planar(st: _State, row: int, point: int) -> None:
 
 def _check_split_points(st: _Pieces, rows, xy) -> None:
     """Every new split point must lie strictly inside its segment's diametral
-    ball (so it differs from both ends) and differ from every other new
-    point (the insertion finds one that coincides with an older point): the
-    first fails only for segments too short for float64 at their distance
-    from the origin, the others only where segments cross or touch (two
-    segments would share the point)."""
+    ball (so it differs from both ends); this fails only for segments too
+    short for float64 at their distance from the origin. A new point that
+    coincides with another point, new or old (segments that cross or touch
+    would share it), is found by the insertion (:meth:`_Pieces.split`)."""
     if not len(rows):
         return
     a, b = st.P[st.a[rows]], st.P[st.b[rows]]
@@ -1143,14 +1149,6 @@ def _check_split_points(st: _Pieces, rows, xy) -> None:
         raise AlgorithmError(
             f"cannot split the segment from {a[i].tolist()} to {b[i].tolist()}: it is too "
             "short for float64 at that distance from the origin (or segments cross there)"
-        )
-    _, first, count = np.unique(xy, axis=0, return_index=True, return_counts=True)
-    bad = first[count > 1]
-    if bad.size:
-        i = int(bad[0])
-        raise AlgorithmError(
-            f"cannot split the segment from {a[i].tolist()} to {b[i].tolist()}: the split "
-            f"point {xy[i].tolist()} is an existing point (do segments cross or touch?)"
         )
 
 

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from meshcore.delaunay.kernel2d import IncrementalDelaunay, _corner, _nxt, _prv
+from meshcore.delaunay.kernel2d import IncrementalDelaunay, _corner, _has_edges, _nxt, _prv
 from meshcore.errors import AlgorithmError
 from meshcore.geometry.predicates import WORK_SIZE, dot2d_filtered, orient2d_filtered
 
@@ -51,6 +51,20 @@ def _near_segment(pts, u, v, cx, cy, r2):
     fx = ux + s * dx
     fy = uy + s * dy
     return fx * fx + fy * fy <= r2
+
+
+@njit(cache=True, inline="always")
+def _enters_cone(pts, e, f, x, tip):
+    """Float test, padded: the edge from end ``e`` toward ``x`` leaves ``e``
+    within the angle ``arccos(tip)`` of the segment ``e f``, i.e. into the
+    ball (``tip`` 0) or the lens whose boundary arcs make that angle with
+    the segment at its ends."""
+    ux = pts[x, 0] - pts[e, 0]
+    uy = pts[x, 1] - pts[e, 1]
+    vx = pts[f, 0] - pts[e, 0]
+    vy = pts[f, 1] - pts[e, 1]
+    c = (ux * vx + uy * vy) / (np.hypot(ux, uy) * np.hypot(vx, vy))
+    return c > tip - 1e-9
 
 
 @njit(cache=True)
@@ -114,7 +128,10 @@ def _widest_angle_points(pts, V, A, vt, order, a, b, radius, tie, tstamp, vstamp
     ends; convex, so the triangles meeting it are connected, and each one
     meets the segment). Regions only shrink, so no point that can still
     win is missed. The points of the seeds (:func:`_crossed_triangles`)
-    come first, so that the lens is tight before the search spreads.
+    come first, so that the lens is tight before the search spreads. The
+    disc tests pass for every edge at an end of the segment, so such an edge
+    is crossed only when it leaves that end inside the region's tangent cone
+    (:func:`_enters_cone`): otherwise it meets the region at the end alone.
     Triangle tests are float, padded; ball membership is exact (``dot2d``);
     angles are float. Returns the chosen point (input index; -1 for an
     empty ball) and whether it lies on the segment's line.
@@ -144,6 +161,7 @@ def _widest_angle_points(pts, V, A, vt, order, a, b, radius, tie, tstamp, vstamp
         ny = (bx - ax) / (2.0 * half)
         lens = False
         lx1 = ly1 = lx2 = ly2 = lens2 = 0.0
+        tip = 0.0  # cosine of the region's half-angle at the ends: the ball's
         best = -np.inf
         nc = 0
         seeds = _crossed_triangles(pts, V, A, vt, ia, ib, tstamp, stamp, queue)
@@ -199,6 +217,7 @@ def _widest_angle_points(pts, V, A, vt, order, a, b, radius, tie, tstamp, vstamp
                         ly2 = cy - ny * d
                         lens2 = (rr * (1.0 + 1e-9) + 1e-9 * half) ** 2
                         lens = True
+                        tip = np.cos(phi)
             if not spreading:
                 continue
             for j in range(3):
@@ -215,6 +234,17 @@ def _widest_angle_points(pts, V, A, vt, order, a, b, radius, tie, tstamp, vstamp
                     and _near_segment(pts, u, w, lx2, ly2, lens2)
                 ):
                     continue
+                # An edge at an end meets the region only at that end (where
+                # the disc tests above always pass) unless it leaves the end
+                # inside the region's tangent cone.
+                if (u == ia or u == ib) != (w == ia or w == ib):
+                    if u == ia or w == ia:
+                        e, f = ia, ib
+                    else:
+                        e, f = ib, ia
+                    x = w if u == e else u
+                    if not _enters_cone(pts, e, f, x, tip):
+                        continue
                 tstamp[t2] = stamp
                 if tail == queue.shape[0]:
                     queue = np.concatenate((queue, np.empty(tail, np.int64)))
@@ -282,6 +312,39 @@ def _disc_edges(pts, V, A, vt, verts, radius, tstamp, counter):
                 tail += 1
     counter[0] = stamp
     return qs[:m], us[:m], ws[:m]
+
+
+@njit(cache=True, inline="always")
+def _mark_piece(mask, r, a, b, mark, stamp, slot):
+    if r >= 0 and mark[slot[a[r]]] == stamp and mark[slot[b[r]]] == stamp:
+        mask[r] = True
+
+
+@njit(cache=True)
+def _missing_pieces(V, A, vt, order, slot, mark, stamp, n, n0, rows, ends, fresh, m):
+    """The pieces to check after an insertion (:meth:`_Pieces.missing`):
+    those at a touched point whose other end was touched too (an added
+    point ends two pieces, an input point the chains it starts or ends),
+    and the fresh ones; of them, those that are not edges."""
+    a, b, left, right, head, tail = rows
+    end_start, end_chain, end_side = ends
+    mask = np.zeros(m, np.bool_)
+    for s in range(n):
+        if mark[s] != stamp:
+            continue
+        v = order[s]
+        if v >= n0:
+            _mark_piece(mask, left[v], a, b, mark, stamp, slot)
+            _mark_piece(mask, right[v], a, b, mark, stamp, slot)
+            continue
+        for j in range(end_start[v], end_start[v + 1]):
+            c = end_chain[j]
+            _mark_piece(mask, head[c] if end_side[j] == 0 else tail[c], a, b, mark, stamp, slot)
+    for r in fresh:
+        mask[r] = True
+    check = np.flatnonzero(mask)
+    present = _has_edges(V, A, vt, slot[a[check]], slot[b[check]])
+    return check[~present]
 
 
 @dataclass
@@ -500,30 +563,18 @@ class _Pieces:
         pos = np.minimum(np.searchsorted(self.input_keys, keys), len(self.input_keys) - 1)
         return np.where(self.input_keys[pos] == keys, self.input_chain[pos], -1)
 
-    def to_check(self) -> np.ndarray:
-        """The pieces the last split made or may have removed from the
-        triangulation: new and shortened pieces, and those whose two ends
-        the insertions touched."""
-        verts = self.dt.touched_vertices()
-        added = verts[verts >= self.n0]
-        inp = verts[verts < self.n0]
-        lo, hi = self.end_start[inp], self.end_start[inp + 1]
-        cnt = hi - lo
-        idx = np.repeat(lo - np.cumsum(cnt) + cnt, cnt) + np.arange(int(cnt.sum()))
-        chain, side = self.end_chain[idx], self.end_side[idx]
-        rows = np.concatenate(
-            [
-                self.left[added],
-                self.right[added],
-                np.where(side == 0, self.head[chain], self.tail[chain]),
-            ]
-        )
-        rows = rows[rows >= 0]
-        rows = rows[self.dt.touched(self.a[rows]) & self.dt.touched(self.b[rows])]
-        mask = np.zeros(self.m, dtype=bool)
-        mask[rows] = True
-        mask[self.fresh] = True
-        return np.flatnonzero(mask)
+    def missing(self) -> np.ndarray:
+        """The pieces that are not edges among those the last split made or
+        may have removed from the triangulation: new and shortened pieces,
+        and those whose two ends the insertions touched."""
+        _, V, A, vt, order, slot = self.dt.arrays()
+        mark, stamp = self.dt.marks()
+        return _missing_pieces(
+            V, A, vt, order, slot, mark, stamp, self.n, self.n0,
+            (self.a, self.b, self.left, self.right, self.head, self.tail),
+            (self.end_start, self.end_chain, self.end_side),
+            self.fresh, self.m,
+        )  # fmt: skip
 
     def to_state(self, st: _State) -> None:
         """Back to chain order; the points added here numbered by round, then

@@ -704,18 +704,30 @@ def _insert_marked(pts, V, A, stack, vt, hint, state, work, start, stop, mark, s
 
 @njit(cache=True)
 def _has_edges(V, A, vt, a, b):
-    """Whether each (a[i], b[i]) is an edge: a turn around a's triangles."""
+    """Whether each (a[i], b[i]) is an edge: turns around a's and b's
+    triangles in step, so the cost is the smaller of the two degrees."""
     out = np.zeros(a.shape[0], np.bool_)
     for i in range(a.shape[0]):
-        t0 = vt[a[i]]
-        t = t0
+        u = a[i]
+        w = b[i]
+        s0 = vt[u]
+        r0 = vt[w]
+        s = s0
+        r = r0
         while True:
-            k = _corner(V, t, a[i])
-            if V[_nxt(k)] == b[i]:
+            k = _corner(V, s, u)
+            if V[_nxt(k)] == w:
                 out[i] = True
                 break
-            t = A[_prv(k)] // 3
-            if t == t0:
+            s = A[_prv(k)] // 3
+            if s == s0:
+                break
+            k = _corner(V, r, w)
+            if V[_nxt(k)] == u:
+                out[i] = True
+                break
+            r = A[_prv(k)] // 3
+            if r == r0:
                 break
     return out
 
@@ -758,7 +770,7 @@ class IncrementalDelaunay:
     Queries for :mod:`meshcore.delaunay.admissible`: which segments are
     edges (:meth:`has_edges`), each vertex's nearest other point
     (:meth:`nearest_distance`), the vertices whose neighbourhood the last
-    :meth:`insert` changed (:meth:`touched`).
+    :meth:`insert` changed (:meth:`touched`, :meth:`marks`).
 
     Added points must lie in the convex hull of the first ones (split
     points of segments do), so that the power-of-two scale stays valid.
@@ -846,9 +858,11 @@ class IncrementalDelaunay:
         new neighbours (an edge it removed joins two of them)."""
         return self._mark[self._slot[verts]] == self._stamp
 
-    def touched_vertices(self) -> np.ndarray:
-        """The vertices :meth:`touched` holds for, as indices."""
-        return self._order[np.flatnonzero(self._mark[: self._n] == self._stamp)]
+    def marks(self) -> tuple[np.ndarray, int]:
+        """``(mark, stamp)``: the slots with ``mark == stamp`` are the
+        vertices the last :meth:`insert` added or gave new neighbours (an
+        edge it removed joins two of them)."""
+        return self._mark, self._stamp
 
     def has_edges(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(m,) bool: whether each ``(a[i], b[i])`` is an edge."""
