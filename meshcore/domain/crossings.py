@@ -93,12 +93,14 @@ def _pieces(pts, scale, offsets, cseg, cap, max_len):
         is segment ``nb + t``).
     first, last : (k,) int64
         The points at the ends of each piece (its bounding box's corners).
+    box : (k, 4) float64
+        Each piece's bounding box ``(min x, min y, max x, max y)``, scaled.
     """
     nb = offsets[-1]
     c = len(cseg)
-    start = np.empty(nb + c + 1, np.int64)
-    first = np.empty(nb + c, np.int64)
-    last = np.empty(nb + c, np.int64)
+    start = np.empty(nb + c + 1, np.int32)  # scratch (the results are copied out)
+    first = np.empty(nb + c, np.int32)
+    last = np.empty(nb + c, np.int32)
     m = 0
     for k in range(len(offsets) - 1):
         lo, hi = offsets[k], offsets[k + 1]
@@ -141,11 +143,26 @@ def _pieces(pts, scale, offsets, cseg, cap, max_len):
         last[m] = cseg[t, 1]
         m += 1
     start[m] = nb + c
-    return start[: m + 1].copy(), first[:m].copy(), last[:m].copy()
+    box = np.empty((m, 4))
+    for q in range(m):
+        xa = pts[first[q], 0] * scale
+        ya = pts[first[q], 1] * scale
+        xb = pts[last[q], 0] * scale
+        yb = pts[last[q], 1] * scale
+        box[q, 0] = min(xa, xb)
+        box[q, 1] = min(ya, yb)
+        box[q, 2] = max(xa, xb)
+        box[q, 3] = max(ya, yb)
+    return (
+        start[: m + 1].astype(np.int64),
+        first[:m].astype(np.int64),
+        last[:m].astype(np.int64),
+        box,
+    )
 
 
 @njit(cache=True)
-def _grid_cells(pts, scale, start, first, last, ox, oy, h, pad, nx, ny, key, item, fill):
+def _grid_cells(pts, scale, start, first, last, box, ox, oy, h, pad, nx, ny, key, item, fill):
     """Count (``fill`` False) or write the (cell, piece) entries of a grid.
 
     A piece of several segments, or one whose bounding box spans at most
@@ -169,14 +186,7 @@ def _grid_cells(pts, scale, start, first, last, ox, oy, h, pad, nx, ny, key, ite
     short = np.zeros(k, dtype=np.bool_)
     total = 0
     for q in range(k):
-        xa = pts[first[q], 0] * scale
-        ya = pts[first[q], 1] * scale
-        xb = pts[last[q], 0] * scale
-        yb = pts[last[q], 1] * scale
-        lx = min(xa, xb)
-        hx = max(xa, xb)
-        ly = min(ya, yb)
-        hy = max(ya, yb)
+        lx, ly, hx, hy = box[q, 0], box[q, 1], box[q, 2], box[q, 3]
         cx0 = np.int64(np.floor((lx - ox) / h))
         cx1 = np.int64(np.floor((hx - ox) / h))
         cy0 = np.int64(np.floor((ly - oy) / h))
@@ -190,6 +200,10 @@ def _grid_cells(pts, scale, start, first, last, ox, oy, h, pad, nx, ny, key, ite
                         item[total] = q
                     total += 1
             continue
+        xa = pts[first[q], 0] * scale
+        ya = pts[first[q], 1] * scale
+        xb = pts[last[q], 0] * scale
+        yb = pts[last[q], 1] * scale
         xmajor = hx - lx >= hy - ly
         if xmajor:
             ou, ov, nv = ox, oy, ny
@@ -225,24 +239,6 @@ def _grid_cells(pts, scale, start, first, last, ox, oy, h, pad, nx, ny, key, ite
     return total, short
 
 
-@njit(cache=True)
-def _bounds(pts, scale, first, last):
-    """(min x, min y, max x, max y, max |coordinate|) of the pieces' ends, scaled."""
-    ox = np.inf
-    oy = np.inf
-    mx = -np.inf
-    my = -np.inf
-    for q in range(len(first)):
-        for p in (first[q], last[q]):
-            x = pts[p, 0] * scale
-            y = pts[p, 1] * scale
-            ox = min(ox, x)
-            oy = min(oy, y)
-            mx = max(mx, x)
-            my = max(my, y)
-    return ox, oy, mx, my, max(abs(ox), abs(oy), abs(mx), abs(my))
-
-
 def _grid_entries(pts, scale, offsets, cseg):
     """The pieces, entered in the cells of a uniform grid, sorted by cell.
 
@@ -251,7 +247,7 @@ def _grid_entries(pts, scale, offsets, cseg):
     key, item : (e,) int64
         Cell key and piece of each entry, sorted by key.
     pieces : tuple
-        ``(start, first, last)`` from :func:`_pieces`.
+        ``(start, first, last, box)`` from :func:`_pieces`.
     grid : tuple
         ``(decodable, ny, ox, oy, h, short)``: whether ``key = cx * ny + cy``
         (else keys are hashed cell numbers), the grid's origin and cell size,
@@ -264,16 +260,16 @@ def _grid_entries(pts, scale, offsets, cseg):
     piece; cells are filled by :func:`_grid_cells`.
     """
     seg_h = float(_median_extent(pts, scale, offsets, cseg))
-    start, first, last = _pieces(
+    start, first, last, box = _pieces(
         pts, scale, offsets, cseg, _PIECE_EXTENT * seg_h, _PIECE_SEGMENTS
     )
     k = len(first)
-    ox, oy, mx, my, big = _bounds(pts, scale, first, last)
+    ox, oy = (float(v) for v in box[:, :2].min(axis=0))
+    mx, my = (float(v) for v in box[:, 2:].max(axis=0))
     span = max(mx - ox, my - oy)
-    pad = 64.0 * float(np.spacing(big))
-    step = max(1, k // _SAMPLE)
-    ends_a, ends_b = pts[first[::step]], pts[last[::step]]
-    extent = np.abs(ends_b - ends_a).max(axis=1) * scale
+    pad = 64.0 * float(np.spacing(max(abs(ox), abs(oy), abs(mx), abs(my))))
+    sample = box[:: max(1, k // _SAMPLE)]
+    extent = np.maximum(sample[:, 2] - sample[:, 0], sample[:, 3] - sample[:, 1])
     h = max(float(np.median(extent)), span * 2.0**-30, pad)
     budget = _ENTRIES_PER_SEGMENT * k + (1 << 20)
     dummy = np.zeros(0, dtype=np.int64)
@@ -281,14 +277,14 @@ def _grid_entries(pts, scale, offsets, cseg):
         nx = int(np.floor((mx - ox) / h)) + 1
         ny = int(np.floor((my - oy) / h)) + 1
         total, short = _grid_cells(
-            pts, scale, start, first, last, ox, oy, h, pad, nx, ny, dummy, dummy, False
+            pts, scale, start, first, last, box, ox, oy, h, pad, nx, ny, dummy, dummy, False
         )
         if total <= budget or h >= span:
             break
         h *= 2.0
     key = np.empty(total, dtype=np.int64)
     item = np.empty(total, dtype=np.int64)
-    _grid_cells(pts, scale, start, first, last, ox, oy, h, pad, nx, ny, key, item, True)
+    _grid_cells(pts, scale, start, first, last, box, ox, oy, h, pad, nx, ny, key, item, True)
     # Packing (cell, piece) into one int64 lets numpy's fast value sort order
     # the entries; a cell number too wide to pack is hashed, which can only
     # merge cells (extra candidates, removed by the box test).
@@ -305,7 +301,18 @@ def _grid_entries(pts, scale, offsets, cseg):
     key.sort()
     item = key & ((1 << bits) - 1)
     key >>= np.int64(bits)
-    return key, item, (start, first, last), (decodable, ny, ox, oy, h, short)
+    return key, item, (start, first, last, box), (decodable, ny, ox, oy, h, short)
+
+
+@njit(cache=True)
+def _boxes_apart(pts, scale, a, b, c, d):
+    """Whether the boxes of segments ab and cd (point indices, scaled) are disjoint (exact)."""
+    return (
+        min(pts[a, 0], pts[b, 0]) * scale > max(pts[c, 0], pts[d, 0]) * scale
+        or min(pts[c, 0], pts[d, 0]) * scale > max(pts[a, 0], pts[b, 0]) * scale
+        or min(pts[a, 1], pts[b, 1]) * scale > max(pts[c, 1], pts[d, 1]) * scale
+        or min(pts[c, 1], pts[d, 1]) * scale > max(pts[a, 1], pts[b, 1]) * scale
+    )
 
 
 @njit(cache=True)
@@ -373,30 +380,70 @@ def _segment_ends(g, q, nb, start, last, cseg):
 
 
 @njit(cache=True)
-def _meeting(pts, scale, q, nb, start, last, cseg, lx, ly, hx, hy, buf):
-    """The segments of piece ``q`` whose boxes meet the box [lx, hx] x [ly, hy] (into ``buf``)."""
-    n = 0
-    for g in range(start[q], start[q + 1]):
-        a, b = _segment_ends(g, q, nb, start, last, cseg)
-        xa = pts[a, 0] * scale
-        xb = pts[b, 0] * scale
-        ya = pts[a, 1] * scale
-        yb = pts[b, 1] * scale
-        if min(xa, xb) <= hx and max(xa, xb) >= lx and min(ya, yb) <= hy and max(ya, yb) >= ly:
-            buf[n] = g
-            n += 1
-    return n
+def _piece_point(q, t, start, first, last):
+    """Point ``t`` of piece ``q`` (0 its first, ``start[q + 1] - start[q]`` its last)."""
+    if t == 0:
+        return first[q]
+    if t == start[q + 1] - start[q]:
+        return last[q]
+    return start[q] + t
 
 
 @njit(cache=True)
-def _scan_cells(key, item, pts, scale, nb, start, first, last, cseg, short, grid, cap):
+def _monotone_range(pts, scale, q, start, first, last, axis, lo, hi):
+    """Segments ``t0 <= t < t1`` of piece ``q`` whose extent along ``axis`` meets [lo, hi].
+
+    The piece's points are monotone along the axis, so these form a range,
+    found by two binary searches (exact comparisons).
+    """
+    m = start[q + 1] - start[q]
+    down = pts[first[q], axis] > pts[last[q], axis]
+    # Segment t spans [min_t, max_t], both monotone in t like the points: it meets
+    # [lo, hi] iff max_t >= lo and min_t <= hi. t0: the first segment meeting one
+    # of the two conditions that turns true along the piece; t1: the first, from
+    # t0 on, failing the other.
+    a, b = 0, m
+    while a < b:
+        t = (a + b) // 2
+        v = pts[_piece_point(q, t + 1, start, first, last), axis] * scale
+        if (v <= hi) if down else (v >= lo):
+            b = t
+        else:
+            a = t + 1
+    t0 = a
+    a, b = t0, m
+    while a < b:
+        t = (a + b) // 2
+        v = pts[_piece_point(q, t, start, first, last), axis] * scale
+        if (v >= lo) if down else (v <= hi):
+            a = t + 1
+        else:
+            b = t
+    return t0, a
+
+
+@njit(cache=True)
+def _meeting(pts, scale, q, start, first, last, lx, ly, hx, hy):
+    """Segments ``start[q] + t`` for ``t0 <= t < t1``: those of piece ``q`` whose boxes meet
+    the box [lx, hx] x [ly, hy] (a monotone piece: the intersection of two ranges)."""
+    x0, x1 = _monotone_range(pts, scale, q, start, first, last, 0, lx, hx)
+    y0, y1 = _monotone_range(pts, scale, q, start, first, last, 1, ly, hy)
+    return start[q] + max(x0, y0), start[q] + min(x1, y1)
+
+
+@njit(cache=True)
+def _scan_cells(key, item, pts, scale, nb, start, first, last, box, cseg, short, grid, cap):
     """Test every pair of pieces sharing a grid cell; collect the bad segment pairs.
 
     A compiled loop over the pairs of each cell (no pair arrays are built).
     A pair of pieces is skipped when their bounding boxes are disjoint
     (exact comparisons) or, for two bounding-box-entered pieces, in every
     cell but the one holding the lower-left corner of their boxes'
-    intersection (so such a pair is tested once). Then the segments of
+    intersection (so such a pair is tested once), and when the boxes meet
+    in a single point that is an end point of both pieces (a point index of
+    each): only the end segments of monotone pieces, which have no zero
+    length, reach their end point, so the pieces meet there only, at a
+    common vertex. Then the segments of
     each piece whose boxes meet the other piece's box are paired; a pair
     is skipped when its boxes are disjoint or the segments are consecutive
     in a ring. Returns ``(out, count, full)``: rows ``(i, j, kind,
@@ -405,8 +452,6 @@ def _scan_cells(key, item, pts, scale, nb, start, first, last, cseg, short, grid
     """
     decodable, ny, ox, oy, h = grid
     out = np.empty((cap, 4), dtype=np.int64)
-    mine = np.empty(_PIECE_SEGMENTS, np.int64)
-    theirs = np.empty(_PIECE_SEGMENTS, np.int64)
     nout = 0
     n = len(key)
     begin = 0
@@ -423,15 +468,8 @@ def _scan_cells(key, item, pts, scale, nb, start, first, last, cseg, short, grid
                     v = max(item[p], item[r])
                     if u == v:
                         continue
-                    ua, ub, va, vb = first[u], last[u], first[v], last[v]
-                    lxu = min(pts[ua, 0], pts[ub, 0]) * scale
-                    hxu = max(pts[ua, 0], pts[ub, 0]) * scale
-                    lyu = min(pts[ua, 1], pts[ub, 1]) * scale
-                    hyu = max(pts[ua, 1], pts[ub, 1]) * scale
-                    lxv = min(pts[va, 0], pts[vb, 0]) * scale
-                    hxv = max(pts[va, 0], pts[vb, 0]) * scale
-                    lyv = min(pts[va, 1], pts[vb, 1]) * scale
-                    hyv = max(pts[va, 1], pts[vb, 1]) * scale
+                    lxu, lyu, hxu, hyu = box[u, 0], box[u, 1], box[u, 2], box[u, 3]
+                    lxv, lyv, hxv, hyv = box[v, 0], box[v, 1], box[v, 2], box[v, 3]
                     if lxu > hxv or lxv > hxu or lyu > hyv or lyv > hyu:
                         continue
                     if decodable and short[u] and short[v]:
@@ -439,25 +477,26 @@ def _scan_cells(key, item, pts, scale, nb, start, first, last, cseg, short, grid
                         ry = np.int64(np.floor((max(lyu, lyv) - oy) / h))
                         if rx != cx or ry != cy:
                             continue
-                    nu = _meeting(pts, scale, u, nb, start, last, cseg, lxv, lyv, hxv, hyv, mine)
-                    nv = _meeting(pts, scale, v, nb, start, last, cseg, lxu, lyu, hxu, hyu, theirs)
-                    for s in range(nu):
-                        i = mine[s]
+                    if (
+                        max(lxu, lxv) == min(hxu, hxv)
+                        and max(lyu, lyv) == min(hyu, hyv)
+                        and (
+                            last[u] == first[v]
+                            or first[u] == last[v]
+                            or first[u] == first[v]
+                            or last[u] == last[v]
+                        )
+                    ):
+                        continue  # the boxes meet only at a common end point (docstring)
+                    i0, i1 = _meeting(pts, scale, u, start, first, last, lxv, lyv, hxv, hyv)
+                    j0, j1 = _meeting(pts, scale, v, start, first, last, lxu, lyu, hxu, hyu)
+                    for i in range(i0, i1):
                         a, b = _segment_ends(i, u, nb, start, last, cseg)
-                        for t in range(nv):
-                            j = theirs[t]  # i < j: pieces hold increasing segment numbers
+                        for j in range(j0, j1):  # i < j: pieces hold increasing segment numbers
                             c, d = _segment_ends(j, v, nb, start, last, cseg)
                             if j < nb and (b == j or d == i):
                                 continue  # consecutive in a ring
-                            if (
-                                min(pts[a, 0], pts[b, 0]) * scale > max(pts[c, 0], pts[d, 0]) * scale
-                                or min(pts[c, 0], pts[d, 0]) * scale
-                                > max(pts[a, 0], pts[b, 0]) * scale
-                                or min(pts[a, 1], pts[b, 1]) * scale
-                                > max(pts[c, 1], pts[d, 1]) * scale
-                                or min(pts[c, 1], pts[d, 1]) * scale
-                                > max(pts[a, 1], pts[b, 1]) * scale
-                            ):
+                            if _boxes_apart(pts, scale, a, b, c, d):
                                 continue
                             kind, w = _classify_pair(pts, scale, a, b, c, d)
                             if kind != 0:
@@ -500,7 +539,7 @@ def _intersections(pts: np.ndarray, scale: float, offsets: np.ndarray, cseg: np.
     nb = int(offsets[-1])
     if nb + len(cseg) < 2:
         return np.zeros((0, 4), dtype=np.int64), False
-    key, item, (start, first, last), (decodable, ny, ox, oy, h, short) = _grid_entries(
+    key, item, (start, first, last, box), (decodable, ny, ox, oy, h, short) = _grid_entries(
         pts, scale, offsets, cseg
     )
     out, count, capped = _scan_cells(
@@ -512,6 +551,7 @@ def _intersections(pts: np.ndarray, scale: float, offsets: np.ndarray, cseg: np.
         start,
         first,
         last,
+        box,
         cseg,
         short,
         (decodable, ny, ox, oy, h),

@@ -1013,18 +1013,18 @@ def _exact_shift(pts, scale, axis):
 def _fsum_add(partials, n, x):
     """Add ``x`` to the non-overlapping ``partials[:n]`` exactly; their new count.
 
-    The loop of CPython's :func:`math.fsum` (Shewchuk's algorithm), for finite terms.
+    The loop of CPython's :func:`math.fsum` (Shewchuk's algorithm), for finite
+    terms, with Knuth's branch-free two-sum in place of the ordered fast
+    two-sum: both give the same rounded sum and exact error.
     """
     i = 0
     for j in range(n):
         y = partials[j]
-        if abs(x) < abs(y):
-            x, y = y, x
         hi = x + y
-        lo = y - (hi - x)
-        if lo != 0.0:
-            partials[i] = lo
-            i += 1
+        bb = hi - x
+        lo = (x - (hi - bb)) + (y - bb)
+        partials[i] = lo
+        i += lo != 0.0
         x = hi
     if x != 0.0:
         partials[i] = x
