@@ -16,13 +16,17 @@ request over the job's own run time (the target is below 0.5).
 ``submit`` posts a 1M-vertex domain (about 35 MB of JSON) three times to one
 server and reports the time of each call and the server's peak memory above
 its size just before (its ``VmHWM`` reset then), and their medians.
+``stages`` runs the submit's own steps on the same body in this process
+(body buffer, coordinates extraction, validation, ``params.npz``) and
+reports their CPU time and peak allocations (tracemalloc), medians of 3.
 
 ``fresh`` starts the service with an empty numba cache (``NUMBA_CACHE_DIR``
 in a temporary directory) and reports when the port answers and when
 ``/readyz`` says ready. ``--root DIR`` runs the service from another checkout
 (for before/after tables).
 
-    .venv/bin/python benchmarks/service.py [small|large|fresh|submit] [--jobs 300] [--root DIR]
+    .venv/bin/python benchmarks/service.py [small|large|fresh|submit|stages]
+        [--jobs 300] [--root DIR]
 """
 
 from __future__ import annotations
@@ -289,15 +293,74 @@ def _big_submit(args: argparse.Namespace) -> None:
     print(f"{'median':>6}{elapsed:>8.2f}{mb:>20.0f}{mb * 1e6 / size:>13.2f}")
 
 
+def _submit_stages(args: argparse.Namespace) -> None:
+    """The submit's own steps on a 1M-vertex body in this process, three times: CPU
+    seconds and the peak of allocations (tracemalloc) from the body's buffer on."""
+    import gc
+    import tracemalloc
+
+    from service import bodies
+    from service.methods.domain_schema import ARRAYS, PACK, pack_arrays, write_npz
+    from service.methods.registry import default_registry
+
+    n = 1_000_000
+    angles = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    ring = np.column_stack([np.cos(angles), np.sin(angles)]).round(12).tolist()
+    params = {"domain": {"type": "Polygon", "coordinates": [ring]}, "empty": True}
+    payload = json.dumps(params).encode()
+    del ring, params
+    model = default_registry()["triangulate"].params
+
+    def submit(out: Path) -> None:
+        buf = bytearray(payload)  # the body as the API reads it
+        body, arrays = bodies.extract_coordinates(buf)
+        parsed = model.model_validate_json(body, context={ARRAYS: arrays})
+        del buf, body, arrays
+        parsed.check()
+        packed: dict = {}
+        parsed.model_dump_json(context={PACK: packed})
+        with open(out, "wb") as f:
+            write_npz(pack_arrays(packed), f)
+
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "params.npz"
+        submit(out)  # compile
+        for _ in range(3):
+            gc.collect()
+            tracemalloc.start()
+            t0 = time.process_time()
+            submit(out)
+            cpu = time.process_time() - t0
+            rows.append((cpu, tracemalloc.get_traced_memory()[1] / 1e6))
+            tracemalloc.stop()
+    size = len(payload) / 1e6
+    print(f"submit steps of a {n}-vertex domain ({size:.1f} MB of JSON), in process")
+    print(f"{'run':>6}{'CPU s':>8}{'peak MB':>9}{'peak / body':>13}")
+    for k, (cpu, mb) in enumerate(rows):
+        print(f"{k + 1:>6}{cpu:>8.2f}{mb:>9.1f}{mb / size:>13.2f}")
+    cpu, mb = (float(np.median(col)) for col in zip(*rows, strict=True))
+    print(f"{'median':>6}{cpu:>8.2f}{mb:>9.1f}{mb / size:>13.2f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument(
-        "mode", nargs="?", default="small", choices=("small", "large", "fresh", "submit")
+        "mode",
+        nargs="?",
+        default="small",
+        choices=("small", "large", "fresh", "submit", "stages"),
     )
     parser.add_argument("--jobs", type=int, default=300)
     parser.add_argument("--root", type=Path, default=ROOT, help="the checkout to serve from")
     args = parser.parse_args()
-    modes = {"small": _small, "large": _large, "fresh": _fresh, "submit": _big_submit}
+    modes = {
+        "small": _small,
+        "large": _large,
+        "fresh": _fresh,
+        "submit": _big_submit,
+        "stages": _submit_stages,
+    }
     modes[args.mode](args)
 
 
