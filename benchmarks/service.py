@@ -299,6 +299,10 @@ def _submit_stages(args: argparse.Namespace) -> None:
     import gc
     import tracemalloc
 
+    # This script's folder is first on the path and its name shadows the package.
+    here = Path(__file__).resolve().parent
+    sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != here]
+    sys.modules.pop("service", None)
     from service import bodies
     from service.methods.domain_schema import ARRAYS, PACK, pack_arrays, write_npz
     from service.methods.registry import default_registry
