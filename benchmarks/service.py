@@ -13,16 +13,20 @@ first and second request of its result in every download format and of its
 previews, with the size of each answer; the ratio column is the first
 request over the job's own run time (the target is below 0.5).
 
-``submit`` posts a 1M-vertex domain (about 40 MB of JSON) and reports the
-time of the call and the server's peak memory above its idle size (its
-``VmHWM`` reset just before).
+``submit`` posts a 1M-vertex domain (about 35 MB of JSON) three times to one
+server and reports the time of each call and the server's peak memory above
+its size just before (its ``VmHWM`` reset then), and their medians.
+``stages`` runs the submit's own steps on the same body in this process
+(body buffer, coordinates extraction, validation, ``params.npz``) and
+reports their CPU time and peak allocations (tracemalloc), medians of 3.
 
 ``fresh`` starts the service with an empty numba cache (``NUMBA_CACHE_DIR``
 in a temporary directory) and reports when the port answers and when
 ``/readyz`` says ready. ``--root DIR`` runs the service from another checkout
 (for before/after tables).
 
-    .venv/bin/python benchmarks/service.py [small|large|fresh|submit] [--jobs 300] [--root DIR]
+    .venv/bin/python benchmarks/service.py [small|large|fresh|submit|stages]
+        [--jobs 300] [--root DIR]
 """
 
 from __future__ import annotations
@@ -244,7 +248,8 @@ def _rss(pid: int, field: str) -> int:
 
 
 def _big_submit(args: argparse.Namespace) -> None:
-    """Submit a 1M-vertex domain (a circle's ring) and measure the call: time and peak memory."""
+    """Submit a 1M-vertex domain (a circle's ring) three times and measure each call: time
+    and the server's peak memory above its size just before (medians printed last)."""
     n = 1_000_000
     angles = np.linspace(0, 2 * np.pi, n, endpoint=False)
     ring = np.column_stack([np.cos(angles), np.sin(angles)]).round(12).tolist()
@@ -253,7 +258,9 @@ def _big_submit(args: argparse.Namespace) -> None:
         "params": {"domain": {"type": "Polygon", "coordinates": [ring]}, "empty": True},
     }
     payload = json.dumps(body).encode()
+    del ring, body
     port = _port()
+    rows = []
     with tempfile.TemporaryDirectory() as data:
         proc = _serve(args.root, data, port, MESHSERVICE_WORKERS="1")
         url = f"http://127.0.0.1:{port}"
@@ -261,35 +268,103 @@ def _big_submit(args: argparse.Namespace) -> None:
             _wait_ready(url)
             with httpx.Client(base_url=url, timeout=300) as c:
                 c.post("/v1/jobs", json={"method": "quality", "params": {"mesh": SQUARE}})
-                before = _rss(proc.pid, "VmRSS")
-                with open(f"/proc/{proc.pid}/clear_refs", "w") as f:
-                    f.write("5")  # reset the peak (VmHWM) to the current size
-                t0 = time.perf_counter()
-                r = c.post(
-                    "/v1/jobs", content=payload, headers={"Content-Type": "application/json"}
-                )
-                elapsed = time.perf_counter() - t0
-                peak = _rss(proc.pid, "VmHWM")
-                assert r.status_code == 202, r.text[:500]
-                c.post(f"/v1/jobs/{r.json()['id']}/cancel")
+                for _ in range(3):
+                    before = _rss(proc.pid, "VmRSS")
+                    with open(f"/proc/{proc.pid}/clear_refs", "w") as f:
+                        f.write("5")  # reset the peak (VmHWM) to the current size
+                    t0 = time.perf_counter()
+                    r = c.post(
+                        "/v1/jobs", content=payload, headers={"Content-Type": "application/json"}
+                    )
+                    elapsed = time.perf_counter() - t0
+                    peak = _rss(proc.pid, "VmHWM")
+                    assert r.status_code == 202, r.text[:500]
+                    c.post(f"/v1/jobs/{r.json()['id']}/cancel")
+                    rows.append((elapsed, (peak - before) / 1e6))
         finally:
             proc.terminate()
             proc.wait(30)
     size = len(payload)
     print(f"submit of a {n}-vertex domain ({size / 1e6:.1f} MB of JSON), {os.cpu_count()} cores")
-    print(f"{'call s':>8}{'peak above idle MB':>20}{'peak / body':>13}")
-    print(f"{elapsed:>8.2f}{(peak - before) / 1e6:>20.0f}{(peak - before) / size:>13.1f}")
+    print(f"{'call':>6}{'call s':>8}{'peak above idle MB':>20}{'peak / body':>13}")
+    for k, (elapsed, mb) in enumerate(rows):
+        print(f"{k + 1:>6}{elapsed:>8.2f}{mb:>20.0f}{mb * 1e6 / size:>13.2f}")
+    elapsed, mb = (float(np.median(col)) for col in zip(*rows, strict=True))
+    print(f"{'median':>6}{elapsed:>8.2f}{mb:>20.0f}{mb * 1e6 / size:>13.2f}")
+
+
+def _submit_stages(args: argparse.Namespace) -> None:
+    """The submit's own steps on a 1M-vertex body in this process, three times: CPU
+    seconds and the peak of allocations (tracemalloc) from the body's buffer on."""
+    import gc
+    import tracemalloc
+
+    # This script's folder is first on the path and its name shadows the package.
+    here = Path(__file__).resolve().parent
+    sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != here]
+    sys.modules.pop("service", None)
+    from service import bodies
+    from service.methods.domain_schema import ARRAYS, PACK, pack_arrays, write_npz
+    from service.methods.registry import default_registry
+
+    n = 1_000_000
+    angles = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    ring = np.column_stack([np.cos(angles), np.sin(angles)]).round(12).tolist()
+    params = {"domain": {"type": "Polygon", "coordinates": [ring]}, "empty": True}
+    payload = json.dumps(params).encode()
+    del ring, params
+    model = default_registry()["triangulate"].params
+
+    def submit(out: Path) -> None:
+        buf = bytearray(payload)  # the body as the API reads it
+        body, arrays = bodies.extract_coordinates(buf)
+        parsed = model.model_validate_json(body, context={ARRAYS: arrays})
+        del buf, body, arrays
+        parsed.check()
+        packed: dict = {}
+        parsed.model_dump_json(context={PACK: packed})
+        with open(out, "wb") as f:
+            write_npz(pack_arrays(packed), f)
+
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "params.npz"
+        submit(out)  # compile
+        for _ in range(3):
+            gc.collect()
+            tracemalloc.start()
+            t0 = time.process_time()
+            submit(out)
+            cpu = time.process_time() - t0
+            rows.append((cpu, tracemalloc.get_traced_memory()[1] / 1e6))
+            tracemalloc.stop()
+    size = len(payload) / 1e6
+    print(f"submit steps of a {n}-vertex domain ({size:.1f} MB of JSON), in process")
+    print(f"{'run':>6}{'CPU s':>8}{'peak MB':>9}{'peak / body':>13}")
+    for k, (cpu, mb) in enumerate(rows):
+        print(f"{k + 1:>6}{cpu:>8.2f}{mb:>9.1f}{mb / size:>13.2f}")
+    cpu, mb = (float(np.median(col)) for col in zip(*rows, strict=True))
+    print(f"{'median':>6}{cpu:>8.2f}{mb:>9.1f}{mb / size:>13.2f}")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument(
-        "mode", nargs="?", default="small", choices=("small", "large", "fresh", "submit")
+        "mode",
+        nargs="?",
+        default="small",
+        choices=("small", "large", "fresh", "submit", "stages"),
     )
     parser.add_argument("--jobs", type=int, default=300)
     parser.add_argument("--root", type=Path, default=ROOT, help="the checkout to serve from")
     args = parser.parse_args()
-    modes = {"small": _small, "large": _large, "fresh": _fresh, "submit": _big_submit}
+    modes = {
+        "small": _small,
+        "large": _large,
+        "fresh": _fresh,
+        "submit": _big_submit,
+        "stages": _submit_stages,
+    }
     modes[args.mode](args)
 
 

@@ -310,6 +310,7 @@ def _ring(raw: bytes, ring: np.ndarray, cuts: np.ndarray) -> np.ndarray | None:
     start, end, count, _ = (int(x) for x in ring)
     out = np.empty((count, 2))
     if _exact_numbers(np.frombuffer(raw, np.uint8), start, end, out.reshape(-1)):
+        out.setflags(write=False)  # parse_domain takes read-only rings without a copy
         return out
     view = memoryview(raw)
     bounds = [*(int(c) for c in cuts[:, 2]), end]
@@ -322,10 +323,11 @@ def _ring(raw: bytes, ring: np.ndarray, cuts: np.ndarray) -> np.ndarray | None:
         out[p:q] = values.reshape(-1, 2)
     if not np.isfinite(out).all():  # 1e999: pydantic's message says where
         return None
+    out.setflags(write=False)
     return out
 
 
-def extract_coordinates(raw: bytes) -> tuple[bytes, dict[str, list]]:
+def extract_coordinates(raw: bytes | bytearray) -> tuple[bytes | bytearray, dict[str, list]]:
     """The body with big ``"coordinates"`` values replaced by markers, and their arrays.
 
     Returns
@@ -334,7 +336,7 @@ def extract_coordinates(raw: bytes) -> tuple[bytes, dict[str, list]]:
         ``raw`` itself when nothing was taken, else a copy in which each
         taken value is the JSON string of its marker.
     arrays : dict
-        Marker -> a Polygon's rings (a list of ``(k, 2)`` float64 arrays) or
+        Marker -> a Polygon's rings (a list of read-only ``(k, 2)`` float64 arrays) or
         a MultiPolygon's polygons (a list of such lists), in input order.
     """
     if len(raw) < MIN_BODY:

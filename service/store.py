@@ -41,9 +41,10 @@ import threading
 import time
 import uuid
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 from service.problems import problem_document
 
@@ -128,18 +129,25 @@ class Job:
         return f'"{self.id[:8]}-{self.version}"'
 
 
-def write_atomically(path: Path, data: bytes, sync: bool) -> None:
+def write_atomically(path: Path, data: bytes | Callable[[BinaryIO], None], sync: bool) -> None:
     """Write ``data`` to ``path`` so that readers see the old file or the whole new one.
 
-    ``sync``: on the disk (``fsync``) before it replaces ``path``, so that it
-    survives a power loss too, not only a crash of the service. Raises
+    ``data`` is the bytes, or a function writing them to the open file (big
+    arrays go to disk without being assembled in memory first). ``sync``: on
+    the disk (``fsync``) before it replaces ``path``, so that it survives a
+    power loss too, not only a crash of the service. Raises
     :class:`DiskFull` (and removes the partial temporary file) when the disk
     or a quota is full.
     """
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
+    size = len(data) if isinstance(data, bytes | bytearray) else 0
     try:
         with open(tmp, "wb") as f:
-            f.write(data)
+            if callable(data):
+                data(f)
+                size = f.tell()
+            else:
+                f.write(data)
             f.flush()
             if sync:
                 os.fsync(f.fileno())
@@ -153,8 +161,9 @@ def write_atomically(path: Path, data: bytes, sync: bool) -> None:
     except OSError as exc:
         tmp.unlink(missing_ok=True)
         if exc.errno in _NO_SPACE:
+            what = f"{size} bytes" if size else "the data"
             raise DiskFull(
-                f"{len(data)} bytes did not fit in {path.parent} ({os.strerror(exc.errno)})"
+                f"{what} did not fit in {path.parent} ({os.strerror(exc.errno)})"
             ) from exc
         raise
 
@@ -331,9 +340,9 @@ class Store:
         values["expired"] = bool(values["expired"])
         return Job(**values)
 
-    def write_params(self, params: bytes, arrays: bytes = b"") -> str:
-        """Write a new job's params file and its arrays if any (blocking I/O, run it off
-        the event loop); its id."""
+    def write_params(self, params: bytes, arrays: bytes | Callable[[BinaryIO], None] = b"") -> str:
+        """Write a new job's params file and its arrays if any (bytes, or a function
+        writing them to a file; blocking I/O, run it off the event loop); its id."""
         job_id = uuid.uuid4().hex
         try:
             self.job_dir(job_id).mkdir(parents=True)
@@ -343,8 +352,11 @@ class Store:
         except (DiskFull, OSError) as exc:
             shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
             if isinstance(exc, DiskFull) or exc.errno in _NO_SPACE:
-                size = len(params) + len(arrays)
-                raise DiskFull(f"the job's params ({size} bytes) did not fit") from exc
+                if isinstance(arrays, bytes):
+                    size = f"{len(params) + len(arrays)} bytes"
+                else:
+                    size = f"{len(params)} bytes and the arrays"
+                raise DiskFull(f"the job's params ({size}) did not fit") from exc
             raise
         return job_id
 

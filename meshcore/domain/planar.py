@@ -82,16 +82,22 @@ or an exact comparison of input coordinates; no tolerance decides anything
 (DESIGN.md, "Geometry robustness"). The predicates see the coordinates
 scaled by a power of two (exact), so the outcome is the same after any
 translation or power-of-two scaling that is exact in floating point.
-Candidate segment pairs come from a uniform grid (cell size the median
-segment extent, long segments rasterized through the cells they cross);
-cell assignment is conservative (it may only add candidates). The pairs of
-each cell are tested in a compiled loop (bounding boxes compared exactly,
-then :func:`~meshcore.geometry.predicates.orient2d_scalar`), without
-building pair arrays. The cost is linear in the number of (segment, cell)
-entries and same-cell pairs: near linear for boundary samples (1M
-vertices in about half a second), quadratic in the worst case where very
-many long segments run close together (dense spike fans), as GEOS's
-validity check is (``benchmarks/domain.py``).
+Candidate segment pairs come from :mod:`meshcore.domain.crossings`: the
+ring segments are cut into short monotone runs ("pieces", whose own
+segments cannot meet), the pieces hashed into a uniform grid (long single
+segments rasterized through the cells they cross); cell assignment is
+conservative (it may only add candidates). The pieces sharing a cell are
+compared in a compiled loop (bounding boxes compared exactly, then the
+segments near the other piece with
+:func:`~meshcore.geometry.predicates.orient2d_scalar`), without building
+pair arrays. The ring checks, orientation, segments and exact area are
+compiled passes too, and nothing is allocated per vertex beyond the
+returned arrays: a ring given as a read-only float64 array (as the service
+hands it over) is not even copied. The cost is linear in the number of
+pieces, (piece, cell) entries and nearby pairs: near linear for boundary
+samples (1M vertices in about 0.1 s, 6-8 times GEOS), quadratic in the
+worst case where very many long segments run close together (dense spike
+fans), as GEOS's validity check is (``benchmarks/domain.py``).
 
 References
 ----------
@@ -210,7 +216,9 @@ class Domain:
             "constraint_source": np.int64,
         }
         for name, dtype in dtypes.items():
-            arr = np.array(getattr(self, name), dtype=dtype)
+            arr = np.asarray(getattr(self, name), dtype=dtype)
+            if arr.flags.writeable:  # perhaps the caller's: a copy of our own, frozen
+                arr = arr.copy()
             if name in ("points", "segments", "constraints", "constraint_source"):
                 arr = arr.reshape(-1, 2)
             arr.setflags(write=False)
@@ -385,7 +393,9 @@ def _positions(value: object, loc: tuple, what: str) -> np.ndarray:
     """A list of ``[x, y]`` positions as a (k, 2) float64 array, or InputError.
 
     ``loc`` locates the list; faults are located at the offending position
-    (and coordinate, for non-finite numbers).
+    (and coordinate, for non-finite numbers). A read-only C-contiguous
+    float64 array is returned as it is; a writable one is copied (the
+    domain must not change under the caller's hands).
     """
     if not _is_seq(value):
         raise InputError(f"{what} must be a list of [x, y] positions", loc=loc, code="bad_geometry")
@@ -398,19 +408,20 @@ def _positions(value: object, loc: tuple, what: str) -> np.ndarray:
         return np.zeros((0, 2))
     if arr is None or arr.dtype.kind not in "iuf" or arr.ndim != 2 or arr.shape[1] != 2:
         arr = _positions_slow(value, loc, what)
-    else:
-        arr = np.array(arr, dtype=np.float64)
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        v, c = (int(x) for x in np.argwhere(bad)[0])
+    elif (
+        arr.dtype != np.float64
+        or not arr.flags.c_contiguous
+        or (arr is value and arr.flags.writeable)
+    ):
+        arr = np.array(arr, dtype=np.float64, order="C")  # a caller's writable array: copied
+    v, c, kind = _first_bad(arr, MAX_COORDINATE)
+    if kind == 1:
         raise InputError(
             f"{what}: vertex {v} has a non-finite coordinate ({float(arr[v, c])!r})",
             loc=(*loc, v, c),
             code="non_finite",
         )
-    big = np.abs(arr) > MAX_COORDINATE
-    if big.any():
-        v, c = (int(x) for x in np.argwhere(big)[0])
+    if kind == 2:
         raise InputError(
             f"{what}: vertex {v} has a coordinate of magnitude above {MAX_COORDINATE:g} "
             f"({float(arr[v, c])!r})",
@@ -418,6 +429,25 @@ def _positions(value: object, loc: tuple, what: str) -> np.ndarray:
             code="out_of_range",
         )
     return arr
+
+
+@njit(cache=True)
+def _first_bad(arr, limit):
+    """(vertex, coordinate, kind) of the first non-finite coordinate (kind 1), else of the
+    first above ``limit`` in magnitude (kind 2), else (0, 0, 0); row-major order."""
+    big_v = -1
+    big_c = 0
+    for v in range(arr.shape[0]):
+        for c in range(2):
+            x = arr[v, c]
+            if not np.isfinite(x):
+                return v, c, 1
+            if big_v < 0 and abs(x) > limit:
+                big_v = v
+                big_c = c
+    if big_v >= 0:
+        return big_v, big_c, 2
+    return 0, 0, 0
 
 
 def _positions_slow(value: Sequence, loc: tuple, what: str) -> np.ndarray:
@@ -490,7 +520,7 @@ def _polygons(geometry: object) -> tuple[bool, list[list]]:
 # ---------------------------------------------------------------------------
 
 
-def _power_of_two_scale(points: np.ndarray) -> float:
+def _power_of_two_scale(*arrays: np.ndarray) -> float:
     """2**-e with e the exponent of the largest magnitude: scaled |coordinates| < 1.
 
     Multiplying by it is exact (no coordinate comes near underflow within
@@ -498,7 +528,7 @@ def _power_of_two_scale(points: np.ndarray) -> float:
     changes no predicate sign, and keeps the predicates' products far from
     overflow and underflow.
     """
-    big = float(np.abs(points).max()) if points.size else 0.0
+    big = max((max(-float(a.min()), float(a.max())) for a in arrays if a.size), default=0.0)
     if big == 0.0:
         return 1.0
     return float(np.ldexp(1.0, -int(np.frexp(big)[1])))
@@ -661,7 +691,9 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
         ``{"type": "MultiPolygon", "coordinates": [[outer, hole, ...], ...]}``;
         a ring is a list (or (k, 2) array) of ``[x, y]`` positions, closed
         (last equal to first) or not, in either orientation. Other members
-        of the object (``bbox``, foreign members) are ignored.
+        of the object (``bbox``, foreign members) are ignored. A read-only
+        float64 array is used without a copy (the returned domain's
+        ``points`` may then be a view of it); anything else is copied.
     segments : list of polylines, optional
         Interior constraints: each polyline a list of at least two ``[x, y]``
         positions; consecutive positions make the constraint segments.
@@ -718,16 +750,11 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
         )
     n_rings = len(rings)
     offsets = names.offsets
-    pts = np.concatenate(rings)
+    pts = rings[0] if n_rings == 1 else np.concatenate(rings)
+    del rings
     nb = len(pts)
-    ring_of = np.repeat(np.arange(n_rings), lengths)
-    idx = np.arange(nb)
-    nxt = idx + 1
-    nxt[offsets[1:] - 1] = offsets[:-1]
-    prv = idx - 1
-    prv[offsets[:-1]] = offsets[1:] - 1
 
-    _check_ring_points(pts, ring_of, offsets, lengths, prv, nxt, names)
+    _check_ring_points(pts, offsets, lengths, names)
 
     # -- constraints -----------------------------------------------------
     names.line_offsets = np.concatenate([[0], np.cumsum([len(x) - 1 for x in lines])]).astype(
@@ -735,51 +762,47 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
     )
 
     # Everything below runs on coordinates scaled by a power of two.
-    all_raw = np.concatenate([pts, *lines]) if lines else pts
-    scale = _power_of_two_scale(all_raw)
-    P = pts * scale
+    scale = _power_of_two_scale(pts, *lines)
 
     # Merge constraint vertices with equal ring vertices / each other.
     cpoints, cseg, csrc = _merge_constraints(pts, lines)
     points = np.concatenate([pts, cpoints]) if len(cpoints) else pts
-    PA = points * scale
-    bseg = np.stack([idx, nxt], axis=1)
-    allseg = np.concatenate([bseg, cseg]) if len(cseg) else bseg
 
     # -- pairwise intersections ------------------------------------------
-    succ = np.full(len(allseg), -1, dtype=np.int64)
-    succ[:nb] = nxt
-
-    p0 = P
-    p1 = _rolled(P, offsets, 1)
-    if len(cseg):
-        p0 = np.concatenate([p0, PA[cseg[:, 0]]])
-        p1 = np.concatenate([p1, PA[cseg[:, 1]]])
-    rows, capped = _intersections(PA, allseg, succ, p0, p1)
+    rows, capped = _intersections(points, scale, offsets, cseg)
     if len(rows):
-        _raise_intersections(points, PA, scale, allseg, rows, capped, names)
+        _raise_intersections(points, scale, cseg, rows, capped, names)
 
     # -- orientation (exact, at each ring's lexicographically lowest vertex)
-    low = _lexmin_index(P, ring_of, offsets)
-    turn = orient2d(P[prv[low]], P[low], P[nxt[low]])
-    ccw = turn > 0
+    ccw = _lexmin_turns(pts, scale, offsets) > 0
     ring_polygon = np.array([p for p, _ in ring_pos], dtype=np.int64)
     ring_is_hole = np.array([r > 0 for _, r in ring_pos], dtype=bool)
     reversed_ = ccw == ring_is_hole
-    rev_v = reversed_[ring_of]
-    segs = np.where(rev_v[:, None], bseg[:, ::-1], bseg)
+    segs = _oriented_segments(offsets, reversed_)
 
     # -- containment -----------------------------------------------------
-    _check_containment(
-        P, segs, ring_of, offsets, ring_polygon, ring_is_hole, names, PA, cseg, nb, points
-    )
+    if n_rings > 1 or len(cseg):
+        P = pts * scale
+        _check_containment(
+            P,
+            segs,
+            np.repeat(np.arange(n_rings), lengths),
+            offsets,
+            ring_polygon,
+            ring_is_hole,
+            names,
+            points * scale if len(cpoints) else P,
+            cseg,
+            nb,
+            points,
+        )
+        del P
 
     # -- area and size ---------------------------------------------------
     # Undo the scaling exactly: area * 2**(2 e) for scale = 2**-e.
-    area = math.ldexp(_area(P, offsets, np.where(rev_v, -1.0, 1.0)), -2 * math.frexp(scale)[1] + 2)
-    diameter = math.hypot(
-        float(pts[:, 0].max() - pts[:, 0].min()), float(pts[:, 1].max() - pts[:, 1].min())
-    )
+    area = math.ldexp(_area(pts, scale, offsets, reversed_), -2 * math.frexp(scale)[1] + 2)
+    lo_x, lo_y, hi_x, hi_y = _bounding_box(pts)
+    diameter = math.hypot(hi_x - lo_x, hi_y - lo_y)
     if diameter < MIN_DIAMETER:
         raise InputError(
             f"the domain spans only {diameter:.3g}, below {MIN_DIAMETER:g}: its area and the "
@@ -787,6 +810,12 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
             loc=("coordinates",),
             code="out_of_range",
         )
+    for arr in (points, segs, cseg, csrc):  # ours, or read-only already: no copy in Domain
+        if arr.flags.writeable and arr.base is None:
+            arr.setflags(write=False)
+    if points.flags.writeable:
+        points = points.view()
+        points.setflags(write=False)
     return Domain(
         points=points,
         ring_offsets=offsets,
@@ -806,17 +835,20 @@ def _distinct_small(arr: np.ndarray) -> int:
     return len({(float(x), float(y)) for x, y in arr})
 
 
-def _check_ring_points(pts, ring_of, offsets, lengths, prv, nxt, names: _Names) -> None:
+def _check_ring_points(pts, offsets, lengths, names: _Names) -> None:
     """Distinct points, consecutive duplicates, collinear rings, spikes."""
     n_rings = len(lengths)
     starts = offsets[:-1]
-    turn, same_prev, ccount, turning = _ring_turns(pts, _power_of_two_scale(pts), offsets)
-    keep = ~same_prev
+    ccount, turning, dup, spike = _ring_scan(pts, _power_of_two_scale(pts), offsets)
     distinct = np.maximum(ccount, 1)
     # Every consecutive triple collinear (and no repeats): the whole ring is on a line.
     flat = turning == 0
     # Without consecutive repeats, 2 distinct points must alternate a, b, a, b (a flat ring).
     if (flat & (ccount >= 3)).any():
+        ring_of = np.repeat(np.arange(n_rings), lengths)
+        prev = np.arange(len(pts)) - 1
+        prev[starts] = offsets[1:] - 1
+        keep = (pts != pts[prev]).any(axis=1)
         cp = pts[keep]
         cr = ring_of[keep]
         coff = np.concatenate([[0], np.cumsum(ccount)])
@@ -831,15 +863,13 @@ def _check_ring_points(pts, ring_of, offsets, lengths, prv, nxt, names: _Names) 
             loc=names.ring_loc(k),
             code="too_few_points",
         )
-    dup = np.flatnonzero(same_prev)
-    if dup.size:
-        i = int(dup[0])
-        k = int(ring_of[i])
-        v = i - int(starts[k])
+    if dup >= 0:
+        k = int(np.searchsorted(offsets, dup, side="right")) - 1
+        v = dup - int(starts[k])
         if v == 0:  # the ring was closed, and its closing position was doubled
             v = int(lengths[k])
         raise InputError(
-            f"{names.ring(k)}: vertex {v} repeats vertex {v - 1} at {_pt(*pts[i])} "
+            f"{names.ring(k)}: vertex {v} repeats vertex {v - 1} at {_pt(*pts[dup])} "
             "(duplicate consecutive points)",
             loc=names.vertex_loc(k, v),
             code="duplicate_point",
@@ -850,49 +880,40 @@ def _check_ring_points(pts, ring_of, offsets, lengths, prv, nxt, names: _Names) 
             loc=names.ring_loc(k),
             code="zero_area",
         )
-    # Spikes: a vertex where the ring doubles back over its previous segment
-    # (collinear, and the coordinate differences change sign: exact).
-    straight = np.flatnonzero(turn == 0)
-    if straight.size:
-        a, b, c = pts[prv[straight]], pts[straight], pts[nxt[straight]]
-        axis = np.where(a[:, 0] != b[:, 0], 0, 1)
-        rows = np.arange(len(straight))
-        back = np.sign(b[rows, axis] - a[rows, axis]) != np.sign(c[rows, axis] - b[rows, axis])
-        spikes = straight[back]
-        if spikes.size:
-            i = int(spikes[0])
-            k = int(ring_of[i])
-            v = i - int(starts[k])
-            n = int(lengths[k])
-            raise InputError(
-                f"{names.ring(k)} intersects itself: it doubles back at vertex {v} "
-                f"{_pt(*pts[i])}: segment [vertex {(v - 1) % n} -> {v}] and segment "
-                f"[vertex {v} -> {(v + 1) % n}] overlap",
-                loc=names.vertex_loc(k, v),
-                code="self_intersection",
-            )
+    if spike >= 0:
+        k = int(np.searchsorted(offsets, spike, side="right")) - 1
+        v = spike - int(starts[k])
+        n = int(lengths[k])
+        raise InputError(
+            f"{names.ring(k)} intersects itself: it doubles back at vertex {v} "
+            f"{_pt(*pts[spike])}: segment [vertex {(v - 1) % n} -> {v}] and segment "
+            f"[vertex {v} -> {(v + 1) % n}] overlap",
+            loc=names.vertex_loc(k, v),
+            code="self_intersection",
+        )
 
 
 @njit(cache=True)
-def _ring_turns(pts, scale, offsets):
-    """Per ring vertex and per ring, in one compiled pass (turns on ``pts * scale``).
+def _ring_scan(pts, scale, offsets):
+    """The ring checks' facts in one compiled pass (turns on ``pts * scale``).
 
     Returns
     -------
-    turn : (n,) int8
-        The exact turn (sign of :func:`~meshcore.geometry.predicates.orient2d_scalar`)
-        of (previous, vertex, next) within the ring.
-    same_prev : (n,) bool
-        The vertex equals the previous one (cyclically).
     kept, turning : (R,) int64
-        Per ring, the vertices not equal to their previous one, and those
-        with a non-zero turn.
+        Per ring, the vertices not equal to their previous one (cyclically),
+        and those whose turn (previous, vertex, next), the sign of
+        :func:`~meshcore.geometry.predicates.orient2d_scalar`, is not zero.
+    dup : int
+        The first vertex equal to its previous one, or -1.
+    spike : int
+        The first vertex of zero turn where the ring doubles back over its
+        previous segment (the coordinate differences along an axis the
+        previous segment moves in change sign: exact), or -1.
     """
-    n = len(pts)
-    turn = np.empty(n, dtype=np.int8)
-    same_prev = np.empty(n, dtype=np.bool_)
     kept = np.zeros(len(offsets) - 1, dtype=np.int64)
     turning = np.zeros(len(offsets) - 1, dtype=np.int64)
+    dup = -1
+    spike = -1
     for k in range(len(offsets) - 1):
         lo, hi = offsets[k], offsets[k + 1]
         for i in range(lo, hi):
@@ -906,27 +927,159 @@ def _ring_turns(pts, scale, offsets):
                 pts[c, 0] * scale,
                 pts[c, 1] * scale,
             )
-            turn[i] = t
-            same = pts[a, 0] == pts[i, 0] and pts[a, 1] == pts[i, 1]
-            same_prev[i] = same
-            if not same:
+            if pts[a, 0] == pts[i, 0] and pts[a, 1] == pts[i, 1]:
+                if dup < 0:
+                    dup = i
+            else:
                 kept[k] += 1
             if t != 0:
                 turning[k] += 1
-    return turn, same_prev, kept, turning
+            elif spike < 0:
+                ax = 0 if pts[a, 0] != pts[i, 0] else 1
+                u, v, w = pts[a, ax], pts[i, ax], pts[c, ax]
+                if (v > u) - (v < u) != (w > v) - (w < v):
+                    spike = i
+    return kept, turning, dup, spike
 
 
 @njit(cache=True)
-def _shoelace_terms(x, y, offsets, sign):
-    """The rounded leading terms ``x_i y_{i+1} - x_{i+1} y_i`` (times ``sign``) and the
-    sum of their exact remainders (Dekker products, two-sum), in one compiled pass."""
-    lead = np.empty(len(x))
-    small = 0.0
+def _lexmin_turns(pts, scale, offsets):
+    """Per ring, the turn (exact sign) at its lexicographically smallest (x, y) vertex."""
+    out = np.empty(len(offsets) - 1, dtype=np.int64)
+    for k in range(len(offsets) - 1):
+        lo, hi = offsets[k], offsets[k + 1]
+        low = lo
+        for i in range(lo + 1, hi):
+            if pts[i, 0] < pts[low, 0] or (pts[i, 0] == pts[low, 0] and pts[i, 1] < pts[low, 1]):
+                low = i
+        a = low - 1 if low > lo else hi - 1
+        c = low + 1 if low < hi - 1 else lo
+        out[k] = orient2d_scalar(
+            pts[a, 0] * scale,
+            pts[a, 1] * scale,
+            pts[low, 0] * scale,
+            pts[low, 1] * scale,
+            pts[c, 0] * scale,
+            pts[c, 1] * scale,
+        )
+    return out
+
+
+@njit(cache=True)
+def _oriented_segments(offsets, reversed_):
+    """(m, 2) int64: ring edge v -> v + 1 (cyclically), flipped in the reversed rings."""
+    segs = np.empty((offsets[-1], 2), dtype=np.int64)
     for k in range(len(offsets) - 1):
         lo, hi = offsets[k], offsets[k + 1]
         for i in range(lo, hi):
             j = i + 1 if i < hi - 1 else lo
-            a, b, c, d = x[i], y[j], x[j], y[i]
+            if reversed_[k]:
+                segs[i, 0] = j
+                segs[i, 1] = i
+            else:
+                segs[i, 0] = i
+                segs[i, 1] = j
+    return segs
+
+
+@njit(cache=True)
+def _bounding_box(pts):
+    """(min x, min y, max x, max y) of the points."""
+    lx = ly = np.inf
+    hx = hy = -np.inf
+    for i in range(len(pts)):
+        lx = min(lx, pts[i, 0])
+        hx = max(hx, pts[i, 0])
+        ly = min(ly, pts[i, 1])
+        hy = max(hy, pts[i, 1])
+    return lx, ly, hx, hy
+
+
+@njit(cache=True)
+def _exact_shift(pts, scale, axis):
+    """The first scaled coordinate along ``axis`` if subtracting it from every other
+    one is exact (two-sum error 0), else 0.0 (no shift)."""
+    ref = pts[0, axis] * scale
+    for i in range(len(pts)):
+        v = pts[i, axis] * scale
+        s = v - ref
+        bv = s - v
+        if (v - (s - bv)) + (-ref - bv) != 0.0:
+            return 0.0
+    return ref
+
+
+@njit(cache=True)
+def _fsum_add(partials, n, x):
+    """Add ``x`` to the non-overlapping ``partials[:n]`` exactly; their new count.
+
+    The loop of CPython's :func:`math.fsum` (Shewchuk's algorithm), for finite
+    terms, with Knuth's branch-free two-sum in place of the ordered fast
+    two-sum: both give the same rounded sum and exact error.
+    """
+    i = 0
+    for j in range(n):
+        y = partials[j]
+        hi = x + y
+        bb = hi - x
+        lo = (x - (hi - bb)) + (y - bb)
+        partials[i] = lo
+        i += lo != 0.0
+        x = hi
+    if x != 0.0:
+        partials[i] = x
+        i += 1
+    return i
+
+
+@njit(cache=True)
+def _fsum_round(partials, n):
+    """The correctly rounded value of ``partials[:n]``: the ending of CPython's
+    :func:`math.fsum`, half-even rounding across partials included."""
+    if n == 0:
+        return 0.0
+    n -= 1
+    hi = partials[n]
+    lo = 0.0
+    while n > 0:
+        x = hi
+        n -= 1
+        y = partials[n]
+        hi = x + y
+        lo = y - (hi - x)
+        if lo != 0.0:
+            break
+    if n > 0 and ((lo < 0.0 and partials[n - 1] < 0.0) or (lo > 0.0 and partials[n - 1] > 0.0)):
+        y = lo * 2.0
+        x = hi + y
+        if y == x - hi:
+            hi = x
+    return hi
+
+
+@njit(cache=True)
+def _shoelace(pts, scale, offsets, reversed_, sx, sy):
+    """Twice the signed area of the rings (terms negated in reversed rings), on the
+    coordinates times ``scale`` minus (``sx``, ``sy``).
+
+    Each product is split exactly (Dekker); the rounded leading parts
+    ``x_i y_{i+1} - x_{i+1} y_i`` are summed exactly and rounded once
+    (:func:`_fsum_add`, as :func:`math.fsum`), together with the sum of
+    their exact remainders (two-sum errors and product tails), accumulated
+    in order. One compiled pass.
+    """
+    partials = np.empty(256)
+    n = 0
+    small = 0.0
+    for k in range(len(offsets) - 1):
+        lo, hi = offsets[k], offsets[k + 1]
+        sign = -1.0 if reversed_[k] else 1.0
+        for i in range(lo, hi):
+            j = i + 1 if i < hi - 1 else lo
+            a = pts[i, 0] * scale - sx
+            b = pts[j, 1] * scale - sy
+            c = pts[j, 0] * scale - sx
+            d = pts[i, 1] * scale - sy
             h1 = a * b
             t = 134217729.0 * a
             ahi = t - (t - a)
@@ -946,67 +1099,27 @@ def _shoelace_terms(x, y, offsets, sign):
             s = h1 - h2
             bv = s - h1
             e = (h1 - (s - bv)) + (-h2 - bv)
-            lead[i] = s * sign[i]
-            small += (e + l1 - l2) * sign[i]
-    return lead, small
+            n = _fsum_add(partials, n, s * sign)
+            small += (e + l1 - l2) * sign
+    n = _fsum_add(partials, n, small)
+    return _fsum_round(partials, n)
 
 
-def _rolled(a: np.ndarray, offsets: np.ndarray, step: int) -> np.ndarray:
-    """``a[nxt]`` (step +1) or ``a[prv]`` (step -1) within each ring, by slicing.
-
-    ``a`` holds one row per ring vertex, rings stored one after the other as
-    ``offsets`` says; copying shifted slices is much faster than a gather.
-    """
-    out = np.empty_like(a)
-    starts, ends = offsets[:-1], offsets[1:] - 1
-    if step > 0:
-        out[:-1] = a[1:]
-        out[ends] = a[starts]
-    else:
-        out[1:] = a[:-1]
-        out[starts] = a[ends]
-    return out
-
-
-def _exact_shift(v: np.ndarray) -> np.ndarray:
-    """v - v[0] when every difference is exact (two-sum error 0), else v."""
-    ref = v[0]
-    s = v - ref
-    bv = s - v
-    err = (v - (s - bv)) + (-ref - bv)
-    return s if not err.any() else v
-
-
-def _area(P: np.ndarray, offsets: np.ndarray, sign: np.ndarray) -> float:
-    """Signed shoelace area of the rings, each weighted by ``sign`` (per vertex).
+def _area(pts: np.ndarray, scale: float, offsets: np.ndarray, reversed_: np.ndarray) -> float:
+    """Signed shoelace area of ``pts * scale``, the reversed rings' negated.
 
     Coordinates are shifted to the first vertex when that is exact (it keeps
     the terms small); each product is split exactly (Dekker), the leading
     parts ``x_i y_{i+1} - x_{i+1} y_i`` (rounded, with their exact rounding
-    error kept) are summed exactly by :func:`math.fsum`, and the small
-    parts, each below an ulp of its term, by numpy's pairwise sum. The
+    error kept) are summed exactly and rounded once, as :func:`math.fsum`
+    does, and the small parts, each below an ulp of its term, in order. The
     error is that of the small parts' sum, orders of magnitude below an ulp
-    of the area unless the terms cancel by some 1e16.
+    of the area unless the terms cancel by some 1e16. All in compiled
+    passes (:func:`_shoelace`).
     """
-    x = _exact_shift(P[:, 0])
-    y = _exact_shift(P[:, 1])
-    lead, small = _shoelace_terms(x, y, offsets, sign)
-    terms = lead.tolist()
-    terms.append(small)
-    return 0.5 * math.fsum(terms)
-
-
-def _lexmin_index(P, ring_of, offsets) -> np.ndarray:
-    """Per ring, the index of a vertex with the smallest (x, y) (exact)."""
-    starts = offsets[:-1]
-    x, y = P[:, 0], P[:, 1]
-    minx = np.minimum.reduceat(x, starts)
-    cand = x == minx[ring_of]
-    ym = np.where(cand, y, np.inf)
-    miny = np.minimum.reduceat(ym, starts)
-    hit = np.flatnonzero(cand & (y == miny[ring_of]))
-    _, first = np.unique(ring_of[hit], return_index=True)
-    return hit[first]
+    sx = _exact_shift(pts, scale, 0)
+    sy = _exact_shift(pts, scale, 1)
+    return 0.5 * _shoelace(pts, scale, offsets, reversed_, sx, sy)
 
 
 def _constraint_lines(segments) -> list[np.ndarray]:
@@ -1092,14 +1205,24 @@ def _merge_constraints(pts: np.ndarray, lines: list[np.ndarray]):
     return new_points, seg, source
 
 
-def _raise_intersections(points, PA, scale, seg, rows, capped, names: _Names) -> None:
+def _segment_points(s: int, cseg: np.ndarray, names: _Names) -> tuple[int, int]:
+    """Point indices of global segment ``s`` (ring edges first, then constraints)."""
+    nb = int(names.offsets[-1])
+    if s >= nb:
+        return int(cseg[s - nb, 0]), int(cseg[s - nb, 1])
+    k = int(np.searchsorted(names.offsets, s, side="right")) - 1
+    return s, (s + 1 if s + 1 < int(names.offsets[k + 1]) else int(names.offsets[k]))
+
+
+def _raise_intersections(points, scale, cseg, rows, capped, names: _Names) -> None:
     """Raise the InputError for intersecting pairs (the first ones in segment order)."""
     errors = []
     for si, sj, kd, w in rows[:_MAX_LISTED].tolist():
         di, loc_i, oi = names.segment(si)
         dj, loc_j, oj = names.segment(sj)
         if kd == _CROSS:
-            x, y = _crossing_point(*PA[seg[si]], *PA[seg[sj]])
+            ends = [points[p] * scale for s in (si, sj) for p in _segment_points(s, cseg, names)]
+            x, y = _crossing_point(*ends)
             where, verb = _pt(x / scale, y / scale), "cross"
         else:
             where, verb = _pt(*points[w]), "touch" if kd == _TOUCH else "overlap"

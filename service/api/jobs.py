@@ -19,7 +19,7 @@ from pydantic import ConfigDict, Field, TypeAdapter, ValidationError, create_mod
 
 from service import bodies, downloads
 from service.deps import ClientDep, JobDep, ManagerDep, SettingsDep, StoreDep
-from service.methods.domain_schema import ARRAYS, PACK, pack
+from service.methods.domain_schema import ARRAYS, PACK, pack_arrays, write_npz
 from service.methods.registry import FORMATS, InputError, Registry
 from service.problems import (
     Damaged,
@@ -104,6 +104,26 @@ def _etag_matches(if_none_match: str, etag: str) -> bool:
     return "*" in tags or etag in (t.removeprefix("W/") for t in tags)
 
 
+async def _read_body(request: Request) -> bytes | bytearray:
+    """The request body, read into one buffer of its ``Content-Length``.
+
+    Starlette's :meth:`~starlette.requests.Request.body` keeps the chunks and
+    joins them (twice the body at once) and caches the result on the request
+    for its whole life; this buffer is the only copy and is freed as soon as
+    the body is parsed. A body without a length is read the ordinary way.
+    """
+    length = request.headers.get("content-length", "")
+    if not length.isdigit():
+        return await request.body()
+    buf = bytearray(int(length))
+    size = 0
+    async for chunk in request.stream():
+        buf[size : size + len(chunk)] = chunk
+        size += len(chunk)
+    del buf[size:]
+    return buf
+
+
 def _json_body(request: Request) -> None:
     """Refuse a body that is not JSON (415); no ``Content-Type`` is taken as JSON."""
     kind = request.headers.get("content-type")
@@ -153,7 +173,7 @@ def router(registry: Registry) -> APIRouter:
         A million-vertex domain is 40 MB of JSON; parsing it to Python
         objects first and validating those after would hold both at once.
         """
-        raw = await request.body()
+        raw = await _read_body(request)
         try:
             return await asyncio.to_thread(validate, raw)
         except ValidationError as exc:
@@ -229,8 +249,10 @@ def router(registry: Registry) -> APIRouter:
             if store.unfinished_count(client) >= settings.max_queued:  # early, before writing
                 raise too_many
             try:
-                arrays = await asyncio.to_thread(pack, packed)  # with the validated domains
-                job_id = await asyncio.to_thread(store.write_params, params_json, arrays)
+                arrays = pack_arrays(packed)  # with the validated domains
+                writer = functools.partial(write_npz, arrays) if arrays else b""
+                job_id = await asyncio.to_thread(store.write_params, params_json, writer)
+                del arrays, writer
             except DiskFull as exc:
                 raise InsufficientStorage(
                     f"the job could not be stored: {exc}; try again later"
