@@ -17,6 +17,7 @@ from scipy.spatial import ConvexHull
 from scipy.spatial import Delaunay as QhullDelaunay
 
 from meshcore.delaunay import IncrementalDelaunay3d, delaunay3d
+from meshcore.delaunay.kernel3d import SKIP_CHANGED, SKIP_DUPLICATE, SKIP_OUTSIDE, SKIP_STALE
 from meshcore.errors import InputError
 from meshcore.geometry import insphere, orient3d
 
@@ -236,6 +237,36 @@ class TestIncremental:
         assert set(before.tolist()) <= set(res.removed.tolist())
         tz = dt.tetrahedralization()
         assert len(tz.tetra) == len(res.created) == len(tz.hull_facets)
+        check_delaunay(tz)
+
+    def test_guarded_batch(self):
+        # The compiled lazy queue: a point whose origin tetrahedron an earlier one
+        # removed is skipped, as is a point outside the allowed slots or the hull,
+        # and the rest give the Delaunay tetrahedralization of the points inserted.
+        rng = np.random.default_rng(9)
+        p = rng.random((80, 3))
+        dt = IncrementalDelaunay3d(p)
+        q = rng.random((40, 3))
+        origin = np.array([dt.locate(x).tet for x in q])
+        slots = dt.alive()
+        allowed = np.ones(int(slots.max()) + 1, dtype=bool)
+        allowed[origin[5]] = False  # the slot point 5 lies in (kept unless removed first)
+        q = np.concatenate([q, [[5.0, 5.0, 5.0]], p[:1]])
+        origin = np.concatenate([origin, [slots[0], origin[0]]])
+        out = dt.insert_guarded(q, origin, allowed)
+        assert out[0] == 80 and out[-2] == SKIP_OUTSIDE
+        assert out[5] in (SKIP_STALE, SKIP_CHANGED, SKIP_OUTSIDE)
+        new = out[out >= 0]
+        assert np.array_equal(new, 80 + np.arange(len(new)))
+        assert set(out[out < 0].tolist()) <= {
+            SKIP_STALE,
+            SKIP_CHANGED,
+            SKIP_OUTSIDE,
+            SKIP_DUPLICATE,
+        }
+        assert (out[:40] == SKIP_STALE).sum() > 0
+        tz = dt.tetrahedralization()
+        assert np.array_equal(tz.points, np.concatenate([p, q[out >= 0]]))
         check_delaunay(tz)
 
     def test_bad_points(self):
