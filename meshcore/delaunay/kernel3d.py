@@ -1261,7 +1261,7 @@ class IncrementalDelaunay3d:
         ----------
         points : (k, 3) float64
         origin : (k,) int
-            Alive slots.
+            Slots of real tetrahedra alive at the call (else ``InputError``).
         allowed : (s,) bool
             Per slot; slots beyond its length are not allowed.
 
@@ -1278,6 +1278,15 @@ class IncrementalDelaunay3d:
             return out
         self._ensure_points(k)
         org = np.asarray(origin, dtype=np.int64)
+        V = self._V.reshape(-1, 4)
+        if len(org) != k or not (
+            ((org >= 0) & (org < int(self._state[_NTET]))).all() and (V[org] >= 0).all()
+        ):
+            raise InputError(
+                "origin must give one alive real tetrahedron slot per point",
+                loc=("origin",),
+                code="bad_slot",
+            )
         ok = np.asarray(allowed, dtype=np.bool_)
         n0 = self._n
         k0 = 0
