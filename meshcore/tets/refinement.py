@@ -595,9 +595,13 @@ def _sliver_pass(b: SurfaceRecovery, bound: float, max_radius_edge: float, progr
     return rounds
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _quality(X):
-    """(least dihedral angle in degrees, radius-edge ratio) of the tetrahedron X (4, 3)."""
+    """(least dihedral angle in degrees, radius-edge ratio) of the tetrahedron X (4, 3).
+
+    Numpy's error model: a flat tetrahedron gives angle 0 and an infinite or
+    NaN ratio, as :func:`tetra_dihedral_angles` and :func:`_tet_circumcenters`.
+    """
     nrm = np.empty((4, 3))
     for i in range(4):
         a = X[_TET_FACES[i, 0]]
@@ -638,7 +642,7 @@ def _quality(X):
     return dih, ratio
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _best_candidate(P, V, A, C, R, reg, t0, X, reg_id, max_radius_edge, bound):
     """The candidate of X to insert for the sliver at slot t0 (see :func:`_sliver_pass`), or -1.
 
