@@ -52,10 +52,11 @@ phases and only ever grown by point insertion):
    below the bound is offered its circumcentre and random points of a ball
    around it; the cavity each would open is evaluated in float (one
    compiled loop per sliver: walk, cavity, quality of the new tetrahedra,
-   :func:`_best_candidate`), and the best one is inserted only when it raises the least dihedral angle of the
-   tetrahedra it replaces, keeps them within the radius-edge bound and does
-   not cut the surface. The pass cannot cascade. Then the radius-edge
-   refinement runs once more for what the pass's recovery splits left.
+   :func:`_best_candidate`), and the best one is inserted only when it
+   raises the least dihedral angle of the tetrahedra it replaces, keeps
+   them within the radius-edge bound and does not cut the surface. The
+   pass cannot cascade. Then the radius-edge refinement runs once more for
+   what the pass's recovery splits left.
    What is left is reported with its cause (``left``).
 
 Choices the methods text leaves open
