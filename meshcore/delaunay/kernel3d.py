@@ -97,7 +97,17 @@ from meshcore.errors import InputError
 from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered
 from meshcore.geometry.predicates3d import insphere_exact, insphere_tie, orient3d_exact
 
-__all__ = ["Insertion", "IncrementalDelaunay3d", "Location", "Tetrahedralization", "delaunay3d"]
+__all__ = [
+    "SKIP_CHANGED",
+    "SKIP_DUPLICATE",
+    "SKIP_OUTSIDE",
+    "SKIP_STALE",
+    "Insertion",
+    "IncrementalDelaunay3d",
+    "Location",
+    "Tetrahedralization",
+    "delaunay3d",
+]
 
 _O3D_ERRBOUND_A = (7.0 + 56.0 * 2.0**-53) * 2.0**-53
 _ISP_ERRBOUND_A = (16.0 + 224.0 * 2.0**-53) * 2.0**-53
@@ -683,6 +693,55 @@ def _insert_range(
     return hi
 
 
+#: Codes of :meth:`IncrementalDelaunay3d.insert_guarded` for points not inserted.
+SKIP_STALE, SKIP_CHANGED, SKIP_OUTSIDE, SKIP_DUPLICATE = -1, -2, -3, -4
+
+
+@njit(cache=True)
+def _insert_guarded(
+    pts, n, Q, origin, allowed, stale, V, A, mark, vt, free, state, cav, bnd, newv, newslot,
+    hkey, hval, work, k0, out,
+):  # fmt: skip
+    """Insert Q[k0:] in turn (see :meth:`IncrementalDelaunay3d.insert_guarded`).
+
+    Vertex n is the next free one. Returns the first index not handled (the
+    buffers or slots must grow: state[_STATUS]) or len(Q).
+    """
+    pbuf = np.empty((5, 3))
+    for k in range(k0, Q.shape[0]):
+        s = origin[k]
+        if stale[s]:
+            out[k] = SKIP_STALE
+            continue
+        pts[n, 0] = Q[k, 0]
+        pts[n, 1] = Q[k, 1]
+        pts[n, 2] = Q[k, 2]
+        t = _walk(pts, V, A, s, n, work)
+        if stale[t]:
+            out[k] = SKIP_CHANGED
+            continue
+        if _ghost_slot(V, 4 * t) >= 0 or not allowed[t]:
+            out[k] = SKIP_OUTSIDE
+            continue
+        _insert(
+            pts, n, t, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work,
+            pbuf,
+        )  # fmt: skip
+        status = state[_STATUS]
+        if status == _DUPLICATE:
+            out[k] = SKIP_DUPLICATE
+            continue
+        if status != _OK:
+            return k
+        for i in range(state[_NCAV]):
+            stale[cav[i]] = True
+        for i in range(state[_NNEW]):
+            stale[newslot[i]] = True
+        out[k] = n
+        n += 1
+    return Q.shape[0]
+
+
 @njit(cache=True)
 def _collinear(pts, a, b, c, work):
     """Exactly collinear: zero orientation in the three coordinate planes."""
@@ -1183,6 +1242,79 @@ class IncrementalDelaunay3d:
         self._order[internal] = final
         self._inv[final] = internal
         return np.where(out >= n0, relabel[np.maximum(out - n0, 0)], out)
+
+    def insert_guarded(self, points, origin, allowed) -> np.ndarray:
+        """Insert points in turn, each only where the structure is as it was.
+
+        The batch form of Delaunay refinement's lazy queue: point ``k`` was
+        computed from the tetrahedron at slot ``origin[k]`` (alive when the
+        call starts). It is skipped (code ``SKIP_STALE``) when an earlier
+        insertion of the batch removed that tetrahedron, ``SKIP_CHANGED``
+        when it lies in a tetrahedron an earlier insertion created,
+        ``SKIP_OUTSIDE`` when it lies outside the convex hull or in a
+        tetrahedron whose slot is not ``allowed`` (``allowed[s]`` for the
+        slots alive at the start; e.g. tetrahedra outside the meshed
+        region), ``SKIP_DUPLICATE`` on an existing vertex. One compiled loop:
+        the walk starts at the origin tetrahedron, every sign exact.
+
+        Parameters
+        ----------
+        points : (k, 3) float64
+        origin : (k,) int
+            Slots of real tetrahedra alive at the call (else ``InputError``).
+        allowed : (s,) bool
+            Per slot; slots beyond its length are not allowed.
+
+        Returns
+        -------
+        (k,) int64
+            The new vertex of each point (numbered in turn from
+            :attr:`n_points`), or its negative skip code.
+        """
+        q = self._scaled(points, "points")
+        k = len(q)
+        out = np.empty(k, np.int64)
+        if k == 0:
+            return out
+        self._ensure_points(k)
+        org = np.asarray(origin, dtype=np.int64)
+        V = self._V.reshape(-1, 4)
+        if len(org) != k or not (
+            ((org >= 0) & (org < int(self._state[_NTET]))).all() and (V[org] >= 0).all()
+        ):
+            raise InputError(
+                "origin must give one alive real tetrahedron slot per point",
+                loc=("origin",),
+                code="bad_slot",
+            )
+        ok = np.asarray(allowed, dtype=np.bool_)
+        n0 = self._n
+        k0 = 0
+        stale = np.zeros(0, np.bool_)
+        while True:
+            cap = self._mark.shape[0]
+            if stale.shape[0] < cap:
+                grown = np.zeros(cap, np.bool_)
+                grown[: min(cap, len(ok))] = ok[:cap]
+                ok = grown
+                st = np.zeros(cap, np.bool_)
+                st[: stale.shape[0]] = stale
+                stale = st
+            n = n0 + int((out[:k0] >= 0).sum())
+            k0 = _insert_guarded(
+                self._pts, n, q, org, ok, stale, self._V, self._A, self._mark, self._vt,
+                self._free, self._state, self._cav, self._bnd, self._newv, self._newslot,
+                self._hkey, self._hval, self._work, k0, out,
+            )  # fmt: skip
+            if k0 == k:
+                break
+            self._handle(int(self._state[_STATUS]))
+        m = int((out >= 0).sum())
+        new = np.arange(n0, n0 + m)
+        self._order[new] = new
+        self._inv[new] = new
+        self._n = n0 + m
+        return out
 
     def locate(self, point) -> Location:
         """Where ``point`` lies: a real tetrahedron whose closure holds it, and how.

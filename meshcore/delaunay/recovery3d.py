@@ -142,15 +142,16 @@ def ball_pairs(X: np.ndarray, centres: np.ndarray, radii: np.ndarray):
     level = np.full(len(radii), 0, dtype=np.int64)
     level[ok] = np.frexp(radii[ok])[1]
     xs, js = [], []
+    xtree = cKDTree(X)
     for lv in np.unique(level[ok]).tolist():  # a loop over radius scales
         group = np.flatnonzero(ok & (level == lv))
         tree = cKDTree(centres[group])
-        hits = tree.query_ball_point(X, r=float(radii[group].max()))
-        counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
-        if counts.sum() == 0:
+        # All pairs within the group's largest radius, as arrays (no Python lists).
+        hits = xtree.sparse_distance_matrix(tree, float(radii[group].max()), output_type="ndarray")
+        if len(hits) == 0:
             continue
-        xi = np.repeat(np.arange(len(X)), counts)
-        gi = group[np.concatenate([np.asarray(h, dtype=np.int64) for h in hits if h])]
+        xi = hits["i"].astype(np.int64)
+        gi = group[hits["j"]]
         d = np.linalg.norm(X[xi] - centres[gi], axis=1)
         keep = d < radii[gi]
         xs.append(xi[keep])
@@ -273,6 +274,7 @@ class SurfaceRecovery:
         self._edge_id = inv.reshape(3, F).T
         self._flat = flat
         self._loops: dict[int, list] = {}
+        self._corner_cache: dict[int, tuple] = {}
         # Facet frames for the 2D triangulations: origin, two orthonormal axes
         # (counter-clockwise in the frame is outward), from the facet's first triangle.
         first = facets[[t[0] for t in self.group_tris]]
@@ -327,6 +329,15 @@ class SurfaceRecovery:
             loops.append((de[loop], ei[loop]))
         self._loops[g] = loops
         return loops
+
+    def _corners(self, g: int) -> tuple[np.ndarray, np.ndarray]:
+        """Input vertices of facet ``g``, and those on none of its boundary loops."""
+        if g not in self._corner_cache:
+            corners = np.unique(self.facets[self.group_tris[g]])
+            starts = [de[:, 0] for de, _ in self.loops(g)]
+            on_loop = np.concatenate(starts) if starts else np.zeros(0, dtype=np.int64)
+            self._corner_cache[g] = (corners, np.setdiff1d(corners, on_loop))
+        return self._corner_cache[g]
 
     # -- points ----------------------------------------------------------------
 
@@ -409,28 +420,35 @@ class SurfaceRecovery:
         if facets.size == 0:
             return
         on_edge = np.flatnonzero(self.pt_edge >= 0)
-        by_edge = on_edge[np.argsort(self.pt_edge[on_edge], kind="stable")]
+        # The points on each input edge, ordered from its first vertex.
+        pe = self.pt_edge[on_edge]
+        a = self.P[self.edges[pe, 0]]
+        along = np.einsum("ij,ij->i", self.P[on_edge] - a, self.P[self.edges[pe, 1]] - a)
+        by_edge = on_edge[np.lexsort((along, pe))]
         edge_bounds = np.searchsorted(self.pt_edge[by_edge], np.arange(len(self.edges) + 1))
         inner = np.flatnonzero(self.pt_facet >= 0)
         by_facet = inner[np.argsort(self.pt_facet[inner], kind="stable")]
         facet_bounds = np.searchsorted(self.pt_facet[by_facet], np.arange(len(self.group_tris) + 1))
+        seg_order = np.argsort(self.seg_edge, kind="stable")
+        seg_bounds = np.searchsorted(self.seg_edge[seg_order], np.arange(len(self.edges) + 1))
+        seg_keys = edge_keys(self.seg)
+        first = self.edges[:, 0].tolist()
         origin, e1, e2 = self.frame
         new_sub, new_facet = [], []
         for f in facets.tolist():  # a loop over changed facets
-            corners = np.unique(self.facets[self.group_tris[f]])
-            parts, loops = [], []
+            corners, lonely = self._corners(f)
+            parts, loops, seg_parts = [], [], []
             for li, (de, ei) in enumerate(self.loops(f)):
-                for (u, w), e in zip(de.tolist(), ei.tolist(), strict=True):
+                for u, e in zip(de[:, 0].tolist(), ei.tolist(), strict=True):
                     on = by_edge[edge_bounds[e] : edge_bounds[e + 1]]
-                    t = (self.P[on] - self.P[u]) @ (self.P[w] - self.P[u])
-                    parts.append(np.concatenate([[u], on[np.argsort(t, kind="stable")]]))
+                    parts.append([u])
+                    parts.append(on if u == first[e] else on[::-1])
                     loops.append(np.full(len(on) + 1, li))
+                    seg_parts.append(seg_order[seg_bounds[e] : seg_bounds[e + 1]])
             ids = np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
             loop = np.concatenate(loops) if loops else np.zeros(0, dtype=np.int64)
             pos = np.arange(len(ids))
-            rest = np.concatenate(
-                [np.setdiff1d(corners, ids), by_facet[facet_bounds[f] : facet_bounds[f + 1]]]
-            )
+            rest = np.concatenate([lonely, by_facet[facet_bounds[f] : facet_bounds[f + 1]]])
             ids = np.concatenate([ids, rest]).astype(np.int64)
             loop = np.concatenate([loop, np.full(len(rest), -1)])
             pos = np.concatenate([pos, np.full(len(rest), -1)])
@@ -471,10 +489,8 @@ class SurfaceRecovery:
                         code="recovery_failed",
                     ) from None
             # Boundary subsegments of the facet that the 2D triangulation misses.
-            seg_rows = np.flatnonzero(np.isin(self.seg_edge, np.concatenate(
-                [ei for _, ei in self.loops(f)] or [np.zeros(0, np.int64)])))  # fmt: skip
             tk = np.unique(edge_keys(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)))
-            sk = edge_keys(self.seg[seg_rows])
+            sk = seg_keys[np.concatenate(seg_parts)] if seg_parts else seg_keys[:0]
             self.unsettled[f] = sk[~member(sk, tk)]
             new_sub.append(tri)
             new_facet.append(np.full(len(tri), f))

@@ -44,16 +44,19 @@ phases and only ever grown by point insertion):
    (equatorial ball), which is split instead; a circumcentre outside the
    surface's box (a tetrahedron leaning flat on the surface) splits the
    tetrahedron's faces that are subfaces. Insertions of one round skip a
-   tetrahedron already destroyed by an earlier one (a lazy queue).
+   tetrahedron already destroyed by an earlier one (a lazy queue), in one
+   compiled loop (:meth:`~meshcore.delaunay.kernel3d.IncrementalDelaunay3d.insert_guarded`).
 5. **Slivers** (``min_dihedral``): rounds of perturbed insertion
    (:func:`_sliver_pass`; Chew's random points near the circumcentre, as
    Li and Teng analyse them): each tetrahedron whose least dihedral angle is
    below the bound is offered its circumcentre and random points of a ball
-   around it; the cavity each would open is evaluated in float, and the
-   best one is inserted only when it raises the least dihedral angle of the
-   tetrahedra it replaces, keeps them within the radius-edge bound and does
-   not cut the surface. The pass cannot cascade. Then the radius-edge
-   refinement runs once more for what the pass's recovery splits left.
+   around it; the cavity each would open is evaluated in float (one
+   compiled loop per sliver: walk, cavity, quality of the new tetrahedra,
+   :func:`_best_candidate`), and the best one is inserted only when it
+   raises the least dihedral angle of the tetrahedra it replaces, keeps
+   them within the radius-edge bound and does not cut the surface. The
+   pass cannot cascade. Then the radius-edge refinement runs once more for
+   what the pass's recovery splits left.
    What is left is reported with its cause (``left``).
 
 Choices the methods text leaves open
@@ -116,8 +119,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
+from numba import njit
 from scipy.sparse.csgraph import connected_components
 
+from meshcore.delaunay.kernel3d import SKIP_OUTSIDE
 from meshcore.delaunay.recovery3d import (
     KNOBS,
     TET_EDGES,
@@ -139,6 +144,9 @@ __all__ = ["TetrahedralizationResult", "tetrahedralize", "tetra_dihedral_angles"
 #: Smallest radius-edge bound accepted (Shewchuk's analysis needs > 2; below ~1.1 no
 #: tetrahedralization exists).
 MIN_RADIUS_EDGE = 1.1
+
+_TET_FACES = TET_FACES.copy()
+_TET_EDGES = TET_EDGES.copy()
 
 
 @dataclass(frozen=True, eq=False)
@@ -482,30 +490,19 @@ def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> 
         far[idx[~leaning]] = False
     keep = ~blocked & ~far
     rows, centres = rows[keep], centres[keep]
-    top = int(slots.max()) + 1
-    slot_region = np.full(top, -1, dtype=np.int64)
-    slot_region[slots] = region
-    stale = np.zeros(top, dtype=bool)
-    outside = given_up
-    for k in range(len(rows)):  # sequential: each insertion may destroy later candidates
-        s = int(slots[rows[k]])
-        if stale[s]:
-            continue
-        loc = b.dt.locate(centres[k])
-        if loc.tet < 0 or loc.tet >= top or stale[loc.tet] or slot_region[loc.tet] < 0:
-            outside += int(loc.tet < 0 or (loc.tet < top and slot_region[loc.tet] < 0))
-            continue
-        res = b.dt.insert(centres[k], near=None)
-        if res.duplicate:
-            continue
-        b.P = np.concatenate([b.P, centres[k : k + 1]])
-        b.pt_edge = np.append(b.pt_edge, -1)
-        b.pt_facet = np.append(b.pt_facet, -1)
-        b.n += 1
-        b.interior_added += 1
-        done += 1
-        for arr in (res.removed, res.created):
-            stale[arr[arr < top]] = True
+    allowed = np.zeros(int(slots.max()) + 1, dtype=bool)
+    allowed[slots] = region >= 0
+    # One compiled loop: each insertion may destroy later candidates' tetrahedra.
+    out = b.dt.insert_guarded(centres, slots[rows], allowed)
+    new = out >= 0
+    done = int(new.sum())
+    outside = given_up + int((out == SKIP_OUTSIDE).sum())
+    if done:
+        b.P = np.concatenate([b.P, centres[new]])
+        b.pt_edge = np.concatenate([b.pt_edge, np.full(done, -1, dtype=np.int64)])
+        b.pt_facet = np.concatenate([b.pt_facet, np.full(done, -1, dtype=np.int64)])
+        b.n += done
+        b.interior_added += done
     # The surface pieces the other candidates encroach, split last (an interior
     # insertion never removes a subsegment or subface from the lists).
     done += b.split_segments(split_seg)
@@ -576,19 +573,16 @@ def _sliver_pass(b: SurfaceRecovery, bound: float, max_radius_edge: float, progr
                 nrm *= rf[0] / np.linalg.norm(nrm)
                 t = np.array([0.05, 0.1, 0.2, 0.35, 0.5, -0.05, -0.1, -0.2, -0.35, -0.5])
                 X = np.concatenate([X, b.P[T[row]].mean(axis=0) + t[:, None] * nrm])
-            best = None
-            for x in X:  # a loop over candidates (cavity walks)
-                ev = cache.evaluate(x, reg, max_radius_edge)
-                if ev is not None and (best is None or ev[0] > best[0]):
-                    best = (ev[0], x)
-                    if ev[0] >= bound:
-                        break  # good enough: the first candidate that reaches the bound
-            if best is None:
+            k_best = _best_candidate(
+                b.P, cache.V, cache.A, cache.C, cache.R, cache.reg, s, X, reg, max_radius_edge,
+                bound,
+            )  # fmt: skip
+            if k_best < 0:
                 continue
-            res = b.dt.insert(best[1], near=None)
+            res = b.dt.insert(X[k_best], near=None)
             if res.duplicate:
                 continue
-            b.P = np.concatenate([b.P, best[1][None]])
+            b.P = np.concatenate([b.P, X[k_best : k_best + 1]])
             b.pt_edge = np.append(b.pt_edge, -1)
             b.pt_facet = np.append(b.pt_facet, -1)
             b.n += 1
@@ -600,6 +594,163 @@ def _sliver_pass(b: SurfaceRecovery, bound: float, max_radius_edge: float, progr
         if done == 0:
             break
     return rounds
+
+
+@njit(cache=True, error_model="numpy")
+def _quality(X):
+    """(least dihedral angle in degrees, radius-edge ratio) of the tetrahedron X (4, 3).
+
+    Numpy's error model: a flat tetrahedron gives angle 0 and an infinite or
+    NaN ratio, as :func:`tetra_dihedral_angles` and :func:`_tet_circumcenters`.
+    """
+    nrm = np.empty((4, 3))
+    for i in range(4):
+        a = X[_TET_FACES[i, 0]]
+        u = X[_TET_FACES[i, 1]] - a
+        v = X[_TET_FACES[i, 2]] - a
+        c = np.array(
+            [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+        )
+        L = math.sqrt((c * c).sum())
+        nrm[i] = c / L if L > 0 else np.full(3, np.nan)
+    dih = np.inf
+    for k in range(6):
+        i, j = _TET_EDGES[k, 0], _TET_EDGES[k, 1]
+        p = -1
+        q = -1
+        for x in range(4):
+            if x != i and x != j:
+                if p < 0:
+                    p = x
+                else:
+                    q = x
+        cos = -(nrm[p] * nrm[q]).sum()
+        ang = 0.0 if np.isnan(cos) else math.degrees(math.acos(min(1.0, max(-1.0, cos))))
+        dih = min(dih, ang)
+    u = X[1] - X[0]
+    v = X[2] - X[0]
+    w = X[3] - X[0]
+    vw = np.array([v[1] * w[2] - v[2] * w[1], v[2] * w[0] - v[0] * w[2], v[0] * w[1] - v[1] * w[0]])
+    wu = np.array([w[1] * u[2] - w[2] * u[1], w[2] * u[0] - w[0] * u[2], w[0] * u[1] - w[1] * u[0]])
+    uv = np.array([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]])
+    den = 2.0 * (u * vw).sum()
+    off = ((u * u).sum() * vw + (v * v).sum() * wu + (w * w).sum() * uv) / den
+    short = np.inf
+    for k in range(6):
+        d = X[_TET_EDGES[k, 0]] - X[_TET_EDGES[k, 1]]
+        short = min(short, math.sqrt((d * d).sum()))
+    ratio = math.sqrt((off * off).sum()) / short
+    return dih, ratio
+
+
+@njit(cache=True, error_model="numpy")
+def _best_candidate(P, V, A, C, R, reg, t0, X, reg_id, max_radius_edge, bound):
+    """The candidate of X to insert for the sliver at slot t0 (see :func:`_sliver_pass`), or -1.
+
+    For each candidate, in float: a walk from t0 to the tetrahedron holding
+    it strictly inside (else rejected), the cavity (tetrahedra whose
+    circumsphere holds it, grown across faces; rejected if it leaves region
+    ``reg_id``), and the tetrahedra it would create. Kept if their least
+    dihedral angle beats the cavity's and their radius-edge ratios stay
+    within ``max(max_radius_edge, the cavity's worst)``; the best is
+    returned, or the first reaching ``bound``.
+    """
+    best = -1
+    best_dih = -1.0
+    cav = np.empty(1024, np.int64)
+    fu = np.empty(4096, np.int64)
+    fj = np.empty(4096, np.int64)
+    Y = np.empty((4, 3))
+    for k in range(X.shape[0]):
+        x = X[k]
+        # --- walk (float orientation; a point on a face is not strictly inside) ---
+        t = t0
+        found = False
+        for _ in range(100000):
+            moved = False
+            flat = False
+            for i in range(4):
+                a = P[V[t, _TET_FACES[i, 0]]]
+                u = P[V[t, _TET_FACES[i, 1]]] - a
+                v = P[V[t, _TET_FACES[i, 2]]] - a
+                d = x - a
+                o = (
+                    d[0] * (u[1] * v[2] - u[2] * v[1])
+                    + d[1] * (u[2] * v[0] - u[0] * v[2])
+                    + d[2] * (u[0] * v[1] - u[1] * v[0])
+                )
+                if o > 0:
+                    t = A[t, i]
+                    moved = True
+                    break
+                if o == 0:
+                    flat = True
+            if not moved:
+                found = not flat
+                break
+            if t < 0 or V[t, 0] < 0 or V[t, 1] < 0 or V[t, 2] < 0 or V[t, 3] < 0:
+                break
+        if not found or reg[t] != reg_id:
+            continue
+        # --- cavity ---
+        cav[0] = t
+        nc = 1
+        nf = 0
+        ok = True
+        i = 0
+        while i < nc and ok:
+            c = cav[i]
+            i += 1
+            for j in range(4):
+                n = A[c, j]
+                seen = False
+                for q in range(nc):
+                    if cav[q] == n:
+                        seen = True
+                        break
+                if seen:
+                    continue
+                r = R[n] if 0 <= n < R.shape[0] else -1.0
+                dx = x - C[n] if 0 <= n < R.shape[0] else x
+                if r > 0 and (dx * dx).sum() < r * r:
+                    if reg[n] != reg_id or nc == cav.shape[0]:
+                        ok = False  # the cavity would cross the surface (or is huge)
+                        break
+                    cav[nc] = n
+                    nc += 1
+                else:
+                    if nf == fu.shape[0]:
+                        ok = False
+                        break
+                    fu[nf] = c
+                    fj[nf] = j
+                    nf += 1
+        if not ok:
+            continue
+        old_dih = np.inf
+        old_ratio = 0.0
+        for q in range(nc):
+            for z in range(4):
+                Y[z] = P[V[cav[q], z]]
+            dd, rr = _quality(Y)
+            old_dih = min(old_dih, dd)
+            old_ratio = max(old_ratio, rr)
+        new_dih = np.inf
+        new_ratio = 0.0
+        for q in range(nf):
+            for z in range(4):
+                Y[z] = x if z == fj[q] else P[V[fu[q], z]]
+            dd, rr = _quality(Y)
+            new_dih = min(new_dih, dd)
+            new_ratio = max(new_ratio, rr)
+        if new_dih <= old_dih or not new_ratio <= max(max_radius_edge, old_ratio):
+            continue
+        if new_dih > best_dih:
+            best = k
+            best_dih = new_dih
+            if new_dih >= bound:
+                break
+    return best
 
 
 class _SlotCache:
@@ -646,50 +797,6 @@ class _SlotCache:
         nb = np.unique(self.A[created])
         nb = nb[nb >= 0]
         self.A[nb] = self.b.dt.adjacent(nb)
-
-    def evaluate(self, x: np.ndarray, reg: int, max_radius_edge: float):
-        """(least dihedral of the new tetrahedra,) if inserting ``x`` improves; else None."""
-        loc = self.b.dt.locate(x)
-        t = loc.tet
-        if t < 0 or loc.kind != "inside" or t >= len(self.V) or self.reg[t] != reg:
-            return None
-        cav = [t]
-        seen = {t}
-        faces = []
-        i = 0
-        while i < len(cav):
-            u = cav[i]
-            i += 1
-            for j in range(4):
-                n = int(self.A[u, j])
-                if n in seen:
-                    continue
-                r = self.R[n] if n < len(self.R) else -1.0
-                if r > 0 and ((x - self.C[n]) ** 2).sum() < r * r:
-                    if self.reg[n] != reg:
-                        return None  # the cavity would cross the surface
-                    seen.add(n)
-                    cav.append(n)
-                else:
-                    faces.append((u, j))
-        cav_a = np.array(cav)
-        old = self.V[cav_a]
-        P = self.b.P
-        old_dih = tetra_dihedral_angles(P, old).min()
-        _, oR = _tet_circumcenters(P, old)
-        old_ratio = (oR / _shortest_edge(P, old)).max()
-        fu = np.array([f[0] for f in faces])
-        fj = np.array([f[1] for f in faces])
-        X = P[self.V[fu]]
-        X[np.arange(len(fu)), fj] = x
-        idx = np.arange(4 * len(fu)).reshape(-1, 4)
-        pts = X.reshape(-1, 3)
-        new_dih = tetra_dihedral_angles(pts, idx).min()
-        _, nR = _tet_circumcenters(pts, idx)
-        new_ratio = (nR / _shortest_edge(pts, idx)).max()
-        if new_dih <= old_dih or new_ratio > max(max_radius_edge, old_ratio):
-            return None
-        return (new_dih,)
 
 
 def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[int, int]:

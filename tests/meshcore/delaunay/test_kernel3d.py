@@ -17,6 +17,7 @@ from scipy.spatial import ConvexHull
 from scipy.spatial import Delaunay as QhullDelaunay
 
 from meshcore.delaunay import IncrementalDelaunay3d, delaunay3d
+from meshcore.delaunay.kernel3d import SKIP_CHANGED, SKIP_DUPLICATE, SKIP_OUTSIDE, SKIP_STALE
 from meshcore.errors import InputError
 from meshcore.geometry import insphere, orient3d
 
@@ -236,6 +237,35 @@ class TestIncremental:
         assert set(before.tolist()) <= set(res.removed.tolist())
         tz = dt.tetrahedralization()
         assert len(tz.tetra) == len(res.created) == len(tz.hull_facets)
+        check_delaunay(tz)
+
+    def test_guarded_batch(self):
+        # The compiled lazy queue: a point whose origin tetrahedron an earlier one
+        # removed is skipped, as is a point outside the allowed slots or the hull,
+        # and the rest give the Delaunay tetrahedralization of the points inserted.
+        rng = np.random.default_rng(9)
+        p = rng.random((80, 3))
+        dt = IncrementalDelaunay3d(p)
+        q = rng.random((60, 3))
+        origin = np.array([dt.locate(x).tet for x in q])
+        q, origin = q[origin >= 0], origin[origin >= 0]  # inside the hull
+        with pytest.raises(InputError):
+            dt.insert_guarded(q[:1], [-1], np.ones(1, bool))
+        slots = dt.alive()
+        allowed = np.ones(int(slots.max()) + 1, dtype=bool)
+        allowed[origin[5]] = False  # the slot point 5 lies in (kept unless removed first)
+        out = dt.insert_guarded(q, origin, allowed)
+        assert out[0] == 80
+        assert out[5] in (SKIP_STALE, SKIP_CHANGED, SKIP_OUTSIDE)
+        new = out[out >= 0]
+        assert np.array_equal(new, 80 + np.arange(len(new)))
+        assert set(out[out < 0].tolist()) <= {SKIP_STALE, SKIP_CHANGED, SKIP_OUTSIDE}
+        assert (out == SKIP_STALE).sum() > 0
+        start = dt.alive()[:2]
+        more = dt.insert_guarded([[5.0, 5.0, 5.0], p[0]], start, np.ones(1 << 16, bool))
+        assert more.tolist() == [SKIP_OUTSIDE, SKIP_DUPLICATE]
+        tz = dt.tetrahedralization()
+        assert np.array_equal(tz.points, np.concatenate([p, q[out >= 0]]))
         check_delaunay(tz)
 
     def test_bad_points(self):
