@@ -47,7 +47,12 @@ points, with their global numbers), starting with each body.
    whose worst tetrahedron is best; else the polyhedron cannot be cut
    without a new point (Schönhardt's prism): the cone from one interior
    Steiner point, the Chebyshev centre of its kernel (``tetrahedralize``
-   with ``keep_boundary``), every tetrahedron checked positive exactly. A
+   with ``keep_boundary``), every tetrahedron checked positive exactly.
+   Where several of these exist, the one whose worst tetrahedron is least
+   flat (volume over cubed longest edge) is taken: a Delaunay or vertex
+   cone tetrahedron on the four corners of a nearly planar surface quad
+   (the torus's) is positive by the exact sign but has a float volume of
+   zero, and the Steiner cone avoids it. A
    polyhedron that is none of these gets a wide search (more offsets, six
    random normals, ``wide_searches`` in ``stats``) and is split again;
    when that finds nothing either it is refused (``AlgorithmError``,
@@ -449,14 +454,18 @@ def _leaf(poly: _Poly) -> tuple[np.ndarray, np.ndarray, str] | None:
         r = tetrahedralize(s, keep_boundary=True)
     except AlgorithmError:
         r = None
-    if r is not None and r.interior_points_added == 0:
-        return r.mesh.cells[0].data, none, "delaunay"
+    options = []  # (worst shape, tetra in meshio order, Steiner points, pattern)
+    if r is not None:
+        K = r.mesh.cells[0].data
+        name = "delaunay" if r.interior_points_added == 0 else "steiner"
+        options.append((_worst_shape(r.mesh.points, K), K, r.mesh.points[len(X) :], name))
     cone = _vertex_cone(X, F)
     if cone is not None:
-        return _tet_order(cone), none, "vertex_cone"
-    if r is not None:
-        return r.mesh.cells[0].data, r.mesh.points[len(X) :], "steiner"
-    return None
+        options.append((_worst_shape(X, cone), _tet_order(cone), none, "vertex_cone"))
+    if not options:
+        return None
+    _, K, S, name = max(options, key=lambda o: o[0])
+    return K, S, name
 
 
 def _size_class(k: int) -> str:
