@@ -452,7 +452,9 @@ def _leaf(poly: _Poly) -> tuple[np.ndarray, np.ndarray, str] | None:
         return _tet_order(np.array([[*F[0], d]])), none, "tetrahedron"
     try:
         r = tetrahedralize(s, keep_boundary=True)
-    except AlgorithmError:
+    except (AlgorithmError, InputError):
+        # InputError: the 3D kernel refuses coordinates spanning over 2**100 (a separator
+        # point rounded to 1e-33 beside others near 1); the cones below still apply.
         r = None
     options = []  # (worst shape, tetra in meshio order, Steiner points, pattern)
     if r is not None:
