@@ -1,4 +1,5 @@
-"""Recursive partition (divide and conquer, §8.7.2): :func:`recursive_partition` (2D).
+"""Recursive partition (divide and conquer, §8.7.2): :func:`recursive_partition` (2D, and 3D
+with ``surface=``, :func:`recursive_partition_3d`).
 
 :mod:`.boundary` holds the size map (Remark 8.10) and the boundary
 resampling with even ring counts (Remark 8.9) that the direct quad methods
@@ -12,6 +13,7 @@ from meshcore.partition.recursive import (
     recursive_partition,
     split_triangles,
 )
+from meshcore.partition.recursive3d import recursive_partition_3d
 from meshcore.partition.smoothing import boundary_edges, boundary_points, smooth_quads
 
 __all__ = [
@@ -22,6 +24,7 @@ __all__ = [
     "boundary_points",
     "partition_polygon",
     "recursive_partition",
+    "recursive_partition_3d",
     "resample_boundary",
     "size_map",
     "smooth_quads",

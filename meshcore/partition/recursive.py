@@ -1,4 +1,4 @@
-r"""Mesh generation by recursive partition (divide and conquer, §8.7.2): 2D.
+r"""Mesh generation by recursive partition (divide and conquer, §8.7.2): 2D (3D: ``surface=``).
 
 Input: a planar :class:`~meshcore.domain.planar.Domain` (holes allowed, no
 interior constraints) and a size map (``size`` / ``size_field``, the control
@@ -75,8 +75,8 @@ Choices the text leaves open
   scaled domain gives the same mesh.
 * Interior constraints are refused (``code="unsupported"``).
 
-Not done: the 3D part of §8.7.2 (separator surfaces, the Schönhardt prism)
-waits for the 3D input (surfaces, ``orient3d`` kernels).
+The 3D part of §8.7.2 (separator surfaces, the Schönhardt prism) is
+:mod:`meshcore.partition.recursive3d`, reached with ``surface=``.
 
 References
 ----------
@@ -331,27 +331,34 @@ def split_triangles(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarr
 
 
 def recursive_partition(
-    domain,
+    domain=None,
     *,
+    surface=None,
     size: float | None = None,
     size_field=None,
-    element: str = "triangle",
+    element: str | None = None,
     strategy: str = "balanced",
     smooth: bool = True,
     progress: Callable[[float, str], None] | None = None,
 ) -> PartitionResult:
-    """Mesh a planar domain by recursive partition into two (§8.7.2).
+    """Mesh a planar domain, or a closed surface, by recursive partition into two (§8.7.2).
 
     Parameters
     ----------
     domain : Domain or dict
-        Holes allowed; interior constraints are refused.
+        2D: holes allowed; interior constraints are refused.
+    surface : Surface or dict
+        3D instead of ``domain``: a closed surface, meshed into tetrahedra by
+        :func:`~meshcore.partition.recursive3d.recursive_partition_3d` (its
+        guarantees; ``smooth`` does not apply).
     size : float, optional
         Target edge length.
     size_field : dict, optional
-        ``{"points": (k, 2), "values": (k,)}`` (Remark 8.10); ``size``
-        bounds it.
-    element : {"triangle", "quad"}
+        ``{"points": (k, 2), "values": (k,)}`` (Remark 8.10; ``(k, 3)``
+        points with a surface); ``size`` bounds it.
+    element : {"triangle", "quad", "tetra"}, optional
+        ``triangle`` (the 2D default) or ``quad`` with a domain; ``tetra``
+        (the default) with a surface.
     strategy : {"balanced", "angle"}
         Separator ranking (module docstring).
     smooth : bool
@@ -380,6 +387,25 @@ def recursive_partition(
     ----------
     Methods text §8.7.2, Remarks 8.9, 8.10; module docstring.
     """
+    if (domain is None) == (surface is None):
+        raise InputError(
+            "give a domain (2D) or a surface (3D), not both",
+            loc=("surface",) if surface is not None else ("domain",),
+            code="bad_parameter",
+        )
+    if surface is not None:
+        if element not in (None, "tetra"):
+            raise InputError(
+                f"element must be 'tetra' with a surface, got {element!r}",
+                loc=("element",),
+                code="bad_parameter",
+            )
+        from meshcore.partition.recursive3d import recursive_partition_3d  # imports this module
+
+        return recursive_partition_3d(
+            surface, size=size, size_field=size_field, strategy=strategy, progress=progress
+        )
+    element = "triangle" if element is None else element
     dom = as_domain(domain)
     if element not in ("triangle", "quad"):
         raise InputError(

@@ -5,8 +5,8 @@ with the direct quad method ``paving`` (§8.5.1).
 constraints) with ``size`` and/or ``size_field`` (the control space of
 Remark 8.10); its :meth:`~SizedDomainParams.check` validates the domain and
 the size field and refuses runaway sizes, every error located relative to
-the params. The 3D form of the recursive partition (``surface``,
-``tetra``) is not offered yet: it waits for the 3D input.
+the params. :class:`RecursivePartitionParams` takes a ``surface``
+instead of the ``domain`` for the 3D form (``tetra``).
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from pydantic import Field, model_validator
 from meshcore.errors import InputError
 from meshcore.partition import recursive_partition, size_map
 from service.methods.domain_schema import DomainIn
+from service.methods.surface_schema import UNIT_CUBE, SurfaceIn
 from service.methods.triangulation import SizeField
 from service.schemas import MethodParams
 
@@ -61,17 +62,28 @@ class SizedDomainParams(MethodParams):
 
 
 class RecursivePartitionParams(SizedDomainParams):
-    """Triangles or quads of a planar domain by recursive partition into two (§8.7.2)."""
+    """Triangles or quads of a planar domain, or tetrahedra of a closed surface, by recursive
+    partition into two (§8.7.2)."""
 
-    element: Literal["triangle", "quad"] = Field(
-        "triangle",
-        description="triangle: recursion down to triangles; quad: only even parts, down to "
-        "strictly convex quads (Remark 8.9).",
+    domain: DomainIn | None = Field(
+        None, description="2D: a GeoJSON Polygon or MultiPolygon (holes, no interior segments)."
+    )
+    surface: SurfaceIn | None = Field(
+        None,
+        description="3D, instead of domain: a closed surface (bodies, no cavity); every input "
+        "triangle stays a face, so give one sampled at about the size.",
+    )
+    element: Literal["triangle", "quad", "tetra"] | None = Field(
+        None,
+        description="triangle (the 2D default): recursion down to triangles; quad: only even "
+        "parts, down to strictly convex quads (Remark 8.9); tetra (the 3D default, with a "
+        "surface).",
     )
     strategy: Literal["balanced", "angle"] = Field(
         "balanced",
-        description="balanced: short separators cutting the polygon into parts of similar "
-        "size with good angles; angle: separators from the sharpest reflex vertex first.",
+        description="balanced: short separators cutting the part into halves of similar "
+        "size with good angles (3D: planes across the longest extent); angle: separators "
+        "from the sharpest reflex vertex first (3D: the face planes at the most reflex edges).",
     )
     smooth: bool = Field(
         True,
@@ -79,9 +91,54 @@ class RecursivePartitionParams(SizedDomainParams):
         "a cell nor lowering the least quality.",
     )
 
+    @model_validator(mode="after")
+    def _one_input(self) -> RecursivePartitionParams:
+        if (self.domain is None) == (self.surface is None):
+            raise ValueError("give a domain (2D) or a surface (3D), not both")
+        return self
+
+    def check(self) -> None:
+        if self.surface is None:
+            if self.element == "tetra":
+                raise InputError(
+                    "element tetra needs a surface", loc=("element",), code="bad_parameter"
+                )
+            super().check()
+            return
+        MethodParams.check(self)
+        if self.element not in (None, "tetra"):
+            raise InputError(
+                f"element must be tetra with a surface, got {self.element}",
+                loc=("element",),
+                code="bad_parameter",
+            )
+        if self.size_field is not None:
+            raise InputError(
+                "size_field is planar; with a surface give size",
+                loc=("size_field",),
+                code="unsupported",
+            )
+        surface = self.surface.to_surface()
+        estimate = 6.0 * surface.volume / self.size**3
+        if estimate > MAX_CELLS:
+            raise InputError(
+                f"this size would make about {estimate:,.0f} tetrahedra in a volume of "
+                f"{surface.volume:.6g}; at most {MAX_CELLS:,}",
+                loc=("size",),
+                code="too_many_cells",
+            )
+
 
 def run_recursive_partition(params: RecursivePartitionParams, progress) -> dict:
     """The mesh, its quality report and the recursion's counts."""
+    if params.surface is not None:
+        res = recursive_partition(
+            surface=params.surface.to_surface(),
+            size=params.size,
+            strategy=params.strategy,
+            progress=progress,
+        )
+        return {"mesh": res.mesh, "quality": res.quality, "stats": res.stats}
     res = recursive_partition(
         params.domain.to_domain(),
         size=params.size,
@@ -106,3 +163,6 @@ RECURSIVE_PARTITION_EXAMPLE = {
     "size": 0.05,
     "element": "triangle",
 }
+
+#: The unit cube of 12 triangles: six tetrahedra, no point added.
+RECURSIVE_PARTITION_3D_EXAMPLE = {"surface": UNIT_CUBE, "size": 0.5, "element": "tetra"}

@@ -241,7 +241,9 @@ def default_registry() -> Registry:
             name="recursive_partition",
             summary="Triangles or quads by recursive partition: separators between boundary "
             "vertices tested exactly, ranked by balance and angles, subdivided by the size "
-            "map; holes joined first; recursion to triangles or to convex quads (even parts).",
+            "map; holes joined first; recursion to triangles or to convex quads (even parts). "
+            "With a surface: tetrahedra, separator surfaces through cycles of surface edges, "
+            "every input triangle a face, one Steiner point where a part cannot be cut.",
             section="§8.7.2 (recursive partition), Remark 8.10",
             params=partition.RecursivePartitionParams,
             run=partition.run_recursive_partition,

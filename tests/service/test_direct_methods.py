@@ -10,8 +10,9 @@ from __future__ import annotations
 import pytest
 
 from meshcore.mesh import io
-from service.methods.partition import RECURSIVE_PARTITION_EXAMPLE
+from service.methods.partition import RECURSIVE_PARTITION_3D_EXAMPLE, RECURSIVE_PARTITION_EXAMPLE
 from service.methods.quads import PAVING_EXAMPLE
+from service.methods.surface_schema import UNIT_CUBE
 from tests.service.test_jobs import assert_problem, submit
 
 SQUARE = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]]]}
@@ -51,6 +52,18 @@ class TestRefusedOptions:
         r = submit(client, "recursive_partition", {"domain": SQUARE, "size": 0.1, "element": "hex"})
         assert_problem(r, 422, ["body", "params", "element"])
 
+    @pytest.mark.parametrize(
+        "params, loc",
+        [
+            ({"surface": UNIT_CUBE, "size": 0.5, "element": "quad"}, ["element"]),
+            ({"surface": UNIT_CUBE, "domain": SQUARE, "size": 0.5}, []),
+            ({"surface": UNIT_CUBE, "size": 1e-4}, ["size"]),
+        ],
+    )
+    def test_surface(self, client, params, loc):
+        r = submit(client, "recursive_partition", params)
+        assert_problem(r, 422, ["body", "params", *loc])
+
     def test_max_rows(self, client):
         r = submit(client, "paving", {"domain": SQUARE, "size": 0.1, "max_rows": -1})
         assert_problem(r, 422, ["body", "params", "max_rows"])
@@ -75,3 +88,10 @@ class TestResults:
         assert [b["type"] for b in out["mesh"]["cells"]] == [element]
         assert out["quality"][element]["invalid"] == 0
         assert out["stats"]["bridges"] == 1
+
+    def test_recursive_partition_of_a_surface(self, client):
+        out = finished(client, "recursive_partition", RECURSIVE_PARTITION_3D_EXAMPLE)
+        assert [b["type"] for b in out["mesh"]["cells"]] == ["tetra"]
+        assert out["quality"]["tetra"]["invalid"] == 0
+        assert out["stats"]["volume"] == 1.0
+        assert len(out["mesh"]["points"]) == 8 and out["stats"]["steiner_points"] == 0

@@ -195,7 +195,7 @@ class TestCanonical:
         np.testing.assert_allclose((moved.mesh.points - shift) / scale, ref.mesh.points, atol=1e-6)
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(case=star_with_hole(), element=st.sampled_from(["triangle", "quad"]))
 def test_random_polygons_with_holes(case, element):
     geometry, size = case
