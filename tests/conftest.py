@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
-from collections.abc import Iterator
+import time
 from pathlib import Path
 
 import pytest
@@ -13,24 +12,28 @@ import pytest
 from service.executors.child import die_with_parent
 
 ROOT = Path(__file__).resolve().parents[1]
+WARMUP_PARTS = 2  # processes filling numba's cache at once (the machine's cores)
 
 
-@pytest.fixture(scope="session", autouse=True)
-def _numba_cache_warmed_in_the_background() -> Iterator[None]:
-    """Compile the kernels on the idle core (:mod:`tests.warmup`); stopped at the end.
+def pytest_configure(config: pytest.Config) -> None:
+    """Under pytest-xdist, fill numba's cache (:mod:`tests.warmup`) before the workers start.
 
-    Under pytest-xdist only the first worker starts it (one warm-up is enough)."""
-    if os.environ.get("PYTEST_XDIST_WORKER", "gw0") != "gw0":
-        yield
+    Only the controller does it, and only when workers will run: a single-process
+    run compiles what it reaches, once, as it goes.
+    """
+    if hasattr(config, "workerinput") or not config.getoption("numprocesses", None):
         return
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "tests.warmup"],
-        cwd=ROOT,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-        preexec_fn=die_with_parent,  # pytest killed (a timeout): no orphan compiling on
-    )
-    yield
-    if proc.poll() is None:
-        proc.kill()
-    proc.wait()
+    started = time.monotonic()
+    procs = [
+        subprocess.Popen(
+            [sys.executable, "-m", "tests.warmup", str(part), str(WARMUP_PARTS)],
+            cwd=ROOT,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            preexec_fn=die_with_parent,  # pytest killed (a timeout): no orphan compiling on
+        )
+        for part in range(WARMUP_PARTS)
+    ]
+    for proc in procs:
+        proc.wait()
+    print(f"numba cache filled in {time.monotonic() - started:.0f} s", file=sys.stderr)
