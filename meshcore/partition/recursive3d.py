@@ -95,7 +95,6 @@ Schönhardt polyhedron), Remark 8.10 (control space); Schönhardt (1928).
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 
@@ -109,7 +108,7 @@ from meshcore.domain.surface import Surface, as_surface, parse_surface
 from meshcore.errors import AlgorithmError, InputError, MeshcoreError
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh, quality
-from meshcore.partition.boundary import SizeMap
+from meshcore.partition.boundary import SizeMap, _positive
 from meshcore.partition.recursive import PartitionResult, partition_polygon
 from meshcore.tets import tetrahedralize
 
@@ -164,22 +163,6 @@ class _Sizes:
         exact = d[:, 0] == 0.0
         h[exact] = self.values[i[exact, 0]]
         return h if self.size is None else np.minimum(h, self.size)
-
-
-def _positive(value, name: str) -> float | None:
-    if value is None:
-        return None
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        x = math.nan
-    if not math.isfinite(x) or x <= 0.0:
-        raise InputError(
-            f"{name} must be a finite number above 0, got {value!r}",
-            loc=(name,),
-            code="bad_parameter",
-        )
-    return x
 
 
 def _twins(F: np.ndarray) -> np.ndarray:
