@@ -124,6 +124,13 @@ async def _read_body(request: Request) -> bytes | bytearray:
     return buf
 
 
+def _store_params(store: Any, params_json: bytes, packed: dict) -> str:
+    """Write a new job's params and the arrays of its validated domains (blocking I/O);
+    its id. The arrays go to ``params.npz`` straight from memory (:func:`write_npz`)."""
+    arrays = pack_arrays(packed)
+    return store.write_params(params_json, functools.partial(write_npz, arrays) if arrays else b"")
+
+
 def _json_body(request: Request) -> None:
     """Refuse a body that is not JSON (415); no ``Content-Type`` is taken as JSON."""
     kind = request.headers.get("content-type")
@@ -249,10 +256,7 @@ def router(registry: Registry) -> APIRouter:
             if store.unfinished_count(client) >= settings.max_queued:  # early, before writing
                 raise too_many
             try:
-                arrays = pack_arrays(packed)  # with the validated domains
-                writer = functools.partial(write_npz, arrays) if arrays else b""
-                job_id = await asyncio.to_thread(store.write_params, params_json, writer)
-                del arrays, writer
+                job_id = await asyncio.to_thread(_store_params, store, params_json, packed)
             except DiskFull as exc:
                 raise InsufficientStorage(
                     f"the job could not be stored: {exc}; try again later"

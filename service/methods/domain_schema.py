@@ -330,18 +330,9 @@ def write_npz(arrays: dict[str, np.ndarray], out: BinaryIO) -> None:
                     member.write(flat[lo : lo + _SLICE])
 
 
-def pack(packed: dict[str, DomainIn]) -> bytes:
-    """:func:`pack_arrays` written by :func:`write_npz` to bytes (empty if nothing to pack)."""
-    arrays = pack_arrays(packed)
-    if not arrays:
-        return b""
-    out = io.BytesIO()
-    write_npz(arrays, out)
-    return out.getvalue()
-
-
 def unpack(data: bytes) -> dict[str, dict]:
-    """The validation context of a job's params from :func:`pack`'s bytes (``{}`` if empty)."""
+    """The validation context of a job's params from the npz :func:`write_npz` wrote
+    (``{}`` if empty)."""
     if not data:
         return {}
     arrays, domains = {}, {}

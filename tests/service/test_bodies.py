@@ -7,6 +7,7 @@ job's params (``domain_schema.pack`` / ``unpack``) against the submit's.
 
 from __future__ import annotations
 
+import io
 import json
 
 import numpy as np
@@ -15,7 +16,7 @@ from pydantic import TypeAdapter, ValidationError
 
 from service import bodies
 from service.api.jobs import request_model
-from service.methods.domain_schema import ARRAYS, PACK, pack, unpack
+from service.methods.domain_schema import ARRAYS, PACK, pack_arrays, unpack, write_npz
 from service.methods.registry import default_registry
 from service.runner import run_job
 
@@ -136,7 +137,9 @@ def test_the_job_uses_the_domain_the_submit_validated(monkeypatch):
     packed: dict = {}
     params_json = params.model_dump_json(context={PACK: packed}).encode()
     assert len(params_json) < 1000  # the rings travel as arrays, not JSON
-    arrays = pack(packed)
+    out = io.BytesIO()
+    write_npz(pack_arrays(packed), out)  # as the submit writes params.npz
+    arrays = out.getvalue()
     expected = params.domain.to_domain(params.segments)
 
     def refuse(*args, **kwargs):
