@@ -1,9 +1,30 @@
-"""Session set-up for the whole suite."""
+"""Session set-up for the whole suite: numba's cache is filled while the service tests run.
+
+On a fresh clone numba's disk cache is empty, and filling it takes about 400 CPU
+seconds. Under pytest-xdist the controller starts filling it at once, in
+:data:`WARMUP_PARTS` processes (:mod:`tests.warmup`), and the workers do not
+wait for it: the tests that need no kernel run first, meanwhile. Those are the
+service tests under ``tests/service`` that neither use the shared ``live``
+server (it warms every method up) nor carry the ``kernels`` mark: they start
+their own servers without warm-up and run the testing methods, and they spend
+most of their time waiting on servers, jobs and clients, which leaves the cores
+to the compiler. Every other test waits until the cache is filled, so that no
+kernel is compiled twice at once (four workers compiling the same kernels made
+a cold run's compile work about four times larger). ``--dist load`` with small
+chunks (``pyproject.toml``) hands the tests out in the order set here.
+
+A single-process run (``-n 0``) fills nothing ahead: each test compiles what it
+reaches, once, as it goes.
+"""
 
 from __future__ import annotations
 
+import contextlib
+import os
 import subprocess
 import sys
+import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -13,16 +34,22 @@ from service.executors.child import die_with_parent
 
 ROOT = Path(__file__).resolve().parents[1]
 WARMUP_PARTS = 2  # processes filling numba's cache at once (the machine's cores)
+#: Names the file that exists once numba's cache is filled (set by the controller).
+READY_ENV = "MESHSERVICE_TESTS_KERNELS_READY"
+#: A worker waits at most this long for the cache, then compiles what it reaches.
+READY_TIMEOUT = 1200.0
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    """Under pytest-xdist, fill numba's cache (:mod:`tests.warmup`) before the workers start.
-
-    Only the controller does it, and only when workers will run: a single-process
-    run compiles what it reaches, once, as it goes.
-    """
+    """Under pytest-xdist, start filling numba's cache (:mod:`tests.warmup`) in the
+    controller; a thread touches the file named by :data:`READY_ENV` when it is done."""
+    config.addinivalue_line(
+        "markers", "kernels: runs numba kernels, so waits for numba's cache to be filled"
+    )
     if hasattr(config, "workerinput") or not config.getoption("numprocesses", None):
         return
+    ready = Path(tempfile.mkdtemp(prefix="meshservice-tests-")) / "kernels-ready"
+    os.environ[READY_ENV] = str(ready)  # the workers, started after this, inherit it
     started = time.monotonic()
     procs = [
         subprocess.Popen(
@@ -34,6 +61,49 @@ def pytest_configure(config: pytest.Config) -> None:
         )
         for part in range(WARMUP_PARTS)
     ]
-    for proc in procs:
-        proc.wait()
-    print(f"numba cache filled in {time.monotonic() - started:.0f} s", file=sys.stderr)
+
+    def wait() -> None:
+        for proc in procs:
+            proc.wait()
+        with contextlib.suppress(OSError):  # pytest may have ended first
+            ready.touch()
+        print(f"\nnumba cache filled in {time.monotonic() - started:.0f} s", file=sys.stderr)
+
+    threading.Thread(target=wait, name="numba-cache", daemon=True).start()
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    ready = os.environ.get(READY_ENV)
+    if ready and not hasattr(config, "workerinput"):
+        Path(ready).unlink(missing_ok=True)
+        Path(ready).parent.rmdir()
+
+
+def _needs_kernels(item: pytest.Item) -> bool:
+    in_service = Path(item.path).is_relative_to(ROOT / "tests" / "service")
+    return (
+        not in_service
+        or "live" in getattr(item, "fixturenames", ())
+        or item.get_closest_marker("kernels") is not None
+    )
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The tests that need no kernel first (a stable sort: the same order in every worker)."""
+    items.sort(key=_needs_kernels)
+
+
+def kernels_ready() -> None:
+    """Return once numba's cache is filled (under pytest-xdist), or at once (``-n 0``)."""
+    ready = os.environ.get(READY_ENV)
+    if not ready:
+        return
+    deadline = time.monotonic() + READY_TIMEOUT
+    while not os.path.exists(ready) and time.monotonic() < deadline:
+        time.sleep(0.2)
+
+
+@pytest.fixture(autouse=True)
+def _kernels_compiled(request: pytest.FixtureRequest) -> None:
+    if _needs_kernels(request.node):
+        kernels_ready()

@@ -37,7 +37,7 @@ _RESULT_ERRBOUND = (3.0 + 8.0 * _EPS) * _EPS
 WORK_SIZE = 16384
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _two_sum(a, b):
     x = a + b
     bv = x - a
@@ -45,7 +45,7 @@ def _two_sum(a, b):
     return x, (a - av) + (b - bv)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _two_diff(a, b):
     x = a - b
     bv = a - x
@@ -53,7 +53,7 @@ def _two_diff(a, b):
     return x, (a - av) + (bv - b)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _split(a):
     c = _SPLITTER * a
     abig = c - a
@@ -61,7 +61,7 @@ def _split(a):
     return ahi, a - ahi
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _two_product(a, b):
     x = a * b
     ahi, alo = _split(a)
@@ -194,7 +194,7 @@ def _expansion_product(elen, e, flen, f, h, tmp1, tmp2):
     return hlen
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _sign_of(elen, e):
     """Sign of an expansion: that of its largest (last nonzero) component."""
     for i in range(elen - 1, -1, -1):
@@ -205,7 +205,7 @@ def _sign_of(elen, e):
     return 0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _set_diff(a, b, out):
     """Write a - b as an exact expansion (1 or 2 components) into out."""
     x, y = _two_diff(a, b)
@@ -231,7 +231,7 @@ def _cross_exact(adx, adxlen, bdy, bdylen, bdx, bdxlen, ady, adylen, h, work):
     return _expansion_sum(plen, p, qlen, q, h)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _dd_add(ah, al, bh, bl):
     """Accurate double-double sum (relative error below 3u**2, Joldes et al. 2017)."""
     s, e = _two_sum(ah, bh)
@@ -244,7 +244,7 @@ def _dd_add(ah, al, bh, bl):
     return s, e - (s - x)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _dd_mul(ah, al, bh, bl):
     """Double-double product (relative error below 7u**2 without FMA)."""
     p, e = _two_product(ah, bh)
@@ -253,7 +253,7 @@ def _dd_mul(ah, al, bh, bl):
     return x, e - (x - p)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _dd_cross(ah, al, bh, bl, ch, cl, dh, dl):
     """a*b - c*d in double-double."""
     xh, xl = _dd_mul(ah, al, bh, bl)
@@ -261,7 +261,7 @@ def _dd_cross(ah, al, bh, bl, ch, cl, dh, dl):
     return _dd_add(xh, xl, -yh, -yl)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _dd_lift(xh, xl, yh, yl, zh, zl):
     ah, al = _dd_mul(xh, xl, xh, xl)
     bh, bl = _dd_mul(yh, yl, yh, yl)
@@ -270,7 +270,7 @@ def _dd_lift(xh, xl, yh, yl, zh, zl):
     return _dd_add(ah, al, ch, cl)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _dd_minor3(z1h, z1l, m1h, m1l, z2h, z2l, m2h, m2l, z3h, z3l, m3h, m3l):
     """z1*m1 + z2*m2 + z3*m3 in double-double."""
     ah, al = _dd_mul(z1h, z1l, m1h, m1l)
@@ -280,7 +280,7 @@ def _dd_minor3(z1h, z1l, m1h, m1l, z2h, z2l, m2h, m2l, z3h, z3l, m3h, m3l):
     return _dd_add(ah, al, ch, cl)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _cross4(a, b, c, d, out):
     """out = a*b - c*d exactly (Two_Two_Diff), zeros removed; returns length."""
     x1, x0 = _two_product(a, b)

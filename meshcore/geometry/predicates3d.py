@@ -230,7 +230,7 @@ _TRIPLES = np.array(
 )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _pair_index(i, j):
     # Position of (i, j), i < j, in _PAIRS.
     return i * 4 - i * (i + 1) // 2 + j - 1
@@ -606,7 +606,7 @@ def insphere_exact(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, ex, ey, ez, w
     return _insphere_raw(p, work)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _insphere_permanent(aex, aey, aez, bex, bey, bez, cex, cey, cez, dex, dey, dez):
     """Shewchuk's permanent bounding the magnitude of the insphere terms."""
     aexbeyplus = abs(aex * bey)
@@ -657,7 +657,7 @@ def _insphere_permanent(aex, aey, aez, bex, bey, bez, cex, cey, cez, dex, dey, d
     )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _insphere_float(aex, aey, aez, bex, bey, bez, cex, cey, cez, dex, dey, dez):
     """Shewchuk's float insphere determinant of the differences ``p - e``."""
     ab = aex * bey - bex * aey
@@ -722,7 +722,7 @@ def insphere_scalar(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, ex, ey, ez):
     )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _lex_less3(p, q):
     return p[0] < q[0] or (p[0] == q[0] and (p[1] < q[1] or (p[1] == q[1] and p[2] < q[2])))
 

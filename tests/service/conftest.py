@@ -14,6 +14,8 @@ from pathlib import Path
 import httpx
 import pytest
 
+from tests.conftest import kernels_ready
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -37,7 +39,7 @@ class LiveServer:
 
     def start(self) -> LiveServer:
         # no warm-up unless asked: each job loads the kernels it uses from numba's cache
-        # (filled by ``compiled_kernels``); the warm-up itself is tested in TestFirstStart
+        # (filled by ``tests/conftest.py``); the warm-up itself is tested in TestFirstStart
         env = {**os.environ, "MESHSERVICE_WORKERS": "2", "MESHSERVICE_WARMUP": "0", **self.env}
         self.proc = subprocess.Popen(
             [
@@ -78,19 +80,14 @@ class LiveServer:
         return httpx.Client(base_url=self.url, timeout=60, **kwargs)
 
 
-@pytest.fixture(scope="session", autouse=True)
-def compiled_kernels() -> None:
-    """Compile the numba kernels into their disk cache once, before any server starts.
-
-    On a fresh clone the cache is empty, and every server's fork server would
-    otherwise compile them all at once (half a minute each on two cores).
-    """
-    import service.executors.preload  # noqa: F401
-
-
 @pytest.fixture(scope="session")
 def live(tmp_path_factory) -> Iterator[LiveServer]:
-    """One shared server: 2 workers, default limits, warmed up (it runs every method)."""
+    """One shared server: 2 workers, default limits, warmed up (it runs every method).
+
+    It starts once numba's cache is filled (``tests/conftest.py``), or its warm-up
+    would compile every kernel again.
+    """
+    kernels_ready()
     server = LiveServer(tmp_path_factory.mktemp("shared") / "data", MESHSERVICE_WARMUP="1")
     server.start()
     yield server

@@ -20,6 +20,8 @@ from service.methods.domain_schema import ARRAYS, PACK, pack_arrays, unpack, wri
 from service.methods.registry import default_registry
 from service.runner import run_job
 
+pytestmark = pytest.mark.kernels  # the domain checks run in this process
+
 REGISTRY = default_registry()
 ADAPTER = TypeAdapter(request_model(REGISTRY))
 

@@ -200,6 +200,7 @@ def test_empty_idempotency_key_is_no_key(tmp_path):
     run(scenario())
 
 
+@pytest.mark.kernels
 @pytest.mark.parametrize("size", [1e-300, 1e300])
 def test_quad_medial_extreme_size_is_not_a_500(tmp_path, size):
     async def scenario():

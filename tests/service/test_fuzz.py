@@ -21,6 +21,8 @@ from service.methods.registry import default_registry
 from service.runner import encode_result
 from tests.service.fuzzing import PROFILE, mutated
 
+pytestmark = pytest.mark.kernels  # every method runs in this process
+
 REGISTRY = default_registry()
 METHODS = sorted(REGISTRY)
 #: Methods whose extreme examples are legitimately slow get a third of the examples in the

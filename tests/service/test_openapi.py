@@ -15,6 +15,8 @@ from schemathesis.specs.openapi.checks import positive_data_acceptance
 from service.cli import openapi_yaml
 from tests.service.conftest import LiveServer
 
+pytestmark = pytest.mark.kernels  # schemathesis runs every method's example
+
 ROOT = Path(__file__).resolve().parents[2]
 
 

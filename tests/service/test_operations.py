@@ -178,6 +178,7 @@ def test_sigterm_stops_promptly(start_server):
 
 
 class TestFirstStart:
+    @pytest.mark.kernels  # the fork server warms every kernel up
     def test_port_answers_while_warming_and_queued_jobs_run_when_ready(self, tmp_path):
         """The port opens before the fork server is warm; a job submitted then waits and runs."""
         server = LiveServer(tmp_path / "data")

@@ -20,6 +20,8 @@ import pytest
 
 from tests.service.conftest import ROOT, LiveServer
 
+pytestmark = pytest.mark.kernels  # the page triangulates on its server
+
 CHROMIUM = os.environ.get("MESHSERVICE_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
 ARGS = [
     "--headless",

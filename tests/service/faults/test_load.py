@@ -13,8 +13,11 @@ import importlib.util
 import os
 
 import httpx
+import pytest
 
 from tests.service.conftest import ROOT
+
+pytestmark = pytest.mark.kernels  # a warmed-up server running triangulate
 
 CLIENTS = int(os.environ.get("MESHSERVICE_LOAD_CLIENTS", "100"))
 
