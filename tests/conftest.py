@@ -2,7 +2,7 @@
 
 On a fresh clone numba's disk cache is empty, and filling it takes about 400 CPU
 seconds. Under pytest-xdist the controller starts filling it at once, in
-:data:`WARMUP_PARTS` processes (:mod:`tests.warmup`), and the workers do not
+:data:`WARMUP_PROCESSES` processes (:mod:`tests.warmup`), and the workers do not
 wait for it: the tests that need no kernel run first, meanwhile. Those are the
 service tests under ``tests/service`` that neither use the shared ``live``
 server (it warms every method up) nor carry the ``kernels`` mark: they start
@@ -33,7 +33,7 @@ import pytest
 from service.executors.child import die_with_parent
 
 ROOT = Path(__file__).resolve().parents[1]
-WARMUP_PARTS = 2  # processes filling numba's cache at once (the machine's cores)
+WARMUP_PROCESSES = 2  # processes filling numba's cache at once (the machine's cores)
 #: Names the file that exists once numba's cache is filled (set by the controller).
 READY_ENV = "MESHSERVICE_TESTS_KERNELS_READY"
 #: A worker waits at most this long for the cache, then compiles what it reaches.
@@ -51,20 +51,16 @@ def pytest_configure(config: pytest.Config) -> None:
     ready = Path(tempfile.mkdtemp(prefix="meshservice-tests-")) / "kernels-ready"
     os.environ[READY_ENV] = str(ready)  # the workers, started after this, inherit it
     started = time.monotonic()
-    procs = [
-        subprocess.Popen(
-            [sys.executable, "-m", "tests.warmup", str(part), str(WARMUP_PARTS)],
-            cwd=ROOT,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-            preexec_fn=die_with_parent,  # pytest killed (a timeout): no orphan compiling on
-        )
-        for part in range(WARMUP_PARTS)
-    ]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "tests.warmup", str(WARMUP_PROCESSES)],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        preexec_fn=die_with_parent,  # pytest killed (a timeout): no orphan compiling on
+    )
 
     def wait() -> None:
-        for proc in procs:
-            proc.wait()
+        proc.wait()
         with contextlib.suppress(OSError):  # pytest may have ended first
             ready.touch()
         print(f"\nnumba cache filled in {time.monotonic() - started:.0f} s", file=sys.stderr)

@@ -1,36 +1,32 @@
-"""Fill numba's disk cache before pytest-xdist's workers start (``tests/conftest.py``).
+"""Fill numba's disk cache while the first tests run (``tests/conftest.py``).
 
-On a fresh clone the cache is empty, and every worker that reaches a kernel
-before it is cached compiles it again: four workers starting on the same
-kernels made the suite's compile work about four times larger. The
-controller runs ``python -m tests.warmup PART PARTS`` in PARTS processes at
-once and waits: part ``k`` runs every PARTS-th method example of the
-service's registry (through the job runner, as a job would), and part 0
-also the job fork server's own warm-up steps (:mod:`service.executors.preload`)
-and the 3D methods on small surfaces. A kernel no part reaches is compiled by
-the first test that calls it, as before; nothing here is asserted.
+``python -m tests.warmup N`` runs, in N forked processes that each take the
+next task as soon as they are free, every step of the job fork server's
+warm-up (:data:`service.executors.preload.STEPS`), the 3D methods on small
+surfaces, and every method example of the service's registry through the job
+runner, as a job would. The two largest families of kernels come first, one
+per process: the 2D triangulation and the 3D ones. A kernel no task reaches
+is compiled by the first test that calls it, as before; nothing here is
+asserted.
 """
 
 from __future__ import annotations
 
 import json
+import multiprocessing
+import os
 import sys
 
-from service.methods.registry import default_registry
-from service.runner import run_job
+from service.executors import WARMUP_ENV
+from service.executors.child import die_with_parent
+
+os.environ[WARMUP_ENV] = "0"  # importing the fork server's steps must not run them all
+from service.executors.preload import STEPS  # noqa: E402
+from service.methods.registry import default_registry  # noqa: E402
+from service.runner import run_job  # noqa: E402
 
 
-def _examples(part: int, parts: int) -> None:
-    specs = sorted(default_registry().values(), key=lambda spec: spec.name)
-    for spec in specs[part::parts]:
-        try:
-            run_job(spec, json.dumps(spec.example).encode(), lambda *_: None, ("vtu",))
-        except Exception as exc:  # a warm-up: the tests say what is wrong
-            print(f"warm-up: {spec.name}: {type(exc).__name__}: {exc}", file=sys.stderr)
-
-
-def _fork_server_steps_and_3d() -> None:
-    import service.executors.preload  # noqa: F401  (runs the fork server's steps on import)
+def _three_d() -> None:
     from meshcore.delaunay.admissible3d import make_admissible_surface
     from meshcore.optimize import optimize
     from meshcore.tets import tetrahedralize
@@ -44,8 +40,28 @@ def _fork_server_steps_and_3d() -> None:
     optimize(surface={"points": sphere_points.tolist(), "triangles": sphere_triangles.tolist()})
 
 
+def _tasks() -> list[str]:
+    steps = [name for name, _ in STEPS]
+    examples = sorted(default_registry())
+    return [steps[0], "3d", *steps[1:], *examples]
+
+
+def _run(task: str) -> None:
+    steps = dict(STEPS)
+    try:
+        if task in steps:
+            steps[task]()
+        elif task == "3d":
+            _three_d()
+        else:
+            spec = default_registry()[task]
+            run_job(spec, json.dumps(spec.example).encode(), lambda *_: None, ("vtu",))
+    except Exception as exc:  # a warm-up: the tests say what is wrong
+        print(f"warm-up: {task}: {type(exc).__name__}: {exc}", file=sys.stderr)
+
+
 if __name__ == "__main__":
-    part, parts = int(sys.argv[1]), int(sys.argv[2])
-    if part == 0:
-        _fork_server_steps_and_3d()
-    _examples(part, parts)
+    processes = int(sys.argv[1])
+    with multiprocessing.get_context("fork").Pool(processes, initializer=die_with_parent) as pool:
+        for _ in pool.imap_unordered(_run, _tasks(), chunksize=1):
+            pass
