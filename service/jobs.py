@@ -32,6 +32,10 @@ from service.runner import JobFailed
 from service.settings import Settings
 from service.store import DiskFull, Job, Store
 
+#: Submits admitted at once (:meth:`JobManager.admission`): enough to keep the threads
+#: that parse, check and store busy.
+SUBMITS_AT_ONCE = 4
+
 log = logging.getLogger("meshservice.jobs")
 
 
@@ -68,6 +72,9 @@ class JobManager:
         self._wakeup = asyncio.Event()
         self._background: list[asyncio.Task] = []
         self._closing = False
+        #: Submits between reading their body and storing their job, at most this many at
+        #: once; the others wait without a step on the event loop (see :meth:`admission`).
+        self._admission = asyncio.Semaphore(SUBMITS_AT_ONCE)
 
     async def start(self) -> None:
         await self.executor.start()
@@ -140,6 +147,16 @@ class JobManager:
                 "(MESHSERVICE_MAX_STREAMS); close some first",
                 headers={"Retry-After": "5"},
             )
+
+    def admission(self) -> asyncio.Semaphore:
+        """Held by a submit from reading its body to storing its job.
+
+        A thousand submits arriving at once would otherwise each add a step
+        to the event loop's queue at every hop to a thread (parse, checks,
+        files), and a status read would wait behind all of them at each of
+        its own steps; with a few admitted at a time it waits behind those.
+        """
+        return self._admission
 
     @contextlib.contextmanager
     def stream(self, client: str) -> Iterator[None]:

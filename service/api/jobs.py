@@ -131,7 +131,7 @@ def _store_params(store: Any, params_json: bytes, packed: dict) -> str:
     return store.write_params(params_json, functools.partial(write_npz, arrays) if arrays else b"")
 
 
-def _json_body(request: Request) -> None:
+async def _json_body(request: Request) -> None:
     """Refuse a body that is not JSON (415); no ``Content-Type`` is taken as JSON."""
     kind = request.headers.get("content-type")
     if kind is None:
@@ -174,13 +174,13 @@ def router(registry: Registry) -> APIRouter:
             if paused:
                 gc.enable()
 
-    async def parsed_body(request: Request) -> Any:
-        """The body parsed and validated in one pass from its bytes, off the event loop.
+    async def parsed_body(raw: bytes | bytearray) -> Any:
+        """The body parsed and validated in one pass from its bytes, off the event loop
+        (a 422 naming the place in the body otherwise).
 
         A million-vertex domain is 40 MB of JSON; parsing it to Python
         objects first and validating those after would hold both at once.
         """
-        raw = await _read_body(request)
         try:
             return await asyncio.to_thread(validate, raw)
         except ValidationError as exc:
@@ -210,7 +210,7 @@ def router(registry: Registry) -> APIRouter:
     )
     async def submit(
         client: ClientDep,  # first: a missing key is a 401 before the body is read
-        body: Annotated[Any, Depends(parsed_body)],
+        request: Request,
         response: Response,
         manager: ManagerDep,
         store: StoreDep,
@@ -225,54 +225,58 @@ def router(registry: Registry) -> APIRouter:
         """
         idempotency_key = idempotency_key or None
         replayed = False
-        params = body.params
-        packed: dict = {}  # domains: their arrays go apart (pack), a marker in the JSON
-        params_json = params.model_dump_json(context={PACK: packed}).encode()
-        digest = hashlib.sha256(body.method.encode() + b"\0" + params_json)
-        for model in packed.values():
-            for ring in model.rings():
-                digest.update(len(ring).to_bytes(8, "little"))
-                digest.update(np.ascontiguousarray(ring))
-        body_hash = digest.hexdigest()
-        job = store.by_idempotency_key(client, idempotency_key) if idempotency_key else None
-        if job is not None:
-            replayed = True
-        else:
-            try:  # deep checks (a million-vertex domain takes a while): off the event loop
-                await asyncio.to_thread(params.check)
-            except InputError as exc:
-                raise from_input_error(exc, "body", "params") from None
-            points = params.point_count()
-            if points > settings.max_points:
-                raise TooLarge(
-                    f"the job has {points} input points; this service takes at most "
-                    f"{settings.max_points} (MESHSERVICE_MAX_POINTS)"
+        raw = await _read_body(request)  # before admission: a slow sender holds no slot
+        async with manager.admission():  # a status read keeps its turn in a burst
+            body = await parsed_body(raw)
+            del raw
+            params = body.params
+            packed: dict = {}  # domains: their arrays go apart (pack), a marker in the JSON
+            params_json = params.model_dump_json(context={PACK: packed}).encode()
+            digest = hashlib.sha256(body.method.encode() + b"\0" + params_json)
+            for model in packed.values():
+                for ring in model.rings():
+                    digest.update(len(ring).to_bytes(8, "little"))
+                    digest.update(np.ascontiguousarray(ring))
+            body_hash = digest.hexdigest()
+            job = store.by_idempotency_key(client, idempotency_key) if idempotency_key else None
+            if job is not None:
+                replayed = True
+            else:
+                try:  # deep checks (a million-vertex domain takes a while): off the event loop
+                    await asyncio.to_thread(params.check)
+                except InputError as exc:
+                    raise from_input_error(exc, "body", "params") from None
+                points = params.point_count()
+                if points > settings.max_points:
+                    raise TooLarge(
+                        f"the job has {points} input points; this service takes at most "
+                        f"{settings.max_points} (MESHSERVICE_MAX_POINTS)"
+                    )
+                too_many = TooManyJobs(
+                    f"you have {settings.max_queued} unfinished jobs (MESHSERVICE_MAX_QUEUED); "
+                    "wait for some to finish",
+                    headers={"Retry-After": "5"},
                 )
-            too_many = TooManyJobs(
-                f"you have {settings.max_queued} unfinished jobs (MESHSERVICE_MAX_QUEUED); "
-                "wait for some to finish",
-                headers={"Retry-After": "5"},
-            )
-            if store.unfinished_count(client) >= settings.max_queued:  # early, before writing
-                raise too_many
-            try:
-                job_id = await asyncio.to_thread(_store_params, store, params_json, packed)
-            except DiskFull as exc:
-                raise InsufficientStorage(
-                    f"the job could not be stored: {exc}; try again later"
-                ) from None
-            job = store.create(  # counts again and inserts in one statement
-                job_id,
-                client=client,
-                method=body.method,
-                idempotency_key=idempotency_key,
-                body_hash=body_hash,
-                max_unfinished=settings.max_queued,
-            )
-            if job is None:
-                raise too_many
-            replayed = job.id != job_id  # another request with this key committed first
-            manager.wake()
+                if store.unfinished_count(client) >= settings.max_queued:  # early, before writing
+                    raise too_many
+                try:
+                    job_id = await asyncio.to_thread(_store_params, store, params_json, packed)
+                except DiskFull as exc:
+                    raise InsufficientStorage(
+                        f"the job could not be stored: {exc}; try again later"
+                    ) from None
+                job = store.create(  # counts again and inserts in one statement
+                    job_id,
+                    client=client,
+                    method=body.method,
+                    idempotency_key=idempotency_key,
+                    body_hash=body_hash,
+                    max_unfinished=settings.max_queued,
+                )
+                if job is None:
+                    raise too_many
+                replayed = job.id != job_id  # another request with this key committed first
+                manager.wake()
         if replayed:
             response.headers["Idempotent-Replayed"] = "true"
         if job.body_hash != body_hash:
