@@ -15,6 +15,10 @@ chunks (``pyproject.toml``) hands the tests out in the order set here.
 
 A single-process run (``-n 0``) fills nothing ahead: each test compiles what it
 reaches, once, as it goes.
+
+With ``CI`` set (``.ci/run`` sets it), hypothesis draws the same examples on
+every run (``derandomize``): CI answers for the change, not for the draw; the
+random exploration goes on in every other run.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ import time
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 from service.executors.child import die_with_parent
 
@@ -38,6 +43,10 @@ WARMUP_PROCESSES = 2  # processes filling numba's cache at once (the machine's c
 READY_ENV = "MESHSERVICE_TESTS_KERNELS_READY"
 #: A worker waits at most this long for the cache, then compiles what it reaches.
 READY_TIMEOUT = 1200.0
+
+settings.register_profile("derandomized", derandomize=True, database=None)
+if os.environ.get("CI"):
+    settings.load_profile("derandomized")
 
 
 def pytest_configure(config: pytest.Config) -> None:
