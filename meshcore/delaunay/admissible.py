@@ -674,14 +674,20 @@ def _segment_reach(P, S, reach, verts, tol) -> np.ndarray:
     """``reach`` lowered to the distance from each vertex to the nearest
     segment of ``S`` not incident to it, where that is closer.
 
-    Segments are searched by length class (lengths in ``[2**k, 2**(k+1))``),
-    each class in a ``cKDTree`` of midpoints with the query radius enlarged
-    by the class's half length, so that long segments are found without
-    scanning all of them.
+    Up to :data:`_ALL_PAIRS` (vertex, segment) pairs are all measured.
+    Otherwise segments are searched by length class (lengths in
+    ``[2**k, 2**(k+1))``), each class in a ``cKDTree`` of midpoints with the
+    query radius enlarged by the class's half length, so that long segments
+    are found without scanning all of them; the pairs it leaves out are
+    farther than ``reach``, so both ways give the same distances.
     """
     X = P[verts]
     reach = reach.copy()
     U, V = P[S[:, 0]], P[S[:, 1]]
+    if len(verts) * len(S) <= _ALL_PAIRS:
+        q = np.repeat(np.arange(len(verts)), len(S))
+        _lower_reach(reach, q, np.tile(np.arange(len(S)), len(verts)), X, U, V, S, verts)
+        return reach
     length = np.hypot(V[:, 0] - U[:, 0], V[:, 1] - U[:, 1])
     cls = np.frexp(length)[1]
     scale = _scale(P)
@@ -694,13 +700,22 @@ def _segment_reach(P, S, reach, verts, tol) -> np.ndarray:
         half_max = math.ldexp(1.0, int(c) - 1)
         radii = reach + half_max * (1.0 + tol.ball_slack) + tol.coordinate_slack * scale
         q, j = _ball_pairs(mtree, X, radii)
-        seg = members[j]
-        keep = (S[seg, 0] != verts[q]) & (S[seg, 1] != verts[q])
-        q, seg = q[keep], seg[keep]
-        if q.size:
-            d = _point_segment_distance(X[q], U[seg], V[seg])
-            np.minimum.at(reach, q, d)
+        _lower_reach(reach, q, members[j], X, U, V, S, verts)
     return reach
+
+
+#: :func:`_segment_reach` measures every pair up to this many.
+_ALL_PAIRS = 4096
+
+
+def _lower_reach(reach, q, seg, X, U, V, S, verts) -> None:
+    """``reach[q]`` lowered to the distance from ``X[q]`` to segment ``seg``
+    (pairs of a vertex and a segment incident to it left out)."""
+    keep = (S[seg, 0] != verts[q]) & (S[seg, 1] != verts[q])
+    q, seg = q[keep], seg[keep]
+    if q.size:
+        d = _point_segment_distance(X[q], U[seg], V[seg])
+        np.minimum.at(reach, q, d)
 
 
 def _protection_bounds(P, S, acute, reach, verts) -> np.ndarray:

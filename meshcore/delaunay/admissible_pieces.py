@@ -348,14 +348,38 @@ def _missing_pieces(V, A, vt, order, slot, mark, stamp, n, n0, rows, ends, fresh
 
 
 @njit(cache=True)
-def _split_pieces(rows, protect_side, near_side, round_no, m, n, n0, piece, point):
-    """Pieces ``rows`` (sorted, a piece's points in order along it) split at
-    new points ``n, n + 1, ...``: a piece keeps its id for its first part,
-    new piece ``m + i`` starts at new point ``n + i``; chains, chain tails,
-    the pieces at each point and the protection bookkeeping follow (see
-    :meth:`_Pieces.split`). Returns the ids of the pieces made or shortened."""
+def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
+    """Pieces split at new points ``n, n + 1, ...`` (:meth:`_Pieces.split`).
+
+    ``split`` is ``(rows, t, xy, protect_side, near_side, near_vertex)``
+    of the new points in any order: they are numbered by input segment,
+    then position along it (``xy`` projected on the segment's direction),
+    then ``t``. A piece keeps its id for its first part, new piece ``m + i``
+    starts at new point ``n + i``; chains, chain tails, the pieces at each
+    point, the new points' coordinates and the protection bookkeeping
+    follow. Returns the ids of the pieces made or shortened, the vertex
+    each new point's insertion walks from, and the order of the new points.
+    """
+    rows, t, xy_new, protect_side, near_side, near_vertex = split
     a, b, nxt, src, circ, acute, done, near, tail = piece
-    left, right, born = point
+    xy, radius, left, right, born = point
+    key = np.empty(rows.shape[0])
+    for i in range(rows.shape[0]):
+        s = src[rows[i]]
+        key[i] = (xy_new[i, 0] - origin[s, 0]) * direction[s, 0] + (
+            xy_new[i, 1] - origin[s, 1]
+        ) * direction[s, 1]
+    # np.lexsort((t, key, src[rows])): stable sorts, last key first.
+    order = np.argsort(t, kind="mergesort")
+    order = order[np.argsort(key[order], kind="mergesort")]
+    order = order[np.argsort(src[rows[order]], kind="mergesort")]
+    rows = rows[order]
+    protect_side = protect_side[order]
+    near_side = near_side[order]
+    for i in range(rows.shape[0]):
+        xy[n + i, 0] = xy_new[order[i], 0]
+        xy[n + i, 1] = xy_new[order[i], 1]
+        radius[n + i] = np.nan
     k = rows.shape[0]
     fresh = np.empty(2 * k, np.int64)
     groups = 0
@@ -406,7 +430,7 @@ def _split_pieces(rows, protect_side, near_side, round_no, m, n, n0, piece, poin
         groups += 1
         i0 = i1 + 1
     fresh[groups : groups + k] = m + np.arange(k)
-    return fresh[: groups + k]
+    return fresh[: groups + k], near_vertex[order], order
 
 
 @dataclass
@@ -530,27 +554,22 @@ class _Pieces:
         by ``t``); the new points go into the triangulation, walked to from
         ``near_vertex``. ``protect_side``/``near_side`` as in the module's
         protection bookkeeping (-1: none)."""
-        key = np.einsum(
-            "ij,ij->i", xy - self.origin[self.src[rows]], self.direction[self.src[rows]]
-        )
-        order = np.lexsort((t, key, self.src[rows]))
-        rows, xy, near_vertex = rows[order], xy[order], near_vertex[order]
-        protect_side, near_side = protect_side[order], near_side[order]
         k = len(rows)
         self._reserve(k, k)
         m, n = self.m, self.n
-        self.fresh = _split_pieces(
-            rows, protect_side, near_side, round_no, m, n, self.n0,
+        self.fresh, near_vertex, order = _split_pieces(
+            (rows, t, xy, protect_side, near_side, near_vertex),
+            round_no, m, n, self.n0, self.origin, self.direction,
             (self.a, self.b, self.nxt, self.src, self.circ, self.acute, self.done, self.near,
              self.tail),
-            (self.left, self.right, self.born),
+            (self.xy, self.radius, self.left, self.right, self.born),
         )  # fmt: skip
-        self.xy[n : n + k] = xy
-        self.radius[n : n + k] = np.nan
         self.m, self.n = m + k, n + k
+        xy = self.xy[n : n + k]
         dup = self.dt.insert(xy, near_vertex)
         if dup is not None:
             i = dup[0] - n
+            rows = rows[order]
             last = i + int(np.count_nonzero(rows[i:] == rows[i])) - 1  # the piece's last part
             ends_a, ends_b = self.xy[self.a[rows[i]]], self.xy[self.b[m + last]]
             raise AlgorithmError(
