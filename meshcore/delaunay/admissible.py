@@ -21,7 +21,7 @@ splits:
    pieces it made or shortened and those whose two ends an insertion
    touched (an edge an insertion removes joins two neighbours of the
    inserted point). The last triangulation is made anew from the final
-   points, so that it is the one :func:`delaunay` gives.
+   points when first read, so that it is the one :func:`delaunay` gives.
 2. For each missing segment ``f = AB`` find the point of its closed
    diametral ball (the exact predicate
    :func:`~meshcore.geometry.predicates.dot2d` decides membership) with the
@@ -283,7 +283,8 @@ class AdmissibleSegments:
         Their protection radii: every protected segment piece at such a
         vertex has this length.
     delaunay : Triangulation
-        The Delaunay triangulation of :attr:`points` (all of the convex hull).
+        The Delaunay triangulation of :attr:`points` (all of the convex hull),
+        made on first read when the rounds added points.
     """
 
     points: np.ndarray
@@ -293,9 +294,16 @@ class AdmissibleSegments:
     rounds: int
     protected: np.ndarray
     protection_radius: np.ndarray
-    delaunay: Triangulation
+    _delaunay: Triangulation | None = field(repr=False)  # None: made on first read
     _input: tuple = field(repr=False)  # (points, segments, their triangulation)
     _tolerances: Tolerances = field(repr=False)
+
+    @cached_property
+    def delaunay(self) -> Triangulation:
+        if self._delaunay is not None:
+            return self._delaunay
+        # (a writable copy: numba compiles read-only arrays as another type)
+        return delaunay(np.array(self.points))
 
     @cached_property
     def cases_before(self) -> dict[str, int]:
@@ -1026,7 +1034,7 @@ def admissible_segments(
         # An exact translation changes no triangle (the kernel's ties depend
         # on the point set alone), so the first check reuses ``tri``; the
         # last triangulation is made in the input's frame only.
-        _rounds(st, budget, local_circles, tolerances, progress, first=tri, final=False)
+        _rounds(st, budget, local_circles, tolerances, progress, first=tri)
         # Back to the input's frame: the input points come back exactly; the
         # added ones are rounded, which may (rarely) undo a near tie, so the
         # rounds go on there until every segment is an edge again.
@@ -1048,7 +1056,7 @@ def admissible_segments(
         rounds=budget.rounds,
         protected=protected,
         protection_radius=radius,
-        delaunay=tri,
+        _delaunay=tri,
         _input=(P, S, first),
         _tolerances=tolerances,
     )
@@ -1078,14 +1086,15 @@ class _Budget:
     rounds: int = 0
 
 
-def _rounds(st, budget, circles, tol, progress, first=None, final=True) -> Triangulation | None:
+def _rounds(st, budget, circles, tol, progress, first=None) -> Triangulation | None:
     """Rounds of §9.1.4 until every segment is an edge; the last triangulation.
 
     The first check runs on a whole triangulation (``first``, or one made
     here); if segments are missing, the rounds go on incrementally
-    (:func:`_incremental_rounds`) and the last triangulation is made anew
-    from the final points (so that it is the one :func:`delaunay` gives),
-    unless ``final`` is False (then None is returned after such rounds).
+    (:func:`_incremental_rounds`) and None is returned: the last
+    triangulation is then made anew from the final points when first read
+    (:attr:`AdmissibleSegments.delaunay`: the one :func:`delaunay` gives;
+    the triangulator does not read it).
     """
     tri = first if first is not None else delaunay(st.P)
     budget.rounds += 1
@@ -1093,7 +1102,7 @@ def _rounds(st, budget, circles, tol, progress, first=None, final=True) -> Trian
     if _report(budget, st, missing, progress):
         return tri
     _incremental_rounds(st, budget, missing, circles, tol, progress)
-    return delaunay(st.P) if final else None
+    return None
 
 
 def _report(budget, st, missing, progress) -> bool:
