@@ -520,15 +520,18 @@ def _polygons(geometry: object) -> tuple[bool, list[list]]:
 # ---------------------------------------------------------------------------
 
 
-def _power_of_two_scale(*arrays: np.ndarray) -> float:
-    """2**-e with e the exponent of the largest magnitude: scaled |coordinates| < 1.
+def _power_of_two_scale(*arrays: np.ndarray, big: float = 0.0) -> float:
+    """2**-e with e the exponent of the largest magnitude (of the arrays' values
+    and ``big``): scaled |coordinates| < 1.
 
     Multiplying by it is exact (no coordinate comes near underflow within
     the accepted range unless it is absurdly small next to the largest),
     changes no predicate sign, and keeps the predicates' products far from
     overflow and underflow.
     """
-    big = max((max(-float(a.min()), float(a.max())) for a in arrays if a.size), default=0.0)
+    for a in arrays:
+        if a.size:
+            big = max(big, -float(a.min()), float(a.max()))
     if big == 0.0:
         return 1.0
     return float(np.ldexp(1.0, -int(np.frexp(big)[1])))
@@ -754,7 +757,10 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
     del rings
     nb = len(pts)
 
-    _check_ring_points(pts, offsets, lengths, names)
+    # One pass for the box: the scales below and the diameter.
+    lo_x, lo_y, hi_x, hi_y = _bounding_box(pts)
+    big = max(-lo_x, -lo_y, hi_x, hi_y)
+    _check_ring_points(pts, offsets, lengths, names, _power_of_two_scale(big=big))
 
     # -- constraints -----------------------------------------------------
     names.line_offsets = np.concatenate([[0], np.cumsum([len(x) - 1 for x in lines])]).astype(
@@ -762,7 +768,7 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
     )
 
     # Everything below runs on coordinates scaled by a power of two.
-    scale = _power_of_two_scale(pts, *lines)
+    scale = _power_of_two_scale(*lines, big=big)
 
     # Merge constraint vertices with equal ring vertices / each other.
     cpoints, cseg, csrc = _merge_constraints(pts, lines)
@@ -801,7 +807,6 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
     # -- area and size ---------------------------------------------------
     # Undo the scaling exactly: area * 2**(2 e) for scale = 2**-e.
     area = math.ldexp(_area(pts, scale, offsets, reversed_), -2 * math.frexp(scale)[1] + 2)
-    lo_x, lo_y, hi_x, hi_y = _bounding_box(pts)
     diameter = math.hypot(hi_x - lo_x, hi_y - lo_y)
     if diameter < MIN_DIAMETER:
         raise InputError(
@@ -835,11 +840,12 @@ def _distinct_small(arr: np.ndarray) -> int:
     return len({(float(x), float(y)) for x, y in arr})
 
 
-def _check_ring_points(pts, offsets, lengths, names: _Names) -> None:
-    """Distinct points, consecutive duplicates, collinear rings, spikes."""
+def _check_ring_points(pts, offsets, lengths, names: _Names, scale: float) -> None:
+    """Distinct points, consecutive duplicates, collinear rings, spikes (turns
+    on ``pts * scale``, ``scale`` from :func:`_power_of_two_scale`)."""
     n_rings = len(lengths)
     starts = offsets[:-1]
-    ccount, turning, dup, spike = _ring_scan(pts, _power_of_two_scale(pts), offsets)
+    ccount, turning, dup, spike = _ring_scan(pts, scale, offsets)
     distinct = np.maximum(ccount, 1)
     # Every consecutive triple collinear (and no repeats): the whole ring is on a line.
     flat = turning == 0
@@ -1057,19 +1063,56 @@ def _fsum_round(partials, n):
     return hi
 
 
+#: Terms deposited in the integer bins of :func:`_shoelace` between carries
+#: (53-bit significands: 512 of them cannot overflow an int64 bin).
+_BLOCK = 512
+
+
+@njit(cache=True)
+def _deposit(bins, bits, count):
+    """Add the float64 values whose bit patterns are ``bits[:count]`` exactly to
+    ``bins`` (bin ``e`` counts units of ``2**(e - 1075)``), then carry the
+    bits above 32 of the bins they touched into the bin 32 places up."""
+    lo = bins.shape[0]
+    hi = 0
+    for k in range(count):
+        b = bits[k]
+        e = (b >> 52) & 0x7FF
+        m = b & 0xFFFFFFFFFFFFF
+        if e == 0:
+            e = 1  # subnormal: same unit as the smallest normal exponent
+        else:
+            m |= 1 << 52
+        bins[e] += -m if b < 0 else m
+        lo = min(lo, e)
+        hi = max(hi, e)
+    # Upward, so that carries are carried on once more (the bins above hi + 32
+    # get at most 2**31 a call: no overflow in any number of calls).
+    for e in range(lo, min(hi + 33, bins.shape[0] - 32)):
+        c = bins[e] >> 32
+        if c != 0:
+            bins[e] -= c << 32
+            bins[e + 32] += c
+
+
 @njit(cache=True)
 def _shoelace(pts, scale, offsets, reversed_, sx, sy):
     """Twice the signed area of the rings (terms negated in reversed rings), on the
     coordinates times ``scale`` minus (``sx``, ``sy``).
 
     Each product is split exactly (Dekker); the rounded leading parts
-    ``x_i y_{i+1} - x_{i+1} y_i`` are summed exactly and rounded once
-    (:func:`_fsum_add`, as :func:`math.fsum`), together with the sum of
-    their exact remainders (two-sum errors and product tails), accumulated
-    in order. One compiled pass.
+    ``x_i y_{i+1} - x_{i+1} y_i`` are summed exactly in integer bins, one
+    per binary exponent (:func:`_deposit`), together with the sum of their
+    exact remainders (two-sum errors and product tails), accumulated in
+    order; the bins and that sum are then added exactly and rounded once
+    (:func:`_fsum_add`, :func:`_fsum_round`: :func:`math.fsum`'s algorithm,
+    whose rounding is correct, so the result is that of ``math.fsum`` of
+    the same terms). One compiled pass.
     """
-    partials = np.empty(256)
-    n = 0
+    buf = np.empty(_BLOCK)
+    bits = buf.view(np.int64)
+    bins = np.zeros(2048 + 64, np.int64)
+    count = 0
     small = 0.0
     for k in range(len(offsets) - 1):
         lo, hi = offsets[k], offsets[k + 1]
@@ -1099,8 +1142,20 @@ def _shoelace(pts, scale, offsets, reversed_, sx, sy):
             s = h1 - h2
             bv = s - h1
             e = (h1 - (s - bv)) + (-h2 - bv)
-            n = _fsum_add(partials, n, s * sign)
+            buf[count] = s * sign
+            count += 1
+            if count == _BLOCK:
+                _deposit(bins, bits, count)
+                count = 0
             small += (e + l1 - l2) * sign
+    _deposit(bins, bits, count)
+    partials = np.empty(256)
+    n = 0
+    for e in range(bins.shape[0]):
+        if bins[e] != 0:  # two exact halves (a bin may exceed 53 bits only at the top)
+            top = (bins[e] >> 26) << 26
+            n = _fsum_add(partials, n, math.ldexp(float(top), e - 1075))
+            n = _fsum_add(partials, n, math.ldexp(float(bins[e] - top), e - 1075))
     n = _fsum_add(partials, n, small)
     return _fsum_round(partials, n)
 
