@@ -141,13 +141,14 @@ other tie-breaking may need a swap to show it (§9.1.3, footnote 4);
 floating-point codes such as Qhull may take either diagonal.
 
 Cost: a round costs time in the pieces it splits and checks (insertions,
-edge look-ups, lens searches in compiled code; numpy on those rows), not
-in all points, plus one whole triangulation at the start and one at the
-end. Rounds are few on the test polygons (2 to 8); a 10,000-vertex random
-star (``benchmarks/admissible.py``) takes 146 rounds and 604,000 points,
-most rounds at the end splitting one or two segments each (each spike's
-chain of splits is sequential): 126 s when every round re-triangulated
-everything, 11-12.5 s of CPU now (see the benchmark for this machine's
+edge look-ups, lens searches, split points and the pieces' bookkeeping in
+compiled code), not in all points, plus one whole triangulation at the
+start and, when it is read, one at the end. Rounds are few on the test
+polygons (2 to 8); a 10,000-vertex random star
+(``benchmarks/admissible.py``) takes 146 rounds and 604,000 points, most
+rounds at the end splitting one or two segments each (each spike's chain
+of splits is sequential): 126 s when every round re-triangulated
+everything, 6.5 s of CPU now (see the benchmark for this machine's
 figures), most of it in the widest-angle searches (a third), the checks of
 the touched pieces and the insertions. The case counts of the result are computed when first read.
 
