@@ -6,6 +6,7 @@ Run from the repository root::
     .venv/bin/python benchmarks/triangulate.py --sizes 10000 100000 --no-gmsh
     .venv/bin/python benchmarks/triangulate.py --scaling            # 10k .. 1M, ours and Triangle
     .venv/bin/python benchmarks/triangulate.py --scaling 10000 100000 1000000 10000000
+    .venv/bin/python benchmarks/triangulate.py --small              # fixed costs of a small job
 
 Inputs (one planar straight-line graph, the same for every tool):
 
@@ -39,6 +40,13 @@ angle, fraction of triangles with an angle under 30 degrees) computed by
 the ratio, and the exponent ``b`` of ``seconds ~ triangles**b`` fitted by
 least squares on the log-log points of each tool (1 is linear). The
 10M-triangle runs need about 4 GB each: run them alone on a quiet machine.
+
+``--small``: the star at 30 degrees alone (about 400 triangles), ours
+(``triangulate`` of the parsed domain) and Triangle (``pq30Q``) in this
+process, CPU milliseconds per call: the median of 3 batches of 200 calls
+each, the batches of both tools alternating; the ratio ours / Triangle.
+What a small job costs beyond the mesh itself (set-up, validation, the
+admissible-boundary rounds, numba dispatch) shows here.
 
 Triangle and Gmsh are bench-only dependencies (``pip install -e .[bench]``)
 and are skipped with a note when absent.
@@ -282,6 +290,41 @@ def scaling(sizes, timeout: float) -> None:
         print(f"{tool}: seconds ~ triangles**{fitted_exponent(tris, secs):.3f}")
 
 
+def small(calls: int = 200, batches: int = 3) -> None:
+    """CPU ms per call on the star (q30 only), ours and Triangle, alternating batches."""
+    from meshcore.domain.planar import parse_domain
+    from meshcore.triangulation.refinement import triangulate
+
+    pts, rings, _ = star()
+    domain = parse_domain(geometry_of(pts, rings))
+    runs = {"ours": lambda: triangulate(domain, min_angle=30)}
+    if available("triangle"):
+        import triangle
+
+        data = {"vertices": pts, "segments": segments_of(rings)}
+        runs["triangle"] = lambda: triangle.triangulate(data, "pq30Q")
+    sizes = {
+        "ours": len(runs["ours"]().mesh.cells[0].data),  # also loads numba's cache
+        "triangle": len(runs["triangle"]()["triangles"]) if "triangle" in runs else 0,
+    }
+    times = {name: [] for name in runs}
+    for _ in range(batches):
+        for name, run in runs.items():
+            t = time.process_time()
+            for _ in range(calls):
+                run()
+            times[name].append(1e3 * (time.process_time() - t) / calls)
+    print("load average (1, 5, 15 min): {:.1f} {:.1f} {:.1f}".format(*os.getloadavg()))
+    print("| tool | triangles | CPU ms per call (median of batches) | batches |")
+    print("|---|---:|---:|---|")
+    for name, ts in times.items():
+        cells = ", ".join(f"{t:.2f}" for t in ts)
+        print(f"| {name} | {sizes[name]} | {float(np.median(ts)):.2f} | {cells} |")
+    if "triangle" in times:
+        ratio = float(np.median(times["ours"])) / float(np.median(times["triangle"]))
+        print(f"ours / Triangle: {ratio:.1f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", type=int, nargs="*", default=[10_000, 100_000, 1_000_000])
@@ -295,7 +338,11 @@ def main() -> None:
         metavar="N",
         help="scaling table of the square with a hole (default sizes 10k 100k 1M)",
     )
+    ap.add_argument("--small", action="store_true", help="fixed costs: the star, many calls")
     args = ap.parse_args()
+    if args.small:
+        small()
+        return
     if args.child:
         tool, case, n = args.child
         print(json.dumps(child(tool, case, int(n))))

@@ -21,7 +21,7 @@ splits:
    pieces it made or shortened and those whose two ends an insertion
    touched (an edge an insertion removes joins two neighbours of the
    inserted point). The last triangulation is made anew from the final
-   points, so that it is the one :func:`delaunay` gives.
+   points when first read, so that it is the one :func:`delaunay` gives.
 2. For each missing segment ``f = AB`` find the point of its closed
    diametral ball (the exact predicate
    :func:`~meshcore.geometry.predicates.dot2d` decides membership) with the
@@ -141,13 +141,14 @@ other tie-breaking may need a swap to show it (§9.1.3, footnote 4);
 floating-point codes such as Qhull may take either diagonal.
 
 Cost: a round costs time in the pieces it splits and checks (insertions,
-edge look-ups, lens searches in compiled code; numpy on those rows), not
-in all points, plus one whole triangulation at the start and one at the
-end. Rounds are few on the test polygons (2 to 8); a 10,000-vertex random
-star (``benchmarks/admissible.py``) takes 146 rounds and 604,000 points,
-most rounds at the end splitting one or two segments each (each spike's
-chain of splits is sequential): 126 s when every round re-triangulated
-everything, 11-12.5 s of CPU now (see the benchmark for this machine's
+edge look-ups, lens searches, split points and the pieces' bookkeeping in
+compiled code), not in all points, plus one whole triangulation at the
+start and, when it is read, one at the end. Rounds are few on the test
+polygons (2 to 8); a 10,000-vertex random star
+(``benchmarks/admissible.py``) takes 146 rounds and 604,000 points, most
+rounds at the end splitting one or two segments each (each spike's chain
+of splits is sequential): 126 s when every round re-triangulated
+everything, 6.5 s of CPU now (see the benchmark for this machine's
 figures), most of it in the widest-angle searches (a third), the checks of
 the touched pieces and the insertions. The case counts of the result are computed when first read.
 
@@ -189,10 +190,7 @@ from meshcore.delaunay.kernel2d import (
 )
 from meshcore.domain.planar import Domain
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.geometry.predicates import (
-    dot2d,
-    orient2d,
-)
+from meshcore.geometry.predicates import dot2d, dot2d_filtered, orient2d
 from meshcore.mesh import CellBlock, Mesh
 
 __all__ = [
@@ -286,7 +284,8 @@ class AdmissibleSegments:
         Their protection radii: every protected segment piece at such a
         vertex has this length.
     delaunay : Triangulation
-        The Delaunay triangulation of :attr:`points` (all of the convex hull).
+        The Delaunay triangulation of :attr:`points` (all of the convex hull),
+        made on first read when the rounds added points.
     """
 
     points: np.ndarray
@@ -296,9 +295,16 @@ class AdmissibleSegments:
     rounds: int
     protected: np.ndarray
     protection_radius: np.ndarray
-    delaunay: Triangulation
+    _delaunay: Triangulation | None = field(repr=False)  # None: made on first read
     _input: tuple = field(repr=False)  # (points, segments, their triangulation)
     _tolerances: Tolerances = field(repr=False)
+
+    @cached_property
+    def delaunay(self) -> Triangulation:
+        if self._delaunay is not None:
+            return self._delaunay
+        # (a writable copy: numba compiles read-only arrays as another type)
+        return delaunay(np.array(self.points))
 
     @cached_property
     def cases_before(self) -> dict[str, int]:
@@ -677,14 +683,20 @@ def _segment_reach(P, S, reach, verts, tol) -> np.ndarray:
     """``reach`` lowered to the distance from each vertex to the nearest
     segment of ``S`` not incident to it, where that is closer.
 
-    Segments are searched by length class (lengths in ``[2**k, 2**(k+1))``),
-    each class in a ``cKDTree`` of midpoints with the query radius enlarged
-    by the class's half length, so that long segments are found without
-    scanning all of them.
+    Up to :data:`_ALL_PAIRS` (vertex, segment) pairs are all measured.
+    Otherwise segments are searched by length class (lengths in
+    ``[2**k, 2**(k+1))``), each class in a ``cKDTree`` of midpoints with the
+    query radius enlarged by the class's half length, so that long segments
+    are found without scanning all of them; the pairs it leaves out are
+    farther than ``reach``, so both ways give the same distances.
     """
     X = P[verts]
     reach = reach.copy()
     U, V = P[S[:, 0]], P[S[:, 1]]
+    if len(verts) * len(S) <= _ALL_PAIRS:
+        q = np.repeat(np.arange(len(verts)), len(S))
+        _lower_reach(reach, q, np.tile(np.arange(len(S)), len(verts)), X, U, V, S, verts)
+        return reach
     length = np.hypot(V[:, 0] - U[:, 0], V[:, 1] - U[:, 1])
     cls = np.frexp(length)[1]
     scale = _scale(P)
@@ -697,13 +709,22 @@ def _segment_reach(P, S, reach, verts, tol) -> np.ndarray:
         half_max = math.ldexp(1.0, int(c) - 1)
         radii = reach + half_max * (1.0 + tol.ball_slack) + tol.coordinate_slack * scale
         q, j = _ball_pairs(mtree, X, radii)
-        seg = members[j]
-        keep = (S[seg, 0] != verts[q]) & (S[seg, 1] != verts[q])
-        q, seg = q[keep], seg[keep]
-        if q.size:
-            d = _point_segment_distance(X[q], U[seg], V[seg])
-            np.minimum.at(reach, q, d)
+        _lower_reach(reach, q, members[j], X, U, V, S, verts)
     return reach
+
+
+#: :func:`_segment_reach` measures every pair up to this many.
+_ALL_PAIRS = 4096
+
+
+def _lower_reach(reach, q, seg, X, U, V, S, verts) -> None:
+    """``reach[q]`` lowered to the distance from ``X[q]`` to segment ``seg``
+    (pairs of a vertex and a segment incident to it left out)."""
+    keep = (S[seg, 0] != verts[q]) & (S[seg, 1] != verts[q])
+    q, seg = q[keep], seg[keep]
+    if q.size:
+        d = _point_segment_distance(X[q], U[seg], V[seg])
+        np.minimum.at(reach, q, d)
 
 
 def _protection_bounds(P, S, acute, reach, verts) -> np.ndarray:
@@ -740,72 +761,147 @@ def _on_circle(M: np.ndarray, circ: np.ndarray) -> np.ndarray:
     return c + d * (circ[:, 2] / norm)[:, None]
 
 
-def _protection_points(P, S, rows, side, radius, circles, seg_circle) -> np.ndarray:
-    """Points at distance ``radius`` from the ``side`` end of segments ``rows``."""
-    apex = P[S[rows, side]]
-    far = P[S[rows, 1 - side]]
-    d = far - apex
-    length = np.hypot(d[:, 0], d[:, 1])
-    M = apex + d * (radius / length)[:, None]
-    circ = seg_circle[rows]
-    curved = np.flatnonzero(circ >= 0)
-    if curved.size:
-        # On the circle, at chord distance ``radius`` from the apex, toward far.
-        cc = circles[circ[curved]]
-        centre, R = cc[:, :2], cc[:, 2]
-        u = apex[curved] - centre
-        u = u * (R / np.hypot(u[:, 0], u[:, 1]))[:, None]
-        w = far[curved] - centre
-        turn = np.sign(u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0])
-        phi = 2.0 * np.arcsin(np.minimum(radius[curved] / (2.0 * R), 1.0)) * turn
-        cos, sin = np.cos(phi), np.sin(phi)
-        M[curved] = centre + np.column_stack(
-            [cos * u[:, 0] - sin * u[:, 1], sin * u[:, 0] + cos * u[:, 1]]
+def _protection_on_circle(apex, far, radius, cc) -> np.ndarray:
+    """Protection points of curved segments: on their circles (rows of
+    ``cc``), at chord distance ``radius`` from the apex, toward ``far``."""
+    centre, R = cc[:, :2], cc[:, 2]
+    u = apex - centre
+    u = u * (R / np.hypot(u[:, 0], u[:, 1]))[:, None]
+    w = far - centre
+    turn = np.sign(u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0])
+    phi = 2.0 * np.arcsin(np.minimum(radius / (2.0 * R), 1.0)) * turn
+    cos, sin = np.cos(phi), np.sin(phi)
+    return centre + np.column_stack([cos * u[:, 0] - sin * u[:, 1], sin * u[:, 0] + cos * u[:, 1]])
+
+
+@njit(cache=True)
+def _projection_points(xy, a, b, missing, enc, acute, done, near_count, radius):
+    """Split points of §9.1.4 of the pieces ``missing`` (straight; curved
+    ones are moved onto their circles by the caller): the projection of the
+    encroaching point ``X = enc[i]`` on the piece, measured from the nearer
+    end ``E``; kept at least ``NEAR_END_FRACTION * |EX|`` from ``E`` when
+    closer than ``NEAR_END_TRIGGER * |EX|``; moved away from ``E`` by
+    :data:`NUDGE` of that distance (at most half the room that keeps ``X``
+    outside the new piece's ball).
+
+    Returns the points (k, 2), the side (0 or 1) of the nearer end, and
+    (k, 2) whether that end is an unprotected acute end that had a
+    projection split near it already (the chase of Exercise 9.3: it is to
+    be protected now).
+    """
+    k = missing.shape[0]
+    M = np.empty((k, 2))
+    near = np.empty(k, np.int64)
+    again = np.zeros((k, 2), np.bool_)
+    tiny = np.finfo(np.float64).tiny
+    for i in range(k):
+        r = missing[i]
+        ax = xy[a[r], 0]
+        ay = xy[a[r], 1]
+        bx = xy[b[r], 0]
+        by = xy[b[r], 1]
+        px = xy[enc[i], 0]
+        py = xy[enc[i], 1]
+        dx = bx - ax
+        dy = by - ay
+        length = np.sqrt(dx * dx + dy * dy)
+        t = ((px - ax) * dx + (py - ay) * dy) / (dx * dx + dy * dy)
+        if t <= 0.5:
+            s, ex, ey, fx, fy, foot = 0, ax, ay, bx, by, t * length
+        else:
+            s, ex, ey, fx, fy, foot = 1, bx, by, ax, ay, (1.0 - t) * length
+        ep = np.hypot(px - ex, py - ey)
+        if foot < NEAR_END_TRIGGER * ep:
+            along = NEAR_END_FRACTION * ep
+            room = np.inf
+        else:
+            along = foot
+            # X stays outside the ball of [E, M] while height**2 >= foot * (|EM| - foot).
+            room = 0.5 * max(ep * ep - foot * foot, 0.0) / max(foot, tiny)
+        along = along + min(NUDGE * along, room)
+        f = along / length
+        M[i, 0] = ex + (fx - ex) * f
+        M[i, 1] = ey + (fy - ey) * f
+        near[i] = s
+        e = a[r] if s == 0 else b[r]
+        again[i, s] = acute[r, s] and not done[r, s] and near_count[r, s] >= 1
+        again[i, s] = again[i, s] and np.isnan(radius[e])
+    return M, near, again
+
+
+@njit(cache=True)
+def _split_points(xy, a, b, missing, M, near, acute, done, radius, work):
+    """The round's split points, protection points first (§9.1.4,
+    Exercise 9.4): every unprotected acute end of a missing piece whose
+    vertex has a protection radius gets the point at that distance from it
+    (straight; the caller moves curved ones onto their circles); the other
+    pieces their projection point ``M``.
+
+    Returns, per point: its piece, coordinates, order along the piece (the
+    protected side, 0.5 for a projection), protected side (-1: none), side
+    of the nearer end of a projection (-1: none), the vertex its insertion
+    walks from, and whether it fails to lie strictly inside the piece's
+    diametral ball (exact ``dot2d``).
+    """
+    k = missing.shape[0]
+    protect = np.zeros((k, 2), np.bool_)
+    total = 0
+    for i in range(k):
+        r = missing[i]
+        protect[i, 0] = acute[r, 0] and not done[r, 0] and not np.isnan(radius[a[r]])
+        protect[i, 1] = acute[r, 1] and not done[r, 1] and not np.isnan(radius[b[r]])
+        total += max(1, int(protect[i, 0]) + int(protect[i, 1]))
+    rows = np.empty(total, np.int64)
+    pts = np.empty((total, 2))
+    t = np.empty(total)
+    protect_side = np.full(total, -1, np.int64)
+    near_side = np.full(total, -1, np.int64)
+    near_vertex = np.empty(total, np.int64)
+    j = 0
+    for i in range(k):
+        r = missing[i]
+        for s in range(2):
+            if not protect[i, s]:
+                continue
+            e = a[r] if s == 0 else b[r]
+            f = b[r] if s == 0 else a[r]
+            dx = xy[f, 0] - xy[e, 0]
+            dy = xy[f, 1] - xy[e, 1]
+            scale = radius[e] / np.hypot(dx, dy)
+            rows[j] = r
+            pts[j, 0] = xy[e, 0] + dx * scale
+            pts[j, 1] = xy[e, 1] + dy * scale
+            t[j] = s
+            protect_side[j] = s
+            near_vertex[j] = e
+            j += 1
+    for i in range(k):
+        if protect[i, 0] or protect[i, 1]:
+            continue
+        r = missing[i]
+        rows[j] = r
+        pts[j, 0] = M[i, 0]
+        pts[j, 1] = M[i, 1]
+        t[j] = 0.5
+        near_side[j] = near[i]
+        near_vertex[j] = a[r] if near[i] == 0 else b[r]
+        j += 1
+    bad = np.empty(total, np.bool_)
+    for j in range(total):
+        ia = a[rows[j]]
+        ib = b[rows[j]]
+        sign = dot2d_filtered(
+            xy[ia, 0], xy[ia, 1], xy[ib, 0], xy[ib, 1], pts[j, 0], pts[j, 1], work
         )
-    return M
+        bad[j] = sign >= 0
+    return rows, pts, t, protect_side, near_side, near_vertex, bad
 
 
-def _projection_points(P, S, rows, enc, circles, seg_circle):
-    """Split points of §9.1.4: the projection of the encroaching point ``X``
-    on the segment, measured from the nearer end ``E``; kept at least
-    ``NEAR_END_FRACTION * |EX|`` from ``E`` when closer than
-    ``NEAR_END_TRIGGER * |EX|``; moved away from ``E`` by :data:`NUDGE` of
-    that distance (at most half the room that keeps ``X`` outside the new
-    piece's ball); radially onto the circle for curved segments.
-
-    Returns the points and the side (0 or 1) of the nearer end."""
-    A, B, X = P[S[rows, 0]], P[S[rows, 1]], P[enc]
-    d = B - A
-    ll = np.einsum("ij,ij->i", d, d)
-    length = np.sqrt(ll)
-    t = np.einsum("ij,ij->i", X - A, d) / ll
-    from_a = t <= 0.5
-    E = np.where(from_a[:, None], A, B)
-    F = np.where(from_a[:, None], B, A)
-    # Distances from E along the segment: X's projection, then the split.
-    foot = np.where(from_a, t, 1.0 - t) * length
-    ex = X - E
-    ep = np.hypot(ex[:, 0], ex[:, 1])
-    clamped = foot < NEAR_END_TRIGGER * ep
-    along = np.where(clamped, NEAR_END_FRACTION * ep, foot)
-    # X stays outside the ball of [E, M] while height**2 >= foot * (|EM| - foot).
-    height2 = np.maximum(ep * ep - foot * foot, 0.0)
-    room = np.where(clamped, np.inf, 0.5 * height2 / np.maximum(foot, np.finfo(float).tiny))
-    along = along + np.minimum(NUDGE * along, room)
-    M = E + (F - E) * (along / length)[:, None]
-    circ = seg_circle[rows]
-    curved = np.flatnonzero(circ >= 0)
-    if curved.size:
-        M[curved] = _on_circle(M[curved], circles[circ[curved]])
-    return M, np.where(from_a, 0, 1)
-
-
-def _choose_encroachers(P, S, rows, st: _Pieces, scale, tol):
-    """Per missing segment, the point of its closed diametral ball with the
-    largest angle APB (ties within ``angle_tie``: smallest index), found by
-    :func:`_widest_angle_points` in the rounds' triangulation; and whether
-    it lies on the segment (collinear)."""
-    a, b = S[rows, 0], S[rows, 1]
+def _choose_encroachers(P, a, b, st: _Pieces, scale, tol):
+    """Per missing segment ``a[i] b[i]``, the point of its closed diametral
+    ball with the largest angle APB (ties within ``angle_tie``: smallest
+    index), found by :func:`_widest_angle_points` in the rounds'
+    triangulation; and whether it lies on the segment (collinear)."""
     _, radii = _query_radii(P[a], P[b], scale, tol)
     pts, V, A, vt, order, slot = st.dt.arrays()
     if len(st.tstamp) < len(V) // 3 or len(st.vstamp) < len(pts):
@@ -828,7 +924,7 @@ def _choose_encroachers(P, S, rows, st: _Pieces, scale, tol):
         st.work,
     )
     if (choice < 0).any():
-        i = int(rows[np.flatnonzero(choice < 0)[0]])
+        i = int(np.flatnonzero(choice < 0)[0])
         raise AlgorithmError(
             f"segment {i} is not a Delaunay edge yet its closed diametral ball is empty "
             "(inconsistent predicates)"
@@ -939,7 +1035,7 @@ def admissible_segments(
         # An exact translation changes no triangle (the kernel's ties depend
         # on the point set alone), so the first check reuses ``tri``; the
         # last triangulation is made in the input's frame only.
-        _rounds(st, budget, local_circles, tolerances, progress, first=tri, final=False)
+        _rounds(st, budget, local_circles, tolerances, progress, first=tri)
         # Back to the input's frame: the input points come back exactly; the
         # added ones are rounded, which may (rarely) undo a near tie, so the
         # rounds go on there until every segment is an edge again.
@@ -961,7 +1057,7 @@ def admissible_segments(
         rounds=budget.rounds,
         protected=protected,
         protection_radius=radius,
-        delaunay=tri,
+        _delaunay=tri,
         _input=(P, S, first),
         _tolerances=tolerances,
     )
@@ -991,14 +1087,15 @@ class _Budget:
     rounds: int = 0
 
 
-def _rounds(st, budget, circles, tol, progress, first=None, final=True) -> Triangulation | None:
+def _rounds(st, budget, circles, tol, progress, first=None) -> Triangulation | None:
     """Rounds of §9.1.4 until every segment is an edge; the last triangulation.
 
     The first check runs on a whole triangulation (``first``, or one made
     here); if segments are missing, the rounds go on incrementally
-    (:func:`_incremental_rounds`) and the last triangulation is made anew
-    from the final points (so that it is the one :func:`delaunay` gives),
-    unless ``final`` is False (then None is returned after such rounds).
+    (:func:`_incremental_rounds`) and None is returned: the last
+    triangulation is then made anew from the final points when first read
+    (:attr:`AdmissibleSegments.delaunay`: the one :func:`delaunay` gives;
+    the triangulator does not read it).
     """
     tri = first if first is not None else delaunay(st.P)
     budget.rounds += 1
@@ -1006,7 +1103,7 @@ def _rounds(st, budget, circles, tol, progress, first=None, final=True) -> Trian
     if _report(budget, st, missing, progress):
         return tri
     _incremental_rounds(st, budget, missing, circles, tol, progress)
-    return delaunay(st.P) if final else None
+    return None
 
 
 def _report(budget, st, missing, progress) -> bool:
@@ -1066,19 +1163,19 @@ def _split_round(st: _Pieces, missing, scale, circles, tol, round_no) -> None:
     """
     # The missing pieces' own rows: a round costs time in them, not in all.
     P = st.P
-    S = np.column_stack([st.a[missing], st.b[missing]])
-    local = np.arange(len(missing))
-    circ = st.circ[missing]
-    enc, on_segment = _choose_encroachers(P, S, local, st, scale, tol)
+    enc, on_segment = _choose_encroachers(P, st.a[missing], st.b[missing], st, scale, tol)
     if on_segment.any():
         _not_planar(st, missing[on_segment][0], enc[on_segment][0])
-    M, near = _projection_points(P, S, local, enc, circles, circ)
-    pending = st.acute[missing] & ~st.done[missing]  # (k, 2)
-    near_side = np.arange(2)[None, :] == near[:, None]
-    # A second projection split near the same acute vertex on the same
-    # segment: the chase of Exercise 9.3 may have begun; protect the vertex.
-    again = pending & near_side & (st.near[missing] >= 1) & np.isnan(st.radius[S])
+    M, near, again = _projection_points(
+        st.xy, st.a, st.b, missing, enc, st.acute, st.done, st.near, st.radius
+    )
+    curved = np.flatnonzero(st.circ[missing] >= 0) if len(circles) else ()
+    if len(curved):
+        M[curved] = _on_circle(M[curved], circles[st.circ[missing[curved]]])
     if again.any():
+        # A second projection split near the same acute vertex on the same
+        # segment: the chase of Exercise 9.3 may have begun; protect the vertex.
+        S = np.column_stack([st.a[missing], st.b[missing]])
         rows = np.flatnonzero(again.any(axis=1))
         E = S[rows, near[rows]]
         x = np.hypot(M[rows, 0] - P[E, 0], M[rows, 1] - P[E, 1])
@@ -1095,25 +1192,38 @@ def _split_round(st: _Pieces, missing, scale, circles, tol, round_no) -> None:
         r = _protection_bounds(P, st.S, st.acute[: st.m], reach, verts)
         np.minimum.at(r, inv, x)
         st.radius[verts] = r
-    protect = pending & ~np.isnan(st.radius[S])
-    prot_rows, prot_side = np.nonzero(protect)
-    segs = missing[prot_rows]
-    apex = S[prot_rows, prot_side]
-    prot_xy = _protection_points(P, S, prot_rows, prot_side, st.radius[apex], circles, circ)
-    plain = ~protect.any(axis=1)
-    proj_rows = missing[plain]
-    rows = np.concatenate([segs, proj_rows])
-    xy = np.concatenate([prot_xy, M[plain]])
-    _check_split_points(st, rows, xy)
-    st.split(
-        rows,
-        np.concatenate([prot_side.astype(np.float64), np.full(len(proj_rows), 0.5)]),
-        xy,
-        np.concatenate([prot_side, np.full(len(proj_rows), -1)]),
-        np.concatenate([np.full(len(segs), -1), near[plain]]),
-        np.concatenate([apex, S[plain, near[plain]]]),
-        round_no,
+    rows, xy, t, protect_side, near_side, near_vertex, bad = _split_points(
+        st.xy, st.a, st.b, missing, M, near, st.acute, st.done, st.radius, st.work
     )
+    if len(curved):
+        _curved_split_points(st, circles, rows, xy, protect_side, near_vertex, bad)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        a, b = P[st.a[rows[i]]], P[st.b[rows[i]]]
+        raise AlgorithmError(
+            f"cannot split the segment from {a.tolist()} to {b.tolist()}: it is too "
+            "short for float64 at that distance from the origin (or segments cross there)"
+        )
+    # A new point that coincides with another point, new or old (segments
+    # that cross or touch would share it), is found by the insertion.
+    st.split(rows, t, xy, protect_side, near_side, near_vertex, round_no)
+
+
+def _curved_split_points(st: _Pieces, circles, rows, xy, protect_side, near_vertex, bad):
+    """The protection points of curved pieces moved onto their circles
+    (the projections were moved already), and their check redone: every
+    split point must lie strictly inside its piece's diametral ball (so it
+    differs from both ends); this fails only for segments too short for
+    float64 at their distance from the origin."""
+    circ = st.circ[rows]
+    fix = np.flatnonzero((circ >= 0) & (protect_side >= 0))
+    if fix.size:
+        e = near_vertex[fix]
+        f = np.where(protect_side[fix] == 0, st.b[rows[fix]], st.a[rows[fix]])
+        xy[fix] = _protection_on_circle(st.xy[e], st.xy[f], st.radius[e], circles[circ[fix]])
+    curved = np.flatnonzero(circ >= 0)
+    a, b = st.xy[st.a[rows[curved]]], st.xy[st.b[rows[curved]]]
+    bad[curved] = dot2d(a, b, xy[curved]) >= 0
 
 
 def _not_planar(st: _State, row: int, point: int) -> None:
@@ -1132,24 +1242,6 @@ def _not_planar(st: _State, row: int, point: int) -> None:
         f"segments {min(src, other)} and {max(src, other)} cross near {xy}: segments may "
         "meet only at their endpoints"
     )
-
-
-def _check_split_points(st: _Pieces, rows, xy) -> None:
-    """Every new split point must lie strictly inside its segment's diametral
-    ball (so it differs from both ends); this fails only for segments too
-    short for float64 at their distance from the origin. A new point that
-    coincides with another point, new or old (segments that cross or touch
-    would share it), is found by the insertion (:meth:`_Pieces.split`)."""
-    if not len(rows):
-        return
-    a, b = st.P[st.a[rows]], st.P[st.b[rows]]
-    bad = np.flatnonzero(dot2d(a, b, xy) >= 0)
-    if bad.size:
-        i = int(bad[0])
-        raise AlgorithmError(
-            f"cannot split the segment from {a[i].tolist()} to {b[i].tolist()}: it is too "
-            "short for float64 at that distance from the origin (or segments cross there)"
-        )
 
 
 # ---------------------------------------------------------------------------

@@ -347,6 +347,92 @@ def _missing_pieces(V, A, vt, order, slot, mark, stamp, n, n0, rows, ends, fresh
     return check[~present]
 
 
+@njit(cache=True)
+def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
+    """Pieces split at new points ``n, n + 1, ...`` (:meth:`_Pieces.split`).
+
+    ``split`` is ``(rows, t, xy, protect_side, near_side, near_vertex)``
+    of the new points in any order: they are numbered by input segment,
+    then position along it (``xy`` projected on the segment's direction),
+    then ``t``. A piece keeps its id for its first part, new piece ``m + i``
+    starts at new point ``n + i``; chains, chain tails, the pieces at each
+    point, the new points' coordinates and the protection bookkeeping
+    follow. Returns the ids of the pieces made or shortened, the vertex
+    each new point's insertion walks from, and the order of the new points.
+    """
+    rows, t, xy_new, protect_side, near_side, near_vertex = split
+    a, b, nxt, src, circ, acute, done, near, tail = piece
+    xy, radius, left, right, born = point
+    key = np.empty(rows.shape[0])
+    for i in range(rows.shape[0]):
+        s = src[rows[i]]
+        key[i] = (xy_new[i, 0] - origin[s, 0]) * direction[s, 0] + (
+            xy_new[i, 1] - origin[s, 1]
+        ) * direction[s, 1]
+    # np.lexsort((t, key, src[rows])): stable sorts, last key first.
+    order = np.argsort(t, kind="mergesort")
+    order = order[np.argsort(key[order], kind="mergesort")]
+    order = order[np.argsort(src[rows[order]], kind="mergesort")]
+    rows = rows[order]
+    protect_side = protect_side[order]
+    near_side = near_side[order]
+    for i in range(rows.shape[0]):
+        xy[n + i, 0] = xy_new[order[i], 0]
+        xy[n + i, 1] = xy_new[order[i], 1]
+        radius[n + i] = np.nan
+    k = rows.shape[0]
+    fresh = np.empty(2 * k, np.int64)
+    groups = 0
+    i0 = 0
+    while i0 < k:
+        r = rows[i0]
+        i1 = i0
+        while i1 + 1 < k and rows[i1 + 1] == r:
+            i1 += 1
+        old_b = b[r]
+        old_nxt = nxt[r]
+        b[r] = n + i0
+        nxt[r] = m + i0
+        for i in range(i0, i1 + 1):
+            q = m + i
+            a[q] = n + i
+            b[q] = n + i + 1 if i < i1 else old_b
+            nxt[q] = q + 1 if i < i1 else old_nxt
+            src[q] = src[r]
+            circ[q] = circ[r]
+            for s in range(2):
+                acute[q, s] = False
+                done[q, s] = False
+                near[q, s] = 0
+            left[n + i] = r if i == i0 else q - 1
+            right[n + i] = q
+            born[n + i] = round_no
+        last = m + i1
+        acute[last, 1] = acute[r, 1]
+        done[last, 1] = done[r, 1]
+        near[last, 1] = near[r, 1]
+        acute[r, 1] = False
+        done[r, 1] = False
+        near[r, 1] = 0
+        if old_nxt < 0:
+            tail[src[r]] = last
+        if old_b >= n0:
+            left[old_b] = last
+        if protect_side[i0] == 0:
+            done[r, 0] = True
+        if protect_side[i1] == 1:
+            done[last, 1] = True
+        if near_side[i0] == 0:
+            near[r, 0] += 1
+        if near_side[i1] == 1:
+            near[last, 1] += 1
+        fresh[groups] = r
+        groups += 1
+        i0 = i1 + 1
+    fresh[groups : groups + k] = m + np.arange(k)
+    return fresh[: groups + k], near_vertex[order], order
+
+
 @dataclass
 class _State:
     P: np.ndarray
@@ -468,65 +554,29 @@ class _Pieces:
         by ``t``); the new points go into the triangulation, walked to from
         ``near_vertex``. ``protect_side``/``near_side`` as in the module's
         protection bookkeeping (-1: none)."""
-        key = np.einsum(
-            "ij,ij->i", xy - self.origin[self.src[rows]], self.direction[self.src[rows]]
-        )
-        order = np.lexsort((t, key, self.src[rows]))
-        rows, xy, near_vertex = rows[order], xy[order], near_vertex[order]
-        protect_side, near_side = protect_side[order], near_side[order]
-        ends_a, ends_b = self.xy[self.a[rows]], self.xy[self.b[rows]]
         k = len(rows)
         self._reserve(k, k)
         m, n = self.m, self.n
-        new_p = n + np.arange(k)
-        new_r = m + np.arange(k)
-        first = np.ones(k, dtype=bool)
-        first[1:] = rows[1:] != rows[:-1]
-        last = np.ones(k, dtype=bool)
-        last[:-1] = first[1:]
-        grp = rows[first]
-        grp_last = new_r[last]
-        old_b, old_nxt = self.b[grp].copy(), self.nxt[grp].copy()
-        # Pieces: row keeps [a, x1]; new piece i is [x_i, x_{i+1} or old b].
-        self.a[new_r] = new_p
-        self.b[new_r[:-1]] = new_p[1:]
-        self.b[grp_last] = old_b
-        self.b[grp] = new_p[first]
-        self.nxt[new_r[:-1]] = new_r[1:]
-        self.nxt[grp_last] = old_nxt
-        self.nxt[grp] = new_r[first]
-        self.src[new_r] = self.src[rows]
-        self.circ[new_r] = self.circ[rows]
-        for name in ("acute", "done", "near"):
-            arr = getattr(self, name)
-            arr[new_r] = 0
-            arr[grp_last, 1] = arr[grp, 1]
-            arr[grp, 1] = 0
-        ends = old_nxt < 0
-        self.tail[self.src[grp[ends]]] = grp_last[ends]
-        moved = old_b >= self.n0
-        self.left[old_b[moved]] = grp_last[moved]
-        prev = np.empty(k, dtype=np.int64)
-        prev[first] = grp
-        prev[~first] = new_r[:-1][~first[1:]]
-        self.left[new_p], self.right[new_p] = prev, new_r
-        self.done[grp[protect_side[first] == 0], 0] = True
-        self.done[grp_last[protect_side[last] == 1], 1] = True
-        self.near[grp[near_side[first] == 0], 0] += 1
-        self.near[grp_last[near_side[last] == 1], 1] += 1
-        self.xy[new_p] = xy
-        self.radius[new_p] = np.nan
-        self.born[new_p] = round_no
+        self.fresh, near_vertex, order = _split_pieces(
+            (rows, t, xy, protect_side, near_side, near_vertex),
+            round_no, m, n, self.n0, self.origin, self.direction,
+            (self.a, self.b, self.nxt, self.src, self.circ, self.acute, self.done, self.near,
+             self.tail),
+            (self.xy, self.radius, self.left, self.right, self.born),
+        )  # fmt: skip
         self.m, self.n = m + k, n + k
+        xy = self.xy[n : n + k]
         dup = self.dt.insert(xy, near_vertex)
         if dup is not None:
             i = dup[0] - n
+            rows = rows[order]
+            last = i + int(np.count_nonzero(rows[i:] == rows[i])) - 1  # the piece's last part
+            ends_a, ends_b = self.xy[self.a[rows[i]]], self.xy[self.b[m + last]]
             raise AlgorithmError(
-                f"cannot split the segment from {ends_a[i].tolist()} to {ends_b[i].tolist()}: "
+                f"cannot split the segment from {ends_a.tolist()} to {ends_b.tolist()}: "
                 f"the split "
                 f"point {xy[i].tolist()} is an existing point (do segments cross or touch?)"
             )
-        self.fresh = np.concatenate([grp, new_r])
 
     def edge_pieces_near(self, verts, radius):
         """(query, piece) pairs: pieces that are edges of the triangulation,

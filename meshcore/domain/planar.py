@@ -520,15 +520,18 @@ def _polygons(geometry: object) -> tuple[bool, list[list]]:
 # ---------------------------------------------------------------------------
 
 
-def _power_of_two_scale(*arrays: np.ndarray) -> float:
-    """2**-e with e the exponent of the largest magnitude: scaled |coordinates| < 1.
+def _power_of_two_scale(*arrays: np.ndarray, big: float = 0.0) -> float:
+    """2**-e with e the exponent of the largest magnitude (of the arrays' values
+    and ``big``): scaled |coordinates| < 1.
 
     Multiplying by it is exact (no coordinate comes near underflow within
     the accepted range unless it is absurdly small next to the largest),
     changes no predicate sign, and keeps the predicates' products far from
     overflow and underflow.
     """
-    big = max((max(-float(a.min()), float(a.max())) for a in arrays if a.size), default=0.0)
+    for a in arrays:
+        if a.size:
+            big = max(big, -float(a.min()), float(a.max()))
     if big == 0.0:
         return 1.0
     return float(np.ldexp(1.0, -int(np.frexp(big)[1])))
@@ -754,7 +757,10 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
     del rings
     nb = len(pts)
 
-    _check_ring_points(pts, offsets, lengths, names)
+    # One pass for the box: the scales below and the diameter.
+    lo_x, lo_y, hi_x, hi_y = _bounding_box(pts)
+    big = max(-lo_x, -lo_y, hi_x, hi_y)
+    low = _check_ring_points(pts, offsets, lengths, names, _power_of_two_scale(big=big))
 
     # -- constraints -----------------------------------------------------
     names.line_offsets = np.concatenate([[0], np.cumsum([len(x) - 1 for x in lines])]).astype(
@@ -762,7 +768,7 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
     )
 
     # Everything below runs on coordinates scaled by a power of two.
-    scale = _power_of_two_scale(pts, *lines)
+    scale = _power_of_two_scale(*lines, big=big)
 
     # Merge constraint vertices with equal ring vertices / each other.
     cpoints, cseg, csrc = _merge_constraints(pts, lines)
@@ -774,7 +780,9 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
         _raise_intersections(points, scale, cseg, rows, capped, names)
 
     # -- orientation (exact, at each ring's lexicographically lowest vertex)
-    ccw = _lexmin_turns(pts, scale, offsets) > 0
+    a = np.where(low > offsets[:-1], low - 1, offsets[1:] - 1)
+    c = np.where(low < offsets[1:] - 1, low + 1, offsets[:-1])
+    ccw = orient2d(pts[a] * scale, pts[low] * scale, pts[c] * scale) > 0
     ring_polygon = np.array([p for p, _ in ring_pos], dtype=np.int64)
     ring_is_hole = np.array([r > 0 for _, r in ring_pos], dtype=bool)
     reversed_ = ccw == ring_is_hole
@@ -801,7 +809,6 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
     # -- area and size ---------------------------------------------------
     # Undo the scaling exactly: area * 2**(2 e) for scale = 2**-e.
     area = math.ldexp(_area(pts, scale, offsets, reversed_), -2 * math.frexp(scale)[1] + 2)
-    lo_x, lo_y, hi_x, hi_y = _bounding_box(pts)
     diameter = math.hypot(hi_x - lo_x, hi_y - lo_y)
     if diameter < MIN_DIAMETER:
         raise InputError(
@@ -810,9 +817,13 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
             loc=("coordinates",),
             code="out_of_range",
         )
-    for arr in (points, segs, cseg, csrc):  # ours, or read-only already: no copy in Domain
-        if arr.flags.writeable and arr.base is None:
-            arr.setflags(write=False)
+    # Frozen here so that Domain does not copy them: the index arrays are ours
+    # (compiled ones too, whose base is numba's memory record, not None) ...
+    for arr in (segs, cseg, csrc):
+        arr.setflags(write=False)
+    # ... and so are the points unless they are a view of the caller's array.
+    if points.flags.writeable and points.base is None:
+        points.setflags(write=False)
     if points.flags.writeable:
         points = points.view()
         points.setflags(write=False)
@@ -835,11 +846,14 @@ def _distinct_small(arr: np.ndarray) -> int:
     return len({(float(x), float(y)) for x, y in arr})
 
 
-def _check_ring_points(pts, offsets, lengths, names: _Names) -> None:
-    """Distinct points, consecutive duplicates, collinear rings, spikes."""
+def _check_ring_points(pts, offsets, lengths, names: _Names, scale: float) -> np.ndarray:
+    """Distinct points, consecutive duplicates, collinear rings, spikes (turns
+    on ``pts * scale``, ``scale`` from :func:`_power_of_two_scale`); returns
+    each ring's lexicographically smallest vertex (its turn is the ring's
+    orientation)."""
     n_rings = len(lengths)
     starts = offsets[:-1]
-    ccount, turning, dup, spike = _ring_scan(pts, _power_of_two_scale(pts), offsets)
+    ccount, turning, dup, spike, low = _ring_scan(pts, scale, offsets)
     distinct = np.maximum(ccount, 1)
     # Every consecutive triple collinear (and no repeats): the whole ring is on a line.
     flat = turning == 0
@@ -891,6 +905,7 @@ def _check_ring_points(pts, offsets, lengths, names: _Names) -> None:
             loc=names.vertex_loc(k, v),
             code="self_intersection",
         )
+    return low
 
 
 @njit(cache=True)
@@ -909,14 +924,20 @@ def _ring_scan(pts, scale, offsets):
         The first vertex of zero turn where the ring doubles back over its
         previous segment (the coordinate differences along an axis the
         previous segment moves in change sign: exact), or -1.
+    low : (R,) int64
+        Per ring, its first lexicographically smallest (x, y) vertex.
     """
     kept = np.zeros(len(offsets) - 1, dtype=np.int64)
     turning = np.zeros(len(offsets) - 1, dtype=np.int64)
+    low = offsets[:-1].copy()
     dup = -1
     spike = -1
     for k in range(len(offsets) - 1):
         lo, hi = offsets[k], offsets[k + 1]
         for i in range(lo, hi):
+            m = low[k]
+            if pts[i, 0] < pts[m, 0] or (pts[i, 0] == pts[m, 0] and pts[i, 1] < pts[m, 1]):
+                low[k] = i
             a = i - 1 if i > lo else hi - 1
             c = i + 1 if i < hi - 1 else lo
             t = orient2d_scalar(
@@ -939,30 +960,7 @@ def _ring_scan(pts, scale, offsets):
                 u, v, w = pts[a, ax], pts[i, ax], pts[c, ax]
                 if (v > u) - (v < u) != (w > v) - (w < v):
                     spike = i
-    return kept, turning, dup, spike
-
-
-@njit(cache=True)
-def _lexmin_turns(pts, scale, offsets):
-    """Per ring, the turn (exact sign) at its lexicographically smallest (x, y) vertex."""
-    out = np.empty(len(offsets) - 1, dtype=np.int64)
-    for k in range(len(offsets) - 1):
-        lo, hi = offsets[k], offsets[k + 1]
-        low = lo
-        for i in range(lo + 1, hi):
-            if pts[i, 0] < pts[low, 0] or (pts[i, 0] == pts[low, 0] and pts[i, 1] < pts[low, 1]):
-                low = i
-        a = low - 1 if low > lo else hi - 1
-        c = low + 1 if low < hi - 1 else lo
-        out[k] = orient2d_scalar(
-            pts[a, 0] * scale,
-            pts[a, 1] * scale,
-            pts[low, 0] * scale,
-            pts[low, 1] * scale,
-            pts[c, 0] * scale,
-            pts[c, 1] * scale,
-        )
-    return out
+    return kept, turning, dup, spike, low
 
 
 @njit(cache=True)
@@ -996,17 +994,24 @@ def _bounding_box(pts):
 
 
 @njit(cache=True)
-def _exact_shift(pts, scale, axis):
-    """The first scaled coordinate along ``axis`` if subtracting it from every other
-    one is exact (two-sum error 0), else 0.0 (no shift)."""
-    ref = pts[0, axis] * scale
+def _exact_shift(pts, scale):
+    """Per axis, the first scaled coordinate if subtracting it from every other
+    one is exact (two-sum error 0), else 0.0 (no shift); one pass."""
+    rx = pts[0, 0] * scale
+    ry = pts[0, 1] * scale
+    fx = fy = True
     for i in range(len(pts)):
-        v = pts[i, axis] * scale
-        s = v - ref
+        v = pts[i, 0] * scale
+        s = v - rx
         bv = s - v
-        if (v - (s - bv)) + (-ref - bv) != 0.0:
-            return 0.0
-    return ref
+        fx = fx and (v - (s - bv)) + (-rx - bv) == 0.0
+        v = pts[i, 1] * scale
+        s = v - ry
+        bv = s - v
+        fy = fy and (v - (s - bv)) + (-ry - bv) == 0.0
+        if not (fx or fy):
+            break
+    return rx if fx else 0.0, ry if fy else 0.0
 
 
 @njit(cache=True)
@@ -1057,19 +1062,56 @@ def _fsum_round(partials, n):
     return hi
 
 
+#: Terms deposited in the integer bins of :func:`_shoelace` between carries
+#: (53-bit significands: 512 of them cannot overflow an int64 bin).
+_BLOCK = 512
+
+
+@njit(cache=True)
+def _deposit(bins, bits, count):
+    """Add the float64 values whose bit patterns are ``bits[:count]`` exactly to
+    ``bins`` (bin ``e`` counts units of ``2**(e - 1075)``), then carry the
+    bits above 32 of the bins they touched into the bin 32 places up."""
+    lo = bins.shape[0]
+    hi = 0
+    for k in range(count):
+        b = bits[k]
+        e = (b >> 52) & 0x7FF
+        m = b & 0xFFFFFFFFFFFFF
+        if e == 0:
+            e = 1  # subnormal: same unit as the smallest normal exponent
+        else:
+            m |= 1 << 52
+        bins[e] += -m if b < 0 else m
+        lo = min(lo, e)
+        hi = max(hi, e)
+    # Upward, so that carries are carried on once more (the bins above hi + 32
+    # get at most 2**31 a call: no overflow in any number of calls).
+    for e in range(lo, min(hi + 33, bins.shape[0] - 32)):
+        c = bins[e] >> 32
+        if c != 0:
+            bins[e] -= c << 32
+            bins[e + 32] += c
+
+
 @njit(cache=True)
 def _shoelace(pts, scale, offsets, reversed_, sx, sy):
     """Twice the signed area of the rings (terms negated in reversed rings), on the
     coordinates times ``scale`` minus (``sx``, ``sy``).
 
     Each product is split exactly (Dekker); the rounded leading parts
-    ``x_i y_{i+1} - x_{i+1} y_i`` are summed exactly and rounded once
-    (:func:`_fsum_add`, as :func:`math.fsum`), together with the sum of
-    their exact remainders (two-sum errors and product tails), accumulated
-    in order. One compiled pass.
+    ``x_i y_{i+1} - x_{i+1} y_i`` are summed exactly in integer bins, one
+    per binary exponent (:func:`_deposit`), together with the sum of their
+    exact remainders (two-sum errors and product tails), accumulated in
+    order; the bins and that sum are then added exactly and rounded once
+    (:func:`_fsum_add`, :func:`_fsum_round`: :func:`math.fsum`'s algorithm,
+    whose rounding is correct, so the result is that of ``math.fsum`` of
+    the same terms). One compiled pass.
     """
-    partials = np.empty(256)
-    n = 0
+    buf = np.empty(_BLOCK)
+    bits = buf.view(np.int64)
+    bins = np.zeros(2048 + 64, np.int64)
+    count = 0
     small = 0.0
     for k in range(len(offsets) - 1):
         lo, hi = offsets[k], offsets[k + 1]
@@ -1099,8 +1141,20 @@ def _shoelace(pts, scale, offsets, reversed_, sx, sy):
             s = h1 - h2
             bv = s - h1
             e = (h1 - (s - bv)) + (-h2 - bv)
-            n = _fsum_add(partials, n, s * sign)
+            buf[count] = s * sign
+            count += 1
+            if count == _BLOCK:
+                _deposit(bins, bits, count)
+                count = 0
             small += (e + l1 - l2) * sign
+    _deposit(bins, bits, count)
+    partials = np.empty(256)
+    n = 0
+    for e in range(bins.shape[0]):
+        if bins[e] != 0:  # two exact halves (a bin may exceed 53 bits only at the top)
+            top = (bins[e] >> 26) << 26
+            n = _fsum_add(partials, n, math.ldexp(float(top), e - 1075))
+            n = _fsum_add(partials, n, math.ldexp(float(bins[e] - top), e - 1075))
     n = _fsum_add(partials, n, small)
     return _fsum_round(partials, n)
 
@@ -1117,8 +1171,7 @@ def _area(pts: np.ndarray, scale: float, offsets: np.ndarray, reversed_: np.ndar
     of the area unless the terms cancel by some 1e16. All in compiled
     passes (:func:`_shoelace`).
     """
-    sx = _exact_shift(pts, scale, 0)
-    sy = _exact_shift(pts, scale, 1)
+    sx, sy = _exact_shift(pts, scale)
     return 0.5 * _shoelace(pts, scale, offsets, reversed_, sx, sy)
 
 

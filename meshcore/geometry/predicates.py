@@ -478,6 +478,9 @@ def _prepare(args: tuple, dim: int, names: str) -> tuple[tuple[np.ndarray, ...],
         if not np.isfinite(arr).all():
             raise InputError(f"{name} has a non-finite coordinate", loc=(name,), code="non_finite")
         arrays.append(arr)
+    shape = arrays[0].shape
+    if len(shape) == 2 and all(a.shape == shape for a in arrays):  # nothing to broadcast
+        return tuple(_flat_view(a) for a in arrays), shape[:1]
     try:
         shape = np.broadcast_shapes(*(a.shape for a in arrays))
     except ValueError as exc:
@@ -489,6 +492,17 @@ def _prepare(args: tuple, dim: int, names: str) -> tuple[tuple[np.ndarray, ...],
     lead = shape[:-1]
     flat = tuple(np.ascontiguousarray(np.broadcast_to(a, shape).reshape(-1, dim)) for a in arrays)
     return flat, lead
+
+
+def _flat_view(a: np.ndarray) -> np.ndarray:
+    """What ``np.ascontiguousarray(np.broadcast_to(a, a.shape))`` gives (a
+    read-only view, or a copy when ``a`` is not contiguous), without the
+    broadcast: the compiled exact stages see the same array types."""
+    if not a.flags.c_contiguous:
+        return np.ascontiguousarray(a)
+    view = a.view()
+    view.flags.writeable = False
+    return view
 
 
 def _sign_int8(det: np.ndarray) -> np.ndarray:

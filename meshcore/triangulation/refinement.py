@@ -1055,8 +1055,12 @@ def _output_segments(V, S, ppar, seg_in, nbs):
     sid = S[k].astype(np.int64)
     lo = np.minimum(a, b)
     hi = np.maximum(a, b)
-    key = np.unique(np.column_stack([sid, lo, hi]), axis=0)
-    sid, a, b = key[:, 0], key[:, 1], key[:, 2]
+    # Each edge once (it is seen from both sides), sorted by (sid, lo, hi).
+    order = np.lexsort((hi, lo, sid))
+    sid, lo, hi = sid[order], lo[order], hi[order]
+    first = np.ones(len(sid), dtype=bool)
+    first[1:] = (sid[1:] != sid[:-1]) | (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])
+    sid, a, b = sid[first], lo[first], hi[first]
 
     def param(p, s):
         return np.where(p == seg_in[s, 0], 0.0, np.where(p == seg_in[s, 1], 1.0, ppar[p]))
