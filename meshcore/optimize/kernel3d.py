@@ -27,6 +27,20 @@ tet, §8.3.4) by the best fan Op(Q, δ𝒮), Q a vertex of δ𝒮 or a new point
 checked by :func:`_fan_valid` (the §8.3.3 condition on faces: each new
 inner face in exactly two new tets and in no tet outside 𝒮, the new
 boundary exactly δ𝒮). It needs free rows (``freeT``) as :mod:`.kernel2d`.
+
+Choices the text leaves open, in the larger sets:
+
+* **Star cavities.** With insertion, the last sets tried around a
+  non-positive tet are built for a chosen new point G (:func:`_star_point`:
+  off each face of the tet to its positive side, or in a positive
+  neighbour): from the tet, every tet across a face of δ𝒮 that G does not
+  see positively joins 𝒮 (:func:`_star_cavity`), so Op(G, δ𝒮) is positive
+  by construction; it fails where such a face is on the boundary.
+* **Pinched vertices.** Definition 8.1 asks nothing of vertices, so a
+  tangled topology may hold a vertex whose ball has a closed part (a pocket
+  around a surface vertex). A vertex of 𝒮 off δ𝒮 whose ball has tets
+  outside 𝒮 stays with them; only one whose whole ball is 𝒮 vanishes (and
+  only a free one may).
 """
 
 from __future__ import annotations
@@ -789,7 +803,9 @@ def _star_point(P, T, head, nxt, t, c, g):
     h = 0.0
     for e in range(6):
         a, b = T[t, _EDGES[e, 0]], T[t, _EDGES[e, 1]]
-        h += math.sqrt((P[a, 0] - P[b, 0]) ** 2 + (P[a, 1] - P[b, 1]) ** 2 + (P[a, 2] - P[b, 2]) ** 2)
+        h += math.sqrt(
+            (P[a, 0] - P[b, 0]) ** 2 + (P[a, 1] - P[b, 1]) ** 2 + (P[a, 2] - P[b, 2]) ** 2
+        )
     f = _FACE[c % 4]
     a, b, d = T[t, f[0]], T[t, f[1]], T[t, f[2]]
     ux, uy, uz = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1], P[b, 2] - P[a, 2]
