@@ -12,7 +12,8 @@ surface's vertices joined to every triangle not holding it. Then passes
 the balls of all vertices, on edge shells, and (while a tet is not
 positive) on larger sets around it: the tet and a face neighbour, the
 union of the balls of an edge's ends, of its four vertices, face-connected
-sets of 8 to 64 tets. Choices the text leaves open:
+sets of 8 to 64 tets, and with insertion star cavities of a new point G
+(:mod:`.kernel3d`). Choices the text leaves open:
 
 * Flat tets (four coplanar surface points, common on planar faces) add
   nothing to Sur, so (8.1) cannot see them: among configurations of equal

@@ -27,6 +27,20 @@ tet, §8.3.4) by the best fan Op(Q, δ𝒮), Q a vertex of δ𝒮 or a new point
 checked by :func:`_fan_valid` (the §8.3.3 condition on faces: each new
 inner face in exactly two new tets and in no tet outside 𝒮, the new
 boundary exactly δ𝒮). It needs free rows (``freeT``) as :mod:`.kernel2d`.
+
+Choices the text leaves open, in the larger sets:
+
+* **Star cavities.** With insertion, the last sets tried around a
+  non-positive tet are built for a chosen new point G (:func:`_star_point`:
+  off each face of the tet to its positive side, or in a positive
+  neighbour): from the tet, every tet across a face of δ𝒮 that G does not
+  see positively joins 𝒮 (:func:`_star_cavity`), so Op(G, δ𝒮) is positive
+  by construction; it fails where such a face is on the boundary.
+* **Pinched vertices.** Definition 8.1 asks nothing of vertices, so a
+  tangled topology may hold a vertex whose ball has a closed part (a pocket
+  around a surface vertex). A vertex of 𝒮 off δ𝒮 whose ball has tets
+  outside 𝒮 stays with them; only one whose whole ball is 𝒮 vanishes (and
+  only a free one may).
 """
 
 from __future__ import annotations
@@ -625,8 +639,11 @@ def _try_fans(
     """Replace 𝒮 = st[:k] by its best Op(q, δ𝒮) when it beats 𝒮; 1, 0, or 2 (out of room).
 
     q runs over the vertices of δ𝒮 and, with ``insert`` while no fan is
-    positive, a new point G seeing every face of δ𝒮 (the kernel point found by
-    relaxation from the centroid of δ𝒮's vertices).
+    positive, a new point G in row ``cnt[N_PTS]``: ``insert`` 1, the kernel
+    point found by relaxation from the centroid of δ𝒮's vertices; 2, the
+    point already written there (𝒮 a star cavity of it, :func:`_star_cavity`,
+    whose free inner vertices may vanish: only inserted points are free in
+    generation).
     """
     n = cnt[N_PTS]
     stamp = cnt[STAMP]
@@ -643,7 +660,8 @@ def _try_fans(
         return 1
     if nb < 4:
         return 0
-    # vertices of 𝒮 off δ𝒮 vanish with a fan: only free ones whose whole ball is 𝒮
+    # a vertex of 𝒮 off δ𝒮 whose whole ball is 𝒮 vanishes with a fan: only a free one may;
+    # one with tets outside 𝒮 (a pinched vertex: a closed part of its ball is in 𝒮) stays
     cnt[STAMP] += 1
     vst = cnt[STAMP]
     for i in range(nb):
@@ -653,13 +671,15 @@ def _try_fans(
         for j in range(4):
             w = T[st[i], j]
             if vmark[w] != vst:
-                if not allow_remove or fixed[w]:
-                    return 0
+                whole = True
                 s = head[w]
                 while s >= 0:
                     if tmark[s // 4] != stamp:
-                        return 0
+                        whole = False
+                        break
                     s = nxt[s]
+                if whole and (not (allow_remove or insert == 2) or fixed[w]):
+                    return 0
     cur_n = 0
     cur_s = 0.0
     cur_q = 2.0
@@ -691,7 +711,7 @@ def _try_fans(
         g = cnt[N_PTS]
         if g >= P.shape[0]:
             return 2
-        if _kernel_point(P, bf, nb, g):
+        if insert == 2 or _kernel_point(P, bf, nb, g):
             nn, s_, qmin = _fan_measure(P, bf, nb, g, measure)
             if _better_n(nn, s_, qmin, bn, bs, bq, tie, gain) and _fan_valid(
                 T, head, nxt, bf, nb, g, n + 1, tmark, stamp
@@ -744,6 +764,96 @@ def _grow_tets(T, head, nxt, st, k, tmark, stamp, size):
 
 
 @njit(cache=True)
+def _across(T, head, nxt, u, j):
+    """The tet across face j of tet u, or -1 (a boundary face)."""
+    f = _FACE[j]
+    a, b, c = T[u, f[0]], T[u, f[1]], T[u, f[2]]
+    s = head[a]
+    while s >= 0:
+        x = s // 4
+        if x != u and _holds(T, x, b) and _holds(T, x, c):
+            return x
+        s = nxt[s]
+    return -1
+
+
+#: Candidate points G of the star cavities around a non-positive tet (:func:`_star_point`).
+STARS = 13
+
+
+@njit(cache=True)
+def _star_point(P, T, head, nxt, t, c, g):
+    """Write in row g the c-th candidate G around tet t; False when there is none.
+
+    c < 8: the centroid of face c % 4 moved off it to the side from which the
+    face is positive, by 0.05 (c < 4) or 0.3 (c >= 4) of the tet's mean edge
+    length (a flat tet has one side up, one down: G above or below it);
+    c < 12: the centroid of the positive tet across face c - 8; 12: the
+    centroid of t.
+    """
+    if 8 <= c < 12:
+        u = _across(T, head, nxt, t, c - 8)
+        if u < 0 or not _positive(P, T[u, 0], T[u, 1], T[u, 2], T[u, 3]):
+            return False
+        t = u
+    if c >= 8:
+        for x in range(3):
+            P[g, x] = 0.25 * (P[T[t, 0], x] + P[T[t, 1], x] + P[T[t, 2], x] + P[T[t, 3], x])
+        return True
+    h = 0.0
+    for e in range(6):
+        a, b = T[t, _EDGES[e, 0]], T[t, _EDGES[e, 1]]
+        h += math.sqrt(
+            (P[a, 0] - P[b, 0]) ** 2 + (P[a, 1] - P[b, 1]) ** 2 + (P[a, 2] - P[b, 2]) ** 2
+        )
+    f = _FACE[c % 4]
+    a, b, d = T[t, f[0]], T[t, f[1]], T[t, f[2]]
+    ux, uy, uz = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1], P[b, 2] - P[a, 2]
+    vx, vy, vz = P[d, 0] - P[a, 0], P[d, 1] - P[a, 1], P[d, 2] - P[a, 2]
+    # (G, a, b, d) is positive for G on the side of -(u x v)
+    n0, n1, n2 = uz * vy - uy * vz, ux * vz - uz * vx, uy * vx - ux * vy
+    nn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    if nn == 0.0:
+        return False
+    step = (0.05 if c < 4 else 0.3) * h / 6.0 / nn
+    P[g, 0] = (P[a, 0] + P[b, 0] + P[d, 0]) / 3.0 + step * n0
+    P[g, 1] = (P[a, 1] + P[b, 1] + P[d, 1]) / 3.0 + step * n1
+    P[g, 2] = (P[a, 2] + P[b, 2] + P[d, 2]) / 3.0 + step * n2
+    return True
+
+
+@njit(cache=True)
+def _star_cavity(P, T, head, nxt, t, g, st, tmark, stamp):
+    """The star cavity of point g around tet t in st; its size, or -1.
+
+    From 𝒮 = {t}, every tet across a face of δ𝒮 that g does not see
+    positively (exact orient3d) joins 𝒮, breadth first, so that on return
+    every tet of Op(g, δ𝒮) is positive. -1 when such a face is a boundary
+    face (g is not inside there) or 𝒮 would exceed ``SMAX`` tets.
+    """
+    st[0] = t
+    tmark[t] = stamp
+    k = 1
+    i = 0
+    while i < k:
+        u = st[i]
+        for j in range(4):
+            w = _across(T, head, nxt, u, j)
+            if w >= 0 and tmark[w] == stamp:
+                continue
+            f = _FACE[j]
+            if _positive(P, g, T[u, f[0]], T[u, f[1]], T[u, f[2]]):
+                continue
+            if w < 0 or k >= SMAX:
+                return -1
+            tmark[w] = stamp
+            st[k] = w
+            k += 1
+        i += 1
+    return k
+
+
+@njit(cache=True)
 def _subtopology(T, head, nxt, kind, i, j, st, tmark, stamp):
     """The j-th sub-topology of item i in st; its size, or -1 (none, or past SMAX).
 
@@ -760,17 +870,12 @@ def _subtopology(T, head, nxt, kind, i, j, st, tmark, stamp):
     tmark[i] = stamp
     k = 1
     if j < 4:
-        f = _FACE[j]
-        x, y, z = T[i, f[0]], T[i, f[1]], T[i, f[2]]
-        s = head[x]
-        while s >= 0:
-            u = s // 4
-            if u != i and _holds(T, u, y) and _holds(T, u, z):
-                tmark[u] = stamp
-                st[1] = u
-                return 2
-            s = nxt[s]
-        return -1
+        u = _across(T, head, nxt, i, j)
+        if u < 0:
+            return -1
+        tmark[u] = stamp
+        st[1] = u
+        return 2
     if j < 10:
         k = _gather(head, nxt, T[i, _EDGES[j - 4, 0]], -1, T, st, tmark, stamp, k)
         if k >= 0:
@@ -819,7 +924,8 @@ def fan_sweep(
     bf = np.empty((4 * SMAX, 3), np.int64)
     changed = 0
     items = cnt[N_PTS] if kind == BALL else cnt[N_ROWS]
-    per_item = 1 if kind == BALL else (6 if kind == SHELL else 11 + len(GROW))
+    per_item = 1 if kind == BALL else (6 if kind == SHELL else 11 + len(GROW) + STARS)
+    mode = 1 if insert else 0
     for i in range(items):
         a, b, c = -1, -1, -1
         if kind == BALL:
@@ -841,12 +947,25 @@ def fan_sweep(
             if kind == UNION and (T[i, 0] != a or T[i, 1] != b or T[i, 2] != c):
                 break
             cnt[STAMP] += 1
-            k = _subtopology(T, head, nxt, kind, i, j, st, tmark, cnt[STAMP])
+            m = mode
+            if kind == UNION and j >= 11 + len(GROW):
+                # star cavities of a new point G: tet i's centroid, or a positive neighbour's
+                if not insert:
+                    break
+                g = cnt[N_PTS]
+                if g >= P.shape[0]:
+                    return changed, 2
+                if not _star_point(P, T, head, nxt, i, j - 11 - len(GROW), g):
+                    continue
+                k = _star_cavity(P, T, head, nxt, i, g, st, tmark, cnt[STAMP])
+                m = 2
+            else:
+                k = _subtopology(T, head, nxt, kind, i, j, st, tmark, cnt[STAMP])
             if k < 0:
                 continue
             r = _try_fans(
                 P, T, alive, head, nxt, prv, freeT, cnt, fixed, st, k, tmark, vmark, bf,
-                allow_remove, insert, measure, tie_rel, gain, dirty, counters,
+                allow_remove, m, measure, tie_rel, gain, dirty, counters,
             )  # fmt: skip
             if r == 2:
                 if kind == BALL:

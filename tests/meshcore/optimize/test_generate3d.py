@@ -94,7 +94,7 @@ def ring(sections: int, sides: int, R: float = 1.0, r: float = 0.4):
 
 SHAPES = {
     "cube": lambda: grid_cube(3),
-    "ring": lambda: ring(16, 5),
+    "ring": lambda: ring(24, 8),
     "sphere": lambda: icosphere(2),
 }
 
