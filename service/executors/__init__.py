@@ -34,7 +34,7 @@ class Task:
     params: bytes
     time_limit: float
     formats: tuple[str, ...] = ()  # downloads the job writes itself (MESHSERVICE_JOB_FORMATS)
-    arrays: bytes = b""  # the params' arrays and validated domains (domain_schema.pack)
+    arrays: bytes = b""  # the params' arrays and validated domains (domain_schema.pack_arrays)
 
 
 class Executor(Protocol):

@@ -259,6 +259,14 @@ def death_problem(exitcode: int | None) -> dict:
     )
 
 
+def _reap(proc: multiprocessing.process.BaseProcess) -> None:
+    """Wait for a job's process to end, killing it after 5 s."""
+    proc.join(5)
+    if proc.is_alive():
+        proc.kill()
+        proc.join(5)
+
+
 def run_in_child(
     ctx: multiprocessing.context.BaseContext,
     task: Task,
@@ -283,6 +291,7 @@ def run_in_child(
     """
     child = (spares.take() if spares is not None else None) or _fork(ctx)
     proc, receiver = child.proc, child.answers
+    answered = False
     try:
         child.tasks.send((task, memory_limit))
     except OSError:
@@ -302,17 +311,20 @@ def run_in_child(
             if kind == "progress":
                 progress(*payload)
             elif kind == "ok":
+                answered = True
                 return payload[0]
             else:
+                answered = True
                 raise JobFailed(payload[0])
         proc.join(5)
         log.warning("job %s: process died with exit code %s", task.job_id, proc.exitcode)
         raise JobFailed(death_problem(proc.exitcode))
     finally:
-        if proc.is_alive():
-            proc.kill()
-        proc.join(5)
         receiver.close()
+        if answered:  # it exits by itself: its teardown (about 10 ms) is not the job's time
+            threading.Thread(target=_reap, args=(proc,), name="reap", daemon=True).start()
+        else:
+            _reap(proc)
 
 
 def _frames(proc: subprocess.Popen, poll: float, should_stop: Callable[[], bool], job_id: str):
