@@ -181,6 +181,20 @@ class TestRefinement:
         assert (dih < 15).sum() == below["fold"] == 0
         assert left["worst"][0]["min_dihedral"] == pytest.approx(dih.min(), abs=1e-4)
 
+    def test_thin_slab_radius_edge(self):
+        """Aspect 100: its two large faces are thin facets, refined first to twice
+        their feature size (the thickness, 0.01).
+
+        Before, the radius-edge refinement cascaded on the side strips (over 50k
+        points, did not finish in 300 s).
+        """
+        s = parse_surface(*SHAPES["thin_slab"]())
+        r = tetrahedralize(s, max_radius_edge=2.0)
+        assert_valid(r, s)
+        assert r.given_up == 0
+        assert r.left["radius_edge_above"] == {"fold": 0, "surface": 0, "interior": 0}
+        assert r.surface_points_added + r.interior_points_added < 10_000
+
     def test_size_and_volume(self):
         s = parse_surface(*shapes.box())
         r = tetrahedralize(s, size=0.25, max_radius_edge=None)
