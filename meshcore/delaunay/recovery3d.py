@@ -83,6 +83,14 @@ class Knobs:
     #: Circumradius bound of the size criterion, in units of ``size`` (a
     #: regular tetrahedron of edge h has circumradius 0.61 h).
     size_radius: float = 0.7
+    #: With a radius-edge bound, each facet is first refined to this multiple of
+    #: its feature size (``tetrahedralize``): subsegments longer, subfaces of a
+    #: circumradius above ``size_radius`` times it, are split before the tetrahedra.
+    feature_size: float = 2.0
+    #: ... only the facets whose feature size is below this fraction of their
+    #: shortest edge (thin parts: on a torus the tube's width is comparable to
+    #: its edges, and refining to it only added points).
+    thin: float = 0.25
     #: A vertex encroaches a subface when its distance to the circumcentre is
     #: below this fraction of the circumradius (float: keeps co-circular
     #: facet points, at the radius up to rounding, from counting).
@@ -292,6 +300,8 @@ class SurfaceRecovery:
         np.minimum.at(short, self.edge_groups[seg_edges, 1], lengths[seg_edges])
         self.facet_short = short
         self.size_cap = math.inf
+        #: Per facet: the size its pieces are refined to (``feature_sizes``), inf if none.
+        self.facet_size = np.full(n_groups, np.inf)
         # Subfaces, outward, and their facet: with no point added, the input
         # triangles (what retriangulate gives a facet without added points).
         self.sub = facets.copy()
@@ -557,12 +567,18 @@ class SurfaceRecovery:
         s = self.seg[rows]
         L = np.linalg.norm(self.P[s[:, 0]] - self.P[s[:, 1]], axis=1)
         ref = np.minimum(self.edge_length[self.seg_edge[rows]], self.size_cap)
+        ref = np.minimum(ref, self.segment_size(rows))
         return L < self.knobs.protect * ref
 
     def protected_subfaces(self, rows: np.ndarray) -> np.ndarray:
         _, R = tri_circumcenters(self.P, self.sub[rows])
-        ref = np.minimum(self.facet_short[self.sub_facet[rows]], self.size_cap)
+        g = self.sub_facet[rows]
+        ref = np.minimum(np.minimum(self.facet_short[g], self.facet_size[g]), self.size_cap)
         return R < self.knobs.protect * ref
+
+    def segment_size(self, rows: np.ndarray) -> np.ndarray:
+        """The size of subsegments ``rows``: the smaller ``facet_size`` of their two facets."""
+        return self.facet_size[self.edge_groups[self.seg_edge[rows]]].min(axis=1)
 
     def in_facet(self, X: np.ndarray, f: np.ndarray) -> np.ndarray:
         """Whether points (in their facet's plane) lie inside facet ``f`` (float)."""
