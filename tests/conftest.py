@@ -13,8 +13,8 @@ kernel is compiled twice at once (four workers compiling the same kernels made
 a cold run's compile work about four times larger). ``--dist load`` with small
 chunks (``pyproject.toml``) hands the tests out in the order set here.
 
-A single-process run (``-n 0``) fills nothing ahead: each test compiles what it
-reaches, once, as it goes.
+A single-process run (``-n 0``), or a run of chosen files or tests, fills
+nothing ahead: each test compiles what it reaches as it goes.
 
 With ``CI`` set (``.ci/run`` sets it), hypothesis draws the same examples on
 every run (``derandomize``): CI answers for the change, not for the draw; the
@@ -50,12 +50,17 @@ if os.environ.get("CI"):
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    """Under pytest-xdist, start filling numba's cache (:mod:`tests.warmup`) in the
-    controller; a thread touches the file named by :data:`READY_ENV` when it is done."""
+    """Under pytest-xdist, for the whole suite, start filling numba's cache
+    (:mod:`tests.warmup`) in the controller; a thread touches the file named by
+    :data:`READY_ENV` when it is done."""
     config.addinivalue_line(
         "markers", "kernels: runs numba kernels, so waits for numba's cache to be filled"
     )
-    if hasattr(config, "workerinput") or not config.getoption("numprocesses", None):
+    if (
+        hasattr(config, "workerinput")
+        or not config.getoption("numprocesses", None)
+        or config.args_source != pytest.Config.ArgsSource.TESTPATHS  # chosen files or tests
+    ):
         return
     ready = Path(tempfile.mkdtemp(prefix="meshservice-tests-")) / "kernels-ready"
     os.environ[READY_ENV] = str(ready)  # the workers, started after this, inherit it
