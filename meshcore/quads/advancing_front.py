@@ -16,30 +16,49 @@ Algorithm
    ``2 h``); a row end gets none: its two neighbours share one new node
    (the parallelogram on them), closing the row there with one quad; a
    corner gets three (``h`` along the normals of its two edges and their
-   parallelogram), so three quads turn around it; a reversal is treated as
-   a corner (the paving literature gives it five new nodes; not done). Row
-   ends closer than three nodes apart are demoted to sides. A front node
-   count changes by ``-2`` per row end and ``+2`` per corner: every front
-   stays even.
-3. **Seams.** Where two consecutive new nodes of a row fall closer than
-   ``0.4 h`` (the front folding sharply), they are merged into their
-   midpoint. Seams are made in pairs on a front, so that it stays even, and
-   kept only when every quad of the row stays strictly convex. (The seam of
-   the paving literature closes a front node of angle below about 60
-   degrees by merging its two neighbours; ours acts on the new row instead,
-   before it is committed, so that committed quads never move.)
+   parallelogram), so three quads turn around it; a reversal gets five
+   (the two normals, the normal half-way between them, and the two
+   parallelograms), so four quads turn around it. Row ends closer than
+   three nodes apart are demoted to sides. *Wedges*: where the new front
+   would stretch (a new edge longer than ``1.15 h``, as on a front growing
+   out of a hole), one side node per ``2 h`` of excess length gets the
+   corner's three nodes spread along the front (a kite, ``h / 2`` either
+   side and ``1.3 h`` ahead). A front node count changes by ``-2`` per row
+   end and ``+2`` per corner, reversal or wedge: every front stays even.
+3. **Seams, merges and splits** (the fronts are chains of directed edges;
+   the front left after a row is the old fronts minus the boundaries of
+   the new quads, opposite edges cancelling, traced into cycles). A new
+   node within ``0.6 h`` of a node ``t`` is snapped to it when ``t`` is a
+   node of another front (the two fronts *merge*), a node of its own front
+   outside its own quads (a thin gap is closed and the front *splits*; the
+   row's own quads at ``t`` are dropped), or another new node of the row
+   (both to their midpoint: the front splits, or, two nodes apart, it is
+   the *seam* of a fold of the front below about 60 degrees). Snaps are
+   kept only in runs (a neighbour along the new front snapped to the
+   matching neighbour of ``t``), so the joined fronts share an edge that
+   cancels and no front ever touches itself at a single node; a fold seam
+   cancels the two edges of the fold. New nodes closer than ``0.4 h`` to
+   the next one are seamed in pairs (the front stays even), each seam
+   kept only when the quads stay strictly convex. A *front of two
+   segments* is one edge and its reverse: it cancels, which closes it.
 4. **Checks before commit** (exact :func:`orient2d`): every quad of the row
-   strictly convex; no segment of the new front or of the new quads'
-   spokes touches a segment of any front (its own included) except at a
-   shared node; no node of another front inside a new quad. A row that
-   fails is not committed and its front is *frozen*. A front is frozen
-   too when it has 8 nodes or fewer, or after ``max_rows`` rows.
-5. **Closure.** The region left inside the frozen fronts (one per polygon
-   of the domain, holes included) is closed by the recursive partition in
-   its quad mode (:func:`meshcore.partition.partition_polygon`, which keeps
-   the front nodes): fronts of 4 and 6 nodes are the standard patterns
-   (one quad; two quads or three around a centre), larger ones are cut
-   by separators into even parts first.
+   strictly convex and of quality (8.4) at least 0.1; no new edge touches a
+   front edge or another new edge except at a shared node; no front node
+   or new node inside a new quad; every new node at least ``0.5 h`` from
+   the nodes not of its quads and ``2 h`` from those of other fronts
+   (unless its quad joins that front): rows stop short of each other so
+   that the region left between them stays closable; the fronts left are
+   simple even cycles of at least 4 nodes. A row that fails any check is
+   not committed and its front is *frozen* (it is unfrozen when a merge
+   makes it part of a new front). A front is frozen too when it has 8
+   nodes or fewer, or after ``max_rows`` rounds.
+5. **Closure.** Each counter-clockwise front left is an outer ring, each
+   clockwise one a hole of the smallest outer ring around it; the
+   polygons are closed by the recursive partition in its quad mode
+   (:func:`meshcore.partition.partition_polygon`, which keeps the front
+   nodes): fronts of 4 and 6 segments are its standard patterns (one quad;
+   two quads or three around a centre), larger ones are cut by separators
+   into even parts first.
 6. **Smoothing** (``smooth``):
    :func:`~meshcore.partition.smoothing.smooth_quads`, one compiled
    Gauss-Seidel loop: the length-weighted Laplacian of Blacker and
@@ -65,25 +84,42 @@ Algorithm
 
 Why it always ends with only quads
 ----------------------------------
-Rows add only quads, each checked strictly convex before it is committed,
-and keep every front even. The closure works on even polygons; when the
-recursive partition finds a polygon without a valid even split (it can:
-flat vertices, see :mod:`meshcore.partition.recursive`) the *guaranteed
-route* is taken instead (first the rows are taken back, one round, then
-two, four... more, the closure retried each time): the whole paving is run again at 2.5 times
-the size with the region closed by triangles (the recursive partition's triangle
-mode always succeeds on a polygon with holes), then every quad is cut into
-four and every triangle into three through the edge midpoints and the
-cell's centre (§8.4, Figure 8.13). Shared midpoints keep it conforming,
-the pieces of a strictly convex quad or of a triangle are strictly convex,
-and the boundary is split at the midpoints of its segments. The median
-edge then comes out near the size (a triangle of side ``H`` gives half
-edges ``H / 2`` and spokes ``0.29 H``). ``stats["fallback"]`` counts it (0 or 1).
+*The rows end.* A round that commits no row freezes every active front,
+and a frozen front is made active again only by a merge, which happens
+inside a committed row; so the rounds go on only while rows are
+committed. Each row lays quads of quality at least 0.1 (corners between
+9 and 171 degrees) inside the region left (step 4), about ``h`` deep, so
+the region shrinks by about ``h`` a round; as a guard that does not rest
+on that estimate, the rounds stop after ``4 D / h_min + 16`` (``D`` the
+diagonal of the domain's box, ``h_min`` the least size).
 
-Not done: front merging and splitting when two fronts meet (a row that
-would meet another front freezes its front instead, and the closure covers
-the rest), reversal nodes' five-node pattern, interior constraint segments
-(refused).
+*Only quads, every front even.* Rows add only quads, each checked strictly
+convex. The total count of front segments stays even (each quad toggles
+four edges), and the trace refuses any odd cycle, so every front handed to
+the closure is even (Remark 8.9).
+
+*The closure ends with quads.* It works on even polygons; when the
+recursive partition finds one without a valid even split (it can: flat
+vertices, see :mod:`meshcore.partition.recursive`) the *guaranteed route*
+is taken instead (first the rows are taken back, one round, then two,
+four... more, the closure retried each time, ending with no row at all:
+the partition of the resampled boundary): the whole paving is run again
+at 2.5 times the size with the region closed by triangles (the recursive
+partition's triangle mode always succeeds on a polygon with holes), then
+every quad is cut into four and every triangle into three through the
+edge midpoints and the cell's centre (§8.4, Figure 8.13). Shared midpoints
+keep it conforming, the pieces of a strictly convex quad or of a triangle
+are strictly convex, and the boundary is split at the midpoints of its
+segments. The median edge then comes out near the size (a triangle of
+side ``H`` gives half edges ``H / 2`` and spokes ``0.29 H``).
+``stats["fallback"]`` counts it (0 or 1).
+
+Not done: fronts that meet with counts far apart are not paired node to
+node (tucks and wedges across the meeting): rows stop ``2 h`` short of
+another front and the partition closes the band between them, which is
+where the irregular vertices are; on the gear and the plate the band
+closure is often stuck and rows are taken back (``rows_taken_back``).
+Interior constraint segments are refused.
 
 References
 ----------
@@ -146,8 +182,10 @@ class PavingResult:
         :func:`meshcore.mesh.quality.report` of the mesh.
     stats : dict
         ``rows``, ``row_quads``, ``node_classes`` (end, side, corner,
-        reversal counts over all rows), ``seams``, ``frozen`` (fronts frozen
-        by a failed check), ``closure`` (the partition's stats: patterns,
+        reversal, wedge counts over all rows), ``seams``, ``snaps`` (new
+        nodes joined to a node), ``merges`` (fronts joined to another),
+        ``splits`` (fronts cut in two), ``frozen`` (fronts frozen
+        by a failed check), ``rows_taken_back``, ``closure`` (the partition's stats: patterns,
         separators), ``fallback``, ``parity_repairs``, ``valence`` (histogram
         of interior vertex valences), ``smoothing`` (sweeps, moves undone),
         ``clean_up`` (``region``: quads handed to the clean-up,
@@ -711,7 +749,11 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
     classes = np.zeros(5, np.int64)
     rows = 0
     history: list[tuple[list[np.ndarray], int]] = []
-    while any(active) and (max_rows is None or rows < max_rows):
+    lo, hi = P.min(axis=0), P.max(axis=0)
+    limit = int(4 * float(np.hypot(*(hi - lo))) / sizes.smallest) + 16
+    if max_rows is not None:
+        limit = min(limit, max_rows)
+    while any(active) and rows < limit:
         rows += 1
         history.append((list(fronts), len(quads)))
         ids = [id(g) for g, a in zip(fronts, active, strict=True) if a]
