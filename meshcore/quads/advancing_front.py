@@ -16,30 +16,49 @@ Algorithm
    ``2 h``); a row end gets none: its two neighbours share one new node
    (the parallelogram on them), closing the row there with one quad; a
    corner gets three (``h`` along the normals of its two edges and their
-   parallelogram), so three quads turn around it; a reversal is treated as
-   a corner (the paving literature gives it five new nodes; not done). Row
-   ends closer than three nodes apart are demoted to sides. A front node
-   count changes by ``-2`` per row end and ``+2`` per corner: every front
-   stays even.
-3. **Seams.** Where two consecutive new nodes of a row fall closer than
-   ``0.4 h`` (the front folding sharply), they are merged into their
-   midpoint. Seams are made in pairs on a front, so that it stays even, and
-   kept only when every quad of the row stays strictly convex. (The seam of
-   the paving literature closes a front node of angle below about 60
-   degrees by merging its two neighbours; ours acts on the new row instead,
-   before it is committed, so that committed quads never move.)
+   parallelogram), so three quads turn around it; a reversal gets five
+   (the two normals, the normal half-way between them, and the two
+   parallelograms), so four quads turn around it. Row ends closer than
+   three nodes apart are demoted to sides. *Wedges*: where the new front
+   would stretch (a new edge longer than ``1.15 h``, as on a front growing
+   out of a hole), one side node per ``2 h`` of excess length gets the
+   corner's three nodes spread along the front (a kite, ``h / 2`` either
+   side and ``1.3 h`` ahead). A front node count changes by ``-2`` per row
+   end and ``+2`` per corner, reversal or wedge: every front stays even.
+3. **Seams, merges and splits** (the fronts are chains of directed edges;
+   the front left after a row is the old fronts minus the boundaries of
+   the new quads, opposite edges cancelling, traced into cycles). A new
+   node within ``0.6 h`` of a node ``t`` is snapped to it when ``t`` is a
+   node of another front (the two fronts *merge*), a node of its own front
+   outside its own quads (a thin gap is closed and the front *splits*; the
+   row's own quads at ``t`` are dropped), or another new node of the row
+   (both to their midpoint: the front splits, or, two nodes apart, it is
+   the *seam* of a fold of the front below about 60 degrees). Snaps are
+   kept only in runs (a neighbour along the new front snapped to the
+   matching neighbour of ``t``), so the joined fronts share an edge that
+   cancels and no front ever touches itself at a single node; a fold seam
+   cancels the two edges of the fold. New nodes closer than ``0.4 h`` to
+   the next one are seamed in pairs (the front stays even), each seam
+   kept only when the quads stay strictly convex. A *front of two
+   segments* is one edge and its reverse: it cancels, which closes it.
 4. **Checks before commit** (exact :func:`orient2d`): every quad of the row
-   strictly convex; no segment of the new front or of the new quads'
-   spokes touches a segment of any front (its own included) except at a
-   shared node; no node of another front inside a new quad. A row that
-   fails is not committed and its front is *frozen*. A front is frozen
-   too when it has 8 nodes or fewer, or after ``max_rows`` rows.
-5. **Closure.** The region left inside the frozen fronts (one per polygon
-   of the domain, holes included) is closed by the recursive partition in
-   its quad mode (:func:`meshcore.partition.partition_polygon`, which keeps
-   the front nodes): fronts of 4 and 6 nodes are the standard patterns
-   (one quad; two quads or three around a centre), larger ones are cut
-   by separators into even parts first.
+   strictly convex and of quality (8.4) at least 0.1; no new edge touches a
+   front edge or another new edge except at a shared node; no front node
+   or new node inside a new quad; every new node at least ``0.5 h`` from
+   the nodes not of its quads and ``2 h`` from those of other fronts
+   (unless its quad joins that front): rows stop short of each other so
+   that the region left between them stays closable; the fronts left are
+   simple even cycles of at least 4 nodes. A row that fails any check is
+   not committed and its front is *frozen* (it is unfrozen when a merge
+   makes it part of a new front). A front is frozen too when it has 8
+   nodes or fewer, or after ``max_rows`` rounds.
+5. **Closure.** Each counter-clockwise front left is an outer ring, each
+   clockwise one a hole of the smallest outer ring around it; the
+   polygons are closed by the recursive partition in its quad mode
+   (:func:`meshcore.partition.partition_polygon`, which keeps the front
+   nodes): fronts of 4 and 6 segments are its standard patterns (one quad;
+   two quads or three around a centre), larger ones are cut by separators
+   into even parts first.
 6. **Smoothing** (``smooth``):
    :func:`~meshcore.partition.smoothing.smooth_quads`, one compiled
    Gauss-Seidel loop: the length-weighted Laplacian of Blacker and
@@ -65,25 +84,42 @@ Algorithm
 
 Why it always ends with only quads
 ----------------------------------
-Rows add only quads, each checked strictly convex before it is committed,
-and keep every front even. The closure works on even polygons; when the
-recursive partition finds a polygon without a valid even split (it can:
-flat vertices, see :mod:`meshcore.partition.recursive`) the *guaranteed
-route* is taken instead (first the rows are taken back, one round, then
-two, four... more, the closure retried each time): the whole paving is run again at 2.5 times
-the size with the region closed by triangles (the recursive partition's triangle
-mode always succeeds on a polygon with holes), then every quad is cut into
-four and every triangle into three through the edge midpoints and the
-cell's centre (§8.4, Figure 8.13). Shared midpoints keep it conforming,
-the pieces of a strictly convex quad or of a triangle are strictly convex,
-and the boundary is split at the midpoints of its segments. The median
-edge then comes out near the size (a triangle of side ``H`` gives half
-edges ``H / 2`` and spokes ``0.29 H``). ``stats["fallback"]`` counts it (0 or 1).
+*The rows end.* A round that commits no row freezes every active front,
+and a frozen front is made active again only by a merge, which happens
+inside a committed row; so the rounds go on only while rows are
+committed. Each row lays quads of quality at least 0.1 (corners between
+9 and 171 degrees) inside the region left (step 4), about ``h`` deep, so
+the region shrinks by about ``h`` a round; as a guard that does not rest
+on that estimate, the rounds stop after ``4 D / h_min + 16`` (``D`` the
+diagonal of the domain's box, ``h_min`` the least size).
 
-Not done: front merging and splitting when two fronts meet (a row that
-would meet another front freezes its front instead, and the closure covers
-the rest), reversal nodes' five-node pattern, interior constraint segments
-(refused).
+*Only quads, every front even.* Rows add only quads, each checked strictly
+convex. The total count of front segments stays even (each quad toggles
+four edges), and the trace refuses any odd cycle, so every front handed to
+the closure is even (Remark 8.9).
+
+*The closure ends with quads.* It works on even polygons; when the
+recursive partition finds one without a valid even split (it can: flat
+vertices, see :mod:`meshcore.partition.recursive`) the *guaranteed route*
+is taken instead (first the rows are taken back, one round, then two,
+four... more, the closure retried each time, ending with no row at all:
+the partition of the resampled boundary): the whole paving is run again
+at 2.5 times the size with the region closed by triangles (the recursive
+partition's triangle mode always succeeds on a polygon with holes), then
+every quad is cut into four and every triangle into three through the
+edge midpoints and the cell's centre (§8.4, Figure 8.13). Shared midpoints
+keep it conforming, the pieces of a strictly convex quad or of a triangle
+are strictly convex, and the boundary is split at the midpoints of its
+segments. The median edge then comes out near the size (a triangle of
+side ``H`` gives half edges ``H / 2`` and spokes ``0.29 H``).
+``stats["fallback"]`` counts it (0 or 1).
+
+Not done: fronts that meet with counts far apart are not paired node to
+node (tucks and wedges across the meeting): rows stop ``2 h`` short of
+another front and the partition closes the band between them, which is
+where the irregular vertices are; on the gear and the plate the band
+closure is often stuck and rows are taken back (``rows_taken_back``).
+Interior constraint segments are refused.
 
 References
 ----------
@@ -102,7 +138,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from meshcore.domain.planar import as_domain
-from meshcore.errors import InputError
+from meshcore.errors import AlgorithmError, InputError
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.mesh.quality import quad_quality
 from meshcore.mesh.topology import unique_edges
@@ -122,10 +158,14 @@ from meshcore.quads.optimization import optimize_quads
 
 __all__ = ["PavingResult", "clean_up", "paving"]
 
-_END, _SIDE, _CORNER, _REVERSAL = 0, 1, 2, 3
+_END, _SIDE, _CORNER, _REVERSAL, _WEDGE = 0, 1, 2, 3, 4
+_STRETCH = 1.15  # a new front edge longer than this times h counts toward a wedge
 _SMALL_FRONT = 8  # fronts with this many nodes or fewer go to the closure
 _SEAM = 0.4  # new nodes closer than this times h are seamed
-_CLEARANCE = 0.75  # a row's new nodes stay this far (times h) from the other fronts
+_CLEARANCE = 0.5  # a row's new nodes stay this far (times h) from other nodes...
+_GAP = 2.0  # ... and this far from the nodes of other fronts, unless joined to one
+_SNAP = 0.6  # a row's new node this close (times h) to a node of a front joins it
+_MIN_Q = 0.1  # least quality (8.4) of a quad laid in a row
 _CLEAN_Q = 0.85  # quads below this quality (8.4) seed the clean-up region
 _CLEAN_RINGS = 2  # rings of quads around the seeds in the clean-up region
 
@@ -142,8 +182,10 @@ class PavingResult:
         :func:`meshcore.mesh.quality.report` of the mesh.
     stats : dict
         ``rows``, ``row_quads``, ``node_classes`` (end, side, corner,
-        reversal counts over all rows), ``seams``, ``frozen`` (fronts frozen
-        by a failed check), ``closure`` (the partition's stats: patterns,
+        reversal, wedge counts over all rows), ``seams``, ``snaps`` (new
+        nodes joined to a node), ``merges`` (fronts joined to another),
+        ``splits`` (fronts cut in two), ``frozen`` (fronts frozen
+        by a failed check), ``rows_taken_back``, ``closure`` (the partition's stats: patterns,
         separators), ``fallback``, ``parity_repairs``, ``valence`` (histogram
         of interior vertex valences), ``smoothing`` (sweeps, moves undone),
         ``clean_up`` (``region``: quads handed to the clean-up,
@@ -192,29 +234,52 @@ def _row(P: np.ndarray, f: np.ndarray, sizes: SizeMap):
     e_out = X[nxt] - X
     e_in /= np.hypot(e_in[:, 0], e_in[:, 1])[:, None]
     e_out /= np.hypot(e_out[:, 0], e_out[:, 1])[:, None]
-    # bisector: e_out turned by theta / 2 counter-clockwise
-    c, s = np.cos(theta / 2), np.sin(theta / 2)
-    bis = np.column_stack([c * e_out[:, 0] - s * e_out[:, 1], s * e_out[:, 0] + c * e_out[:, 1]])
+
+    def turned(v, t):  # v turned by t counter-clockwise
+        c, s = np.cos(t), np.sin(t)
+        return np.column_stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1]])
+
+    bis = turned(e_out, theta / 2)
     dist = np.minimum(h / np.maximum(np.sin(theta / 2), 1e-12), 2 * h)
     side_pt = X + dist[:, None] * bis
     left = lambda v: np.column_stack([-v[:, 1], v[:, 0]])  # noqa: E731
     a_pt = X + h[:, None] * left(e_in)
     b_pt = X + h[:, None] * left(e_out)
     d_pt = a_pt + b_pt - X
+    # reversal: a, d1, m, d2, b; m on the normal of e_out turned half-way to e_in's
+    m_pt = X + h[:, None] * turned(left(e_out), (theta - np.pi) / 2)
     base = len(P)
     ends = cls == _END
     near_end = ends[prv] | ends[nxt]
-    # new nodes: one per side, three per corner (not next to a row end), then one per end
-    corner = ((cls == _CORNER) | (cls == _REVERSAL)) & ~ends & ~near_end
+    # wedges (the front grows longer than its nodes can span): one per 2 h of excess
+    # length of the new front, at sides between sides; +2 nodes each
+    span = np.hypot(*(side_pt[nxt] - side_pt).T) / h
+    excess = np.cumsum(np.where(span > _STRETCH, span - 1.0, 0.0))
+    plain = (cls == _SIDE) & ~near_end
+    plain &= (cls[prv] == _SIDE) & (cls[nxt] == _SIDE)
+    wedge = plain & (np.floor(excess / 2) > np.floor(np.roll(excess, 1) / 2))
+    wedge[0] = False
+    wedge &= ~np.roll(wedge, 1)
+    cls = np.where(wedge, _WEDGE, cls)
+    t_dir = e_in + e_out
+    t_dir /= np.maximum(np.hypot(t_dir[:, 0], t_dir[:, 1]), 1e-300)[:, None]
+    half = (h / 2)[:, None] * t_dir
+    a_pt = np.where(wedge[:, None], X + h[:, None] * bis - half, a_pt)
+    b_pt = np.where(wedge[:, None], X + h[:, None] * bis + half, b_pt)
+    d_pt = np.where(wedge[:, None], X + (1.3 * h)[:, None] * bis, d_pt)
+    # new nodes: one per side, three per corner, five per reversal (none next to a
+    # row end), then one per end
+    rev = (cls == _REVERSAL) & ~near_end
+    corner = ((cls == _CORNER) & ~near_end) | wedge
     side = (cls == _SIDE) & ~near_end
-    count = np.where(corner, 3, np.where(side, 1, 0))
+    count = np.where(rev, 5, np.where(corner, 3, np.where(side, 1, 0)))
     first = base + np.cumsum(count) - count
     n_own = int(count.sum())
     end_at = np.flatnonzero(ends)
     x_end = base + n_own + np.arange(len(end_at))
     # L[i], R[i]: new node ids at the left (edge from prev) and right (edge to next) of node i
     L = np.where(count > 0, first, -1)
-    R = np.where(corner, first + 2, L)
+    R = np.where(count > 0, first + count - 1, -1)
     L[prv[end_at]] = R[prv[end_at]] = x_end
     L[nxt[end_at]] = R[nxt[end_at]] = x_end
     pts = np.empty((n_own + len(end_at), 2))
@@ -223,18 +288,28 @@ def _row(P: np.ndarray, f: np.ndarray, sizes: SizeMap):
     pts[first[ci] - base] = a_pt[ci]
     pts[first[ci] + 1 - base] = d_pt[ci]
     pts[first[ci] + 2 - base] = b_pt[ci]
+    ri = np.flatnonzero(rev)
+    for k, xy in enumerate(
+        (a_pt[ri], a_pt[ri] + m_pt[ri] - X[ri], m_pt[ri], m_pt[ri] + b_pt[ri] - X[ri], b_pt[ri])
+    ):
+        pts[first[ri] + k - base] = xy
     pts[n_own:] = X[prv[end_at]] + X[nxt[end_at]] - X[end_at]
     ei = np.flatnonzero(~ends & ~ends[nxt])
     quads = np.concatenate(
         [
             np.column_stack([f[ci], R[ci], first[ci] + 1, L[ci]]),
+            np.column_stack([f[ri], R[ri], first[ri] + 3, first[ri] + 2]),
+            np.column_stack([f[ri], first[ri] + 2, first[ri] + 1, L[ri]]),
             np.column_stack([f[prv[end_at]], f[end_at], f[nxt[end_at]], x_end]),
             np.column_stack([f[ei], f[nxt[ei]], L[nxt[ei]], R[ei]]),
         ]
     )
-    # the new front, in order: L of each node (three for a corner), repeats dropped
-    keep = ~ends
-    seq = np.column_stack([L, np.where(corner, first + 1, -1), np.where(corner, R, -1)])[keep]
+    # the new front, in order: the new nodes of each node (1, 3 or 5), repeats dropped
+    seq = np.full((n, 5), -1, np.int64)
+    seq[:, 0] = L
+    for k in range(1, 5):
+        seq[:, k] = np.where(count > k, first + k, -1)
+    seq = seq[~ends]
     seq = seq[seq >= 0]
     if len(seq) > 1:
         seq = seq[np.append(True, seq[1:] != seq[:-1])]
@@ -243,69 +318,254 @@ def _row(P: np.ndarray, f: np.ndarray, sizes: SizeMap):
     return pts, seq.astype(np.int64), quads.astype(np.int64), cls
 
 
-def _segments_ok(P, seg_a, seg_b, n_new: int) -> bool:
-    """No two segments touch except at shared nodes (pairs near one of the first
-    n_new segments only)."""
-    mid = (P[seg_a] + P[seg_b]) / 2
-    ln = np.hypot(*(P[seg_b] - P[seg_a]).T)
-    r = float(ln.max())
-    near = cKDTree(mid[:n_new]).sparse_distance_matrix(cKDTree(mid), r, output_type="ndarray")
-    pairs = np.column_stack([near["i"], near["j"]]).astype(np.int64)
-    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
-    return pk.pairs_touch(P, seg_a, seg_b, pairs) < 0
+def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
+    """Undirected key of each segment (a, b) among n points."""
+    return np.minimum(a, b) * n + np.maximum(a, b)
+
+
+def _good_quads(Q, quads: np.ndarray, fronts: list, which: int, n_old: int, h: np.ndarray):
+    """(m,) bool: the quads of a proposed row that pass every check (exact predicates).
+
+    A quad fails when it is not strictly convex or below quality ``_MIN_Q``;
+    when one of its edges that is not a front edge touches a front edge or
+    another new edge except at a shared node (both quads fail then); when a
+    front node or a new node not its corner lies in it; or when a new node of
+    it lies closer than ``_CLEARANCE * h`` to a front node or new node that
+    is not a corner of a quad of that node. ``h`` is the size at each point
+    of ``Q``. The quads that pass form a set that overlaps no front and no
+    other of them.
+    """
+    m, N = len(quads), len(Q)
+    ok = pk.strictly_convex_rows(Q, quads)
+    ok &= (quads[:, [0, 1, 2, 3]] != quads[:, [1, 2, 3, 0]]).all(axis=1)
+    ok &= (quads[:, 0] != quads[:, 2]) & (quads[:, 1] != quads[:, 3])
+    ok[ok] = quad_quality(Q, quads[ok]) >= _MIN_Q
+    fa = np.concatenate(fronts)
+    fb = np.concatenate([np.roll(g, -1) for g in fronts])
+    qa, qb = quads.ravel(), np.roll(quads, -1, axis=1).ravel()
+    qid = np.repeat(np.arange(m), 4)
+    qkey = _edge_keys(qa, qb, N)
+    fresh = ~np.isin(qkey, _edge_keys(fa, fb, N))
+    ukey, first, inv = np.unique(qkey[fresh], return_index=True, return_inverse=True)
+    n_new = len(ukey)
+    seg_a = np.concatenate([qa[fresh][first], fa])
+    seg_b = np.concatenate([qb[fresh][first], fb])
+    bad_seg = np.zeros(n_new, bool)
+    if n_new:
+        mid = (Q[seg_a] + Q[seg_b]) / 2
+        r = float(np.hypot(*(Q[seg_b] - Q[seg_a]).T).max())
+        near = cKDTree(mid[:n_new]).sparse_distance_matrix(cKDTree(mid), r, output_type="ndarray")
+        pairs = np.column_stack([near["i"], near["j"]]).astype(np.int64)
+        pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+        hit = pairs[pk.pairs_touch(Q, seg_a, seg_b, pairs)]
+        bad_seg[hit[:, 0]] = True
+        bad_seg[hit[hit[:, 1] < n_new, 1]] = True
+    bad_q = np.zeros(m, bool)
+    bad_q[qid[fresh][bad_seg[inv]]] = True
+    ok &= ~bad_q
+    # nodes inside quads, and new nodes too close to a node not of their quads
+    new_nodes = np.unique(quads[quads >= n_old])
+    nodes = np.concatenate([np.unique(fa), new_nodes])
+    cen = Q[quads].mean(axis=1)
+    rad = np.sqrt(((Q[quads] - cen[:, None, :]) ** 2).sum(axis=2)).max(axis=1)
+    near = cKDTree(cen).sparse_distance_matrix(
+        cKDTree(Q[nodes]), float(rad.max()) * 1.0001, output_type="ndarray"
+    )
+    cand = np.column_stack([near["i"], near["j"]]).astype(np.int64)
+    cand = cand[near["v"] <= rad[cand[:, 0]] * 1.0001]
+    if len(cand):
+        ok[cand[pk.points_in_quads(Q, quads, nodes, cand), 0]] = False
+    if len(new_nodes):
+        other = np.zeros(len(Q), bool)
+        for k, g in enumerate(fronts):
+            other[g] = k != which
+        reach = np.where(other[nodes], _GAP, _CLEARANCE)
+        # a new node of a quad joined to another front (a merge) keeps the small clearance
+        joined = np.zeros(len(Q), bool)
+        joined[quads[other[quads].any(axis=1)]] = True
+        tree = cKDTree(Q[nodes])
+        hits = tree.query_ball_point(Q[new_nodes], _GAP * h[new_nodes])
+        for i, lst in enumerate(hits):
+            d = np.hypot(*(Q[nodes[lst]] - Q[new_nodes[i]]).T)
+            lim = _CLEARANCE if joined[new_nodes[i]] else reach[lst]
+            hits[i] = [t for t, ok in zip(lst, d < lim * h[new_nodes[i]], strict=True) if ok]
+        busy = [i for i, lst in enumerate(hits) if len(lst) > 1]
+        if busy:
+            at = {}
+            for q in np.flatnonzero(np.isin(quads, new_nodes[busy]).any(axis=1)):
+                for v in quads[q]:
+                    at.setdefault(int(v), set()).update(quads[q].tolist())
+            for i in busy:
+                x = int(new_nodes[i])
+                mine = at.get(x, set())
+                if any(int(nodes[t]) not in mine for t in hits[i]):
+                    ok[np.isin(quads, x).any(axis=1)] = False
+    return ok
+
+
+def _trace(fronts: list, quads: np.ndarray, n: int) -> list | None:
+    """The fronts left when the quads are cut out of the region inside ``fronts``.
+
+    Chain arithmetic: the directed front edges plus the reversed quad edges,
+    opposite pairs cancelling (a front of two segments, one edge and its
+    reverse, closes itself this way). None when the result is not a set of
+    simple even cycles of at least 4 nodes (a node with two outgoing edges,
+    a doubled edge, an odd cycle).
+    """
+    fa = np.concatenate([*fronts, np.roll(quads, -1, axis=1).ravel()])
+    fb = np.concatenate([*(np.roll(g, -1) for g in fronts), quads.ravel()])
+    fwd = fa * n + fb
+    back = fb * n + fa
+    keys, cnt = np.unique(fwd, return_counts=True)
+    rk, rc = np.unique(back, return_counts=True)
+    net = cnt - np.where(np.isin(keys, rk), rc[np.searchsorted(rk, keys).clip(0, len(rk) - 1)], 0)
+    if (net > 1).any():
+        return None
+    keys = keys[net == 1]
+    a, b = keys // n, keys % n
+    if len(np.unique(a)) != len(a):
+        return None
+    succ = dict(zip(a.tolist(), b.tolist(), strict=True))
+    loops = []
+    while succ:
+        start, nxt = succ.popitem()
+        cyc = [start]
+        while nxt != start:
+            cyc.append(nxt)
+            nxt = succ.pop(nxt, None)
+            if nxt is None:
+                return None
+        if len(cyc) < 4 or len(cyc) % 2:
+            return None
+        loops.append(np.array(cyc, np.int64))
+    return loops
+
+
+def _snap(Q, f, nf, quads, fronts, which, n_old, h):
+    """Join the new row to fronts it meets: (Q, quads, dropped mask, snaps).
+
+    A new node within ``_SNAP * h`` of a node ``t`` is snapped to it when
+    ``t`` is a node of another front (the fronts merge), a node of its own
+    front out of its own quads (the front closes a thin gap and splits; the
+    row's quads at ``t`` are dropped), or another new node of the row not
+    next to it (both go to their midpoint; the front splits, or where it
+    folds, two new nodes apart, the seam of the paving literature). A snap is
+    kept only in a run: a neighbour along the new front snapped to a
+    neighbour of ``t`` the other way round, so the joined fronts share an
+    edge that cancels (no front touches itself at one node); the fold seam
+    is its own run. Only new nodes move.
+    """
+    pos = {int(x): i for i, x in enumerate(nf)}
+    new = nf[nf >= n_old]
+    if not len(new):
+        return Q, quads, np.zeros(len(quads), bool), 0
+    own_old = set(f.tolist())
+    other = [g for k, g in enumerate(fronts) if k != which]
+    targets = np.concatenate([*other, f, new])
+    tree = cKDTree(Q[targets])
+    hits = tree.query_ball_point(Q[new], _SNAP * h[new])
+    corners: dict[int, set] = {}
+    busy = [i for i, lst in enumerate(hits) if len(lst) > 1]
+    if not busy:
+        return Q, quads, np.zeros(len(quads), bool), 0
+    for q in np.flatnonzero(np.isin(quads, new[busy]).any(axis=1)):
+        for v in quads[q]:
+            corners.setdefault(int(v), set()).update(quads[q].tolist())
+    n_f = len(nf)
+    cand = []
+    for i in busy:
+        x = int(new[i])
+        for j in hits[i]:
+            t = int(targets[j])
+            if t == x or t in corners.get(x, ()):
+                continue
+            if t in pos and (pos[t] - pos[x]) % n_f in (1, n_f - 1):
+                continue
+            cand.append((float(np.hypot(*(Q[t] - Q[x]))), x, t))
+    cand.sort()
+    edges = set()
+    for g in fronts:
+        edges.update(zip(g.tolist(), np.roll(g, -1).tolist(), strict=True))
+    edges.update(zip(nf.tolist(), np.roll(nf, -1).tolist(), strict=True))
+    # greedy, nearest first: each node once; a node of its own front is taken only if
+    # it is no source of a node snapped already, and conversely
+    to: dict[int, int] = {}
+    used: set[int] = set()
+    taken: set[int] = set()
+    sources: set[int] = set()
+    for _, x, t in cand:
+        if x in used or t in used:
+            continue
+        if t in own_old:
+            src = corners.get(x, set()) & own_old
+            if src & taken or t in sources:
+                continue
+            taken.add(t)
+            sources.update(src)
+        to[x] = t
+        used.update((x, t))
+
+    def partners(to):
+        out = dict(to)
+        out.update({t: x for x, t in to.items() if t >= n_old})
+        return out
+
+    def keep(x: int, t: int, partner: dict) -> bool:
+        if t in pos and (pos[t] - pos[x]) % n_f in (2, n_f - 2):
+            return True  # fold seam
+        p = pos[x]
+        for d in (1, -1):
+            u = partner.get(int(nf[(p + d) % n_f]))
+            if u is not None and ((u, t) in edges if d == 1 else (t, u) in edges):
+                return True
+        return False
+
+    for _ in range(2):
+        partner = partners(to)
+        to = {x: t for x, t in to.items() if keep(x, t, partner)}
+    if not to:
+        return Q, quads, np.zeros(len(quads), bool), 0
+    dropped = np.isin(quads, [t for t in to.values() if t in own_old]).any(axis=1)
+    Q = Q.copy()
+    remap = np.arange(len(Q))
+    for x, t in to.items():
+        if t >= n_old:  # two new nodes: both to the midpoint, the lower id kept
+            lo, hi = min(x, t), max(x, t)
+            Q[lo] = (Q[x] + Q[t]) / 2
+            remap[hi] = lo
+        else:
+            remap[x] = t
+    return Q, remap[quads], dropped, len(to)
 
 
 def _try_row(P, fronts, which, sizes):
-    """(points, new front, quads, node classes, seams) of the row on fronts[which]
-    if it passes every check, else None."""
+    """The part of the row on ``fronts[which]`` that passes every check.
+
+    Returns None when no quad of the row passes or the fronts left would
+    not be simple even cycles; else ``(points, involved, loops, quads,
+    classes, seams, snaps)``: the fronts ``involved`` (the row's and those it
+    snapped to) are replaced by ``loops``.
+    """
     f = fronts[which]
     pts, nf, quads, cls = _row(P, f, sizes)
+    n_old = len(P)
     Q = np.concatenate([P, pts])
-    Q, nf, quads, seams = _seam(Q, nf, quads, sizes(Q[nf]), len(P))
-    if len(nf) < 4 or len(nf) % 2:
+    Q, nf, quads, seams = _seam(Q, nf, quads, sizes(Q[nf]), n_old)
+    h = sizes(Q)
+    Q, quads, dropped, snaps = _snap(Q, f, nf, quads, fronts, which, n_old, h)
+    if snaps:
+        h = sizes(Q)
+    quads = quads[~dropped]
+    if not len(quads) or not _good_quads(Q, quads, fronts, which, n_old, h).all():
         return None
-    if not pk.strictly_convex_rows(Q, quads).all():
+    owner = np.full(len(Q), -1, np.int64)
+    for k, g in enumerate(fronts):
+        owner[g] = k
+    involved = sorted({which, *owner[quads[quads < n_old]].tolist()} - {-1})
+    loops = _trace([fronts[k] for k in involved], quads, len(Q))
+    if loops is None:
         return None
-    # segments: all fronts (the old one replaced by the new) plus the spokes
-    others = [g for k, g in enumerate(fronts) if k != which]
-    fa = [np.asarray(g) for g in others]
-    fb = [np.roll(g, -1) for g in fa]
-    qa = quads.ravel()
-    qb = np.roll(quads, -1, axis=1).ravel()
-    new_a = np.concatenate([qa, nf])
-    new_b = np.concatenate([qb, np.roll(nf, -1)])
-    # quad edges on the old front coincide with it; drop them from the new set
-    newset = new_a >= len(P)
-    newset |= new_b >= len(P)
-    seg_a = np.concatenate([new_a[newset], f, *fa])
-    seg_b = np.concatenate([new_b[newset], np.roll(f, -1), *fb])
-    # dedupe undirected segments
-    key = np.minimum(seg_a, seg_b) * len(Q) + np.maximum(seg_a, seg_b)
-    _, first = np.unique(key, return_index=True)
-    first = np.sort(first)
-    seg_a, seg_b = seg_a[first], seg_b[first]
-    n_new = int(np.count_nonzero(first < int(newset.sum())))
-    if not _segments_ok(Q, seg_a, seg_b, n_new):
-        return None
-    # keep clear of the other fronts: the region left must stay closable
-    if fa:
-        other = np.unique(np.concatenate(fa))
-        gap, _ = cKDTree(Q[other]).query(Q[nf])
-        if (gap < _CLEARANCE * sizes(Q[nf])).any():
-            return None
-    # no node of another front inside a new quad
-    if fa:
-        other_nodes = np.unique(np.concatenate(fa))
-        cen = Q[quads].mean(axis=1)
-        rad = np.sqrt(((Q[quads] - cen[:, None, :]) ** 2).sum(axis=2)).max(axis=1)
-        near = cKDTree(cen).sparse_distance_matrix(
-            cKDTree(Q[other_nodes]), float(rad.max()) * 1.0001, output_type="ndarray"
-        )
-        cand = np.column_stack([near["i"], near["j"]]).astype(np.int64)
-        cand = cand[near["v"] <= rad[cand[:, 0]] * 1.0001]
-        if len(cand) and pk.points_in_quads(Q, quads, other_nodes, cand):
-            return None
-    return Q, nf, quads, cls, seams
+    return Q, involved, loops, quads, cls, seams, snaps
 
 
 def _seam(P: np.ndarray, front: np.ndarray, quads: np.ndarray, h: np.ndarray, n_old: int):
@@ -445,46 +705,93 @@ def _split_all(points: np.ndarray, cells: list[np.ndarray]):
     return np.concatenate(out_pts), np.concatenate(out)
 
 
+def _polygons(P: np.ndarray, fronts: list):
+    """(loops, ring_polygon) for the closure: each counter-clockwise front an outer
+    ring, each clockwise one a hole of the smallest outer ring around it."""
+    area = []
+    for g in fronts:
+        a, b = P[g], P[np.roll(g, -1)]
+        area.append(float((a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]).sum()) / 2)
+    outer = [k for k, a in enumerate(area) if a > 0]
+    loops: list[np.ndarray] = []
+    ring_polygon: list[int] = []
+    holes: dict[int, list[int]] = {k: [] for k in outer}
+    for k, a in enumerate(area):
+        if a > 0:
+            continue
+        x, y = P[fronts[k][0]]
+        best = None
+        for o in outer:
+            R = P[fronts[o]]
+            S = np.roll(R, -1, axis=0)
+            up = (R[:, 1] > y) != (S[:, 1] > y)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                xc = R[:, 0] + (y - R[:, 1]) * (S[:, 0] - R[:, 0]) / (S[:, 1] - R[:, 1])
+            if np.count_nonzero(up & (xc > x)) % 2 and (best is None or area[o] < area[best]):
+                best = o
+        if best is None:
+            raise AlgorithmError("a paving front is a hole of no front", code="front_lost")
+        holes[best].append(k)
+    for p, o in enumerate(outer):
+        for k in (o, *holes[o]):
+            loops.append(fronts[k])
+            ring_polygon.append(p)
+    return loops, np.asarray(ring_polygon, np.int64)
+
+
 def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strategy: str):
     P = bnd.points
     fronts = [np.asarray(lp, np.int64) for lp in bnd.loops]
-    ring_polygon = list(bnd.ring_polygon)
     active = [len(f) > _SMALL_FRONT for f in fronts]
     quads: list[np.ndarray] = []
-    stats = {"rows": 0, "row_quads": 0, "seams": 0, "frozen": 0}
-    classes = np.zeros(4, np.int64)
+    stats = {"rows": 0, "row_quads": 0, "seams": 0, "snaps": 0, "merges": 0, "splits": 0}
+    stats["frozen"] = 0
+    classes = np.zeros(5, np.int64)
     rows = 0
     history: list[tuple[list[np.ndarray], int]] = []
-    while any(active) and (max_rows is None or rows < max_rows):
+    lo, hi = P.min(axis=0), P.max(axis=0)
+    limit = int(4 * float(np.hypot(*(hi - lo))) / sizes.smallest) + 16
+    if max_rows is not None:
+        limit = min(limit, max_rows)
+    while any(active) and rows < limit:
         rows += 1
         history.append((list(fronts), len(quads)))
-        for k in range(len(fronts)):
-            if not active[k]:
-                continue
+        ids = [id(g) for g, a in zip(fronts, active, strict=True) if a]
+        for key in ids:
+            k = next((i for i, g in enumerate(fronts) if id(g) == key), None)
+            if k is None or not active[k]:
+                continue  # merged into another front this round
             res = _try_row(P, fronts, k, sizes)
             if res is None:
                 active[k] = False
                 stats["frozen"] += 1
                 continue
-            P, nf, q, cls, seams = res
+            P, involved, loops, q, cls, seams, snaps = res
             stats["seams"] += seams
-            classes += np.bincount(cls, minlength=4)
+            stats["snaps"] += snaps
+            stats["merges"] += max(len(involved) - 1, 0)
+            stats["splits"] += max(len(loops) - len(involved), 0)
+            classes += np.bincount(cls, minlength=5)
             quads.append(q)
-            fronts[k] = nf
             stats["row_quads"] += len(q)
-            if len(nf) <= _SMALL_FRONT:
-                active[k] = False
+            keep = [i for i in range(len(fronts)) if i not in involved]
+            fronts = [fronts[i] for i in keep] + loops
+            active = [active[i] for i in keep] + [len(g) > _SMALL_FRONT for g in loops]
         stats["rows"] = rows
     stats["node_classes"] = dict(
-        zip(("end", "side", "corner", "reversal"), classes.tolist(), strict=True)
+        zip(("end", "side", "corner", "reversal", "wedge"), classes.tolist(), strict=True)
     )
     # closure; when the quad closure is stuck, rows are taken back: one round, then
     # two more, four more... (a stuck closure is costly; a few tries at most)
     stats["rows_taken_back"] = 0
     back = 1
     while True:
+        loops, ring_polygon = _polygons(P, fronts) if fronts else ([], np.zeros(0, np.int64))
+        if not loops:
+            P2, cells, cstats = P, np.zeros((0, 4 if quad_closure else 3), np.int64), {}
+            break
         P2, cells, cstats = partition_polygon(
-            P, fronts, np.asarray(ring_polygon), sizes, quad=quad_closure, strategy=strategy
+            P, loops, ring_polygon, sizes, quad=quad_closure, strategy=strategy
         )
         if cells is not None:
             break

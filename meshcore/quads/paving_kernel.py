@@ -7,6 +7,7 @@ Every sign is :func:`~meshcore.geometry.predicates.orient2d_scalar` (through
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from meshcore.partition.kernel import orient, strictly_convex_rows, touch
@@ -16,8 +17,9 @@ __all__ = ["pairs_touch", "points_in_quads", "strictly_convex_rows"]
 
 @njit(cache=True)
 def pairs_touch(P, ea, eb, pairs):
-    """Index of the first pair (s, t) of segments that share a point without sharing
-    an endpoint, or -1. Segment s is (ea[s], eb[s])."""
+    """(k,) bool: whether the pair (s, t) of segments shares a point other than a
+    shared endpoint (or lies on one line overlapping). Segment s is (ea[s], eb[s])."""
+    out = np.zeros(len(pairs), np.bool_)
     for r in range(len(pairs)):
         s = pairs[r, 0]
         t = pairs[r, 1]
@@ -28,7 +30,8 @@ def pairs_touch(P, ea, eb, pairs):
         if a == c or a == d or b == c or b == d:
             # adjacent segments: they may only meet at the shared end
             if (a == c and b == d) or (a == d and b == c):
-                return r
+                out[r] = True
+                continue
             if a == c:
                 o, p, q = a, b, d
             elif a == d:
@@ -44,17 +47,18 @@ def pairs_touch(P, ea, eb, pairs):
                 dx2 = P[q, 0] - P[o, 0]
                 dy2 = P[q, 1] - P[o, 1]
                 if dx1 * dx2 + dy1 * dy2 > 0:
-                    return r
+                    out[r] = True
             continue
         if touch(P, a, b, c, d):
-            return r
-    return -1
+            out[r] = True
+    return out
 
 
 @njit(cache=True)
 def points_in_quads(P, quads, pts, cand):
-    """Whether a point pts[cand[r, 1]] lies in the closed quad quads[cand[r, 0]]
-    without being one of its corners (the quads are convex)."""
+    """(k,) bool: whether point pts[cand[r, 1]] lies in the closed quad
+    quads[cand[r, 0]] without being one of its corners (the quads are convex)."""
+    out = np.zeros(len(cand), np.bool_)
     for r in range(len(cand)):
         q = cand[r, 0]
         p = pts[cand[r, 1]]
@@ -69,6 +73,5 @@ def points_in_quads(P, quads, pts, cand):
             if orient(P, quads[q, c], quads[q, (c + 1) % 4], p) < 0:
                 inside = False
                 break
-        if inside:
-            return True
-    return False
+        out[r] = inside
+    return out

@@ -59,6 +59,32 @@ class TestCanonical:
         assert res.quality["quad"]["invalid"] == 0
         assert res.stats["rows"] >= 2
 
+    def test_a_front_meeting_itself_splits(self):
+        # two rooms joined by a neck one size wide: the rows from both sides of the
+        # neck snap together and the front splits in two, one per room; every quad a
+        # unit square
+        rooms = {
+            "type": "Polygon",
+            "coordinates": [
+                [[0, 0], [1, 0], [1, 0.4], [1.1, 0.4], [1.1, 0], [2.1, 0], [2.1, 1]]
+                + [[1.1, 1], [1.1, 0.6], [1, 0.6], [1, 1], [0, 1]]
+            ],
+        }
+        res = paving(rooms, size=0.1)
+        check_mesh(rooms, res, 0.1, "quad")
+        assert res.stats["splits"] >= 1 and res.stats["snaps"] >= 2
+        assert quad_quality(res.mesh.points, res.mesh.cells[0].data).min() > 0.999
+
+    def test_reversal(self):
+        # a slit-like notch: its tip is a reversal (five new nodes, four quads)
+        notch = {
+            "type": "Polygon",
+            "coordinates": [[[0, 0], [0.47, 0], [0.5, 0.5], [0.53, 0], [1, 0], [1, 1], [0, 1]]],
+        }
+        res = paving(notch, size=0.1)
+        check_mesh(notch, res, 0.1, "quad", median=False)
+        assert res.stats["node_classes"]["reversal"] >= 1
+
     def test_odd_ring_repaired_and_reported(self):
         tri = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [0, 1]]]}
         res = paving(tri, size=0.3)
@@ -67,6 +93,8 @@ class TestCanonical:
 
     def test_smoothing_never_lowers_least_quality(self):
         raw = paving(SQUARE_HOLE, size=0.05, smooth=False)
+        check_mesh(SQUARE_HOLE, raw, 0.05, "quad")
+        assert raw.stats["node_classes"]["wedge"] >= 1  # rows growing out of the hole
         P, C = raw.mesh.points, raw.mesh.cells[0].data
         q0 = quad_quality(P, C)
         P1, _ = smooth_quads(P, C, boundary_points(P, C))
