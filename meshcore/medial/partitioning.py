@@ -106,7 +106,7 @@ every other one with a star-shaped hole) at size 0.05, 20 of them with
 ``terminal`` and 12 at size 0.02, every job succeeds and every quad is
 strictly convex (``stats["not_convex"]`` counts them, exact); before, 4 of
 21 kept a non-convex quad at a sharp reflex corner. Their least quality
-(0.01-0.39) is forced by the stars' spikes of 2-20 degrees, each held by
+(0.01-0.40) is forced by the stars' spikes of 2-20 degrees, each held by
 one quad whose other corners share the rest (the midpoint subdivision of
 a thin triangle region adds corners of 2-6 degrees beside it); the count
 is 1.1-2.0x area / size**2 where spikes and input vertices closer than
