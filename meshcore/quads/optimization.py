@@ -1251,8 +1251,9 @@ def relax_quads(
     (Escobar et al., "Simultaneous untangling and smoothing of tetrahedral
     meshes", 2003, here for quad corners): a folded mesh is untangled and a
     valid one is smoothed toward right-angled corners in one process. Nodes
-    in ``slide`` move only along their segment (between its two ends), so the
-    boundary and the area of a polygonal domain are kept.
+    in ``slide`` move only along their segment, each between the midpoints to
+    its neighbours there (so no boundary edge collapses and the boundary order
+    is kept), so the boundary and the area of a polygonal domain are kept.
 
     Parameters
     ----------
@@ -1329,15 +1330,28 @@ def relax_quads(
             return np.inf, np.zeros(len(x))
         return e, np.concatenate([g[free].ravel(), (g[node] * D).sum(-1)])
 
+    # each sliding node stays between the midpoints to its neighbours on its segment
+    # (to the segment's ends for the first and last): none reaches an end or passes
+    # another, which would collapse a boundary edge
+    order = np.lexsort((t0, sb, sa))
+    ts = t0[order]
+    first = np.ones(len(order), bool)
+    first[1:] = (sa[order][1:] != sa[order][:-1]) | (sb[order][1:] != sb[order][:-1])
+    last = np.roll(first, -1)
+    lo, hi = np.empty(len(order)), np.empty(len(order))
+    lo[order] = (ts + np.where(first, 0.0, np.roll(ts, 1))) / 2
+    hi[order] = (ts + np.where(last, 1.0, np.roll(ts, -1))) / 2
     x = np.concatenate([P[free].ravel(), t0])
-    bounds = [(None, None)] * (2 * nf) + [(0.0, 1.0)] * len(node)
-    eps = 1e-2
-    for _ in range(6):
+    bounds = [(None, None)] * (2 * nf) + list(zip(lo.tolist(), hi.tolist(), strict=True))
+    for r in range(6):
         Q = unpack(x)
         p = Q[Ca]
         a, b = np.roll(p, -1, axis=1) - p, np.roll(p, 1, axis=1) - p
         least = float((a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]).min())
-        # untangling rounds (Escobar's delta) only while a corner is folded
+        # untangling rounds (Escobar's delta) only while a corner is folded; delta
+        # shrinks each round, so that a fold among corners far smaller than the
+        # median is not lost in the regularization
+        eps = 1e-2 * 0.1**r
         delta = math.sqrt(eps * (eps - least)) if least <= 0 else 1e-6
         res = minimize(
             fun,

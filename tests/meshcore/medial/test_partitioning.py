@@ -71,7 +71,9 @@ class TestPartition:
 
 
 class TestRandomDomains:
-    @settings(max_examples=20, deadline=None)
+    # 12 examples (were 20): the spiky stars of tests/meshcore/quads/test_curved_domains.py
+    # cover quad_medial on random stars too
+    @settings(max_examples=12, deadline=None)
     @given(stars(), st.sampled_from(["critical", "terminal"]))
     def test_partition_tiles_and_quads_are_valid(self, ring, method):
         dom = parse_domain({"type": "Polygon", "coordinates": [ring]})

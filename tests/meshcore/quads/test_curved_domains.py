@@ -24,6 +24,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from meshcore.domain.planar import parse_domain
+from meshcore.geometry.predicates import orient2d
 from meshcore.medial.partitioning import quad_medial
 from meshcore.mesh import quality
 from meshcore.quads import combine
@@ -161,3 +162,33 @@ def test_quad_medial_on_curved_domains(case):
     if kind in ("disk", "stadium"):  # the butterfly (measured: least Q 0.49-0.66)
         assert res.stats["partition"] == "butterfly"
         assert ang.min() >= 30 and ang.max() <= 150
+
+
+@st.composite
+def spiky_stars(draw):
+    """(GeoJSON polygon) of a star with up to 80 % radial jitter, with or without a
+    star-shaped hole inside its smallest radius."""
+    rng = np.random.default_rng(draw(st.integers(0, 2**31)))
+    n, jitter = draw(st.integers(5, 24)), draw(st.floats(0.1, 0.8))
+    t = 2 * np.pi * (np.arange(n) + rng.uniform(-0.3, 0.3, n)) / n
+    r = 1 + jitter * rng.uniform(-1, 1, n)
+    rings = [_ring(np.column_stack([r * np.cos(t), r * np.sin(t)]))]
+    if draw(st.booleans()):
+        m = draw(st.integers(5, 10))
+        th = 2 * np.pi * np.arange(m) / m
+        rh = 0.15 * (1 - jitter) * (1 + 0.5 * rng.uniform(-1, 1, m))
+        rings.append(_ring(np.column_stack([rh * np.cos(th), rh * np.sin(th)])[::-1]))
+    return {"type": "Polygon", "coordinates": rings}
+
+
+@settings(SETTINGS, max_examples=4)
+@given(spiky_stars())
+def test_quad_medial_on_spiky_stars(geo):
+    # every drawn star succeeds: the fill's folds at sharp reflex corners are untangled
+    # (relax_quads, boundary points sliding), every quad strictly convex (exact orient2d)
+    dom = parse_domain(geo)
+    res = quad_medial(dom, size=0.1)
+    _check(res.mesh, dom, 0.1)
+    P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
+    for k in range(4):
+        assert (orient2d(P[Q[:, k - 1]], P[Q[:, k]], P[Q[:, (k + 1) % 4]]) > 0).all()
