@@ -84,6 +84,8 @@ CREATE TABLE IF NOT EXISTS files (
 
 log = logging.getLogger("meshservice.store")
 
+#: Seconds :meth:`Store.close` waits for the result writes and removals in flight.
+CLOSE_WAIT = 30.0
 _NO_SPACE = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
 
 
@@ -204,8 +206,15 @@ class Store:
         self._files = threading.Condition()  # guards the two below
         self._writers: Counter[str] = Counter()  # result writes in flight, by job
         self._removing: set[str] = set()  # jobs whose folder is being removed
+        self._closing = False  # set by close(): no new result write starts
 
     def close(self) -> None:
+        """Close the database once the result writes and folder removals in flight
+        have ended (they run in threads that a cancelled job or request does not
+        stop: closing under one crashes SQLite); later ones write nothing."""
+        with self._files:
+            self._closing = True
+            self._files.wait_for(lambda: not self._writers and not self._removing, CLOSE_WAIT)
         self._db.close()
 
     def ping(self) -> bool:
@@ -242,11 +251,12 @@ class Store:
     def write_result(self, job_id: str, data: bytes, fmt: str = "json") -> bool:
         """Write a result file atomically and record its size and SHA-256 (blocking I/O).
 
-        False, writing nothing, when the job's folder is gone or being removed;
+        False, writing nothing, when the job's folder is gone or being removed or
+        the store is closing;
         :class:`DiskFull` when it does not fit.
         """
         with self._files:
-            if job_id in self._removing or not self.job_dir(job_id).is_dir():
+            if self._closing or job_id in self._removing or not self.job_dir(job_id).is_dir():
                 return False
             self._writers[job_id] += 1
         try:
@@ -300,8 +310,11 @@ class Store:
 
     def remove_files(self, job_id: str) -> None:
         """Remove the job's folder once the result writes in flight have ended
-        (blocking: run it off the event loop when a write may be running)."""
+        (blocking: run it off the event loop when a write may be running); nothing
+        once the store is closing."""
         with self._files:
+            if self._closing:
+                return
             self._removing.add(job_id)
             self._files.wait_for(lambda: not self._writers[job_id])
             self._writers.pop(job_id, None)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import base64
 import json
+import threading
 import time
 from pathlib import Path
 
@@ -313,3 +314,31 @@ def test_replayed_unfinished_job_answers_as_openapi_says(tmp_path):
             app.executor.gate.set()
 
     run(scenario())
+
+
+def test_store_close_waits_for_a_result_write_in_flight(tmp_path, monkeypatch):
+    """A job's result write goes on in its thread after the job is cancelled at
+    shutdown; closing the store under it crashed the process (SQLite segfault)."""
+    store = service.store.Store(tmp_path / "data")
+    job_id = store.write_params(b"{}")
+    entered, release = threading.Event(), threading.Event()
+    write = service.store.write_atomically
+
+    def held(path, data, sync):
+        entered.set()
+        release.wait(10)
+        write(path, data, sync)
+
+    monkeypatch.setattr(service.store, "write_atomically", held)
+    writer = threading.Thread(target=store.write_result, args=(job_id, b"{}"))
+    writer.start()
+    assert entered.wait(10)
+    closer = threading.Thread(target=store.close)
+    closer.start()
+    time.sleep(0.2)
+    assert closer.is_alive()  # waits for the write in flight
+    release.set()
+    writer.join(10)
+    closer.join(10)
+    assert not closer.is_alive()
+    assert store.write_result(job_id, b"{}") is False  # closed: nothing written
