@@ -1,19 +1,17 @@
 """Session set-up for the whole suite: numba's cache is filled while the service tests run.
 
-On a fresh clone numba's disk cache is empty, and filling it takes about 280 CPU
+On a fresh clone numba's disk cache is empty, and filling it takes about 400 CPU
 seconds. Under pytest-xdist the controller starts filling it at once, in
 :data:`WARMUP_PROCESSES` processes (:mod:`tests.warmup`), and the workers do not
 wait for it: the tests that need no kernel run first, meanwhile. Those are the
 service tests under ``tests/service`` that neither use the shared ``live``
 server (it warms every method up) nor carry the ``kernels`` mark: they start
-their own servers without warm-up and run the testing methods, they spend most
-of their time waiting on servers, jobs and clients, and they run at a lower CPU
-priority than the compiler (:data:`TESTS_NICE`): alone, the cache fills in about
-140 s; competing as equals with those tests it took 454 s. Every other test
-waits until the cache is filled, so that no kernel is compiled twice at once
-(four workers compiling the same kernels made a cold run's compile work about
-four times larger). ``--dist load`` with small chunks (``pyproject.toml``) hands
-the tests out in the order set here.
+their own servers without warm-up and run the testing methods, and they spend
+most of their time waiting on servers, jobs and clients, which leaves the cores
+to the compiler. Every other test waits until the cache is filled, so that no
+kernel is compiled twice at once (four workers compiling the same kernels made
+a cold run's compile work about four times larger). ``--dist load`` with small
+chunks (``pyproject.toml``) hands the tests out in the order set here.
 
 A single-process run (``-n 0``), or a run of chosen files or tests, fills
 nothing ahead: each test compiles what it reaches as it goes.
@@ -41,9 +39,6 @@ from service.executors.child import die_with_parent
 
 ROOT = Path(__file__).resolve().parents[1]
 WARMUP_PROCESSES = 2  # processes filling numba's cache at once (the machine's cores)
-#: Niceness of the tests (the workers, their servers and jobs) against the compiler: the
-#: tests of the first part mostly wait, and the compiler is what the others wait for.
-TESTS_NICE = 5
 #: Names the file that exists once numba's cache is filled (set by the controller).
 READY_ENV = "MESHSERVICE_TESTS_KERNELS_READY"
 #: A worker waits at most this long for the cache, then compiles what it reaches.
@@ -77,7 +72,6 @@ def pytest_configure(config: pytest.Config) -> None:
         stderr=subprocess.DEVNULL,
         preexec_fn=die_with_parent,  # pytest killed (a timeout): no orphan compiling on
     )
-    os.nice(TESTS_NICE)  # the workers, started after this, inherit it; the compiler does not
 
     def wait() -> None:
         proc.wait()
