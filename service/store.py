@@ -324,6 +324,7 @@ class Store:
         finally:
             with self._files:
                 self._removing.discard(job_id)
+                self._files.notify_all()  # close() may be waiting
 
     def write_results(self, job_id: str, files: dict[str, bytes]) -> bool:
         """Write a finished job's files by name, ``result.json`` last (it marks them complete).
