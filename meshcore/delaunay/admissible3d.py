@@ -31,7 +31,7 @@ in-plane swaps). Rounds, each vectorized over all missing pieces:
    the point ``P`` of its closed diametral ball ``B_AB`` with the largest
    angle ``APB`` (exact membership by
    :func:`~meshcore.geometry.predicates3d.dot3d`). The projection rules of
-   the 2D module apply unchanged (:data:`~meshcore.delaunay.admissible.NEAR_END_TRIGGER`,
+   the 2D module apply unchanged (:data:`~meshcore.delaunay.admissible_pieces.NEAR_END_TRIGGER`,
    ``NEAR_END_FRACTION``, ``NUDGE``): the balls of the two halves lie in
    ``B_AB`` and miss ``P`` (Relationship 9.2).
 3. **Then faces** (§9.3.4, face enforcement): every subface still missing
@@ -115,7 +115,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from meshcore.delaunay.admissible import NEAR_END_FRACTION, NEAR_END_TRIGGER, NUDGE
+from meshcore.delaunay.admissible_pieces import NEAR_END_FRACTION, NEAR_END_TRIGGER, NUDGE
 from meshcore.delaunay.kernel3d import delaunay3d
 from meshcore.delaunay.recovery3d import (
     KNOBS,

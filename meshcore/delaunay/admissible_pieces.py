@@ -27,6 +27,15 @@ from meshcore.delaunay.kernel2d import IncrementalDelaunay, _corner, _has_edges,
 from meshcore.errors import AlgorithmError
 from meshcore.geometry.predicates import WORK_SIZE, dot2d_filtered, orient2d_filtered
 
+#: A projection closer than this fraction of ``|EP|`` to the nearer endpoint
+#: ``E`` (``P`` the encroaching point) is too close ...
+NEAR_END_TRIGGER = 0.125
+#: ... and is replaced by the point at this fraction of ``|EP|`` from ``E``.
+NEAR_END_FRACTION = 0.5
+#: Split points move away from the nearer end by this fraction of their
+#: distance to it (see "Ties of the projection" above).
+NUDGE = 2.0**-20
+
 __all__: list[str] = []
 
 
@@ -642,3 +651,126 @@ class _Pieces:
         st.source = self.src[order]
         st.seg_circle = self.circ[order]
         st.acute, st.done, st.near = self.acute[order], self.done[order], self.near[order]
+
+
+@njit(cache=True)
+def _projection_points(xy, a, b, missing, enc, acute, done, near_count, radius):
+    """Split points of §9.1.4 of the pieces ``missing`` (straight; curved
+    ones are moved onto their circles by the caller): the projection of the
+    encroaching point ``X = enc[i]`` on the piece, measured from the nearer
+    end ``E``; kept at least ``NEAR_END_FRACTION * |EX|`` from ``E`` when
+    closer than ``NEAR_END_TRIGGER * |EX|``; moved away from ``E`` by
+    :data:`NUDGE` of that distance (at most half the room that keeps ``X``
+    outside the new piece's ball).
+
+    Returns the points (k, 2), the side (0 or 1) of the nearer end, and
+    (k, 2) whether that end is an unprotected acute end that had a
+    projection split near it already (the chase of Exercise 9.3: it is to
+    be protected now).
+    """
+    k = missing.shape[0]
+    M = np.empty((k, 2))
+    near = np.empty(k, np.int64)
+    again = np.zeros((k, 2), np.bool_)
+    tiny = np.finfo(np.float64).tiny
+    for i in range(k):
+        r = missing[i]
+        ax = xy[a[r], 0]
+        ay = xy[a[r], 1]
+        bx = xy[b[r], 0]
+        by = xy[b[r], 1]
+        px = xy[enc[i], 0]
+        py = xy[enc[i], 1]
+        dx = bx - ax
+        dy = by - ay
+        length = np.sqrt(dx * dx + dy * dy)
+        t = ((px - ax) * dx + (py - ay) * dy) / (dx * dx + dy * dy)
+        if t <= 0.5:
+            s, ex, ey, fx, fy, foot = 0, ax, ay, bx, by, t * length
+        else:
+            s, ex, ey, fx, fy, foot = 1, bx, by, ax, ay, (1.0 - t) * length
+        ep = np.hypot(px - ex, py - ey)
+        if foot < NEAR_END_TRIGGER * ep:
+            along = NEAR_END_FRACTION * ep
+            room = np.inf
+        else:
+            along = foot
+            # X stays outside the ball of [E, M] while height**2 >= foot * (|EM| - foot).
+            room = 0.5 * max(ep * ep - foot * foot, 0.0) / max(foot, tiny)
+        along = along + min(NUDGE * along, room)
+        f = along / length
+        M[i, 0] = ex + (fx - ex) * f
+        M[i, 1] = ey + (fy - ey) * f
+        near[i] = s
+        e = a[r] if s == 0 else b[r]
+        again[i, s] = acute[r, s] and not done[r, s] and near_count[r, s] >= 1
+        again[i, s] = again[i, s] and np.isnan(radius[e])
+    return M, near, again
+
+
+@njit(cache=True)
+def _split_points(xy, a, b, missing, M, near, acute, done, radius, work):
+    """The round's split points, protection points first (§9.1.4,
+    Exercise 9.4): every unprotected acute end of a missing piece whose
+    vertex has a protection radius gets the point at that distance from it
+    (straight; the caller moves curved ones onto their circles); the other
+    pieces their projection point ``M``.
+
+    Returns, per point: its piece, coordinates, order along the piece (the
+    protected side, 0.5 for a projection), protected side (-1: none), side
+    of the nearer end of a projection (-1: none), the vertex its insertion
+    walks from, and whether it fails to lie strictly inside the piece's
+    diametral ball (exact ``dot2d``).
+    """
+    k = missing.shape[0]
+    protect = np.zeros((k, 2), np.bool_)
+    total = 0
+    for i in range(k):
+        r = missing[i]
+        protect[i, 0] = acute[r, 0] and not done[r, 0] and not np.isnan(radius[a[r]])
+        protect[i, 1] = acute[r, 1] and not done[r, 1] and not np.isnan(radius[b[r]])
+        total += max(1, int(protect[i, 0]) + int(protect[i, 1]))
+    rows = np.empty(total, np.int64)
+    pts = np.empty((total, 2))
+    t = np.empty(total)
+    protect_side = np.full(total, -1, np.int64)
+    near_side = np.full(total, -1, np.int64)
+    near_vertex = np.empty(total, np.int64)
+    j = 0
+    for i in range(k):
+        r = missing[i]
+        for s in range(2):
+            if not protect[i, s]:
+                continue
+            e = a[r] if s == 0 else b[r]
+            f = b[r] if s == 0 else a[r]
+            dx = xy[f, 0] - xy[e, 0]
+            dy = xy[f, 1] - xy[e, 1]
+            scale = radius[e] / np.hypot(dx, dy)
+            rows[j] = r
+            pts[j, 0] = xy[e, 0] + dx * scale
+            pts[j, 1] = xy[e, 1] + dy * scale
+            t[j] = s
+            protect_side[j] = s
+            near_vertex[j] = e
+            j += 1
+    for i in range(k):
+        if protect[i, 0] or protect[i, 1]:
+            continue
+        r = missing[i]
+        rows[j] = r
+        pts[j, 0] = M[i, 0]
+        pts[j, 1] = M[i, 1]
+        t[j] = 0.5
+        near_side[j] = near[i]
+        near_vertex[j] = a[r] if near[i] == 0 else b[r]
+        j += 1
+    bad = np.empty(total, np.bool_)
+    for j in range(total):
+        ia = a[rows[j]]
+        ib = b[rows[j]]
+        sign = dot2d_filtered(
+            xy[ia, 0], xy[ia, 1], xy[ib, 0], xy[ib, 1], pts[j, 0], pts[j, 1], work
+        )
+        bad[j] = sign >= 0
+    return rows, pts, t, protect_side, near_side, near_vertex, bad
