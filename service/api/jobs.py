@@ -230,13 +230,13 @@ def router(registry: Registry) -> APIRouter:
             body = await parsed_body(raw)
             del raw
             params = body.params
-            packed: dict = {}  # domains: their arrays go apart (pack), a marker in the JSON
+            packed: dict = {}  # domains, surfaces: arrays apart (pack), a marker in the JSON
             params_json = params.model_dump_json(context={PACK: packed}).encode()
             digest = hashlib.sha256(body.method.encode() + b"\0" + params_json)
             for model in packed.values():
-                for ring in model.rings():
-                    digest.update(len(ring).to_bytes(8, "little"))
-                    digest.update(np.ascontiguousarray(ring))
+                for arr in model.content_arrays():
+                    digest.update(len(arr).to_bytes(8, "little"))
+                    digest.update(np.ascontiguousarray(arr))
             body_hash = digest.hexdigest()
             job = store.by_idempotency_key(client, idempotency_key) if idempotency_key else None
             if job is not None:

@@ -30,7 +30,10 @@ domain the submit validated: the submit dumps the params with a marker in
 place of each domain's coordinates and :func:`pack` stores the arrays and
 the validated :class:`~meshcore.domain.planar.Domain` beside them
 (``params.npz``); the job's :func:`unpack` hands both back to the model.
-A restarted or distributed job reads the same two files.
+A restarted or distributed job reads the same two files. Surfaces
+(:class:`service.methods.surface_schema.SurfaceIn`) travel the same way:
+their points and triangles as arrays, with the validated
+:class:`~meshcore.domain.surface.Surface` beside them.
 """
 
 from __future__ import annotations
@@ -57,13 +60,19 @@ from pydantic import (
 )
 
 from meshcore.domain.planar import Domain, parse_domain
+from meshcore.domain.surface import Surface
 from meshcore.errors import InputError
 from service.bodies import MARKER
 
-#: Validation context keys: coordinate arrays by marker (service.bodies, unpack) and the
-#: domains validated at submit by marker; serialization context key collecting the
-#: DomainIn models to pack, by the marker written in their place.
-ARRAYS, DOMAINS, PACK = "coordinate_arrays", "validated_domains", "pack_domains"
+#: Validation context keys: coordinate arrays by marker (service.bodies, unpack), the
+#: domains and the surfaces validated at submit by marker; serialization context key
+#: collecting the models to pack (DomainIn, SurfaceIn), by the marker written in their place.
+ARRAYS, DOMAINS, SURFACES, PACK = (
+    "coordinate_arrays",
+    "validated_domains",
+    "validated_surfaces",
+    "pack_domains",
+)
 #: Bytes per write when an array goes to a file (:func:`write_npz`).
 _SLICE = 1 << 20
 _DOMAIN_ARRAYS = (
@@ -75,6 +84,16 @@ _DOMAIN_ARRAYS = (
     "segments",
     "constraints",
     "constraint_source",
+)
+_SURFACE_ARRAYS = (
+    "points",
+    "triangles",
+    "triangle_reversed",
+    "triangle_shell",
+    "shell_parent",
+    "shell_depth",
+    "shell_region",
+    "shell_volume",
 )
 
 # Strict: JSON numbers only (true and "1" are not coordinates); NaN and infinities refused.
@@ -205,6 +224,28 @@ class DomainIn(BaseModel):
             return list(self.coordinates)
         return [ring for poly in self.coordinates for ring in poly]
 
+    def content_arrays(self) -> list[np.ndarray]:
+        """The arrays that identify this input (the submit's body hash): its rings."""
+        return self.rings()
+
+    def pack_into(self, prefix: str, arrays: dict[str, np.ndarray]) -> dict:
+        """Add this model's coordinates and validated domains to ``arrays`` under
+        ``prefix``; the index entry that :func:`unpack` reads them back with."""
+        rings = self.rings()
+        if len(rings) == 1:
+            arrays[f"{prefix}.points"] = rings[0]
+        else:
+            arrays[f"{prefix}.points"] = np.concatenate(rings) if rings else np.zeros((0, 2))
+        arrays[f"{prefix}.counts"] = np.array([len(r) for r in rings], dtype=np.int64)
+        sizes = [1] * len(rings) if self.type == "Polygon" else [len(p) for p in self.coordinates]
+        arrays[f"{prefix}.polygon_sizes"] = np.array(sizes, dtype=np.int64)
+        domains = []
+        for j, (key, dom) in enumerate(self._domains.items()):
+            for name in _DOMAIN_ARRAYS:
+                arrays[f"{prefix}.{j}.{name}"] = getattr(dom, name)
+            domains.append([key, dom.area, dom.diameter, dom.multi])
+        return {"kind": "domain", "multi": self.type != "Polygon", "domains": domains}
+
     def geometry(self) -> dict:
         """The geometry as plain JSON values: ``{"type", "coordinates"}``."""
         return {"type": self.type, "coordinates": _lists(self.coordinates)}
@@ -279,36 +320,38 @@ def _segments_key(segments: list | None) -> str:
     return hashlib.sha256(json.dumps(segments).encode()).hexdigest()
 
 
-def pack_arrays(packed: dict[str, DomainIn]) -> dict[str, np.ndarray]:
+def pack_arrays(packed: dict[str, Any]) -> dict[str, np.ndarray]:
     """The arrays of the models a params dump collected (``context={PACK: packed}``).
 
-    Each model's coordinates and the domains :meth:`DomainIn.to_domain`
-    built for it, so the job reads them instead of parsing and validating
-    again (:func:`unpack`); the arrays themselves, not copies (a single
-    ring's positions are not concatenated). Empty when there is nothing to
-    pack. :func:`write_npz` writes them.
+    Each model's coordinates (a surface's points and triangles) and what its
+    validation built (domains, the surface), so the job reads them instead
+    of parsing and validating again (:func:`unpack`); the arrays themselves,
+    not copies (a single ring's positions are not concatenated). Empty when
+    there is nothing to pack. :func:`write_npz` writes them.
     """
     arrays: dict[str, np.ndarray] = {}
     if not packed:
         return arrays
-    index = []
-    for i, (marker, model) in enumerate(packed.items()):
-        rings = model.rings()
-        if len(rings) == 1:
-            arrays[f"{i}.points"] = rings[0]
-        else:
-            arrays[f"{i}.points"] = np.concatenate(rings) if rings else np.zeros((0, 2))
-        arrays[f"{i}.counts"] = np.array([len(r) for r in rings], dtype=np.int64)
-        sizes = [1] * len(rings) if model.type == "Polygon" else [len(p) for p in model.coordinates]
-        arrays[f"{i}.polygon_sizes"] = np.array(sizes, dtype=np.int64)
-        domains = []
-        for j, (key, dom) in enumerate(model._domains.items()):
-            for name in _DOMAIN_ARRAYS:
-                arrays[f"{i}.{j}.{name}"] = getattr(dom, name)
-            domains.append([key, dom.area, dom.diameter, dom.multi])
-        index.append({"marker": marker, "multi": model.type != "Polygon", "domains": domains})
+    index = [
+        {"marker": marker, **model.pack_into(str(i), arrays)}
+        for i, (marker, model) in enumerate(packed.items())
+    ]
     arrays["index"] = np.frombuffer(json.dumps(index).encode(), np.uint8)
     return arrays
+
+
+def pack_surface(
+    prefix: str, arrays: dict[str, np.ndarray], points, triangles, surface: Surface | None
+) -> dict:
+    """Add a surface's points, triangles and (once validated) :class:`Surface` to
+    ``arrays`` under ``prefix``; the index entry :func:`unpack` reads them back with."""
+    arrays[f"{prefix}.points"] = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    arrays[f"{prefix}.triangles"] = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if surface is None:
+        return {"kind": "surface", "surface": None}
+    for name in _SURFACE_ARRAYS:
+        arrays[f"{prefix}.surface.{name}"] = getattr(surface, name)
+    return {"kind": "surface", "surface": [surface.volume, surface.diameter]}
 
 
 def write_npz(arrays: dict[str, np.ndarray], out: BinaryIO) -> None:
@@ -335,9 +378,20 @@ def unpack(data: bytes) -> dict[str, dict]:
     (``{}`` if empty)."""
     if not data:
         return {}
-    arrays, domains = {}, {}
+    arrays, domains, surfaces = {}, {}, {}
     with np.load(io.BytesIO(data)) as npz:
         for i, entry in enumerate(json.loads(npz["index"].tobytes())):
+            marker = entry["marker"]
+            if entry.get("kind", "domain") == "surface":
+                arrays[marker] = {"points": npz[f"{i}.points"], "triangles": npz[f"{i}.triangles"]}
+                if entry["surface"] is not None:
+                    volume, diameter = entry["surface"]
+                    surfaces[marker] = Surface(
+                        **{name: npz[f"{i}.surface.{name}"] for name in _SURFACE_ARRAYS},
+                        volume=volume,
+                        diameter=diameter,
+                    )
+                continue
             points = npz[f"{i}.points"]
             bounds = np.cumsum([0, *npz[f"{i}.counts"].tolist()])
             rings = [points[a:b] for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
@@ -346,8 +400,8 @@ def unpack(data: bytes) -> dict[str, dict]:
                 coords: list = [rings[a:b] for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
             else:
                 coords = rings
-            arrays[entry["marker"]] = coords
-            domains[entry["marker"]] = {
+            arrays[marker] = coords
+            domains[marker] = {
                 key: Domain(
                     **{name: npz[f"{i}.{j}.{name}"] for name in _DOMAIN_ARRAYS},
                     area=area,
@@ -356,4 +410,4 @@ def unpack(data: bytes) -> dict[str, dict]:
                 )
                 for j, (key, area, diameter, multi) in enumerate(entry["domains"])
             }
-    return {ARRAYS: arrays, DOMAINS: domains}
+    return {ARRAYS: arrays, DOMAINS: domains, SURFACES: surfaces}

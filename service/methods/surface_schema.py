@@ -18,16 +18,35 @@ the exact location (``["surface", "points", 3, 1]`` for the y of point 3);
 inconsistent orientation, self-intersections, ...) and locates its errors
 the same way, under the field. See DESIGN.md "Surface input (3D)" and the
 module documentation of :mod:`meshcore.domain.surface`.
+
+:meth:`SurfaceIn.to_surface` keeps the surface it built, and a job gets the
+surface its submit validated, as domains do (:mod:`service.methods.domain_schema`):
+the submit dumps the params with a marker in place of the points and the
+triangles, and ``params.npz`` holds them with the validated surface; the job
+validates nothing again.
 """
 
 from __future__ import annotations
 
 from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field
+import numpy as np
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    SerializationInfo,
+    ValidationInfo,
+    field_serializer,
+    field_validator,
+    model_validator,
+)
 
 from meshcore.domain.surface import Surface, parse_surface
 from meshcore.errors import InputError
+from service.bodies import MARKER
+from service.methods.domain_schema import ARRAYS, PACK, SURFACES, pack_surface
 
 # Strict: JSON numbers only (true and "1" are not coordinates); NaN and infinities refused.
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False, strict=True)]
@@ -83,13 +102,56 @@ class SurfaceIn(BaseModel):
     triangles: list[TriangleIndices] = Field(
         description="[i, j, k] point indices per triangle, at least 4 triangles."
     )
+    _surface: Surface | None = PrivateAttr(default=None)
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _validated_before(cls, value: Any, handler: Any, info: ValidationInfo) -> Any:
+        # A job's params: the surface the submit validated comes with the arrays (unpack).
+        model = handler(value)
+        marker = value.get("points") if isinstance(value, dict) else None
+        if isinstance(marker, str):
+            model._surface = (info.context or {}).get(SURFACES, {}).get(marker)
+        return model
+
+    @field_validator("points", "triangles", mode="wrap")
+    @classmethod
+    def _packed(cls, value: Any, handler: Any, info: ValidationInfo) -> Any:
+        packed = (info.context or {}).get(ARRAYS, {})
+        if isinstance(value, str) and value in packed:  # a job's params (unpack)
+            return packed[value][info.field_name]
+        return handler(value)
+
+    @field_serializer("points", "triangles")
+    def _arrays_out(self, value: Any, info: SerializationInfo) -> Any:
+        packed = (info.context or {}).get(PACK)
+        if packed is not None:  # a job's params: arrays apart (pack), a marker here
+            marker = next((m for m, model in packed.items() if model is self), None)
+            if marker is None:
+                marker = f"{MARKER}{len(packed)}"
+                packed[marker] = self
+            return marker
+        return value.tolist() if isinstance(value, np.ndarray) else value
+
+    def content_arrays(self) -> list[np.ndarray]:
+        """The arrays that identify this input (the submit's body hash)."""
+        return [
+            np.asarray(self.points, dtype=np.float64).reshape(-1, 3),
+            np.asarray(self.triangles, dtype=np.int64).reshape(-1, 3),
+        ]
+
+    def pack_into(self, prefix: str, arrays: dict[str, np.ndarray]) -> dict:
+        """Add the points, triangles and validated surface to ``arrays`` under ``prefix``;
+        the index entry of :func:`~service.methods.domain_schema.unpack`."""
+        return pack_surface(prefix, arrays, self.points, self.triangles, self._surface)
 
     def point_count(self) -> int:
         """Number of points (for ``MESHSERVICE_MAX_POINTS``)."""
         return len(self.points)
 
     def to_surface(self, *, loc: tuple[str | int, ...] = ("surface",)) -> Surface:
-        """The validated :class:`~meshcore.domain.surface.Surface`.
+        """The validated :class:`~meshcore.domain.surface.Surface`, built on the first
+        call (or handed over by the submit, see the module docstring) and kept.
 
         Parameters
         ----------
@@ -104,7 +166,9 @@ class SurfaceIn(BaseModel):
             ``loc`` relative to the params object, e.g. ``["surface",
             "triangles", 17]``.
         """
-        try:
-            return parse_surface(self.points, self.triangles)
-        except InputError as exc:
-            raise exc.prefixed(*loc) from None
+        if self._surface is None:
+            try:
+                self._surface = parse_surface(self.points, self.triangles)
+            except InputError as exc:
+                raise exc.prefixed(*loc) from None
+        return self._surface

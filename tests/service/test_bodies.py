@@ -1,4 +1,4 @@
-"""Big bodies: coordinates parsed from the bytes, refusals unchanged, the domain validated once.
+"""Big bodies: coordinates parsed from the bytes, refusals unchanged, inputs validated once.
 
 In-process (no server): the submit's parse (:func:`service.bodies.extract_coordinates`
 then the request model) against the ordinary parse of the same bytes, and the
@@ -18,6 +18,7 @@ from service import bodies
 from service.api.jobs import request_model
 from service.methods.domain_schema import ARRAYS, PACK, pack_arrays, unpack, write_npz
 from service.methods.registry import default_registry
+from service.methods.surface_schema import UNIT_CUBE
 from service.runner import run_job
 
 pytestmark = pytest.mark.kernels  # the domain checks run in this process
@@ -153,3 +154,31 @@ def test_the_job_uses_the_domain_the_submit_validated(monkeypatch):
     assert again.domain.geometry() == params.domain.geometry()
     files = run_job(REGISTRY["triangulate"], params_json, lambda f, m: None, (), arrays)
     assert json.loads(files["json"])["mesh"]["points"]
+
+
+def test_the_job_uses_the_surface_the_submit_validated(monkeypatch):
+    body = {"method": "tetrahedralize", "params": {"surface": UNIT_CUBE, "size": 0.5}}
+    params = ADAPTER.validate_json(json.dumps(body)).params
+    params.check()  # the submit's checks build the Surface once
+    packed: dict = {}
+    params_json = params.model_dump_json(context={PACK: packed}).encode()
+    assert b"[0.0,0.0,0.0]" not in params_json  # the points travel as arrays, not JSON
+    out = io.BytesIO()
+    write_npz(pack_arrays(packed), out)
+    arrays = out.getvalue()
+    expected = params.surface.to_surface()
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the job validated the surface again")
+
+    monkeypatch.setattr("service.methods.surface_schema.parse_surface", refuse)
+    again = REGISTRY["tetrahedralize"].params.model_validate_json(
+        params_json, context=unpack(arrays)
+    )
+    surface = again.surface.to_surface()
+    for name in ("points", "triangles", "triangle_reversed", "triangle_shell", "shell_region"):
+        assert np.array_equal(getattr(surface, name), getattr(expected, name))
+    assert (surface.volume, surface.diameter) == (expected.volume, expected.diameter)
+    assert again.model_dump() == params.model_dump()  # plain lists again when dumped
+    files = run_job(REGISTRY["tetrahedralize"], params_json, lambda f, m: None, (), arrays)
+    assert json.loads(files["json"])["stats"]["volume"] == pytest.approx(1.0)
