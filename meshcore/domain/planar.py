@@ -1425,7 +1425,7 @@ def as_domain(domain) -> Domain:
     )
 
 
-def parse_size_field(size_field) -> tuple[np.ndarray, np.ndarray]:
+def parse_size_field(size_field, dim: int = 2) -> tuple[np.ndarray, np.ndarray]:
     """A size field's sample points and sizes, checked (the control space of Remark 8.10).
 
     Parameters
@@ -1433,10 +1433,12 @@ def parse_size_field(size_field) -> tuple[np.ndarray, np.ndarray]:
     size_field : mapping, object or pair
         ``{"points": [[x, y], ...], "values": [h, ...]}``, an object with
         ``points`` and ``values``, or the pair itself.
+    dim : int
+        2 for planar points, 3 for points in space (``[x, y, z]``).
 
     Returns
     -------
-    points : (k, 2) float64
+    points : (k, dim) float64
     values : (k,) float64
         Finite, distinct points and finite sizes above 0.
 
@@ -1459,9 +1461,10 @@ def parse_size_field(size_field) -> tuple[np.ndarray, np.ndarray]:
         raise InputError(
             "size_field needs numeric points and values", loc=("size_field",), code="bad_parameter"
         ) from None
-    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) == 0:
+    if pts.ndim != 2 or pts.shape[1] != dim or len(pts) == 0:
+        position = "[x, y]" if dim == 2 else "[x, y, z]"
         raise InputError(
-            f"size_field.points must be a non-empty list of [x, y], got shape {pts.shape}",
+            f"size_field.points must be a non-empty list of {position}, got shape {pts.shape}",
             loc=("size_field", "points"),
             code="bad_parameter",
         )
@@ -1485,7 +1488,7 @@ def parse_size_field(size_field) -> tuple[np.ndarray, np.ndarray]:
             loc=("size_field", "values", int(bad[0])),
             code="bad_parameter",
         )
-    order = np.lexsort((pts[:, 1], pts[:, 0]))
+    order = np.lexsort(pts.T[::-1])  # by x, then y (then z)
     same = np.flatnonzero((pts[order][1:] == pts[order][:-1]).all(axis=1))
     if same.size:
         i, j = sorted((int(order[same[0]]), int(order[same[0] + 1])))

@@ -41,7 +41,10 @@ phases and only ever grown by point insertion):
    split (:func:`_feature_sizes`, see below); then
    the bad tetrahedra (circumradius over shortest edge above
    ``max_radius_edge``, volume above ``max_volume``, circumradius above
-   ``0.7 size``) in decreasing order of circumradius: the circumcentre is
+   ``0.7 size``, the size being ``size_field``'s value at the circumcentre
+   where one is given, :mod:`meshcore.tets.sizing`, as it is at a
+   subsegment's midpoint and a subface's centroid above) in decreasing
+   order of circumradius: the circumcentre is
    inserted unless it encroaches a subsegment (closed diametral ball, exact
    sign of :func:`~meshcore.geometry.predicates3d.dot3d`) or a subface
    (equatorial ball), which is split instead (a subface also when the subsegment the
@@ -158,6 +161,7 @@ from meshcore.domain.surface import as_surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh
+from meshcore.tets.sizing import SizeField3d
 
 __all__ = ["TetrahedralizationResult", "tetrahedralize", "tetra_dihedral_angles"]
 
@@ -521,20 +525,29 @@ def _left_report(
     return out
 
 
-def _bad_tets(P, T, max_radius_edge, max_volume, size, knobs) -> tuple[np.ndarray, np.ndarray]:
+def _size_at(size, field, X: np.ndarray) -> np.ndarray:
+    """The target edge length at points ``X``: the smaller of ``size`` and the size
+    field's value there (inf where neither is given)."""
+    out = np.full(len(X), np.inf if size is None else size)
+    return out if field is None else np.minimum(out, field(X))
+
+
+def _bad_tets(
+    P, T, max_radius_edge, max_volume, size, field, knobs
+) -> tuple[np.ndarray, np.ndarray]:
     """Rows of bad tetrahedra and their circumcentres, worst (largest radius) first."""
     c, R = _tet_circumcenters(P, T)
     short = _shortest_edge(P, T)
     bad = R > max_radius_edge * short
     if max_volume is not None:
         bad |= _volumes(P, T) > max_volume
-    if size is not None:
-        bad |= R > knobs.size_radius * size
     # A tetrahedron too flat for its float circumcentre (positive by the exact
     # sign, zero in float) is bad; its centroid is inserted instead.
     flat = ~np.isfinite(R)
     c[flat] = P[T[flat]].mean(axis=1)
     R[flat] = np.inf
+    if size is not None or field is not None:
+        bad |= R > knobs.size_radius * _size_at(size, field, c)
     rows = np.flatnonzero(bad | flat)
     rows = rows[np.argsort(-R[rows], kind="stable")]
     return rows, c[rows]
@@ -908,7 +921,7 @@ class _SlotCache:
 
 def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[int, int]:
     """Delaunay refinement rounds; returns (rounds, bad tetrahedra left)."""
-    max_radius_edge, max_volume, size = criteria
+    max_radius_edge, max_volume, size, field = criteria
     rounds = 0
     left = 0
     cap = b.knobs.sliver_rounds if sliver_bound is not None else b.knobs.refinement_rounds
@@ -923,13 +936,15 @@ def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[
         else:
             seg_bad = sub_bad = np.zeros(0, dtype=np.int64)
         # The size bound and each facet's feature size (``_feature_sizes``).
-        cap = np.minimum(b.segment_size(np.arange(len(b.seg))), size or np.inf)
+        mid = 0.5 * (b.P[b.seg[:, 0]] + b.P[b.seg[:, 1]])
+        cap = np.minimum(b.segment_size(np.arange(len(b.seg))), _size_at(size, field, mid))
         L = np.linalg.norm(b.P[b.seg[:, 0]] - b.P[b.seg[:, 1]], axis=1)
         seg_bad = np.union1d(seg_bad, np.flatnonzero(L > cap))
         if seg_bad.size:
             b.split_segments(seg_bad)
             continue
-        cap = np.minimum(b.facet_size[b.sub_facet], size or np.inf)
+        centroid = b.P[b.sub].mean(axis=1)
+        cap = np.minimum(b.facet_size[b.sub_facet], _size_at(size, field, centroid))
         if np.isfinite(cap).any():
             _, r = tri_circumcenters(b.P, b.sub)
             sub_bad = np.union1d(sub_bad, np.flatnonzero(r > b.knobs.size_radius * cap))
@@ -940,7 +955,7 @@ def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[
         region = regions(b, slots, T)
         inside = np.flatnonzero(region >= 0)
         Ti = T[inside]
-        rows, centres = _bad_tets(b.P, Ti, max_radius_edge, max_volume, size, b.knobs)
+        rows, centres = _bad_tets(b.P, Ti, max_radius_edge, max_volume, size, field, b.knobs)
         if sliver_bound is not None:
             # The radius-edge, volume and size bounds first, then the slivers that
             # are not held between two facets (those the input's fold forces).
@@ -1054,6 +1069,7 @@ def tetrahedralize(
     min_dihedral: float | None = None,
     max_volume: float | None = None,
     size: float | None = None,
+    size_field=None,
     keep_boundary: bool = False,
     progress: Callable[[float, str], None] | None = None,
 ) -> TetrahedralizationResult:
@@ -1082,6 +1098,12 @@ def tetrahedralize(
     size : float, optional
         Target edge length: subsegments longer than it are split, subfaces
         and tetrahedra with a circumradius above ``0.7 size``.
+    size_field : mapping, optional
+        ``{"points": [[x, y, z], ...], "values": [h, ...]}``: target edge
+        lengths at scattered points, interpolated linearly (nearest value
+        outside their hull; :class:`meshcore.tets.sizing.SizeField3d`) and
+        used as ``size`` is, at each piece's midpoint, centroid or
+        circumcentre; with ``size`` too, the smaller of the two.
     keep_boundary : bool
         Add no point on the surface: the boundary faces are exactly the
         input triangles. Supported when the surface needs no Steiner point
@@ -1114,11 +1136,12 @@ def tetrahedralize(
     """
     surface = as_surface(surface)
     criteria = _criteria_checked(max_radius_edge, min_dihedral, max_volume, size)
+    field = None if size_field is None else SizeField3d(size_field)
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     b = SurfaceRecovery(surface, KNOBS, merge=not keep_boundary)
-    if criteria[3] is not None:
-        b.size_cap = criteria[3]
+    if criteria[3] is not None or field is not None:
+        b.size_cap = min(criteria[3] or math.inf, math.inf if field is None else field.values.min())
     if not (empty or keep_boundary) and criteria[0] is not None:
         # Radius-edge refinement reaches the local feature size: the surface first.
         lfs = _feature_sizes(b)
@@ -1153,17 +1176,18 @@ def tetrahedralize(
         rounds += recover(b, progress)
         timings["recovery"] = time.perf_counter() - t1
         mre, mdh, mvol, sz = criteria
-        if not empty and (mre is not None or mvol is not None or sz is not None):
+        bounded = mre is not None or mvol is not None or sz is not None or field is not None
+        if not empty and bounded:
             t2 = time.perf_counter()
-            r, given_up = _refine(b, (mre or math.inf, mvol, sz), progress)
+            r, given_up = _refine(b, (mre or math.inf, mvol, sz, field), progress)
             rounds += r
             timings["refinement"] = time.perf_counter() - t2
         if not empty and mdh is not None:
             t3 = time.perf_counter()
             rounds += _sliver_pass(b, mdh, mre or math.inf, progress)
-            if mre is not None or mvol is not None or sz is not None:
+            if bounded:
                 # The sliver rounds' surface splits may have left bad tetrahedra.
-                r, given_up = _refine(b, (mre or math.inf, mvol, sz), progress)
+                r, given_up = _refine(b, (mre or math.inf, mvol, sz, field), progress)
                 rounds += r
             timings["slivers"] = time.perf_counter() - t3
         # Encroachment fixes may have left pieces missing: recover again (no-op if whole).

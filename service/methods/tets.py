@@ -17,10 +17,18 @@ from pydantic import Field
 from meshcore.mesh import quality
 from meshcore.tets import tetra_dihedral_angles, tetrahedralize
 from meshcore.tets.refinement import MIN_RADIUS_EDGE
-from service.methods.surface_schema import UNIT_CUBE, SurfaceIn
+from meshcore.tets.sizing import SizeField3d
+from service.methods.surface_schema import UNIT_CUBE, Position3, SurfaceIn
+from service.methods.triangulation import SizeField
 from service.schemas import MethodParams
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+
+
+class SizeField3(SizeField):
+    """Target edge lengths at scattered 3D points (the control space of Remark 8.10)."""
+
+    points: list[Position3] = Field(min_length=1, description="[x, y, z] positions, distinct.")
 
 
 class TetrahedralizeParams(MethodParams):
@@ -53,6 +61,12 @@ class TetrahedralizeParams(MethodParams):
         default=None, description="Largest tetrahedron volume."
     )
     size: PositiveFloat | None = Field(default=None, description="Target edge length.")
+    size_field: SizeField3 | None = Field(
+        default=None,
+        description="Target edge lengths at scattered points, interpolated linearly on their "
+        "Delaunay tetrahedralization (nearest value outside their hull); with size, the "
+        "smaller of the two.",
+    )
     keep_boundary: bool = Field(
         default=False,
         description="No point on the surface: the boundary faces are exactly the input "
@@ -63,6 +77,8 @@ class TetrahedralizeParams(MethodParams):
     def check(self) -> None:
         super().check()
         self.surface.to_surface()
+        if self.size_field is not None:
+            SizeField3d(self.size_field)  # distinct points: refused here, located
 
 
 def run_tetrahedralize(params: TetrahedralizeParams, progress) -> dict:
@@ -79,6 +95,7 @@ def run_tetrahedralize(params: TetrahedralizeParams, progress) -> dict:
         min_dihedral=params.min_dihedral,
         max_volume=params.max_volume,
         size=params.size,
+        size_field=params.size_field,
         keep_boundary=params.keep_boundary,
         progress=sub,
     )

@@ -83,6 +83,11 @@ class TestTetrahedralize:
             ({"size": 0}, ["size"]),
             ({"max_volume": -1}, ["max_volume"]),
             ({"unknown": 1}, ["unknown"]),
+            ({"size_field": {"points": [[0, 0, 0]], "values": [1, 2]}}, ["size_field"]),
+            (
+                {"size_field": {"points": [[0, 0, 0], [0, 0, 0]], "values": [1, 1]}},
+                ["size_field", "points", 1],
+            ),
         ],
     )
     def test_bad_params_are_422_naming_the_field(self, client, extra, loc):
@@ -113,6 +118,17 @@ class TestTetrahedralize:
             assert r.status_code == 200, r.text
             back = io.from_bytes(r.content, fmt)
             assert len(back.cells[0].data) == len(K)
+
+    def test_size_field_grades_the_tetrahedra(self, client):
+        field = {"points": [[0, 0, 0], [1, 1, 1]], "values": [0.15, 0.6]}
+        job = finished(client, {"surface": CUBE, "size_field": field, "max_radius_edge": None})
+        res = client.get(f"/v1/jobs/{job['id']}/result").json()
+        mesh = io.from_json(res["mesh"])
+        P, K = mesh.points, mesh.cells[0].data
+        centre = P[K].mean(axis=1)
+        lower = centre.sum(axis=1) < 1.5  # the half nearer the field's small value
+        assert lower.sum() > 3 * (~lower).sum()
+        assert res["stats"]["points"] > len(CUBE["points"])
 
     def test_keep_boundary_schonhardt(self, client):
         P, T = schonhardt()

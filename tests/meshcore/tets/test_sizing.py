@@ -1,0 +1,74 @@
+"""tetrahedralize's size_field: scattered sizes interpolated linearly, meshes that follow it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from meshcore.errors import InputError
+from meshcore.geometry.predicates3d import orient3d
+from meshcore.tets import tetrahedralize
+from meshcore.tets.sizing import SizeField3d
+from tests.meshcore.domain import shapes
+
+CORNERS = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]]
+
+
+def linear(X):
+    return 0.1 + 0.2 * X[:, 0] + 0.3 * X[:, 1] + 0.4 * X[:, 2]
+
+
+@pytest.mark.parametrize("how", ["as_given", "translate", "scale"])
+def test_a_linear_field_is_reproduced_inside_the_hull_and_nearest_outside(how):
+    P = np.array(CORNERS, dtype=float)
+    rng = np.random.default_rng(3)
+    inside = rng.dirichlet(np.ones(4), size=200) @ P[:4]  # in the tetrahedron of 4 corners
+    outside = np.array([[2.0, 2.0, 2.0], [-1.0, 0.0, 0.0]])
+    move = {"as_given": lambda X: X, "translate": lambda X: X + 1e6, "scale": lambda X: X * 1e-6}
+    field = SizeField3d({"points": move[how](P), "values": linear(P)})
+    np.testing.assert_allclose(field(move[how](inside)), linear(inside), rtol=1e-9)
+    np.testing.assert_array_equal(field(move[how](outside)), linear(P)[[4, 0]])
+
+
+def test_coplanar_or_few_points_give_the_nearest_value():
+    flat = SizeField3d(
+        {"points": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], "values": [1, 2, 3, 4]}
+    )
+    np.testing.assert_array_equal(flat(np.array([[0.9, 0.1, 5.0], [0.1, 0.2, -1]])), [2, 1])
+    two = SizeField3d({"points": [[0, 0, 0], [1, 1, 1]], "values": [0.5, 0.25]})
+    np.testing.assert_array_equal(two(np.array([[0.2, 0.2, 0.2], [0.9, 0.8, 1.0]])), [0.5, 0.25])
+
+
+@pytest.mark.parametrize(
+    ("field", "loc", "code"),
+    [
+        ({"points": [[0, 0, 0], [1, 1, 1], [0, 0, 0]], "values": [1, 1, 1]}, 2, "duplicate_points"),
+        ({"points": [[0, 0], [1, 1]], "values": [1, 1]}, None, "bad_parameter"),
+        ({"points": [[0, 0, 0]], "values": [0.0]}, 0, "bad_parameter"),
+    ],
+)
+def test_bad_fields_are_refused_where_they_are(field, loc, code):
+    with pytest.raises(InputError) as err:
+        SizeField3d(field)
+    assert err.value.code == code
+    assert err.value.errors[0]["loc"][0] == "size_field"
+    if loc is not None:
+        assert err.value.errors[0]["loc"][-1] == loc
+
+
+def test_the_tetrahedra_follow_the_field():
+    P, T = shapes.box()
+    field = {"points": CORNERS, "values": [0.12, 0.5, 0.5, 0.5, 0.5]}
+    res = tetrahedralize({"points": P.tolist(), "triangles": T.tolist()}, size_field=field)
+    X, K = res.mesh.points, res.mesh.cells[0].data
+    a, b, c, d = (X[K[:, i]] for i in range(4))
+    assert (orient3d(a, b, d, c) > 0).all()  # meshio's order: positive volumes, exactly
+    volume = np.einsum("ij,ij->i", b - a, np.cross(c - a, d - a)).sum() / 6
+    assert volume == pytest.approx(1.0, rel=1e-12)
+    centre = X[K].mean(axis=1)
+    edge = np.linalg.norm(a - b, axis=1)
+    near = np.median(edge[np.linalg.norm(centre, axis=1) < 0.3])
+    far = np.median(edge[np.linalg.norm(centre - 1, axis=1) < 0.3])
+    assert near < 0.5 * far
+    uniform = tetrahedralize({"points": P.tolist(), "triangles": T.tolist()}, size=0.12)
+    assert len(K) < 0.5 * len(uniform.mesh.cells[0].data)  # graded: fewer than uniformly fine
