@@ -519,6 +519,13 @@ class SurfaceRecovery:
         if rows.size == 0:
             return 0, 0
         c, R = tri_circumcenters(self.P, self.sub[rows])
+        flat = ~np.isfinite(R)
+        if flat.any():
+            # Collinear in float (points on one input edge): the centroid, on that
+            # edge, encroaches the subsegment that is split below.
+            T = self.P[self.sub[rows[flat]]]
+            c[flat] = T.mean(axis=1)
+            R[flat] = 0.5 * np.linalg.norm(T - np.roll(T, 1, axis=1), axis=2).max(axis=1)
         # Co-circular subfaces share a circumcentre up to rounding: keep one.
         near = self.crowded(c, R)
         rows, c, R = rows[~near], c[~near], R[~near]
