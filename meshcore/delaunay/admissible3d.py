@@ -66,13 +66,14 @@ Choices where the text leaves freedom
 -------------------------------------
 * **Split points yield to subsegments** (Ruppert's rule, as in Delaunay
   refinement): a point chosen for a missing face, or for a missing edge
-  inside a facet, that lies in the closed diametral ball of a subsegment of
-  its subface (a piece of an input edge, exact
-  :func:`~meshcore.geometry.predicates3d.dot3d`) is replaced by that
-  subsegment's midpoint. Without it, two facets meeting at a sharp edge
-  handed split points back and forth ever nearer their common edge until
-  none could be added: 68 of 19,500 random star polyhedra failed so, 3
-  after (the hypothesis family of the tests, seeds 1-19,500).
+  inside a facet, that lies in the closed diametral ball of a subsegment on
+  its facet's boundary (a piece of an input edge, exact
+  :func:`~meshcore.geometry.predicates3d.dot3d`; the longest such) is
+  replaced by that subsegment's midpoint. Without it, two facets meeting at
+  a sharp edge handed split points back and forth ever nearer their common
+  edge until none could be added: 68 of 19,500 random star polyhedra (the
+  tests' family, seeds 1-19,500 of ``benchmarks/robustness3d.py``) failed
+  so, none of them after.
 * **New points on the surface (§9.3.5)** are constructed from the *input*
   coordinates: a point on input edge ``E0 E1`` is ``E0 + s (E1 - E0)``
   (``s`` its parameter along the edge, kept), a point inside input
@@ -620,10 +621,10 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, tree: cKDTree) -
     for r in np.flatnonzero(~member(edge_keys(E), np.sort(edge_keys(b.seg)))).tolist():
         # A split point inside a facet that would encroach one of its subsegments
         # yields to it (as a face's point does in _split_faces).
-        tri = b.sub[holder[r]]
-        k = _encroached_subsegment(st, tri, A[keep][r] + t[r] * (B[keep][r] - A[keep][r]))
-        if k >= 0:
-            E[r], t[r] = (tri[k], tri[(k + 1) % 3]), 0.5
+        X = A[keep][r] + t[r] * (B[keep][r] - A[keep][r])
+        seg = _encroached_subsegment(st, int(b.sub_facet[holder[r]]), X)
+        if seg is not None:
+            E[r], t[r] = seg, 0.5
     _, first = np.unique(edge_keys(E), return_index=True)
     return _insert_on_edges(st, E[first], b.sub_facet[holder[first]], t[first])
 
@@ -730,14 +731,14 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree) -> int:
         _, kind, data = max(options, key=lambda z: z[0])
         if kind == "face":
             M = origin[fj] + frame @ m
-            seg_k = _encroached_subsegment(st, tri, M)
-            if seg_k < 0:
+            seg = _encroached_subsegment(st, fj, M)
+            if seg is None:
                 pts_face.append((fj, M, float(R[j])))
                 continue
-            # M would encroach a subsegment of f: that subsegment is split at its
-            # midpoint instead (Ruppert's rule). Else two facets meeting at a sharp
-            # edge hand split points back and forth ever nearer their common edge.
-            kind, data = "edge", (tri[seg_k], tri[(seg_k + 1) % 3], 0.5)
+            # M would encroach a subsegment of its facet: that subsegment is split at
+            # its midpoint instead (Ruppert's rule). Else two facets meeting at a
+            # sharp edge hand split points back and forth ever nearer their edge.
+            kind, data = "edge", (int(seg[0]), int(seg[1]), 0.5)
         if kind == "edge":
             i, jj, t = data
             key = (min(i, jj), max(i, jj))
@@ -760,20 +761,20 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree) -> int:
     return added
 
 
-def _encroached_subsegment(st: _State, tri: np.ndarray, X: np.ndarray) -> int:
-    """The edge ``k`` (from ``tri[k]`` to ``tri[k + 1]``) of subface ``tri`` that is a
-    subsegment, not an edge of a strict Case 0 face, and whose closed diametral
-    ball holds ``X`` (exact :func:`~meshcore.geometry.predicates3d.dot3d`); the
-    longest such edge, or -1."""
-    E = np.stack([tri, np.roll(tri, -1)], axis=1)
-    keys = edge_keys(E)
-    candidate = member(keys, np.sort(edge_keys(st.b.seg))) & ~np.isin(keys, st.protected)
-    A, B = st.b.P[E[:, 0]], st.b.P[E[:, 1]]
-    candidate &= dot3d(A, B, np.broadcast_to(X, A.shape)) <= 0
-    if not candidate.any():
-        return -1
-    length = np.where(candidate, np.linalg.norm(B - A, axis=1), -1.0)
-    return int(np.argmax(length))
+def _encroached_subsegment(st: _State, facet: int, X: np.ndarray) -> np.ndarray | None:
+    """The longest subsegment on the boundary of input triangle ``facet``, not an
+    edge of a strict Case 0 face, whose closed diametral ball holds ``X`` (exact
+    :func:`~meshcore.geometry.predicates3d.dot3d`), as its two vertices; None if
+    there is none."""
+    b = st.b
+    rows = np.flatnonzero((b.edge_groups[b.seg_edge] == facet).any(axis=1))
+    S = b.seg[rows]
+    S = S[~np.isin(edge_keys(S), st.protected)]
+    A, B = b.P[S[:, 0]], b.P[S[:, 1]]
+    hit = np.flatnonzero(dot3d(A, B, np.broadcast_to(X, A.shape)) <= 0)
+    if hit.size == 0:
+        return None
+    return S[hit[np.argmax(np.linalg.norm(B[hit] - A[hit], axis=1))]]
 
 
 def _barycentric(uv: np.ndarray, m: np.ndarray) -> np.ndarray:
