@@ -617,12 +617,12 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, tree: cKDTree) -
     # Longest first (lengths equal to 1e-6 relative tie), then widest angle.
     length = np.round(np.log2(half) * 2.0**20)
     keep = _independent(A + t[:, None] * (B - A), mid, half, (-widest, -length))
+    X = (A + t[:, None] * (B - A))[keep]
     E, holder, t = E[keep], holder[keep], t[keep]
     for r in np.flatnonzero(~member(edge_keys(E), np.sort(edge_keys(b.seg)))).tolist():
         # A split point inside a facet that would encroach one of its subsegments
         # yields to it (as a face's point does in _split_faces).
-        X = A[keep][r] + t[r] * (B[keep][r] - A[keep][r])
-        seg = _encroached_subsegment(st, int(b.sub_facet[holder[r]]), X)
+        seg = _encroached_subsegment(st, int(b.sub_facet[holder[r]]), X[r])
         if seg is not None:
             E[r], t[r] = seg, 0.5
     _, first = np.unique(edge_keys(E), return_index=True)
