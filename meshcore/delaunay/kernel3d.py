@@ -1225,6 +1225,8 @@ class IncrementalDelaunay3d:
             out[j] = res.vertex
             if not res.duplicate:
                 near = res.vertex
+        if self._n == n0:  # every point coincided with a vertex
+            return out
         # Renumber the new vertices in batch order: the first new point of
         # the batch becomes vertex n0, the next n0 + 1, ...
         first = np.zeros(k, bool)

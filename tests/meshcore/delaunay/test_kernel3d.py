@@ -216,6 +216,7 @@ class TestIncremental:
         dup = dt.insert(p[3])
         assert dup.duplicate and dup.vertex == 3 and len(dup.created) == 0
         assert np.array_equal(dt.insert_many([[0.5, 0.5, 0.5], p[0], [0.5, 0.5, 0.5]]), [9, 0, 9])
+        assert np.array_equal(dt.insert_many([p[2], [3.0, 0.5, 0.5]]), [2, 8])  # nothing new
         check_delaunay(dt.tetrahedralization())
 
     def test_locate(self):
