@@ -2,7 +2,7 @@
 
 Run from the repository root::
 
-    .venv/bin/python benchmarks/robustness3d.py                      # 300 seeds, both methods
+    .venv/bin/python benchmarks/robustness3d.py                      # 300 seeds, every method
     .venv/bin/python benchmarks/robustness3d.py --seeds 1 20000 --methods admissible
     .venv/bin/python benchmarks/robustness3d.py --seeds 4 5 --methods tetrahedralize
 
@@ -13,7 +13,10 @@ triangles moved out to those radii (a valid closed surface, star-shaped
 from the origin, with sharp edges where neighbouring radii differ).
 ``admissible`` runs :func:`meshcore.delaunay.admissible3d.make_admissible_surface`,
 ``tetrahedralize`` :func:`meshcore.tets.tetrahedralize` on its defaults
-(radius-edge 2). Every run is limited to ``--limit`` seconds (SIGALRM).
+(radius-edge 2), ``optimize`` :func:`meshcore.optimize.optimize` (Coupez's
+generation from the surface, on its defaults) and ``recursive_partition``
+:func:`meshcore.partition.recursive.recursive_partition` (``size`` 0.3:
+about a fifth of the radii). Every run is limited to ``--limit`` seconds (SIGALRM).
 Prints, per method, the seeds that raised (with the error), timed out or
 gave a tetrahedron that is not positive by the exact ``orient3d``, and the
 counts: every valid surface should succeed, so every line but ``ok`` is a
@@ -36,6 +39,8 @@ sys.path.insert(0, ROOT)
 
 from meshcore.delaunay.admissible3d import make_admissible_surface  # noqa: E402
 from meshcore.geometry.predicates3d import orient3d  # noqa: E402
+from meshcore.optimize import optimize  # noqa: E402
+from meshcore.partition.recursive import recursive_partition  # noqa: E402
 from meshcore.tets import tetrahedralize  # noqa: E402
 from tests.meshcore.domain import shapes  # noqa: E402
 
@@ -61,6 +66,8 @@ def _positive(mesh) -> bool:
 
 METHODS = {
     "admissible": lambda s: _positive(make_admissible_surface(s).mesh),
+    "optimize": lambda s: _positive(optimize(surface=s).mesh),
+    "recursive_partition": lambda s: _positive(recursive_partition(surface=s, size=0.3).mesh),
     "tetrahedralize": lambda s: _positive(tetrahedralize(s).mesh),
 }
 

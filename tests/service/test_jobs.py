@@ -475,6 +475,15 @@ class TestCrashes:
         assert "SIGKILL" in job["error"]["detail"]
         assert submit(client, "quality", {"mesh": SQUARE}, wait=10).json()["status"] == "succeeded"
 
+    def test_a_job_process_has_one_blas_thread(self, client, tmp_path):
+        marker = tmp_path / "env"
+        job = submit(client, "sleep", {"seconds": 30, "marker": str(marker)}).json()
+        pid = int(wait_file(marker))
+        with open(f"/proc/{pid}/environ", "rb") as f:
+            env = dict(v.split(b"=", 1) for v in f.read().split(b"\0") if b"=" in v)
+        client.post(f"/v1/jobs/{job['id']}/cancel")
+        assert env[b"OPENBLAS_NUM_THREADS"] == env[b"OMP_NUM_THREADS"] == b"1"
+
     @pytest.mark.parametrize("how, words", [("exit", "status 3"), ("segfault", "SIGSEGV")])
     def test_crash_fails_only_that_job(self, client, how, words):
         job = submit(client, "crash", {"how": how}, wait=20).json()
