@@ -35,7 +35,13 @@ from pathlib import Path
 import pytest
 from hypothesis import settings
 
-from service.executors.child import die_with_parent
+# One BLAS thread per process, as the service's job processes have (service.executors.child.
+# JOB_THREADS): four workers on two cores, each with a multithreaded OpenBLAS, oversubscribe.
+# Set before the workers start (they inherit it), and before this process loads numpy.
+for _name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")
+
+from service.executors.child import die_with_parent  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 WARMUP_PROCESSES = 2  # processes filling numba's cache at once (the machine's cores)
