@@ -192,3 +192,20 @@ def test_quad_medial_on_spiky_stars(geo):
     P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
     for k in range(4):
         assert (orient2d(P[Q[:, k - 1]], P[Q[:, k]], P[Q[:, (k + 1) % 4]]) > 0).all()
+
+
+def test_corner_relaxation_kept_on_a_coarse_annulus():
+    # the 1 / sin energy alone does not see edge lengths: an interior node slid onto a
+    # boundary node (a collapsed edge) and the whole relaxation was refused here
+    geo = {
+        "type": "Polygon",
+        "coordinates": [
+            _ring(_sampled(_ellipse(1, 1), 0.18)),
+            _ring(_sampled(_ellipse(0.45, 0.45), 0.18)[::-1]),
+        ],
+    }
+    dom = parse_domain(geo)
+    res = combine(domain=dom, size=0.18, all_quad=True, twice_size=True, optimize=True)
+    assert res.operators["relax"] == 1
+    ang, q, _ = _check(res.mesh, dom, 0.18)
+    assert ang.min() >= 30 and ang.max() <= 150 and q.min() >= 0.5
