@@ -1064,7 +1064,7 @@ def _split_round(st: _Pieces, missing, scale, circles, tol, round_no) -> None:
         np.minimum.at(r, inv, x)
         st.radius[verts] = r
     rows, xy, t, protect_side, near_side, near_vertex, bad = _split_points(
-        st.xy, st.a, st.b, missing, M, near, st.acute, st.done, st.radius, st.work
+        st.xy, st.a, st.b, missing, M, near, enc, st.acute, st.done, st.radius, st.work
     )
     if len(curved):
         _curved_split_points(st, circles, rows, xy, protect_side, near_vertex, bad)

@@ -680,26 +680,34 @@ def _corner(V, t, v):
 
 
 @njit(cache=True)
-def _insert_marked(pts, V, A, stack, vt, hint, state, work, start, stop, mark, stamp):
-    """Insert points start..stop-1 one by one; after each, mark it and its
-    neighbours with ``stamp``: every edge an insertion removes joins two
-    neighbours of the inserted point (the cavity's vertices), so a present
-    edge whose ends are not both marked is still present."""
+def _insert_rings(pts, V, A, stack, vt, hint, state, work, order, start, stop):
+    """Insert points start..stop-1 one by one; after each, record its
+    neighbours counter-clockwise (input indices, -1 the vertex at infinity),
+    consecutive ones joined by an edge. Every edge an insertion removes is a
+    diagonal of its cavity: it joins two neighbours of the inserted point
+    that are not consecutive. Returns ``(ring_start, ring)`` in CSR form."""
+    k = stop - start
+    ring_start = np.zeros(k + 1, np.int64)
+    ring = np.empty(8 * k + 8, np.int64)
+    m = 0
     for p in range(start, stop):
         _insert_range(pts, V, A, stack, vt, hint, state, work, p, p + 1)
         if state[2] != _OK:
-            return
-        mark[p] = stamp
+            break
         t0 = vt[p]
         t = t0
         while True:
-            k = _corner(V, t, p)
-            u = V[_nxt(k)]
-            if u >= 0:
-                mark[u] = stamp
-            t = A[_prv(k)] // 3
+            c = _corner(V, t, p)
+            u = V[_nxt(c)]
+            if m == ring.shape[0]:
+                ring = np.concatenate((ring, np.empty(m, np.int64)))
+            ring[m] = order[u] if u >= 0 else -1
+            m += 1
+            t = A[_prv(c)] // 3
             if t == t0:
                 break
+        ring_start[p - start + 1] = m
+    return ring_start, ring[:m]
 
 
 @njit(cache=True)
@@ -769,8 +777,9 @@ class IncrementalDelaunay:
 
     Queries for :mod:`meshcore.delaunay.admissible`: which segments are
     edges (:meth:`has_edges`), each vertex's nearest other point
-    (:meth:`nearest_distance`), the vertices whose neighbourhood the last
-    :meth:`insert` changed (:meth:`touched`, :meth:`marks`).
+    (:meth:`nearest_distance`), the neighbours each point of the last
+    :meth:`insert` had when it went in (:meth:`rings`: the edges an
+    insertion removes join two of them).
 
     Added points must lie in the convex hull of the first ones (split
     points of segments do), so that the power-of-two scale stays valid.
@@ -790,8 +799,7 @@ class IncrementalDelaunay:
         self._state, self._work = state, work
         self._stack = np.empty(n + 8, np.int32)
         self._hint = np.full(n, -1, np.int32)
-        self._mark = np.zeros(n, np.int64)
-        self._stamp = 0
+        self._rings = (np.zeros(1, np.int64), np.zeros(0, np.int64))
 
     def __len__(self) -> int:
         return self._n
@@ -817,7 +825,6 @@ class IncrementalDelaunay:
         self._vt = grown(self._vt, cap)
         self._stack = np.empty(cap + 8, np.int32)
         self._hint = grown(self._hint, cap, -1)
-        self._mark = grown(self._mark, cap, 0)
 
     def insert(self, xy: np.ndarray, near: np.ndarray) -> tuple[int, int] | None:
         """Insert points ``xy`` (k, 2), walking from vertices ``near`` (k,).
@@ -833,8 +840,7 @@ class IncrementalDelaunay:
         self._order[n : n + k] = slots
         self._slot[n : n + k] = slots
         self._hint[n : n + k] = self._slot[near]
-        self._stamp += 1
-        _insert_marked(
+        self._rings = _insert_rings(
             self._pts,
             self._V,
             self._A,
@@ -843,26 +849,22 @@ class IncrementalDelaunay:
             self._hint,
             self._state,
             self._work,
+            self._order,
             n,
             n + k,
-            self._mark,
-            self._stamp,
         )
         if self._state[2] == _DUPLICATE:
             return int(self._order[self._state[3]]), int(self._order[self._state[4]])
         self._n = n + k
         return None
 
-    def touched(self, verts: np.ndarray) -> np.ndarray:
-        """(k,) bool: which vertices the last :meth:`insert` added or gave
-        new neighbours (an edge it removed joins two of them)."""
-        return self._mark[self._slot[verts]] == self._stamp
-
-    def marks(self) -> tuple[np.ndarray, int]:
-        """``(mark, stamp)``: the slots with ``mark == stamp`` are the
-        vertices the last :meth:`insert` added or gave new neighbours (an
-        edge it removed joins two of them)."""
-        return self._mark, self._stamp
+    def rings(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(start, ring)``: the neighbours of the ``i``-th point of the last
+        :meth:`insert` right after it went in are ``ring[start[i]:start[i + 1]]``
+        (point indices counter-clockwise, consecutive ones joined by an edge,
+        cyclically; -1 the vertex at infinity). An edge an insertion removed
+        joins two of its point's neighbours that are not consecutive."""
+        return self._rings
 
     def has_edges(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(m,) bool: whether each ``(a[i], b[i])`` is an edge."""
