@@ -102,6 +102,33 @@ class Triangulation:
 # ---------------------------------------------------------------------------
 
 
+def _hilbert_table() -> np.ndarray:
+    """The Hilbert curve four levels at a time: entry ``(state << 8) | (x << 4)
+    | y`` (``state = 2 * swap + complement``, ``x`` and ``y`` four bits of the
+    cell's coordinates) holds the eight bits of the curve index those levels
+    add, and the state after them in bits 8-9 (the per-level rule of
+    :func:`_brio_hilbert_keys`, tabulated)."""
+    out = np.empty(1024, np.int64)
+    for state in range(4):
+        for xb in range(16):
+            for yb in range(16):
+                sw, cp = state >> 1, state & 1
+                d = 0
+                for lvl in range(3, -1, -1):
+                    bx = ((xb >> lvl) & 1) ^ cp
+                    by = ((yb >> lvl) & 1) ^ cp
+                    t = (bx ^ by) & sw
+                    rx, ry = bx ^ t, by ^ t
+                    d = (d << 2) | ((3 * rx) ^ ry)
+                    sw ^= 1 - ry
+                    cp ^= (1 - ry) & rx
+                out[(state << 8) | (xb << 4) | yb] = d | (((sw << 1) | cp) << 8)
+    return out
+
+
+_HILBERT_TABLE = _hilbert_table()
+
+
 @njit(cache=True)
 def _brio_hilbert_keys(pts, factor, nbits):
     """Sort keys: BRIO round in the high bits, Hilbert index in the low bits.
@@ -135,17 +162,20 @@ def _brio_hilbert_keys(pts, factor, nbits):
         rounds += 1
     keys = np.empty(n, np.int64)
     curve = np.empty(n, np.int64)
+    head = nbits % 4
     for i in range(n):
         hx = int((pts[i, 0] * factor - xmin) * scale)
         hy = int((pts[i, 1] * factor - ymin) * scale)
         hx = min(max(hx, 0), side)
         hy = min(max(hy, 0), side)
         # Hilbert index, branch-free: the transform applied to the lower bits
-        # is one of {identity, swap, complement, both}, tracked as two bits.
+        # is one of {identity, swap, complement, both}, tracked as two bits;
+        # the top ``nbits % 4`` levels one at a time, the others four at a
+        # time from _HILBERT_TABLE (the same rule, tabulated).
         d = 0
         sw = 0
         cp = 0
-        for lvl in range(nbits - 1, -1, -1):
+        for lvl in range(nbits - 1, nbits - 1 - head, -1):
             bx = ((hx >> lvl) & 1) ^ cp
             by = ((hy >> lvl) & 1) ^ cp
             t = (bx ^ by) & sw
@@ -154,6 +184,11 @@ def _brio_hilbert_keys(pts, factor, nbits):
             d = (d << 2) | ((3 * rx) ^ ry)
             sw ^= 1 - ry
             cp ^= (1 - ry) & rx
+        state = (sw << 1) | cp
+        for lvl in range(nbits - head - 4, -1, -4):
+            e = _HILBERT_TABLE[(state << 8) | (((hx >> lvl) & 15) << 4) | ((hy >> lvl) & 15)]
+            d = (d << 8) | (e & 255)
+            state = e >> 8
         # splitmix64 of the index: a reproducible fair coin sequence.
         z = np.uint64(i) + np.uint64(0x9E3779B97F4A7C15)
         z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
