@@ -26,8 +26,9 @@ and its data files are skipped with a note.
 A last input is the pathological one of issue 19: a 10,000-vertex random
 star (same recipe, seed 1), where ours adds about 604,000 points in 146
 rounds (each spike's chain of splits is sequential). Each round inserts its
-points into one growing triangulation and re-checks only the pieces it
-touched; it took 126 s when every round re-triangulated everything.
+points into one growing triangulation and re-checks only the pieces its
+insertions may have removed; it took 126 s when every round
+re-triangulated everything.
 
 Times are the medians of three runs (one run for the 10k star; ours after
 a warm-up that loads numba's cache); ``t ours/pD`` is the ratio of times.

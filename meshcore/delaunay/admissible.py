@@ -17,10 +17,13 @@ splits:
    there. Otherwise the rounds go on in one
    :class:`~meshcore.delaunay.kernel2d.IncrementalDelaunay`: each round
    inserts its split points (the same triangles as triangulating anew: the
-   kernel's ties depend only on the point set) and checks again only the
-   pieces it made or shortened and those whose two ends an insertion
-   touched (an edge an insertion removes joins two neighbours of the
-   inserted point). The last triangulation is made anew from the final
+   kernel's ties depend only on the point set) and finds the pieces that
+   are no longer edges from the neighbours each new point had when it went
+   in: a new piece is missing when its later end went in without the other
+   end among its neighbours, an older one only when an insertion may have
+   removed it (both ends neighbours of the new point, not consecutive
+   ones: the edges an insertion removes are diagonals of its cavity), then
+   looked up. The last triangulation is made anew from the final
    points when first read, so that it is the one :func:`delaunay` gives.
 2. For each missing segment ``f = AB`` find the point of its closed
    diametral ball (the exact predicate
@@ -148,9 +151,10 @@ polygons (2 to 8); a 10,000-vertex random star
 (``benchmarks/admissible.py``) takes 146 rounds and 604,000 points, most
 rounds at the end splitting one or two segments each (each spike's chain
 of splits is sequential): 126 s when every round re-triangulated
-everything, 6.5 s of CPU now (see the benchmark for this machine's
-figures), most of it in the widest-angle searches (a third), the checks of
-the touched pieces and the insertions. The case counts of the result are computed when first read.
+everything, about 6 s of CPU now (see the benchmark for this machine's
+figures), most of it in the widest-angle searches (near half), the
+insertions and the checks of the pieces they changed. The case counts of
+the result are computed when first read.
 
 The restricted triangulation (:func:`restricted_triangles`) keeps the
 triangles reached by a flood fill across non-segment edges from the left
@@ -1002,10 +1006,9 @@ def _incremental_rounds(st, budget, missing, circles, tol, progress) -> None:
 
     Each round inserts its split points into the triangulation
     (:class:`~meshcore.delaunay.kernel2d.IncrementalDelaunay`: the same
-    triangles as triangulating anew) and checks again only the pieces it
-    made or shortened and those whose two ends an insertion touched (an
-    edge that an insertion removes joins two neighbours of the inserted
-    point); ball and nearest-point queries walk the triangulation. The
+    triangles as triangulating anew) and finds the pieces that are no
+    longer edges from the neighbours of each inserted point
+    (:meth:`_Pieces.missing`); ball and nearest-point queries walk the triangulation. The
     decisions are those of whole-array rounds, in time proportional to the
     pieces split and checked.
     """
@@ -1064,7 +1067,7 @@ def _split_round(st: _Pieces, missing, scale, circles, tol, round_no) -> None:
         np.minimum.at(r, inv, x)
         st.radius[verts] = r
     rows, xy, t, protect_side, near_side, near_vertex, bad = _split_points(
-        st.xy, st.a, st.b, missing, M, near, st.acute, st.done, st.radius, st.work
+        st.xy, st.a, st.b, missing, M, near, enc, st.acute, st.done, st.radius, st.work
     )
     if len(curved):
         _curved_split_points(st, circles, rows, xy, protect_side, near_vertex, bad)

@@ -324,36 +324,86 @@ def _disc_edges(pts, V, A, vt, verts, radius, tstamp, counter):
 
 
 @njit(cache=True, inline="always")
-def _mark_piece(mask, r, a, b, mark, stamp, slot):
-    if r >= 0 and mark[slot[a[r]]] == stamp and mark[slot[b[r]]] == stamp:
-        mask[r] = True
+def _position(ring, lo, hi, w):
+    """Position of ``w`` in ``ring[lo:hi]``, or -1."""
+    for i in range(lo, hi):
+        if ring[i] == w:
+            return i
+    return -1
+
+
+@njit(cache=True, inline="always")
+def _apart(ring, lo, hi, j, w):
+    """Whether ``w`` is a neighbour in ``ring[lo:hi]`` other than the two
+    next to position ``j``: every edge the insertion removed joins two such
+    neighbours (a diagonal of its cavity; not every such pair is one)."""
+    i = _position(ring, lo, hi, w)
+    if i < 0:
+        return False
+    d = (i - j) % (hi - lo)
+    return d != 1 and d != hi - lo - 1
+
+
+@njit(cache=True, inline="always")
+def _push(buf, nb, r):
+    if nb == buf.shape[0]:
+        buf = np.concatenate((buf, np.empty(nb, np.int64)))
+    buf[nb] = r
+    return buf, nb + 1
 
 
 @njit(cache=True)
-def _missing_pieces(V, A, vt, order, slot, mark, stamp, n, n0, rows, ends, fresh, m):
-    """The pieces to check after an insertion (:meth:`_Pieces.missing`):
-    those at a touched point whose other end was touched too (an added
-    point ends two pieces, an input point the chains it starts or ends),
-    and the fresh ones; of them, those that are not edges."""
+def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings):
+    """The pieces that are not edges after the insertion of points
+    ``first, first + 1, ...`` (:meth:`_Pieces.missing`), from the
+    neighbours each point had when it went in (``rings``).
+
+    Every piece that is not new was an edge before (a round splits every
+    missing piece), and an edge once removed comes back only at an
+    insertion of one of its ends. So a piece is missing when the later of
+    its ends went in without it (the other end not among that point's
+    neighbours: a new point's first piece, and its second one when that
+    ends at an older point), or when a later insertion removed it: both
+    ends are then neighbours of the inserted point, not consecutive ones
+    (an added point ends two pieces, an input point the chains it starts or
+    ends); such pieces are looked up in the triangulation. Returns the ids,
+    increasing.
+    """
     a, b, left, right, head, tail = rows
     end_start, end_chain, end_side = ends
-    mask = np.zeros(m, np.bool_)
-    for s in range(n):
-        if mark[s] != stamp:
-            continue
-        v = order[s]
-        if v >= n0:
-            _mark_piece(mask, left[v], a, b, mark, stamp, slot)
-            _mark_piece(mask, right[v], a, b, mark, stamp, slot)
-            continue
-        for j in range(end_start[v], end_start[v + 1]):
-            c = end_chain[j]
-            _mark_piece(mask, head[c] if end_side[j] == 0 else tail[c], a, b, mark, stamp, slot)
-    for r in fresh:
-        mask[r] = True
-    check = np.flatnonzero(mask)
-    present = _has_edges(V, A, vt, slot[a[check]], slot[b[check]])
-    return check[~present]
+    ring_start, ring = rings
+    sure = np.empty(64, np.int64)
+    ns = 0
+    maybe = np.empty(64, np.int64)
+    nm = 0
+    for i in range(ring_start.shape[0] - 1):
+        lo = ring_start[i]
+        hi = ring_start[i + 1]
+        p = first + i
+        if _position(ring, lo, hi, a[left[p]]) < 0:
+            sure, ns = _push(sure, ns, left[p])
+        w = b[right[p]]
+        if w < first and _position(ring, lo, hi, w) < 0:
+            sure, ns = _push(sure, ns, right[p])
+        for j in range(lo, hi):
+            u = ring[j]
+            if u < 0:
+                continue
+            if u >= n0:
+                if _apart(ring, lo, hi, j, a[left[u]]):
+                    maybe, nm = _push(maybe, nm, left[u])
+                if _apart(ring, lo, hi, j, b[right[u]]):
+                    maybe, nm = _push(maybe, nm, right[u])
+                continue
+            for e in range(end_start[u], end_start[u + 1]):
+                c = end_chain[e]
+                r = head[c] if end_side[e] == 0 else tail[c]
+                w = b[r] if end_side[e] == 0 else a[r]
+                if _apart(ring, lo, hi, j, w):
+                    maybe, nm = _push(maybe, nm, r)
+    maybe = np.unique(maybe[:nm])
+    present = _has_edges(V, A, vt, slot[a[maybe]], slot[b[maybe]])
+    return np.unique(np.concatenate((sure[:ns], maybe[~present])))
 
 
 @njit(cache=True)
@@ -366,8 +416,8 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
     then ``t``. A piece keeps its id for its first part, new piece ``m + i``
     starts at new point ``n + i``; chains, chain tails, the pieces at each
     point, the new points' coordinates and the protection bookkeeping
-    follow. Returns the ids of the pieces made or shortened, the vertex
-    each new point's insertion walks from, and the order of the new points.
+    follow. Returns the vertex each new point's insertion walks from and
+    the order of the new points.
     """
     rows, t, xy_new, protect_side, near_side, near_vertex = split
     a, b, nxt, src, circ, acute, done, near, tail = piece
@@ -390,8 +440,6 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
         xy[n + i, 1] = xy_new[order[i], 1]
         radius[n + i] = np.nan
     k = rows.shape[0]
-    fresh = np.empty(2 * k, np.int64)
-    groups = 0
     i0 = 0
     while i0 < k:
         r = rows[i0]
@@ -435,11 +483,8 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
             near[r, 0] += 1
         if near_side[i1] == 1:
             near[last, 1] += 1
-        fresh[groups] = r
-        groups += 1
         i0 = i1 + 1
-    fresh[groups : groups + k] = m + np.arange(k)
-    return fresh[: groups + k], near_vertex[order], order
+    return near_vertex[order], order
 
 
 @dataclass
@@ -566,14 +611,14 @@ class _Pieces:
         k = len(rows)
         self._reserve(k, k)
         m, n = self.m, self.n
-        self.fresh, near_vertex, order = _split_pieces(
+        near_vertex, order = _split_pieces(
             (rows, t, xy, protect_side, near_side, near_vertex),
             round_no, m, n, self.n0, self.origin, self.direction,
             (self.a, self.b, self.nxt, self.src, self.circ, self.acute, self.done, self.near,
              self.tail),
             (self.xy, self.radius, self.left, self.right, self.born),
         )  # fmt: skip
-        self.m, self.n = m + k, n + k
+        self.m, self.n, self.first = m + k, n + k, n
         xy = self.xy[n : n + k]
         dup = self.dt.insert(xy, near_vertex)
         if dup is not None:
@@ -623,16 +668,14 @@ class _Pieces:
         return np.where(self.input_keys[pos] == keys, self.input_chain[pos], -1)
 
     def missing(self) -> np.ndarray:
-        """The pieces that are not edges among those the last split made or
-        may have removed from the triangulation: new and shortened pieces,
-        and those whose two ends the insertions touched."""
-        _, V, A, vt, order, slot = self.dt.arrays()
-        mark, stamp = self.dt.marks()
+        """The pieces that are not edges after the last split (the new and
+        shortened pieces, and those its insertions removed)."""
+        _, V, A, vt, _, slot = self.dt.arrays()
         return _missing_pieces(
-            V, A, vt, order, slot, mark, stamp, self.n, self.n0,
+            V, A, vt, slot, self.first, self.n0,
             (self.a, self.b, self.left, self.right, self.head, self.tail),
             (self.end_start, self.end_chain, self.end_side),
-            self.fresh, self.m,
+            self.dt.rings(),
         )  # fmt: skip
 
     def to_state(self, st: _State) -> None:
@@ -709,18 +752,20 @@ def _projection_points(xy, a, b, missing, enc, acute, done, near_count, radius):
 
 
 @njit(cache=True)
-def _split_points(xy, a, b, missing, M, near, acute, done, radius, work):
+def _split_points(xy, a, b, missing, M, near, enc, acute, done, radius, work):
     """The round's split points, protection points first (§9.1.4,
     Exercise 9.4): every unprotected acute end of a missing piece whose
     vertex has a protection radius gets the point at that distance from it
     (straight; the caller moves curved ones onto their circles); the other
-    pieces their projection point ``M``.
+    pieces their projection point ``M`` of the encroaching point ``enc``.
 
     Returns, per point: its piece, coordinates, order along the piece (the
     protected side, 0.5 for a projection), protected side (-1: none), side
     of the nearer end of a projection (-1: none), the vertex its insertion
-    walks from, and whether it fails to lie strictly inside the piece's
-    diametral ball (exact ``dot2d``).
+    walks from (the protected end, or the encroaching point, whose
+    projection the point is: nearer than the piece's end), and whether it
+    fails to lie strictly inside the piece's diametral ball (exact
+    ``dot2d``).
     """
     k = missing.shape[0]
     protect = np.zeros((k, 2), np.bool_)
@@ -763,7 +808,7 @@ def _split_points(xy, a, b, missing, M, near, acute, done, radius, work):
         pts[j, 1] = M[i, 1]
         t[j] = 0.5
         near_side[j] = near[i]
-        near_vertex[j] = a[r] if near[i] == 0 else b[r]
+        near_vertex[j] = enc[i]
         j += 1
     bad = np.empty(total, np.bool_)
     for j in range(total):

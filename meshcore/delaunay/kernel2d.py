@@ -102,6 +102,33 @@ class Triangulation:
 # ---------------------------------------------------------------------------
 
 
+def _hilbert_table() -> np.ndarray:
+    """The Hilbert curve four levels at a time: entry ``(state << 8) | (x << 4)
+    | y`` (``state = 2 * swap + complement``, ``x`` and ``y`` four bits of the
+    cell's coordinates) holds the eight bits of the curve index those levels
+    add, and the state after them in bits 8-9 (the per-level rule of
+    :func:`_brio_hilbert_keys`, tabulated)."""
+    out = np.empty(1024, np.int64)
+    for state in range(4):
+        for xb in range(16):
+            for yb in range(16):
+                sw, cp = state >> 1, state & 1
+                d = 0
+                for lvl in range(3, -1, -1):
+                    bx = ((xb >> lvl) & 1) ^ cp
+                    by = ((yb >> lvl) & 1) ^ cp
+                    t = (bx ^ by) & sw
+                    rx, ry = bx ^ t, by ^ t
+                    d = (d << 2) | ((3 * rx) ^ ry)
+                    sw ^= 1 - ry
+                    cp ^= (1 - ry) & rx
+                out[(state << 8) | (xb << 4) | yb] = d | (((sw << 1) | cp) << 8)
+    return out
+
+
+_HILBERT_TABLE = _hilbert_table()
+
+
 @njit(cache=True)
 def _brio_hilbert_keys(pts, factor, nbits):
     """Sort keys: BRIO round in the high bits, Hilbert index in the low bits.
@@ -135,17 +162,20 @@ def _brio_hilbert_keys(pts, factor, nbits):
         rounds += 1
     keys = np.empty(n, np.int64)
     curve = np.empty(n, np.int64)
+    head = nbits % 4
     for i in range(n):
         hx = int((pts[i, 0] * factor - xmin) * scale)
         hy = int((pts[i, 1] * factor - ymin) * scale)
         hx = min(max(hx, 0), side)
         hy = min(max(hy, 0), side)
         # Hilbert index, branch-free: the transform applied to the lower bits
-        # is one of {identity, swap, complement, both}, tracked as two bits.
+        # is one of {identity, swap, complement, both}, tracked as two bits;
+        # the top ``nbits % 4`` levels one at a time, the others four at a
+        # time from _HILBERT_TABLE (the same rule, tabulated).
         d = 0
         sw = 0
         cp = 0
-        for lvl in range(nbits - 1, -1, -1):
+        for lvl in range(nbits - 1, nbits - 1 - head, -1):
             bx = ((hx >> lvl) & 1) ^ cp
             by = ((hy >> lvl) & 1) ^ cp
             t = (bx ^ by) & sw
@@ -154,6 +184,11 @@ def _brio_hilbert_keys(pts, factor, nbits):
             d = (d << 2) | ((3 * rx) ^ ry)
             sw ^= 1 - ry
             cp ^= (1 - ry) & rx
+        state = (sw << 1) | cp
+        for lvl in range(nbits - head - 4, -1, -4):
+            e = _HILBERT_TABLE[(state << 8) | (((hx >> lvl) & 15) << 4) | ((hy >> lvl) & 15)]
+            d = (d << 8) | (e & 255)
+            state = e >> 8
         # splitmix64 of the index: a reproducible fair coin sequence.
         z = np.uint64(i) + np.uint64(0x9E3779B97F4A7C15)
         z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
@@ -680,26 +715,34 @@ def _corner(V, t, v):
 
 
 @njit(cache=True)
-def _insert_marked(pts, V, A, stack, vt, hint, state, work, start, stop, mark, stamp):
-    """Insert points start..stop-1 one by one; after each, mark it and its
-    neighbours with ``stamp``: every edge an insertion removes joins two
-    neighbours of the inserted point (the cavity's vertices), so a present
-    edge whose ends are not both marked is still present."""
+def _insert_rings(pts, V, A, stack, vt, hint, state, work, order, start, stop):
+    """Insert points start..stop-1 one by one; after each, record its
+    neighbours counter-clockwise (input indices, -1 the vertex at infinity),
+    consecutive ones joined by an edge. Every edge an insertion removes is a
+    diagonal of its cavity: it joins two neighbours of the inserted point
+    that are not consecutive. Returns ``(ring_start, ring)`` in CSR form."""
+    k = stop - start
+    ring_start = np.zeros(k + 1, np.int64)
+    ring = np.empty(8 * k + 8, np.int64)
+    m = 0
     for p in range(start, stop):
         _insert_range(pts, V, A, stack, vt, hint, state, work, p, p + 1)
         if state[2] != _OK:
-            return
-        mark[p] = stamp
+            break
         t0 = vt[p]
         t = t0
         while True:
-            k = _corner(V, t, p)
-            u = V[_nxt(k)]
-            if u >= 0:
-                mark[u] = stamp
-            t = A[_prv(k)] // 3
+            c = _corner(V, t, p)
+            u = V[_nxt(c)]
+            if m == ring.shape[0]:
+                ring = np.concatenate((ring, np.empty(m, np.int64)))
+            ring[m] = order[u] if u >= 0 else -1
+            m += 1
+            t = A[_prv(c)] // 3
             if t == t0:
                 break
+        ring_start[p - start + 1] = m
+    return ring_start, ring[:m]
 
 
 @njit(cache=True)
@@ -769,8 +812,9 @@ class IncrementalDelaunay:
 
     Queries for :mod:`meshcore.delaunay.admissible`: which segments are
     edges (:meth:`has_edges`), each vertex's nearest other point
-    (:meth:`nearest_distance`), the vertices whose neighbourhood the last
-    :meth:`insert` changed (:meth:`touched`, :meth:`marks`).
+    (:meth:`nearest_distance`), the neighbours each point of the last
+    :meth:`insert` had when it went in (:meth:`rings`: the edges an
+    insertion removes join two of them).
 
     Added points must lie in the convex hull of the first ones (split
     points of segments do), so that the power-of-two scale stays valid.
@@ -790,8 +834,7 @@ class IncrementalDelaunay:
         self._state, self._work = state, work
         self._stack = np.empty(n + 8, np.int32)
         self._hint = np.full(n, -1, np.int32)
-        self._mark = np.zeros(n, np.int64)
-        self._stamp = 0
+        self._rings = (np.zeros(1, np.int64), np.zeros(0, np.int64))
 
     def __len__(self) -> int:
         return self._n
@@ -817,7 +860,6 @@ class IncrementalDelaunay:
         self._vt = grown(self._vt, cap)
         self._stack = np.empty(cap + 8, np.int32)
         self._hint = grown(self._hint, cap, -1)
-        self._mark = grown(self._mark, cap, 0)
 
     def insert(self, xy: np.ndarray, near: np.ndarray) -> tuple[int, int] | None:
         """Insert points ``xy`` (k, 2), walking from vertices ``near`` (k,).
@@ -833,8 +875,7 @@ class IncrementalDelaunay:
         self._order[n : n + k] = slots
         self._slot[n : n + k] = slots
         self._hint[n : n + k] = self._slot[near]
-        self._stamp += 1
-        _insert_marked(
+        self._rings = _insert_rings(
             self._pts,
             self._V,
             self._A,
@@ -843,26 +884,22 @@ class IncrementalDelaunay:
             self._hint,
             self._state,
             self._work,
+            self._order,
             n,
             n + k,
-            self._mark,
-            self._stamp,
         )
         if self._state[2] == _DUPLICATE:
             return int(self._order[self._state[3]]), int(self._order[self._state[4]])
         self._n = n + k
         return None
 
-    def touched(self, verts: np.ndarray) -> np.ndarray:
-        """(k,) bool: which vertices the last :meth:`insert` added or gave
-        new neighbours (an edge it removed joins two of them)."""
-        return self._mark[self._slot[verts]] == self._stamp
-
-    def marks(self) -> tuple[np.ndarray, int]:
-        """``(mark, stamp)``: the slots with ``mark == stamp`` are the
-        vertices the last :meth:`insert` added or gave new neighbours (an
-        edge it removed joins two of them)."""
-        return self._mark, self._stamp
+    def rings(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(start, ring)``: the neighbours of the ``i``-th point of the last
+        :meth:`insert` right after it went in are ``ring[start[i]:start[i + 1]]``
+        (point indices counter-clockwise, consecutive ones joined by an edge,
+        cyclically; -1 the vertex at infinity). An edge an insertion removed
+        joins two of its point's neighbours that are not consecutive."""
+        return self._rings
 
     def has_edges(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(m,) bool: whether each ``(a[i], b[i])`` is an edge."""

@@ -339,7 +339,7 @@ def test_incremental_insertion_gives_the_triangles_of_the_whole_set():
     # A 6 x 6 grid (co-circular everywhere: the ties decide) and random
     # points, then three batches inside the hull, some on grid lines and
     # circles: after each batch, the triangles are those delaunay() makes of
-    # all points so far, and has_edges / touched say what they should.
+    # all points so far, and has_edges / rings say what they should.
     rng = np.random.default_rng(7)
     first = np.vstack([square_grid(6), rng.random((40, 2)) * 5])
     inc = IncrementalDelaunay(first)
@@ -355,8 +355,16 @@ def test_incremental_insertion_gives_the_triangles_of_the_whole_set():
         assert_delaunay(points, tri)
         assert canonical(tri.triangles) == canonical(delaunay(points).triangles)
         t = tri.triangles
-        new = np.arange(len(points) - len(batch), len(points))
-        assert inc.touched(new).all()
+        # The last point's ring is its neighbours (-1: the vertex at
+        # infinity, for a point on the hull), consecutive ones joined.
+        start, ring = inc.rings()
+        assert len(start) == len(batch) + 1
+        last = ring[start[-2] :]
+        fan = t[(t == len(points) - 1).any(axis=1)]
+        assert set(last.tolist()) - {-1} == set(fan.ravel().tolist()) - {len(points) - 1}
+        pairs = np.column_stack([last, np.roll(last, 1)])
+        pairs = pairs[(pairs >= 0).all(axis=1)]
+        assert inc.has_edges(pairs[:, 0], pairs[:, 1]).all()
         edges = np.vstack([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
         assert inc.has_edges(edges[:, 0], edges[:, 1]).all()
         assert not inc.has_edges(np.array([0]), np.array([35])).any()  # (0, 0) and (5, 5)
