@@ -70,15 +70,18 @@ Choices the methods text leaves open
 ------------------------------------
 * Recovery is *conforming* (Steiner points on the surface, TetGen's
   default), not constrained: our kernel only inserts points.
-  ``keep_boundary`` (no point on the surface) is supported for a surface
-  whose recovery needs no Steiner point (a Delaunay-admissible surface) or
-  that is star-shaped from a point of its kernel: then the tetrahedra are
-  the cone from one interior Steiner point (the Chebyshev centre of the
-  kernel polyhedron, from a linear program) to every input triangle, each
-  checked positive by exact ``orient3d`` (Schönhardt's prism: exactly one
-  point). Other surfaces that need Steiner points are refused with
-  ``keep_boundary`` (``AlgorithmError``): constrained recovery with only
-  interior points (TetGen's ``-Y``) is not implemented.
+  ``keep_boundary`` (no point on the surface): a surface whose recovery
+  needs no Steiner point (a Delaunay-admissible surface) keeps its
+  Delaunay tetrahedra; a star-shaped one is the cone from one interior
+  Steiner point (the Chebyshev centre of the kernel polyhedron, from a
+  linear program) to every input triangle, each checked positive by exact
+  ``orient3d`` (Schönhardt's prism: exactly one point); any other is
+  recovered conforming (every input triangle its own facet), then its
+  surface Steiner points are lifted inside one at a time
+  (:func:`meshcore.tets.keep.lift_surface_points`: the hole each leaves is
+  re-triangulated in the input triangle's plane and coned to the moved
+  point, every sign exact): as many interior points as recovery put on the
+  surface (the 32 x 16 torus: 42; TetGen ``-pY`` 13).
 * The refinement decisions of *where* to insert (a circumcentre in a facet,
   a vertex inside an equatorial ball) use float constructions; only the
   subsegment encroachment and every validity fact (orientation, region
@@ -158,9 +161,10 @@ from meshcore.delaunay.recovery3d import (
     tri_circumcenters,
 )
 from meshcore.domain.surface import as_surface
-from meshcore.errors import AlgorithmError, InputError
+from meshcore.errors import InputError
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh
+from meshcore.tets.keep import lift_surface_points
 
 __all__ = ["TetrahedralizationResult", "tetrahedralize", "tetra_dihedral_angles"]
 
@@ -1108,9 +1112,10 @@ def tetrahedralize(
         and tetrahedra with a circumradius above ``0.7 size``.
     keep_boundary : bool
         Add no point on the surface: the boundary faces are exactly the
-        input triangles. Supported when the surface needs no Steiner point
-        or each region is star-shaped (one interior point, the cone); no
-        refinement then (the bounds are ignored).
+        input triangles, with interior Steiner points only (none for a
+        Delaunay-admissible surface, one per star-shaped region, else the
+        conforming recovery's surface points lifted inside); no refinement
+        then (the bounds are ignored).
     progress : callable, optional
         ``progress(fraction, message)``; it may raise to cancel.
 
@@ -1128,8 +1133,8 @@ def tetrahedralize(
         Invalid surface (as :func:`parse_surface`) or bounds
         (``bad_parameter``).
     AlgorithmError
-        ``recovery_failed`` (recovery did not finish, or ``keep_boundary``
-        on a surface that needs Steiner points and is not star-shaped).
+        ``recovery_failed`` (recovery did not finish, or with
+        ``keep_boundary`` a surface point could not be lifted inside).
 
     References
     ----------
@@ -1162,15 +1167,22 @@ def tetrahedralize(
             tetra, region = T[keep], region[keep]
         else:
             cone = _cone(b, surface.region_count)
-            if cone is None:
-                raise AlgorithmError(
-                    f"keep_boundary: the surface needs Steiner points ({len(seg_missing)} "
-                    f"edges and {len(sub_missing)} triangles are not Delaunay) and a region "
-                    "is not star-shaped; constrained recovery with interior points only is "
-                    "not implemented: allow points on the surface (keep_boundary false)",
-                    code="recovery_failed",
-                )
-            tetra, region = cone
+            if cone is not None:
+                tetra, region = cone
+            else:
+                # Conforming recovery, then its surface points lifted inside.
+                rounds += recover(b, progress)
+                slots, T = b.tets()
+                region = regions(b, slots, T)
+                keep = region >= 0
+                lifted = np.arange(b.n_surface, b.n)[::-1]
+                tri_of_facet = np.argsort(b.group)
+                b.P, tetra, region = lift_surface_points(
+                    b.P, T[keep], region[keep], b.sub, tri_of_facet[b.sub_facet], b.facets,
+                    lifted,
+                )  # fmt: skip
+                b.interior_added += b.surface_added
+                b.surface_added = 0
         timings["recovery"] = time.perf_counter() - t1
     else:
         t1 = time.perf_counter()
