@@ -185,23 +185,22 @@ def lift_surface_points(
     Methods text §9.3.5, §9.5 (see the module docstring).
     """
     P = np.array(P, dtype=np.float64)
-    tets = [np.asarray(tetra, dtype=np.int64)]
-    regs = [np.asarray(region, dtype=np.int64)]
-    faces = np.asarray(faces, dtype=np.int64)
-    ftri = np.asarray(face_triangle, dtype=np.int64)
     tri = np.asarray(triangles, dtype=np.int64)
-    for p in np.asarray(points, dtype=np.int64).tolist():  # one point at a time
-        T = np.concatenate(tets)
-        R = np.concatenate(regs)
-        tets, regs = [T], [R]
-        at = np.flatnonzero((T == p).any(axis=1))
-        mine = np.flatnonzero((faces == p).any(axis=1))
+    pts = np.asarray(points, dtype=np.int64)
+    T = _Rows(np.asarray(tetra, dtype=np.int64), np.asarray(region, dtype=np.int64), pts, len(P))
+    F = _Rows(
+        np.asarray(faces, dtype=np.int64), np.asarray(face_triangle, dtype=np.int64), pts, len(P)
+    )
+    for p in pts.tolist():  # one point at a time
+        at = T.at(p)
+        mine = F.at(p)
         if at.size == 0 or mine.size == 0:
             continue
         cones = []
         inward = np.zeros(3)
-        for t in np.unique(ftri[mine]).tolist():  # one or two input triangles
-            group = faces[mine[ftri[mine] == t]]
+        ftri = F.tag[mine]
+        for t in np.unique(ftri).tolist():  # one or two input triangles
+            group = F.rows[mine[ftri == t]]
             path = _chain(group, p)
             a, b, c = P[tri[t]]
             e1 = (b - a) / np.linalg.norm(b - a)
@@ -213,7 +212,7 @@ def lift_surface_points(
             for i, j, k in _ear_clip(uv):
                 cones.append((path[i], path[j], path[k], t))
         cone = np.array(cones, dtype=np.int64)
-        old = T[at]
+        old = T.rows[at]
         centre = P[old].mean(axis=1).mean(axis=0)
         x0 = P[p].copy()
         toward = centre - x0
@@ -227,9 +226,7 @@ def lift_surface_points(
         for _ in range(_HALVINGS):  # halving the step until every sign is positive
             for d in dirs:
                 x = x0 + step * d
-                corners = [
-                    np.where((Q == -1)[:, [k]], x, P[np.maximum(Q[:, k], 0)]) for k in range(4)
-                ]
+                corners = [np.where(Q[:, [k]] < 0, x, P[np.maximum(Q[:, k], 0)]) for k in range(4)]
                 ok = (orient3d(*corners) > 0).all()
                 if ok:
                     xs = np.broadcast_to(x, (len(cone), 3))
@@ -246,10 +243,61 @@ def lift_surface_points(
                 code="recovery_failed",
             )
         P[p] = x
-        tets.append(np.column_stack([cone[:, :3], np.full(len(cone), p)]))
-        regs.append(np.full(len(cone), R[at[0]]))
-        keep = np.ones(len(faces), dtype=bool)
-        keep[mine] = False
-        faces = np.concatenate([faces[keep], cone[:, :3]])
-        ftri = np.concatenate([ftri[keep], cone[:, 3]])
-    return P, np.concatenate(tets), np.concatenate(regs)
+        T.add(np.column_stack([cone[:, :3], np.full(len(cone), p)]), int(T.tag[at[0]]))
+        F.drop(mine)
+        F.add(cone[:, :3], cone[:, 3])
+    tetra, region = T.live()
+    return P, tetra, region
+
+
+class _Rows:
+    """A growing set of rows (tetrahedra or faces) with a tag each, and the rows at each point.
+
+    Only the points to lift are indexed (``at``): their rows at the start,
+    and every row added later that holds one.
+    """
+
+    def __init__(self, rows: np.ndarray, tag: np.ndarray, points: np.ndarray, n: int) -> None:
+        self.rows = rows.copy()
+        self.tag = np.asarray(tag, dtype=np.int64).copy()
+        self.alive = np.ones(len(rows), dtype=bool)
+        self.m = len(rows)
+        self.watch = np.zeros(n, dtype=bool)
+        self.watch[points] = True
+        r, c = np.nonzero(self.watch[rows])
+        v = rows[r, c]
+        order = np.argsort(v, kind="stable")
+        v, r = v[order], r[order]
+        cut = np.flatnonzero(np.diff(v)) + 1
+        self.index: dict[int, list[int]] = {
+            int(k[0]): g.tolist() for k, g in zip(np.split(v, cut), np.split(r, cut), strict=True)
+            if len(k)
+        }  # fmt: skip
+
+    def at(self, p: int) -> np.ndarray:
+        rows = np.asarray(self.index.get(p, []), dtype=np.int64)
+        return rows[self.alive[rows]]
+
+    def add(self, rows: np.ndarray, tag) -> None:
+        k = len(rows)
+        if self.m + k > len(self.rows):
+            grow = max(self.m + k, 2 * len(self.rows)) - len(self.rows)
+            self.rows = np.concatenate([self.rows, np.zeros((grow, rows.shape[1]), np.int64)])
+            self.tag = np.concatenate([self.tag, np.zeros(grow, np.int64)])
+            self.alive = np.concatenate([self.alive, np.zeros(grow, dtype=bool)])
+        new = np.arange(self.m, self.m + k)
+        self.rows[new] = rows
+        self.tag[new] = tag
+        self.alive[new] = True
+        self.m += k
+        for i, row in zip(new.tolist(), rows.tolist(), strict=True):  # a few rows
+            for v in row:
+                if self.watch[v]:
+                    self.index.setdefault(v, []).append(i)
+
+    def drop(self, rows: np.ndarray) -> None:
+        self.alive[rows] = False
+
+    def live(self) -> tuple[np.ndarray, np.ndarray]:
+        keep = np.flatnonzero(self.alive[: self.m])
+        return self.rows[keep], self.tag[keep]
