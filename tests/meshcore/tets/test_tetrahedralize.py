@@ -155,6 +155,20 @@ class TestKeepBoundary:
         assert len(r.mesh.points) == len(s.vertices) + r.interior_points_added
         assert_valid(r, s, exact_boundary=True)
 
+    def test_not_star_shaped_translated_and_scaled(self):
+        """Every fact holds after a translation by 1e6 or a scaling by 1e-6 (the points
+        added round differently); a power-of-two scaling changes nothing."""
+        P, T = SHAPES["torus"]()
+        base = tetrahedralize(parse_surface(P, T), keep_boundary=True)
+        for Q in (P + 1e6, P * 1e-6):
+            s = parse_surface(Q, T)
+            r = tetrahedralize(s, keep_boundary=True)
+            assert r.surface_points_added == 0
+            assert_valid(r, s, exact_boundary=True)
+        r = tetrahedralize(parse_surface(P * 2.0**-20, T), keep_boundary=True)
+        assert np.array_equal(r.mesh.cells[0].data, base.mesh.cells[0].data)
+        assert np.array_equal(r.mesh.points, base.mesh.points * 2.0**-20)
+
     def test_schonhardt_prism_lifted(self, monkeypatch):
         """The lifting path on the prism (its star-shaped cone switched off)."""
         from meshcore.tets import refinement
