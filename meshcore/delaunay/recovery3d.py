@@ -116,6 +116,9 @@ class Knobs:
     #: left are counted in ``given_up``): Delaunay refinement with a radius-edge
     #: bound of 2 can cascade next to small input angles.
     max_points: int = 300_000
+    #: Degrees: with ``keep_boundary`` (no refinement), the tetrahedra whose least
+    #: dihedral angle is below this are offered 3-2 flips (``meshcore.tets.keep``).
+    kept_flip_below: float = 15.0
 
 
 KNOBS = Knobs()

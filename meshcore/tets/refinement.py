@@ -81,7 +81,10 @@ Choices the methods text leaves open
   (:func:`meshcore.tets.keep.lift_surface_points`: the hole each leaves is
   re-triangulated in the input triangle's plane and coned to the moved
   point, every sign exact): as many interior points as recovery put on the
-  surface (the 32 x 16 torus: 42; TetGen ``-pY`` 13).
+  surface (the 32 x 16 torus: 42; TetGen ``-pY`` 13). Then 3-2 flips
+  raise the tetrahedra under ``Knobs.kept_flip_below`` degrees
+  (:func:`meshcore.tets.keep.flip_slivers`; the torus's flat tetrahedra on
+  trapezoids coplanar up to rounding: 241 -> 43).
 * The refinement decisions of *where* to insert (a circumcentre in a facet,
   a vertex inside an equatorial ball) use float constructions; only the
   subsegment encroachment and every validity fact (orientation, region
@@ -164,7 +167,7 @@ from meshcore.domain.surface import as_surface
 from meshcore.errors import InputError
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh
-from meshcore.tets.keep import lift_surface_points
+from meshcore.tets.keep import flip_slivers, lift_surface_points
 
 __all__ = ["TetrahedralizationResult", "tetrahedralize", "tetra_dihedral_angles"]
 
@@ -1181,6 +1184,7 @@ def tetrahedralize(
                     b.P, T[keep], region[keep], b.sub, tri_of_facet[b.sub_facet], b.facets,
                     lifted,
                 )  # fmt: skip
+                tetra, region, _ = flip_slivers(b.P, tetra, region, b.knobs.kept_flip_below)
                 b.interior_added += b.surface_added
                 b.surface_added = 0
         timings["recovery"] = time.perf_counter() - t1
