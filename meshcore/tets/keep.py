@@ -304,7 +304,7 @@ class _Rows:
 
 
 def flip_slivers(
-    P: np.ndarray, tetra: np.ndarray, region: np.ndarray, bound: float, passes: int = 20
+    P: np.ndarray, tetra: np.ndarray, region: np.ndarray, bound: float, passes: int = 5
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """3-2 flips that raise the least dihedral angle of tetrahedra below ``bound`` degrees.
 
@@ -317,8 +317,9 @@ def flip_slivers(
     face, is unchanged (the six outer faces of the three are the faces of
     the two). The flat tetrahedra a kept boundary leaves on two input
     triangles coplanar up to rounding (a torus's trapezoids) go this way.
-    Passes over disjoint flips until none applies. Returns (tetra, region,
-    flips made).
+    Passes over disjoint flips until none applies, at most ``passes`` (the
+    first pass makes 80 % of the flips on the torus). Returns (tetra,
+    region, flips made).
 
     References
     ----------
@@ -341,17 +342,17 @@ def flip_slivers(
         key = lo * (len(P) + 1) + hi
         order = np.argsort(key, kind="stable")
         ks = key[order]
+        start = np.searchsorted(ks, key)
+        three = (np.searchsorted(ks, key + 1) - start == 3).reshape(-1, 6)
+        bad = bad[three[bad].any(axis=1)]
         used = np.zeros(len(T), dtype=bool)
         gone, new_t, new_r = [], [], []
         for t in bad[np.argsort(dih[bad], kind="stable")].tolist():  # worst first
             if used[t]:
                 continue
-            for e in range(6):  # its edges
-                k = key[6 * t + e]
-                i0, i1 = np.searchsorted(ks, [k, k + 1])
-                if i1 - i0 != 3:
-                    continue
-                ring = order[i0:i1] // 6
+            for e in np.flatnonzero(three[t]).tolist():  # its edges in three tetrahedra
+                i0 = start[6 * t + e]
+                ring = order[i0 : i0 + 3] // 6
                 if used[ring].any():
                     continue
                 u, v = int(lo[6 * t + e]), int(hi[6 * t + e])
