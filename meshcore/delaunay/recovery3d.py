@@ -522,6 +522,15 @@ class SurfaceRecovery:
         if rows.size == 0:
             return 0, 0
         c, R = tri_circumcenters(self.P, self.sub[rows])
+        flat = ~np.isfinite(c).all(axis=1)
+        if flat.any():
+            # Splits that converged onto one point (its corners coincide in float).
+            raise AlgorithmError(
+                f"boundary recovery did not converge: subface {self.sub[rows[flat][0]].tolist()} "
+                f"of facet {int(self.sub_facet[rows[flat][0]])} has collapsed to a point "
+                f"after {self.n - self.n_surface} points were added",
+                code="recovery_failed",
+            )
         # Co-circular subfaces share a circumcentre up to rounding: keep one.
         near = self.crowded(c, R)
         rows, c, R = rows[~near], c[~near], R[~near]
