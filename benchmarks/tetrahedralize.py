@@ -9,7 +9,8 @@ Inputs: an icosphere (1,280 triangles), a torus (32 x 16 quads split), a box
 with a box-shaped cavity, an L-block and a thin slab (1 x 1 x 0.01), each
 given to every tool as the same points and triangles. Ours runs with the
 default ``max_radius_edge=2`` with ``min_dihedral=15`` added, and with
-``size`` alone (no radius-edge bound); TetGen with ``pq2`` (radius-edge 2),
+``size`` alone (no radius-edge bound), and with ``keep_boundary`` (beside
+TetGen's ``pY``); TetGen with ``pq2`` (radius-edge 2),
 ``pq1.414`` and ``pY`` (boundary kept, no quality), all with ``-a`` from the
 same volume bound where ``--size`` is given; Gmsh's Delaunay
 (``Mesh.Algorithm3D`` 1) and HXT (10) on the same triangles as one discrete
@@ -165,6 +166,8 @@ def main() -> None:
         if not args.no_slivers:
             dt, X, K, added, gu = run_ours(P, T, min_dihedral=15, **extra)
             rows.append(("ours r/e 2, dihedral 15", dt, X, K, added))
+        dt, X, K, added, gu = run_ours(P, T, keep_boundary=True)
+        rows.append(("ours keep_boundary", dt, X, K, added))
         if args.size is not None:
             dt, X, K, added, gu = run_ours(P, T, size=args.size, max_radius_edge=None)
             rows.append(("ours size only", dt, X, K, added))

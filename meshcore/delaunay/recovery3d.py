@@ -116,6 +116,9 @@ class Knobs:
     #: left are counted in ``given_up``): Delaunay refinement with a radius-edge
     #: bound of 2 can cascade next to small input angles.
     max_points: int = 300_000
+    #: Degrees: with ``keep_boundary`` (no refinement), the tetrahedra whose least
+    #: dihedral angle is below this are offered 3-2 flips (``meshcore.tets.keep``).
+    kept_flip_below: float = 15.0
 
 
 KNOBS = Knobs()
@@ -519,13 +522,23 @@ class SurfaceRecovery:
         if rows.size == 0:
             return 0, 0
         c, R = tri_circumcenters(self.P, self.sub[rows])
-        flat = ~np.isfinite(R)
+        flat = ~np.isfinite(c).all(axis=1)
         if flat.any():
+            T = self.P[self.sub[rows[flat]]]
+            half = 0.5 * np.linalg.norm(T - np.roll(T, 1, axis=1), axis=2).max(axis=1)
+            if (half == 0).any():
+                # Splits that converged onto one point (its corners coincide in float).
+                k = rows[flat][np.flatnonzero(half == 0)[0]]
+                raise AlgorithmError(
+                    f"boundary recovery did not converge: subface {self.sub[k].tolist()} "
+                    f"of facet {int(self.sub_facet[k])} has collapsed to a point "
+                    f"after {self.n - self.n_surface} points were added",
+                    code="recovery_failed",
+                )
             # Collinear in float (points on one input edge): the centroid, on that
             # edge, encroaches the subsegment that is split below.
-            T = self.P[self.sub[rows[flat]]]
             c[flat] = T.mean(axis=1)
-            R[flat] = 0.5 * np.linalg.norm(T - np.roll(T, 1, axis=1), axis=2).max(axis=1)
+            R[flat] = half
         # Co-circular subfaces share a circumcentre up to rounding: keep one.
         near = self.crowded(c, R)
         rows, c, R = rows[~near], c[~near], R[~near]

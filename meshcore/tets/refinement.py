@@ -52,7 +52,10 @@ phases and only ever grown by point insertion):
    surface's box (a tetrahedron leaning flat on the surface) splits the
    tetrahedron's faces that are subfaces. Insertions of one round skip a
    tetrahedron already destroyed by an earlier one (a lazy queue), in one
-   compiled loop (:meth:`~meshcore.delaunay.kernel3d.IncrementalDelaunay3d.insert_guarded`).
+   compiled loop (:meth:`~meshcore.delaunay.kernel3d.IncrementalDelaunay3d.insert_guarded`);
+   the surface pieces the rejected centres encroach are split after them,
+   only for the tetrahedra still alive. Flat folds (:func:`_flat_folds`)
+   are not refined.
 5. **Slivers** (``min_dihedral``): rounds of perturbed insertion
    (:func:`_sliver_pass`; Chew's random points near the circumcentre, as
    Li and Teng analyse them): each tetrahedron whose least dihedral angle is
@@ -70,15 +73,21 @@ Choices the methods text leaves open
 ------------------------------------
 * Recovery is *conforming* (Steiner points on the surface, TetGen's
   default), not constrained: our kernel only inserts points.
-  ``keep_boundary`` (no point on the surface) is supported for a surface
-  whose recovery needs no Steiner point (a Delaunay-admissible surface) or
-  that is star-shaped from a point of its kernel: then the tetrahedra are
-  the cone from one interior Steiner point (the Chebyshev centre of the
-  kernel polyhedron, from a linear program) to every input triangle, each
-  checked positive by exact ``orient3d`` (Schönhardt's prism: exactly one
-  point). Other surfaces that need Steiner points are refused with
-  ``keep_boundary`` (``AlgorithmError``): constrained recovery with only
-  interior points (TetGen's ``-Y``) is not implemented.
+  ``keep_boundary`` (no point on the surface): a surface whose recovery
+  needs no Steiner point (a Delaunay-admissible surface) keeps its
+  Delaunay tetrahedra; a star-shaped one is the cone from one interior
+  Steiner point (the Chebyshev centre of the kernel polyhedron, from a
+  linear program) to every input triangle, each checked positive by exact
+  ``orient3d`` (Schönhardt's prism: exactly one point); any other is
+  recovered conforming (every input triangle its own facet), then its
+  surface Steiner points are lifted inside one at a time
+  (:func:`meshcore.tets.keep.lift_surface_points`: the hole each leaves is
+  re-triangulated in the input triangle's plane and coned to the moved
+  point, every sign exact): as many interior points as recovery put on the
+  surface (the 32 x 16 torus: 42; TetGen ``-pY`` 13). Then 3-2 flips
+  raise the tetrahedra under ``Knobs.kept_flip_below`` degrees
+  (:func:`meshcore.tets.keep.flip_slivers`; the torus's flat tetrahedra on
+  trapezoids coplanar up to rounding: 241 -> 43).
 * The refinement decisions of *where* to insert (a circumcentre in a facet,
   a vertex inside an equatorial ball) use float constructions; only the
   subsegment encroachment and every validity fact (orientation, region
@@ -158,9 +167,10 @@ from meshcore.delaunay.recovery3d import (
     tri_circumcenters,
 )
 from meshcore.domain.surface import as_surface
-from meshcore.errors import AlgorithmError, InputError
+from meshcore.errors import InputError
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh
+from meshcore.tets.keep import flip_slivers, lift_surface_points
 from meshcore.tets.sizing import SizeField3d
 
 __all__ = ["TetrahedralizationResult", "tetrahedralize", "tetra_dihedral_angles"]
@@ -427,10 +437,11 @@ def _flat_folds(b: SurfaceRecovery, T: np.ndarray) -> np.ndarray:
     Two of its faces are subfaces and its least dihedral angle is below
     ``flat_fold`` degrees: the four corners of a planar quadrilateral whose
     coordinates are not exactly coplanar (a torus's trapezoids). No point
-    can improve it; it is kept out of the sliver pass and, at the end, out
-    of the mesh (:func:`_drop_flat_folds`). (The radius-edge refinement
-    still treats it as bad: its subfaces are split until they are protected,
-    then it is given up; skipping it there made the 32 x 16 torus cascade.)
+    can improve it; it is kept out of the refinement and the sliver pass
+    and, at the end, out of the mesh (:func:`_drop_flat_folds`). (Refining
+    it split its subfaces, whose new points made new flat folds: on the
+    32 x 16 torus 830 of the 938 points added, and a cascade once the splits
+    were made lazy, :func:`_insert_interior`.)
     """
     if len(T) == 0:
         return np.zeros(0, dtype=bool)
@@ -558,34 +569,41 @@ def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> 
 
     ``slots`` and ``region`` (per tetrahedron row) describe the structure at
     the start of the round. A circumcentre that encroaches a subsegment or a
-    subface splits it instead (and the round's other candidates wait for the
-    next round, the surface having changed). The others are inserted one at
-    a time, in the given order, skipping those whose tetrahedron an earlier
-    insertion destroyed and those that do not fall in a tetrahedron of the
-    mesh (outside the regions). Returns (points inserted or splits made,
-    candidates skipped as outside).
+    subface is not inserted; the others are inserted one at a time, in the
+    given order, skipping those whose tetrahedron an earlier insertion
+    destroyed and those that do not fall in a tetrahedron of the mesh
+    (outside the regions). Only then are the surface pieces split that the
+    rejected centres encroach, and only for the tetrahedra still alive
+    (the lazy queue applied to the splits too: on the 32 x 16 torus the
+    first round's 13 interior points destroy 1,560 of its 1,697 bad
+    tetrahedra, and splitting for all of them put 364 points on the
+    surface). Returns (points inserted or splits made, candidates skipped
+    as outside or given up).
     """
+    n_c = len(rows)
+    z = np.zeros(0, dtype=np.int64)
+    blocked = np.zeros(n_c, dtype=bool)
+    # (candidate, piece) pairs to split if the candidate's tetrahedron survives;
+    # ``held``: candidates whose only encroached pieces are protected.
+    seg_pairs, sub_pairs = (z, z), (z, z)
+    splits = np.zeros(n_c, dtype=bool)
+    held = np.zeros(n_c, dtype=bool)
     xi, si = b.encroached_segments(centres)
-    done = 0
-    blocked = np.zeros(len(rows), dtype=bool)
-    split_seg = np.zeros(0, dtype=np.int64)
-    split_sub = np.zeros(0, dtype=np.int64)
-    given_up = 0
-    splits_seg = np.zeros(len(rows), dtype=bool)
     if si.size:
         guard = b.protected_segments(si)
         blocked[xi] = True
-        splits_seg[xi[~guard]] = True
-        split_seg = si[~guard]
-        given_up += len(np.setdiff1d(xi[guard], xi[~guard]))
+        splits[xi[~guard]] = True
+        held[xi[guard]] = True
+        seg_pairs = (xi[~guard], si[~guard])
     if len(b.sub):
         xf, fi = b.encroached_subfaces(centres)
         if fi.size:
             guard = b.protected_subfaces(fi)
-            fresh = ~splits_seg[xf]
+            fresh = ~splits[xf]  # a subsegment first, as Shewchuk's rule orders them
             blocked[xf] = True
-            split_sub = fi[~guard & fresh]
-            given_up += len(np.setdiff1d(xf[guard & fresh], xf[~guard & fresh]))
+            sub_pairs = (xf[~guard & fresh], fi[~guard & fresh])
+            held[xf[guard & fresh]] = True
+            splits[sub_pairs[0]] = True
     # Far circumcentres (of nearly flat tetrahedra) lie outside the surface's box:
     # outside every region.
     lo, hi = b.P[: b.n_surface].min(axis=0), b.P[: b.n_surface].max(axis=0)
@@ -594,40 +612,50 @@ def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> 
         # Such a tetrahedron leans on the surface: split its faces that are
         # subfaces (Shewchuk's rule for a circumcentre beyond a subface), or
         # insert its centroid when it has none.
-        faces = tets[rows[far]][:, TET_FACES].reshape(-1, 3)
+        idx = np.flatnonzero(far)
+        faces = tets[rows[idx]][:, TET_FACES].reshape(-1, 3)
         fk = face_keys(faces)
         sk = face_keys(b.sub)
         order = np.argsort(sk)
         pos = np.minimum(np.searchsorted(sk[order], fk), len(sk) - 1)
         hit = sk[order][pos] == fk
         leaning = hit.reshape(-1, 4).any(axis=1)
+        cand = np.repeat(idx, 4)[hit]
         sub_rows = order[pos[hit]]
-        sub_rows = sub_rows[~b.protected_subfaces(sub_rows)]
-        split_sub = np.union1d(split_sub, sub_rows)
-        idx = np.flatnonzero(far)
-        given_up += int(leaning.sum())
+        guard = b.protected_subfaces(sub_rows)
+        sub_pairs = (
+            np.concatenate([sub_pairs[0], cand[~guard]]),
+            np.concatenate([sub_pairs[1], sub_rows[~guard]]),
+        )
+        held[idx[leaning]] = True
         centres[idx[~leaning]] = b.P[tets[rows[idx[~leaning]]]].mean(axis=1)
         far[idx[~leaning]] = False
     keep = ~blocked & ~far
-    rows, centres = rows[keep], centres[keep]
     allowed = np.zeros(int(slots.max()) + 1, dtype=bool)
     allowed[slots] = region >= 0
     # One compiled loop: each insertion may destroy later candidates' tetrahedra.
-    out = b.dt.insert_guarded(centres, slots[rows], allowed)
+    out = b.dt.insert_guarded(centres[keep], slots[rows[keep]], allowed)
     new = out >= 0
     done = int(new.sum())
-    outside = given_up + int((out == SKIP_OUTSIDE).sum())
+    outside = int((out == SKIP_OUTSIDE).sum())
     if done:
-        b.P = np.concatenate([b.P, centres[new]])
+        b.P = np.concatenate([b.P, centres[keep][new]])
         b.pt_edge = np.concatenate([b.pt_edge, np.full(done, -1, dtype=np.int64)])
         b.pt_facet = np.concatenate([b.pt_facet, np.full(done, -1, dtype=np.int64)])
         b.n += done
         b.interior_added += done
-    # The surface pieces the other candidates encroach, split last (an interior
-    # insertion never removes a subsegment or subface from the lists).
-    done += b.split_segments(split_seg)
-    if split_sub.size:
-        n_sub, n_seg = b.split_subfaces(split_sub)
+    # The rejected candidates whose tetrahedron is still there (a reused slot
+    # holds a new vertex) split what they encroach.
+    rej = np.flatnonzero(~keep)
+    alive = np.zeros(n_c, dtype=bool)
+    if rej.size:
+        now = np.sort(b.dt.tets(slots[rows[rej]]), axis=1)
+        alive[rej] = (now == np.sort(tets[rows[rej]], axis=1)).all(axis=1)
+    outside += int((held & alive & ~splits).sum())
+    done += b.split_segments(seg_pairs[1][alive[seg_pairs[0]]])
+    sub_rows = np.unique(sub_pairs[1][alive[sub_pairs[0]]])
+    if sub_rows.size:
+        n_sub, n_seg = b.split_subfaces(sub_rows)
         done += n_sub + n_seg
     return done, outside
 
@@ -956,6 +984,9 @@ def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[
         inside = np.flatnonzero(region >= 0)
         Ti = T[inside]
         rows, centres = _bad_tets(b.P, Ti, max_radius_edge, max_volume, size, field, b.knobs)
+        # A flat fold is dropped at the end (``_drop_flat_folds``): no point fixes it.
+        fold = _flat_folds(b, Ti[rows])
+        rows, centres = rows[~fold], centres[~fold]
         if sliver_bound is not None:
             # The radius-edge, volume and size bounds first, then the slivers that
             # are not held between two facets (those the input's fold forces).
@@ -1106,9 +1137,10 @@ def tetrahedralize(
         circumcentre; with ``size`` too, the smaller of the two.
     keep_boundary : bool
         Add no point on the surface: the boundary faces are exactly the
-        input triangles. Supported when the surface needs no Steiner point
-        or each region is star-shaped (one interior point, the cone); no
-        refinement then (the bounds are ignored).
+        input triangles, with interior Steiner points only (none for a
+        Delaunay-admissible surface, one per star-shaped region, else the
+        conforming recovery's surface points lifted inside); no refinement
+        then (the bounds are ignored).
     progress : callable, optional
         ``progress(fraction, message)``; it may raise to cancel.
 
@@ -1126,8 +1158,8 @@ def tetrahedralize(
         Invalid surface (as :func:`parse_surface`) or bounds
         (``bad_parameter``).
     AlgorithmError
-        ``recovery_failed`` (recovery did not finish, or ``keep_boundary``
-        on a surface that needs Steiner points and is not star-shaped).
+        ``recovery_failed`` (recovery did not finish, or with
+        ``keep_boundary`` a surface point could not be lifted inside).
 
     References
     ----------
@@ -1161,15 +1193,23 @@ def tetrahedralize(
             tetra, region = T[keep], region[keep]
         else:
             cone = _cone(b, surface.region_count)
-            if cone is None:
-                raise AlgorithmError(
-                    f"keep_boundary: the surface needs Steiner points ({len(seg_missing)} "
-                    f"edges and {len(sub_missing)} triangles are not Delaunay) and a region "
-                    "is not star-shaped; constrained recovery with interior points only is "
-                    "not implemented: allow points on the surface (keep_boundary false)",
-                    code="recovery_failed",
-                )
-            tetra, region = cone
+            if cone is not None:
+                tetra, region = cone
+            else:
+                # Conforming recovery, then its surface points lifted inside.
+                rounds += recover(b, progress)
+                slots, T = b.tets()
+                region = regions(b, slots, T)
+                keep = region >= 0
+                lifted = np.arange(b.n_surface, b.n)[::-1]
+                tri_of_facet = np.argsort(b.group)
+                b.P, tetra, region = lift_surface_points(
+                    b.P, T[keep], region[keep], b.sub, tri_of_facet[b.sub_facet], b.facets,
+                    lifted,
+                )  # fmt: skip
+                tetra, region, _ = flip_slivers(b.P, tetra, region, b.knobs.kept_flip_below)
+                b.interior_added += b.surface_added
+                b.surface_added = 0
         timings["recovery"] = time.perf_counter() - t1
     else:
         t1 = time.perf_counter()

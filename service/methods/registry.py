@@ -165,7 +165,8 @@ def default_registry() -> Registry:
             name="tetrahedralize",
             summary="Tetrahedra filling a closed triangulated surface (bodies, cavities): exact "
             "3D Delaunay, conforming boundary recovery (points on the surface; with "
-            "keep_boundary, one interior point for star-shaped regions), Delaunay refinement "
+            "keep_boundary, interior points only: one for a star-shaped region, else the "
+            "recovery's surface points moved inside), Delaunay refinement "
             "to a radius-edge, volume and size bound, optional sliver rounds; a cell set per "
             "region.",
             section="§9.2, §9.3.4-§9.3.5 (edges then faces, points on the surface), §9.5",

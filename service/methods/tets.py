@@ -70,8 +70,9 @@ class TetrahedralizeParams(MethodParams):
     keep_boundary: bool = Field(
         default=False,
         description="No point on the surface: the boundary faces are exactly the input "
-        "triangles (interior Steiner points only; supported for surfaces that need none or "
-        "whose regions are star-shaped, e.g. Schönhardt's prism with one point).",
+        "triangles (interior Steiner points only: none for a Delaunay-admissible surface, one "
+        "per star-shaped region, e.g. Schönhardt's prism, else the conforming recovery's "
+        "surface points moved inside).",
     )
 
     def check(self) -> None:
