@@ -398,12 +398,14 @@ def _worst_shape(X: np.ndarray, T: np.ndarray) -> float:
 
 def _vertex_cone(X: np.ndarray, F: np.ndarray) -> np.ndarray | None:
     """Tetrahedra (kernel order) of the best cone from a vertex seeing every other face."""
+    # one exact orient3d call for every (vertex, face not at it) pair
+    v, t = np.nonzero(~(F[None, :, :] == np.arange(len(X))[:, None, None]).any(axis=2))
+    sees = orient3d(X[F[t, 0]], X[F[t, 1]], X[F[t, 2]], X[v]) > 0
+    blind = np.bincount(v[~sees], minlength=len(X))
     best, best_q = None, -1.0
-    for v in range(len(X)):  # a loop over a leaf's few vertices
-        far = F[~(F == v).any(axis=1)]
-        if not (orient3d(X[far[:, 0]], X[far[:, 1]], X[far[:, 2]], X[v]) > 0).all():
-            continue
-        T = np.column_stack([far, np.full(len(far), v)])
+    for u in np.flatnonzero(blind == 0).tolist():  # a loop over the leaf's cone apexes
+        far = F[t[v == u]]
+        T = np.column_stack([far, np.full(len(far), u)])
         q = _worst_shape(X, T)
         if q > best_q:
             best, best_q = T, q
