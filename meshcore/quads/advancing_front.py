@@ -389,8 +389,8 @@ def _good_quads(Q, quads: np.ndarray, fronts: list, which: int, n_old: int, h: n
         i, t = near["i"], near["j"]
         x, y = new_nodes[i], nodes[t]
         lim = np.where(joined[x] | ~other[y], _CLEARANCE, _GAP)
-        close = near["v"] < lim * hx[i]
-        # allowed: the corners of the quads at x (x itself among them)
+        close = (near["v"] < lim * hx[i]) & (x != y)
+        # allowed: the corners of the quads at x
         mine = (quads[:, :, None] * N + quads[:, None, :]).ravel()
         bad = x[close][~np.isin(x[close] * N + y[close], mine)]
         if len(bad):
@@ -476,8 +476,9 @@ def _snap(Q, f, nf, quads, fronts, which, n_old, h):
     # not the corners of x's quads (x among them), nor its neighbours on the new front
     mine = (quads[:, :, None] * N + quads[:, None, :]).ravel()
     step = (pos[t] - pos[x]) % n_f
-    keep = (t != x) & ~np.isin(x * N + t, mine)
-    keep &= ~((pos[t] >= 0) & ((step == 1) | (step == n_f - 1)))
+    keep = (t != x) & ~((pos[t] >= 0) & ((step == 1) | (step == n_f - 1)))
+    x, t = x[keep], t[keep]
+    keep = ~np.isin(x * N + t, mine)
     x, t = x[keep], t[keep]
     if not len(x):
         return none
@@ -813,7 +814,7 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
 
 
 def _compact(P: np.ndarray, cells: np.ndarray):
-    used = np.unique(cells)
+    used = np.flatnonzero(np.bincount(cells.ravel(), minlength=len(P)))
     remap = np.full(len(P), -1, np.int64)
     remap[used] = np.arange(len(used))
     return P[used], remap[cells]
