@@ -18,7 +18,8 @@ options set before ``generate``, one thread):
 algorithm 8 (Frontal-Delaunay for quads) with ``RecombinationAlgorithm = 3``
 (Blossom full-quad), algorithm 9 (packing of parallelograms), algorithm 11
 (quasi-structured quad). Ours: ``paving`` with smoothing and clean-up
-(timed after a warm-up call that loads numba's cache).
+(timed after a warm-up call at about 2,000 quads on the same domain, which
+loads numba's cache for every kernel the timed call reaches, the clean-up's too).
 
 Columns: CPU seconds of the meshing call (the machine is shared: wall
 times follow the load), wall seconds, quads (and triangles left, if any), least and mean
@@ -172,7 +173,8 @@ def child(tool: str, domain: str, n: int) -> dict:
         return gmsh_quads(domain, int(tool[4:]), h, n)
     from meshcore.quads import paving
 
-    paving(geometry(domain, 0.1), size=0.1)  # warm-up: numba's cache
+    warm = size_for(domain, 2000)
+    paving(geometry(domain, warm), size=warm)  # warm-up: numba's cache
     g = geometry(domain, h)
     t, c = time.perf_counter(), time.process_time()
     res = paving(g, size=h)

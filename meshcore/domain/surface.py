@@ -125,7 +125,7 @@ from meshcore.geometry.predicates import orient2d, orient2d_scalar
 from meshcore.geometry.predicates3d import orient3d_scalar
 from meshcore.geometry.tolerances import MAX_COORDINATE_3D, MIN_DIAMETER_3D
 
-__all__ = ["Surface", "as_surface", "parse_surface"]
+__all__ = ["Surface", "added_triangles_fit", "as_surface", "parse_surface", "shell_volume"]
 
 # Candidate search: (triangle, cell) entries allowed per triangle before the grid coarsens.
 _ENTRIES_PER_TRIANGLE = 8
@@ -871,11 +871,13 @@ def _scan_cells(key, tri, P, T, lo, hi, origin, h, dims, hashed, room, cap):
     return out, wit, nout, False
 
 
-def _intersections(PA: np.ndarray, tri: np.ndarray):
+def _intersections(PA: np.ndarray, tri: np.ndarray, first: int = 0):
     """Every pair of triangles meeting other than in common vertices or a common edge.
 
-    Returns rows ``(i, j)`` sorted, their meeting points (scaled
-    coordinates) and whether the search stopped at ``_MAX_FOUND``.
+    Only pairs with a triangle numbered ``first`` or later are tested (the
+    grid cells without such a triangle are dropped). Returns rows ``(i, j)``
+    sorted, their meeting points (scaled coordinates) and whether the search
+    stopped at ``_MAX_FOUND``.
     """
     m = len(tri)
     corners = PA[tri]  # (m, 3, 3)
@@ -907,6 +909,10 @@ def _intersections(PA: np.ndarray, tri: np.ndarray):
     packed = np.sort((key << bits) | cell_tri)
     key = packed >> bits
     cell_tri = packed & ((1 << bits) - 1)
+    if first > 0:
+        # a pair is tested in the cell of the low corner of its boxes' meet, which holds both
+        keep = np.isin(key, key[cell_tri >= first])
+        key, cell_tri = key[keep], cell_tri[keep]
     out, wit, count, capped = _scan_cells(
         key, cell_tri, PA, tri, lo, hi, origin, h, dims, hashed, room, _MAX_FOUND
     )
@@ -1152,6 +1158,53 @@ def parse_surface(points: object, triangles: object) -> Surface:
         volume=math.fsum(volume.tolist()),
         diameter=diameter,
     )
+
+
+def added_triangles_fit(points: np.ndarray, triangles: np.ndarray, first: int) -> bool:
+    """Whether ``triangles[first:]`` join ``triangles[:first]`` without a crossing.
+
+    For surfaces built from a part of a validated one (whose triangles,
+    ``triangles[:first]``, are known to meet only in common vertices or
+    edges) and added triangles, such as the separator surfaces of the
+    recursive partition (§8.7.2): true when no added triangle is degenerate
+    (exactly collinear corners or a repeated point), none repeats another
+    triangle, and no pair with an added triangle meets other than in common
+    vertices or a common edge. The same exact tests as :func:`parse_surface`,
+    on coordinates scaled by a power of two, only on those pairs.
+
+    References
+    ----------
+    DESIGN.md "Surface input (3D)"; methods text §9.3.1, §8.7.2.
+    """
+    P = np.asarray(points, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    PA = P * _power_of_two_scale(P[np.unique(tri)])
+    try:
+        _check_degenerate(PA, tri[first:])
+        _check_duplicates(tri, len(P))
+    except InputError:
+        return False
+    rows, _, _ = _intersections(PA, tri, first)
+    return not (rows[:, 1] >= first).any()
+
+
+def shell_volume(points: np.ndarray, triangles: np.ndarray) -> tuple[float, int]:
+    """(signed volume, exact sign) enclosed by one closed shell, as :func:`parse_surface` sums it.
+
+    The volume is the compensated sum of the triangles' determinants about
+    the shell's first vertex (``triangles[0, 0]``); the sign is exact (by
+    rationals when the sum is within its rounding bound of zero).
+
+    References
+    ----------
+    DESIGN.md "Surface input (3D)"; methods text §9.3.5.
+    """
+    P = np.asarray(points, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    PA = P * _power_of_two_scale(P[np.unique(tri)])
+    shell = np.zeros(len(tri), dtype=np.int64)
+    volume, sign = _shell_volumes(P, PA, tri, shell, 1, tri[:1, 0])
+    return float(volume[0]), int(sign[0])
 
 
 def as_surface(surface) -> Surface:

@@ -134,9 +134,10 @@ def size_map(domain: Domain, size=None, size_field=None) -> SizeMap:
     k = min(4, len(fp))
     d, idx = cKDTree(fp).query(q, k=k)
     d, idx = d.reshape(len(q), k), idx.reshape(len(q), k)
-    w = 1.0 / np.maximum(d, 1e-300) ** 2
     exact = d[:, 0] == 0
-    H = (w * fv[idx]).sum(axis=1) / w.sum(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):  # exact hits: inf weights, set below
+        w = 1.0 / d**2
+        H = (w * fv[idx]).sum(axis=1) / w.sum(axis=1)
     H[exact] = fv[idx[exact, 0]]
     H = H.reshape(ny, nx)
     if size is not None:

@@ -31,14 +31,20 @@ points, with their global numbers), starting with each body.
    must fall into exactly two parts, each touching every cycle; each part
    plus the separator triangles (oriented against the part's faces along the
    cycle) is a child. A candidate is accepted only if both children are
-   valid closed surfaces by :func:`~meshcore.domain.surface.parse_surface`
-   (every decision an exact sign: no crossing or touching between any two of
-   their triangles, manifold, consistently oriented), one shell each, and
-   already outward as built (a separator outside the polyhedron makes one
-   child inside-out). Together the two children hold every face of the
-   parent and every separator triangle, so every pair of them is tested:
-   the separator lies inside the polyhedron, and the children's volumes add
-   up to the parent's.
+   valid closed surfaces, one shell each, already outward as built. The
+   parent is valid, so only what the separators add is tested, by the exact
+   tests of :func:`~meshcore.domain.surface.parse_surface` on those pairs
+   (:func:`~meshcore.domain.surface.added_triangles_fit`): no separator
+   triangle degenerate, repeating a face, or crossing or touching a face of
+   the parent or another separator triangle other than in common vertices
+   or a common edge; then each child's every edge is held by two of its
+   faces running it opposite ways, and its volume is exactly positive (a
+   separator outside the polyhedron makes one child inside-out). One shell
+   and manifold vertices hold by construction (a connected part, a cycle
+   passes each vertex once, a separator is a planar triangulation), and the
+   child's :class:`~meshcore.domain.surface.Surface` is built directly, as
+   ``parse_surface`` would return it. So the separator lies inside the
+   polyhedron, and the children's volumes add up to the parent's.
 3. **Meshable patterns** (a leaf, or a polyhedron no candidate splits):
    the Delaunay tetrahedralization of its vertices when every face of it is
    a Delaunay face (:func:`~meshcore.tets.tetrahedralize` with
@@ -77,7 +83,7 @@ Choices the text leaves open
   surface's own sampling allows (give a surface sampled at about ``h``).
   Separators and their interior points follow ``h``.
 * The plane only proposes a cycle; validity is decided by the exact tests
-  of ``parse_surface`` on the two children, not by the plane.
+  of step 2 on the two children, not by the plane.
 * Interior points of a separator are rounded onto the plane; the
   separator's triangles need not be exactly coplanar (they are surface
   triangles of both children, tested exactly).
@@ -104,7 +110,13 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from meshcore.domain.planar import parse_domain
-from meshcore.domain.surface import Surface, as_surface, parse_surface
+from meshcore.domain.surface import (
+    Surface,
+    added_triangles_fit,
+    as_surface,
+    parse_surface,
+    shell_volume,
+)
 from meshcore.errors import AlgorithmError, InputError, MeshcoreError
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh, quality
@@ -199,14 +211,39 @@ def _compact(P: np.ndarray, F: np.ndarray):
 
 
 def _child(P: np.ndarray, F: np.ndarray, depth: int) -> _Poly | None:
-    """A valid child polyhedron (exact tests of parse_surface), or None."""
+    """A child polyhedron built directly (its faces known not to cross), or None.
+
+    ``F`` is a part of a validated surface cut along unpinched cycles, closed
+    by separator triangles that :func:`added_triangles_fit` accepted. It is
+    one shell (a connected part plus disks along its cycles) and
+    vertex-manifold by construction (a cycle passes a vertex once; a
+    separator is a planar triangulation); every edge held by exactly two
+    faces running it opposite ways and an exactly positive volume are
+    checked here (a separator outside the polyhedron makes a child
+    inside-out). The Surface is the one :func:`parse_surface` would return.
+    """
     used, X, Fl = _compact(P, F)
-    try:
-        s = parse_surface(X, Fl)
-    except InputError:
+    n = len(X)
+    fwd = np.sort(Fl.reshape(-1) * n + Fl[:, [1, 2, 0]].reshape(-1))
+    back = np.sort(Fl[:, [1, 2, 0]].reshape(-1) * n + Fl.reshape(-1))
+    if (fwd[1:] == fwd[:-1]).any() or not np.array_equal(fwd, back):
         return None
-    if s.shell_count != 1 or s.triangle_reversed.any():
+    volume, sign = shell_volume(X, Fl)
+    if sign <= 0:
         return None
+    m = len(Fl)
+    s = Surface(
+        points=X,
+        triangles=Fl,
+        triangle_reversed=np.zeros(m, dtype=bool),
+        triangle_shell=np.zeros(m, dtype=np.int64),
+        shell_parent=np.array([-1]),
+        shell_depth=np.array([0]),
+        shell_region=np.array([0]),
+        shell_volume=np.array([volume]),
+        volume=volume,
+        diameter=float(np.linalg.norm(X.max(axis=0) - X.min(axis=0))),
+    )
     return _Poly(used, s, depth)
 
 
@@ -375,6 +412,11 @@ def _split(P, poly: _Poly, gF, twin, plane, sizes: _Sizes):
         if (label[cyc // 3] != below_part).any() or (label[twin[cyc] // 3] != above_part).any():
             return None
         seps.append((tri[:, ::-1] if runs_ab else tri, below_part))
+    # the separators against every face of the parent and each other (exact tests)
+    sep = np.concatenate([t for t, _ in seps])
+    _, X2, U = _compact(P_ext, np.concatenate([gF, sep]))
+    if not added_triangles_fit(X2, U, len(gF)):
+        return None
     children = []
     for part in (0, 1):
         faces = [gF[label == part]]
@@ -398,12 +440,14 @@ def _worst_shape(X: np.ndarray, T: np.ndarray) -> float:
 
 def _vertex_cone(X: np.ndarray, F: np.ndarray) -> np.ndarray | None:
     """Tetrahedra (kernel order) of the best cone from a vertex seeing every other face."""
+    # one exact orient3d call for every (vertex, face not at it) pair
+    v, t = np.nonzero(~(F[None, :, :] == np.arange(len(X))[:, None, None]).any(axis=2))
+    sees = orient3d(X[F[t, 0]], X[F[t, 1]], X[F[t, 2]], X[v]) > 0
+    blind = np.bincount(v[~sees], minlength=len(X))
     best, best_q = None, -1.0
-    for v in range(len(X)):  # a loop over a leaf's few vertices
-        far = F[~(F == v).any(axis=1)]
-        if not (orient3d(X[far[:, 0]], X[far[:, 1]], X[far[:, 2]], X[v]) > 0).all():
-            continue
-        T = np.column_stack([far, np.full(len(far), v)])
+    for u in np.flatnonzero(blind == 0).tolist():  # a loop over the leaf's cone apexes
+        far = F[t[v == u]]
+        T = np.column_stack([far, np.full(len(far), u)])
         q = _worst_shape(X, T)
         if q > best_q:
             best, best_q = T, q

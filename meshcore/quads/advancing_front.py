@@ -379,27 +379,22 @@ def _good_quads(Q, quads: np.ndarray, fronts: list, which: int, n_old: int, h: n
         other = np.zeros(len(Q), bool)
         for k, g in enumerate(fronts):
             other[g] = k != which
-        reach = np.where(other[nodes], _GAP, _CLEARANCE)
         # a new node of a quad joined to another front (a merge) keeps the small clearance
         joined = np.zeros(len(Q), bool)
         joined[quads[other[quads].any(axis=1)]] = True
-        tree = cKDTree(Q[nodes])
-        hits = tree.query_ball_point(Q[new_nodes], _GAP * h[new_nodes])
-        for i, lst in enumerate(hits):
-            d = np.hypot(*(Q[nodes[lst]] - Q[new_nodes[i]]).T)
-            lim = _CLEARANCE if joined[new_nodes[i]] else reach[lst]
-            hits[i] = [t for t, ok in zip(lst, d < lim * h[new_nodes[i]], strict=True) if ok]
-        busy = [i for i, lst in enumerate(hits) if len(lst) > 1]
-        if busy:
-            at = {}
-            for q in np.flatnonzero(np.isin(quads, new_nodes[busy]).any(axis=1)):
-                for v in quads[q]:
-                    at.setdefault(int(v), set()).update(quads[q].tolist())
-            for i in busy:
-                x = int(new_nodes[i])
-                mine = at.get(x, set())
-                if any(int(nodes[t]) not in mine for t in hits[i]):
-                    ok[np.isin(quads, x).any(axis=1)] = False
+        hx = h[new_nodes]
+        near = cKDTree(Q[new_nodes]).sparse_distance_matrix(
+            cKDTree(Q[nodes]), _GAP * float(hx.max()), output_type="ndarray"
+        )
+        i, t = near["i"], near["j"]
+        x, y = new_nodes[i], nodes[t]
+        lim = np.where(joined[x] | ~other[y], _CLEARANCE, _GAP)
+        close = (near["v"] < lim * hx[i]) & (x != y)
+        # allowed: the corners of the quads at x
+        mine = (quads[:, :, None] * N + quads[:, None, :]).ravel()
+        bad = x[close][~np.isin(x[close] * N + y[close], mine)]
+        if len(bad):
+            ok[np.isin(quads, bad).any(axis=1)] = False
     return ok
 
 
@@ -422,22 +417,30 @@ def _trace(fronts: list, quads: np.ndarray, n: int) -> list | None:
     if (net > 1).any():
         return None
     keys = keys[net == 1]
-    a, b = keys // n, keys % n
-    if len(np.unique(a)) != len(a):
+    a, b = keys // n, keys % n  # a ascending
+    k = len(a)
+    if not k:
+        return []
+    succ = np.searchsorted(a, b).clip(0, k - 1)
+    if (np.diff(a) == 0).any() or (a[succ] != b).any() or len(np.unique(succ)) != k:
+        return None  # a node with two outgoing edges, or a chain that is not closed
+    # each cycle from its largest node, the cycles by their largest node, descending:
+    # pointer doubling for the largest index of each cycle, then list ranking
+    top, jump = np.arange(k), succ.copy()
+    for _ in range(k.bit_length() + 1):
+        top = np.maximum(top, top[jump])
+        jump = jump[jump]
+    last = succ == top  # the cycle's last node before its largest
+    rank = (~last).astype(np.int64)
+    jump = np.where(last, np.arange(k), succ)
+    for _ in range(k.bit_length() + 1):
+        rank = rank + rank[jump]
+        jump = jump[jump]
+    order = np.lexsort((-rank, -top))
+    cuts = np.flatnonzero(np.diff(top[order])) + 1
+    loops = np.split(a[order], cuts)
+    if any(len(c) < 4 or len(c) % 2 for c in loops):
         return None
-    succ = dict(zip(a.tolist(), b.tolist(), strict=True))
-    loops = []
-    while succ:
-        start, nxt = succ.popitem()
-        cyc = [start]
-        while nxt != start:
-            cyc.append(nxt)
-            nxt = succ.pop(nxt, None)
-            if nxt is None:
-                return None
-        if len(cyc) < 4 or len(cyc) % 2:
-            return None
-        loops.append(np.array(cyc, np.int64))
     return loops
 
 
@@ -455,38 +458,40 @@ def _snap(Q, f, nf, quads, fronts, which, n_old, h):
     edge that cancels (no front touches itself at one node); the fold seam
     is its own run. Only new nodes move.
     """
-    pos = {int(x): i for i, x in enumerate(nf)}
     new = nf[nf >= n_old]
+    none = Q, quads, np.zeros(len(quads), bool), 0
     if not len(new):
-        return Q, quads, np.zeros(len(quads), bool), 0
+        return none
+    N, n_f = len(Q), len(nf)
+    pos = np.full(N, -1, np.int64)
+    pos[nf] = np.arange(n_f)
     own_old = set(f.tolist())
     other = [g for k, g in enumerate(fronts) if k != which]
     targets = np.concatenate([*other, f, new])
-    tree = cKDTree(Q[targets])
-    hits = tree.query_ball_point(Q[new], _SNAP * h[new])
+    near = cKDTree(Q[new]).sparse_distance_matrix(
+        cKDTree(Q[targets]), _SNAP * float(h[new].max()), output_type="ndarray"
+    )
+    x, t = new[near["i"]], targets[near["j"]]
+    x, t = x[near["v"] <= _SNAP * h[x]], t[near["v"] <= _SNAP * h[x]]
+    # not the corners of x's quads (x among them), nor its neighbours on the new front
+    mine = (quads[:, :, None] * N + quads[:, None, :]).ravel()
+    step = (pos[t] - pos[x]) % n_f
+    keep = (t != x) & ~((pos[t] >= 0) & ((step == 1) | (step == n_f - 1)))
+    x, t = x[keep], t[keep]
+    keep = ~np.isin(x * N + t, mine)
+    x, t = x[keep], t[keep]
+    if not len(x):
+        return none
+    d = np.hypot(*(Q[t] - Q[x]).T)
+    order = np.lexsort((t, x, d))
+    cand = zip(d[order].tolist(), x[order].tolist(), t[order].tolist(), strict=True)
     corners: dict[int, set] = {}
-    busy = [i for i, lst in enumerate(hits) if len(lst) > 1]
-    if not busy:
-        return Q, quads, np.zeros(len(quads), bool), 0
-    for q in np.flatnonzero(np.isin(quads, new[busy]).any(axis=1)):
+    for q in np.flatnonzero(np.isin(quads, x).any(axis=1)):
         for v in quads[q]:
             corners.setdefault(int(v), set()).update(quads[q].tolist())
-    n_f = len(nf)
-    cand = []
-    for i in busy:
-        x = int(new[i])
-        for j in hits[i]:
-            t = int(targets[j])
-            if t == x or t in corners.get(x, ()):
-                continue
-            if t in pos and (pos[t] - pos[x]) % n_f in (1, n_f - 1):
-                continue
-            cand.append((float(np.hypot(*(Q[t] - Q[x]))), x, t))
-    cand.sort()
-    edges = set()
-    for g in fronts:
-        edges.update(zip(g.tolist(), np.roll(g, -1).tolist(), strict=True))
-    edges.update(zip(nf.tolist(), np.roll(nf, -1).tolist(), strict=True))
+    succ = np.full(N, -1, np.int64)
+    for g in (*fronts, nf):
+        succ[g] = np.roll(g, -1)
     # greedy, nearest first: each node once; a node of its own front is taken only if
     # it is no source of a node snapped already, and conversely
     to: dict[int, int] = {}
@@ -510,21 +515,21 @@ def _snap(Q, f, nf, quads, fronts, which, n_old, h):
         out.update({t: x for x, t in to.items() if t >= n_old})
         return out
 
-    def keep(x: int, t: int, partner: dict) -> bool:
-        if t in pos and (pos[t] - pos[x]) % n_f in (2, n_f - 2):
+    def run(x: int, t: int, partner: dict) -> bool:
+        if pos[t] >= 0 and (pos[t] - pos[x]) % n_f in (2, n_f - 2):
             return True  # fold seam
         p = pos[x]
         for d in (1, -1):
             u = partner.get(int(nf[(p + d) % n_f]))
-            if u is not None and ((u, t) in edges if d == 1 else (t, u) in edges):
+            if u is not None and (succ[u] == t if d == 1 else succ[t] == u):
                 return True
         return False
 
     for _ in range(2):
         partner = partners(to)
-        to = {x: t for x, t in to.items() if keep(x, t, partner)}
+        to = {x: t for x, t in to.items() if run(x, t, partner)}
     if not to:
-        return Q, quads, np.zeros(len(quads), bool), 0
+        return none
     dropped = np.isin(quads, [t for t in to.values() if t in own_old]).any(axis=1)
     Q = Q.copy()
     remap = np.arange(len(Q))
@@ -809,7 +814,7 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
 
 
 def _compact(P: np.ndarray, cells: np.ndarray):
-    used = np.unique(cells)
+    used = np.flatnonzero(np.bincount(cells.ravel(), minlength=len(P)))
     remap = np.full(len(P), -1, np.int64)
     remap[used] = np.arange(len(used))
     return P[used], remap[cells]

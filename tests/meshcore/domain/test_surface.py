@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from meshcore.domain import Surface, parse_surface
-from meshcore.domain.surface import _tri_tri
+from meshcore.domain.surface import _tri_tri, added_triangles_fit, shell_volume
 from meshcore.errors import InputError
 from tests.meshcore.domain import shapes
 from tests.meshcore.domain.shapes import box_volume
@@ -491,3 +491,18 @@ class TestSurfaceIn:
             SurfaceIn.model_validate(two_points).to_surface(loc=("body",))
         assert info.value.code == "too_few_points"
         assert info.value.errors[0]["loc"] == ["body", "points"]
+
+
+def test_added_triangles_are_tested_against_the_surface():
+    """A triangle piercing a face of the cube does not fit; one inside it does; the
+    cube's volume and its exact sign, and the reversed cube's."""
+    P, T = shapes.box()
+    inner = np.array([[0.2, 0.2, 0.5], [0.8, 0.2, 0.5], [0.5, 0.8, 0.5]])
+    piercing = inner + [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]  # through z = 1
+    for extra, fits in ((inner, True), (piercing, False)):
+        X = np.concatenate([P, extra])
+        tri = np.concatenate([T, [[len(P), len(P) + 1, len(P) + 2]]])
+        assert added_triangles_fit(X, tri, len(T)) is fits
+    s = parse_surface(P, T)
+    assert shell_volume(s.points, s.triangles) == (pytest.approx(1.0), 1)
+    assert shell_volume(s.points, s.triangles[:, ::-1])[1] == -1
