@@ -18,6 +18,14 @@ sets of 8 to 64 tets, and with insertion star cavities of a new point G
 * Flat tets (four coplanar surface points, common on planar faces) add
   nothing to Sur, so (8.1) cannot see them: among configurations of equal
   Sur, fewer non-positive tets wins before the quality.
+* Restarts: when the first stage (and, with insertion, the G passes) ends
+  stable but invalid, the generation starts again from Op(P', δ𝒮) with P'
+  the next vertex by distance to the centroid (the text: "any point in δ𝒮
+  could be used"), up to ``RESTARTS`` initial vertices; ``stats["restarts"]``
+  lists the stuck ones. Surfaces with coplanar points on either side of a
+  hole (the 12×6 ring: inner and outer equators in one plane to rounding)
+  let flat tetrahedra span the hole, which Sur cannot see: from the first
+  vertex the state sticks there, from others it does not.
 * Stages: the first without insertion; with ``insert_points``, if tets are
   still not positive, the same passes where the larger sets may also take
   Op(G, δ𝒮) with G a new point seeing all of δ𝒮 (relaxation from the
@@ -37,6 +45,10 @@ import numpy as np
 
 from meshcore.optimize import coupez as _c
 from meshcore.optimize import kernel3d as k3
+
+#: Initial vertices P of Op(P, δ𝒮) tried in turn (:func:`initial_candidates`) while the first
+#: stage (and, with insertion, the G passes) ends stable but invalid.
+RESTARTS = 8
 
 
 def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progress):
@@ -163,20 +175,26 @@ def _loop3d(state, allow_remove, insert, measure, max_sweeps, sweeps, sur, ops, 
         ops[name] = ops.get(name, 0) + int(counters[c])
 
 
-def initial_topology(P: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """Op(P, δ𝒮) on a closed surface: P, the surface vertex nearest the centroid of its vertices,
-    joined to every outward triangle not holding it (§8.3.2, "Initialization"; Figure 8.11).
+def initial_topology(P: np.ndarray, F: np.ndarray, p: int) -> np.ndarray:
+    """Op(P, δ𝒮) on a closed surface: vertex ``p`` joined to every outward triangle not
+    holding it (§8.3.2, "Initialization"; Figure 8.11).
 
     A mesh topology (every face in one or two tets) whose boundary faces are
     exactly the surface's triangles and whose signed volumes add up to the
     enclosed volume; tets may be flat or inverted.
     """
-    verts = np.unique(F)
-    c = P[verts].mean(axis=0)
-    p = int(verts[np.argmin(np.sum((P[verts] - c) ** 2, axis=1))])
     keep = ~(F == p).any(axis=1)
     f = F[keep]
     return np.column_stack([np.full(len(f), p), f]).astype(np.int64)
+
+
+def initial_candidates(P: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """The surface vertices by distance to the centroid of the surface's vertices, nearest
+    first (ties by index): the P of Op(P, δ𝒮) and, in order, those of the restarts
+    (§8.3.2, footnote: "any point in δ𝒮 could be used")."""
+    verts = np.unique(F)
+    c = P[verts].mean(axis=0)
+    return verts[np.argsort(np.sum((P[verts] - c) ** 2, axis=1), kind="stable")]
 
 
 def _long_edges(state, size):
@@ -232,21 +250,26 @@ def generate3d(surface, insert, size, measure, max_sweeps, progress):
     P, S = Pall[verts], new[F]
     e = P[S] - P[np.roll(S, -1, axis=1)]
     h = float(size) if size is not None else float(np.median(np.sqrt(np.sum(e * e, axis=2))))
-    T = initial_topology(P, S)
-    state = _c._State(k3, P, T, np.ones(len(P), np.uint8), spare_points=len(P) if insert else 0)
-    inverted = state.inverted()
-    q0 = float(_c._measure_q(P, T, _c.MEASURES[measure]).min())
-    sweeps, sur, ops = [0], [state.sur()], {}
-    _loop3d(state, False, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 0.4))
     bnd = S
-    stages = 1
-    if insert:
-        stages = 2
-        if state.inverted():  # stuck without points: Op(G, δ𝒮) around what is left
+    stages = 2 if insert else 1
+    restarts = []
+    for p in initial_candidates(P, S)[:RESTARTS]:
+        T = initial_topology(P, S, int(p))
+        state = _c._State(k3, P, T, np.ones(len(P), np.uint8), spare_points=len(P) if insert else 0)
+        inverted = state.inverted()
+        q0 = float(_c._measure_q(P, T, _c.MEASURES[measure]).min())
+        sweeps, sur, ops = [0], [state.sur()], {}
+        _loop3d(state, False, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 0.4))
+        if insert and state.inverted():  # stuck without points: Op(G, δ𝒮) around what is left
             _loop3d(state, False, True, measure, max_sweeps, sweeps, sur, ops, progress, (0.4, 0.5))
-        _c._verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
-        _insert_stage3d(state, h, measure, max_sweeps, sweeps, sur, ops, progress, rounds=30)
+        left = state.inverted()
+        if not left:
+            break
+        restarts.append({"vertex": int(p), "inverted": left, "sweeps": sweeps[0]})
     _c._verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
+    if insert:
+        _insert_stage3d(state, h, measure, max_sweeps, sweeps, sur, ops, progress, rounds=30)
+        _c._verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
     Pn, Tn, _ = _c._compact(state.points(), state.cells(), len(P))  # G of a removed pillow
     stats = {
         "use": "generation",
@@ -261,5 +284,6 @@ def generate3d(surface, insert, size, measure, max_sweeps, progress):
         "least_quality_before": q0,
         "stages": stages,
         "boundary_points": int(len(P)),
+        "restarts": restarts,
     }
     return _c._report(Pn, Tn, measure, stats)
