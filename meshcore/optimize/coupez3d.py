@@ -106,22 +106,27 @@ def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progre
 # ----------------------------------------------------------------------------- generation
 
 
-def _loop3d(state, allow_remove, insert, measure, max_sweeps, sweeps, sur, ops, progress, frac):
+def _loop3d(
+    state, allow_remove, insert, measure, max_sweeps, sweeps, sur, ops, progress, frac, polish=False
+):
     """Passes of the synthetic algorithm on tetrahedra until stable or ``max_sweeps``.
 
     A pass tries, in order, moves of free vertices (:func:`.kernel3d.sweep`),
     fans on vertex balls, fans on edge shells, then (while a tet is not
     positive) fans on larger sets around it, and with ``insert`` the new
-    point G of Op(G, δ𝒮) there; it stops at the first kind that changed
-    something.
+    point G of Op(G, δ𝒮) there; with ``polish`` (the optimization stage),
+    then the same sets around tets of quality under ``SLIVER_Q``, replaced
+    only when their worst quality rises. It stops at the first kind that
+    changed something.
     """
     cap = len(state.P)
     todo = np.ones(cap, np.uint8)
     todo_shell = np.ones(cap, np.uint8)
-    counters = np.zeros(8, np.int64)
+    counters = np.zeros(9, np.int64)
+    kinds = ("move", k3.BALL, k3.SHELL, k3.UNION) + ((k3.SLIVER,) if polish else ())
     for _ in range(max_sweeps):
         changed = 0
-        for kind in ("move", k3.BALL, k3.SHELL, k3.UNION):
+        for kind in kinds:
             dirty = np.zeros(cap, np.uint8)
             if kind == "move":
                 mark = todo.copy()
@@ -132,7 +137,7 @@ def _loop3d(state, allow_remove, insert, measure, max_sweeps, sweeps, sur, ops, 
                 )  # fmt: skip
             else:
                 if kind == k3.UNION and state.inverted() == 0:
-                    break
+                    continue
                 mark = todo if kind == k3.BALL else todo_shell
                 while True:
                     changed, status = k3.fan_sweep(
@@ -169,6 +174,7 @@ def _loop3d(state, allow_remove, insert, measure, max_sweeps, sweeps, sur, ops, 
         ("ball_fan", k3.C_BALL_FAN),
         ("shell_fan", k3.C_SHELL_FAN),
         ("union_fan", k3.C_UNION_FAN),
+        ("sliver_fan", k3.C_SLIVER_FAN),
         ("inserted_g", k3.C_INSERT),
         ("closed_removed", k3.C_CLOSED),
     ):
@@ -270,6 +276,11 @@ def generate3d(surface, insert, size, measure, max_sweeps, progress):
     if insert:
         _insert_stage3d(state, h, measure, max_sweeps, sweeps, sur, ops, progress, rounds=30)
         _c._verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
+    # the optimization stage (§8.3.2, "possibly after an optimization stage"; the third use)
+    q1 = float(_c._measure_q(state.points(), state.cells(), _c.MEASURES[measure]).min())
+    frac = (0.95, 1.0)
+    _loop3d(state, False, insert, measure, max_sweeps, sweeps, sur, ops, progress, frac, True)
+    _c._verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
     Pn, Tn, _ = _c._compact(state.points(), state.cells(), len(P))  # G of a removed pillow
     stats = {
         "use": "generation",
@@ -282,6 +293,7 @@ def generate3d(surface, insert, size, measure, max_sweeps, progress):
         "points_removed": 0,
         "operators": ops,
         "least_quality_before": q0,
+        "least_quality_before_optimization": q1,
         "stages": stages,
         "boundary_points": int(len(P)),
         "restarts": restarts,

@@ -384,14 +384,16 @@ def sur(P, T, alive, rows):
 # ----------------------------------------------------------------------------- fans on any 𝒮
 
 #: Sub-topology kinds of :func:`fan_sweep`.
-BALL, SHELL, UNION = 0, 1, 2
+BALL, SHELL, UNION, SLIVER = 0, 1, 2, 3
+#: Tets of worse quality (the measure of (8.2)) are the items of the ``SLIVER`` kind.
+SLIVER_Q = 0.1
 #: Largest sub-topology of :func:`fan_sweep` (tetrahedra); larger ones are skipped.
 SMAX = 512
 #: Sizes of the face-adjacent sets grown around a non-positive tetrahedron (UNION).
 GROW = (8, 16, 32, 64)
 #: ``counters`` entries of :func:`fan_sweep` (after C_MOVE, C_KERNEL, C_COLLAPSE).
 #: fans accepted on balls, shells and unions: ``C_BALL_FAN + kind``
-C_BALL_FAN, C_SHELL_FAN, C_UNION_FAN, C_INSERT, C_CLOSED = 3, 4, 5, 6, 7
+C_BALL_FAN, C_SHELL_FAN, C_UNION_FAN, C_SLIVER_FAN, C_INSERT, C_CLOSED = 3, 4, 5, 6, 7, 8
 
 
 @njit(cache=True)
@@ -707,7 +709,7 @@ def _try_fans(
                 T, head, nxt, bf, nb, q, n + 1, tmark, stamp
             ):
                 best, bn, bs, bq = q, nn, s_, qmin
-    if insert and bn > 0:
+    if insert == 2 or (insert and bn > 0):
         g = cnt[N_PTS]
         if g >= P.shape[0]:
             return 2
@@ -915,8 +917,10 @@ def fan_sweep(
     ``BALL``: the ball of every vertex marked in ``todo`` (boundary vertices
     included); ``SHELL``: the shell of every edge of a tet with a marked
     vertex; ``UNION``: around every non-positive tet, sets of growing size
-    (:func:`_subtopology`) until one is replaced. Status 2: out of rows
-    (grow them and call again).
+    (:func:`_subtopology`) until one is replaced; ``SLIVER``: the same sets
+    around every positive tet of quality under ``SLIVER_Q`` (the third use,
+    optimization: a set is replaced only when its worst quality rises).
+    Status 2: out of rows (grow them and call again).
     """
     st = np.empty(SMAX, np.int64)
     tmark = np.zeros(T.shape[0], np.int64)
@@ -925,6 +929,10 @@ def fan_sweep(
     changed = 0
     items = cnt[N_PTS] if kind == BALL else cnt[N_ROWS]
     per_item = 1 if kind == BALL else (6 if kind == SHELL else 11 + len(GROW) + STARS)
+    if kind == SLIVER:
+        kind_sets = UNION
+    else:
+        kind_sets = kind
     mode = 1 if insert else 0
     for i in range(items):
         a, b, c = -1, -1, -1
@@ -939,16 +947,18 @@ def fan_sweep(
                 continue
         else:
             a, b, c = T[i, 0], T[i, 1], T[i, 2]
-            if _positive(P, a, b, c, T[i, 3]):
+            if _positive(P, a, b, c, T[i, 3]) != (kind == SLIVER):
+                continue
+            if kind == SLIVER and _vol_q(P, a, b, c, T[i, 3], measure)[1] >= SLIVER_Q:
                 continue
         for j in range(per_item):
             if kind != BALL and not alive[i]:
                 break
-            if kind == UNION and (T[i, 0] != a or T[i, 1] != b or T[i, 2] != c):
+            if kind >= UNION and (T[i, 0] != a or T[i, 1] != b or T[i, 2] != c):
                 break
             cnt[STAMP] += 1
             m = mode
-            if kind == UNION and j >= 11 + len(GROW):
+            if kind >= UNION and j >= 11 + len(GROW):
                 # star cavities of a new point G: tet i's centroid, or a positive neighbour's
                 if not insert:
                     break
@@ -960,7 +970,7 @@ def fan_sweep(
                 k = _star_cavity(P, T, head, nxt, i, g, st, tmark, cnt[STAMP])
                 m = 2
             else:
-                k = _subtopology(T, head, nxt, kind, i, j, st, tmark, cnt[STAMP])
+                k = _subtopology(T, head, nxt, kind_sets, i, j, st, tmark, cnt[STAMP])
             if k < 0:
                 continue
             r = _try_fans(
@@ -974,7 +984,7 @@ def fan_sweep(
             if r == 1:
                 counters[C_BALL_FAN + kind] += 1
                 changed += 1
-                if kind == UNION:
+                if kind >= UNION:
                     break
     return changed, 0
 

@@ -149,6 +149,12 @@ def test_generation_from_surface(name):
     res = optimize(surface=surf, size=10.0)
     assert_valid_3d(res, surf)
     assert res.stats["use"] == "generation"
+    # the optimization stage never lowers the least quality; on the ring it removes the
+    # flat tets on planar surface quads (quality 1e-17 before)
+    assert res.stats["least_quality_after"] >= res.stats["least_quality_before_optimization"]
+    if name == "ring12x6":
+        P, T = res.mesh.points, res.mesh.cells[0].data
+        assert quality.tetra_radius_ratio(P, T).min() > 0.01
 
 
 def test_sphere_without_insertion_keeps_the_points():
