@@ -386,7 +386,7 @@ def sur(P, T, alive, rows):
 #: Sub-topology kinds of :func:`fan_sweep`.
 BALL, SHELL, UNION, SLIVER = 0, 1, 2, 3
 #: Tets of worse quality (the measure of (8.2)) are the items of the ``SLIVER`` kind.
-SLIVER_Q = 0.1
+SLIVER_Q = 0.5
 #: Largest sub-topology of :func:`fan_sweep` (tetrahedra); larger ones are skipped.
 SMAX = 512
 #: Sizes of the face-adjacent sets grown around a non-positive tetrahedron (UNION).
@@ -780,25 +780,27 @@ def _across(T, head, nxt, u, j):
 
 
 #: Candidate points G of the star cavities around a non-positive tet (:func:`_star_point`).
-STARS = 13
+STARS = 17
+#: Offsets of the face candidates of :func:`_star_point`, in mean edge lengths.
+STAR_OFFSETS = (0.05, 0.3, 0.6)
 
 
 @njit(cache=True)
 def _star_point(P, T, head, nxt, t, c, g):
     """Write in row g the c-th candidate G around tet t; False when there is none.
 
-    c < 8: the centroid of face c % 4 moved off it to the side from which the
-    face is positive, by 0.05 (c < 4) or 0.3 (c >= 4) of the tet's mean edge
-    length (a flat tet has one side up, one down: G above or below it);
-    c < 12: the centroid of the positive tet across face c - 8; 12: the
+    c < 12: the centroid of face c % 4 moved off it to the side from which the
+    face is positive, by 0.05, 0.3 or 0.6 (c // 4 = 0, 1, 2) of the tet's mean
+    edge length (a flat tet has one side up, one down: G above or below it);
+    c < 16: the centroid of the positive tet across face c - 12; 16: the
     centroid of t.
     """
-    if 8 <= c < 12:
-        u = _across(T, head, nxt, t, c - 8)
+    if 12 <= c < 16:
+        u = _across(T, head, nxt, t, c - 12)
         if u < 0 or not _positive(P, T[u, 0], T[u, 1], T[u, 2], T[u, 3]):
             return False
         t = u
-    if c >= 8:
+    if c >= 12:
         for x in range(3):
             P[g, x] = 0.25 * (P[T[t, 0], x] + P[T[t, 1], x] + P[T[t, 2], x] + P[T[t, 3], x])
         return True
@@ -817,7 +819,7 @@ def _star_point(P, T, head, nxt, t, c, g):
     nn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
     if nn == 0.0:
         return False
-    step = (0.05 if c < 4 else 0.3) * h / 6.0 / nn
+    step = STAR_OFFSETS[c // 4] * h / 6.0 / nn
     P[g, 0] = (P[a, 0] + P[b, 0] + P[d, 0]) / 3.0 + step * n0
     P[g, 1] = (P[a, 1] + P[b, 1] + P[d, 1]) / 3.0 + step * n1
     P[g, 2] = (P[a, 2] + P[b, 2] + P[d, 2]) / 3.0 + step * n2
@@ -956,6 +958,8 @@ def fan_sweep(
                 break
             if kind >= UNION and (T[i, 0] != a or T[i, 1] != b or T[i, 2] != c):
                 break
+            if kind == SLIVER and 4 <= j < 11 + len(GROW):
+                continue  # around a sliver: the face pairs and the star cavities only
             cnt[STAMP] += 1
             m = mode
             if kind >= UNION and j >= 11 + len(GROW):
