@@ -21,7 +21,7 @@ sets of 8 to 64 tets, and with insertion star cavities of a new point G
 * Restarts: when the first stage (and, with insertion, the G passes) ends
   stable but invalid, the generation starts again from Op(P', δ𝒮) with P'
   the next vertex by distance to the centroid (the text: "any point in δ𝒮
-  could be used"), up to ``RESTARTS`` initial vertices; ``stats["restarts"]``
+  could be used"), up to ``coupez.RESTARTS`` initial vertices; ``stats["restarts"]``
   lists the stuck ones. Surfaces with coplanar points on either side of a
   hole (the 12×6 ring: inner and outer equators in one plane to rounding)
   let flat tetrahedra span the hole, which Sur cannot see: from the first
@@ -45,10 +45,6 @@ import numpy as np
 
 from meshcore.optimize import coupez as _c
 from meshcore.optimize import kernel3d as k3
-
-#: Initial vertices P of Op(P, δ𝒮) tried in turn (:func:`initial_candidates`) while the first
-#: stage (and, with insertion, the G passes) ends stable but invalid.
-RESTARTS = 8
 
 
 def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progress):
@@ -259,7 +255,7 @@ def generate3d(surface, insert, size, measure, max_sweeps, progress):
     bnd = S
     stages = 2 if insert else 1
     restarts = []
-    for p in initial_candidates(P, S)[:RESTARTS]:
+    for p in initial_candidates(P, S)[: _c.RESTARTS]:
         T = initial_topology(P, S, int(p))
         state = _c._State(k3, P, T, np.ones(len(P), np.uint8), spare_points=len(P) if insert else 0)
         inverted = state.inverted()
