@@ -34,6 +34,14 @@ sets of 8 to 64 tets, and with insertion star cavities of a new point G
   without insertion. Splitting a tet at its centroid would leave its long
   edges in place, so the edge is split instead; surface edges never are.
 
+* Optimization stage (the third use, "possibly after an optimization
+  stage", §8.3.2): the same passes once the mesh is valid, with the
+  ``SLIVER`` kind of :func:`.kernel3d.fan_sweep` (face pairs and, with
+  insertion, star cavities around tets under ``SLIVER_Q``), every
+  replacement raising its set's worst quality: the least quality never
+  drops; flat tets on planar surface quads need a point, so without
+  insertion they stay.
+
 The result is verified (every tet positive by the exact orient3d, a mesh
 topology, the boundary faces exactly the input's) before it is returned;
 otherwise the job fails saying how many tets are still inverted and where.

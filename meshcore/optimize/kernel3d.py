@@ -27,6 +27,9 @@ tet, §8.3.4) by the best fan Op(Q, δ𝒮), Q a vertex of δ𝒮 or a new point
 checked by :func:`_fan_valid` (the §8.3.3 condition on faces: each new
 inner face in exactly two new tets and in no tet outside 𝒮, the new
 boundary exactly δ𝒮). It needs free rows (``freeT``) as :mod:`.kernel2d`.
+Its ``SLIVER`` kind is the optimization of a valid mesh (the third use):
+around each tet of quality under ``SLIVER_Q``, its face pairs and star
+cavities, replaced only when their worst quality rises.
 
 Choices the text leaves open, in the larger sets:
 
