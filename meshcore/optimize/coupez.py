@@ -38,6 +38,10 @@ Choices where the text leaves freedom
   makes Sur smaller (a correction, never a quality move), and only when
   ``insert_points`` is true: with ``insert_points=false`` the point set is
   kept.
+* **Restarts.** When the first stage ends stable but invalid, generation
+  starts again from Op(P', δ𝒮), P' the next vertex by distance to the
+  centroid (the text: "any point in δ𝒮 could be used"), up to ``RESTARTS``
+  initial vertices; ``stats["restarts"]`` lists the stuck attempts.
 * **Stages** (§8.3.3): a first stage without insertion; then, for generation
   with ``insert_points``, a second stage that inserts G = the centroid of a
   triangle whose longest edge exceeds ``size`` (Op(G, δK), K one element, a
@@ -110,6 +114,11 @@ class _Tolerances:
 
 
 TOL = _Tolerances()
+
+#: Initial topologies tried in turn by generation (2D and 3D) while the first stage ends stable
+#: but invalid: Op(P, δ𝒮) from the vertices nearest the centroid, in order (§8.3.2's footnote:
+#: "any point in δ𝒮 could be used").
+RESTARTS = 8
 
 
 @dataclass(frozen=True, eq=False)
@@ -467,15 +476,16 @@ def _loop2d(
 
 
 def _initial_topology(
-    P: np.ndarray, S: np.ndarray, seg_ring: np.ndarray, dom: Domain
+    P: np.ndarray, S: np.ndarray, seg_ring: np.ndarray, dom: Domain, attempt: int = 0
 ) -> np.ndarray:
     """The initial mesh topology: Op(P, δ𝒮) per polygon, each hole zipped into it.
 
     For each polygon, P is the vertex of its outer ring nearest the ring's
-    centroid, joined to every segment of the ring not incident to it (§8.3.2,
-    "Initialization"). A hole cannot come from the same operator (P joined to
-    a hole's segments would make a cone pinched at P, not an annulus, and no
-    replacement of a disk by a disk changes that), so each hole replaces the
+    centroid (the ``attempt``-th nearest on a restart), joined to every
+    segment of the ring not incident to it (§8.3.2, "Initialization"). A
+    hole cannot come from the same operator (P joined to a hole's segments
+    would make a cone pinched at P, not an annulus, and no replacement of a
+    disk by a disk changes that), so each hole replaces the
     triangle of the current topology whose centroid is nearest the hole's
     centroid by the annulus between the two, zipped spoke by spoke: a mesh
     topology with the right boundary, left to the optimization to untangle.
@@ -489,7 +499,8 @@ def _initial_topology(
             continue
         ring = ring_segs[:, 0]
         c = P[ring].mean(axis=0)
-        p = int(ring[np.argmin(np.sum((P[ring] - c) ** 2, axis=1))])
+        order = np.argsort(np.sum((P[ring] - c) ** 2, axis=1), kind="stable")
+        p = int(ring[order[min(attempt, len(ring) - 1)]])
         keep = (ring_segs[:, 0] != p) & (ring_segs[:, 1] != p)
         s = ring_segs[keep]
         tris.append(np.column_stack([s[:, 0], s[:, 1], np.full(len(s), p)]))
@@ -874,12 +885,18 @@ def _generate2d(dom: Domain, insert, size, measure, max_sweeps, keep_boundary, m
         seg_ring = dom.segment_ring
     else:
         seg_ring = np.repeat(dom.segment_ring, _split_counts(dom, h))
-    T = _initial_topology(P, S, seg_ring, dom)
-    fixed = np.ones(len(P), np.uint8)
-    state = _State(k2, P, T, fixed, spare_points=len(P) if insert else 0)
-    inverted = state.inverted()
-    sweeps, sur, ops = [0], [state.sur()], {}
-    _loop2d(state, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 0.5))
+    restarts = []
+    for attempt in range(RESTARTS):
+        T = _initial_topology(P, S, seg_ring, dom, attempt)
+        fixed = np.ones(len(P), np.uint8)
+        state = _State(k2, P, T, fixed, spare_points=len(P) if insert else 0)
+        inverted = state.inverted()
+        sweeps, sur, ops = [0], [state.sur()], {}
+        _loop2d(state, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 0.5))
+        left = state.inverted()
+        if not left:
+            break
+        restarts.append({"attempt": attempt, "inverted": left, "sweeps": sweeps[0]})
     stages = 1
     Pn, Tn = state.points(), state.cells()
     _verify(Pn, Tn, S, "generation", sweeps[0])
@@ -903,5 +920,6 @@ def _generate2d(dom: Domain, insert, size, measure, max_sweeps, keep_boundary, m
         "least_quality_before": float(_measure_q(P, T, MEASURES[measure]).min()),
         "stages": stages,
         "boundary_points": int(len(P)),
+        "restarts": restarts,
     }
     return _report(Pn, Tn, measure, stats)

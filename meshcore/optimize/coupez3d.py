@@ -18,6 +18,14 @@ sets of 8 to 64 tets, and with insertion star cavities of a new point G
 * Flat tets (four coplanar surface points, common on planar faces) add
   nothing to Sur, so (8.1) cannot see them: among configurations of equal
   Sur, fewer non-positive tets wins before the quality.
+* Restarts: when the first stage (and, with insertion, the G passes) ends
+  stable but invalid, the generation starts again from Op(P', δ𝒮) with P'
+  the next vertex by distance to the centroid (the text: "any point in δ𝒮
+  could be used"), up to ``coupez.RESTARTS`` initial vertices; ``stats["restarts"]``
+  lists the stuck ones. Surfaces with coplanar points on either side of a
+  hole (the 12×6 ring: inner and outer equators in one plane to rounding)
+  let flat tetrahedra span the hole, which Sur cannot see: from the first
+  vertex the state sticks there, from others it does not.
 * Stages: the first without insertion; with ``insert_points``, if tets are
   still not positive, the same passes where the larger sets may also take
   Op(G, δ𝒮) with G a new point seeing all of δ𝒮 (relaxation from the
@@ -25,6 +33,14 @@ sets of 8 to 64 tets, and with insertion star cavities of a new point G
   midpoint M (Op(M, δ𝒮), 𝒮 the edge's shell), each followed by the passes
   without insertion. Splitting a tet at its centroid would leave its long
   edges in place, so the edge is split instead; surface edges never are.
+
+* Optimization stage (the third use, "possibly after an optimization
+  stage", §8.3.2): the same passes once the mesh is valid, with the
+  ``SLIVER`` kind of :func:`.kernel3d.fan_sweep` (face pairs and, with
+  insertion, star cavities around tets under ``SLIVER_Q``), every
+  replacement raising its set's worst quality: the least quality never
+  drops; flat tets on planar surface quads need a point, so without
+  insertion they stay.
 
 The result is verified (every tet positive by the exact orient3d, a mesh
 topology, the boundary faces exactly the input's) before it is returned;
@@ -94,22 +110,27 @@ def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progre
 # ----------------------------------------------------------------------------- generation
 
 
-def _loop3d(state, allow_remove, insert, measure, max_sweeps, sweeps, sur, ops, progress, frac):
+def _loop3d(
+    state, allow_remove, insert, measure, max_sweeps, sweeps, sur, ops, progress, frac, polish=False
+):
     """Passes of the synthetic algorithm on tetrahedra until stable or ``max_sweeps``.
 
     A pass tries, in order, moves of free vertices (:func:`.kernel3d.sweep`),
     fans on vertex balls, fans on edge shells, then (while a tet is not
     positive) fans on larger sets around it, and with ``insert`` the new
-    point G of Op(G, δ𝒮) there; it stops at the first kind that changed
-    something.
+    point G of Op(G, δ𝒮) there; with ``polish`` (the optimization stage),
+    then the same sets around tets of quality under ``SLIVER_Q``, replaced
+    only when their worst quality rises. It stops at the first kind that
+    changed something.
     """
     cap = len(state.P)
     todo = np.ones(cap, np.uint8)
     todo_shell = np.ones(cap, np.uint8)
-    counters = np.zeros(8, np.int64)
+    counters = np.zeros(9, np.int64)
+    kinds = ("move", k3.BALL, k3.SHELL, k3.UNION) + ((k3.SLIVER,) if polish else ())
     for _ in range(max_sweeps):
         changed = 0
-        for kind in ("move", k3.BALL, k3.SHELL, k3.UNION):
+        for kind in kinds:
             dirty = np.zeros(cap, np.uint8)
             if kind == "move":
                 mark = todo.copy()
@@ -120,7 +141,7 @@ def _loop3d(state, allow_remove, insert, measure, max_sweeps, sweeps, sur, ops, 
                 )  # fmt: skip
             else:
                 if kind == k3.UNION and state.inverted() == 0:
-                    break
+                    continue
                 mark = todo if kind == k3.BALL else todo_shell
                 while True:
                     changed, status = k3.fan_sweep(
@@ -157,26 +178,33 @@ def _loop3d(state, allow_remove, insert, measure, max_sweeps, sweeps, sur, ops, 
         ("ball_fan", k3.C_BALL_FAN),
         ("shell_fan", k3.C_SHELL_FAN),
         ("union_fan", k3.C_UNION_FAN),
+        ("sliver_fan", k3.C_SLIVER_FAN),
         ("inserted_g", k3.C_INSERT),
         ("closed_removed", k3.C_CLOSED),
     ):
         ops[name] = ops.get(name, 0) + int(counters[c])
 
 
-def initial_topology(P: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """Op(P, δ𝒮) on a closed surface: P, the surface vertex nearest the centroid of its vertices,
-    joined to every outward triangle not holding it (§8.3.2, "Initialization"; Figure 8.11).
+def initial_topology(P: np.ndarray, F: np.ndarray, p: int) -> np.ndarray:
+    """Op(P, δ𝒮) on a closed surface: vertex ``p`` joined to every outward triangle not
+    holding it (§8.3.2, "Initialization"; Figure 8.11).
 
     A mesh topology (every face in one or two tets) whose boundary faces are
     exactly the surface's triangles and whose signed volumes add up to the
     enclosed volume; tets may be flat or inverted.
     """
-    verts = np.unique(F)
-    c = P[verts].mean(axis=0)
-    p = int(verts[np.argmin(np.sum((P[verts] - c) ** 2, axis=1))])
     keep = ~(F == p).any(axis=1)
     f = F[keep]
     return np.column_stack([np.full(len(f), p), f]).astype(np.int64)
+
+
+def initial_candidates(P: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """The surface vertices by distance to the centroid of the surface's vertices, nearest
+    first (ties by index): the P of Op(P, δ𝒮) and, in order, those of the restarts
+    (§8.3.2, footnote: "any point in δ𝒮 could be used")."""
+    verts = np.unique(F)
+    c = P[verts].mean(axis=0)
+    return verts[np.argsort(np.sum((P[verts] - c) ** 2, axis=1), kind="stable")]
 
 
 def _long_edges(state, size):
@@ -232,20 +260,30 @@ def generate3d(surface, insert, size, measure, max_sweeps, progress):
     P, S = Pall[verts], new[F]
     e = P[S] - P[np.roll(S, -1, axis=1)]
     h = float(size) if size is not None else float(np.median(np.sqrt(np.sum(e * e, axis=2))))
-    T = initial_topology(P, S)
-    state = _c._State(k3, P, T, np.ones(len(P), np.uint8), spare_points=len(P) if insert else 0)
-    inverted = state.inverted()
-    q0 = float(_c._measure_q(P, T, _c.MEASURES[measure]).min())
-    sweeps, sur, ops = [0], [state.sur()], {}
-    _loop3d(state, False, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 0.4))
     bnd = S
-    stages = 1
-    if insert:
-        stages = 2
-        if state.inverted():  # stuck without points: Op(G, δ𝒮) around what is left
+    stages = 2 if insert else 1
+    restarts = []
+    for p in initial_candidates(P, S)[: _c.RESTARTS]:
+        T = initial_topology(P, S, int(p))
+        state = _c._State(k3, P, T, np.ones(len(P), np.uint8), spare_points=len(P) if insert else 0)
+        inverted = state.inverted()
+        q0 = float(_c._measure_q(P, T, _c.MEASURES[measure]).min())
+        sweeps, sur, ops = [0], [state.sur()], {}
+        _loop3d(state, False, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 0.4))
+        if insert and state.inverted():  # stuck without points: Op(G, δ𝒮) around what is left
             _loop3d(state, False, True, measure, max_sweeps, sweeps, sur, ops, progress, (0.4, 0.5))
-        _c._verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
+        left = state.inverted()
+        if not left:
+            break
+        restarts.append({"vertex": int(p), "inverted": left, "sweeps": sweeps[0]})
+    _c._verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
+    if insert:
         _insert_stage3d(state, h, measure, max_sweeps, sweeps, sur, ops, progress, rounds=30)
+        _c._verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
+    # the optimization stage (§8.3.2, "possibly after an optimization stage"; the third use)
+    q1 = float(_c._measure_q(state.points(), state.cells(), _c.MEASURES[measure]).min())
+    frac = (0.95, 1.0)
+    _loop3d(state, False, insert, measure, max_sweeps, sweeps, sur, ops, progress, frac, True)
     _c._verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
     Pn, Tn, _ = _c._compact(state.points(), state.cells(), len(P))  # G of a removed pillow
     stats = {
@@ -259,7 +297,9 @@ def generate3d(surface, insert, size, measure, max_sweeps, progress):
         "points_removed": 0,
         "operators": ops,
         "least_quality_before": q0,
+        "least_quality_before_optimization": q1,
         "stages": stages,
         "boundary_points": int(len(P)),
+        "restarts": restarts,
     }
     return _c._report(Pn, Tn, measure, stats)

@@ -27,6 +27,9 @@ tet, §8.3.4) by the best fan Op(Q, δ𝒮), Q a vertex of δ𝒮 or a new point
 checked by :func:`_fan_valid` (the §8.3.3 condition on faces: each new
 inner face in exactly two new tets and in no tet outside 𝒮, the new
 boundary exactly δ𝒮). It needs free rows (``freeT``) as :mod:`.kernel2d`.
+Its ``SLIVER`` kind is the optimization of a valid mesh (the third use):
+around each tet of quality under ``SLIVER_Q``, its face pairs and star
+cavities, replaced only when their worst quality rises.
 
 Choices the text leaves open, in the larger sets:
 
@@ -384,14 +387,16 @@ def sur(P, T, alive, rows):
 # ----------------------------------------------------------------------------- fans on any 𝒮
 
 #: Sub-topology kinds of :func:`fan_sweep`.
-BALL, SHELL, UNION = 0, 1, 2
+BALL, SHELL, UNION, SLIVER = 0, 1, 2, 3
+#: Tets of worse quality (the measure of (8.2)) are the items of the ``SLIVER`` kind.
+SLIVER_Q = 0.5
 #: Largest sub-topology of :func:`fan_sweep` (tetrahedra); larger ones are skipped.
 SMAX = 512
 #: Sizes of the face-adjacent sets grown around a non-positive tetrahedron (UNION).
 GROW = (8, 16, 32, 64)
 #: ``counters`` entries of :func:`fan_sweep` (after C_MOVE, C_KERNEL, C_COLLAPSE).
 #: fans accepted on balls, shells and unions: ``C_BALL_FAN + kind``
-C_BALL_FAN, C_SHELL_FAN, C_UNION_FAN, C_INSERT, C_CLOSED = 3, 4, 5, 6, 7
+C_BALL_FAN, C_SHELL_FAN, C_UNION_FAN, C_SLIVER_FAN, C_INSERT, C_CLOSED = 3, 4, 5, 6, 7, 8
 
 
 @njit(cache=True)
@@ -707,7 +712,7 @@ def _try_fans(
                 T, head, nxt, bf, nb, q, n + 1, tmark, stamp
             ):
                 best, bn, bs, bq = q, nn, s_, qmin
-    if insert and bn > 0:
+    if insert == 2 or (insert and bn > 0):
         g = cnt[N_PTS]
         if g >= P.shape[0]:
             return 2
@@ -778,25 +783,27 @@ def _across(T, head, nxt, u, j):
 
 
 #: Candidate points G of the star cavities around a non-positive tet (:func:`_star_point`).
-STARS = 13
+STARS = 17
+#: Offsets of the face candidates of :func:`_star_point`, in mean edge lengths.
+STAR_OFFSETS = (0.05, 0.3, 0.6)
 
 
 @njit(cache=True)
 def _star_point(P, T, head, nxt, t, c, g):
     """Write in row g the c-th candidate G around tet t; False when there is none.
 
-    c < 8: the centroid of face c % 4 moved off it to the side from which the
-    face is positive, by 0.05 (c < 4) or 0.3 (c >= 4) of the tet's mean edge
-    length (a flat tet has one side up, one down: G above or below it);
-    c < 12: the centroid of the positive tet across face c - 8; 12: the
+    c < 12: the centroid of face c % 4 moved off it to the side from which the
+    face is positive, by 0.05, 0.3 or 0.6 (c // 4 = 0, 1, 2) of the tet's mean
+    edge length (a flat tet has one side up, one down: G above or below it);
+    c < 16: the centroid of the positive tet across face c - 12; 16: the
     centroid of t.
     """
-    if 8 <= c < 12:
-        u = _across(T, head, nxt, t, c - 8)
+    if 12 <= c < 16:
+        u = _across(T, head, nxt, t, c - 12)
         if u < 0 or not _positive(P, T[u, 0], T[u, 1], T[u, 2], T[u, 3]):
             return False
         t = u
-    if c >= 8:
+    if c >= 12:
         for x in range(3):
             P[g, x] = 0.25 * (P[T[t, 0], x] + P[T[t, 1], x] + P[T[t, 2], x] + P[T[t, 3], x])
         return True
@@ -815,7 +822,7 @@ def _star_point(P, T, head, nxt, t, c, g):
     nn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
     if nn == 0.0:
         return False
-    step = (0.05 if c < 4 else 0.3) * h / 6.0 / nn
+    step = STAR_OFFSETS[c // 4] * h / 6.0 / nn
     P[g, 0] = (P[a, 0] + P[b, 0] + P[d, 0]) / 3.0 + step * n0
     P[g, 1] = (P[a, 1] + P[b, 1] + P[d, 1]) / 3.0 + step * n1
     P[g, 2] = (P[a, 2] + P[b, 2] + P[d, 2]) / 3.0 + step * n2
@@ -915,8 +922,10 @@ def fan_sweep(
     ``BALL``: the ball of every vertex marked in ``todo`` (boundary vertices
     included); ``SHELL``: the shell of every edge of a tet with a marked
     vertex; ``UNION``: around every non-positive tet, sets of growing size
-    (:func:`_subtopology`) until one is replaced. Status 2: out of rows
-    (grow them and call again).
+    (:func:`_subtopology`) until one is replaced; ``SLIVER``: the same sets
+    around every positive tet of quality under ``SLIVER_Q`` (the third use,
+    optimization: a set is replaced only when its worst quality rises).
+    Status 2: out of rows (grow them and call again).
     """
     st = np.empty(SMAX, np.int64)
     tmark = np.zeros(T.shape[0], np.int64)
@@ -925,6 +934,10 @@ def fan_sweep(
     changed = 0
     items = cnt[N_PTS] if kind == BALL else cnt[N_ROWS]
     per_item = 1 if kind == BALL else (6 if kind == SHELL else 11 + len(GROW) + STARS)
+    if kind == SLIVER:
+        kind_sets = UNION
+    else:
+        kind_sets = kind
     mode = 1 if insert else 0
     for i in range(items):
         a, b, c = -1, -1, -1
@@ -939,16 +952,20 @@ def fan_sweep(
                 continue
         else:
             a, b, c = T[i, 0], T[i, 1], T[i, 2]
-            if _positive(P, a, b, c, T[i, 3]):
+            if _positive(P, a, b, c, T[i, 3]) != (kind == SLIVER):
+                continue
+            if kind == SLIVER and _vol_q(P, a, b, c, T[i, 3], measure)[1] >= SLIVER_Q:
                 continue
         for j in range(per_item):
             if kind != BALL and not alive[i]:
                 break
-            if kind == UNION and (T[i, 0] != a or T[i, 1] != b or T[i, 2] != c):
+            if kind >= UNION and (T[i, 0] != a or T[i, 1] != b or T[i, 2] != c):
                 break
+            if kind == SLIVER and 4 <= j < 11 + len(GROW):
+                continue  # around a sliver: the face pairs and the star cavities only
             cnt[STAMP] += 1
             m = mode
-            if kind == UNION and j >= 11 + len(GROW):
+            if kind >= UNION and j >= 11 + len(GROW):
                 # star cavities of a new point G: tet i's centroid, or a positive neighbour's
                 if not insert:
                     break
@@ -960,7 +977,7 @@ def fan_sweep(
                 k = _star_cavity(P, T, head, nxt, i, g, st, tmark, cnt[STAMP])
                 m = 2
             else:
-                k = _subtopology(T, head, nxt, kind, i, j, st, tmark, cnt[STAMP])
+                k = _subtopology(T, head, nxt, kind_sets, i, j, st, tmark, cnt[STAMP])
             if k < 0:
                 continue
             r = _try_fans(
@@ -974,7 +991,7 @@ def fan_sweep(
             if r == 1:
                 counters[C_BALL_FAN + kind] += 1
                 changed += 1
-                if kind == UNION:
+                if kind >= UNION:
                     break
     return changed, 0
 

@@ -84,6 +84,27 @@ class TestGeneration:
         # Euler: an annulus with only boundary vertices has as many triangles as vertices
         assert len(T) == len(P)
 
+    def test_stuck_first_topology_restarts_from_the_next_vertex(self):
+        # a star with a triangular hole (seed 7, draw 29) stuck from the vertex nearest the
+        # centroid with one inverted triangle; valid from the next one
+        r = [
+            0.5798477166732823, 0.9883605268743287, 0.83796939524952, 0.4256238414976024,
+            0.8753359662453435, 0.5521022015879642, 0.8579077133723816, 0.3582689419767504,
+            0.9163256001108893, 0.45550171047342397, 0.6462378871775067, 0.7801411388890489,
+            0.6801152193590072, 0.4575085489123072, 0.440427033585564, 0.534947355400576,
+            0.3840546420615104, 0.4907540986215251, 0.4345682605789154, 0.652118059433205,
+            0.5817314540727383, 0.7314409616553064, 0.5325712620110198,
+        ]  # fmt: skip
+        rh = [0.0857648782490004, 0.13628872746463597, 0.2083807197020417]
+        rings = [star(np.array(r)), star(np.array(rh), 0.1)]
+        dom = parse_domain({"type": "Polygon", "coordinates": rings})
+        res = optimize(domain=dom, insert_points=False)
+        P, T = _tri(res)
+        assert_valid_2d(P, T, dom.segments, dom.area)
+        assert len(T) == len(P)
+        assert res.stats["restarts"] and res.stats["restarts"][0]["inverted"] > 0
+        assert_monotone(res.stats["sur"])
+
     @pytest.mark.parametrize("holes", [1, 2])
     def test_square_with_holes(self, holes):
         rings = [[[0, 0], [4, 0], [4, 4], [0, 4]]]

@@ -92,9 +92,27 @@ def ring(sections: int, sides: int, R: float = 1.0, r: float = 0.4):
     return P, F
 
 
+def schonhardt() -> tuple[np.ndarray, np.ndarray]:
+    """Schönhardt's twisted prism: no tetrahedralization of its six vertices exists."""
+    a = np.radians([0.0, 120.0, 240.0])
+    P = np.vstack(
+        [
+            np.column_stack([np.cos(a), np.sin(a), np.zeros(3)]),
+            np.column_stack([np.cos(a + np.pi / 6), np.sin(a + np.pi / 6), np.ones(3)]),
+        ]
+    )
+    F = [(0, 2, 1), (3, 4, 5)]
+    for i in range(3):
+        j = (i + 1) % 3
+        F += [(i, j, 3 + j), (i, 3 + j, 3 + i)]  # the reflex diagonals
+    return P, np.array(F)
+
+
 SHAPES = {
     "cube": lambda: grid_cube(3),
     "ring": lambda: ring(24, 8),
+    # inner and outer equators coplanar to rounding: the first initial vertex sticks
+    "ring12x6": lambda: ring(12, 6),
     "sphere": lambda: icosphere(2),
 }
 
@@ -131,6 +149,12 @@ def test_generation_from_surface(name):
     res = optimize(surface=surf, size=10.0)
     assert_valid_3d(res, surf)
     assert res.stats["use"] == "generation"
+    # the optimization stage never lowers the least quality; on the ring it removes the
+    # flat tets on planar surface quads (quality 1e-17 before)
+    assert res.stats["least_quality_after"] >= res.stats["least_quality_before_optimization"]
+    if name == "ring12x6":
+        P, T = res.mesh.points, res.mesh.cells[0].data
+        assert quality.tetra_radius_ratio(P, T).min() > 0.01
 
 
 def test_sphere_without_insertion_keeps_the_points():
@@ -150,11 +174,14 @@ def test_insertion_to_size():
 
 
 def test_stuck_without_insertion_is_a_clean_failure():
-    surf = parse_surface(*ring(12, 6))
+    surf = parse_surface(*schonhardt())
     with pytest.raises(AlgorithmError) as err:
         optimize(surface=surf, insert_points=False)
     msg = str(err.value)
     assert "still inverted or flat" in msg and "within the box" in msg
+    res = optimize(surface=surf, size=10.0)  # a point inside makes it
+    assert_valid_3d(res, surf)
+    assert res.stats["points_inserted"] > 0
 
 
 def test_translated_far_away():
