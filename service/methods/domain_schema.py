@@ -185,9 +185,7 @@ class DomainIn(BaseModel):
     def _validated_before(cls, value: Any, handler: Any, info: ValidationInfo) -> Any:
         # A job's params: the domains the submit validated come with the arrays (unpack).
         model = handler(value)
-        marker = value.get("coordinates") if isinstance(value, dict) else None
-        if isinstance(marker, str):
-            model._domains.update((info.context or {}).get(DOMAINS, {}).get(marker, {}))
+        model._domains.update(validated(value, "coordinates", info, DOMAINS) or {})
         return model
 
     @field_validator("coordinates", mode="wrap")
@@ -297,6 +295,13 @@ class DomainIn(BaseModel):
             raise InputError(exc.message, code=exc.code, errors=errors) from None
         self._domains[key] = domain
         return domain
+
+
+def validated(value: Any, field: str, info: ValidationInfo, key: str) -> Any:
+    """What the submit validated for a packed model (context ``key``, by the marker
+    a job's params hold in place of ``field``), or None for a plain value."""
+    marker = value.get(field) if isinstance(value, dict) else None
+    return (info.context or {}).get(key, {}).get(marker) if isinstance(marker, str) else None
 
 
 def _ring_array(ring: list) -> np.ndarray:

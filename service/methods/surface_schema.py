@@ -46,7 +46,7 @@ from pydantic import (
 from meshcore.domain.surface import Surface, parse_surface
 from meshcore.errors import InputError
 from service.bodies import MARKER
-from service.methods.domain_schema import ARRAYS, PACK, SURFACES, pack_surface
+from service.methods.domain_schema import ARRAYS, PACK, SURFACES, pack_surface, validated
 
 # Strict: JSON numbers only (true and "1" are not coordinates); NaN and infinities refused.
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False, strict=True)]
@@ -109,9 +109,7 @@ class SurfaceIn(BaseModel):
     def _validated_before(cls, value: Any, handler: Any, info: ValidationInfo) -> Any:
         # A job's params: the surface the submit validated comes with the arrays (unpack).
         model = handler(value)
-        marker = value.get("points") if isinstance(value, dict) else None
-        if isinstance(marker, str):
-            model._surface = (info.context or {}).get(SURFACES, {}).get(marker)
+        model._surface = validated(value, "points", info, SURFACES)
         return model
 
     @field_validator("points", "triangles", mode="wrap")
