@@ -536,16 +536,17 @@ def _left_report(
     return out
 
 
-def _size_at(size, field, X: np.ndarray) -> np.ndarray:
-    """The target edge length at points ``X``: the smaller of ``size`` and the size
-    field's value there (inf where neither is given)."""
-    out = np.full(len(X), np.inf if size is None else size)
-    return out if field is None else np.minimum(out, field(X))
+def _size_map(size: float | None, field: SizeField3d | None):
+    """The target edge length at points ``X`` as a function ``(k, 3) -> (k,)``: the
+    smaller of ``size`` and the size field's value there; None when neither is given."""
+    if field is None:
+        return None if size is None else (lambda X: np.full(len(X), size))
+    if size is None:
+        return field
+    return lambda X: np.minimum(field(X), size)
 
 
-def _bad_tets(
-    P, T, max_radius_edge, max_volume, size, field, knobs
-) -> tuple[np.ndarray, np.ndarray]:
+def _bad_tets(P, T, max_radius_edge, max_volume, size_at, knobs) -> tuple[np.ndarray, np.ndarray]:
     """Rows of bad tetrahedra and their circumcentres, worst (largest radius) first."""
     c, R = _tet_circumcenters(P, T)
     short = _shortest_edge(P, T)
@@ -557,8 +558,8 @@ def _bad_tets(
     flat = ~np.isfinite(R)
     c[flat] = P[T[flat]].mean(axis=1)
     R[flat] = np.inf
-    if size is not None or field is not None:
-        bad |= R > knobs.size_radius * _size_at(size, field, c)
+    if size_at is not None:
+        bad |= R > knobs.size_radius * size_at(c)
     rows = np.flatnonzero(bad | flat)
     rows = rows[np.argsort(-R[rows], kind="stable")]
     return rows, c[rows]
@@ -949,7 +950,7 @@ class _SlotCache:
 
 def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[int, int]:
     """Delaunay refinement rounds; returns (rounds, bad tetrahedra left)."""
-    max_radius_edge, max_volume, size, field = criteria
+    max_radius_edge, max_volume, size_at = criteria
     rounds = 0
     left = 0
     cap = b.knobs.sliver_rounds if sliver_bound is not None else b.knobs.refinement_rounds
@@ -964,15 +965,17 @@ def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[
         else:
             seg_bad = sub_bad = np.zeros(0, dtype=np.int64)
         # The size bound and each facet's feature size (``_feature_sizes``).
-        mid = 0.5 * (b.P[b.seg[:, 0]] + b.P[b.seg[:, 1]])
-        cap = np.minimum(b.segment_size(np.arange(len(b.seg))), _size_at(size, field, mid))
+        cap = b.segment_size(np.arange(len(b.seg)))
+        if size_at is not None:
+            cap = np.minimum(cap, size_at(0.5 * (b.P[b.seg[:, 0]] + b.P[b.seg[:, 1]])))
         L = np.linalg.norm(b.P[b.seg[:, 0]] - b.P[b.seg[:, 1]], axis=1)
         seg_bad = np.union1d(seg_bad, np.flatnonzero(L > cap))
         if seg_bad.size:
             b.split_segments(seg_bad)
             continue
-        centroid = b.P[b.sub].mean(axis=1)
-        cap = np.minimum(b.facet_size[b.sub_facet], _size_at(size, field, centroid))
+        cap = b.facet_size[b.sub_facet]
+        if size_at is not None:
+            cap = np.minimum(cap, size_at(b.P[b.sub].mean(axis=1)))
         if np.isfinite(cap).any():
             _, r = tri_circumcenters(b.P, b.sub)
             sub_bad = np.union1d(sub_bad, np.flatnonzero(r > b.knobs.size_radius * cap))
@@ -983,7 +986,7 @@ def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[
         region = regions(b, slots, T)
         inside = np.flatnonzero(region >= 0)
         Ti = T[inside]
-        rows, centres = _bad_tets(b.P, Ti, max_radius_edge, max_volume, size, field, b.knobs)
+        rows, centres = _bad_tets(b.P, Ti, max_radius_edge, max_volume, size_at, b.knobs)
         # A flat fold is dropped at the end (``_drop_flat_folds``): no point fixes it.
         fold = _flat_folds(b, Ti[rows])
         rows, centres = rows[~fold], centres[~fold]
@@ -1169,6 +1172,7 @@ def tetrahedralize(
     surface = as_surface(surface)
     criteria = _criteria_checked(max_radius_edge, min_dihedral, max_volume, size)
     field = None if size_field is None else SizeField3d(size_field)
+    size_at = _size_map(criteria[3], field)
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     b = SurfaceRecovery(surface, KNOBS, merge=not keep_boundary)
@@ -1215,11 +1219,11 @@ def tetrahedralize(
         t1 = time.perf_counter()
         rounds += recover(b, progress)
         timings["recovery"] = time.perf_counter() - t1
-        mre, mdh, mvol, sz = criteria
-        bounded = mre is not None or mvol is not None or sz is not None or field is not None
+        mre, mdh, mvol, _ = criteria
+        bounded = mre is not None or mvol is not None or size_at is not None
         if not empty and bounded:
             t2 = time.perf_counter()
-            r, given_up = _refine(b, (mre or math.inf, mvol, sz, field), progress)
+            r, given_up = _refine(b, (mre or math.inf, mvol, size_at), progress)
             rounds += r
             timings["refinement"] = time.perf_counter() - t2
         if not empty and mdh is not None:
@@ -1227,7 +1231,7 @@ def tetrahedralize(
             rounds += _sliver_pass(b, mdh, mre or math.inf, progress)
             if bounded:
                 # The sliver rounds' surface splits may have left bad tetrahedra.
-                r, given_up = _refine(b, (mre or math.inf, mvol, sz, field), progress)
+                r, given_up = _refine(b, (mre or math.inf, mvol, size_at), progress)
                 rounds += r
             timings["slivers"] = time.perf_counter() - t3
         # Encroachment fixes may have left pieces missing: recover again (no-op if whole).

@@ -26,9 +26,9 @@ from meshcore.geometry.predicates3d import orient3d_filtered
 
 
 @njit(cache=True)
-def _replaced_sign(P, tet, i, q, work):
-    """orient3d of tetrahedron ``tet`` with its vertex ``i`` replaced by ``q``."""
-    c = np.empty((4, 3))
+def _replaced_sign(P, tet, i, q, c, work):
+    """orient3d of tetrahedron ``tet`` with its vertex ``i`` replaced by ``q`` (``c``: a
+    (4, 3) scratch buffer)."""
     for k in range(4):
         for a in range(3):
             c[k, a] = q[a] if k == i else P[tet[k], a]
@@ -42,6 +42,7 @@ def _replaced_sign(P, tet, i, q, work):
 def _locate(P, tetra, neighbors, start, Q, work):
     """The tetrahedron whose closure holds each query point (-1: outside the hull)."""
     out = np.empty(len(Q), np.int64)
+    c = np.empty((4, 3))
     cap = 4 * len(tetra) + 8
     for j in range(len(Q)):
         t = start[j]
@@ -49,7 +50,7 @@ def _locate(P, tetra, neighbors, start, Q, work):
         for _ in range(cap):
             moved = False
             for i in range(4):
-                if _replaced_sign(P, tetra[t], i, q, work) < 0:
+                if _replaced_sign(P, tetra[t], i, q, c, work) < 0:
                     t = neighbors[t, i]
                     moved = True
                     break

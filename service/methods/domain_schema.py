@@ -346,12 +346,16 @@ def pack_arrays(packed: dict[str, Any]) -> dict[str, np.ndarray]:
 
 
 def pack_surface(
-    prefix: str, arrays: dict[str, np.ndarray], points, triangles, surface: Surface | None
+    prefix: str,
+    arrays: dict[str, np.ndarray],
+    points: np.ndarray,
+    triangles: np.ndarray,
+    surface: Surface | None,
 ) -> dict:
     """Add a surface's points, triangles and (once validated) :class:`Surface` to
     ``arrays`` under ``prefix``; the index entry :func:`unpack` reads them back with."""
-    arrays[f"{prefix}.points"] = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    arrays[f"{prefix}.triangles"] = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    arrays[f"{prefix}.points"] = points
+    arrays[f"{prefix}.triangles"] = triangles
     if surface is None:
         return {"kind": "surface", "surface": None}
     for name in _SURFACE_ARRAYS:

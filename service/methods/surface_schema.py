@@ -51,8 +51,9 @@ from service.methods.domain_schema import ARRAYS, PACK, SURFACES, pack_surface, 
 # Strict: JSON numbers only (true and "1" are not coordinates); NaN and infinities refused.
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False, strict=True)]
 Position3 = Annotated[list[FiniteFloat], Field(min_length=3, max_length=3)]
+#: Indices are int64 (no surface has more points; a larger one is refused where it is).
 TriangleIndices = Annotated[
-    list[Annotated[int, Field(strict=True, ge=0)]], Field(min_length=3, max_length=3)
+    list[Annotated[int, Field(strict=True, ge=0, lt=2**63)]], Field(min_length=3, max_length=3)
 ]
 
 #: The unit cube, 8 corners and 12 triangles oriented outward (volume 1).
@@ -114,11 +115,13 @@ class SurfaceIn(BaseModel):
 
     @field_validator("points", "triangles", mode="wrap")
     @classmethod
-    def _packed(cls, value: Any, handler: Any, info: ValidationInfo) -> Any:
+    def _as_array(cls, value: Any, handler: Any, info: ValidationInfo) -> Any:
+        # One array, made once: the body hash, params.npz and the validation read it.
         packed = (info.context or {}).get(ARRAYS, {})
         if isinstance(value, str) and value in packed:  # a job's params (unpack)
             return packed[value][info.field_name]
-        return handler(value)
+        dtype = np.float64 if info.field_name == "points" else np.int64
+        return np.asarray(handler(value), dtype=dtype).reshape(-1, 3)
 
     @field_serializer("points", "triangles")
     def _arrays_out(self, value: Any, info: SerializationInfo) -> Any:
@@ -129,14 +132,11 @@ class SurfaceIn(BaseModel):
                 marker = f"{MARKER}{len(packed)}"
                 packed[marker] = self
             return marker
-        return value.tolist() if isinstance(value, np.ndarray) else value
+        return value.tolist()
 
     def content_arrays(self) -> list[np.ndarray]:
         """The arrays that identify this input (the submit's body hash)."""
-        return [
-            np.asarray(self.points, dtype=np.float64).reshape(-1, 3),
-            np.asarray(self.triangles, dtype=np.int64).reshape(-1, 3),
-        ]
+        return [self.points, self.triangles]
 
     def pack_into(self, prefix: str, arrays: dict[str, np.ndarray]) -> dict:
         """Add the points, triangles and validated surface to ``arrays`` under ``prefix``;

@@ -85,6 +85,10 @@ class TestTetrahedralize:
             ({"unknown": 1}, ["unknown"]),
             ({"size_field": {"points": [[0, 0, 0]], "values": [1, 2]}}, ["size_field"]),
             (
+                {"surface": {**CUBE, "triangles": [[0, 2, 10**30], *CUBE["triangles"][1:]]}},
+                ["surface", "triangles", 0, 2],
+            ),
+            (
                 {"size_field": {"points": [[0, 0, 0], [0, 0, 0]], "values": [1, 1]}},
                 ["size_field", "points", 1],
             ),
