@@ -96,10 +96,18 @@ def test_job_processes_killed_at_random_fail_alone_with_a_reason(tmp_path):
     try:
         with Load(server) as load:
             api = psutil.Process(server.proc.pid)
+
+            def job_processes() -> list[psutil.Process]:
+                # grandchildren of the API (children of its fork server)
+                return [p for child in api.children() for p in child.children()]
+
+            # without the warm-up, the fork server starts with the first job
+            deadline = time.monotonic() + 60
+            while not job_processes() and time.monotonic() < deadline:
+                time.sleep(0.05)
             for _ in range(ROUNDS * 3):
                 time.sleep(rng.uniform(0.1, 0.5))
-                # job processes: grandchildren of the API (children of its fork server)
-                jobs = [p for child in api.children() for p in child.children()]
+                jobs = job_processes()
                 if jobs:
                     try:
                         rng.choice(jobs).send_signal(signal.SIGKILL)
