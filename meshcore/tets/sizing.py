@@ -10,9 +10,15 @@ a visibility walk whose every step is an exact ``orient3d`` sign, started
 from a tetrahedron of the nearest field point; its barycentric weights are
 then plain floating point (clipped to the tetrahedron): a value, not a
 sign. With ``size`` given too, the smaller of the two holds everywhere.
+
+:func:`estimated_tetrahedra` says up front about how many tetrahedra a
+uniform ``size`` or ``max_volume`` asks for, so that a runaway request is
+refused before it runs (as 2D's ``estimated_triangles``).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numba import njit
@@ -23,6 +29,37 @@ from meshcore.domain.planar import parse_size_field
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import WORK_SIZE
 from meshcore.geometry.predicates3d import orient3d_filtered
+
+#: Largest estimate accepted: about the tetrahedra of the refinement's point limit
+#: (``Knobs.max_points``, 300,000 points: 1.79-1.97M tetrahedra on a torus and a cube).
+MAX_TETRAHEDRA = 1_500_000
+#: Tetrahedra of a Delaunay-refined mesh per regular tetrahedron of the target edge that
+#: fits in its volume: the icosphere of radius 1 at size 0.05 makes 450,149 tetrahedra
+#: where its volume holds 282k regular ones (the torus 32 x 16: 1.5-1.7 likewise).
+_FILL = 1.6
+
+
+def estimated_tetrahedra(volume: float, *, size: float | None = None, max_volume=None) -> int:
+    """About how many tetrahedra ``tetrahedralize`` makes for a uniform bound.
+
+    ``volume`` is the enclosed volume; ``size`` a target edge length (a
+    regular tetrahedron of that edge has volume size**3 / (6 sqrt 2)),
+    ``max_volume`` a largest tetrahedron volume; with both, the larger
+    count. 0 when neither is given (the mesh then follows the surface's own
+    spacing). A ``size_field`` is not estimated: its refinement is bounded
+    by the point limit instead. Meant for refusing runaway requests up front
+    (Remark 8.10's control space, uniform case).
+    """
+    per_cell = []
+    if size is not None:
+        per_cell.append(min(size, 1e100) ** 3 / (6.0 * math.sqrt(2.0)))  # no overflow
+    if max_volume is not None:
+        per_cell.append(max_volume)
+    if not per_cell:
+        return 0
+    smallest = min(per_cell)  # 0 when size**3 underflows
+    count = _FILL * volume / smallest if smallest > 0 else math.inf
+    return int(min(count, 1e18))
 
 
 @njit(cache=True)

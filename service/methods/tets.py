@@ -14,10 +14,11 @@ from typing import Annotated
 import numpy as np
 from pydantic import Field
 
+from meshcore.errors import InputError
 from meshcore.mesh import quality
 from meshcore.tets import tetra_dihedral_angles, tetrahedralize
 from meshcore.tets.refinement import MIN_RADIUS_EDGE
-from meshcore.tets.sizing import SizeField3d
+from meshcore.tets.sizing import MAX_TETRAHEDRA, SizeField3d, estimated_tetrahedra
 from service.methods.surface_schema import UNIT_CUBE, Position3, SurfaceIn
 from service.methods.triangulation import SizeField
 from service.schemas import MethodParams
@@ -77,9 +78,21 @@ class TetrahedralizeParams(MethodParams):
 
     def check(self) -> None:
         super().check()
-        self.surface.to_surface()
+        surface = self.surface.to_surface()
         if self.size_field is not None:
             SizeField3d(self.size_field)  # distinct points: refused here, located
+        if self.empty or self.keep_boundary:
+            return  # no interior refinement to the bounds
+        estimate = estimated_tetrahedra(surface.volume, size=self.size, max_volume=self.max_volume)
+        if estimate > MAX_TETRAHEDRA:
+            name = "size" if self.size is not None else "max_volume"
+            raise InputError(
+                f"these bounds would make about {estimate:,} tetrahedra in a volume of "
+                f"{surface.volume:.6g}; this service makes at most {MAX_TETRAHEDRA:,}: "
+                "ask for a larger size or max_volume",
+                loc=(name,),
+                code="too_many_tetrahedra",
+            )
 
 
 def run_tetrahedralize(params: TetrahedralizeParams, progress) -> dict:

@@ -92,6 +92,9 @@ class TestTetrahedralize:
                 {"size_field": {"points": [[0, 0, 0], [0, 0, 0]], "values": [1, 1]}},
                 ["size_field", "points", 1],
             ),
+            ({"size": 0.005}, ["size"]),  # about 20M tetrahedra: refused before it runs
+            ({"size": 1e-300}, ["size"]),
+            ({"max_volume": 1e-9}, ["max_volume"]),
         ],
     )
     def test_bad_params_are_422_naming_the_field(self, client, extra, loc):

@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from meshcore.domain import parse_surface
 from meshcore.errors import InputError
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.tets import tetrahedralize
-from meshcore.tets.sizing import SizeField3d
+from meshcore.tets.sizing import SizeField3d, estimated_tetrahedra
 from tests.meshcore.domain import shapes
 
 CORNERS = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]]
@@ -72,3 +73,17 @@ def test_the_tetrahedra_follow_the_field():
     assert near < 0.5 * far
     uniform = tetrahedralize({"points": P.tolist(), "triangles": T.tolist()}, size=0.12)
     assert len(K) < 0.5 * len(uniform.mesh.cells[0].data)  # graded: fewer than uniformly fine
+
+
+@pytest.mark.parametrize("bound", [{"size": 0.15}, {"max_volume": 0.15**3 / (6 * 2**0.5)}])
+def test_the_estimate_is_the_count_within_a_factor_1_5(bound):
+    cube = parse_surface(*shapes.box((0, 0, 0), (1, 1, 1)))
+    made = len(tetrahedralize(cube, max_radius_edge=None, **bound).mesh.cells[0].data)
+    estimate = estimated_tetrahedra(cube.volume, **bound)
+    assert estimate <= made <= 1.5 * estimate, (made, estimate)
+
+
+def test_no_bound_no_estimate_and_tiny_sizes_saturate():
+    assert estimated_tetrahedra(1.0) == 0
+    assert estimated_tetrahedra(1.0, size=1e300) == 0
+    assert estimated_tetrahedra(1.0, size=1e-300) == 10**18
