@@ -950,12 +950,14 @@ def paving(
         lap("smoothing")
         report(0.8, "clean-up")
         P, cells, ops, region = clean_up(P, cells, np.flatnonzero(fixed))
-        fixed = boundary_points(P, cells)
         clean = {"region": region, "operators": ops}
         lap("clean-up")
     mesh = Mesh(P, (CellBlock("quad", cells),))
     # the edges of one cell are the resampled rings (tested: input segments as chains)
-    q = quality.report(mesh, boundary_edges(cells))
+    rings = boundary_edges(cells)
+    fixed = np.zeros(len(P), bool)
+    fixed[rings.ravel()] = True
+    q = quality.report(mesh, rings)
     lap("quality")
     stats = {
         **stats,
