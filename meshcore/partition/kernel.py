@@ -456,10 +456,15 @@ def recurse(
             else:
                 stats[8] += 1
             continue
-        i, j, k = _best_split(nfix, P, poly, n, H, grid, quad, strategy, False, npts)
-        if i < 0:
-            stats[9] += 1
-            i, j, k = _best_split(nfix, P, poly, n, H, grid, quad, strategy, True, npts)
+        # the sampled candidates first, then all pairs; ``full`` is a runtime
+        # bool (a literal True/False would compile _best_split twice)
+        for attempt in range(2):
+            full = attempt == 1
+            i, j, k = _best_split(nfix, P, poly, n, H, grid, quad, strategy, full, npts)
+            if i >= 0:
+                break
+            if not full:
+                stats[9] += 1
         if i < 0 and quad and n <= _CENTRE_MAX:
             # the centre pattern: n/2 quads around the vertex average
             if ncell + n // 2 > len(cells) or npts >= len(P):

@@ -19,7 +19,7 @@ from meshcore import InputError, parse_domain
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import quality
 from meshcore.mesh.quality import quad_quality
-from meshcore.partition import recursive_partition, resample_boundary, size_map
+from meshcore.partition import kernel, recursive_partition, resample_boundary, size_map
 
 SQUARE = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
 L_SHAPE = {
@@ -217,3 +217,14 @@ def test_guaranteed_quad_route_when_stuck(monkeypatch):
     res = recursive_partition(SQUARE_HOLE, size=0.05, element="quad")
     assert res.stats["fallback"] is True
     check_mesh(SQUARE_HOLE, res, 0.05, "quad")
+
+
+def test_split_search_compiles_once():
+    # the sampled search, then the full one, pass ``full`` as a runtime bool: one
+    # signature of _best_split and _score for both (a literal True/False is two);
+    # loaded from numba's cache, the callees have none of their own
+    recursive_partition(SQUARE_HOLE, size=0.1, element="quad")
+    recursive_partition(SQUARE_HOLE, size=0.1)
+    assert len(kernel.recurse.signatures) == 1
+    assert len(kernel._best_split.signatures) <= 1
+    assert len(kernel._score.signatures) <= 1
