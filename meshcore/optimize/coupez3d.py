@@ -69,7 +69,11 @@ def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progre
     counters = np.zeros(3, np.int64)
     todo = np.ones(len(P), np.uint8)
     sur = [state.sur()]
-    sweeps = 0
+    moved = [0]
+    ops = {}
+    if inverted:
+        _c._barycentric(state, moved, sur, ops)
+    sweeps = moved[0]
     for _ in range(max_sweeps):
         dirty = np.zeros(len(P), np.uint8)
         changed = k3.sweep(
@@ -97,6 +101,7 @@ def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progre
         "points_inserted": 0,
         "points_removed": removed,
         "operators": {
+            "barycentric_move": ops.get("barycentric_move", 0),
             "ball_move": int(counters[k3.C_MOVE]),
             "ball_kernel_move": int(counters[k3.C_KERNEL]),
             "ball_collapse": int(counters[k3.C_COLLAPSE]),
