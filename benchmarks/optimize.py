@@ -1,29 +1,31 @@
-"""Side by side: ``optimize`` (ours, Coupez §8.3) and Gmsh's untangler, on the same tangles.
+"""Side by side: ``optimize`` (ours, Coupez §8.3) and the untanglers issue 15 names, same tangles.
 
 Run from the repository root::
 
-    .venv/bin/python benchmarks/optimize.py                  # 20k and 100k triangles
-    .venv/bin/python benchmarks/optimize.py --sizes 100 --gmsh-timeout 60
+    .venv/bin/python benchmarks/optimize.py --only correction --sizes 100 224
+    .venv/bin/python benchmarks/optimize.py --gmsh-timeout 60 --ff-limit 60
 
 Input (correction): the unit square cut into ``nx x nx`` squares, each split
-into two triangles; the boundary fixed, interior nodes moved by U(-a h, a h)
-(``a`` = 0.5 and 0.9) or put at uniformly random positions in the square
-(20k only). The mesh and the tangle are Gmsh's own (a transfinite square,
-nodes moved by ``setNode``) when Gmsh is installed, so that both work on
-the same input; at 100k cells our structured grid, Gmsh not run.
-Ours: :func:`meshcore.optimize.optimize` on the tangled mesh (the point set
-kept), timed after a warm-up that loads numba's cache; the time to the first
-valid state (``passes to valid``) and to the stable state (the whole run,
-quality passes included) are both reported. Gmsh: ``addDiscreteEntity``,
-the same nodes and triangles, ``gmsh.model.mesh.optimize("UntangleMeshGeometry", force=True)``
-in a child process killed after ``--gmsh-timeout`` seconds. Each row: time,
-cells inverted before and after (exact orient2d), least shape quality and
-least angle after. Also a tetrahedral tangle (an extruded triangle mesh,
-free nodes moved) and generation from a boundary (without insertion from
-10k boundary points; with insertion against ``triangulate`` at the same
+into two triangles (2 nx^2 triangles: 20k at nx = 100, 100k at 224); the
+boundary fixed, interior nodes moved by U(-a h, a h) (``a`` = 0.5 and 0.9)
+or put at uniformly random positions in the square. The mesh and the tangle
+are Gmsh's own (a transfinite square, nodes moved by ``setNode``) when Gmsh
+is installed, so that all work on the same input. Then the same on a
+``triangulate`` mesh of a 7-pointed star with a square hole (not convex),
+about as many triangles. Ours: :func:`meshcore.optimize.optimize` on the
+tangled mesh (the point set kept), after a warm-up that loads numba's cache.
+Peers, in the same run: Gmsh's ``UntangleMeshGeometry`` (a Winslow
+untangler; the grid only) in a child process with a CPU-time limit
+(``--gmsh-timeout``), and a plain numpy implementation of "Foldover-free maps
+in 50 lines of code" (Garanzha et al. 2021; reference shapes the untangled
+mesh; ``--ff-limit`` CPU seconds). Each row: CPU and wall seconds, cells
+inverted before and after (exact orient2d), least shape quality and least
+angle after. Also tetrahedral tangles (an extruded triangle mesh of the cube,
+free nodes moved or random), generation from a boundary (without insertion
+from 10k boundary points; with insertion against ``triangulate`` at the same
 point count), and tetrahedra from closed surfaces (a cube, an icosphere,
-torus-like rings) against TetGen ``pYQ`` on the same surface. Gmsh is a
-bench-only dependency, skipped with a note when absent.
+torus-like rings) against TetGen ``pYQ`` on the same surface. Gmsh and
+TetGen are bench-only dependencies, skipped with a note when absent.
 """
 
 from __future__ import annotations

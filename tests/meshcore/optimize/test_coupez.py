@@ -191,7 +191,8 @@ class TestCorrection:
             b.stats["least_quality_after"], abs=0.05
         )
 
-    def test_tetrahedral_mesh_is_made_valid_with_the_same_volume(self):
+    @pytest.mark.parametrize("tangle", ["noise", "random"])
+    def test_tetrahedral_mesh_is_made_valid_with_the_same_volume(self, tangle):
         sq = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
         base = triangulate(sq, size=0.15).mesh
         m = extrude(base, Translate([0, 0, 1], layers=6), simplices=True).mesh
@@ -201,7 +202,10 @@ class TestCorrection:
         faces = boundary(tets).cells[0].data
         free = np.setdiff1d(np.arange(len(P)), faces.ravel())
         rng = np.random.default_rng(2)
-        P[free] += rng.uniform(-1, 1, (len(free), 3)) * np.array([0.15, 0.15, 1 / 6])
+        if tangle == "noise":
+            P[free] += rng.uniform(-1, 1, (len(free), 3)) * np.array([0.15, 0.15, 1 / 6])
+        else:  # anywhere in the cube
+            P[free] = rng.uniform(0, 1, (len(free), 3))
         sign = -orient3d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]], P[T[:, 3]])
         assert (sign <= 0).sum() > 0.05 * len(T)
         res = optimize(Mesh(P, (CellBlock("tetra", T),)))
