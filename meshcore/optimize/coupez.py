@@ -517,9 +517,11 @@ def _barycentric(state: _State, sweeps: list, sur: list, ops: dict) -> None:
             break
         near = grown
     free &= near
+    if not free.any():
+        return
     ff = adj[free][:, free]
     _, comp = connected_components(ff, directed=False)
-    anchored = np.zeros(comp.max() + 1 if len(comp) else 0, bool)
+    anchored = np.zeros(comp.max() + 1, bool)
     anchored[comp[np.asarray(adj[free][:, ~free].sum(axis=1)).ravel() > 0]] = True
     idx = np.flatnonzero(free)[anchored[comp]]
     if len(idx) == 0:
