@@ -508,7 +508,7 @@ def main():
         generation()
     if args.only in (None, "3d"):
         generation3d()
-    print(json.dumps({"note": "correction times are wall seconds; 3D generation CPU seconds"}))
+    print(json.dumps({"note": "correction: CPU and wall seconds; 3D generation CPU seconds"}))
 
 
 if __name__ == "__main__":
