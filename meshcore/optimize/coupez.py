@@ -33,6 +33,11 @@ Choices where the text leaves freedom
   region of positions from which all of δℬ_P is seen, i.e. where
   Sur(Op(G, δℬ_P)) is least. In 3D, G and, failing it, a point of the
   kernel found by relaxation (:mod:`.kernel3d`).
+* **Barycentric move** (correction only). Before the passes, the free
+  vertices within ``BARYCENTRIC_RINGS`` rings of the non-positive cells go
+  at once to the fixed point of the moves to G (one sparse solve of the
+  graph Laplacian, every other vertex kept), taken when Sur drops
+  (:func:`_barycentric`): what passes of ball moves approach slowly.
 * **Removal.** A fan Op(Q, δℬ_P) with Q on δℬ_P removes the free vertex P.
   It is a candidate only where the ball is not positive and no move of P
   makes Sur smaller (a correction, never a quality move), and only when

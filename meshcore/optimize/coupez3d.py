@@ -1,7 +1,8 @@
 """The tetrahedral part of :func:`meshcore.optimize.optimize` (§8.3.3-§8.3.4, Figure 8.11).
 
-Correction and optimization of a tet mesh: the balls of the free vertices
-(those not on the boundary) are the sub-topologies; the compiled pass is
+Correction and optimization of a tet mesh: on a tangled one, first the
+barycentric move of :func:`.coupez._barycentric`; then the balls of the free
+vertices (those not on the boundary) are the sub-topologies; the compiled pass is
 :func:`meshcore.optimize.kernel3d.sweep`. Passes repeat until one changes
 nothing or ``max_sweeps`` ran.
 
