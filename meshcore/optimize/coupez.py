@@ -33,6 +33,11 @@ Choices where the text leaves freedom
   region of positions from which all of δℬ_P is seen, i.e. where
   Sur(Op(G, δℬ_P)) is least. In 3D, G and, failing it, a point of the
   kernel found by relaxation (:mod:`.kernel3d`).
+* **Barycentric move** (correction only). Before the passes, the free
+  vertices within ``BARYCENTRIC_RINGS`` rings of the non-positive cells go
+  at once to the fixed point of the moves to G (one sparse solve of the
+  graph Laplacian, every other vertex kept), taken when Sur drops
+  (:func:`_barycentric`): what passes of ball moves approach slowly.
 * **Removal.** A fan Op(Q, δℬ_P) with Q on δℬ_P removes the free vertex P.
   It is a candidate only where the ball is not positive and no move of P
   makes Sur smaller (a correction, never a quality move), and only when
@@ -114,6 +119,9 @@ class _Tolerances:
 
 
 TOL = _Tolerances()
+
+#: Rings of cells around the non-positive ones whose free vertices :func:`_barycentric` moves.
+BARYCENTRIC_RINGS = 3
 
 #: Initial topologies tried in turn by generation (2D and 3D) while the first stage ends stable
 #: but invalid: Op(P, δ𝒮) from the vertices nearest the centroid, in order (§8.3.2's footnote:
@@ -475,6 +483,76 @@ def _loop2d(
         ops[name] = ops.get(name, 0) + int(counters[c])
 
 
+def _barycentric(state: _State, sweeps: list, sur: list, ops: dict) -> None:
+    """Every free vertex moved at once to the fixed point of the moves to G (§8.3.2).
+
+    The ball move puts a free vertex at G, the centroid of the vertices of
+    δℬ_P (its neighbours); passes of it are Gauss-Seidel on the graph
+    Laplacian, whose fixed point (the barycentric, Tutte, embedding with
+    the rest as given) they approach in a number of passes that grows with
+    the tangled region's diameter. The sub-topology is the larger connected
+    set of the text: the cells within ``BARYCENTRIC_RINGS`` rings of the
+    non-positive ones; its free vertices go to the fixed point at once (one
+    sparse factorization, coordinates relative to the fixed vertices'
+    centroid), every other vertex stays, and the move is taken only when it
+    lowers Sur (8.1); free vertices with no path to a fixed one keep their
+    place. Used on a tangled mesh only (correction), before the passes,
+    which finish what it leaves: when the set is the whole mesh and the
+    boundary convex, Tutte's theorem makes the fixed point valid in the plane.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.sparse.linalg import splu
+
+    P, C = state.points(), state.cells()
+    n, per = len(P), C.shape[1]
+    i, j = np.triu_indices(per, 1)
+    a, b = C[:, i].ravel(), C[:, j].ravel()
+    key = np.unique(np.minimum(a, b) * n + np.maximum(a, b))
+    a, b = key // n, key % n
+    adj = coo_matrix((np.ones(2 * len(a)), (np.r_[a, b], np.r_[b, a])), shape=(n, n)).tocsr()
+    free = state.fixed[:n] == 0
+    free &= np.bincount(C.ravel(), minlength=n) > 0
+    near = np.zeros(n, bool)
+    near[C[_signs(P, C) <= 0].ravel()] = True
+    for _ in range(BARYCENTRIC_RINGS):
+        grown = np.zeros(n, bool)
+        grown[C[near[C].any(axis=1)].ravel()] = True
+        if (grown == near).all():
+            break
+        near = grown
+    free &= near
+    if not free.any():
+        return
+    ff = adj[free][:, free]
+    _, comp = connected_components(ff, directed=False)
+    anchored = np.zeros(comp.max() + 1, bool)
+    anchored[comp[np.asarray(adj[free][:, ~free].sum(axis=1)).ravel() > 0]] = True
+    idx = np.flatnonzero(free)[anchored[comp]]
+    if len(idx) == 0:
+        return
+    solve = np.zeros(n, bool)
+    solve[idx] = True
+    origin = P[~free].mean(axis=0) if (~free).any() else np.zeros(P.shape[1])
+    deg = np.asarray(adj[solve].sum(axis=1)).ravel()
+    lap = coo_matrix((deg, (np.arange(len(idx)), np.arange(len(idx))))) - adj[solve][:, solve]
+    rhs = adj[solve][:, ~solve] @ (P[~solve] - origin)
+    Q = P.copy()
+    Q[solve] = splu(lap.tocsc()).solve(np.ascontiguousarray(rhs)) + origin
+    if not np.isfinite(Q).all():
+        return
+    before = state.sur()
+    old = state.P[:n].copy()
+    state.P[:n] = Q
+    after = state.sur()
+    if not after < before:
+        state.P[:n] = old
+        return
+    sweeps[0] += 1
+    sur.append(after)
+    ops["barycentric_move"] = ops.get("barycentric_move", 0) + 1
+
+
 def _initial_topology(
     P: np.ndarray, S: np.ndarray, seg_ring: np.ndarray, dom: Domain, attempt: int = 0
 ) -> np.ndarray:
@@ -823,6 +901,8 @@ def _mesh2d(P, T, bnd, total, allow_remove, measure, max_sweeps, progress):
     q0 = float(_measure_q(P, T, MEASURES[measure]).min())
     state = _State(k2, P, T, fixed)
     sweeps, sur, ops = [0], [state.sur()], {}
+    if inverted:
+        _barycentric(state, sweeps, sur, ops)
     _loop2d(state, allow_remove, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 1.0))
     Pn, Tn = state.points(), state.cells()
     _verify(Pn, Tn, bnd, use, sweeps[0])

@@ -1,7 +1,8 @@
 """The tetrahedral part of :func:`meshcore.optimize.optimize` (§8.3.3-§8.3.4, Figure 8.11).
 
-Correction and optimization of a tet mesh: the balls of the free vertices
-(those not on the boundary) are the sub-topologies; the compiled pass is
+Correction and optimization of a tet mesh: on a tangled one, first the
+barycentric move of :func:`.coupez._barycentric`; then the balls of the free
+vertices (those not on the boundary) are the sub-topologies; the compiled pass is
 :func:`meshcore.optimize.kernel3d.sweep`. Passes repeat until one changes
 nothing or ``max_sweeps`` ran.
 
@@ -69,7 +70,11 @@ def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progre
     counters = np.zeros(3, np.int64)
     todo = np.ones(len(P), np.uint8)
     sur = [state.sur()]
-    sweeps = 0
+    moved = [0]
+    ops = {}
+    if inverted:
+        _c._barycentric(state, moved, sur, ops)
+    sweeps = moved[0]
     for _ in range(max_sweeps):
         dirty = np.zeros(len(P), np.uint8)
         changed = k3.sweep(
@@ -97,6 +102,7 @@ def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progre
         "points_inserted": 0,
         "points_removed": removed,
         "operators": {
+            "barycentric_move": ops.get("barycentric_move", 0),
             "ball_move": int(counters[k3.C_MOVE]),
             "ball_kernel_move": int(counters[k3.C_KERNEL]),
             "ball_collapse": int(counters[k3.C_COLLAPSE]),

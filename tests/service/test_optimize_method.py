@@ -28,20 +28,6 @@ TANGLED = {
 }
 
 
-def noisy_grid(nx: int = 8, noise: float = 0.9, seed: int = 0) -> dict:
-    """An nx x nx grid of the unit square in triangles, interior nodes moved by U(-a h, a h)."""
-    h = 1.0 / nx
-    x, y = np.meshgrid(np.linspace(0, 1, nx + 1), np.linspace(0, 1, nx + 1), indexing="ij")
-    P = np.column_stack([x.ravel(), y.ravel()])
-    idx = np.arange((nx + 1) ** 2).reshape(nx + 1, nx + 1)
-    a, b = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel()
-    c, d = idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
-    T = np.vstack([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
-    inner = (P[:, 0] > 0) & (P[:, 0] < 1) & (P[:, 1] > 0) & (P[:, 1] < 1)
-    P[inner] += np.random.default_rng(seed).uniform(-noise * h, noise * h, (inner.sum(), 2))
-    return {"points": P.tolist(), "cells": [{"type": "triangle", "data": T.tolist()}]}
-
-
 def finished(c, params: dict) -> dict:
     r = submit(c, "optimize", params, wait=30)
     assert r.status_code == 200, r.text
@@ -94,8 +80,14 @@ class TestOptimize:
         assert_problem(r, 422, ["body", "params", "mesh", "points", 2])
 
     def test_no_valid_mesh_is_a_failed_job_saying_where(self, client):
-        # one pass is not enough for this one (two are)
-        r = submit(client, "optimize", {"mesh": noisy_grid(), "max_sweeps": 1}, wait=30)
+        # a hexagon fan with a boundary vertex pulled across the opposite side: the boundary
+        # crosses itself, so no positive triangulation of it exists
+        a = np.pi / 3 * np.arange(6)
+        P = np.vstack([[0.0, 0.0], np.column_stack([np.cos(a), np.sin(a)])])
+        P[1] = [-2.0, 0.2]
+        T = [[0, 1 + i, 1 + (i + 1) % 6] for i in range(6)]
+        crossed = {"points": P.tolist(), "cells": [{"type": "triangle", "data": T}]}
+        r = submit(client, "optimize", {"mesh": crossed}, wait=30)
         job = r.json()
         assert job["status"] == "failed", job
         assert job["error"]["status"] == 422

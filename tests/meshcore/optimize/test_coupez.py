@@ -191,7 +191,8 @@ class TestCorrection:
             b.stats["least_quality_after"], abs=0.05
         )
 
-    def test_tetrahedral_mesh_is_made_valid_with_the_same_volume(self):
+    @pytest.mark.parametrize("tangle", ["noise", "random"])
+    def test_tetrahedral_mesh_is_made_valid_with_the_same_volume(self, tangle):
         sq = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
         base = triangulate(sq, size=0.15).mesh
         m = extrude(base, Translate([0, 0, 1], layers=6), simplices=True).mesh
@@ -201,7 +202,10 @@ class TestCorrection:
         faces = boundary(tets).cells[0].data
         free = np.setdiff1d(np.arange(len(P)), faces.ravel())
         rng = np.random.default_rng(2)
-        P[free] += rng.uniform(-1, 1, (len(free), 3)) * np.array([0.15, 0.15, 1 / 6])
+        if tangle == "noise":
+            P[free] += rng.uniform(-1, 1, (len(free), 3)) * np.array([0.15, 0.15, 1 / 6])
+        else:  # anywhere in the cube
+            P[free] = rng.uniform(0, 1, (len(free), 3))
         sign = -orient3d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]], P[T[:, 3]])
         assert (sign <= 0).sum() > 0.05 * len(T)
         res = optimize(Mesh(P, (CellBlock("tetra", T),)))
@@ -215,11 +219,39 @@ class TestCorrection:
         assert_monotone(res.stats["sur"])
 
     def test_no_valid_mesh_fails_saying_how_many_and_where(self):
-        P, T, _ = _tangled()
-        with pytest.raises(AlgorithmError, match=r"element\(s\) still inverted") as exc:
-            optimize(Mesh(P, (CellBlock("triangle", T),)), max_sweeps=1)
+        # a boundary vertex pulled across the opposite side: the boundary crosses itself, so
+        # no positive triangulation of it exists
+        P, T = _hexagon()
+        P[1] = [-2.0, 0.2]
+        with pytest.raises(AlgorithmError, match=r"4 element\(s\) still inverted") as exc:
+            optimize(Mesh(P, (CellBlock("triangle", T),)))
         assert exc.value.code == "not_converged"
         assert "cell " in exc.value.message and " at (" in exc.value.message
+
+    @pytest.mark.parametrize("shape", ["square", "star"])
+    def test_random_interior_positions_are_untangled(self, shape):
+        # every free node anywhere in the box: the barycentric fixed point of the G moves first
+        if shape == "square":
+            sq = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
+            mesh = triangulate(sq, size=0.05).mesh
+        else:
+            a = np.pi / 2 + np.pi * np.arange(14) / 7
+            r = np.where(np.arange(14) % 2 == 0, 1.0, 0.3)
+            ring = np.column_stack([r * np.cos(a), r * np.sin(a)])
+            mesh = triangulate({"type": "Polygon", "coordinates": [ring.tolist()]}, size=0.06).mesh
+        P, T = mesh.points.copy(), mesh.cells[0].data
+        bnd = check_topology(mesh, T)
+        area = math.fsum(quality.signed_area(P, T))
+        free = np.setdiff1d(np.arange(len(P)), bnd.ravel())
+        lo, hi = P.min(axis=0), P.max(axis=0)
+        P[free] = np.random.default_rng(5).uniform(lo, hi, (len(free), 2))
+        assert (orient2d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]) <= 0).mean() > 0.3
+        res = optimize(Mesh(P, (CellBlock("triangle", T),)))
+        Pn, Tn = _tri(res)
+        assert_valid_2d(Pn, Tn, bnd, area)
+        assert (Pn[bnd.ravel()] == P[bnd.ravel()]).all()
+        assert res.stats["operators"]["barycentric_move"] == 1
+        assert_monotone(res.stats["sur"])
 
 
 def _hexagon():
