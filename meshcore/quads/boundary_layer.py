@@ -98,8 +98,9 @@ def boundary_layer(
     mesh_inner: Callable[[Domain], Mesh],
     max_turn: float = 60.0,
     least_quality: float = 0.3,
+    rows: int = 2,
 ):
-    """A row of quads along the boundary and an inner all-quad mesh (module docstring).
+    """Rows of quads along the boundary and an inner all-quad mesh (module docstring).
 
     Parameters
     ----------
@@ -114,15 +115,18 @@ def boundary_layer(
         The layer is made only where the boundary turns by at most
         ``max_turn`` degrees at each point, and kept only when each of its
         quads reaches ``least_quality`` (8.4).
+    rows : int
+        Rows of quads at most: where that many are not kept, one fewer is tried,
+        down to one.
 
     Returns
     -------
     (Mesh, (s, 2) int64 boundary edges, inner result) or None
         The quads, the input vertices first (their ids kept), then the added
-        boundary points, then the inner mesh's points; None when the layer is
-        not made (module docstring: where, guards). Every input segment is a
-        chain of boundary edges; every quad is strictly convex (exact); the
-        areas add up to the domain's.
+        boundary points and the points of the rows between, then the inner
+        mesh's points; None when no layer is made (module docstring: where,
+        guards). Every input segment is a chain of boundary edges; every quad
+        is strictly convex (exact); the areas add up to the domain's.
 
     References
     ----------
@@ -130,15 +134,28 @@ def boundary_layer(
     """
     if len(dom.constraints):
         return None
+    for r in range(rows, 0, -1):  # a loop of at most `rows` tries
+        out = _layer(dom, size, mesh_inner, max_turn, least_quality, r)
+        if out is not None:
+            return out
+    return None
+
+
+def _layer(dom, size, mesh_inner, max_turn, least_quality, rows):
+    """:func:`boundary_layer` with exactly ``rows`` rows, or None."""
     nring = len(dom.ring_offsets) - 1
-    loops, offs = [], []
+    loops, offs, between = [], [], []
     for k in range(nring):  # a loop over rings
         ids, X = _ring_points(dom, k, size)
-        off = _offsets(X, max_turn)
-        if off is None:
-            return None
+        chain = [X]
+        for _ in range(rows):
+            off = _offsets(chain[-1], max_turn)
+            if off is None:
+                return None
+            chain.append(off)
         loops.append((ids, X))
-        offs.append(off)
+        offs.append(chain[-1])
+        between.append(chain[1:-1])
     polys: dict[int, list] = {}
     for k in range(nring):
         ring = offs[k][0::2]
@@ -177,13 +194,20 @@ def boundary_layer(
             return None
         o[1::2] = hit
         off_ids.append(o)
-    shift = n0 + nextra
-    P = np.concatenate([dom.points, *extra, Pin])
+    nmid = sum(len(x) for c in between for x in c)
+    shift = n0 + nextra + nmid
+    P = np.concatenate([dom.points, *extra, *[x for c in between for x in c], Pin])
     out = [M.cells_by_type["quad"] + shift]
-    for b, o in zip(added_ids, off_ids, strict=True):
-        b1 = np.roll(b, -1)
-        out.append(np.column_stack([b, b1, np.roll(o, -1) + shift, o + shift]))
-        bedges.append(np.column_stack([b, b1]))
+    nxt = n0 + nextra
+    for b, o, chain in zip(added_ids, off_ids, between, strict=True):
+        bedges.append(np.column_stack([b, np.roll(b, -1)]))
+        ring_ids = [b]
+        for x in chain:
+            ring_ids.append(nxt + np.arange(len(x)))
+            nxt += len(x)
+        ring_ids.append(o + shift)
+        for r0, r1 in zip(ring_ids[:-1], ring_ids[1:], strict=True):
+            out.append(np.column_stack([r0, np.roll(r0, -1), np.roll(r1, -1), r1]))
     layer = np.concatenate(out[1:])
     corners = [
         orient2d(P[layer[:, i - 1]], P[layer[:, i]], P[layer[:, (i + 1) % 4]]) for i in range(4)
