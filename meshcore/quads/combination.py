@@ -86,7 +86,11 @@ Pipeline
    a smooth domain, a row of quads along the boundary comes first and the
    lattice fills the inside of its offset rings
    (:mod:`meshcore.quads.boundary_layer`: where and why).
-4. **all_quad** (Figure 8.13): every edge gets its midpoint, every cell its
+4. **all_quad** (Figure 8.13): on domain input with ``matching``, the
+   pairing is first re-worked for fewer irregular vertices after the split
+   (:mod:`meshcore.quads.valence`: leftover triangles moved along
+   alternating paths or paired with an adjacent leftover under the 5-degree
+   bound where the corner will be free to move). Then every edge gets its midpoint, every cell its
    vertex centroid; a quad becomes four quads and a leftover triangle three,
    so the mesh stays conforming. The four pieces of a quad are the quad cut
    by its two bimedians (which meet at the vertex centroid), so areas add

@@ -111,7 +111,7 @@ def fewer_defects(P, tri, nb, w, w_merge, mate, depth: int = 4, rounds: int = 4)
         return int(np.abs(cnt - ideal)[used].sum() + np.count_nonzero(mate < 0))
 
     before = defect()
-    merged = moved = cycled = 0
+    merged = moved = 0
 
     def delta(changes) -> int:
         d = 0
@@ -122,15 +122,14 @@ def fewer_defects(P, tri, nb, w, w_merge, mate, depth: int = 4, rounds: int = 4)
             d += abs(cnt[v] + s - ideal[v]) - abs(cnt[v] - ideal[v])
         return d
 
-    def search(start, close, changes0, dq0):
-        """The best path of alternating flips from the free triangle ``start``:
-        (defect change, -weight change, flips, partner). ``close`` >= 0: a cycle
-        back to that triangle (unpaired from ``start``), else leftover paths."""
+    def search(start):
+        """The best path of alternating flips from the leftover triangle ``start``:
+        (defect change, -weight change, flips, partner or -1)."""
         best = None
-        stack = [(start, [], changes0, dq0, {start, close})]
+        stack = [(start, [], [], 0.0, {start})]
         while stack:
             free, flips, changes, dq, seen = stack.pop()
-            if flips and close < 0:
+            if flips:
                 cand = (delta(changes), -dq, flips, -1)
                 if best is None or cand[:2] < best[:2]:
                     best = cand
@@ -139,15 +138,10 @@ def fewer_defects(P, tri, nb, w, w_merge, mate, depth: int = 4, rounds: int = 4)
                 if s < 0:
                     continue
                 a, b = int(tri[free, k]), int(tri[free, (k + 1) % 3])
-                if s == close and flips and w[free, k] >= 0:
-                    ch = [*changes, (a, -1), (b, -1)]
-                    cand = (delta(ch), -(dq + w[free, k]), flips, s)
-                    if best is None or cand[:2] < best[:2]:
-                        best = cand
                 if s in seen:
                     continue
                 if mate[s] < 0:
-                    if close < 0 and w_merge[free, k] >= 0:
+                    if w_merge[free, k] >= 0:
                         ch = [*changes, (a, -1), (b, -1)]
                         cand = (delta(ch) - 2, -(dq + w_merge[free, k]), flips, s)
                         if best is None or cand[:2] < best[:2]:
@@ -190,32 +184,13 @@ def fewer_defects(P, tri, nb, w, w_merge, mate, depth: int = 4, rounds: int = 4)
         for T in np.flatnonzero(mate < 0).tolist():
             if mate[T] >= 0:
                 continue
-            best = search(T, -1, [], 0.0)
+            best = search(T)
             if best is None or best[0] >= 0:
                 continue
             apply(T, best[2], best[3])
             merged += best[3] >= 0
             moved += len(best[2]) > 0
             applied += 1
-        # alternating cycles through a pair next to an irregular vertex: the leftovers
-        # stay, the removed edges move
-        off = np.abs(cnt - ideal) > 0
-        t = np.flatnonzero((mate >= 0) & (np.arange(m) < mate) & off[tri].any(axis=1))
-        for t1 in t.tolist():
-            t2 = int(mate[t1])
-            if t2 < 0 or not off[tri[t1]].any():
-                continue
-            c, d = _removed_edge(tri, nb, t1, t2)
-            k2 = int(np.flatnonzero(nb[t2] == t1)[0])
-            best = search(t2, t1, [(c, 1), (d, 1)], -w[t2, k2])
-            if best is None or best[0] >= 0:
-                continue
-            pair(t1, t2, -1)
-            apply(t2, best[2], -1)
-            pair(best[2][-1][2], t1, 1)
-            cycled += 1
-            applied += 1
-            off = np.abs(cnt - ideal) > 0
         if not applied:
             break
     return {
@@ -223,5 +198,4 @@ def fewer_defects(P, tri, nb, w, w_merge, mate, depth: int = 4, rounds: int = 4)
         "defect_after": defect(),
         "merged": merged,
         "moved": moved,
-        "cycled": cycled,
     }

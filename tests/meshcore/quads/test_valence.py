@@ -51,15 +51,15 @@ def test_two_leftover_triangles_with_a_flat_corner_pair_under_the_wider_bound():
     mate = np.full(2, -1)
     assert _defect(P, tri, nb, mate) == 5  # A and B: 2 cells for 1; C2: 1 for 2; 2 leftovers
     same = fewer_defects(P, tri, nb, w, w, mate)
-    assert same == {"defect_before": 5, "defect_after": 5, "merged": 0, "moved": 0, "cycled": 0}
+    assert same == {"defect_before": 5, "defect_after": 5, "merged": 0, "moved": 0}
     w_merge = np.array([[0.1, -1, -1], [0.1, -1, -1]])
     out = fewer_defects(P, tri, nb, w, w_merge, mate)
-    assert out == {"defect_before": 5, "defect_after": 1, "merged": 1, "moved": 0, "cycled": 0}
+    assert out == {"defect_before": 5, "defect_after": 1, "merged": 1, "moved": 0}
     assert mate.tolist() == [1, 0]
     assert _defect(P, tri, nb, mate) == 1
 
 
-@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1))
 def test_random_pairings_lose_defect_and_stay_valid(seed):
     rng = np.random.default_rng(seed)
