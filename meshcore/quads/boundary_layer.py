@@ -25,13 +25,19 @@ combination for the rest:
 
 Choices the text leaves open
 ----------------------------
-* **How many rows.** Three where they are kept (otherwise two, then one):
-  the combination's irregular vertices gather where the lattice meets the
-  innermost ring, so a shorter ring leaves fewer of them (disk at size 0.1,
-  mean quality after ``optimize``: one row 0.891, two 0.904, three 0.901;
-  annulus at 0.05: 0.900, 0.895, 0.908; README). The rows keep the
+* **How many rows.** Along the outer rings three where they are kept
+  (otherwise two, then one); along the holes one. The combination's
+  irregular vertices gather where the lattice meets the innermost ring, so
+  a shorter ring leaves fewer of them (disk at size 0.1, mean quality after
+  ``optimize``: one row 0.891, two 0.904, three 0.901; README). Along a
+  hole the rows spread outwards and meet the outer ones sooner: on the
+  annulus (radii 1 and 0.45) three rows along the hole too gave 0.908 /
+  0.943 at sizes 0.05 / 0.025 and did not fit at 0.1 (two and two: 0.871),
+  one along the hole 0.906 / 0.947 and 0.890 at 0.1. The rows keep the
   boundary's point count, so on a disk they shrink towards the inside: the
-  count rises (disk at 0.1: 322, 338, 370 quads for 314 = area / size²).
+  count rises (disk at 0.1: 322, 338, 370 quads for 314 = area / size²);
+  rows after the first are kept only while the count stays within
+  ``MOST_QUADS`` = 1.4 times area / size².
 * **Where.** Only on domains whose boundary turns by at most
   ``max_turn`` = 60 degrees at every point after step 1 and that have no
   interior constraints: a corner's two layer quads share its angle (45
@@ -70,6 +76,11 @@ __all__ = ["boundary_layer"]
 #: otherwise bend each further row more (the third row on the disk at size 0.1
 #: turned by more than ``max_turn`` and was refused).
 SPACING_WINDOW = 2
+#: Rows after the first are kept only when the mesh has at most this many times
+#: area / size² quads: the rows keep the boundary's point count, so on a disk
+#: they shrink inwards (three rows on the annulus of radii 1 and 0.45 at size
+#: 0.15 gave 1.56 times; the count is to stay within 1.5 times).
+MOST_QUADS = 1.4
 
 
 def _ring_points(dom: Domain, k: int, size: float):
@@ -133,8 +144,8 @@ def boundary_layer(
         ``max_turn`` degrees at each point, and kept only when each of its
         quads reaches ``least_quality`` (8.4).
     rows : int
-        Rows of quads at most: where that many are not kept, one fewer is tried,
-        down to one.
+        Rows of quads along the outer rings at most (one along the holes): where
+        that many are not kept, one fewer is tried, down to one.
 
     Returns
     -------
@@ -159,13 +170,14 @@ def boundary_layer(
 
 
 def _layer(dom, size, mesh_inner, max_turn, least_quality, rows):
-    """:func:`boundary_layer` with exactly ``rows`` rows, or None."""
+    """:func:`boundary_layer` with exactly ``rows`` rows along the outer rings (one
+    along the holes), or None."""
     nring = len(dom.ring_offsets) - 1
     loops, offs, between = [], [], []
     for k in range(nring):  # a loop over rings
         ids, X = _ring_points(dom, k, size)
         chain = [X]
-        for _ in range(rows):
+        for _ in range(1 if dom.ring_is_hole[k] else rows):
             off = _offsets(chain[-1], max_turn)
             if off is None:
                 return None
@@ -234,6 +246,8 @@ def _layer(dom, size, mesh_inner, max_turn, least_quality, rows):
     if quality.quad_quality(P, layer).min() < least_quality:
         return None
     Q = np.concatenate(out)
+    if rows > 1 and len(Q) * size**2 > MOST_QUADS * dom.area:
+        return None
     area = quality.signed_area(P, Q, "quad").sum()
     if abs(area - dom.area) > 1e-9 * dom.area:
         return None
