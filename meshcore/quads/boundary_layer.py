@@ -5,23 +5,39 @@ boundary at every angle, and the first rows of quads along it carry the
 mismatch: on a disk at size 0.05 they averaged 0.75 in quality (8.4)
 against 0.98 inside. §8.4.2 leaves the boundary treatment open; the
 advancing-front methods of the text (§8.5) start each front with a row of
-quads along the boundary. We take that one row and keep the combination
-for the rest:
+quads along the boundary. We take up to three such rows and keep the
+combination for the rest:
 
 1. every input segment is cut into ``round(length / size)`` equal pieces
    (at least one, a few more so that each ring has a multiple of four), so
    every input vertex is a boundary point and the pieces are about ``size``;
 2. each boundary point ``b_i`` gets an offset point ``o_i`` inside, along
-   the bisector of the normals of its two pieces, at the mean length of the
-   two pieces divided by the cosine of half the turn (a parallel offset);
-3. the rings of the even offset points ``o_0, o_2, ...`` bound an inner
-   domain, meshed by ``combine`` with ``all_quad``, ``twice_size`` and
-   ``keep_boundary``: its boundary segments (about ``2 size`` long) are
-   split at their midpoints, which become the odd offset points;
-4. the layer is the quads ``(b_i, b_{i+1}, o_{i+1}, o_i)``.
+   the bisector of the normals of its two pieces, at the local spacing
+   (the mean piece length over five points) divided by the cosine of half
+   the turn (a parallel offset); each further row offsets the last ring the
+   same way;
+3. the rings of the even points ``o_0, o_2, ...`` of the last offset bound
+   an inner domain, meshed by ``combine`` with ``all_quad``, ``twice_size``,
+   ``keep_boundary`` and ``inner``: its boundary segments (about ``2 size``
+   long) are split at their midpoints, which become the odd offset points;
+4. the layer is the quads ``(b_i, b_{i+1}, o_{i+1}, o_i)`` between each
+   ring and the next.
 
 Choices the text leaves open
 ----------------------------
+* **How many rows.** Along the outer rings three where they are kept
+  (otherwise two, then one); along the holes one. The combination's
+  irregular vertices gather where the lattice meets the innermost ring, so
+  a shorter ring leaves fewer of them (disk at size 0.1, mean quality after
+  ``optimize``: one row 0.891, two 0.904, three 0.901; README). Along a
+  hole the rows spread outwards and meet the outer ones sooner: on the
+  annulus (radii 1 and 0.45) three rows along the hole too gave 0.908 /
+  0.943 at sizes 0.05 / 0.025 and did not fit at 0.1 (two and two: 0.871),
+  one along the hole 0.906 / 0.947 and 0.890 at 0.1. The rows keep the
+  boundary's point count, so on a disk they shrink towards the inside: the
+  count rises (disk at 0.1: 322, 338, 370 quads for 314 = area / size²);
+  rows after the first are kept only while the count stays within
+  ``MOST_QUADS`` = 1.4 times area / size².
 * **Where.** Only on domains whose boundary turns by at most
   ``max_turn`` = 60 degrees at every point after step 1 and that have no
   interior constraints: a corner's two layer quads share its angle (45
@@ -54,6 +70,17 @@ from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
 
 __all__ = ["boundary_layer"]
+
+#: Each offset is by the local spacing averaged over this many points on either
+#: side: the few pieces cut shorter so that a ring's count is a multiple of four
+#: otherwise bend each further row more (the third row on the disk at size 0.1
+#: turned by more than ``max_turn`` and was refused).
+SPACING_WINDOW = 2
+#: Rows after the first are kept only when the mesh has at most this many times
+#: area / size² quads: the rows keep the boundary's point count, so on a disk
+#: they shrink inwards (three rows on the annulus of radii 1 and 0.45 at size
+#: 0.15 gave 1.56 times; the count is to stay within 1.5 times).
+MOST_QUADS = 1.4
 
 
 def _ring_points(dom: Domain, k: int, size: float):
@@ -89,7 +116,8 @@ def _offsets(X: np.ndarray, max_turn: float) -> np.ndarray | None:
     m /= np.hypot(*m.T)[:, None]
     half = (m * n).sum(axis=1)  # the cosine of half the turn
     d = 0.5 * (le + np.roll(le, 1))
-    return X + m * (d / half)[:, None]
+    d = sum(np.roll(d, j) for j in range(-SPACING_WINDOW, SPACING_WINDOW + 1))
+    return X + m * (d / (2 * SPACING_WINDOW + 1) / half)[:, None]
 
 
 def boundary_layer(
@@ -98,8 +126,9 @@ def boundary_layer(
     mesh_inner: Callable[[Domain], Mesh],
     max_turn: float = 60.0,
     least_quality: float = 0.3,
+    rows: int = 3,
 ):
-    """A row of quads along the boundary and an inner all-quad mesh (module docstring).
+    """Rows of quads along the boundary and an inner all-quad mesh (module docstring).
 
     Parameters
     ----------
@@ -114,15 +143,18 @@ def boundary_layer(
         The layer is made only where the boundary turns by at most
         ``max_turn`` degrees at each point, and kept only when each of its
         quads reaches ``least_quality`` (8.4).
+    rows : int
+        Rows of quads along the outer rings at most (one along the holes): where
+        that many are not kept, one fewer is tried, down to one.
 
     Returns
     -------
     (Mesh, (s, 2) int64 boundary edges, inner result) or None
         The quads, the input vertices first (their ids kept), then the added
-        boundary points, then the inner mesh's points; None when the layer is
-        not made (module docstring: where, guards). Every input segment is a
-        chain of boundary edges; every quad is strictly convex (exact); the
-        areas add up to the domain's.
+        boundary points and the points of the rows between, then the inner
+        mesh's points; None when no layer is made (module docstring: where,
+        guards). Every input segment is a chain of boundary edges; every quad
+        is strictly convex (exact); the areas add up to the domain's.
 
     References
     ----------
@@ -130,15 +162,29 @@ def boundary_layer(
     """
     if len(dom.constraints):
         return None
+    for r in range(rows, 0, -1):  # a loop of at most `rows` tries
+        out = _layer(dom, size, mesh_inner, max_turn, least_quality, r)
+        if out is not None:
+            return out
+    return None
+
+
+def _layer(dom, size, mesh_inner, max_turn, least_quality, rows):
+    """:func:`boundary_layer` with exactly ``rows`` rows along the outer rings (one
+    along the holes), or None."""
     nring = len(dom.ring_offsets) - 1
-    loops, offs = [], []
+    loops, offs, between = [], [], []
     for k in range(nring):  # a loop over rings
         ids, X = _ring_points(dom, k, size)
-        off = _offsets(X, max_turn)
-        if off is None:
-            return None
+        chain = [X]
+        for _ in range(1 if dom.ring_is_hole[k] else rows):
+            off = _offsets(chain[-1], max_turn)
+            if off is None:
+                return None
+            chain.append(off)
         loops.append((ids, X))
-        offs.append(off)
+        offs.append(chain[-1])
+        between.append(chain[1:-1])
     polys: dict[int, list] = {}
     for k in range(nring):
         ring = offs[k][0::2]
@@ -177,13 +223,20 @@ def boundary_layer(
             return None
         o[1::2] = hit
         off_ids.append(o)
-    shift = n0 + nextra
-    P = np.concatenate([dom.points, *extra, Pin])
+    nmid = sum(len(x) for c in between for x in c)
+    shift = n0 + nextra + nmid
+    P = np.concatenate([dom.points, *extra, *[x for c in between for x in c], Pin])
     out = [M.cells_by_type["quad"] + shift]
-    for b, o in zip(added_ids, off_ids, strict=True):
-        b1 = np.roll(b, -1)
-        out.append(np.column_stack([b, b1, np.roll(o, -1) + shift, o + shift]))
-        bedges.append(np.column_stack([b, b1]))
+    nxt = n0 + nextra
+    for b, o, chain in zip(added_ids, off_ids, between, strict=True):
+        bedges.append(np.column_stack([b, np.roll(b, -1)]))
+        ring_ids = [b]
+        for x in chain:
+            ring_ids.append(nxt + np.arange(len(x)))
+            nxt += len(x)
+        ring_ids.append(o + shift)
+        for r0, r1 in zip(ring_ids[:-1], ring_ids[1:], strict=True):
+            out.append(np.column_stack([r0, np.roll(r0, -1), np.roll(r1, -1), r1]))
     layer = np.concatenate(out[1:])
     corners = [
         orient2d(P[layer[:, i - 1]], P[layer[:, i]], P[layer[:, (i + 1) % 4]]) for i in range(4)
@@ -193,6 +246,8 @@ def boundary_layer(
     if quality.quad_quality(P, layer).min() < least_quality:
         return None
     Q = np.concatenate(out)
+    if rows > 1 and len(Q) * size**2 > MOST_QUADS * dom.area:
+        return None
     area = quality.signed_area(P, Q, "quad").sum()
     if abs(area - dom.area) > 1e-9 * dom.area:
         return None

@@ -86,7 +86,11 @@ Pipeline
    a smooth domain, a row of quads along the boundary comes first and the
    lattice fills the inside of its offset rings
    (:mod:`meshcore.quads.boundary_layer`: where and why).
-4. **all_quad** (Figure 8.13): every edge gets its midpoint, every cell its
+4. **all_quad** (Figure 8.13): on domain input with ``matching``, the
+   pairing is first re-worked for fewer irregular vertices after the split
+   (:mod:`meshcore.quads.valence`: leftover triangles moved along
+   alternating paths or paired with an adjacent leftover under the 5-degree
+   bound where the corner will be free to move). Then every edge gets its midpoint, every cell its
    vertex centroid; a quad becomes four quads and a leftover triangle three,
    so the mesh stays conforming. The four pieces of a quad are the quad cut
    by its two bimedians (which meet at the vertex centroid), so areas add
@@ -163,6 +167,7 @@ from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.quads.boundary_layer import boundary_layer
 from meshcore.quads.lattice import triangulated
 from meshcore.quads.optimization import corners_relaxed, optimize_quads
+from meshcore.quads.valence import fewer_defects
 
 __all__ = [
     "ALGORITHMS",
@@ -223,6 +228,11 @@ class _Tolerances:
     path_step: float = 0.05
     #: Sweeps of 4-cycle swaps at most.
     swap_sweeps: int = 8
+    #: The valence clean-up of all-quad domain meshes (:mod:`meshcore.quads.valence`):
+    #: alternating flips per path and passes at most (depth 8 found the same
+    #: pairs as 4 on the disk at size 0.1).
+    valence_depth: int = 4
+    valence_rounds: int = 4
 
 
 TOL = _Tolerances()
@@ -1130,9 +1140,13 @@ def _mesh_of(P, quads, tris) -> Mesh:
     return Mesh(P, tuple(blocks))
 
 
-def _combined(mesh, metric, domain_input, algorithm, measure, min_quality, all_quad, report, lap):
+def _combined(
+    mesh, metric, domain_input, algorithm, measure, min_quality, all_quad, report, lap, inner
+):
     """Steps 1, 2 and 4 of the module docstring: the selected pairs (and triples) of a
-    triangle mesh as a mixed mesh, or split into quads with ``all_quad``.
+    triangle mesh as a mixed mesh, or split into quads with ``all_quad`` (after the
+    valence clean-up of :mod:`meshcore.quads.valence` on domain input with ``matching``;
+    ``inner``: the domain is the inside of a boundary layer).
 
     Returns (mesh, metric, boundary edges, stats, (pairs, triples, triangles left)).
     """
@@ -1164,6 +1178,10 @@ def _combined(mesh, metric, domain_input, algorithm, measure, min_quality, all_q
             gained += _forest_kernel(nb, w, min_quality, mate)
             stats["augmentations"] = int(gained)
             stats["swaps"] = int(_swap_kernel(nb, w, mate, TOL.gain, TOL.swap_sweeps))
+            if all_quad and domain_input:
+                stats["valence"] = _valence_cleanup(
+                    P, tri, nb, w, mate, measure, metric, min_quality, inner
+                )
     elif algorithm == "frontal":
         seeds = np.flatnonzero((nb < 0).any(axis=1))
         _frontal_kernel(nb, w, seeds, mate)
@@ -1224,6 +1242,7 @@ def combine(
     all_quad: bool = False,
     twice_size: bool = False,
     optimize: bool = False,
+    inner: bool = False,
     progress: Progress | None = None,
 ) -> QuadResult:
     """Combine the triangles of a mesh (or of a domain meshed here) into quads.
@@ -1258,6 +1277,12 @@ def combine(
         (:func:`meshcore.quads.boundary_layer.boundary_layer`).
     optimize : bool
         Apply the operators of §8.4.3 and smoothing (:mod:`meshcore.quads.optimization`).
+    inner : bool
+        The domain is the inside of a boundary layer
+        (:func:`meshcore.quads.boundary_layer.boundary_layer` sets it): its
+        boundary vertices end inside the final mesh and may move, so the
+        valence clean-up may pair leftover triangles with a flat corner there
+        too (:mod:`meshcore.quads.valence`).
     progress : callable(fraction, message), optional
 
     Returns
@@ -1331,6 +1356,7 @@ def combine(
                     min_quality=min_quality,
                     all_quad=True,
                     twice_size=True,
+                    inner=True,
                 ),
             )
         if layered is None:
@@ -1338,12 +1364,21 @@ def combine(
         lap("triangulate")
     if layered is None:
         out_mesh, metric, boundary, stats, counts = _combined(
-            mesh, metric, domain is not None, algorithm, measure, min_quality, all_quad, report, lap
+            mesh,
+            metric,
+            domain is not None,
+            algorithm,
+            measure,
+            min_quality,
+            all_quad,
+            report,
+            lap,
+            inner,
         )
     else:
-        out_mesh, boundary, inner = layered
-        counts = (inner.pairs, inner.triples, inner.triangles_left)
-        stats = dict(inner.stats, boundary_layer=len(boundary))
+        out_mesh, boundary, inside = layered
+        counts = (inside.pairs, inside.triples, inside.triangles_left)
+        stats = dict(inside.stats, boundary_layer=len(boundary))
         lap("layer")
     report(0.65, "quality report")
     quality_before = _report(out_mesh, metric, boundary)
@@ -1390,6 +1425,21 @@ def combine(
         operators=ops,
         stats=stats,
     )
+
+
+def _valence_cleanup(P, tri, nb, w, mate, measure, metric, min_quality, inner) -> dict:
+    """:func:`meshcore.quads.valence.fewer_defects` on a matching: two leftover
+    triangles may pair under the 5-degree flat bound (``flat_corner``) where the
+    ends of their common edge will be interior vertices of the final mesh (all of
+    them when ``inner``), else under the all-quad bound."""
+    _, w_merge = _candidates(P, tri, nb, measure, metric, min_quality, TOL.flat_corner)
+    if not inner:
+        t_b, k_b = np.nonzero(nb < 0)
+        fixed = np.zeros(len(P), bool)
+        fixed[tri[t_b, k_b]] = True
+        fixed[tri[t_b, (k_b + 1) % 3]] = True
+        w_merge = np.where(fixed[tri] | fixed[np.roll(tri, -1, axis=1)], w, w_merge)
+    return fewer_defects(P, tri, nb, w, w_merge, mate, TOL.valence_depth, TOL.valence_rounds)
 
 
 def _three_quads_allowed(P, tri, nb, measure, metric, min_quality, flat) -> np.ndarray:
