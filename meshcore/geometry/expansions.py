@@ -72,7 +72,9 @@ def _two_product(a, b):
     return x, alo * blo - err3
 
 
-@njit(cache=True)
+# One explicit signature: callers pass literal lengths (2, and a 0 met while
+# a loop's accumulator is typed), which otherwise compile one copy each.
+@njit("intp(intp, float64[::1], intp, float64[::1], float64[::1])", cache=True)
 def _expansion_sum(elen, e, flen, f, h):
     """Shewchuk's fast_expansion_sum_zeroelim: h = e + f, returns len(h).
 
@@ -181,7 +183,10 @@ def _scale_expansion(elen, e, b, h):
     return hindex
 
 
-@njit(cache=True)
+@njit(
+    "intp(intp, float64[::1], intp, float64[::1], float64[::1], float64[::1], float64[::1])",
+    cache=True,
+)
 def _expansion_product(elen, e, flen, f, h, tmp1, tmp2):
     """h = e * f (both expansions); tmp1, tmp2 are scratch; returns len(h)."""
     hlen = 0
@@ -194,7 +199,7 @@ def _expansion_product(elen, e, flen, f, h, tmp1, tmp2):
     return hlen
 
 
-@njit(cache=True)
+@njit("intp(intp, float64[::1])", cache=True)
 def _sign_of(elen, e):
     """Sign of an expansion: that of its largest (last nonzero) component."""
     for i in range(elen - 1, -1, -1):
