@@ -59,7 +59,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
 from meshcore.geometry.predicates import dot2d_filtered, incircle_filtered, orient2d_filtered
 
@@ -94,7 +94,10 @@ def _prv(k):
     return k + 2 if k % 3 == 0 else k - 1
 
 
-@njit(cache=True)
+# Explicit signatures on the small helpers: their callers pass int32 vertices
+# (rows of V) and int64 ones, and literal 0 counts, each of which would
+# otherwise compile one more copy.
+@njit("int64(float64[:, ::1], int64, int64, int64, float64[::1])", cache=True)
 def _orient(P, a, b, c, work):
     return orient2d_filtered(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], work)
 
@@ -134,7 +137,7 @@ def build(triangles, neighbors, V, A, S, vt):
         vt[triangles[t, 2]] = t
 
 
-@njit(cache=True)
+@njit("int64(int32[::1], int64, int64)", cache=True)
 def _corner_of(V, t, a):
     for i in range(3):
         if V[3 * t + i] == a:
@@ -142,7 +145,7 @@ def _corner_of(V, t, a):
     return -1
 
 
-@njit(cache=True)
+@njit("int64(int32[::1], int32[::1], int32[::1], int64, int64)", cache=True)
 def find_edge(V, A, vt, a, b):
     """A corner whose edge joins a and b (either direction), or -1.
 
@@ -249,7 +252,12 @@ def _flip(V, A, S, vt, k):
 # ---------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@njit(
+    types.UniTuple(types.int64[::1], 2)(
+        types.int64[::1], types.int64[::1], types.int64, types.int64, types.int64
+    ),
+    cache=True,
+)
 def _push_pair(qa, qb, n, a, b):
     """Append (a, b) to growable pair arrays; returns the (possibly new) arrays."""
     if n >= qa.shape[0]:
@@ -1002,20 +1010,20 @@ def _split(M, D, Qs, st, k, gen, scr, work):
     b = V[_prv(k)]
     sid = S[k]
     x, y, tm = _split_point(P, ppar, D, a, b, sid, n_input)
-    r = _insert(M, st, x, y, -1, k, sid, tm, False, gen, scr, work)
+    r = _insert(M, st, x, y, np.int64(-1), k, sid, tm, np.bool_(False), gen, scr, work)
     if r == DEGENERATE and segcurve[sid] >= 0:
         # The point on the curve does not fit the neighbourhood: take the chord's.
         s0 = segends[sid, 0]
         s1 = segends[sid, 1]
         x = P[s0, 0] + tm * (P[s1, 0] - P[s0, 0])
         y = P[s0, 1] + tm * (P[s1, 1] - P[s0, 1])
-        r = _insert(M, st, x, y, -1, k, sid, tm, False, gen, scr, work)
+        r = _insert(M, st, x, y, np.int64(-1), k, sid, tm, np.bool_(False), gen, scr, work)
     if r != OK:
         return r
     nb = st[ST_INFO]
     _mark_split_edges(V, A, S, scr, nb, a, b, sid)
     st[ST_ADD_B] += 1
-    _enqueue_new(M, D, Qs, st, scr, nb, True, work)
+    _enqueue_new(M, D, Qs, st, scr, nb, np.bool_(True), work)
     return OK
 
 
@@ -1149,11 +1157,11 @@ def refine(M, D, Qs, st, scr, work):
             continue
         gen = G[t] + 1
         x, y = _steiner_point(P, V[3 * t], V[3 * t + 1], V[3 * t + 2], prm[PR_OFF])
-        r = _insert(M, st, x, y, t, -1, -1, 0.0, True, gen, scr, work)
+        r = _insert(M, st, x, y, t, np.int64(-1), np.int32(-1), 0.0, np.bool_(True), gen, scr, work)
         if r == OK:
             st[ST_ADD_I] += 1
             ops += 1
-            _enqueue_new(M, D, Qs, st, scr, st[ST_INFO], False, work)
+            _enqueue_new(M, D, Qs, st, scr, st[ST_INFO], np.bool_(False), work)
         elif r == ENCROACH or r == BLOCKED:
             if keep:
                 G[t] = -1

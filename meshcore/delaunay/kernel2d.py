@@ -57,7 +57,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import WORK_SIZE, incircle_exact, orient2d_exact
@@ -128,8 +128,12 @@ def _hilbert_table() -> np.ndarray:
 
 _HILBERT_TABLE = _hilbert_table()
 
+# The caller's points, typed read-only so that a writable and a read-only
+# array (the service's) share one compiled copy of the kernels that read them.
+_POINTS = types.Array(types.float64, 2, "C", readonly=True)
 
-@njit(cache=True)
+
+@njit((_POINTS, types.float64, types.int64), cache=True)
 def _brio_hilbert_keys(pts, factor, nbits):
     """Sort keys: BRIO round in the high bits, Hilbert index in the low bits.
 
@@ -648,7 +652,7 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop):
     state[2] = _OK
 
 
-@njit(cache=True)
+@njit((_POINTS,), cache=True)
 def _scan(pts):
     """(all finite, max |coordinate|, min nonzero |coordinate|) in one pass."""
     big = 0.0
@@ -665,7 +669,7 @@ def _scan(pts):
     return True, big, small
 
 
-@njit(cache=True)
+@njit((_POINTS, types.int64[::1], types.float64), cache=True)
 def _gather(pts, order, factor):
     """Rows of pts in insertion order, times the power of two factor."""
     out = np.empty((order.shape[0], 2))
@@ -940,7 +944,7 @@ class IncrementalDelaunay:
 
 def _validated(points) -> np.ndarray:
     try:
-        pts = np.asarray(points, dtype=np.float64)
+        pts = np.ascontiguousarray(points, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise InputError(
             "points must be an (n, 2) array of numbers", loc=("points",), code="bad_shape"

@@ -431,7 +431,7 @@ def _positions(value: object, loc: tuple, what: str) -> np.ndarray:
     return arr
 
 
-@njit(cache=True)
+@njit("(Array(float64, 2, 'C', True), float64)", cache=True)  # read-only or not: one copy
 def _first_bad(arr, limit):
     """(vertex, coordinate, kind) of the first non-finite coordinate (kind 1), else of the
     first above ``limit`` in magnitude (kind 2), else (0, 0, 0); row-major order."""
@@ -908,7 +908,7 @@ def _check_ring_points(pts, offsets, lengths, names: _Names, scale: float) -> np
     return low
 
 
-@njit(cache=True)
+@njit("(Array(float64, 2, 'C', True), float64, int64[::1])", cache=True)
 def _ring_scan(pts, scale, offsets):
     """The ring checks' facts in one compiled pass (turns on ``pts * scale``).
 
@@ -980,7 +980,7 @@ def _oriented_segments(offsets, reversed_):
     return segs
 
 
-@njit(cache=True)
+@njit("(Array(float64, 2, 'C', True),)", cache=True)
 def _bounding_box(pts):
     """(min x, min y, max x, max y) of the points."""
     lx = ly = np.inf
@@ -993,7 +993,7 @@ def _bounding_box(pts):
     return lx, ly, hx, hy
 
 
-@njit(cache=True)
+@njit("(Array(float64, 2, 'C', True), float64)", cache=True)
 def _exact_shift(pts, scale):
     """Per axis, the first scaled coordinate if subtracting it from every other
     one is exact (two-sum error 0), else 0.0 (no shift); one pass."""
@@ -1014,7 +1014,7 @@ def _exact_shift(pts, scale):
     return rx if fx else 0.0, ry if fy else 0.0
 
 
-@njit(cache=True)
+@njit("int64(float64[::1], int64, float64)", cache=True)
 def _fsum_add(partials, n, x):
     """Add ``x`` to the non-overlapping ``partials[:n]`` exactly; their new count.
 
@@ -1067,7 +1067,7 @@ def _fsum_round(partials, n):
 _BLOCK = 512
 
 
-@njit(cache=True)
+@njit("void(int64[::1], int64[::1], int64)", cache=True)
 def _deposit(bins, bits, count):
     """Add the float64 values whose bit patterns are ``bits[:count]`` exactly to
     ``bins`` (bin ``e`` counts units of ``2**(e - 1075)``), then carry the
@@ -1094,7 +1094,7 @@ def _deposit(bins, bits, count):
             bins[e + 32] += c
 
 
-@njit(cache=True)
+@njit("(Array(float64,2,'C',True),float64,int64[::1],boolean[::1],float64,float64)", cache=True)
 def _shoelace(pts, scale, offsets, reversed_, sx, sy):
     """Twice the signed area of the rings (terms negated in reversed rings), on the
     coordinates times ``scale`` minus (``sx``, ``sy``).

@@ -104,7 +104,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 from scipy.spatial import cKDTree
 
 from meshcore.delaunay.admissible import admissible_segments, edges_present
@@ -688,7 +688,9 @@ def _csr(n, cells):
     return start, inc
 
 
-@njit(cache=True)
+# Explicit signatures on the pruning's helpers: callers pass literal -1 and 0
+# (a loop's first value), each of which would otherwise compile one more copy.
+@njit("int64(int64[::1], int64[::1], boolean[::1], int64, int64)", cache=True)
 def _other_edge(start, inc, alive, v, e):
     """The alive edge of degree-2 node ``v`` other than ``e``."""
     for j in range(start[v], start[v + 1]):
@@ -698,7 +700,18 @@ def _other_edge(start, inc, alive, v, e):
     return -1
 
 
-@njit(cache=True)
+@njit(
+    types.UniTuple(types.int64, 2)(
+        types.int64[:, ::1],
+        types.int64[::1],
+        types.int64[::1],
+        types.boolean[::1],
+        types.int64[::1],
+        types.int64,
+        types.int64,
+    ),
+    cache=True,
+)
 def _walk(edges, start, inc, alive, deg, v, e):
     """From node ``v`` along edge ``e`` through degree-2 nodes: (end node, last edge)."""
     cur = edges[e, 0] + edges[e, 1] - v
@@ -712,7 +725,7 @@ def _walk(edges, start, inc, alive, deg, v, e):
     return cur, e
 
 
-@njit(cache=True)
+@njit("int64(float64[::1], int64[::1], int64[::1], int64, float64, int64, int64)", cache=True)
 def _heap_push(hk, hv, hn, size, key, val, ver):
     i = size
     hk[i] = key
@@ -729,7 +742,12 @@ def _heap_push(hk, hv, hn, size, key, val, ver):
     return size + 1
 
 
-@njit(cache=True)
+@njit(
+    types.Tuple((types.float64, types.int64, types.int64, types.int64))(
+        types.float64[::1], types.int64[::1], types.int64[::1], types.int64
+    ),
+    cache=True,
+)
 def _heap_pop(hk, hv, hn, size):
     key, val, ver = hk[0], hv[0], hn[0]
     size -= 1
@@ -1118,12 +1136,13 @@ def _cloud_domain(points) -> tuple[Domain, np.ndarray]:
             loc=("points", i),
             code="not_a_curve",
         )
-    adj = np.empty((n, 2), dtype=np.int64)
     ends = np.concatenate([pairs, pairs[:, ::-1]])
     ends = ends[np.argsort(ends[:, 0], kind="stable")]
-    adj[:, 0] = ends[0::2, 1]
-    adj[:, 1] = ends[1::2, 1]
-    order, offsets = _cycles(adj[:, 0], adj[:, 1])
+    # contiguous columns: the layout partitioning's call compiles _cycles for
+    order, offsets = _cycles(
+        np.ascontiguousarray(ends[0::2, 1], dtype=np.int64),
+        np.ascontiguousarray(ends[1::2, 1], dtype=np.int64),
+    )
     short = np.flatnonzero(np.diff(offsets) < 3)
     if short.size:
         i = int(order[offsets[short[0]]])
