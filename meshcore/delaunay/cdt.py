@@ -59,7 +59,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import njit
 
 from meshcore.geometry.predicates import dot2d_filtered, incircle_filtered, orient2d_filtered
 
@@ -94,10 +94,7 @@ def _prv(k):
     return k + 2 if k % 3 == 0 else k - 1
 
 
-# Explicit signatures on the small helpers: their callers pass int32 vertices
-# (rows of V) and int64 ones, and literal 0 counts, each of which would
-# otherwise compile one more copy.
-@njit("int64(float64[:, ::1], int64, int64, int64, float64[::1])", cache=True)
+@njit(cache=True)
 def _orient(P, a, b, c, work):
     return orient2d_filtered(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], work)
 
@@ -137,7 +134,7 @@ def build(triangles, neighbors, V, A, S, vt):
         vt[triangles[t, 2]] = t
 
 
-@njit("int64(int32[::1], int64, int64)", cache=True)
+@njit(cache=True)
 def _corner_of(V, t, a):
     for i in range(3):
         if V[3 * t + i] == a:
@@ -145,7 +142,7 @@ def _corner_of(V, t, a):
     return -1
 
 
-@njit("int64(int32[::1], int32[::1], int32[::1], int64, int64)", cache=True)
+@njit(cache=True)
 def find_edge(V, A, vt, a, b):
     """A corner whose edge joins a and b (either direction), or -1.
 
@@ -252,12 +249,7 @@ def _flip(V, A, S, vt, k):
 # ---------------------------------------------------------------------------
 
 
-@njit(
-    types.UniTuple(types.int64[::1], 2)(
-        types.int64[::1], types.int64[::1], types.int64, types.int64, types.int64
-    ),
-    cache=True,
-)
+@njit(cache=True)
 def _push_pair(qa, qb, n, a, b):
     """Append (a, b) to growable pair arrays; returns the (possibly new) arrays."""
     if n >= qa.shape[0]:
@@ -289,7 +281,7 @@ def recover_segments(P, V, A, S, vt, seg, sid, work, info):
     qb = np.empty(nq, np.int64)
     ea = np.empty(nq, np.int64)
     eb = np.empty(nq, np.int64)
-    ne = 0
+    ne = np.int64(0)  # typed, not literal: one compiled _push_pair
     flips = 0
     for r in range(seg.shape[0]):
         a = seg[r, 0]
@@ -340,7 +332,7 @@ def recover_segments(P, V, A, S, vt, seg, sid, work, info):
                 info[2] = a
                 return CROSSING
             # Walk to b, queueing the crossed edges (right vertex, left vertex).
-            nq = 0
+            nq = np.int64(0)
             k = start
             while True:
                 if S[k] >= 0:

@@ -57,7 +57,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit, types
+from numba import njit
 
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import WORK_SIZE, incircle_exact, orient2d_exact
@@ -128,12 +128,8 @@ def _hilbert_table() -> np.ndarray:
 
 _HILBERT_TABLE = _hilbert_table()
 
-# The caller's points, typed read-only so that a writable and a read-only
-# array (the service's) share one compiled copy of the kernels that read them.
-_POINTS = types.Array(types.float64, 2, "C", readonly=True)
 
-
-@njit((_POINTS, types.float64, types.int64), cache=True)
+@njit(cache=True)
 def _brio_hilbert_keys(pts, factor, nbits):
     """Sort keys: BRIO round in the high bits, Hilbert index in the low bits.
 
@@ -652,7 +648,7 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop):
     state[2] = _OK
 
 
-@njit((_POINTS,), cache=True)
+@njit(cache=True)
 def _scan(pts):
     """(all finite, max |coordinate|, min nonzero |coordinate|) in one pass."""
     big = 0.0
@@ -669,7 +665,7 @@ def _scan(pts):
     return True, big, small
 
 
-@njit((_POINTS, types.int64[::1], types.float64), cache=True)
+@njit(cache=True)
 def _gather(pts, order, factor):
     """Rows of pts in insertion order, times the power of two factor."""
     out = np.empty((order.shape[0], 2))

@@ -431,7 +431,7 @@ def _positions(value: object, loc: tuple, what: str) -> np.ndarray:
     return arr
 
 
-@njit("(Array(float64, 2, 'C', True), float64)", cache=True)  # read-only or not: one copy
+@njit(cache=True)
 def _first_bad(arr, limit):
     """(vertex, coordinate, kind) of the first non-finite coordinate (kind 1), else of the
     first above ``limit`` in magnitude (kind 2), else (0, 0, 0); row-major order."""
@@ -908,7 +908,7 @@ def _check_ring_points(pts, offsets, lengths, names: _Names, scale: float) -> np
     return low
 
 
-@njit("(Array(float64, 2, 'C', True), float64, int64[::1])", cache=True)
+@njit(cache=True)
 def _ring_scan(pts, scale, offsets):
     """The ring checks' facts in one compiled pass (turns on ``pts * scale``).
 
@@ -980,7 +980,7 @@ def _oriented_segments(offsets, reversed_):
     return segs
 
 
-@njit("(Array(float64, 2, 'C', True),)", cache=True)
+@njit(cache=True)
 def _bounding_box(pts):
     """(min x, min y, max x, max y) of the points."""
     lx = ly = np.inf
@@ -993,7 +993,7 @@ def _bounding_box(pts):
     return lx, ly, hx, hy
 
 
-@njit("(Array(float64, 2, 'C', True), float64)", cache=True)
+@njit(cache=True)
 def _exact_shift(pts, scale):
     """Per axis, the first scaled coordinate if subtracting it from every other
     one is exact (two-sum error 0), else 0.0 (no shift); one pass."""
@@ -1014,7 +1014,7 @@ def _exact_shift(pts, scale):
     return rx if fx else 0.0, ry if fy else 0.0
 
 
-@njit("int64(float64[::1], int64, float64)", cache=True)
+@njit(cache=True)
 def _fsum_add(partials, n, x):
     """Add ``x`` to the non-overlapping ``partials[:n]`` exactly; their new count.
 
@@ -1067,7 +1067,7 @@ def _fsum_round(partials, n):
 _BLOCK = 512
 
 
-@njit("void(int64[::1], int64[::1], int64)", cache=True)
+@njit(cache=True)
 def _deposit(bins, bits, count):
     """Add the float64 values whose bit patterns are ``bits[:count]`` exactly to
     ``bins`` (bin ``e`` counts units of ``2**(e - 1075)``), then carry the
@@ -1094,7 +1094,7 @@ def _deposit(bins, bits, count):
             bins[e + 32] += c
 
 
-@njit("(Array(float64,2,'C',True),float64,int64[::1],boolean[::1],float64,float64)", cache=True)
+@njit(cache=True)
 def _shoelace(pts, scale, offsets, reversed_, sx, sy):
     """Twice the signed area of the rings (terms negated in reversed rings), on the
     coordinates times ``scale`` minus (``sx``, ``sy``).
@@ -1111,7 +1111,7 @@ def _shoelace(pts, scale, offsets, reversed_, sx, sy):
     buf = np.empty(_BLOCK)
     bits = buf.view(np.int64)
     bins = np.zeros(2048 + 64, np.int64)
-    count = 0
+    count = np.int64(0)  # typed, not literal: one compiled _deposit
     small = 0.0
     for k in range(len(offsets) - 1):
         lo, hi = offsets[k], offsets[k + 1]
@@ -1145,11 +1145,11 @@ def _shoelace(pts, scale, offsets, reversed_, sx, sy):
             count += 1
             if count == _BLOCK:
                 _deposit(bins, bits, count)
-                count = 0
+                count = np.int64(0)
             small += (e + l1 - l2) * sign
     _deposit(bins, bits, count)
     partials = np.empty(256)
-    n = 0
+    n = np.int64(0)
     for e in range(bins.shape[0]):
         if bins[e] != 0:  # two exact halves (a bin may exceed 53 bits only at the top)
             top = (bins[e] >> 26) << 26

@@ -104,7 +104,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
-from numba import njit, types
+from numba import njit
 from scipy.spatial import cKDTree
 
 from meshcore.delaunay.admissible import admissible_segments, edges_present
@@ -688,9 +688,7 @@ def _csr(n, cells):
     return start, inc
 
 
-# Explicit signatures on the pruning's helpers: callers pass literal -1 and 0
-# (a loop's first value), each of which would otherwise compile one more copy.
-@njit("int64(int64[::1], int64[::1], boolean[::1], int64, int64)", cache=True)
+@njit(cache=True)
 def _other_edge(start, inc, alive, v, e):
     """The alive edge of degree-2 node ``v`` other than ``e``."""
     for j in range(start[v], start[v + 1]):
@@ -700,18 +698,7 @@ def _other_edge(start, inc, alive, v, e):
     return -1
 
 
-@njit(
-    types.UniTuple(types.int64, 2)(
-        types.int64[:, ::1],
-        types.int64[::1],
-        types.int64[::1],
-        types.boolean[::1],
-        types.int64[::1],
-        types.int64,
-        types.int64,
-    ),
-    cache=True,
-)
+@njit(cache=True)
 def _walk(edges, start, inc, alive, deg, v, e):
     """From node ``v`` along edge ``e`` through degree-2 nodes: (end node, last edge)."""
     cur = edges[e, 0] + edges[e, 1] - v
@@ -725,7 +712,7 @@ def _walk(edges, start, inc, alive, deg, v, e):
     return cur, e
 
 
-@njit("int64(float64[::1], int64[::1], int64[::1], int64, float64, int64, int64)", cache=True)
+@njit(cache=True)
 def _heap_push(hk, hv, hn, size, key, val, ver):
     i = size
     hk[i] = key
@@ -742,12 +729,7 @@ def _heap_push(hk, hv, hn, size, key, val, ver):
     return size + 1
 
 
-@njit(
-    types.Tuple((types.float64, types.int64, types.int64, types.int64))(
-        types.float64[::1], types.int64[::1], types.int64[::1], types.int64
-    ),
-    cache=True,
-)
+@njit(cache=True)
 def _heap_pop(hk, hv, hn, size):
     key, val, ver = hk[0], hv[0], hn[0]
     size -= 1
@@ -799,7 +781,7 @@ def _prune(n, edges, edge_pq, center, cradius, spread, pts, threshold):
     hk = np.empty(cap)
     hv = np.empty(cap, np.int64)
     hn = np.empty(cap, np.int64)
-    size = 0
+    size = np.int64(0)  # typed, not literal: one compiled _heap_push / _heap_pop
     removed = 0
     if threshold <= 0.0:
         return node_alive, alive, 0
@@ -823,7 +805,7 @@ def _prune(n, edges, edge_pq, center, cradius, spread, pts, threshold):
             continue
         # remove the chain leaf .. (node before j)
         v = leaf
-        e = -1
+        e = np.int64(-1)
         for j2 in range(start[v], start[v + 1]):
             if alive[inc[j2]]:
                 e = inc[j2]
@@ -841,8 +823,8 @@ def _prune(n, edges, edge_pq, center, cradius, spread, pts, threshold):
             continue
         # j dissolves: a leaf whose branch ended at j through one of its two
         # edges now runs on through the other one
-        ea = -1
-        eb = -1
+        ea = np.int64(-1)  # typed, not literal: one compiled _walk
+        eb = np.int64(-1)
         for j2 in range(start[j], start[j + 1]):
             f = inc[j2]
             if alive[f]:
@@ -902,7 +884,7 @@ def _prune(n, edges, edge_pq, center, cradius, spread, pts, threshold):
             continue
         k = 0
         cur = v
-        e = -1
+        e = np.int64(-1)
         for j2 in range(start[v], start[v + 1]):
             if alive[inc[j2]]:
                 e = inc[j2]
