@@ -281,7 +281,7 @@ def recover_segments(P, V, A, S, vt, seg, sid, work, info):
     qb = np.empty(nq, np.int64)
     ea = np.empty(nq, np.int64)
     eb = np.empty(nq, np.int64)
-    ne = 0
+    ne = np.int64(0)  # typed, not literal: one compiled _push_pair
     flips = 0
     for r in range(seg.shape[0]):
         a = seg[r, 0]
@@ -332,7 +332,7 @@ def recover_segments(P, V, A, S, vt, seg, sid, work, info):
                 info[2] = a
                 return CROSSING
             # Walk to b, queueing the crossed edges (right vertex, left vertex).
-            nq = 0
+            nq = np.int64(0)
             k = start
             while True:
                 if S[k] >= 0:
@@ -1002,20 +1002,20 @@ def _split(M, D, Qs, st, k, gen, scr, work):
     b = V[_prv(k)]
     sid = S[k]
     x, y, tm = _split_point(P, ppar, D, a, b, sid, n_input)
-    r = _insert(M, st, x, y, -1, k, sid, tm, False, gen, scr, work)
+    r = _insert(M, st, x, y, np.int64(-1), k, sid, tm, np.bool_(False), gen, scr, work)
     if r == DEGENERATE and segcurve[sid] >= 0:
         # The point on the curve does not fit the neighbourhood: take the chord's.
         s0 = segends[sid, 0]
         s1 = segends[sid, 1]
         x = P[s0, 0] + tm * (P[s1, 0] - P[s0, 0])
         y = P[s0, 1] + tm * (P[s1, 1] - P[s0, 1])
-        r = _insert(M, st, x, y, -1, k, sid, tm, False, gen, scr, work)
+        r = _insert(M, st, x, y, np.int64(-1), k, sid, tm, np.bool_(False), gen, scr, work)
     if r != OK:
         return r
     nb = st[ST_INFO]
     _mark_split_edges(V, A, S, scr, nb, a, b, sid)
     st[ST_ADD_B] += 1
-    _enqueue_new(M, D, Qs, st, scr, nb, True, work)
+    _enqueue_new(M, D, Qs, st, scr, nb, np.bool_(True), work)
     return OK
 
 
@@ -1149,11 +1149,11 @@ def refine(M, D, Qs, st, scr, work):
             continue
         gen = G[t] + 1
         x, y = _steiner_point(P, V[3 * t], V[3 * t + 1], V[3 * t + 2], prm[PR_OFF])
-        r = _insert(M, st, x, y, t, -1, -1, 0.0, True, gen, scr, work)
+        r = _insert(M, st, x, y, t, np.int64(-1), np.int32(-1), 0.0, np.bool_(True), gen, scr, work)
         if r == OK:
             st[ST_ADD_I] += 1
             ops += 1
-            _enqueue_new(M, D, Qs, st, scr, st[ST_INFO], False, work)
+            _enqueue_new(M, D, Qs, st, scr, st[ST_INFO], np.bool_(False), work)
         elif r == ENCROACH or r == BLOCKED:
             if keep:
                 G[t] = -1

@@ -940,7 +940,7 @@ class IncrementalDelaunay:
 
 def _validated(points) -> np.ndarray:
     try:
-        pts = np.asarray(points, dtype=np.float64)
+        pts = np.ascontiguousarray(points, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise InputError(
             "points must be an (n, 2) array of numbers", loc=("points",), code="bad_shape"

@@ -1111,7 +1111,7 @@ def _shoelace(pts, scale, offsets, reversed_, sx, sy):
     buf = np.empty(_BLOCK)
     bits = buf.view(np.int64)
     bins = np.zeros(2048 + 64, np.int64)
-    count = 0
+    count = np.int64(0)  # typed, not literal: one compiled _deposit
     small = 0.0
     for k in range(len(offsets) - 1):
         lo, hi = offsets[k], offsets[k + 1]
@@ -1145,11 +1145,11 @@ def _shoelace(pts, scale, offsets, reversed_, sx, sy):
             count += 1
             if count == _BLOCK:
                 _deposit(bins, bits, count)
-                count = 0
+                count = np.int64(0)
             small += (e + l1 - l2) * sign
     _deposit(bins, bits, count)
     partials = np.empty(256)
-    n = 0
+    n = np.int64(0)
     for e in range(bins.shape[0]):
         if bins[e] != 0:  # two exact halves (a bin may exceed 53 bits only at the top)
             top = (bins[e] >> 26) << 26

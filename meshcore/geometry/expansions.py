@@ -16,6 +16,7 @@ References
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 __all__ = [
@@ -72,6 +73,8 @@ def _two_product(a, b):
     return x, alo * blo - err3
 
 
+# Callers pass lengths typed int64 (np.int64(2), np.int64(0) for a loop's first
+# value), not literals: a literal argument compiles one more copy of a kernel.
 @njit(cache=True)
 def _expansion_sum(elen, e, flen, f, h):
     """Shewchuk's fast_expansion_sum_zeroelim: h = e + f, returns len(h).
@@ -184,7 +187,7 @@ def _scale_expansion(elen, e, b, h):
 @njit(cache=True)
 def _expansion_product(elen, e, flen, f, h, tmp1, tmp2):
     """h = e * f (both expansions); tmp1, tmp2 are scratch; returns len(h)."""
-    hlen = 0
+    hlen = np.int64(0)
     for i in range(flen):
         slen = _scale_expansion(elen, e, f[i], tmp1)
         nlen = _expansion_sum(hlen, h, slen, tmp1, tmp2)

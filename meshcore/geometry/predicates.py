@@ -125,7 +125,7 @@ def orient2d_exact(ax, ay, bx, by, cx, cy, work):
         work[3] = -r1
         e = work[0:2]
         f = work[2:4]
-        hlen = _expansion_sum(2, e, 2, f, work[4:8])
+        hlen = _expansion_sum(np.int64(2), e, np.int64(2), f, work[4:8])
         return _sign_of(hlen, work[4:8])
     e1 = work[0:2]
     e2 = work[2:4]
@@ -224,7 +224,7 @@ def dot2d_exact(ax, ay, bx, by, cx, cy, work):
         work[1] = l1
         work[2] = r0
         work[3] = r1
-        hlen = _expansion_sum(2, work[0:2], 2, work[2:4], work[4:8])
+        hlen = _expansion_sum(np.int64(2), work[0:2], np.int64(2), work[2:4], work[4:8])
         return _sign_of(hlen, work[4:8])
     e1 = work[0:2]
     e2 = work[2:4]
@@ -317,7 +317,7 @@ def incircle_exact(ax, ay, bx, by, cx, cy, dx, dy, work):
     acc2 = work[3200:4900]
     t1 = work[4900:5000]
     t2 = work[5000:6100]
-    alen = 0
+    alen = np.int64(0)
     for k in range(3):
         if k == 0:
             # alift * (bdx*cdy - cdx*bdy)
@@ -357,7 +357,7 @@ def _incircle_from_diffs(adx, ady, bdx, bdy, cdx, cdy, work):
     t32 = work[52:84]
     acc = work[84:180]
     acc2 = work[180:276]
-    alen = 0
+    alen = np.int64(0)
     for k in range(3):
         if k == 0:
             px, py = adx, ady

@@ -781,7 +781,7 @@ def _prune(n, edges, edge_pq, center, cradius, spread, pts, threshold):
     hk = np.empty(cap)
     hv = np.empty(cap, np.int64)
     hn = np.empty(cap, np.int64)
-    size = 0
+    size = np.int64(0)  # typed, not literal: one compiled _heap_push / _heap_pop
     removed = 0
     if threshold <= 0.0:
         return node_alive, alive, 0
@@ -805,7 +805,7 @@ def _prune(n, edges, edge_pq, center, cradius, spread, pts, threshold):
             continue
         # remove the chain leaf .. (node before j)
         v = leaf
-        e = -1
+        e = np.int64(-1)
         for j2 in range(start[v], start[v + 1]):
             if alive[inc[j2]]:
                 e = inc[j2]
@@ -823,8 +823,8 @@ def _prune(n, edges, edge_pq, center, cradius, spread, pts, threshold):
             continue
         # j dissolves: a leaf whose branch ended at j through one of its two
         # edges now runs on through the other one
-        ea = -1
-        eb = -1
+        ea = np.int64(-1)  # typed, not literal: one compiled _walk
+        eb = np.int64(-1)
         for j2 in range(start[j], start[j + 1]):
             f = inc[j2]
             if alive[f]:
@@ -884,7 +884,7 @@ def _prune(n, edges, edge_pq, center, cradius, spread, pts, threshold):
             continue
         k = 0
         cur = v
-        e = -1
+        e = np.int64(-1)
         for j2 in range(start[v], start[v + 1]):
             if alive[inc[j2]]:
                 e = inc[j2]
@@ -1118,12 +1118,13 @@ def _cloud_domain(points) -> tuple[Domain, np.ndarray]:
             loc=("points", i),
             code="not_a_curve",
         )
-    adj = np.empty((n, 2), dtype=np.int64)
     ends = np.concatenate([pairs, pairs[:, ::-1]])
     ends = ends[np.argsort(ends[:, 0], kind="stable")]
-    adj[:, 0] = ends[0::2, 1]
-    adj[:, 1] = ends[1::2, 1]
-    order, offsets = _cycles(adj[:, 0], adj[:, 1])
+    # contiguous columns: the layout partitioning's call compiles _cycles for
+    order, offsets = _cycles(
+        np.ascontiguousarray(ends[0::2, 1], dtype=np.int64),
+        np.ascontiguousarray(ends[1::2, 1], dtype=np.int64),
+    )
     short = np.flatnonzero(np.diff(offsets) < 3)
     if short.size:
         i = int(order[offsets[short[0]]])
