@@ -111,7 +111,14 @@ __all__ = [
 
 _O3D_ERRBOUND_A = (7.0 + 56.0 * 2.0**-53) * 2.0**-53
 _ISP_ERRBOUND_A = (16.0 + 224.0 * 2.0**-53) * 2.0**-53
+# Semi-static filters: Shewchuk's bound times an upper bound of the
+# permanent from the largest coordinate differences (6 mx my mz for orient3d,
+# 24 mx my mz (mx**2 + my**2 + mz**2) for insphere), with 2**-40 of slack for
+# the few roundings of that bound (each under 2**-52 relative).
+_O3D_SEMI = 6.0 * _O3D_ERRBOUND_A * (1.0 + 2.0**-40)
+_ISP_SEMI = 24.0 * _ISP_ERRBOUND_A * (1.0 + 2.0**-40)
 _HILBERT_BITS = 16
+_FIB64 = np.int64(-7046029254386353131)  # 0x9E3779B97F4A7C15 as int64
 _CHUNK = 1 << 16
 _MAX_POINTS = 1 << 26  # 4 * tetrahedra slots must fit int32
 # Smallest magnitude a nonzero coordinate may have after rescaling the largest
@@ -332,12 +339,12 @@ def _orient(pts, a, b, c, d, work):
     adxbdy = adx * bdy
     bdxady = bdx * ady
     det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady)
-    permanent = (
-        (abs(bdxcdy) + abs(cdxbdy)) * abs(adz)
-        + (abs(cdxady) + abs(adxcdy)) * abs(bdz)
-        + (abs(adxbdy) + abs(bdxady)) * abs(cdz)
-    )
-    errbound = _O3D_ERRBOUND_A * permanent
+    # Semi-static filter: the permanent is at most 6 mx my mz (mx the largest
+    # |x difference|, ...); _O3D_SEMI covers its rounding too.
+    mx = max(abs(adx), max(abs(bdx), abs(cdx)))
+    my = max(abs(ady), max(abs(bdy), abs(cdy)))
+    mz = max(abs(adz), max(abs(bdz), abs(cdz)))
+    errbound = _O3D_SEMI * (mx * my * mz)
     if det > errbound:
         return 1
     if -det > errbound:
@@ -398,23 +405,14 @@ def _insphere(pts, a, b, c, d, e, work, pbuf):
     clift = cex * cex + cey * cey + cez * cez
     dlift = dex * dex + dey * dey + dez * dez
     det = (dlift * abc - clift * dab) + (blift * cda - alift * bcd)
-    aez = abs(aez)
-    bez = abs(bez)
-    cez = abs(cez)
-    dez = abs(dez)
-    abp = abs(aexbey) + abs(bexaey)
-    bcp = abs(bexcey) + abs(cexbey)
-    cdp = abs(cexdey) + abs(dexcey)
-    dap = abs(dexaey) + abs(aexdey)
-    acp = abs(aexcey) + abs(cexaey)
-    bdp = abs(bexdey) + abs(dexbey)
-    permanent = (
-        (cdp * bez + bdp * cez + bcp * dez) * alift
-        + (dap * cez + acp * dez + cdp * aez) * blift
-        + (abp * dez + bdp * aez + dap * bez) * clift
-        + (bcp * aez + acp * bez + abp * cez) * dlift
-    )
-    errbound = _ISP_ERRBOUND_A * permanent
+    # Semi-static filter: the permanent is at most 24 mx my mz (mx**2 + my**2
+    # + mz**2), mx the largest |x difference|, ...; _ISP_SEMI covers its
+    # rounding too. Undecided cases (rare on random points) go to the exact
+    # predicate, whose first stage is the permanent-bounded double-double.
+    mx = max(max(abs(aex), abs(bex)), max(abs(cex), abs(dex)))
+    my = max(max(abs(aey), abs(bey)), max(abs(cey), abs(dey)))
+    mz = max(max(abs(aez), abs(bez)), max(abs(cez), abs(dez)))
+    errbound = _ISP_SEMI * ((mx * my) * mz) * ((mx * mx + my * my) + mz * mz)
     if det > errbound:
         return 1
     if -det > errbound:
@@ -638,7 +636,9 @@ def _insert(
             if x > y:
                 x, y = y, x
             key = x * big + y
-            h = ((key * np.int64(0x9E3779B1)) >> 11) & mask
+            # Fibonacci hashing: bits 32.. of the product mix both vertices
+            # (the former 32-bit multiplier left x out of the index bits).
+            h = ((key * _FIB64) >> 32) & mask
             while True:
                 kk = hkey[h]
                 if kk == -1:
