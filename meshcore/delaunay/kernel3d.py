@@ -561,7 +561,7 @@ def _insert(
                 return
             bnd[nb] = 4 * c + f
             nb += 1
-    if 4 * nb > hkey.shape[0]:
+    if 8 * nb > hkey.shape[0]:
         state[_STATUS] = _GROW_BUFFERS
         return
     ntet = state[_NTET]
@@ -609,7 +609,7 @@ def _insert(
     # the face (p, x, y) of two cone tetrahedra is keyed by the boundary edge
     # (x, y), met exactly twice. Open addressing, table cleared per insertion.
     hsize = 16
-    while hsize < 4 * nb:
+    while hsize < 8 * nb:  # load at most 3/8 (each edge keyed twice, one tombstone)
         hsize *= 2
     for h in range(hsize):
         hkey[h] = -1
