@@ -316,7 +316,7 @@ def _brio_hilbert_keys(pts, nbits, salt):
 
 @njit(cache=True, inline="always")
 def _orient(pts, a, b, c, d, work):
-    """orient3d of the vertices a, b, c, d (predicates3d.orient3d_filtered, inlined)."""
+    """orient3d of the vertices a, b, c, d: semi-static filter, Shewchuk's, then exact."""
     ax = pts[a, 0]
     ay = pts[a, 1]
     az = pts[a, 2]
@@ -349,6 +349,17 @@ def _orient(pts, a, b, c, d, work):
         return 1
     if -det > errbound:
         return -1
+    # Then Shewchuk's tighter bound from the permanent, then exact.
+    permanent = (
+        (abs(bdxcdy) + abs(cdxbdy)) * abs(adz)
+        + (abs(cdxady) + abs(adxcdy)) * abs(bdz)
+        + (abs(adxbdy) + abs(bdxady)) * abs(cdz)
+    )
+    errbound = _O3D_ERRBOUND_A * permanent
+    if det > errbound:
+        return 1
+    if -det > errbound:
+        return -1
     return orient3d_exact(
         ax, ay, az, pts[b, 0], pts[b, 1], pts[b, 2], pts[c, 0], pts[c, 1], pts[c, 2],
         dx, dy, dz, work,
@@ -359,9 +370,10 @@ def _orient(pts, a, b, c, d, work):
 def _insphere(pts, a, b, c, d, e, work, pbuf):
     """Perturbed insphere sign of e against positive (a, b, c, d); never 0.
 
-    The float filter of predicates3d.insphere_filtered inlined; undecided
-    cases go to predicates3d.insphere_exact, exact ties to insphere_tie (the
-    symbolic perturbation of insphere_perturbed).
+    A semi-static float filter (a few flops), then the float filter of
+    predicates3d.insphere_filtered; undecided cases go to
+    predicates3d.insphere_exact, exact ties to insphere_tie (the symbolic
+    perturbation of insphere_perturbed).
     """
     ex = pts[e, 0]
     ey = pts[e, 1]
@@ -413,6 +425,29 @@ def _insphere(pts, a, b, c, d, e, work, pbuf):
     my = max(max(abs(aey), abs(bey)), max(abs(cey), abs(dey)))
     mz = max(max(abs(aez), abs(bez)), max(abs(cez), abs(dez)))
     errbound = _ISP_SEMI * ((mx * my) * mz) * ((mx * mx + my * my) + mz * mz)
+    if det > errbound:
+        return 1
+    if -det > errbound:
+        return -1
+    # Then Shewchuk's tighter bound from the permanent (nearly co-spherical
+    # points), then exact.
+    aez = abs(aez)
+    bez = abs(bez)
+    cez = abs(cez)
+    dez = abs(dez)
+    abp = abs(aexbey) + abs(bexaey)
+    bcp = abs(bexcey) + abs(cexbey)
+    cdp = abs(cexdey) + abs(dexcey)
+    dap = abs(dexaey) + abs(aexdey)
+    acp = abs(aexcey) + abs(cexaey)
+    bdp = abs(bexdey) + abs(dexbey)
+    permanent = (
+        (cdp * bez + bdp * cez + bcp * dez) * alift
+        + (dap * cez + acp * dez + cdp * aez) * blift
+        + (abp * dez + bdp * aez + dap * bez) * clift
+        + (bcp * aez + acp * bez + abp * cez) * dlift
+    )
+    errbound = _ISP_ERRBOUND_A * permanent
     if det > errbound:
         return 1
     if -det > errbound:
