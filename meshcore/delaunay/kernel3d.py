@@ -111,7 +111,14 @@ __all__ = [
 
 _O3D_ERRBOUND_A = (7.0 + 56.0 * 2.0**-53) * 2.0**-53
 _ISP_ERRBOUND_A = (16.0 + 224.0 * 2.0**-53) * 2.0**-53
+# Semi-static filters: Shewchuk's bound times an upper bound of the
+# permanent from the largest coordinate differences (6 mx my mz for orient3d,
+# 24 mx my mz (mx**2 + my**2 + mz**2) for insphere), with 2**-40 of slack for
+# the few roundings of that bound (each under 2**-52 relative).
+_O3D_SEMI = 6.0 * _O3D_ERRBOUND_A * (1.0 + 2.0**-40)
+_ISP_SEMI = 24.0 * _ISP_ERRBOUND_A * (1.0 + 2.0**-40)
 _HILBERT_BITS = 16
+_FIB64 = np.int64(-7046029254386353131)  # 0x9E3779B97F4A7C15 as int64
 _CHUNK = 1 << 16
 _MAX_POINTS = 1 << 26  # 4 * tetrahedra slots must fit int32
 # Smallest magnitude a nonzero coordinate may have after rescaling the largest
@@ -309,7 +316,7 @@ def _brio_hilbert_keys(pts, nbits, salt):
 
 @njit(cache=True, inline="always")
 def _orient(pts, a, b, c, d, work):
-    """orient3d of the vertices a, b, c, d (predicates3d.orient3d_filtered, inlined)."""
+    """orient3d of the vertices a, b, c, d: semi-static filter, Shewchuk's, then exact."""
     ax = pts[a, 0]
     ay = pts[a, 1]
     az = pts[a, 2]
@@ -332,6 +339,17 @@ def _orient(pts, a, b, c, d, work):
     adxbdy = adx * bdy
     bdxady = bdx * ady
     det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady)
+    # Semi-static filter: the permanent is at most 6 mx my mz (mx the largest
+    # |x difference|, ...); _O3D_SEMI covers its rounding too.
+    mx = max(abs(adx), max(abs(bdx), abs(cdx)))
+    my = max(abs(ady), max(abs(bdy), abs(cdy)))
+    mz = max(abs(adz), max(abs(bdz), abs(cdz)))
+    errbound = _O3D_SEMI * (mx * my * mz)
+    if det > errbound:
+        return 1
+    if -det > errbound:
+        return -1
+    # Then Shewchuk's tighter bound from the permanent, then exact.
     permanent = (
         (abs(bdxcdy) + abs(cdxbdy)) * abs(adz)
         + (abs(cdxady) + abs(adxcdy)) * abs(bdz)
@@ -352,9 +370,10 @@ def _orient(pts, a, b, c, d, work):
 def _insphere(pts, a, b, c, d, e, work, pbuf):
     """Perturbed insphere sign of e against positive (a, b, c, d); never 0.
 
-    The float filter of predicates3d.insphere_filtered inlined; undecided
-    cases go to predicates3d.insphere_exact, exact ties to insphere_tie (the
-    symbolic perturbation of insphere_perturbed).
+    A semi-static float filter (a few flops), then the float filter of
+    predicates3d.insphere_filtered; undecided cases go to
+    predicates3d.insphere_exact, exact ties to insphere_tie (the symbolic
+    perturbation of insphere_perturbed).
     """
     ex = pts[e, 0]
     ey = pts[e, 1]
@@ -398,6 +417,20 @@ def _insphere(pts, a, b, c, d, e, work, pbuf):
     clift = cex * cex + cey * cey + cez * cez
     dlift = dex * dex + dey * dey + dez * dez
     det = (dlift * abc - clift * dab) + (blift * cda - alift * bcd)
+    # Semi-static filter: the permanent is at most 24 mx my mz (mx**2 + my**2
+    # + mz**2), mx the largest |x difference|, ...; _ISP_SEMI covers its
+    # rounding too. Undecided cases (rare on random points) go to the exact
+    # predicate, whose first stage is the permanent-bounded double-double.
+    mx = max(max(abs(aex), abs(bex)), max(abs(cex), abs(dex)))
+    my = max(max(abs(aey), abs(bey)), max(abs(cey), abs(dey)))
+    mz = max(max(abs(aez), abs(bez)), max(abs(cez), abs(dez)))
+    errbound = _ISP_SEMI * ((mx * my) * mz) * ((mx * mx + my * my) + mz * mz)
+    if det > errbound:
+        return 1
+    if -det > errbound:
+        return -1
+    # Then Shewchuk's tighter bound from the permanent (nearly co-spherical
+    # points), then exact.
     aez = abs(aez)
     bez = abs(bez)
     cez = abs(cez)
@@ -563,7 +596,7 @@ def _insert(
                 return
             bnd[nb] = 4 * c + f
             nb += 1
-    if 4 * nb > hkey.shape[0]:
+    if 8 * nb > hkey.shape[0]:
         state[_STATUS] = _GROW_BUFFERS
         return
     ntet = state[_NTET]
@@ -611,7 +644,7 @@ def _insert(
     # the face (p, x, y) of two cone tetrahedra is keyed by the boundary edge
     # (x, y), met exactly twice. Open addressing, table cleared per insertion.
     hsize = 16
-    while hsize < 4 * nb:
+    while hsize < 8 * nb:  # load at most 3/8 (each edge keyed twice, one tombstone)
         hsize *= 2
     for h in range(hsize):
         hkey[h] = -1
@@ -638,7 +671,9 @@ def _insert(
             if x > y:
                 x, y = y, x
             key = x * big + y
-            h = ((key * np.int64(0x9E3779B1)) >> 11) & mask
+            # Fibonacci hashing: bits 32.. of the product mix both vertices
+            # (the former 32-bit multiplier left x out of the index bits).
+            h = ((key * _FIB64) >> 32) & mask
             while True:
                 kk = hkey[h]
                 if kk == -1:
