@@ -112,7 +112,7 @@ def orient3d_exact(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, work):
     acc2 = work[1000:1500]
     t1 = work[1500:1600]
     t2 = work[1600:1800]
-    alen = 0
+    alen = np.int64(0)
     for k in range(3):
         if k == 0:
             # adz * (bdx*cdy - cdx*bdy)
@@ -301,7 +301,7 @@ def _insphere_raw(p, work):
         # column of ones: sum over the row position pos of (-1)**(pos + 1 + 4)
         # times the 3 x 3 minor of the other three rows (_M4_TRIPLE[r, pos]).
         out = m4[96 * r : 96 * r + 96]
-        alen = 0
+        alen = np.int64(0)
         for pos in range(4):
             q = _M4_TRIPLE[r, pos]
             ln = m3len[q]
@@ -325,17 +325,17 @@ def _insphere_raw(p, work):
     tmp2 = work[2400:3600]
     acc = work[3600:9400]
     acc2 = work[9400:15200]
-    alen = 0
+    alen = np.int64(0)
     for r in range(5):
         if m4len[r] == 0:
             continue
         # Lifting x**2 + y**2 + z**2 of row r, exactly (at most 6 components).
-        llen = 0
+        llen = np.int64(0)
         for c in range(3):
             hi, lo = _two_product(p[r, c], p[r, c])
             sq[0] = lo
             sq[1] = hi
-            nl = _expansion_sum(llen, lift, 2, sq, l4)
+            nl = _expansion_sum(llen, lift, np.int64(2), sq, l4)
             for z in range(nl):
                 lift[z] = l4[z]
             llen = nl
@@ -402,7 +402,7 @@ def _insphere_from_diffs(aex, aey, aez, bex, bey, bez, cex, cey, cez, dex, dey, 
     tmp2 = work[540:830]
     acc = work[1100:2252]
     acc2 = work[2300:3452]
-    alen = 0
+    alen = np.int64(0)
     for k in range(4):
         # det = dlift*abc - clift*dab + blift*cda - alift*bcd
         if k == 0:
@@ -416,13 +416,13 @@ def _insphere_from_diffs(aex, aey, aez, bex, bey, bez, cex, cey, cez, dex, dey, 
         tl = t3len[src]
         if tl == 0:
             continue
-        llen = 0
+        llen = np.int64(0)
         for c in range(3):
             v = x if c == 0 else (y if c == 1 else z)
             hi, lo = _two_product(v, v)
             sq[0] = lo * sgn
             sq[1] = hi * sgn
-            nl = _expansion_sum(llen, lift, 2, sq, l4)
+            nl = _expansion_sum(llen, lift, np.int64(2), sq, l4)
             for q in range(nl):
                 lift[q] = l4[q]
             llen = nl
