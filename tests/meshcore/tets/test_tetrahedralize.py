@@ -36,6 +36,10 @@ SHAPES = {
 }
 
 
+#: ``left``'s counts by cause when nothing is left.
+NONE_LEFT = {"fold": 0, "surface": 0, "interior": 0, "input_angle": 0}
+
+
 def faces_of(tetra: np.ndarray) -> np.ndarray:
     f = tetra[:, [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]]].reshape(-1, 3)
     return np.sort(f, axis=1)
@@ -201,7 +205,7 @@ class TestRefinement:
         ratio = R / _shortest_edge(P, K)
         dih = tetra_dihedral_angles(P, K).min(axis=1)
         left = r.left
-        assert left["radius_edge_above"] == {"fold": 0, "surface": 0, "interior": 0}
+        assert left["radius_edge_above"] == NONE_LEFT
         assert (ratio <= 2.0 + 1e-9).all()
         below = left["dihedral_below"]
         assert below["surface"] == below["interior"] == 0
@@ -220,7 +224,7 @@ class TestRefinement:
         r = tetrahedralize(s, max_radius_edge=2.0)
         assert_valid(r, s)
         assert r.given_up == 0
-        assert r.left["radius_edge_above"] == {"fold": 0, "surface": 0, "interior": 0}
+        assert r.left["radius_edge_above"] == NONE_LEFT
         assert r.surface_points_added + r.interior_points_added < 2_000
 
     def test_torus_radius_edge_points(self):
@@ -231,7 +235,7 @@ class TestRefinement:
         r = tetrahedralize(s, max_radius_edge=2.0)
         assert_valid(r, s)
         assert r.given_up == 0
-        assert r.left["radius_edge_above"] == {"fold": 0, "surface": 0, "interior": 0}
+        assert r.left["radius_edge_above"] == NONE_LEFT
         assert r.surface_points_added + r.interior_points_added < 300
 
     def test_size_and_volume(self):
@@ -262,7 +266,7 @@ class TestRefinement:
         assert d.shape == (len(r.mesh.cells[0].data), 6)
         # With size alone (no radius-edge bound) the sliver pass reaches the bound too.
         assert 15 <= d.min() <= d.max() < 180
-        assert r.left["dihedral_below"] == {"fold": 0, "surface": 0, "interior": 0}
+        assert r.left["dihedral_below"] == NONE_LEFT
 
     def test_bad_parameters(self):
         s = parse_surface(*shapes.box())
