@@ -324,6 +324,46 @@ def test_star_shaped_polyhedra(surf):
     assert r.surface_points_added == 0 and r.interior_points_added <= 1
 
 
+def star_by_seed(seed: int):
+    """The star polyhedron of ``seed`` in ``benchmarks/robustness3d.py`` (radii 0.5 to 1.5)."""
+    first = np.random.default_rng(seed)
+    n, inner = int(first.integers(6, 31)), int(first.integers(0, 2**31 - 1))
+    rng = np.random.default_rng(inner)
+    d = np.concatenate([np.eye(3), -np.eye(3), rng.normal(size=(n, 3))])
+    return shapes.star(rng.uniform(0.5, 1.5, size=len(d)), d)
+
+
+def test_small_input_angles_are_left_and_named():
+    """Seed 16 of ``benchmarks/robustness3d.py``: sharp vertices (segments 25 degrees
+    apart on different facets, dihedral angles down to 23 degrees).
+
+    Before the protecting balls (``meshcore.tets.angles``) the refinement split
+    ever nearer input vertex 2 (points 1e-15 from it) until two points coincided
+    in a facet's plane (``recovery_failed``). Now: a valid mesh, no added point
+    near an input vertex, and every tetrahedron above the bound counted by cause,
+    those skinny because of the input named by place.
+    """
+    s = parse_surface(*star_by_seed(16))
+    r = tetrahedralize(s, max_radius_edge=2.0)
+    assert_valid(r, s)
+    P, K = r.mesh.points, r.mesh.cells[0].data
+    from meshcore.tets.refinement import _shortest_edge, _tet_circumcenters
+
+    _, R = _tet_circumcenters(P, K)
+    above = R / _shortest_edge(P, K) > 2.0
+    left = r.left["radius_edge_above"]
+    assert above.sum() == sum(left.values())
+    places = r.left["input_angles"]
+    assert left["input_angle"] == sum(p["tetrahedra"] for p in places) > 0
+    # About 1 % of the tetrahedra left, most of them for the input's angles.
+    assert above.mean() < 0.02
+    assert sum(left.values()) - left["input_angle"] < left["input_angle"]
+    n = len(s.vertices)
+    d = np.linalg.norm(P[n:, None] - P[None, :n], axis=2).min()
+    edges = np.linalg.norm(P[s.triangles[:, 0]] - P[s.triangles[:, 1]], axis=1)
+    assert d > 1e-3 * edges.min()
+
+
 # ---------------------------------------------------------------------------
 # Downstream: file formats and a finite element solve
 # ---------------------------------------------------------------------------
