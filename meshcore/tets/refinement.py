@@ -124,12 +124,22 @@ Choices the methods text leaves open
   Refining every facet to its feature size (no ``thin`` filter) would split
   half the edges of a torus, whose tube is narrower than twice its long
   edges, and only add points.
-* Small input angles: subsegments at one input vertex are split on
-  concentric shells; refinement next to input angles below 90 degrees may
-  still not terminate by itself, so pieces smaller than ``protect`` times
-  their input edge are not split and the rounds are capped (``Knobs``);
-  the tetrahedra left bad are counted in ``given_up`` and, by cause, in
-  ``left``.
+* **Small input angles** (:mod:`meshcore.tets.angles`): subsegments at
+  one input vertex are split on concentric shells; a *sharp* input vertex
+  (features meeting below ``Knobs.small_angle``, 60 degrees, or a dihedral
+  angle below ``Knobs.sharp_dihedral``, 85) gets a protecting ball (the
+  shells stop at its sphere, facet split points inside it are moved onto
+  it, no interior point goes in it) and a sharp segment a protecting
+  cylinder (no interior point, no encroachment split in it). The rule for
+  what is left: a bad tetrahedron is not refined when its circumcentre lies
+  in a ball or cylinder, or when its shortest edge joins two different
+  input features meeting at an input vertex or segment at an angle below
+  60 degrees (15 between two segments of one facet) -- skinny because of
+  the input (Shewchuk 1998); ``left`` counts them as ``input_angle`` and
+  ``left["input_angles"]`` names each vertex or segment. Pieces smaller
+  than ``protect`` times their input edge are still not split and the
+  rounds are capped (``Knobs``); what that leaves is ``given_up`` and,
+  by cause, ``left``.
 
 References
 ----------
@@ -221,10 +231,12 @@ class TetrahedralizationResult:
         (``dihedral_below``), counted by cause: ``fold`` (two of its faces
         on the surface: it fills the angle between two facets, which the
         input forces when that angle is near 180 degrees, e.g. two input
-        triangles coplanar up to rounding), ``surface`` (four vertices on the
-        surface, its centre encroaching pieces too small to split: next to an
-        input angle below 90 degrees), ``interior``; and the ten worst by
-        least dihedral angle (row in ``tetra``, cause, angle, ratio).
+        triangles coplanar up to rounding), ``input_angle`` (skinny because
+        of a small input angle, :mod:`meshcore.tets.angles`; where, in
+        ``input_angles``: the input vertex or segment and how many
+        tetrahedra), ``surface`` (four vertices on the surface, its centre
+        encroaching pieces too small to split), ``interior``; and the ten
+        worst by least dihedral angle (row in ``tetra``, cause, angle, ratio).
     timings : dict
         Seconds per phase.
     """
