@@ -329,11 +329,6 @@ class SurfaceRecovery:
         #: :meth:`split_segments` and :meth:`onto_balls`. Set by ``tetrahedralize``.
         self.ball = np.zeros(self.n_surface)
         self._ball_tree = None
-        #: Sharp segments (input edge ids) and the radius of the cylinder that
-        #: protects each (0 rows: none); see :meth:`in_cylinders`.
-        self.sharp_edges = np.zeros(0, dtype=np.int64)
-        self.cylinder = np.zeros(0)
-        self._cyl_tree = None
         self.unsettled: dict[int, np.ndarray] = {}  # subsegments missing from a facet's 2D mesh
         self.dt = IncrementalDelaunay3d(self.P)
         self.surface_added = 0
@@ -640,38 +635,6 @@ class SurfaceRecovery:
         out[inside] = v[inside]
         return out
 
-    def in_cylinders(self, X: np.ndarray) -> np.ndarray:
-        """The sharp segment (input edge id) whose protecting cylinder holds each point, or -1.
-
-        The cylinder of a segment of small dihedral angle: the points within
-        ``cylinder`` of it (float distances).
-        """
-        out = np.full(len(X), -1, dtype=np.int64)
-        if len(X) == 0 or len(self.sharp_edges) == 0:
-            return out
-        E = self.edges[self.sharp_edges]
-        a, b = self.P[E[:, 0]], self.P[E[:, 1]]
-        if self._cyl_tree is None:
-            # Samples along each segment, spaced at most its radius.
-            L = np.linalg.norm(b - a, axis=1)
-            k = np.maximum(np.ceil(L / self.cylinder).astype(np.int64), 1) + 1
-            seg = np.repeat(np.arange(len(E)), k)
-            t = (np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)) / np.repeat(k - 1, k)
-            self._cyl_seg = seg
-            self._cyl_tree = cKDTree(a[seg] + t[:, None] * (b - a)[seg])
-        hits = self._cyl_tree.query_ball_point(X, r=1.5 * float(self.cylinder.max()))
-        counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
-        if counts.sum() == 0:
-            return out
-        xi = np.repeat(np.arange(len(X)), counts)
-        si = self._cyl_seg[np.concatenate([np.asarray(h, dtype=np.int64) for h in hits if h])]
-        d = b[si] - a[si]
-        t = np.clip(np.einsum("ij,ij->i", X[xi] - a[si], d) / np.einsum("ij,ij->i", d, d), 0, 1)
-        dist = np.linalg.norm(X[xi] - (a[si] + t[:, None] * d), axis=1)
-        ok = dist < self.cylinder[si]
-        out[xi[ok]] = self.sharp_edges[si[ok]]
-        return out
-
     def onto_balls(self, X: np.ndarray, f: np.ndarray) -> np.ndarray:
         """Points of facets ``f`` inside the protecting ball of a facet corner, moved onto it.
 
@@ -705,8 +668,7 @@ class SurfaceRecovery:
         L = np.linalg.norm(self.P[s[:, 0]] - self.P[s[:, 1]], axis=1)
         ref = np.minimum(self.edge_length[self.seg_edge[rows]], self.size_cap)
         ref = np.minimum(ref, self.segment_size(rows))
-        out = (L < self.knobs.protect * ref) | (L < 1.5 * self.radial_floor(s))
-        return out | np.isin(self.seg_edge[rows], self.sharp_edges)
+        return (L < self.knobs.protect * ref) | (L < 1.5 * self.radial_floor(s))
 
     def radial_floor(self, s: np.ndarray) -> np.ndarray:
         """The protecting ball radius at the one input vertex of each subsegment ``s`` (else 0)."""
@@ -719,11 +681,7 @@ class SurfaceRecovery:
         _, R = tri_circumcenters(self.P, self.sub[rows])
         g = self.sub_facet[rows]
         ref = np.minimum(np.minimum(self.facet_short[g], self.facet_size[g]), self.size_cap)
-        out = R < self.knobs.protect * ref
-        if len(self.sharp_edges):
-            c = self.P[self.sub[rows]].mean(axis=1)
-            out |= self.in_cylinders(c) >= 0
-        return out
+        return R < self.knobs.protect * ref
 
     def segment_size(self, rows: np.ndarray) -> np.ndarray:
         """The size of subsegments ``rows``: the smaller ``facet_size`` of their two facets."""

@@ -108,7 +108,6 @@ def sharp_vertices(b: SurfaceRecovery) -> np.ndarray:
     dihedral = np.where(convex, 180.0 - phi, 180.0 + phi)
     sharp_seg = dihedral < k.sharp_dihedral
     out[E[sharp_seg].reshape(-1)] = True
-    b.sharp_edges = seg_e[sharp_seg]
     # Pairs of segments at a vertex that share no facet.
     ends = np.concatenate([E[:, 0], E[:, 1]])
     other = np.concatenate([E[:, 1], E[:, 0]])
@@ -206,12 +205,6 @@ def protecting_balls(b: SurfaceRecovery) -> int:
     ok = r > 0
     b.ball[sharp[ok]] = np.exp2(np.floor(np.log2(r[ok])))
     b._ball_tree = None
-    # Sharp segments: a cylinder of the smaller ball of their ends.
-    E = b.edges[b.sharp_edges]
-    b.cylinder = np.minimum(b.ball[E[:, 0]], b.ball[E[:, 1]])
-    keep = b.cylinder > 0
-    b.sharp_edges, b.cylinder = b.sharp_edges[keep], b.cylinder[keep]
-    b._cyl_tree = None
     return int(ok.sum())
 
 
@@ -314,15 +307,6 @@ def input_forced(b: SurfaceRecovery, T: np.ndarray, centres: np.ndarray) -> tupl
         if theta < bound:
             mask[r] = True
             where[r] = at
-    # The circumcentre inside a sharp segment's protecting cylinder.
-    if len(b.sharp_edges):
-        rest = np.flatnonzero(~mask)
-        cc = centres[rest]
-        cc = np.where(np.isfinite(cc).all(axis=1)[:, None], cc, 1e300)
-        cyl = b.in_cylinders(cc)
-        for r, e in zip(rest[cyl >= 0].tolist(), cyl[cyl >= 0].tolist(), strict=True):
-            mask[r] = True
-            where[r] = sorted(int(z) for z in b.edges[e])
     # Inside a protecting ball: a vertex and the circumcentre both inside one.
     if b.ball.any():
         rest = np.flatnonzero(~mask)

@@ -641,7 +641,7 @@ def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> 
             held[xf[guard & fresh]] = True
             splits[sub_pairs[0]] = True
     # No interior point inside a protecting ball (``meshcore.tets.angles``).
-    ball = (b.in_balls(centres) >= 0) | (b.in_cylinders(centres) >= 0)
+    ball = b.in_balls(centres) >= 0
     held |= ball & ~splits
     blocked |= ball
     # Far circumcentres (of nearly flat tetrahedra) lie outside the surface's box:
