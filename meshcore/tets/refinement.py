@@ -129,10 +129,9 @@ Choices the methods text leaves open
   (features meeting below ``Knobs.small_angle``, 60 degrees, or a dihedral
   angle below ``Knobs.sharp_dihedral``, 85) gets a protecting ball (the
   shells stop at its sphere, facet split points inside it are moved onto
-  it, no interior point goes in it) and a sharp segment a protecting
-  cylinder (no interior point, no encroachment split in it). The rule for
-  what is left: a bad tetrahedron is not refined when its circumcentre lies
-  in a ball or cylinder, or when its shortest edge joins two different
+  it, no interior point goes in it). The rule for what is left: a bad
+  tetrahedron is not refined when its circumcentre lies in a protecting
+  ball, or when its shortest edge joins two different
   input features meeting at an input vertex or segment at an angle below
   60 degrees (15 between two segments of one facet) -- skinny because of
   the input (Shewchuk 1998); ``left`` counts them as ``input_angle`` and
