@@ -5,8 +5,8 @@ Run from the repository root::
     .venv/bin/python benchmarks/tetrahedralize.py
     .venv/bin/python benchmarks/tetrahedralize.py --shapes torus --size 0.08
 
-Inputs: an icosphere (1,280 triangles), a torus (32 x 16 quads split), a box
-with a box-shaped cavity, an L-block and a thin slab (1 x 1 x 0.01), each
+Inputs: a unit cube, an icosphere (1,280 triangles), a torus (32 x 16 quads split), a box
+with a box-shaped cavity, an L-block a thin slab (1 x 1 x 0.01) and Schönhardt's prism, each
 given to every tool as the same points and triangles. Ours runs with the
 default ``max_radius_edge=2`` with ``min_dihedral=15`` added, and with
 ``size`` alone (no radius-edge bound), and with ``keep_boundary`` (beside
@@ -53,11 +53,13 @@ def _cavity():
 
 
 SHAPES = {
+    "cube": lambda: (*shapes.box(), []),
     "icosphere": lambda: (*shapes.icosphere(3), []),
     "torus": lambda: (*shapes.torus(nu=32, nv=16), []),
     "cavity": _cavity,
     "l_block": lambda: (*shapes.l_block(), []),
     "slab": lambda: (*shapes.box((0, 0, 0), (1, 1, 0.01)), []),
+    "schonhardt": lambda: (*shapes.schonhardt(), []),
 }
 
 

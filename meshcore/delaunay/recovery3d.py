@@ -119,6 +119,22 @@ class Knobs:
     #: Degrees: with ``keep_boundary`` (no refinement), the tetrahedra whose least
     #: dihedral angle is below this are offered 3-2 flips (``meshcore.tets.keep``).
     kept_flip_below: float = 15.0
+    #: Degrees: two input features (segments, facets) meeting at an angle below
+    #: this make a *small input angle* (``meshcore.tets.angles``): an input vertex
+    #: where two segments on no common facet, or a segment and a facet, meet below
+    #: it gets a protecting ball; a tetrahedron whose shortest edge joins two such
+    #: features where they make an angle below it is not refined.
+    small_angle: float = 60.0
+    #: ... an input vertex on a segment whose interior dihedral angle is below
+    #: this (degrees) gets a protecting ball too (Shewchuk's analysis needs 90).
+    sharp_dihedral: float = 85.0
+    #: ... two segments of one facet: the tetrahedron is left only below this
+    #: angle between them (degrees; a facet corner of angle t forces a
+    #: radius-edge ratio of at least 1 / (2 sin t), 2 at 14.5 degrees).
+    facet_angle: float = 15.0
+    #: A protecting ball's radius is the largest power of two at most this
+    #: fraction of its vertex's local feature size (so balls never meet).
+    ball_fraction: float = 1.0 / 3.0
 
 
 KNOBS = Knobs()
@@ -309,6 +325,10 @@ class SurfaceRecovery:
         # triangles (what retriangulate gives a facet without added points).
         self.sub = facets.copy()
         self.sub_facet = group.copy()
+        #: Per input vertex: the radius of its protecting ball (0: none); see
+        #: :meth:`split_segments` and :meth:`onto_balls`. Set by ``tetrahedralize``.
+        self.ball = np.zeros(self.n_surface)
+        self._ball_tree = None
         self.unsettled: dict[int, np.ndarray] = {}  # subsegments missing from a facet's 2D mesh
         self.dt = IncrementalDelaunay3d(self.P)
         self.surface_added = 0
@@ -390,20 +410,29 @@ class SurfaceRecovery:
         nearest to half its length (so the points put on the edges leaving
         one vertex lie on common spheres around it and do not encroach each
         other's subsegments, whatever the angle between the edges); the
-        others at their midpoints.
+        others at their midpoints. At a vertex with a protecting ball
+        (``ball``, a power of two) no split goes inside the ball: the shells
+        stop at its sphere, and a subsegment from the vertex to the sphere is
+        never split (it stays an edge: every point inside the ball is on its
+        sphere, and no point of that sphere lies in its closed diametral
+        ball).
         """
         rows = np.unique(rows)
         if rows.size == 0:
             return 0
         s = self.seg[rows]
+        ia = s[:, 0] < self.n_surface
+        one = ia ^ (s[:, 1] < self.n_surface)
         pa, pb = self.P[s[:, 0]], self.P[s[:, 1]]
         L = np.linalg.norm(pb - pa, axis=1)
+        floor = self.radial_floor(s)
+        ok = L >= 1.5 * floor
+        rows, s, ia, one, pa, pb, L, floor = (x[ok] for x in (rows, s, ia, one, pa, pb, L, floor))
+        if rows.size == 0:
+            return 0
         t = np.full(len(rows), 0.5)
-        ia = s[:, 0] < self.n_surface
-        ib = s[:, 1] < self.n_surface
-        one = ia ^ ib
         if one.any():
-            d = np.exp2(np.round(np.log2(0.5 * L[one])))
+            d = np.maximum(np.exp2(np.round(np.log2(0.5 * L[one]))), floor[one])
             frac = d / L[one]
             t[one] = np.where(ia[one], frac, 1.0 - frac)
         mid = pa + t[:, None] * (pb - pa)
@@ -515,8 +544,10 @@ class SurfaceRecovery:
         """Split subfaces ``rows`` at their circumcentres (Shewchuk's rule).
 
         A circumcentre outside its facet, or in the diametral ball of a
-        subsegment, splits the subsegments it encroaches instead. Returns
-        (subfaces split, subsegments split).
+        subsegment, splits the subsegments it encroaches instead. A point
+        inside the protecting ball of a corner of its facet is moved onto the
+        ball's sphere (:meth:`onto_balls`). Returns (subfaces split,
+        subsegments split).
         """
         rows = np.unique(rows)
         if rows.size == 0:
@@ -539,6 +570,7 @@ class SurfaceRecovery:
             # edge, encroaches the subsegment that is split below.
             c[flat] = T.mean(axis=1)
             R[flat] = half
+        c = self.onto_balls(c, self.sub_facet[rows])
         # Co-circular subfaces share a circumcentre up to rounding: keep one.
         near = self.crowded(c, R)
         rows, c, R = rows[~near], c[~near], R[~near]
@@ -553,6 +585,7 @@ class SurfaceRecovery:
             # subface's longest subsegment-free edge's facet edge... use the centroid.
             c[lost] = self.P[self.sub[rows[lost]]].mean(axis=1)
             inside[lost] = True
+        c[lost] = self.onto_balls(c[lost], f[lost])
         use = inside & ~hit
         n_seg = self.split_segments(enc_s)
         ids = self.add(c[use], np.full(int(use.sum()), -1), f[use])
@@ -583,12 +616,66 @@ class SurfaceRecovery:
                 out[j[dd <= np.minimum(r[i], r[j])]] = True
         return out
 
+    def in_balls(self, X: np.ndarray) -> np.ndarray:
+        """The input vertex whose protecting ball holds each point strictly inside, or -1.
+
+        The balls are disjoint (``ball_fraction`` of the local feature size),
+        so the nearest ball centre decides. Float distances: a point moved
+        onto a sphere by :meth:`onto_balls` counts as outside.
+        """
+        out = np.full(len(X), -1, dtype=np.int64)
+        if len(X) == 0 or not self.ball.any():
+            return out
+        if self._ball_tree is None:
+            self._ball_ids = np.flatnonzero(self.ball > 0)
+            self._ball_tree = cKDTree(self.P[self._ball_ids])
+        d, k = self._ball_tree.query(X)
+        v = self._ball_ids[k]
+        inside = d < self.ball[v] * (1.0 - 1e-9)
+        out[inside] = v[inside]
+        return out
+
+    def onto_balls(self, X: np.ndarray, f: np.ndarray) -> np.ndarray:
+        """Points of facets ``f`` inside the protecting ball of a facet corner, moved onto it.
+
+        Along the ray from the corner (in the facet's plane, which holds the
+        corner): the points a facet gets inside a protecting ball all lie on
+        its sphere, so splits next to a sharp vertex stop there (Cheng and
+        Poon's and Cohen-Steiner, de Verdière and Yvinec's protecting balls).
+        """
+        v = self.in_balls(X)
+        rows = np.flatnonzero(v >= 0)
+        if rows.size == 0:
+            return X
+        X = X.copy()
+        corner = np.array(
+            [
+                int(vv) in set(self._corners(int(g))[0].tolist())
+                for vv, g in zip(v[rows], f[rows], strict=True)
+            ],
+            dtype=bool,
+        )
+        rows = rows[corner]
+        d = X[rows] - self.P[v[rows]]
+        n = np.linalg.norm(d, axis=1)
+        ok = n > 0
+        rows, d, n = rows[ok], d[ok], n[ok]
+        X[rows] = self.P[v[rows]] + (self.ball[v[rows]] / n)[:, None] * d
+        return X
+
     def protected_segments(self, rows: np.ndarray) -> np.ndarray:
         s = self.seg[rows]
         L = np.linalg.norm(self.P[s[:, 0]] - self.P[s[:, 1]], axis=1)
         ref = np.minimum(self.edge_length[self.seg_edge[rows]], self.size_cap)
         ref = np.minimum(ref, self.segment_size(rows))
-        return L < self.knobs.protect * ref
+        return (L < self.knobs.protect * ref) | (L < 1.5 * self.radial_floor(s))
+
+    def radial_floor(self, s: np.ndarray) -> np.ndarray:
+        """The protecting ball radius at the one input vertex of each subsegment ``s`` (else 0)."""
+        ia = s[:, 0] < self.n_surface
+        ib = s[:, 1] < self.n_surface
+        v = np.where(ia, s[:, 0], s[:, 1]) % self.n_surface
+        return np.where(ia ^ ib, self.ball[v], 0.0)
 
     def protected_subfaces(self, rows: np.ndarray) -> np.ndarray:
         _, R = tri_circumcenters(self.P, self.sub[rows])

@@ -124,12 +124,21 @@ Choices the methods text leaves open
   Refining every facet to its feature size (no ``thin`` filter) would split
   half the edges of a torus, whose tube is narrower than twice its long
   edges, and only add points.
-* Small input angles: subsegments at one input vertex are split on
-  concentric shells; refinement next to input angles below 90 degrees may
-  still not terminate by itself, so pieces smaller than ``protect`` times
-  their input edge are not split and the rounds are capped (``Knobs``);
-  the tetrahedra left bad are counted in ``given_up`` and, by cause, in
-  ``left``.
+* **Small input angles** (:mod:`meshcore.tets.angles`): subsegments at
+  one input vertex are split on concentric shells; a *sharp* input vertex
+  (features meeting below ``Knobs.small_angle``, 60 degrees, or a dihedral
+  angle below ``Knobs.sharp_dihedral``, 85) gets a protecting ball (the
+  shells stop at its sphere, facet split points inside it are moved onto
+  it, no interior point goes in it). The rule for what is left: a bad
+  tetrahedron is not refined when its circumcentre lies in a protecting
+  ball, or when its shortest edge joins two different
+  input features meeting at an input vertex or segment at an angle below
+  60 degrees (15 between two segments of one facet) -- skinny because of
+  the input (Shewchuk 1998); ``left`` counts them as ``input_angle`` and
+  ``left["input_angles"]`` names each vertex or segment. Pieces smaller
+  than ``protect`` times their input edge are still not split and the
+  rounds are capped (``Knobs``); what that leaves is ``given_up`` and,
+  by cause, ``left``.
 
 References
 ----------
@@ -170,6 +179,7 @@ from meshcore.domain.surface import as_surface
 from meshcore.errors import InputError
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh
+from meshcore.tets.angles import input_forced, protecting_balls
 from meshcore.tets.keep import flip_slivers, lift_surface_points
 from meshcore.tets.sizing import SizeField3d
 
@@ -220,10 +230,12 @@ class TetrahedralizationResult:
         (``dihedral_below``), counted by cause: ``fold`` (two of its faces
         on the surface: it fills the angle between two facets, which the
         input forces when that angle is near 180 degrees, e.g. two input
-        triangles coplanar up to rounding), ``surface`` (four vertices on the
-        surface, its centre encroaching pieces too small to split: next to an
-        input angle below 90 degrees), ``interior``; and the ten worst by
-        least dihedral angle (row in ``tetra``, cause, angle, ratio).
+        triangles coplanar up to rounding), ``input_angle`` (skinny because
+        of a small input angle, :mod:`meshcore.tets.angles`; where, in
+        ``input_angles``: the input vertex or segment and how many
+        tetrahedra), ``surface`` (four vertices on the surface, its centre
+        encroaching pieces too small to split), ``interior``; and the ten
+        worst by least dihedral angle (row in ``tetra``, cause, angle, ratio).
     timings : dict
         Seconds per phase.
     """
@@ -501,9 +513,12 @@ def _left_report(
 
     Causes: ``fold`` (two faces on the surface: the tetrahedron fills the
     angle between two facets, forced by the input where that angle is near
-    180 degrees or small), ``surface`` (its four vertices on the surface,
-    its circumcentre encroaching a subface too small to split: next to an
-    input angle below 90 degrees), ``interior`` (the round cap was reached).
+    180 degrees or small), ``input_angle`` (skinny because of a small input
+    angle, :func:`meshcore.tets.angles.input_forced`; ``input_angles`` lists
+    where: the input vertex or segment, input numbering, and how many
+    tetrahedra), ``surface`` (its four vertices on the surface, its
+    circumcentre encroaching a subface too small to split), ``interior``
+    (the round cap was reached).
     """
     c, R = _tet_circumcenters(b.P, T)
     ratio = R / _shortest_edge(b.P, T)
@@ -514,8 +529,27 @@ def _left_report(
     folds = _boundary_face_count(b, T, sub) >= 2
     surf = ~folds & on_surface[T].all(axis=1)
     cause = np.where(folds, 0, np.where(surf, 1, 2))
-    names = ("fold", "surface", "interior")
-    out: dict = {}
+    # Skinny because of a small input angle (``meshcore.tets.angles``), named by place.
+    bad = np.zeros(len(T), dtype=bool)
+    if max_radius_edge:
+        bad |= ratio > max_radius_edge
+    if min_dihedral:
+        bad |= dih < min_dihedral
+    rows = np.flatnonzero(bad & ~folds)
+    forced, where = input_forced(b, T[rows], c[rows])
+    cause[rows[forced]] = 3
+    places: dict = {}
+    for w in (w for w, f in zip(where, forced, strict=True) if f):
+        key = tuple(int(b.source[z]) for z in w)
+        places[key] = places.get(key, 0) + 1
+    names = ("fold", "surface", "interior", "input_angle")
+    out: dict = {
+        "input_angles": [
+            {"vertex" if len(k) == 1 else "segment": list(k) if len(k) > 1 else k[0],
+             "tetrahedra": n}
+            for k, n in sorted(places.items())
+        ]
+    }  # fmt: skip
     for key, bad in (
         ("radius_edge_above", ratio > max_radius_edge if max_radius_edge else None),
         ("dihedral_below", dih < min_dihedral if min_dihedral else None),
@@ -605,6 +639,10 @@ def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> 
             sub_pairs = (xf[~guard & fresh], fi[~guard & fresh])
             held[xf[guard & fresh]] = True
             splits[sub_pairs[0]] = True
+    # No interior point inside a protecting ball (``meshcore.tets.angles``).
+    ball = b.in_balls(centres) >= 0
+    held |= ball & ~splits
+    blocked |= ball
     # Far circumcentres (of nearly flat tetrahedra) lie outside the surface's box:
     # outside every region.
     lo, hi = b.P[: b.n_surface].min(axis=0), b.P[: b.n_surface].max(axis=0)
@@ -629,8 +667,12 @@ def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> 
             np.concatenate([sub_pairs[1], sub_rows[~guard]]),
         )
         held[idx[leaning]] = True
-        centres[idx[~leaning]] = b.P[tets[rows[idx[~leaning]]]].mean(axis=1)
-        far[idx[~leaning]] = False
+        lone = idx[~leaning]
+        centres[lone] = b.P[tets[rows[lone]]].mean(axis=1)
+        far[lone] = False
+        inb = b.in_balls(centres[lone]) >= 0
+        held[lone[inb]] = True
+        blocked[lone[inb]] = True
     keep = ~blocked & ~far
     allowed = np.zeros(int(slots.max()) + 1, dtype=bool)
     allowed[slots] = region >= 0
@@ -722,6 +764,7 @@ def _sliver_pass(b: SurfaceRecovery, bound: float, max_radius_edge: float, progr
                 nrm *= rf[0] / np.linalg.norm(nrm)
                 t = np.array([0.05, 0.1, 0.2, 0.35, 0.5, -0.05, -0.1, -0.2, -0.35, -0.5])
                 X = np.concatenate([X, b.P[T[row]].mean(axis=0) + t[:, None] * nrm])
+            X = X[b.in_balls(X) < 0]
             k_best = _best_candidate(
                 b.P, cache.V, cache.A, cache.C, cache.R, cache.reg, s, X, reg, max_radius_edge,
                 bound,
@@ -969,7 +1012,9 @@ def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[
         if size_at is not None:
             cap = np.minimum(cap, size_at(0.5 * (b.P[b.seg[:, 0]] + b.P[b.seg[:, 1]])))
         L = np.linalg.norm(b.P[b.seg[:, 0]] - b.P[b.seg[:, 1]], axis=1)
-        seg_bad = np.union1d(seg_bad, np.flatnonzero(L > cap))
+        seg_bad = np.union1d(
+            seg_bad, np.flatnonzero((L > cap) & (L >= 1.5 * b.radial_floor(b.seg)))
+        )
         if seg_bad.size:
             b.split_segments(seg_bad)
             continue
@@ -990,6 +1035,9 @@ def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[
         # A flat fold is dropped at the end (``_drop_flat_folds``): no point fixes it.
         fold = _flat_folds(b, Ti[rows])
         rows, centres = rows[~fold], centres[~fold]
+        # Skinny because of a small input angle (``meshcore.tets.angles``): left.
+        forced, _ = input_forced(b, Ti[rows], centres)
+        rows, centres = rows[~forced], centres[~forced]
         if sliver_bound is not None:
             # The radius-edge, volume and size bounds first, then the slivers that
             # are not held between two facets (those the input's fold forces).
@@ -1183,6 +1231,9 @@ def tetrahedralize(
         lfs = _feature_sizes(b)
         thin = lfs < b.knobs.thin * b.facet_short
         b.facet_size[thin] = b.knobs.feature_size * lfs[thin]
+    if not (empty or keep_boundary):
+        # Small input angles: protecting balls at the sharp vertices.
+        protecting_balls(b)
     timings["delaunay"] = time.perf_counter() - t0
     rounds = 0
     given_up = 0

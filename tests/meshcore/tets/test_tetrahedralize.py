@@ -36,6 +36,10 @@ SHAPES = {
 }
 
 
+#: ``left``'s counts by cause when nothing is left.
+NONE_LEFT = {"fold": 0, "surface": 0, "interior": 0, "input_angle": 0}
+
+
 def faces_of(tetra: np.ndarray) -> np.ndarray:
     f = tetra[:, [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]]].reshape(-1, 3)
     return np.sort(f, axis=1)
@@ -201,7 +205,7 @@ class TestRefinement:
         ratio = R / _shortest_edge(P, K)
         dih = tetra_dihedral_angles(P, K).min(axis=1)
         left = r.left
-        assert left["radius_edge_above"] == {"fold": 0, "surface": 0, "interior": 0}
+        assert left["radius_edge_above"] == NONE_LEFT
         assert (ratio <= 2.0 + 1e-9).all()
         below = left["dihedral_below"]
         assert below["surface"] == below["interior"] == 0
@@ -220,7 +224,7 @@ class TestRefinement:
         r = tetrahedralize(s, max_radius_edge=2.0)
         assert_valid(r, s)
         assert r.given_up == 0
-        assert r.left["radius_edge_above"] == {"fold": 0, "surface": 0, "interior": 0}
+        assert r.left["radius_edge_above"] == NONE_LEFT
         assert r.surface_points_added + r.interior_points_added < 2_000
 
     def test_torus_radius_edge_points(self):
@@ -231,7 +235,7 @@ class TestRefinement:
         r = tetrahedralize(s, max_radius_edge=2.0)
         assert_valid(r, s)
         assert r.given_up == 0
-        assert r.left["radius_edge_above"] == {"fold": 0, "surface": 0, "interior": 0}
+        assert r.left["radius_edge_above"] == NONE_LEFT
         assert r.surface_points_added + r.interior_points_added < 300
 
     def test_size_and_volume(self):
@@ -262,7 +266,7 @@ class TestRefinement:
         assert d.shape == (len(r.mesh.cells[0].data), 6)
         # With size alone (no radius-edge bound) the sliver pass reaches the bound too.
         assert 15 <= d.min() <= d.max() < 180
-        assert r.left["dihedral_below"] == {"fold": 0, "surface": 0, "interior": 0}
+        assert r.left["dihedral_below"] == NONE_LEFT
 
     def test_bad_parameters(self):
         s = parse_surface(*shapes.box())
@@ -318,6 +322,46 @@ def test_star_shaped_polyhedra(surf):
     r = tetrahedralize(s, keep_boundary=True)
     assert_valid(r, s, exact_boundary=True)
     assert r.surface_points_added == 0 and r.interior_points_added <= 1
+
+
+def star_by_seed(seed: int):
+    """The star polyhedron of ``seed`` in ``benchmarks/robustness3d.py`` (radii 0.5 to 1.5)."""
+    first = np.random.default_rng(seed)
+    n, inner = int(first.integers(6, 31)), int(first.integers(0, 2**31 - 1))
+    rng = np.random.default_rng(inner)
+    d = np.concatenate([np.eye(3), -np.eye(3), rng.normal(size=(n, 3))])
+    return shapes.star(rng.uniform(0.5, 1.5, size=len(d)), d)
+
+
+def test_small_input_angles_are_left_and_named():
+    """Seed 16 of ``benchmarks/robustness3d.py``: sharp vertices (segments 25 degrees
+    apart on different facets, dihedral angles down to 23 degrees).
+
+    Before the protecting balls (``meshcore.tets.angles``) the refinement split
+    ever nearer input vertex 2 (points 1e-15 from it) until two points coincided
+    in a facet's plane (``recovery_failed``). Now: a valid mesh, no added point
+    near an input vertex, and every tetrahedron above the bound counted by cause,
+    those skinny because of the input named by place.
+    """
+    s = parse_surface(*star_by_seed(16))
+    r = tetrahedralize(s, max_radius_edge=2.0)
+    assert_valid(r, s)
+    P, K = r.mesh.points, r.mesh.cells[0].data
+    from meshcore.tets.refinement import _shortest_edge, _tet_circumcenters
+
+    _, R = _tet_circumcenters(P, K)
+    above = R / _shortest_edge(P, K) > 2.0
+    left = r.left["radius_edge_above"]
+    assert above.sum() == sum(left.values())
+    places = r.left["input_angles"]
+    assert left["input_angle"] == sum(p["tetrahedra"] for p in places) > 0
+    # About 1 % of the tetrahedra left, most of them for the input's angles.
+    assert above.mean() < 0.02
+    assert sum(left.values()) - left["input_angle"] < left["input_angle"]
+    n = len(s.vertices)
+    d = np.linalg.norm(P[n:, None] - P[None, :n], axis=2).min()
+    edges = np.linalg.norm(P[s.triangles[:, 0]] - P[s.triangles[:, 1]], axis=1)
+    assert d > 1e-3 * edges.min()
 
 
 # ---------------------------------------------------------------------------

@@ -1,0 +1,321 @@
+"""Small input angles: protecting balls at sharp vertices, and tetrahedra the input keeps skinny.
+
+Delaunay refinement with a radius-edge bound terminates when the input's
+angles are not too small (Shewchuk 1998: segments at least 60 degrees apart,
+segments and facets at least 69 degrees, dihedral angles at least 90). Random
+closed surfaces have much smaller ones, and refinement next to them splits
+ever nearer the vertex or the edge where they meet (a spiral of
+subsegment, subface and tetrahedron splits: points 1e-15 from a vertex,
+then two points that coincide in a facet's plane). Two cures, as in
+Shewchuk's, TetGen's and CGAL's meshers:
+
+* **Protecting balls** (:func:`protecting_balls`; Cheng and Poon, "Graded
+  conforming Delaunay tetrahedralization with bounded radius-edge ratio",
+  2003; Cohen-Steiner, de Verdière and Yvinec, "Conforming Delaunay
+  triangulations in 3D", 2002): every *sharp* input vertex (two segments on
+  no common facet, or a segment and a facet on its inner side, less than
+  ``Knobs.small_angle`` apart; or an incident segment of interior dihedral
+  angle below ``Knobs.sharp_dihedral``) gets a ball of radius a power of
+  two, at most ``Knobs.ball_fraction`` of its local feature size (the
+  distance to the nearest other input vertex or non-incident input
+  triangle), so balls never meet. Inside the ball the only points are the
+  vertex and points on the ball's sphere: the concentric shells of
+  :meth:`~meshcore.delaunay.recovery3d.SurfaceRecovery.split_segments` stop
+  at the sphere, a subface's split point inside the ball is moved onto the
+  sphere (:meth:`~meshcore.delaunay.recovery3d.SurfaceRecovery.onto_balls`),
+  and no interior point is inserted inside it (the tetrahedron asking for
+  it is left, cause ``input_angle``). Then the subsegments from the vertex
+  to its sphere are edges for good, and the splits next to it end.
+* **Skinny because of the input** (:func:`input_forced`; Shewchuk,
+  "Tetrahedral mesh generation by Delaunay refinement", 1998, §5): a bad
+  tetrahedron whose shortest edge joins points on two different input
+  features (vertices, segments, facets; neither holding the other) that
+  meet at an input vertex or segment, at an angle (seen from it) below
+  ``Knobs.small_angle`` (``Knobs.facet_angle`` for two segments of one
+  facet), is not refined: no point makes it better, and its circumcentre's
+  splits are the spiral.
+
+References
+----------
+Methods text §9.2, §9.3 (the recovery these pieces belong to); J. R.
+Shewchuk (SoCG 1998); S.-W. Cheng and S.-H. Poon (SODA 2003); D.
+Cohen-Steiner, É. Colin de Verdière and M. Yvinec (SoCG 2002).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from meshcore.delaunay.recovery3d import TET_EDGES, SurfaceRecovery, ball_pairs
+
+__all__ = ["input_forced", "protecting_balls"]
+
+
+def _unit(x: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(x, axis=-1, keepdims=True)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return x / n
+
+
+def _angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Angles (degrees) between vectors (rows)."""
+    c = np.einsum("ij,ij->i", _unit(u), _unit(v))
+    return np.degrees(np.arccos(np.clip(np.nan_to_num(c, nan=1.0), -1.0, 1.0)))
+
+
+def _pairs(group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """All ordered pairs (i, j), i != j, of rows with the same (sorted) ``group``."""
+    bounds = np.flatnonzero(
+        np.diff(np.concatenate([[-1], group, [group.max() + 1 if len(group) else 0]]))
+    )
+    start = bounds[:-1]
+    size = np.diff(bounds)
+    first = np.repeat(start, size)
+    deg = np.repeat(size, size)
+    i = np.repeat(np.arange(len(group)), deg)
+    j = np.repeat(first, deg) + (np.arange(len(i)) - np.repeat(np.cumsum(deg) - deg, deg))
+    keep = i != j
+    return i[keep], j[keep]
+
+
+def sharp_vertices(b: SurfaceRecovery) -> np.ndarray:
+    """Mask of the input vertices where features meet at a small angle (see the module)."""
+    k = b.knobs
+    n = b.n_surface
+    P = b.P
+    F = b.facets
+    out = np.zeros(n, dtype=bool)
+    seg_e = b.seg_edge[: len(b.seg_edge)]
+    seg_e = np.unique(seg_e)
+    E = b.edges[seg_e]
+    if len(E) == 0:
+        return out
+    # Interior dihedral angle of each segment: its two input triangles.
+    tri_edges = np.sort(np.stack([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]], 1), axis=2)
+    key = tri_edges[..., 0] * n + tri_edges[..., 1]
+    order = np.argsort(key.reshape(-1), kind="stable")
+    ks = key.reshape(-1)[order]
+    ek = E[:, 0] * n + E[:, 1]
+    pos = np.searchsorted(ks, ek)
+    t1, t2 = order[pos] // 3, order[pos + 1] // 3
+    nrm = _unit(np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]))
+    far = F[t2][(F[t2] != E[:, :1]) & (F[t2] != E[:, 1:])]
+    convex = np.einsum("ij,ij->i", nrm[t1], P[far] - P[F[t1, 0]]) < 0
+    phi = _angle(nrm[t1], nrm[t2])
+    dihedral = np.where(convex, 180.0 - phi, 180.0 + phi)
+    sharp_seg = dihedral < k.sharp_dihedral
+    out[E[sharp_seg].reshape(-1)] = True
+    # Pairs of segments at a vertex that share no facet.
+    ends = np.concatenate([E[:, 0], E[:, 1]])
+    other = np.concatenate([E[:, 1], E[:, 0]])
+    groups = np.concatenate([b.edge_groups[seg_e]] * 2)
+    order = np.argsort(ends, kind="stable")
+    ends, other, groups = ends[order], other[order], groups[order]
+    i, j = _pairs(ends)
+    common = (groups[i, :, None] == groups[j, None, :]).any(axis=(1, 2))
+    ang = _angle(P[other[i]] - P[ends[i]], P[other[j]] - P[ends[j]])
+    out[ends[i][~common & (ang < k.small_angle)]] = True
+    # A segment and a facet (an input triangle at the vertex, of another facet than
+    # the segment's two) on its inner side, the segment over the triangle's corner.
+    cv = F.reshape(-1)
+    ct = np.repeat(np.arange(len(F)), 3)
+    corner = np.tile(np.arange(3), len(F))
+    order = np.argsort(cv, kind="stable")
+    cv, ct, corner = cv[order], ct[order], corner[order]
+    lo = np.searchsorted(cv, ends, side="left")
+    hi = np.searchsorted(cv, ends, side="right")
+    cnt = hi - lo
+    si = np.repeat(np.arange(len(ends)), cnt)
+    ci = np.repeat(lo, cnt) + (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt))
+    t = ct[ci]
+    g = b.group[t]
+    mine = (groups[si] == g[:, None]).any(axis=1)
+    si, ci, t = si[~mine], ci[~mine], t[~mine]
+    if si.size:
+        v = ends[si]
+        d = _unit(P[other[si]] - P[v])
+        a1 = P[F[t, (corner[ci] + 1) % 3]] - P[v]
+        a2 = P[F[t, (corner[ci] + 2) % 3]] - P[v]
+        nn = nrm[t]
+        h = np.einsum("ij,ij->i", d, nn)
+        dp = d - h[:, None] * nn
+        w = np.einsum("ij,ij->i", np.cross(a1, a2), nn)
+        s1 = np.einsum("ij,ij->i", np.cross(dp, a2), nn) * w
+        s2 = np.einsum("ij,ij->i", np.cross(a1, dp), nn) * w
+        over = (s1 >= 0) & (s2 >= 0) & (h < 0)
+        small = np.degrees(np.arcsin(np.clip(-h, 0.0, 1.0))) < k.small_angle
+        out[v[over & small]] = True
+    return out
+
+
+def _point_triangle_distance(X, A, B, C) -> np.ndarray:
+    """Distance from each point X[i] to the triangle (A[i], B[i], C[i]) (constructions)."""
+    ab, ac, ax = B - A, C - A, X - A
+    nrm = np.cross(ab, ac)
+    nn = np.einsum("ij,ij->i", nrm, nrm)
+    # Barycentric coordinates of the projection; inside: the plane distance.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v = np.einsum("ij,ij->i", np.cross(ax, ac), nrm) / nn
+        w = np.einsum("ij,ij->i", np.cross(ab, ax), nrm) / nn
+        plane = np.abs(np.einsum("ij,ij->i", ax, nrm)) / np.sqrt(nn)
+    inside = (v >= 0) & (w >= 0) & (v + w <= 1)
+
+    def seg(P, Q):
+        d = Q - P
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = np.clip(np.einsum("ij,ij->i", X - P, d) / np.einsum("ij,ij->i", d, d), 0, 1)
+        return np.linalg.norm(X - (P + np.nan_to_num(s)[:, None] * d), axis=1)
+
+    edge = np.minimum(np.minimum(seg(A, B), seg(B, C)), seg(C, A))
+    return np.where(inside, np.minimum(plane, edge), edge)
+
+
+def protecting_balls(b: SurfaceRecovery) -> int:
+    """Give every sharp input vertex of ``b`` its protecting ball (``b.ball``); their number.
+
+    Radius: the largest power of two at most ``Knobs.ball_fraction`` times
+    the vertex's local feature size (nearest other input vertex, nearest
+    input triangle not incident to it) and half of ``b.size_cap``.
+    """
+    sharp = np.flatnonzero(sharp_vertices(b))
+    if sharp.size == 0:
+        return 0
+    P = b.P[: b.n_surface]
+    F = b.facets
+    d_near, _ = cKDTree(P).query(P[sharp], k=2)
+    lfs = d_near[:, 1].copy()
+    a, bb, c = P[F[:, 0]], P[F[:, 1]], P[F[:, 2]]
+    longest = np.maximum.reduce(
+        [np.linalg.norm(bb - a, axis=1), np.linalg.norm(c - bb, axis=1),
+         np.linalg.norm(a - c, axis=1)]
+    )  # fmt: skip
+    xi, ti = ball_pairs(P[sharp], (a + bb + c) / 3.0, longest + lfs.max())
+    touch = (F[ti] == sharp[xi][:, None]).any(axis=1)
+    xi, ti = xi[~touch], ti[~touch]
+    if xi.size:
+        dist = _point_triangle_distance(P[sharp[xi]], a[ti], bb[ti], c[ti])
+        np.minimum.at(lfs, xi, dist)
+    # Each incident facet's refinement size too (a thin facet's, ``facet_size``).
+    size = np.full(b.n_surface, np.inf)
+    np.minimum.at(size, F.reshape(-1), np.repeat(b.facet_size[b.group], 3))
+    r = np.minimum(b.knobs.ball_fraction * lfs, 0.5 * np.minimum(b.size_cap, size[sharp]))
+    ok = r > 0
+    b.ball[sharp[ok]] = np.exp2(np.floor(np.log2(r[ok])))
+    b._ball_tree = None
+    return int(ok.sum())
+
+
+def _features(b: SurfaceRecovery, p: np.ndarray):
+    """Kind (0 vertex, 1 segment, 2 facet, 3 interior) and id of each point's input feature."""
+    kind = np.full(len(p), 3, dtype=np.int64)
+    fid = np.full(len(p), -1, dtype=np.int64)
+    v = p < b.n_surface
+    kind[v], fid[v] = 0, p[v]
+    q = np.where(v, 0, p)
+    e = ~v & (b.pt_edge[q] >= 0)
+    kind[e], fid[e] = 1, b.pt_edge[q[e]]
+    f = ~v & ~e & (b.pt_facet[q] >= 0)
+    kind[f], fid[f] = 2, b.pt_facet[q[f]]
+    return kind, fid
+
+
+def input_forced(b: SurfaceRecovery, T: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, list]:
+    """Which tetrahedra ``T`` are skinny because of a small input angle, and where.
+
+    A tetrahedron is when its circumcentre lies inside a protecting ball
+    (where no point is inserted: its badness is the ball's), or when its
+    shortest edge joins two points on different input features (an input
+    vertex, a segment, a facet; neither on the other's closure) that share
+    an input vertex or segment, and the angle between the two points seen
+    from the shared segment's line (two facets across it) or vertex (the
+    shared vertex nearest the edge) is below ``Knobs.small_angle``
+    (``Knobs.facet_angle`` when both lie on one facet's boundary).
+
+    ``centres``: their circumcentres. Returns the mask and, per forced
+    tetrahedron, the input vertices
+    (surface numbering) of the vertex or segment where the angle is.
+    """
+    m = len(T)
+    mask = np.zeros(m, dtype=bool)
+    where: list = [None] * m
+    if m == 0:
+        return mask, where
+    P = b.P
+    d = P[T[:, TET_EDGES[:, 0]]] - P[T[:, TET_EDGES[:, 1]]]
+    k = np.argmin(np.einsum("ijk,ijk->ij", d, d), axis=1)
+    p = T[np.arange(m), TET_EDGES[k, 0]]
+    q = T[np.arange(m), TET_EDGES[k, 1]]
+    kp, fp = _features(b, p)
+    kq, fq = _features(b, q)
+    cand = np.flatnonzero((kp < 3) & (kq < 3) & ~((kp == kq) & (fp == fq)))
+    corners = {}
+
+    def verts(kind, fid):
+        if kind == 0:
+            return {fid}
+        if kind == 1:
+            return set(b.edges[fid].tolist())
+        if fid not in corners:
+            corners[fid] = set(b.facets[b.group_tris[fid]].reshape(-1).tolist())
+        return corners[fid]
+
+    def facets_of(kind, fid):
+        if kind == 1:
+            return set(b.edge_groups[fid].tolist())
+        if kind == 2:
+            return {fid}
+        return set()
+
+    small, flat = b.knobs.small_angle, b.knobs.facet_angle
+    for r in cand.tolist():  # a loop over the bad tetrahedra's surface edges
+        a, c = int(p[r]), int(q[r])
+        ka, fa, kc, fc = int(kp[r]), int(fp[r]), int(kq[r]), int(fq[r])
+        va, vc = verts(ka, fa), verts(kc, fc)
+        ga, gc = facets_of(ka, fa), facets_of(kc, fc)
+        # Neither feature on the other's closure.
+        if (ka == 0 and fa in vc) or (kc == 0 and fc in va):
+            continue
+        if (ka == 1 and kc == 2 and fc in ga) or (kc == 1 and ka == 2 and fa in gc):
+            continue
+        shared = va & vc
+        if not shared:
+            continue
+        line = None
+        if ka == 2 and kc == 2 and len(shared) >= 2:
+            for e in np.flatnonzero(
+                ((b.edge_groups == [fa, fc]) | (b.edge_groups == [fc, fa])).all(axis=1)
+            ).tolist():
+                if set(b.edges[e].tolist()) <= shared:
+                    line = b.edges[e]
+                    break
+        if line is not None:
+            o, u = P[line[0]], _unit(P[line[1]] - P[line[0]])
+            x, y = P[a] - o, P[c] - o
+            x, y = x - (x @ u) * u, y - (y @ u) * u
+            theta = float(_angle(x[None], y[None])[0])
+            at = sorted(int(z) for z in line)
+            bound = small
+        else:
+            mid = 0.5 * (P[a] + P[c])
+            vv = min(shared, key=lambda z: float(np.linalg.norm(P[z] - mid)))
+            theta = float(_angle((P[a] - P[vv])[None], (P[c] - P[vv])[None])[0])
+            at = [int(vv)]
+            bound = flat if ga & gc else small
+        if theta < bound:
+            mask[r] = True
+            where[r] = at
+    # Inside a protecting ball: a vertex and the circumcentre both inside one.
+    if b.ball.any():
+        rest = np.flatnonzero(~mask)
+        if rest.size:
+            cc = centres[rest]
+            cc = np.where(np.isfinite(cc).all(axis=1)[:, None], cc, math.inf)
+            vin = b.in_balls(np.nan_to_num(cc, posinf=1e300, neginf=-1e300))
+            for r, v in zip(rest.tolist(), vin.tolist(), strict=True):
+                if v >= 0:
+                    mask[r] = True
+                    where[r] = [int(v)]
+    return mask, where
