@@ -27,9 +27,7 @@ taken. Every job still gets a process of its own, used once.
 from __future__ import annotations
 
 import atexit
-import contextlib
 import ctypes
-import json
 import logging
 import multiprocessing
 import os
@@ -118,6 +116,7 @@ def die_with_parent() -> None:
 def job_body(task: Task, memory_limit: int, send: Callable[[tuple], None]) -> None:
     """Body of a job's process (forked or spawned): limits, run, send the outcome, exit."""
     die_with_parent()
+    os.nice(JOB_NICE)
     resource.setrlimit(resource.RLIMIT_AS, (memory_limit, memory_limit))
     cpu = int(task.time_limit) + 5
     resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 5))
@@ -221,26 +220,8 @@ class _Forked:
     answers: Connection
 
 
-def rehearse() -> None:
-    """Run the ``quality`` method's example in this spare job process, before its job arrives.
-
-    A forked process copies each page of its parent on its first write to
-    it, and a job writes to hundreds (reference counts): a small job's
-    first run in a fresh process took 2 ms more than its second, in about
-    500 page faults. Rehearsed while the spare waits, they are not on the
-    job's clock. Any failure here is left for the job itself to meet.
-    """
-    from service.methods.registry import default_registry
-
-    spec = default_registry().get("quality")
-    with contextlib.suppress(Exception):
-        run_job(spec, json.dumps(spec.example).encode(), lambda fraction, message: None)
-
-
 def _waiting_child(tasks: Connection, answers: Connection) -> None:
     die_with_parent()
-    os.nice(JOB_NICE)
-    rehearse()
     try:
         task, memory_limit = tasks.recv()
     except EOFError:  # never given a job (the service stopped)

@@ -2,8 +2,8 @@
 
 :func:`service.executors.child.run_in_subprocess` starts it where
 ``multiprocessing`` may not start children (a stock Dask worker is a
-daemonic process): it imports every method and rehearses a small job first
-(it may wait as a spare meanwhile), then reads one pickled ``(task, memory_limit)`` from stdin
+daemonic process): it imports every method first (it may wait as a spare
+meanwhile), then reads one pickled ``(task, memory_limit)`` from stdin
 (none, at end of file: it exits), sets the same limits as a forked job
 (address space, CPU time, death with its parent), runs :func:`service.runner.run_job` and writes its
 messages to stdout as length-prefixed pickles: ``("progress", fraction,
@@ -23,12 +23,10 @@ import sys
 def main() -> None:
     out = os.fdopen(os.dup(sys.stdout.fileno()), "wb", buffering=0)
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())  # stray prints go to stderr
-    from service.executors.child import JOB_NICE, die_with_parent, job_body, rehearse
+    from service.executors.child import die_with_parent, job_body
     from service.methods import registry  # noqa: F401  (every method, before the job comes)
 
     die_with_parent()
-    os.nice(JOB_NICE)
-    rehearse()
     data = sys.stdin.buffer.read()
     if not data:
         os._exit(0)
