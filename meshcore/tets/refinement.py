@@ -176,7 +176,7 @@ from meshcore.delaunay.recovery3d import (
     tri_circumcenters,
 )
 from meshcore.domain.surface import as_surface
-from meshcore.errors import InputError
+from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh
 from meshcore.tets.angles import input_forced, protecting_balls
@@ -999,7 +999,11 @@ def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[
     cap = b.knobs.sliver_rounds if sliver_bound is not None else b.knobs.refinement_rounds
     for rounds in range(1, cap + 1):
         if b.n >= b.knobs.max_points:
-            break
+            raise AlgorithmError(
+                f"the refinement reached its limit of {b.knobs.max_points:,} points before "
+                "the tetrahedra met the bounds; ask for a larger size, size_field or max_volume",
+                code="too_many_points",
+            )
         recover(b, None)
         if b.knobs.eager:
             seg_bad, sub_bad = b.encroached_by_vertices()
@@ -1210,7 +1214,10 @@ def tetrahedralize(
         (``bad_parameter``).
     AlgorithmError
         ``recovery_failed`` (recovery did not finish, or with
-        ``keep_boundary`` a surface point could not be lifted inside).
+        ``keep_boundary`` a surface point could not be lifted inside);
+        ``too_many_points`` (the refinement reached ``Knobs.max_points``,
+        300,000, before the bounds were met: no under-refined mesh is
+        returned).
 
     References
     ----------

@@ -56,7 +56,8 @@ class TetrahedralizeParams(MethodParams):
         "dihedral angle is below it (perturbed insertion that never lowers the local least "
         "angle). Best effort: quality.tetra.dihedral says what was reached, stats.left counts "
         "the tetrahedra still below it by cause (fold: between two input triangles at nearly "
-        "180 degrees; surface; interior).",
+        "180 degrees; surface; interior; input_angle: skinny because of an input angle below "
+        "60 degrees, with stats.left.input_angles naming the input vertices and segments).",
     )
     max_volume: PositiveFloat | None = Field(
         default=None, description="Largest tetrahedron volume."

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from meshcore.domain import parse_surface
-from meshcore.errors import InputError
+from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.tets import tetrahedralize
 from meshcore.tets.sizing import SizeField3d, estimated_tetrahedra
@@ -87,3 +89,13 @@ def test_no_bound_no_estimate_and_tiny_sizes_saturate():
     assert estimated_tetrahedra(1.0) == 0
     assert estimated_tetrahedra(1.0, size=1e300) == 0
     assert estimated_tetrahedra(1.0, size=1e-300) == 10**18
+
+
+def test_the_point_limit_is_an_error_not_an_under_refined_mesh(monkeypatch):
+    from meshcore.tets import refinement
+
+    monkeypatch.setattr(refinement, "KNOBS", dataclasses.replace(refinement.KNOBS, max_points=200))
+    cube = parse_surface(*shapes.box((0, 0, 0), (1, 1, 1)))
+    with pytest.raises(AlgorithmError) as err:
+        tetrahedralize(cube, size=0.1)
+    assert err.value.code == "too_many_points"
