@@ -10,8 +10,8 @@ up to a minute on an empty cache) in the background: the service answers at
 once, ``/readyz`` says ``warming`` with the kernels left, and the executor's
 capacity is zero until it is done, so jobs submitted meanwhile stay queued
 and start when it is ready. Without the warm-up (``warmup`` false) the
-executor is ready at once and the fork server starts with the first job:
-its imports (about 1.4 CPU s) are not spent by a service that runs no job.
+executor is ready at once and the fork server starts meanwhile: its imports
+(about 1.4 CPU s) delay only a job that arrives before they are done.
 """
 
 from __future__ import annotations
@@ -56,14 +56,11 @@ class LocalExecutor:
         return self.workers if self._started else 0
 
     async def start(self) -> None:
-        """Start warming the fork server (without the warm-up: ready); returns at once."""
-        os.environ[WARMUP_ENV] = "1" if self.warm else "0"  # inherited by the fork server
-        if not self.warm:
-            self._started = True
-            log.info("executor ready: %d workers (no warm-up)", self.workers)
-            return
+        """Start warming the fork server (without the warm-up: ready now); returns at once."""
         self._status_dir = Path(tempfile.mkdtemp(prefix="meshservice-warmup-"))
-        os.environ[WARMUP_STATUS_ENV] = str(self._status_dir / "status.json")
+        os.environ[WARMUP_STATUS_ENV] = str(self._status_dir / "status.json")  # inherited
+        os.environ[WARMUP_ENV] = "1" if self.warm else "0"
+        self._started = not self.warm
         self._warming = asyncio.create_task(self._warm(), name="warm-up")
 
     async def _warm(self) -> None:

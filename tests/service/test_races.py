@@ -48,11 +48,13 @@ def racy(tmp_path_factory):
         MESHSERVICE_RETENTION="4",  # expiry looks every second
     ).start()
     with server.client() as c:
-        started = time.monotonic()
-        job = submit(c, "echo_mesh", {"mesh": MESH}, wait=30).json()
-        assert job["status"] == "succeeded"
-        server.run_time = time.monotonic() - started
-        c.delete(f"/v1/jobs/{job['id']}")
+        # the first job may wait for the job fork server to start (no warm-up): time the second
+        for _ in range(2):
+            started = time.monotonic()
+            job = submit(c, "echo_mesh", {"mesh": MESH}, wait=30).json()
+            assert job["status"] == "succeeded"
+            server.run_time = time.monotonic() - started
+            c.delete(f"/v1/jobs/{job['id']}")
     yield server
     server.stop()
 
