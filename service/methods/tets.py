@@ -84,9 +84,11 @@ class TetrahedralizeParams(MethodParams):
             SizeField3d(self.size_field)  # distinct points: refused here, located
         if self.empty or self.keep_boundary:
             return  # no interior refinement to the bounds
-        estimate = estimated_tetrahedra(surface.volume, size=self.size, max_volume=self.max_volume)
+        by_size = estimated_tetrahedra(surface.volume, size=self.size)
+        by_volume = estimated_tetrahedra(surface.volume, max_volume=self.max_volume)
+        estimate = max(by_size, by_volume)
         if estimate > MAX_TETRAHEDRA:
-            name = "size" if self.size is not None else "max_volume"
+            name = "size" if by_size >= by_volume else "max_volume"  # the binding bound
             raise InputError(
                 f"these bounds would make about {estimate:,} tetrahedra in a volume of "
                 f"{surface.volume:.6g}; this service makes at most {MAX_TETRAHEDRA:,}: "

@@ -95,6 +95,7 @@ class TestTetrahedralize:
             ({"size": 0.005}, ["size"]),  # about 20M tetrahedra: refused before it runs
             ({"size": 1e-300}, ["size"]),
             ({"max_volume": 1e-9}, ["max_volume"]),
+            ({"size": 0.5, "max_volume": 1e-9}, ["max_volume"]),
         ],
     )
     def test_bad_params_are_422_naming_the_field(self, client, extra, loc):
