@@ -60,9 +60,11 @@ __all__ = [
     "conformity",
     "edges",
     "facets",
+    "isin_ints",
     "nonmanifold",
     "top_dimension",
     "unique_edges",
+    "unique_ints",
     "unique_faces",
 ]
 
@@ -669,3 +671,37 @@ def _check_segments(segments, n_points: int) -> np.ndarray:
             code="index_out_of_range",
         )
     return segs
+
+
+def unique_ints(a, return_index: bool = False, return_inverse: bool = False, counts: bool = False):
+    """``np.unique`` of the flattened integer array ``a`` by a stable sort, same results.
+
+    numpy 2.4's ``np.unique`` (and ``np.isin``, built on it) hashes integer
+    arrays: 50-100 times slower than a sort at 10^5 keys (measured: 70-221 ms
+    against 1.5 ms at 200k int64). The mesh kernels' integer keys (edges,
+    vertices, cells) go through this and :func:`isin_ints` instead.
+    """
+    a = np.asarray(a).ravel()
+    order = np.argsort(a, kind="stable")
+    s = a[order]
+    head = np.ones(len(s), bool)
+    head[1:] = s[1:] != s[:-1]
+    out = [s[head]]
+    if return_index:
+        out.append(order[head])  # the first occurrence: the sort is stable
+    if return_inverse:
+        inv = np.empty(len(a), np.int64)
+        inv[order] = np.cumsum(head) - 1
+        out.append(inv)
+    if counts:
+        out.append(np.diff(np.append(np.flatnonzero(head), len(s))))
+    return out[0] if len(out) == 1 else tuple(out)
+
+
+def isin_ints(a, b) -> np.ndarray:
+    """``np.isin(a, b)`` for integers, by a sort and a binary search (see :func:`unique_ints`)."""
+    a = np.asarray(a)
+    b = np.sort(np.asarray(b, np.int64).ravel())
+    if not len(b):
+        return np.zeros(a.shape, bool)
+    return b[np.searchsorted(b, a).clip(0, len(b) - 1)] == a

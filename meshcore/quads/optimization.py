@@ -95,6 +95,7 @@ from numba import njit
 
 from meshcore.geometry.predicates import WORK_SIZE, orient2d, orient2d_filtered
 from meshcore.mesh import CellBlock, Mesh, quality
+from meshcore.mesh.topology import isin_ints, unique_ints
 from meshcore.partition.smoothing import quad_q
 
 __all__ = [
@@ -501,7 +502,7 @@ def _hex_splits(st: _State, sets: np.ndarray, edge_keys: np.ndarray, topological
     valid = _valid(st.P, flat).reshape(k, 3, 2).all(axis=2)
     d0, d1 = cand[:, :, 0, 0], cand[:, :, 0, 3]
     dkey = np.minimum(d0, d1) * n + np.maximum(d0, d1)
-    exists = np.isin(dkey, edge_keys)
+    exists = isin_ints(dkey, edge_keys)
     # the current diagonal of a pair of quads is an existing edge: the split is the pair itself
     valid &= ~exists
     old = _old_min(st, sets)
@@ -591,7 +592,7 @@ def _valence3_vertices(st: _State, ptr, cells):
 
 def _op_valence3(st: _State) -> int:
     ptr, cells = _incidence(st.C, st.alive, len(st.P))
-    keys = np.unique(_edge_keys(st.C, st.alive, len(st.P))[0])
+    keys = unique_ints(_edge_keys(st.C, st.alive, len(st.P))[0])
     _, sets = _valence3_vertices(st, ptr, cells)
     if not len(sets):
         return 0
@@ -602,7 +603,7 @@ def _op_hexagon(st: _State) -> int:
     n = len(st.P)
     ptr, cells = _incidence(st.C, st.alive, n)
     key, a, b, _ = _edge_keys(st.C, st.alive, n)
-    keys = np.unique(key)
+    keys = unique_ints(key)
     v3, sets3 = _valence3_vertices(st, ptr, cells)
     if len(v3) < 2:
         return 0
@@ -643,7 +644,7 @@ def _op_swap(st: _State) -> int:
     pairs = pairs[near | (_old_min(st, pairs) < TOL.active_below)]
     if not len(pairs):
         return 0
-    return _apply_hex(st, *_hex_splits(st, pairs, np.unique(key), topological=True))
+    return _apply_hex(st, *_hex_splits(st, pairs, unique_ints(key), topological=True))
 
 
 def _op_collapse(st: _State) -> int:
@@ -757,7 +758,7 @@ def _op_lift(st: _State) -> int:
     bad = live[st.q[live] < TOL.lift_below]
     if not len(bad) or st.P.shape[1] != 2:
         return 0
-    verts = np.unique(st.C[bad][st.C[bad] >= 0])
+    verts = unique_ints(st.C[bad][st.C[bad] >= 0])
     verts = verts[st.interior[verts]]
     if not len(verts):
         return 0
@@ -924,7 +925,7 @@ def _op_smooth(st: _State, passes: int | None = None, below: float | None = None
     """
     n = len(st.P)
     key, a, b, _ = _edge_keys(st.C, st.alive, n)
-    _, first = np.unique(key, return_index=True)
+    _, first = unique_ints(key, return_index=True)
     src = np.concatenate([a[first], b[first]])
     dst = np.concatenate([b[first], a[first]])
     order = np.argsort(src, kind="stable")
@@ -1055,7 +1056,7 @@ def optimize_quads(
         metric = np.asarray(metric, dtype=np.float64)
     alive = np.ones(len(C), bool)
     key, _, _, _ = _edge_keys(C, alive, n)
-    ukey, cnt = np.unique(key, return_counts=True)
+    ukey, cnt = unique_ints(key, counts=True)
     bkeys = ukey[cnt == 1]
     interior = np.ones(n, bool)
     interior[bkeys // n] = False
@@ -1129,8 +1130,8 @@ def _loops(C: np.ndarray, n: int) -> list[np.ndarray]:
     """The boundary loops of a quad mesh (vertex ids, counter-clockwise)."""
     a, b = C.ravel(), np.roll(C, -1, axis=1).ravel()
     key = np.minimum(a, b) * n + np.maximum(a, b)
-    uk, cnt = np.unique(key, return_counts=True)
-    once = np.isin(key, uk[cnt == 1])
+    uk, cnt = unique_ints(key, counts=True)
+    once = isin_ints(key, uk[cnt == 1])
     nxt = np.full(n, -1, np.int64)
     nxt[a[once]] = b[once]
     seen = np.zeros(n, bool)
@@ -1403,7 +1404,7 @@ def corners_relaxed(mesh: Mesh, dom, below: float, power: float, most: int) -> t
         return mesh, 0
     fixed = np.zeros(len(P), bool)
     fixed[: len(dom.points)] = True  # the input vertices come first
-    fixed[_on_constraints(P, np.unique(Q[active]), dom)] = True
+    fixed[_on_constraints(P, unique_ints(Q[active]), dom)] = True
     new = relax_quads(
         P, Q, fixed, slide=sliding_nodes(P, Q, fixed), active=active, angle_power=power
     )

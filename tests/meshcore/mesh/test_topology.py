@@ -345,3 +345,15 @@ def test_random_grid_triangulation_is_a_disc(case) -> None:
         held = tri[pairs[:, side]]
         for end in (0, 1):
             assert np.all((held == e.nodes[inner, end : end + 1]).any(axis=1))
+
+
+@pytest.mark.parametrize("n", [0, 1, 7, 300])
+def test_sort_based_unique_and_isin_match_numpy(n):
+    rng = np.random.default_rng(n)
+    a = rng.integers(0, 40, (n, 4))
+    b = rng.integers(0, 40, n // 2)
+    ours = topology.unique_ints(a, return_index=True, return_inverse=True, counts=True)
+    theirs = np.unique(a, return_index=True, return_inverse=True, return_counts=True)
+    for x, y in zip(ours, theirs, strict=True):
+        assert np.array_equal(x, np.ravel(y))
+    assert np.array_equal(topology.isin_ints(a, b), np.isin(a, b))

@@ -6,7 +6,6 @@ not asserted here.
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 
@@ -138,15 +137,3 @@ def test_guaranteed_route_when_the_closure_is_stuck(monkeypatch):
     res = paving(SQUARE_HOLE, size=0.05)
     assert res.stats["fallback"] == 1
     check_mesh(SQUARE_HOLE, res, 0.05, "quad")
-
-
-@pytest.mark.parametrize("n", [0, 1, 7, 300])
-def test_sort_based_unique_and_isin_match_numpy(n):
-    rng = np.random.default_rng(n)
-    a = rng.integers(0, 40, (n, 4))
-    b = rng.integers(0, 40, n // 2)
-    ours = advancing_front._unique(a, return_index=True, return_inverse=True, counts=True)
-    theirs = np.unique(a, return_index=True, return_inverse=True, return_counts=True)
-    for x, y in zip(ours, theirs, strict=True):
-        assert np.array_equal(x, np.ravel(y))
-    assert np.array_equal(advancing_front._isin(a, b), np.isin(a, b))
