@@ -86,6 +86,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.sparse.linalg import splu
 
 from meshcore.domain.planar import Domain, parse_domain
 from meshcore.domain.surface import as_surface
@@ -93,6 +96,7 @@ from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh, quality
+from meshcore.mesh.topology import unique_ints
 from meshcore.optimize import kernel2d as k2
 
 Progress = Callable[[float, str], None] | None
@@ -500,15 +504,11 @@ def _barycentric(state: _State, sweeps: list, sur: list, ops: dict) -> None:
     which finish what it leaves: when the set is the whole mesh and the
     boundary convex, Tutte's theorem makes the fixed point valid in the plane.
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    from scipy.sparse.linalg import splu
-
     P, C = state.points(), state.cells()
     n, per = len(P), C.shape[1]
     i, j = np.triu_indices(per, 1)
     a, b = C[:, i].ravel(), C[:, j].ravel()
-    key = np.unique(np.minimum(a, b) * n + np.maximum(a, b))
+    key = unique_ints(np.minimum(a, b) * n + np.maximum(a, b))
     a, b = key // n, key % n
     adj = coo_matrix((np.ones(2 * len(a)), (np.r_[a, b], np.r_[b, a])), shape=(n, n)).tocsr()
     free = state.fixed[:n] == 0
