@@ -195,18 +195,23 @@ def test_quad_medial_on_spiky_stars(geo):
         assert (orient2d(P[Q[:, k - 1]], P[Q[:, k]], P[Q[:, (k + 1) % 4]]) > 0).all()
 
 
-def test_corner_relaxation_kept_on_a_coarse_annulus():
-    # the 1 / sin energy alone does not see edge lengths: an interior node slid onto a
-    # boundary node (a collapsed edge) and the whole relaxation was refused here
+def _combined_annulus(size: float):
+    """The annulus of radii 1 and 0.45 sampled at ``size``, and its all-quad combination."""
     geo = {
         "type": "Polygon",
         "coordinates": [
-            _ring(_sampled(_ellipse(1, 1), 0.18)),
-            _ring(_sampled(_ellipse(0.45, 0.45), 0.18)[::-1]),
+            _ring(_sampled(_ellipse(1, 1), size)),
+            _ring(_sampled(_ellipse(0.45, 0.45), size)[::-1]),
         ],
     }
     dom = parse_domain(geo)
-    res = combine(domain=dom, size=0.18, all_quad=True, twice_size=True, optimize=True)
+    return dom, combine(domain=dom, size=size, all_quad=True, twice_size=True, optimize=True)
+
+
+def test_corner_relaxation_kept_on_a_coarse_annulus():
+    # the 1 / sin energy alone does not see edge lengths: an interior node slid onto a
+    # boundary node (a collapsed edge) and the whole relaxation was refused here
+    dom, res = _combined_annulus(0.18)
     assert res.operators["relax"] == 1
     ang, q, _ = _check(res.mesh, dom, 0.18)
     assert ang.min() >= 30 and ang.max() <= 150 and q.min() >= 0.5
@@ -215,15 +220,7 @@ def test_corner_relaxation_kept_on_a_coarse_annulus():
 def test_layer_rows_keep_the_count_on_a_coarse_annulus():
     # three rows along the outer circle shrink inwards: with one along the hole too they
     # made 1.56 times area / size**2 quads here, so fewer rows are laid (the 1.4x guard)
-    geo = {
-        "type": "Polygon",
-        "coordinates": [
-            _ring(_sampled(_ellipse(1, 1), 0.15)),
-            _ring(_sampled(_ellipse(0.45, 0.45), 0.15)[::-1]),
-        ],
-    }
-    dom = parse_domain(geo)
-    res = combine(domain=dom, size=0.15, all_quad=True, twice_size=True, optimize=True)
+    dom, res = _combined_annulus(0.15)
     assert "boundary_layer" in res.stats
     ang, q, ratio = _check(res.mesh, dom, 0.15)
     assert ratio <= 1.4 and q.min() >= 0.5 and ang.min() >= 30 and ang.max() <= 150
