@@ -38,6 +38,7 @@ from meshcore.delaunay.kernel2d import delaunay as delaunay2d
 from meshcore.delaunay.kernel3d import IncrementalDelaunay3d
 from meshcore.domain.surface import Surface
 from meshcore.errors import AlgorithmError, InputError
+from meshcore.geometry.predicates import orient2d
 from meshcore.geometry.predicates3d import dot3d, orient3d
 
 __all__ = [
@@ -543,8 +544,11 @@ class SurfaceRecovery:
     def split_subfaces(self, rows: np.ndarray) -> tuple[int, int]:
         """Split subfaces ``rows`` at their circumcentres (Shewchuk's rule).
 
-        A circumcentre outside its facet, or in the diametral ball of a
-        subsegment, splits the subsegments it encroaches instead. A point
+        A circumcentre in the diametral ball of a subsegment splits the
+        subsegments it encroaches instead; one outside its facet and in no such
+        ball splits the boundary subsegment crossed on the way from the
+        subface to it (:meth:`crossed_segments`: a vertex of the subface
+        encroaches that subsegment, Shewchuk's lemma). A point
         inside the protecting ball of a corner of its facet is moved onto the
         ball's sphere (:meth:`onto_balls`). Returns (subfaces split,
         subsegments split).
@@ -581,8 +585,16 @@ class SurfaceRecovery:
         inside = self.in_facet(c, f)
         lost = ~inside & ~hit
         if lost.any():
-            # Outside its facet and encroaching no subsegment (rounding): split the
-            # subface's longest subsegment-free edge's facet edge... use the centroid.
+            # Outside its facet and encroaching no subsegment: a vertex of the
+            # subface encroaches the subsegment that separates it from its
+            # circumcentre (Shewchuk's lemma), so that subsegment is split, as
+            # Triangle does. Only where none is crossed (rounding): the centroid.
+            crossed = self.crossed_segments(
+                self.P[self.sub[rows[lost]]].mean(axis=1), c[lost], f[lost]
+            )
+            enc_s = np.concatenate([enc_s, crossed[crossed >= 0]])
+            hit[np.flatnonzero(lost)[crossed >= 0]] = True
+            lost &= ~hit
             c[lost] = self.P[self.sub[rows[lost]]].mean(axis=1)
             inside[lost] = True
         c[lost] = self.onto_balls(c[lost], f[lost])
@@ -591,6 +603,38 @@ class SurfaceRecovery:
         ids = self.add(c[use], np.full(int(use.sum()), -1), f[use])
         self.retriangulate(np.unique(f[use][ids >= 0]))
         return int((ids >= 0).sum()), n_seg
+
+    def crossed_segments(self, A: np.ndarray, B: np.ndarray, f: np.ndarray) -> np.ndarray:
+        """For each segment A→B in facet ``f``'s plane, the subsegment of the facet's
+        boundary it crosses nearest A, or -1 (exact ``orient2d`` in the facet's frame)."""
+        out = np.full(len(A), -1, dtype=np.int64)
+        on = self.edge_groups[self.seg_edge]
+        origin, e1, e2 = self.frame
+        for g in np.unique(f).tolist():  # a loop over the facets concerned
+            rows = np.flatnonzero(f == g)
+            segs = np.flatnonzero((on[:, 0] == g) | (on[:, 1] == g))
+            if segs.size == 0:
+                continue
+
+            def uv(X, g=g):
+                d = X - origin[g]
+                return np.stack([d @ e1[g], d @ e2[g]], -1)
+
+            a, b = uv(A[rows])[:, None], uv(B[rows])[:, None]
+            p, q = uv(self.P[self.seg[segs, 0]])[None], uv(self.P[self.seg[segs, 1]])[None]
+            cross = (orient2d(a, b, p) * orient2d(a, b, q) <= 0) & (
+                orient2d(p, q, a) * orient2d(p, q, b) < 0
+            )
+            # nearest A: the crossing's parameter along A→B (float, for the order only)
+            d = b - a
+            den = d[..., 0] * (q - p)[..., 1] - d[..., 1] * (q - p)[..., 0]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = ((p - a)[..., 0] * (q - p)[..., 1] - (p - a)[..., 1] * (q - p)[..., 0]) / den
+            t = np.where(cross, np.abs(t), np.inf)
+            k = np.argmin(t, axis=1)
+            found = np.isfinite(t[np.arange(len(rows)), k])
+            out[rows[found]] = segs[k[found]]
+        return out
 
     def crowded(self, X: np.ndarray, R: np.ndarray) -> np.ndarray:
         """Candidates to drop from one batch of insertions.
