@@ -95,7 +95,7 @@ from numba import njit
 from meshcore.delaunay.kernel2d import _walk_hints
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered
-from meshcore.geometry.predicates3d import insphere_exact, insphere_tie, orient3d_exact
+from meshcore.geometry.predicates3d import insphere_filtered, insphere_tie, orient3d_filtered
 
 __all__ = [
     "SKIP_CHANGED",
@@ -315,8 +315,14 @@ def _brio_hilbert_keys(pts, nbits, salt):
 
 
 @njit(cache=True, inline="always")
-def _orient(pts, a, b, c, d, work):
-    """orient3d of the vertices a, b, c, d: semi-static filter, Shewchuk's, then exact."""
+def _orient_filter(pts, a, b, c, d):
+    """orient3d of the vertices a, b, c, d by the semi-static filter: +1, -1, or 0 undecided.
+
+    No call and no scratch array: numba then prunes the reference counts of
+    the inlined arrays (a call that may raise, such as the exact stage, left
+    five atomic increments and decrements around every inlined test). The
+    caller completes an undecided sign with :func:`_orient`.
+    """
     ax = pts[a, 0]
     ay = pts[a, 1]
     az = pts[a, 2]
@@ -349,31 +355,26 @@ def _orient(pts, a, b, c, d, work):
         return 1
     if -det > errbound:
         return -1
-    # Then Shewchuk's tighter bound from the permanent, then exact.
-    permanent = (
-        (abs(bdxcdy) + abs(cdxbdy)) * abs(adz)
-        + (abs(cdxady) + abs(adxcdy)) * abs(bdz)
-        + (abs(adxbdy) + abs(bdxady)) * abs(cdz)
-    )
-    errbound = _O3D_ERRBOUND_A * permanent
-    if det > errbound:
-        return 1
-    if -det > errbound:
-        return -1
-    return orient3d_exact(
-        ax, ay, az, pts[b, 0], pts[b, 1], pts[b, 2], pts[c, 0], pts[c, 1], pts[c, 2],
-        dx, dy, dz, work,
+    return 0
+
+
+@njit(cache=True)
+def _orient(pts, a, b, c, d, work):
+    """orient3d of the vertices a, b, c, d: the semi-static filter, then Shewchuk's, then exact."""
+    s = _orient_filter(pts, a, b, c, d)
+    if s != 0:
+        return s
+    return orient3d_filtered(
+        pts[a, 0], pts[a, 1], pts[a, 2], pts[b, 0], pts[b, 1], pts[b, 2],
+        pts[c, 0], pts[c, 1], pts[c, 2], pts[d, 0], pts[d, 1], pts[d, 2], work,
     )  # fmt: skip
 
 
 @njit(cache=True, inline="always")
-def _insphere(pts, a, b, c, d, e, work, pbuf):
-    """Perturbed insphere sign of e against positive (a, b, c, d); never 0.
+def _insphere_filter(pts, a, b, c, d, e):
+    """Insphere sign of e against positive (a, b, c, d) by the semi-static filter; 0 undecided.
 
-    A semi-static float filter (a few flops), then the float filter of
-    predicates3d.insphere_filtered; undecided cases go to
-    predicates3d.insphere_exact, exact ties to insphere_tie (the symbolic
-    perturbation of insphere_perturbed).
+    No call (see :func:`_orient_filter`); :func:`_insphere` completes it.
     """
     ex = pts[e, 0]
     ey = pts[e, 1]
@@ -429,32 +430,24 @@ def _insphere(pts, a, b, c, d, e, work, pbuf):
         return 1
     if -det > errbound:
         return -1
-    # Then Shewchuk's tighter bound from the permanent (nearly co-spherical
-    # points), then exact.
-    aez = abs(aez)
-    bez = abs(bez)
-    cez = abs(cez)
-    dez = abs(dez)
-    abp = abs(aexbey) + abs(bexaey)
-    bcp = abs(bexcey) + abs(cexbey)
-    cdp = abs(cexdey) + abs(dexcey)
-    dap = abs(dexaey) + abs(aexdey)
-    acp = abs(aexcey) + abs(cexaey)
-    bdp = abs(bexdey) + abs(dexbey)
-    permanent = (
-        (cdp * bez + bdp * cez + bcp * dez) * alift
-        + (dap * cez + acp * dez + cdp * aez) * blift
-        + (abp * dez + bdp * aez + dap * bez) * clift
-        + (bcp * aez + acp * bez + abp * cez) * dlift
-    )
-    errbound = _ISP_ERRBOUND_A * permanent
-    if det > errbound:
-        return 1
-    if -det > errbound:
-        return -1
-    s = insphere_exact(
+    return 0
+
+
+@njit(cache=True)
+def _insphere(pts, a, b, c, d, e, work, pbuf):
+    """Perturbed insphere sign of e against positive (a, b, c, d); never 0.
+
+    The semi-static filter, then predicates3d.insphere_filtered (Shewchuk's
+    bound from the permanent, then the exact predicate), exact ties to
+    insphere_tie (the symbolic perturbation of insphere_perturbed).
+    """
+    s = _insphere_filter(pts, a, b, c, d, e)
+    if s != 0:
+        return s
+    s = insphere_filtered(
         pts[a, 0], pts[a, 1], pts[a, 2], pts[b, 0], pts[b, 1], pts[b, 2],
-        pts[c, 0], pts[c, 1], pts[c, 2], pts[d, 0], pts[d, 1], pts[d, 2], ex, ey, ez, work,
+        pts[c, 0], pts[c, 1], pts[c, 2], pts[d, 0], pts[d, 1], pts[d, 2],
+        pts[e, 0], pts[e, 1], pts[e, 2], work,
     )  # fmt: skip
     if s != 0:
         return s
@@ -468,12 +461,19 @@ def _insphere(pts, a, b, c, d, e, work, pbuf):
 
 
 @njit(cache=True, inline="always")
-def _orient_replaced(pts, V, b, j, p, work):
-    """orient3d of the tetrahedron at slots b..b+3 with slot j replaced by p."""
+def _replaced(V, b, j, p):
+    """The vertices of the tetrahedron at slots b..b+3 with slot j replaced by p."""
     w0 = p if j == 0 else V[b]
     w1 = p if j == 1 else V[b + 1]
     w2 = p if j == 2 else V[b + 2]
     w3 = p if j == 3 else V[b + 3]
+    return w0, w1, w2, w3
+
+
+@njit(cache=True)
+def _orient_replaced(pts, V, b, j, p, work):
+    """orient3d of the tetrahedron at slots b..b+3 with slot j replaced by p."""
+    w0, w1, w2, w3 = _replaced(V, b, j, p)
     return _orient(pts, w0, w1, w2, w3, work)
 
 
@@ -487,6 +487,27 @@ def _ghost_slot(V, b):
 
 
 @njit(cache=True, inline="always")
+def _conflict_filter(pts, V, t, p):
+    """Is tetrahedron t in conflict with point p: 1 yes, 0 no, -1 undecided by the filters.
+
+    No call (see :func:`_orient_filter`); :func:`_conflict` decides exactly.
+    """
+    b = 4 * t
+    v0 = V[b]
+    v1 = V[b + 1]
+    v2 = V[b + 2]
+    v3 = V[b + 3]
+    if (v0 | v1 | v2 | v3) >= 0:  # real: no vertex at infinity (-1)
+        s = _insphere_filter(pts, v0, v1, v2, v3, p)
+    else:
+        w0, w1, w2, w3 = _replaced(V, b, _ghost_slot(V, b), p)
+        s = _orient_filter(pts, w0, w1, w2, w3)
+    if s == 0:
+        return -1
+    return 1 if s > 0 else 0
+
+
+@njit(cache=True)
 def _conflict(pts, V, A, t, p, work, pbuf):
     """Is tetrahedron t in conflict with point p (p in its perturbed circumsphere)?"""
     b = 4 * t
@@ -530,7 +551,11 @@ def _walk(pts, V, A, t, p, work):
             u = A[b + i] >> 2
             if u == prev:
                 continue
-            if _orient_replaced(pts, V, b, i, p, work) < 0:
+            w0, w1, w2, w3 = _replaced(V, b, i, p)
+            o = _orient_filter(pts, w0, w1, w2, w3)
+            if o == 0:
+                o = _orient(pts, w0, w1, w2, w3, work)
+            if o < 0:
                 prev = t
                 t = u
                 moved = True
@@ -582,7 +607,10 @@ def _insert(
             if mu == inside:
                 continue
             if mu != outside:
-                if _conflict(pts, V, A, u, p, work, pbuf):
+                r = _conflict_filter(pts, V, u, p)
+                if r < 0:
+                    r = 1 if _conflict(pts, V, A, u, p, work, pbuf) else 0
+                if r > 0:
                     if nc == ncav_max:
                         state[_STATUS] = _GROW_BUFFERS
                         return
@@ -1374,7 +1402,9 @@ class IncrementalDelaunay3d:
         for v in verts:
             if (self._pts[v] == q).all():
                 return Location(tet=t, kind="vertex", vertex=int(self._order[v]))
-        zeros = sum(int(_orient_at(self._pts, self._V, b, i, p, self._work) == 0) for i in range(4))
+        zeros = sum(
+            int(_orient_replaced(self._pts, self._V, b, i, p, self._work) == 0) for i in range(4)
+        )
         kind = {0: "inside", 1: "face", 2: "edge"}[zeros]
         return Location(tet=t, kind=kind, vertex=-1)
 
@@ -1401,11 +1431,6 @@ class IncrementalDelaunay3d:
         for arr in (pts, tetra, neighbors):
             arr.flags.writeable = False
         return Tetrahedralization(points=pts, tetra=tetra, neighbors=neighbors)
-
-
-@njit(cache=True)
-def _orient_at(pts, V, b, i, p, work):
-    return _orient_replaced(pts, V, b, i, p, work)
 
 
 def delaunay3d(points, progress: Callable[[float, str], None] | None = None) -> Tetrahedralization:
