@@ -434,30 +434,43 @@ def _insphere_filter(pts, a, b, c, d, e):
 
 
 @njit(cache=True)
-def _insphere(pts, a, b, c, d, e, work, pbuf):
-    """Perturbed insphere sign of e against positive (a, b, c, d); never 0.
+def _insphere_tail(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, ex, ey, ez, work):
+    """Perturbed insphere sign where the semi-static filter failed; never 0.
 
-    The semi-static filter, then predicates3d.insphere_filtered (Shewchuk's
-    bound from the permanent, then the exact predicate), exact ties to
-    insphere_tie (the symbolic perturbation of insphere_perturbed).
+    predicates3d.insphere_filtered (Shewchuk's bound from the permanent, then
+    the exact predicate), exact ties to insphere_tie (the symbolic
+    perturbation of insphere_perturbed). Coordinates and one scratch array
+    only: a cheap call from the hot loops.
     """
-    s = _insphere_filter(pts, a, b, c, d, e)
+    s = insphere_filtered(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, ex, ey, ez, work)
     if s != 0:
         return s
-    s = insphere_filtered(
+    rows = np.empty((5, 3))
+    rows[0, 0], rows[0, 1], rows[0, 2] = ax, ay, az
+    rows[1, 0], rows[1, 1], rows[1, 2] = bx, by, bz
+    rows[2, 0], rows[2, 1], rows[2, 2] = cx, cy, cz
+    rows[3, 0], rows[3, 1], rows[3, 2] = dx, dy, dz
+    rows[4, 0], rows[4, 1], rows[4, 2] = ex, ey, ez
+    return insphere_tie(rows, work)
+
+
+@njit(cache=True, inline="always")
+def _insphere_rest(pts, a, b, c, d, e, work):
+    """:func:`_insphere_tail` of the vertices a, b, c, d, e."""
+    return _insphere_tail(
         pts[a, 0], pts[a, 1], pts[a, 2], pts[b, 0], pts[b, 1], pts[b, 2],
         pts[c, 0], pts[c, 1], pts[c, 2], pts[d, 0], pts[d, 1], pts[d, 2],
         pts[e, 0], pts[e, 1], pts[e, 2], work,
     )  # fmt: skip
+
+
+@njit(cache=True)
+def _insphere(pts, a, b, c, d, e, work):
+    """Perturbed insphere sign of e against positive (a, b, c, d); never 0."""
+    s = _insphere_filter(pts, a, b, c, d, e)
     if s != 0:
         return s
-    for k in range(3):
-        pbuf[0, k] = pts[a, k]
-        pbuf[1, k] = pts[b, k]
-        pbuf[2, k] = pts[c, k]
-        pbuf[3, k] = pts[d, k]
-        pbuf[4, k] = pts[e, k]
-    return insphere_tie(pbuf, work)
+    return _insphere_rest(pts, a, b, c, d, e, work)
 
 
 @njit(cache=True, inline="always")
@@ -508,18 +521,18 @@ def _conflict_filter(pts, V, t, p):
 
 
 @njit(cache=True)
-def _conflict(pts, V, A, t, p, work, pbuf):
+def _conflict(pts, V, A, t, p, work):
     """Is tetrahedron t in conflict with point p (p in its perturbed circumsphere)?"""
     b = 4 * t
     j = _ghost_slot(V, b)
     if j < 0:
-        return _insphere(pts, V[b], V[b + 1], V[b + 2], V[b + 3], p, work, pbuf) > 0
+        return _insphere(pts, V[b], V[b + 1], V[b + 2], V[b + 3], p, work) > 0
     o = _orient_replaced(pts, V, b, j, p, work)
     if o != 0:
         return o > 0
     # p on the hull facet's plane: in conflict iff with the real tetrahedron behind.
     r = 4 * (A[b + j] >> 2)
-    return _insphere(pts, V[r], V[r + 1], V[r + 2], V[r + 3], p, work, pbuf) > 0
+    return _insphere(pts, V[r], V[r + 1], V[r + 2], V[r + 3], p, work) > 0
 
 
 # ---------------------------------------------------------------------------
@@ -566,9 +579,7 @@ def _walk(pts, V, A, t, p, work):
 
 
 @njit(cache=True)
-def _insert(
-    pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work, pbuf
-):
+def _insert(pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work):
     """Insert vertex p (its coordinates in pts[p]) walking from tetrahedron start.
 
     Sets state[_STATUS]: _OK (state[_NCAV] removed slots in cav, state[_NNEW]
@@ -600,16 +611,31 @@ def _insert(
     while i < nc:
         c = cav[i]
         i += 1
+        # The four neighbours and their marks are read first, as independent
+        # loads: their cache misses overlap instead of following one another.
+        bc = 4 * c
+        u0 = A[bc] >> 2
+        u1 = A[bc + 1] >> 2
+        u2 = A[bc + 2] >> 2
+        u3 = A[bc + 3] >> 2
+        m0 = mark[u0]
+        m1 = mark[u1]
+        m2 = mark[u2]
+        m3 = mark[u3]
         for f in range(4):
-            corner = A[4 * c + f]
-            u = corner >> 2
-            mu = mark[u]
+            u = u0 if f == 0 else (u1 if f == 1 else (u2 if f == 2 else u3))
+            mu = m0 if f == 0 else (m1 if f == 1 else (m2 if f == 2 else m3))
             if mu == inside:
                 continue
             if mu != outside:
                 r = _conflict_filter(pts, V, u, p)
                 if r < 0:
-                    r = 1 if _conflict(pts, V, A, u, p, work, pbuf) else 0
+                    bu = 4 * u
+                    if (V[bu] | V[bu + 1] | V[bu + 2] | V[bu + 3]) >= 0:
+                        s = _insphere_rest(pts, V[bu], V[bu + 1], V[bu + 2], V[bu + 3], p, work)
+                    else:
+                        s = 1 if _conflict(pts, V, A, u, p, work) else -1
+                    r = 1 if s > 0 else 0
                 if r > 0:
                     if nc == ncav_max:
                         state[_STATUS] = _GROW_BUFFERS
@@ -622,7 +648,7 @@ def _insert(
             if nb == nbnd_max:
                 state[_STATUS] = _GROW_BUFFERS
                 return
-            bnd[nb] = 4 * c + f
+            bnd[nb] = bc + f
             nb += 1
     if 8 * nb > hkey.shape[0]:
         state[_STATUS] = _GROW_BUFFERS
@@ -739,7 +765,6 @@ def _insert_range(
     pts, hint, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work, lo, hi
 ):
     """Insert vertices lo..hi-1; stops at the first one not _OK (state[_INFO+...])."""
-    pbuf = np.empty((5, 3))
     for p in range(lo, hi):
         h = hint[p]
         start = state[_LAST]
@@ -749,7 +774,6 @@ def _insert_range(
                 start = s
         _insert(
             pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work,
-            pbuf,
         )  # fmt: skip
         if state[_STATUS] != _OK:
             return p
@@ -770,7 +794,6 @@ def _insert_guarded(
     Vertex n is the next free one. Returns the first index not handled (the
     buffers or slots must grow: state[_STATUS]) or len(Q).
     """
-    pbuf = np.empty((5, 3))
     for k in range(k0, Q.shape[0]):
         s = origin[k]
         if stale[s]:
@@ -788,7 +811,6 @@ def _insert_guarded(
             continue
         _insert(
             pts, n, t, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work,
-            pbuf,
         )  # fmt: skip
         status = state[_STATUS]
         if status == _DUPLICATE:
@@ -1244,7 +1266,7 @@ class IncrementalDelaunay3d:
             _insert(
                 self._pts, p, start, self._V, self._A, self._mark, self._vt, self._free,
                 self._state, self._cav, self._bnd, self._newv, self._newslot, self._hkey,
-                self._hval, self._work, np.empty((5, 3)),
+                self._hval, self._work,
             )  # fmt: skip
             status = int(self._state[_STATUS])
             if status == _OK:
