@@ -318,10 +318,9 @@ def _brio_hilbert_keys(pts, nbits, salt):
 def _orient_filter(pts, a, b, c, d):
     """orient3d of the vertices a, b, c, d by the semi-static filter: +1, -1, or 0 undecided.
 
-    No call and no scratch array: numba then prunes the reference counts of
-    the inlined arrays (a call that may raise, such as the exact stage, left
-    five atomic increments and decrements around every inlined test). The
-    caller completes an undecided sign with :func:`_orient`.
+    No call: numba then prunes the inlined arrays' reference counts (a call
+    that may raise, the exact stage, left five atomic increments and
+    decrements around every inlined test); :func:`_orient` completes it.
     """
     ax = pts[a, 0]
     ay = pts[a, 1]
@@ -464,15 +463,6 @@ def _insphere_rest(pts, a, b, c, d, e, work):
     )  # fmt: skip
 
 
-@njit(cache=True)
-def _insphere(pts, a, b, c, d, e, work):
-    """Perturbed insphere sign of e against positive (a, b, c, d); never 0."""
-    s = _insphere_filter(pts, a, b, c, d, e)
-    if s != 0:
-        return s
-    return _insphere_rest(pts, a, b, c, d, e, work)
-
-
 @njit(cache=True, inline="always")
 def _replaced(V, b, j, p):
     """The vertices of the tetrahedron at slots b..b+3 with slot j replaced by p."""
@@ -503,7 +493,7 @@ def _ghost_slot(V, b):
 def _conflict_filter(pts, V, t, p):
     """Is tetrahedron t in conflict with point p: 1 yes, 0 no, -1 undecided by the filters.
 
-    No call (see :func:`_orient_filter`); :func:`_conflict` decides exactly.
+    No call (see :func:`_orient_filter`); exact: :func:`_insphere_rest`, :func:`_ghost_conflict`.
     """
     b = 4 * t
     v0 = V[b]
@@ -521,18 +511,16 @@ def _conflict_filter(pts, V, t, p):
 
 
 @njit(cache=True)
-def _conflict(pts, V, A, t, p, work):
-    """Is tetrahedron t in conflict with point p (p in its perturbed circumsphere)?"""
+def _ghost_conflict(pts, V, A, t, p, work):
+    """Exact conflict of ghost t with p: beyond its facet, or on it and in the sphere behind."""
     b = 4 * t
     j = _ghost_slot(V, b)
-    if j < 0:
-        return _insphere(pts, V[b], V[b + 1], V[b + 2], V[b + 3], p, work) > 0
     o = _orient_replaced(pts, V, b, j, p, work)
     if o != 0:
         return o > 0
-    # p on the hull facet's plane: in conflict iff with the real tetrahedron behind.
     r = 4 * (A[b + j] >> 2)
-    return _insphere(pts, V[r], V[r + 1], V[r + 2], V[r + 3], p, work) > 0
+    s = _insphere_filter(pts, V[r], V[r + 1], V[r + 2], V[r + 3], p)
+    return (s if s != 0 else _insphere_rest(pts, V[r], V[r + 1], V[r + 2], V[r + 3], p, work)) > 0
 
 
 # ---------------------------------------------------------------------------
@@ -634,7 +622,7 @@ def _insert(pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot,
                     if (V[bu] | V[bu + 1] | V[bu + 2] | V[bu + 3]) >= 0:
                         s = _insphere_rest(pts, V[bu], V[bu + 1], V[bu + 2], V[bu + 3], p, work)
                     else:
-                        s = 1 if _conflict(pts, V, A, u, p, work) else -1
+                        s = 1 if _ghost_conflict(pts, V, A, u, p, work) else -1
                     r = 1 if s > 0 else 0
                 if r > 0:
                     if nc == ncav_max:
