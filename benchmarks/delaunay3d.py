@@ -18,7 +18,9 @@ own as sets (sorted rows). Peers: ``tetgen`` (its low-level
 ``PyTetgen.tetrahedralize(plc=0)``: the high-level wrapper refuses a bare
 point set and its ``switches="Q"`` path segfaults) and ``gmsh``
 (``gmsh.algorithm.tetrahedralize`` with ``Mesh.Algorithm3D`` 1, Delaunay,
-and 10, HXT); a missing peer is reported as n/a.
+and 10, HXT); a missing peer is reported as n/a. ``--baseline FILE`` adds a
+copy of an earlier ``kernel3d.py`` as peer ``baseline`` (before/after in one
+run), ``--rounds N`` repeats each input so that the rounds alternate.
 """
 
 from __future__ import annotations
@@ -41,8 +43,15 @@ sys.path.insert(0, sys.argv[3])
 peer, path = sys.argv[1], sys.argv[2]
 p = np.load(path)
 out = None
-if peer == "ours":
+if peer in ("ours", "baseline"):
     from meshcore.delaunay import delaunay3d
+    if peer == "baseline":
+        import importlib.util, os
+        spec = importlib.util.spec_from_file_location("kernel3d_baseline", os.environ["BASELINE"])
+        mod = importlib.util.module_from_spec(spec)
+        sys.modules[spec.name] = mod
+        spec.loader.exec_module(mod)
+        delaunay3d = mod.delaunay3d
     delaunay3d(np.random.default_rng(1).random((100, 3)))
     t = time.perf_counter(); c = time.process_time()
     out = delaunay3d(p).tetra
@@ -103,12 +112,17 @@ def available(peer: str) -> bool:
     return True
 
 
-def run(peer: str, path: str, timeout: float, save: str | None) -> dict | str:
+def run(
+    peer: str, path: str, timeout: float, save: str | None, baseline: str | None = None
+) -> dict | str:
     cmd = [sys.executable, "-c", _CHILD, peer, path, ROOT]
     if save:
         cmd.append(save)
+    env = dict(os.environ, BASELINE=baseline or "")
     try:
-        out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, check=False)
+        out = subprocess.run(
+            cmd, capture_output=True, text=True, timeout=timeout, check=False, env=env
+        )
     except subprocess.TimeoutExpired:
         return f">{timeout:g} s"
     if out.returncode != 0:
@@ -132,17 +146,25 @@ def main() -> None:
     )
     parser.add_argument("--peers", nargs="+", default=PEERS[:-1], choices=PEERS[:-1])
     parser.add_argument("--timeout", type=float, default=120.0)
+    parser.add_argument(
+        "--baseline",
+        help="a copy of an earlier kernel3d.py (e.g. `git show main:meshcore/delaunay/"
+        "kernel3d.py > /tmp/base.py`), run as peer 'baseline' before ours in each round",
+    )
+    parser.add_argument("--rounds", type=int, default=1, help="repeat each input (load varies)")
     args = parser.parse_args()
+    if args.baseline:
+        args.peers = ["baseline"] + list(args.peers)
 
     header = (
         f"{'input':<8} {'n':>8} {'peer':<14} {'seconds':>8} {'cpu s':>7} {'tetra':>10} "
         f"{'peak MB':>8} "
-        f"{'ours/peer':>9} {'= qhull':>8}"
+        f"{'ours/peer':>9} {'= qhull':>8} {'load':>5}"
     )
     print(header)
     print("-" * len(header))
     with tempfile.TemporaryDirectory() as tmp:
-        for spec in args.inputs:
+        for spec in [s for s in args.inputs for _ in range(args.rounds)]:
             name, n, *flags = spec.split(":")
             p = MAKERS[name](int(n))
             path = os.path.join(tmp, "points.npy")
@@ -155,7 +177,7 @@ def main() -> None:
                     results[peer] = "n/a"
                     continue
                 save = os.path.join(tmp, f"{peer}.npy") if "qhull" in peers else None
-                results[peer] = run(peer, path, args.timeout, save)
+                results[peer] = run(peer, path, args.timeout, save, args.baseline)
                 if save and isinstance(results[peer], dict):
                     saved[peer] = save
             ref = canon(np.load(saved["qhull"])) if "qhull" in saved else None
@@ -173,10 +195,11 @@ def main() -> None:
                 same = ""
                 if ref is not None and peer in saved:
                     same = "yes" if np.array_equal(canon(np.load(saved[peer])), ref) else "no"
+                load = open("/proc/loadavg").read().split()[0]
                 print(
                     f"{name:<8} {len(p):>8} {peer:<14} {r['seconds']:>8.2f} {r['cpu']:>7.2f} "
                     f"{r['tetra']:>10} "
-                    f"{r['peak_mb']:>8.0f} {ratio:>9} {same:>8}",
+                    f"{r['peak_mb']:>8.0f} {ratio:>9} {same:>8} {load:>5}",
                     flush=True,
                 )
 

@@ -95,7 +95,7 @@ from numba import njit
 from meshcore.delaunay.kernel2d import _walk_hints
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered
-from meshcore.geometry.predicates3d import insphere_exact, insphere_tie, orient3d_exact
+from meshcore.geometry.predicates3d import insphere_filtered, insphere_tie, orient3d_filtered
 
 __all__ = [
     "SKIP_CHANGED",
@@ -315,8 +315,13 @@ def _brio_hilbert_keys(pts, nbits, salt):
 
 
 @njit(cache=True, inline="always")
-def _orient(pts, a, b, c, d, work):
-    """orient3d of the vertices a, b, c, d: semi-static filter, Shewchuk's, then exact."""
+def _orient_filter(pts, a, b, c, d):
+    """orient3d of the vertices a, b, c, d by the semi-static filter: +1, -1, or 0 undecided.
+
+    No call: numba then prunes the inlined arrays' reference counts (a call
+    that may raise, the exact stage, left five atomic increments and
+    decrements around every inlined test); :func:`_orient` completes it.
+    """
     ax = pts[a, 0]
     ay = pts[a, 1]
     az = pts[a, 2]
@@ -349,31 +354,26 @@ def _orient(pts, a, b, c, d, work):
         return 1
     if -det > errbound:
         return -1
-    # Then Shewchuk's tighter bound from the permanent, then exact.
-    permanent = (
-        (abs(bdxcdy) + abs(cdxbdy)) * abs(adz)
-        + (abs(cdxady) + abs(adxcdy)) * abs(bdz)
-        + (abs(adxbdy) + abs(bdxady)) * abs(cdz)
-    )
-    errbound = _O3D_ERRBOUND_A * permanent
-    if det > errbound:
-        return 1
-    if -det > errbound:
-        return -1
-    return orient3d_exact(
-        ax, ay, az, pts[b, 0], pts[b, 1], pts[b, 2], pts[c, 0], pts[c, 1], pts[c, 2],
-        dx, dy, dz, work,
+    return 0
+
+
+@njit(cache=True)
+def _orient(pts, a, b, c, d, work):
+    """orient3d of the vertices a, b, c, d: the semi-static filter, then Shewchuk's, then exact."""
+    s = _orient_filter(pts, a, b, c, d)
+    if s != 0:
+        return s
+    return orient3d_filtered(
+        pts[a, 0], pts[a, 1], pts[a, 2], pts[b, 0], pts[b, 1], pts[b, 2],
+        pts[c, 0], pts[c, 1], pts[c, 2], pts[d, 0], pts[d, 1], pts[d, 2], work,
     )  # fmt: skip
 
 
 @njit(cache=True, inline="always")
-def _insphere(pts, a, b, c, d, e, work, pbuf):
-    """Perturbed insphere sign of e against positive (a, b, c, d); never 0.
+def _insphere_filter(pts, a, b, c, d, e):
+    """Insphere sign of e against positive (a, b, c, d) by the semi-static filter; 0 undecided.
 
-    A semi-static float filter (a few flops), then the float filter of
-    predicates3d.insphere_filtered; undecided cases go to
-    predicates3d.insphere_exact, exact ties to insphere_tie (the symbolic
-    perturbation of insphere_perturbed).
+    No call (see :func:`_orient_filter`); :func:`_insphere` completes it.
     """
     ex = pts[e, 0]
     ey = pts[e, 1]
@@ -429,51 +429,54 @@ def _insphere(pts, a, b, c, d, e, work, pbuf):
         return 1
     if -det > errbound:
         return -1
-    # Then Shewchuk's tighter bound from the permanent (nearly co-spherical
-    # points), then exact.
-    aez = abs(aez)
-    bez = abs(bez)
-    cez = abs(cez)
-    dez = abs(dez)
-    abp = abs(aexbey) + abs(bexaey)
-    bcp = abs(bexcey) + abs(cexbey)
-    cdp = abs(cexdey) + abs(dexcey)
-    dap = abs(dexaey) + abs(aexdey)
-    acp = abs(aexcey) + abs(cexaey)
-    bdp = abs(bexdey) + abs(dexbey)
-    permanent = (
-        (cdp * bez + bdp * cez + bcp * dez) * alift
-        + (dap * cez + acp * dez + cdp * aez) * blift
-        + (abp * dez + bdp * aez + dap * bez) * clift
-        + (bcp * aez + acp * bez + abp * cez) * dlift
-    )
-    errbound = _ISP_ERRBOUND_A * permanent
-    if det > errbound:
-        return 1
-    if -det > errbound:
-        return -1
-    s = insphere_exact(
-        pts[a, 0], pts[a, 1], pts[a, 2], pts[b, 0], pts[b, 1], pts[b, 2],
-        pts[c, 0], pts[c, 1], pts[c, 2], pts[d, 0], pts[d, 1], pts[d, 2], ex, ey, ez, work,
-    )  # fmt: skip
+    return 0
+
+
+@njit(cache=True)
+def _insphere_tail(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, ex, ey, ez, work):
+    """Perturbed insphere sign where the semi-static filter failed; never 0.
+
+    predicates3d.insphere_filtered (Shewchuk's bound from the permanent, then
+    the exact predicate), exact ties to insphere_tie (the symbolic
+    perturbation of insphere_perturbed). Coordinates and one scratch array
+    only: a cheap call from the hot loops.
+    """
+    s = insphere_filtered(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, ex, ey, ez, work)
     if s != 0:
         return s
-    for k in range(3):
-        pbuf[0, k] = pts[a, k]
-        pbuf[1, k] = pts[b, k]
-        pbuf[2, k] = pts[c, k]
-        pbuf[3, k] = pts[d, k]
-        pbuf[4, k] = pts[e, k]
-    return insphere_tie(pbuf, work)
+    rows = np.empty((5, 3))
+    rows[0, 0], rows[0, 1], rows[0, 2] = ax, ay, az
+    rows[1, 0], rows[1, 1], rows[1, 2] = bx, by, bz
+    rows[2, 0], rows[2, 1], rows[2, 2] = cx, cy, cz
+    rows[3, 0], rows[3, 1], rows[3, 2] = dx, dy, dz
+    rows[4, 0], rows[4, 1], rows[4, 2] = ex, ey, ez
+    return insphere_tie(rows, work)
 
 
 @njit(cache=True, inline="always")
-def _orient_replaced(pts, V, b, j, p, work):
-    """orient3d of the tetrahedron at slots b..b+3 with slot j replaced by p."""
+def _insphere_rest(pts, a, b, c, d, e, work):
+    """:func:`_insphere_tail` of the vertices a, b, c, d, e."""
+    return _insphere_tail(
+        pts[a, 0], pts[a, 1], pts[a, 2], pts[b, 0], pts[b, 1], pts[b, 2],
+        pts[c, 0], pts[c, 1], pts[c, 2], pts[d, 0], pts[d, 1], pts[d, 2],
+        pts[e, 0], pts[e, 1], pts[e, 2], work,
+    )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _replaced(V, b, j, p):
+    """The vertices of the tetrahedron at slots b..b+3 with slot j replaced by p."""
     w0 = p if j == 0 else V[b]
     w1 = p if j == 1 else V[b + 1]
     w2 = p if j == 2 else V[b + 2]
     w3 = p if j == 3 else V[b + 3]
+    return w0, w1, w2, w3
+
+
+@njit(cache=True)
+def _orient_replaced(pts, V, b, j, p, work):
+    """orient3d of the tetrahedron at slots b..b+3 with slot j replaced by p."""
+    w0, w1, w2, w3 = _replaced(V, b, j, p)
     return _orient(pts, w0, w1, w2, w3, work)
 
 
@@ -487,18 +490,37 @@ def _ghost_slot(V, b):
 
 
 @njit(cache=True, inline="always")
-def _conflict(pts, V, A, t, p, work, pbuf):
-    """Is tetrahedron t in conflict with point p (p in its perturbed circumsphere)?"""
+def _conflict_filter(pts, V, t, p):
+    """Is tetrahedron t in conflict with point p: 1 yes, 0 no, -1 undecided by the filters.
+
+    No call (see :func:`_orient_filter`); exact: :func:`_insphere_rest`, :func:`_ghost_conflict`.
+    """
+    b = 4 * t
+    v0 = V[b]
+    v1 = V[b + 1]
+    v2 = V[b + 2]
+    v3 = V[b + 3]
+    if (v0 | v1 | v2 | v3) >= 0:  # real: no vertex at infinity (-1)
+        s = _insphere_filter(pts, v0, v1, v2, v3, p)
+    else:
+        w0, w1, w2, w3 = _replaced(V, b, _ghost_slot(V, b), p)
+        s = _orient_filter(pts, w0, w1, w2, w3)
+    if s == 0:
+        return -1
+    return 1 if s > 0 else 0
+
+
+@njit(cache=True)
+def _ghost_conflict(pts, V, A, t, p, work):
+    """Exact conflict of ghost t with p: beyond its facet, or on it and in the sphere behind."""
     b = 4 * t
     j = _ghost_slot(V, b)
-    if j < 0:
-        return _insphere(pts, V[b], V[b + 1], V[b + 2], V[b + 3], p, work, pbuf) > 0
     o = _orient_replaced(pts, V, b, j, p, work)
     if o != 0:
         return o > 0
-    # p on the hull facet's plane: in conflict iff with the real tetrahedron behind.
     r = 4 * (A[b + j] >> 2)
-    return _insphere(pts, V[r], V[r + 1], V[r + 2], V[r + 3], p, work, pbuf) > 0
+    s = _insphere_filter(pts, V[r], V[r + 1], V[r + 2], V[r + 3], p)
+    return (s if s != 0 else _insphere_rest(pts, V[r], V[r + 1], V[r + 2], V[r + 3], p, work)) > 0
 
 
 # ---------------------------------------------------------------------------
@@ -530,7 +552,11 @@ def _walk(pts, V, A, t, p, work):
             u = A[b + i] >> 2
             if u == prev:
                 continue
-            if _orient_replaced(pts, V, b, i, p, work) < 0:
+            w0, w1, w2, w3 = _replaced(V, b, i, p)
+            o = _orient_filter(pts, w0, w1, w2, w3)
+            if o == 0:
+                o = _orient(pts, w0, w1, w2, w3, work)
+            if o < 0:
                 prev = t
                 t = u
                 moved = True
@@ -541,9 +567,7 @@ def _walk(pts, V, A, t, p, work):
 
 
 @njit(cache=True)
-def _insert(
-    pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work, pbuf
-):
+def _insert(pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work):
     """Insert vertex p (its coordinates in pts[p]) walking from tetrahedron start.
 
     Sets state[_STATUS]: _OK (state[_NCAV] removed slots in cav, state[_NNEW]
@@ -575,14 +599,32 @@ def _insert(
     while i < nc:
         c = cav[i]
         i += 1
+        # The four neighbours and their marks are read first, as independent
+        # loads: their cache misses overlap instead of following one another.
+        bc = 4 * c
+        u0 = A[bc] >> 2
+        u1 = A[bc + 1] >> 2
+        u2 = A[bc + 2] >> 2
+        u3 = A[bc + 3] >> 2
+        m0 = mark[u0]
+        m1 = mark[u1]
+        m2 = mark[u2]
+        m3 = mark[u3]
         for f in range(4):
-            corner = A[4 * c + f]
-            u = corner >> 2
-            mu = mark[u]
+            u = u0 if f == 0 else (u1 if f == 1 else (u2 if f == 2 else u3))
+            mu = m0 if f == 0 else (m1 if f == 1 else (m2 if f == 2 else m3))
             if mu == inside:
                 continue
             if mu != outside:
-                if _conflict(pts, V, A, u, p, work, pbuf):
+                r = _conflict_filter(pts, V, u, p)
+                if r < 0:
+                    bu = 4 * u
+                    if (V[bu] | V[bu + 1] | V[bu + 2] | V[bu + 3]) >= 0:
+                        s = _insphere_rest(pts, V[bu], V[bu + 1], V[bu + 2], V[bu + 3], p, work)
+                    else:
+                        s = 1 if _ghost_conflict(pts, V, A, u, p, work) else -1
+                    r = 1 if s > 0 else 0
+                if r > 0:
                     if nc == ncav_max:
                         state[_STATUS] = _GROW_BUFFERS
                         return
@@ -594,7 +636,7 @@ def _insert(
             if nb == nbnd_max:
                 state[_STATUS] = _GROW_BUFFERS
                 return
-            bnd[nb] = 4 * c + f
+            bnd[nb] = bc + f
             nb += 1
     if 8 * nb > hkey.shape[0]:
         state[_STATUS] = _GROW_BUFFERS
@@ -711,7 +753,6 @@ def _insert_range(
     pts, hint, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work, lo, hi
 ):
     """Insert vertices lo..hi-1; stops at the first one not _OK (state[_INFO+...])."""
-    pbuf = np.empty((5, 3))
     for p in range(lo, hi):
         h = hint[p]
         start = state[_LAST]
@@ -721,7 +762,6 @@ def _insert_range(
                 start = s
         _insert(
             pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work,
-            pbuf,
         )  # fmt: skip
         if state[_STATUS] != _OK:
             return p
@@ -742,7 +782,6 @@ def _insert_guarded(
     Vertex n is the next free one. Returns the first index not handled (the
     buffers or slots must grow: state[_STATUS]) or len(Q).
     """
-    pbuf = np.empty((5, 3))
     for k in range(k0, Q.shape[0]):
         s = origin[k]
         if stale[s]:
@@ -760,7 +799,6 @@ def _insert_guarded(
             continue
         _insert(
             pts, n, t, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work,
-            pbuf,
         )  # fmt: skip
         status = state[_STATUS]
         if status == _DUPLICATE:
@@ -1216,7 +1254,7 @@ class IncrementalDelaunay3d:
             _insert(
                 self._pts, p, start, self._V, self._A, self._mark, self._vt, self._free,
                 self._state, self._cav, self._bnd, self._newv, self._newslot, self._hkey,
-                self._hval, self._work, np.empty((5, 3)),
+                self._hval, self._work,
             )  # fmt: skip
             status = int(self._state[_STATUS])
             if status == _OK:
@@ -1374,7 +1412,9 @@ class IncrementalDelaunay3d:
         for v in verts:
             if (self._pts[v] == q).all():
                 return Location(tet=t, kind="vertex", vertex=int(self._order[v]))
-        zeros = sum(int(_orient_at(self._pts, self._V, b, i, p, self._work) == 0) for i in range(4))
+        zeros = sum(
+            int(_orient_replaced(self._pts, self._V, b, i, p, self._work) == 0) for i in range(4)
+        )
         kind = {0: "inside", 1: "face", 2: "edge"}[zeros]
         return Location(tet=t, kind=kind, vertex=-1)
 
@@ -1401,11 +1441,6 @@ class IncrementalDelaunay3d:
         for arr in (pts, tetra, neighbors):
             arr.flags.writeable = False
         return Tetrahedralization(points=pts, tetra=tetra, neighbors=neighbors)
-
-
-@njit(cache=True)
-def _orient_at(pts, V, b, i, p, work):
-    return _orient_replaced(pts, V, b, i, p, work)
 
 
 def delaunay3d(points, progress: Callable[[float, str], None] | None = None) -> Tetrahedralization:
