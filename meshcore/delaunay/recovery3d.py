@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from numba import njit
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
@@ -39,6 +40,7 @@ from meshcore.delaunay.kernel3d import IncrementalDelaunay3d
 from meshcore.domain.surface import Surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates3d import dot3d, orient3d
+from meshcore.mesh.topology import isin_ints, unique_ints
 
 __all__ = [
     "KNOBS",
@@ -49,6 +51,7 @@ __all__ = [
     "ball_pairs",
     "edge_keys",
     "face_keys",
+    "face_rows",
     "facet_triangles",
     "member",
     "recover",
@@ -225,10 +228,184 @@ def edge_keys(E: np.ndarray) -> np.ndarray:
 
 
 def face_keys(F: np.ndarray) -> np.ndarray:
-    s = np.sort(F, axis=1)
-    if s.size and s.max() >= 1 << 21:
+    """(k,) int64: a key per triangle ``F`` (k, 3), the same for any order of its corners."""
+    F = np.ascontiguousarray(F, dtype=np.int64)
+    if F.size and F.max() >= 1 << 21:
         raise AlgorithmError("more than 2**21 points: face keys overflow", code="too_many_points")
-    return (s[:, 0] << 42) | (s[:, 1] << 21) | s[:, 2]
+    return _face_keys(F)
+
+
+@njit(cache=True)
+def _face_key(a, b, c):
+    """The key of triangle (a, b, c): its sorted corners, 21 bits each."""
+    if a > b:
+        a, b = b, a
+    if b > c:
+        b, c = c, b
+        if a > b:
+            a, b = b, a
+    return (a << 42) | (b << 21) | c
+
+
+@njit(cache=True)
+def _face_keys(F):
+    out = np.empty(F.shape[0], np.int64)
+    for i in range(F.shape[0]):
+        out[i] = _face_key(F[i, 0], F[i, 1], F[i, 2])
+    return out
+
+
+# Hash tables of int64 keys (faces and edges of the tetrahedralization looked up
+# among the subfaces and subsegments): open addressing, Fibonacci hashing, at most
+# half full; each slot holds a key and the index of its first occurrence.
+_FIB = np.uint64(0x9E3779B97F4A7C15)
+
+
+@njit(cache=True)
+def _slot(key, shift):
+    return np.int64((np.uint64(key) * _FIB) >> shift)
+
+
+@njit(cache=True)
+def _shift(size):
+    bits = 0
+    while (1 << bits) < size:
+        bits += 1
+    return np.uint64(64 - bits)
+
+
+@njit(cache=True)
+def _table(keys):
+    """(slot keys, slot values) of the non-negative ``keys``; -1 marks an empty slot."""
+    size = 16
+    while size < 2 * keys.shape[0]:
+        size *= 2
+    tk = np.full(size, -1, np.int64)
+    tv = np.full(size, -1, np.int64)
+    mask = size - 1
+    shift = _shift(size)
+    for i in range(keys.shape[0]):
+        key = keys[i]
+        h = _slot(key, shift)
+        while tk[h] != -1 and tk[h] != key:
+            h = (h + 1) & mask
+        if tk[h] == -1:
+            tk[h] = key
+            tv[h] = i
+    return tk, tv
+
+
+@njit(cache=True)
+def _find(tk, tv, key, shift):
+    """Index of the first occurrence of ``key`` in the table's keys, or -1."""
+    mask = tk.shape[0] - 1
+    h = _slot(key, shift)
+    while tk[h] != -1:
+        if tk[h] == key:
+            return tv[h]
+        h = (h + 1) & mask
+    return -1
+
+
+@njit(cache=True)
+def _find_all(tk, tv, keys):
+    shift = _shift(tk.shape[0])
+    out = np.empty(keys.shape[0], np.int64)
+    for i in range(keys.shape[0]):
+        out[i] = _find(tk, tv, keys[i], shift)
+    return out
+
+
+@njit(cache=True)
+def _tet_face_rows(T, tk, tv, faces):
+    """(m, 4): the table index of each face of each tetrahedron (``faces`` order), or -1."""
+    shift = _shift(tk.shape[0])
+    out = np.empty((T.shape[0], 4), np.int64)
+    for t in range(T.shape[0]):
+        for j in range(4):
+            key = _face_key(T[t, faces[j, 0]], T[t, faces[j, 1]], T[t, faces[j, 2]])
+            out[t, j] = _find(tk, tv, key, shift)
+    return out
+
+
+@njit(cache=True)
+def _present(T, seg_tk, seg_tv, n_seg, sub_tk, sub_tv, n_sub, edges, faces):
+    """Which table entries (first occurrences) are edges / faces of the tetrahedra ``T``."""
+    seg_shift = _shift(seg_tk.shape[0])
+    sub_shift = _shift(sub_tk.shape[0])
+    seg_hit = np.zeros(n_seg, np.bool_)
+    sub_hit = np.zeros(n_sub, np.bool_)
+    for t in range(T.shape[0]):
+        for j in range(6):
+            a = T[t, edges[j, 0]]
+            b = T[t, edges[j, 1]]
+            if a > b:
+                a, b = b, a
+            k = _find(seg_tk, seg_tv, (a << 32) | b, seg_shift)
+            if k >= 0:
+                seg_hit[k] = True
+        for j in range(4):
+            key = _face_key(T[t, faces[j, 0]], T[t, faces[j, 1]], T[t, faces[j, 2]])
+            k = _find(sub_tk, sub_tv, key, sub_shift)
+            if k >= 0:
+                sub_hit[k] = True
+    return seg_hit, sub_hit
+
+
+@njit(cache=True)
+def _neighbour_rows(slots, adj):
+    """(m, 4): the row (index into ``slots``) of each neighbour slot, -1 if not listed."""
+    top = 0
+    for s in slots:
+        top = max(top, s + 1)
+    row_of = np.full(top, -1, np.int64)
+    for r in range(slots.shape[0]):
+        row_of[slots[r]] = r
+    out = np.empty(adj.shape, np.int64)
+    for r in range(adj.shape[0]):
+        for j in range(4):
+            u = adj[r, j]
+            out[r, j] = row_of[u] if 0 <= u < top else -1
+    return out
+
+
+@njit(cache=True)
+def _components(nb, sub_of):
+    """Connected components of the tetrahedra across the faces that are not subfaces."""
+    m = nb.shape[0]
+    comp = np.full(m, -1, np.int64)
+    stack = np.empty(m, np.int64)
+    n = 0
+    for s in range(m):
+        if comp[s] >= 0:
+            continue
+        comp[s] = n
+        stack[0] = s
+        top = 1
+        while top > 0:
+            top -= 1
+            t = stack[top]
+            for j in range(4):
+                u = nb[t, j]
+                if u >= 0 and sub_of[t, j] < 0 and comp[u] < 0:
+                    comp[u] = n
+                    stack[top] = u
+                    top += 1
+        n += 1
+    return comp, n
+
+
+def face_rows(T: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """(m, 4) int64: the row of ``F`` (k, 3) that each face of each tetrahedron ``T`` is
+    (faces in ``TET_FACES`` order, corners in any order), or -1.
+
+    One compiled pass, the triangles in a hash table (no sort).
+    """
+    tk, tv = _table(face_keys(F))
+    T = np.ascontiguousarray(T, dtype=np.int64)
+    if T.size and T.max() >= 1 << 21:
+        raise AlgorithmError("more than 2**21 points: face keys overflow", code="too_many_points")
+    return _tet_face_rows(T, tk, tv, TET_FACES)
 
 
 def member(keys: np.ndarray, table_sorted: np.ndarray) -> np.ndarray:
@@ -331,6 +508,11 @@ class SurfaceRecovery:
         self._ball_tree = None
         self.unsettled: dict[int, np.ndarray] = {}  # subsegments missing from a facet's 2D mesh
         self.dt = IncrementalDelaunay3d(self.P)
+        self._tets_at = -1
+        self._tets: tuple[np.ndarray, np.ndarray] = (
+            np.zeros(0, np.int64),
+            np.zeros((0, 4), np.int64),
+        )
         self.surface_added = 0
         self.interior_added = 0
 
@@ -397,8 +579,20 @@ class SurfaceRecovery:
         return np.where(new & keep, ids, -1)
 
     def tets(self) -> tuple[np.ndarray, np.ndarray]:
-        slots = self.dt.alive()
-        return slots, self.dt.tets(slots)
+        """(slots, (m, 4) vertices) of the real tetrahedra, read-only.
+
+        Kept until the next insertion (the kernel changes only by inserting
+        points, so its point count dates the structure).
+        """
+        n = self.dt.n_points
+        if self._tets_at != n:
+            slots = self.dt.alive()
+            T = self.dt.tets(slots)
+            slots.flags.writeable = False
+            T.flags.writeable = False
+            self._tets = (slots, T)
+            self._tets_at = n
+        return self._tets
 
     # -- subsegments -------------------------------------------------------------
 
@@ -786,14 +980,19 @@ class SurfaceRecovery:
 
     def missing(self, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Subsegments that are not edges, subfaces that are not faces of ``T``."""
-        ek = np.sort(edge_keys(T[:, TET_EDGES].reshape(-1, 2)))
         keys = edge_keys(self.seg)
-        seg_missing = ~member(keys, ek)
+        sub_keys = face_keys(self.sub)
+        seg_tk, seg_tv = _table(keys)
+        sub_tk, sub_tv = _table(sub_keys)
+        seg_hit, sub_hit = _present(
+            np.ascontiguousarray(T, dtype=np.int64), seg_tk, seg_tv, len(keys), sub_tk, sub_tv,
+            len(sub_keys), TET_EDGES, TET_FACES,
+        )  # fmt: skip
+        seg_missing = ~seg_hit[_find_all(seg_tk, seg_tv, keys)]
         if self.unsettled:
-            seg_missing |= np.isin(keys, np.concatenate(list(self.unsettled.values())))
+            seg_missing |= isin_ints(keys, np.concatenate(list(self.unsettled.values())))
         seg_missing = np.flatnonzero(seg_missing)
-        fk = np.sort(face_keys(T[:, TET_FACES].reshape(-1, 3)))
-        sub_missing = np.flatnonzero(~member(face_keys(self.sub), fk))
+        sub_missing = np.flatnonzero(~sub_hit[_find_all(sub_tk, sub_tv, sub_keys)])
         return seg_missing, sub_missing
 
 
@@ -819,30 +1018,17 @@ def recover(b: SurfaceRecovery, progress) -> int:
 
 def regions(b: SurfaceRecovery, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
     """Region of each tetrahedron of ``T`` (-1 outside), by flood fill across non-subfaces."""
-    m = len(T)
-    row_of = np.full(int(slots.max()) + 1 if m else 1, -1, dtype=np.int64)
-    row_of[slots] = np.arange(m)
-    adj = b.dt.adjacent(slots)
-    nb = np.where(adj >= 0, row_of[np.clip(adj, 0, len(row_of) - 1)], -1)
-    nb[adj >= len(row_of)] = -1
-    faces = T[:, TET_FACES]  # (m, 4, 3), outward
-    fkeys = face_keys(faces.reshape(-1, 3)).reshape(m, 4)
-    sub_keys = face_keys(b.sub)
-    order = np.argsort(sub_keys)
-    sk = sub_keys[order]
-    is_sub = member(fkeys.reshape(-1), sk).reshape(m, 4)
-    # Links across ordinary faces between real tetrahedra.
-    link = ~is_sub & (nb >= 0)
-    r_i, f_i = np.nonzero(link)
-    graph = sp.csr_matrix((np.ones(len(r_i), dtype=np.int8), (r_i, nb[r_i, f_i])), shape=(m, m))
-    n_comp, comp = connected_components(graph, directed=False)
+    slots = np.ascontiguousarray(slots, dtype=np.int64)
+    nb = _neighbour_rows(slots, b.dt.adjacent(slots))
+    sub_of = face_rows(T, b.sub)  # the subface each face of each tetrahedron is, or -1
+    # Components across ordinary faces between real tetrahedra.
+    comp, n_comp = _components(nb, sub_of)
     label = np.full(n_comp, -2, dtype=np.int64)  # -2 unknown
     # A tetrahedron on a hull face (neighbour a ghost) across a non-subface is outside.
-    outside = np.unique(comp[np.nonzero(~is_sub & (nb < 0))[0]])
+    outside = unique_ints(comp[np.nonzero((sub_of < 0) & (nb < 0))[0]])
     # Subfaces: the tetrahedron on the inner side takes the facet's region.
-    t_i, f_j = np.nonzero(is_sub)
-    pos = np.searchsorted(sk, fkeys[t_i, f_j])
-    s_rows = order[pos]
+    t_i, f_j = np.nonzero(sub_of >= 0)
+    s_rows = sub_of[t_i, f_j]
     sf = b.sub[s_rows]
     d = T[t_i, f_j]
     side = orient3d(b.P[sf[:, 0]], b.P[sf[:, 1]], b.P[sf[:, 2]], b.P[d])
@@ -860,7 +1046,7 @@ def regions(b: SurfaceRecovery, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
     # never in the facet's own region.
     same = label[co] == outer_reg
     conflict[co[same]] = True
-    conflict[np.intersect1d(outside, ci)] = True
+    conflict[outside[isin_ints(outside, ci)]] = True
     if conflict.any():
         raise AlgorithmError(
             "the recovered surface does not separate the regions (a subface is "

@@ -170,6 +170,7 @@ from meshcore.delaunay.recovery3d import (
     SurfaceRecovery,
     ball_pairs,
     face_keys,
+    face_rows,
     member,
     recover,
     regions,
@@ -438,9 +439,7 @@ def _boundary_face_count(
     """How many faces of each tetrahedron are subfaces (of ``b``, or ``sub``)."""
     if len(T) == 0:
         return np.zeros(0, dtype=np.int64)
-    fk = face_keys(T[:, TET_FACES].reshape(-1, 3))
-    sk = face_keys(b.sub if sub is None else sub)
-    return member(fk, np.sort(sk)).reshape(-1, 4).sum(axis=1)
+    return (face_rows(T, b.sub if sub is None else sub) >= 0).sum(axis=1)
 
 
 def _flat_folds(b: SurfaceRecovery, T: np.ndarray) -> np.ndarray:
@@ -570,33 +569,103 @@ def _left_report(
     return out
 
 
-def _size_map(size: float | None, field: SizeField3d | None):
-    """The target edge length at points ``X`` as a function ``(k, 3) -> (k,)``: the
-    smaller of ``size`` and the size field's value there; None when neither is given."""
-    if field is None:
-        return None if size is None else (lambda X: np.full(len(X), size))
-    if size is None:
-        return field
-    return lambda X: np.minimum(field(X), size)
+class _SizeMap:
+    """The target edge length at points ``X`` (``(k, 3) -> (k,)``): the smaller of
+    ``size`` and the size field's value there; ``uniform`` is ``size`` when no field
+    is given (None otherwise)."""
+
+    def __init__(self, size: float | None, field: SizeField3d | None) -> None:
+        self.size = size
+        self.field = field
+        self.uniform = size if field is None else None
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        if self.field is None:
+            return np.full(len(X), self.size)
+        if self.size is None:
+            return self.field(X)
+        return np.minimum(self.field(X), self.size)
+
+
+def _size_map(size: float | None, field: SizeField3d | None) -> _SizeMap | None:
+    """The size map of ``size`` and ``size_field``; None when neither is given."""
+    if size is None and field is None:
+        return None
+    return _SizeMap(size, field)
+
+
+@njit(cache=True, error_model="numpy")
+def _measures(P, T, max_radius_edge, max_volume, size_radius, size, C, R):
+    """Circumcentres ``C`` and circumradii ``R`` of tetrahedra ``T``, and which are bad.
+
+    One pass, the same floating-point operations as :func:`_tet_circumcenters`,
+    :func:`_shortest_edge` and :func:`_volumes` (numpy's ``einsum`` adds three
+    products ``p`` as ``(p0 + p2) + p1``: so do the sums here). Bad: circumradius above
+    ``max_radius_edge`` times the shortest edge, volume above ``max_volume``,
+    circumradius above ``size_radius * size`` (``size`` NaN: none), or too flat
+    for a float circumcentre (its centroid in ``C`` and an infinite ``R`` then).
+    """
+    m = T.shape[0]
+    bad = np.empty(m, np.bool_)
+    for t in range(m):
+        i0, i1, i2, i3 = T[t, 0], T[t, 1], T[t, 2], T[t, 3]
+        ax, ay, az = P[i0, 0], P[i0, 1], P[i0, 2]
+        ux, uy, uz = P[i1, 0] - ax, P[i1, 1] - ay, P[i1, 2] - az
+        vx, vy, vz = P[i2, 0] - ax, P[i2, 1] - ay, P[i2, 2] - az
+        wx, wy, wz = P[i3, 0] - ax, P[i3, 1] - ay, P[i3, 2] - az
+        vwx, vwy, vwz = vy * wz - vz * wy, vz * wx - vx * wz, vx * wy - vy * wx
+        wux, wuy, wuz = wy * uz - wz * uy, wz * ux - wx * uz, wx * uy - wy * ux
+        uvx, uvy, uvz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        det = (ux * vwx + uz * vwz) + uy * vwy
+        den = 2.0 * det
+        uu = (ux * ux + uz * uz) + uy * uy
+        vv = (vx * vx + vz * vz) + vy * vy
+        ww = (wx * wx + wz * wz) + wy * wy
+        ox = (uu * vwx + vv * wux + ww * uvx) / den
+        oy = (uu * vwy + vv * wuy + ww * uvy) / den
+        oz = (uu * vwz + vv * wuz + ww * uvz) / den
+        r = math.sqrt((ox * ox + oz * oz) + oy * oy)
+        short = np.inf
+        for k in range(6):
+            a = T[t, _TET_EDGES[k, 0]]
+            b = T[t, _TET_EDGES[k, 1]]
+            dx = P[a, 0] - P[b, 0]
+            dy = P[a, 1] - P[b, 1]
+            dz = P[a, 2] - P[b, 2]
+            short = min(short, (dx * dx + dz * dz) + dy * dy)
+        is_bad = r > max_radius_edge * math.sqrt(short)
+        is_bad |= abs(det) / 6.0 > max_volume
+        if math.isfinite(r):
+            C[t, 0], C[t, 1], C[t, 2] = ax + ox, ay + oy, az + oz
+        else:
+            for k in range(3):
+                C[t, k] = (((P[i0, k] + P[i1, k]) + P[i2, k]) + P[i3, k]) / 4.0
+            r = np.inf
+            is_bad = True
+        R[t] = r
+        bad[t] = is_bad | (r > size_radius * size)
+    return bad
 
 
 def _bad_tets(P, T, max_radius_edge, max_volume, size_at, knobs) -> tuple[np.ndarray, np.ndarray]:
-    """Rows of bad tetrahedra and their circumcentres, worst (largest radius) first."""
-    c, R = _tet_circumcenters(P, T)
-    short = _shortest_edge(P, T)
-    bad = R > max_radius_edge * short
-    if max_volume is not None:
-        bad |= _volumes(P, T) > max_volume
-    # A tetrahedron too flat for its float circumcentre (positive by the exact
-    # sign, zero in float) is bad; its centroid is inserted instead.
-    flat = ~np.isfinite(R)
-    c[flat] = P[T[flat]].mean(axis=1)
-    R[flat] = np.inf
-    if size_at is not None:
-        bad |= R > knobs.size_radius * size_at(c)
-    rows = np.flatnonzero(bad | flat)
+    """Rows of bad tetrahedra and their circumcentres, worst (largest radius) first.
+
+    A tetrahedron too flat for its float circumcentre (positive by the exact
+    sign, zero in float) is bad; its centroid is inserted instead.
+    """
+    m = len(T)
+    C = np.empty((m, 3))
+    R = np.empty(m)
+    uniform = math.nan if size_at is None or size_at.uniform is None else size_at.uniform
+    bad = _measures(
+        P, np.ascontiguousarray(T, dtype=np.int64), max_radius_edge,
+        math.inf if max_volume is None else max_volume, knobs.size_radius, uniform, C, R,
+    )  # fmt: skip
+    if size_at is not None and size_at.uniform is None:
+        bad |= R > knobs.size_radius * size_at(C)
+    rows = np.flatnonzero(bad)
     rows = rows[np.argsort(-R[rows], kind="stable")]
-    return rows, c[rows]
+    return rows, C[rows]
 
 
 def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> tuple[int, int]:
