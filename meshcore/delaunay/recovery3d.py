@@ -40,7 +40,7 @@ from meshcore.delaunay.kernel3d import IncrementalDelaunay3d
 from meshcore.domain.surface import Surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates3d import dot3d, orient3d
-from meshcore.mesh.topology import isin_ints, unique_ints
+from meshcore.mesh.topology import isin_ints
 
 __all__ = [
     "KNOBS",
@@ -159,36 +159,124 @@ def tri_circumcenters(P: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 
 def ball_pairs(X: np.ndarray, centres: np.ndarray, radii: np.ndarray):
-    """All pairs (i, j) with ``|X[i] - centres[j]| < radii[j]`` (float).
+    """All pairs (i, j) with ``|X[i] - centres[j]| < radii[j]`` (float), in no set order.
 
-    Balls are grouped by the power of two of their radius, one KD-tree per
-    group queried with the group's largest radius, so a query meets only
-    balls of comparable size.
+    A hash grid per power of two of the radius: a ball of radius below
+    ``2**e`` is registered in the cells of side ``2**(e + 1)`` its bounding
+    box meets (at most 8 but for rounding), so each point looks in one cell
+    per radius scale. One compiled pass; the distance is numpy's
+    ``norm(X[i] - centres[j])``.
     """
-    z = np.zeros(0, dtype=np.int64)
-    ok = np.isfinite(radii) & (radii > 0)
-    if len(X) == 0 or not ok.any():
+    X = np.ascontiguousarray(X, dtype=np.float64).reshape(-1, 3)
+    centres = np.ascontiguousarray(centres, dtype=np.float64).reshape(-1, 3)
+    radii = np.ascontiguousarray(radii, dtype=np.float64)
+    return _ball_pairs(X, centres, radii)
+
+
+@njit(cache=True)
+def _cell_slot(tab, e, ix, iy, iz, shift):
+    """The slot of cell (e, ix, iy, iz) in ``tab`` (its own or the empty one ending its run)."""
+    mask = tab.shape[0] - 1
+    key = ((e * 1000003 + ix) * 1000003 + iy) * 1000003 + iz
+    h = _slot(key & 0x7FFFFFFFFFFFFFFF, shift)
+    while tab[h, 4] != 0:
+        if tab[h, 0] == e and tab[h, 1] == ix and tab[h, 2] == iy and tab[h, 3] == iz:
+            return h
+        h = (h + 1) & mask
+    return h
+
+
+@njit(cache=True)
+def _ball_pairs(X, centres, radii):
+    nb = radii.shape[0]
+    ok = np.zeros(nb, np.bool_)
+    expo = np.zeros(nb, np.int64)
+    n_ok = 0
+    for j in range(nb):
+        r = radii[j]
+        if math.isfinite(r) and r > 0:
+            c = centres[j]
+            if math.isfinite(c[0]) and math.isfinite(c[1]) and math.isfinite(c[2]):
+                ok[j] = True
+                expo[j] = math.frexp(r)[1]  # r < 2**expo
+                n_ok += 1
+    z = np.zeros(0, np.int64)
+    if X.shape[0] == 0 or n_ok == 0:
         return z, z
-    level = np.full(len(radii), 0, dtype=np.int64)
-    level[ok] = np.frexp(radii[ok])[1]
-    xs, js = [], []
-    xtree = cKDTree(X)
-    for lv in np.unique(level[ok]).tolist():  # a loop over radius scales
-        group = np.flatnonzero(ok & (level == lv))
-        tree = cKDTree(centres[group])
-        # All pairs within the group's largest radius, as arrays (no Python lists).
-        hits = xtree.sparse_distance_matrix(tree, float(radii[group].max()), output_type="ndarray")
-        if len(hits) == 0:
+    levels = np.unique(expo[ok])
+    # Cells of each ball: its bounding box (padded for rounding) in the grid of its level.
+    lo = np.empty((nb, 3), np.int64)
+    hi = np.empty((nb, 3), np.int64)
+    n_ent = 0
+    for j in range(nb):
+        if not ok[j]:
             continue
-        xi = hits["i"].astype(np.int64)
-        gi = group[hits["j"]]
-        d = np.linalg.norm(X[xi] - centres[gi], axis=1)
-        keep = d < radii[gi]
-        xs.append(xi[keep])
-        js.append(gi[keep])
-    if not xs:
-        return z, z
-    return np.concatenate(xs), np.concatenate(js)
+        h = 2.0 ** (expo[j] + 1)
+        pad = radii[j] * (1.0 + 1e-9) + 1e-300
+        count = 1
+        for k in range(3):
+            lo[j, k] = np.int64(math.floor((centres[j, k] - pad) / h))
+            hi[j, k] = np.int64(math.floor((centres[j, k] + pad) / h))
+            count *= hi[j, k] - lo[j, k] + 1
+        n_ent += count
+    size = 16
+    while size < 2 * n_ent:
+        size *= 2
+    shift = _shift(size)
+    tab = np.zeros((size, 6), np.int64)  # e, ix, iy, iz, used, head entry
+    nxt = np.empty(n_ent, np.int64)
+    ball = np.empty(n_ent, np.int64)
+    k = 0
+    for j in range(nb):
+        if not ok[j]:
+            continue
+        for ix in range(lo[j, 0], hi[j, 0] + 1):
+            for iy in range(lo[j, 1], hi[j, 1] + 1):
+                for iz in range(lo[j, 2], hi[j, 2] + 1):
+                    s = _cell_slot(tab, expo[j], ix, iy, iz, shift)
+                    if tab[s, 4] == 0:
+                        tab[s, 0], tab[s, 1], tab[s, 2], tab[s, 3] = expo[j], ix, iy, iz
+                        tab[s, 4] = 1
+                        tab[s, 5] = -1
+                    ball[k] = j
+                    nxt[k] = tab[s, 5]
+                    tab[s, 5] = k
+                    k += 1
+    cap = 1024
+    xs = np.empty(cap, np.int64)
+    js = np.empty(cap, np.int64)
+    n = 0
+    for i in range(X.shape[0]):
+        x0, x1, x2 = X[i, 0], X[i, 1], X[i, 2]
+        if not (math.isfinite(x0) and math.isfinite(x1) and math.isfinite(x2)):
+            continue
+        for e in levels:
+            h = 2.0 ** (e + 1)
+            s = _cell_slot(
+                tab, e, np.int64(math.floor(x0 / h)), np.int64(math.floor(x1 / h)),
+                np.int64(math.floor(x2 / h)), shift,
+            )  # fmt: skip
+            if tab[s, 4] == 0:
+                continue
+            q = tab[s, 5]
+            while q >= 0:
+                j = ball[q]
+                q = nxt[q]
+                d0 = x0 - centres[j, 0]
+                d1 = x1 - centres[j, 1]
+                d2 = x2 - centres[j, 2]
+                if math.sqrt((d0 * d0 + d1 * d1) + d2 * d2) < radii[j]:
+                    if n == cap:
+                        cap *= 2
+                        xs2 = np.empty(cap, np.int64)
+                        js2 = np.empty(cap, np.int64)
+                        xs2[:n] = xs[:n]
+                        js2[:n] = js[:n]
+                        xs, js = xs2, js2
+                    xs[n] = i
+                    js[n] = j
+                    n += 1
+    return xs[:n].copy(), js[:n].copy()
 
 
 def facet_triangles(
@@ -329,50 +417,72 @@ def _tet_face_rows(T, tk, tv, faces):
 
 
 @njit(cache=True)
-def _present(T, seg_tk, seg_tv, n_seg, sub_tk, sub_tv, n_sub, edges, faces):
-    """Which table entries (first occurrences) are edges / faces of the tetrahedra ``T``."""
+def _present(T, on, seg_tk, seg_tv, n_seg, sub_tk, sub_tv, n_sub, edges, faces):
+    """Which table entries (first occurrences) are edges / faces of the tetrahedra ``T``.
+
+    Only the edges and faces whose corners are all ``on`` (the surface points:
+    subsegments and subfaces have no other) are looked up.
+    """
     seg_shift = _shift(seg_tk.shape[0])
     sub_shift = _shift(sub_tk.shape[0])
     seg_hit = np.zeros(n_seg, np.bool_)
     sub_hit = np.zeros(n_sub, np.bool_)
     for t in range(T.shape[0]):
+        if (on[T[t, 0]] + on[T[t, 1]] + on[T[t, 2]] + on[T[t, 3]]) < 2:
+            continue
         for j in range(6):
             a = T[t, edges[j, 0]]
             b = T[t, edges[j, 1]]
+            if not (on[a] and on[b]):
+                continue
             if a > b:
                 a, b = b, a
             k = _find(seg_tk, seg_tv, (a << 32) | b, seg_shift)
             if k >= 0:
                 seg_hit[k] = True
         for j in range(4):
-            key = _face_key(T[t, faces[j, 0]], T[t, faces[j, 1]], T[t, faces[j, 2]])
-            k = _find(sub_tk, sub_tv, key, sub_shift)
+            a = T[t, faces[j, 0]]
+            b = T[t, faces[j, 1]]
+            c = T[t, faces[j, 2]]
+            if not (on[a] and on[b] and on[c]):
+                continue
+            k = _find(sub_tk, sub_tv, _face_key(a, b, c), sub_shift)
             if k >= 0:
                 sub_hit[k] = True
     return seg_hit, sub_hit
 
 
 @njit(cache=True)
-def _neighbour_rows(slots, adj):
-    """(m, 4): the row (index into ``slots``) of each neighbour slot, -1 if not listed."""
+def _regions_pass(T, slots, adj, on, tk, tv, faces):
+    """The flood fill of :func:`regions` in one pass.
+
+    Returns the component of each tetrahedron (across faces that are not
+    subfaces, between real tetrahedra), their number, whether each meets the
+    outside (a non-subface with no real tetrahedron behind it), and every
+    (tetrahedron, face, subface) incidence in row-major order.
+    """
+    m = T.shape[0]
     top = 0
     for s in slots:
         top = max(top, s + 1)
     row_of = np.full(top, -1, np.int64)
-    for r in range(slots.shape[0]):
+    for r in range(m):
         row_of[slots[r]] = r
-    out = np.empty(adj.shape, np.int64)
-    for r in range(adj.shape[0]):
+    shift = _shift(tk.shape[0])
+    nb = np.empty((m, 4), np.int64)
+    sub_of = np.full((m, 4), -1, np.int64)
+    n_inc = 0
+    for t in range(m):
         for j in range(4):
-            u = adj[r, j]
-            out[r, j] = row_of[u] if 0 <= u < top else -1
-    return out
-
-
-@njit(cache=True)
-def _components(nb, sub_of):
-    """Connected components of the tetrahedra across the faces that are not subfaces."""
-    m = nb.shape[0]
+            u = adj[t, j]
+            nb[t, j] = row_of[u] if 0 <= u < top else -1
+            a = T[t, faces[j, 0]]
+            b = T[t, faces[j, 1]]
+            c = T[t, faces[j, 2]]
+            if on[a] and on[b] and on[c]:
+                sub_of[t, j] = _find(tk, tv, _face_key(a, b, c), shift)
+                if sub_of[t, j] >= 0:
+                    n_inc += 1
     comp = np.full(m, -1, np.int64)
     stack = np.empty(m, np.int64)
     n = 0
@@ -381,18 +491,32 @@ def _components(nb, sub_of):
             continue
         comp[s] = n
         stack[0] = s
-        top = 1
-        while top > 0:
-            top -= 1
-            t = stack[top]
+        size = 1
+        while size > 0:
+            size -= 1
+            t = stack[size]
             for j in range(4):
                 u = nb[t, j]
                 if u >= 0 and sub_of[t, j] < 0 and comp[u] < 0:
                     comp[u] = n
-                    stack[top] = u
-                    top += 1
+                    stack[size] = u
+                    size += 1
         n += 1
-    return comp, n
+    outside = np.zeros(n, np.bool_)
+    inc_t = np.empty(n_inc, np.int64)
+    inc_f = np.empty(n_inc, np.int64)
+    inc_s = np.empty(n_inc, np.int64)
+    k = 0
+    for t in range(m):
+        for j in range(4):
+            if sub_of[t, j] >= 0:
+                inc_t[k] = t
+                inc_f[k] = j
+                inc_s[k] = sub_of[t, j]
+                k += 1
+            elif nb[t, j] < 0:
+                outside[comp[t]] = True
+    return comp, n, outside, inc_t, inc_f, inc_s
 
 
 def face_rows(T: np.ndarray, F: np.ndarray) -> np.ndarray:
@@ -593,6 +717,15 @@ class SurfaceRecovery:
             self._tets = (slots, T)
             self._tets_at = n
         return self._tets
+
+    def on_surface(self) -> np.ndarray:
+        """(n,) bool: which points lie on the surface (input vertices, points added on
+        input edges and in facets)."""
+        on = np.ones(self.n, dtype=bool)
+        on[self.n_surface :] = (self.pt_edge[self.n_surface :] >= 0) | (
+            self.pt_facet[self.n_surface :] >= 0
+        )
+        return on
 
     # -- subsegments -------------------------------------------------------------
 
@@ -985,8 +1118,8 @@ class SurfaceRecovery:
         seg_tk, seg_tv = _table(keys)
         sub_tk, sub_tv = _table(sub_keys)
         seg_hit, sub_hit = _present(
-            np.ascontiguousarray(T, dtype=np.int64), seg_tk, seg_tv, len(keys), sub_tk, sub_tv,
-            len(sub_keys), TET_EDGES, TET_FACES,
+            np.ascontiguousarray(T, dtype=np.int64), self.on_surface(), seg_tk, seg_tv,
+            len(keys), sub_tk, sub_tv, len(sub_keys), TET_EDGES, TET_FACES,
         )  # fmt: skip
         seg_missing = ~seg_hit[_find_all(seg_tk, seg_tv, keys)]
         if self.unsettled:
@@ -1019,16 +1152,14 @@ def recover(b: SurfaceRecovery, progress) -> int:
 def regions(b: SurfaceRecovery, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
     """Region of each tetrahedron of ``T`` (-1 outside), by flood fill across non-subfaces."""
     slots = np.ascontiguousarray(slots, dtype=np.int64)
-    nb = _neighbour_rows(slots, b.dt.adjacent(slots))
-    sub_of = face_rows(T, b.sub)  # the subface each face of each tetrahedron is, or -1
-    # Components across ordinary faces between real tetrahedra.
-    comp, n_comp = _components(nb, sub_of)
+    comp, n_comp, out_comp, t_i, f_j, s_rows = _regions_pass(
+        np.ascontiguousarray(T, dtype=np.int64), slots, b.dt.adjacent(slots), b.on_surface(),
+        *_table(face_keys(b.sub)), TET_FACES,
+    )  # fmt: skip
     label = np.full(n_comp, -2, dtype=np.int64)  # -2 unknown
     # A tetrahedron on a hull face (neighbour a ghost) across a non-subface is outside.
-    outside = unique_ints(comp[np.nonzero((sub_of < 0) & (nb < 0))[0]])
+    outside = np.flatnonzero(out_comp)
     # Subfaces: the tetrahedron on the inner side takes the facet's region.
-    t_i, f_j = np.nonzero(sub_of >= 0)
-    s_rows = sub_of[t_i, f_j]
     sf = b.sub[s_rows]
     d = T[t_i, f_j]
     side = orient3d(b.P[sf[:, 0]], b.P[sf[:, 1]], b.P[sf[:, 2]], b.P[d])
