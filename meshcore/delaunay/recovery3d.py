@@ -47,11 +47,13 @@ __all__ = [
     "TET_EDGES",
     "TET_FACES",
     "Knobs",
+    "RegionLabels",
     "SurfaceRecovery",
     "ball_pairs",
     "edge_keys",
     "face_keys",
     "face_rows",
+    "fresh_rows",
     "facet_triangles",
     "member",
     "recover",
@@ -517,6 +519,103 @@ def _regions_pass(T, slots, adj, on, tk, tv, faces):
             elif nb[t, j] < 0:
                 outside[comp[t]] = True
     return comp, n, outside, inc_t, inc_f, inc_s
+
+
+@njit(cache=True)
+def fresh_rows(T, n0):
+    """(k,) int64: the rows of ``T`` (m, 4) with a vertex numbered ``n0`` or above (the
+    tetrahedra created since the structure had ``n0`` points)."""
+    out = np.empty(T.shape[0], np.int64)
+    k = 0
+    for t in range(T.shape[0]):
+        if max(max(T[t, 0], T[t, 1]), max(T[t, 2], T[t, 3])) >= n0:
+            out[k] = t
+            k += 1
+    return out[:k].copy()
+
+
+@njit(cache=True)
+def _regions_update(T, slots, fresh, adj, old, on, tk, tv, faces):
+    """The flood fill of :func:`regions` over the ``fresh`` rows only.
+
+    ``old[s]``: the label of the tetrahedron at slot ``s`` at the last call
+    (the others kept theirs); ``adj``: the fresh rows' neighbour slots.
+    Returns the component of each fresh row, their number, per component the
+    label met across ordinary faces (-2 none), whether it meets the outside
+    and whether two labels met disagree, and the subface incidences.
+    """
+    m = T.shape[0]
+    top = 0
+    for s in slots:
+        top = max(top, s + 1)
+    row_of = np.full(top, -1, np.int64)
+    for r in range(m):
+        row_of[slots[r]] = r
+    k = fresh.shape[0]
+    local = np.full(m, -1, np.int64)
+    for i in range(k):
+        local[fresh[i]] = i
+    shift = _shift(tk.shape[0])
+    nb = np.full((k, 4), -1, np.int64)  # fresh neighbour (local), -2 old, -3 outside
+    sub_of = np.full((k, 4), -1, np.int64)
+    n_inc = 0
+    for i in range(k):
+        t = fresh[i]
+        for j in range(4):
+            a = T[t, faces[j, 0]]
+            b = T[t, faces[j, 1]]
+            c = T[t, faces[j, 2]]
+            if on[a] and on[b] and on[c]:
+                sub_of[i, j] = _find(tk, tv, _face_key(a, b, c), shift)
+                if sub_of[i, j] >= 0:
+                    n_inc += 1
+                    continue
+            u = adj[i, j]
+            r = row_of[u] if 0 <= u < top else -1
+            nb[i, j] = -3 if r < 0 else (local[r] if local[r] >= 0 else -2)
+    comp = np.full(k, -1, np.int64)
+    stack = np.empty(k, np.int64)
+    n = 0
+    for s in range(k):
+        if comp[s] >= 0:
+            continue
+        comp[s] = n
+        stack[0] = s
+        size = 1
+        while size > 0:
+            size -= 1
+            i = stack[size]
+            for j in range(4):
+                u = nb[i, j]
+                if u >= 0 and comp[u] < 0:
+                    comp[u] = n
+                    stack[size] = u
+                    size += 1
+        n += 1
+    met = np.full(n, -2, np.int64)
+    outside = np.zeros(n, np.bool_)
+    clash = np.zeros(n, np.bool_)
+    inc_t = np.empty(n_inc, np.int64)
+    inc_f = np.empty(n_inc, np.int64)
+    inc_s = np.empty(n_inc, np.int64)
+    q = 0
+    for i in range(k):
+        c = comp[i]
+        for j in range(4):
+            if sub_of[i, j] >= 0:
+                inc_t[q] = fresh[i]
+                inc_f[q] = j
+                inc_s[q] = sub_of[i, j]
+                q += 1
+            elif nb[i, j] == -3:
+                outside[c] = True
+            elif nb[i, j] == -2:
+                lab = old[slots[row_of[adj[i, j]]]]
+                if met[c] == -2:
+                    met[c] = lab
+                elif met[c] != lab:
+                    clash[c] = True
+    return comp, n, met, outside, clash, inc_t, inc_f, inc_s
 
 
 def face_rows(T: np.ndarray, F: np.ndarray) -> np.ndarray:
@@ -1156,7 +1255,20 @@ def regions(b: SurfaceRecovery, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
         np.ascontiguousarray(T, dtype=np.int64), slots, b.dt.adjacent(slots), b.on_surface(),
         *_table(face_keys(b.sub)), TET_FACES,
     )  # fmt: skip
-    label = np.full(n_comp, -2, dtype=np.int64)  # -2 unknown
+    met = np.full(n_comp, -2, dtype=np.int64)
+    clash = np.zeros(n_comp, dtype=bool)
+    return _labels(b, T, comp, met, out_comp, clash, t_i, f_j, s_rows)
+
+
+def _labels(b, T, comp, met, out_comp, clash, t_i, f_j, s_rows) -> np.ndarray:
+    """The label of each component of :func:`regions` (of the rows ``comp`` covers).
+
+    ``met``: the label each component already has (-2 unknown), ``out_comp``:
+    whether it meets the outside, ``clash``: whether labels met disagree;
+    ``(t_i, f_j, s_rows)`` the subface incidences (row of ``T``, face,
+    subface). Raises if the surface does not separate the regions.
+    """
+    label = met.copy()
     # A tetrahedron on a hull face (neighbour a ghost) across a non-subface is outside.
     outside = np.flatnonzero(out_comp)
     # Subfaces: the tetrahedron on the inner side takes the facet's region.
@@ -1168,8 +1280,8 @@ def regions(b: SurfaceRecovery, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
     ci = comp[t_i[inner]]
     ri = reg[inner]
     label[ci] = ri
-    conflict = np.zeros(n_comp, dtype=bool)
-    chk = label[ci] != ri
+    conflict = clash.copy()
+    chk = (label[ci] != ri) | ((met[ci] != -2) & (met[ci] != ri))
     conflict[ci[chk]] = True
     co = comp[t_i[~inner]]
     outer_reg = reg[~inner]
@@ -1178,6 +1290,7 @@ def regions(b: SurfaceRecovery, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
     same = label[co] == outer_reg
     conflict[co[same]] = True
     conflict[outside[isin_ints(outside, ci)]] = True
+    conflict[outside[met[outside] >= 0]] = True
     if conflict.any():
         raise AlgorithmError(
             "the recovered surface does not separate the regions (a subface is "
@@ -1187,3 +1300,43 @@ def regions(b: SurfaceRecovery, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
     label[label == -2] = -1
     label[outside] = -1
     return label[comp]
+
+
+class RegionLabels:
+    """:func:`regions` kept between calls, for a tetrahedralization that only grows.
+
+    Each call classifies only the tetrahedra with a vertex added since the
+    last one (every tetrahedron an insertion creates holds the new point):
+    the others keep their region, and a new one takes the region of the old
+    tetrahedra it meets across faces that are not subfaces, or of the
+    subfaces it holds, as :func:`regions` would; with every subface present
+    (as after :func:`recover`) the labels are those of :func:`regions`.
+    """
+
+    def __init__(self, b: SurfaceRecovery) -> None:
+        self.b = b
+        self.n = -1
+        self.by_slot = np.zeros(0, dtype=np.int64)
+
+    def __call__(self, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
+        """(m,) int64: the region of each tetrahedron ``T`` at ``slots`` (-1 outside)."""
+        b = self.b
+        slots = np.ascontiguousarray(slots, dtype=np.int64)
+        T = np.ascontiguousarray(T, dtype=np.int64)
+        if self.n < 0:
+            label = regions(b, slots, T)
+        else:
+            fresh = fresh_rows(T, self.n)
+            comp, n_comp, met, out_comp, clash, t_i, f_j, s_rows = _regions_update(
+                T, slots, fresh, b.dt.adjacent(slots[fresh]), self.by_slot, b.on_surface(),
+                *_table(face_keys(b.sub)), TET_FACES,
+            )  # fmt: skip
+            label = self.by_slot[np.minimum(slots, len(self.by_slot) - 1)]
+            if fresh.size:
+                whole = np.zeros(len(T), dtype=np.int64)
+                whole[fresh] = comp
+                label[fresh] = _labels(b, T, whole, met, out_comp, clash, t_i, f_j, s_rows)[fresh]
+        self.by_slot = np.full(int(slots.max()) + 1 if len(slots) else 0, -3, dtype=np.int64)
+        self.by_slot[slots] = label
+        self.n = b.n
+        return label
