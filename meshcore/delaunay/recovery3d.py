@@ -26,7 +26,6 @@ J. R. Shewchuk, "Tetrahedral Mesh Generation by Delaunay Refinement"
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,7 +39,7 @@ from meshcore.delaunay.kernel3d import IncrementalDelaunay3d
 from meshcore.domain.surface import Surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates3d import dot3d, orient3d
-from meshcore.mesh.topology import isin_ints
+from meshcore.mesh.topology import isin_ints, unique_ints
 
 __all__ = [
     "KNOBS",
@@ -54,7 +53,6 @@ __all__ = [
     "face_keys",
     "face_rows",
     "fresh_rows",
-    "facet_triangles",
     "member",
     "recover",
     "regions",
@@ -281,34 +279,140 @@ def _ball_pairs(X, centres, radii):
     return xs[:n].copy(), js[:n].copy()
 
 
-def facet_triangles(
-    tri: np.ndarray,
-    uv: np.ndarray,
-    loop: np.ndarray,
-    pos: np.ndarray,
-    inside: Callable[[np.ndarray], np.ndarray],
-) -> np.ndarray:
-    """Keep the triangles of a facet's 2D Delaunay triangulation that lie in the facet.
+@njit(cache=True)
+def _facet_points(
+    facets, bptr, bu, be, bl, bfwd, lptr, lonely, by_edge, edge_bounds, by_facet,
+    facet_bounds, seg_order, seg_bounds,
+):  # fmt: skip
+    """The points of each facet to triangulate (CSR over ``facets``): its boundary
+    loops (each input edge's first vertex, then the points on the edge in the
+    loop's direction), then its corners on no loop and the points inside it;
+    with each point's loop and rank along the boundary (-1 inside), and the
+    subsegments of its boundary edges (CSR)."""
+    K = facets.shape[0]
+    ptr = np.zeros(K + 1, np.int64)
+    sptr = np.zeros(K + 1, np.int64)
+    for k in range(K):
+        f = facets[k]
+        n = lptr[f + 1] - lptr[f] + facet_bounds[f + 1] - facet_bounds[f]
+        ns = 0
+        for q in range(bptr[f], bptr[f + 1]):
+            e = be[q]
+            n += 1 + edge_bounds[e + 1] - edge_bounds[e]
+            ns += seg_bounds[e + 1] - seg_bounds[e]
+        ptr[k + 1] = ptr[k] + n
+        sptr[k + 1] = sptr[k] + ns
+    ids = np.empty(ptr[K], np.int64)
+    loop = np.empty(ptr[K], np.int64)
+    pos = np.empty(ptr[K], np.int64)
+    segs = np.empty(sptr[K], np.int64)
+    for k in range(K):
+        f = facets[k]
+        j = ptr[k]
+        js = sptr[k]
+        for q in range(bptr[f], bptr[f + 1]):
+            e = be[q]
+            lo, hi = edge_bounds[e], edge_bounds[e + 1]
+            ids[j] = bu[q]
+            loop[j] = bl[q]
+            pos[j] = j - ptr[k]
+            j += 1
+            for i in range(hi - lo):
+                ids[j] = by_edge[lo + i] if bfwd[q] else by_edge[hi - 1 - i]
+                loop[j] = bl[q]
+                pos[j] = j - ptr[k]
+                j += 1
+            for i in range(seg_bounds[e], seg_bounds[e + 1]):
+                segs[js] = seg_order[i]
+                js += 1
+        for i in range(lptr[f], lptr[f + 1]):
+            ids[j] = lonely[i]
+            loop[j] = -1
+            pos[j] = -1
+            j += 1
+        for i in range(facet_bounds[f], facet_bounds[f + 1]):
+            ids[j] = by_facet[i]
+            loop[j] = -1
+            pos[j] = -1
+            j += 1
+    return ptr, ids, loop, pos, sptr, segs
 
-    ``loop[i]`` and ``pos[i]`` give the boundary loop of the facet point
-    ``i`` and its rank along it (in the loop's direction, the facet on its
-    left), -1 for a point inside the facet. A triangle of a triangulation of
-    the facet whose three corners lie on one loop visits them in the loop's
-    cyclic order when counter-clockwise (two of its three steps forward);
-    the triangles of the convex hull's pockets outside the facet (and the
-    slivers of three points of one edge that rounding put a hair inside it)
-    run against it. Other triangles are kept when their centroid lies in the
-    facet (``inside``, float: such a triangle is not flat).
+
+@njit(cache=True)
+def _facet_subfaces(
+    facets, plain, ptr, ids, loop, pos, tptr, tri, uv, in_ptr, in_tri, tu, tol, sptr, segs,
+    seg_keys,
+):  # fmt: skip
+    """The subfaces of each facet (in ``facets`` order) and its unsettled subsegments.
+
+    A facet with no point added (``plain``) keeps its input triangles
+    (``in_tri``, CSR ``in_ptr``). Otherwise, of its 2D Delaunay triangles
+    (``tri``, local to its points, CSR ``tptr``) a triangle whose three
+    corners lie on one boundary loop is kept when it visits them in the
+    loop's cyclic order (two of its three steps forward: the triangles of
+    the convex hull's pockets outside the facet, and the slivers of three
+    points of one edge that rounding put a hair inside it, run against it);
+    another is kept when its centroid lies in one of the facet's input
+    triangles (``tu``, projected, non-strict up to ``tol``). The unsettled
+    subsegments: the keys ``seg_keys[segs]`` of the facet's boundary
+    subsegments that are no edges of its subfaces.
     """
-    lp = loop[tri]
-    ps = pos[tri]
-    one = (lp[:, 0] >= 0) & (lp[:, 0] == lp[:, 1]) & (lp[:, 1] == lp[:, 2])
-    forward = (np.roll(ps, -1, axis=1) > ps).sum(axis=1) == 2
-    keep = np.where(one, forward, False)
-    other = np.flatnonzero(~one)
-    if other.size:
-        keep[other] = inside(uv[tri[other]].mean(axis=1))
-    return tri[keep]
+    K = facets.shape[0]
+    out = np.empty((tri.shape[0] + in_tri.shape[0], 3), np.int64)
+    owner = np.empty(out.shape[0], np.int64)
+    uptr = np.zeros(K + 1, np.int64)
+    unsettled = np.empty(segs.shape[0], np.int64)
+    n = 0
+    nu = 0
+    for k in range(K):
+        f = facets[k]
+        first = n
+        if plain[k]:
+            for t in range(in_ptr[f], in_ptr[f + 1]):
+                out[n, 0], out[n, 1], out[n, 2] = in_tri[t, 0], in_tri[t, 1], in_tri[t, 2]
+                owner[n] = f
+                n += 1
+        else:
+            base = ptr[k]
+            for t in range(tptr[k], tptr[k + 1]):
+                a, b, c = tri[t, 0] + base, tri[t, 1] + base, tri[t, 2] + base
+                if loop[a] >= 0 and loop[a] == loop[b] and loop[b] == loop[c]:
+                    steps = (pos[b] > pos[a]) + (pos[c] > pos[b]) + (pos[a] > pos[c])
+                    keep = steps == 2
+                else:
+                    x0 = ((uv[a, 0] + uv[b, 0]) + uv[c, 0]) / 3.0
+                    x1 = ((uv[a, 1] + uv[b, 1]) + uv[c, 1]) / 3.0
+                    keep = False
+                    for q in range(in_ptr[f], in_ptr[f + 1]):
+                        ok = True
+                        for i in range(3):
+                            p0, p1 = tu[q, i, 0], tu[q, i, 1]
+                            q0, q1 = tu[q, (i + 1) % 3, 0], tu[q, (i + 1) % 3, 1]
+                            if not ((q0 - p0) * (x1 - p1) - (q1 - p1) * (x0 - p0) >= tol[f]):
+                                ok = False
+                                break
+                        if ok:
+                            keep = True
+                            break
+                if keep:
+                    out[n, 0], out[n, 1], out[n, 2] = ids[a], ids[b], ids[c]
+                    owner[n] = f
+                    n += 1
+        for i in range(sptr[k], sptr[k + 1]):
+            key = seg_keys[segs[i]]
+            found = False
+            for t in range(first, n):
+                for j in range(3):
+                    u, v = out[t, j], out[t, (j + 1) % 3]
+                    if u > v:
+                        u, v = v, u
+                    if (u << 32) | v == key:
+                        found = True
+            if not found:
+                unsettled[nu] = key
+                nu += 1
+        uptr[k + 1] = nu
+    return out[:n].copy(), owner[:n].copy(), uptr, unsettled[:nu].copy()
 
 
 def edge_keys(E: np.ndarray) -> np.ndarray:
@@ -702,6 +806,7 @@ class SurfaceRecovery:
         self._flat = flat
         self._loops: dict[int, list] = {}
         self._corner_cache: dict[int, tuple] = {}
+        self._static: dict[int, tuple] = {}
         # Facet frames for the 2D triangulations: origin, two orthonormal axes
         # (counter-clockwise in the frame is outward), from the facet's first triangle.
         first = facets[[t[0] for t in self.group_tris]]
@@ -828,7 +933,7 @@ class SurfaceRecovery:
 
     # -- subsegments -------------------------------------------------------------
 
-    def split_segments(self, rows: np.ndarray) -> int:
+    def split_segments(self, rows: np.ndarray, defer: list | None = None) -> int:
         """Split subsegments ``rows``; the number split.
 
         Ruppert's concentric shells: a subsegment with exactly one endpoint
@@ -841,7 +946,8 @@ class SurfaceRecovery:
         stop at its sphere, and a subsegment from the vertex to the sphere is
         never split (it stays an edge: every point inside the ball is on its
         sphere, and no point of that sphere lies in its closed diametral
-        ball).
+        ball). With ``defer`` (a list), the facets to retriangulate are
+        appended to it instead.
         """
         rows = np.unique(rows)
         if rows.size == 0:
@@ -869,24 +975,52 @@ class SurfaceRecovery:
         self.seg[rows, 1] = ids
         self.seg = np.concatenate([self.seg, np.stack([ids, s[:, 1]], 1)])
         self.seg_edge = np.concatenate([self.seg_edge, e])
-        self.retriangulate(np.unique(self.edge_groups[e]))
+        touched = unique_ints(self.edge_groups[e])
+        if defer is None:
+            self.retriangulate(touched)
+        else:
+            defer.append(touched)  # the caller retriangulates them
         return int(ok.sum())
 
     # -- subfaces ----------------------------------------------------------------
+
+    def _facet_static(self, g: int) -> tuple:
+        """Facet ``g``'s boundary (first vertex, edge, loop, whether the edge runs from
+        its first vertex), its corners on no loop, its input triangles projected in
+        its frame and the inside tolerance; built once."""
+        if g not in self._static:
+            corners, lonely = self._corners(g)
+            parts = [
+                (de[:, 0], ei, np.full(len(ei), li)) for li, (de, ei) in enumerate(self.loops(g))
+            ]
+            if parts:
+                u, e, li = (np.concatenate(x) for x in zip(*parts, strict=True))
+            else:
+                u = e = li = np.zeros(0, dtype=np.int64)
+            origin, e1, e2 = self.frame
+            q = self.P[self.facets[self.group_tris[g]]] - origin[g]
+            tu = np.stack([q @ e1[g], q @ e2[g]], -1)  # (k, 3, 2)
+            # Non-strict up to rounding: a centroid may lie on an edge inside the
+            # facet (a diagonal its input triangles share).
+            tol = -1e-9 * float(np.ptp(tu.reshape(-1, 2), axis=0).max()) ** 2
+            fwd = u == self.edges[e, 0]
+            self._static[g] = (u, e, li, fwd, lonely, len(corners), tu, tol)
+        return self._static[g]
 
     def retriangulate(self, facets: np.ndarray) -> None:
         """Recompute the subfaces of ``facets``: 2D Delaunay of each facet's points.
 
         The points: the facet's input vertices, the points added on its
         boundary edges and inside it; the triangles outside the facet are
-        dropped (:func:`facet_triangles`). A subsegment of the facet's
+        dropped (:func:`_facet_subfaces`). A subsegment of the facet's
         boundary that is not an edge of the result (its diametral circle
         holds a facet point) is *unsettled*: :meth:`missing` reports it, and
         recovery splits it. A loop over the facets whose point set changed
-        (each a compiled kernel2d call).
+        (each a compiled kernel2d call), the bookkeeping around it compiled.
         """
         if facets.size == 0:
             return
+        facets = np.asarray(facets, dtype=np.int64)
         on_edge = np.flatnonzero(self.pt_edge >= 0)
         # The points on each input edge, ordered from its first vertex.
         pe = self.pt_edge[on_edge]
@@ -899,72 +1033,66 @@ class SurfaceRecovery:
         facet_bounds = np.searchsorted(self.pt_facet[by_facet], np.arange(len(self.group_tris) + 1))
         seg_order = np.argsort(self.seg_edge, kind="stable")
         seg_bounds = np.searchsorted(self.seg_edge[seg_order], np.arange(len(self.edges) + 1))
-        seg_keys = edge_keys(self.seg)
-        first = self.edges[:, 0].tolist()
+        G = len(self.group_tris)
+        st = [self._facet_static(f) for f in facets.tolist()]
+        # Per-facet tables indexed by facet id (only the rows of ``facets`` filled).
+        bcount = np.zeros(G, dtype=np.int64)
+        bcount[facets] = [len(x[0]) for x in st]
+        lcount = np.zeros(G, dtype=np.int64)
+        lcount[facets] = [len(x[4]) for x in st]
+        tcount = np.zeros(G, dtype=np.int64)
+        tcount[facets] = [len(x[6]) for x in st]
+        bptr = np.concatenate([[0], np.cumsum(bcount)])
+        lptr = np.concatenate([[0], np.cumsum(lcount)])
+        in_ptr = np.concatenate([[0], np.cumsum(tcount)])
+        order = np.argsort(facets, kind="stable")  # CSR rows in facet id order
+        byf = [st[i] for i in order.tolist()]
+        fid = facets[order]
+        bu, be, bl, bfwd, lonely = (
+            np.concatenate([x[k] for x in byf]).astype(dt)
+            for k, dt in ((0, np.int64), (1, np.int64), (2, np.int64), (3, np.bool_), (4, np.int64))
+        )
+        in_tri = np.concatenate([self.facets[self.group_tris[f]] for f in fid.tolist()])
+        tu = np.concatenate([x[6] for x in byf])
+        tol = np.zeros(G)
+        tol[facets] = [x[7] for x in st]
+        ptr, ids, loop, pos, sptr, segs = _facet_points(
+            facets, bptr, bu, be, bl, bfwd, lptr, lonely, by_edge, edge_bounds, by_facet,
+            facet_bounds, seg_order, seg_bounds,
+        )  # fmt: skip
         origin, e1, e2 = self.frame
-        new_sub, new_facet = [], []
-        for f in facets.tolist():  # a loop over changed facets
-            corners, lonely = self._corners(f)
-            parts, loops, seg_parts = [], [], []
-            for li, (de, ei) in enumerate(self.loops(f)):
-                for u, e in zip(de[:, 0].tolist(), ei.tolist(), strict=True):
-                    on = by_edge[edge_bounds[e] : edge_bounds[e + 1]]
-                    parts.append([u])
-                    parts.append(on if u == first[e] else on[::-1])
-                    loops.append(np.full(len(on) + 1, li))
-                    seg_parts.append(seg_order[seg_bounds[e] : seg_bounds[e + 1]])
-            ids = np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
-            loop = np.concatenate(loops) if loops else np.zeros(0, dtype=np.int64)
-            pos = np.arange(len(ids))
-            rest = np.concatenate([lonely, by_facet[facet_bounds[f] : facet_bounds[f + 1]]])
-            ids = np.concatenate([ids, rest]).astype(np.int64)
-            loop = np.concatenate([loop, np.full(len(rest), -1)])
-            pos = np.concatenate([pos, np.full(len(rest), -1)])
-            tris = self.group_tris[f]
-            if len(ids) == len(corners):
+        plain = np.diff(ptr) == np.array([x[5] for x in st])
+        uv = np.zeros((len(ids), 2))
+        tris = [np.zeros((0, 3), dtype=np.int64)]
+        for k, f in enumerate(facets.tolist()):  # a loop over changed facets
+            if plain[k]:
                 # No point added: the input triangles (what the 3D mesh most likely
                 # holds when the facet's corners are co-circular, as a square's).
-                tri = self.facets[tris]
-            else:
-                d = self.P[ids] - origin[f]
-                uv = np.stack([d @ e1[f], d @ e2[f]], 1)
-                T2 = self.facets[tris]
-
-                def inside(X, T2=T2, f=f):
-                    q = self.P[T2] - origin[f]
-                    tu = np.stack([q @ e1[f], q @ e2[f]], -1)  # (k, 3, 2)
-                    a, b, c = tu[:, 0], tu[:, 1], tu[:, 2]
-
-                    def cr(p, q, x):
-                        return (q[:, 0] - p[:, 0]) * (x[:, None, 1] - p[:, 1]) - (
-                            q[:, 1] - p[:, 1]
-                        ) * (x[:, None, 0] - p[:, 0])
-
-                    # Non-strict up to rounding: a centroid may lie on an edge inside
-                    # the facet (a diagonal its input triangles share).
-                    tol = -1e-9 * float(np.ptp(tu.reshape(-1, 2), axis=0).max()) ** 2
-                    return ((cr(a, b, X) >= tol) & (cr(b, c, X) >= tol) & (cr(c, a, X) >= tol)).any(
-                        1
-                    )
-
-                try:
-                    tri = ids[facet_triangles(delaunay2d(uv).triangles, uv, loop, pos, inside)]
-                except InputError as exc:  # rounding made two projections coincide
-                    raise AlgorithmError(
-                        f"the points added on facet {f} (input triangles "
-                        f"{tris[:5].tolist()}) could not be triangulated in its plane "
-                        f"({exc.message})",
-                        code="recovery_failed",
-                    ) from None
-            # Boundary subsegments of the facet that the 2D triangulation misses.
-            tk = np.unique(edge_keys(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)))
-            sk = seg_keys[np.concatenate(seg_parts)] if seg_parts else seg_keys[:0]
-            self.unsettled[f] = sk[~member(sk, tk)]
-            new_sub.append(tri)
-            new_facet.append(np.full(len(tri), f))
-        keep = ~np.isin(self.sub_facet, facets)
-        self.sub = np.concatenate([self.sub[keep], *new_sub])
-        self.sub_facet = np.concatenate([self.sub_facet[keep], *new_facet])
+                continue
+            d = self.P[ids[ptr[k] : ptr[k + 1]]] - origin[f]
+            uv[ptr[k] : ptr[k + 1], 0] = d @ e1[f]
+            uv[ptr[k] : ptr[k + 1], 1] = d @ e2[f]
+            try:
+                tris.append(delaunay2d(uv[ptr[k] : ptr[k + 1]]).triangles)
+            except InputError as exc:  # rounding made two projections coincide
+                raise AlgorithmError(
+                    f"the points added on facet {f} (input triangles "
+                    f"{self.group_tris[f][:5].tolist()}) could not be triangulated in its "
+                    f"plane ({exc.message})",
+                    code="recovery_failed",
+                ) from None
+        tptr = np.zeros(len(facets) + 1, dtype=np.int64)
+        tptr[1:][~plain] = [len(t) for t in tris[1:]]
+        tptr = np.cumsum(tptr)
+        sub, owner, uptr, unsettled = _facet_subfaces(
+            facets, plain, ptr, ids, loop, pos, tptr, np.concatenate(tris).astype(np.int64),
+            uv, in_ptr, in_tri, tu, tol, sptr, segs, edge_keys(self.seg),
+        )  # fmt: skip
+        for k, f in enumerate(facets.tolist()):
+            self.unsettled[f] = unsettled[uptr[k] : uptr[k + 1]]
+        keep = ~isin_ints(self.sub_facet, facets)
+        self.sub = np.concatenate([self.sub[keep], sub])
+        self.sub_facet = np.concatenate([self.sub_facet[keep], owner])
 
     def split_subfaces(self, rows: np.ndarray) -> tuple[int, int]:
         """Split subfaces ``rows`` at their circumcentres (Shewchuk's rule).
@@ -1013,9 +1141,14 @@ class SurfaceRecovery:
             inside[lost] = True
         c[lost] = self.onto_balls(c[lost], f[lost])
         use = inside & ~hit
-        n_seg = self.split_segments(enc_s)
+        touched: list = []
+        n_seg = self.split_segments(enc_s, touched)
         ids = self.add(c[use], np.full(int(use.sum()), -1), f[use])
-        self.retriangulate(np.unique(f[use][ids >= 0]))
+        # One retriangulation for both splits, the subfaces in the order two would give
+        # (the facets of the subsegments only, then those of the new points).
+        mine = unique_ints(f[use][ids >= 0])
+        first = np.concatenate([np.zeros(0, dtype=np.int64), *touched])
+        self.retriangulate(np.concatenate([first[~isin_ints(first, mine)], mine]))
         return int((ids >= 0).sum()), n_seg
 
     def crowded(self, X: np.ndarray, R: np.ndarray) -> np.ndarray:
