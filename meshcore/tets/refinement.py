@@ -101,7 +101,8 @@ Choices the methods text leaves open
   radius-edge 2 it took 29,867 tetrahedra and gave up 1,679 before, 61
   tetrahedra now). A facet with no point added keeps its input triangles;
   otherwise its subfaces are the 2D Delaunay triangulation of its points,
-  the pockets outside a non-convex facet dropped (:func:`facet_triangles`).
+  the pockets outside a non-convex facet dropped
+  (:meth:`~meshcore.delaunay.recovery3d.SurfaceRecovery.retriangulate`).
   Triangles coplanar only up to rounding are not merged: the tetrahedron
   on their four corners is then a sliver forced by the input (``left``
   names it ``fold``).
