@@ -26,11 +26,11 @@ J. R. Shewchuk, "Tetrahedral Mesh Generation by Delaunay Refinement"
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from numba import njit
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
@@ -40,17 +40,20 @@ from meshcore.domain.surface import Surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.geometry.predicates3d import dot3d, orient3d
+from meshcore.mesh.topology import isin_ints, unique_ints
 
 __all__ = [
     "KNOBS",
     "TET_EDGES",
     "TET_FACES",
     "Knobs",
+    "RegionLabels",
     "SurfaceRecovery",
     "ball_pairs",
     "edge_keys",
     "face_keys",
-    "facet_triangles",
+    "face_rows",
+    "fresh_rows",
     "member",
     "recover",
     "regions",
@@ -157,66 +160,260 @@ def tri_circumcenters(P: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 
 def ball_pairs(X: np.ndarray, centres: np.ndarray, radii: np.ndarray):
-    """All pairs (i, j) with ``|X[i] - centres[j]| < radii[j]`` (float).
+    """All pairs (i, j) with ``|X[i] - centres[j]| < radii[j]`` (float), in no set order.
 
-    Balls are grouped by the power of two of their radius, one KD-tree per
-    group queried with the group's largest radius, so a query meets only
-    balls of comparable size.
+    A hash grid per power of two of the radius: a ball of radius below
+    ``2**e`` is registered in the cells of side ``2**(e + 1)`` its bounding
+    box meets (at most 8 but for rounding), so each point looks in one cell
+    per radius scale. One compiled pass; the distance is numpy's
+    ``norm(X[i] - centres[j])``.
     """
-    z = np.zeros(0, dtype=np.int64)
-    ok = np.isfinite(radii) & (radii > 0)
-    if len(X) == 0 or not ok.any():
+    X = np.ascontiguousarray(X, dtype=np.float64).reshape(-1, 3)
+    centres = np.ascontiguousarray(centres, dtype=np.float64).reshape(-1, 3)
+    radii = np.ascontiguousarray(radii, dtype=np.float64)
+    return _ball_pairs(X, centres, radii)
+
+
+@njit(cache=True)
+def _cell_slot(tab, e, ix, iy, iz, shift):
+    """The slot of cell (e, ix, iy, iz) in ``tab`` (its own or the empty one ending its run)."""
+    mask = tab.shape[0] - 1
+    key = ((e * 1000003 + ix) * 1000003 + iy) * 1000003 + iz
+    h = _slot(key & 0x7FFFFFFFFFFFFFFF, shift)
+    while tab[h, 4] != 0:
+        if tab[h, 0] == e and tab[h, 1] == ix and tab[h, 2] == iy and tab[h, 3] == iz:
+            return h
+        h = (h + 1) & mask
+    return h
+
+
+@njit(cache=True)
+def _ball_pairs(X, centres, radii):
+    nb = radii.shape[0]
+    ok = np.zeros(nb, np.bool_)
+    expo = np.zeros(nb, np.int64)
+    n_ok = 0
+    for j in range(nb):
+        r = radii[j]
+        if math.isfinite(r) and r > 0:
+            c = centres[j]
+            if math.isfinite(c[0]) and math.isfinite(c[1]) and math.isfinite(c[2]):
+                ok[j] = True
+                expo[j] = math.frexp(r)[1]  # r < 2**expo
+                n_ok += 1
+    z = np.zeros(0, np.int64)
+    if X.shape[0] == 0 or n_ok == 0:
         return z, z
-    level = np.full(len(radii), 0, dtype=np.int64)
-    level[ok] = np.frexp(radii[ok])[1]
-    xs, js = [], []
-    xtree = cKDTree(X)
-    for lv in np.unique(level[ok]).tolist():  # a loop over radius scales
-        group = np.flatnonzero(ok & (level == lv))
-        tree = cKDTree(centres[group])
-        # All pairs within the group's largest radius, as arrays (no Python lists).
-        hits = xtree.sparse_distance_matrix(tree, float(radii[group].max()), output_type="ndarray")
-        if len(hits) == 0:
+    levels = np.unique(expo[ok])
+    # Cells of each ball: its bounding box (padded for rounding) in the grid of its level.
+    lo = np.empty((nb, 3), np.int64)
+    hi = np.empty((nb, 3), np.int64)
+    n_ent = 0
+    for j in range(nb):
+        if not ok[j]:
             continue
-        xi = hits["i"].astype(np.int64)
-        gi = group[hits["j"]]
-        d = np.linalg.norm(X[xi] - centres[gi], axis=1)
-        keep = d < radii[gi]
-        xs.append(xi[keep])
-        js.append(gi[keep])
-    if not xs:
-        return z, z
-    return np.concatenate(xs), np.concatenate(js)
+        h = 2.0 ** (expo[j] + 1)
+        pad = radii[j] * (1.0 + 1e-9) + 1e-300
+        count = 1
+        for k in range(3):
+            lo[j, k] = np.int64(math.floor((centres[j, k] - pad) / h))
+            hi[j, k] = np.int64(math.floor((centres[j, k] + pad) / h))
+            count *= hi[j, k] - lo[j, k] + 1
+        n_ent += count
+    size = 16
+    while size < 2 * n_ent:
+        size *= 2
+    shift = _shift(size)
+    tab = np.zeros((size, 6), np.int64)  # e, ix, iy, iz, used, head entry
+    nxt = np.empty(n_ent, np.int64)
+    ball = np.empty(n_ent, np.int64)
+    k = 0
+    for j in range(nb):
+        if not ok[j]:
+            continue
+        for ix in range(lo[j, 0], hi[j, 0] + 1):
+            for iy in range(lo[j, 1], hi[j, 1] + 1):
+                for iz in range(lo[j, 2], hi[j, 2] + 1):
+                    s = _cell_slot(tab, expo[j], ix, iy, iz, shift)
+                    if tab[s, 4] == 0:
+                        tab[s, 0], tab[s, 1], tab[s, 2], tab[s, 3] = expo[j], ix, iy, iz
+                        tab[s, 4] = 1
+                        tab[s, 5] = -1
+                    ball[k] = j
+                    nxt[k] = tab[s, 5]
+                    tab[s, 5] = k
+                    k += 1
+    cap = 1024
+    xs = np.empty(cap, np.int64)
+    js = np.empty(cap, np.int64)
+    n = 0
+    for i in range(X.shape[0]):
+        x0, x1, x2 = X[i, 0], X[i, 1], X[i, 2]
+        if not (math.isfinite(x0) and math.isfinite(x1) and math.isfinite(x2)):
+            continue
+        for e in levels:
+            h = 2.0 ** (e + 1)
+            s = _cell_slot(
+                tab, e, np.int64(math.floor(x0 / h)), np.int64(math.floor(x1 / h)),
+                np.int64(math.floor(x2 / h)), shift,
+            )  # fmt: skip
+            if tab[s, 4] == 0:
+                continue
+            q = tab[s, 5]
+            while q >= 0:
+                j = ball[q]
+                q = nxt[q]
+                d0 = x0 - centres[j, 0]
+                d1 = x1 - centres[j, 1]
+                d2 = x2 - centres[j, 2]
+                if math.sqrt((d0 * d0 + d1 * d1) + d2 * d2) < radii[j]:
+                    if n == cap:
+                        cap *= 2
+                        xs2 = np.empty(cap, np.int64)
+                        js2 = np.empty(cap, np.int64)
+                        xs2[:n] = xs[:n]
+                        js2[:n] = js[:n]
+                        xs, js = xs2, js2
+                    xs[n] = i
+                    js[n] = j
+                    n += 1
+    return xs[:n].copy(), js[:n].copy()
 
 
-def facet_triangles(
-    tri: np.ndarray,
-    uv: np.ndarray,
-    loop: np.ndarray,
-    pos: np.ndarray,
-    inside: Callable[[np.ndarray], np.ndarray],
-) -> np.ndarray:
-    """Keep the triangles of a facet's 2D Delaunay triangulation that lie in the facet.
+@njit(cache=True)
+def _facet_points(
+    facets, bptr, bu, be, bl, bfwd, lptr, lonely, by_edge, edge_bounds, by_facet,
+    facet_bounds, seg_order, seg_bounds,
+):  # fmt: skip
+    """The points of each facet to triangulate (CSR over ``facets``): its boundary
+    loops (each input edge's first vertex, then the points on the edge in the
+    loop's direction), then its corners on no loop and the points inside it;
+    with each point's loop and rank along the boundary (-1 inside), and the
+    subsegments of its boundary edges (CSR)."""
+    K = facets.shape[0]
+    ptr = np.zeros(K + 1, np.int64)
+    sptr = np.zeros(K + 1, np.int64)
+    for k in range(K):
+        f = facets[k]
+        n = lptr[f + 1] - lptr[f] + facet_bounds[f + 1] - facet_bounds[f]
+        ns = 0
+        for q in range(bptr[f], bptr[f + 1]):
+            e = be[q]
+            n += 1 + edge_bounds[e + 1] - edge_bounds[e]
+            ns += seg_bounds[e + 1] - seg_bounds[e]
+        ptr[k + 1] = ptr[k] + n
+        sptr[k + 1] = sptr[k] + ns
+    ids = np.empty(ptr[K], np.int64)
+    loop = np.empty(ptr[K], np.int64)
+    pos = np.empty(ptr[K], np.int64)
+    segs = np.empty(sptr[K], np.int64)
+    for k in range(K):
+        f = facets[k]
+        j = ptr[k]
+        js = sptr[k]
+        for q in range(bptr[f], bptr[f + 1]):
+            e = be[q]
+            lo, hi = edge_bounds[e], edge_bounds[e + 1]
+            ids[j] = bu[q]
+            loop[j] = bl[q]
+            pos[j] = j - ptr[k]
+            j += 1
+            for i in range(hi - lo):
+                ids[j] = by_edge[lo + i] if bfwd[q] else by_edge[hi - 1 - i]
+                loop[j] = bl[q]
+                pos[j] = j - ptr[k]
+                j += 1
+            for i in range(seg_bounds[e], seg_bounds[e + 1]):
+                segs[js] = seg_order[i]
+                js += 1
+        for i in range(lptr[f], lptr[f + 1]):
+            ids[j] = lonely[i]
+            loop[j] = -1
+            pos[j] = -1
+            j += 1
+        for i in range(facet_bounds[f], facet_bounds[f + 1]):
+            ids[j] = by_facet[i]
+            loop[j] = -1
+            pos[j] = -1
+            j += 1
+    return ptr, ids, loop, pos, sptr, segs
 
-    ``loop[i]`` and ``pos[i]`` give the boundary loop of the facet point
-    ``i`` and its rank along it (in the loop's direction, the facet on its
-    left), -1 for a point inside the facet. A triangle of a triangulation of
-    the facet whose three corners lie on one loop visits them in the loop's
-    cyclic order when counter-clockwise (two of its three steps forward);
-    the triangles of the convex hull's pockets outside the facet (and the
-    slivers of three points of one edge that rounding put a hair inside it)
-    run against it. Other triangles are kept when their centroid lies in the
-    facet (``inside``, float: such a triangle is not flat).
+
+@njit(cache=True)
+def _facet_subfaces(
+    facets, plain, ptr, ids, loop, pos, tptr, tri, uv, in_ptr, in_tri, tu, tol, sptr, segs,
+    seg_keys,
+):  # fmt: skip
+    """The subfaces of each facet (in ``facets`` order) and its unsettled subsegments.
+
+    A facet with no point added (``plain``) keeps its input triangles
+    (``in_tri``, CSR ``in_ptr``). Otherwise, of its 2D Delaunay triangles
+    (``tri``, local to its points, CSR ``tptr``) a triangle whose three
+    corners lie on one boundary loop is kept when it visits them in the
+    loop's cyclic order (two of its three steps forward: the triangles of
+    the convex hull's pockets outside the facet, and the slivers of three
+    points of one edge that rounding put a hair inside it, run against it);
+    another is kept when its centroid lies in one of the facet's input
+    triangles (``tu``, projected, non-strict up to ``tol``). The unsettled
+    subsegments: the keys ``seg_keys[segs]`` of the facet's boundary
+    subsegments that are no edges of its subfaces.
     """
-    lp = loop[tri]
-    ps = pos[tri]
-    one = (lp[:, 0] >= 0) & (lp[:, 0] == lp[:, 1]) & (lp[:, 1] == lp[:, 2])
-    forward = (np.roll(ps, -1, axis=1) > ps).sum(axis=1) == 2
-    keep = np.where(one, forward, False)
-    other = np.flatnonzero(~one)
-    if other.size:
-        keep[other] = inside(uv[tri[other]].mean(axis=1))
-    return tri[keep]
+    K = facets.shape[0]
+    out = np.empty((tri.shape[0] + in_tri.shape[0], 3), np.int64)
+    owner = np.empty(out.shape[0], np.int64)
+    uptr = np.zeros(K + 1, np.int64)
+    unsettled = np.empty(segs.shape[0], np.int64)
+    n = 0
+    nu = 0
+    for k in range(K):
+        f = facets[k]
+        first = n
+        if plain[k]:
+            for t in range(in_ptr[f], in_ptr[f + 1]):
+                out[n, 0], out[n, 1], out[n, 2] = in_tri[t, 0], in_tri[t, 1], in_tri[t, 2]
+                owner[n] = f
+                n += 1
+        else:
+            base = ptr[k]
+            for t in range(tptr[k], tptr[k + 1]):
+                a, b, c = tri[t, 0] + base, tri[t, 1] + base, tri[t, 2] + base
+                if loop[a] >= 0 and loop[a] == loop[b] and loop[b] == loop[c]:
+                    steps = (pos[b] > pos[a]) + (pos[c] > pos[b]) + (pos[a] > pos[c])
+                    keep = steps == 2
+                else:
+                    x0 = ((uv[a, 0] + uv[b, 0]) + uv[c, 0]) / 3.0
+                    x1 = ((uv[a, 1] + uv[b, 1]) + uv[c, 1]) / 3.0
+                    keep = False
+                    for q in range(in_ptr[f], in_ptr[f + 1]):
+                        ok = True
+                        for i in range(3):
+                            p0, p1 = tu[q, i, 0], tu[q, i, 1]
+                            q0, q1 = tu[q, (i + 1) % 3, 0], tu[q, (i + 1) % 3, 1]
+                            if not ((q0 - p0) * (x1 - p1) - (q1 - p1) * (x0 - p0) >= tol[f]):
+                                ok = False
+                                break
+                        if ok:
+                            keep = True
+                            break
+                if keep:
+                    out[n, 0], out[n, 1], out[n, 2] = ids[a], ids[b], ids[c]
+                    owner[n] = f
+                    n += 1
+        for i in range(sptr[k], sptr[k + 1]):
+            key = seg_keys[segs[i]]
+            found = False
+            for t in range(first, n):
+                for j in range(3):
+                    u, v = out[t, j], out[t, (j + 1) % 3]
+                    if u > v:
+                        u, v = v, u
+                    if (u << 32) | v == key:
+                        found = True
+            if not found:
+                unsettled[nu] = key
+                nu += 1
+        uptr[k + 1] = nu
+    return out[:n].copy(), owner[:n].copy(), uptr, unsettled[:nu].copy()
 
 
 def edge_keys(E: np.ndarray) -> np.ndarray:
@@ -226,10 +423,317 @@ def edge_keys(E: np.ndarray) -> np.ndarray:
 
 
 def face_keys(F: np.ndarray) -> np.ndarray:
-    s = np.sort(F, axis=1)
-    if s.size and s.max() >= 1 << 21:
+    """(k,) int64: a key per triangle ``F`` (k, 3), the same for any order of its corners."""
+    F = np.ascontiguousarray(F, dtype=np.int64)
+    if F.size and F.max() >= 1 << 21:
         raise AlgorithmError("more than 2**21 points: face keys overflow", code="too_many_points")
-    return (s[:, 0] << 42) | (s[:, 1] << 21) | s[:, 2]
+    return _face_keys(F)
+
+
+@njit(cache=True)
+def _face_key(a, b, c):
+    """The key of triangle (a, b, c): its sorted corners, 21 bits each."""
+    if a > b:
+        a, b = b, a
+    if b > c:
+        b, c = c, b
+        if a > b:
+            a, b = b, a
+    return (a << 42) | (b << 21) | c
+
+
+@njit(cache=True)
+def _face_keys(F):
+    out = np.empty(F.shape[0], np.int64)
+    for i in range(F.shape[0]):
+        out[i] = _face_key(F[i, 0], F[i, 1], F[i, 2])
+    return out
+
+
+# Hash tables of int64 keys (faces and edges of the tetrahedralization looked up
+# among the subfaces and subsegments): open addressing, Fibonacci hashing, at most
+# half full; each slot holds a key and the index of its first occurrence.
+_FIB = np.uint64(0x9E3779B97F4A7C15)
+
+
+@njit(cache=True)
+def _slot(key, shift):
+    return np.int64((np.uint64(key) * _FIB) >> shift)
+
+
+@njit(cache=True)
+def _shift(size):
+    bits = 0
+    while (1 << bits) < size:
+        bits += 1
+    return np.uint64(64 - bits)
+
+
+@njit(cache=True)
+def _table(keys):
+    """(slot keys, slot values) of the non-negative ``keys``; -1 marks an empty slot."""
+    size = 16
+    while size < 2 * keys.shape[0]:
+        size *= 2
+    tk = np.full(size, -1, np.int64)
+    tv = np.full(size, -1, np.int64)
+    mask = size - 1
+    shift = _shift(size)
+    for i in range(keys.shape[0]):
+        key = keys[i]
+        h = _slot(key, shift)
+        while tk[h] != -1 and tk[h] != key:
+            h = (h + 1) & mask
+        if tk[h] == -1:
+            tk[h] = key
+            tv[h] = i
+    return tk, tv
+
+
+@njit(cache=True)
+def _find(tk, tv, key, shift):
+    """Index of the first occurrence of ``key`` in the table's keys, or -1."""
+    mask = tk.shape[0] - 1
+    h = _slot(key, shift)
+    while tk[h] != -1:
+        if tk[h] == key:
+            return tv[h]
+        h = (h + 1) & mask
+    return -1
+
+
+@njit(cache=True)
+def _find_all(tk, tv, keys):
+    shift = _shift(tk.shape[0])
+    out = np.empty(keys.shape[0], np.int64)
+    for i in range(keys.shape[0]):
+        out[i] = _find(tk, tv, keys[i], shift)
+    return out
+
+
+@njit(cache=True)
+def _tet_face_rows(T, tk, tv, faces):
+    """(m, 4): the table index of each face of each tetrahedron (``faces`` order), or -1."""
+    shift = _shift(tk.shape[0])
+    out = np.empty((T.shape[0], 4), np.int64)
+    for t in range(T.shape[0]):
+        for j in range(4):
+            key = _face_key(T[t, faces[j, 0]], T[t, faces[j, 1]], T[t, faces[j, 2]])
+            out[t, j] = _find(tk, tv, key, shift)
+    return out
+
+
+@njit(cache=True)
+def _present(T, on, seg_tk, seg_tv, n_seg, sub_tk, sub_tv, n_sub, edges, faces):
+    """Which table entries (first occurrences) are edges / faces of the tetrahedra ``T``.
+
+    Only the edges and faces whose corners are all ``on`` (the surface points:
+    subsegments and subfaces have no other) are looked up.
+    """
+    seg_shift = _shift(seg_tk.shape[0])
+    sub_shift = _shift(sub_tk.shape[0])
+    seg_hit = np.zeros(n_seg, np.bool_)
+    sub_hit = np.zeros(n_sub, np.bool_)
+    for t in range(T.shape[0]):
+        if (on[T[t, 0]] + on[T[t, 1]] + on[T[t, 2]] + on[T[t, 3]]) < 2:
+            continue
+        for j in range(6):
+            a = T[t, edges[j, 0]]
+            b = T[t, edges[j, 1]]
+            if not (on[a] and on[b]):
+                continue
+            if a > b:
+                a, b = b, a
+            k = _find(seg_tk, seg_tv, (a << 32) | b, seg_shift)
+            if k >= 0:
+                seg_hit[k] = True
+        for j in range(4):
+            a = T[t, faces[j, 0]]
+            b = T[t, faces[j, 1]]
+            c = T[t, faces[j, 2]]
+            if not (on[a] and on[b] and on[c]):
+                continue
+            k = _find(sub_tk, sub_tv, _face_key(a, b, c), sub_shift)
+            if k >= 0:
+                sub_hit[k] = True
+    return seg_hit, sub_hit
+
+
+@njit(cache=True)
+def _regions_pass(T, slots, adj, on, tk, tv, faces):
+    """The flood fill of :func:`regions` in one pass.
+
+    Returns the component of each tetrahedron (across faces that are not
+    subfaces, between real tetrahedra), their number, whether each meets the
+    outside (a non-subface with no real tetrahedron behind it), and every
+    (tetrahedron, face, subface) incidence in row-major order.
+    """
+    m = T.shape[0]
+    top = 0
+    for s in slots:
+        top = max(top, s + 1)
+    row_of = np.full(top, -1, np.int64)
+    for r in range(m):
+        row_of[slots[r]] = r
+    shift = _shift(tk.shape[0])
+    nb = np.empty((m, 4), np.int64)
+    sub_of = np.full((m, 4), -1, np.int64)
+    n_inc = 0
+    for t in range(m):
+        for j in range(4):
+            u = adj[t, j]
+            nb[t, j] = row_of[u] if 0 <= u < top else -1
+            a = T[t, faces[j, 0]]
+            b = T[t, faces[j, 1]]
+            c = T[t, faces[j, 2]]
+            if on[a] and on[b] and on[c]:
+                sub_of[t, j] = _find(tk, tv, _face_key(a, b, c), shift)
+                if sub_of[t, j] >= 0:
+                    n_inc += 1
+    comp = np.full(m, -1, np.int64)
+    stack = np.empty(m, np.int64)
+    n = 0
+    for s in range(m):
+        if comp[s] >= 0:
+            continue
+        comp[s] = n
+        stack[0] = s
+        size = 1
+        while size > 0:
+            size -= 1
+            t = stack[size]
+            for j in range(4):
+                u = nb[t, j]
+                if u >= 0 and sub_of[t, j] < 0 and comp[u] < 0:
+                    comp[u] = n
+                    stack[size] = u
+                    size += 1
+        n += 1
+    outside = np.zeros(n, np.bool_)
+    inc_t = np.empty(n_inc, np.int64)
+    inc_f = np.empty(n_inc, np.int64)
+    inc_s = np.empty(n_inc, np.int64)
+    k = 0
+    for t in range(m):
+        for j in range(4):
+            if sub_of[t, j] >= 0:
+                inc_t[k] = t
+                inc_f[k] = j
+                inc_s[k] = sub_of[t, j]
+                k += 1
+            elif nb[t, j] < 0:
+                outside[comp[t]] = True
+    return comp, n, outside, inc_t, inc_f, inc_s
+
+
+@njit(cache=True)
+def fresh_rows(T, n0):
+    """(k,) int64: the rows of ``T`` (m, 4) with a vertex numbered ``n0`` or above (the
+    tetrahedra created since the structure had ``n0`` points)."""
+    out = np.empty(T.shape[0], np.int64)
+    k = 0
+    for t in range(T.shape[0]):
+        if max(max(T[t, 0], T[t, 1]), max(T[t, 2], T[t, 3])) >= n0:
+            out[k] = t
+            k += 1
+    return out[:k].copy()
+
+
+@njit(cache=True)
+def _regions_update(T, slots, fresh, adj, old, on, tk, tv, faces):
+    """The flood fill of :func:`regions` over the ``fresh`` rows only.
+
+    ``old[s]``: the label of the tetrahedron at slot ``s`` at the last call
+    (the others kept theirs); ``adj``: the fresh rows' neighbour slots.
+    Returns the component of each fresh row, their number, per component the
+    label met across ordinary faces (-2 none), whether it meets the outside
+    and whether two labels met disagree, and the subface incidences.
+    """
+    m = T.shape[0]
+    top = 0
+    for s in slots:
+        top = max(top, s + 1)
+    row_of = np.full(top, -1, np.int64)
+    for r in range(m):
+        row_of[slots[r]] = r
+    k = fresh.shape[0]
+    local = np.full(m, -1, np.int64)
+    for i in range(k):
+        local[fresh[i]] = i
+    shift = _shift(tk.shape[0])
+    nb = np.full((k, 4), -1, np.int64)  # fresh neighbour (local), -2 old, -3 outside
+    sub_of = np.full((k, 4), -1, np.int64)
+    n_inc = 0
+    for i in range(k):
+        t = fresh[i]
+        for j in range(4):
+            a = T[t, faces[j, 0]]
+            b = T[t, faces[j, 1]]
+            c = T[t, faces[j, 2]]
+            if on[a] and on[b] and on[c]:
+                sub_of[i, j] = _find(tk, tv, _face_key(a, b, c), shift)
+                if sub_of[i, j] >= 0:
+                    n_inc += 1
+                    continue
+            u = adj[i, j]
+            r = row_of[u] if 0 <= u < top else -1
+            nb[i, j] = -3 if r < 0 else (local[r] if local[r] >= 0 else -2)
+    comp = np.full(k, -1, np.int64)
+    stack = np.empty(k, np.int64)
+    n = 0
+    for s in range(k):
+        if comp[s] >= 0:
+            continue
+        comp[s] = n
+        stack[0] = s
+        size = 1
+        while size > 0:
+            size -= 1
+            i = stack[size]
+            for j in range(4):
+                u = nb[i, j]
+                if u >= 0 and comp[u] < 0:
+                    comp[u] = n
+                    stack[size] = u
+                    size += 1
+        n += 1
+    met = np.full(n, -2, np.int64)
+    outside = np.zeros(n, np.bool_)
+    clash = np.zeros(n, np.bool_)
+    inc_t = np.empty(n_inc, np.int64)
+    inc_f = np.empty(n_inc, np.int64)
+    inc_s = np.empty(n_inc, np.int64)
+    q = 0
+    for i in range(k):
+        c = comp[i]
+        for j in range(4):
+            if sub_of[i, j] >= 0:
+                inc_t[q] = fresh[i]
+                inc_f[q] = j
+                inc_s[q] = sub_of[i, j]
+                q += 1
+            elif nb[i, j] == -3:
+                outside[c] = True
+            elif nb[i, j] == -2:
+                lab = old[slots[row_of[adj[i, j]]]]
+                if met[c] == -2:
+                    met[c] = lab
+                elif met[c] != lab:
+                    clash[c] = True
+    return comp, n, met, outside, clash, inc_t, inc_f, inc_s
+
+
+def face_rows(T: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """(m, 4) int64: the row of ``F`` (k, 3) that each face of each tetrahedron ``T`` is
+    (faces in ``TET_FACES`` order, corners in any order), or -1.
+
+    One compiled pass, the triangles in a hash table (no sort).
+    """
+    tk, tv = _table(face_keys(F))
+    T = np.ascontiguousarray(T, dtype=np.int64)
+    if T.size and T.max() >= 1 << 21:
+        raise AlgorithmError("more than 2**21 points: face keys overflow", code="too_many_points")
+    return _tet_face_rows(T, tk, tv, TET_FACES)
 
 
 def member(keys: np.ndarray, table_sorted: np.ndarray) -> np.ndarray:
@@ -303,6 +807,7 @@ class SurfaceRecovery:
         self._flat = flat
         self._loops: dict[int, list] = {}
         self._corner_cache: dict[int, tuple] = {}
+        self._static: dict[int, tuple] = {}
         # Facet frames for the 2D triangulations: origin, two orthonormal axes
         # (counter-clockwise in the frame is outward), from the facet's first triangle.
         first = facets[[t[0] for t in self.group_tris]]
@@ -332,6 +837,11 @@ class SurfaceRecovery:
         self._ball_tree = None
         self.unsettled: dict[int, np.ndarray] = {}  # subsegments missing from a facet's 2D mesh
         self.dt = IncrementalDelaunay3d(self.P)
+        self._tets_at = -1
+        self._tets: tuple[np.ndarray, np.ndarray] = (
+            np.zeros(0, np.int64),
+            np.zeros((0, 4), np.int64),
+        )
         self.surface_added = 0
         self.interior_added = 0
 
@@ -398,12 +908,33 @@ class SurfaceRecovery:
         return np.where(new & keep, ids, -1)
 
     def tets(self) -> tuple[np.ndarray, np.ndarray]:
-        slots = self.dt.alive()
-        return slots, self.dt.tets(slots)
+        """(slots, (m, 4) vertices) of the real tetrahedra, read-only.
+
+        Kept until the next insertion (the kernel changes only by inserting
+        points, so its point count dates the structure).
+        """
+        n = self.dt.n_points
+        if self._tets_at != n:
+            slots = self.dt.alive()
+            T = self.dt.tets(slots)
+            slots.flags.writeable = False
+            T.flags.writeable = False
+            self._tets = (slots, T)
+            self._tets_at = n
+        return self._tets
+
+    def on_surface(self) -> np.ndarray:
+        """(n,) bool: which points lie on the surface (input vertices, points added on
+        input edges and in facets)."""
+        on = np.ones(self.n, dtype=bool)
+        on[self.n_surface :] = (self.pt_edge[self.n_surface :] >= 0) | (
+            self.pt_facet[self.n_surface :] >= 0
+        )
+        return on
 
     # -- subsegments -------------------------------------------------------------
 
-    def split_segments(self, rows: np.ndarray) -> int:
+    def split_segments(self, rows: np.ndarray, defer: list | None = None) -> int:
         """Split subsegments ``rows``; the number split.
 
         Ruppert's concentric shells: a subsegment with exactly one endpoint
@@ -416,7 +947,8 @@ class SurfaceRecovery:
         stop at its sphere, and a subsegment from the vertex to the sphere is
         never split (it stays an edge: every point inside the ball is on its
         sphere, and no point of that sphere lies in its closed diametral
-        ball).
+        ball). With ``defer`` (a list), the facets to retriangulate are
+        appended to it instead.
         """
         rows = np.unique(rows)
         if rows.size == 0:
@@ -444,24 +976,52 @@ class SurfaceRecovery:
         self.seg[rows, 1] = ids
         self.seg = np.concatenate([self.seg, np.stack([ids, s[:, 1]], 1)])
         self.seg_edge = np.concatenate([self.seg_edge, e])
-        self.retriangulate(np.unique(self.edge_groups[e]))
+        touched = unique_ints(self.edge_groups[e])
+        if defer is None:
+            self.retriangulate(touched)
+        else:
+            defer.append(touched)  # the caller retriangulates them
         return int(ok.sum())
 
     # -- subfaces ----------------------------------------------------------------
+
+    def _facet_static(self, g: int) -> tuple:
+        """Facet ``g``'s boundary (first vertex, edge, loop, whether the edge runs from
+        its first vertex), its corners on no loop, its input triangles projected in
+        its frame and the inside tolerance; built once."""
+        if g not in self._static:
+            corners, lonely = self._corners(g)
+            parts = [
+                (de[:, 0], ei, np.full(len(ei), li)) for li, (de, ei) in enumerate(self.loops(g))
+            ]
+            if parts:
+                u, e, li = (np.concatenate(x) for x in zip(*parts, strict=True))
+            else:
+                u = e = li = np.zeros(0, dtype=np.int64)
+            origin, e1, e2 = self.frame
+            q = self.P[self.facets[self.group_tris[g]]] - origin[g]
+            tu = np.stack([q @ e1[g], q @ e2[g]], -1)  # (k, 3, 2)
+            # Non-strict up to rounding: a centroid may lie on an edge inside the
+            # facet (a diagonal its input triangles share).
+            tol = -1e-9 * float(np.ptp(tu.reshape(-1, 2), axis=0).max()) ** 2
+            fwd = u == self.edges[e, 0]
+            self._static[g] = (u, e, li, fwd, lonely, len(corners), tu, tol)
+        return self._static[g]
 
     def retriangulate(self, facets: np.ndarray) -> None:
         """Recompute the subfaces of ``facets``: 2D Delaunay of each facet's points.
 
         The points: the facet's input vertices, the points added on its
         boundary edges and inside it; the triangles outside the facet are
-        dropped (:func:`facet_triangles`). A subsegment of the facet's
+        dropped (:func:`_facet_subfaces`). A subsegment of the facet's
         boundary that is not an edge of the result (its diametral circle
         holds a facet point) is *unsettled*: :meth:`missing` reports it, and
         recovery splits it. A loop over the facets whose point set changed
-        (each a compiled kernel2d call).
+        (each a compiled kernel2d call), the bookkeeping around it compiled.
         """
         if facets.size == 0:
             return
+        facets = np.asarray(facets, dtype=np.int64)
         on_edge = np.flatnonzero(self.pt_edge >= 0)
         # The points on each input edge, ordered from its first vertex.
         pe = self.pt_edge[on_edge]
@@ -474,72 +1034,66 @@ class SurfaceRecovery:
         facet_bounds = np.searchsorted(self.pt_facet[by_facet], np.arange(len(self.group_tris) + 1))
         seg_order = np.argsort(self.seg_edge, kind="stable")
         seg_bounds = np.searchsorted(self.seg_edge[seg_order], np.arange(len(self.edges) + 1))
-        seg_keys = edge_keys(self.seg)
-        first = self.edges[:, 0].tolist()
+        G = len(self.group_tris)
+        st = [self._facet_static(f) for f in facets.tolist()]
+        # Per-facet tables indexed by facet id (only the rows of ``facets`` filled).
+        bcount = np.zeros(G, dtype=np.int64)
+        bcount[facets] = [len(x[0]) for x in st]
+        lcount = np.zeros(G, dtype=np.int64)
+        lcount[facets] = [len(x[4]) for x in st]
+        tcount = np.zeros(G, dtype=np.int64)
+        tcount[facets] = [len(x[6]) for x in st]
+        bptr = np.concatenate([[0], np.cumsum(bcount)])
+        lptr = np.concatenate([[0], np.cumsum(lcount)])
+        in_ptr = np.concatenate([[0], np.cumsum(tcount)])
+        order = np.argsort(facets, kind="stable")  # CSR rows in facet id order
+        byf = [st[i] for i in order.tolist()]
+        fid = facets[order]
+        bu, be, bl, bfwd, lonely = (
+            np.concatenate([x[k] for x in byf]).astype(dt)
+            for k, dt in ((0, np.int64), (1, np.int64), (2, np.int64), (3, np.bool_), (4, np.int64))
+        )
+        in_tri = np.concatenate([self.facets[self.group_tris[f]] for f in fid.tolist()])
+        tu = np.concatenate([x[6] for x in byf])
+        tol = np.zeros(G)
+        tol[facets] = [x[7] for x in st]
+        ptr, ids, loop, pos, sptr, segs = _facet_points(
+            facets, bptr, bu, be, bl, bfwd, lptr, lonely, by_edge, edge_bounds, by_facet,
+            facet_bounds, seg_order, seg_bounds,
+        )  # fmt: skip
         origin, e1, e2 = self.frame
-        new_sub, new_facet = [], []
-        for f in facets.tolist():  # a loop over changed facets
-            corners, lonely = self._corners(f)
-            parts, loops, seg_parts = [], [], []
-            for li, (de, ei) in enumerate(self.loops(f)):
-                for u, e in zip(de[:, 0].tolist(), ei.tolist(), strict=True):
-                    on = by_edge[edge_bounds[e] : edge_bounds[e + 1]]
-                    parts.append([u])
-                    parts.append(on if u == first[e] else on[::-1])
-                    loops.append(np.full(len(on) + 1, li))
-                    seg_parts.append(seg_order[seg_bounds[e] : seg_bounds[e + 1]])
-            ids = np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
-            loop = np.concatenate(loops) if loops else np.zeros(0, dtype=np.int64)
-            pos = np.arange(len(ids))
-            rest = np.concatenate([lonely, by_facet[facet_bounds[f] : facet_bounds[f + 1]]])
-            ids = np.concatenate([ids, rest]).astype(np.int64)
-            loop = np.concatenate([loop, np.full(len(rest), -1)])
-            pos = np.concatenate([pos, np.full(len(rest), -1)])
-            tris = self.group_tris[f]
-            if len(ids) == len(corners):
+        plain = np.diff(ptr) == np.array([x[5] for x in st])
+        uv = np.zeros((len(ids), 2))
+        tris = [np.zeros((0, 3), dtype=np.int64)]
+        for k, f in enumerate(facets.tolist()):  # a loop over changed facets
+            if plain[k]:
                 # No point added: the input triangles (what the 3D mesh most likely
                 # holds when the facet's corners are co-circular, as a square's).
-                tri = self.facets[tris]
-            else:
-                d = self.P[ids] - origin[f]
-                uv = np.stack([d @ e1[f], d @ e2[f]], 1)
-                T2 = self.facets[tris]
-
-                def inside(X, T2=T2, f=f):
-                    q = self.P[T2] - origin[f]
-                    tu = np.stack([q @ e1[f], q @ e2[f]], -1)  # (k, 3, 2)
-                    a, b, c = tu[:, 0], tu[:, 1], tu[:, 2]
-
-                    def cr(p, q, x):
-                        return (q[:, 0] - p[:, 0]) * (x[:, None, 1] - p[:, 1]) - (
-                            q[:, 1] - p[:, 1]
-                        ) * (x[:, None, 0] - p[:, 0])
-
-                    # Non-strict up to rounding: a centroid may lie on an edge inside
-                    # the facet (a diagonal its input triangles share).
-                    tol = -1e-9 * float(np.ptp(tu.reshape(-1, 2), axis=0).max()) ** 2
-                    return ((cr(a, b, X) >= tol) & (cr(b, c, X) >= tol) & (cr(c, a, X) >= tol)).any(
-                        1
-                    )
-
-                try:
-                    tri = ids[facet_triangles(delaunay2d(uv).triangles, uv, loop, pos, inside)]
-                except InputError as exc:  # rounding made two projections coincide
-                    raise AlgorithmError(
-                        f"the points added on facet {f} (input triangles "
-                        f"{tris[:5].tolist()}) could not be triangulated in its plane "
-                        f"({exc.message})",
-                        code="recovery_failed",
-                    ) from None
-            # Boundary subsegments of the facet that the 2D triangulation misses.
-            tk = np.unique(edge_keys(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)))
-            sk = seg_keys[np.concatenate(seg_parts)] if seg_parts else seg_keys[:0]
-            self.unsettled[f] = sk[~member(sk, tk)]
-            new_sub.append(tri)
-            new_facet.append(np.full(len(tri), f))
-        keep = ~np.isin(self.sub_facet, facets)
-        self.sub = np.concatenate([self.sub[keep], *new_sub])
-        self.sub_facet = np.concatenate([self.sub_facet[keep], *new_facet])
+                continue
+            d = self.P[ids[ptr[k] : ptr[k + 1]]] - origin[f]
+            uv[ptr[k] : ptr[k + 1], 0] = d @ e1[f]
+            uv[ptr[k] : ptr[k + 1], 1] = d @ e2[f]
+            try:
+                tris.append(delaunay2d(uv[ptr[k] : ptr[k + 1]]).triangles)
+            except InputError as exc:  # rounding made two projections coincide
+                raise AlgorithmError(
+                    f"the points added on facet {f} (input triangles "
+                    f"{self.group_tris[f][:5].tolist()}) could not be triangulated in its "
+                    f"plane ({exc.message})",
+                    code="recovery_failed",
+                ) from None
+        tptr = np.zeros(len(facets) + 1, dtype=np.int64)
+        tptr[1:][~plain] = [len(t) for t in tris[1:]]
+        tptr = np.cumsum(tptr)
+        sub, owner, uptr, unsettled = _facet_subfaces(
+            facets, plain, ptr, ids, loop, pos, tptr, np.concatenate(tris).astype(np.int64),
+            uv, in_ptr, in_tri, tu, tol, sptr, segs, edge_keys(self.seg),
+        )  # fmt: skip
+        for k, f in enumerate(facets.tolist()):
+            self.unsettled[f] = unsettled[uptr[k] : uptr[k + 1]]
+        keep = ~isin_ints(self.sub_facet, facets)
+        self.sub = np.concatenate([self.sub[keep], sub])
+        self.sub_facet = np.concatenate([self.sub_facet[keep], owner])
 
     def split_subfaces(self, rows: np.ndarray) -> tuple[int, int]:
         """Split subfaces ``rows`` at their circumcentres (Shewchuk's rule).
@@ -599,9 +1153,14 @@ class SurfaceRecovery:
             inside[lost] = True
         c[lost] = self.onto_balls(c[lost], f[lost])
         use = inside & ~hit
-        n_seg = self.split_segments(enc_s)
+        touched: list = []
+        n_seg = self.split_segments(enc_s, touched)
         ids = self.add(c[use], np.full(int(use.sum()), -1), f[use])
-        self.retriangulate(np.unique(f[use][ids >= 0]))
+        # One retriangulation for both splits, the subfaces in the order two would give
+        # (the facets of the subsegments only, then those of the new points).
+        mine = unique_ints(f[use][ids >= 0])
+        first = np.concatenate([np.zeros(0, dtype=np.int64), *touched])
+        self.retriangulate(np.concatenate([first[~isin_ints(first, mine)], mine]))
         return int((ids >= 0).sum()), n_seg
 
     def crossed_segments(self, A: np.ndarray, B: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -830,14 +1389,19 @@ class SurfaceRecovery:
 
     def missing(self, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Subsegments that are not edges, subfaces that are not faces of ``T``."""
-        ek = np.sort(edge_keys(T[:, TET_EDGES].reshape(-1, 2)))
         keys = edge_keys(self.seg)
-        seg_missing = ~member(keys, ek)
+        sub_keys = face_keys(self.sub)
+        seg_tk, seg_tv = _table(keys)
+        sub_tk, sub_tv = _table(sub_keys)
+        seg_hit, sub_hit = _present(
+            np.ascontiguousarray(T, dtype=np.int64), self.on_surface(), seg_tk, seg_tv,
+            len(keys), sub_tk, sub_tv, len(sub_keys), TET_EDGES, TET_FACES,
+        )  # fmt: skip
+        seg_missing = ~seg_hit[_find_all(seg_tk, seg_tv, keys)]
         if self.unsettled:
-            seg_missing |= np.isin(keys, np.concatenate(list(self.unsettled.values())))
+            seg_missing |= isin_ints(keys, np.concatenate(list(self.unsettled.values())))
         seg_missing = np.flatnonzero(seg_missing)
-        fk = np.sort(face_keys(T[:, TET_FACES].reshape(-1, 3)))
-        sub_missing = np.flatnonzero(~member(face_keys(self.sub), fk))
+        sub_missing = np.flatnonzero(~sub_hit[_find_all(sub_tk, sub_tv, sub_keys)])
         return seg_missing, sub_missing
 
 
@@ -863,30 +1427,28 @@ def recover(b: SurfaceRecovery, progress) -> int:
 
 def regions(b: SurfaceRecovery, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
     """Region of each tetrahedron of ``T`` (-1 outside), by flood fill across non-subfaces."""
-    m = len(T)
-    row_of = np.full(int(slots.max()) + 1 if m else 1, -1, dtype=np.int64)
-    row_of[slots] = np.arange(m)
-    adj = b.dt.adjacent(slots)
-    nb = np.where(adj >= 0, row_of[np.clip(adj, 0, len(row_of) - 1)], -1)
-    nb[adj >= len(row_of)] = -1
-    faces = T[:, TET_FACES]  # (m, 4, 3), outward
-    fkeys = face_keys(faces.reshape(-1, 3)).reshape(m, 4)
-    sub_keys = face_keys(b.sub)
-    order = np.argsort(sub_keys)
-    sk = sub_keys[order]
-    is_sub = member(fkeys.reshape(-1), sk).reshape(m, 4)
-    # Links across ordinary faces between real tetrahedra.
-    link = ~is_sub & (nb >= 0)
-    r_i, f_i = np.nonzero(link)
-    graph = sp.csr_matrix((np.ones(len(r_i), dtype=np.int8), (r_i, nb[r_i, f_i])), shape=(m, m))
-    n_comp, comp = connected_components(graph, directed=False)
-    label = np.full(n_comp, -2, dtype=np.int64)  # -2 unknown
+    slots = np.ascontiguousarray(slots, dtype=np.int64)
+    comp, n_comp, out_comp, t_i, f_j, s_rows = _regions_pass(
+        np.ascontiguousarray(T, dtype=np.int64), slots, b.dt.adjacent(slots), b.on_surface(),
+        *_table(face_keys(b.sub)), TET_FACES,
+    )  # fmt: skip
+    met = np.full(n_comp, -2, dtype=np.int64)
+    clash = np.zeros(n_comp, dtype=bool)
+    return _labels(b, T, comp, met, out_comp, clash, t_i, f_j, s_rows)
+
+
+def _labels(b, T, comp, met, out_comp, clash, t_i, f_j, s_rows) -> np.ndarray:
+    """The label of each component of :func:`regions` (of the rows ``comp`` covers).
+
+    ``met``: the label each component already has (-2 unknown), ``out_comp``:
+    whether it meets the outside, ``clash``: whether labels met disagree;
+    ``(t_i, f_j, s_rows)`` the subface incidences (row of ``T``, face,
+    subface). Raises if the surface does not separate the regions.
+    """
+    label = met.copy()
     # A tetrahedron on a hull face (neighbour a ghost) across a non-subface is outside.
-    outside = np.unique(comp[np.nonzero(~is_sub & (nb < 0))[0]])
+    outside = np.flatnonzero(out_comp)
     # Subfaces: the tetrahedron on the inner side takes the facet's region.
-    t_i, f_j = np.nonzero(is_sub)
-    pos = np.searchsorted(sk, fkeys[t_i, f_j])
-    s_rows = order[pos]
     sf = b.sub[s_rows]
     d = T[t_i, f_j]
     side = orient3d(b.P[sf[:, 0]], b.P[sf[:, 1]], b.P[sf[:, 2]], b.P[d])
@@ -895,8 +1457,8 @@ def regions(b: SurfaceRecovery, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
     ci = comp[t_i[inner]]
     ri = reg[inner]
     label[ci] = ri
-    conflict = np.zeros(n_comp, dtype=bool)
-    chk = label[ci] != ri
+    conflict = clash.copy()
+    chk = (label[ci] != ri) | ((met[ci] != -2) & (met[ci] != ri))
     conflict[ci[chk]] = True
     co = comp[t_i[~inner]]
     outer_reg = reg[~inner]
@@ -904,7 +1466,8 @@ def regions(b: SurfaceRecovery, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
     # never in the facet's own region.
     same = label[co] == outer_reg
     conflict[co[same]] = True
-    conflict[np.intersect1d(outside, ci)] = True
+    conflict[outside[isin_ints(outside, ci)]] = True
+    conflict[outside[met[outside] >= 0]] = True
     if conflict.any():
         raise AlgorithmError(
             "the recovered surface does not separate the regions (a subface is "
@@ -914,3 +1477,43 @@ def regions(b: SurfaceRecovery, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
     label[label == -2] = -1
     label[outside] = -1
     return label[comp]
+
+
+class RegionLabels:
+    """:func:`regions` kept between calls, for a tetrahedralization that only grows.
+
+    Each call classifies only the tetrahedra with a vertex added since the
+    last one (every tetrahedron an insertion creates holds the new point):
+    the others keep their region, and a new one takes the region of the old
+    tetrahedra it meets across faces that are not subfaces, or of the
+    subfaces it holds, as :func:`regions` would; with every subface present
+    (as after :func:`recover`) the labels are those of :func:`regions`.
+    """
+
+    def __init__(self, b: SurfaceRecovery) -> None:
+        self.b = b
+        self.n = -1
+        self.by_slot = np.zeros(0, dtype=np.int64)
+
+    def __call__(self, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
+        """(m,) int64: the region of each tetrahedron ``T`` at ``slots`` (-1 outside)."""
+        b = self.b
+        slots = np.ascontiguousarray(slots, dtype=np.int64)
+        T = np.ascontiguousarray(T, dtype=np.int64)
+        if self.n < 0:
+            label = regions(b, slots, T)
+        else:
+            fresh = fresh_rows(T, self.n)
+            comp, n_comp, met, out_comp, clash, t_i, f_j, s_rows = _regions_update(
+                T, slots, fresh, b.dt.adjacent(slots[fresh]), self.by_slot, b.on_surface(),
+                *_table(face_keys(b.sub)), TET_FACES,
+            )  # fmt: skip
+            label = self.by_slot[np.minimum(slots, len(self.by_slot) - 1)]
+            if fresh.size:
+                whole = np.zeros(len(T), dtype=np.int64)
+                whole[fresh] = comp
+                label[fresh] = _labels(b, T, whole, met, out_comp, clash, t_i, f_j, s_rows)[fresh]
+        self.by_slot = np.full(int(slots.max()) + 1 if len(slots) else 0, -3, dtype=np.int64)
+        self.by_slot[slots] = label
+        self.n = b.n
+        return label

@@ -47,9 +47,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 from scipy.spatial import cKDTree
 
 from meshcore.delaunay.recovery3d import TET_EDGES, SurfaceRecovery, ball_pairs
+from meshcore.mesh.topology import unique_ints
+
+_TET_EDGES = TET_EDGES.copy()
 
 __all__ = ["input_forced", "protecting_balls"]
 
@@ -208,18 +212,177 @@ def protecting_balls(b: SurfaceRecovery) -> int:
     return int(ok.sum())
 
 
-def _features(b: SurfaceRecovery, p: np.ndarray):
-    """Kind (0 vertex, 1 segment, 2 facet, 3 interior) and id of each point's input feature."""
-    kind = np.full(len(p), 3, dtype=np.int64)
-    fid = np.full(len(p), -1, dtype=np.int64)
-    v = p < b.n_surface
-    kind[v], fid[v] = 0, p[v]
-    q = np.where(v, 0, p)
-    e = ~v & (b.pt_edge[q] >= 0)
-    kind[e], fid[e] = 1, b.pt_edge[q[e]]
-    f = ~v & ~e & (b.pt_facet[q] >= 0)
-    kind[f], fid[f] = 2, b.pt_facet[q[f]]
-    return kind, fid
+def _feature_tables(b: SurfaceRecovery):
+    """Per facet its input vertices (CSR, sorted), and the segments between two facets
+    (keys ``min(g, h) * G + max(g, h)`` sorted, edge ids ascending within a key).
+
+    Input data only: built once per ``b``.
+    """
+    tables = b.__dict__.get("_feature_tables")
+    if tables is None:
+        G = len(b.group_tris)
+        F = b.facets
+        corners = unique_ints(np.repeat(b.group, 3) * b.n_surface + F.reshape(-1))
+        ptr = np.searchsorted(corners // b.n_surface, np.arange(G + 1))
+        eg = b.edge_groups
+        keys = eg.min(axis=1) * G + eg.max(axis=1)
+        order = np.argsort(keys, kind="stable")
+        tables = (ptr, corners % b.n_surface, keys[order], order)
+        b._feature_tables = tables
+    return tables
+
+
+@njit(cache=True)
+def _has(arr, lo, hi, x):
+    for i in range(lo, hi):
+        if arr[i] == x:
+            return True
+    return False
+
+
+@njit(cache=True)
+def _cos(x0, x1, x2, y0, y1, y2):
+    """Cosine of the angle between two vectors, as ``_angle`` computes it (NaN: 1)."""
+    nx = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+    ny = math.sqrt(y0 * y0 + y1 * y1 + y2 * y2)
+    c = ((x0 / nx) * (y0 / ny) + (x2 / nx) * (y2 / ny)) + (x1 / nx) * (y1 / ny)  # as einsum
+    if math.isnan(c):
+        return 1.0
+    return min(1.0, max(-1.0, c))
+
+
+@njit(cache=True, error_model="numpy")
+def _forced_candidates(
+    P, T, pt_edge, pt_facet, n_surface, edges, edge_groups, ptr, corners, pair_keys,
+    pair_edges, n_groups, small, flat,
+):  # fmt: skip
+    """For each tetrahedron of ``T``: the cosine of the input angle its shortest edge spans
+    (2.0 where none), the bound (degrees) and the input vertex or segment (two ends, -1)."""
+    m = T.shape[0]
+    cos = np.full(m, 2.0)
+    bound = np.zeros(m)
+    at = np.full((m, 2), -1, np.int64)
+    va = np.empty(corners.shape[0] + 2, np.int64)
+    vc = np.empty(corners.shape[0] + 2, np.int64)
+    shared = np.empty(corners.shape[0] + 2, np.int64)
+    for t in range(m):
+        # The shortest edge (the first of the shortest, edges in TET_EDGES order).
+        best = np.inf
+        p = -1
+        q = -1
+        for k in range(6):
+            i = T[t, _TET_EDGES[k, 0]]
+            j = T[t, _TET_EDGES[k, 1]]
+            dx = P[i, 0] - P[j, 0]
+            dy = P[i, 1] - P[j, 1]
+            dz = P[i, 2] - P[j, 2]
+            d = dx * dx + dy * dy + dz * dz
+            if d < best:
+                best = d
+                p = i
+                q = j
+        ka, fa = _feature(p, n_surface, pt_edge, pt_facet)
+        kc, fc = _feature(q, n_surface, pt_edge, pt_facet)
+        if ka == 3 or kc == 3 or (ka == kc and fa == fc):
+            continue
+        na = _vertices(ka, fa, edges, ptr, corners, va)
+        nc = _vertices(kc, fc, edges, ptr, corners, vc)
+        # Neither feature on the other's closure.
+        if (ka == 0 and _has(vc, 0, nc, fa)) or (kc == 0 and _has(va, 0, na, fc)):
+            continue
+        if ka == 1 and kc == 2 and (edge_groups[fa, 0] == fc or edge_groups[fa, 1] == fc):
+            continue
+        if kc == 1 and ka == 2 and (edge_groups[fc, 0] == fa or edge_groups[fc, 1] == fa):
+            continue
+        ns = 0
+        for i in range(na):
+            if _has(vc, 0, nc, va[i]) and not _has(shared, 0, ns, va[i]):
+                shared[ns] = va[i]
+                ns += 1
+        if ns == 0:
+            continue
+        line = -1
+        if ka == 2 and kc == 2 and ns >= 2:
+            key = min(fa, fc) * n_groups + max(fa, fc)
+            k = np.searchsorted(pair_keys, key)
+            while k < pair_keys.shape[0] and pair_keys[k] == key:
+                e = pair_edges[k]
+                if _has(shared, 0, ns, edges[e, 0]) and _has(shared, 0, ns, edges[e, 1]):
+                    line = e
+                    break
+                k += 1
+        if line >= 0:
+            o = P[edges[line, 0]]
+            u0 = P[edges[line, 1], 0] - o[0]
+            u1 = P[edges[line, 1], 1] - o[1]
+            u2 = P[edges[line, 1], 2] - o[2]
+            nu = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+            u0, u1, u2 = u0 / nu, u1 / nu, u2 / nu
+            x0, x1, x2 = P[p, 0] - o[0], P[p, 1] - o[1], P[p, 2] - o[2]
+            y0, y1, y2 = P[q, 0] - o[0], P[q, 1] - o[1], P[q, 2] - o[2]
+            xu = x0 * u0 + x1 * u1 + x2 * u2
+            yu = y0 * u0 + y1 * u1 + y2 * u2
+            cos[t] = _cos(
+                x0 - xu * u0, x1 - xu * u1, x2 - xu * u2, y0 - yu * u0, y1 - yu * u1,
+                y2 - yu * u2,
+            )  # fmt: skip
+            at[t, 0] = min(edges[line, 0], edges[line, 1])
+            at[t, 1] = max(edges[line, 0], edges[line, 1])
+            bound[t] = small
+        else:
+            m0 = 0.5 * (P[p, 0] + P[q, 0])
+            m1 = 0.5 * (P[p, 1] + P[q, 1])
+            m2 = 0.5 * (P[p, 2] + P[q, 2])
+            vv = -1
+            dv = np.inf
+            for i in range(ns):  # the nearest shared vertex, the smallest on ties
+                z = shared[i]
+                d0, d1, d2 = P[z, 0] - m0, P[z, 1] - m1, P[z, 2] - m2
+                d = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+                if d < dv or (d == dv and z < vv):
+                    dv = d
+                    vv = z
+            cos[t] = _cos(
+                P[p, 0] - P[vv, 0], P[p, 1] - P[vv, 1], P[p, 2] - P[vv, 2],
+                P[q, 0] - P[vv, 0], P[q, 1] - P[vv, 1], P[q, 2] - P[vv, 2],
+            )  # fmt: skip
+            at[t, 0] = vv
+            # The facet bound when the two features lie on a common facet.
+            common = False
+            if ka != 0 and kc != 0:
+                for x in range(2 if ka == 1 else 1):
+                    g = edge_groups[fa, x] if ka == 1 else fa
+                    for y in range(2 if kc == 1 else 1):
+                        common |= g == (edge_groups[fc, y] if kc == 1 else fc)
+            bound[t] = flat if common else small
+    return cos, bound, at
+
+
+@njit(cache=True)
+def _feature(p, n_surface, pt_edge, pt_facet):
+    """Kind (0 vertex, 1 segment, 2 facet, 3 interior) and id of point ``p``'s feature."""
+    if p < n_surface:
+        return 0, p
+    if pt_edge[p] >= 0:
+        return 1, pt_edge[p]
+    if pt_facet[p] >= 0:
+        return 2, pt_facet[p]
+    return 3, -1
+
+
+@njit(cache=True)
+def _vertices(kind, fid, edges, ptr, corners, out):
+    """The input vertices of a feature's closure into ``out``; their number."""
+    if kind == 0:
+        out[0] = fid
+        return 1
+    if kind == 1:
+        out[0] = edges[fid, 0]
+        out[1] = edges[fid, 1]
+        return 2
+    n = ptr[fid + 1] - ptr[fid]
+    out[:n] = corners[ptr[fid] : ptr[fid + 1]]
+    return n
 
 
 def input_forced(b: SurfaceRecovery, T: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, list]:
@@ -231,82 +394,31 @@ def input_forced(b: SurfaceRecovery, T: np.ndarray, centres: np.ndarray) -> tupl
     vertex, a segment, a facet; neither on the other's closure) that share
     an input vertex or segment, and the angle between the two points seen
     from the shared segment's line (two facets across it) or vertex (the
-    shared vertex nearest the edge) is below ``Knobs.small_angle``
-    (``Knobs.facet_angle`` when both lie on one facet's boundary).
+    shared vertex nearest the edge, the smallest on ties) is below
+    ``Knobs.small_angle`` (``Knobs.facet_angle`` when both lie on one
+    facet's boundary).
 
     ``centres``: their circumcentres. Returns the mask and, per forced
     tetrahedron, the input vertices
     (surface numbering) of the vertex or segment where the angle is.
+    One compiled pass over the tetrahedra (the features are looked up in
+    per-facet tables built once).
     """
     m = len(T)
     mask = np.zeros(m, dtype=bool)
     where: list = [None] * m
     if m == 0:
         return mask, where
-    P = b.P
-    d = P[T[:, TET_EDGES[:, 0]]] - P[T[:, TET_EDGES[:, 1]]]
-    k = np.argmin(np.einsum("ijk,ijk->ij", d, d), axis=1)
-    p = T[np.arange(m), TET_EDGES[k, 0]]
-    q = T[np.arange(m), TET_EDGES[k, 1]]
-    kp, fp = _features(b, p)
-    kq, fq = _features(b, q)
-    cand = np.flatnonzero((kp < 3) & (kq < 3) & ~((kp == kq) & (fp == fq)))
-    corners = {}
-
-    def verts(kind, fid):
-        if kind == 0:
-            return {fid}
-        if kind == 1:
-            return set(b.edges[fid].tolist())
-        if fid not in corners:
-            corners[fid] = set(b.facets[b.group_tris[fid]].reshape(-1).tolist())
-        return corners[fid]
-
-    def facets_of(kind, fid):
-        if kind == 1:
-            return set(b.edge_groups[fid].tolist())
-        if kind == 2:
-            return {fid}
-        return set()
-
-    small, flat = b.knobs.small_angle, b.knobs.facet_angle
-    for r in cand.tolist():  # a loop over the bad tetrahedra's surface edges
-        a, c = int(p[r]), int(q[r])
-        ka, fa, kc, fc = int(kp[r]), int(fp[r]), int(kq[r]), int(fq[r])
-        va, vc = verts(ka, fa), verts(kc, fc)
-        ga, gc = facets_of(ka, fa), facets_of(kc, fc)
-        # Neither feature on the other's closure.
-        if (ka == 0 and fa in vc) or (kc == 0 and fc in va):
-            continue
-        if (ka == 1 and kc == 2 and fc in ga) or (kc == 1 and ka == 2 and fa in gc):
-            continue
-        shared = va & vc
-        if not shared:
-            continue
-        line = None
-        if ka == 2 and kc == 2 and len(shared) >= 2:
-            for e in np.flatnonzero(
-                ((b.edge_groups == [fa, fc]) | (b.edge_groups == [fc, fa])).all(axis=1)
-            ).tolist():
-                if set(b.edges[e].tolist()) <= shared:
-                    line = b.edges[e]
-                    break
-        if line is not None:
-            o, u = P[line[0]], _unit(P[line[1]] - P[line[0]])
-            x, y = P[a] - o, P[c] - o
-            x, y = x - (x @ u) * u, y - (y @ u) * u
-            theta = float(_angle(x[None], y[None])[0])
-            at = sorted(int(z) for z in line)
-            bound = small
-        else:
-            mid = 0.5 * (P[a] + P[c])
-            vv = min(shared, key=lambda z: float(np.linalg.norm(P[z] - mid)))
-            theta = float(_angle((P[a] - P[vv])[None], (P[c] - P[vv])[None])[0])
-            at = [int(vv)]
-            bound = flat if ga & gc else small
-        if theta < bound:
-            mask[r] = True
-            where[r] = at
+    ptr, corners, pair_keys, pair_edges = _feature_tables(b)
+    cos, bound, at = _forced_candidates(
+        b.P, np.ascontiguousarray(T, dtype=np.int64), b.pt_edge, b.pt_facet, b.n_surface,
+        b.edges, b.edge_groups, ptr, corners, pair_keys, pair_edges, len(b.group_tris),
+        b.knobs.small_angle, b.knobs.facet_angle,
+    )  # fmt: skip
+    cand = np.flatnonzero(cos <= 1.0)
+    mask[cand] = np.degrees(np.arccos(cos[cand])) < bound[cand]
+    for r in np.flatnonzero(mask).tolist():  # the forced ones, to name their place
+        where[r] = [int(at[r, 0])] if at[r, 1] < 0 else [int(at[r, 0]), int(at[r, 1])]
     # Inside a protecting ball: a vertex and the circumcentre both inside one.
     if b.ball.any():
         rest = np.flatnonzero(~mask)
@@ -314,8 +426,8 @@ def input_forced(b: SurfaceRecovery, T: np.ndarray, centres: np.ndarray) -> tupl
             cc = centres[rest]
             cc = np.where(np.isfinite(cc).all(axis=1)[:, None], cc, math.inf)
             vin = b.in_balls(np.nan_to_num(cc, posinf=1e300, neginf=-1e300))
-            for r, v in zip(rest.tolist(), vin.tolist(), strict=True):
-                if v >= 0:
-                    mask[r] = True
-                    where[r] = [int(v)]
+            hit = vin >= 0
+            mask[rest[hit]] = True
+            for r, v in zip(rest[hit].tolist(), vin[hit].tolist(), strict=True):
+                where[r] = [int(v)]
     return mask, where

@@ -101,7 +101,8 @@ Choices the methods text leaves open
   radius-edge 2 it took 29,867 tetrahedra and gave up 1,679 before, 61
   tetrahedra now). A facet with no point added keeps its input triangles;
   otherwise its subfaces are the 2D Delaunay triangulation of its points,
-  the pockets outside a non-convex facet dropped (:func:`facet_triangles`).
+  the pockets outside a non-convex facet dropped
+  (:meth:`~meshcore.delaunay.recovery3d.SurfaceRecovery.retriangulate`).
   Triangles coplanar only up to rounding are not merged: the tetrahedron
   on their four corners is then a sliver forced by the input (``left``
   names it ``fold``).
@@ -167,9 +168,12 @@ from meshcore.delaunay.recovery3d import (
     KNOBS,
     TET_EDGES,
     TET_FACES,
+    RegionLabels,
     SurfaceRecovery,
     ball_pairs,
     face_keys,
+    face_rows,
+    fresh_rows,
     member,
     recover,
     regions,
@@ -438,9 +442,7 @@ def _boundary_face_count(
     """How many faces of each tetrahedron are subfaces (of ``b``, or ``sub``)."""
     if len(T) == 0:
         return np.zeros(0, dtype=np.int64)
-    fk = face_keys(T[:, TET_FACES].reshape(-1, 3))
-    sk = face_keys(b.sub if sub is None else sub)
-    return member(fk, np.sort(sk)).reshape(-1, 4).sum(axis=1)
+    return (face_rows(T, b.sub if sub is None else sub) >= 0).sum(axis=1)
 
 
 def _flat_folds(b: SurfaceRecovery, T: np.ndarray) -> np.ndarray:
@@ -461,7 +463,7 @@ def _flat_folds(b: SurfaceRecovery, T: np.ndarray) -> np.ndarray:
     out = np.zeros(len(T), dtype=bool)
     rows = np.flatnonzero(two)
     if rows.size:
-        out[rows] = tetra_dihedral_angles(b.P, T[rows]).min(axis=1) < b.knobs.flat_fold
+        out[rows] = _least_dihedral(b.P, T[rows]) < b.knobs.flat_fold
     return out
 
 
@@ -520,10 +522,13 @@ def _left_report(
     circumcentre encroaching a subface too small to split), ``interior``
     (the round cap was reached).
     """
-    c, R = _tet_circumcenters(b.P, T)
-    ratio = R / _shortest_edge(b.P, T)
+    m = len(T)
+    c, R, short, cos = np.empty((m, 3)), np.empty(m), np.empty(m), np.empty(m)
+    _shapes(b.P, np.ascontiguousarray(T, dtype=np.int64), c, R, short, cos)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = R / short
     ratio = np.where(np.isfinite(ratio), ratio, np.inf)
-    dih = tetra_dihedral_angles(b.P, T).min(axis=1) if len(T) else np.zeros(0)
+    dih = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
     on_surface = np.ones(b.n, dtype=bool)
     on_surface[b.n_surface :] = (b.pt_edge[b.n_surface :] >= 0) | (b.pt_facet[b.n_surface :] >= 0)
     folds = _boundary_face_count(b, T, sub) >= 2
@@ -570,33 +575,200 @@ def _left_report(
     return out
 
 
-def _size_map(size: float | None, field: SizeField3d | None):
-    """The target edge length at points ``X`` as a function ``(k, 3) -> (k,)``: the
-    smaller of ``size`` and the size field's value there; None when neither is given."""
-    if field is None:
-        return None if size is None else (lambda X: np.full(len(X), size))
-    if size is None:
-        return field
-    return lambda X: np.minimum(field(X), size)
+class _SizeMap:
+    """The target edge length at points ``X`` (``(k, 3) -> (k,)``): the smaller of
+    ``size`` and the size field's value there; ``uniform`` is ``size`` when no field
+    is given (None otherwise)."""
+
+    def __init__(self, size: float | None, field: SizeField3d | None) -> None:
+        self.size = size
+        self.field = field
+        self.uniform = size if field is None else None
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        if self.field is None:
+            return np.full(len(X), self.size)
+        if self.size is None:
+            return self.field(X)
+        return np.minimum(self.field(X), self.size)
 
 
-def _bad_tets(P, T, max_radius_edge, max_volume, size_at, knobs) -> tuple[np.ndarray, np.ndarray]:
-    """Rows of bad tetrahedra and their circumcentres, worst (largest radius) first."""
-    c, R = _tet_circumcenters(P, T)
-    short = _shortest_edge(P, T)
-    bad = R > max_radius_edge * short
-    if max_volume is not None:
-        bad |= _volumes(P, T) > max_volume
-    # A tetrahedron too flat for its float circumcentre (positive by the exact
-    # sign, zero in float) is bad; its centroid is inserted instead.
-    flat = ~np.isfinite(R)
-    c[flat] = P[T[flat]].mean(axis=1)
-    R[flat] = np.inf
-    if size_at is not None:
-        bad |= R > knobs.size_radius * size_at(c)
-    rows = np.flatnonzero(bad | flat)
-    rows = rows[np.argsort(-R[rows], kind="stable")]
-    return rows, c[rows]
+def _size_map(size: float | None, field: SizeField3d | None) -> _SizeMap | None:
+    """The size map of ``size`` and ``size_field``; None when neither is given."""
+    if size is None and field is None:
+        return None
+    return _SizeMap(size, field)
+
+
+@njit(cache=True, error_model="numpy")
+def _circumsphere(P, T, t):
+    """(offset of the circumcentre from ``P[T[t, 0]]``, circumradius, determinant) of
+    tetrahedron ``t``: the floating-point operations of :func:`_tet_circumcenters`
+    (numpy's ``einsum`` adds three products ``p`` as ``(p0 + p2) + p1``: so do the
+    sums here)."""
+    i0, i1, i2, i3 = T[t, 0], T[t, 1], T[t, 2], T[t, 3]
+    ax, ay, az = P[i0, 0], P[i0, 1], P[i0, 2]
+    ux, uy, uz = P[i1, 0] - ax, P[i1, 1] - ay, P[i1, 2] - az
+    vx, vy, vz = P[i2, 0] - ax, P[i2, 1] - ay, P[i2, 2] - az
+    wx, wy, wz = P[i3, 0] - ax, P[i3, 1] - ay, P[i3, 2] - az
+    vwx, vwy, vwz = vy * wz - vz * wy, vz * wx - vx * wz, vx * wy - vy * wx
+    wux, wuy, wuz = wy * uz - wz * uy, wz * ux - wx * uz, wx * uy - wy * ux
+    uvx, uvy, uvz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    det = (ux * vwx + uz * vwz) + uy * vwy
+    den = 2.0 * det
+    uu = (ux * ux + uz * uz) + uy * uy
+    vv = (vx * vx + vz * vz) + vy * vy
+    ww = (wx * wx + wz * wz) + wy * wy
+    ox = (uu * vwx + vv * wux + ww * uvx) / den
+    oy = (uu * vwy + vv * wuy + ww * uvy) / den
+    oz = (uu * vwz + vv * wuz + ww * uvz) / den
+    return ox, oy, oz, math.sqrt((ox * ox + oz * oz) + oy * oy), det
+
+
+@njit(cache=True)
+def _shortest2(P, T, t):
+    """Squared shortest edge of tetrahedron ``t`` (as :func:`_shortest_edge` before its root)."""
+    short = np.inf
+    for k in range(6):
+        a = T[t, _TET_EDGES[k, 0]]
+        b = T[t, _TET_EDGES[k, 1]]
+        dx = P[a, 0] - P[b, 0]
+        dy = P[a, 1] - P[b, 1]
+        dz = P[a, 2] - P[b, 2]
+        short = min(short, (dx * dx + dz * dz) + dy * dy)
+    return short
+
+
+@njit(cache=True, error_model="numpy")
+def _measures(P, T, max_radius_edge, max_volume, size_radius, size, C, R):
+    """Circumcentres ``C`` and circumradii ``R`` of tetrahedra ``T``, and which are bad.
+
+    One pass, the floating-point operations of :func:`_tet_circumcenters`,
+    :func:`_shortest_edge` and :func:`_volumes`. Bad: circumradius above
+    ``max_radius_edge`` times the shortest edge, volume above ``max_volume``,
+    circumradius above ``size_radius * size`` (``size`` NaN: none), or too flat
+    for a float circumcentre (its centroid in ``C`` and an infinite ``R`` then).
+    """
+    m = T.shape[0]
+    bad = np.empty(m, np.bool_)
+    for t in range(m):
+        ox, oy, oz, r, det = _circumsphere(P, T, t)
+        is_bad = r > max_radius_edge * math.sqrt(_shortest2(P, T, t))
+        is_bad |= abs(det) / 6.0 > max_volume
+        i0 = T[t, 0]
+        if math.isfinite(r):
+            C[t, 0], C[t, 1], C[t, 2] = P[i0, 0] + ox, P[i0, 1] + oy, P[i0, 2] + oz
+        else:
+            for k in range(3):
+                C[t, k] = (((P[i0, k] + P[T[t, 1], k]) + P[T[t, 2], k]) + P[T[t, 3], k]) / 4.0
+            r = np.inf
+            is_bad = True
+        R[t] = r
+        bad[t] = is_bad | (r > size_radius * size)
+    return bad
+
+
+@njit(cache=True, error_model="numpy")
+def _shapes(P, T, C, R, S, D):
+    """Circumcentres ``C`` and radii ``R`` (as :func:`_tet_circumcenters`), shortest
+    edges ``S`` (as :func:`_shortest_edge`) and the cosine ``D`` of the least
+    dihedral angle (1 where a face is degenerate) of tetrahedra ``T``, one pass."""
+    nrm = np.empty((4, 3))
+    for t in range(T.shape[0]):
+        ox, oy, oz, r, _ = _circumsphere(P, T, t)
+        i0 = T[t, 0]
+        C[t, 0], C[t, 1], C[t, 2] = P[i0, 0] + ox, P[i0, 1] + oy, P[i0, 2] + oz
+        R[t] = r
+        S[t] = math.sqrt(_shortest2(P, T, t))
+        D[t] = _least_dihedral_cos(P, T, t, nrm)
+
+
+@njit(cache=True, error_model="numpy")
+def _least_dihedral_cos(P, T, t, nrm):
+    """The largest cosine of the six dihedral angles of tetrahedron ``t``, the operations
+    of :func:`tetra_dihedral_angles` (1.0 where one is NaN: its angle counts as 0)."""
+    for i in range(4):
+        a = T[t, _TET_FACES[i, 0]]
+        b = T[t, _TET_FACES[i, 1]]
+        c = T[t, _TET_FACES[i, 2]]
+        ux, uy, uz = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1], P[b, 2] - P[a, 2]
+        vx, vy, vz = P[c, 0] - P[a, 0], P[c, 1] - P[a, 1], P[c, 2] - P[a, 2]
+        nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        L = math.sqrt((nx * nx + ny * ny) + nz * nz)
+        nrm[i, 0], nrm[i, 1], nrm[i, 2] = nx / L, ny / L, nz / L
+    best = -np.inf
+    for k in range(6):
+        i, j = _TET_EDGES[k, 0], _TET_EDGES[k, 1]
+        p = -1
+        q = -1
+        for x in range(4):
+            if x != i and x != j:
+                if p < 0:
+                    p = x
+                else:
+                    q = x
+        cos = -((nrm[p, 0] * nrm[q, 0] + nrm[p, 2] * nrm[q, 2]) + nrm[p, 1] * nrm[q, 1])
+        if math.isnan(cos):
+            return 1.0
+        best = max(best, cos)
+    return best
+
+
+def _least_dihedral(P: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """(m,) degrees: ``tetra_dihedral_angles(P, T).min(axis=1)``, in one compiled pass."""
+    T = np.ascontiguousarray(T, dtype=np.int64)
+    m = len(T)
+    C, R, S, D = np.empty((m, 3)), np.empty(m), np.empty(m), np.empty(m)
+    _shapes(P, T, C, R, S, D)
+    return np.degrees(np.arccos(np.clip(D, -1.0, 1.0)))
+
+
+class _BadTets:
+    """The bad tetrahedra of each refinement round, kept by slot between rounds.
+
+    Only the tetrahedra with a vertex added since the last round (every
+    tetrahedron an insertion creates holds the new point) are measured
+    (:func:`_measures`); the others keep their circumcentre, radius and
+    verdict, since the points never move and the bounds are fixed.
+    """
+
+    def __init__(self, max_radius_edge, max_volume, size_at, knobs) -> None:
+        self.bounds = (max_radius_edge, math.inf if max_volume is None else max_volume)
+        self.size_at = size_at
+        self.knobs = knobs
+        self.n = 0
+        self.C = np.zeros((0, 3))
+        self.R = np.zeros(0)
+        self.bad = np.zeros(0, dtype=bool)
+
+    def __call__(self, P, slots, T, inside) -> tuple[np.ndarray, np.ndarray]:
+        """Rows of ``inside`` (rows of ``T``) whose tetrahedron is bad, and their
+        circumcentres, worst (largest radius) first.
+
+        A tetrahedron too flat for its float circumcentre (positive by the
+        exact sign, zero in float) is bad; its centroid is inserted instead.
+        """
+        fresh = fresh_rows(T, self.n)
+        top = int(slots.max()) + 1 if len(slots) else 0
+        if top > len(self.R):
+            extra = max(top, 2 * len(self.R)) - len(self.R)
+            self.C = np.concatenate([self.C, np.zeros((extra, 3))])
+            self.R = np.concatenate([self.R, np.zeros(extra)])
+            self.bad = np.concatenate([self.bad, np.zeros(extra, dtype=bool)])
+        m = len(fresh)
+        C, R = np.empty((m, 3)), np.empty(m)
+        size_at = self.size_at
+        uniform = math.nan if size_at is None or size_at.uniform is None else size_at.uniform
+        bad = _measures(P, T[fresh], *self.bounds, self.knobs.size_radius, uniform, C, R)
+        if size_at is not None and size_at.uniform is None:
+            bad |= R > self.knobs.size_radius * size_at(C)
+        s = slots[fresh]
+        self.C[s], self.R[s], self.bad[s] = C, R, bad
+        self.n = len(P)
+        si = slots[inside]
+        rows = np.flatnonzero(self.bad[si])
+        rows = rows[np.argsort(-self.R[si[rows]], kind="stable")]
+        return rows, self.C[si[rows]]
 
 
 def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> tuple[int, int]:
@@ -1016,6 +1188,10 @@ def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[
     rounds = 0
     left = 0
     cap = b.knobs.sliver_rounds if sliver_bound is not None else b.knobs.refinement_rounds
+    # Regions and bad tetrahedra kept between rounds: each round measures only what
+    # the previous one created.
+    region_of = RegionLabels(b)
+    bad_tets = _BadTets(max_radius_edge, max_volume, size_at, b.knobs)
     for rounds in range(1, cap + 1):
         if b.n >= b.knobs.max_points:
             raise AlgorithmError(
@@ -1051,10 +1227,10 @@ def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[
             b.split_subfaces(sub_bad)
             continue
         slots, T = b.tets()
-        region = regions(b, slots, T)
+        region = region_of(slots, T)
         inside = np.flatnonzero(region >= 0)
         Ti = T[inside]
-        rows, centres = _bad_tets(b.P, Ti, max_radius_edge, max_volume, size_at, b.knobs)
+        rows, centres = bad_tets(b.P, slots, T, inside)
         # A flat fold is dropped at the end (``_drop_flat_folds``): no point fixes it.
         fold = _flat_folds(b, Ti[rows])
         rows, centres = rows[~fold], centres[~fold]
@@ -1064,7 +1240,7 @@ def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[
         if sliver_bound is not None:
             # The radius-edge, volume and size bounds first, then the slivers that
             # are not held between two facets (those the input's fold forces).
-            dih = tetra_dihedral_angles(b.P, Ti).min(axis=1)
+            dih = _least_dihedral(b.P, Ti)
             sl = np.flatnonzero(dih < sliver_bound)
             sl = np.setdiff1d(sl, rows)
             sl = sl[_boundary_face_count(b, Ti[sl]) < 2]

@@ -1,0 +1,52 @@
+"""tetrahedralize's per-round bookkeeping: the compiled and kept-between-rounds forms
+give exactly what the plain computations give."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import meshcore.delaunay.recovery3d as recovery3d
+from meshcore.delaunay.kernel3d import delaunay3d
+from meshcore.domain import parse_surface
+from meshcore.tets import refinement, tetra_dihedral_angles, tetrahedralize
+from tests.meshcore.domain import shapes
+
+
+def test_ball_pairs_are_the_brute_force_pairs():
+    rng = np.random.default_rng(7)
+    X = rng.random((400, 3)) * 2 - 1
+    C = rng.normal(size=(300, 3))
+    r = (0.5 + rng.random(300)) * 10.0 ** rng.integers(-3, 0, 300)
+    r[:4] = [0.0, np.nan, np.inf, -1.0]  # no ball
+    X[:3] = C[10:13]  # points at ball centres
+    xi, ji = recovery3d.ball_pairs(X, C, r)
+    d = np.linalg.norm(X[:, None] - C[None], axis=2)
+    ok = np.isfinite(r) & (r > 0)
+    want = set(zip(*np.nonzero((d < r[None]) & ok[None]), strict=True))
+    got = set(zip(xi.tolist(), ji.tolist(), strict=True))
+    assert got == {(int(i), int(j)) for i, j in want}
+    assert len(xi) == len(got)
+
+
+def test_least_dihedral_is_the_least_of_the_six():
+    rng = np.random.default_rng(3)
+    P = rng.random((300, 3))
+    T = delaunay3d(P).tetra.astype(np.int64)
+    want = tetra_dihedral_angles(P, T).min(axis=1)
+    assert np.array_equal(refinement._least_dihedral(P, T), want)
+
+
+def test_region_labels_kept_between_rounds_equal_the_flood_fill(monkeypatch):
+    call = recovery3d.RegionLabels.__call__
+    checked = []
+
+    def checked_call(self, slots, T):
+        labels = call(self, slots, T)
+        assert np.array_equal(labels, recovery3d.regions(self.b, slots, T))
+        checked.append(len(T))
+        return labels
+
+    monkeypatch.setattr(recovery3d.RegionLabels, "__call__", checked_call)
+    surface = parse_surface(*shapes.torus(nu=10, nv=5))
+    tetrahedralize(surface, size=0.4)
+    assert len(checked) > 3
