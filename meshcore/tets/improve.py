@@ -287,8 +287,9 @@ def _min_norm(G, m):
 
 
 @njit(cache=True)
-def _smooth(P, T, head, nxt, cnt, v, st, tmark, G, mre):
-    """Move free vertex v up the least dihedral angle of its star; True if it moved."""
+def _smooth(P, T, head, nxt, cnt, v, st, tmark, G, N, mre):
+    """Move free vertex v up the least dihedral angle of its star, within the plane of unit
+    normal N[v] when it is not zero (a point inside a facet); True if it moved."""
     cnt[k3.STAMP] += 1
     k = k3._gather(head, nxt, v, -1, T, st, tmark, cnt[k3.STAMP], 0)
     if k <= 0:
@@ -326,6 +327,9 @@ def _smooth(P, T, head, nxt, cnt, v, st, tmark, G, mre):
                 qh, _ = tet_quality(P, a, b, c, d)
                 P[v, x] = x0[x]
                 G[m, x] = (qh - q) / h
+            gn = G[m, 0] * N[v, 0] + G[m, 1] * N[v, 1] + G[m, 2] * N[v, 2]
+            for x in range(3):
+                G[m, x] -= gn * N[v, x]
             m += 1
         if m == 0:
             break
@@ -379,52 +383,79 @@ def _cavity_allowed(T, head, nxt, reg, subk, t, st, k, tmark, vmark, bf, nb):
 
 @njit(cache=True)
 def _insert(
-    P, T, alive, head, nxt, prv, freeT, cnt, reg, subk, fixed, t, st, tmark, vmark, bf, G, mre
+    P,
+    T,
+    alive,
+    head,
+    nxt,
+    prv,
+    freeT,
+    cnt,
+    reg,
+    subk,
+    fixed,
+    t,
+    st,
+    tmark,
+    vmark,
+    bf,
+    G,
+    N,
+    old,
+    mre,
 ):
-    """A new free point in a star cavity around t when it raises the cavity's least angle
-    (:func:`meshcore.optimize.kernel3d._star_point` candidates, the best one), then smoothed;
-    1, 0, or -1 (no room: rows), -2 (no spare point)."""
+    """A new free point in a star cavity around t, smoothed, kept when its star's least
+    angle beats the cavity's (candidates :func:`meshcore.optimize.kernel3d._star_point`, the
+    first that gains); 1, 0, or -1 (no room: rows), -2 (no spare point)."""
     g = cnt[k3.N_PTS]
     if g >= P.shape[0]:
         return -2
-    best = -1
-    best_gain = EPS
-    k = nb = 0
-    for c in range(k3.STARS + 1):
-        final = c == k3.STARS
-        if final:
-            if best < 0:
-                return 0
-            c = best  # the chosen candidate, built again
+    r = reg[t]
+    for c in range(k3.STARS):
         if not k3._star_point(P, T, head, nxt, t, c, g):
             continue
         cnt[k3.STAMP] += 1
-        stamp = cnt[k3.STAMP]
-        k = k3._star_cavity(P, T, head, nxt, t, g, st, tmark, stamp)
+        k = k3._star_cavity(P, T, head, nxt, t, g, st, tmark, cnt[k3.STAMP])
         if k < 0:
             continue
         nb = k3._boundary(T, st, k, NK, bf)
-        if final:
-            break
         if nb < 4 or not _cavity_allowed(T, head, nxt, reg, subk, t, st, k, tmark, vmark, bf, nb):
             continue
         old_q, old_r = _set_quality(P, T, st, k)
-        mq, mr = _fan_quality(P, bf, nb, g, old_q + best_gain)
-        if mq < 0 or mr > max(mre, old_r):
+        mq, _ = _fan_quality(P, bf, nb, g, -1.0)
+        if mq < 0:
             continue
-        best, best_gain = c, mq - old_q
-    if not _room(T, cnt, nb - k):
-        return -1
-    cnt[k3.N_PTS] += 1
-    fixed[g] = 0
-    _replace(T, alive, head, nxt, prv, freeT, cnt, reg, st, k, bf, nb, g)
-    _smooth(P, T, head, nxt, cnt, g, st, tmark, G, mre)
-    return 1
+        if not _room(T, cnt, nb):
+            return -1
+        for i in range(k):
+            old[i] = T[st[i]]
+        cnt[k3.N_PTS] += 1
+        fixed[g] = 0
+        _replace(T, alive, head, nxt, prv, freeT, cnt, reg, st, k, bf, nb, g)
+        _smooth(P, T, head, nxt, cnt, g, st, tmark, G, N, mre)
+        cnt[k3.STAMP] += 1
+        m = k3._gather(head, nxt, g, -1, T, st, tmark, cnt[k3.STAMP], 0)
+        new_q, new_r = _set_quality(P, T, st, m)
+        if new_q > old_q + EPS and new_r <= max(mre, old_r):
+            return 1
+        # undo: the cavity's tetrahedra back
+        for i in range(m):
+            k3._remove(T, alive, head, nxt, prv, freeT, cnt, st[i])
+        for i in range(k):
+            u = k3._add_tet(
+                T, alive, head, nxt, prv, freeT, cnt, old[i, 0], old[i, 1], old[i, 2], old[i, 3]
+            )
+            reg[u] = r
+            if i == 0:
+                t = u  # the star cavity starts at t: its row may have changed
+        cnt[k3.N_PTS] -= 1
+        fixed[g] = 1
+    return 0
 
 
 @njit(cache=True)
 def improve_passes(
-    P, T, alive, head, nxt, prv, freeT, cnt, reg, subk, fixed, goal, mre, passes, counters
+    P, T, alive, head, nxt, prv, freeT, cnt, reg, subk, fixed, N, goal, mre, passes, counters
 ):
     """Passes over the tetrahedra under ``goal`` degrees: edge removal on their edges, face
     removal on their faces, smoothing of their free vertices, insertion of a new point (the
@@ -435,6 +466,7 @@ def improve_passes(
     vmark = np.zeros(P.shape[0], np.int64)
     bf = np.empty((4 * k3.SMAX, 3), np.int64)
     G = np.empty((GMAX, 3))
+    old = np.empty((k3.SMAX, 4), np.int64)
     done = 0
     for done in range(1, passes + 1):
         changed = 0
@@ -472,13 +504,13 @@ def improve_passes(
             if r == 0:
                 for j in range(4):
                     v = T[t, j]
-                    if not fixed[v] and _smooth(P, T, head, nxt, cnt, v, st, tmark, G, mre):
+                    if not fixed[v] and _smooth(P, T, head, nxt, cnt, v, st, tmark, G, N, mre):
                         r = 1
                         counters[C_SMOOTH] += 1
             if r == 0:
                 r = _insert(
                     P, T, alive, head, nxt, prv, freeT, cnt, reg, subk, fixed, t, st, tmark,
-                    vmark, bf, G, mre,
+                    vmark, bf, G, N, old, mre,
                 )  # fmt: skip
                 if r == -1:
                     return done, OUT_OF_ROWS

@@ -181,7 +181,6 @@ from meshcore.mesh import CellBlock, Mesh
 from meshcore.tets.angles import input_forced, protecting_balls
 from meshcore.tets.keep import flip_slivers, lift_surface_points
 from meshcore.tets.sizing import SizeField3d
-from meshcore.tets.slivers import remove_slivers
 
 __all__ = ["TetrahedralizationResult", "tetrahedralize", "tetra_dihedral_angles"]
 
@@ -993,6 +992,16 @@ def tetrahedralize(
             r, given_up = _refine(b, (mre or math.inf, mvol, size_at), progress)
             rounds += r
             timings["refinement"] = time.perf_counter() - t2
+        if not empty and mdh is not None:
+            from meshcore.tets.slivers import remove_slivers, sliver_pass  # (imports this module)
+
+            t3 = time.perf_counter()
+            rounds += sliver_pass(b, mdh, mre or math.inf, progress)
+            if bounded:
+                # The sliver rounds' surface splits may have left bad tetrahedra.
+                r, given_up = _refine(b, (mre or math.inf, mvol, size_at), progress)
+                rounds += r
+            timings["slivers"] = time.perf_counter() - t3
         # Encroachment fixes may have left pieces missing: recover again (no-op if whole).
         rounds += recover(b, progress)
         slots, T = b.tets()
@@ -1002,10 +1011,12 @@ def tetrahedralize(
         tetra, region, sub, sub_src, triangle_facet = _drop_flat_folds(b, tetra, region)
         if not empty and mdh is not None:
             # Slivers: flips and smoothing (the result is no longer Delaunay).
-            t3 = time.perf_counter()
-            tetra, region, _ = remove_slivers(b, tetra, region, sub, mdh, mre or math.inf)
-            timings["slivers"] = time.perf_counter() - t3
+            t4 = time.perf_counter()
+            tetra, region, improved = remove_slivers(b, tetra, region, sub, mdh, mre or math.inf)
+            timings["improvement"] = time.perf_counter() - t4
         left = _left_report(b, tetra, sub, None if empty else mre, None if empty else mdh)
+        if not empty and mdh is not None:
+            left["improvement"] = improved
     if keep_boundary:
         # Boundary faces: the input triangles.
         sub, sub_src, triangle_facet = b.facets, np.arange(len(b.facets)), b.group
