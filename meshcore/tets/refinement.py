@@ -56,18 +56,18 @@ phases and only ever grown by point insertion):
    the surface pieces the rejected centres encroach are split after them,
    only for the tetrahedra still alive. Flat folds (:func:`_flat_folds`)
    are not refined.
-5. **Slivers** (``min_dihedral``): rounds of perturbed insertion
-   (:func:`meshcore.tets.slivers.sliver_pass`; Chew's random points near the circumcentre, as
-   Li and Teng analyse them): each tetrahedron whose least dihedral angle is
-   below the bound is offered its circumcentre and random points of a ball
-   around it; the cavity each would open is evaluated in float (one
-   compiled loop per sliver: walk, cavity, quality of the new tetrahedra,
-   ``_best_candidate``), and the best one is inserted only when it
-   raises the least dihedral angle of the tetrahedra it replaces, keeps
-   them within the radius-edge bound and does not cut the surface. The
-   pass cannot cascade. Then the radius-edge refinement runs once more for
-   what the pass's recovery splits left.
-   What is left is reported with its cause (``left``).
+5. **Slivers** (``min_dihedral``, :mod:`meshcore.tets.slivers`): first
+   rounds of perturbed insertion for the slivers whose four vertices are on
+   the surface (Chew's random points near the circumcentre, as Li and Teng
+   analyse them; a point is inserted only when it raises the least dihedral
+   angle of the tetrahedra it replaces, keeps the radius-edge bound and does
+   not cut the surface), the radius-edge refinement once more for what
+   their splits left; then, on the final tetrahedra, flips, smoothing and
+   insertion (:func:`meshcore.tets.slivers.improve`, after Klingner and
+   Shewchuk) raise every tetrahedron under the bound, never flipping a face
+   on the surface. **The output is then no longer Delaunay.** What is left
+   is reported with its cause (``left``; ``left["improvement"]`` counts the
+   operations and the tetrahedra the second stage left above the ratio).
 
 Choices the methods text leaves open
 ------------------------------------
@@ -884,9 +884,11 @@ def tetrahedralize(
         next to input angles too small for it (the rounds are capped and the
         rest counted in ``given_up``). None: no radius-edge bound.
     min_dihedral : float, optional
-        Degrees in (0, 70]: sliver rounds after refinement (perturbed
-        insertion that never lowers the local least dihedral angle). Best
-        effort: ``left`` counts the tetrahedra still below it, by cause.
+        Degrees in (0, 70]: slivers removed after refinement (perturbed
+        insertion for those on the surface, then flips, smoothing and
+        insertion, each raising the local least dihedral angle; the result is
+        then not Delaunay). Best effort: ``left`` counts the tetrahedra still
+        below it, by cause, and ``left["improvement"]`` the operations.
     max_volume : float, optional
         Every tetrahedron's volume at most this.
     size : float, optional
@@ -996,8 +998,9 @@ def tetrahedralize(
             from meshcore.tets.slivers import remove_slivers, sliver_pass  # (imports this module)
 
             t3 = time.perf_counter()
+            n_before = b.n
             rounds += sliver_pass(b, mdh, mre or math.inf, progress)
-            if bounded:
+            if bounded and b.n > n_before:
                 # The sliver rounds' surface splits may have left bad tetrahedra.
                 r, given_up = _refine(b, (mre or math.inf, mvol, size_at), progress)
                 rounds += r
