@@ -57,8 +57,7 @@ phases and only ever grown by point insertion):
    only for the tetrahedra still alive. Flat folds (:func:`_flat_folds`)
    are not refined.
 5. **Slivers** (``min_dihedral``, :mod:`meshcore.tets.slivers`): first
-   rounds of perturbed insertion for the slivers whose four vertices are on
-   the surface (Chew's random points near the circumcentre, as Li and Teng
+   up to 3 rounds of perturbed insertion (Chew's random points near the circumcentre, as Li and Teng
    analyse them; a point is inserted only when it raises the least dihedral
    angle of the tetrahedra it replaces, keeps the radius-edge bound and does
    not cut the surface), the radius-edge refinement once more for what
@@ -884,8 +883,8 @@ def tetrahedralize(
         next to input angles too small for it (the rounds are capped and the
         rest counted in ``given_up``). None: no radius-edge bound.
     min_dihedral : float, optional
-        Degrees in (0, 70]: slivers removed after refinement (perturbed
-        insertion for those on the surface, then flips, smoothing and
+        Degrees in (0, 70]: slivers removed after refinement (rounds of
+        perturbed insertion, then flips, smoothing and
         insertion, each raising the local least dihedral angle; the result is
         then not Delaunay). Best effort: ``left`` counts the tetrahedra still
         below it, by cause, and ``left["improvement"]`` the operations.
