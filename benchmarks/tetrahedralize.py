@@ -36,6 +36,7 @@ import argparse
 import os
 import resource
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -143,9 +144,15 @@ def run_ftetwild(P, T, size: float | None):
     import pytetwild
 
     kw = {"edge_length_abs": size} if size is not None else {}
-    t = time.process_time()
-    X, K = pytetwild.tetrahedralize(P, T.astype(np.int32), num_threads=1, **kw)
-    dt = time.process_time() - t
+    here = os.getcwd()
+    with tempfile.TemporaryDirectory() as tmp:
+        os.chdir(tmp)  # fTetWild writes __tracked_surface.stl into the working directory
+        try:
+            t = time.process_time()
+            X, K = pytetwild.tetrahedralize(P, T.astype(np.int32), num_threads=1, **kw)
+            dt = time.process_time() - t
+        finally:
+            os.chdir(here)
     K = np.asarray(K, dtype=np.int64)
     return dt, np.asarray(X), K[:, [0, 1, 3, 2]], len(X) - len(P)
 
