@@ -5,17 +5,20 @@ Run from the repository root::
     .venv/bin/python benchmarks/tetrahedralize.py
     .venv/bin/python benchmarks/tetrahedralize.py --shapes torus --size 0.08
 
-Inputs: a unit cube, an icosphere (1,280 triangles), a torus (32 x 16 quads split), a box
-with a box-shaped cavity, an L-block a thin slab (1 x 1 x 0.01) and Schönhardt's prism, each
-given to every tool as the same points and triangles. Ours runs with the
-default ``max_radius_edge=2`` with ``min_dihedral=15`` added, and with
-``size`` alone (no radius-edge bound), and with ``keep_boundary`` (beside
-TetGen's ``pY``); TetGen with ``pq2`` (radius-edge 2),
-``pq1.414`` and ``pY`` (boundary kept, no quality), all with ``-a`` from the
-same volume bound where ``--size`` is given; Gmsh's Delaunay
-(``Mesh.Algorithm3D`` 1) and HXT (10) on the same triangles as one discrete
-surface per shell (``Mesh.MeshSizeMax`` the size where given). TetGen gets
-``add_hole`` for the cavity. Each row: CPU seconds of the meshing call
+Inputs: a unit cube, a cube minus a ball (``cube_ball``), an icosphere (1,280
+triangles), a torus (32 x 16 quads split), a box with a box-shaped cavity, an
+L-block, a thin slab (1 x 1 x 0.01) and Schönhardt's prism, each given to every
+tool as the same points and triangles. Ours runs with the default
+``max_radius_edge=2``, then with ``min_dihedral`` added (``--min-dihedral``, 15
+by default; the output is then no longer Delaunay), with ``size`` alone (no
+radius-edge bound) and with ``keep_boundary`` (beside TetGen's ``pY``); TetGen
+with ``pq2`` (radius-edge 2), ``pq1.414`` and ``pY`` (boundary kept, no
+quality), all with ``-a`` from the same volume bound where ``--size`` is given;
+Gmsh's Delaunay (``Mesh.Algorithm3D`` 1) and HXT (10) on the same triangles as
+one discrete surface per shell (``Mesh.MeshSizeMax`` the size where given);
+fTetWild (``pytetwild``, one thread, ``edge_length_abs`` the size where given;
+it remeshes the surface, so its boundary is not the input's). TetGen gets
+``add_hole`` for the cavities. Each row: CPU seconds of the meshing call
 (``time.process_time``: every tool runs in this process, and on a shared
 machine wall time mostly measures the other processes; ours after a
 warm-up that loads numba's cache), tetrahedra, tetrahedra per
@@ -33,6 +36,7 @@ import argparse
 import os
 import resource
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -52,8 +56,16 @@ def _cavity():
     return np.concatenate([P1, P2]), np.concatenate([T1, T2 + len(P1)]), [[1.5, 1.5, 1.5]]
 
 
+def _cube_ball():
+    """The cube [-1, 1]^3 minus the ball of radius 0.5 (an icosphere, 320 triangles)."""
+    P1, T1 = shapes.box((-1, -1, -1), (1, 1, 1), 2)
+    P2, T2 = shapes.icosphere(2, radius=0.5)
+    return np.concatenate([P1, P2]), np.concatenate([T1, T2 + len(P1)]), [[0.0, 0.0, 0.0]]
+
+
 SHAPES = {
     "cube": lambda: (*shapes.box(), []),
+    "cube_ball": _cube_ball,
     "icosphere": lambda: (*shapes.icosphere(3), []),
     "torus": lambda: (*shapes.torus(nu=32, nv=16), []),
     "cavity": _cavity,
@@ -120,6 +132,31 @@ def run_ours(P, T, **kw):
     return dt, r.mesh.points, K, added, r.given_up
 
 
+def run_ftetwild(P, T, size: float | None):
+    """fTetWild (``pytetwild``, one thread); its tetrahedra come negatively oriented."""
+    import types
+
+    if "pyvista" not in sys.modules:
+        try:
+            import pyvista  # noqa: F401
+        except ImportError:  # pytetwild imports pyvista at import: a stub avoids VTK
+            sys.modules["pyvista"] = types.ModuleType("pyvista")
+    import pytetwild
+
+    kw = {"edge_length_abs": size} if size is not None else {}
+    here = os.getcwd()
+    with tempfile.TemporaryDirectory() as tmp:
+        os.chdir(tmp)  # fTetWild writes __tracked_surface.stl into the working directory
+        try:
+            t = time.process_time()
+            X, K = pytetwild.tetrahedralize(P, T.astype(np.int32), num_threads=1, **kw)
+            dt = time.process_time() - t
+        finally:
+            os.chdir(here)
+    K = np.asarray(K, dtype=np.int64)
+    return dt, np.asarray(X), K[:, [0, 1, 3, 2]], len(X) - len(P)
+
+
 def run_tetgen(P, T, holes, switches):
     import tetgen
 
@@ -138,8 +175,13 @@ def main() -> None:
     ap.add_argument("--size", type=float, default=None, help="target edge length (ours, TetGen -a)")
     ap.add_argument("--no-gmsh", action="store_true", help="skip the Gmsh rows")
     ap.add_argument(
-        "--no-slivers", action="store_true", help="skip our min_dihedral=15 row (long jobs)"
+        "--no-slivers", action="store_true", help="skip our min_dihedral rows (long jobs)"
     )
+    ap.add_argument(
+        "--min-dihedral", type=float, nargs="+", default=[15.0], help="our min_dihedral rows"
+    )
+    ap.add_argument("--no-ftetwild", action="store_true", help="skip the fTetWild row")
+    ap.add_argument("--no-keep", action="store_true", help="skip our keep_boundary row")
     args = ap.parse_args()
     try:
         import tetgen  # noqa: F401
@@ -155,6 +197,12 @@ def main() -> None:
     except ImportError:
         have_gmsh = False
         print("gmsh not installed (pip install -e .[bench]): Gmsh rows skipped")
+    try:
+        import importlib.util
+
+        have_ftetwild = importlib.util.find_spec("pytetwild") is not None and not args.no_ftetwild
+    except ImportError:
+        have_ftetwild = False
     print(f"load (uptime): {os.getloadavg()[0]:.1f}; seconds are CPU seconds")
     head = f"{'input':<10} {'tool':<26} {'cpu s':>7} {'tets':>8} {'tets/s':>8} {'added':>7} "
     head += f"{'dih min':>7} {'dih max':>7} {'%<10':>6} {'r/e max':>8} {'MB':>6} {'x pq2':>6}"
@@ -165,11 +213,12 @@ def main() -> None:
         extra = {} if args.size is None else {"size": args.size}
         dt, X, K, added, gu = run_ours(P, T, **extra)
         rows.append((f"ours r/e 2 (given up {gu})", dt, X, K, added))
-        if not args.no_slivers:
-            dt, X, K, added, gu = run_ours(P, T, min_dihedral=15, **extra)
-            rows.append(("ours r/e 2, dihedral 15", dt, X, K, added))
-        dt, X, K, added, gu = run_ours(P, T, keep_boundary=True)
-        rows.append(("ours keep_boundary", dt, X, K, added))
+        for mdh in [] if args.no_slivers else args.min_dihedral:
+            dt, X, K, added, gu = run_ours(P, T, min_dihedral=mdh, **extra)
+            rows.append((f"ours r/e 2, dihedral {mdh:g}", dt, X, K, added))
+        if not args.no_keep:
+            dt, X, K, added, gu = run_ours(P, T, keep_boundary=True)
+            rows.append(("ours keep_boundary", dt, X, K, added))
         if args.size is not None:
             dt, X, K, added, gu = run_ours(P, T, size=args.size, max_radius_edge=None)
             rows.append(("ours size only", dt, X, K, added))
@@ -185,6 +234,9 @@ def main() -> None:
             for alg, label in ((1, "gmsh Delaunay"), (10, "gmsh HXT")):
                 dt, X, K, added = run_gmsh(P, T, alg, args.size)
                 rows.append((label, dt, X, K, added))
+        if have_ftetwild:
+            dt, X, K, added = run_ftetwild(P, T, args.size)
+            rows.append(("fTetWild", dt, X, K, added))
         for tool, dt, X, K, added in rows:
             dmin, dmax, under, rmax = _figures(X, K)
             ratio = f"{dt / ref:6.2f}" if ref else "     -"

@@ -56,18 +56,17 @@ phases and only ever grown by point insertion):
    the surface pieces the rejected centres encroach are split after them,
    only for the tetrahedra still alive. Flat folds (:func:`_flat_folds`)
    are not refined.
-5. **Slivers** (``min_dihedral``): rounds of perturbed insertion
-   (:func:`_sliver_pass`; Chew's random points near the circumcentre, as
-   Li and Teng analyse them): each tetrahedron whose least dihedral angle is
-   below the bound is offered its circumcentre and random points of a ball
-   around it; the cavity each would open is evaluated in float (one
-   compiled loop per sliver: walk, cavity, quality of the new tetrahedra,
-   :func:`_best_candidate`), and the best one is inserted only when it
-   raises the least dihedral angle of the tetrahedra it replaces, keeps
-   them within the radius-edge bound and does not cut the surface. The
-   pass cannot cascade. Then the radius-edge refinement runs once more for
-   what the pass's recovery splits left.
-   What is left is reported with its cause (``left``).
+5. **Slivers** (``min_dihedral``, :mod:`meshcore.tets.slivers`): first
+   up to 3 rounds of perturbed insertion (Chew's random points near the circumcentre, as Li and Teng
+   analyse them; a point is inserted only when it raises the least dihedral
+   angle of the tetrahedra it replaces, keeps the radius-edge bound and does
+   not cut the surface), the radius-edge refinement once more for what
+   their splits left; then, on the final tetrahedra, flips, smoothing and
+   insertion (:func:`meshcore.tets.slivers.improve`, after Klingner and
+   Shewchuk) raise every tetrahedron under the bound, never flipping a face
+   on the surface. **The output is then no longer Delaunay.** What is left
+   is reported with its cause (``left``; ``left["improvement"]`` counts the
+   operations and the tetrahedra the second stage left above the ratio).
 
 Choices the methods text leaves open
 ------------------------------------
@@ -160,7 +159,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
-from numba import njit
 from scipy.sparse.csgraph import connected_components
 
 from meshcore.delaunay.kernel3d import SKIP_OUTSIDE
@@ -192,9 +190,6 @@ __all__ = ["TetrahedralizationResult", "tetrahedralize", "tetra_dihedral_angles"
 #: Smallest radius-edge bound accepted (Shewchuk's analysis needs > 2; below ~1.1 no
 #: tetrahedralization exists).
 MIN_RADIUS_EDGE = 1.1
-
-_TET_FACES = TET_FACES.copy()
-_TET_EDGES = TET_EDGES.copy()
 
 
 @dataclass(frozen=True, eq=False)
@@ -894,294 +889,6 @@ def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> 
     return done, outside
 
 
-def _sliver_pass(b: SurfaceRecovery, bound: float, max_radius_edge: float, progress) -> int:
-    """Slivers removed by perturbed insertion (Chew; Li and Teng); returns the rounds.
-
-    Each tetrahedron whose least dihedral angle is below ``bound`` is
-    offered its circumcentre and ``sliver_candidates`` random points of the
-    ball of radius ``sliver_ball`` times its circumradius around it. For
-    each candidate the cavity it would open (the tetrahedra whose
-    circumsphere holds it, float, grown from the tetrahedron holding it) and
-    the tetrahedra it would create are evaluated; the candidate is rejected
-    if its cavity leaves the sliver's region (it would cut the surface). The
-    best candidate (largest least dihedral angle of the new tetrahedra; the
-    first one, in the order above, that reaches ``bound``) is inserted only
-    if that angle beats the least dihedral angle of the tetrahedra it
-    removes and no new tetrahedron exceeds the radius-edge bound (or the
-    cavity's worst): every insertion raises the local minimum, so the pass
-    cannot cascade. A sliver with a face on the surface also gets points off
-    that face along its normal (a tetrahedron filling a fold of nearly 180
-    degrees between two facets has its circumcentre on the surface). Rounds
-    stop when one inserts nothing.
-    """
-    rng = np.random.default_rng(0)
-    k = b.knobs.sliver_candidates
-    rounds = 0
-    for rounds in range(1, b.knobs.sliver_rounds + 1):
-        recover(b, None)
-        slots, T = b.tets()
-        region = regions(b, slots, T)
-        dih = tetra_dihedral_angles(b.P, T).min(axis=1)
-        rows = np.flatnonzero((region >= 0) & (dih < bound))
-        rows = rows[~_flat_folds(b, T[rows])]
-        if rows.size == 0:
-            break
-        rows = rows[np.argsort(dih[rows], kind="stable")]
-        top = int(max(slots.max(), b.dt.adjacent(slots).max())) + 1
-        cache = _SlotCache(b, top, slots, region)
-        sub_keys = np.sort(face_keys(b.sub))
-        done = 0
-        for row in rows.tolist():  # sequential: each insertion changes the next cavities
-            s = int(slots[row])
-            if cache.stale[s]:
-                continue
-            reg = int(region[row])
-            c, R = _tet_circumcenters(b.P, T[row : row + 1])
-            if not np.isfinite(R[0]):
-                c, R = b.P[T[row]].mean(axis=0)[None], np.zeros(1)
-            d = rng.normal(size=(k, 3))
-            d *= (rng.random(k) ** (1 / 3) / np.linalg.norm(d, axis=1))[:, None]
-            X = np.concatenate([c, c + b.knobs.sliver_ball * R[0] * d])
-            fk = face_keys(T[row][TET_FACES])
-            on = member(fk, sub_keys)
-            if on.any():
-                # Leaning on the surface (a fold): also points off the subface's
-                # plane along its normal, on both sides (the wrong side is outside
-                # the region and rejected).
-                # From the centroid: a flat tetrahedron's circumcentre is rounding.
-                f = T[row][TET_FACES[int(np.argmax(on))]]
-                nrm = np.cross(b.P[f[1]] - b.P[f[0]], b.P[f[2]] - b.P[f[0]])
-                _, rf = tri_circumcenters(b.P, f[None])
-                nrm *= rf[0] / np.linalg.norm(nrm)
-                t = np.array([0.05, 0.1, 0.2, 0.35, 0.5, -0.05, -0.1, -0.2, -0.35, -0.5])
-                X = np.concatenate([X, b.P[T[row]].mean(axis=0) + t[:, None] * nrm])
-            X = X[b.in_balls(X) < 0]
-            k_best = _best_candidate(
-                b.P, cache.V, cache.A, cache.C, cache.R, cache.reg, s, X, reg, max_radius_edge,
-                bound,
-            )  # fmt: skip
-            if k_best < 0:
-                continue
-            res = b.dt.insert(X[k_best], near=None)
-            if res.duplicate:
-                continue
-            b.P = np.concatenate([b.P, X[k_best : k_best + 1]])
-            b.pt_edge = np.append(b.pt_edge, -1)
-            b.pt_facet = np.append(b.pt_facet, -1)
-            b.n += 1
-            b.interior_added += 1
-            done += 1
-            cache.update(res, reg)
-        if progress is not None:
-            progress(0.8, f"sliver round {rounds}: {len(rows)} slivers, {done} points")
-        if done == 0:
-            break
-    return rounds
-
-
-@njit(cache=True, error_model="numpy")
-def _quality(X):
-    """(least dihedral angle in degrees, radius-edge ratio) of the tetrahedron X (4, 3).
-
-    Numpy's error model: a flat tetrahedron gives angle 0 and an infinite or
-    NaN ratio, as :func:`tetra_dihedral_angles` and :func:`_tet_circumcenters`.
-    """
-    nrm = np.empty((4, 3))
-    for i in range(4):
-        a = X[_TET_FACES[i, 0]]
-        u = X[_TET_FACES[i, 1]] - a
-        v = X[_TET_FACES[i, 2]] - a
-        c = np.array(
-            [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
-        )
-        L = math.sqrt((c * c).sum())
-        nrm[i] = c / L if L > 0 else np.full(3, np.nan)
-    dih = np.inf
-    for k in range(6):
-        i, j = _TET_EDGES[k, 0], _TET_EDGES[k, 1]
-        p = -1
-        q = -1
-        for x in range(4):
-            if x != i and x != j:
-                if p < 0:
-                    p = x
-                else:
-                    q = x
-        cos = -(nrm[p] * nrm[q]).sum()
-        ang = 0.0 if np.isnan(cos) else math.degrees(math.acos(min(1.0, max(-1.0, cos))))
-        dih = min(dih, ang)
-    u = X[1] - X[0]
-    v = X[2] - X[0]
-    w = X[3] - X[0]
-    vw = np.array([v[1] * w[2] - v[2] * w[1], v[2] * w[0] - v[0] * w[2], v[0] * w[1] - v[1] * w[0]])
-    wu = np.array([w[1] * u[2] - w[2] * u[1], w[2] * u[0] - w[0] * u[2], w[0] * u[1] - w[1] * u[0]])
-    uv = np.array([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]])
-    den = 2.0 * (u * vw).sum()
-    off = ((u * u).sum() * vw + (v * v).sum() * wu + (w * w).sum() * uv) / den
-    short = np.inf
-    for k in range(6):
-        d = X[_TET_EDGES[k, 0]] - X[_TET_EDGES[k, 1]]
-        short = min(short, math.sqrt((d * d).sum()))
-    ratio = math.sqrt((off * off).sum()) / short
-    return dih, ratio
-
-
-@njit(cache=True, error_model="numpy")
-def _best_candidate(P, V, A, C, R, reg, t0, X, reg_id, max_radius_edge, bound):
-    """The candidate of X to insert for the sliver at slot t0 (see :func:`_sliver_pass`), or -1.
-
-    For each candidate, in float: a walk from t0 to the tetrahedron holding
-    it strictly inside (else rejected), the cavity (tetrahedra whose
-    circumsphere holds it, grown across faces; rejected if it leaves region
-    ``reg_id``), and the tetrahedra it would create. Kept if their least
-    dihedral angle beats the cavity's and their radius-edge ratios stay
-    within ``max(max_radius_edge, the cavity's worst)``; the best is
-    returned, or the first reaching ``bound``.
-    """
-    best = -1
-    best_dih = -1.0
-    cav = np.empty(1024, np.int64)
-    fu = np.empty(4096, np.int64)
-    fj = np.empty(4096, np.int64)
-    Y = np.empty((4, 3))
-    for k in range(X.shape[0]):
-        x = X[k]
-        # --- walk (float orientation; a point on a face is not strictly inside) ---
-        t = t0
-        found = False
-        for _ in range(100000):
-            moved = False
-            flat = False
-            for i in range(4):
-                a = P[V[t, _TET_FACES[i, 0]]]
-                u = P[V[t, _TET_FACES[i, 1]]] - a
-                v = P[V[t, _TET_FACES[i, 2]]] - a
-                d = x - a
-                o = (
-                    d[0] * (u[1] * v[2] - u[2] * v[1])
-                    + d[1] * (u[2] * v[0] - u[0] * v[2])
-                    + d[2] * (u[0] * v[1] - u[1] * v[0])
-                )
-                if o > 0:
-                    t = A[t, i]
-                    moved = True
-                    break
-                if o == 0:
-                    flat = True
-            if not moved:
-                found = not flat
-                break
-            if t < 0 or V[t, 0] < 0 or V[t, 1] < 0 or V[t, 2] < 0 or V[t, 3] < 0:
-                break
-        if not found or reg[t] != reg_id:
-            continue
-        # --- cavity ---
-        cav[0] = t
-        nc = 1
-        nf = 0
-        ok = True
-        i = 0
-        while i < nc and ok:
-            c = cav[i]
-            i += 1
-            for j in range(4):
-                n = A[c, j]
-                seen = False
-                for q in range(nc):
-                    if cav[q] == n:
-                        seen = True
-                        break
-                if seen:
-                    continue
-                r = R[n] if 0 <= n < R.shape[0] else -1.0
-                dx = x - C[n] if 0 <= n < R.shape[0] else x
-                if r > 0 and (dx * dx).sum() < r * r:
-                    if reg[n] != reg_id or nc == cav.shape[0]:
-                        ok = False  # the cavity would cross the surface (or is huge)
-                        break
-                    cav[nc] = n
-                    nc += 1
-                else:
-                    if nf == fu.shape[0]:
-                        ok = False
-                        break
-                    fu[nf] = c
-                    fj[nf] = j
-                    nf += 1
-        if not ok:
-            continue
-        old_dih = np.inf
-        old_ratio = 0.0
-        for q in range(nc):
-            for z in range(4):
-                Y[z] = P[V[cav[q], z]]
-            dd, rr = _quality(Y)
-            old_dih = min(old_dih, dd)
-            old_ratio = max(old_ratio, rr)
-        new_dih = np.inf
-        new_ratio = 0.0
-        for q in range(nf):
-            for z in range(4):
-                Y[z] = x if z == fj[q] else P[V[fu[q], z]]
-            dd, rr = _quality(Y)
-            new_dih = min(new_dih, dd)
-            new_ratio = max(new_ratio, rr)
-        if new_dih <= old_dih or not new_ratio <= max(max_radius_edge, old_ratio):
-            continue
-        if new_dih > best_dih:
-            best = k
-            best_dih = new_dih
-            if new_dih >= bound:
-                break
-    return best
-
-
-class _SlotCache:
-    """Vertices, neighbours, circumspheres and regions of the kernel's slots (one round)."""
-
-    def __init__(self, b: SurfaceRecovery, top: int, slots: np.ndarray, region: np.ndarray) -> None:
-        self.b = b
-        self.V = np.full((top, 4), -1, dtype=np.int64)
-        self.A = np.full((top, 4), -1, dtype=np.int64)
-        self.C = np.zeros((top, 3))
-        self.R = np.full(top, -1.0)
-        self.reg = np.full(top, -1, dtype=np.int64)
-        self.stale = np.zeros(top, dtype=bool)
-        self._set(slots)
-        self.reg[slots] = region
-
-    def _grow(self, top: int) -> None:
-        if top <= len(self.V):
-            return
-        extra = max(top, 2 * len(self.V)) - len(self.V)
-        self.V = np.concatenate([self.V, np.full((extra, 4), -1, dtype=np.int64)])
-        self.A = np.concatenate([self.A, np.full((extra, 4), -1, dtype=np.int64)])
-        self.C = np.concatenate([self.C, np.zeros((extra, 3))])
-        self.R = np.concatenate([self.R, np.full(extra, -1.0)])
-        self.reg = np.concatenate([self.reg, np.full(extra, -1, dtype=np.int64)])
-        self.stale = np.concatenate([self.stale, np.zeros(extra, dtype=bool)])
-
-    def _set(self, slots: np.ndarray) -> None:
-        V = self.b.dt.tets(slots)
-        self.V[slots] = V
-        self.A[slots] = self.b.dt.adjacent(slots)
-        real = (V >= 0).all(axis=1)
-        c, R = _tet_circumcenters(self.b.P, V[real])
-        self.C[slots[real]] = c
-        self.R[slots[real]] = np.where(np.isfinite(R), R, -1.0)
-        self.R[slots[~real]] = -1.0
-
-    def update(self, res, reg: int) -> None:
-        created = np.asarray(res.created, dtype=np.int64)
-        self._grow(int(max(created.max(), self.b.dt.adjacent(created).max())) + 1)
-        self.stale[res.removed] = True
-        self._set(created)
-        self.reg[created] = np.where((self.V[created] >= 0).all(axis=1), reg, -1)
-        nb = np.unique(self.A[created])
-        nb = nb[nb >= 0]
-        self.A[nb] = self.b.dt.adjacent(nb)
-
-
 def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[int, int]:
     """Delaunay refinement rounds; returns (rounds, bad tetrahedra left)."""
     max_radius_edge, max_volume, size_at = criteria
@@ -1371,9 +1078,11 @@ def tetrahedralize(
         next to input angles too small for it (the rounds are capped and the
         rest counted in ``given_up``). None: no radius-edge bound.
     min_dihedral : float, optional
-        Degrees in (0, 70]: sliver rounds after refinement (perturbed
-        insertion that never lowers the local least dihedral angle). Best
-        effort: ``left`` counts the tetrahedra still below it, by cause.
+        Degrees in (0, 70]: slivers removed after refinement (rounds of
+        perturbed insertion, then flips, smoothing and
+        insertion, each raising the local least dihedral angle; the result is
+        then not Delaunay). Best effort: ``left`` counts the tetrahedra still
+        below it, by cause, and ``left["improvement"]`` the operations.
     max_volume : float, optional
         Every tetrahedron's volume at most this.
     size : float, optional
@@ -1480,9 +1189,12 @@ def tetrahedralize(
             rounds += r
             timings["refinement"] = time.perf_counter() - t2
         if not empty and mdh is not None:
+            from meshcore.tets.slivers import remove_slivers, sliver_pass  # (imports this module)
+
             t3 = time.perf_counter()
-            rounds += _sliver_pass(b, mdh, mre or math.inf, progress)
-            if bounded:
+            n_before = b.n
+            rounds += sliver_pass(b, mdh, mre or math.inf, progress)
+            if bounded and b.n > n_before:
                 # The sliver rounds' surface splits may have left bad tetrahedra.
                 r, given_up = _refine(b, (mre or math.inf, mvol, size_at), progress)
                 rounds += r
@@ -1494,7 +1206,14 @@ def tetrahedralize(
         keep = region >= 0
         tetra, region = T[keep], region[keep]
         tetra, region, sub, sub_src, triangle_facet = _drop_flat_folds(b, tetra, region)
+        if not empty and mdh is not None:
+            # Slivers: flips and smoothing (the result is no longer Delaunay).
+            t4 = time.perf_counter()
+            tetra, region, improved = remove_slivers(b, tetra, region, sub, mdh, mre or math.inf)
+            timings["improvement"] = time.perf_counter() - t4
         left = _left_report(b, tetra, sub, None if empty else mre, None if empty else mdh)
+        if not empty and mdh is not None:
+            left["improvement"] = improved
     if keep_boundary:
         # Boundary faces: the input triangles.
         sub, sub_src, triangle_facet = b.facets, np.arange(len(b.facets)), b.group

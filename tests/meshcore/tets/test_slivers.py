@@ -1,0 +1,96 @@
+"""min_dihedral: flips, smoothing and insertion raise the least dihedral angle
+(:mod:`meshcore.tets.slivers`, :mod:`meshcore.tets.improve`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.spatial import Delaunay
+
+from meshcore.domain import parse_surface
+from meshcore.geometry.predicates3d import orient3d
+from meshcore.tets import slivers, tetra_dihedral_angles, tetrahedralize
+from tests.meshcore.domain import shapes
+from tests.meshcore.tets.test_tetrahedralize import NONE_LEFT, assert_valid, faces_of
+
+
+def signed_volumes(P, K):
+    a = P[K[:, 0]]
+    return np.einsum("ij,ij->i", P[K[:, 1]] - a, np.cross(P[K[:, 2]] - a, P[K[:, 3]] - a)) / 6
+
+
+def test_least_dihedral_reached_on_a_refined_cube():
+    """Size 0.2 at radius-edge 2: Delaunay refinement leaves slivers (least angle
+    about 1-5 degrees); with ``min_dihedral=15`` every tetrahedron reaches 15 degrees,
+    the ratio bound still holds, and the mesh passes every validity check."""
+    s = parse_surface(*shapes.box())
+    plain = tetrahedralize(s, size=0.2)
+    P0, K0 = plain.mesh.points, plain.mesh.cells[0].data
+    assert tetra_dihedral_angles(P0, K0).min() < 15
+    r = tetrahedralize(s, size=0.2, min_dihedral=15)
+    assert_valid(r, s)
+    P, K = r.mesh.points, r.mesh.cells[0].data
+    assert tetra_dihedral_angles(P, K).min() >= 15
+    assert r.left["dihedral_below"] == NONE_LEFT
+    assert r.left["radius_edge_above"] == NONE_LEFT
+
+
+def test_improve_keeps_the_constrained_faces_and_the_volume():
+    """A Delaunay tetrahedralization of random points (Qhull's: many slivers), the hull
+    faces constrained and the hull points fixed: after :func:`slivers.improve`, every
+    tetrahedron is positive by the exact orient3d, the volume is the same to 1e-12,
+    every hull face is still a face held once, the fixed points did not move and the
+    least dihedral angle rose."""
+    rng = np.random.default_rng(7)
+    X = rng.random((300, 3))
+    d = Delaunay(X)
+    K = d.simplices.astype(np.int64)
+    K = np.where((signed_volumes(X, K) > 0)[:, None], K[:, [0, 1, 3, 2]], K)  # kernel order
+    hull = d.convex_hull.astype(np.int64)
+    free = np.ones(len(X), dtype=bool)
+    free[np.unique(hull)] = False
+    before = tetra_dihedral_angles(X, K).min(axis=1)
+    P, T, region, stats = slivers.improve(
+        X, K, np.zeros(len(K), np.int64), hull, free, np.zeros((len(X), 3)), 15.0, math.inf
+    )
+    M = T[:, [0, 1, 3, 2]]  # positive volume
+    assert (orient3d(P[M[:, 0]], P[M[:, 1]], P[M[:, 2]], P[M[:, 3]]) < 0).all()
+    vol = math.fsum(signed_volumes(P, M).tolist())
+    assert abs(vol - math.fsum(signed_volumes(X, K[:, [0, 1, 3, 2]]).tolist())) <= 1e-12 * vol
+    keys, counts = np.unique(faces_of(T), axis=0, return_counts=True)
+    assert counts.max() <= 2
+    assert np.array_equal(keys[counts == 1], np.unique(np.sort(hull, axis=1), axis=0))
+    assert np.array_equal(P[: len(X)][~free], X[~free])
+    after = tetra_dihedral_angles(P, T).min(axis=1)
+    assert after.min() > before.min() + 5
+    assert stats["edge_removals"] + stats["face_removals"] + stats["smoothing_moves"] > 0
+    assert (region == 0).all()
+
+
+def test_without_min_dihedral_the_mesh_is_delaunay_and_untouched(monkeypatch):
+    """Without ``min_dihedral`` neither sliver stage runs: the result is the refined
+    Delaunay tetrahedralization, every interior face locally Delaunay (exact insphere)."""
+    from meshcore.geometry.predicates3d import insphere
+
+    def fail(*a, **k):
+        raise AssertionError("the sliver stages ran")
+
+    monkeypatch.setattr(slivers, "remove_slivers", fail)
+    monkeypatch.setattr(slivers, "sliver_pass", fail)
+    s = parse_surface(*shapes.icosphere(1))
+    r = tetrahedralize(s, size=0.4)
+    P, K = r.mesh.points, r.mesh.cells[0].data
+    F = faces_of(K)
+    order = np.lexsort(F.T[::-1])
+    Fs = F[order]
+    same = (Fs[1:] == Fs[:-1]).all(axis=1)
+    i = np.flatnonzero(same)
+    t1, t2 = order[i] // 4, order[i + 1] // 4
+    # The vertex of t2 opposite the shared face against t1's circumsphere.
+    opp = K[t2][~(K[t2][:, :, None] == K[t1][:, None, :]).any(axis=2)]
+    A = K[t1]
+    # meshio order (positive volume): insphere > 0 means strictly inside (Shewchuk's sign
+    # for orient3d(a, b, c, d) > 0); swap two corners for the kernel order.
+    inside = insphere(P[A[:, 0]], P[A[:, 1]], P[A[:, 3]], P[A[:, 2]], P[opp])
+    assert (inside <= 0).all()
