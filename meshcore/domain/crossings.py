@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import orient2d_scalar
 
 __all__: list[str] = []
@@ -247,32 +248,6 @@ def _grid_cells(pts, scale, start, first, last, box, ox, oy, h, pad, nx, ny, key
 
 
 @njit(cache=True)
-def _radix_sort(key, bits):
-    """``key`` (non-negative int64 values below ``2**bits``) in increasing order: a
-    least-significant-digit radix sort, 11 bits a pass, passes whose digit is
-    the same for every key skipped. Linear time; numpy's comparison sort took
-    three to four times as long on the 1M circle's 89k entries."""
-    n = len(key)
-    src = key
-    dst = np.empty(n, np.int64)
-    count = np.empty(2049, np.int64)
-    for shift in range(0, bits, 11):
-        count[:] = 0
-        for i in range(n):
-            count[((src[i] >> shift) & 2047) + 1] += 1
-        if count.max() == n:
-            continue
-        for d in range(2048):
-            count[d + 1] += count[d]
-        for i in range(n):
-            d = (src[i] >> shift) & 2047
-            dst[count[d]] = src[i]
-            count[d] += 1
-        src, dst = dst, src
-    return src
-
-
-@njit(cache=True)
 def _box_stats(box, step):
     """The pieces' bounds (min x, min y, max x, max y) and the median extent
     ``max(width, height)`` of every ``step``-th piece; one compiled pass."""
@@ -346,8 +321,7 @@ def _grid_entries(pts, scale, offsets, cseg):
     key <<= np.int64(bits)
     key |= item
     del item
-    width = bits + ((nx * ny - 1).bit_length() if decodable else room)
-    key = _radix_sort(key, np.int64(width))
+    key = key[radix_argsort(key)]  # distinct keys: the sorted values
     item = key & ((1 << bits) - 1)
     key >>= np.int64(bits)
     return key, item, (start, first, last, box), (decodable, ny, ox, oy, h, short)
