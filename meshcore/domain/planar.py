@@ -95,7 +95,7 @@ compiled passes too, and nothing is allocated per vertex beyond the
 returned arrays: a ring given as a read-only float64 array (as the service
 hands it over) is not even copied. The cost is linear in the number of
 pieces, (piece, cell) entries and nearby pairs: near linear for boundary
-samples (1M vertices in about 0.1 s, 6-8 times GEOS), quadratic in the
+samples (1M vertices in about 0.03 s, 4.5-5 times GEOS), quadratic in the
 worst case where very many long segments run close together (dense spike
 fans), as GEOS's validity check is (``benchmarks/domain.py``).
 
