@@ -60,6 +60,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.errors import InputError
+from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import WORK_SIZE, incircle_exact, orient2d_exact
 
 __all__ = ["IncrementalDelaunay", "Triangulation", "delaunay"]
@@ -1036,9 +1037,9 @@ def _build(pts_in: np.ndarray, progress):
     # (boundaries) rarely share a cell.
     nbits = min(_HILBERT_BITS, max(8, n.bit_length() + 2))
     keys, curve = _brio_hilbert_keys(pts_in, factor, nbits)
-    order = np.argsort(keys)
+    order = radix_argsort(keys)
     del keys
-    along = np.argsort(curve[order])
+    along = radix_argsort(curve[order])
     hint = _walk_hints(along, curve[order][along])
     del curve, along
     pts = _gather(pts_in, order, factor)

@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import orient2d_scalar
 
 __all__: list[str] = []
@@ -51,11 +52,6 @@ _CROSS, _TOUCH, _OVERLAP = 1, 2, 3
 
 def _floor_index(values: np.ndarray, origin: float, h: float) -> np.ndarray:
     return np.floor((values - origin) / h).astype(np.int64)
-
-
-@njit(cache=True)
-def _sign(v):
-    return (v > 0.0) - (v < 0.0)
 
 
 @njit(cache=True)
@@ -109,34 +105,46 @@ def _pieces(pts, scale, offsets, cseg, cap, max_len):
         fx = 0.0
         fy = 0.0
         grow = False
+        # The current piece's first segment and last point, and segment i's first
+        # point, carried along (each point is read once).
+        head = lo
+        tail = lo
+        xa = pts[lo, 0] * scale
+        ya = pts[lo, 1] * scale
         for i in range(lo, hi):
             b = i + 1 if i + 1 < hi else lo
-            xa = pts[i, 0] * scale
-            ya = pts[i, 1] * scale
             xb = pts[b, 0] * scale
             yb = pts[b, 1] * scale
-            dx = _sign(xb - xa)
-            dy = _sign(yb - ya)
-            moves = dx != 0 or dy != 0
+            ddx = xb - xa
+            ddy = yb - ya
+            dx = (ddx > 0.0) - (ddx < 0.0)
+            dy = (ddy > 0.0) - (ddy < 0.0)
+            moves = (dx | dy) != 0
+            # Without branches (signs are -1, 0, 1: sx * dx >= 0 means sx == 0,
+            # dx == 0 or dx == sx): the loop runs at half the time.
             if (
                 grow
-                and moves
-                and (sx == 0 or dx == 0 or dx == sx)
-                and (sy == 0 or dy == 0 or dy == sy)
-                and i - start[m - 1] < max_len
-                and max(abs(xb - fx), abs(yb - fy)) <= cap
+                & moves
+                & (sx * dx >= 0)
+                & (sy * dy >= 0)
+                & (i - head < max_len)
+                & (max(abs(xb - fx), abs(yb - fy)) <= cap)
             ):
-                if sx == 0:
-                    sx = dx
-                if sy == 0:
-                    sy = dy
-                last[m - 1] = b
+                sx = sx if sx != 0 else dx
+                sy = sy if sy != 0 else dy
             else:
+                if i > lo:  # the ring's previous piece ends
+                    last[m - 1] = tail
                 start[m] = i
                 first[m] = i
-                last[m] = b
+                head = i
                 m += 1
                 fx, fy, sx, sy, grow = xa, ya, dx, dy, moves
+            tail = b
+            xa = xb
+            ya = yb
+        if hi > lo:
+            last[m - 1] = tail
     for t in range(c):
         start[m] = nb + t
         first[m] = cseg[t, 0]
@@ -239,6 +247,24 @@ def _grid_cells(pts, scale, start, first, last, box, ox, oy, h, pad, nx, ny, key
     return total, short
 
 
+@njit(cache=True)
+def _box_stats(box, step):
+    """The pieces' bounds (min x, min y, max x, max y) and the median extent
+    ``max(width, height)`` of every ``step``-th piece; one compiled pass."""
+    lx, ly = box[0, 0], box[0, 1]
+    hx, hy = box[0, 2], box[0, 3]
+    for q in range(len(box)):
+        lx = min(lx, box[q, 0])
+        ly = min(ly, box[q, 1])
+        hx = max(hx, box[q, 2])
+        hy = max(hy, box[q, 3])
+    sample = box[::step]
+    extent = np.empty(len(sample))
+    for q in range(len(sample)):
+        extent[q] = max(sample[q, 2] - sample[q, 0], sample[q, 3] - sample[q, 1])
+    return lx, ly, hx, hy, np.median(extent)
+
+
 def _grid_entries(pts, scale, offsets, cseg):
     """The pieces, entered in the cells of a uniform grid, sorted by cell.
 
@@ -264,13 +290,10 @@ def _grid_entries(pts, scale, offsets, cseg):
         pts, scale, offsets, cseg, _PIECE_EXTENT * seg_h, _PIECE_SEGMENTS
     )
     k = len(first)
-    ox, oy = (float(v) for v in box[:, :2].min(axis=0))
-    mx, my = (float(v) for v in box[:, 2:].max(axis=0))
+    ox, oy, mx, my, median = (float(v) for v in _box_stats(box, np.int64(max(1, k // _SAMPLE))))
     span = max(mx - ox, my - oy)
     pad = 64.0 * float(np.spacing(max(abs(ox), abs(oy), abs(mx), abs(my))))
-    sample = box[:: max(1, k // _SAMPLE)]
-    extent = np.maximum(sample[:, 2] - sample[:, 0], sample[:, 3] - sample[:, 1])
-    h = max(float(np.median(extent)), span * 2.0**-30, pad)
+    h = max(median, span * 2.0**-30, pad)
     budget = _ENTRIES_PER_SEGMENT * k + (1 << 20)
     dummy = np.zeros(0, dtype=np.int64)
     while True:
@@ -298,7 +321,7 @@ def _grid_entries(pts, scale, offsets, cseg):
     key <<= np.int64(bits)
     key |= item
     del item
-    key.sort()
+    key = key[radix_argsort(key)]  # distinct keys: the sorted values
     item = key & ((1 << bits) - 1)
     key >>= np.int64(bits)
     return key, item, (start, first, last, box), (decodable, ny, ox, oy, h, short)

@@ -95,7 +95,7 @@ compiled passes too, and nothing is allocated per vertex beyond the
 returned arrays: a ring given as a read-only float64 array (as the service
 hands it over) is not even copied. The cost is linear in the number of
 pieces, (piece, cell) entries and nearby pairs: near linear for boundary
-samples (1M vertices in about 0.1 s, 6-8 times GEOS), quadratic in the
+samples (1M vertices in about 0.03 s, 4.5-5 times GEOS), quadratic in the
 worst case where very many long segments run close together (dense spike
 fans), as GEOS's validity check is (``benchmarks/domain.py``).
 
@@ -115,6 +115,7 @@ from numbers import Real
 import numpy as np
 from numba import njit
 
+from meshcore.domain.area import _area
 from meshcore.domain.crossings import (
     _CROSS,
     _ENTRIES_PER_SEGMENT,
@@ -856,7 +857,7 @@ def _check_ring_points(pts, offsets, lengths, names: _Names, scale: float) -> np
     ccount, turning, dup, spike, low = _ring_scan(pts, scale, offsets)
     distinct = np.maximum(ccount, 1)
     # Every consecutive triple collinear (and no repeats): the whole ring is on a line.
-    flat = turning == 0
+    flat = ~turning
     # Without consecutive repeats, 2 distinct points must alternate a, b, a, b (a flat ring).
     if (flat & (ccount >= 3)).any():
         ring_of = np.repeat(np.arange(n_rings), lengths)
@@ -914,10 +915,12 @@ def _ring_scan(pts, scale, offsets):
 
     Returns
     -------
-    kept, turning : (R,) int64
-        Per ring, the vertices not equal to their previous one (cyclically),
-        and those whose turn (previous, vertex, next), the sign of
-        :func:`~meshcore.geometry.predicates.orient2d_scalar`, is not zero.
+    kept : (R,) int64
+        Per ring, the vertices not equal to their previous one (cyclically).
+    turning : (R,) bool
+        Per ring, whether some vertex's turn (previous, vertex, next), the sign
+        of :func:`~meshcore.geometry.predicates.orient2d_scalar`, is not zero
+        (turns are taken until the first one that is, and where a spike may be).
     dup : int
         The first vertex equal to its previous one, or -1.
     spike : int
@@ -928,38 +931,36 @@ def _ring_scan(pts, scale, offsets):
         Per ring, its first lexicographically smallest (x, y) vertex.
     """
     kept = np.zeros(len(offsets) - 1, dtype=np.int64)
-    turning = np.zeros(len(offsets) - 1, dtype=np.int64)
+    turning = np.zeros(len(offsets) - 1, dtype=np.bool_)
     low = offsets[:-1].copy()
     dup = -1
     spike = -1
     for k in range(len(offsets) - 1):
         lo, hi = offsets[k], offsets[k + 1]
+        # (a, i, c) = (previous, vertex, next), carried along: each point is read once.
+        ax, ay, ix, iy = pts[hi - 1, 0], pts[hi - 1, 1], pts[lo, 0], pts[lo, 1]
+        mx, my, m, nk, turns = ix, iy, lo, 0, False
         for i in range(lo, hi):
-            m = low[k]
-            if pts[i, 0] < pts[m, 0] or (pts[i, 0] == pts[m, 0] and pts[i, 1] < pts[m, 1]):
-                low[k] = i
-            a = i - 1 if i > lo else hi - 1
             c = i + 1 if i < hi - 1 else lo
-            t = orient2d_scalar(
-                pts[a, 0] * scale,
-                pts[a, 1] * scale,
-                pts[i, 0] * scale,
-                pts[i, 1] * scale,
-                pts[c, 0] * scale,
-                pts[c, 1] * scale,
-            )
-            if pts[a, 0] == pts[i, 0] and pts[a, 1] == pts[i, 1]:
+            cx, cy = pts[c, 0], pts[c, 1]
+            if ix < mx or (ix == mx and iy < my):
+                mx, my, m = ix, iy, i
+            if ax == ix and ay == iy:
                 if dup < 0:
                     dup = i
             else:
-                kept[k] += 1
-            if t != 0:
-                turning[k] += 1
-            elif spike < 0:
-                ax = 0 if pts[a, 0] != pts[i, 0] else 1
-                u, v, w = pts[a, ax], pts[i, ax], pts[c, ax]
-                if (v > u) - (v < u) != (w > v) - (w < v):
+                nk += 1
+            u, v, w = (ax, ix, cx) if ax != ix else (ay, iy, cy)
+            back = (v > u) - (v < u) != (w > v) - (w < v)
+            if (back and spike < 0) or not turns:
+                t = orient2d_scalar(
+                    ax * scale, ay * scale, ix * scale, iy * scale, cx * scale, cy * scale
+                )
+                turns = turns or t != 0
+                if t == 0 and back and spike < 0:
                     spike = i
+            ax, ay, ix, iy = ix, iy, cx, cy
+        kept[k], turning[k], low[k] = nk, turns, m
     return kept, turning, dup, spike, low
 
 
@@ -991,188 +992,6 @@ def _bounding_box(pts):
         ly = min(ly, pts[i, 1])
         hy = max(hy, pts[i, 1])
     return lx, ly, hx, hy
-
-
-@njit(cache=True)
-def _exact_shift(pts, scale):
-    """Per axis, the first scaled coordinate if subtracting it from every other
-    one is exact (two-sum error 0), else 0.0 (no shift); one pass."""
-    rx = pts[0, 0] * scale
-    ry = pts[0, 1] * scale
-    fx = fy = True
-    for i in range(len(pts)):
-        v = pts[i, 0] * scale
-        s = v - rx
-        bv = s - v
-        fx = fx and (v - (s - bv)) + (-rx - bv) == 0.0
-        v = pts[i, 1] * scale
-        s = v - ry
-        bv = s - v
-        fy = fy and (v - (s - bv)) + (-ry - bv) == 0.0
-        if not (fx or fy):
-            break
-    return rx if fx else 0.0, ry if fy else 0.0
-
-
-@njit(cache=True)
-def _fsum_add(partials, n, x):
-    """Add ``x`` to the non-overlapping ``partials[:n]`` exactly; their new count.
-
-    The loop of CPython's :func:`math.fsum` (Shewchuk's algorithm), for finite
-    terms, with Knuth's branch-free two-sum in place of the ordered fast
-    two-sum: both give the same rounded sum and exact error.
-    """
-    i = 0
-    for j in range(n):
-        y = partials[j]
-        hi = x + y
-        bb = hi - x
-        lo = (x - (hi - bb)) + (y - bb)
-        partials[i] = lo
-        i += lo != 0.0
-        x = hi
-    if x != 0.0:
-        partials[i] = x
-        i += 1
-    return i
-
-
-@njit(cache=True)
-def _fsum_round(partials, n):
-    """The correctly rounded value of ``partials[:n]``: the ending of CPython's
-    :func:`math.fsum`, half-even rounding across partials included."""
-    if n == 0:
-        return 0.0
-    n -= 1
-    hi = partials[n]
-    lo = 0.0
-    while n > 0:
-        x = hi
-        n -= 1
-        y = partials[n]
-        hi = x + y
-        lo = y - (hi - x)
-        if lo != 0.0:
-            break
-    if n > 0 and ((lo < 0.0 and partials[n - 1] < 0.0) or (lo > 0.0 and partials[n - 1] > 0.0)):
-        y = lo * 2.0
-        x = hi + y
-        if y == x - hi:
-            hi = x
-    return hi
-
-
-#: Terms deposited in the integer bins of :func:`_shoelace` between carries
-#: (53-bit significands: 512 of them cannot overflow an int64 bin).
-_BLOCK = 512
-
-
-@njit(cache=True)
-def _deposit(bins, bits, count):
-    """Add the float64 values whose bit patterns are ``bits[:count]`` exactly to
-    ``bins`` (bin ``e`` counts units of ``2**(e - 1075)``), then carry the
-    bits above 32 of the bins they touched into the bin 32 places up."""
-    lo = bins.shape[0]
-    hi = 0
-    for k in range(count):
-        b = bits[k]
-        e = (b >> 52) & 0x7FF
-        m = b & 0xFFFFFFFFFFFFF
-        if e == 0:
-            e = 1  # subnormal: same unit as the smallest normal exponent
-        else:
-            m |= 1 << 52
-        bins[e] += -m if b < 0 else m
-        lo = min(lo, e)
-        hi = max(hi, e)
-    # Upward, so that carries are carried on once more (the bins above hi + 32
-    # get at most 2**31 a call: no overflow in any number of calls).
-    for e in range(lo, min(hi + 33, bins.shape[0] - 32)):
-        c = bins[e] >> 32
-        if c != 0:
-            bins[e] -= c << 32
-            bins[e + 32] += c
-
-
-@njit(cache=True)
-def _shoelace(pts, scale, offsets, reversed_, sx, sy):
-    """Twice the signed area of the rings (terms negated in reversed rings), on the
-    coordinates times ``scale`` minus (``sx``, ``sy``).
-
-    Each product is split exactly (Dekker); the rounded leading parts
-    ``x_i y_{i+1} - x_{i+1} y_i`` are summed exactly in integer bins, one
-    per binary exponent (:func:`_deposit`), together with the sum of their
-    exact remainders (two-sum errors and product tails), accumulated in
-    order; the bins and that sum are then added exactly and rounded once
-    (:func:`_fsum_add`, :func:`_fsum_round`: :func:`math.fsum`'s algorithm,
-    whose rounding is correct, so the result is that of ``math.fsum`` of
-    the same terms). One compiled pass.
-    """
-    buf = np.empty(_BLOCK)
-    bits = buf.view(np.int64)
-    bins = np.zeros(2048 + 64, np.int64)
-    count = np.int64(0)  # typed, not literal: one compiled _deposit
-    small = 0.0
-    for k in range(len(offsets) - 1):
-        lo, hi = offsets[k], offsets[k + 1]
-        sign = -1.0 if reversed_[k] else 1.0
-        for i in range(lo, hi):
-            j = i + 1 if i < hi - 1 else lo
-            a = pts[i, 0] * scale - sx
-            b = pts[j, 1] * scale - sy
-            c = pts[j, 0] * scale - sx
-            d = pts[i, 1] * scale - sy
-            h1 = a * b
-            t = 134217729.0 * a
-            ahi = t - (t - a)
-            alo = a - ahi
-            t = 134217729.0 * b
-            bhi = t - (t - b)
-            blo = b - bhi
-            l1 = alo * blo - (((h1 - ahi * bhi) - alo * bhi) - ahi * blo)
-            h2 = c * d
-            t = 134217729.0 * c
-            chi = t - (t - c)
-            clo = c - chi
-            t = 134217729.0 * d
-            dhi = t - (t - d)
-            dlo = d - dhi
-            l2 = clo * dlo - (((h2 - chi * dhi) - clo * dhi) - chi * dlo)
-            s = h1 - h2
-            bv = s - h1
-            e = (h1 - (s - bv)) + (-h2 - bv)
-            buf[count] = s * sign
-            count += 1
-            if count == _BLOCK:
-                _deposit(bins, bits, count)
-                count = np.int64(0)
-            small += (e + l1 - l2) * sign
-    _deposit(bins, bits, count)
-    partials = np.empty(256)
-    n = np.int64(0)
-    for e in range(bins.shape[0]):
-        if bins[e] != 0:  # two exact halves (a bin may exceed 53 bits only at the top)
-            top = (bins[e] >> 26) << 26
-            n = _fsum_add(partials, n, math.ldexp(float(top), e - 1075))
-            n = _fsum_add(partials, n, math.ldexp(float(bins[e] - top), e - 1075))
-    n = _fsum_add(partials, n, small)
-    return _fsum_round(partials, n)
-
-
-def _area(pts: np.ndarray, scale: float, offsets: np.ndarray, reversed_: np.ndarray) -> float:
-    """Signed shoelace area of ``pts * scale``, the reversed rings' negated.
-
-    Coordinates are shifted to the first vertex when that is exact (it keeps
-    the terms small); each product is split exactly (Dekker), the leading
-    parts ``x_i y_{i+1} - x_{i+1} y_i`` (rounded, with their exact rounding
-    error kept) are summed exactly and rounded once, as :func:`math.fsum`
-    does, and the small parts, each below an ulp of its term, in order. The
-    error is that of the small parts' sum, orders of magnitude below an ulp
-    of the area unless the terms cancel by some 1e16. All in compiled
-    passes (:func:`_shoelace`).
-    """
-    sx, sy = _exact_shift(pts, scale)
-    return 0.5 * _shoelace(pts, scale, offsets, reversed_, sx, sy)
 
 
 def _constraint_lines(segments) -> list[np.ndarray]:

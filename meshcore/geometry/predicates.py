@@ -268,6 +268,37 @@ def dot2d_filtered(ax, ay, bx, by, cx, cy, work):
     return dot2d_exact(ax, ay, bx, by, cx, cy, work)
 
 
+@njit(cache=True, inline="always")
+def _axis_rectangle(ax, ay, bx, by, cx, cy, dx, dy):
+    """Whether a, b, c, d are the four corners of an axis-parallel rectangle, by
+    exact comparisons: two pairs share their x, two other pairs their y, and
+    the points sharing an x differ in y. Such points are co-circular (the
+    in-circle determinant is exactly 0), the commonest exact tie in practice
+    (grids; top and bottom samples of a rectangle's boundary)."""
+    if ax == bx:
+        return (
+            cx == dx
+            and ax != cx
+            and ay != by
+            and ((ay == cy and by == dy) or (ay == dy and by == cy))
+        )
+    if ax == cx:
+        return (
+            bx == dx
+            and ax != bx
+            and ay != cy
+            and ((ay == by and cy == dy) or (ay == dy and cy == by))
+        )
+    if ax == dx:
+        return (
+            bx == cx
+            and ax != bx
+            and ay != dy
+            and ((ay == by and dy == cy) or (ay == cy and dy == by))
+        )
+    return False
+
+
 @njit(cache=True)
 def incircle_exact(ax, ay, bx, by, cx, cy, dx, dy, work):
     """Exact sign of the in-circle determinant; ``work`` is scratch.
@@ -285,6 +316,8 @@ def incircle_exact(ax, ay, bx, by, cx, cy, dx, dy, work):
         For counter-clockwise a, b, c: +1 if d is inside the circle through
         them, -1 outside, 0 on it (signs reverse when a, b, c is clockwise).
     """
+    if _axis_rectangle(ax, ay, bx, by, cx, cy, dx, dy):
+        return 0
     adx, adxt = _two_diff(ax, dx)
     ady, adyt = _two_diff(ay, dy)
     bdx, bdxt = _two_diff(bx, dx)

@@ -17,6 +17,7 @@ from scipy.spatial import Delaunay as QhullDelaunay
 
 from meshcore.delaunay.kernel2d import IncrementalDelaunay, Triangulation, delaunay
 from meshcore.errors import Cancelled, InputError
+from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import incircle, orient2d
 
 
@@ -132,6 +133,16 @@ def test_random_points_match_qhull(n):
 def test_random_points_big_valid():
     p = np.random.default_rng(11).normal(size=(20000, 2))
     assert_delaunay(p, delaunay(p))
+
+
+@pytest.mark.parametrize("top", [0, 1, 5, 2047, 2048, 1 << 40, (1 << 62) + 12345])
+def test_radix_argsort_is_the_stable_argsort(top):
+    # Ties (few distinct keys), keys spanning one to six 11-bit digits, all-equal digits.
+    rng = np.random.default_rng(top % 1000)
+    for size in (0, 1, 7, 3000):
+        keys = rng.integers(0, top + 1, size, dtype=np.int64)
+        keys[: size // 2] = keys[size // 2 : 2 * (size // 2)]  # every key at least twice
+        assert np.array_equal(radix_argsort(keys), np.argsort(keys, kind="stable"))
 
 
 def test_three_points_one_triangle_with_no_neighbours():
