@@ -135,7 +135,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from meshcore.domain.planar import as_domain
 from meshcore.errors import AlgorithmError, InputError
@@ -354,8 +353,8 @@ def _good_quads(Q, quads: np.ndarray, fronts: list, which: int, n_old: int, h: n
     if n_new:
         mid = (Q[seg_a] + Q[seg_b]) / 2
         r = float(np.hypot(*(Q[seg_b] - Q[seg_a]).T).max())
-        near = cKDTree(mid[:n_new]).sparse_distance_matrix(cKDTree(mid), r, output_type="ndarray")
-        pairs = np.column_stack([near["i"], near["j"]]).astype(np.int64)
+        pi, pj, _ = pk.near_pairs(mid[:n_new], mid, r)
+        pairs = np.column_stack([pi, pj])
         pairs = pairs[pairs[:, 0] != pairs[:, 1]]
         hit = pairs[pk.pairs_touch(Q, seg_a, seg_b, pairs)]
         bad_seg[hit[:, 0]] = True
@@ -368,11 +367,9 @@ def _good_quads(Q, quads: np.ndarray, fronts: list, which: int, n_old: int, h: n
     nodes = np.concatenate([unique_ints(fa), new_nodes])
     cen = Q[quads].mean(axis=1)
     rad = np.sqrt(((Q[quads] - cen[:, None, :]) ** 2).sum(axis=2)).max(axis=1)
-    near = cKDTree(cen).sparse_distance_matrix(
-        cKDTree(Q[nodes]), float(rad.max()) * 1.0001, output_type="ndarray"
-    )
-    cand = np.column_stack([near["i"], near["j"]]).astype(np.int64)
-    cand = cand[near["v"] <= rad[cand[:, 0]] * 1.0001]
+    ci, cj, cd = pk.near_pairs(cen, Q[nodes], float(rad.max()) * 1.0001)
+    cand = np.column_stack([ci, cj])
+    cand = cand[cd <= rad[ci] * 1.0001]
     if len(cand):
         ok[cand[pk.points_in_quads(Q, quads, nodes, cand), 0]] = False
     if len(new_nodes):
@@ -383,13 +380,10 @@ def _good_quads(Q, quads: np.ndarray, fronts: list, which: int, n_old: int, h: n
         joined = np.zeros(len(Q), bool)
         joined[quads[other[quads].any(axis=1)]] = True
         hx = h[new_nodes]
-        near = cKDTree(Q[new_nodes]).sparse_distance_matrix(
-            cKDTree(Q[nodes]), _GAP * float(hx.max()), output_type="ndarray"
-        )
-        i, t = near["i"], near["j"]
+        i, t, dist = pk.near_pairs(Q[new_nodes], Q[nodes], _GAP * float(hx.max()))
         x, y = new_nodes[i], nodes[t]
         lim = np.where(joined[x] | ~other[y], _CLEARANCE, _GAP)
-        close = (near["v"] < lim * hx[i]) & (x != y)
+        close = (dist < lim * hx[i]) & (x != y)
         # allowed: the corners of the quads at x
         mine = (quads[:, :, None] * N + quads[:, None, :]).ravel()
         bad = x[close][~isin_ints(x[close] * N + y[close], mine)]
@@ -468,11 +462,9 @@ def _snap(Q, f, nf, quads, fronts, which, n_old, h):
     own_old = set(f.tolist())
     other = [g for k, g in enumerate(fronts) if k != which]
     targets = np.concatenate([*other, f, new])
-    near = cKDTree(Q[new]).sparse_distance_matrix(
-        cKDTree(Q[targets]), _SNAP * float(h[new].max()), output_type="ndarray"
-    )
-    x, t = new[near["i"]], targets[near["j"]]
-    x, t = x[near["v"] <= _SNAP * h[x]], t[near["v"] <= _SNAP * h[x]]
+    ni, nj, nd = pk.near_pairs(Q[new], Q[targets], _SNAP * float(h[new].max()))
+    x, t = new[ni], targets[nj]
+    x, t = x[nd <= _SNAP * h[x]], t[nd <= _SNAP * h[x]]
     # not the corners of x's quads (x among them), nor its neighbours on the new front
     mine = (quads[:, :, None] * N + quads[:, None, :]).ravel()
     step = (pos[t] - pos[x]) % n_f

@@ -6,14 +6,16 @@ not asserted here.
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
+from scipy.spatial import cKDTree
 
 from meshcore import InputError, parse_domain
 from meshcore.mesh.quality import quad_quality
 from meshcore.partition import boundary_points, smooth_quads
 from meshcore.partition.kernel import strictly_convex_rows
-from meshcore.quads import advancing_front, paving
+from meshcore.quads import advancing_front, paving, paving_kernel
 from tests.meshcore.partition.test_recursive import (
     L_SHAPE,
     SQUARE,
@@ -137,3 +139,20 @@ def test_guaranteed_route_when_the_closure_is_stuck(monkeypatch):
     res = paving(SQUARE_HOLE, size=0.05)
     assert res.stats["fallback"] == 1
     check_mesh(SQUARE_HOLE, res, 0.05, "quad")
+
+
+def test_near_pairs_are_the_kd_tree_pairs():
+    # the rows' fixed-radius neighbour search: the same pairs and distances as scipy's
+    # KD-tree, points of A outside B's box and a radius wider than B included
+    rng = np.random.default_rng(7)
+    A = rng.uniform(-0.2, 1.2, (300, 2))
+    B = rng.uniform(0, 1, (500, 2))
+    for a, r in ((A, 0.0), (A, 0.013), (A, 0.1), (A[:5], 3.0)):
+        i, j, d = paving_kernel.near_pairs(a, B, r)
+        ref = cKDTree(a).sparse_distance_matrix(cKDTree(B), r, output_type="ndarray")
+        got = np.unique(np.column_stack([i, j]), axis=0)
+        assert len(got) == len(i)
+        assert np.array_equal(got, np.unique(np.column_stack([ref["i"], ref["j"]]), axis=0))
+        assert np.allclose(d, np.hypot(*(a[i] - B[j]).T))
+    i, _, _ = paving_kernel.near_pairs(A, B[:0], 0.1)
+    assert len(i) == 0
