@@ -6,7 +6,8 @@ together with the one growing triangulation the rounds insert into
 (:class:`~meshcore.delaunay.kernel2d.IncrementalDelaunay`); the compiled
 functions here search that triangulation: the triangles a segment crosses,
 the vertex of widest angle in a segment's ball (the encroacher of §9.1 whose
-projection splits it), the edges inside a disc. Split from
+projection splits it), the edges inside a disc; and, on a grid, the pieces
+near each vertex to protect (:func:`_grid_pairs`). Split from
 :mod:`meshcore.delaunay.admissible`, which runs the rounds; the names stay
 private to the package.
 
