@@ -1,18 +1,22 @@
-"""Delaunay-admissible boundaries: Steiner points, ours vs Triangle's ``pD``.
+"""Delaunay-admissible boundaries: Steiner points, ours vs Triangle's ``pD`` and ``pcD``.
 
 Run from the repository root::
 
-    .venv/bin/python benchmarks/admissible.py
+    .venv/bin/python benchmarks/admissible.py [--stars 1000,3000,10000]
 
 For each polygon: the points each side adds to make its segments conforming,
 and the output segments that are still not edges of the Delaunay
 triangulation of the output points, counted by our exact test (our kernel,
 exact predicates) for both sides. Ours makes every segment an edge
-(§9.1.4); Triangle's ``pD`` only removes encroachment seen from inside the
-domain, so it may leave some. The CGAL column is quoted from the issue
-(``make_conforming_Delaunay_2`` on the issue's own star, 5°-corner polygon
-and ``la.poly``), not measured here: it is a fixed reference, not a peer of
-this run.
+(§9.1.4). Triangle's ``pD`` only removes encroachment seen from inside the
+domain (it deletes the triangles outside before it refines), so it may
+leave some; ``pcD`` (``c``: the convex hull is triangulated and kept, so
+every segment is refined from both sides) is Triangle's full conforming
+Delaunay, the yardstick for the point count (``ours/pcD``). The CGAL
+column is quoted from the issue (``make_conforming_Delaunay_2`` on the
+issue's own star, 5°-corner polygon and ``la.poly``), not measured here: it
+is a fixed reference, not a peer of this run (so is the issue's
+prototype of the projection rule).
 
 Inputs: a 50-vertex random star (sorted uniform angles, radii uniform in
 [0.3, 1], seed 1: Triangle's ``pD`` adds 112 points to it, the issue's
@@ -23,21 +27,23 @@ heights 4, 3, 1 (the tests' comb); Triangle's own ``A``, ``face`` and
 bench-only dependency (``pip install -e .[bench]``); without it its column
 and its data files are skipped with a note.
 
-A last input is the pathological one of issue 19: a 10,000-vertex random
-star (same recipe, seed 1), where ours adds about 604,000 points in 146
-rounds (each spike's chain of splits is sequential). Each round inserts its
-points into one growing triangulation and re-checks only the pieces its
-insertions may have removed; it took 126 s when every round
-re-triangulated everything.
+The last inputs are the random stars of issue 19 (same recipe, seed 1,
+``--stars``). A star of ``n`` vertices is ``n`` spikes about ``2 pi / n``
+wide and up to 0.7 long, and a conforming point set must resolve the gaps
+between them, so both sides' counts grow about as ``n ** 1.8``: at 10,000
+vertices ours adds about 604,000 points in 146 rounds, Triangle's ``pcD``
+millions (see the README for this machine's figures).
 
-Times are the medians of three runs (one run for the 10k star; ours after
-a warm-up that loads numba's cache); ``t ours/pD`` is the ratio of times.
-The machine's load average is printed first: on a shared machine the
-ratios, not the seconds, are what compare.
+Times are CPU seconds (``time.process_time``: this process alone, so a
+loaded machine slows both sides alike), medians of three runs (one run
+above 1,000 points; ours after a warm-up that loads numba's cache);
+``t ours/pcD`` is the ratio of CPU times. The machine's load average is
+printed first.
 """
 
 from __future__ import annotations
 
+import argparse
 import math
 import os
 import sys
@@ -49,6 +55,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
 from meshcore.delaunay.admissible import admissible_segments  # noqa: E402
 from meshcore.delaunay.kernel2d import delaunay  # noqa: E402
+from meshcore.mesh.topology import isin_ints, unique_ints  # noqa: E402
 
 try:
     import triangle
@@ -110,19 +117,19 @@ def not_delaunay(points: np.ndarray, segments: np.ndarray) -> int:
     t = delaunay(points).triangles
     a = np.concatenate([t[:, 0], t[:, 1], t[:, 2]])
     b = np.concatenate([t[:, 1], t[:, 2], t[:, 0]])
-    edges = np.unique(np.minimum(a, b) * n + np.maximum(a, b))
+    edges = unique_ints(np.minimum(a, b) * n + np.maximum(a, b))
     s = np.asarray(segments, dtype=np.int64)
     keys = np.minimum(s[:, 0], s[:, 1]) * n + np.maximum(s[:, 0], s[:, 1])
-    return int((~np.isin(keys, edges)).sum())
+    return int((~isin_ints(keys, edges)).sum())
 
 
 def median_of(fn, repeat: int = 3):
-    """Median wall time of ``repeat`` runs and the last result."""
+    """Median CPU time of ``repeat`` runs and the last result."""
     times, out = [], None
     for _ in range(repeat):
-        t = time.perf_counter()
+        t = time.process_time()
         out = fn()
-        times.append(time.perf_counter() - t)
+        times.append(time.process_time() - t)
     return float(np.median(times)), out
 
 
@@ -131,16 +138,21 @@ def run_ours(points, segments, repeat=3):
     return res.added, not_delaunay(res.points, res.segments), seconds
 
 
-def run_triangle(points, segments, holes, repeat=3):
+def run_triangle(points, segments, holes, repeat=3, switches="pD"):
     data = {"vertices": points.copy(), "segments": segments.copy()}
     if holes is not None and len(holes):
         data["holes"] = np.asarray(holes, dtype=float)
-    seconds, out = median_of(lambda: triangle.triangulate(data, "pD"), repeat)
+    seconds, out = median_of(lambda: triangle.triangulate(data, switches), repeat)
     added = len(out["vertices"]) - len(points)
     return added, not_delaunay(out["vertices"], out["segments"]), seconds
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument(
+        "--stars", default="1000,3000,10000", help="vertex counts of the random stars"
+    )
+    args = parser.parse_args()
     inputs = {"star-50": star(), "corners-5deg": corners(), "comb-5deg": comb()}
     if triangle is not None:
         for name in ("A", "face", "la"):
@@ -148,29 +160,32 @@ def main() -> None:
     else:
         print("note: triangle is not installed (pip install -e .[bench]): its column and the")
         print("      A / face / la inputs are skipped\n")
-    inputs["star-10000"] = star(10_000)
+    for n in (int(v) for v in args.stars.split(",") if v):
+        inputs[f"star-{n}"] = star(n)
     admissible_segments(*star(10)[:2])  # warm-up: numba's cache
     print("load average (1, 5, 15 min): {:.1f} {:.1f} {:.1f}\n".format(*os.getloadavg()))
     head = (
-        f"{'input':<13}{'pts':>6}{'segs':>6} | {'ours +pts':>9}{'non-Del':>8}{'ms':>9} | "
-        f"{'pD +pts':>9}{'non-Del':>9}{'ms':>9} | {'ours/pD':>7}{'t ours/pD':>10} | "
-        f"{'CGAL*':>5}{'proto*':>7}"
+        f"{'input':<12}{'pts':>6} | {'ours +pts':>9}{'non-Del':>8}{'CPU s':>9} | "
+        f"{'pD +pts':>9}{'non-Del':>8}{'CPU s':>8} | {'pcD +pts':>9}{'non-Del':>8}{'CPU s':>8} | "
+        f"{'ours/pcD':>8}{'t ours/pcD':>11} | {'CGAL*':>5}{'proto*':>7}"
     )
     print(head)
     print("-" * len(head))
     for name, (points, segments, holes) in inputs.items():
         repeat = 1 if len(points) > 1000 else 3
         ours, ours_left, ours_s = run_ours(points, segments, repeat)
-        row = f"{name:<13}{len(points):>6}{len(segments):>6} | {ours:>9}{ours_left:>8}"
-        row += f"{1e3 * ours_s:>9.1f} | "
+        row = f"{name:<12}{len(points):>6} | {ours:>9}{ours_left:>8}{ours_s:>9.4f} | "
         if triangle is not None:
             pd, pd_left, pd_s = run_triangle(points, segments, holes, repeat)
-            ratio = f"{ours / pd:.2f}" if pd else "-"
-            row += f"{pd:>9}{pd_left:>9}{1e3 * pd_s:>9.1f} | {ratio:>7}{ours_s / pd_s:>10.1f} | "
+            pcd, pcd_left, pcd_s = run_triangle(points, segments, holes, repeat, "pcD")
+            ratio = f"{ours / pcd:.2f}" if pcd else "-"
+            t_ratio = f"{ours_s / pcd_s:.1f}" if pcd_s else "-"
+            row += f"{pd:>9}{pd_left:>8}{pd_s:>8.4f} | {pcd:>9}{pcd_left:>8}{pcd_s:>8.4f} | "
+            row += f"{ratio:>8}{t_ratio:>11} | "
         else:
-            row += f"{'-':>9}{'-':>9}{'-':>9} | {'-':>7}{'-':>10} | "
+            row += f"{'-':>9}{'-':>8}{'-':>8} | {'-':>9}{'-':>8}{'-':>8} | {'-':>8}{'-':>11} | "
         row += f"{CGAL.get(name, '-'):>5}{PROTOTYPE.get(name, '-'):>7}"
-        print(row)
+        print(row, flush=True)
     print(
         "\n* CGAL (make_conforming_Delaunay_2) and the issue's 40-line prototype of the "
         "projection rule,\n  quoted from the issue on its own star, 5°-corner polygon and "

@@ -147,14 +147,22 @@ Cost: a round costs time in the pieces it splits and checks (insertions,
 edge look-ups, lens searches, split points and the pieces' bookkeeping in
 compiled code), not in all points, plus one whole triangulation at the
 start and, when it is read, one at the end. Rounds are few on the test
-polygons (2 to 8); a 10,000-vertex random star
-(``benchmarks/admissible.py``) takes 146 rounds and 604,000 points, most
-rounds at the end splitting one or two segments each (each spike's chain
-of splits is sequential): 126 s when every round re-triangulated
-everything, about 6 s of CPU now (see the benchmark for this machine's
-figures), most of it in the widest-angle searches (near half), the
-insertions and the checks of the pieces they changed. The case counts of
-the result are computed when first read.
+polygons (2 to 8). A random star of ``n`` vertices (``benchmarks/admissible.py``)
+is ``n`` spikes about ``2 pi / n`` wide, and the added points grow about as
+``n ** 1.8`` (9,291 at 1,000 vertices, 67,859 at 3,000, 603,670 at 10,000,
+spread evenly along the segments: the pieces are a few times the gap to the
+neighbouring segments). The measurements point to the input more than to
+the rule: Triangle's full conforming Delaunay (``pcD``) adds 6 to 11 times
+more; on a 200-vertex star a greedy pass that drops added points one at a
+time while every segment stays a Delaunay edge drops only 9 % of them, and
+splitting one segment per round instead of all saves 7 %; the near-end
+clamp's constants move the count by under 10 %. The 10,000-vertex star
+takes 146 rounds (each spike's chain of splits is sequential) and about 6
+CPU s: the widest-angle searches about half (5 µs and 19 triangles per
+search, one search per added point), the insertions and the look-up of the
+pieces they removed about a sixth each, the protection radii's segment
+searches 0.4 s; 126 s when every round re-triangulated everything. The
+case counts of the result are computed when first read.
 
 The restricted triangulation (:func:`restricted_triangles`) keeps the
 triangles reached by a flood fill across non-segment edges from the left
@@ -183,6 +191,7 @@ from scipy.spatial import cKDTree
 
 from meshcore.delaunay.admissible_pieces import (
     _edge_keys,
+    _grid_pairs,
     _Pieces,
     _projection_points,
     _split_points,
@@ -682,11 +691,13 @@ def _segment_reach(P, S, reach, verts, tol) -> np.ndarray:
     segment of ``S`` not incident to it, where that is closer.
 
     Up to :data:`_ALL_PAIRS` (vertex, segment) pairs are all measured.
-    Otherwise segments are searched by length class (lengths in
-    ``[2**k, 2**(k+1))``), each class in a ``cKDTree`` of midpoints with the
-    query radius enlarged by the class's half length, so that long segments
-    are found without scanning all of them; the pairs it leaves out are
-    farther than ``reach``, so both ways give the same distances.
+    Otherwise the pairs are those :func:`_grid_pairs` finds (cells about
+    as many as the vertices, each vertex filed in those its disc of radius
+    ``reach``, padded, meets): a superset of the pairs closer than
+    ``reach``, and the pairs it leaves out would not lower it, so both ways
+    give the same distances. (A search by length class in k-d trees of
+    midpoints met a million pairs of long pieces and vertices near them on
+    a 10,000-vertex star.)
     """
     X = P[verts]
     reach = reach.copy()
@@ -695,19 +706,11 @@ def _segment_reach(P, S, reach, verts, tol) -> np.ndarray:
         q = np.repeat(np.arange(len(verts)), len(S))
         _lower_reach(reach, q, np.tile(np.arange(len(S)), len(verts)), X, U, V, S, verts)
         return reach
-    length = np.hypot(V[:, 0] - U[:, 0], V[:, 1] - U[:, 1])
-    cls = np.frexp(length)[1]
-    scale = _scale(P)
-    by_class = np.argsort(cls, kind="stable")
-    classes, first = np.unique(cls[by_class], return_index=True)
-    bounds = np.append(first, len(cls))
-    for c, lo, hi in zip(classes, bounds[:-1], bounds[1:], strict=True):
-        members = by_class[lo:hi]
-        mtree = cKDTree(0.5 * (U[members] + V[members]))
-        half_max = math.ldexp(1.0, int(c) - 1)
-        radii = reach + half_max * (1.0 + tol.ball_slack) + tol.coordinate_slack * scale
-        q, j = _ball_pairs(mtree, X, radii)
-        _lower_reach(reach, q, members[j], X, U, V, S, verts)
+    padded = reach * (1.0 + tol.ball_slack) + tol.coordinate_slack * _scale(P)
+    ex, ey = (X.max(axis=0) - X.min(axis=0)).tolist()
+    cell = max(math.sqrt(ex * ey / len(X)), max(ex, ey) / len(X), float(np.median(padded)))
+    q, seg = _grid_pairs(X, padded, U, V, cell)
+    _lower_reach(reach, q, seg, X, U, V, S, verts)
     return reach
 
 

@@ -6,7 +6,8 @@ together with the one growing triangulation the rounds insert into
 (:class:`~meshcore.delaunay.kernel2d.IncrementalDelaunay`); the compiled
 functions here search that triangulation: the triangles a segment crosses,
 the vertex of widest angle in a segment's ball (the encroacher of §9.1 whose
-projection splits it), the edges inside a disc. Split from
+projection splits it), the edges inside a disc; and, on a grid, the pieces
+near each vertex to protect (:func:`_grid_pairs`). Split from
 :mod:`meshcore.delaunay.admissible`, which runs the rounds; the names stay
 private to the package.
 
@@ -321,6 +322,70 @@ def _disc_edges(pts, V, A, vt, verts, radius, tstamp, counter):
                 tail += 1
     counter[0] = stamp
     return qs[:m], us[:m], ws[:m]
+
+
+@njit(cache=True)
+def _grid_pairs(X, radius, U, V, cell):
+    """(point, segment) pairs, a superset of those where segment ``U[j] V[j]``
+    comes within ``radius[i]`` of point ``X[i]`` (a float test padded by a
+    millionth): each point is filed in the cells of side ``cell`` that its
+    disc's bounding box meets; each segment is sampled at most ``cell / 2``
+    apart (ends included) and meets the points filed in the 3 x 3 cells
+    around each sample (the cell of its nearest point to ``X[i]`` is among
+    them). Each pair once."""
+    k = X.shape[0]
+    x0 = (X[:, 0] - radius).min()
+    y0 = (X[:, 1] - radius).min()
+    nx = int(((X[:, 0] + radius).max() - x0) / cell) + 1
+    ny = int(((X[:, 1] + radius).max() - y0) / cell) + 1
+    start = np.zeros(nx * ny + 1, np.int64)
+    lx = ((X[:, 0] - radius - x0) / cell).astype(np.int64)
+    hx = np.minimum(((X[:, 0] + radius - x0) / cell).astype(np.int64), nx - 1)
+    ly = ((X[:, 1] - radius - y0) / cell).astype(np.int64)
+    hy = np.minimum(((X[:, 1] + radius - y0) / cell).astype(np.int64), ny - 1)
+    for i in range(k):
+        for ix in range(lx[i], hx[i] + 1):
+            for iy in range(ly[i], hy[i] + 1):
+                start[ix * ny + iy + 1] += 1
+    for c in range(nx * ny):
+        start[c + 1] += start[c]
+    fill = start[:-1].copy()
+    members = np.empty(start[-1], np.int64)
+    for i in range(k):
+        for ix in range(lx[i], hx[i] + 1):
+            for iy in range(ly[i], hy[i] + 1):
+                members[fill[ix * ny + iy]] = i
+                fill[ix * ny + iy] += 1
+    seen = np.full(k, -1, np.int64)
+    qs = np.empty(64, np.int64)
+    ss = np.empty(64, np.int64)
+    m = 0
+    for j in range(U.shape[0]):
+        ux = U[j, 0]
+        uy = U[j, 1]
+        dx = V[j, 0] - ux
+        dy = V[j, 1] - uy
+        ll = dx * dx + dy * dy
+        steps = int(np.sqrt(ll) / (0.5 * cell)) + 1
+        for h in range(steps + 1):
+            f = h / steps
+            cx = int(np.floor((ux + dx * f - x0) / cell))
+            cy = int(np.floor((uy + dy * f - y0) / cell))
+            for ix in range(max(cx - 1, 0), min(cx + 2, nx)):
+                for iy in range(max(cy - 1, 0), min(cy + 2, ny)):
+                    c = ix * ny + iy
+                    for e in range(start[c], start[c + 1]):
+                        i = members[e]
+                        if seen[i] == j:
+                            continue
+                        seen[i] = j
+                        t = min(1.0, max(0.0, ((X[i, 0] - ux) * dx + (X[i, 1] - uy) * dy) / ll))
+                        d = np.hypot(X[i, 0] - (ux + t * dx), X[i, 1] - (uy + t * dy))
+                        if d > radius[i] * (1.0 + 1e-6):
+                            continue
+                        qs, _ = _push(qs, m, i)
+                        ss, m = _push(ss, m, j)
+    return qs[:m], ss[:m]
 
 
 @njit(cache=True, inline="always")

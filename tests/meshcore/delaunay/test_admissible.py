@@ -25,6 +25,7 @@ from meshcore.delaunay.admissible import (
     make_admissible,
     restricted_triangles,
 )
+from meshcore.delaunay.admissible_pieces import _grid_pairs
 from meshcore.delaunay.kernel2d import delaunay
 from meshcore.domain.planar import parse_domain
 from meshcore.errors import AlgorithmError, Cancelled, InputError
@@ -636,3 +637,26 @@ def test_random_star_polygons_with_holes_become_admissible(geometry):
     domain = parse_domain(geometry)
     res = make_admissible(domain)
     check_domain(domain, res)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_grid_pairs_find_every_segment_within_each_vertex_radius(seed):
+    # The protection radii's search (_grid_pairs): every (vertex, segment)
+    # pair closer than the vertex's radius is found, each pair once, with
+    # radii from tiny to one larger than the whole set, and segments far
+    # longer than the cells.
+    rng = np.random.default_rng(seed)
+    X = rng.uniform(-1.0, 1.0, (60, 2))
+    radius = 10.0 ** rng.uniform(-4.0, -0.5, 60)
+    radius[0] = 5.0
+    U = rng.uniform(-1.5, 1.5, (300, 2))
+    V = U + rng.normal(0.0, 0.05, (300, 2)) * rng.choice([1.0, 30.0], (300, 1))
+    q, s = _grid_pairs(X, radius, U, V, 0.2)
+    d = V - U
+    t = np.clip(np.einsum("ijk,jk->ij", X[:, None, :] - U[None], d) / (d * d).sum(axis=1), 0, 1)
+    foot = U[None] + t[..., None] * d[None]
+    near = np.hypot(*(X[:, None, :] - foot).transpose(2, 0, 1)) <= radius[:, None]
+    found = np.zeros_like(near)
+    found[q, s] = True
+    assert len(set(zip(q.tolist(), s.tolist(), strict=True))) == len(q)
+    assert near.sum() > 300 and not (near & ~found).any()
