@@ -167,7 +167,8 @@ BUTTERFLY_TURN = math.radians(75.0)
 #: at 0.5, 1.36x at 0.6, mean quality 0.932 -> 0.914).
 INNER_FRACTIONS = (0.5, 0.6)
 #: A convex input corner turning by more than this (radians; an interior angle under
-#: 120 degrees) is a corner of its region (one quad there, not two).
+#: 120 degrees) is a corner of its region's midpoint subdivision (one quad there, not
+#: two of half its angle).
 SHARP_TURN = math.radians(60.0)
 #: The count promised: at most this times area / size**2 where the partition allows.
 MOST_COUNT = 1.5
@@ -478,11 +479,6 @@ def partition(
     proper = edges[:, 0] != edges[:, 1]
     succ = ax.succ
     cycles, corners, kinds = _faces(points, edges[proper], kind[first][proper], succ)
-    # a sharp convex input corner is a corner of its region: the midpoint subdivision
-    # then gives it one quad (as a side point it got two of half its angle)
-    sharp = np.zeros(len(points), dtype=bool)
-    sharp[:p] = _turns(ax) > SHARP_TURN
-    corners = [c | sharp[v] for v, c in zip(cycles, corners, strict=True)]
     regions = []
     total = 0.0
     for verts, corner in zip(cycles, corners, strict=True):
@@ -1057,7 +1053,13 @@ def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bo
         seg_fixed.append(fixed)
         return len(seg_xy) - 1
 
+    # a sharp convex input corner is a corner of the midpoint subdivision: one coarse
+    # quad there (as a side point it got two of half its angle)
+    sharp = np.zeros(len(points), dtype=bool)
+    sharp[:p] = _turns(ax) > SHARP_TURN
     for verts, corner in zip(part.cycles, part.corners, strict=True):
+        if not whole:
+            corner = corner | sharp[verts]
         ci = np.flatnonzero(corner)
         verts = np.roll(verts, -ci[0])
         ci = ci - ci[0]
