@@ -380,7 +380,7 @@ def curved_child(tool: str, name: str, size: float) -> dict:
                 loops = []
                 for ring in _star():
                     pts = [occ.addPoint(x, y, 0) for x, y in ring]
-                    lines = [occ.addLine(a, b) for a, b in zip(pts, pts[1:] + pts[:1])]
+                    lines = [occ.addLine(a, b) for a, b in zip(pts, pts[1:] + pts[:1], strict=True)]
                     loops.append(occ.addCurveLoop(lines))
                 occ.addPlaneSurface(loops)
             elif name == "ellipse":
