@@ -149,8 +149,11 @@ from numba import njit
 
 from meshcore.domain.planar import Domain
 from meshcore.errors import AlgorithmError, InputError
+from meshcore.geometry.predicates import orient2d
 from meshcore.medial.axis import DEFAULT_PRUNE, MedialAxis, _classes, _csr, _cycles, medial_axis
 from meshcore.mesh import CellBlock, Mesh, quality, topology
+from meshcore.quads.combination import TOL
+from meshcore.quads.optimization import optimize_quads, relax_quads, sliding_nodes
 
 __all__ = ["Partition", "QuadMedial", "partition", "quad_medial"]
 
@@ -820,9 +823,6 @@ def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
     fixed and the other boundary points sliding along their segment. The relaxation is
     kept when every quad stays strictly convex (exact), the mean quality (8.4) rises,
     no more quads fall under 0.5 and the least does not drop."""
-    from meshcore.quads.combination import TOL
-    from meshcore.quads.optimization import optimize_quads, relax_quads, sliding_nodes
-
     if stats["not_convex"] or mesh.cells_by_type["quad"].shape[0] > TOL.relax_most:
         return mesh, stats  # optimize_quads takes strictly convex quads only
     opt = optimize_quads(mesh)
@@ -891,8 +891,6 @@ def _relaxed(points: np.ndarray, quads: np.ndarray, corner: np.ndarray, ax: Medi
     that are input vertices stay, the other boundary points slide along their input
     segment. Kept when it leaves fewer folded quads, or as many and a better least
     quality, than the fill; returns the points and whether they were kept."""
-    from meshcore.quads.optimization import relax_quads, sliding_nodes
-
     fixed = corner.copy()
     p = len(ax.samples)
     pred = np.empty(p, dtype=np.int64)
@@ -919,8 +917,6 @@ def _relaxed(points: np.ndarray, quads: np.ndarray, corner: np.ndarray, ax: Medi
 def _folded(P: np.ndarray, quads: np.ndarray) -> np.ndarray:
     """(q,) int: the corners of each quad that are not strictly convex (exact
     :func:`~meshcore.geometry.predicates.orient2d`)."""
-    from meshcore.geometry.predicates import orient2d
-
     c = P[quads]
     prv, nxt = np.roll(c, 1, axis=1), np.roll(c, -1, axis=1)
     return sum((orient2d(prv[:, k], c[:, k], nxt[:, k]) <= 0).astype(np.int64) for k in range(4))
