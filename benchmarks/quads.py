@@ -40,7 +40,8 @@ install -e .[bench]``) and is skipped with a note when absent.
 ``--curved [SIZES]`` instead: the all-quad methods (``quad_combine`` with
 ``all_quad``, ``twice_size`` and ``optimize``; ``quad_medial``; ``paving``)
 on a disk, an annulus, a 2:1 ellipse and an 8-tooth gear sampled about
-``size`` apart, each followed by Gmsh a8r3 (``Mesh.Algorithm`` 8,
+``size`` apart and a spiky star polygon with a hole (14 vertices, 60 % radial
+jitter: the same polygon at every size), each followed by Gmsh a8r3 (``Mesh.Algorithm`` 8,
 ``RecombinationAlgorithm`` 3 = Blossom full-quad, on the exact OpenCASCADE
 curve) at the mesh size that gives about as many quads: least and mean
 quality (8.4), corner range, seconds. ``--poisson``: scikit-fem's Q1
@@ -322,7 +323,23 @@ def _curve_points(name: str, size: float) -> np.ndarray:
     return f(np.interp(np.arange(n) * s[-1] / n, s[:-1], t))
 
 
+def _star() -> list[np.ndarray]:
+    """A fixed spiky star (14 vertices, 60 % radial jitter) with a star-shaped hole, as
+    the tests draw them: its rings, counter-clockwise outer ring, clockwise hole."""
+    rng = np.random.default_rng(20)
+    n = 14
+    t = 2 * np.pi * (np.arange(n) + rng.uniform(-0.3, 0.3, n)) / n
+    r = 1 + 0.6 * rng.uniform(-1, 1, n)
+    th = 2 * np.pi * np.arange(7) / 7
+    rh = 0.06 * (1 + 0.5 * rng.uniform(-1, 1, 7))
+    outer = np.column_stack([r * np.cos(t), r * np.sin(t)])
+    hole = np.column_stack([rh * np.cos(th), rh * np.sin(th)])[::-1]
+    return [outer, hole]
+
+
 def curved_geometry(name: str, size: float) -> dict:
+    if name == "star":  # a polygon: the same at every size
+        return {"type": "Polygon", "coordinates": [np.vstack([r, r[:1]]).tolist() for r in _star()]}
     outer = _curve_points(name, size)
     rings = [np.vstack([outer, outer[:1]])]
     if name == "annulus":
@@ -359,6 +376,13 @@ def curved_child(tool: str, name: str, size: float) -> dict:
                 pts = [occ.addPoint(x, y, 0) for x, y in _curve_points("gear", 0.02)]
                 curve = occ.addBSpline(pts + pts[:1])
                 occ.addPlaneSurface([occ.addCurveLoop([curve])])
+            elif name == "star":
+                loops = []
+                for ring in _star():
+                    pts = [occ.addPoint(x, y, 0) for x, y in ring]
+                    lines = [occ.addLine(a, b) for a, b in zip(pts, pts[1:] + pts[:1], strict=True)]
+                    loops.append(occ.addCurveLoop(lines))
+                occ.addPlaneSurface(loops)
             elif name == "ellipse":
                 occ.addDisk(0, 0, 0, 2, 1)
             elif name == "annulus":
@@ -405,7 +429,7 @@ def curved_main(sizes, timeout: float, tools=None, domains=None) -> None:
     calibration run)."""
     print("| domain | size | run | quads | least Q | mean Q | corners | seconds |")
     print("|---|---:|---|---:|---:|---:|---|---:|")
-    for name in domains or ("disk", "annulus", "ellipse", "gear"):
+    for name in domains or ("disk", "annulus", "ellipse", "gear", "star"):
         for size in sizes:
             for tool in tools or ("quad_combine", "quad_medial", "paving"):
                 r = _curved_run(tool, name, size, timeout)

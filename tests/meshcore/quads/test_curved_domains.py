@@ -14,7 +14,13 @@ points a tooth, measured least 0.30-0.43 and counts up to 1.77x, and the
 stars; nor the mean of 0.9 asked on disks, annuli and ellipses, reached
 from about 20 quads across: 0.83-0.94 on the smooth shapes at these sizes);
 ``quad_medial`` on disks, ellipses and stadiums (the butterfly), corners in
-[30, 150] degrees and the count within 1.5x of area / size**2.
+[30, 150] degrees and the count within 1.5x of area / size**2; on the annulus
+corners in [30, 150] and least quality 0.5 (its count, 1.4-1.8x, not
+asserted); on stars, away from input corners under 45 degrees (forced) and over
+270 degrees (the subdivision gives such a reflex corner two quads: corners up
+to 153 degrees there), corners in [30, 150] and least quality 0.3 (measured
+0.31-0.55 on 16 random spiky stars at size 0.1: the issue's 0.5 is not met, nor
+its count, 0.85-1.43x there but up to 1.73x on a 34-vertex star at 0.15).
 """
 
 from __future__ import annotations
@@ -126,6 +132,25 @@ def _check(mesh, dom, size):
     return _corners(P, Q), quality.cell_quality(P, Q, "quad"), ratio
 
 
+def _unforced(P, Q, dom, below=45.0, above=270.0):
+    """(q,) bool: the quads with no corner at an input vertex whose angle in the
+    domain is under ``below`` degrees (such a corner is held by one quad at best, its
+    quality (8.4) then at most ``2 * angle / 180``: forced by the input) or over
+    ``above`` (a reflex corner that ``quad_medial``'s subdivision gives two quads)."""
+    nxt = np.full(len(dom.points), -1)
+    prv = np.full(len(dom.points), -1)
+    nxt[dom.segments[:, 0]], prv[dom.segments[:, 1]] = dom.segments[:, 1], dom.segments[:, 0]
+    b = np.flatnonzero(nxt >= 0)
+    a, c = dom.points[prv[b]] - dom.points[b], dom.points[nxt[b]] - dom.points[b]
+    turn = np.arctan2(a[:, 1], a[:, 0]) - np.arctan2(c[:, 1], c[:, 0])
+    angle = np.degrees(np.mod(turn, 2 * np.pi))
+    sharp = dom.points[b[(angle < below) | (angle > above)]]
+    at = np.zeros(len(P), bool)
+    for x in sharp:  # a loop over the input's sharp corners (exact matches)
+        at |= (P == x).all(axis=1)
+    return ~at[Q].any(axis=1)
+
+
 SMOOTH = ("disk", "annulus", "ellipse", "stadium")
 
 SETTINGS = settings(
@@ -163,6 +188,11 @@ def test_quad_medial_on_curved_domains(case):
         assert res.stats["partition"] == "butterfly"
         assert ang.min() >= 30 and ang.max() <= 150
         assert 1 / 1.5 <= ratio <= 1.5
+    if kind == "annulus":  # (its count is 1.4-1.8x: not asserted)
+        assert ang.min() >= 30 and ang.max() <= 150 and q.min() >= 0.5
+    if kind == "star":  # away from input corners under 45 or over 270 degrees (docstring)
+        ok = _unforced(res.mesh.points, res.mesh.cells_by_type["quad"], dom)
+        assert ang[ok].min() >= 30 and ang[ok].max() <= 150 and q[ok].min() >= 0.3
 
 
 @st.composite
@@ -189,8 +219,10 @@ def test_quad_medial_on_spiky_stars(geo):
     # (relax_quads, boundary points sliding), every quad strictly convex (exact orient2d)
     dom = parse_domain(geo)
     res = quad_medial(dom, size=0.1)
-    _check(res.mesh, dom, 0.1)
+    ang, q, _ = _check(res.mesh, dom, 0.1)
     P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
+    ok = _unforced(P, Q, dom)
+    assert ang[ok].min() >= 30 and ang[ok].max() <= 150 and q[ok].min() >= 0.3
     for k in range(4):
         assert (orient2d(P[Q[:, k - 1]], P[Q[:, k]], P[Q[:, (k + 1) % 4]]) > 0).all()
 
