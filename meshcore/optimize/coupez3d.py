@@ -12,13 +12,22 @@ surface's vertices joined to every triangle not holding it. Then passes
 (:func:`_loop3d`) of, in order, moves of free vertices, fans Op(Q, δ𝒮) on
 the balls of all vertices, on edge shells, and (while a tet is not
 positive) on larger sets around it: the tet and a face neighbour, the
-union of the balls of an edge's ends, of its four vertices, face-connected
-sets of 8 to 64 tets, and with insertion star cavities of a new point G
+shells of its edges replaced by their best triangulated ring (edge
+removal), the union of the balls of an edge's ends, of its four vertices,
+face-connected sets of 8 to 64 tets, the star cavities of existing
+vertices near it, and with insertion star cavities of a new point G
 (:mod:`.kernel3d`). Choices the text leaves open:
 
 * Flat tets (four coplanar surface points, common on planar faces) add
   nothing to Sur, so (8.1) cannot see them: among configurations of equal
-  Sur, fewer non-positive tets wins before the quality.
+  Sur, fewer non-positive tets wins before the quality. A flat tet capping
+  a planar surface quad is held by the shell of the quad's inner diagonal,
+  whose ring has the quad's other diagonal as a side: no fan Op(q, δ𝒮) of
+  that shell is positive, but a triangulation of its ring may be, and
+  otherwise the star cavity of a vertex Z that sees the quad (every tet
+  across a face of δ𝒮 that Z does not see positively joins 𝒮, so
+  Op(Z, δ𝒮) is positive when the growth meets no surface face; the 6×6
+  cube without insertion needed both).
 * Restarts: when the first stage (and, with insertion, the G passes) ends
   stable but invalid, the generation starts again from Op(P', δ𝒮) with P'
   the next vertex by distance to the centroid (the text: "any point in δ𝒮
@@ -132,7 +141,7 @@ def _loop3d(
     cap = len(state.P)
     todo = np.ones(cap, np.uint8)
     todo_shell = np.ones(cap, np.uint8)
-    counters = np.zeros(9, np.int64)
+    counters = np.zeros(10, np.int64)
     kinds = ("move", k3.BALL, k3.SHELL, k3.UNION) + ((k3.SLIVER,) if polish else ())
     for _ in range(max_sweeps):
         changed = 0
@@ -187,6 +196,7 @@ def _loop3d(
         ("sliver_fan", k3.C_SLIVER_FAN),
         ("inserted_g", k3.C_INSERT),
         ("closed_removed", k3.C_CLOSED),
+        ("edge_removal", k3.C_REMOVAL),
     ):
         ops[name] = ops.get(name, 0) + int(counters[c])
 

@@ -33,6 +33,18 @@ cavities, replaced only when their worst quality rises.
 
 Choices the text leaves open, in the larger sets:
 
+* **Edge removal.** Around a non-positive tet (and a sliver), the shell of
+  each of its edges is replaced by the best triangulation of its ring
+  (:func:`_try_removal`): a composition of Op on face pairs of the shell
+  (2-3 moves, each taking one ear of the ring) ending with Op on a 3-tet
+  shell, judged as one replacement of the shell by (8.1)-(8.2). A fan
+  Op(q, δ𝒮) of the shell is the fan triangulation of the ring from q;
+  where the ring has the side of a planar surface quad, none may be
+  positive while another triangulation is.
+* **Vertex cavities.** Then, for up to ``VERTS`` existing vertices Z met
+  around the tet, 𝒮 is the star cavity of Z (as for a new point, below):
+  Op(Z, δ𝒮) is positive by construction, without a new point.
+
 * **Star cavities.** With insertion, the last sets tried around a
   non-positive tet are built for a chosen new point G (:func:`_star_point`:
   off each face of the tet to its positive side, or in a positive
@@ -390,13 +402,16 @@ def sur(P, T, alive, rows):
 BALL, SHELL, UNION, SLIVER = 0, 1, 2, 3
 #: Tets of worse quality (the measure of (8.2)) are the items of the ``SLIVER`` kind.
 SLIVER_Q = 0.5
+#: Slivers of worse quality (nearly flat: a planar surface quad's cap, positive by rounding)
+#: also try the star cavities of existing vertices.
+FLAT_Q = 1e-3
 #: Largest sub-topology of :func:`fan_sweep` (tetrahedra); larger ones are skipped.
 SMAX = 512
 #: Sizes of the face-adjacent sets grown around a non-positive tetrahedron (UNION).
 GROW = (8, 16, 32, 64)
 #: ``counters`` entries of :func:`fan_sweep` (after C_MOVE, C_KERNEL, C_COLLAPSE).
-#: fans accepted on balls, shells and unions: ``C_BALL_FAN + kind``
-C_BALL_FAN, C_SHELL_FAN, C_UNION_FAN, C_SLIVER_FAN, C_INSERT, C_CLOSED = 3, 4, 5, 6, 7, 8
+#: fans accepted on balls, shells and unions: ``C_BALL_FAN + kind``; edge removals
+C_BALL_FAN, C_SHELL_FAN, C_UNION_FAN, C_SLIVER_FAN, C_INSERT, C_CLOSED, C_REMOVAL = range(3, 10)
 
 
 @njit(cache=True)
@@ -782,6 +797,32 @@ def _across(T, head, nxt, u, j):
     return -1
 
 
+#: Vertices Z tried around a non-positive tet for Op(Z, δ𝒮), 𝒮 the star cavity of Z
+#: (:func:`_nearby_vertices`): without insertion, the existing points that may see it.
+VERTS = 128
+
+
+@njit(cache=True)
+def _nearby_vertices(T, head, nxt, t, st, tmark, vmark, cnt, cand):
+    """The first ``VERTS`` vertices (not of tet t) met growing t's face-connected set to
+    ``SMAX`` tets, breadth first, in ``cand``; their count."""
+    cnt[STAMP] += 1
+    k = _grow_tets(T, head, nxt, st, 1, tmark, cnt[STAMP], SMAX)
+    cnt[STAMP] += 1
+    vst = cnt[STAMP]
+    for j in range(4):
+        vmark[T[t, j]] = vst
+    nc = 0
+    for i in range(1, k):
+        for j in range(4):
+            w = T[st[i], j]
+            if vmark[w] != vst and nc < VERTS:
+                vmark[w] = vst
+                cand[nc] = w
+                nc += 1
+    return nc
+
+
 #: Candidate points G of the star cavities around a non-positive tet (:func:`_star_point`).
 STARS = 17
 #: Offsets of the face candidates of :func:`_star_point`, in mean edge lengths.
@@ -835,8 +876,9 @@ def _star_cavity(P, T, head, nxt, t, g, st, tmark, stamp):
 
     From 𝒮 = {t}, every tet across a face of δ𝒮 that g does not see
     positively (exact orient3d) joins 𝒮, breadth first, so that on return
-    every tet of Op(g, δ𝒮) is positive. -1 when such a face is a boundary
-    face (g is not inside there) or 𝒮 would exceed ``SMAX`` tets.
+    every tet of Op(g, δ𝒮) is positive. g may be a vertex of the mesh: the
+    faces holding it make no tet (Op skips them). -1 when such a face is a
+    boundary face (g is not inside there) or 𝒮 would exceed ``SMAX`` tets.
     """
     st[0] = t
     tmark[t] = stamp
@@ -849,7 +891,8 @@ def _star_cavity(P, T, head, nxt, t, g, st, tmark, stamp):
             if w >= 0 and tmark[w] == stamp:
                 continue
             f = _FACE[j]
-            if _positive(P, g, T[u, f[0]], T[u, f[1]], T[u, f[2]]):
+            x, y, z = T[u, f[0]], T[u, f[1]], T[u, f[2]]
+            if x == g or y == g or z == g or _positive(P, g, x, y, z):
                 continue
             if w < 0 or k >= SMAX:
                 return -1
@@ -860,6 +903,167 @@ def _star_cavity(P, T, head, nxt, t, g, st, tmark, stamp):
     return k
 
 
+#: Longest ring of an edge removal (:func:`_try_removal`); longer shells are skipped.
+RING_MAX = 32
+
+
+@njit(cache=True)
+def _parity(T, t, a, b, x, y):
+    """True when (a, b, x, y) is an even permutation of the row T[t]."""
+    p = np.empty(4, np.int64)
+    for j in range(4):
+        w = T[t, j]
+        p[j] = 0 if w == a else (1 if w == b else (2 if w == x else 3))
+    inv = 0
+    for i in range(4):
+        for j in range(i + 1, 4):
+            if p[i] > p[j]:
+                inv += 1
+    return inv % 2 == 0
+
+
+@njit(cache=True)
+def _ring(T, st, k, a, b, ring):
+    """The ring of the shell st[:k] of edge (a, b) in ``ring``: every (a, b, r_i, r_i+1) an
+    even permutation of its tet; its length, or -1 when it is not one simple closed cycle
+    (an edge on the boundary, a pinched shell) or is longer than ``RING_MAX``."""
+    if k < 3 or k > RING_MAX:
+        return -1
+    ex = np.empty(k, np.int64)
+    ey = np.empty(k, np.int64)
+    for i in range(k):
+        t = st[i]
+        x = y = -1
+        for j in range(4):
+            w = T[t, j]
+            if w != a and w != b:
+                if x < 0:
+                    x = w
+                else:
+                    y = w
+        if _parity(T, t, a, b, x, y):
+            ex[i], ey[i] = x, y
+        else:
+            ex[i], ey[i] = y, x
+    ring[0] = ex[0]
+    for m in range(1, k + 1):
+        nxt_v = -1
+        for i in range(k):
+            if ex[i] == ring[m - 1]:
+                if nxt_v >= 0:
+                    return -1
+                nxt_v = ey[i]
+        if nxt_v < 0:
+            return -1
+        if m == k:
+            return k if nxt_v == ring[0] else -1
+        for i in range(m):
+            if ring[i] == nxt_v:
+                return -1
+        ring[m] = nxt_v
+    return -1
+
+
+@njit(cache=True)
+def _try_removal(
+    P, T, alive, head, nxt, prv, freeT, cnt, st, k, a, b, measure, gain, dirty, counters
+):
+    """Edge removal: the shell st[:k] of edge (a, b) replaced by its best triangulated ring.
+
+    Each triangle (r_i, r_k, r_j) of a triangulation of the ring makes the tets
+    (a, r_i, r_k, r_j) and (b, r_j, r_k, r_i): the composition of Op on face
+    pairs of the shell (each a 2-3 move taking one ear of the ring) ending with
+    Op on a 3-tet shell, the sub-topologies §8.3.4 names. Among the
+    triangulations (dynamic programming over the ring, Klincsek's) whose tets
+    are all positive (exact) and create no edge or face already in the mesh
+    (§8.3.3), the one of best worst quality (8.2); taken when the shell holds a
+    non-positive tet (Sur cannot rise: all positive is the least) or its worst
+    quality rises by ``gain``. 1 replaced, 0 not, 2 out of rows.
+    """
+    ring = np.empty(RING_MAX, np.int64)
+    m = _ring(T, st, k, a, b, ring)
+    if m < 0:
+        return 0
+    cur_n = 0
+    cur_q = 2.0
+    for i in range(k):
+        t = st[i]
+        if not _positive(P, T[t, 0], T[t, 1], T[t, 2], T[t, 3]):
+            cur_n += 1
+        cur_q = min(cur_q, _vol_q(P, T[t, 0], T[t, 1], T[t, 2], T[t, 3], measure)[1])
+    # edges among ring vertices already in the mesh (a diagonal must be new)
+    edge = np.zeros((m, m), np.uint8)
+    for i in range(m):
+        s = head[ring[i]]
+        while s >= 0:
+            t = s // 4
+            for j in range(4):
+                w = T[t, j]
+                for r in range(m):
+                    if ring[r] == w:
+                        edge[i, r] = 1
+            s = nxt[s]
+    best = np.full((m, m), -1.0)
+    pick = np.full((m, m), -1, np.int64)
+    for i in range(m - 1):
+        best[i, i + 1] = 2.0
+    for gap in range(2, m):
+        for i in range(m - gap):
+            j = i + gap
+            if not (i == 0 and j == m - 1) and edge[i, j]:
+                continue
+            for c in range(i + 1, j):
+                q = min(best[i, c], best[c, j])
+                if q <= best[i, j]:
+                    continue
+                if gap == m - 1 and m == 3:
+                    # the 3-2 move: the face (r0, r1, r2) must not exist outside
+                    s = head[ring[0]]
+                    found = False
+                    while s >= 0:
+                        t = s // 4
+                        if _holds(T, t, ring[1]) and _holds(T, t, ring[2]):
+                            found = True
+                        s = nxt[s]
+                    if found:
+                        continue
+                ri, rc, rj = ring[i], ring[c], ring[j]
+                if not _positive(P, a, ri, rc, rj) or not _positive(P, b, rj, rc, ri):
+                    continue
+                q = min(q, _vol_q(P, a, ri, rc, rj, measure)[1])
+                q = min(q, _vol_q(P, b, rj, rc, ri, measure)[1])
+                if q > best[i, j]:
+                    best[i, j] = q
+                    pick[i, j] = c
+    q = best[0, m - 1]
+    if q < 0.0 or (cur_n == 0 and q <= cur_q + gain):
+        return 0
+    new = 2 * (m - 2)
+    if cnt[N_FREE] + T.shape[0] - cnt[N_ROWS] + k < new:
+        return 2
+    for i in range(k):
+        t = st[i]
+        for j in range(4):
+            dirty[T[t, j]] = 1
+        _remove(T, alive, head, nxt, prv, freeT, cnt, t)
+    stack = np.empty((m, 2), np.int64)
+    stack[0, 0], stack[0, 1] = 0, m - 1
+    top = 1
+    while top > 0:
+        top -= 1
+        i, j = stack[top, 0], stack[top, 1]
+        if j - i < 2:
+            continue
+        c = pick[i, j]
+        _add_tet(T, alive, head, nxt, prv, freeT, cnt, a, ring[i], ring[c], ring[j])
+        _add_tet(T, alive, head, nxt, prv, freeT, cnt, b, ring[j], ring[c], ring[i])
+        stack[top, 0], stack[top, 1] = i, c
+        stack[top + 1, 0], stack[top + 1, 1] = c, j
+        top += 2
+    counters[C_REMOVAL] += 1
+    return 1
+
+
 @njit(cache=True)
 def _subtopology(T, head, nxt, kind, i, j, st, tmark, stamp):
     """The j-th sub-topology of item i in st; its size, or -1 (none, or past SMAX).
@@ -867,7 +1071,8 @@ def _subtopology(T, head, nxt, kind, i, j, st, tmark, stamp):
     ``BALL``: the ball of vertex i (j = 0); ``SHELL``: the shell of edge j of
     tet i; ``UNION``: tet i and its neighbour across face j (j < 4), the
     balls of the ends of edge j - 4 (j < 10), of its four vertices (j = 10),
-    then a face-connected set of ``GROW[j - 11]`` tets.
+    then a face-connected set of ``GROW[j - 11]`` tets. (:func:`fan_sweep`
+    puts the edge removals of tet i's six edges after the face pairs.)
     """
     if kind == BALL:
         return _gather(head, nxt, i, -1, T, st, tmark, stamp, 0)
@@ -931,9 +1136,14 @@ def fan_sweep(
     tmark = np.zeros(T.shape[0], np.int64)
     vmark = np.zeros(P.shape[0], np.int64)
     bf = np.empty((4 * SMAX, 3), np.int64)
+    cand = np.empty(VERTS, np.int64)
+    nc = 0
     changed = 0
     items = cnt[N_PTS] if kind == BALL else cnt[N_ROWS]
-    per_item = 1 if kind == BALL else (6 if kind == SHELL else 11 + len(GROW) + STARS)
+    # UNION items: face pairs, edge removals, sets of _subtopology, vertex cavities, stars
+    j_sets, j_verts = 10, 17 + len(GROW)
+    j_stars = j_verts + VERTS
+    per_item = 1 if kind == BALL else (6 if kind == SHELL else j_stars + STARS)
     if kind == SLIVER:
         kind_sets = UNION
     else:
@@ -954,42 +1164,65 @@ def fan_sweep(
             a, b, c = T[i, 0], T[i, 1], T[i, 2]
             if _positive(P, a, b, c, T[i, 3]) != (kind == SLIVER):
                 continue
-            if kind == SLIVER and _vol_q(P, a, b, c, T[i, 3], measure)[1] >= SLIVER_Q:
+            qi = _vol_q(P, a, b, c, T[i, 3], measure)[1] if kind == SLIVER else 0.0
+            if qi >= SLIVER_Q:
                 continue
         for j in range(per_item):
             if kind != BALL and not alive[i]:
                 break
             if kind >= UNION and (T[i, 0] != a or T[i, 1] != b or T[i, 2] != c):
                 break
-            if kind == SLIVER and 4 <= j < 11 + len(GROW):
-                continue  # around a sliver: the face pairs and the star cavities only
+            if kind == SLIVER and j_sets <= j < (j_stars if qi >= FLAT_Q else j_verts):
+                continue  # around a sliver: face pairs, edge removals, (vertex) star cavities
             cnt[STAMP] += 1
             m = mode
-            if kind >= UNION and j >= 11 + len(GROW):
-                # star cavities of a new point G: tet i's centroid, or a positive neighbour's
-                if not insert:
-                    break
-                g = cnt[N_PTS]
-                if g >= P.shape[0]:
-                    return changed, 2
-                if not _star_point(P, T, head, nxt, i, j - 11 - len(GROW), g):
+            if kind >= UNION and 4 <= j < 10:
+                # edge removal on the shell of tet i's edge j - 4
+                ea, eb = T[i, _EDGES[j - 4, 0]], T[i, _EDGES[j - 4, 1]]
+                k = _gather(head, nxt, ea, eb, T, st, tmark, cnt[STAMP], 0)
+                if k < 0:
                     continue
-                k = _star_cavity(P, T, head, nxt, i, g, st, tmark, cnt[STAMP])
-                m = 2
+                r = _try_removal(
+                    P, T, alive, head, nxt, prv, freeT, cnt, st, k, ea, eb, measure, gain,
+                    dirty, counters,
+                )  # fmt: skip
             else:
-                k = _subtopology(T, head, nxt, kind_sets, i, j, st, tmark, cnt[STAMP])
-            if k < 0:
-                continue
-            r = _try_fans(
-                P, T, alive, head, nxt, prv, freeT, cnt, fixed, st, k, tmark, vmark, bf,
-                allow_remove, m, measure, tie_rel, gain, dirty, counters,
-            )  # fmt: skip
+                if kind >= UNION and j >= j_stars:
+                    # star cavities of a new point G: tet i's centroid, or a positive
+                    # neighbour's
+                    if not insert:
+                        break
+                    g = cnt[N_PTS]
+                    if g >= P.shape[0]:
+                        return changed, 2
+                    if not _star_point(P, T, head, nxt, i, j - j_stars, g):
+                        continue
+                    k = _star_cavity(P, T, head, nxt, i, g, st, tmark, cnt[STAMP])
+                    m = 2
+                elif kind >= UNION and j >= j_verts:
+                    # the star cavity of an existing vertex Z near tet i: Op(Z, δ𝒮) positive
+                    if j == j_verts:
+                        nc = _nearby_vertices(T, head, nxt, i, st, tmark, vmark, cnt, cand)
+                    if j - j_verts >= nc:
+                        continue
+                    cnt[STAMP] += 1
+                    k = _star_cavity(P, T, head, nxt, i, cand[j - j_verts], st, tmark, cnt[STAMP])
+                else:
+                    jj = j if kind < UNION or j < 4 else j - 6
+                    k = _subtopology(T, head, nxt, kind_sets, i, jj, st, tmark, cnt[STAMP])
+                if k < 0:
+                    continue
+                r = _try_fans(
+                    P, T, alive, head, nxt, prv, freeT, cnt, fixed, st, k, tmark, vmark, bf,
+                    allow_remove, m, measure, tie_rel, gain, dirty, counters,
+                )  # fmt: skip
             if r == 2:
                 if kind == BALL:
                     todo[i] = 1
                 return changed, 2
             if r == 1:
-                counters[C_BALL_FAN + kind] += 1
+                if not (kind >= UNION and 4 <= j < 10):
+                    counters[C_BALL_FAN + kind] += 1
                 changed += 1
                 if kind >= UNION:
                     break

@@ -214,3 +214,13 @@ def test_no_two_inputs():
     with pytest.raises(InputError) as err:
         optimize(domain=square, surface=icosphere(0))
     assert err.value.code == "bad_input"
+
+
+def test_cube_grid_without_insertion_far_away():
+    """The 6x6 cube (coplanar points on every face) keeps its points: the flat tets
+    capping planar surface quads go by edge removals and vertex star cavities."""
+    P, F = grid_cube(6)
+    surf = parse_surface(P + 1e6, F)
+    res = optimize(surface=surf, insert_points=False)
+    assert_valid_3d(res, surf)
+    assert len(res.mesh.points) == len(surf.points)
