@@ -159,6 +159,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
+from numba import njit
 from scipy.sparse.csgraph import connected_components
 
 from meshcore.delaunay.kernel3d import SKIP_OUTSIDE
@@ -190,6 +191,9 @@ __all__ = ["TetrahedralizationResult", "tetrahedralize", "tetra_dihedral_angles"
 #: Smallest radius-edge bound accepted (Shewchuk's analysis needs > 2; below ~1.1 no
 #: tetrahedralization exists).
 MIN_RADIUS_EDGE = 1.1
+
+_TET_FACES = TET_FACES.copy()
+_TET_EDGES = TET_EDGES.copy()
 
 
 @dataclass(frozen=True, eq=False)
