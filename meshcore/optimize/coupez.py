@@ -37,7 +37,7 @@ Choices where the text leaves freedom
   vertices within ``BARYCENTRIC_RINGS`` rings of the non-positive cells go
   at once to the fixed point of the moves to G (one sparse solve of the
   graph Laplacian, every other vertex kept), taken when Sur drops
-  (:func:`_barycentric`): what passes of ball moves approach slowly.
+  (:func:`barycentric`): what passes of ball moves approach slowly.
 * **Removal.** A fan Op(Q, δℬ_P) with Q on δℬ_P removes the free vertex P.
   It is a candidate only where the ball is not positive and no move of P
   makes Sur smaller (a correction, never a quality move), and only when
@@ -96,6 +96,7 @@ from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh, quality
+from meshcore.mesh.tetstore import N_PTS, N_ROWS, CellStore
 from meshcore.mesh.topology import unique_ints
 from meshcore.optimize import kernel2d as k2
 
@@ -124,7 +125,7 @@ class _Tolerances:
 
 TOL = _Tolerances()
 
-#: Rings of cells around the non-positive ones whose free vertices :func:`_barycentric` moves.
+#: Rings of cells around the non-positive ones whose free vertices :func:`barycentric` moves.
 BARYCENTRIC_RINGS = 3
 
 #: Initial topologies tried in turn by generation (2D and 3D) while the first stage ends stable
@@ -324,73 +325,35 @@ def _inputs(mesh, domain, keep_boundary, surface=None):
 # ----------------------------------------------------------------------------- the 2D state
 
 
-class _State:
-    """Arrays of a compiled loop: cell rows, corner lists, free rows, spare points.
+class LoopState(CellStore):
+    """The store of a compiled loop (:class:`meshcore.mesh.tetstore.CellStore`) with its
+    kernel: :mod:`.kernel2d` (triangles) or :mod:`.kernel3d` (tetrahedra).
 
-    ``kernel`` is :mod:`.kernel2d` (triangles) or :mod:`.kernel3d`
-    (tetrahedra); both keep ``cnt`` as (points, rows, free rows, stamp).
+    Adds Sur(𝒯) (:meth:`sur`, criterion (8.1) of §8.3.1) and the count of
+    non-positive cells (:meth:`inverted`, exact predicates).
     """
 
     def __init__(self, kernel, P, cells, fixed, spare_points: int = 0):
         self.k = kernel
-        n = len(P)
-        self.P = np.zeros((n + spare_points, P.shape[1]))
-        self.P[:n] = P
-        self.fixed = np.zeros(n + spare_points, np.uint8)
-        self.fixed[:n] = fixed
-        self.cnt = np.array([n, 0, 0, 0], np.int64)
-        self._rows(cells, 2 * len(cells) + 256)
-
-    def _rows(self, cells: np.ndarray, mcap: int) -> None:
-        m, per = cells.shape
-        self.T = np.zeros((mcap, per), np.int64)
-        self.T[:m] = cells
-        self.alive = np.zeros(mcap, np.uint8)
-        self.alive[:m] = 1
-        self.head = np.full(len(self.P), -1, np.int64)
-        self.nxt = np.full(per * mcap, -1, np.int64)
-        self.prv = np.full(per * mcap, -1, np.int64)
-        self.free = np.zeros(mcap, np.int64)
-        self.cnt[self.k.N_ROWS] = m
-        self.cnt[self.k.N_FREE] = 0
-        self.k.build(self.T, m, len(self.P), self.head, self.nxt, self.prv)
-
-    def grow_rows(self, extra: int = 0) -> None:
-        """Twice the rows (and ``extra`` more), the live cells kept."""
-        self._rows(self.cells(), 2 * self.T.shape[0] + extra)
-
-    def grow_points(self, spare: int) -> None:
-        n = int(self.cnt[self.k.N_PTS])
-        P, fixed = self.P[:n].copy(), self.fixed[:n].copy()
-        self.P = np.zeros((n + spare, P.shape[1]))
-        self.P[:n] = P
-        self.fixed = np.zeros(n + spare, np.uint8)
-        self.fixed[:n] = fixed
-        self._rows(self.cells(), self.T.shape[0])
-
-    def cells(self) -> np.ndarray:
-        rows = int(self.cnt[self.k.N_ROWS])
-        return self.T[:rows][self.alive[:rows].astype(bool)].copy()
-
-    def points(self) -> np.ndarray:
-        return self.P[: int(self.cnt[self.k.N_PTS])]
+        super().__init__(P, cells, fixed, spare_points)
 
     def sur(self) -> float:
-        return float(self.k.sur(self.P, self.T, self.alive, int(self.cnt[self.k.N_ROWS])))
+        """Sur(𝒯): the sum of the unsigned areas (volumes) of the live cells."""
+        return float(self.k.sur(self.P, self.T, self.alive, int(self.cnt[N_ROWS])))
 
     def inverted(self) -> int:
         """Cells that are not positive (exact orient2d / orient3d)."""
-        return int(np.sum(_signs(self.points(), self.cells()) <= 0))
+        return int(np.sum(signs(self.points(), self.cells()) <= 0))
 
 
-def _signs(P: np.ndarray, cells: np.ndarray) -> np.ndarray:
+def signs(P: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """Orientation of every triangle (orient2d) or tetrahedron (-orient3d); > 0 is positive."""
     if cells.shape[1] == 3:
         return orient2d(P[cells[:, 0]], P[cells[:, 1]], P[cells[:, 2]])
     return -orient3d(P[cells[:, 0]], P[cells[:, 1]], P[cells[:, 2]], P[cells[:, 3]])
 
 
-def _measure_q(P: np.ndarray, cells: np.ndarray, measure: str) -> np.ndarray:
+def measure_q(P: np.ndarray, cells: np.ndarray, measure: str) -> np.ndarray:
     """The (8.2) measure of every cell from its unsigned area or volume."""
     if cells.shape[1] == 3:
         q = quality.triangle_shape(P, cells) if measure == "shape" else _radius2(P, cells)
@@ -418,7 +381,7 @@ def _shape3(P, C):
 
 
 def _loop2d(
-    state: _State,
+    state: LoopState,
     allow_remove: bool,
     measure: int,
     max_sweeps: int,
@@ -487,7 +450,7 @@ def _loop2d(
         ops[name] = ops.get(name, 0) + int(counters[c])
 
 
-def _barycentric(state: _State, sweeps: list, sur: list, ops: dict) -> None:
+def barycentric(state: LoopState, sweeps: list, sur: list, ops: dict) -> None:
     """Every free vertex moved at once to the fixed point of the moves to G (§8.3.2).
 
     The ball move puts a free vertex at G, the centroid of the vertices of
@@ -514,7 +477,7 @@ def _barycentric(state: _State, sweeps: list, sur: list, ops: dict) -> None:
     free = state.fixed[:n] == 0
     free &= np.bincount(C.ravel(), minlength=n) > 0
     near = np.zeros(n, bool)
-    near[C[_signs(P, C) <= 0].ravel()] = True
+    near[C[signs(P, C) <= 0].ravel()] = True
     for _ in range(BARYCENTRIC_RINGS):
         grown = np.zeros(n, bool)
         grown[C[near[C].any(axis=1)].ravel()] = True
@@ -651,7 +614,7 @@ def _on_boundary(T, j, bkeys, n):
 
 
 def _insert_stage(
-    state: _State,
+    state: LoopState,
     S: np.ndarray,
     size: float,
     min_angle: float,
@@ -710,7 +673,7 @@ def _insert_stage(
                 break
             cand = np.flatnonzero(bad)
             cand = cand[np.argsort(angle[cand] - 90.0 * long[cand], kind="stable")]
-        n0 = int(state.cnt[k2.N_PTS])
+        n0 = int(state.cnt[N_PTS])
         if len(state.P) < n0 + len(cand):
             state.grow_points(len(cand) + n0)
         while True:
@@ -760,7 +723,7 @@ def _failure(P: np.ndarray, cells: np.ndarray, bad: np.ndarray, use: str, sweeps
     )
 
 
-def _compact(P: np.ndarray, cells: np.ndarray, n_keep: int) -> tuple[np.ndarray, np.ndarray, int]:
+def compact(P: np.ndarray, cells: np.ndarray, n_keep: int) -> tuple[np.ndarray, np.ndarray, int]:
     """Points referenced by ``cells`` (or among the first ``n_keep``), in order; cells renumbered.
 
     Returns the points, the cells and how many points were dropped (removed by fans).
@@ -882,9 +845,11 @@ def optimize(
     )
 
 
-def _report(P, cells, measure, stats):
+def make_result(P, cells, measure, stats):
+    """The :class:`OptimizationResult` of the final points and cells; ``stats`` gains the
+    least quality after (the (8.2) measure, §8.3.1)."""
     mesh = Mesh(P, (CellBlock("triangle" if cells.shape[1] == 3 else "tetra", cells),))
-    stats["least_quality_after"] = float(_measure_q(P, cells, MEASURES[measure]).min())
+    stats["least_quality_after"] = float(measure_q(P, cells, MEASURES[measure]).min())
     return OptimizationResult(mesh, quality.report(mesh), stats)
 
 
@@ -898,15 +863,15 @@ def _mesh2d(P, T, bnd, total, allow_remove, measure, max_sweeps, progress):
     sign = orient2d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]])
     inverted = int(np.sum(sign <= 0))
     use = "correction" if inverted else "optimization"
-    q0 = float(_measure_q(P, T, MEASURES[measure]).min())
-    state = _State(k2, P, T, fixed)
+    q0 = float(measure_q(P, T, MEASURES[measure]).min())
+    state = LoopState(k2, P, T, fixed)
     sweeps, sur, ops = [0], [state.sur()], {}
     if inverted:
-        _barycentric(state, sweeps, sur, ops)
+        barycentric(state, sweeps, sur, ops)
     _loop2d(state, allow_remove, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 1.0))
     Pn, Tn = state.points(), state.cells()
-    _verify(Pn, Tn, bnd, use, sweeps[0])
-    Pn, Tn, removed = _compact(Pn, Tn, 0)
+    verify(Pn, Tn, bnd, use, sweeps[0])
+    Pn, Tn, removed = compact(Pn, Tn, 0)
     stats = {
         "use": use,
         "sur": sur,
@@ -920,12 +885,12 @@ def _mesh2d(P, T, bnd, total, allow_remove, measure, max_sweeps, progress):
         "least_quality_before": q0,
         "stages": 1,
     }
-    return _report(Pn, Tn, measure, stats)
+    return make_result(Pn, Tn, measure, stats)
 
 
-def _verify(P, cells, bnd, use, sweeps):
+def verify(P, cells, bnd, use, sweeps):
     """Every cell positive (exact), a mesh topology, boundary facets exactly ``bnd``."""
-    sign = _signs(P, cells)
+    sign = signs(P, cells)
     if (sign <= 0).any():
         _failure(P, cells, sign <= 0, use, sweeps)
     try:
@@ -969,7 +934,7 @@ def _generate2d(dom: Domain, insert, size, measure, max_sweeps, keep_boundary, m
     for attempt in range(RESTARTS):
         T = _initial_topology(P, S, seg_ring, dom, attempt)
         fixed = np.ones(len(P), np.uint8)
-        state = _State(k2, P, T, fixed, spare_points=len(P) if insert else 0)
+        state = LoopState(k2, P, T, fixed, spare_points=len(P) if insert else 0)
         inverted = state.inverted()
         sweeps, sur, ops = [0], [state.sur()], {}
         _loop2d(state, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 0.5))
@@ -979,14 +944,14 @@ def _generate2d(dom: Domain, insert, size, measure, max_sweeps, keep_boundary, m
         restarts.append({"attempt": attempt, "inverted": left, "sweeps": sweeps[0]})
     stages = 1
     Pn, Tn = state.points(), state.cells()
-    _verify(Pn, Tn, S, "generation", sweeps[0])
+    verify(Pn, Tn, S, "generation", sweeps[0])
     if insert:
         stages = 2
         _insert_stage(
             state, S, h, min_angle, measure, max_sweeps, sweeps, sur, ops, progress, rounds=60
         )
         Pn, Tn = state.points(), state.cells()
-        _verify(Pn, Tn, S, "generation", sweeps[0])
+        verify(Pn, Tn, S, "generation", sweeps[0])
     stats = {
         "use": "generation",
         "sur": sur,
@@ -997,9 +962,9 @@ def _generate2d(dom: Domain, insert, size, measure, max_sweeps, keep_boundary, m
         "points_inserted": int(len(Pn) - len(P)),
         "points_removed": 0,
         "operators": ops,
-        "least_quality_before": float(_measure_q(P, T, MEASURES[measure]).min()),
+        "least_quality_before": float(measure_q(P, T, MEASURES[measure]).min()),
         "stages": stages,
         "boundary_points": int(len(P)),
         "restarts": restarts,
     }
-    return _report(Pn, Tn, measure, stats)
+    return make_result(Pn, Tn, measure, stats)

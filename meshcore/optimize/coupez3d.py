@@ -1,7 +1,7 @@
 """The tetrahedral part of :func:`meshcore.optimize.optimize` (§8.3.3-§8.3.4, Figure 8.11).
 
 Correction and optimization of a tet mesh: on a tangled one, first the
-barycentric move of :func:`.coupez._barycentric`; then the balls of the free
+barycentric move of :func:`.coupez.barycentric`; then the balls of the free
 vertices (those not on the boundary) are the sub-topologies; the compiled pass is
 :func:`meshcore.optimize.kernel3d.sweep`. Passes repeat until one changes
 nothing or ``max_sweeps`` ran.
@@ -61,6 +61,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from meshcore.mesh import tetstore as ts
 from meshcore.optimize import coupez as _c
 from meshcore.optimize import kernel3d as k3
 
@@ -72,17 +73,17 @@ def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progre
         bnd = bnd[:, ::-1].copy()
     fixed = np.zeros(len(P), np.uint8)
     fixed[bnd.ravel()] = 1
-    inverted = int(np.sum(_c._signs(P, T) <= 0))
+    inverted = int(np.sum(_c.signs(P, T) <= 0))
     use = "correction" if inverted else "optimization"
-    q0 = float(_c._measure_q(P, T, _c.MEASURES[measure]).min())
-    state = _c._State(k3, P, T, fixed)
+    q0 = float(_c.measure_q(P, T, _c.MEASURES[measure]).min())
+    state = _c.LoopState(k3, P, T, fixed)
     counters = np.zeros(3, np.int64)
     todo = np.ones(len(P), np.uint8)
     sur = [state.sur()]
     moved = [0]
     ops = {}
     if inverted:
-        _c._barycentric(state, moved, sur, ops)
+        _c.barycentric(state, moved, sur, ops)
     sweeps = moved[0]
     for _ in range(max_sweeps):
         dirty = np.zeros(len(P), np.uint8)
@@ -99,8 +100,8 @@ def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progre
         if not changed:
             break
     P, Tn = state.points(), state.cells()
-    _c._verify(P, Tn, bnd, use, sweeps)
-    Pn, Tn, removed = _c._compact(P, Tn, 0)
+    _c.verify(P, Tn, bnd, use, sweeps)
+    Pn, Tn, removed = _c.compact(P, Tn, 0)
     stats = {
         "use": use,
         "sur": sur,
@@ -119,7 +120,7 @@ def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progre
         "least_quality_before": q0,
         "stages": 1,
     }
-    return _c._report(Pn, Tn, measure, stats)
+    return _c.make_result(Pn, Tn, measure, stats)
 
 
 # ----------------------------------------------------------------------------- generation
@@ -166,7 +167,7 @@ def _loop3d(
                     )  # fmt: skip
                     if status != 2:
                         break
-                    if state.cnt[k3.N_PTS] >= len(state.P):
+                    if state.cnt[ts.N_PTS] >= len(state.P):
                         state.grow_points(len(state.P))
                         cap = len(state.P)
                         todo = np.ones(cap, np.uint8)
@@ -226,7 +227,7 @@ def initial_candidates(P: np.ndarray, F: np.ndarray) -> np.ndarray:
 def _long_edges(state, size):
     """The distinct edges of the live tets longer than ``size``, longest first."""
     T = state.cells()
-    e = np.sort(T[:, k3._EDGES].reshape(-1, 2), axis=1)
+    e = np.sort(T[:, ts.EDGES].reshape(-1, 2), axis=1)
     e = np.unique(e, axis=0)
     d = state.P[e[:, 0]] - state.P[e[:, 1]]
     length = np.sqrt(np.sum(d * d, axis=1))
@@ -248,11 +249,10 @@ def _insert_stage3d(state, size, measure, max_sweeps, sweeps, sur, ops, progress
         edges = _long_edges(state, size)
         if not len(edges):
             break
-        n0 = int(state.cnt[k3.N_PTS])
+        n0 = int(state.cnt[ts.N_PTS])
         if len(state.P) < n0 + len(edges):
             state.grow_points(len(edges) + n0)
-        room = state.cnt[k3.N_FREE] + state.T.shape[0] - state.cnt[k3.N_ROWS]
-        if room < 8 * len(edges) + 64:
+        if not ts.room(state.T, state.cnt, np.int64(8 * len(edges) + 64)):
             state.grow_rows(8 * len(edges))
         added = k3.insert_midpoints(
             state.P, state.T, state.alive, state.head, state.nxt, state.prv,
@@ -281,9 +281,11 @@ def generate3d(surface, insert, size, measure, max_sweeps, progress):
     restarts = []
     for p in initial_candidates(P, S)[: _c.RESTARTS]:
         T = initial_topology(P, S, int(p))
-        state = _c._State(k3, P, T, np.ones(len(P), np.uint8), spare_points=len(P) if insert else 0)
+        state = _c.LoopState(
+            k3, P, T, np.ones(len(P), np.uint8), spare_points=len(P) if insert else 0
+        )
         inverted = state.inverted()
-        q0 = float(_c._measure_q(P, T, _c.MEASURES[measure]).min())
+        q0 = float(_c.measure_q(P, T, _c.MEASURES[measure]).min())
         sweeps, sur, ops = [0], [state.sur()], {}
         _loop3d(state, False, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 0.4))
         if insert and state.inverted():  # stuck without points: Op(G, δ𝒮) around what is left
@@ -292,16 +294,16 @@ def generate3d(surface, insert, size, measure, max_sweeps, progress):
         if not left:
             break
         restarts.append({"vertex": int(p), "inverted": left, "sweeps": sweeps[0]})
-    _c._verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
+    _c.verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
     if insert:
         _insert_stage3d(state, h, measure, max_sweeps, sweeps, sur, ops, progress, rounds=30)
-        _c._verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
+        _c.verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
     # the optimization stage (§8.3.2, "possibly after an optimization stage"; the third use)
-    q1 = float(_c._measure_q(state.points(), state.cells(), _c.MEASURES[measure]).min())
+    q1 = float(_c.measure_q(state.points(), state.cells(), _c.MEASURES[measure]).min())
     frac = (0.95, 1.0)
     _loop3d(state, False, insert, measure, max_sweeps, sweeps, sur, ops, progress, frac, True)
-    _c._verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
-    Pn, Tn, _ = _c._compact(state.points(), state.cells(), len(P))  # G of a removed pillow
+    _c.verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
+    Pn, Tn, _ = _c.compact(state.points(), state.cells(), len(P))  # G of a removed pillow
     stats = {
         "use": "generation",
         "sur": sur,
@@ -318,4 +320,4 @@ def generate3d(surface, insert, size, measure, max_sweeps, progress):
         "boundary_points": int(len(P)),
         "restarts": restarts,
     }
-    return _c._report(Pn, Tn, measure, stats)
+    return _c.make_result(Pn, Tn, measure, stats)

@@ -49,6 +49,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.geometry.predicates import orient2d_scalar
+from meshcore.mesh.tetstore import N_PTS, N_ROWS, STAMP, link_row, remove_cell, room, take_row
 
 BALL, PAIR, UNION = 0, 1, 2
 #: Largest sub-topology considered (triangles); larger balls are skipped.
@@ -57,8 +58,6 @@ KMAX = 96
 GROW = (6, 12, 24)
 #: ``counters`` entries: accepted replacements by operator.
 C_FAN, C_MOVE, C_KERNEL, C_FLIP, C_UNION, C_REMOVED = range(6)
-#: ``cnt`` entries: points used, triangle rows used, free rows, stamp.
-N_PTS, N_ROWS, N_FREE, STAMP = range(4)
 
 _SQ3x4 = 4.0 * math.sqrt(3.0)
 
@@ -92,63 +91,13 @@ def _better(pa, sa, qa, pb, sb, qb, tie, gain):
 
 
 @njit(cache=True)
-def _link_corner(head, nxt, prv, s, v):
-    nxt[s] = head[v]
-    prv[s] = -1
-    if head[v] >= 0:
-        prv[head[v]] = s
-    head[v] = s
-
-
-@njit(cache=True)
-def _unlink_corner(head, nxt, prv, s, v):
-    if prv[s] >= 0:
-        nxt[prv[s]] = nxt[s]
-    else:
-        head[v] = nxt[s]
-    if nxt[s] >= 0:
-        prv[nxt[s]] = prv[s]
-
-
-@njit(cache=True)
 def _add(T, alive, head, nxt, prv, freeT, cnt, a, b, c):
-    if cnt[N_FREE] > 0:
-        cnt[N_FREE] -= 1
-        t = freeT[cnt[N_FREE]]
-    else:
-        t = cnt[N_ROWS]
-        cnt[N_ROWS] += 1
+    t = take_row(alive, freeT, cnt)
     T[t, 0] = a
     T[t, 1] = b
     T[t, 2] = c
-    alive[t] = 1
-    for j in range(3):
-        _link_corner(head, nxt, prv, 3 * t + j, T[t, j])
+    link_row(T, head, nxt, prv, t)
     return t
-
-
-@njit(cache=True)
-def _remove(T, alive, head, nxt, prv, freeT, cnt, t):
-    """Row t freed: its corners unlinked (triangles or tetrahedra, by ``T``'s width)."""
-    per = T.shape[1]
-    for j in range(per):
-        _unlink_corner(head, nxt, prv, per * t + j, T[t, j])
-    alive[t] = 0
-    freeT[cnt[N_FREE]] = t
-    cnt[N_FREE] += 1
-
-
-@njit(cache=True)
-def build(T, m, n, head, nxt, prv):
-    """Corner lists of the first ``m`` rows of ``T`` over ``n`` vertices (slot ``per * t + j``).
-
-    Triangles or tetrahedra: ``per`` is ``T``'s width; :mod:`.kernel3d` uses it too.
-    """
-    head[:n] = -1
-    per = T.shape[1]
-    for t in range(m):
-        for j in range(per):
-            _link_corner(head, nxt, prv, per * t + j, T[t, j])
 
 
 @njit(cache=True)
@@ -406,10 +355,10 @@ def _try(
         P[center, 1] = gy if best == -2 else hy
         counters[C_MOVE if best == -2 else C_KERNEL] += 1
     else:
-        if cnt[N_FREE] + T.shape[0] - cnt[N_ROWS] < L - 2 + k:
+        if not room(T, cnt, L - 2 + k):
             return 2
         for i in range(k):
-            _remove(T, alive, head, nxt, prv, freeT, cnt, st[i])
+            remove_cell(T, alive, head, nxt, prv, freeT, cnt, st[i])
         q_ = cyc[best]
         for j in range(L):
             if j == best or (j + 1) % L == best:
@@ -697,14 +646,14 @@ def insert_centroids(P, T, alive, head, nxt, prv, freeT, cnt, fixed, rows, cand,
             or orient2d_scalar(P[c, 0], P[c, 1], P[a, 0], P[a, 1], gx, gy) <= 0
         ):
             continue
-        if cnt[N_FREE] + T.shape[0] - cnt[N_ROWS] < 3 or cnt[N_PTS] >= P.shape[0]:
+        if not room(T, cnt, 3) or cnt[N_PTS] >= P.shape[0]:
             return -1 if added == 0 else added
         g = cnt[N_PTS]
         cnt[N_PTS] += 1
         P[g, 0] = gx
         P[g, 1] = gy
         fixed[g] = 0
-        _remove(T, alive, head, nxt, prv, freeT, cnt, t)
+        remove_cell(T, alive, head, nxt, prv, freeT, cnt, t)
         _add(T, alive, head, nxt, prv, freeT, cnt, a, b, g)
         _add(T, alive, head, nxt, prv, freeT, cnt, b, c, g)
         _add(T, alive, head, nxt, prv, freeT, cnt, c, a, g)

@@ -46,10 +46,10 @@ Choices the text leaves open, in the larger sets:
   Op(Z, δ𝒮) is positive by construction, without a new point.
 
 * **Star cavities.** With insertion, the last sets tried around a
-  non-positive tet are built for a chosen new point G (:func:`_star_point`:
+  non-positive tet are built for a chosen new point G (:func:`star_point`:
   off each face of the tet to its positive side, or in a positive
   neighbour): from the tet, every tet across a face of δ𝒮 that G does not
-  see positively joins 𝒮 (:func:`_star_cavity`), so Op(G, δ𝒮) is positive
+  see positively joins 𝒮 (:func:`star_cavity`), so Op(G, δ𝒮) is positive
   by construction; it fails where such a face is on the boundary.
 * **Pinched vertices.** Definition 8.1 asks nothing of vertices, so a
   tangled topology may hold a vertex whose ball has a closed part (a pocket
@@ -65,37 +65,31 @@ import math
 import numpy as np
 from numba import njit
 
-from meshcore.geometry.predicates3d import orient3d_scalar
-from meshcore.optimize.kernel2d import _link_corner, _remove, _unlink_corner, build  # noqa: F401 (the state builds through this module)
+from meshcore.mesh.tetstore import (
+    EDGES,
+    FACE,
+    N_PTS,
+    N_ROWS,
+    SMAX,
+    STAMP,
+    STARS,
+    across,
+    add_tet,
+    boundary,
+    face_cross,
+    gather,
+    holds,
+    link_corner,
+    positive,
+    remove_cell,
+    room,
+    star_cavity,
+    star_point,
+    unlink_corner,
+)
 
 KMAX = 256
 C_MOVE, C_KERNEL, C_COLLAPSE = range(3)
-N_PTS, N_ROWS, N_FREE, STAMP = range(4)
-
-_FACE = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]], np.int64)  # outward faces
-_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]], np.int64)
-
-
-@njit(cache=True, inline="always")
-def _positive(P, a, b, c, d):
-    """True when tet (a, b, c, d) has a positive volume det[b-a, c-a, d-a] (exact)."""
-    return (
-        orient3d_scalar(
-            P[a, 0],
-            P[a, 1],
-            P[a, 2],
-            P[b, 0],
-            P[b, 1],
-            P[b, 2],
-            P[c, 0],
-            P[c, 1],
-            P[c, 2],
-            P[d, 0],
-            P[d, 1],
-            P[d, 2],
-        )
-        < 0
-    )
 
 
 @njit(cache=True, inline="always")
@@ -173,7 +167,7 @@ def _evaluate(P, T, st, pos_of, k, v, x, y, z, skip_q, measure):
                 c = skip_q
             else:
                 d = skip_q
-        if not _positive(P, a, b, c, d):
+        if not positive(P, a, b, c, d):
             pos = False
         vol, qq = _vol_q(P, a, b, c, d, measure)
         sur += vol
@@ -190,12 +184,10 @@ def _relaxed_kernel_point(P, T, st, pos_of, k, v, x, y, z, h):
         wn0 = wn1 = wn2 = 0.0
         for i in range(k):
             t = st[i]
-            f = _FACE[pos_of[i]]
+            f = FACE[pos_of[i]]
             a, b, c = T[t, f[0]], T[t, f[1]], T[t, f[2]]
-            ux, uy, uz = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1], P[b, 2] - P[a, 2]
-            vx, vy, vz = P[c, 0] - P[a, 0], P[c, 1] - P[a, 1], P[c, 2] - P[a, 2]
             # inward normal of the face (a, b, c) as seen from v's side
-            n0, n1, n2 = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+            n0, n1, n2 = face_cross(P, a, b, c)
             nn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
             if nn == 0.0:
                 return np.nan, np.nan, np.nan
@@ -247,7 +239,7 @@ def _collapse_allowed(T, head, nxt, st, pos_of, k, v, q, tmark, stamp, vmark):
                     u = st[i]
                     if T[u, 0] == q or T[u, 1] == q or T[u, 2] == q or T[u, 3] == q:
                         continue
-                    f = _FACE[pos_of[i]]
+                    f = FACE[pos_of[i]]
                     for e in range(3):
                         x, y = T[u, f[e]], T[u, f[(e + 1) % 3]]
                         hx = hy = False
@@ -367,16 +359,16 @@ def sweep(
             for i in range(k):
                 t = st[i]
                 j = pos_of[i]
-                holds = T[t, 0] == q_ or T[t, 1] == q_ or T[t, 2] == q_ or T[t, 3] == q_
-                _unlink_corner(head, nxt, prv, 4 * t + j, v)
-                if holds:
+                has_q = holds(T, t, q_)
+                unlink_corner(head, nxt, prv, 4 * t + j, v)
+                if has_q:
                     for jj in range(4):
                         if jj != j:
-                            _unlink_corner(head, nxt, prv, 4 * t + jj, T[t, jj])
+                            unlink_corner(head, nxt, prv, 4 * t + jj, T[t, jj])
                     alive[t] = 0
                 else:
                     T[t, j] = q_
-                    _link_corner(head, nxt, prv, 4 * t + j, q_)
+                    link_corner(head, nxt, prv, 4 * t + j, q_)
             counters[C_COLLAPSE] += 1
         for i in range(k):
             for j in range(4):
@@ -405,8 +397,6 @@ SLIVER_Q = 0.5
 #: Slivers of worse quality (nearly flat: a planar surface quad's cap, positive by rounding)
 #: also try the star cavities of existing vertices.
 FLAT_Q = 1e-3
-#: Largest sub-topology of :func:`fan_sweep` (tetrahedra); larger ones are skipped.
-SMAX = 512
 #: Sizes of the face-adjacent sets grown around a non-positive tetrahedron (UNION).
 GROW = (8, 16, 32, 64)
 #: ``counters`` entries of :func:`fan_sweep` (after C_MOVE, C_KERNEL, C_COLLAPSE).
@@ -415,75 +405,13 @@ C_BALL_FAN, C_SHELL_FAN, C_UNION_FAN, C_SLIVER_FAN, C_INSERT, C_CLOSED, C_REMOVA
 
 
 @njit(cache=True)
-def _add_tet(T, alive, head, nxt, prv, freeT, cnt, a, b, c, d):
-    if cnt[N_FREE] > 0:
-        cnt[N_FREE] -= 1
-        t = freeT[cnt[N_FREE]]
-    else:
-        t = cnt[N_ROWS]
-        cnt[N_ROWS] += 1
-    T[t, 0], T[t, 1], T[t, 2], T[t, 3] = a, b, c, d
-    alive[t] = 1
-    for j in range(4):
-        _link_corner(head, nxt, prv, 4 * t + j, T[t, j])
-    return t
-
-
-@njit(cache=True)
-def _holds(T, t, v):
-    return T[t, 0] == v or T[t, 1] == v or T[t, 2] == v or T[t, 3] == v
-
-
-@njit(cache=True)
-def _gather(head, nxt, v, w, T, st, tmark, stamp, k):
-    """Append the tets of v's ball (holding w too when w >= 0) not yet in st[:k]; -1 past SMAX."""
-    s = head[v]
-    while s >= 0:
-        t = s // 4
-        if tmark[t] != stamp and (w < 0 or _holds(T, t, w)):
-            if k >= SMAX:
-                return -1
-            tmark[t] = stamp
-            st[k] = t
-            k += 1
-        s = nxt[s]
-    return k
-
-
-@njit(cache=True)
-def _face_key(a, b, c, n):
-    lo = min(a, min(b, c))
-    hi = max(a, max(b, c))
-    mid = a + b + c - lo - hi
-    return (lo * n + mid) * n + hi
-
-
-@njit(cache=True)
-def _boundary(T, st, k, n, bf):
-    """δ𝒮: the faces of st[:k] held once within it, outward; their count, -1 if one is held 3+."""
-    keys = np.empty(4 * k, np.int64)
+def _remove_set(T, alive, head, nxt, prv, freeT, cnt, st, k, mark):
+    """The tets st[:k] removed, their vertices marked (``mark[v] = 1``)."""
     for i in range(k):
         t = st[i]
         for j in range(4):
-            f = _FACE[j]
-            keys[4 * i + j] = _face_key(T[t, f[0]], T[t, f[1]], T[t, f[2]], n)
-    order = np.argsort(keys)
-    nb = 0
-    i = 0
-    while i < 4 * k:
-        j = i
-        while j + 1 < 4 * k and keys[order[j + 1]] == keys[order[i]]:
-            j += 1
-        if j - i >= 2:
-            return -1
-        if j == i:
-            s = order[i]
-            t = st[s // 4]
-            f = _FACE[s % 4]
-            bf[nb, 0], bf[nb, 1], bf[nb, 2] = T[t, f[0]], T[t, f[1]], T[t, f[2]]
-            nb += 1
-        i = j + 1
-    return nb
+            mark[T[t, j]] = 1
+        remove_cell(T, alive, head, nxt, prv, freeT, cnt, t)
 
 
 @njit(cache=True)
@@ -544,7 +472,7 @@ def _fan_valid(T, head, nxt, bf, nb, q, n, tmark, stamp):
             s = head[q]
             while s >= 0:
                 t = s // 4
-                if tmark[t] != stamp and _holds(T, t, x) and _holds(T, t, y):
+                if tmark[t] != stamp and holds(T, t, x) and holds(T, t, y):
                     return False
                 s = nxt[s]
         i = j + 1
@@ -576,7 +504,7 @@ def _fan_measure(P, bf, nb, q, measure):
         a, b, c = bf[f, 0], bf[f, 1], bf[f, 2]
         if a == q or b == q or c == q:
             continue
-        if not _positive(P, q, a, b, c):
+        if not positive(P, q, a, b, c):
             nn += 1
         vol, qq = _vol_q(P, q, a, b, c, measure)
         s_ += vol
@@ -611,9 +539,7 @@ def _kernel_point(P, bf, nb, g):
         w0 = w1 = w2 = 0.0
         for f in range(nb):
             a, b, c = bf[f, 0], bf[f, 1], bf[f, 2]
-            ux, uy, uz = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1], P[b, 2] - P[a, 2]
-            vx, vy, vz = P[c, 0] - P[a, 0], P[c, 1] - P[a, 1], P[c, 2] - P[a, 2]
-            n0, n1, n2 = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+            n0, n1, n2 = face_cross(P, a, b, c)
             nn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
             if nn == 0.0:
                 return False
@@ -661,21 +587,17 @@ def _try_fans(
     q runs over the vertices of δ𝒮 and, with ``insert`` while no fan is
     positive, a new point G in row ``cnt[N_PTS]``: ``insert`` 1, the kernel
     point found by relaxation from the centroid of δ𝒮's vertices; 2, the
-    point already written there (𝒮 a star cavity of it, :func:`_star_cavity`,
+    point already written there (𝒮 a star cavity of it, :func:`star_cavity`,
     whose free inner vertices may vanish: only inserted points are free in
     generation).
     """
     n = cnt[N_PTS]
     stamp = cnt[STAMP]
-    nb = _boundary(T, st, k, n, bf)
+    nb = boundary(T, st, k, n, bf)
     if nb == 0:
         # 𝒮 is closed (a pillow of tets glued face to face, signed volume zero): Op(q, ∅) is
         # empty, Sur drops by Sur(𝒮) and the rest keeps its faces
-        for i in range(k):
-            t = st[i]
-            for j in range(4):
-                dirty[T[t, j]] = 1
-            _remove(T, alive, head, nxt, prv, freeT, cnt, t)
+        _remove_set(T, alive, head, nxt, prv, freeT, cnt, st, k, dirty)
         counters[C_CLOSED] += 1
         return 1
     if nb < 4:
@@ -706,7 +628,7 @@ def _try_fans(
     for i in range(k):
         t = st[i]
         a, b, c, d = T[t, 0], T[t, 1], T[t, 2], T[t, 3]
-        if not _positive(P, a, b, c, d):
+        if not positive(P, a, b, c, d):
             cur_n += 1
         vol, qq = _vol_q(P, a, b, c, d, measure)
         cur_s += vol
@@ -747,17 +669,13 @@ def _try_fans(
     for f in range(nb):
         if not (bf[f, 0] == best or bf[f, 1] == best or bf[f, 2] == best):
             new += 1
-    if cnt[N_FREE] + T.shape[0] - cnt[N_ROWS] + k < new:
+    if not room(T, cnt, new - k):
         return 2
-    for i in range(k):
-        t = st[i]
-        for j in range(4):
-            dirty[T[t, j]] = 1
-        _remove(T, alive, head, nxt, prv, freeT, cnt, t)
+    _remove_set(T, alive, head, nxt, prv, freeT, cnt, st, k, dirty)
     for f in range(nb):
         a, b, c = bf[f, 0], bf[f, 1], bf[f, 2]
         if not (a == best or b == best or c == best):
-            _add_tet(T, alive, head, nxt, prv, freeT, cnt, best, a, b, c)
+            add_tet(T, alive, head, nxt, prv, freeT, cnt, best, a, b, c)
     dirty[best] = 1
     return 1
 
@@ -769,32 +687,18 @@ def _grow_tets(T, head, nxt, st, k, tmark, stamp, size):
     while i < k and k < size:
         t = st[i]
         for j in range(4):
-            f = _FACE[j]
+            f = FACE[j]
             a, b, c = T[t, f[0]], T[t, f[1]], T[t, f[2]]
             s = head[a]
             while s >= 0 and k < size:
                 u = s // 4
-                if tmark[u] != stamp and _holds(T, u, b) and _holds(T, u, c):
+                if tmark[u] != stamp and holds(T, u, b) and holds(T, u, c):
                     tmark[u] = stamp
                     st[k] = u
                     k += 1
                 s = nxt[s]
         i += 1
     return k
-
-
-@njit(cache=True)
-def _across(T, head, nxt, u, j):
-    """The tet across face j of tet u, or -1 (a boundary face)."""
-    f = _FACE[j]
-    a, b, c = T[u, f[0]], T[u, f[1]], T[u, f[2]]
-    s = head[a]
-    while s >= 0:
-        x = s // 4
-        if x != u and _holds(T, x, b) and _holds(T, x, c):
-            return x
-        s = nxt[s]
-    return -1
 
 
 #: Vertices Z tried around a non-positive tet for Op(Z, δ𝒮), 𝒮 the star cavity of Z
@@ -821,86 +725,6 @@ def _nearby_vertices(T, head, nxt, t, st, tmark, vmark, cnt, cand):
                 cand[nc] = w
                 nc += 1
     return nc
-
-
-#: Candidate points G of the star cavities around a non-positive tet (:func:`_star_point`).
-STARS = 17
-#: Offsets of the face candidates of :func:`_star_point`, in mean edge lengths.
-STAR_OFFSETS = (0.05, 0.3, 0.6)
-
-
-@njit(cache=True)
-def _star_point(P, T, head, nxt, t, c, g):
-    """Write in row g the c-th candidate G around tet t; False when there is none.
-
-    c < 12: the centroid of face c % 4 moved off it to the side from which the
-    face is positive, by 0.05, 0.3 or 0.6 (c // 4 = 0, 1, 2) of the tet's mean
-    edge length (a flat tet has one side up, one down: G above or below it);
-    c < 16: the centroid of the positive tet across face c - 12; 16: the
-    centroid of t.
-    """
-    if 12 <= c < 16:
-        u = _across(T, head, nxt, t, c - 12)
-        if u < 0 or not _positive(P, T[u, 0], T[u, 1], T[u, 2], T[u, 3]):
-            return False
-        t = u
-    if c >= 12:
-        for x in range(3):
-            P[g, x] = 0.25 * (P[T[t, 0], x] + P[T[t, 1], x] + P[T[t, 2], x] + P[T[t, 3], x])
-        return True
-    h = 0.0
-    for e in range(6):
-        a, b = T[t, _EDGES[e, 0]], T[t, _EDGES[e, 1]]
-        h += math.sqrt(
-            (P[a, 0] - P[b, 0]) ** 2 + (P[a, 1] - P[b, 1]) ** 2 + (P[a, 2] - P[b, 2]) ** 2
-        )
-    f = _FACE[c % 4]
-    a, b, d = T[t, f[0]], T[t, f[1]], T[t, f[2]]
-    ux, uy, uz = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1], P[b, 2] - P[a, 2]
-    vx, vy, vz = P[d, 0] - P[a, 0], P[d, 1] - P[a, 1], P[d, 2] - P[a, 2]
-    # (G, a, b, d) is positive for G on the side of -(u x v)
-    n0, n1, n2 = uz * vy - uy * vz, ux * vz - uz * vx, uy * vx - ux * vy
-    nn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-    if nn == 0.0:
-        return False
-    step = STAR_OFFSETS[c // 4] * h / 6.0 / nn
-    P[g, 0] = (P[a, 0] + P[b, 0] + P[d, 0]) / 3.0 + step * n0
-    P[g, 1] = (P[a, 1] + P[b, 1] + P[d, 1]) / 3.0 + step * n1
-    P[g, 2] = (P[a, 2] + P[b, 2] + P[d, 2]) / 3.0 + step * n2
-    return True
-
-
-@njit(cache=True)
-def _star_cavity(P, T, head, nxt, t, g, st, tmark, stamp):
-    """The star cavity of point g around tet t in st; its size, or -1.
-
-    From 𝒮 = {t}, every tet across a face of δ𝒮 that g does not see
-    positively (exact orient3d) joins 𝒮, breadth first, so that on return
-    every tet of Op(g, δ𝒮) is positive. g may be a vertex of the mesh: the
-    faces holding it make no tet (Op skips them). -1 when such a face is a
-    boundary face (g is not inside there) or 𝒮 would exceed ``SMAX`` tets.
-    """
-    st[0] = t
-    tmark[t] = stamp
-    k = 1
-    i = 0
-    while i < k:
-        u = st[i]
-        for j in range(4):
-            w = _across(T, head, nxt, u, j)
-            if w >= 0 and tmark[w] == stamp:
-                continue
-            f = _FACE[j]
-            x, y, z = T[u, f[0]], T[u, f[1]], T[u, f[2]]
-            if x == g or y == g or z == g or _positive(P, g, x, y, z):
-                continue
-            if w < 0 or k >= SMAX:
-                return -1
-            tmark[w] = stamp
-            st[k] = w
-            k += 1
-        i += 1
-    return k
 
 
 #: Longest ring of an edge removal (:func:`_try_removal`); longer shells are skipped.
@@ -988,7 +812,7 @@ def _try_removal(
     cur_q = 2.0
     for i in range(k):
         t = st[i]
-        if not _positive(P, T[t, 0], T[t, 1], T[t, 2], T[t, 3]):
+        if not positive(P, T[t, 0], T[t, 1], T[t, 2], T[t, 3]):
             cur_n += 1
         cur_q = min(cur_q, _vol_q(P, T[t, 0], T[t, 1], T[t, 2], T[t, 3], measure)[1])
     # edges among ring vertices already in the mesh (a diagonal must be new)
@@ -1022,13 +846,13 @@ def _try_removal(
                     found = False
                     while s >= 0:
                         t = s // 4
-                        if _holds(T, t, ring[1]) and _holds(T, t, ring[2]):
+                        if holds(T, t, ring[1]) and holds(T, t, ring[2]):
                             found = True
                         s = nxt[s]
                     if found:
                         continue
                 ri, rc, rj = ring[i], ring[c], ring[j]
-                if not _positive(P, a, ri, rc, rj) or not _positive(P, b, rj, rc, ri):
+                if not positive(P, a, ri, rc, rj) or not positive(P, b, rj, rc, ri):
                     continue
                 q = min(q, _vol_q(P, a, ri, rc, rj, measure)[1])
                 q = min(q, _vol_q(P, b, rj, rc, ri, measure)[1])
@@ -1039,13 +863,9 @@ def _try_removal(
     if q < 0.0 or (cur_n == 0 and q <= cur_q + gain):
         return 0
     new = 2 * (m - 2)
-    if cnt[N_FREE] + T.shape[0] - cnt[N_ROWS] + k < new:
+    if not room(T, cnt, new - k):
         return 2
-    for i in range(k):
-        t = st[i]
-        for j in range(4):
-            dirty[T[t, j]] = 1
-        _remove(T, alive, head, nxt, prv, freeT, cnt, t)
+    _remove_set(T, alive, head, nxt, prv, freeT, cnt, st, k, dirty)
     stack = np.empty((m, 2), np.int64)
     stack[0, 0], stack[0, 1] = 0, m - 1
     top = 1
@@ -1055,8 +875,8 @@ def _try_removal(
         if j - i < 2:
             continue
         c = pick[i, j]
-        _add_tet(T, alive, head, nxt, prv, freeT, cnt, a, ring[i], ring[c], ring[j])
-        _add_tet(T, alive, head, nxt, prv, freeT, cnt, b, ring[j], ring[c], ring[i])
+        add_tet(T, alive, head, nxt, prv, freeT, cnt, a, ring[i], ring[c], ring[j])
+        add_tet(T, alive, head, nxt, prv, freeT, cnt, b, ring[j], ring[c], ring[i])
         stack[top, 0], stack[top, 1] = i, c
         stack[top + 1, 0], stack[top + 1, 1] = c, j
         top += 2
@@ -1075,28 +895,28 @@ def _subtopology(T, head, nxt, kind, i, j, st, tmark, stamp):
     puts the edge removals of tet i's six edges after the face pairs.)
     """
     if kind == BALL:
-        return _gather(head, nxt, i, -1, T, st, tmark, stamp, 0)
+        return gather(head, nxt, i, -1, T, st, tmark, stamp, 0)
     if kind == SHELL:
-        return _gather(head, nxt, T[i, _EDGES[j, 0]], T[i, _EDGES[j, 1]], T, st, tmark, stamp, 0)
+        return gather(head, nxt, T[i, EDGES[j, 0]], T[i, EDGES[j, 1]], T, st, tmark, stamp, 0)
     st[0] = i
     tmark[i] = stamp
     k = 1
     if j < 4:
-        u = _across(T, head, nxt, i, j)
+        u = across(T, head, nxt, i, j)
         if u < 0:
             return -1
         tmark[u] = stamp
         st[1] = u
         return 2
     if j < 10:
-        k = _gather(head, nxt, T[i, _EDGES[j - 4, 0]], -1, T, st, tmark, stamp, k)
+        k = gather(head, nxt, T[i, EDGES[j - 4, 0]], -1, T, st, tmark, stamp, k)
         if k >= 0:
-            k = _gather(head, nxt, T[i, _EDGES[j - 4, 1]], -1, T, st, tmark, stamp, k)
+            k = gather(head, nxt, T[i, EDGES[j - 4, 1]], -1, T, st, tmark, stamp, k)
         return k
     if j == 10:
         for c in range(4):
             if k >= 0:
-                k = _gather(head, nxt, T[i, c], -1, T, st, tmark, stamp, k)
+                k = gather(head, nxt, T[i, c], -1, T, st, tmark, stamp, k)
         return k
     return _grow_tets(T, head, nxt, st, 1, tmark, stamp, GROW[j - 11])
 
@@ -1162,7 +982,7 @@ def fan_sweep(
                 continue
         else:
             a, b, c = T[i, 0], T[i, 1], T[i, 2]
-            if _positive(P, a, b, c, T[i, 3]) != (kind == SLIVER):
+            if positive(P, a, b, c, T[i, 3]) != (kind == SLIVER):
                 continue
             qi = _vol_q(P, a, b, c, T[i, 3], measure)[1] if kind == SLIVER else 0.0
             if qi >= SLIVER_Q:
@@ -1178,8 +998,8 @@ def fan_sweep(
             m = mode
             if kind >= UNION and 4 <= j < 10:
                 # edge removal on the shell of tet i's edge j - 4
-                ea, eb = T[i, _EDGES[j - 4, 0]], T[i, _EDGES[j - 4, 1]]
-                k = _gather(head, nxt, ea, eb, T, st, tmark, cnt[STAMP], 0)
+                ea, eb = T[i, EDGES[j - 4, 0]], T[i, EDGES[j - 4, 1]]
+                k = gather(head, nxt, ea, eb, T, st, tmark, cnt[STAMP], 0)
                 if k < 0:
                     continue
                 r = _try_removal(
@@ -1195,9 +1015,9 @@ def fan_sweep(
                     g = cnt[N_PTS]
                     if g >= P.shape[0]:
                         return changed, 2
-                    if not _star_point(P, T, head, nxt, i, j - j_stars, g):
+                    if not star_point(P, T, head, nxt, i, j - j_stars, g):
                         continue
-                    k = _star_cavity(P, T, head, nxt, i, g, st, tmark, cnt[STAMP])
+                    k = star_cavity(P, T, head, nxt, i, g, st, tmark, cnt[STAMP])
                     m = 2
                 elif kind >= UNION and j >= j_verts:
                     # the star cavity of an existing vertex Z near tet i: Op(Z, δ𝒮) positive
@@ -1206,7 +1026,7 @@ def fan_sweep(
                     if j - j_verts >= nc:
                         continue
                     cnt[STAMP] += 1
-                    k = _star_cavity(P, T, head, nxt, i, cand[j - j_verts], st, tmark, cnt[STAMP])
+                    k = star_cavity(P, T, head, nxt, i, cand[j - j_verts], st, tmark, cnt[STAMP])
                 else:
                     jj = j if kind < UNION or j < 4 else j - 6
                     k = _subtopology(T, head, nxt, kind_sets, i, jj, st, tmark, cnt[STAMP])
@@ -1248,11 +1068,11 @@ def insert_midpoints(P, T, alive, head, nxt, prv, freeT, cnt, fixed, edges):
         if touched[a] or touched[b]:
             continue
         cnt[STAMP] += 1
-        k = _gather(head, nxt, a, b, T, st, tmark, cnt[STAMP], 0)
+        k = gather(head, nxt, a, b, T, st, tmark, cnt[STAMP], 0)
         if k <= 0:
             continue
         n = cnt[N_PTS]
-        nb = _boundary(T, st, k, n + 1, bf)
+        nb = boundary(T, st, k, n + 1, bf)
         if nb < 4:
             continue
         inner = True
@@ -1263,25 +1083,21 @@ def insert_midpoints(P, T, alive, head, nxt, prv, freeT, cnt, fixed, edges):
                 inner = False
         if not inner:
             continue
-        if cnt[N_FREE] + T.shape[0] - cnt[N_ROWS] + k < nb or n >= P.shape[0]:
+        if not room(T, cnt, nb - k) or n >= P.shape[0]:
             return -1 if added == 0 else added
         for x in range(3):
             P[n, x] = 0.5 * (P[a, x] + P[b, x])
         ok = True
         for f in range(nb):
-            if not _positive(P, n, bf[f, 0], bf[f, 1], bf[f, 2]):
+            if not positive(P, n, bf[f, 0], bf[f, 1], bf[f, 2]):
                 ok = False
                 break
         if not ok:
             continue
         cnt[N_PTS] += 1
         fixed[n] = 0
-        for j in range(k):
-            t = st[j]
-            for c in range(4):
-                touched[T[t, c]] = 1
-            _remove(T, alive, head, nxt, prv, freeT, cnt, t)
+        _remove_set(T, alive, head, nxt, prv, freeT, cnt, st, k, touched)
         for f in range(nb):
-            _add_tet(T, alive, head, nxt, prv, freeT, cnt, n, bf[f, 0], bf[f, 1], bf[f, 2])
+            add_tet(T, alive, head, nxt, prv, freeT, cnt, n, bf[f, 0], bf[f, 1], bf[f, 2])
         added += 1
     return added

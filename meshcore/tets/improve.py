@@ -2,7 +2,7 @@
 
 Compiled kernels of :func:`meshcore.tets.slivers.improve` (Klingner and
 Shewchuk, "Aggressive tetrahedral mesh improvement", IMR 2007, in a reduced
-form). The state is :mod:`meshcore.optimize.kernel3d`'s: rows ``T`` of
+form). The state is :mod:`meshcore.mesh.tetstore`'s: rows ``T`` of
 positively oriented tetrahedra (``det[b - a, c - a, d - a] > 0``) with an
 ``alive`` flag and per vertex the linked list of its corners, built and
 edited with that module's helpers. Every operation replaces a set of
@@ -34,7 +34,7 @@ import math
 import numpy as np
 from numba import njit
 
-from meshcore.optimize import kernel3d as k3
+from meshcore.mesh import tetstore as ts
 
 #: Largest edge shell removed (tetrahedra around the edge).
 RING_MAX = 7
@@ -55,14 +55,7 @@ C_EDGE, C_FACE, C_SMOOTH, C_INSERT = range(4)
 #: Base of the face keys (vertex numbers below it): keys stay valid as points are added.
 NK = 1 << 21
 
-_FACE = k3._FACE
-
-
-@njit(cache=True, inline="always")
-def _cross(P, x, y, z):
-    ux, uy, uz = P[y, 0] - P[x, 0], P[y, 1] - P[x, 1], P[y, 2] - P[x, 2]
-    vx, vy, vz = P[z, 0] - P[x, 0], P[z, 1] - P[x, 1], P[z, 2] - P[x, 2]
-    return uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+_FACE = ts.FACE
 
 
 @njit(cache=True)
@@ -71,10 +64,10 @@ def tet_quality(P, a, b, c, d):
 
     Either orientation; a flat tetrahedron gives (0, inf).
     """
-    n0x, n0y, n0z = _cross(P, b, c, d)
-    n1x, n1y, n1z = _cross(P, a, d, c)
-    n2x, n2y, n2z = _cross(P, a, b, d)
-    n3x, n3y, n3z = _cross(P, a, c, b)
+    n0x, n0y, n0z = ts.face_cross(P, b, c, d)
+    n1x, n1y, n1z = ts.face_cross(P, a, d, c)
+    n2x, n2y, n2z = ts.face_cross(P, a, b, d)
+    n3x, n3y, n3z = ts.face_cross(P, a, c, b)
     l0 = math.sqrt(n0x * n0x + n0y * n0y + n0z * n0z)
     l1 = math.sqrt(n1x * n1x + n1y * n1y + n1z * n1z)
     l2 = math.sqrt(n2x * n2x + n2y * n2y + n2z * n2z)
@@ -120,11 +113,6 @@ def _constrained(subk, key):
 
 
 @njit(cache=True)
-def _room(T, cnt, need):
-    return cnt[k3.N_FREE] + T.shape[0] - cnt[k3.N_ROWS] >= need
-
-
-@njit(cache=True)
 def _set_quality(P, T, st, k):
     q = np.inf
     r = 0.0
@@ -141,11 +129,11 @@ def _replace(T, alive, head, nxt, prv, freeT, cnt, reg, st, k, bf, nb, apex):
     """Tetrahedra st[:k] replaced by the fan from ``apex`` of the faces bf[:nb] not holding it."""
     r = reg[st[0]]
     for i in range(k):
-        k3._remove(T, alive, head, nxt, prv, freeT, cnt, st[i])
+        ts.remove_cell(T, alive, head, nxt, prv, freeT, cnt, st[i])
     for f in range(nb):
         a, b, c = bf[f, 0], bf[f, 1], bf[f, 2]
         if a != apex and b != apex and c != apex:
-            t = k3._add_tet(T, alive, head, nxt, prv, freeT, cnt, apex, a, b, c)
+            t = ts.add_tet(T, alive, head, nxt, prv, freeT, cnt, apex, a, b, c)
             reg[t] = r
 
 
@@ -160,7 +148,7 @@ def _fan_quality(P, bf, nb, q, floor):
         if a == q or b == q or c == q:
             continue
         dq, rr = tet_quality(P, q, a, b, c)
-        if dq <= floor or not k3._positive(P, q, a, b, c):
+        if dq <= floor or not ts.positive(P, q, a, b, c):
             return -1.0, np.inf
         mq = min(mq, dq)
         mr = max(mr, rr)
@@ -172,18 +160,18 @@ def _remove_edge(
     P, T, alive, head, nxt, prv, freeT, cnt, reg, subk, a, b, st, tmark, vmark, bf, mre
 ):
     """Edge removal of (a, b) when it raises its shell's least angle: 1, 0, or -1 (no room)."""
-    cnt[k3.STAMP] += 1
-    stamp = cnt[k3.STAMP]
-    k = k3._gather(head, nxt, a, b, T, st, tmark, stamp, 0)
+    cnt[ts.STAMP] += 1
+    stamp = cnt[ts.STAMP]
+    k = ts.gather(head, nxt, a, b, T, st, tmark, stamp, 0)
     if k < 3 or k > RING_MAX:
         return 0
     for i in range(k):
         t = st[i]
         for j in range(4):
             x = T[t, j]
-            if x != a and x != b and _constrained(subk, k3._face_key(a, b, x, NK)):
+            if x != a and x != b and _constrained(subk, ts.face_key(a, b, x, NK)):
                 return 0
-    nb = k3._boundary(T, st, k, NK, bf)
+    nb = ts.boundary(T, st, k, NK, bf)
     if nb != 2 * k:
         return 0  # the edge is on the boundary
     old_q, old_r = _set_quality(P, T, st, k)
@@ -202,7 +190,7 @@ def _remove_edge(
                 best, best_q = q, mq
     if best < 0:
         return 0
-    if not _room(T, cnt, 2 * (k - 2) - k):
+    if not ts.room(T, cnt, 2 * (k - 2) - k):
         return -1
     _replace(T, alive, head, nxt, prv, freeT, cnt, reg, st, k, bf, nb, best)
     return 1
@@ -213,9 +201,9 @@ def _remove_face(P, T, alive, head, nxt, prv, freeT, cnt, reg, subk, t, j, st, b
     """2-3 flip of face j of tetrahedron t when it raises the least angle: 1, 0, or -1."""
     f = _FACE[j]
     x, y, z = T[t, f[0]], T[t, f[1]], T[t, f[2]]
-    if _constrained(subk, k3._face_key(x, y, z, NK)):
+    if _constrained(subk, ts.face_key(x, y, z, NK)):
         return 0
-    u = k3._across(T, head, nxt, t, j)
+    u = ts.across(T, head, nxt, t, j)
     if u < 0:
         return 0
     st[0], st[1] = t, u
@@ -236,31 +224,17 @@ def _remove_face(P, T, alive, head, nxt, prv, freeT, cnt, reg, subk, t, j, st, b
     mq, mr = _fan_quality(P, bf, nb, e, old_q + EPS)
     if mq < 0 or mr > max(mre, old_r):
         return 0
-    if not _room(T, cnt, 1):
+    if not ts.room(T, cnt, 1):
         return -1
     _replace(T, alive, head, nxt, prv, freeT, cnt, reg, st, 2, bf, nb, e)
     return 1
 
 
 @njit(cache=True)
-def _star_state(P, T, st, k):
-    """(least angle, largest ratio, all positive) of the star st[:k] at v's position."""
-    q = np.inf
-    r = 0.0
-    for i in range(k):
-        t = st[i]
-        a, b, c, d = T[t, 0], T[t, 1], T[t, 2], T[t, 3]
-        dq, rr = tet_quality(P, a, b, c, d)
-        q = min(q, dq)
-        r = max(r, rr)
-    return q, r
-
-
-@njit(cache=True)
 def _star_positive(P, T, st, k):
     for i in range(k):
         t = st[i]
-        if not k3._positive(P, T[t, 0], T[t, 1], T[t, 2], T[t, 3]):
+        if not ts.positive(P, T[t, 0], T[t, 1], T[t, 2], T[t, 3]):
             return False
     return True
 
@@ -290,11 +264,11 @@ def _min_norm(G, m):
 def _smooth(P, T, head, nxt, cnt, v, st, tmark, G, N, mre):
     """Move free vertex v up the least dihedral angle of its star, within the plane of unit
     normal N[v] when it is not zero (a point inside a facet); True if it moved."""
-    cnt[k3.STAMP] += 1
-    k = k3._gather(head, nxt, v, -1, T, st, tmark, cnt[k3.STAMP], 0)
+    cnt[ts.STAMP] += 1
+    k = ts.gather(head, nxt, v, -1, T, st, tmark, cnt[ts.STAMP], 0)
     if k <= 0:
         return False
-    f0, r0 = _star_state(P, T, st, k)
+    f0, r0 = _set_quality(P, T, st, k)
     cap = max(mre, r0)
     L = np.inf
     for i in range(k):
@@ -342,7 +316,7 @@ def _smooth(P, T, head, nxt, cnt, v, st, tmark, G, N, mre):
         for _ in range(HALVINGS):
             for x in range(3):
                 P[v, x] = x0[x] + s * g[x] / gn
-            f1, r1 = _star_state(P, T, st, k)
+            f1, r1 = _set_quality(P, T, st, k)
             if f1 > f0 + EPS and r1 <= cap and _star_positive(P, T, st, k):
                 ok = True
                 break
@@ -367,8 +341,8 @@ def _cavity_allowed(T, head, nxt, reg, subk, t, st, k, tmark, vmark, bf, nb):
             return False
         for j in range(4):
             f = _FACE[j]
-            if _constrained(subk, k3._face_key(T[u, f[0]], T[u, f[1]], T[u, f[2]], NK)):
-                w = k3._across(T, head, nxt, u, j)
+            if _constrained(subk, ts.face_key(T[u, f[0]], T[u, f[1]], T[u, f[2]], NK)):
+                w = ts.across(T, head, nxt, u, j)
                 if w >= 0 and tmark[w] == stamp:
                     return False
     for f in range(nb):
@@ -405,50 +379,50 @@ def _insert(
     mre,
 ):
     """A new free point in a star cavity around t, smoothed, kept when its star's least
-    angle beats the cavity's (candidates :func:`meshcore.optimize.kernel3d._star_point`, the
+    angle beats the cavity's (candidates :func:`meshcore.mesh.tetstore.star_point`, the
     first that gains); 1, 0, or -1 (no room: rows), -2 (no spare point)."""
-    g = cnt[k3.N_PTS]
+    g = cnt[ts.N_PTS]
     if g >= P.shape[0]:
         return -2
     r = reg[t]
-    for c in range(k3.STARS):
-        if not k3._star_point(P, T, head, nxt, t, c, g):
+    for c in range(ts.STARS):
+        if not ts.star_point(P, T, head, nxt, t, c, g):
             continue
-        cnt[k3.STAMP] += 1
-        k = k3._star_cavity(P, T, head, nxt, t, g, st, tmark, cnt[k3.STAMP])
+        cnt[ts.STAMP] += 1
+        k = ts.star_cavity(P, T, head, nxt, t, g, st, tmark, cnt[ts.STAMP])
         if k < 0:
             continue
-        nb = k3._boundary(T, st, k, NK, bf)
+        nb = ts.boundary(T, st, k, NK, bf)
         if nb < 4 or not _cavity_allowed(T, head, nxt, reg, subk, t, st, k, tmark, vmark, bf, nb):
             continue
         old_q, old_r = _set_quality(P, T, st, k)
         mq, _ = _fan_quality(P, bf, nb, g, -1.0)
         if mq < 0:
             continue
-        if not _room(T, cnt, nb):
+        if not ts.room(T, cnt, nb):
             return -1
         for i in range(k):
             old[i] = T[st[i]]
-        cnt[k3.N_PTS] += 1
+        cnt[ts.N_PTS] += 1
         fixed[g] = 0
         _replace(T, alive, head, nxt, prv, freeT, cnt, reg, st, k, bf, nb, g)
         _smooth(P, T, head, nxt, cnt, g, st, tmark, G, N, mre)
-        cnt[k3.STAMP] += 1
-        m = k3._gather(head, nxt, g, -1, T, st, tmark, cnt[k3.STAMP], 0)
+        cnt[ts.STAMP] += 1
+        m = ts.gather(head, nxt, g, -1, T, st, tmark, cnt[ts.STAMP], 0)
         new_q, new_r = _set_quality(P, T, st, m)
         if new_q > old_q + EPS and new_r <= max(mre, old_r):
             return 1
         # undo: the cavity's tetrahedra back
         for i in range(m):
-            k3._remove(T, alive, head, nxt, prv, freeT, cnt, st[i])
+            ts.remove_cell(T, alive, head, nxt, prv, freeT, cnt, st[i])
         for i in range(k):
-            u = k3._add_tet(
+            u = ts.add_tet(
                 T, alive, head, nxt, prv, freeT, cnt, old[i, 0], old[i, 1], old[i, 2], old[i, 3]
             )
             reg[u] = r
             if i == 0:
                 t = u  # the star cavity starts at t: its row may have changed
-        cnt[k3.N_PTS] -= 1
+        cnt[ts.N_PTS] -= 1
         fixed[g] = 1
     return 0
 
@@ -461,17 +435,17 @@ def improve_passes(
     removal on their faces, smoothing of their free vertices, insertion of a new point (the
     first that gains, in that order). Returns (passes run, status): status ``OUT_OF_ROWS``
     or ``OUT_OF_POINTS`` asks for more."""
-    st = np.empty(k3.SMAX, np.int64)
+    st = np.empty(ts.SMAX, np.int64)
     tmark = np.zeros(T.shape[0], np.int64)
     vmark = np.zeros(P.shape[0], np.int64)
-    bf = np.empty((4 * k3.SMAX, 3), np.int64)
+    bf = np.empty((4 * ts.SMAX, 3), np.int64)
     G = np.empty((GMAX, 3))
-    old = np.empty((k3.SMAX, 4), np.int64)
+    old = np.empty((ts.SMAX, 4), np.int64)
     done = 0
     for done in range(1, passes + 1):
         changed = 0
         t = 0
-        while t < cnt[k3.N_ROWS]:
+        while t < cnt[ts.N_ROWS]:
             if not alive[t]:
                 t += 1
                 continue
@@ -481,7 +455,7 @@ def improve_passes(
                 continue
             r = 0
             for e in range(6):
-                a, b = T[t, k3._EDGES[e, 0]], T[t, k3._EDGES[e, 1]]
+                a, b = T[t, ts.EDGES[e, 0]], T[t, ts.EDGES[e, 1]]
                 r = _remove_edge(
                     P, T, alive, head, nxt, prv, freeT, cnt, reg, subk, a, b, st, tmark, vmark,
                     bf, mre,

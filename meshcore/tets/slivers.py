@@ -49,8 +49,7 @@ from meshcore.delaunay.recovery3d import (
     regions,
     tri_circumcenters,
 )
-from meshcore.optimize import coupez as _c
-from meshcore.optimize import kernel3d as k3
+from meshcore.mesh.tetstore import N_ROWS, CellStore
 from meshcore.tets.improve import NK, OUT_OF_POINTS, OUT_OF_ROWS, improve_passes
 from meshcore.tets.refinement import (
     _flat_folds,
@@ -78,7 +77,7 @@ SPARE = 1024
 
 
 def _face_keys(F: np.ndarray) -> np.ndarray:
-    """Keys of faces as :func:`meshcore.optimize.kernel3d._face_key` makes them (base ``NK``)."""
+    """Keys of faces as :func:`meshcore.mesh.tetstore.face_key` makes them (base ``NK``)."""
     s = np.sort(F, axis=1)
     return (s[:, 0] * NK + s[:, 1]) * NK + s[:, 2]
 
@@ -127,7 +126,7 @@ def improve(
     Shewchuk (2007).
     """
     T = np.ascontiguousarray(tetra[:, [0, 1, 3, 2]], dtype=np.int64)
-    state = _c._State(k3, np.asarray(points, dtype=np.float64), T, ~np.asarray(free, bool), SPARE)
+    state = CellStore(np.asarray(points, dtype=np.float64), T, ~np.asarray(free, bool), SPARE)
     reg = np.full(state.T.shape[0], -1, dtype=np.int64)
     reg[: len(T)] = region
     N = np.zeros_like(state.P)
@@ -145,7 +144,7 @@ def improve(
         if status not in (OUT_OF_ROWS, OUT_OF_POINTS):
             break
         # Both grow by compacting the live rows, in order: their regions follow.
-        rows = int(state.cnt[k3.N_ROWS])
+        rows = int(state.cnt[N_ROWS])
         kept = reg[:rows][state.alive[:rows].astype(bool)]
         if status == OUT_OF_ROWS:
             state.grow_rows()
@@ -154,7 +153,7 @@ def improve(
             N = np.concatenate([N, np.zeros((len(state.P) - len(N), 3))])
         reg = np.full(state.T.shape[0], -1, dtype=np.int64)
         reg[: len(kept)] = kept
-    rows = int(state.cnt[k3.N_ROWS])
+    rows = int(state.cnt[N_ROWS])
     alive = state.alive[:rows].astype(bool)
     stats = {
         "edge_removals": int(counters[0]),
