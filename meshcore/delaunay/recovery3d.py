@@ -917,7 +917,7 @@ class SurfaceRecovery:
         self.sub = np.concatenate([self.sub[keep], sub])
         self.sub_facet = np.concatenate([self.sub_facet[keep], owner])
 
-    def split_subfaces(self, rows: np.ndarray) -> tuple[int, int]:
+    def split_subfaces(self, rows: np.ndarray, touched: list | None = None) -> tuple[int, int]:
         """Split subfaces ``rows`` at their circumcentres (Shewchuk's rule).
 
         A circumcentre in the diametral ball of a subsegment splits the
@@ -926,11 +926,15 @@ class SurfaceRecovery:
         subface to it (:meth:`crossed_segments`: a vertex of the subface
         encroaches that subsegment, Shewchuk's lemma). A point
         inside the protecting ball of a corner of its facet is moved onto the
-        ball's sphere (:meth:`onto_balls`). Returns (subfaces split,
-        subsegments split).
+        ball's sphere (:meth:`onto_balls`). ``touched``: the facets a caller's
+        :meth:`split_segments` deferred (``defer``), retriangulated here with
+        these splits, so that ``rows`` still name the subfaces they named.
+        Returns (subfaces split, subsegments split).
         """
         rows = np.unique(rows)
+        touched = [] if touched is None else touched
         if rows.size == 0:
+            self._retriangulate_after(touched, np.zeros(0, dtype=np.int64))
             return 0, 0
         c, R = tri_circumcenters(self.P, self.sub[rows])
         flat = ~np.isfinite(c).all(axis=1)
@@ -975,15 +979,20 @@ class SurfaceRecovery:
             inside[lost] = True
         c[lost] = self.onto_balls(c[lost], f[lost])
         use = inside & ~hit
-        touched: list = []
         n_seg = self.split_segments(enc_s, touched)
         ids = self.add(c[use], np.full(int(use.sum()), -1), f[use])
-        # One retriangulation for both splits, the subfaces in the order two would give
-        # (the facets of the subsegments only, then those of the new points).
-        mine = unique_ints(f[use][ids >= 0])
-        first = np.concatenate([np.zeros(0, dtype=np.int64), *touched])
-        self.retriangulate(np.concatenate([first[~isin_ints(first, mine)], mine]))
+        self._retriangulate_after(touched, unique_ints(f[use][ids >= 0]))
         return int((ids >= 0).sum()), n_seg
+
+    def _retriangulate_after(self, touched: list, mine: np.ndarray) -> None:
+        """One retriangulation for deferred subsegment splits (``touched``, facet arrays)
+        and facets ``mine`` that got points inside, the subfaces in the order separate
+        calls would give (the facets of the subsegments only, first seen first, then
+        ``mine``)."""
+        first = np.concatenate([np.zeros(0, dtype=np.int64), *touched])
+        _, at = np.unique(first, return_index=True)
+        first = first[np.sort(at)]
+        self.retriangulate(np.concatenate([first[~isin_ints(first, mine)], mine]))
 
     def crossed_segments(self, A: np.ndarray, B: np.ndarray, f: np.ndarray) -> np.ndarray:
         """For each segment A→B in facet ``f``'s plane, the subsegment of the facet's

@@ -885,12 +885,12 @@ def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> 
         now = np.sort(b.dt.tets(slots[rows[rej]]), axis=1)
         alive[rej] = (now == np.sort(tets[rows[rej]], axis=1)).all(axis=1)
     outside += int((held & alive & ~splits).sum())
-    done += b.split_segments(seg_pairs[1][alive[seg_pairs[0]]])
-    sub_rows = np.unique(sub_pairs[1][alive[sub_pairs[0]]])
-    if sub_rows.size:
-        n_sub, n_seg = b.split_subfaces(sub_rows)
-        done += n_sub + n_seg
-    return done, outside
+    # The facets the subsegment splits touch are retriangulated with the subface
+    # splits: a retriangulation renumbers ``b.sub``, and ``sub_pairs`` name rows of it.
+    touched: list = []
+    done += b.split_segments(seg_pairs[1][alive[seg_pairs[0]]], touched)
+    n_sub, n_seg = b.split_subfaces(sub_pairs[1][alive[sub_pairs[0]]], touched)
+    return done + n_sub + n_seg, outside
 
 
 def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[int, int]:
