@@ -76,15 +76,9 @@ class Knobs:
     recovery_rounds: int = 200
     #: Refinement rounds (encroachment fixes and one pass over bad tetrahedra each).
     refinement_rounds: int = 60
-    #: Sliver rounds.
-    sliver_rounds: int = 8
     #: Degrees: a tetrahedron with two faces on the surface and a least dihedral
     #: angle below this fills a fold of two facets coplanar up to rounding.
     flat_fold: float = 1e-6
-    #: Random candidates per sliver, besides its circumcentre, and the radius of
-    #: the ball they are drawn from, in units of the circumradius.
-    sliver_candidates: int = 16
-    sliver_ball: float = 0.5
     #: Circumradius bound of the size criterion, in units of ``size`` (a
     #: regular tetrahedron of edge h has circumradius 0.61 h).
     size_radius: float = 0.7
@@ -382,40 +376,28 @@ def _present(T, on, seg_tk, seg_tv, n_seg, sub_tk, sub_tv, n_sub, edges, faces):
 
 
 @njit(cache=True)
-def _regions_pass(T, slots, adj, on, tk, tv, faces):
-    """The flood fill of :func:`regions` in one pass.
-
-    Returns the component of each tetrahedron (across faces that are not
-    subfaces, between real tetrahedra), their number, whether each meets the
-    outside (a non-subface with no real tetrahedron behind it), and every
-    (tetrahedron, face, subface) incidence in row-major order.
-    """
-    m = T.shape[0]
+def _row_of(slots):
+    """(top,) int64: the row of each slot in ``slots`` (-1 for slots not listed)."""
     top = 0
     for s in slots:
         top = max(top, s + 1)
     row_of = np.full(top, -1, np.int64)
-    for r in range(m):
+    for r in range(slots.shape[0]):
         row_of[slots[r]] = r
-    shift = _shift(tk.shape[0])
-    nb = np.empty((m, 4), np.int64)
-    sub_of = np.full((m, 4), -1, np.int64)
-    n_inc = 0
-    for t in range(m):
-        for j in range(4):
-            u = adj[t, j]
-            nb[t, j] = row_of[u] if 0 <= u < top else -1
-            a = T[t, faces[j, 0]]
-            b = T[t, faces[j, 1]]
-            c = T[t, faces[j, 2]]
-            if on[a] and on[b] and on[c]:
-                sub_of[t, j] = _find(tk, tv, _face_key(a, b, c), shift)
-                if sub_of[t, j] >= 0:
-                    n_inc += 1
-    comp = np.full(m, -1, np.int64)
-    stack = np.empty(m, np.int64)
+    return row_of
+
+
+@njit(cache=True)
+def _flood(nb, sub_of):
+    """Connected components of rows joined across their faces: row ``t``'s face ``j``
+    joins it to row ``nb[t, j]`` when that is >= 0 and the face is no subface
+    (``sub_of[t, j] < 0``). Returns (component of each row, their number), components
+    numbered in the order of their first row."""
+    k = nb.shape[0]
+    comp = np.full(k, -1, np.int64)
+    stack = np.empty(k, np.int64)
     n = 0
-    for s in range(m):
+    for s in range(k):
         if comp[s] >= 0:
             continue
         comp[s] = n
@@ -431,6 +413,37 @@ def _regions_pass(T, slots, adj, on, tk, tv, faces):
                     stack[size] = u
                     size += 1
         n += 1
+    return comp, n
+
+
+@njit(cache=True)
+def _regions_pass(T, slots, adj, on, tk, tv, faces):
+    """The flood fill of :func:`regions` in one pass.
+
+    Returns the component of each tetrahedron (across faces that are not
+    subfaces, between real tetrahedra), their number, whether each meets the
+    outside (a non-subface with no real tetrahedron behind it), and every
+    (tetrahedron, face, subface) incidence in row-major order.
+    """
+    m = T.shape[0]
+    row_of = _row_of(slots)
+    top = row_of.shape[0]
+    shift = _shift(tk.shape[0])
+    nb = np.empty((m, 4), np.int64)
+    sub_of = np.full((m, 4), -1, np.int64)
+    n_inc = 0
+    for t in range(m):
+        for j in range(4):
+            u = adj[t, j]
+            nb[t, j] = row_of[u] if 0 <= u < top else -1
+            a = T[t, faces[j, 0]]
+            b = T[t, faces[j, 1]]
+            c = T[t, faces[j, 2]]
+            if on[a] and on[b] and on[c]:
+                sub_of[t, j] = _find(tk, tv, _face_key(a, b, c), shift)
+                if sub_of[t, j] >= 0:
+                    n_inc += 1
+    comp, n = _flood(nb, sub_of)
     outside = np.zeros(n, np.bool_)
     inc_t = np.empty(n_inc, np.int64)
     inc_f = np.empty(n_inc, np.int64)
@@ -472,12 +485,8 @@ def _regions_update(T, slots, fresh, adj, old, on, tk, tv, faces):
     and whether two labels met disagree, and the subface incidences.
     """
     m = T.shape[0]
-    top = 0
-    for s in slots:
-        top = max(top, s + 1)
-    row_of = np.full(top, -1, np.int64)
-    for r in range(m):
-        row_of[slots[r]] = r
+    row_of = _row_of(slots)
+    top = row_of.shape[0]
     k = fresh.shape[0]
     local = np.full(m, -1, np.int64)
     for i in range(k):
@@ -500,25 +509,7 @@ def _regions_update(T, slots, fresh, adj, old, on, tk, tv, faces):
             u = adj[i, j]
             r = row_of[u] if 0 <= u < top else -1
             nb[i, j] = -3 if r < 0 else (local[r] if local[r] >= 0 else -2)
-    comp = np.full(k, -1, np.int64)
-    stack = np.empty(k, np.int64)
-    n = 0
-    for s in range(k):
-        if comp[s] >= 0:
-            continue
-        comp[s] = n
-        stack[0] = s
-        size = 1
-        while size > 0:
-            size -= 1
-            i = stack[size]
-            for j in range(4):
-                u = nb[i, j]
-                if u >= 0 and comp[u] < 0:
-                    comp[u] = n
-                    stack[size] = u
-                    size += 1
-        n += 1
+    comp, n = _flood(nb, sub_of)
     met = np.full(n, -2, np.int64)
     outside = np.zeros(n, np.bool_)
     clash = np.zeros(n, np.bool_)

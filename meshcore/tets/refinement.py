@@ -893,17 +893,16 @@ def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> 
     return done + n_sub + n_seg, outside
 
 
-def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[int, int]:
+def _refine(b: SurfaceRecovery, criteria, progress) -> tuple[int, int]:
     """Delaunay refinement rounds; returns (rounds, bad tetrahedra left)."""
     max_radius_edge, max_volume, size_at = criteria
     rounds = 0
     left = 0
-    cap = b.knobs.sliver_rounds if sliver_bound is not None else b.knobs.refinement_rounds
     # Regions and bad tetrahedra kept between rounds: each round measures only what
     # the previous one created.
     region_of = RegionLabels(b)
     bad_tets = _BadTets(max_radius_edge, max_volume, size_at, b.knobs)
-    for rounds in range(1, cap + 1):
+    for rounds in range(1, b.knobs.refinement_rounds + 1):
         if b.n >= b.knobs.max_points:
             raise AlgorithmError(
                 f"the refinement reached its limit of {b.knobs.max_points:,} points before "
@@ -948,17 +947,6 @@ def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[
         # Skinny because of a small input angle (``meshcore.tets.angles``): left.
         forced, _ = input_forced(b, Ti[rows], centres)
         rows, centres = rows[~forced], centres[~forced]
-        if sliver_bound is not None:
-            # The radius-edge, volume and size bounds first, then the slivers that
-            # are not held between two facets (those the input's fold forces).
-            dih = _least_dihedral(b.P, Ti)
-            sl = np.flatnonzero(dih < sliver_bound)
-            sl = np.setdiff1d(sl, rows)
-            sl = sl[_boundary_face_count(b, Ti[sl]) < 2]
-            sl = sl[np.argsort(dih[sl], kind="stable")]
-            c_sl, _ = _tet_circumcenters(b.P, Ti[sl])
-            rows = np.concatenate([rows, sl])
-            centres = np.concatenate([centres, c_sl])
         left = len(rows)
         if left == 0:
             return rounds, 0
