@@ -131,6 +131,11 @@ class Knobs:
     #: angle between them (degrees; a facet corner of angle t forces a
     #: radius-edge ratio of at least 1 / (2 sin t), 2 at 14.5 degrees).
     facet_angle: float = 15.0
+    #: Degrees: an input edge whose interior dihedral angle is below this gets a
+    #: protecting cylinder (``meshcore.tets.angles``): no interior point inside it, no
+    #: subface split for encroachment at a circumcentre inside it, and a tetrahedron
+    #: whose circumcentre lies inside it is left (skinny because of the input angle).
+    sharp_edge: float = 70.0
     #: A protecting ball's radius is the largest power of two at most this
     #: fraction of its vertex's local feature size (so balls never meet).
     ball_fraction: float = 1.0 / 3.0
@@ -648,6 +653,10 @@ class SurfaceRecovery:
         #: :meth:`split_segments` and :meth:`onto_balls`. Set by ``tetrahedralize``.
         self.ball = np.zeros(self.n_surface)
         self._ball_tree = None
+        #: Protecting cylinders along sharp input edges (``meshcore.tets.angles``): the
+        #: edge (``edges`` row) and radius of each; see :meth:`in_cylinders`.
+        self.cyl_edge = np.zeros(0, dtype=np.int64)
+        self.cyl_radius = np.zeros(0)
         self.unsettled: dict[int, np.ndarray] = {}  # subsegments missing from a facet's 2D mesh
         self.dt = IncrementalDelaunay3d(self.P)
         self._tets_at = -1
@@ -1041,6 +1050,31 @@ class SurfaceRecovery:
                 out[j[dd <= np.minimum(r[i], r[j])]] = True
         return out
 
+    def in_cylinders(self, X: np.ndarray) -> np.ndarray:
+        """The sharp input edge (``edges`` row) whose protecting cylinder holds each point
+        strictly inside, or -1 (the nearest such edge's; float distances).
+
+        The cylinder of an edge: the points whose projection on the edge's line falls
+        inside the edge and whose distance to that line is below ``cyl_radius``.
+        """
+        out = np.full(len(X), -1, dtype=np.int64)
+        if len(X) == 0 or self.cyl_edge.size == 0:
+            return out
+        E = self.edges[self.cyl_edge]
+        a, bb = self.P[E[:, 0]], self.P[E[:, 1]]
+        half = 0.5 * np.linalg.norm(bb - a, axis=1)
+        xi, ci = ball_pairs(X, 0.5 * (a + bb), half + self.cyl_radius)
+        if xi.size == 0:
+            return out
+        d = bb[ci] - a[ci]
+        t = np.einsum("ij,ij->i", X[xi] - a[ci], d) / np.einsum("ij,ij->i", d, d)
+        off = np.linalg.norm(X[xi] - (a[ci] + t[:, None] * d), axis=1)
+        inside = (t > 0) & (t < 1) & (off < self.cyl_radius[ci] * (1.0 - 1e-9))
+        xi, ci, off = xi[inside], ci[inside], off[inside]
+        order = np.argsort(-off, kind="stable")  # the nearest edge written last wins
+        out[xi[order]] = self.cyl_edge[ci[order]]
+        return out
+
     def in_balls(self, X: np.ndarray) -> np.ndarray:
         """The input vertex whose protecting ball holds each point strictly inside, or -1.
 
@@ -1103,10 +1137,16 @@ class SurfaceRecovery:
         return np.where(ia ^ ib, self.ball[v], 0.0)
 
     def protected_subfaces(self, rows: np.ndarray) -> np.ndarray:
-        _, R = tri_circumcenters(self.P, self.sub[rows])
+        """Which subfaces ``rows`` are not split for encroachment: too small (``protect``)
+        or with their circumcentre inside a protecting cylinder (:meth:`in_cylinders`)."""
+        c, R = tri_circumcenters(self.P, self.sub[rows])
         g = self.sub_facet[rows]
         ref = np.minimum(np.minimum(self.facet_short[g], self.facet_size[g]), self.size_cap)
-        return R < self.knobs.protect * ref
+        out = R < self.knobs.protect * ref
+        if self.cyl_edge.size:
+            c = np.where(np.isfinite(c).all(axis=1)[:, None], c, 1e300)
+            out |= self.in_cylinders(c) >= 0
+        return out
 
     def segment_size(self, rows: np.ndarray) -> np.ndarray:
         """The size of subsegments ``rows``: the smaller ``facet_size`` of their two facets."""
