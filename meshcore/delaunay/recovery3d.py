@@ -76,15 +76,9 @@ class Knobs:
     recovery_rounds: int = 200
     #: Refinement rounds (encroachment fixes and one pass over bad tetrahedra each).
     refinement_rounds: int = 60
-    #: Sliver rounds.
-    sliver_rounds: int = 8
     #: Degrees: a tetrahedron with two faces on the surface and a least dihedral
     #: angle below this fills a fold of two facets coplanar up to rounding.
     flat_fold: float = 1e-6
-    #: Random candidates per sliver, besides its circumcentre, and the radius of
-    #: the ball they are drawn from, in units of the circumradius.
-    sliver_candidates: int = 16
-    sliver_ball: float = 0.5
     #: Circumradius bound of the size criterion, in units of ``size`` (a
     #: regular tetrahedron of edge h has circumradius 0.61 h).
     size_radius: float = 0.7
@@ -137,6 +131,11 @@ class Knobs:
     #: angle between them (degrees; a facet corner of angle t forces a
     #: radius-edge ratio of at least 1 / (2 sin t), 2 at 14.5 degrees).
     facet_angle: float = 15.0
+    #: Degrees: an input edge whose interior dihedral angle is below this gets a
+    #: protecting cylinder (``meshcore.tets.angles``): no interior point inside it, no
+    #: subface split for encroachment at a circumcentre inside it, and a tetrahedron
+    #: whose circumcentre lies inside it is left (skinny because of the input angle).
+    sharp_edge: float = 70.0
     #: A protecting ball's radius is the largest power of two at most this
     #: fraction of its vertex's local feature size (so balls never meet).
     ball_fraction: float = 1.0 / 3.0
@@ -382,40 +381,28 @@ def _present(T, on, seg_tk, seg_tv, n_seg, sub_tk, sub_tv, n_sub, edges, faces):
 
 
 @njit(cache=True)
-def _regions_pass(T, slots, adj, on, tk, tv, faces):
-    """The flood fill of :func:`regions` in one pass.
-
-    Returns the component of each tetrahedron (across faces that are not
-    subfaces, between real tetrahedra), their number, whether each meets the
-    outside (a non-subface with no real tetrahedron behind it), and every
-    (tetrahedron, face, subface) incidence in row-major order.
-    """
-    m = T.shape[0]
+def _row_of(slots):
+    """(top,) int64: the row of each slot in ``slots`` (-1 for slots not listed)."""
     top = 0
     for s in slots:
         top = max(top, s + 1)
     row_of = np.full(top, -1, np.int64)
-    for r in range(m):
+    for r in range(slots.shape[0]):
         row_of[slots[r]] = r
-    shift = _shift(tk.shape[0])
-    nb = np.empty((m, 4), np.int64)
-    sub_of = np.full((m, 4), -1, np.int64)
-    n_inc = 0
-    for t in range(m):
-        for j in range(4):
-            u = adj[t, j]
-            nb[t, j] = row_of[u] if 0 <= u < top else -1
-            a = T[t, faces[j, 0]]
-            b = T[t, faces[j, 1]]
-            c = T[t, faces[j, 2]]
-            if on[a] and on[b] and on[c]:
-                sub_of[t, j] = _find(tk, tv, _face_key(a, b, c), shift)
-                if sub_of[t, j] >= 0:
-                    n_inc += 1
-    comp = np.full(m, -1, np.int64)
-    stack = np.empty(m, np.int64)
+    return row_of
+
+
+@njit(cache=True)
+def _flood(nb, sub_of):
+    """Connected components of rows joined across their faces: row ``t``'s face ``j``
+    joins it to row ``nb[t, j]`` when that is >= 0 and the face is no subface
+    (``sub_of[t, j] < 0``). Returns (component of each row, their number), components
+    numbered in the order of their first row."""
+    k = nb.shape[0]
+    comp = np.full(k, -1, np.int64)
+    stack = np.empty(k, np.int64)
     n = 0
-    for s in range(m):
+    for s in range(k):
         if comp[s] >= 0:
             continue
         comp[s] = n
@@ -431,6 +418,37 @@ def _regions_pass(T, slots, adj, on, tk, tv, faces):
                     stack[size] = u
                     size += 1
         n += 1
+    return comp, n
+
+
+@njit(cache=True)
+def _regions_pass(T, slots, adj, on, tk, tv, faces):
+    """The flood fill of :func:`regions` in one pass.
+
+    Returns the component of each tetrahedron (across faces that are not
+    subfaces, between real tetrahedra), their number, whether each meets the
+    outside (a non-subface with no real tetrahedron behind it), and every
+    (tetrahedron, face, subface) incidence in row-major order.
+    """
+    m = T.shape[0]
+    row_of = _row_of(slots)
+    top = row_of.shape[0]
+    shift = _shift(tk.shape[0])
+    nb = np.empty((m, 4), np.int64)
+    sub_of = np.full((m, 4), -1, np.int64)
+    n_inc = 0
+    for t in range(m):
+        for j in range(4):
+            u = adj[t, j]
+            nb[t, j] = row_of[u] if 0 <= u < top else -1
+            a = T[t, faces[j, 0]]
+            b = T[t, faces[j, 1]]
+            c = T[t, faces[j, 2]]
+            if on[a] and on[b] and on[c]:
+                sub_of[t, j] = _find(tk, tv, _face_key(a, b, c), shift)
+                if sub_of[t, j] >= 0:
+                    n_inc += 1
+    comp, n = _flood(nb, sub_of)
     outside = np.zeros(n, np.bool_)
     inc_t = np.empty(n_inc, np.int64)
     inc_f = np.empty(n_inc, np.int64)
@@ -472,12 +490,8 @@ def _regions_update(T, slots, fresh, adj, old, on, tk, tv, faces):
     and whether two labels met disagree, and the subface incidences.
     """
     m = T.shape[0]
-    top = 0
-    for s in slots:
-        top = max(top, s + 1)
-    row_of = np.full(top, -1, np.int64)
-    for r in range(m):
-        row_of[slots[r]] = r
+    row_of = _row_of(slots)
+    top = row_of.shape[0]
     k = fresh.shape[0]
     local = np.full(m, -1, np.int64)
     for i in range(k):
@@ -500,25 +514,7 @@ def _regions_update(T, slots, fresh, adj, old, on, tk, tv, faces):
             u = adj[i, j]
             r = row_of[u] if 0 <= u < top else -1
             nb[i, j] = -3 if r < 0 else (local[r] if local[r] >= 0 else -2)
-    comp = np.full(k, -1, np.int64)
-    stack = np.empty(k, np.int64)
-    n = 0
-    for s in range(k):
-        if comp[s] >= 0:
-            continue
-        comp[s] = n
-        stack[0] = s
-        size = 1
-        while size > 0:
-            size -= 1
-            i = stack[size]
-            for j in range(4):
-                u = nb[i, j]
-                if u >= 0 and comp[u] < 0:
-                    comp[u] = n
-                    stack[size] = u
-                    size += 1
-        n += 1
+    comp, n = _flood(nb, sub_of)
     met = np.full(n, -2, np.int64)
     outside = np.zeros(n, np.bool_)
     clash = np.zeros(n, np.bool_)
@@ -657,6 +653,10 @@ class SurfaceRecovery:
         #: :meth:`split_segments` and :meth:`onto_balls`. Set by ``tetrahedralize``.
         self.ball = np.zeros(self.n_surface)
         self._ball_tree = None
+        #: Protecting cylinders along sharp input edges (``meshcore.tets.angles``): the
+        #: edge (``edges`` row) and radius of each; see :meth:`in_cylinders`.
+        self.cyl_edge = np.zeros(0, dtype=np.int64)
+        self.cyl_radius = np.zeros(0)
         self.unsettled: dict[int, np.ndarray] = {}  # subsegments missing from a facet's 2D mesh
         self.dt = IncrementalDelaunay3d(self.P)
         self._tets_at = -1
@@ -917,7 +917,7 @@ class SurfaceRecovery:
         self.sub = np.concatenate([self.sub[keep], sub])
         self.sub_facet = np.concatenate([self.sub_facet[keep], owner])
 
-    def split_subfaces(self, rows: np.ndarray) -> tuple[int, int]:
+    def split_subfaces(self, rows: np.ndarray, touched: list | None = None) -> tuple[int, int]:
         """Split subfaces ``rows`` at their circumcentres (Shewchuk's rule).
 
         A circumcentre in the diametral ball of a subsegment splits the
@@ -926,11 +926,15 @@ class SurfaceRecovery:
         subface to it (:meth:`crossed_segments`: a vertex of the subface
         encroaches that subsegment, Shewchuk's lemma). A point
         inside the protecting ball of a corner of its facet is moved onto the
-        ball's sphere (:meth:`onto_balls`). Returns (subfaces split,
-        subsegments split).
+        ball's sphere (:meth:`onto_balls`). ``touched``: the facets a caller's
+        :meth:`split_segments` deferred (``defer``), retriangulated here with
+        these splits, so that ``rows`` still name the subfaces they named.
+        Returns (subfaces split, subsegments split).
         """
         rows = np.unique(rows)
+        touched = [] if touched is None else touched
         if rows.size == 0:
+            self._retriangulate_after(touched, np.zeros(0, dtype=np.int64))
             return 0, 0
         c, R = tri_circumcenters(self.P, self.sub[rows])
         flat = ~np.isfinite(c).all(axis=1)
@@ -975,15 +979,20 @@ class SurfaceRecovery:
             inside[lost] = True
         c[lost] = self.onto_balls(c[lost], f[lost])
         use = inside & ~hit
-        touched: list = []
         n_seg = self.split_segments(enc_s, touched)
         ids = self.add(c[use], np.full(int(use.sum()), -1), f[use])
-        # One retriangulation for both splits, the subfaces in the order two would give
-        # (the facets of the subsegments only, then those of the new points).
-        mine = unique_ints(f[use][ids >= 0])
-        first = np.concatenate([np.zeros(0, dtype=np.int64), *touched])
-        self.retriangulate(np.concatenate([first[~isin_ints(first, mine)], mine]))
+        self._retriangulate_after(touched, unique_ints(f[use][ids >= 0]))
         return int((ids >= 0).sum()), n_seg
+
+    def _retriangulate_after(self, touched: list, mine: np.ndarray) -> None:
+        """One retriangulation for deferred subsegment splits (``touched``, facet arrays)
+        and facets ``mine`` that got points inside, the subfaces in the order separate
+        calls would give (the facets of the subsegments only, first seen first, then
+        ``mine``)."""
+        first = np.concatenate([np.zeros(0, dtype=np.int64), *touched])
+        _, at = np.unique(first, return_index=True)
+        first = first[np.sort(at)]
+        self.retriangulate(np.concatenate([first[~isin_ints(first, mine)], mine]))
 
     def crossed_segments(self, A: np.ndarray, B: np.ndarray, f: np.ndarray) -> np.ndarray:
         """For each segment A→B in facet ``f``'s plane, the subsegment of the facet's
@@ -1039,6 +1048,31 @@ class SurfaceRecovery:
                 i, j = np.where(swap, j, i), np.where(swap, i, j)
                 dd = np.linalg.norm(X[i] - X[j], axis=1)
                 out[j[dd <= np.minimum(r[i], r[j])]] = True
+        return out
+
+    def in_cylinders(self, X: np.ndarray) -> np.ndarray:
+        """The sharp input edge (``edges`` row) whose protecting cylinder holds each point
+        strictly inside, or -1 (the nearest such edge's; float distances).
+
+        The cylinder of an edge: the points whose projection on the edge's line falls
+        inside the edge and whose distance to that line is below ``cyl_radius``.
+        """
+        out = np.full(len(X), -1, dtype=np.int64)
+        if len(X) == 0 or self.cyl_edge.size == 0:
+            return out
+        E = self.edges[self.cyl_edge]
+        a, bb = self.P[E[:, 0]], self.P[E[:, 1]]
+        half = 0.5 * np.linalg.norm(bb - a, axis=1)
+        xi, ci = ball_pairs(X, 0.5 * (a + bb), half + self.cyl_radius)
+        if xi.size == 0:
+            return out
+        d = bb[ci] - a[ci]
+        t = np.einsum("ij,ij->i", X[xi] - a[ci], d) / np.einsum("ij,ij->i", d, d)
+        off = np.linalg.norm(X[xi] - (a[ci] + t[:, None] * d), axis=1)
+        inside = (t > 0) & (t < 1) & (off < self.cyl_radius[ci] * (1.0 - 1e-9))
+        xi, ci, off = xi[inside], ci[inside], off[inside]
+        order = np.argsort(-off, kind="stable")  # the nearest edge written last wins
+        out[xi[order]] = self.cyl_edge[ci[order]]
         return out
 
     def in_balls(self, X: np.ndarray) -> np.ndarray:
@@ -1103,10 +1137,16 @@ class SurfaceRecovery:
         return np.where(ia ^ ib, self.ball[v], 0.0)
 
     def protected_subfaces(self, rows: np.ndarray) -> np.ndarray:
-        _, R = tri_circumcenters(self.P, self.sub[rows])
+        """Which subfaces ``rows`` are not split for encroachment: too small (``protect``)
+        or with their circumcentre inside a protecting cylinder (:meth:`in_cylinders`)."""
+        c, R = tri_circumcenters(self.P, self.sub[rows])
         g = self.sub_facet[rows]
         ref = np.minimum(np.minimum(self.facet_short[g], self.facet_size[g]), self.size_cap)
-        return R < self.knobs.protect * ref
+        out = R < self.knobs.protect * ref
+        if self.cyl_edge.size:
+            c = np.where(np.isfinite(c).all(axis=1)[:, None], c, 1e300)
+            out |= self.in_cylinders(c) >= 0
+        return out
 
     def segment_size(self, rows: np.ndarray) -> np.ndarray:
         """The size of subsegments ``rows``: the smaller ``facet_size`` of their two facets."""

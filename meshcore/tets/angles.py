@@ -26,6 +26,20 @@ Shewchuk's, TetGen's and CGAL's meshers:
   and no interior point is inserted inside it (the tetrahedron asking for
   it is left, cause ``input_angle``). Then the subsegments from the vertex
   to its sphere are edges for good, and the splits next to it end.
+* **Protecting cylinders** (:func:`protecting_cylinders`, after the
+  protection along sharp edges of CGAL's meshers and the same balls' idea):
+  every *sharp* input edge (interior dihedral angle below
+  ``Knobs.sharp_edge``, 70 degrees, or above 360 minus it: two facets nearly
+  folded onto each other across a thin slot outside) gets a cylinder around
+  it, of radius a power of two at most ``Knobs.ball_fraction`` of its length
+  and of its distance to the nearest input vertex off it. No interior point
+  is inserted inside it, a subface whose circumcentre lies inside it is not
+  split for encroachment (the tetrahedron asking for it is left), and a
+  tetrahedron whose circumcentre lies inside it is left, named by the edge
+  (:func:`held_by_cylinders` names those left for such a subface). Before,
+  the refinement along an edge of 13 degrees split the subfaces on both
+  sides of it ever nearer the edge: star seed 3264, 1,027,890 tetrahedra in
+  307 CPU s; now 2,312. Recovery (missing pieces) is not restricted.
 * **Skinny because of the input** (:func:`input_forced`; Shewchuk,
   "Tetrahedral mesh generation by Delaunay refinement", 1998, §5): a bad
   tetrahedron whose shortest edge joins points on two different input
@@ -50,12 +64,18 @@ import numpy as np
 from numba import njit
 from scipy.spatial import cKDTree
 
-from meshcore.delaunay.recovery3d import TET_EDGES, SurfaceRecovery, ball_pairs
+from meshcore.delaunay.recovery3d import TET_EDGES, SurfaceRecovery, ball_pairs, tri_circumcenters
 from meshcore.mesh.topology import unique_ints
 
 _TET_EDGES = TET_EDGES.copy()
 
-__all__ = ["input_forced", "protecting_balls"]
+__all__ = [
+    "held_by_cylinders",
+    "input_forced",
+    "protecting_balls",
+    "protecting_cylinders",
+    "segment_dihedrals",
+]
 
 
 def _unit(x: np.ndarray) -> np.ndarray:
@@ -85,19 +105,16 @@ def _pairs(group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return i[keep], j[keep]
 
 
-def sharp_vertices(b: SurfaceRecovery) -> np.ndarray:
-    """Mask of the input vertices where features meet at a small angle (see the module)."""
-    k = b.knobs
+def segment_dihedrals(b: SurfaceRecovery) -> tuple[np.ndarray, np.ndarray]:
+    """The input segments (``edges`` rows, ascending) and the interior dihedral angle
+    (degrees, between their two input triangles, inside the region) of each."""
     n = b.n_surface
     P = b.P
     F = b.facets
-    out = np.zeros(n, dtype=bool)
-    seg_e = b.seg_edge[: len(b.seg_edge)]
-    seg_e = np.unique(seg_e)
+    seg_e = unique_ints(b.seg_edge)
     E = b.edges[seg_e]
     if len(E) == 0:
-        return out
-    # Interior dihedral angle of each segment: its two input triangles.
+        return seg_e, np.zeros(0)
     tri_edges = np.sort(np.stack([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]], 1), axis=2)
     key = tri_edges[..., 0] * n + tri_edges[..., 1]
     order = np.argsort(key.reshape(-1), kind="stable")
@@ -109,7 +126,20 @@ def sharp_vertices(b: SurfaceRecovery) -> np.ndarray:
     far = F[t2][(F[t2] != E[:, :1]) & (F[t2] != E[:, 1:])]
     convex = np.einsum("ij,ij->i", nrm[t1], P[far] - P[F[t1, 0]]) < 0
     phi = _angle(nrm[t1], nrm[t2])
-    dihedral = np.where(convex, 180.0 - phi, 180.0 + phi)
+    return seg_e, np.where(convex, 180.0 - phi, 180.0 + phi)
+
+
+def sharp_vertices(b: SurfaceRecovery) -> np.ndarray:
+    """Mask of the input vertices where features meet at a small angle (see the module)."""
+    k = b.knobs
+    P = b.P
+    F = b.facets
+    out = np.zeros(b.n_surface, dtype=bool)
+    seg_e, dihedral = segment_dihedrals(b)
+    E = b.edges[seg_e]
+    if len(E) == 0:
+        return out
+    nrm = _unit(np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]]))
     sharp_seg = dihedral < k.sharp_dihedral
     out[E[sharp_seg].reshape(-1)] = True
     # Pairs of segments at a vertex that share no facet.
@@ -210,6 +240,55 @@ def protecting_balls(b: SurfaceRecovery) -> int:
     b.ball[sharp[ok]] = np.exp2(np.floor(np.log2(r[ok])))
     b._ball_tree = None
     return int(ok.sum())
+
+
+def protecting_cylinders(b: SurfaceRecovery) -> int:
+    """Give every sharp input edge of ``b`` its protecting cylinder; their number.
+
+    Sharp: an interior dihedral angle below ``Knobs.sharp_edge``, or above 360
+    degrees minus it (two facets nearly folded onto each other across a thin slot
+    outside: each one's points encroach the other's subfaces). Radius: the
+    largest power of two at most ``Knobs.ball_fraction`` times the edge's length
+    and times the distance from the edge to the nearest input vertex off it.
+    """
+    seg_e, dihedral = segment_dihedrals(b)
+    e = seg_e[np.minimum(dihedral, 360.0 - dihedral) < b.knobs.sharp_edge]
+    if e.size == 0:
+        return 0
+    E = b.edges[e]
+    P = b.P[: b.n_surface]
+    a, c = P[E[:, 0]], P[E[:, 1]]
+    L = np.linalg.norm(c - a, axis=1)
+    lim = b.knobs.ball_fraction * L
+    vi, ci = ball_pairs(P, 0.5 * (a + c), 1.5 * L)
+    off = (vi != E[ci, 0]) & (vi != E[ci, 1])
+    vi, ci = vi[off], ci[off]
+    if vi.size:
+        d = c[ci] - a[ci]
+        t = np.clip(np.einsum("ij,ij->i", P[vi] - a[ci], d) / np.einsum("ij,ij->i", d, d), 0, 1)
+        dist = np.linalg.norm(P[vi] - (a[ci] + t[:, None] * d), axis=1)
+        np.minimum.at(lim, ci, b.knobs.ball_fraction * dist)
+    b.cyl_edge, b.cyl_radius = e, np.exp2(np.floor(np.log2(lim)))
+    return len(e)
+
+
+def held_by_cylinders(b: SurfaceRecovery, centres: np.ndarray) -> np.ndarray:
+    """For each circumcentre, the sharp input edge (``edges`` row) whose protecting
+    cylinder holds the circumcentre of a subface it encroaches, or -1.
+
+    Such a subface is not split (``SurfaceRecovery.protected_subfaces``), so the
+    tetrahedron of that circumcentre is left because of the edge's angle.
+    """
+    out = np.full(len(centres), -1, dtype=np.int64)
+    if b.cyl_edge.size == 0 or len(centres) == 0:
+        return out
+    cc = np.where(np.isfinite(centres).all(axis=1)[:, None], centres, 1e300)
+    xi, fi = b.encroached_subfaces(cc)
+    if xi.size:
+        o, _ = tri_circumcenters(b.P, b.sub[fi])
+        e = b.in_cylinders(np.where(np.isfinite(o).all(axis=1)[:, None], o, 1e300))
+        out[xi[e >= 0]] = e[e >= 0]
+    return out
 
 
 def _feature_tables(b: SurfaceRecovery):
@@ -430,4 +509,15 @@ def input_forced(b: SurfaceRecovery, T: np.ndarray, centres: np.ndarray) -> tupl
             mask[rest[hit]] = True
             for r, v in zip(rest[hit].tolist(), vin[hit].tolist(), strict=True):
                 where[r] = [int(v)]
+    # Inside a protecting cylinder: the circumcentre next to a sharp edge.
+    if b.cyl_edge.size:
+        rest = np.flatnonzero(~mask)
+        if rest.size:
+            cc = centres[rest]
+            cc = np.where(np.isfinite(cc).all(axis=1)[:, None], cc, 1e300)
+            ein = b.in_cylinders(cc)
+            hit = ein >= 0
+            mask[rest[hit]] = True
+            for r, e in zip(rest[hit].tolist(), ein[hit].tolist(), strict=True):
+                where[r] = sorted(int(v) for v in b.edges[e])
     return mask, where

@@ -129,9 +129,12 @@ Choices the methods text leaves open
   (features meeting below ``Knobs.small_angle``, 60 degrees, or a dihedral
   angle below ``Knobs.sharp_dihedral``, 85) gets a protecting ball (the
   shells stop at its sphere, facet split points inside it are moved onto
-  it, no interior point goes in it). The rule for what is left: a bad
+  it, no interior point goes in it); a *sharp* input edge (dihedral angle
+  below ``Knobs.sharp_edge``, 70, or above 360 minus it) gets a protecting
+  cylinder (no interior point in it, no subface split for encroachment at a
+  circumcentre in it). The rule for what is left: a bad
   tetrahedron is not refined when its circumcentre lies in a protecting
-  ball, or when its shortest edge joins two different
+  ball or cylinder, or when its shortest edge joins two different
   input features meeting at an input vertex or segment at an angle below
   60 degrees (15 between two segments of one facet) -- skinny because of
   the input (Shewchuk 1998); ``left`` counts them as ``input_angle`` and
@@ -182,7 +185,12 @@ from meshcore.domain.surface import as_surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh
-from meshcore.tets.angles import input_forced, protecting_balls
+from meshcore.tets.angles import (
+    held_by_cylinders,
+    input_forced,
+    protecting_balls,
+    protecting_cylinders,
+)
 from meshcore.tets.keep import flip_slivers, lift_surface_points
 from meshcore.tets.sizing import SizeField3d
 
@@ -234,7 +242,9 @@ class TetrahedralizationResult:
         on the surface: it fills the angle between two facets, which the
         input forces when that angle is near 180 degrees, e.g. two input
         triangles coplanar up to rounding), ``input_angle`` (skinny because
-        of a small input angle, :mod:`meshcore.tets.angles`; where, in
+        of a small input angle, a fold there included, or left because the
+        subface its circumcentre encroaches lies in a sharp edge's protecting
+        cylinder, :mod:`meshcore.tets.angles`; where, in
         ``input_angles``: the input vertex or segment and how many
         tetrahedra), ``surface`` (four vertices on the surface, its centre
         encroaching pieces too small to split), ``interior``; and the ten
@@ -539,8 +549,16 @@ def _left_report(
         bad |= ratio > max_radius_edge
     if min_dihedral:
         bad |= dih < min_dihedral
-    rows = np.flatnonzero(bad & ~folds)
+    # A fold at a small input angle (its circumcentre in a protecting ball or
+    # cylinder) is skinny because of that angle: it is named with it.
+    rows = np.flatnonzero(bad)
     forced, where = input_forced(b, T[rows], c[rows])
+    # Left because the subface its circumcentre encroaches lies by a sharp edge.
+    rest = np.flatnonzero(~forced)
+    held = held_by_cylinders(b, c[rows[rest]])
+    for r, e in zip(rest[held >= 0].tolist(), held[held >= 0].tolist(), strict=True):
+        forced[r] = True
+        where[r] = sorted(int(v) for v in b.edges[e])
     cause[rows[forced]] = 3
     places: dict = {}
     for w in (w for w, f in zip(where, forced, strict=True) if f):
@@ -825,8 +843,8 @@ def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> 
                 splits[new[0]] = True
 
     encroaching(np.arange(n_c))
-    # No interior point inside a protecting ball (``meshcore.tets.angles``).
-    ball = b.in_balls(centres) >= 0
+    # No interior point inside a protecting ball or cylinder (``meshcore.tets.angles``).
+    ball = (b.in_balls(centres) >= 0) | (b.in_cylinders(centres) >= 0)
     held |= ball & ~splits
     blocked |= ball
     # Far circumcentres (of nearly flat tetrahedra) lie outside the surface's box:
@@ -860,7 +878,7 @@ def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> 
         # (inserted next to a subface, it made flat tetrahedra whose centroids
         # went nearer still: 59,429 of them on star seed 1046).
         encroaching(lone)
-        inb = b.in_balls(centres[lone]) >= 0
+        inb = (b.in_balls(centres[lone]) >= 0) | (b.in_cylinders(centres[lone]) >= 0)
         held[lone[inb]] = True
         blocked[lone[inb]] = True
     keep = ~blocked & ~far
@@ -885,25 +903,24 @@ def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> 
         now = np.sort(b.dt.tets(slots[rows[rej]]), axis=1)
         alive[rej] = (now == np.sort(tets[rows[rej]], axis=1)).all(axis=1)
     outside += int((held & alive & ~splits).sum())
-    done += b.split_segments(seg_pairs[1][alive[seg_pairs[0]]])
-    sub_rows = np.unique(sub_pairs[1][alive[sub_pairs[0]]])
-    if sub_rows.size:
-        n_sub, n_seg = b.split_subfaces(sub_rows)
-        done += n_sub + n_seg
-    return done, outside
+    # The facets the subsegment splits touch are retriangulated with the subface
+    # splits: a retriangulation renumbers ``b.sub``, and ``sub_pairs`` name rows of it.
+    touched: list = []
+    done += b.split_segments(seg_pairs[1][alive[seg_pairs[0]]], touched)
+    n_sub, n_seg = b.split_subfaces(sub_pairs[1][alive[sub_pairs[0]]], touched)
+    return done + n_sub + n_seg, outside
 
 
-def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[int, int]:
+def _refine(b: SurfaceRecovery, criteria, progress) -> tuple[int, int]:
     """Delaunay refinement rounds; returns (rounds, bad tetrahedra left)."""
     max_radius_edge, max_volume, size_at = criteria
     rounds = 0
     left = 0
-    cap = b.knobs.sliver_rounds if sliver_bound is not None else b.knobs.refinement_rounds
     # Regions and bad tetrahedra kept between rounds: each round measures only what
     # the previous one created.
     region_of = RegionLabels(b)
     bad_tets = _BadTets(max_radius_edge, max_volume, size_at, b.knobs)
-    for rounds in range(1, cap + 1):
+    for rounds in range(1, b.knobs.refinement_rounds + 1):
         if b.n >= b.knobs.max_points:
             raise AlgorithmError(
                 f"the refinement reached its limit of {b.knobs.max_points:,} points before "
@@ -948,17 +965,6 @@ def _refine(b: SurfaceRecovery, criteria, progress, sliver_bound=None) -> tuple[
         # Skinny because of a small input angle (``meshcore.tets.angles``): left.
         forced, _ = input_forced(b, Ti[rows], centres)
         rows, centres = rows[~forced], centres[~forced]
-        if sliver_bound is not None:
-            # The radius-edge, volume and size bounds first, then the slivers that
-            # are not held between two facets (those the input's fold forces).
-            dih = _least_dihedral(b.P, Ti)
-            sl = np.flatnonzero(dih < sliver_bound)
-            sl = np.setdiff1d(sl, rows)
-            sl = sl[_boundary_face_count(b, Ti[sl]) < 2]
-            sl = sl[np.argsort(dih[sl], kind="stable")]
-            c_sl, _ = _tet_circumcenters(b.P, Ti[sl])
-            rows = np.concatenate([rows, sl])
-            centres = np.concatenate([centres, c_sl])
         left = len(rows)
         if left == 0:
             return rounds, 0
@@ -1149,6 +1155,7 @@ def tetrahedralize(
     if not (empty or keep_boundary):
         # Small input angles: protecting balls at the sharp vertices.
         protecting_balls(b)
+        protecting_cylinders(b)
     timings["delaunay"] = time.perf_counter() - t0
     rounds = 0
     given_up = 0

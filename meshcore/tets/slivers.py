@@ -40,7 +40,6 @@ import numpy as np
 from numba import njit
 
 from meshcore.delaunay.recovery3d import (
-    TET_EDGES,
     TET_FACES,
     SurfaceRecovery,
     face_keys,
@@ -52,16 +51,20 @@ from meshcore.delaunay.recovery3d import (
 from meshcore.mesh.tetstore import N_ROWS, CellStore
 from meshcore.tets.improve import NK, OUT_OF_POINTS, OUT_OF_ROWS, improve_passes
 from meshcore.tets.refinement import (
+    _circumsphere,
     _flat_folds,
+    _least_dihedral,
+    _least_dihedral_cos,
+    _shortest2,
     _shortest_edge,
     _tet_circumcenters,
-    tetra_dihedral_angles,
 )
 
 __all__ = ["improve", "remove_slivers", "sliver_pass"]
 
 _TET_FACES = TET_FACES.copy()
-_TET_EDGES = TET_EDGES.copy()
+#: The one tetrahedron of four points, for the compiled measures of :func:`_quality`.
+_ONE = np.arange(4, dtype=np.int64).reshape(1, 4)
 
 #: Passes over the tetrahedra under the bound.
 PASSES = 30
@@ -72,6 +75,10 @@ UNBOUNDED_CAP = 2.0
 #: Rounds of perturbed insertion before the improvement (each is a pass over the whole mesh;
 #: the improvement finishes what they leave).
 PERTURBED_ROUNDS = 3
+#: Random candidates per sliver in perturbed insertion, besides its circumcentre, and the
+#: radius of the ball they are drawn from, in units of the circumradius.
+CANDIDATES = 16
+CANDIDATE_BALL = 0.5
 #: Spare point rows for insertion (grown as needed).
 SPARE = 1024
 
@@ -207,15 +214,15 @@ def remove_slivers(
 
 
 def _least(P: np.ndarray, tetra: np.ndarray) -> float:
-    return float(tetra_dihedral_angles(P, tetra).min()) if len(tetra) else 180.0
+    return float(_least_dihedral(P, tetra).min()) if len(tetra) else 180.0
 
 
 def sliver_pass(b: SurfaceRecovery, bound: float, max_radius_edge: float, progress) -> int:
     """Slivers removed by perturbed insertion (Chew; Li and Teng); returns the rounds.
 
     Each tetrahedron whose least dihedral angle is below ``bound`` is
-    offered its circumcentre and ``sliver_candidates`` random points of the
-    ball of radius ``sliver_ball`` times its circumradius around it. For
+    offered its circumcentre and ``CANDIDATES`` random points of the
+    ball of radius ``CANDIDATE_BALL`` times its circumradius around it. For
     each candidate the cavity it would open (the tetrahedra whose
     circumsphere holds it, float, grown from the tetrahedron holding it) and
     the tetrahedra it would create are evaluated; the candidate is rejected
@@ -231,13 +238,13 @@ def sliver_pass(b: SurfaceRecovery, bound: float, max_radius_edge: float, progre
     stop when one inserts nothing.
     """
     rng = np.random.default_rng(0)
-    k = b.knobs.sliver_candidates
+    k = CANDIDATES
     rounds = 0
-    for rounds in range(1, min(b.knobs.sliver_rounds, PERTURBED_ROUNDS) + 1):
+    for rounds in range(1, PERTURBED_ROUNDS + 1):
         recover(b, None)
         slots, T = b.tets()
         region = regions(b, slots, T)
-        dih = tetra_dihedral_angles(b.P, T).min(axis=1)
+        dih = _least_dihedral(b.P, T)
         rows = np.flatnonzero((region >= 0) & (dih < bound))
         rows = rows[~_flat_folds(b, T[rows])]
         if rows.size == 0:
@@ -257,7 +264,7 @@ def sliver_pass(b: SurfaceRecovery, bound: float, max_radius_edge: float, progre
                 c, R = b.P[T[row]].mean(axis=0)[None], np.zeros(1)
             d = rng.normal(size=(k, 3))
             d *= (rng.random(k) ** (1 / 3) / np.linalg.norm(d, axis=1))[:, None]
-            X = np.concatenate([c, c + b.knobs.sliver_ball * R[0] * d])
+            X = np.concatenate([c, c + CANDIDATE_BALL * R[0] * d])
             fk = face_keys(T[row][TET_FACES])
             on = member(fk, sub_keys)
             if on.any():
@@ -299,47 +306,14 @@ def sliver_pass(b: SurfaceRecovery, bound: float, max_radius_edge: float, progre
 def _quality(X):
     """(least dihedral angle in degrees, radius-edge ratio) of the tetrahedron X (4, 3).
 
-    Numpy's error model: a flat tetrahedron gives angle 0 and an infinite or
-    NaN ratio, as :func:`tetra_dihedral_angles` and :func:`_tet_circumcenters`.
+    The refinement's compiled measures (:func:`~meshcore.tets.refinement._least_dihedral_cos`,
+    ``_circumsphere``, ``_shortest2``). Numpy's error model: a flat tetrahedron gives
+    angle 0 and an infinite or NaN ratio, as :func:`tetra_dihedral_angles` and
+    :func:`_tet_circumcenters`.
     """
-    nrm = np.empty((4, 3))
-    for i in range(4):
-        a = X[_TET_FACES[i, 0]]
-        u = X[_TET_FACES[i, 1]] - a
-        v = X[_TET_FACES[i, 2]] - a
-        c = np.array(
-            [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
-        )
-        L = math.sqrt((c * c).sum())
-        nrm[i] = c / L if L > 0 else np.full(3, np.nan)
-    dih = np.inf
-    for k in range(6):
-        i, j = _TET_EDGES[k, 0], _TET_EDGES[k, 1]
-        p = -1
-        q = -1
-        for x in range(4):
-            if x != i and x != j:
-                if p < 0:
-                    p = x
-                else:
-                    q = x
-        cos = -(nrm[p] * nrm[q]).sum()
-        ang = 0.0 if np.isnan(cos) else math.degrees(math.acos(min(1.0, max(-1.0, cos))))
-        dih = min(dih, ang)
-    u = X[1] - X[0]
-    v = X[2] - X[0]
-    w = X[3] - X[0]
-    vw = np.array([v[1] * w[2] - v[2] * w[1], v[2] * w[0] - v[0] * w[2], v[0] * w[1] - v[1] * w[0]])
-    wu = np.array([w[1] * u[2] - w[2] * u[1], w[2] * u[0] - w[0] * u[2], w[0] * u[1] - w[1] * u[0]])
-    uv = np.array([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]])
-    den = 2.0 * (u * vw).sum()
-    off = ((u * u).sum() * vw + (v * v).sum() * wu + (w * w).sum() * uv) / den
-    short = np.inf
-    for k in range(6):
-        d = X[_TET_EDGES[k, 0]] - X[_TET_EDGES[k, 1]]
-        short = min(short, math.sqrt((d * d).sum()))
-    ratio = math.sqrt((off * off).sum()) / short
-    return dih, ratio
+    cos = _least_dihedral_cos(X, _ONE, 0, np.empty((4, 3)))
+    r = _circumsphere(X, _ONE, 0)[3]
+    return math.degrees(math.acos(min(1.0, max(-1.0, cos)))), r / math.sqrt(_shortest2(X, _ONE, 0))
 
 
 @njit(cache=True, error_model="numpy")

@@ -52,9 +52,12 @@ class TetrahedralizeParams(MethodParams):
     )
     min_dihedral: Annotated[float, Field(gt=0, le=70, allow_inf_nan=False)] | None = Field(
         default=None,
-        description="Degrees: sliver rounds after refinement for the tetrahedra whose least "
-        "dihedral angle is below it (perturbed insertion that never lowers the local least "
-        "angle). Best effort: quality.tetra.dihedral says what was reached, stats.left counts "
+        description="Degrees: slivers removed after refinement for the tetrahedra whose least "
+        "dihedral angle is below it: up to 3 rounds of perturbed insertion, then edge removal, "
+        "flips, smoothing and point insertion, each raising the local least angle and keeping "
+        "max_radius_edge (where that is not enough, a second stage trades the ratio: "
+        "stats.left.improvement.radius_edge_traded); the output is then not Delaunay. "
+        "Best effort: quality.tetra.dihedral says what was reached, stats.left counts "
         "the tetrahedra still below it by cause (fold: between two input triangles at nearly "
         "180 degrees; surface; interior; input_angle: skinny because of an input angle below "
         "60 degrees, with stats.left.input_angles naming the input vertices and segments).",
