@@ -271,21 +271,29 @@ def _run(spec: dict, wall_limit: float) -> dict:
 
 def _matched(spec: dict, n: int, wall_limit: float) -> tuple[float, dict]:
     """(size, run) of a peer at about ``n`` tetrahedra: an untimed pilot at twice the size,
-    the size its count predicts (count ~ size^-3), and where that run is over 25 % off
-    (a thin plate: count ~ size^-2 while the size exceeds the thickness) one more at the
-    size the two runs' exponent predicts."""
-    s1 = 2 * spec["size"]
-    n1 = _run({**spec, "size": s1}, wall_limit).get("tets", 0)
-    if not n1:
+    then the size the counts predict (count ~ size^-e, e from the last two runs, 3 at
+    first or where the count did not move: a thin plate's count follows size^-2 while the
+    size exceeds the thickness, TetGen's stays at its quality refinement's while ``-a`` is
+    inactive), up to three runs until one is within 25 %; the last run is the measured one."""
+    s_prev = 2 * spec["size"]
+    n_prev = _run({**spec, "size": s_prev}, wall_limit).get("tets", 0)
+    if not n_prev:
         return spec["size"], _run(spec, wall_limit)
-    s2 = s1 * (n1 / n) ** (1 / 3)
-    out = _run({**spec, "size": s2}, wall_limit)
-    n2 = out.get("tets", 0)
-    if n2 and abs(n2 / n - 1) > 0.25 and n2 != n1:
-        e = min(4.0, max(1.0, math.log(n2 / n1) / math.log(s1 / s2)))
-        s2 *= (n2 / n) ** (1 / e)
-        out = _run({**spec, "size": s2}, wall_limit)
-    return s2, out
+    e = 3.0
+    s = s_prev
+    for _ in range(3):
+        s_new = s * (n_prev / n) ** (1 / e)
+        out = _run({**spec, "size": s_new}, wall_limit)
+        got = out.get("tets", 0)
+        if not got or abs(got / n - 1) <= 0.25:
+            return s_new, out
+        e = (
+            3.0
+            if got == n_prev
+            else min(4.0, max(1.0, math.log(got / n_prev) / math.log(s / s_new)))
+        )
+        s, n_prev = s_new, got
+    return s, out
 
 
 def _target(text: str) -> int:
@@ -337,6 +345,9 @@ def main() -> None:
     ap.add_argument("--wall-limit", type=float, default=7200, help="wall s per run")
     ap.add_argument("--dihedral20-below", type=float, default=2e5)
     ap.add_argument("--ftetwild-below", type=float, default=2e5)
+    ap.add_argument(
+        "--match-count", type=int, default=None, help="match peers to this count (no ours row)"
+    )
     ap.add_argument("--json", default=None, help="write every run to this file")
     ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
@@ -361,7 +372,7 @@ def main() -> None:
             rows = _rows(tools, n_target, args)
             matched = {}
             results = {r[0]: [] for r in rows}
-            n_ours = None
+            n_ours = args.match_count
             for rep in range(args.repeat):
                 for row, runner, opts, match in rows:
                     spec = {"shape": name, "runner": runner, "opts": opts, "size": size}
