@@ -20,9 +20,10 @@ a known size (``DENSITY``, measured: tetrahedra x size^3 / volume), or is
 given with ``--size``. Each peer is then **matched**: a pilot run at twice the
 size (about an eighth of the tetrahedra) gives its own count per size^-3,
 and the measured run uses the size that makes as many tetrahedra as our
-default row did (TetGen's ``-a`` is size^3 / 8.48, the volume of a regular
-tetrahedron of that edge; Gmsh's ``Mesh.MeshSizeMax``; fTetWild's
-``edge_length_abs``). The pilot is not timed.
+default row did, or ``--match-count`` (up to three runs, see ``_matched``;
+TetGen's ``-a`` is size^3 / 8.48, the volume of a regular tetrahedron of
+that edge; Gmsh's ``Mesh.MeshSizeMax``; fTetWild's ``edge_length_abs``).
+The pilot is not timed.
 
 Rows (``--tools``): ``ours`` with the default ``max_radius_edge=2``, then
 with ``min_dihedral`` 15 (and 20 at ``--dihedral20-below`` tetrahedra and
