@@ -1,42 +1,68 @@
-"""Side by side: ``tetrahedralize`` (ours), TetGen and Gmsh on the same closed surfaces.
+"""Side by side: ``tetrahedralize`` (ours), TetGen, Gmsh and fTetWild on the same closed surfaces.
 
-Run from the repository root::
+Run from the repository root (issue 13's table: the three shapes at about
+100k and 1M tetrahedra)::
 
-    .venv/bin/python benchmarks/tetrahedralize.py
-    .venv/bin/python benchmarks/tetrahedralize.py --shapes torus --size 0.08
+    nice -n 19 .venv/bin/python benchmarks/tetrahedralize.py --sizes 100k 1M
+    .venv/bin/python benchmarks/tetrahedralize.py --shapes torus --sizes 100k --repeat 3
+    .venv/bin/python benchmarks/tetrahedralize.py --shapes slab --size 0.005 --tools ours tetgen
 
-Inputs: a unit cube, a cube minus a ball (``cube_ball``), an icosphere (1,280
-triangles), a torus (32 x 16 quads split), a box with a box-shaped cavity, an
-L-block, a thin slab (1 x 1 x 0.01) and Schönhardt's prism, each given to every
-tool as the same points and triangles. Ours runs with the default
-``max_radius_edge=2``, then with ``min_dihedral`` added (``--min-dihedral``, 15
-by default; the output is then no longer Delaunay), with ``size`` alone (no
-radius-edge bound) and with ``keep_boundary`` (beside TetGen's ``pY``); TetGen
-with ``pq2`` (radius-edge 2), ``pq1.414`` and ``pY`` (boundary kept, no
-quality), all with ``-a`` from the same volume bound where ``--size`` is given;
-Gmsh's Delaunay (``Mesh.Algorithm3D`` 1) and HXT (10) on the same triangles as
-one discrete surface per shell (``Mesh.MeshSizeMax`` the size where given);
-fTetWild (``pytetwild``, one thread, ``edge_length_abs`` the size where given;
-it remeshes the surface, so its boundary is not the input's). TetGen gets
-``add_hole`` for the cavities. Each row: CPU seconds of the meshing call
-(``time.process_time``: every tool runs in this process, and on a shared
-machine wall time mostly measures the other processes; ours after a
-warm-up that loads numba's cache), tetrahedra, tetrahedra per
-second, points added, least and largest dihedral angle (degrees), the share
-of tetrahedra under 10 degrees, the largest radius-edge ratio, the peak
-resident memory of the process so far (MB, ``ru_maxrss``: monotone, so read
-it as an upper bound for the row) and the ratio of our time to TetGen's
-``pq2``. TetGen and Gmsh are bench-only dependencies, skipped with a note
+Shapes (``--shapes``; the default is the issue's three): ``cube_ball`` the
+cube [-1, 1]^3 minus the ball of radius 0.5 (an icosphere, 320 triangles),
+``torus`` (32 x 16 quads split, R 2, r 0.7), ``slab`` the thin plate
+1 x 1 x 0.01 (aspect 100); also ``cube``, ``icosphere``, ``cavity`` (a box
+with a box-shaped cavity), ``l_block``, ``schonhardt``. Every tool gets the
+same points and triangles.
+
+Sizes (``--sizes``): a target count of tetrahedra (``100k``, ``1M``, ``250k``
+...). Our ``size`` for it comes from the count ours made per unit volume at
+a known size (``DENSITY``, measured: tetrahedra x size^3 / volume), or is
+given with ``--size``. Each peer is then **matched**: a pilot run at twice the
+size (about an eighth of the tetrahedra) gives its own count per size^-3,
+and the measured run uses the size that makes as many tetrahedra as our
+default row did, or ``--match-count`` (up to three runs, see ``_matched``;
+TetGen's ``-a`` is size^3 / 8.48, the volume of a regular tetrahedron of
+that edge; Gmsh's ``Mesh.MeshSizeMax``; fTetWild's ``edge_length_abs``).
+The pilot is not timed.
+
+Rows (``--tools``): ``ours`` with the default ``max_radius_edge=2``, then
+with ``min_dihedral`` 15 (and 20 at ``--dihedral20-below`` tetrahedra and
+under; the output is then not Delaunay); ``tetgen`` with ``-pq2`` and
+``-pq1.414`` (``add_hole`` for the cavity, ``steinerleft=-1``: the wrapper
+otherwise stops silently at 100,000 added points); ``hxt`` Gmsh's HXT with
+its optimization off and on (``Mesh.Optimize``), ``gmsh`` Gmsh's Delaunay
+(``Mesh.Algorithm3D`` 1) -- Gmsh on one thread (``General.NumThreads=1``,
+``Mesh.MaxNumThreads1D/2D/3D=1``), after ``classifySurfaces`` at 5 degrees
+and ``createGeometry`` (every planar facet of these shapes becomes a
+surface it remeshes at the size, as ours and TetGen refine the surface;
+its time includes that surface meshing); ``ftetwild`` (``pytetwild``, one
+thread; it remeshes the surface, its boundary is not the input's; only up
+to ``--ftetwild-below`` tetrahedra, default 200k: about 1.5k tetrahedra/s).
+
+Each row runs in a child process (its own peak memory, a CPU limit
+``--cpu-limit``): CPU seconds of the meshing call alone (``time.process_time``,
+after a warm-up that loads numba's cache for ours; on a shared machine wall
+time mostly measures the other processes), tetrahedra, tetrahedra per CPU
+second, points added, least dihedral angle (degrees), the share of
+tetrahedra under 10 degrees, the largest radius-edge ratio, the peak
+resident memory of the child (MB, ``ru_maxrss`` right after the call,
+before the figures are computed; it includes the interpreter and the
+imports, ``base`` in ``--json``), and the ratio of the row's time per
+tetrahedron to TetGen ``-pq1.414``'s. ``--repeat N`` gives the median of N
+runs of each row (alternating rows). ``--json FILE`` writes every run.
+TetGen, Gmsh and pytetwild are bench-only dependencies, skipped with a note
 when absent.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
+import json
+import math
 import os
-import resource
+import subprocess
 import sys
-import tempfile
 import time
 
 import numpy as np
@@ -44,9 +70,6 @@ import numpy as np
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 sys.path.insert(0, ROOT)
 
-from meshcore.domain import parse_surface  # noqa: E402
-from meshcore.tets import tetra_dihedral_angles, tetrahedralize  # noqa: E402
-from meshcore.tets.refinement import _shortest_edge, _tet_circumcenters  # noqa: E402
 from tests.meshcore.domain import shapes  # noqa: E402
 
 
@@ -73,41 +96,119 @@ SHAPES = {
     "slab": lambda: (*shapes.box((0, 0, 0), (1, 1, 0.01)), []),
     "schonhardt": lambda: (*shapes.schonhardt(), []),
 }
+#: Our tetrahedra x size^3 / enclosed volume at radius-edge 2 (measured at about 100k;
+#: the sizes of the README's tables).
+DENSITY = {"cube_ball": 15.5496, "torus": 15.0, "slab": 23.4}
+TOOLS = ("ours", "tetgen", "hxt", "gmsh", "ftetwild")
 
 
-def _figures(P, K) -> tuple[float, float, float, float]:
-    d = tetra_dihedral_angles(P, K)
+def _volume(P, T) -> float:
+    """The volume the surface encloses (its shells oriented by ``parse_surface``: a
+    cavity's volume is taken off)."""
+    from meshcore.domain import parse_surface
+
+    s = parse_surface(P, T)
+    a = s.points[s.triangles[:, 0]]
+    b, c = s.points[s.triangles[:, 1]], s.points[s.triangles[:, 2]]
+    return abs(float(np.einsum("ij,ij->", a, np.cross(b, c)))) / 6
+
+
+def _tet_volume(P, K) -> float:
+    a = P[K[:, 0]]
+    return (
+        float(
+            np.abs(
+                np.einsum("ij,ij->i", P[K[:, 1]] - a, np.cross(P[K[:, 2]] - a, P[K[:, 3]] - a))
+            ).sum()
+        )
+        / 6
+    )
+
+
+def _figures(P, K) -> dict:
+    from meshcore.tets import tetra_dihedral_angles
+    from meshcore.tets.refinement import _shortest_edge, _tet_circumcenters
+
+    d = tetra_dihedral_angles(P, K).min(axis=1)
     _, R = _tet_circumcenters(P, K)
     ratio = R / _shortest_edge(P, K)
-    under = 100.0 * float((d.min(axis=1) < 10).mean())
-    return float(d.min()), float(d.max()), under, float(np.nanmax(ratio))
+    return {
+        "dih_min": float(d.min()),
+        "under10": 100.0 * float((d < 10).mean()),
+        "re_max": float(np.nanmax(ratio)),
+    }
 
 
-def run_gmsh(P, T, algorithm: int, size: float | None):
-    """Gmsh 3D on the given triangles (one discrete surface per shell)."""
+def _maxrss() -> float:
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+# --- the tools (each run in a child process: see ``_child``) --------------------------------
+
+
+def run_ours(P, T, holes, size, opts):
+    from meshcore.domain import parse_surface
+    from meshcore.tets import tetrahedralize
+
+    kw = {"size": size, **opts}
+    s = parse_surface(P, T)
+    tetrahedralize(s, **{**kw, "size": 4 * size})  # warm-up: numba's cache, the same paths
+    t = time.process_time()
+    r = tetrahedralize(s, **kw)
+    dt = time.process_time() - t
+    note = f"given up {r.given_up}"
+    if "improvement" in r.left:
+        note += f", r/e traded {r.left['improvement'].get('radius_edge_traded', 0)}"
+    phases = ", ".join(f"{k} {v:.1f}" for k, v in r.timings.items() if k != "total")
+    added = r.surface_points_added + r.interior_points_added
+    return dt, r.mesh.points, r.mesh.cells[0].data, added, f"{note}; wall s: {phases}"
+
+
+def run_tetgen(P, T, holes, size, opts):
+    import tetgen
+
+    g = tetgen.TetGen(P, T.astype(np.int32))
+    for h in holes:
+        g.add_hole(h)
+    sw = opts["switches"] + f"a{size**3 / 8.48:.6g}Q"
+    t = time.process_time()
+    nodes, elem = g.tetrahedralize(switches=sw, steinerleft=-1)[:2]
+    dt = time.process_time() - t
+    added = len(nodes) - len(P)
+    return dt, np.asarray(nodes), np.asarray(elem, dtype=np.int64), added, f"-{sw}"
+
+
+def run_gmsh(P, T, holes, size, opts):
+    """Gmsh on one thread: the triangles classified into planar surfaces, remeshed, then 3D."""
     import gmsh
 
-    shells = parse_surface(P, T).triangle_shell
     gmsh.initialize()
     try:
         gmsh.option.setNumber("General.Terminal", 0)
+        for name in ("General.NumThreads", "Mesh.MaxNumThreads1D", "Mesh.MaxNumThreads2D"):
+            gmsh.option.setNumber(name, 1)
+        gmsh.option.setNumber("Mesh.MaxNumThreads3D", 1)
         gmsh.model.add("s")
-        loops = []
-        for k in np.unique(shells).tolist():
-            tri = T[shells == k]
-            used = np.unique(tri)
-            tag = gmsh.model.addDiscreteEntity(2)
-            gmsh.model.mesh.addNodes(2, tag, (used + 1).tolist(), P[used].ravel().tolist())
-            gmsh.model.mesh.addElementsByType(tag, 2, [], (tri + 1).ravel().tolist())
-            loops.append(gmsh.model.geo.addSurfaceLoop([tag]))
-        gmsh.model.geo.addVolume(loops)
+        tag = gmsh.model.addDiscreteEntity(2)
+        gmsh.model.mesh.addNodes(2, tag, list(range(1, len(P) + 1)), P.ravel().tolist())
+        gmsh.model.mesh.addElementsByType(tag, 2, [], (T + 1).ravel().tolist())
+        gmsh.model.mesh.classifySurfaces(5 * np.pi / 180, True, True, np.pi)
+        gmsh.model.mesh.createGeometry()
+        loop = gmsh.model.geo.addSurfaceLoop([e[1] for e in gmsh.model.getEntities(2)])
+        gmsh.model.geo.addVolume([loop])
         gmsh.model.geo.synchronize()
-        gmsh.option.setNumber("Mesh.Algorithm3D", algorithm)
-        if size is not None:
-            gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        gmsh.option.setNumber("Mesh.Algorithm3D", opts["algorithm"])
+        gmsh.option.setNumber("Mesh.Optimize", opts["optimize"])
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
         t = time.process_time()
+        gmsh.model.mesh.generate(2)
+        t2 = time.process_time()
         gmsh.model.mesh.generate(3)
         dt = time.process_time() - t
+        t3 = time.process_time() - t2
         tags, coords, _ = gmsh.model.mesh.getNodes()
         X = np.zeros((int(tags.max()) + 1, 3))
         X[tags.astype(np.int64)] = coords.reshape(-1, 3)
@@ -116,135 +217,215 @@ def run_gmsh(P, T, algorithm: int, size: float | None):
         keep = np.unique(K)
         remap = np.full(len(X), -1)
         remap[keep] = np.arange(len(keep))
-        return dt, X[keep], remap[K], len(keep) - len(np.unique(T))
+        return dt, X[keep], remap[K], len(keep) - len(P), f"3D alone {t3:.2f} s"
     finally:
         gmsh.finalize()
 
 
-def run_ours(P, T, **kw):
-    s = parse_surface(P, T)
-    tetrahedralize(parse_surface(*shapes.box()), **kw)  # warm-up (numba cache)
-    t = time.process_time()
-    r = tetrahedralize(s, **kw)
-    dt = time.process_time() - t
-    K = r.mesh.cells[0].data
-    added = r.surface_points_added + r.interior_points_added
-    return dt, r.mesh.points, K, added, r.given_up
-
-
-def run_ftetwild(P, T, size: float | None):
+def run_ftetwild(P, T, holes, size, opts):
     """fTetWild (``pytetwild``, one thread); its tetrahedra come negatively oriented."""
+    import tempfile
     import types
 
-    if "pyvista" not in sys.modules:
-        try:
-            import pyvista  # noqa: F401
-        except ImportError:  # pytetwild imports pyvista at import: a stub avoids VTK
-            sys.modules["pyvista"] = types.ModuleType("pyvista")
+    try:
+        import pyvista  # noqa: F401
+    except ImportError:  # pytetwild imports pyvista at import: a stub avoids VTK
+        sys.modules["pyvista"] = types.ModuleType("pyvista")
     import pytetwild
 
-    kw = {"edge_length_abs": size} if size is not None else {}
-    here = os.getcwd()
     with tempfile.TemporaryDirectory() as tmp:
         os.chdir(tmp)  # fTetWild writes __tracked_surface.stl into the working directory
-        try:
-            t = time.process_time()
-            X, K = pytetwild.tetrahedralize(P, T.astype(np.int32), num_threads=1, **kw)
-            dt = time.process_time() - t
-        finally:
-            os.chdir(here)
-    K = np.asarray(K, dtype=np.int64)
-    return dt, np.asarray(X), K[:, [0, 1, 3, 2]], len(X) - len(P)
+        t = time.process_time()
+        X, K = pytetwild.tetrahedralize(P, T.astype(np.int32), num_threads=1, edge_length_abs=size)
+        dt = time.process_time() - t
+        os.chdir(ROOT)
+    K = np.asarray(K, dtype=np.int64)[:, [0, 1, 3, 2]]
+    return dt, np.asarray(X, dtype=np.float64), K, len(X) - len(P), "surface remeshed"
 
 
-def run_tetgen(P, T, holes, switches):
-    import tetgen
+RUNNERS = {"ours": run_ours, "tetgen": run_tetgen, "gmsh": run_gmsh, "ftetwild": run_ftetwild}
 
-    g = tetgen.TetGen(P, T.astype(np.int32))
-    for h in holes:
-        g.add_hole(h)
-    t = time.process_time()
-    nodes, elem = g.tetrahedralize(switches=switches + "Q")[:2]
-    dt = time.process_time() - t
-    return dt, np.asarray(nodes), np.asarray(elem, dtype=np.int64), len(nodes) - len(P)
+
+def _child(spec: dict) -> None:
+    import resource
+
+    if spec.get("cpu_limit"):
+        lim = int(spec["cpu_limit"])
+        resource.setrlimit(resource.RLIMIT_CPU, (lim, lim + 5))
+    P, T, holes = SHAPES[spec["shape"]]()
+    base = _maxrss()
+    dt, X, K, added, note = RUNNERS[spec["runner"]](P, T, holes, spec["size"], spec["opts"])
+    out = {"cpu": dt, "tets": int(len(K)), "added": int(added), "mb": _maxrss(), "base": base}
+    out["volume_error"] = abs(_tet_volume(X, K) - _volume(P, T)) / _volume(P, T)
+    out.update(_figures(X, K))
+    out["note"] = note
+    print("RESULT " + json.dumps(out), flush=True)
+
+
+def _run(spec: dict, wall_limit: float) -> dict:
+    cmd = [sys.executable, os.path.abspath(__file__), "--child", json.dumps(spec)]
+    env = {**os.environ, "PYTHONPATH": ROOT + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    try:
+        p = subprocess.run(cmd, capture_output=True, text=True, timeout=wall_limit, env=env)
+    except subprocess.TimeoutExpired:
+        return {"error": f"over {wall_limit:.0f} s wall"}
+    for line in p.stdout.splitlines():
+        if line.startswith("RESULT "):
+            return json.loads(line[7:])
+    tail = (p.stderr.strip().splitlines() or [f"exit {p.returncode}"])[-1]
+    return {"error": tail[:120]}
+
+
+def _matched(spec: dict, n: int, wall_limit: float) -> tuple[float, dict]:
+    """(size, run) of a peer at about ``n`` tetrahedra: an untimed pilot at twice the size,
+    then the size the counts predict (count ~ size^-e, e from the last two runs, 3 at
+    first or where the count did not move: a thin plate's count follows size^-2 while the
+    size exceeds the thickness, TetGen's stays at its quality refinement's while ``-a`` is
+    inactive), up to three runs until one is within 25 %; the last run is the measured one."""
+    s_prev = 2 * spec["size"]
+    n_prev = _run({**spec, "size": s_prev}, wall_limit).get("tets", 0)
+    if not n_prev:
+        return spec["size"], _run(spec, wall_limit)
+    e = 3.0
+    s = s_prev
+    for _ in range(3):
+        s_new = s * (n_prev / n) ** (1 / e)
+        out = _run({**spec, "size": s_new}, wall_limit)
+        got = out.get("tets", 0)
+        if not got or abs(got / n - 1) <= 0.25:
+            return s_new, out
+        e = (
+            3.0
+            if got == n_prev
+            else min(4.0, max(1.0, math.log(got / n_prev) / math.log(s / s_new)))
+        )
+        s, n_prev = s_new, got
+    return s, out
+
+
+def _target(text: str) -> int:
+    t = text.lower()
+    scale = {"k": 1_000, "m": 1_000_000}.get(t[-1], 1)
+    return int(float(t[:-1] if scale > 1 else t) * scale)
+
+
+def _rows(tools, n_target, args):
+    """(label, runner, opts, matched) of each row."""
+    rows = []
+    if "ours" in tools:
+        rows.append(("ours r/e 2", "ours", {}, False))
+        rows.append(("ours r/e 2 + dihedral 15", "ours", {"min_dihedral": 15.0}, False))
+        if n_target <= args.dihedral20_below:
+            rows.append(("ours r/e 2 + dihedral 20", "ours", {"min_dihedral": 20.0}, False))
+    if "tetgen" in tools:
+        rows.append(("TetGen -pq2", "tetgen", {"switches": "pq2"}, True))
+        rows.append(("TetGen -pq1.414", "tetgen", {"switches": "pq1.414"}, True))
+    if "hxt" in tools:
+        rows.append(("Gmsh HXT, opt. off", "gmsh", {"algorithm": 10, "optimize": 0}, True))
+        rows.append(("Gmsh HXT, opt. on", "gmsh", {"algorithm": 10, "optimize": 1}, True))
+    if "gmsh" in tools:
+        rows.append(("Gmsh Delaunay", "gmsh", {"algorithm": 1, "optimize": 1}, True))
+    if "ftetwild" in tools and n_target <= args.ftetwild_below:
+        rows.append(("fTetWild", "ftetwild", {}, True))
+    return rows
+
+
+def _available(tools):
+    mods = {"tetgen": "tetgen", "hxt": "gmsh", "gmsh": "gmsh", "ftetwild": "pytetwild"}
+    kept = []
+    for t in tools:
+        if t != "ours" and importlib.util.find_spec(mods[t]) is None:
+            print(f"{mods[t]} not installed (pip install -e .[bench]): {t} rows skipped")
+        else:
+            kept.append(t)
+    return kept
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--shapes", nargs="+", default=sorted(SHAPES))
-    ap.add_argument("--size", type=float, default=None, help="target edge length (ours, TetGen -a)")
-    ap.add_argument("--no-gmsh", action="store_true", help="skip the Gmsh rows")
+    ap.add_argument("--shapes", nargs="+", default=["cube_ball", "torus", "slab"])
+    ap.add_argument("--sizes", nargs="+", default=["100k"], help="target tetrahedra: 100k 1M")
+    ap.add_argument("--size", type=float, default=None, help="our size (instead of --sizes)")
+    ap.add_argument("--tools", nargs="+", default=list(TOOLS), choices=TOOLS)
+    ap.add_argument("--repeat", type=int, default=1, help="median of N runs per row")
+    ap.add_argument("--cpu-limit", type=float, default=900, help="CPU s per run")
+    ap.add_argument("--wall-limit", type=float, default=7200, help="wall s per run")
+    ap.add_argument("--dihedral20-below", type=float, default=2e5)
+    ap.add_argument("--ftetwild-below", type=float, default=2e5)
     ap.add_argument(
-        "--no-slivers", action="store_true", help="skip our min_dihedral rows (long jobs)"
+        "--match-count", type=int, default=None, help="match peers to this count (no ours row)"
     )
-    ap.add_argument(
-        "--min-dihedral", type=float, nargs="+", default=[15.0], help="our min_dihedral rows"
-    )
-    ap.add_argument("--no-ftetwild", action="store_true", help="skip the fTetWild row")
-    ap.add_argument("--no-keep", action="store_true", help="skip our keep_boundary row")
+    ap.add_argument("--json", default=None, help="write every run to this file")
+    ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
-    try:
-        import tetgen  # noqa: F401
-
-        have_tetgen = True
-    except ImportError:
-        have_tetgen = False
-        print("tetgen not installed (pip install -e .[bench]): TetGen rows skipped")
-    try:
-        import gmsh  # noqa: F401
-
-        have_gmsh = not args.no_gmsh
-    except ImportError:
-        have_gmsh = False
-        print("gmsh not installed (pip install -e .[bench]): Gmsh rows skipped")
-    try:
-        import importlib.util
-
-        have_ftetwild = importlib.util.find_spec("pytetwild") is not None and not args.no_ftetwild
-    except ImportError:
-        have_ftetwild = False
-    print(f"load (uptime): {os.getloadavg()[0]:.1f}; seconds are CPU seconds")
-    head = f"{'input':<10} {'tool':<26} {'cpu s':>7} {'tets':>8} {'tets/s':>8} {'added':>7} "
-    head += f"{'dih min':>7} {'dih max':>7} {'%<10':>6} {'r/e max':>8} {'MB':>6} {'x pq2':>6}"
-    print(head)
+    if args.child is not None:
+        _child(json.loads(args.child))
+        return
+    tools = _available(args.tools)
+    runs = []
+    head = f"{'shape':<9} {'size':>5} {'tool':<25} {'cpu s':>8} {'tets':>9} {'tets/s':>8} "
+    head += f"{'dih min':>7} {'%<10':>6} {'r/e max':>7} {'added':>8} {'MB':>6} {'x q1.414':>8}"
+    print(f"load at start: {open('/proc/loadavg').read().strip()}; CPU seconds", flush=True)
+    print(head, flush=True)
+    targets = [None] if args.size is not None else args.sizes
     for name in args.shapes:
-        P, T, holes = SHAPES[name]()
-        rows = []
-        extra = {} if args.size is None else {"size": args.size}
-        dt, X, K, added, gu = run_ours(P, T, **extra)
-        rows.append((f"ours r/e 2 (given up {gu})", dt, X, K, added))
-        for mdh in [] if args.no_slivers else args.min_dihedral:
-            dt, X, K, added, gu = run_ours(P, T, min_dihedral=mdh, **extra)
-            rows.append((f"ours r/e 2, dihedral {mdh:g}", dt, X, K, added))
-        if not args.no_keep:
-            dt, X, K, added, gu = run_ours(P, T, keep_boundary=True)
-            rows.append(("ours keep_boundary", dt, X, K, added))
-        if args.size is not None:
-            dt, X, K, added, gu = run_ours(P, T, size=args.size, max_radius_edge=None)
-            rows.append(("ours size only", dt, X, K, added))
-        ref = None
-        if have_tetgen:
-            vol = "" if args.size is None else f"a{args.size**3 / 8.48:.6g}"
-            for sw in ("pq2", "pq1.414", "pY"):
-                dt, X, K, added = run_tetgen(P, T, holes, sw + (vol if sw != "pY" else ""))
-                rows.append((f"tetgen -{sw}", dt, X, K, added))
-                if sw == "pq2":
-                    ref = dt
-        if have_gmsh:
-            for alg, label in ((1, "gmsh Delaunay"), (10, "gmsh HXT")):
-                dt, X, K, added = run_gmsh(P, T, alg, args.size)
-                rows.append((label, dt, X, K, added))
-        if have_ftetwild:
-            dt, X, K, added = run_ftetwild(P, T, args.size)
-            rows.append(("fTetWild", dt, X, K, added))
-        for tool, dt, X, K, added in rows:
-            dmin, dmax, under, rmax = _figures(X, K)
-            ratio = f"{dt / ref:6.2f}" if ref else "     -"
-            mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-            print(
-                f"{name:<10} {tool:<26} {dt:7.3f} {len(K):8d} {len(K) / dt:8.0f} {added:7d} "
-                f"{dmin:7.2f} {dmax:7.2f} {under:6.2f} {rmax:8.2f} {mb:6.0f} {ratio}"
-            )
+        P, T, _ = SHAPES[name]()
+        for label in targets:
+            if label is None:
+                size, n_target, label = args.size, 1e5, f"{args.size:g}"
+            else:
+                n_target = _target(label)
+                size = (DENSITY.get(name, 13.0) * _volume(P, T) / n_target) ** (1 / 3)
+            rows = _rows(tools, n_target, args)
+            matched = {}
+            results = {r[0]: [] for r in rows}
+            n_ours = args.match_count
+            for rep in range(args.repeat):
+                for row, runner, opts, match in rows:
+                    spec = {"shape": name, "runner": runner, "opts": opts, "size": size}
+                    spec["cpu_limit"] = args.cpu_limit
+                    if match and n_ours is not None and row not in matched:
+                        matched[row], out = _matched(spec, n_ours, args.wall_limit)
+                        spec["size"] = matched[row]
+                    else:
+                        if row in matched:
+                            spec["size"] = matched[row]
+                        out = _run(spec, args.wall_limit)
+                    out.update(shape=name, target=label, tool=row, size=spec["size"], rep=rep)
+                    out["load"] = open("/proc/loadavg").read().split()[0]
+                    results[row].append(out)
+                    runs.append(out)
+                    if row == "ours r/e 2" and "tets" in out and n_ours is None:
+                        n_ours = out["tets"]
+            ref = None
+            for row, *_ in rows:
+                ok = [r for r in results[row] if "cpu" in r]
+                if not ok:
+                    err = results[row][0].get("error", "?")
+                    print(f"{name:<9} {label:>5} {row:<25} failed: {err}", flush=True)
+                    continue
+                r = sorted(ok, key=lambda r: r["cpu"])[len(ok) // 2]
+                per = r["cpu"] / r["tets"]
+                if row == "TetGen -pq1.414":
+                    ref = per
+                r["per_tet"] = per
+            for row, *_ in rows:
+                ok = [r for r in results[row] if "cpu" in r]
+                if not ok:
+                    continue
+                r = sorted(ok, key=lambda r: r["cpu"])[len(ok) // 2]
+                x = f"{r['per_tet'] / ref:8.2f}" if ref else "       -"
+                print(
+                    f"{name:<9} {label:>5} {row:<25} {r['cpu']:8.2f} {r['tets']:9,d} "
+                    f"{r['tets'] / r['cpu']:8,.0f} {r['dih_min']:7.2f} {r['under10']:6.2f} "
+                    f"{r['re_max']:7.2f} {r['added']:8,d} {r['mb']:6.0f} {x}   "
+                    f"[size {r['size']:.4g}, load {r['load']}, {r['note']}]",
+                    flush=True,
+                )
+    print(f"load at end: {open('/proc/loadavg').read().strip()}", flush=True)
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(runs, fh, indent=1)
 
 
 if __name__ == "__main__":
