@@ -117,10 +117,15 @@ class _Tolerances:
     quality_gain : float
         A replacement on quality alone must raise the worst quality of the
         sub-topology by at least this much (it stops endless tiny moves).
+    distance_tie : float
+        Squared distances to a centroid closer than this fraction of the
+        largest tie (:func:`by_distance`): above the rounding a translation
+        by 1e6 puts on the coordinates of a unit-sized input (about 1e-10).
     """
 
     sur_tie: float = 1e-12
     quality_gain: float = 1e-4
+    distance_tie: float = 1e-9
 
 
 TOL = _Tolerances()
@@ -516,6 +521,23 @@ def barycentric(state: LoopState, sweeps: list, sur: list, ops: dict) -> None:
     ops["barycentric_move"] = ops.get("barycentric_move", 0) + 1
 
 
+def by_distance(X: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Row indices of ``X`` by distance to ``c``, nearest first, near ties in index order.
+
+    Squared distances within ``TOL.distance_tie`` of the largest (chained
+    from one to the next) tie: the vertices of a symmetric boundary (a
+    circle, a ring of polygons) are equidistant from their centroid, and
+    only rounding, which a translation or scaling changes, would order them.
+    The initial vertex of Op(P, δ𝒮) (§8.3.2, "any point in δ𝒮 could be
+    used") then does not depend on where the input lies.
+    """
+    d = np.sum((X - c) ** 2, axis=1)
+    order = np.argsort(d, kind="stable")
+    ds = d[order]
+    group = np.cumsum(np.diff(ds, prepend=ds[:1]) > TOL.distance_tie * ds[-1])
+    return order[np.lexsort((order, group))]
+
+
 def _initial_topology(
     P: np.ndarray, S: np.ndarray, seg_ring: np.ndarray, dom: Domain, attempt: int = 0
 ) -> np.ndarray:
@@ -539,8 +561,7 @@ def _initial_topology(
             holes.append(ring_segs)
             continue
         ring = ring_segs[:, 0]
-        c = P[ring].mean(axis=0)
-        order = np.argsort(np.sum((P[ring] - c) ** 2, axis=1), kind="stable")
+        order = by_distance(P[ring], P[ring].mean(axis=0))
         p = int(ring[order[min(attempt, len(ring) - 1)]])
         keep = (ring_segs[:, 0] != p) & (ring_segs[:, 1] != p)
         s = ring_segs[keep]
@@ -552,7 +573,7 @@ def _initial_topology(
         # reversed ring lists its segments backwards
         hv = hs[:, 0] if hs[0, 1] == hs[1 % len(hs), 0] else hs[::-1, 0]
         c = P[hv].mean(axis=0)
-        t = int(np.argmin(np.sum((P[T].mean(axis=1) - c) ** 2, axis=1)))
+        t = int(by_distance(P[T].mean(axis=1), c)[0])
         T = np.concatenate([np.delete(T, t, axis=0), _zipper(P, T[t], hv[::-1])])
     return T
 

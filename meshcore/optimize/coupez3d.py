@@ -217,11 +217,10 @@ def initial_topology(P: np.ndarray, F: np.ndarray, p: int) -> np.ndarray:
 
 def initial_candidates(P: np.ndarray, F: np.ndarray) -> np.ndarray:
     """The surface vertices by distance to the centroid of the surface's vertices, nearest
-    first (ties by index): the P of Op(P, δ𝒮) and, in order, those of the restarts
-    (§8.3.2, footnote: "any point in δ𝒮 could be used")."""
+    first (near ties by index: :func:`.coupez.by_distance`): the P of Op(P, δ𝒮) and, in
+    order, those of the restarts (§8.3.2, footnote: "any point in δ𝒮 could be used")."""
     verts = np.unique(F)
-    c = P[verts].mean(axis=0)
-    return verts[np.argsort(np.sum((P[verts] - c) ** 2, axis=1), kind="stable")]
+    return verts[_c.by_distance(P[verts], P[verts].mean(axis=0))]
 
 
 def _long_edges(state, size):

@@ -20,6 +20,7 @@ from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import quality
 from meshcore.optimize import check_topology, optimize
+from meshcore.optimize.coupez3d import initial_candidates
 from tests.meshcore.optimize.test_coupez import assert_monotone
 
 
@@ -224,3 +225,13 @@ def test_cube_grid_without_insertion_far_away():
     res = optimize(surface=surf, insert_points=False)
     assert_valid_3d(res, surf)
     assert len(res.mesh.points) == len(surf.points)
+
+
+def test_initial_vertices_do_not_depend_on_translation_or_scale():
+    """The ring's vertices are equidistant from its centroid in sets: only rounding, which a
+    translation by 1e6 or a scaling by 1e-6 changes, would order them; near ties go by
+    index, so every start of Op(P, δ𝒮) is the same vertex whatever the placement."""
+    P, F = ring(12, 6)
+    first = initial_candidates(P, F)
+    for Q in (P + 1e6, P * 1e-6):
+        np.testing.assert_array_equal(initial_candidates(Q, F), first)
