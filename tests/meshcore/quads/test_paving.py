@@ -136,6 +136,9 @@ def test_guaranteed_route_when_the_closure_is_stuck(monkeypatch):
         return real(points, loops, ring_polygon, sizes, quad=quad, strategy=strategy)
 
     monkeypatch.setattr(advancing_front, "partition_polygon", stuck)
+    # the closure's local rescues of stuck polygons are stuck too
+    monkeypatch.setattr(advancing_front, "_ring", lambda *args: None)
+    monkeypatch.setattr(advancing_front, "_coarse_split", lambda *args: None)
     res = paving(SQUARE_HOLE, size=0.05)
     assert res.stats["fallback"] == 1
     check_mesh(SQUARE_HOLE, res, 0.05, "quad")
