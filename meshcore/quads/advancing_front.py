@@ -169,7 +169,7 @@ _LADDER_REACH = 6.5  # facing front nodes this far apart (times h) may be joined
 _LADDER_TURN = 35.0  # ... when each lies within this many degrees of the other's bisector
 _LADDER_Q = 0.5  # least quality (8.4) of a ladder's quad
 _LADDER_TAPER = (0.0, 100.0)  # a strip's rungs stay within these times its first rung
-_MEET_REACH = 6.5  # between rows, strips join fronts this close (times h)
+_MEET_REACH = 2.6  # between rows, strips join fronts this close (times h)
 _MEETINGS = 8  # rounds of strips between rows at most
 _BOW = 0.2  # a strip's end rungs bow this far (times the distance between rungs) inward
 _RING_STEPS = (0.5, 0.35, 0.65)  # shares of the way to the centroid tried by _ring
@@ -763,6 +763,13 @@ def _ladders(P: np.ndarray, fronts: list, sizes: SizeMap, banned: np.ndarray, re
     return P, loops, np.concatenate(kept), len(kept)
 
 
+def _fit(P: np.ndarray, quads: np.ndarray) -> bool:
+    """Every quad strictly convex (exact) and of quality (8.4) at least ``_MIN_Q``."""
+    return bool(pk.strictly_convex_rows(P, quads).all()) and bool(
+        (quad_quality(P, quads) >= _MIN_Q).all()
+    )
+
+
 def _ring(P: np.ndarray, loop: np.ndarray, sizes: SizeMap, strategy: str):
     """A small stuck polygon closed by a ring of quads around a shrunk copy of it.
 
@@ -770,7 +777,8 @@ def _ring(P: np.ndarray, loop: np.ndarray, sizes: SizeMap, strategy: str):
     (less far for flatter or reflex vertices, so the copy has no flat corner);
     the ring quads ``(v_i, v_i+1, c_i+1, c_i)`` must all be strictly convex
     (exact), and the copy, an even polygon, is closed by the partition (one
-    quad when it has 4 sides). Returns ``(points, cells)`` or None.
+    quad when it has 4 sides); every quad of quality (8.4) at least
+    ``_MIN_Q``. Returns ``(points, cells)`` or None.
     """
     n = len(loop)
     V = P[loop]
@@ -781,16 +789,16 @@ def _ring(P: np.ndarray, loop: np.ndarray, sizes: SizeMap, strategy: str):
     for base in _RING_STEPS:
         t = base - 0.25 * bend
         Q = np.concatenate([P, V + t[:, None] * (g - V)])
-        if not pk.strictly_convex_rows(Q, ring).all():
+        if not _fit(Q, ring):
             continue
         if n == 4:
-            if pk.strictly_convex_rows(Q, ids[None, :])[0]:
+            if _fit(Q, ids[None, :]):
                 return Q, np.concatenate([ring, ids[None, :]])
             continue
         Q2, cells, _ = partition_polygon(
             Q, [ids], np.zeros(1, np.int64), sizes, quad=True, strategy=strategy
         )
-        if cells is not None:
+        if cells is not None and _fit(Q2, cells):
             return Q2, np.concatenate([ring, cells])
     return None
 
@@ -804,7 +812,8 @@ def _coarse_split(P: np.ndarray, loop: np.ndarray, sizes: SizeMap, strategy: str
     edge being the polygon vertex it skipped (so the polygon's edges are
     kept) and shared edges getting one new midpoint. Both choices of the
     coarse vertices are tried; kept only when every quad is strictly convex
-    (exact). Returns ``(points, cells)`` or None.
+    (exact) and of quality (8.4) at least ``_MIN_Q``. Returns ``(points,
+    cells)`` or None.
     """
     n = len(loop)
     for parity in (0, 1):
@@ -832,7 +841,7 @@ def _coarse_split(P: np.ndarray, loop: np.ndarray, sizes: SizeMap, strategy: str
         cells = np.concatenate(
             [np.column_stack([tri[:, j], em[:, j], cen, em[:, (j - 1) % 3]]) for j in range(3)]
         )
-        if len(coarse) * 2 == n and pk.strictly_convex_rows(Q, cells).all():
+        if len(coarse) * 2 == n and _fit(Q, cells):
             return Q, cells
     return None
 
@@ -896,9 +905,7 @@ def _bow(A: np.ndarray, B: np.ndarray, inner: np.ndarray, t: np.ndarray) -> np.n
     mid = (A + B) / 2
     for end, nb in ((0, 1), (-1, -2)):
         bent[end, 1:-1] += _BOW * (4 * t * (1 - t))[:, None] * (mid[nb] - mid[end])
-    m, k1 = G.shape[:2]
-    idx = np.arange(m * k1).reshape(m, k1)
-    cols = np.concatenate([idx[:2], idx[-2:]])
+    cols = np.arange(4 * G.shape[1]).reshape(4, -1)  # the first two rungs and the last two
     q = np.stack([cols[:-1, :-1], cols[1:, :-1], cols[1:, 1:], cols[:-1, 1:]], axis=2)
     q = q[[0, 2]].reshape(-1, 4)
     pts = np.concatenate([bent[:2], bent[-2:]]).reshape(-1, 2)
@@ -1134,12 +1141,15 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
     if max_rows is not None:
         limit = min(limit, max_rows)
     meetings = 0
+    checkpoint = None  # the history entry of the fronts before their first meeting
     while rows < limit:
         if not any(active):
             if not quad_closure or meetings >= _MEETINGS:
                 break
             # the fronts meet: strips across the bands between them, rows go on
             meetings += 1
+            if checkpoint is None:
+                checkpoint = len(history)
             free = np.zeros(len(P), bool)
             P2, cut, strip_q, n_strips = _ladders(P, fronts, sizes, free, _MEET_REACH)
             if not n_strips:
@@ -1204,6 +1214,14 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
             break
         if not history:
             return None
+        if checkpoint is not None and checkpoint < len(history):
+            # first back to where the fronts first met (the rows alone), then as before
+            fronts, nq = history[checkpoint]
+            stats["rows_taken_back"] += len(history) - checkpoint
+            del history[checkpoint:]
+            quads = quads[:nq]
+            checkpoint = None
+            continue
         take = min(back, len(history))
         fronts, nq = history[-take]
         del history[-take:]
