@@ -52,14 +52,40 @@ Algorithm
    not committed and its front is *frozen* (it is unfrozen when a merge
    makes it part of a new front). A front is frozen too when it has 8
    nodes or fewer, or after ``max_rows`` rounds.
-5. **Closure.** Each counter-clockwise front left is an outer ring, each
+5. **Fronts meeting: strips** (a choice of this module; the text leaves
+   the meeting of fronts open). Rows stop ``2 h`` short of other fronts,
+   so fronts that meet face each other across a band. A *rung* joins two
+   front nodes that are each other's nearest facing node (each within
+   ``_LADDER_TURN`` degrees of the other's inward bisector, on another
+   front or at least 4 nodes away on the same one); a *strip* grows from a
+   rung along both fronts, ``(a, b)`` to ``(succ a, pred b)``, while the
+   quad between two rungs is strictly convex (exact) of quality at least
+   ``_LADDER_Q``, then passes the row checks (step 4); a strip of rungs
+   about ``k h`` long is a ``k``-wide grid (rungs cut in ``k`` parts; the
+   end rungs bowed into the strip so that the front left has no flat
+   vertex). ``k`` is ``round(length / h)``, or one more or less when that
+   is needed to leave even fronts (the chain arithmetic of step 3 cuts the
+   strip out; a strip between two fronts merges them, one across a thin
+   front splits or closes it). When every front is frozen, strips across
+   gaps up to ``_MEET_REACH h`` are laid and the rows go on from the fronts
+   left (``stats["strips"]``, at most ``_MEETINGS`` times); at the closure,
+   strips across bands up to ``_LADDER_REACH h`` wide
+   (``stats["ladders"]``), made again without the front nodes of a polygon
+   the partition is stuck on, up to ``_LADDER_TRIES`` times.
+6. **Closure.** Each counter-clockwise front left is an outer ring, each
    clockwise one a hole of the smallest outer ring around it; the
    polygons are closed by the recursive partition in its quad mode
    (:func:`meshcore.partition.partition_polygon`, which keeps the front
    nodes): fronts of 4 and 6 segments are its standard patterns (one quad;
    two quads or three around a centre), larger ones are cut by separators
-   into even parts first.
-6. **Smoothing** (``smooth``):
+   into even parts first. A polygon of one ring it is stuck on gets a ring
+   of quads around a shrunk copy of itself (the copy closed by the
+   partition), or else the guaranteed route locally: every other vertex a
+   coarse polygon, triangulated, each triangle cut in three quads through
+   the skipped vertices and new midpoints (``closure.rings``,
+   ``closure.coarse_splits``); each only when all its quads are strictly
+   convex (exact) of quality at least ``_MIN_Q``.
+7. **Smoothing** (``smooth``):
    :func:`~meshcore.partition.smoothing.smooth_quads`, one compiled
    Gauss-Seidel loop: the length-weighted Laplacian of Blacker and
    Stephenson on the interior points, with their boundary angle correction
@@ -69,7 +95,7 @@ Algorithm
    convex (exact test) and its least quality (8.4) does not drop below
    ``min(old, max(0.5, least of the mesh))``. It never inverts a cell nor
    lowers the least quality.
-7. **Clean-up** (``smooth``): the quads below quality 0.85 or at an
+8. **Clean-up** (``smooth``): the quads below quality 0.85 or at an
    interior point of valence other than 4 (the closure's region, mostly),
    with two rings of quads around them, go through
    :func:`~meshcore.quads.optimize_quads` (§8.4.3: valence-2 and valence-3
@@ -86,7 +112,8 @@ Why it always ends with only quads
 ----------------------------------
 *The rows end.* A round that commits no row freezes every active front,
 and a frozen front is made active again only by a merge, which happens
-inside a committed row; so the rounds go on only while rows are
+inside a committed row or a round of strips (step 5), and there are at
+most ``_MEETINGS`` of those; so the rounds go on only while rows are
 committed. Each row lays quads of quality at least 0.1 (corners between
 9 and 171 degrees) inside the region left (step 4), about ``h`` deep, so
 the region shrinks by about ``h`` a round; as a guard that does not rest
@@ -114,11 +141,16 @@ segments. The median edge then comes out near the size (a triangle of
 side ``H`` gives half edges ``H / 2`` and spokes ``0.29 H``).
 ``stats["fallback"]`` counts it (0 or 1).
 
-Not done: fronts that meet with counts far apart are not paired node to
-node (tucks and wedges across the meeting): rows stop ``2 h`` short of
-another front and the partition closes the band between them, which is
-where the irregular vertices are; on the gear and the plate the band
-closure is often stuck and rows are taken back (``rows_taken_back``).
+*Strips, rings and coarse splits* add only strictly convex quads (exact)
+whose boundary chain is the front edges they remove plus the new front
+edges, so by the winding number they cover exactly the region they take
+out; they are kept only when the fronts left are simple even cycles.
+
+Not done: fronts that meet with counts far apart are paired only where
+their nodes face each other (strips); the junctions between strips, and
+bands wider than ``_LADDER_REACH h``, are closed by the partition, which is
+where the irregular vertices are; on the plate the rows still freeze a
+whole front at the first ``2 h`` gap failure.
 Interior constraint segments are refused.
 
 References
@@ -193,9 +225,11 @@ class PavingResult:
         reversal, wedge counts over all rows), ``seams``, ``snaps`` (new
         nodes joined to a node), ``merges`` (fronts joined to another),
         ``splits`` (fronts cut in two), ``frozen`` (fronts frozen
-        by a failed check), ``rows_taken_back``, ``closure`` (the partition's stats: patterns,
-        separators), ``fallback``, ``parity_repairs``, ``valence`` (histogram
-        of interior vertex valences), ``smoothing`` (sweeps, moves undone),
+        by a failed check), ``strips`` and ``strip_quads`` (laid between
+        rows), ``ladders`` and ``ladder_quads`` (strips laid at the closure),
+        ``rows_taken_back``, ``closure`` (the partition's stats: patterns,
+        separators; ``rings``, ``coarse_splits``), ``fallback``,
+        ``parity_repairs``, ``valence`` (histogram of interior vertex valences), ``smoothing`` (sweeps, moves undone),
         ``clean_up`` (``region``: quads handed to the clean-up,
         ``operators``: applications), ``seconds`` per phase.
     """
@@ -582,7 +616,7 @@ def _rungs(P: np.ndarray, fronts: list, sizes: SizeMap, reach: float):
 
     ``nodes`` are the front nodes in order, ``succ``/``pred`` their neighbours
     on their front, ``partner[i]`` the node ``i`` faces (-1 if none): its
-    nearest front node within ``_LADDER_REACH h`` that lies within
+    nearest front node within ``reach h`` that lies within
     ``_LADDER_TURN`` of its inward bisector and sees it within its own, on
     another front or at least 4 nodes away along the same one, when that
     choice is mutual.
