@@ -229,7 +229,8 @@ class PavingResult:
         rows), ``ladders`` and ``ladder_quads`` (strips laid at the closure),
         ``rows_taken_back``, ``closure`` (the partition's stats: patterns,
         separators; ``rings``, ``coarse_splits``), ``fallback``,
-        ``parity_repairs``, ``valence`` (histogram of interior vertex valences), ``smoothing`` (sweeps, moves undone),
+        ``parity_repairs``, ``valence`` (histogram of interior vertex
+        valences), ``smoothing`` (sweeps, moves undone),
         ``clean_up`` (``region``: quads handed to the clean-up,
         ``operators``: applications), ``seconds`` per phase.
     """
