@@ -161,18 +161,17 @@ def test_near_pairs_are_the_kd_tree_pairs():
     assert len(i) == 0
 
 
+def _area(P, ring):
+    """Signed area of the polygon P[ring] (shoelace)."""
+    x, y = P[ring, 0], P[ring, 1]
+    return 0.5 * float((x * np.roll(y, -1) - y * np.roll(x, -1)).sum())
+
+
 def _closes(P, loop, cells):
     """The cells tile the polygon ``loop`` exactly: strictly convex, their area the
     polygon's, their boundary edges the polygon's edges."""
     assert strictly_convex_rows(P, cells).all()
-    area = lambda Q, c: (
-        0.5 * (Q[c, 0] * Q[np.roll(c, -1, axis=-1), 1]).sum(axis=-1)
-        - 0.5
-        * (  # noqa: E731
-            Q[c, 1] * Q[np.roll(c, -1, axis=-1), 0]
-        ).sum(axis=-1)
-    )
-    assert np.isclose(area(P, cells).sum(), area(P, loop))
+    assert np.isclose(sum(_area(P, c) for c in cells), _area(P, loop))
     e = np.sort(np.stack([cells, np.roll(cells, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
     u, cnt = np.unique(e, axis=0, return_counts=True)
     ring = np.sort(np.column_stack([loop, np.roll(loop, -1)]), axis=1)
@@ -201,13 +200,7 @@ class TestFrontsMeeting:
         assert np.array_equal(P1[: len(P)], P)
         assert all(len(g) % 2 == 0 for g in left) and len(left) == 2
         assert strictly_convex_rows(P1, quads).all()
-        shoelace = lambda g: (
-            0.5
-            * float(  # noqa: E731
-                (P1[g, 0] * P1[np.roll(g, -1), 1] - P1[g, 1] * P1[np.roll(g, -1), 0]).sum()
-            )
-        )
-        covered = sum(shoelace(q) for q in quads) + sum(shoelace(g) for g in left)
+        covered = sum(_area(P1, q) for q in quads) + sum(_area(P1, g) for g in left)
         assert np.isclose(covered, 0.3)
         # the end rungs are bowed into the strip: the pieces left turn at their points
         for g in left:
