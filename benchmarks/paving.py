@@ -181,7 +181,8 @@ def child(tool: str, domain: str, n: int) -> dict:
     seconds, cpu = time.perf_counter() - t, time.process_time() - c
     out = describe(res.mesh.points, res.mesh.cells[0].data, np.zeros((0, 3)), seconds, cpu)
     out["stats"] = {
-        k: res.stats[k] for k in ("rows", "fallback", "rows_taken_back", "seams", "clean_up")
+        k: res.stats[k]
+        for k in ("rows", "strips", "ladders", "fallback", "rows_taken_back", "seams", "clean_up")
     }
     out["phases"] = res.stats["seconds"]
     return out

@@ -52,14 +52,40 @@ Algorithm
    not committed and its front is *frozen* (it is unfrozen when a merge
    makes it part of a new front). A front is frozen too when it has 8
    nodes or fewer, or after ``max_rows`` rounds.
-5. **Closure.** Each counter-clockwise front left is an outer ring, each
+5. **Fronts meeting: strips** (a choice of this module; the text leaves
+   the meeting of fronts open). Rows stop ``2 h`` short of other fronts,
+   so fronts that meet face each other across a band. A *rung* joins two
+   front nodes that are each other's nearest facing node (each within
+   ``_LADDER_TURN`` degrees of the other's inward bisector, on another
+   front or at least 4 nodes away on the same one); a *strip* grows from a
+   rung along both fronts, ``(a, b)`` to ``(succ a, pred b)``, while the
+   quad between two rungs is strictly convex (exact) of quality at least
+   ``_LADDER_Q``, then passes the row checks (step 4); a strip of rungs
+   about ``k h`` long is a ``k``-wide grid (rungs cut in ``k`` parts; the
+   end rungs bowed into the strip so that the front left has no flat
+   vertex). ``k`` is ``round(length / h)``, or one more or less when that
+   is needed to leave even fronts (the chain arithmetic of step 3 cuts the
+   strip out; a strip between two fronts merges them, one across a thin
+   front splits or closes it). When every front is frozen, strips across
+   gaps up to ``_MEET_REACH h`` are laid and the rows go on from the fronts
+   left (``stats["strips"]``, at most ``_MEETINGS`` times); at the closure,
+   strips across bands up to ``_LADDER_REACH h`` wide
+   (``stats["ladders"]``), made again without the front nodes of a polygon
+   the partition is stuck on, up to ``_LADDER_TRIES`` times.
+6. **Closure.** Each counter-clockwise front left is an outer ring, each
    clockwise one a hole of the smallest outer ring around it; the
    polygons are closed by the recursive partition in its quad mode
    (:func:`meshcore.partition.partition_polygon`, which keeps the front
    nodes): fronts of 4 and 6 segments are its standard patterns (one quad;
    two quads or three around a centre), larger ones are cut by separators
-   into even parts first.
-6. **Smoothing** (``smooth``):
+   into even parts first. A polygon of one ring it is stuck on gets a ring
+   of quads around a shrunk copy of itself (the copy closed by the
+   partition), or else the guaranteed route locally: every other vertex a
+   coarse polygon, triangulated, each triangle cut in three quads through
+   the skipped vertices and new midpoints (``closure.rings``,
+   ``closure.coarse_splits``); each only when all its quads are strictly
+   convex (exact) of quality at least ``_MIN_Q``.
+7. **Smoothing** (``smooth``):
    :func:`~meshcore.partition.smoothing.smooth_quads`, one compiled
    Gauss-Seidel loop: the length-weighted Laplacian of Blacker and
    Stephenson on the interior points, with their boundary angle correction
@@ -69,7 +95,7 @@ Algorithm
    convex (exact test) and its least quality (8.4) does not drop below
    ``min(old, max(0.5, least of the mesh))``. It never inverts a cell nor
    lowers the least quality.
-7. **Clean-up** (``smooth``): the quads below quality 0.85 or at an
+8. **Clean-up** (``smooth``): the quads below quality 0.85 or at an
    interior point of valence other than 4 (the closure's region, mostly),
    with two rings of quads around them, go through
    :func:`~meshcore.quads.optimize_quads` (§8.4.3: valence-2 and valence-3
@@ -86,7 +112,8 @@ Why it always ends with only quads
 ----------------------------------
 *The rows end.* A round that commits no row freezes every active front,
 and a frozen front is made active again only by a merge, which happens
-inside a committed row; so the rounds go on only while rows are
+inside a committed row or a round of strips (step 5), and there are at
+most ``_MEETINGS`` of those; so the rounds go on only while rows are
 committed. Each row lays quads of quality at least 0.1 (corners between
 9 and 171 degrees) inside the region left (step 4), about ``h`` deep, so
 the region shrinks by about ``h`` a round; as a guard that does not rest
@@ -114,11 +141,16 @@ segments. The median edge then comes out near the size (a triangle of
 side ``H`` gives half edges ``H / 2`` and spokes ``0.29 H``).
 ``stats["fallback"]`` counts it (0 or 1).
 
-Not done: fronts that meet with counts far apart are not paired node to
-node (tucks and wedges across the meeting): rows stop ``2 h`` short of
-another front and the partition closes the band between them, which is
-where the irregular vertices are; on the gear and the plate the band
-closure is often stuck and rows are taken back (``rows_taken_back``).
+*Strips, rings and coarse splits* add only strictly convex quads (exact)
+whose boundary chain is the front edges they remove plus the new front
+edges, so by the winding number they cover exactly the region they take
+out; they are kept only when the fronts left are simple even cycles.
+
+Not done: fronts that meet with counts far apart are paired only where
+their nodes face each other (strips); the junctions between strips, and
+bands wider than ``_LADDER_REACH h``, are closed by the partition, which is
+where the irregular vertices are; on the plate the rows still freeze a
+whole front at the first ``2 h`` gap failure.
 Interior constraint segments are refused.
 
 References
@@ -165,6 +197,15 @@ _CLEARANCE = 0.5  # a row's new nodes stay this far (times h) from other nodes..
 _GAP = 2.0  # ... and this far from the nodes of other fronts, unless joined to one
 _SNAP = 0.6  # a row's new node this close (times h) to a node of a front joins it
 _MIN_Q = 0.1  # least quality (8.4) of a quad laid in a row
+_LADDER_REACH = 6.5  # facing front nodes this far apart (times h) may be joined by a rung
+_LADDER_TURN = 38.0  # ... when each lies within this many degrees of the other's bisector
+_LADDER_Q = 0.35  # least quality (8.4) of a ladder's quad
+_LADDER_TAPER = (0.0, 100.0)  # a strip's rungs stay within these times its first rung
+_MEET_REACH = 2.6  # between rows, strips join fronts this close (times h)
+_MEETINGS = 8  # rounds of strips between rows at most
+_BOW = 0.2  # a strip's end rungs bow this far (times the distance between rungs) inward
+_RING_STEPS = (0.5, 0.35, 0.65)  # shares of the way to the centroid tried by _ring
+_LADDER_TRIES = 4  # strips made again at most this many times around stuck polygons
 _CLEAN_Q = 0.85  # quads below this quality (8.4) seed the clean-up region
 _CLEAN_RINGS = 2  # rings of quads around the seeds in the clean-up region
 
@@ -184,9 +225,12 @@ class PavingResult:
         reversal, wedge counts over all rows), ``seams``, ``snaps`` (new
         nodes joined to a node), ``merges`` (fronts joined to another),
         ``splits`` (fronts cut in two), ``frozen`` (fronts frozen
-        by a failed check), ``rows_taken_back``, ``closure`` (the partition's stats: patterns,
-        separators), ``fallback``, ``parity_repairs``, ``valence`` (histogram
-        of interior vertex valences), ``smoothing`` (sweeps, moves undone),
+        by a failed check), ``strips`` and ``strip_quads`` (laid between
+        rows), ``ladders`` and ``ladder_quads`` (strips laid at the closure),
+        ``rows_taken_back``, ``closure`` (the partition's stats: patterns,
+        separators; ``rings``, ``coarse_splits``), ``fallback``,
+        ``parity_repairs``, ``valence`` (histogram of interior vertex
+        valences), ``smoothing`` (sweeps, moves undone),
         ``clean_up`` (``region``: quads handed to the clean-up,
         ``operators``: applications), ``seconds`` per phase.
     """
@@ -203,6 +247,12 @@ def _angles(P: np.ndarray, f: np.ndarray) -> np.ndarray:
     w = P[nxt] - P[f]
     t = np.arctan2(w[:, 0] * u[:, 1] - w[:, 1] * u[:, 0], np.einsum("ij,ij->i", w, u))
     return np.where(t <= 0, t + 2 * np.pi, t)
+
+
+def _turned(v: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The vectors v turned by the angles t counter-clockwise."""
+    c, s = np.cos(t), np.sin(t)
+    return np.column_stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1]])
 
 
 def _classify(theta: np.ndarray) -> np.ndarray:
@@ -234,10 +284,7 @@ def _row(P: np.ndarray, f: np.ndarray, sizes: SizeMap):
     e_in /= np.hypot(e_in[:, 0], e_in[:, 1])[:, None]
     e_out /= np.hypot(e_out[:, 0], e_out[:, 1])[:, None]
 
-    def turned(v, t):  # v turned by t counter-clockwise
-        c, s = np.cos(t), np.sin(t)
-        return np.column_stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1]])
-
+    turned = _turned
     bis = turned(e_out, theta / 2)
     dist = np.minimum(h / np.maximum(np.sin(theta / 2), 1e-12), 2 * h)
     side_pt = X + dist[:, None] * bis
@@ -565,6 +612,384 @@ def _try_row(P, fronts, which, sizes):
     return Q, involved, loops, quads, cls, seams, snaps
 
 
+def _rungs(P: np.ndarray, fronts: list, sizes: SizeMap, reach: float):
+    """Facing front nodes: (nodes, succ, pred, partner), local indices into ``nodes``.
+
+    ``nodes`` are the front nodes in order, ``succ``/``pred`` their neighbours
+    on their front, ``partner[i]`` the node ``i`` faces (-1 if none): its
+    nearest front node within ``reach h`` that lies within
+    ``_LADDER_TURN`` of its inward bisector and sees it within its own, on
+    another front or at least 4 nodes away along the same one, when that
+    choice is mutual.
+    """
+    nodes = np.concatenate(fronts)
+    lens = np.array([len(g) for g in fronts], np.int64)
+    start = np.cumsum(lens) - lens
+    loop = np.repeat(np.arange(len(fronts)), lens)
+    pos = np.arange(len(nodes)) - start[loop]
+    succ = start[loop] + (pos + 1) % lens[loop]
+    pred = start[loop] + (pos - 1) % lens[loop]
+    X = P[nodes]
+    e_out = X[succ] - X
+    e_out /= np.hypot(e_out[:, 0], e_out[:, 1])[:, None]
+    nrm = _turned(e_out, np.concatenate([_angles(P, g) for g in fronts]) / 2)
+    h = sizes(X)
+    i, j, d = pk.near_pairs(X, X, reach * float(h.max()))
+    keep = (d > 0) & (d <= reach * h[i])
+    along = np.abs(pos[i] - pos[j])
+    along = np.minimum(along, lens[loop[i]] - along)
+    keep &= (loop[i] != loop[j]) | (along > 3)
+    i, j, d = i[keep], j[keep], d[keep]
+    u = (X[j] - X[i]) / d[:, None]
+    cos = np.cos(np.radians(_LADDER_TURN))
+    keep = (np.einsum("ij,ij->i", u, nrm[i]) > cos) & (np.einsum("ij,ij->i", u, nrm[j]) < -cos)
+    i, j, d = i[keep], j[keep], d[keep]
+    order = np.lexsort((j, d, i))
+    i, j = i[order], j[order]
+    first = np.ones(len(i), bool)
+    first[1:] = i[1:] != i[:-1]
+    best = np.full(len(nodes), -1, np.int64)
+    best[i[first]] = j[first]
+    partner = np.where((best >= 0) & (best[best.clip(0)] == np.arange(len(nodes))), best, -1)
+    return nodes, succ, pred, partner
+
+
+def _ladders(P: np.ndarray, fronts: list, sizes: SizeMap, banned: np.ndarray, reach: float):
+    """Close the bands between facing fronts by strips: (points, fronts left, quads, strips).
+
+    *Rungs* join facing front nodes. A strip starts at a mutual pair of
+    :func:`_rungs` (shortest first) and grows both ways along the two fronts,
+    rung ``(a, b)`` to ``(succ a, pred b)``, while the quad ``(a, succ a, pred
+    b, b)`` is strictly convex (exact), of quality (8.4) at least
+    ``_LADDER_Q``, its nodes not in another strip, and the new rung within
+    ``_LADDER_TURN`` of both bisectors. Quads failing the row checks of
+    :func:`_good_quads` (a rung touching a front edge or another rung except
+    at a shared node, a front node inside) cut their strip. Each strip of
+    rungs about ``k h`` long is a ``k``-wide grid: every rung cut in ``k``
+    equal parts, each quad in ``k`` quads between them (the parts of a
+    strictly convex quad are strictly convex). Strips, longest first, are cut
+    out of the fronts they touch by the chain arithmetic of :func:`_trace`,
+    with ``k``, ``k + 1`` or ``k - 1`` parts (each strip's end rungs add ``k``
+    edges to the fronts left, so this choice sets the parity of the fronts it
+    splits), and kept only when the fronts left are simple even cycles (a
+    strip along the whole of a thin front closes it; one between two fronts
+    merges them). Every quad is positive and a strip's boundary chain is the
+    front edges it removes plus its end rungs, so the strips cover exactly
+    the region they take out of the fronts (the winding-number argument).
+    """
+    empty = P, fronts, np.zeros((0, 4), np.int64), 0
+    if not fronts:
+        return empty
+    nodes, succ, pred, partner = _rungs(P, fronts, sizes, reach)
+    X = P[nodes]
+    cos = np.cos(np.radians(_LADDER_TURN))
+    nrm = _turned(
+        (X[succ] - X) / np.hypot(*(X[succ] - X).T)[:, None],
+        np.concatenate([_angles(P, g) for g in fronts]) / 2,
+    )
+
+    def facing(a: int, b: int) -> bool:
+        u = X[b] - X[a]
+        d = float(np.hypot(*u))
+        return d > 0 and u @ nrm[a] > cos * d and u @ nrm[b] < -cos * d
+
+    def good(a: int, b: int, c: int, e: int) -> bool:
+        q = nodes[[a, b, c, e]][None, :]
+        return bool(pk.strictly_convex_rows(P, q)[0]) and quad_quality(P, q)[0] >= _LADDER_Q
+
+    seeds = np.flatnonzero((partner >= 0) & (np.arange(len(nodes)) < partner))
+    seeds = seeds[np.argsort(np.hypot(*(X[partner[seeds]] - X[seeds]).T), kind="stable")]
+    used = banned[nodes].copy()
+    strips: list[list[tuple[int, int]]] = []
+    for s in seeds.tolist():
+        b0 = int(partner[s])
+        if used[s] or used[b0]:
+            continue
+        rungs = [(s, b0)]
+        used[[s, b0]] = True
+        reach = float(np.hypot(*(X[b0] - X[s]))) * np.array(_LADDER_TAPER)
+        for forward in (True, False):
+            while True:
+                a, b = rungs[-1] if forward else rungs[0]
+                a2, b2 = (int(succ[a]), int(pred[b])) if forward else (int(pred[a]), int(succ[b]))
+                if used[a2] or used[b2] or a2 == b2 or not facing(a2, b2):
+                    break
+                if not reach[0] <= float(np.hypot(*(X[b2] - X[a2]))) <= reach[1]:
+                    break
+                if not (good(a, a2, b2, b) if forward else good(a2, a, b, b2)):
+                    break
+                used[[a2, b2]] = True
+                if forward:
+                    rungs.append((a2, b2))
+                else:
+                    rungs.insert(0, (a2, b2))
+        if len(rungs) > 1:
+            strips.append(rungs)
+    if not strips:
+        return empty
+    # the row checks on every strip quad; a failing quad cuts its strip
+    coarse = np.array(
+        [[r[i][0], r[i + 1][0], r[i + 1][1], r[i][1]] for r in strips for i in range(len(r) - 1)]
+    )
+    ok = _good_quads(P, nodes[coarse], fronts, -1, len(P), sizes(P)).tolist()
+    pieces: list[list[tuple[int, int]]] = []
+    at = 0
+    for r in strips:
+        cur = [r[0]]
+        for i in range(len(r) - 1):
+            if ok[at + i]:
+                cur.append(r[i + 1])
+            else:
+                if len(cur) > 1:
+                    pieces.append(cur)
+                cur = [r[i + 1]]
+        if len(cur) > 1:
+            pieces.append(cur)
+        at += len(r) - 1
+    pieces.sort(key=len, reverse=True)
+    owner = np.full(len(P), -1, np.int64)
+    loops = list(fronts)
+    for k, g in enumerate(loops):
+        owner[g] = k
+    new_pts: list[np.ndarray] = []
+    kept: list[np.ndarray] = []
+    n_pts = len(P)
+    for r in pieces:
+        a = nodes[[x for x, _ in r]]
+        b = nodes[[y for _, y in r]]
+        involved = unique_ints(owner[np.concatenate([a, b])]).tolist()
+        if -1 in involved:
+            continue
+        length = float(np.median(np.hypot(*(P[b] - P[a]).T) / sizes(P[a])))
+        k0 = max(1, int(round(length)))
+        for k in (k0, k0 + 1, k0 - 1):
+            if k < 1:
+                continue
+            # grid[i, j]: point j of rung i, from a (j = 0) to b (j = k)
+            t = np.arange(1, k) / k
+            inner = P[a][:, None, :] + t[None, :, None] * (P[b] - P[a])[:, None, :]
+            inner = _bow(P[a], P[b], inner, t)
+            ids = n_pts + np.arange(len(r) * (k - 1)).reshape(len(r), k - 1)
+            grid = np.column_stack([a, ids, b])
+            q = np.stack(
+                [grid[:-1, :-1], grid[1:, :-1], grid[1:, 1:], grid[:-1, 1:]], axis=2
+            ).reshape(-1, 4)
+            new = _trace([loops[i] for i in involved], q, n_pts + inner.size // 2)
+            if new is not None:
+                break
+        else:
+            continue
+        new_pts.append(inner.reshape(-1, 2))
+        n_pts += len(new_pts[-1])
+        kept.append(q)
+        gone = set(involved)
+        loops = [g for i, g in enumerate(loops) if i not in gone] + new
+        owner = np.concatenate([owner, np.full(len(new_pts[-1]), -1, np.int64)])
+        owner[q.ravel()] = -1
+        for i, g in enumerate(loops):
+            owner[g] = i
+    if not kept:
+        return empty
+    P = np.concatenate([P, *new_pts])
+    try:
+        _polygons(P, loops)
+    except AlgorithmError:  # a clockwise front left outside every other: not kept
+        return empty
+    return P, loops, np.concatenate(kept), len(kept)
+
+
+def _fit(P: np.ndarray, quads: np.ndarray) -> bool:
+    """Every quad strictly convex (exact) and of quality (8.4) at least ``_MIN_Q``."""
+    return bool(pk.strictly_convex_rows(P, quads).all()) and bool(
+        (quad_quality(P, quads) >= _MIN_Q).all()
+    )
+
+
+def _ring(P: np.ndarray, loop: np.ndarray, sizes: SizeMap, strategy: str):
+    """A small stuck polygon closed by a ring of quads around a shrunk copy of it.
+
+    Each vertex ``v`` gets an inner point on its way to the vertices' centroid
+    (less far for flatter or reflex vertices, so the copy has no flat corner);
+    the ring quads ``(v_i, v_i+1, c_i+1, c_i)`` must all be strictly convex
+    (exact), and the copy, an even polygon, is closed by the partition (one
+    quad when it has 4 sides); every quad of quality (8.4) at least
+    ``_MIN_Q``. Returns ``(points, cells)`` or None.
+    """
+    n = len(loop)
+    V = P[loop]
+    g = V.mean(axis=0)
+    bend = np.clip((_angles(P, loop) - np.pi / 2) / (np.pi / 2), -1.0, 1.0)
+    ids = len(P) + np.arange(n)
+    ring = np.column_stack([loop, np.roll(loop, -1), np.roll(ids, -1), ids])
+    for base in _RING_STEPS:
+        t = base - 0.25 * bend
+        Q = np.concatenate([P, V + t[:, None] * (g - V)])
+        if not _fit(Q, ring):
+            continue
+        if n == 4:
+            if _fit(Q, ids[None, :]):
+                return Q, np.concatenate([ring, ids[None, :]])
+            continue
+        Q2, cells, _ = partition_polygon(
+            Q, [ids], np.zeros(1, np.int64), sizes, quad=True, strategy=strategy
+        )
+        if cells is not None and _fit(Q2, cells):
+            return Q2, np.concatenate([ring, cells])
+    return None
+
+
+def _coarse_split(P: np.ndarray, loop: np.ndarray, sizes: SizeMap, strategy: str):
+    """A stuck even polygon closed by the guaranteed route, locally (§8.4, Figure 8.13).
+
+    Every other vertex makes a coarse polygon, triangulated by the partition
+    (its triangle mode); each triangle is cut in three quads through its
+    edges' "midpoints" and its centroid, the midpoint of a coarse boundary
+    edge being the polygon vertex it skipped (so the polygon's edges are
+    kept) and shared edges getting one new midpoint. Both choices of the
+    coarse vertices are tried; kept only when every quad is strictly convex
+    (exact) and of quality (8.4) at least ``_MIN_Q``. Returns ``(points,
+    cells)`` or None.
+    """
+    n = len(loop)
+    for parity in (0, 1):
+        coarse = loop[parity::2]
+        skipped = loop[1::2] if parity == 0 else np.roll(loop[0::2], -1)
+        Q, tri, _ = partition_polygon(
+            P, [coarse], np.zeros(1, np.int64), sizes, quad=False, strategy=strategy
+        )
+        if tri is None:
+            continue
+        N = len(Q)
+        key = _edge_keys(coarse, np.roll(coarse, -1), N)
+        e = np.stack([tri, np.roll(tri, -1, axis=1)], axis=2).reshape(-1, 2)
+        ekey = _edge_keys(e[:, 0], e[:, 1], N)
+        ukey, inv = unique_ints(ekey, return_inverse=True)
+        mid = np.full(len(ukey), -1, np.int64)
+        on = isin_ints(ukey, key)
+        mid[on] = skipped[np.argsort(key)][np.searchsorted(np.sort(key), ukey[on])]
+        fresh = np.flatnonzero(~on)
+        a, b = ukey[fresh] // N, ukey[fresh] % N
+        mid[fresh] = N + np.arange(len(fresh))
+        cen = N + len(fresh) + np.arange(len(tri))
+        Q = np.concatenate([Q, (Q[a] + Q[b]) / 2, Q[tri].mean(axis=1)])
+        em = mid[inv].reshape(-1, 3)
+        cells = np.concatenate(
+            [np.column_stack([tri[:, j], em[:, j], cen, em[:, (j - 1) % 3]]) for j in range(3)]
+        )
+        if len(coarse) * 2 == n and _fit(Q, cells):
+            return Q, cells
+    return None
+
+
+def _close(P: np.ndarray, fronts: list, sizes: SizeMap, strategy: str):
+    """The quad closure of the fronts: ``(points, cells, stats)``, cells None if stuck.
+
+    The partition (:func:`meshcore.partition.partition_polygon`) on every
+    polygon at once; when it is stuck, polygon by polygon, each polygon of
+    one ring it is stuck on closed by :func:`_ring` instead
+    (``stats["rings"]``), or else by :func:`_coarse_split`
+    (``stats["coarse_splits"]``).
+    """
+    loops, ring_polygon = _polygons(P, fronts)
+    P2, cells, cstats = partition_polygon(
+        P, loops, ring_polygon, sizes, quad=True, strategy=strategy
+    )
+    if cells is not None:
+        return P2, cells, cstats
+    out = [np.zeros((0, 4), np.int64)]
+    rings = splits = 0
+    for k in range(int(ring_polygon.max()) + 1):
+        mine = [g for g, r in zip(loops, ring_polygon, strict=True) if r == k]
+        used = unique_ints(np.concatenate(mine))
+        local = np.searchsorted(used, mine[0]) if len(mine) == 1 else None
+        sub = [np.searchsorted(used, g) for g in mine]
+        Pk, ck, _ = partition_polygon(
+            P[used], sub, np.zeros(len(sub), np.int64), sizes, quad=True, strategy=strategy
+        )
+        if ck is None and local is not None:
+            res = _ring(P[used], local, sizes, strategy)
+            if res is None:
+                res = _coarse_split(P[used], local, sizes, strategy)
+                splits += res is not None
+            else:
+                rings += 1
+            if res is not None:
+                Pk, ck = res
+        if ck is None:
+            return P, None, {}
+        glob = np.concatenate([used, len(P) + np.arange(len(Pk) - len(used))])
+        P = np.concatenate([P, Pk[len(used) :]])
+        out.append(glob[ck])
+    return P, np.concatenate(out), {"rings": rings, "coarse_splits": int(splits)}
+
+
+def _bow(A: np.ndarray, B: np.ndarray, inner: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The inner points of a strip's two end rungs bowed into the strip.
+
+    ``inner[i, j]`` is point ``t[j]`` of rung ``A[i] -> B[i]``. A cut rung is
+    a straight run of flat vertices on the front it leaves, which the
+    partition cannot use as quad corners; its points move toward the next
+    rung by ``_BOW`` times the rungs' distance (a parabola along the rung),
+    so the front left turns at each of them. Kept only when the end columns
+    of the strip's quads stay strictly convex (exact).
+    """
+    if len(inner) < 2 or not inner.shape[1]:
+        return inner
+    G = np.concatenate([A[:, None, :], inner, B[:, None, :]], axis=1)
+    bent = G.copy()
+    mid = (A + B) / 2
+    for end, nb in ((0, 1), (-1, -2)):
+        bent[end, 1:-1] += _BOW * (4 * t * (1 - t))[:, None] * (mid[nb] - mid[end])
+    cols = np.arange(4 * G.shape[1]).reshape(4, -1)  # the first two rungs and the last two
+    q = np.stack([cols[:-1, :-1], cols[1:, :-1], cols[1:, 1:], cols[:-1, 1:]], axis=2)
+    q = q[[0, 2]].reshape(-1, 4)
+    pts = np.concatenate([bent[:2], bent[-2:]]).reshape(-1, 2)
+    if pk.strictly_convex_rows(pts, q).all():
+        return bent[:, 1:-1]
+    return inner
+
+
+def _ladder_closure(P: np.ndarray, fronts: list, sizes: SizeMap, strategy: str):
+    """The fronts closed by strips (:func:`_ladders`), then the partition's quads.
+
+    When the partition is stuck on some polygons the strips leave, their
+    front nodes are barred from strips and the strips made again (up to
+    ``_LADDER_TRIES`` times). Returns ``(points, cells, stats)`` with
+    ``stats["ladders"]`` = (strips, their quads); cells None when no strip is
+    kept or the partition is still stuck.
+    """
+    banned = np.zeros(len(P), bool)
+    for _ in range(_LADDER_TRIES):
+        P1, cut, ladder_q, n_ladders = _ladders(P, fronts, sizes, banned, _LADDER_REACH)
+        if not n_ladders:
+            return P, None, {}
+        found = {"ladders": (n_ladders, len(ladder_q))}
+        if not cut:
+            return P1, ladder_q, found
+        P2, cells, cstats = _close(P1, cut, sizes, strategy)
+        if cells is not None:
+            return P2, np.concatenate([ladder_q, cells]), {**cstats, **found}
+        loops, ring_polygon = _polygons(P1, cut)
+        stuck = [
+            k
+            for k in range(ring_polygon.max() + 1)
+            if partition_polygon(
+                P1,
+                [g for g, r in zip(loops, ring_polygon, strict=True) if r == k],
+                np.zeros(int((ring_polygon == k).sum()), np.int64),
+                sizes,
+                quad=True,
+                strategy=strategy,
+            )[1]
+            is None
+        ]
+        for k in stuck:
+            for g, r in zip(loops, ring_polygon, strict=True):
+                if r == k:
+                    banned[g[g < len(P)]] = True
+    return P, None, {}
+
+
 def _seam(P: np.ndarray, front: np.ndarray, quads: np.ndarray, h: np.ndarray, n_old: int):
     """Merge pairs of consecutive new front nodes closer than _SEAM h into their midpoint.
 
@@ -742,7 +1167,7 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
     active = [len(f) > _SMALL_FRONT for f in fronts]
     quads: list[np.ndarray] = []
     stats = {"rows": 0, "row_quads": 0, "seams": 0, "snaps": 0, "merges": 0, "splits": 0}
-    stats["frozen"] = 0
+    stats["frozen"] = stats["strips"] = stats["strip_quads"] = 0
     classes = np.zeros(5, np.int64)
     rows = 0
     history: list[tuple[list[np.ndarray], int]] = []
@@ -750,7 +1175,27 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
     limit = int(4 * float(np.hypot(*(hi - lo))) / sizes.smallest) + 16
     if max_rows is not None:
         limit = min(limit, max_rows)
-    while any(active) and rows < limit:
+    meetings = 0
+    checkpoint = None  # the history entry of the fronts before their first meeting
+    while rows < limit:
+        if not any(active):
+            if not quad_closure or meetings >= _MEETINGS:
+                break
+            # the fronts meet: strips across the bands between them, rows go on
+            meetings += 1
+            if checkpoint is None:
+                checkpoint = len(history)
+            free = np.zeros(len(P), bool)
+            P2, cut, strip_q, n_strips = _ladders(P, fronts, sizes, free, _MEET_REACH)
+            if not n_strips:
+                break
+            history.append((list(fronts), len(quads)))
+            P, fronts = P2, cut
+            quads.append(strip_q)
+            stats["strips"] += n_strips
+            stats["strip_quads"] += len(strip_q)
+            active = [len(g) > _SMALL_FRONT for g in fronts]
+            continue
         rows += 1
         history.append((list(fronts), len(quads)))
         ids = [id(g) for g, a in zip(fronts, active, strict=True) if a]
@@ -787,13 +1232,31 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
         if not loops:
             P2, cells, cstats = P, np.zeros((0, 4 if quad_closure else 3), np.int64), {}
             break
-        P2, cells, cstats = partition_polygon(
-            P, loops, ring_polygon, sizes, quad=quad_closure, strategy=strategy
-        )
+        stats["ladders"] = stats["ladder_quads"] = 0
+        P2, cells, cstats = P, None, {}
+        if quad_closure:
+            P2, cells, cstats = _ladder_closure(P, fronts, sizes, strategy)
+        if cells is not None:
+            stats["ladders"], stats["ladder_quads"] = cstats.pop("ladders")
+            break
+        if quad_closure:
+            P2, cells, cstats = _close(P, fronts, sizes, strategy)
+        else:
+            P2, cells, cstats = partition_polygon(
+                P, loops, ring_polygon, sizes, quad=False, strategy=strategy
+            )
         if cells is not None:
             break
         if not history:
             return None
+        if checkpoint is not None and checkpoint < len(history):
+            # first back to where the fronts first met (the rows alone), then as before
+            fronts, nq = history[checkpoint]
+            stats["rows_taken_back"] += len(history) - checkpoint
+            del history[checkpoint:]
+            quads = quads[:nq]
+            checkpoint = None
+            continue
         take = min(back, len(history))
         fronts, nq = history[-take]
         del history[-take:]

@@ -231,8 +231,9 @@ def default_registry() -> Registry:
             name="paving",
             summary="All-quad mesh by paving: the boundary resampled with even rings, rows of "
             "quads laid from the boundary inward (row ends, sides, corners, seams), every row "
-            "checked by exact front-front intersection tests, the rest closed by even "
-            "recursive partition, smoothed without inverting; only quads.",
+            "checked by exact front-front intersection tests, fronts that meet joined by strips "
+            "of quads between facing nodes, the rest closed by even recursive partition, "
+            "smoothed without inverting; only quads.",
             section="§8.5.1 (advancing-front quads), Remark 8.9",
             params=quads.PavingParams,
             run=quads.run_paving,

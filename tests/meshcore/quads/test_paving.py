@@ -13,7 +13,7 @@ from scipy.spatial import cKDTree
 
 from meshcore import InputError, parse_domain
 from meshcore.mesh.quality import quad_quality
-from meshcore.partition import boundary_points, smooth_quads
+from meshcore.partition import boundary_points, size_map, smooth_quads
 from meshcore.partition.kernel import strictly_convex_rows
 from meshcore.quads import advancing_front, paving, paving_kernel
 from tests.meshcore.partition.test_recursive import (
@@ -136,6 +136,9 @@ def test_guaranteed_route_when_the_closure_is_stuck(monkeypatch):
         return real(points, loops, ring_polygon, sizes, quad=quad, strategy=strategy)
 
     monkeypatch.setattr(advancing_front, "partition_polygon", stuck)
+    # the closure's local rescues of stuck polygons are stuck too
+    monkeypatch.setattr(advancing_front, "_ring", lambda *args: None)
+    monkeypatch.setattr(advancing_front, "_coarse_split", lambda *args: None)
     res = paving(SQUARE_HOLE, size=0.05)
     assert res.stats["fallback"] == 1
     check_mesh(SQUARE_HOLE, res, 0.05, "quad")
@@ -156,3 +159,82 @@ def test_near_pairs_are_the_kd_tree_pairs():
         assert np.allclose(d, np.hypot(*(a[i] - B[j]).T))
     i, _, _ = paving_kernel.near_pairs(A, B[:0], 0.1)
     assert len(i) == 0
+
+
+def _area(P, ring):
+    """Signed area of the polygon P[ring] (shoelace)."""
+    x, y = P[ring, 0], P[ring, 1]
+    return 0.5 * float((x * np.roll(y, -1) - y * np.roll(x, -1)).sum())
+
+
+def _closes(P, loop, cells):
+    """The cells tile the polygon ``loop`` exactly: strictly convex, their area the
+    polygon's, their boundary edges the polygon's edges."""
+    assert strictly_convex_rows(P, cells).all()
+    assert np.isclose(sum(_area(P, c) for c in cells), _area(P, loop))
+    e = np.sort(np.stack([cells, np.roll(cells, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+    u, cnt = np.unique(e, axis=0, return_counts=True)
+    ring = np.sort(np.column_stack([loop, np.roll(loop, -1)]), axis=1)
+    assert cnt.max() <= 2
+    assert {tuple(x) for x in u[cnt == 1]} == {tuple(x) for x in ring}
+
+
+class TestFrontsMeeting:
+    def _rectangle_front(self, h, width, height):
+        nx, ny = round(width / h), round(height / h)
+        bottom = [(i * h, 0.0) for i in range(nx)]
+        right = [(width, j * h) for j in range(ny)]
+        top = [(width - i * h, height) for i in range(nx)]
+        left = [(0.0, height - j * h) for j in range(ny)]
+        return np.array(bottom + right + top + left)
+
+    def test_a_thin_band_is_closed_by_a_strip(self):
+        # a front 1 x 0.3 at h = 0.1: bottom and top nodes face each other 3 h apart,
+        # the strip is a 3-wide grid between them; what is left is two even end pieces
+        P = self._rectangle_front(0.1, 1.0, 0.3)
+        loop = np.arange(len(P))
+        sizes = size_map(parse_domain(SQUARE), 0.1, None)
+        banned = np.zeros(len(P), bool)
+        P1, left, quads, strips = advancing_front._ladders(P, [loop], sizes, banned, 6.5)
+        assert strips == 1 and len(quads) == 8 * 3
+        assert np.array_equal(P1[: len(P)], P)
+        assert all(len(g) % 2 == 0 for g in left) and len(left) == 2
+        assert strictly_convex_rows(P1, quads).all()
+        covered = sum(_area(P1, q) for q in quads) + sum(_area(P1, g) for g in left)
+        assert np.isclose(covered, 0.3)
+        # the end rungs are bowed into the strip: the pieces left turn at their points
+        for g in left:
+            assert (np.degrees(advancing_front._angles(P1, g))[g >= len(P)] < 179).all()
+
+    def test_a_small_stuck_polygon_is_closed_by_a_ring(self):
+        # a triangle with one side split (4 segments, a flat corner): no quad fits it,
+        # a ring of four quads around a shrunk copy (one quad) does
+        P = np.array([[0.5, 0.0], [1.0, 0.0], [0.35, 0.8], [0.0, 0.0]])
+        loop = np.arange(4)
+        sizes = size_map(parse_domain(SQUARE), 0.3, None)
+        Q, cells = advancing_front._ring(P, loop, sizes, "balanced")
+        assert len(cells) == 5
+        _closes(Q, loop, cells)
+
+    def test_coarse_split_keeps_the_polygon_edges(self):
+        # a hexagon with every side split: every other vertex is the hexagon, its
+        # triangles cut in three quads through the skipped vertices
+        t = np.radians(np.arange(6) * 60.0)
+        hexagon = np.column_stack([np.cos(t), np.sin(t)])
+        mid = (hexagon + np.roll(hexagon, -1, axis=0)) / 2
+        P = np.stack([hexagon, mid], axis=1).reshape(-1, 2)
+        loop = np.arange(12)
+        sizes = size_map(parse_domain(SQUARE), 1.0, None)
+        Q, cells = advancing_front._coarse_split(P, loop, sizes, "balanced")
+        assert np.array_equal(Q[:12], P)
+        _closes(Q, loop, cells)
+
+    @pytest.mark.parametrize("name", ["plate", "gear"])
+    def test_meeting_fronts_only_quads(self, name):
+        # the benchmark's plate and gear, coarse: strips join the fronts, only quads
+        from benchmarks.paving import geometry
+
+        geo = geometry(name, 0.06)
+        res = paving(geo, size=0.06)
+        check_mesh(geo, res, 0.06, "quad", median=False)
+        assert res.stats["strips"] + res.stats["ladders"] >= 1
