@@ -60,7 +60,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.errors import InputError
-from meshcore.geometry.ordering import radix_argsort
+from meshcore.geometry.ordering import radix_sort
 from meshcore.geometry.predicates import WORK_SIZE, incircle_exact, orient2d_exact
 
 __all__ = ["IncrementalDelaunay", "Triangulation", "delaunay"]
@@ -132,7 +132,7 @@ _HILBERT_TABLE = _hilbert_table()
 
 @njit(cache=True)
 def _brio_hilbert_keys(pts, factor, nbits):
-    """Sort keys: BRIO round in the high bits, Hilbert index in the low bits.
+    """Each point's BRIO round and Hilbert index, and the number of rounds.
 
     The coordinates are taken times ``factor`` (a power of two, so exactly)
     to keep the bounding box finite.
@@ -161,7 +161,7 @@ def _brio_hilbert_keys(pts, factor, nbits):
     while m > 64:
         m >>= 1
         rounds += 1
-    keys = np.empty(n, np.int64)
+    rnd = np.empty(n, np.int64)
     curve = np.empty(n, np.int64)
     head = nbits % 4
     for i in range(n):
@@ -199,14 +199,65 @@ def _brio_hilbert_keys(pts, factor, nbits):
         while level < rounds and (z & np.uint64(1)) == np.uint64(0):
             z >>= np.uint64(1)
             level += 1
-        r = rounds - level
+        rnd[i] = rounds - level
         curve[i] = d
-        if r % 2 == 1:
-            # Alternate the direction of the curve from round to round, so
-            # that each round starts where the previous one ended.
-            d = (1 << (2 * nbits)) - 1 - d
-        keys[i] = (r << (2 * nbits)) | d
-    return keys, curve
+    return rnd, curve, rounds + 1
+
+
+@njit(cache=True)
+def _insertion_order(rnd, curve, nrounds):
+    """The insertion order and the walk hints' inputs, from one sort.
+
+    ``order``: the points round after round, each round along the Hilbert
+    curve, forwards in even rounds and backwards in odd ones (so that each
+    round starts where the previous one ended), points of one curve cell in
+    index order: the stable sort of the key ``(round, index or its
+    complement)``. ``along``: the insertion positions in curve order (one
+    cell's in increasing position), ``curve_sorted`` their curve indices, as
+    :func:`_walk_hints` takes them. One radix sort by curve index (the round
+    carried in the low bits of the moved values) and a counting sort by
+    round give both, where sorting the keys and then the curve indices in
+    insertion order took two.
+    """
+    n = curve.shape[0]
+    carried = np.empty(n, np.int64)
+    for i in range(n):
+        carried[i] = (i << 6) | rnd[i]
+    curve_sorted, carried = radix_sort(curve, carried)
+    fill = np.zeros(nrounds + 1, np.int64)
+    for i in range(n):
+        fill[rnd[i] + 1] += 1
+    for r in range(nrounds):
+        fill[r + 1] += fill[r]
+    order = np.empty(n, np.int64)
+    along = np.empty(n, np.int64)
+    for j in range(n):  # even rounds, forwards
+        r = carried[j] & 63
+        if r % 2 == 0:
+            along[j] = fill[r]
+            order[fill[r]] = carried[j] >> 6
+            fill[r] += 1
+    j = n - 1
+    while j >= 0:  # odd rounds, backwards cell by cell, one cell in index order
+        g = j
+        while g > 0 and curve_sorted[g - 1] == curve_sorted[j]:
+            g -= 1
+        for jj in range(g, j + 1):
+            r = carried[jj] & 63
+            if r % 2 == 1:
+                along[jj] = fill[r]
+                order[fill[r]] = carried[jj] >> 6
+                fill[r] += 1
+        j = g - 1
+    j = 0
+    while j < n:  # one cell's positions in increasing order
+        g = j
+        while g + 1 < n and curve_sorted[g + 1] == curve_sorted[j]:
+            g += 1
+        if g > j:
+            along[j : g + 1] = np.sort(along[j : g + 1])
+        j = g + 1
+    return order, along, curve_sorted
 
 
 @njit(cache=True)
@@ -1036,12 +1087,11 @@ def _build(pts_in: np.ndarray, progress):
     # Hilbert cells: about 4n per side, so that even points sampling a curve
     # (boundaries) rarely share a cell.
     nbits = min(_HILBERT_BITS, max(8, n.bit_length() + 2))
-    keys, curve = _brio_hilbert_keys(pts_in, factor, nbits)
-    order = radix_argsort(keys)
-    del keys
-    along = radix_argsort(curve[order])
-    hint = _walk_hints(along, curve[order][along])
-    del curve, along
+    rnd, curve, nrounds = _brio_hilbert_keys(pts_in, factor, nbits)
+    order, along, curve_sorted = _insertion_order(rnd, curve, nrounds)
+    del rnd, curve
+    hint = _walk_hints(along, curve_sorted)
+    del along, curve_sorted
     pts = _gather(pts_in, order, factor)
 
     ntri_max = 2 * n

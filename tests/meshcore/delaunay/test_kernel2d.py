@@ -15,9 +15,15 @@ from hypothesis import strategies as st
 from scipy.spatial import ConvexHull, QhullError
 from scipy.spatial import Delaunay as QhullDelaunay
 
-from meshcore.delaunay.kernel2d import IncrementalDelaunay, Triangulation, delaunay
+from meshcore.delaunay.kernel2d import (
+    IncrementalDelaunay,
+    Triangulation,
+    _brio_hilbert_keys,
+    _insertion_order,
+    delaunay,
+)
 from meshcore.errors import Cancelled, InputError
-from meshcore.geometry.ordering import radix_argsort
+from meshcore.geometry.ordering import radix_argsort, radix_sort
 from meshcore.geometry.predicates import incircle, orient2d
 
 
@@ -143,6 +149,26 @@ def test_radix_argsort_is_the_stable_argsort(top):
         keys = rng.integers(0, top + 1, size, dtype=np.int64)
         keys[: size // 2] = keys[size // 2 : 2 * (size // 2)]  # every key at least twice
         assert np.array_equal(radix_argsort(keys), np.argsort(keys, kind="stable"))
+        perm = np.argsort(keys, kind="stable")
+        values = rng.integers(-5, 5, size, dtype=np.int64)
+        sorted_keys, moved = radix_sort(keys, values)
+        assert np.array_equal(sorted_keys, keys[perm]) and np.array_equal(moved, values[perm])
+
+
+@pytest.mark.parametrize("spread", [1.0, 1e-12])
+def test_insertion_order_is_the_stable_sort_of_round_and_curve(spread):
+    # With spread 1e-12 most of the 3,000 points share their Hilbert cell with
+    # others: the ties keep index order (insertion) and insertion order (hints).
+    rng = np.random.default_rng(5)
+    p = np.concatenate([rng.random((40, 2)), 0.5 + spread * rng.random((3000, 2))])
+    nbits = 14
+    rnd, curve, nrounds = _brio_hilbert_keys(p, 1.0, nbits)
+    assert rnd.min() >= 0 and rnd.max() < nrounds
+    order, along, curve_sorted = _insertion_order(rnd, curve, nrounds)
+    forward = np.where(rnd % 2 == 1, (1 << (2 * nbits)) - 1 - curve, curve)
+    assert np.array_equal(order, np.argsort((rnd << (2 * nbits)) | forward, kind="stable"))
+    assert np.array_equal(along, np.argsort(curve[order], kind="stable"))
+    assert np.array_equal(curve_sorted, np.sort(curve))
 
 
 def test_three_points_one_triangle_with_no_neighbours():
