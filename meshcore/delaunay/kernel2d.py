@@ -1166,9 +1166,14 @@ def delaunay(
     Co-circular ties are broken by symbolic perturbation of the liftings in
     lexicographic order of the points (see the module docstring): the
     triangle *set* depends only on the point set, not on the input order, and
-    is unchanged by exact translations and power-of-two scalings. The order of
-    the output rows and the starting vertex of each row are deterministic for
-    a given input array but otherwise unspecified.
+    is unchanged by exact translations and power-of-two scalings. The
+    guarantee is that set: the order of the output rows and the starting
+    vertex of each row are deterministic for a given input array but
+    otherwise unspecified. They follow the insertion order, a stable sort
+    (radix) of the points' round and Hilbert index, so points sharing a
+    Hilbert cell keep their index order; numpy's unstable argsort, used
+    before, could order such ties otherwise, which gave the same triangles
+    in other rows.
 
     Cost: expected O(n log n) (sorting) plus O(n) insertions with expected
     constant work each, in compiled code. Memory: about 200 bytes per point
