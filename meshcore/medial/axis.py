@@ -466,19 +466,27 @@ def _offset_centre(pts, o, b, c):
 
 
 @njit(cache=True)
-def _voronoi_classes(pts, tri, nb, inside, bnd, tol):
-    """The Voronoi graph's nodes and edges over the inside triangles (step 4).
+def _voronoi_classes(pts, tri, nb, inside, bnd, ttype, tol):
+    """The Voronoi graph's nodes and edges over the inside triangles (step 4),
+    in one pass over the triangles and one over the classes.
 
     The inside triangles are renumbered in order (``keep``: their ids in
-    ``tri``). Across each interior edge ``p, q`` between inside triangles
-    ``t < u``, both circumcentres are computed relative to ``p`` (so that the
-    distance between them does not depend on where the domain lies: 0 up to
-    rounding when the four vertices are co-circular); within ``tol`` the two
-    triangles are one class (union-find), otherwise the edge joins their
-    classes in the graph. Returns ``keep``, the class of each kept triangle
-    (classes numbered in the order of their first triangle), the number of
-    classes, the graph edges as class pairs with their Delaunay edges
-    ``(p, q)``, and the number of merged pairs.
+    ``tri``; ``T`` and ``types`` their rows). Across each interior edge
+    ``p, q`` between inside triangles ``t < u``, both circumcentres are
+    computed relative to ``p`` (so that the distance between them does not
+    depend on where the domain lies: 0 up to rounding when the four vertices
+    are co-circular); within ``tol`` the two triangles are one class
+    (union-find), otherwise the edge joins their classes in the graph.
+    Classes are numbered in the order of their first triangle.
+
+    Returns ``keep, T, types, label, k, pairs, pq, merged, rep, centre,
+    radius, spread``: the class of each kept triangle and the number of
+    classes; the graph edges as class pairs with their Delaunay edges; the
+    number of merged pairs; per class its first triangle, that triangle's
+    circumcentre and circumradius, and the contact spread (radians: the
+    largest angle two vertices of one of its triangles subtend at that
+    triangle's centre, the minor arc; the arcsine taken once per class, of
+    the largest chord-to-diameter ratio, as it is monotonic).
     """
     nt = tri.shape[0]
     remap = np.full(nt, -1, np.int64)
@@ -488,6 +496,11 @@ def _voronoi_classes(pts, tri, nb, inside, bnd, tol):
             remap[t] = m
             m += 1
     keep = np.empty(m, np.int64)
+    T = np.empty((m, 3), np.int64)
+    types = np.empty(m, np.int8)
+    own = np.empty((m, 2))  # each triangle's circumcentre
+    own_r = np.empty(m)
+    ratio = np.empty(m)  # its longest edge over its circumdiameter
     parent = np.arange(m)
     cap = 3 * m // 2 + 1
     ends = np.empty((cap, 2), np.int64)
@@ -497,7 +510,28 @@ def _voronoi_classes(pts, tri, nb, inside, bnd, tol):
     for t in range(nt):
         if not inside[t]:
             continue
-        keep[remap[t]] = t
+        row = remap[t]
+        keep[row] = t
+        types[row] = ttype[t]
+        for i in range(3):
+            T[row, i] = tri[t, i]
+        ax = pts[tri[t, 0], 0]
+        ay = pts[tri[t, 0], 1]
+        bx = pts[tri[t, 1], 0] - ax
+        by = pts[tri[t, 1], 1] - ay
+        cx = pts[tri[t, 2], 0] - ax
+        cy = pts[tri[t, 2], 1] - ay
+        b2 = bx * bx + by * by
+        c2 = cx * cx + cy * cy
+        den = 2.0 * (bx * cy - by * cx)
+        ux = (cy * b2 - by * c2) / den
+        uy = (bx * c2 - cx * b2) / den
+        own[row, 0] = ax + ux
+        own[row, 1] = ay + uy
+        r = math.hypot(ux, uy)
+        own_r[row] = r
+        chord = math.sqrt(max(b2, c2, (bx - cx) ** 2 + (by - cy) ** 2))
+        ratio[row] = chord / (2.0 * r)
         for i in range(3):
             if bnd[t, i]:
                 continue
@@ -514,7 +548,7 @@ def _voronoi_classes(pts, tri, nb, inside, bnd, tol):
             x1, y1 = _offset_centre(pts, p, q, c)
             x2, y2 = _offset_centre(pts, p, d, q)
             if math.hypot(x1 - x2, y1 - y2) <= tol:
-                a = _find(parent, remap[t])
+                a = _find(parent, row)
                 b = _find(parent, remap[u])
                 if a < b:
                     parent[b] = a
@@ -522,64 +556,39 @@ def _voronoi_classes(pts, tri, nb, inside, bnd, tol):
                     parent[a] = b
                 merged += 1
             else:
-                ends[g, 0] = remap[t]
+                ends[g, 0] = row
                 ends[g, 1] = remap[u]
                 pq[g, 0] = p
                 pq[g, 1] = q
                 g += 1
     label = np.full(m, -1, np.int64)
+    rep = np.empty(m, np.int64)
+    best = np.zeros(m)
     k = 0
     for i in range(m):
         root = _find(parent, i)
         if label[root] < 0:
             label[root] = k
+            rep[k] = i
             k += 1
-        label[i] = label[root]
-    pairs = np.empty((g, 2), np.int64)
-    for r in range(g):
-        pairs[r, 0] = label[ends[r, 0]]
-        pairs[r, 1] = label[ends[r, 1]]
-    return keep, label, k, pairs, pq[:g].copy(), merged
-
-
-@njit(cache=True)
-def _class_circles(pts, T, label, k):
-    """Per class: its first triangle, that triangle's circumcentre and
-    circumradius, and the class's contact spread (radians: the largest
-    angle two vertices of one of its triangles subtend at that triangle's
-    centre, the minor arc). The spread's arcsine is taken once per class, of
-    the largest chord-to-diameter ratio (it is monotonic)."""
-    rep = np.full(k, -1, np.int64)
+        c = label[root]
+        label[i] = c
+        if ratio[i] > best[c]:
+            best[c] = ratio[i]
     centre = np.empty((k, 2))
     radius = np.empty(k)
-    best = np.zeros(k)
-    for i in range(T.shape[0]):
-        ax = pts[T[i, 0], 0]
-        ay = pts[T[i, 0], 1]
-        bx = pts[T[i, 1], 0] - ax
-        by = pts[T[i, 1], 1] - ay
-        cx = pts[T[i, 2], 0] - ax
-        cy = pts[T[i, 2], 1] - ay
-        b2 = bx * bx + by * by
-        c2 = cx * cx + cy * cy
-        den = 2.0 * (bx * cy - by * cx)
-        ux = (cy * b2 - by * c2) / den
-        uy = (bx * c2 - cx * b2) / den
-        r = math.hypot(ux, uy)
-        c = label[i]
-        if rep[c] < 0:
-            rep[c] = i
-            centre[c, 0] = ax + ux
-            centre[c, 1] = ay + uy
-            radius[c] = r
-        chord = math.sqrt(max(b2, c2, (bx - cx) ** 2 + (by - cy) ** 2))
-        ratio = chord / (2.0 * r)
-        if ratio > best[c]:
-            best[c] = ratio
     spread = np.empty(k)
     for c in range(k):
+        centre[c, 0] = own[rep[c], 0]
+        centre[c, 1] = own[rep[c], 1]
+        radius[c] = own_r[rep[c]]
         spread[c] = 2.0 * math.asin(min(1.0, best[c]))
-    return rep, centre, radius, spread
+    pairs = np.empty((g, 2), np.int64)
+    for e in range(g):
+        pairs[e, 0] = label[ends[e, 0]]
+        pairs[e, 1] = label[ends[e, 1]]
+    out_pq = pq[:g].copy()
+    return keep, T, types, label, k, pairs, out_pq, merged, rep[:k].copy(), centre, radius, spread
 
 
 @njit(cache=True)
@@ -1303,13 +1312,10 @@ def medial_axis(
     inside, bnd, ttype, status = fill
     if status[0] < 0:
         raise AlgorithmError("the boundary pieces do not bound the domain (fill leaked)")
-    keep, label, n_nodes, g_edges, g_pq, n_merged = _voronoi_classes(
-        pts, tri.triangles, tri.neighbors, inside, bnd, TOLERANCES.node_merge * domain.diameter
-    )
-    T = tri.triangles[keep]
-    types = ttype[keep]
+    tol = TOLERANCES.node_merge * domain.diameter
+    graph = _voronoi_classes(pts, tri.triangles, tri.neighbors, inside, bnd, ttype, tol)
+    keep, T, types, label, n_nodes, g_edges, g_pq, n_merged, rep, centre, cradius, spread = graph
     report(0.6, "Voronoi graph", "types")
-    rep, centre, cradius, spread = _class_circles(pts, T, label, n_nodes)
     node_alive, edge_alive, pruned = _prune(
         n_nodes, g_edges, g_pq, centre, cradius, spread, pts, math.radians(prune)
     )
