@@ -60,6 +60,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.errors import InputError
+from meshcore.geometry.expansions import _two_sum
 from meshcore.geometry.ordering import radix_sort
 from meshcore.geometry.predicates import WORK_SIZE, incircle_exact, orient2d_exact
 
@@ -360,6 +361,53 @@ def _incircle_tie(pts, a, b, c, d, work):
     return _orient(pts, a, b, d, work)
 
 
+@njit(cache=True)
+def _sum4_sign(p, q, r, s):
+    """Exact sign of ``p + q - r - s`` (Shewchuk's Two_Two_Sum: a
+    non-overlapping expansion, whose sign is that of its largest nonzero
+    component)."""
+    s1, e1 = _two_sum(p, q)
+    s2, e2 = _two_sum(-r, -s)
+    i, x0 = _two_sum(e1, e2)
+    j, x1 = _two_sum(s1, i)
+    k, x2 = _two_sum(x1, s2)
+    x3, x2b = _two_sum(j, k)
+    for x in (x3, x2b, x2, x0):
+        if x > 0.0:
+            return 1
+        if x < 0.0:
+            return -1
+    return 0
+
+
+@njit(cache=True)
+def _incircle_two_lines(ax, ay, bx, by, cx, cy, dx, dy):
+    """Exact in-circle sign when two of the four points lie on one horizontal
+    line and the other two, ``d`` among them, on another (a rectangle's
+    sampled top and bottom: the commonest exact call after the rectangles
+    that :func:`incircle_exact` settles at once); 2 when they do not.
+
+    With ``u, v`` the pair on one line and ``w`` the point of ``a, b, c`` on
+    ``d``'s line, the circle through ``u, v, w`` is centred above
+    ``m = (u_x + v_x) / 2``, so ``d`` is inside it exactly when
+    ``|d_x - m| < |w_x - m|``, i.e. ``(d_x - w_x)(d_x + w_x - u_x - v_x) < 0``;
+    the determinant's sign is that times ``orient(a, b, c)``, which is the
+    product of two coordinate differences' signs.
+    """
+    if dy == ay and by == cy and by != dy:
+        inside = (1 if dx < ax else -1) * _sum4_sign(dx, ax, bx, cx)
+        turn = (1 if by > ay else -1) * (1 if bx > cx else -1)
+    elif dy == by and ay == cy and ay != dy:
+        inside = (1 if dx < bx else -1) * _sum4_sign(dx, bx, ax, cx)
+        turn = -(1 if by > ay else -1) * (1 if cx > ax else -1)
+    elif dy == cy and ay == by and ay != dy:
+        inside = (1 if dx < cx else -1) * _sum4_sign(dx, cx, ax, bx)
+        turn = (1 if bx > ax else -1) * (1 if cy > ay else -1)
+    else:
+        return 2
+    return turn * inside
+
+
 @njit(cache=True, inline="always")
 def _incircle(pts, a, b, c, d, work):
     """Perturbed in-circle sign of d against CCW (a, b, c); never 0."""
@@ -397,7 +445,9 @@ def _incircle(pts, a, b, c, d, work):
         return 1
     if -det > errbound:
         return -1
-    s = incircle_exact(ax, ay, bx, by, cx, cy, dx, dy, work)
+    s = _incircle_two_lines(ax, ay, bx, by, cx, cy, dx, dy)
+    if s == 2:
+        s = incircle_exact(ax, ay, bx, by, cx, cy, dx, dy, work)
     if s != 0:
         return s
     return _incircle_tie(pts, a, b, c, d, work)

@@ -8,6 +8,8 @@ triangle per hull edge, every boundary edge a supporting line of the points)
 and every point is a vertex.
 """
 
+import itertools
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -19,12 +21,13 @@ from meshcore.delaunay.kernel2d import (
     IncrementalDelaunay,
     Triangulation,
     _brio_hilbert_keys,
+    _incircle_two_lines,
     _insertion_order,
     delaunay,
 )
 from meshcore.errors import Cancelled, InputError
 from meshcore.geometry.ordering import radix_argsort, radix_sort
-from meshcore.geometry.predicates import incircle, orient2d
+from meshcore.geometry.predicates import WORK_SIZE, incircle, incircle_exact, orient2d
 
 
 def canonical(triangles: np.ndarray) -> set[tuple[int, ...]]:
@@ -153,6 +156,34 @@ def test_radix_argsort_is_the_stable_argsort(top):
         values = rng.integers(-5, 5, size, dtype=np.int64)
         sorted_keys, moved = radix_sort(keys, values)
         assert np.array_equal(sorted_keys, keys[perm]) and np.array_equal(moved, values[perm])
+
+
+def test_two_lines_incircle_is_the_exact_sign():
+    # Two points on each of two horizontal lines, in every order: symmetric
+    # trapezoids (exact ties on linspace samples), rectangles and random ones.
+    rng = np.random.default_rng(2)
+    g = np.linspace(0.0, 2.0, 1001) * 0.25
+    work = np.empty(WORK_SIZE)
+    ties = 0
+    for trial in range(300):
+        if trial % 3 == 0:
+            i = rng.integers(1, 990)
+            xs, y0, y1 = g[[i, i + 2, i + 1, i + rng.integers(1, 4)]], 0.0, 0.25
+        elif trial % 3 == 1:
+            c, a, b = rng.uniform(-1, 1, 3)
+            xs, (y0, y1) = np.array([c - a, c + a, c - b, c + b]), rng.uniform(-1, 1, 2)
+        else:
+            xs, (y0, y1) = rng.uniform(-1, 1, 4), rng.uniform(-1, 1, 2)
+        pts = [(xs[0], y0), (xs[1], y0), (xs[2], y1), (xs[3], y1)]
+        if len(set(pts)) < 4 or y0 == y1:
+            continue
+        for perm in itertools.permutations(pts):
+            q = [c for pt in perm for c in pt]
+            exact = incircle_exact(*q, work)
+            assert _incircle_two_lines(*q) == exact
+            ties += exact == 0
+    assert ties > 100
+    assert _incircle_two_lines(*rng.uniform(-1, 1, 8)) == 2  # not two lines: not settled
 
 
 @pytest.mark.parametrize("spread", [1.0, 1e-12])
