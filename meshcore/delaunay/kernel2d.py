@@ -60,7 +60,8 @@ import numpy as np
 from numba import njit
 
 from meshcore.errors import InputError
-from meshcore.geometry.ordering import radix_argsort
+from meshcore.geometry.expansions import _two_sum
+from meshcore.geometry.ordering import radix_sort
 from meshcore.geometry.predicates import WORK_SIZE, incircle_exact, orient2d_exact
 
 __all__ = ["IncrementalDelaunay", "Triangulation", "delaunay"]
@@ -132,7 +133,7 @@ _HILBERT_TABLE = _hilbert_table()
 
 @njit(cache=True)
 def _brio_hilbert_keys(pts, factor, nbits):
-    """Sort keys: BRIO round in the high bits, Hilbert index in the low bits.
+    """Each point's BRIO round and Hilbert index, and the number of rounds.
 
     The coordinates are taken times ``factor`` (a power of two, so exactly)
     to keep the bounding box finite.
@@ -161,7 +162,7 @@ def _brio_hilbert_keys(pts, factor, nbits):
     while m > 64:
         m >>= 1
         rounds += 1
-    keys = np.empty(n, np.int64)
+    rnd = np.empty(n, np.int64)
     curve = np.empty(n, np.int64)
     head = nbits % 4
     for i in range(n):
@@ -199,14 +200,65 @@ def _brio_hilbert_keys(pts, factor, nbits):
         while level < rounds and (z & np.uint64(1)) == np.uint64(0):
             z >>= np.uint64(1)
             level += 1
-        r = rounds - level
+        rnd[i] = rounds - level
         curve[i] = d
-        if r % 2 == 1:
-            # Alternate the direction of the curve from round to round, so
-            # that each round starts where the previous one ended.
-            d = (1 << (2 * nbits)) - 1 - d
-        keys[i] = (r << (2 * nbits)) | d
-    return keys, curve
+    return rnd, curve, rounds + 1
+
+
+@njit(cache=True)
+def _insertion_order(rnd, curve, nrounds):
+    """The insertion order and the walk hints' inputs, from one sort.
+
+    ``order``: the points round after round, each round along the Hilbert
+    curve, forwards in even rounds and backwards in odd ones (so that each
+    round starts where the previous one ended), points of one curve cell in
+    index order: the stable sort of the key ``(round, index or its
+    complement)``. ``along``: the insertion positions in curve order (one
+    cell's in increasing position), ``curve_sorted`` their curve indices, as
+    :func:`_walk_hints` takes them. One radix sort by curve index (the round
+    carried in the low bits of the moved values) and a counting sort by
+    round give both, where sorting the keys and then the curve indices in
+    insertion order took two.
+    """
+    n = curve.shape[0]
+    carried = np.empty(n, np.int64)
+    for i in range(n):
+        carried[i] = (i << 6) | rnd[i]
+    curve_sorted, carried = radix_sort(curve, carried)
+    fill = np.zeros(nrounds + 1, np.int64)
+    for i in range(n):
+        fill[rnd[i] + 1] += 1
+    for r in range(nrounds):
+        fill[r + 1] += fill[r]
+    order = np.empty(n, np.int64)
+    along = np.empty(n, np.int64)
+    for j in range(n):  # even rounds, forwards
+        r = carried[j] & 63
+        if r % 2 == 0:
+            along[j] = fill[r]
+            order[fill[r]] = carried[j] >> 6
+            fill[r] += 1
+    j = n - 1
+    while j >= 0:  # odd rounds, backwards cell by cell, one cell in index order
+        g = j
+        while g > 0 and curve_sorted[g - 1] == curve_sorted[j]:
+            g -= 1
+        for jj in range(g, j + 1):
+            r = carried[jj] & 63
+            if r % 2 == 1:
+                along[jj] = fill[r]
+                order[fill[r]] = carried[jj] >> 6
+                fill[r] += 1
+        j = g - 1
+    j = 0
+    while j < n:  # one cell's positions in increasing order
+        g = j
+        while g + 1 < n and curve_sorted[g + 1] == curve_sorted[j]:
+            g += 1
+        if g > j:
+            along[j : g + 1] = np.sort(along[j : g + 1])
+        j = g + 1
+    return order, along, curve_sorted
 
 
 @njit(cache=True)
@@ -309,6 +361,53 @@ def _incircle_tie(pts, a, b, c, d, work):
     return _orient(pts, a, b, d, work)
 
 
+@njit(cache=True)
+def _sum4_sign(p, q, r, s):
+    """Exact sign of ``p + q - r - s`` (Shewchuk's Two_Two_Sum: a
+    non-overlapping expansion, whose sign is that of its largest nonzero
+    component)."""
+    s1, e1 = _two_sum(p, q)
+    s2, e2 = _two_sum(-r, -s)
+    i, x0 = _two_sum(e1, e2)
+    j, x1 = _two_sum(s1, i)
+    k, x2 = _two_sum(x1, s2)
+    x3, x2b = _two_sum(j, k)
+    for x in (x3, x2b, x2, x0):
+        if x > 0.0:
+            return 1
+        if x < 0.0:
+            return -1
+    return 0
+
+
+@njit(cache=True)
+def _incircle_two_lines(ax, ay, bx, by, cx, cy, dx, dy):
+    """Exact in-circle sign when two of the four points lie on one horizontal
+    line and the other two, ``d`` among them, on another (a rectangle's
+    sampled top and bottom: the commonest exact call after the rectangles
+    that :func:`incircle_exact` settles at once); 2 when they do not.
+
+    With ``u, v`` the pair on one line and ``w`` the point of ``a, b, c`` on
+    ``d``'s line, the circle through ``u, v, w`` is centred above
+    ``m = (u_x + v_x) / 2``, so ``d`` is inside it exactly when
+    ``|d_x - m| < |w_x - m|``, i.e. ``(d_x - w_x)(d_x + w_x - u_x - v_x) < 0``;
+    the determinant's sign is that times ``orient(a, b, c)``, which is the
+    product of two coordinate differences' signs.
+    """
+    if dy == ay and by == cy and by != dy:
+        inside = (1 if dx < ax else -1) * _sum4_sign(dx, ax, bx, cx)
+        turn = (1 if by > ay else -1) * (1 if bx > cx else -1)
+    elif dy == by and ay == cy and ay != dy:
+        inside = (1 if dx < bx else -1) * _sum4_sign(dx, bx, ax, cx)
+        turn = -(1 if by > ay else -1) * (1 if cx > ax else -1)
+    elif dy == cy and ay == by and ay != dy:
+        inside = (1 if dx < cx else -1) * _sum4_sign(dx, cx, ax, bx)
+        turn = (1 if bx > ax else -1) * (1 if cy > ay else -1)
+    else:
+        return 2
+    return turn * inside
+
+
 @njit(cache=True, inline="always")
 def _incircle(pts, a, b, c, d, work):
     """Perturbed in-circle sign of d against CCW (a, b, c); never 0."""
@@ -346,7 +445,9 @@ def _incircle(pts, a, b, c, d, work):
         return 1
     if -det > errbound:
         return -1
-    s = incircle_exact(ax, ay, bx, by, cx, cy, dx, dy, work)
+    s = _incircle_two_lines(ax, ay, bx, by, cx, cy, dx, dy)
+    if s == 2:
+        s = incircle_exact(ax, ay, bx, by, cx, cy, dx, dy, work)
     if s != 0:
         return s
     return _incircle_tie(pts, a, b, c, d, work)
@@ -679,8 +780,10 @@ def _gather(pts, order, factor):
 
 @njit(cache=True)
 def _output(V, A, ntri, order):
-    """Real triangles as input point indices, and their neighbour table."""
-    ids = np.empty(ntri, np.int64)
+    """Real triangles as input point indices, and their neighbour table (the
+    row of each triangle slot held in int32, as the slots: half the memory
+    that the neighbour look-ups read at random)."""
+    ids = np.empty(ntri, np.int32)
     m = 0
     for t in range(ntri):
         if V[3 * t] >= 0 and V[3 * t + 1] >= 0 and V[3 * t + 2] >= 0:
@@ -1036,12 +1139,11 @@ def _build(pts_in: np.ndarray, progress):
     # Hilbert cells: about 4n per side, so that even points sampling a curve
     # (boundaries) rarely share a cell.
     nbits = min(_HILBERT_BITS, max(8, n.bit_length() + 2))
-    keys, curve = _brio_hilbert_keys(pts_in, factor, nbits)
-    order = radix_argsort(keys)
-    del keys
-    along = radix_argsort(curve[order])
-    hint = _walk_hints(along, curve[order][along])
-    del curve, along
+    rnd, curve, nrounds = _brio_hilbert_keys(pts_in, factor, nbits)
+    order, along, curve_sorted = _insertion_order(rnd, curve, nrounds)
+    del rnd, curve
+    hint = _walk_hints(along, curve_sorted)
+    del along, curve_sorted
     pts = _gather(pts_in, order, factor)
 
     ntri_max = 2 * n
@@ -1116,9 +1218,14 @@ def delaunay(
     Co-circular ties are broken by symbolic perturbation of the liftings in
     lexicographic order of the points (see the module docstring): the
     triangle *set* depends only on the point set, not on the input order, and
-    is unchanged by exact translations and power-of-two scalings. The order of
-    the output rows and the starting vertex of each row are deterministic for
-    a given input array but otherwise unspecified.
+    is unchanged by exact translations and power-of-two scalings. The
+    guarantee is that set: the order of the output rows and the starting
+    vertex of each row are deterministic for a given input array but
+    otherwise unspecified. They follow the insertion order, a stable sort
+    (radix) of the points' round and Hilbert index, so points sharing a
+    Hilbert cell keep their index order; numpy's unstable argsort, used
+    before, could order such ties otherwise, which gave the same triangles
+    in other rows.
 
     Cost: expected O(n log n) (sorting) plus O(n) insertions with expected
     constant work each, in compiled code. Memory: about 200 bytes per point

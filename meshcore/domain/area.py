@@ -18,6 +18,8 @@ import math
 import numpy as np
 from numba import njit
 
+from meshcore.geometry.expansions import _two_product
+
 __all__: list[str] = []
 
 
@@ -126,22 +128,8 @@ def _deposit(bins, bits, count):
 def _term(xi, yi, xj, yj):
     """``xi * yj - xj * yi`` as its rounded value and the rest, rounded: each
     product split exactly (Dekker), their difference by two-sum."""
-    h1 = xi * yj
-    t = 134217729.0 * xi
-    ahi = t - (t - xi)
-    alo = xi - ahi
-    t = 134217729.0 * yj
-    bhi = t - (t - yj)
-    blo = yj - bhi
-    l1 = alo * blo - (((h1 - ahi * bhi) - alo * bhi) - ahi * blo)
-    h2 = xj * yi
-    t = 134217729.0 * xj
-    chi = t - (t - xj)
-    clo = xj - chi
-    t = 134217729.0 * yi
-    dhi = t - (t - yi)
-    dlo = yi - dhi
-    l2 = clo * dlo - (((h2 - chi * dhi) - clo * dhi) - chi * dlo)
+    h1, l1 = _two_product(xi, yj)
+    h2, l2 = _two_product(xj, yi)
     s = h1 - h2
     bv = s - h1
     return s, ((h1 - (s - bv)) + (-h2 - bv)) + l1 - l2

@@ -107,7 +107,7 @@ import numpy as np
 from numba import njit
 from scipy.spatial import cKDTree
 
-from meshcore.delaunay.admissible import admissible_segments, edges_present
+from meshcore.delaunay.admissible import admissible_segments
 from meshcore.delaunay.kernel2d import delaunay
 from meshcore.domain.planar import Domain, parse_domain, ray_parity
 from meshcore.errors import AlgorithmError, InputError
@@ -380,17 +380,16 @@ def _too_thin(exc: InputError, domain: Domain, source, cloud_ids) -> InputError:
 
 
 def _admissible(pts, succ, source, progress):
-    """Delaunay triangulation in which every piece is an edge (§9.1.4)."""
-    tri = delaunay(pts)
-    pieces = np.column_stack([np.arange(len(pts)), succ])
-    if edges_present(tri.triangles, len(pts), pieces).all():
-        return pts, succ, source, tri, 0
-    res = admissible_segments(pts, pieces, progress=progress)
+    """Delaunay triangulation in which every piece is an edge (§9.1.4), found
+    by splitting pieces, and its empty triangulation (step 3)."""
+    res = admissible_segments(pts, np.column_stack([np.arange(len(pts)), succ]), progress=progress)
     succ2 = np.empty(len(res.points), dtype=np.int64)
     succ2[res.segments[:, 0]] = res.segments[:, 1]
     source2 = np.empty(len(res.points), dtype=np.int64)
     source2[res.segments[:, 0]] = source[res.source]
-    return res.points, succ2, source2, res.delaunay, res.added
+    tri = res.delaunay
+    fill = _empty_triangulation(tri.triangles, tri.neighbors, succ2)
+    return res.points, succ2, source2, tri, res.added, fill
 
 
 # ---------------------------------------------------------------------------
@@ -406,26 +405,33 @@ def _empty_triangulation(tri, nb, succ):
     ``bnd[t, i]``: the edge opposite vertex ``i`` is a boundary piece. The
     fill starts from the triangles on the left of pieces and never crosses a
     piece. ``status[0]`` is -1 if the fill reaches the convex hull (the
-    pieces do not bound a region).
+    pieces do not bound a region); ``status[1]`` counts the pieces that are
+    Delaunay edges (each found once: in the triangle on its left, or on its
+    right for a hull edge), so that all are when it equals their number.
     """
     nt = tri.shape[0]
     bnd = np.zeros((nt, 3), np.bool_)
     inside = np.zeros(nt, np.bool_)
     stack = np.empty(nt, np.int64)
     top = 0
+    found = 0
     for t in range(nt):
         for i in range(3):
             a = tri[t, (i + 1) % 3]
             b = tri[t, (i + 2) % 3]
             if succ[a] == b:
                 bnd[t, i] = True
+                found += 1
                 if not inside[t]:
                     inside[t] = True
                     stack[top] = t
                     top += 1
             elif succ[b] == a:
                 bnd[t, i] = True
-    status = np.zeros(1, np.int64)
+                if nb[t, i] < 0:
+                    found += 1
+    status = np.zeros(2, np.int64)
+    status[1] = found
     while top > 0:
         top -= 1
         t = stack[top]
@@ -460,21 +466,72 @@ def _offset_centre(pts, o, b, c):
 
 
 @njit(cache=True)
-def _dual_edges(pts, tri, nb, inside, bnd):
-    """Interior edges between inside triangles.
+def _voronoi_classes(pts, tri, nb, inside, bnd, ttype, tol):
+    """The Voronoi graph's nodes and edges over the inside triangles (step 4),
+    in one pass over the triangles and one over the classes.
 
-    Returns rows ``(t, u, p, q)`` with ``t < u`` and ``p, q`` the shared
-    edge, and per row the distance between the two circumcentres, both
-    computed relative to ``p`` (so that it does not depend on where the
-    domain lies): 0 up to rounding when the four vertices are co-circular.
+    The inside triangles are renumbered in order (``keep``: their ids in
+    ``tri``; ``T`` and ``types`` their rows). Across each interior edge
+    ``p, q`` between inside triangles ``t < u``, both circumcentres are
+    computed relative to ``p`` (so that the distance between them does not
+    depend on where the domain lies: 0 up to rounding when the four vertices
+    are co-circular); within ``tol`` the two triangles are one class
+    (union-find), otherwise the edge joins their classes in the graph.
+    Classes are numbered in the order of their first triangle.
+
+    Returns ``keep, T, types, label, k, pairs, pq, merged, rep, centre,
+    radius, spread``: the class of each kept triangle and the number of
+    classes; the graph edges as class pairs with their Delaunay edges; the
+    number of merged pairs; per class its first triangle, that triangle's
+    circumcentre and circumradius, and the contact spread (radians: the
+    largest angle two vertices of one of its triangles subtend at that
+    triangle's centre, the minor arc; the arcsine taken once per class, of
+    the largest chord-to-diameter ratio, as it is monotonic).
     """
     nt = tri.shape[0]
-    out = np.empty((3 * nt // 2 + 1, 4), np.int64)
-    gap = np.empty(3 * nt // 2 + 1)
-    k = 0
+    remap = np.full(nt, -1, np.int64)
+    m = 0
+    for t in range(nt):
+        if inside[t]:
+            remap[t] = m
+            m += 1
+    keep = np.empty(m, np.int64)
+    T = np.empty((m, 3), np.int64)
+    types = np.empty(m, np.int8)
+    own = np.empty((m, 2))  # each triangle's circumcentre
+    own_r = np.empty(m)
+    ratio = np.empty(m)  # its longest edge over its circumdiameter
+    parent = np.arange(m)
+    cap = 3 * m // 2 + 1
+    ends = np.empty((cap, 2), np.int64)
+    pq = np.empty((cap, 2), np.int64)
+    g = 0
+    merged = 0
     for t in range(nt):
         if not inside[t]:
             continue
+        row = remap[t]
+        keep[row] = t
+        types[row] = ttype[t]
+        for i in range(3):
+            T[row, i] = tri[t, i]
+        ax = pts[tri[t, 0], 0]
+        ay = pts[tri[t, 0], 1]
+        bx = pts[tri[t, 1], 0] - ax
+        by = pts[tri[t, 1], 1] - ay
+        cx = pts[tri[t, 2], 0] - ax
+        cy = pts[tri[t, 2], 1] - ay
+        b2 = bx * bx + by * by
+        c2 = cx * cx + cy * cy
+        den = 2.0 * (bx * cy - by * cx)
+        ux = (cy * b2 - by * c2) / den
+        uy = (bx * c2 - cx * b2) / den
+        own[row, 0] = ax + ux
+        own[row, 1] = ay + uy
+        r = math.hypot(ux, uy)
+        own_r[row] = r
+        chord = math.sqrt(max(b2, c2, (bx - cx) ** 2 + (by - cy) ** 2))
+        ratio[row] = chord / (2.0 * r)
         for i in range(3):
             if bnd[t, i]:
                 continue
@@ -488,44 +545,50 @@ def _dual_edges(pts, tri, nb, inside, bnd):
             for j in range(3):
                 if nb[u, j] == t:
                     d = tri[u, j]
-            out[k, 0] = t
-            out[k, 1] = u
-            out[k, 2] = p
-            out[k, 3] = q
             x1, y1 = _offset_centre(pts, p, q, c)
             x2, y2 = _offset_centre(pts, p, d, q)
-            gap[k] = math.hypot(x1 - x2, y1 - y2)
+            if math.hypot(x1 - x2, y1 - y2) <= tol:
+                a = _find(parent, row)
+                b = _find(parent, remap[u])
+                if a < b:
+                    parent[b] = a
+                elif b < a:
+                    parent[a] = b
+                merged += 1
+            else:
+                ends[g, 0] = row
+                ends[g, 1] = remap[u]
+                pq[g, 0] = p
+                pq[g, 1] = q
+                g += 1
+    label = np.full(m, -1, np.int64)
+    rep = np.empty(m, np.int64)
+    best = np.zeros(m)
+    k = 0
+    for i in range(m):
+        root = _find(parent, i)
+        if label[root] < 0:
+            label[root] = k
+            rep[k] = i
             k += 1
-    return out[:k], gap[:k]
-
-
-@njit(cache=True)
-def _circumcentres(pts, T):
-    """Circumcentre, circumradius and contact spread (radians: the largest angle
-    two vertices subtend at the centre, the minor arc) of each triangle."""
-    n = T.shape[0]
-    centre = np.empty((n, 2))
-    radius = np.empty(n)
-    spread = np.empty(n)
-    for i in range(n):
-        ax = pts[T[i, 0], 0]
-        ay = pts[T[i, 0], 1]
-        bx = pts[T[i, 1], 0] - ax
-        by = pts[T[i, 1], 1] - ay
-        cx = pts[T[i, 2], 0] - ax
-        cy = pts[T[i, 2], 1] - ay
-        b2 = bx * bx + by * by
-        c2 = cx * cx + cy * cy
-        den = 2.0 * (bx * cy - by * cx)
-        ux = (cy * b2 - by * c2) / den
-        uy = (bx * c2 - cx * b2) / den
-        centre[i, 0] = ax + ux
-        centre[i, 1] = ay + uy
-        r = math.hypot(ux, uy)
-        radius[i] = r
-        chord = math.sqrt(max(b2, c2, (bx - cx) ** 2 + (by - cy) ** 2))
-        spread[i] = 2.0 * math.asin(min(1.0, chord / (2.0 * r)))
-    return centre, radius, spread
+        c = label[root]
+        label[i] = c
+        if ratio[i] > best[c]:
+            best[c] = ratio[i]
+    centre = np.empty((k, 2))
+    radius = np.empty(k)
+    spread = np.empty(k)
+    for c in range(k):
+        centre[c, 0] = own[rep[c], 0]
+        centre[c, 1] = own[rep[c], 1]
+        radius[c] = own_r[rep[c]]
+        spread[c] = 2.0 * math.asin(min(1.0, best[c]))
+    pairs = np.empty((g, 2), np.int64)
+    for e in range(g):
+        pairs[e, 0] = label[ends[e, 0]]
+        pairs[e, 1] = label[ends[e, 1]]
+    out_pq = pq[:g].copy()
+    return keep, T, types, label, k, pairs, out_pq, merged, rep[:k].copy(), centre, radius, spread
 
 
 @njit(cache=True)
@@ -561,27 +624,6 @@ def _classes(n, pairs):
             k += 1
         label[i] = label[root]
     return label, k
-
-
-@njit(cache=True)
-def _class_edges(dual, merged, label):
-    """The dual edges between different classes, as class pairs, and their
-    Delaunay edges."""
-    m = 0
-    for r in range(dual.shape[0]):
-        if not merged[r]:
-            m += 1
-    pairs = np.empty((m, 2), np.int64)
-    pq = np.empty((m, 2), np.int64)
-    k = 0
-    for r in range(dual.shape[0]):
-        if not merged[r]:
-            pairs[k, 0] = label[dual[r, 0]]
-            pairs[k, 1] = label[dual[r, 1]]
-            pq[k, 0] = dual[r, 2]
-            pq[k, 1] = dual[r, 3]
-            k += 1
-    return pairs, pq
 
 
 @njit(cache=True)
@@ -650,20 +692,6 @@ def _with_corners(centre, rep, alive_nodes, T, edges, pq, ends, apex, pts):
         out[m + i, 0] = ends[i]
         out[m + i, 1] = k + i
     return nodes, node_tri, seeds, out, out_pq
-
-
-@njit(cache=True)
-def _class_reps(label, k, spread):
-    """Per class: its first triangle and the largest contact spread of its triangles."""
-    rep = np.full(k, -1, np.int64)
-    best = np.zeros(k)
-    for t in range(label.shape[0]):
-        c = label[t]
-        if rep[c] < 0:
-            rep[c] = t
-        if spread[t] > best[c]:
-            best[c] = spread[t]
-    return rep, best
 
 
 @njit(cache=True)
@@ -1268,29 +1296,26 @@ def medial_axis(
     pts, succ, source = _sampled(domain, h)
     h_used = float(h) if h is not None else float(np.hypot(*(pts[succ] - pts).T).max())
     report(0.1, f"Delaunay triangulation of {len(pts)} boundary samples", "sampling")
+    thin = None if points is None else cloud_ids
     try:
-        pts, succ, source, tri, added = _admissible(pts, succ, source, progress)
+        tri = delaunay(pts)
     except InputError as exc:  # samples of two nearly overlapping segments coincide
-        raise _too_thin(exc, domain, source, None if points is None else cloud_ids) from None
+        raise _too_thin(exc, domain, source, thin) from None
     report(0.5, "typing the triangles", "delaunay")
-    inside, bnd, ttype, status = _empty_triangulation(tri.triangles, tri.neighbors, succ)
+    added = 0
+    fill = _empty_triangulation(tri.triangles, tri.neighbors, succ)
+    if fill[3][1] < len(pts):  # some piece is not a Delaunay edge
+        try:
+            pts, succ, source, tri, added, fill = _admissible(pts, succ, source, progress)
+        except InputError as exc:
+            raise _too_thin(exc, domain, source, thin) from None
+    inside, bnd, ttype, status = fill
     if status[0] < 0:
         raise AlgorithmError("the boundary pieces do not bound the domain (fill leaked)")
-    keep = np.flatnonzero(inside)
-    T = tri.triangles[keep]
-    types = ttype[keep]
-    remap = np.full(len(tri.triangles), -1, dtype=np.int64)
-    remap[keep] = np.arange(len(keep))
-    dual, gap = _dual_edges(pts, tri.triangles, tri.neighbors, inside, bnd)
-    dual[:, 0] = remap[dual[:, 0]]
-    dual[:, 1] = remap[dual[:, 1]]
-    merged = gap <= TOLERANCES.node_merge * domain.diameter
-    label, n_nodes = _classes(len(T), dual[merged, :2])
+    tol = TOLERANCES.node_merge * domain.diameter
+    graph = _voronoi_classes(pts, tri.triangles, tri.neighbors, inside, bnd, ttype, tol)
+    keep, T, types, label, n_nodes, g_edges, g_pq, n_merged, rep, centre, cradius, spread = graph
     report(0.6, "Voronoi graph", "types")
-    centre_all, radius_all, spread_all = _circumcentres(pts, T)
-    rep, spread = _class_reps(label, n_nodes, spread_all)
-    centre, cradius = centre_all[rep], radius_all[rep]
-    g_edges, g_pq = _class_edges(dual, merged, label)
     node_alive, edge_alive, pruned = _prune(
         n_nodes, g_edges, g_pq, centre, cradius, spread, pts, math.radians(prune)
     )
@@ -1339,7 +1364,7 @@ def medial_axis(
         "points_added": int(added),
         "triangles": int(len(T)),
         "triangle_types": {f"type{i}": int(counts[i]) for i in range(4)},
-        "merged_pairs": int(merged.sum()),
+        "merged_pairs": int(n_merged),
         "nodes": int(len(nodes)),
         "edges": int(len(edges)),
         "critical": int((deg >= 3).sum()),

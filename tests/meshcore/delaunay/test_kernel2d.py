@@ -8,6 +8,8 @@ triangle per hull edge, every boundary edge a supporting line of the points)
 and every point is a vertex.
 """
 
+import itertools
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -15,10 +17,17 @@ from hypothesis import strategies as st
 from scipy.spatial import ConvexHull, QhullError
 from scipy.spatial import Delaunay as QhullDelaunay
 
-from meshcore.delaunay.kernel2d import IncrementalDelaunay, Triangulation, delaunay
+from meshcore.delaunay.kernel2d import (
+    IncrementalDelaunay,
+    Triangulation,
+    _brio_hilbert_keys,
+    _incircle_two_lines,
+    _insertion_order,
+    delaunay,
+)
 from meshcore.errors import Cancelled, InputError
-from meshcore.geometry.ordering import radix_argsort
-from meshcore.geometry.predicates import incircle, orient2d
+from meshcore.geometry.ordering import radix_argsort, radix_sort
+from meshcore.geometry.predicates import WORK_SIZE, incircle, incircle_exact, orient2d
 
 
 def canonical(triangles: np.ndarray) -> set[tuple[int, ...]]:
@@ -143,6 +152,54 @@ def test_radix_argsort_is_the_stable_argsort(top):
         keys = rng.integers(0, top + 1, size, dtype=np.int64)
         keys[: size // 2] = keys[size // 2 : 2 * (size // 2)]  # every key at least twice
         assert np.array_equal(radix_argsort(keys), np.argsort(keys, kind="stable"))
+        perm = np.argsort(keys, kind="stable")
+        values = rng.integers(-5, 5, size, dtype=np.int64)
+        sorted_keys, moved = radix_sort(keys, values)
+        assert np.array_equal(sorted_keys, keys[perm]) and np.array_equal(moved, values[perm])
+
+
+def test_two_lines_incircle_is_the_exact_sign():
+    # Two points on each of two horizontal lines, in every order: symmetric
+    # trapezoids (exact ties on linspace samples), rectangles and random ones.
+    rng = np.random.default_rng(2)
+    g = np.linspace(0.0, 2.0, 1001) * 0.25
+    work = np.empty(WORK_SIZE)
+    ties = 0
+    for trial in range(300):
+        if trial % 3 == 0:
+            i = rng.integers(1, 990)
+            xs, y0, y1 = g[[i, i + 2, i + 1, i + rng.integers(1, 4)]], 0.0, 0.25
+        elif trial % 3 == 1:
+            c, a, b = rng.uniform(-1, 1, 3)
+            xs, (y0, y1) = np.array([c - a, c + a, c - b, c + b]), rng.uniform(-1, 1, 2)
+        else:
+            xs, (y0, y1) = rng.uniform(-1, 1, 4), rng.uniform(-1, 1, 2)
+        pts = [(xs[0], y0), (xs[1], y0), (xs[2], y1), (xs[3], y1)]
+        if len(set(pts)) < 4 or y0 == y1:
+            continue
+        for perm in itertools.permutations(pts):
+            q = [c for pt in perm for c in pt]
+            exact = incircle_exact(*q, work)
+            assert _incircle_two_lines(*q) == exact
+            ties += exact == 0
+    assert ties > 100
+    assert _incircle_two_lines(*rng.uniform(-1, 1, 8)) == 2  # not two lines: not settled
+
+
+@pytest.mark.parametrize("spread", [1.0, 1e-12])
+def test_insertion_order_is_the_stable_sort_of_round_and_curve(spread):
+    # With spread 1e-12 most of the 3,000 points share their Hilbert cell with
+    # others: the ties keep index order (insertion) and insertion order (hints).
+    rng = np.random.default_rng(5)
+    p = np.concatenate([rng.random((40, 2)), 0.5 + spread * rng.random((3000, 2))])
+    nbits = 14
+    rnd, curve, nrounds = _brio_hilbert_keys(p, 1.0, nbits)
+    assert rnd.min() >= 0 and rnd.max() < nrounds
+    order, along, curve_sorted = _insertion_order(rnd, curve, nrounds)
+    forward = np.where(rnd % 2 == 1, (1 << (2 * nbits)) - 1 - curve, curve)
+    assert np.array_equal(order, np.argsort((rnd << (2 * nbits)) | forward, kind="stable"))
+    assert np.array_equal(along, np.argsort(curve[order], kind="stable"))
+    assert np.array_equal(curve_sorted, np.sort(curve))
 
 
 def test_three_points_one_triangle_with_no_neighbours():
