@@ -15,12 +15,12 @@ stars; nor the mean of 0.9 asked on disks, annuli and ellipses, reached
 from about 20 quads across: 0.83-0.94 on the smooth shapes at these sizes);
 ``quad_medial`` on disks, ellipses and stadiums (the butterfly), corners in
 [30, 150] degrees and the count within 1.5x of area / size**2; on the annulus
-corners in [30, 150] and least quality 0.5 (its count, 1.4-1.8x, not
-asserted); on stars, away from input corners under 45 degrees (forced) and over
-270 degrees (the subdivision gives such a reflex corner two quads: corners up
-to 153 degrees there), corners in [30, 150] and least quality 0.3 (measured
-0.31-0.55 on 16 random spiky stars at size 0.1: the issue's 0.5 is not met, nor
-its count, 0.85-1.43x there but up to 1.73x on a 34-vertex star at 0.15).
+corners in [30, 150] and least quality 0.5 (its count, 1.40x at size 0.1 and
+1.76x at 0.15 here, not asserted); on stars, away from input corners under 45
+degrees (forced) and over 270 degrees, corners in [30, 150] and least quality
+0.3 (the issue's 0.5 is not met: a reflex corner opened into three quads keeps
+a corner of 29-40 degrees); one star with a 281-degree corner, opened, asserts
+0.5.
 """
 
 from __future__ import annotations
@@ -197,7 +197,7 @@ def test_quad_medial_on_curved_domains(case):
         assert res.stats["partition"] == "butterfly"
         assert ang.min() >= 30 and ang.max() <= 150
         assert 1 / 1.5 <= ratio <= 1.5
-    if kind == "annulus":  # (its count is 1.4-1.8x: not asserted)
+    if kind == "annulus":  # (its count, 1.40x at 0.1 and 1.76x at 0.15: not asserted)
         assert ang.min() >= 30 and ang.max() <= 150 and q.min() >= 0.5
     if kind == "star":  # away from input corners under 45 or over 270 degrees (docstring)
         ok = _unforced(res.mesh.points, res.mesh.cells_by_type["quad"], dom)
