@@ -209,6 +209,11 @@ OPEN_ANGLE = 125.0
 #: still bind): rounding each class up and the ring of an annulus carrying the outer
 #: circle's count inwards made 1.68x at size 0.1.
 STRETCH = (1.0, 1.15, 1.3, 1.5)
+#: The final corner relaxation (:func:`_optimized`) may lower the least quality by this
+#: for a higher mean: on the benchmark's spiky star at size 0.1, with a reflex corner
+#: opened, it took the mean from 0.778 to 0.836 and the least from 0.486 to 0.481, and
+#: was refused (mean 0.84 without the opening).
+LEAST_GIVE = 0.01
 
 _BOUNDARY, _AXIS, _CUT = 0, 1, 2
 
@@ -928,7 +933,7 @@ def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
     ``angle_power``) over the quads under 0.95 and their neighbours, the input vertices
     fixed and the other boundary points sliding along their segment. The relaxation is
     kept when every quad stays strictly convex (exact), the mean quality (8.4) rises,
-    no more quads fall under 0.5 and the least does not drop."""
+    no more quads fall under 0.5 and the least drops by at most :data:`LEAST_GIVE`."""
     if stats["not_convex"] or mesh.cells_by_type["quad"].shape[0] > TOL.relax_most:
         return mesh, stats  # optimize_quads takes strictly convex quads only
     opt = optimize_quads(mesh)
@@ -955,7 +960,7 @@ def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
         not (_folded(new, Q) > 0).any()
         and q2.mean() > q.mean()
         and (q2 < 0.5).sum() <= (q < 0.5).sum()
-        and q2.min() >= q.min()
+        and q2.min() >= q.min() - LEAST_GIVE
     )
     if kept:
         P = new
