@@ -1,7 +1,9 @@
 """Delaunay-admissible closed surfaces in 3D (methods text §9.2, §9.3, §9.3.5).
 
 A set of triangular faces is *Delaunay-admissible* when every face is a
-face of the Delaunay tetrahedralization of the faces' vertices (§9.3).
+face of a Delaunay tetrahedralization of the faces' vertices (§9.3; where
+points are co-spherical there are several, and a face of any of them is
+Delaunay: its vertices' Voronoï cells meet, §9.2).
 :func:`make_admissible_surface` takes a closed surface
 (:func:`meshcore.domain.surface.parse_surface`), refines it with points ON
 the surface until it is, and returns the refined surface (each output
@@ -46,6 +48,20 @@ Each round looks every subsegment, subface edge and subface up in the grown
 tetrahedralization (sorted integer keys of all its edges and faces: one
 vectorized pass, no re-tetrahedralization), splits the missing ones, and
 re-triangulates only the facets whose points changed.
+
+**Ties** (Remark 9.6: "the solution may be obtained after a swap"). Where
+points are exactly co-spherical (boxes, grids, any planar quadrilateral
+with its corners on a circle), the kernel's symbolic perturbation picks one
+of several Delaunay tetrahedralizations, and a subface whose diagonal it
+rejects is missing from it but not from another one. Each round, before
+splitting, every missing subface edge that is the diagonal of such a
+quadrilateral (its two subfaces) is given its cells' other Delaunay
+tetrahedralization when one holds it (:class:`_TieFlips`, on a copy of the
+kernel's tetrahedra: the kernel keeps its own, and the flips are made anew
+from it each round). The output's ``tetrahedra`` are the flipped ones. On
+the unit cube 6 points -> 0, boxes of 2 x 2 and 3 x 3 squares a face
+36 -> 0 and 120 -> 6, a box with a box-shaped cavity 42 -> 0, the
+benchmark's slab (1 x 1 x 0.01, 4 x 4 squares a face) 168 -> 46.
 
 Choices that save points (measured on the benchmark's 4,000-vertex bumpy
 sphere: 641 points when every missing edge of a round is split at the plain
@@ -139,7 +155,7 @@ from meshcore.delaunay.recovery3d import (
 )
 from meshcore.domain.surface import Surface, as_surface
 from meshcore.errors import AlgorithmError
-from meshcore.geometry.predicates3d import dot3d, orient3d
+from meshcore.geometry.predicates3d import dot3d, insphere_scalar, orient3d, orient3d_scalar
 from meshcore.mesh import CellBlock, Mesh
 
 __all__ = ["AdmissibleSurface", "classify_faces", "make_admissible_surface"]
@@ -177,8 +193,8 @@ class AdmissibleSurface:
         included), then the added points.
     triangles : (m, 3) int64
         The output triangles, oriented outward like the surface; each is a
-        face of the Delaunay tetrahedralization of :attr:`points`' used
-        points.
+        face of :attr:`tetrahedra`, a Delaunay tetrahedralization of
+        :attr:`points`' used points.
     source : (m,) int64
         The input triangle each output triangle lies in.
     cases_before, cases_after : dict
@@ -194,6 +210,15 @@ class AdmissibleSurface:
         tetrahedra of the surface points (input and added) inside the
         surface, one ``tetra`` block, positively oriented (meshio order),
         cell sets ``region_k``.
+    tetrahedra : (k, 4) int64
+        A Delaunay tetrahedralization of the output's surface points (no
+        point strictly inside any circumsphere, exact) holding every output
+        triangle, positively oriented (meshio order): the kernel's, after
+        :attr:`tie_flips` flips between co-spherical tetrahedra.
+    tie_flips : int
+        Flips made where exactly co-circular quadrilaterals let the missing
+        diagonal in without a point (see :class:`_TieFlips`); with none,
+        :attr:`tetrahedra` is the kernel's (symbolic perturbation).
     timings : dict
         Seconds per phase.
     """
@@ -208,6 +233,8 @@ class AdmissibleSurface:
     rounds: int
     swaps: int
     mesh: Mesh
+    tetrahedra: np.ndarray
+    tie_flips: int
     timings: dict = field(default_factory=dict)
 
 
@@ -542,6 +569,201 @@ def _coplanar_swaps(st: _State, fk: np.ndarray) -> int:
     return swaps
 
 
+class _TieFlips:
+    """Other Delaunay tetrahedralizations of co-spherical points (Remark 9.6).
+
+    Where points are exactly co-spherical the Delaunay tetrahedralization is
+    not unique (the text: ``AB`` is Delaunay when the Voronoï cells of ``A``
+    and ``B`` share a vertex, "the solution may be obtained after a swap"),
+    and the kernel's symbolic perturbation picks one of them. A missing
+    subface edge ``AC`` whose two subfaces ``ACB`` and ``CAD`` form a planar
+    quadrilateral ``ABCD``, convex, with ``BD`` present: the tetrahedra on
+    ``ABD`` and ``BCD`` on each side of its plane must belong to one *cell*
+    (the tetrahedra joined across faces whose opposite corners lie exactly on
+    their circumsphere, exact ``insphere == 0``: a convex polytope inscribed in
+    an empty sphere) holding ``A, B, C, D``. Each such cell is re-tetrahedralized
+    as the cone from one of its vertices over its boundary triangles not
+    coplanar with it, the quadrilateral's triangles replaced by ``ABC, ACD``
+    (a triangulation of a convex polytope); the first vertex (``A``, ``C``,
+    then the others in index order) is kept for which every boundary face the
+    cell shares with a tetrahedron outside the cells, every subface that was
+    a face and both ``ABC`` and ``ACD`` are faces of the cone. Every new
+    tetrahedron has its cell's empty sphere, so the tetrahedralization stays
+    Delaunay; nothing is added.
+    """
+
+    #: Cells of more tetrahedra than this are left alone.
+    MAX_CELL = 64
+
+    def __init__(self, P: np.ndarray, T: np.ndarray, sub: np.ndarray) -> None:
+        self.P = P
+        self.T = T.copy()
+        self.sub = sub
+        keys = face_keys(T[:, TET_FACES].reshape(-1, 3))
+        self.order = np.argsort(keys, kind="stable")
+        self.keys = keys[self.order]
+        self.added: dict[tuple[int, ...], list[int]] = {}  # faces of the rows added
+        self.sub_keys = np.sort(face_keys(sub))
+        self.dead: set[int] = set()
+        #: Per retetrahedralized cell: rows of :attr:`T` replaced, rows added, and
+        #: the quadrilateral's subfaces with the present diagonal (``ABD``, ``BCD``,
+        #: oriented as the subfaces ``ACB``, ``CAD`` were), by subface row.
+        self.flips: list[tuple[list[int], list[int], dict[int, np.ndarray]]] = []
+
+    def holding(self, face) -> list[int]:
+        """Rows of the live tetrahedra holding ``face``."""
+        key = face_keys(np.array([face], dtype=np.int64))[0]
+        lo, hi = np.searchsorted(self.keys, [key, key + 1])
+        rows = [int(r) // 4 for r in self.order[lo:hi]]
+        rows += self.added.get(tuple(sorted(int(v) for v in face)), [])
+        return [r for r in rows if r not in self.dead]
+
+    def cell(self, start: int) -> list[int] | None:
+        """The rows of the cell of tetrahedron ``start`` (None if too large)."""
+        P, T = self.P, self.T
+        seen = [start]
+        k = 0
+        while k < len(seen):
+            r = seen[k]
+            k += 1
+            q = P[T[r]].ravel().tolist()
+            for f in TET_FACES:
+                face = T[r][f].tolist()
+                for o in self.holding(face):
+                    if o in seen:
+                        continue
+                    x = (set(T[o].tolist()) - set(face)).pop()
+                    if insphere_scalar(*q, *P[x].tolist()) == 0:
+                        seen.append(o)
+                        if len(seen) > self.MAX_CELL:
+                            return None
+        return seen
+
+    def flip(self, rows, a: int, b: int, c: int, d: int) -> bool:
+        """Make ``AC`` present in place of ``BD`` (quad ``ABCD``, subfaces ``rows``
+        of the subfaces: the first holds ``B``), if the cells allow it."""
+        P = self.P
+        q = P[[a, b, c, d]]
+        if orient3d_scalar(*q.ravel().tolist()) != 0:
+            return False
+        # B and D on either side of AC (seen from a point off the plane, the normal's tip)
+        tip = (q[0] + np.cross(q[2] - q[0], q[1] - q[0])).tolist()
+        a_, b_, c_, d_ = q.tolist()
+        if orient3d_scalar(*a_, *c_, *tip, *b_) * orient3d_scalar(*a_, *c_, *tip, *d_) >= 0:
+            return False
+        starts = self.holding([a, b, d]) + self.holding([b, c, d])
+        cells: list[list[int]] = []
+        for r in starts:
+            if any(r in cl for cl in cells):
+                continue
+            cl = self.cell(r)
+            if cl is None or not {a, b, c, d} <= set(self.T[cl].ravel().tolist()):
+                return False
+            cells.append(cl)
+        if not cells or len(cells) > 2:
+            return False
+        union = {r for cl in cells for r in cl}
+        quad = {tuple(sorted(t)) for t in ([a, b, d], [b, c, d])}
+        plan = []
+        for cl in cells:
+            cone = self._cone(cl, union, quad, [a, b, c], [a, c, d])
+            if cone is None:
+                return False
+            plan.append((cl, cone))
+        s0, s1 = self.sub[rows[0]].copy(), self.sub[rows[1]].copy()
+        s0[s0 == c] = d
+        s1[s1 == a] = b
+        for cl, cone in plan:
+            new = list(range(len(self.T), len(self.T) + len(cone)))
+            self.T = np.concatenate([self.T, cone])
+            for r, tet in zip(new, cone.tolist(), strict=True):
+                for f in TET_FACES.tolist():
+                    self.added.setdefault(tuple(sorted(tet[k] for k in f)), []).append(r)
+            self.dead.update(cl)
+            self.flips.append((cl, new, {int(rows[0]): s0, int(rows[1]): s1}))
+        return True
+
+    def _cone(self, cl, union, quad, abc, acd) -> np.ndarray | None:
+        """The cone re-tetrahedralization of cell ``cl`` (see the class), or None."""
+        P, T = self.P, self.T
+        faces = np.sort(T[cl][:, TET_FACES].reshape(-1, 3), axis=1)
+        uniq, count = np.unique(faces, axis=0, return_counts=True)
+        boundary = [tuple(f) for f in uniq[count == 1].tolist()]
+        keep = []  # boundary faces shared with a tetrahedron outside the cells
+        for f in boundary:
+            if f not in quad and any(o not in union for o in self.holding(list(f))):
+                keep.append(f)
+        had = [tuple(f) for f in uniq[member(face_keys(uniq), self.sub_keys)].tolist()]
+        walls = [f for f in boundary if f not in quad] + [tuple(sorted(abc)), tuple(sorted(acd))]
+        W = np.array(walls, dtype=np.int64)
+        first = [abc[0], abc[2]]
+        verts = first + sorted(set(T[cl].ravel().tolist()) - set(first))
+        need = {tuple(sorted(abc)), tuple(sorted(acd)), *keep, *had}
+        for v in verts:
+            s = orient3d(P[W[:, 0]], P[W[:, 1]], P[W[:, 2]], np.broadcast_to(P[v], (len(W), 3)))
+            use = W[s != 0]
+            cone = np.column_stack([np.full(len(use), v), use])
+            neg = orient3d(*(P[cone[:, k]] for k in range(4))) < 0
+            cone[neg, 0], cone[neg, 1] = cone[neg, 1], v
+            got = {tuple(f) for f in np.sort(cone[:, TET_FACES].reshape(-1, 3), 1).tolist()}
+            if need <= got:
+                return cone
+        return None
+
+    def tets(self) -> np.ndarray:
+        """The live tetrahedra."""
+        keep = np.ones(len(self.T), dtype=bool)
+        keep[list(self.dead)] = False
+        return self.T[keep]
+
+
+class _Reflipped:
+    """The builder seen through a tetrahedralization changed by :class:`_TieFlips`:
+    its kernel's ``adjacent`` answers for the rows of ``T`` (slots are rows), so
+    :func:`~meshcore.delaunay.recovery3d.regions` labels the flipped tetrahedra."""
+
+    def __init__(self, b: SurfaceRecovery, T: np.ndarray) -> None:
+        self._b = b
+        keys = face_keys(T[:, TET_FACES].reshape(-1, 3))
+        order = np.argsort(keys, kind="stable")
+        pair = np.flatnonzero(keys[order][1:] == keys[order][:-1])
+        adj = np.full(4 * len(T), -1, dtype=np.int64)
+        adj[order[pair]] = order[pair + 1] // 4
+        adj[order[pair + 1]] = order[pair] // 4
+        self._adj = adj.reshape(-1, 4)
+
+    @property
+    def dt(self):
+        return self
+
+    def adjacent(self, slots: np.ndarray) -> np.ndarray:
+        return self._adj[slots]
+
+    def __getattr__(self, name: str):
+        return getattr(self._b, name)
+
+
+def _flip_ties(st: _State, T: np.ndarray, E: np.ndarray) -> _TieFlips:
+    """Try :class:`_TieFlips` on each missing subface edge ``E`` (a loop over them)."""
+    sub = st.b.sub
+    flips = _TieFlips(st.b.P, T, sub)
+    if len(E) == 0:
+        return flips
+    k = edge_keys(np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]]))
+    order = np.argsort(k, kind="stable")
+    ks = k[order]
+    for key in edge_keys(E).tolist():
+        lo, hi = np.searchsorted(ks, [key, key + 1])
+        if hi - lo != 2:
+            continue
+        rows = order[lo:hi] % len(sub)
+        a, c = key >> 32, key & 0xFFFFFFFF
+        b = int(np.setdiff1d(sub[rows[0]], [a, c])[0])
+        d = int(np.setdiff1d(sub[rows[1]], [a, c])[0])
+        flips.flip(rows, a, b, c, d)
+    return flips
+
+
 def _angles_min(uv: np.ndarray) -> np.ndarray:
     """Least angle (radians) of triangles given as (k, 3, 2) coordinates."""
     out = np.full(len(uv), np.pi)
@@ -804,9 +1026,11 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     Returns
     -------
     AdmissibleSurface
-        Every output triangle is a face of the Delaunay tetrahedralization
-        (our kernel's, exact with symbolic perturbation) of the output's
-        surface points; the output triangles of each input triangle tile it
+        Every output triangle is a face of the result's ``tetrahedra``, a
+        Delaunay tetrahedralization of the output's surface points (exact:
+        no point strictly inside any circumsphere): our kernel's (symbolic
+        perturbation), changed only where points are exactly co-spherical
+        (``tie_flips``); the output triangles of each input triangle tile it
         (their areas add up to its area, up to rounding); every added point
         lies on an input edge or inside an input triangle (up to rounding,
         see the module docstring); input faces whose other points all lie
@@ -848,6 +1072,12 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
         swaps = _coplanar_swaps(st, fk)
         edges, holder = _subface_edges(b.sub)
         missing_e = np.flatnonzero(~member(edge_keys(edges), ek))
+        ties = _flip_ties(st, T, edges[missing_e])
+        if ties.flips:
+            Tf = ties.tets()
+            ek = np.sort(edge_keys(Tf[:, TET_EDGES].reshape(-1, 2)))
+            fk = np.sort(face_keys(Tf[:, TET_FACES].reshape(-1, 3)))
+            missing_e = np.flatnonzero(~member(edge_keys(edges), ek))
         missing_f = np.flatnonzero(~member(face_keys(b.sub), fk))
         if missing_e.size == 0 and missing_f.size == 0:
             break
@@ -878,7 +1108,11 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     timings["enforcement"] = time.perf_counter() - t2
     t3 = time.perf_counter()
     slots, T = b.tets()
-    region = regions(b, slots, T)
+    if ties.flips:
+        T = ties.tets()
+        region = regions(_Reflipped(b, T), np.arange(len(T)), T)
+    else:
+        region = regions(b, slots, T)
     keep = region >= 0
     tetra, region = T[keep][:, [0, 1, 3, 2]], region[keep]
     timings["regions"] = time.perf_counter() - t3
@@ -904,5 +1138,7 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
         rounds=rounds,
         swaps=swaps,
         mesh=mesh,
+        tetrahedra=out_index[T[:, [0, 1, 3, 2]]],
+        tie_flips=len(ties.flips),
         timings=timings,
     )
