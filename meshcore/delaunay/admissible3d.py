@@ -577,19 +577,20 @@ class _TieFlips:
     and ``B`` share a vertex, "the solution may be obtained after a swap"),
     and the kernel's symbolic perturbation picks one of them. A missing
     subface edge ``AC`` whose two subfaces ``ACB`` and ``CAD`` form a planar
-    quadrilateral ``ABCD``, convex, with ``BD`` present: the tetrahedra on
-    ``ABD`` and ``BCD`` on each side of its plane must belong to one *cell*
-    (the tetrahedra joined across faces whose opposite corners lie exactly on
-    their circumsphere, exact ``insphere == 0``: a convex polytope inscribed in
-    an empty sphere) holding ``A, B, C, D``. Each such cell is re-tetrahedralized
-    as the cone from one of its vertices over its boundary triangles not
-    coplanar with it, the quadrilateral's triangles replaced by ``ABC, ACD``
-    (a triangulation of a convex polytope); the first vertex (``A``, ``C``,
-    then the others in index order) is kept for which every boundary face the
-    cell shares with a tetrahedron outside the cells, every subface that was
-    a face and both ``ABC`` and ``ACD`` are faces of the cone. Every new
-    tetrahedron has its cell's empty sphere, so the tetrahedralization stays
-    Delaunay; nothing is added.
+    convex quadrilateral ``ABCD`` (exact ``orient3d``) is *noted*. If ``BD``
+    is present, the tetrahedra on ``ABD`` and ``BCD`` must lie in at most two
+    *cells* (one per side; a cell: the tetrahedra joined across faces whose
+    far corner lies exactly on their circumsphere, exact ``insphere == 0``, a
+    convex polytope inscribed in an empty sphere), each holding ``A, B, C,
+    D`` (so the quadrilateral is co-circular). Each cell is re-tetrahedralized
+    as a cone from one of its vertices (the first, in index order, that
+    works) over its boundary with ``ABD, BCD`` replaced by ``ABC, ACD`` (and
+    so for every other noted quadrilateral on the cell's hull faces): the
+    cone must have exactly that boundary and keep every subface inside the
+    cell, so the neighbours still match. Every new tetrahedron lies on its
+    cell's empty sphere: the tetrahedralization stays Delaunay, exactly, and
+    nothing is added. Quadrilaterals that need a triangulation of a cell
+    that is no cone stay missing (and are split).
     """
 
     #: Cells of more tetrahedra than this are left alone.
@@ -605,10 +606,11 @@ class _TieFlips:
         self.added: dict[tuple[int, ...], list[int]] = {}  # faces of the rows added
         self.sub_keys = np.sort(face_keys(sub))
         self.dead: set[int] = set()
-        #: Per retetrahedralized cell: rows of :attr:`T` replaced, rows added, and
-        #: the quadrilateral's subfaces with the present diagonal (``ABD``, ``BCD``,
-        #: oriented as the subfaces ``ACB``, ``CAD`` were), by subface row.
-        self.flips: list[tuple[list[int], list[int], dict[int, np.ndarray]]] = []
+        #: The noted quadrilaterals: each of their present triangles (sorted
+        #: corners) -> (both present triangles, both wanted ones).
+        self.wanted: dict[tuple[int, ...], tuple] = {}
+        #: Cells re-tetrahedralized.
+        self.cones = 0
 
     def holding(self, face) -> list[int]:
         """Rows of the live tetrahedra holding ``face``."""
@@ -639,11 +641,10 @@ class _TieFlips:
                             return None
         return seen
 
-    def flip(self, rows, a: int, b: int, c: int, d: int) -> bool:
-        """Make ``AC`` present in place of ``BD`` (quad ``ABCD``, subfaces ``rows``
-        of the subfaces: the first holds ``B``), if the cells allow it."""
-        P = self.P
-        q = P[[a, b, c, d]]
+    def quad(self, a: int, b: int, c: int, d: int) -> bool:
+        """Note quadrilateral ``ABCD`` (subfaces ``ACB``, ``CAD``) as one whose
+        diagonal ``AC`` is wanted, if it is planar and convex (exact)."""
+        q = self.P[[a, b, c, d]]
         if orient3d_scalar(*q.ravel().tolist()) != 0:
             return False
         # B and D on either side of AC (seen from a point off the plane, the normal's tip)
@@ -651,9 +652,18 @@ class _TieFlips:
         a_, b_, c_, d_ = q.tolist()
         if orient3d_scalar(*a_, *c_, *tip, *b_) * orient3d_scalar(*a_, *c_, *tip, *d_) >= 0:
             return False
-        starts = self.holding([a, b, d]) + self.holding([b, c, d])
+        pair = (tuple(sorted((a, b, d))), tuple(sorted((b, c, d))))
+        want = (tuple(sorted((a, b, c))), tuple(sorted((a, c, d))))
+        self.wanted[pair[0]] = self.wanted[pair[1]] = (pair, want)
+        return True
+
+    def flip(self, a: int, b: int, c: int, d: int) -> bool:
+        """Make ``AC`` present in place of ``BD`` (a noted quadrilateral ``ABCD``)
+        if its cells allow it (see the class)."""
+        if self.holding([a, b, c]) and self.holding([a, c, d]):
+            return True  # made present by an earlier cone
         cells: list[list[int]] = []
-        for r in starts:
+        for r in self.holding([a, b, d]) + self.holding([b, c, d]):
             if any(r in cl for cl in cells):
                 continue
             cl = self.cell(r)
@@ -662,17 +672,17 @@ class _TieFlips:
             cells.append(cl)
         if not cells or len(cells) > 2:
             return False
-        union = {r for cl in cells for r in cl}
-        quad = {tuple(sorted(t)) for t in ([a, b, d], [b, c, d])}
         plan = []
+        own = (tuple(sorted((a, b, d))), tuple(sorted((b, c, d))))
+        got: set[tuple[int, ...]] = set()
         for cl in cells:
-            cone = self._cone(cl, union, quad, [a, b, c], [a, c, d])
+            cone = self._cone(cl, own)
             if cone is None:
                 return False
             plan.append((cl, cone))
-        s0, s1 = self.sub[rows[0]].copy(), self.sub[rows[1]].copy()
-        s0[s0 == c] = d
-        s1[s1 == a] = b
+            got |= {tuple(f) for f in np.sort(cone[:, TET_FACES].reshape(-1, 3), 1).tolist()}
+        if not {tuple(sorted((a, b, c))), tuple(sorted((a, c, d)))} <= got:
+            return False
         for cl, cone in plan:
             new = list(range(len(self.T), len(self.T) + len(cone)))
             self.T = np.concatenate([self.T, cone])
@@ -680,33 +690,45 @@ class _TieFlips:
                 for f in TET_FACES.tolist():
                     self.added.setdefault(tuple(sorted(tet[k] for k in f)), []).append(r)
             self.dead.update(cl)
-            self.flips.append((cl, new, {int(rows[0]): s0, int(rows[1]): s1}))
+            self.cones += 1
         return True
 
-    def _cone(self, cl, union, quad, abc, acd) -> np.ndarray | None:
-        """The cone re-tetrahedralization of cell ``cl`` (see the class), or None."""
+    def _cone(self, cl: list[int], own: tuple) -> np.ndarray | None:
+        """The cone re-tetrahedralization of cell ``cl`` whose boundary is the
+        cell's with quadrilateral ``own`` (its present triangles) turned, and
+        every other noted one whose tetrahedra are all in the cell (on the hull),
+        and which keeps the subfaces inside the cell (see the class), or None."""
         P, T = self.P, self.T
         faces = np.sort(T[cl][:, TET_FACES].reshape(-1, 3), axis=1)
         uniq, count = np.unique(faces, axis=0, return_counts=True)
-        boundary = [tuple(f) for f in uniq[count == 1].tolist()]
-        keep = []  # boundary faces shared with a tetrahedron outside the cells
-        for f in boundary:
-            if f not in quad and any(o not in union for o in self.holding(list(f))):
-                keep.append(f)
-        had = [tuple(f) for f in uniq[member(face_keys(uniq), self.sub_keys)].tolist()]
-        walls = [f for f in boundary if f not in quad] + [tuple(sorted(abc)), tuple(sorted(acd))]
-        W = np.array(walls, dtype=np.int64)
-        first = [abc[0], abc[2]]
-        verts = first + sorted(set(T[cl].ravel().tolist()) - set(first))
-        need = {tuple(sorted(abc)), tuple(sorted(acd)), *keep, *had}
-        for v in verts:
+        boundary = {tuple(f) for f in uniq[count == 1].tolist()}
+        inner = uniq[count > 1]
+        held = {tuple(f) for f in inner[member(face_keys(inner), self.sub_keys)].tolist()}
+        mine = set(cl)
+        for f in list(boundary):
+            if f in self.wanted and f in boundary:
+                pair, want = self.wanted[f]
+                if (
+                    pair[0] in boundary
+                    and pair[1] in boundary
+                    and (
+                        pair == own
+                        or mine.issuperset(self.holding(pair[0]) + self.holding(pair[1]))
+                    )
+                ):  # the quadrilateral being turned, or another one on the hull
+                    boundary -= set(pair)
+                    boundary |= set(want)
+        W = np.array(sorted(boundary), dtype=np.int64)
+        for v in sorted(set(T[cl].ravel().tolist())):
             s = orient3d(P[W[:, 0]], P[W[:, 1]], P[W[:, 2]], np.broadcast_to(P[v], (len(W), 3)))
-            use = W[s != 0]
-            cone = np.column_stack([np.full(len(use), v), use])
+            cone = np.column_stack([np.full(int((s != 0).sum()), v), W[s != 0]])
             neg = orient3d(*(P[cone[:, k]] for k in range(4))) < 0
             cone[neg, 0], cone[neg, 1] = cone[neg, 1], v
-            got = {tuple(f) for f in np.sort(cone[:, TET_FACES].reshape(-1, 3), 1).tolist()}
-            if need <= got:
+            f, n = np.unique(
+                np.sort(cone[:, TET_FACES].reshape(-1, 3), 1), axis=0, return_counts=True
+            )
+            inside = {tuple(x) for x in f[n == 2].tolist()}
+            if {tuple(x) for x in f[n == 1].tolist()} == boundary and held <= inside:
                 return cone
         return None
 
@@ -752,6 +774,7 @@ def _flip_ties(st: _State, T: np.ndarray, E: np.ndarray) -> _TieFlips:
     k = edge_keys(np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]]))
     order = np.argsort(k, kind="stable")
     ks = k[order]
+    quads = []
     for key in edge_keys(E).tolist():
         lo, hi = np.searchsorted(ks, [key, key + 1])
         if hi - lo != 2:
@@ -760,7 +783,10 @@ def _flip_ties(st: _State, T: np.ndarray, E: np.ndarray) -> _TieFlips:
         a, c = key >> 32, key & 0xFFFFFFFF
         b = int(np.setdiff1d(sub[rows[0]], [a, c])[0])
         d = int(np.setdiff1d(sub[rows[1]], [a, c])[0])
-        flips.flip(rows, a, b, c, d)
+        if flips.quad(a, b, c, d):
+            quads.append((a, b, c, d))
+    for q in quads:
+        flips.flip(*q)
     return flips
 
 
@@ -1073,7 +1099,7 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
         edges, holder = _subface_edges(b.sub)
         missing_e = np.flatnonzero(~member(edge_keys(edges), ek))
         ties = _flip_ties(st, T, edges[missing_e])
-        if ties.flips:
+        if ties.cones:
             Tf = ties.tets()
             ek = np.sort(edge_keys(Tf[:, TET_EDGES].reshape(-1, 2)))
             fk = np.sort(face_keys(Tf[:, TET_FACES].reshape(-1, 3)))
@@ -1108,7 +1134,7 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     timings["enforcement"] = time.perf_counter() - t2
     t3 = time.perf_counter()
     slots, T = b.tets()
-    if ties.flips:
+    if ties.cones:
         T = ties.tets()
         region = regions(_Reflipped(b, T), np.arange(len(T)), T)
     else:
@@ -1139,6 +1165,6 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
         swaps=swaps,
         mesh=mesh,
         tetrahedra=out_index[T[:, [0, 1, 3, 2]]],
-        tie_flips=len(ties.flips),
+        tie_flips=ties.cones,
         timings=timings,
     )
