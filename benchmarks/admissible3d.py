@@ -12,14 +12,21 @@ of the call (median of ``--repeat`` runs; ours after a warm-up that loads
 numba's cache). TetGen's ``-pD`` ("conforming Delaunay": Steiner points on
 the boundary until the boundary is Delaunay) meshes the whole volume: its
 count is ``len(nodes) - len(points)`` (with ``-pD`` and no quality switch
-its points are boundary points). The two "missing" columns check both
-sides by one exact rule: the output boundary triangles (TetGen's
-``trifaces``) that are not faces of our kernel's Delaunay
-tetrahedralization of the output points, recomputed from scratch, with its
-symbolic perturbation deciding co-spherical ties. TetGen decides such ties
-its own way (its output is a Delaunay tetrahedralization, not ours), so on
-inputs with co-circular faces (cube, torus) it adds nothing where ours must
-split the faces whose diagonal our tie-breaking rejects.
+its points are boundary points). TetGen runs twice: ``-pD`` as the issue
+names it, and ``-pDM`` (no merging of coplanar facets): without ``-M``
+TetGen merges adjacent input triangles that are coplanar up to its
+tolerance and flips their common edge, so its output triangles are not in
+the input triangles (column ``changed``: input edges its surface neither
+keeps nor splits); with ``-M`` its surface is the input's, as ours.
+``missing``, ours: defects of the result's ``tetrahedra`` as a Delaunay
+tetrahedralization holding every output triangle, all checked exactly
+(output triangles that are not faces, tetrahedra not positive, faces in
+more than two, neighbours' far corners strictly inside a circumsphere;
+-1 if the volume is not the hull's); TetGen's: its ``trifaces`` that are not
+faces of our kernel's Delaunay tetrahedralization of its output points,
+recomputed from scratch (its symbolic perturbation decides co-spherical
+ties, which TetGen decides its own way: its count on boxes is not a defect,
+on random inputs it is).
 
 Inputs: Schönhardt's prism (30° twist), the unit cube (12 triangles), an
 icosphere (level 3), a torus (32 x 16), a *bumpy sphere*: 4,000
@@ -53,6 +60,7 @@ from benchmarks.robustness3d import star_polyhedron  # noqa: E402
 from meshcore.delaunay.admissible3d import make_admissible_surface  # noqa: E402
 from meshcore.delaunay.kernel3d import delaunay3d  # noqa: E402
 from meshcore.domain import parse_surface  # noqa: E402
+from tests.meshcore.delaunay.test_admissible3d import delaunay_defects  # noqa: E402
 from tests.meshcore.domain import shapes  # noqa: E402
 
 
@@ -173,12 +181,13 @@ def measure(P, T, repeat, have_tetgen):
     """Ours (added, on edges, on faces, s, missing), then per TetGen switch set
     (s, added, missing, changed)."""
     dt, r = run_ours(P, T, repeat)
+    bad = delaunay_defects(r.points, r.tetrahedra, r.triangles)
     ours = (
         r.added_on_edges + r.added_on_faces,
         r.added_on_edges,
         r.added_on_faces,
         dt,
-        missing_faces(r.points, r.triangles),
+        sum(bad.values()) if bad.pop("volume_gap") < 1e-9 else -1,
     )
     return ours, [run_tetgen(P, T, repeat, sw) for sw in TETGEN] if have_tetgen else []
 
