@@ -598,11 +598,8 @@ class _TieFlips:
 
     def __init__(self, P: np.ndarray, T: np.ndarray, sub: np.ndarray) -> None:
         self.P = P
-        self.T = T.copy()
-        self.sub = sub
-        keys = face_keys(T[:, TET_FACES].reshape(-1, 3))
-        self.order = np.argsort(keys, kind="stable")
-        self.keys = keys[self.order]
+        self.T = T
+        self.order = self.keys = None  # the faces of T, sorted when first needed
         self.added: dict[tuple[int, ...], list[int]] = {}  # faces of the rows added
         self.sub_keys = np.sort(face_keys(sub))
         self.dead: set[int] = set()
@@ -614,6 +611,10 @@ class _TieFlips:
 
     def holding(self, face) -> list[int]:
         """Rows of the live tetrahedra holding ``face``."""
+        if self.keys is None:
+            keys = face_keys(self.T[:, TET_FACES].reshape(-1, 3))
+            self.order = np.argsort(keys, kind="stable")
+            self.keys = keys[self.order]
         key = face_keys(np.array([face], dtype=np.int64))[0]
         lo, hi = np.searchsorted(self.keys, [key, key + 1])
         rows = [int(r) // 4 for r in self.order[lo:hi]]
@@ -642,11 +643,9 @@ class _TieFlips:
         return seen
 
     def quad(self, a: int, b: int, c: int, d: int) -> bool:
-        """Note quadrilateral ``ABCD`` (subfaces ``ACB``, ``CAD``) as one whose
-        diagonal ``AC`` is wanted, if it is planar and convex (exact)."""
+        """Note the planar quadrilateral ``ABCD`` (subfaces ``ACB``, ``CAD``) as
+        one whose diagonal ``AC`` is wanted, if it is convex (exact)."""
         q = self.P[[a, b, c, d]]
-        if orient3d_scalar(*q.ravel().tolist()) != 0:
-            return False
         # B and D on either side of AC (seen from a point off the plane, the normal's tip)
         tip = (q[0] + np.cross(q[2] - q[0], q[1] - q[0])).tolist()
         a_, b_, c_, d_ = q.tolist()
@@ -766,25 +765,27 @@ class _Reflipped:
 
 
 def _flip_ties(st: _State, T: np.ndarray, E: np.ndarray) -> _TieFlips:
-    """Try :class:`_TieFlips` on each missing subface edge ``E`` (a loop over them)."""
+    """Try :class:`_TieFlips` on the missing subface edges ``E`` that are diagonals of
+    planar quadrilaterals of two subfaces (a loop over those only)."""
     sub = st.b.sub
-    flips = _TieFlips(st.b.P, T, sub)
-    if len(E) == 0:
-        return flips
+    P = st.b.P
+    flips = _TieFlips(P, T, sub)
     k = edge_keys(np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]]))
     order = np.argsort(k, kind="stable")
     ks = k[order]
-    quads = []
-    for key in edge_keys(E).tolist():
-        lo, hi = np.searchsorted(ks, [key, key + 1])
-        if hi - lo != 2:
-            continue
-        rows = order[lo:hi] % len(sub)
-        a, c = key >> 32, key & 0xFFFFFFFF
-        b = int(np.setdiff1d(sub[rows[0]], [a, c])[0])
-        d = int(np.setdiff1d(sub[rows[1]], [a, c])[0])
-        if flips.quad(a, b, c, d):
-            quads.append((a, b, c, d))
+    key = edge_keys(E)
+    lo = np.searchsorted(ks, key)
+    two = np.flatnonzero(np.searchsorted(ks, key + 1) - lo == 2)
+    if two.size == 0:
+        return flips
+    a, c = E[two].min(axis=1), E[two].max(axis=1)
+    r0, r1 = order[lo[two]] % len(sub), order[lo[two] + 1] % len(sub)
+    b = sub[r0].sum(axis=1) - a - c
+    d = sub[r1].sum(axis=1) - a - c
+    flat = np.flatnonzero(orient3d(P[a], P[b], P[c], P[d]) == 0)
+    quads = [
+        q for q in zip(*(x[flat].tolist() for x in (a, b, c, d)), strict=True) if flips.quad(*q)
+    ]
     for q in quads:
         flips.flip(*q)
     return flips

@@ -179,12 +179,24 @@ def test_schonhardt_prism():
     assert res.cases_before["case2"] == 6 and res.cases_before["case0"] == 2
 
 
-def test_cube_splits_only_co_circular_faces():
-    # The 8 corners are co-spherical: the kernel's symbolic perturbation picks
-    # one diagonal per face; faces on the other are split at the centre.
+def test_cube_needs_no_point():
+    # The 8 corners are co-spherical: the kernel's symbolic perturbation picks one
+    # diagonal per face; a face on the other diagonal is a face of another Delaunay
+    # tetrahedralization (Remark 9.6), reached by re-tetrahedralizing the cell.
     res = run(*shapes.box())
     assert res.cases_before == {"case0": 12, "case1": 0, "case2": 0, "great_circle": 0}
-    assert res.added_on_faces == 0 and res.added_on_edges <= 6
+    assert res.added_on_edges + res.added_on_faces == 0
+    assert res.tie_flips >= 1
+
+
+@pytest.mark.parametrize("how", ["as is", "translate", "scale"])
+def test_boxes_of_squares_need_no_point(how):
+    # Every face a 2 x 2 grid of squares (36 points added before the tie cones), and a
+    # box shape kept exact by the shift and the scaling (coordinates 0, 0.5, 1).
+    P, T = shapes.box(n=2)
+    P = {"as is": P, "translate": P + 1e6, "scale": P * 1e-6}[how]
+    res = run(P, T)
+    assert res.added_on_edges + res.added_on_faces == 0 and res.tie_flips > 0
 
 
 def test_icosphere_is_admissible_as_given():
@@ -267,3 +279,5 @@ def test_box_with_a_cavity():
     P2, T2 = shapes.box((1, 1, 1), (2, 2, 2))
     res = run(np.concatenate([P1, P2]), np.concatenate([T1, T2 + len(P1)]))
     assert set(res.mesh.cell_sets) == {"region_0"}
+    # Its squares' diagonals all come from tie cones (42 points were added before).
+    assert res.added_on_edges + res.added_on_faces == 0
