@@ -142,6 +142,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from meshcore.delaunay.admissible_pieces import NEAR_END_FRACTION, NEAR_END_TRIGGER, NUDGE
+from meshcore.delaunay.hashgrid import _find_all, _table
 from meshcore.delaunay.kernel3d import delaunay3d
 from meshcore.delaunay.recovery3d import (
     KNOBS,
@@ -511,6 +512,21 @@ class _State:
 # ---------------------------------------------------------------------------
 
 
+class _Present:
+    """Which edges and faces belong to tetrahedra ``T``: hash tables of their keys
+    (:mod:`~meshcore.delaunay.hashgrid`), built once a round."""
+
+    def __init__(self, T: np.ndarray) -> None:
+        self.edge_table = _table(edge_keys(T[:, TET_EDGES].reshape(-1, 2)))
+        self.face_table = _table(face_keys(T[:, TET_FACES].reshape(-1, 3)))
+
+    def edges(self, E: np.ndarray) -> np.ndarray:
+        return _find_all(*self.edge_table, edge_keys(E)) >= 0
+
+    def faces(self, F: np.ndarray) -> np.ndarray:
+        return _find_all(*self.face_table, face_keys(F)) >= 0
+
+
 def _subface_edges(sub: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unique edges of the subfaces ([lo, hi] rows) and, per edge, one subface holding it."""
     e = np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]])
@@ -520,7 +536,7 @@ def _subface_edges(sub: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return e[first], owner[first]
 
 
-def _coplanar_swaps(st: _State, fk: np.ndarray) -> int:
+def _coplanar_swaps(st: _State, present: _Present) -> int:
     """Swap the missing subfaces whose quad's other diagonal is present (Pébay).
 
     A loop over the missing subfaces (few): each one's neighbour across each
@@ -531,7 +547,7 @@ def _coplanar_swaps(st: _State, fk: np.ndarray) -> int:
     b = st.b
     swaps = 0
     for _ in range(4):
-        missing = np.flatnonzero(~member(face_keys(b.sub), fk))
+        missing = np.flatnonzero(~present.faces(b.sub))
         if missing.size == 0:
             break
         done = False
@@ -550,7 +566,7 @@ def _coplanar_swaps(st: _State, fk: np.ndarray) -> int:
                 g = int(nb[0])
                 c = int(np.setdiff1d(b.sub[g], [p, q])[0])
                 new = np.array([[a, p, c], [a, c, q]], dtype=np.int64)
-                if not member(face_keys(new), fk).all():
+                if not present.faces(new).all():
                     continue
                 uv = np.stack(
                     [(b.P[new] - origin[f]) @ e1[f], (b.P[new] - origin[f]) @ e2[f]], axis=-1
@@ -1094,18 +1110,15 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     swaps = 0
     for rounds in range(1, MAX_ROUNDS + 1):
         _, T = b.tets()
-        ek = np.sort(edge_keys(T[:, TET_EDGES].reshape(-1, 2)))
-        fk = np.sort(face_keys(T[:, TET_FACES].reshape(-1, 3)))
-        swaps = _coplanar_swaps(st, fk)
+        present = _Present(T)
+        swaps = _coplanar_swaps(st, present)
         edges, holder = _subface_edges(b.sub)
-        missing_e = np.flatnonzero(~member(edge_keys(edges), ek))
+        missing_e = np.flatnonzero(~present.edges(edges))
         ties = _flip_ties(st, T, edges[missing_e])
         if ties.cones:
-            Tf = ties.tets()
-            ek = np.sort(edge_keys(Tf[:, TET_EDGES].reshape(-1, 2)))
-            fk = np.sort(face_keys(Tf[:, TET_FACES].reshape(-1, 3)))
-            missing_e = np.flatnonzero(~member(edge_keys(edges), ek))
-        missing_f = np.flatnonzero(~member(face_keys(b.sub), fk))
+            present = _Present(ties.tets())
+            missing_e = np.flatnonzero(~present.edges(edges))
+        missing_f = np.flatnonzero(~present.faces(b.sub))
         if missing_e.size == 0 and missing_f.size == 0:
             break
         if b.n - b.n_surface > cap:
