@@ -60,8 +60,9 @@ tetrahedralization when one holds it (:class:`_TieFlips`, on a copy of the
 kernel's tetrahedra: the kernel keeps its own, and the flips are made anew
 from it each round). The output's ``tetrahedra`` are the flipped ones. On
 the unit cube 6 points -> 0, boxes of 2 x 2 and 3 x 3 squares a face
-36 -> 0 and 120 -> 6, a box with a box-shaped cavity 42 -> 0, the
-benchmark's slab (1 x 1 x 0.01, 4 x 4 squares a face) 168 -> 46.
+36 -> 0 and 120 -> 0, a box with a box-shaped cavity 42 -> 0, the
+L-block 10 -> 7, the benchmark's slab (1 x 1 x 0.01, 4 x 4 squares a face)
+168 -> 8.
 
 Choices that save points (measured on the benchmark's 4,000-vertex bumpy
 sphere: 641 points when every missing edge of a round is split at the plain
@@ -603,10 +604,15 @@ class _TieFlips:
     works) over its boundary with ``ABD, BCD`` replaced by ``ABC, ACD`` (and
     so for every other noted quadrilateral on the cell's hull faces): the
     cone must have exactly that boundary and keep every subface inside the
-    cell, so the neighbours still match. Every new tetrahedron lies on its
-    cell's empty sphere: the tetrahedralization stays Delaunay, exactly, and
-    nothing is added. Quadrilaterals that need a triangulation of a cell
-    that is no cone stay missing (and are split).
+    cell, so the neighbours still match. When no cone of a cell works, one
+    more quadrilateral of its boundary (two coplanar triangles, so
+    co-circular, neither a subface) shared with one neighbour cell may be
+    turned too, that cell re-tetrahedralized the same way (a triangular
+    prism along a box's edge: two sides on the surface, the third shared).
+    Every new tetrahedron lies on its cell's empty sphere: the
+    tetrahedralization stays Delaunay, exactly, and nothing is added.
+    Quadrilaterals that need more (a cell triangulated other than as a cone,
+    more neighbours) stay missing and are split.
     """
 
     #: Cells of more tetrahedra than this are left alone.
@@ -688,12 +694,23 @@ class _TieFlips:
         if not cells or len(cells) > 2:
             return False
         plan = []
-        own = (tuple(sorted((a, b, d))), tuple(sorted((b, c, d))))
+        own = self.wanted[tuple(sorted((a, b, d)))]
+        union = {r for cl in cells for r in cl}
         got: set[tuple[int, ...]] = set()
         for cl in cells:
-            cone = self._cone(cl, own)
+            cone = self._cone(cl, dict([own]))
             if cone is None:
-                return False
+                # Turn one more quadrilateral of the cell, shared with a neighbour cell
+                # that is re-tetrahedralized with it (a prism's third side, say).
+                for pair, want, nb in self._shared_quads(cl, union):
+                    cone = self._cone(cl, dict([own, (pair, want)]))
+                    other = self._cone(nb, {pair: want}) if cone is not None else None
+                    if other is not None:
+                        plan.append((nb, other))
+                        union |= set(nb)
+                        break
+                else:
+                    return False
             plan.append((cl, cone))
             got |= {tuple(f) for f in np.sort(cone[:, TET_FACES].reshape(-1, 3), 1).tolist()}
         if not {tuple(sorted((a, b, c))), tuple(sorted((a, c, d)))} <= got:
@@ -708,11 +725,41 @@ class _TieFlips:
             self.cones += 1
         return True
 
-    def _cone(self, cl: list[int], own: tuple) -> np.ndarray | None:
+    def _shared_quads(self, cl: list[int], union: set[int]):
+        """The cell's boundary quadrilaterals (two coplanar triangles, no subface,
+        so co-circular) whose other side is one cell outside ``union``: (their
+        triangles, the other diagonal's, that cell), in order."""
+        faces = np.sort(self.T[cl][:, TET_FACES].reshape(-1, 3), axis=1)
+        uniq, count = np.unique(faces, axis=0, return_counts=True)
+        out = uniq[count == 1]
+        out = out[~member(face_keys(out), self.sub_keys)]
+        found = []
+        for i in range(len(out)):
+            for j in range(i + 1, len(out)):
+                e = set(out[i].tolist()) & set(out[j].tolist())
+                if len(e) != 2:
+                    continue
+                y, w = ((set(out[k].tolist()) - e).pop() for k in (i, j))
+                x, z = sorted(e)
+                if orient3d_scalar(*self.P[[x, z, y, w]].ravel().tolist()) != 0:
+                    continue
+                t1, t2 = tuple(out[i].tolist()), tuple(out[j].tolist())
+                h = [r for r in self.holding(list(t1)) + self.holding(list(t2)) if r not in cl]
+                if len(h) != 2 or h[0] in union or h[1] in union:
+                    continue
+                nb = self.cell(h[0])
+                if nb is None or h[1] not in nb or union & set(nb):
+                    continue
+                want = (tuple(sorted((x, y, w))), tuple(sorted((z, y, w))))
+                found.append(((t1, t2), want, nb))
+        return found
+
+    def _cone(self, cl: list[int], turns: dict) -> np.ndarray | None:
         """The cone re-tetrahedralization of cell ``cl`` whose boundary is the
-        cell's with quadrilateral ``own`` (its present triangles) turned, and
-        every other noted one whose tetrahedra are all in the cell (on the hull),
-        and which keeps the subfaces inside the cell (see the class), or None."""
+        cell's with the quadrilaterals ``turns`` (present triangles -> wanted
+        ones) turned, and every noted one whose tetrahedra are all in the cell
+        (on the hull), and which keeps the subfaces inside the cell (see the
+        class), or None."""
         P, T = self.P, self.T
         faces = np.sort(T[cl][:, TET_FACES].reshape(-1, 3), axis=1)
         uniq, count = np.unique(faces, axis=0, return_counts=True)
@@ -720,17 +767,18 @@ class _TieFlips:
         inner = uniq[count > 1]
         held = {tuple(f) for f in inner[member(face_keys(inner), self.sub_keys)].tolist()}
         mine = set(cl)
+        for pair, want in turns.items():
+            if pair[0] in boundary and pair[1] in boundary:
+                boundary -= set(pair)
+                boundary |= set(want)
         for f in list(boundary):
             if f in self.wanted and f in boundary:
                 pair, want = self.wanted[f]
                 if (
                     pair[0] in boundary
                     and pair[1] in boundary
-                    and (
-                        pair == own
-                        or mine.issuperset(self.holding(pair[0]) + self.holding(pair[1]))
-                    )
-                ):  # the quadrilateral being turned, or another one on the hull
+                    and mine.issuperset(self.holding(pair[0]) + self.holding(pair[1]))
+                ):  # another noted quadrilateral, on the hull
                     boundary -= set(pair)
                     boundary |= set(want)
         W = np.array(sorted(boundary), dtype=np.int64)

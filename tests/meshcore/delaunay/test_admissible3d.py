@@ -199,6 +199,15 @@ def test_boxes_of_squares_need_no_point(how):
     assert res.added_on_edges + res.added_on_faces == 0 and res.tie_flips > 0
 
 
+def test_box_of_3x3_squares_turns_prism_cells_in_pairs():
+    # Cells that are triangular prisms along the box's edges: two of their sides are
+    # surface squares, the third is shared with a neighbour cell; no cone of the
+    # prism alone gives both squares' diagonals (6 points were added), a cone of it
+    # and of its neighbour with the shared side turned does.
+    res = run(*shapes.box(n=3))
+    assert res.added_on_edges + res.added_on_faces == 0
+
+
 def test_icosphere_is_admissible_as_given():
     res = run(*shapes.icosphere(2))
     assert res.added_on_edges + res.added_on_faces == 0
