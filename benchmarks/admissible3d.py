@@ -238,11 +238,18 @@ def main() -> None:
                 f" | {'':>6}  {int(peer[1]):6d} {peer[0]:7.3f} {ours[3] / max(peer[0], 1e-9):6.1f} "
             )
             line += f"{int(peer[2]):7d} {int(peer[3]):7d}"
-            more[sw] = [s for s, (o, p) in zip(seeds, rows, strict=False) if o[0] > p[k][1]]
+            more[sw] = [
+                (s, "" if p[k][2] == p[k][3] == 0 else "*")
+                for s, (o, p) in zip(seeds, rows, strict=False)
+                if o[0] > p[k][1]
+            ]
         print(line)
         for sw, seen in more.items():
             if seen:
-                print(f"  seeds where ours adds more than -{sw[:-1]}: {seen}")
+                text = " ".join(f"{s}{mark}" for s, mark in seen)
+                print(
+                    f"  ours adds more than -{sw[:-1]} (*: its output missing or changed): {text}"
+                )
 
 
 if __name__ == "__main__":
