@@ -143,7 +143,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from meshcore.delaunay.admissible_pieces import NEAR_END_FRACTION, NEAR_END_TRIGGER, NUDGE
-from meshcore.delaunay.hashgrid import _find_all, _table
+from meshcore.delaunay.hashgrid import _find_all, _table, ball_pairs
 from meshcore.delaunay.kernel3d import delaunay3d
 from meshcore.delaunay.recovery3d import (
     KNOBS,
@@ -329,7 +329,8 @@ def classify_faces(points, faces) -> dict[str, int]:
     faces' vertices), against the hull's vertices: a float filter with a
     generous error band, the points in the band decided by exact
     ``orient3d``; the ball
-    tests take candidates from a KD-tree with a relative slack of 1e-9,
+    tests take candidates from a hash grid (:func:`~meshcore.delaunay.hashgrid.ball_pairs`)
+    with a relative slack of 1e-9,
     decide the clear ones in floating point and the others exactly with
     integers. Only the faces' vertices count as 𝓢.
 
@@ -394,10 +395,8 @@ def _classify(P: np.ndarray, faces) -> tuple[np.ndarray, np.ndarray, np.ndarray]
         zero[ji[s_ == 0]] = True
         strict[rows] = case0[rows] & ~zero
     centres, R = _circumcentres(P, F)
-    hits = cKDTree(P[used]).query_ball_point(centres, R * (1 + BALL_SLACK))
-    counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=m)
-    fi = np.repeat(np.arange(m), counts)
-    xi = used[np.concatenate([np.asarray(h, dtype=np.int64) for h in hits])] if fi.size else fi
+    xi, fi = ball_pairs(P[used], centres, R * (1 + BALL_SLACK))
+    xi = used[xi]
     other = (xi != F[fi, 0]) & (xi != F[fi, 1]) & (xi != F[fi, 2])
     fi, xi = fi[other], xi[other]
     d2 = np.einsum("ij,ij->i", P[xi] - centres[fi], P[xi] - centres[fi])
@@ -883,17 +882,14 @@ def _project_on_segment(P, A, B):
     return np.where(near_a, te, 1.0 - te)
 
 
-def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, tree: cKDTree) -> int:
+def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray) -> int:
     """Split the missing subface edges ``E`` at the projection of their point
     of largest angle in the closed diametral ball (§9.2)."""
     b = st.b
     A, B = b.P[E[:, 0]], b.P[E[:, 1]]
     mid = 0.5 * (A + B)
     half = 0.5 * np.linalg.norm(B - A, axis=1)
-    hits = tree.query_ball_point(mid, half * (1 + BALL_SLACK))
-    counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
-    ei = np.repeat(np.arange(len(E)), counts)
-    pi = np.concatenate([np.asarray(h, dtype=np.int64) for h in hits]) if len(ei) else ei
+    pi, ei = ball_pairs(b.P, mid, half * (1 + BALL_SLACK))
     keep = (pi != E[ei, 0]) & (pi != E[ei, 1])
     ei, pi = ei[keep], pi[keep]
     inside = dot3d(A[ei], B[ei], b.P[pi]) <= 0
@@ -1171,11 +1167,10 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
             break
         if b.n - b.n_surface > cap:
             break
-        tree = cKDTree(b.P)
         if missing_e.size:
-            added = _split_edges(st, edges[missing_e], holder[missing_e], tree)
+            added = _split_edges(st, edges[missing_e], holder[missing_e])
         else:
-            added = _split_faces(st, missing_f, tree)
+            added = _split_faces(st, missing_f, cKDTree(b.P))
         if added == 0:
             raise AlgorithmError(
                 f"the surface could not be made Delaunay-admissible: {missing_e.size} edges "
