@@ -546,6 +546,8 @@ def _coplanar_swaps(st: _State, present: _Present) -> int:
     """
     b = st.b
     swaps = 0
+    by_facet = np.argsort(b.sub_facet, kind="stable")  # each facet's rows, ascending
+    bounds = np.searchsorted(b.sub_facet[by_facet], np.arange(len(b.facets) + 1))
     for _ in range(4):
         missing = np.flatnonzero(~present.faces(b.sub))
         if missing.size == 0:
@@ -555,7 +557,7 @@ def _coplanar_swaps(st: _State, present: _Present) -> int:
         pieces = np.bincount(b.sub_facet, minlength=len(b.facets))
         for r in missing[pieces[b.sub_facet[missing]] > 1].tolist():  # missing subfaces
             f = int(b.sub_facet[r])
-            same = np.flatnonzero(b.sub_facet == f)
+            same = by_facet[bounds[f] : bounds[f + 1]]
             tri = b.sub[r]
             for k in range(3):
                 p, q, a = int(tri[k]), int(tri[(k + 1) % 3]), int(tri[(k + 2) % 3])
