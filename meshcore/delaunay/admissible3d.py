@@ -59,10 +59,12 @@ quadrilateral (its two subfaces) is given its cells' other Delaunay
 tetrahedralization when one holds it (:class:`_TieFlips`, on a copy of the
 kernel's tetrahedra: the kernel keeps its own, and the flips are made anew
 from it each round). The output's ``tetrahedra`` are the flipped ones. On
-the unit cube 6 points -> 0, boxes of 2 x 2 and 3 x 3 squares a face
-36 -> 0 and 120 -> 0, a box with a box-shaped cavity 42 -> 0, the
-L-block 10 -> 7, the benchmark's slab (1 x 1 x 0.01, 4 x 4 squares a face)
-168 -> 8.
+the unit cube 6 points -> 0, boxes of n x n squares a face (n = 2 to 8)
+0 (36 and 120 before for n = 2, 3), boxes of 3 x 1 x 1 with n = 3 to 5
+0, a box with a box-shaped cavity 42 -> 0, the L-block 10 -> 7 (TetGen
+``-pDM`` 6), the benchmark's slab (1 x 1 x 0.01, 4 x 4 squares a face)
+168 -> 0; a 4 x 2 x 1 box with n = 6 and the slab with n = 8 keep 24
+points each (cells the search does not turn; TetGen 0).
 
 Choices that save points (measured on the benchmark's 4,000-vertex bumpy
 sphere: 641 points when every missing edge of a round is split at the plain
@@ -608,8 +610,9 @@ class _TieFlips:
     cell, so the neighbours still match. When no cone of a cell works, one
     more quadrilateral of its boundary (two coplanar triangles, so
     co-circular, neither a subface) shared with one neighbour cell may be
-    turned too, that cell re-tetrahedralized the same way (a triangular
-    prism along a box's edge: two sides on the surface, the third shared).
+    turned too, that cell re-tetrahedralized the same way, and so on
+    :data:`DEPTH` levels (a triangular prism along a box's edge: two sides
+    on the surface, the third shared).
     Every new tetrahedron lies on its cell's empty sphere: the
     tetrahedralization stays Delaunay, exactly, and nothing is added.
     Quadrilaterals that need more (a cell triangulated other than as a cone,
@@ -618,6 +621,8 @@ class _TieFlips:
 
     #: Cells of more tetrahedra than this are left alone.
     MAX_CELL = 64
+    #: Levels of neighbour cells turned with a cell no cone fits (see :meth:`_fit`).
+    DEPTH = 4
 
     def __init__(self, P: np.ndarray, T: np.ndarray, sub: np.ndarray) -> None:
         self.P = P
@@ -699,21 +704,13 @@ class _TieFlips:
         union = {r for cl in cells for r in cl}
         got: set[tuple[int, ...]] = set()
         for cl in cells:
-            cone = self._cone(cl, dict([own]))
-            if cone is None:
-                # Turn one more quadrilateral of the cell, shared with a neighbour cell
-                # that is re-tetrahedralized with it (a prism's third side, say).
-                for pair, want, nb in self._shared_quads(cl, union):
-                    cone = self._cone(cl, dict([own, (pair, want)]))
-                    other = self._cone(nb, {pair: want}) if cone is not None else None
-                    if other is not None:
-                        plan.append((nb, other))
-                        union |= set(nb)
-                        break
-                else:
-                    return False
-            plan.append((cl, cone))
-            got |= {tuple(f) for f in np.sort(cone[:, TET_FACES].reshape(-1, 3), 1).tolist()}
+            part = self._fit(cl, dict([own]), union, self.DEPTH)
+            if part is None:
+                return False
+            for cell, cone in part:
+                union |= set(cell)
+                plan.append((cell, cone))
+                got |= {tuple(f) for f in np.sort(cone[:, TET_FACES].reshape(-1, 3), 1).tolist()}
         if not {tuple(sorted((a, b, c))), tuple(sorted((a, c, d)))} <= got:
             return False
         for cl, cone in plan:
@@ -725,6 +722,26 @@ class _TieFlips:
             self.dead.update(cl)
             self.cones += 1
         return True
+
+    def _fit(self, cl: list[int], turns: dict, union: set[int], depth: int):
+        """Cones for cell ``cl`` with ``turns`` and, when none fits, with one more
+        boundary quadrilateral turned, shared with a neighbour cell fitted the same
+        way (``depth`` levels): [(cell, cone), ...], or None."""
+        cone = self._cone(cl, turns)
+        if cone is not None:
+            return [(cl, cone)]
+        if depth == 0:
+            return None
+        for pair, want, nb in self._shared_quads(cl, union):
+            wider = union | set(nb)
+            mine = self._fit(cl, {**turns, pair: want}, wider, depth - 1)
+            if mine is None:
+                continue
+            wider |= {r for c, _ in mine for r in c}
+            theirs = self._fit(nb, {pair: want}, wider, depth - 1)
+            if theirs is not None:
+                return mine + theirs
+        return None
 
     def _shared_quads(self, cl: list[int], union: set[int]):
         """The cell's boundary quadrilaterals (two coplanar triangles, no subface,

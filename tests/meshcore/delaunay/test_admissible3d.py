@@ -208,6 +208,13 @@ def test_box_of_3x3_squares_turns_prism_cells_in_pairs():
     assert res.added_on_edges + res.added_on_faces == 0
 
 
+def test_thin_slab_of_squares_turns_chains_of_cells():
+    # A 1 x 1 x 0.01 slab, 3 x 3 squares a face: cells along its thin sides need
+    # chains of neighbour cells turned with them (4 points were added with one level).
+    res = run(*shapes.box((0.0, 0.0, 0.0), (1.0, 1.0, 0.01), n=3))
+    assert res.added_on_edges + res.added_on_faces == 0
+
+
 def test_icosphere_is_admissible_as_given():
     res = run(*shapes.icosphere(2))
     assert res.added_on_edges + res.added_on_faces == 0
