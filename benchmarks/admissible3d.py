@@ -32,7 +32,8 @@ Inputs: Schönhardt's prism (30° twist), the unit cube (12 triangles), an
 icosphere (level 3), a torus (32 x 16), a *bumpy sphere*: 4,000
 directions on a Fibonacci spiral, their convex hull's triangles, radii
 ``1 + 0.15 sin(6 theta) sin(5 phi)`` (star-shaped, so a valid closed
-surface), a thin slab (1 x 1 x 0.01, each face a 4 x 4 grid), a *lens*
+surface), a thin slab (1 x 1 x 0.01, each face a 4 x 4 grid), the
+L-block (an L-shaped prism whose caps are fans), a *lens*
 (a bipyramid over 7 points at radius 0.8-1.2 around the axis, apexes at
 +-0.1: dihedral angles of 10-14° along its rim) and a *knife* (a triangular
 prism over a 10° wedge, top turned by 3°: a dihedral angle of 7°),
@@ -111,6 +112,7 @@ SHAPES = {
     "torus": lambda: shapes.torus(nu=32, nv=16),
     "bumpy": bumpy_sphere,
     "slab": lambda: shapes.box((0.0, 0.0, 0.0), (1.0, 1.0, 0.01), n=4),
+    "lblock": shapes.l_block,
     "lens": lens,
     "knife": knife,
 }
