@@ -218,10 +218,11 @@ class AdmissibleSurface:
         A Delaunay tetrahedralization of the output's surface points (no
         point strictly inside any circumsphere, exact) holding every output
         triangle, positively oriented (meshio order): the kernel's, after
-        :attr:`tie_flips` flips between co-spherical tetrahedra.
+        its cells of co-spherical points re-tetrahedralized (:attr:`tie_flips`).
     tie_flips : int
-        Flips made where exactly co-circular quadrilaterals let the missing
-        diagonal in without a point (see :class:`_TieFlips`); with none,
+        Cells of co-spherical points re-tetrahedralized in the last round, so
+        that exactly co-circular quadrilaterals get their missing diagonal
+        without a point (see :class:`_TieFlips`); with none,
         :attr:`tetrahedra` is the kernel's (symbolic perturbation).
     timings : dict
         Seconds per phase.
