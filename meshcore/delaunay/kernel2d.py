@@ -60,7 +60,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.errors import InputError
-from meshcore.geometry.expansions import _two_sum
+from meshcore.geometry.expansions import two_sum
 from meshcore.geometry.ordering import radix_sort
 from meshcore.geometry.predicates import WORK_SIZE, incircle_exact, orient2d_exact
 
@@ -366,12 +366,12 @@ def _sum4_sign(p, q, r, s):
     """Exact sign of ``p + q - r - s`` (Shewchuk's Two_Two_Sum: a
     non-overlapping expansion, whose sign is that of its largest nonzero
     component)."""
-    s1, e1 = _two_sum(p, q)
-    s2, e2 = _two_sum(-r, -s)
-    i, x0 = _two_sum(e1, e2)
-    j, x1 = _two_sum(s1, i)
-    k, x2 = _two_sum(x1, s2)
-    x3, x2b = _two_sum(j, k)
+    s1, e1 = two_sum(p, q)
+    s2, e2 = two_sum(-r, -s)
+    i, x0 = two_sum(e1, e2)
+    j, x1 = two_sum(s1, i)
+    k, x2 = two_sum(x1, s2)
+    x3, x2b = two_sum(j, k)
     for x in (x3, x2b, x2, x0):
         if x > 0.0:
             return 1

@@ -18,7 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
-from meshcore.geometry.expansions import _two_product
+from meshcore.geometry.expansions import two_product
 
 __all__: list[str] = []
 
@@ -128,8 +128,8 @@ def _deposit(bins, bits, count):
 def _term(xi, yi, xj, yj):
     """``xi * yj - xj * yi`` as its rounded value and the rest, rounded: each
     product split exactly (Dekker), their difference by two-sum."""
-    h1, l1 = _two_product(xi, yj)
-    h2, l2 = _two_product(xj, yi)
+    h1, l1 = two_product(xi, yj)
+    h2, l2 = two_product(xj, yi)
     s = h1 - h2
     bv = s - h1
     return s, ((h1 - (s - bv)) + (-h2 - bv)) + l1 - l2

@@ -39,7 +39,7 @@ WORK_SIZE = 16384
 
 
 @njit(cache=True)
-def _two_sum(a, b):
+def two_sum(a, b):
     x = a + b
     bv = x - a
     av = x - bv
@@ -63,7 +63,7 @@ def _split(a):
 
 
 @njit(cache=True)
-def _two_product(a, b):
+def two_product(a, b):
     x = a * b
     ahi, alo = _split(a)
     bhi, blo = _split(b)
@@ -125,12 +125,12 @@ def _expansion_sum(elen, e, flen, f, h):
             hindex += 1
         while eindex < elen and findex < flen:
             if (fnow > enow) == (fnow > -enow):
-                q, hh = _two_sum(q, enow)
+                q, hh = two_sum(q, enow)
                 eindex += 1
                 if eindex < elen:
                     enow = e[eindex]
             else:
-                q, hh = _two_sum(q, fnow)
+                q, hh = two_sum(q, fnow)
                 findex += 1
                 if findex < flen:
                     fnow = f[findex]
@@ -138,7 +138,7 @@ def _expansion_sum(elen, e, flen, f, h):
                 h[hindex] = hh
                 hindex += 1
     while eindex < elen:
-        q, hh = _two_sum(q, enow)
+        q, hh = two_sum(q, enow)
         eindex += 1
         if eindex < elen:
             enow = e[eindex]
@@ -146,7 +146,7 @@ def _expansion_sum(elen, e, flen, f, h):
             h[hindex] = hh
             hindex += 1
     while findex < flen:
-        q, hh = _two_sum(q, fnow)
+        q, hh = two_sum(q, fnow)
         findex += 1
         if findex < flen:
             fnow = f[findex]
@@ -162,14 +162,14 @@ def _expansion_sum(elen, e, flen, f, h):
 @njit(cache=True)
 def _scale_expansion(elen, e, b, h):
     """Shewchuk's scale_expansion_zeroelim: h = b * e, returns len(h)."""
-    q, hh = _two_product(e[0], b)
+    q, hh = two_product(e[0], b)
     hindex = 0
     if hh != 0.0:
         h[hindex] = hh
         hindex += 1
     for i in range(1, elen):
-        p1, p0 = _two_product(e[i], b)
-        s, hh = _two_sum(q, p0)
+        p1, p0 = two_product(e[i], b)
+        s, hh = two_sum(q, p0)
         if hh != 0.0:
             h[hindex] = hh
             hindex += 1
@@ -237,8 +237,8 @@ def _cross_exact(adx, adxlen, bdy, bdylen, bdx, bdxlen, ady, adylen, h, work):
 @njit(cache=True)
 def _dd_add(ah, al, bh, bl):
     """Accurate double-double sum (relative error below 3u**2, Joldes et al. 2017)."""
-    s, e = _two_sum(ah, bh)
-    t, f = _two_sum(al, bl)
+    s, e = two_sum(ah, bh)
+    t, f = two_sum(al, bl)
     e += t
     x = s + e
     e = e - (x - s)
@@ -250,7 +250,7 @@ def _dd_add(ah, al, bh, bl):
 @njit(cache=True)
 def _dd_mul(ah, al, bh, bl):
     """Double-double product (relative error below 7u**2 without FMA)."""
-    p, e = _two_product(ah, bh)
+    p, e = two_product(ah, bh)
     e += ah * bl + al * bh
     x = p + e
     return x, e - (x - p)
@@ -286,12 +286,12 @@ def _dd_minor3(z1h, z1l, m1h, m1l, z2h, z2l, m2h, m2l, z3h, z3l, m3h, m3l):
 @njit(cache=True)
 def _cross4(a, b, c, d, out):
     """out = a*b - c*d exactly (Two_Two_Diff), zeros removed; returns length."""
-    x1, x0 = _two_product(a, b)
-    y1, y0 = _two_product(c, d)
+    x1, x0 = two_product(a, b)
+    y1, y0 = two_product(c, d)
     i, r0 = _two_diff(x0, y0)
-    j, _0 = _two_sum(x1, i)
+    j, _0 = two_sum(x1, i)
     i, r1 = _two_diff(_0, y1)
-    x3, x2 = _two_sum(j, i)
+    x3, x2 = two_sum(j, i)
     n = 0
     if r0 != 0.0:
         out[n] = r0

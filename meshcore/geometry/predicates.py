@@ -69,7 +69,7 @@ from meshcore.geometry.expansions import (
     _set_diff,
     _sign_of,
     _two_diff,
-    _two_product,
+    two_product,
 )
 
 __all__ = [
@@ -117,8 +117,8 @@ def orient2d_exact(ax, ay, bx, by, cx, cy, work):
     bcy, bcyt = _two_diff(by, cy)
     if acxt == 0.0 and acyt == 0.0 and bcxt == 0.0 and bcyt == 0.0:
         # Differences are exact: det = acx*bcy - acy*bcx from two products.
-        l1, l0 = _two_product(acx, bcy)
-        r1, r0 = _two_product(acy, bcx)
+        l1, l0 = two_product(acx, bcy)
+        r1, r0 = two_product(acy, bcx)
         work[0] = l0
         work[1] = l1
         work[2] = -r0
@@ -218,8 +218,8 @@ def dot2d_exact(ax, ay, bx, by, cx, cy, work):
     bcy, bcyt = _two_diff(by, cy)
     if acxt == 0.0 and acyt == 0.0 and bcxt == 0.0 and bcyt == 0.0:
         # Differences are exact: det = acx*bcx + acy*bcy from two products.
-        l1, l0 = _two_product(acx, bcx)
-        r1, r0 = _two_product(acy, bcy)
+        l1, l0 = two_product(acx, bcx)
+        r1, r0 = two_product(acy, bcy)
         work[0] = l0
         work[1] = l1
         work[2] = r0

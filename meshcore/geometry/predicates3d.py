@@ -45,7 +45,7 @@ from meshcore.geometry.expansions import (
     _set_diff,
     _sign_of,
     _two_diff,
-    _two_product,
+    two_product,
 )
 from meshcore.geometry.predicates import _prepare, _sign_int8
 
@@ -332,7 +332,7 @@ def _insphere_raw(p, work):
         # Lifting x**2 + y**2 + z**2 of row r, exactly (at most 6 components).
         llen = np.int64(0)
         for c in range(3):
-            hi, lo = _two_product(p[r, c], p[r, c])
+            hi, lo = two_product(p[r, c], p[r, c])
             sq[0] = lo
             sq[1] = hi
             nl = _expansion_sum(llen, lift, np.int64(2), sq, l4)
@@ -419,7 +419,7 @@ def _insphere_from_diffs(aex, aey, aez, bex, bey, bez, cex, cey, cez, dex, dey, 
         llen = np.int64(0)
         for c in range(3):
             v = x if c == 0 else (y if c == 1 else z)
-            hi, lo = _two_product(v, v)
+            hi, lo = two_product(v, v)
             sq[0] = lo * sgn
             sq[1] = hi * sgn
             nl = _expansion_sum(llen, lift, np.int64(2), sq, l4)

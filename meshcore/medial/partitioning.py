@@ -887,12 +887,12 @@ def quad_medial(
     special, mesh, stats = _special(axis, size, levels)
     part = None
     if special is not None and not stats["invalid"]:
-        if size is not None and stats["quads"] * size**2 > MOST_COUNT * domain.area:
+        if size is not None and stats["quads"] * size * size > MOST_COUNT * domain.area:
             # the butterfly's central quad carries the boundary's count both ways (a gear
             # at size 0.1: 1.88x): the medial partition when it keeps the count
             part = partition(axis=axis, method=method)
             mesh2, stats2 = _quads_on(part, size, levels)
-            if stats2["invalid"] or stats2["quads"] * size**2 > MOST_COUNT * domain.area:
+            if stats2["invalid"] or stats2["quads"] * size * size > MOST_COUNT * domain.area:
                 part = None
         if part is None:
             kind = "four-sided" if len(special.regions) == 1 else "butterfly"
@@ -990,7 +990,7 @@ def _special(ax: MedialAxis, size: float | None, levels: int | None):
             or (not stats["invalid"] and stats["quads"] < best[2]["quads"])
         ):
             best = (part, mesh, stats)
-        over = size is not None and stats["quads"] * size**2 > MOST_COUNT * ax.domain.area
+        over = size is not None and stats["quads"] * size * size > MOST_COUNT * ax.domain.area
         if levels is not None or not (over or stats["invalid"]):
             break
     return best
@@ -1266,7 +1266,7 @@ def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bo
             np.maximum.at(count, label, need)
             n_of = count[label]
             total = sum(int(n_of[s0[0]] * n_of[s1[0]]) for s0, s1, _, _ in patches)
-            if total * size**2 <= MOST_COUNT * ax.domain.area:
+            if total * size * size <= MOST_COUNT * ax.domain.area:
                 break
     n_of = count[label]
     total = sum(int(n_of[s0[0]] * n_of[s1[0]]) for s0, s1, _, _ in patches)
