@@ -254,13 +254,17 @@ def sliver_pass(b: SurfaceRecovery, bound: float, max_radius_edge: float, progre
         cache = _SlotCache(b, top, slots, region)
         sub_keys = np.sort(face_keys(b.sub))
         done = 0
+        buf = np.concatenate([b.P, np.empty((len(rows), 3))])  # at most one point a sliver
+        b.P = buf[: len(b.P)]
         for row in rows.tolist():  # sequential: each insertion changes the next cavities
             s = int(slots[row])
             if cache.stale[s]:
                 continue
             reg = int(region[row])
-            c, R = _tet_circumcenters(b.P, T[row : row + 1])
-            if not np.isfinite(R[0]):
+            # The slot is not stale: the cache holds its circumsphere (-1: not finite).
+            if cache.R[s] >= 0:
+                c, R = cache.C[s : s + 1], cache.R[s : s + 1]
+            else:
                 c, R = b.P[T[row]].mean(axis=0)[None], np.zeros(1)
             d = rng.normal(size=(k, 3))
             d *= (rng.random(k) ** (1 / 3) / np.linalg.norm(d, axis=1))[:, None]
@@ -288,13 +292,15 @@ def sliver_pass(b: SurfaceRecovery, bound: float, max_radius_edge: float, progre
             res = b.dt.insert(X[k_best], near=None)
             if res.duplicate:
                 continue
-            b.P = np.concatenate([b.P, X[k_best : k_best + 1]])
-            b.pt_edge = np.append(b.pt_edge, -1)
-            b.pt_facet = np.append(b.pt_facet, -1)
+            buf[len(b.P)] = X[k_best]
+            b.P = buf[: len(b.P) + 1]  # a view: no copy of every point per insertion
             b.n += 1
             b.interior_added += 1
             done += 1
             cache.update(res, reg)
+        b.P = b.P.copy()
+        b.pt_edge = np.concatenate([b.pt_edge, np.full(done, -1, dtype=np.int64)])
+        b.pt_facet = np.concatenate([b.pt_facet, np.full(done, -1, dtype=np.int64)])
         if progress is not None:
             progress(0.8, f"sliver round {rounds}: {len(rows)} slivers, {done} points")
         if done == 0:
