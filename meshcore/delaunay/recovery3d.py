@@ -321,6 +321,18 @@ def _face_key(a, b, c):
     return (a << 42) | (b << 21) | c
 
 
+@njit(cache=True, inline="always")
+def _subface_at(T, t, j, faces, on, tk, tv, shift):
+    """The subface that face ``j`` of tetrahedron ``t`` is, or -1 (a corner off the
+    surface or no such subface in the table ``tk``/``tv``)."""
+    a = T[t, faces[j, 0]]
+    b = T[t, faces[j, 1]]
+    c = T[t, faces[j, 2]]
+    if on[a] and on[b] and on[c]:
+        return _find(tk, tv, _face_key(a, b, c), shift)
+    return -1
+
+
 @njit(cache=True)
 def _face_keys(F):
     out = np.empty(F.shape[0], np.int64)
@@ -369,12 +381,7 @@ def _present(T, on, seg_tk, seg_tv, n_seg, sub_tk, sub_tv, n_sub, edges, faces):
             if k >= 0:
                 seg_hit[k] = True
         for j in range(4):
-            a = T[t, faces[j, 0]]
-            b = T[t, faces[j, 1]]
-            c = T[t, faces[j, 2]]
-            if not (on[a] and on[b] and on[c]):
-                continue
-            k = _find(sub_tk, sub_tv, _face_key(a, b, c), sub_shift)
+            k = _subface_at(T, t, j, faces, on, sub_tk, sub_tv, sub_shift)
             if k >= 0:
                 sub_hit[k] = True
     return seg_hit, sub_hit
@@ -441,13 +448,9 @@ def _regions_pass(T, slots, adj, on, tk, tv, faces):
         for j in range(4):
             u = adj[t, j]
             nb[t, j] = row_of[u] if 0 <= u < top else -1
-            a = T[t, faces[j, 0]]
-            b = T[t, faces[j, 1]]
-            c = T[t, faces[j, 2]]
-            if on[a] and on[b] and on[c]:
-                sub_of[t, j] = _find(tk, tv, _face_key(a, b, c), shift)
-                if sub_of[t, j] >= 0:
-                    n_inc += 1
+            sub_of[t, j] = _subface_at(T, t, j, faces, on, tk, tv, shift)
+            if sub_of[t, j] >= 0:
+                n_inc += 1
     comp, n = _flood(nb, sub_of)
     outside = np.zeros(n, np.bool_)
     inc_t = np.empty(n_inc, np.int64)
@@ -503,14 +506,10 @@ def _regions_update(T, slots, fresh, adj, old, on, tk, tv, faces):
     for i in range(k):
         t = fresh[i]
         for j in range(4):
-            a = T[t, faces[j, 0]]
-            b = T[t, faces[j, 1]]
-            c = T[t, faces[j, 2]]
-            if on[a] and on[b] and on[c]:
-                sub_of[i, j] = _find(tk, tv, _face_key(a, b, c), shift)
-                if sub_of[i, j] >= 0:
-                    n_inc += 1
-                    continue
+            sub_of[i, j] = _subface_at(T, t, j, faces, on, tk, tv, shift)
+            if sub_of[i, j] >= 0:
+                n_inc += 1
+                continue
             u = adj[i, j]
             r = row_of[u] if 0 <= u < top else -1
             nb[i, j] = -3 if r < 0 else (local[r] if local[r] >= 0 else -2)
