@@ -466,6 +466,19 @@ def _offset_centre(pts, o, b, c):
 
 
 @njit(cache=True)
+def _renumber(keep):
+    """The new index of each kept row (kept rows in order, -1 for the others) and
+    their count."""
+    new = np.full(keep.shape[0], -1, np.int64)
+    k = 0
+    for i in range(keep.shape[0]):
+        if keep[i]:
+            new[i] = k
+            k += 1
+    return new, k
+
+
+@njit(cache=True)
 def _voronoi_classes(pts, tri, nb, inside, bnd, ttype, tol):
     """The Voronoi graph's nodes and edges over the inside triangles (step 4),
     in one pass over the triangles and one over the classes.
@@ -489,12 +502,7 @@ def _voronoi_classes(pts, tri, nb, inside, bnd, ttype, tol):
     the largest chord-to-diameter ratio, as it is monotonic).
     """
     nt = tri.shape[0]
-    remap = np.full(nt, -1, np.int64)
-    m = 0
-    for t in range(nt):
-        if inside[t]:
-            remap[t] = m
-            m += 1
+    remap, m = _renumber(inside)
     keep = np.empty(m, np.int64)
     T = np.empty((m, 3), np.int64)
     types = np.empty(m, np.int8)
@@ -631,12 +639,7 @@ def _compact(node_alive, edge_alive, edges, pq):
     """The surviving nodes (ids, old -> new map) and edges (renumbered, with
     their Delaunay edges), and the new degrees."""
     n = node_alive.shape[0]
-    new_id = np.full(n, -1, np.int64)
-    k = 0
-    for v in range(n):
-        if node_alive[v]:
-            new_id[v] = k
-            k += 1
+    new_id, k = _renumber(node_alive)
     alive_nodes = np.empty(k, np.int64)
     for v in range(n):
         if new_id[v] >= 0:
