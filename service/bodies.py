@@ -188,8 +188,8 @@ def _scan(b, key, rings, cuts, found, chunk):
     """
     n = len(b)
     nk = len(key)
-    nrings = 0
-    ncuts = 0
+    nrings = np.int64(0)  # not a literal 0: _pairs_array would be compiled for it too
+    ncuts = np.int64(0)
     nfound = 0
     pos = 0
     while pos < n:
@@ -305,11 +305,19 @@ def _exact_numbers(b, start, end, out):
     return True
 
 
+def _bytes(raw: bytes | bytearray) -> np.ndarray:
+    """The body as a read-only uint8 array, bytes or bytearray alike (numba compiles a
+    writable array as another type: one copy of the kernels, not two)."""
+    b = np.frombuffer(raw, np.uint8)
+    b.setflags(write=False)
+    return b
+
+
 def _ring(raw: bytes, ring: np.ndarray, cuts: np.ndarray) -> np.ndarray | None:
     """The ``(k, 2)`` positions of one scanned ring, or None if one is not finite."""
     start, end, count, _ = (int(x) for x in ring)
     out = np.empty((count, 2))
-    if _exact_numbers(np.frombuffer(raw, np.uint8), start, end, out.reshape(-1)):
+    if _exact_numbers(_bytes(raw), start, end, out.reshape(-1)):
         out.setflags(write=False)  # parse_domain takes read-only rings without a copy
         return out
     view = memoryview(raw)
@@ -341,7 +349,7 @@ def extract_coordinates(raw: bytes | bytearray) -> tuple[bytes | bytearray, dict
     """
     if len(raw) < MIN_BODY:
         return raw, {}
-    b = np.frombuffer(raw, np.uint8)
+    b = _bytes(raw)
     key = np.frombuffer(b"coordinates", np.uint8)
     size = 64
     while True:

@@ -8,7 +8,10 @@ service tests under ``tests/service`` that neither use the shared ``live``
 server (it warms every method up) nor carry the ``kernels`` mark: they start
 their own servers without warm-up and run the testing methods, and they spend
 most of their time waiting on servers, jobs and clients, which leaves the cores
-to the compiler. Every other test waits until the cache is filled, so that no
+to the compiler. They wait only for the kernels an API process runs on a
+request (the domain checks, the body parser: the warm-up's first task, a few
+seconds; every worker compiled them at once before). Every other test waits
+until the cache is filled, so that no
 kernel is compiled twice at once (four workers compiling the same kernels made
 a cold run's compile work about four times larger). ``--dist load`` with small
 chunks (``pyproject.toml``) hands the tests out in the order set here.
@@ -47,6 +50,8 @@ ROOT = Path(__file__).resolve().parents[1]
 WARMUP_PROCESSES = 2  # processes filling numba's cache at once (the machine's cores)
 #: Names the file that exists once numba's cache is filled (set by the controller).
 READY_ENV = "MESHSERVICE_TESTS_KERNELS_READY"
+#: Names the file that exists once the API process's kernels are in the cache.
+API_READY_ENV = "MESHSERVICE_TESTS_API_KERNELS_READY"
 #: A worker waits at most this long for the cache, then compiles what it reaches.
 READY_TIMEOUT = 1200.0
 
@@ -69,10 +74,12 @@ def pytest_configure(config: pytest.Config) -> None:
     ):
         return
     ready = Path(tempfile.mkdtemp(prefix="meshservice-tests-")) / "kernels-ready"
-    os.environ[READY_ENV] = str(ready)  # the workers, started after this, inherit it
+    api_ready = ready.with_name("api-kernels-ready")
+    os.environ[READY_ENV] = str(ready)  # the workers, started after this, inherit them
+    os.environ[API_READY_ENV] = str(api_ready)
     started = time.monotonic()
     proc = subprocess.Popen(
-        [sys.executable, "-m", "tests.warmup", str(WARMUP_PROCESSES)],
+        [sys.executable, "-m", "tests.warmup", str(WARMUP_PROCESSES), str(api_ready)],
         cwd=ROOT,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
@@ -82,6 +89,7 @@ def pytest_configure(config: pytest.Config) -> None:
     def wait() -> None:
         proc.wait()
         with contextlib.suppress(OSError):  # pytest may have ended first
+            api_ready.touch()  # (a warm-up that failed early: nobody waits for ever)
             ready.touch()
         print(f"\nnumba cache filled in {time.monotonic() - started:.0f} s", file=sys.stderr)
 
@@ -92,6 +100,7 @@ def pytest_unconfigure(config: pytest.Config) -> None:
     ready = os.environ.get(READY_ENV)
     if ready and not hasattr(config, "workerinput"):
         Path(ready).unlink(missing_ok=True)
+        Path(os.environ[API_READY_ENV]).unlink(missing_ok=True)
         Path(ready).parent.rmdir()
 
 
@@ -109,9 +118,10 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     items.sort(key=_needs_kernels)
 
 
-def kernels_ready() -> None:
-    """Return once numba's cache is filled (under pytest-xdist), or at once (``-n 0``)."""
-    ready = os.environ.get(READY_ENV)
+def kernels_ready(env: str = READY_ENV) -> None:
+    """Return once numba's cache is filled (under pytest-xdist), or at once (``-n 0``);
+    with ``env`` :data:`API_READY_ENV`, once the API process's kernels are."""
+    ready = os.environ.get(env)
     if not ready:
         return
     deadline = time.monotonic() + READY_TIMEOUT
@@ -121,5 +131,4 @@ def kernels_ready() -> None:
 
 @pytest.fixture(autouse=True)
 def _kernels_compiled(request: pytest.FixtureRequest) -> None:
-    if _needs_kernels(request.node):
-        kernels_ready()
+    kernels_ready(READY_ENV if _needs_kernels(request.node) else API_READY_ENV)

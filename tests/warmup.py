@@ -1,12 +1,17 @@
 """Fill numba's disk cache while the first tests run (``tests/conftest.py``).
 
-``python -m tests.warmup N`` runs, in N forked processes that each take the
-next task as soon as they are free, every step of the job fork server's
+``python -m tests.warmup N [API_READY]`` runs, in N forked processes that
+each take the next task as soon as they are free: the kernels the API process
+runs on a request (the domain checks of a submit, the big-body parser, the
+previews and download writers), then every step of the job fork server's
 warm-up (:data:`service.executors.preload.STEPS`), the 3D methods on small
 surfaces, and every method example of the service's registry through the job
-runner, as a job would. The two largest families of kernels come first, one
-per process: the 2D triangulation and the 3D ones. A kernel no task reaches
-is compiled by the first test that calls it, as before; nothing here is
+runner, as a job would. The API kernels come first, and the file named
+``API_READY`` is created as soon as they are in the cache: the service tests
+that run no method kernel wait only for them (every pytest worker compiled
+them at once otherwise, four copies of the same work). The 3D family, the
+largest, starts at once in the other process. A kernel no task reaches is
+compiled by the first test that calls it, as before; nothing here is
 asserted.
 """
 
@@ -26,6 +31,19 @@ from service.methods.registry import default_registry  # noqa: E402
 from service.runner import run_job  # noqa: E402
 
 
+def _api() -> None:
+    from meshcore.domain.planar import parse_domain
+    from service import bodies
+
+    steps = dict(STEPS)
+    square = [[0, 0], [1, 0], [1, 1], [0, 1]]
+    parse_domain({"type": "Polygon", "coordinates": [square]}, [[[0.2, 0.2], [0.8, 0.7]]])
+    ring = ",".join(f"[{i % 97}.5,{i // 97}.25]" for i in range(bodies.MIN_BODY // 8))
+    bodies.extract_coordinates(f'{{"coordinates":[[{ring}]]}}'.encode())
+    steps["download writers"]()
+    steps["previews"]()
+
+
 def _three_d() -> None:
     from meshcore.delaunay.admissible3d import make_admissible_surface
     from meshcore.optimize import optimize
@@ -43,14 +61,16 @@ def _three_d() -> None:
 def _tasks() -> list[str]:
     steps = [name for name, _ in STEPS]
     examples = sorted(default_registry())
-    return [steps[0], "3d", *steps[1:], *examples]
+    return ["api", "3d", *steps, *examples]
 
 
-def _run(task: str) -> None:
+def _run(task: str) -> str:
     steps = dict(STEPS)
     try:
         if task in steps:
             steps[task]()
+        elif task == "api":
+            _api()
         elif task == "3d":
             _three_d()
         else:
@@ -58,10 +78,13 @@ def _run(task: str) -> None:
             run_job(spec, json.dumps(spec.example).encode(), lambda *_: None, ("vtu",))
     except Exception as exc:  # a warm-up: the tests say what is wrong
         print(f"warm-up: {task}: {type(exc).__name__}: {exc}", file=sys.stderr)
+    return task
 
 
 if __name__ == "__main__":
     processes = int(sys.argv[1])
+    api_ready = sys.argv[2] if len(sys.argv) > 2 else None
     with multiprocessing.get_context("fork").Pool(processes, initializer=die_with_parent) as pool:
-        for _ in pool.imap_unordered(_run, _tasks(), chunksize=1):
-            pass
+        for done in pool.imap_unordered(_run, _tasks(), chunksize=1):
+            if done == "api" and api_ready:
+                open(api_ready, "a").close()

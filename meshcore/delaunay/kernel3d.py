@@ -841,22 +841,24 @@ def _start(pts, order, n, V, A, vt, state, work):
         state[_STATUS] = _DUPLICATE
         state[_INFO] = 1
         return
-    k = 2
-    while k < n and _collinear(pts, 0, 1, k, work):
+    # Rows as int64, not literals: each literal would compile another copy of the callee.
+    i0, i1, i2, i3 = np.int64(0), np.int64(1), np.int64(2), np.int64(3)
+    k = i2
+    while k < n and _collinear(pts, i0, i1, k, work):
         k += 1
     if k == n:
         state[_STATUS] = _COPLANAR
         return
-    _swap_rows(pts, order, 2, k)
-    m = 3
-    while m < n and _orient(pts, 0, 1, 2, m, work) == 0:
+    _swap_rows(pts, order, i2, k)
+    m = i3
+    while m < n and _orient(pts, i0, i1, i2, m, work) == 0:
         m += 1
     if m == n:
         state[_STATUS] = _COPLANAR
         return
-    _swap_rows(pts, order, 3, m)
+    _swap_rows(pts, order, i3, m)
     a, b = 0, 1
-    if _orient(pts, 0, 1, 2, 3, work) < 0:
+    if _orient(pts, i0, i1, i2, i3, work) < 0:
         a, b = 1, 0
     V[0], V[1], V[2], V[3] = a, b, 2, 3
     for i in range(4):

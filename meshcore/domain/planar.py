@@ -754,7 +754,7 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
         )
     n_rings = len(rings)
     offsets = names.offsets
-    pts = rings[0] if n_rings == 1 else np.concatenate(rings)
+    pts = _read_only(rings[0] if n_rings == 1 else np.concatenate(rings))
     del rings
     nb = len(pts)
 
@@ -773,7 +773,7 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
 
     # Merge constraint vertices with equal ring vertices / each other.
     cpoints, cseg, csrc = _merge_constraints(pts, lines)
-    points = np.concatenate([pts, cpoints]) if len(cpoints) else pts
+    points = _read_only(np.concatenate([pts, cpoints])) if len(cpoints) else pts
 
     # -- pairwise intersections ------------------------------------------
     rows, capped = _intersections(points, scale, offsets, cseg)
@@ -819,15 +819,10 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
             code="out_of_range",
         )
     # Frozen here so that Domain does not copy them: the index arrays are ours
-    # (compiled ones too, whose base is numba's memory record, not None) ...
+    # (compiled ones too, whose base is numba's memory record, not None); the
+    # points are read-only since the rings were joined.
     for arr in (segs, cseg, csrc):
         arr.setflags(write=False)
-    # ... and so are the points unless they are a view of the caller's array.
-    if points.flags.writeable and points.base is None:
-        points.setflags(write=False)
-    if points.flags.writeable:
-        points = points.view()
-        points.setflags(write=False)
     return Domain(
         points=points,
         ring_offsets=offsets,
@@ -979,6 +974,15 @@ def _oriented_segments(offsets, reversed_):
                 segs[i, 0] = i
                 segs[i, 1] = j
     return segs
+
+
+def _read_only(arr: np.ndarray) -> np.ndarray:
+    """``arr`` as a read-only view, never a copy: the compiled checks then see one array
+    type whether the rings came from lists (copied, writable) or from the service's
+    read-only arrays (numba compiles a read-only array as another type)."""
+    view = arr.view()
+    view.setflags(write=False)
+    return view
 
 
 @njit(cache=True)

@@ -330,13 +330,13 @@ def _try(
             gy += P[cyc[j], 1]
         gx /= L
         gy /= L
-        p, s, q = _evaluate_apex(P, cyc, L, -1, gx, gy, measure)
+        p, s, q = _evaluate_apex(P, cyc, L, np.int64(-1), gx, gy, measure)
         if _better(p, s, q, best_p, best_s, best_q, tie, gain):
             best_p, best_s, best_q, best = p, s, q, -2
         if not p:
             hx, hy = _kernel_centroid(P, cyc, L, px, py, qx, qy)
             if hx == hx:
-                p, s, q = _evaluate_apex(P, cyc, L, -1, hx, hy, measure)
+                p, s, q = _evaluate_apex(P, cyc, L, np.int64(-1), hx, hy, measure)
                 if _better(p, s, q, best_p, best_s, best_q, tie, gain):
                     best_p, best_s, best_q, best = p, s, q, -1
     removes = n_inner > 0

@@ -294,7 +294,7 @@ def sweep(
         if s >= 0:
             continue
         cur_p, cur_s, cur_q = _evaluate(
-            P, T, st, pos_of, k, v, P[v, 0], P[v, 1], P[v, 2], -1, measure
+            P, T, st, pos_of, k, v, P[v, 0], P[v, 1], P[v, 2], np.int64(-1), measure
         )
         tie = tie_rel * cur_s
         gx = gy = gz = 0.0
@@ -321,14 +321,14 @@ def sweep(
         h /= nl
         best = -3
         bp, bs, bq = cur_p, cur_s, cur_q
-        p, s_, q = _evaluate(P, T, st, pos_of, k, v, gx, gy, gz, -1, measure)
+        p, s_, q = _evaluate(P, T, st, pos_of, k, v, gx, gy, gz, np.int64(-1), measure)
         if _better(p, s_, q, bp, bs, bq, tie, gain):
             best, bp, bs, bq = -2, p, s_, q
         kx = ky = kz = np.nan
         if not p:
             kx, ky, kz = _relaxed_kernel_point(P, T, st, pos_of, k, v, gx, gy, gz, h)
             if kx == kx:
-                p, s_, q = _evaluate(P, T, st, pos_of, k, v, kx, ky, kz, -1, measure)
+                p, s_, q = _evaluate(P, T, st, pos_of, k, v, kx, ky, kz, np.int64(-1), measure)
                 if _better(p, s_, q, bp, bs, bq, tie, gain):
                     best, bp, bs, bq = -1, p, s_, q
         if allow_remove and not cur_p and best == -3:

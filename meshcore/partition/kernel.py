@@ -390,7 +390,7 @@ def _closable6(nfix, P, h, scratch):
             P, h[q + 3], h[(q + 4) % 6], h[(q + 5) % 6], h[q], nfix
         ):
             return True
-    return _centre_pattern(nfix, P, scratch, h, 6) >= 0
+    return _centre_pattern(nfix, P, scratch, h, len(h)) >= 0
 
 
 @njit(cache=True)
@@ -411,9 +411,9 @@ def _closable(nfix, P, h, scratch):
             continue
         for t in range(6):
             six[t] = h[(q + 3 + t) % 8]
-        if _closable6(nfix, P, six, scratch) and _valid(P, h, 8, q, (q + 3) % 8):
+        if _closable6(nfix, P, six, scratch) and _valid(P, h, m, q, (q + 3) % 8):
             return True
-    return _centre_pattern(nfix, P, scratch, h, 8) >= 0
+    return _centre_pattern(nfix, P, scratch, h, m) >= 0
 
 
 @njit(cache=True)

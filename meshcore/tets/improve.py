@@ -444,7 +444,7 @@ def improve_passes(
     done = 0
     for done in range(1, passes + 1):
         changed = 0
-        t = 0
+        t = np.int64(0)  # not a literal 0: the callees would be compiled for it too
         while t < cnt[ts.N_ROWS]:
             if not alive[t]:
                 t += 1

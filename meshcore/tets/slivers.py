@@ -317,9 +317,10 @@ def _quality(X):
     angle 0 and an infinite or NaN ratio, as :func:`tetra_dihedral_angles` and
     :func:`_tet_circumcenters`.
     """
-    cos = _least_dihedral_cos(X, _ONE, 0, np.empty((4, 3)))
-    r = _circumsphere(X, _ONE, 0)[3]
-    return math.degrees(math.acos(min(1.0, max(-1.0, cos)))), r / math.sqrt(_shortest2(X, _ONE, 0))
+    t = np.int64(0)  # not a literal 0: the measures would be compiled for it too
+    cos = _least_dihedral_cos(X, _ONE, t, np.empty((4, 3)))
+    r = _circumsphere(X, _ONE, t)[3]
+    return math.degrees(math.acos(min(1.0, max(-1.0, cos)))), r / math.sqrt(_shortest2(X, _ONE, t))
 
 
 @njit(cache=True, error_model="numpy")
