@@ -523,17 +523,16 @@ def _prepare(args: tuple, dim: int, names: str) -> tuple[tuple[np.ndarray, ...],
             code="bad_shape",
         ) from exc
     lead = shape[:-1]
-    flat = tuple(np.ascontiguousarray(np.broadcast_to(a, shape).reshape(-1, dim)) for a in arrays)
+    flat = tuple(_flat_view(np.broadcast_to(a, shape).reshape(-1, dim)) for a in arrays)
     return flat, lead
 
 
 def _flat_view(a: np.ndarray) -> np.ndarray:
-    """What ``np.ascontiguousarray(np.broadcast_to(a, a.shape))`` gives (a
-    read-only view, or a copy when ``a`` is not contiguous), without the
-    broadcast: the compiled exact stages see the same array types."""
-    if not a.flags.c_contiguous:
-        return np.ascontiguousarray(a)
-    view = a.view()
+    """``a`` as a read-only C-contiguous array (a view, or a copy when ``a`` is not
+    contiguous): the compiled exact stages see one array type for every argument
+    (numba compiles read-only and writable arrays as two types, so mixed flags
+    compiled up to 2**5 copies of a stage)."""
+    view = np.ascontiguousarray(a).view()
     view.flags.writeable = False
     return view
 

@@ -346,7 +346,7 @@ class TestRefusedIntersections:
         P = np.concatenate([[[0, 0, 0], [1, 0, 0], [0, 1, 0]], b]).astype(float)
         T = np.array([[0, 1, 2], [3, 4, 5]])
         assert _tri_tri(P, T, 0, 1, np.empty(3)) == hit
-        assert _tri_tri(P, T[::-1], 0, 1, np.empty(3)) == hit
+        assert _tri_tri(P, np.ascontiguousarray(T[::-1]), 0, 1, np.empty(3)) == hit
 
     def test_shared_vertex_pairs(self):
         P = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [1, 1, 1]], float)
