@@ -449,8 +449,9 @@ def _monotone_range(pts, scale, q, start, first, last, axis, lo, hi):
 def _meeting(pts, scale, q, start, first, last, lx, ly, hx, hy):
     """Segments ``start[q] + t`` for ``t0 <= t < t1``: those of piece ``q`` whose boxes meet
     the box [lx, hx] x [ly, hy] (a monotone piece: the intersection of two ranges)."""
-    x0, x1 = _monotone_range(pts, scale, q, start, first, last, 0, lx, hx)
-    y0, y1 = _monotone_range(pts, scale, q, start, first, last, 1, ly, hy)
+    # The axes as int64, not literals (each literal would compile another copy).
+    x0, x1 = _monotone_range(pts, scale, q, start, first, last, np.int64(0), lx, hx)
+    y0, y1 = _monotone_range(pts, scale, q, start, first, last, np.int64(1), ly, hy)
     return start[q] + max(x0, y0), start[q] + min(x1, y1)
 
 

@@ -53,7 +53,7 @@ OUT_OF_ROWS, OUT_OF_POINTS = 2, 3
 #: ``counters`` entries.
 C_EDGE, C_FACE, C_SMOOTH, C_INSERT = range(4)
 #: Base of the face keys (vertex numbers below it): keys stay valid as points are added.
-NK = 1 << 21
+NK = np.int64(1 << 21)  # int64 in kernels, not a literal (one compiled copy of callees)
 
 _FACE = ts.FACE
 
@@ -207,10 +207,11 @@ def _remove_face(P, T, alive, head, nxt, prv, freeT, cnt, reg, subk, t, j, st, b
     if u < 0:
         return 0
     st[0], st[1] = t, u
-    old_q, old_r = _set_quality(P, T, st, 2)
+    two = np.int64(2)  # int64 counts, not literals: each literal compiles the callee again
+    old_q, old_r = _set_quality(P, T, st, two)
     e = T[u, 0] + T[u, 1] + T[u, 2] + T[u, 3] - x - y - z
     # the faces of the pair, outward: the fan from the apex e over them is the 2-3 flip
-    nb = 0
+    nb = np.int64(0)
     for i in range(2):
         w = st[i]
         for jj in range(4):
@@ -226,7 +227,7 @@ def _remove_face(P, T, alive, head, nxt, prv, freeT, cnt, reg, subk, t, j, st, b
         return 0
     if not ts.room(T, cnt, 1):
         return -1
-    _replace(T, alive, head, nxt, prv, freeT, cnt, reg, st, 2, bf, nb, e)
+    _replace(T, alive, head, nxt, prv, freeT, cnt, reg, st, two, bf, nb, e)
     return 1
 
 
@@ -289,7 +290,7 @@ def _smooth(P, T, head, nxt, cnt, v, st, tmark, G, N, mre):
     x0 = np.empty(3)
     for _ in range(SMOOTH_STEPS):
         x0[0], x0[1], x0[2] = P[v, 0], P[v, 1], P[v, 2]
-        m = 0
+        m = np.int64(0)
         for i in range(k):
             t = st[i]
             a, b, c, d = T[t, 0], T[t, 1], T[t, 2], T[t, 3]
