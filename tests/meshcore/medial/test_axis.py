@@ -11,6 +11,7 @@ The rectangle 2 x 1 and its analytic axis::
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -20,11 +21,18 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial import cKDTree
 
-from meshcore.domain.planar import parse_domain
+from meshcore.domain.planar import Domain, parse_domain
 from meshcore.errors import InputError
 from meshcore.medial.axis import medial_axis
 
-RECT = parse_domain({"type": "Polygon", "coordinates": [[[0, 0], [2, 0], [2, 1], [0, 1]]]})
+
+# Domains built on first use, not at import: every pytest worker imports this module, and
+# parse_domain at import compiled the domain checks in all of them at once on a cold cache.
+@functools.cache
+def rect() -> Domain:
+    return parse_domain({"type": "Polygon", "coordinates": [[[0, 0], [2, 0], [2, 1], [0, 1]]]})
+
+
 RECT_AXIS = np.array(
     [
         [[0.5, 0.5], [1.5, 0.5]],
@@ -43,7 +51,11 @@ def circle(r: float, n: int, cw: bool = False) -> list[list[float]]:
     return (ring[::-1] if cw else ring).tolist()
 
 
-ANNULUS = parse_domain({"type": "Polygon", "coordinates": [circle(1, 256), circle(0.5, 256, True)]})
+@functools.cache
+def annulus() -> Domain:
+    return parse_domain(
+        {"type": "Polygon", "coordinates": [circle(1, 256), circle(0.5, 256, True)]}
+    )
 
 
 def segment_distance(x: np.ndarray, segs: np.ndarray) -> np.ndarray:
@@ -89,7 +101,7 @@ def boundary_segments(dom) -> np.ndarray:
 
 class TestRectangle:
     def test_topology_two_critical_four_terminal(self):
-        ax = medial_axis(RECT)
+        ax = medial_axis(rect())
         crit = ax.nodes[ax.kind == "critical"]
         term = ax.nodes[ax.kind == "terminal"]
         assert len(crit) == 2 and len(term) == 4
@@ -99,24 +111,24 @@ class TestRectangle:
         assert ax.stats["triangle_types"]["type2"] == 4
 
     def test_hausdorff_under_one_percent_of_the_width_at_the_default_h(self):
-        assert hausdorff_to(medial_axis(RECT), RECT_AXIS) < 0.01 * 1.0
+        assert hausdorff_to(medial_axis(rect()), RECT_AXIS) < 0.01 * 1.0
 
     def test_converges_as_h_shrinks(self):
         # h that do not divide the sides (different spacings on the sides): the error
         # falls like h**2 (measured 2.3e-4, 5.9e-5, 1.5e-5, 3.8e-6: rate 2.0)
         hs = [0.037, 0.0185, 0.00925, 0.004625]
-        errors = [hausdorff_to(medial_axis(RECT, h=h), RECT_AXIS) for h in hs]
+        errors = [hausdorff_to(medial_axis(rect(), h=h), RECT_AXIS) for h in hs]
         rates = [math.log2(errors[i] / errors[i + 1]) for i in range(len(hs) - 1)]
         assert all(e < 0.01 * h for e, h in zip(errors, hs, strict=True))
         assert min(rates) > 1.8, (errors, rates)
 
     def test_radii_are_distances_to_the_boundary(self):
-        ax = medial_axis(RECT, h=0.01)
-        d = segment_distance(ax.nodes, boundary_segments(RECT))
+        ax = medial_axis(rect(), h=0.01)
+        d = segment_distance(ax.nodes, boundary_segments(rect()))
         np.testing.assert_allclose(ax.radius, d, rtol=1e-9, atol=1e-15)
 
     def test_translated_and_scaled_inputs_give_the_same_axis(self):
-        ax = medial_axis(RECT, h=0.01)
+        ax = medial_axis(rect(), h=0.01)
         for shift, scale in ((1e6, 1.0), (0.0, 1e-6)):
             coords = (np.array([[0, 0], [2, 0], [2, 1], [0, 1]]) * scale + shift).tolist()
             moved = medial_axis(
@@ -129,11 +141,11 @@ class TestRectangle:
             )
 
     def test_midpoints_approximation_has_the_same_topology(self):
-        ax = medial_axis(RECT, approximation="midpoints")
+        ax = medial_axis(rect(), approximation="midpoints")
         assert (ax.kind == "critical").sum() == 2 and (ax.kind == "terminal").sum() == 4
 
     def test_line_mesh_carries_the_radius(self):
-        ax = medial_axis(RECT, h=0.05)
+        ax = medial_axis(rect(), h=0.05)
         mesh = ax.to_mesh()
         assert mesh.cells[0].type == "line" and len(mesh.cells[0].data) == len(ax.edges)
         np.testing.assert_array_equal(mesh.point_data["radius"], ax.radius)
@@ -142,7 +154,7 @@ class TestRectangle:
 
 class TestAnnulus:
     def test_a_single_closed_loop_of_radius_075(self):
-        ax = medial_axis(ANNULUS)
+        ax = medial_axis(annulus())
         assert (ax.kind == "terminal").sum() == 0 and (ax.kind == "critical").sum() == 0
         assert len(ax.branches) == 1 and ax.branches[0][0] == ax.branches[0][-1]
         assert len(ax.edges) == len(ax.nodes)  # one cycle
@@ -150,12 +162,12 @@ class TestAnnulus:
         np.testing.assert_allclose(ax.radius, 0.25, atol=2e-3)
 
     def test_radii_are_distances_to_the_boundary(self):
-        ax = medial_axis(ANNULUS, h=0.02)
-        d = segment_distance(ax.nodes, boundary_segments(ANNULUS))
+        ax = medial_axis(annulus(), h=0.02)
+        d = segment_distance(ax.nodes, boundary_segments(annulus()))
         np.testing.assert_allclose(ax.radius, d, rtol=1e-9)
 
     def test_no_pruning_keeps_the_discretization_branches(self):
-        assert (medial_axis(ANNULUS, prune=0).kind == "terminal").sum() > 0
+        assert (medial_axis(annulus(), prune=0).kind == "terminal").sum() > 0
 
 
 class TestSmoothShapes:
@@ -178,7 +190,7 @@ class TestSmoothShapes:
 
 class TestPointCloud:
     def test_reproduces_the_polygon_result_on_the_same_samples(self):
-        ax = medial_axis(RECT, h=0.05)
+        ax = medial_axis(rect(), h=0.05)
         ring = ax.samples  # the samples, in order along the boundary
         polygon = parse_domain({"type": "Polygon", "coordinates": [ring.tolist()]})
         spacing = np.hypot(*np.diff(np.vstack([ring, ring[:1]]), axis=0).T).max()
@@ -217,7 +229,7 @@ class TestErrors:
     )
     def test_bad_parameters_name_the_field(self, kwargs, loc):
         with pytest.raises(InputError) as exc:
-            medial_axis(RECT, **kwargs)
+            medial_axis(rect(), **kwargs)
         assert exc.value.errors[0]["loc"] == [loc]
 
     def test_a_spike_thinner_than_rounding_is_refused_at_its_vertex(self):
@@ -233,7 +245,7 @@ class TestErrors:
 
     def test_a_runaway_h_is_refused(self):
         with pytest.raises(InputError) as exc:
-            medial_axis(RECT, h=1e-9)
+            medial_axis(rect(), h=1e-9)
         assert exc.value.code == "too_many_samples"
 
 
