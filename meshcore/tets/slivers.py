@@ -443,7 +443,8 @@ class _SlotCache:
         self.R = np.full(top, -1.0)
         self.reg = np.full(top, -1, dtype=np.int64)
         self.stale = np.zeros(top, dtype=bool)
-        self._set(slots)
+        dt = b.dt
+        _store(b.P, slots, dt.tets(slots), dt.adjacent(slots), self.V, self.A, self.C, self.R)
         self.reg[slots] = region
 
     def _grow(self, top: int) -> None:
@@ -457,22 +458,47 @@ class _SlotCache:
         self.reg = np.concatenate([self.reg, np.full(extra, -1, dtype=np.int64)])
         self.stale = np.concatenate([self.stale, np.zeros(extra, dtype=bool)])
 
-    def _set(self, slots: np.ndarray) -> None:
-        V = self.b.dt.tets(slots)
-        self.V[slots] = V
-        self.A[slots] = self.b.dt.adjacent(slots)
-        real = (V >= 0).all(axis=1)
-        c, R = _tet_circumcenters(self.b.P, V[real])
-        self.C[slots[real]] = c
-        self.R[slots[real]] = np.where(np.isfinite(R), R, -1.0)
-        self.R[slots[~real]] = -1.0
-
     def update(self, res, reg: int) -> None:
         created = np.asarray(res.created, dtype=np.int64)
-        self._grow(int(max(created.max(), self.b.dt.adjacent(created).max())) + 1)
+        A = self.b.dt.adjacent(created)
+        self._grow(int(max(created.max(), A.max())) + 1)
         self.stale[res.removed] = True
-        self._set(created)
-        self.reg[created] = np.where((self.V[created] >= 0).all(axis=1), reg, -1)
-        nb = np.unique(self.A[created])
-        nb = nb[nb >= 0]
+        _store(self.b.P, created, self.b.dt.tets(created), A, self.V, self.A, self.C, self.R)
+        nb = _set_regions(created, self.V, self.A, self.reg, reg)
         self.A[nb] = self.b.dt.adjacent(nb)
+
+
+@njit(cache=True, error_model="numpy")
+def _store(P, slots, V, A, V_out, A_out, C, R):
+    """Vertices, neighbours and circumspheres (as :func:`_tet_circumcenters`; radius -1 for a
+    ghost or where it is not finite) of the tetrahedra ``V`` at ``slots``."""
+    for k in range(slots.shape[0]):
+        s = slots[k]
+        real = True
+        for i in range(4):
+            V_out[s, i] = V[k, i]
+            A_out[s, i] = A[k, i]
+            real &= V[k, i] >= 0
+        if not real:
+            R[s] = -1.0
+            continue
+        ox, oy, oz, r, _ = _circumsphere(P, V_out, s)
+        i0 = V_out[s, 0]
+        C[s, 0], C[s, 1], C[s, 2] = P[i0, 0] + ox, P[i0, 1] + oy, P[i0, 2] + oz
+        R[s] = r if math.isfinite(r) else -1.0
+
+
+@njit(cache=True)
+def _set_regions(created, V, A, reg, reg_id):
+    """Regions of the created slots (``reg_id``, -1 for a ghost) set; the distinct slots
+    their neighbours are (whose neighbours changed), sorted."""
+    seen = np.empty(4 * created.shape[0], np.int64)
+    n = 0
+    for k in range(created.shape[0]):
+        s = created[k]
+        reg[s] = reg_id if V[s, 0] >= 0 and V[s, 1] >= 0 and V[s, 2] >= 0 and V[s, 3] >= 0 else -1
+        for i in range(4):
+            if A[s, i] >= 0:
+                seen[n] = A[s, i]
+                n += 1
+    return np.unique(seen[:n])
