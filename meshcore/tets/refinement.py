@@ -911,15 +911,16 @@ def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> 
     return done + n_sub + n_seg, outside
 
 
-def _refine(b: SurfaceRecovery, criteria, progress) -> tuple[int, int]:
-    """Delaunay refinement rounds; returns (rounds, bad tetrahedra left)."""
-    max_radius_edge, max_volume, size_at = criteria
+def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, progress):
+    """Delaunay refinement rounds; returns (rounds, bad tetrahedra left).
+
+    ``region_of`` and ``bad_tets`` are kept between rounds and between calls (the
+    sliver rounds between two calls only add points): each round measures only
+    what was created since the last.
+    """
+    size_at = bad_tets.size_at
     rounds = 0
     left = 0
-    # Regions and bad tetrahedra kept between rounds: each round measures only what
-    # the previous one created.
-    region_of = RegionLabels(b)
-    bad_tets = _BadTets(max_radius_edge, max_volume, size_at, b.knobs)
     for rounds in range(1, b.knobs.refinement_rounds + 1):
         if b.n >= b.knobs.max_points:
             raise AlgorithmError(
@@ -1194,9 +1195,12 @@ def tetrahedralize(
         timings["recovery"] = time.perf_counter() - t1
         mre, mdh, mvol, _ = criteria
         bounded = mre is not None or mvol is not None or size_at is not None
+        # Regions and bad tetrahedra kept by slot through every refinement round.
+        region_of = RegionLabels(b)
+        bad_tets = _BadTets(mre or math.inf, mvol, size_at, b.knobs)
         if not empty and bounded:
             t2 = time.perf_counter()
-            r, given_up = _refine(b, (mre or math.inf, mvol, size_at), progress)
+            r, given_up = _refine(b, region_of, bad_tets, progress)
             rounds += r
             timings["refinement"] = time.perf_counter() - t2
         if not empty and mdh is not None:
@@ -1204,16 +1208,16 @@ def tetrahedralize(
 
             t3 = time.perf_counter()
             n_before = b.n
-            rounds += sliver_pass(b, mdh, mre or math.inf, progress)
+            rounds += sliver_pass(b, mdh, mre or math.inf, region_of, progress)
             if bounded and b.n > n_before:
                 # The sliver rounds' surface splits may have left bad tetrahedra.
-                r, given_up = _refine(b, (mre or math.inf, mvol, size_at), progress)
+                r, given_up = _refine(b, region_of, bad_tets, progress)
                 rounds += r
             timings["slivers"] = time.perf_counter() - t3
         # Encroachment fixes may have left pieces missing: recover again (no-op if whole).
         rounds += recover(b, progress)
         slots, T = b.tets()
-        region = regions(b, slots, T)
+        region = region_of(slots, T)
         keep = region >= 0
         tetra, region = T[keep], region[keep]
         tetra, region, sub, sub_src, triangle_facet = _drop_flat_folds(b, tetra, region)

@@ -41,11 +41,11 @@ from numba import njit
 
 from meshcore.delaunay.recovery3d import (
     TET_FACES,
+    RegionLabels,
     SurfaceRecovery,
     face_keys,
     member,
     recover,
-    regions,
     tri_circumcenters,
 )
 from meshcore.mesh.tetstore import N_ROWS, CellStore
@@ -217,7 +217,9 @@ def _least(P: np.ndarray, tetra: np.ndarray) -> float:
     return float(_least_dihedral(P, tetra).min()) if len(tetra) else 180.0
 
 
-def sliver_pass(b: SurfaceRecovery, bound: float, max_radius_edge: float, progress) -> int:
+def sliver_pass(
+    b: SurfaceRecovery, bound: float, max_radius_edge: float, region_of: RegionLabels, progress
+) -> int:
     """Slivers removed by perturbed insertion (Chew; Li and Teng); returns the rounds.
 
     Each tetrahedron whose least dihedral angle is below ``bound`` is
@@ -243,7 +245,7 @@ def sliver_pass(b: SurfaceRecovery, bound: float, max_radius_edge: float, progre
     for rounds in range(1, PERTURBED_ROUNDS + 1):
         recover(b, None)
         slots, T = b.tets()
-        region = regions(b, slots, T)
+        region = region_of(slots, T)
         dih = _least_dihedral(b.P, T)
         rows = np.flatnonzero((region >= 0) & (dih < bound))
         rows = rows[~_flat_folds(b, T[rows])]
