@@ -531,9 +531,7 @@ def _left_report(
     circumcentre encroaching a subface too small to split), ``interior``
     (the round cap was reached).
     """
-    m = len(T)
-    c, R, short, cos = np.empty((m, 3)), np.empty(m), np.empty(m), np.empty(m)
-    _shapes(b.P, np.ascontiguousarray(T, dtype=np.int64), c, R, short, cos)
+    c, R, short, cos = _measured(b.P, T)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = R / short
     ratio = np.where(np.isfinite(ratio), ratio, np.inf)
@@ -731,13 +729,19 @@ def _least_dihedral_cos(P, T, t, nrm):
     return best
 
 
-def _least_dihedral(P: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """(m,) degrees: ``tetra_dihedral_angles(P, T).min(axis=1)``, in one compiled pass."""
+def _measured(P: np.ndarray, T: np.ndarray) -> tuple:
+    """(circumcentres, circumradii, shortest edges, cosines of the least dihedral angles)
+    of tetrahedra ``T``: :func:`_shapes` in one compiled pass, without temporaries."""
     T = np.ascontiguousarray(T, dtype=np.int64)
     m = len(T)
     C, R, S, D = np.empty((m, 3)), np.empty(m), np.empty(m), np.empty(m)
     _shapes(P, T, C, R, S, D)
-    return np.degrees(np.arccos(np.clip(D, -1.0, 1.0)))
+    return C, R, S, D
+
+
+def _least_dihedral(P: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """(m,) degrees: ``tetra_dihedral_angles(P, T).min(axis=1)``, in one compiled pass."""
+    return np.degrees(np.arccos(np.clip(_measured(P, T)[3], -1.0, 1.0)))
 
 
 class _BadTets:

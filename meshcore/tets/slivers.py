@@ -55,9 +55,8 @@ from meshcore.tets.refinement import (
     _flat_folds,
     _least_dihedral,
     _least_dihedral_cos,
+    _measured,
     _shortest2,
-    _shortest_edge,
-    _tet_circumcenters,
 )
 
 __all__ = ["improve", "remove_slivers", "sliver_pass"]
@@ -203,8 +202,8 @@ def remove_slivers(
             stats[key] = stats.get(key, 0) + value
     stats["radius_edge_traded"] = 0
     if math.isfinite(mre):
-        c, R = _tet_circumcenters(b.P, tetra)
-        stats["radius_edge_traded"] = int((R > mre * _shortest_edge(b.P, tetra)).sum())
+        _, R, short, _ = _measured(b.P, tetra)
+        stats["radius_edge_traded"] = int((R > mre * short).sum())
     added = len(b.P) - b.n
     b.pt_edge = np.concatenate([b.pt_edge, np.full(added, -1, dtype=np.int64)])
     b.pt_facet = np.concatenate([b.pt_facet, np.full(added, -1, dtype=np.int64)])
@@ -435,15 +434,19 @@ def _best_candidate(P, V, A, C, R, reg, t0, X, reg_id, max_radius_edge, bound):
 
 
 class _SlotCache:
-    """Vertices, neighbours, circumspheres and regions of the kernel's slots (one round)."""
+    """Vertices, neighbours, circumspheres and regions of the kernel's slots (one round).
+
+    Vertex, slot and region numbers in int32 (the kernel's own width: its slots and
+    vertices are below 2**31); grown by a quarter as insertions add slots.
+    """
 
     def __init__(self, b: SurfaceRecovery, top: int, slots: np.ndarray, region: np.ndarray) -> None:
         self.b = b
-        self.V = np.full((top, 4), -1, dtype=np.int64)
-        self.A = np.full((top, 4), -1, dtype=np.int64)
+        self.V = np.full((top, 4), -1, dtype=np.int32)
+        self.A = np.full((top, 4), -1, dtype=np.int32)
         self.C = np.zeros((top, 3))
         self.R = np.full(top, -1.0)
-        self.reg = np.full(top, -1, dtype=np.int64)
+        self.reg = np.full(top, -1, dtype=np.int32)
         self.stale = np.zeros(top, dtype=bool)
         dt = b.dt
         _store(b.P, slots, dt.tets(slots), dt.adjacent(slots), self.V, self.A, self.C, self.R)
@@ -452,12 +455,12 @@ class _SlotCache:
     def _grow(self, top: int) -> None:
         if top <= len(self.V):
             return
-        extra = max(top, 2 * len(self.V)) - len(self.V)
-        self.V = np.concatenate([self.V, np.full((extra, 4), -1, dtype=np.int64)])
-        self.A = np.concatenate([self.A, np.full((extra, 4), -1, dtype=np.int64)])
+        extra = max(top, len(self.V) + len(self.V) // 4 + 1024) - len(self.V)
+        self.V = np.concatenate([self.V, np.full((extra, 4), -1, dtype=np.int32)])
+        self.A = np.concatenate([self.A, np.full((extra, 4), -1, dtype=np.int32)])
         self.C = np.concatenate([self.C, np.zeros((extra, 3))])
         self.R = np.concatenate([self.R, np.full(extra, -1.0)])
-        self.reg = np.concatenate([self.reg, np.full(extra, -1, dtype=np.int64)])
+        self.reg = np.concatenate([self.reg, np.full(extra, -1, dtype=np.int32)])
         self.stale = np.concatenate([self.stale, np.zeros(extra, dtype=bool)])
 
     def update(self, res, reg: int) -> None:
