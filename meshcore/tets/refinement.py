@@ -57,7 +57,7 @@ phases and only ever grown by point insertion):
    only for the tetrahedra still alive. Flat folds (:func:`_flat_folds`)
    are not refined.
 5. **Slivers** (``min_dihedral``, :mod:`meshcore.tets.slivers`): first
-   up to 3 rounds of perturbed insertion (Chew's random points near the circumcentre, as Li and Teng
+   one round of perturbed insertion (Chew's random points near the circumcentre, as Li and Teng
    analyse them; a point is inserted only when it raises the least dihedral
    angle of the tetrahedra it replaces, keeps the radius-edge bound and does
    not cut the surface), the radius-edge refinement once more for what

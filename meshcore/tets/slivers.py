@@ -1,7 +1,7 @@
 """Slivers of :func:`meshcore.tets.refinement.tetrahedralize` (``min_dihedral``).
 
-Two stages. :func:`sliver_pass`, inside the Delaunay refinement: up to
-``PERTURBED_ROUNDS`` rounds of perturbed insertion (Chew's random points near
+Two stages. :func:`sliver_pass`, inside the Delaunay refinement:
+``PERTURBED_ROUNDS`` round(s) of perturbed insertion (Chew's random points near
 the circumcentre, as Li and Teng analyse them).
 Then :func:`remove_slivers` on the final tetrahedra: :func:`improve` raises
 the least dihedral angle by flips, smoothing and insertion
@@ -12,14 +12,21 @@ bound where it can. The result is no longer a Delaunay tetrahedralization.
 Choices the methods text leaves open (it names sliver exudation,
 perturbation or smoothing):
 
-* A few rounds of perturbed insertion, then local improvement: perturbed
+* One round of perturbed insertion, then local improvement: perturbed
   insertion alone (8 rounds) left 1.74 degrees on the icosphere at size 0.05
   in 25 CPU s (13.8 s without); the improvement alone reaches 15.00 degrees
   there in about 1 s more, but on the thin slab (1 x 1 x 0.01) it stopped at
   9.4 degrees next to slivers whose four vertices are on the two faces,
-  which a Delaunay point insertion removes (15.00 with both), and on the
-  cube at sizes 0.25 and 0.125 its meshes gave Poisson a max-norm rate of
-  1.74 against 1.90 (the perturbed points first: 1.90 again).
+  which a Delaunay point insertion removes (15.00 with both). The first
+  round does nearly all the work (at about 100k tetrahedra and 15 degrees,
+  the cube minus a ball: 1,310 points, then 1; the torus: 1,566, then 9 and
+  1), and each further round costs passes over the whole mesh: one round,
+  the improvement finishes the rest. On the cube at sizes 0.25 and 0.125
+  (``max_radius_edge`` None) Poisson's max-norm rate is 1.88 with the round
+  and 1.74 without it (the improvement then makes 132 edge removals instead
+  of 2); but with other seeds of the random candidates the round gives 1.78,
+  1.66 and 1.74: over these two sizes the rate moves by about 0.1 with small
+  changes of the meshes (the maximum error's node and its star are the same).
 * The surface is kept: faces on the surface (and between regions) are never
   flipped; the points the refinement put inside move freely, those it put
   inside a facet slide in the facet's plane (to rounding, as they were
@@ -72,8 +79,8 @@ PASSES = 30
 #: Poisson on the cube converged at rate 1.74 instead of 1.9 in the max norm.
 UNBOUNDED_CAP = 2.0
 #: Rounds of perturbed insertion before the improvement (each is a pass over the whole mesh;
-#: the improvement finishes what they leave).
-PERTURBED_ROUNDS = 3
+#: the improvement finishes what they leave; see the module docstring).
+PERTURBED_ROUNDS = 1
 #: Random candidates per sliver in perturbed insertion, besides its circumcentre, and the
 #: radius of the ball they are drawn from, in units of the circumradius.
 CANDIDATES = 16
