@@ -87,6 +87,9 @@ CANDIDATES = 16
 CANDIDATE_BALL = 0.5
 #: Spare point rows for insertion (grown as needed).
 SPARE = 1024
+#: Rings of vertex neighbours around the tetrahedra under the bound that the improvement
+#: edits (an operation on a sliver reaches its first ring; what it makes, the next ones).
+ZONE_RINGS = 3
 
 
 def _face_keys(F: np.ndarray) -> np.ndarray:
@@ -132,19 +135,33 @@ def improve(
         positive by the exact ``orient3d``, filling the same regions, every
         constrained face still a face), their regions, and the counts of
         ``edge_removals``, ``face_removals``, ``smoothing_moves``, ``passes``.
+        Only the tetrahedra within ``ZONE_RINGS`` rings of vertex neighbours of
+        those under ``bound`` are edited (the faces bounding that zone are kept
+        and the vertices on them stay, except the surface's, which slide as
+        above): the others come first, unchanged, then the zone's.
 
     References
     ----------
     Methods text §8.3 (local operations on sub-topologies); Klingner and
     Shewchuk (2007).
     """
-    T = np.ascontiguousarray(tetra[:, [0, 1, 3, 2]], dtype=np.int64)
-    state = CellStore(np.asarray(points, dtype=np.float64), T, ~np.asarray(free, bool), SPARE)
+    tetra = np.asarray(tetra, dtype=np.int64)
+    points = np.asarray(points, dtype=np.float64)
+    fixed = ~np.asarray(free, bool)
+    # Only the zone around the tetrahedra under the bound is edited; its boundary faces
+    # are constrained and their vertices fixed, so the tetrahedra outside stay as they are.
+    zone = _zone(tetra, _least_dihedral(points, tetra) < bound, len(points))
+    rim = _rim(tetra[zone])
+    subk = np.sort(_face_keys(np.asarray(faces, dtype=np.int64)))
+    rim_k = _face_keys(rim)
+    fixed[rim[~member(rim_k, subk)].ravel()] = True  # not the surface's: it may slide
+    T = np.ascontiguousarray(tetra[zone][:, [0, 1, 3, 2]])
+    state = CellStore(points, T, fixed, SPARE)
     reg = np.full(state.T.shape[0], -1, dtype=np.int64)
-    reg[: len(T)] = region
+    reg[: len(T)] = region[zone]
     N = np.zeros_like(state.P)
     N[: len(normals)] = normals
-    subk = np.sort(_face_keys(np.asarray(faces, dtype=np.int64)))
+    subk = np.sort(np.concatenate([subk, rim_k]))
     counters = np.zeros(4, np.int64)
     left = PASSES
     while left > 0:
@@ -175,8 +192,31 @@ def improve(
         "points_inserted": int(counters[3]),
         "passes": PASSES - left,
     }
-    out = state.T[:rows][alive][:, [0, 1, 3, 2]].copy()
-    return state.points().copy(), out, reg[:rows][alive].copy(), stats
+    out = np.concatenate([tetra[~zone], state.T[:rows][alive][:, [0, 1, 3, 2]]])
+    return state.points().copy(), out, np.concatenate([region[~zone], reg[:rows][alive]]), stats
+
+
+def _zone(tetra: np.ndarray, bad: np.ndarray, n: int) -> np.ndarray:
+    """(m,) bool: the tetrahedra within ``ZONE_RINGS`` rings of vertex neighbours of ``bad``."""
+    zone = bad
+    for _ in range(ZONE_RINGS):
+        mark = np.zeros(n, dtype=bool)
+        mark[tetra[zone].ravel()] = True
+        zone = mark[tetra].any(axis=1)
+    return zone
+
+
+def _rim(tetra: np.ndarray) -> np.ndarray:
+    """(k, 3): the faces of ``tetra`` that only one of them holds (the zone's boundary)."""
+    F = tetra[:, [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]].reshape(-1, 3)
+    keys = _face_keys(F)
+    order = np.argsort(keys, kind="stable")
+    k = keys[order]
+    lone = np.ones(len(k), dtype=bool)
+    same = k[1:] == k[:-1]
+    lone[1:] &= ~same
+    lone[:-1] &= ~same
+    return F[order[lone]]
 
 
 def remove_slivers(
@@ -258,8 +298,7 @@ def sliver_pass(
         if rows.size == 0:
             break
         rows = rows[np.argsort(dih[rows], kind="stable")]
-        top = int(max(slots.max(), b.dt.adjacent(slots).max())) + 1
-        cache = _SlotCache(b, top, slots, region)
+        cache = _SlotCache(b, slots, T, region)
         sub_keys = np.sort(face_keys(b.sub))
         done = 0
         buf = np.concatenate([b.P, np.empty((len(rows), 3))])  # at most one point a sliver
@@ -447,16 +486,19 @@ class _SlotCache:
     vertices are below 2**31); grown by a quarter as insertions add slots.
     """
 
-    def __init__(self, b: SurfaceRecovery, top: int, slots: np.ndarray, region: np.ndarray) -> None:
+    def __init__(self, b: SurfaceRecovery, slots, T, region) -> None:
+        """The real tetrahedra ``T`` at ``slots`` (as :meth:`SurfaceRecovery.tets` gives
+        them) and their regions."""
         self.b = b
+        A = b.dt.adjacent(slots)
+        top = int(max(slots.max(), A.max())) + 1
         self.V = np.full((top, 4), -1, dtype=np.int32)
         self.A = np.full((top, 4), -1, dtype=np.int32)
         self.C = np.zeros((top, 3))
         self.R = np.full(top, -1.0)
         self.reg = np.full(top, -1, dtype=np.int32)
         self.stale = np.zeros(top, dtype=bool)
-        dt = b.dt
-        _store(b.P, slots, dt.tets(slots), dt.adjacent(slots), self.V, self.A, self.C, self.R)
+        _store(b.P, slots, T, A, self.V, self.A, self.C, self.R)
         self.reg[slots] = region
 
     def _grow(self, top: int) -> None:
