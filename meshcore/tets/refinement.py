@@ -57,7 +57,7 @@ phases and only ever grown by point insertion):
    only for the tetrahedra still alive. Flat folds (:func:`_flat_folds`)
    are not refined.
 5. **Slivers** (``min_dihedral``, :mod:`meshcore.tets.slivers`): first
-   up to 3 rounds of perturbed insertion (Chew's random points near the circumcentre, as Li and Teng
+   one round of perturbed insertion (Chew's random points near the circumcentre, as Li and Teng
    analyse them; a point is inserted only when it raises the least dihedral
    angle of the tetrahedra it replaces, keeps the radius-edge bound and does
    not cut the surface), the radius-edge refinement once more for what
@@ -531,9 +531,7 @@ def _left_report(
     circumcentre encroaching a subface too small to split), ``interior``
     (the round cap was reached).
     """
-    m = len(T)
-    c, R, short, cos = np.empty((m, 3)), np.empty(m), np.empty(m), np.empty(m)
-    _shapes(b.P, np.ascontiguousarray(T, dtype=np.int64), c, R, short, cos)
+    c, R, short, cos = _measured(b.P, T)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = R / short
     ratio = np.where(np.isfinite(ratio), ratio, np.inf)
@@ -731,13 +729,19 @@ def _least_dihedral_cos(P, T, t, nrm):
     return best
 
 
-def _least_dihedral(P: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """(m,) degrees: ``tetra_dihedral_angles(P, T).min(axis=1)``, in one compiled pass."""
+def _measured(P: np.ndarray, T: np.ndarray) -> tuple:
+    """(circumcentres, circumradii, shortest edges, cosines of the least dihedral angles)
+    of tetrahedra ``T``: :func:`_shapes` in one compiled pass, without temporaries."""
     T = np.ascontiguousarray(T, dtype=np.int64)
     m = len(T)
     C, R, S, D = np.empty((m, 3)), np.empty(m), np.empty(m), np.empty(m)
     _shapes(P, T, C, R, S, D)
-    return np.degrees(np.arccos(np.clip(D, -1.0, 1.0)))
+    return C, R, S, D
+
+
+def _least_dihedral(P: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """(m,) degrees: ``tetra_dihedral_angles(P, T).min(axis=1)``, in one compiled pass."""
+    return np.degrees(np.arccos(np.clip(_measured(P, T)[3], -1.0, 1.0)))
 
 
 class _BadTets:
@@ -911,15 +915,16 @@ def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> 
     return done + n_sub + n_seg, outside
 
 
-def _refine(b: SurfaceRecovery, criteria, progress) -> tuple[int, int]:
-    """Delaunay refinement rounds; returns (rounds, bad tetrahedra left)."""
-    max_radius_edge, max_volume, size_at = criteria
+def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, progress):
+    """Delaunay refinement rounds; returns (rounds, bad tetrahedra left).
+
+    ``region_of`` and ``bad_tets`` are kept between rounds and between calls (the
+    sliver rounds between two calls only add points): each round measures only
+    what was created since the last.
+    """
+    size_at = bad_tets.size_at
     rounds = 0
     left = 0
-    # Regions and bad tetrahedra kept between rounds: each round measures only what
-    # the previous one created.
-    region_of = RegionLabels(b)
-    bad_tets = _BadTets(max_radius_edge, max_volume, size_at, b.knobs)
     for rounds in range(1, b.knobs.refinement_rounds + 1):
         if b.n >= b.knobs.max_points:
             raise AlgorithmError(
@@ -1194,9 +1199,12 @@ def tetrahedralize(
         timings["recovery"] = time.perf_counter() - t1
         mre, mdh, mvol, _ = criteria
         bounded = mre is not None or mvol is not None or size_at is not None
+        # Regions and bad tetrahedra kept by slot through every refinement round.
+        region_of = RegionLabels(b)
+        bad_tets = _BadTets(mre or math.inf, mvol, size_at, b.knobs)
         if not empty and bounded:
             t2 = time.perf_counter()
-            r, given_up = _refine(b, (mre or math.inf, mvol, size_at), progress)
+            r, given_up = _refine(b, region_of, bad_tets, progress)
             rounds += r
             timings["refinement"] = time.perf_counter() - t2
         if not empty and mdh is not None:
@@ -1204,16 +1212,16 @@ def tetrahedralize(
 
             t3 = time.perf_counter()
             n_before = b.n
-            rounds += sliver_pass(b, mdh, mre or math.inf, progress)
+            rounds += sliver_pass(b, mdh, mre or math.inf, region_of, progress)
             if bounded and b.n > n_before:
                 # The sliver rounds' surface splits may have left bad tetrahedra.
-                r, given_up = _refine(b, (mre or math.inf, mvol, size_at), progress)
+                r, given_up = _refine(b, region_of, bad_tets, progress)
                 rounds += r
             timings["slivers"] = time.perf_counter() - t3
         # Encroachment fixes may have left pieces missing: recover again (no-op if whole).
         rounds += recover(b, progress)
         slots, T = b.tets()
-        region = regions(b, slots, T)
+        region = region_of(slots, T)
         keep = region >= 0
         tetra, region = T[keep], region[keep]
         tetra, region, sub, sub_src, triangle_facet = _drop_flat_folds(b, tetra, region)

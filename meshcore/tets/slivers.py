@@ -1,7 +1,7 @@
 """Slivers of :func:`meshcore.tets.refinement.tetrahedralize` (``min_dihedral``).
 
-Two stages. :func:`sliver_pass`, inside the Delaunay refinement: up to
-``PERTURBED_ROUNDS`` rounds of perturbed insertion (Chew's random points near
+Two stages. :func:`sliver_pass`, inside the Delaunay refinement:
+``PERTURBED_ROUNDS`` round(s) of perturbed insertion (Chew's random points near
 the circumcentre, as Li and Teng analyse them).
 Then :func:`remove_slivers` on the final tetrahedra: :func:`improve` raises
 the least dihedral angle by flips, smoothing and insertion
@@ -12,14 +12,21 @@ bound where it can. The result is no longer a Delaunay tetrahedralization.
 Choices the methods text leaves open (it names sliver exudation,
 perturbation or smoothing):
 
-* A few rounds of perturbed insertion, then local improvement: perturbed
+* One round of perturbed insertion, then local improvement: perturbed
   insertion alone (8 rounds) left 1.74 degrees on the icosphere at size 0.05
   in 25 CPU s (13.8 s without); the improvement alone reaches 15.00 degrees
   there in about 1 s more, but on the thin slab (1 x 1 x 0.01) it stopped at
   9.4 degrees next to slivers whose four vertices are on the two faces,
-  which a Delaunay point insertion removes (15.00 with both), and on the
-  cube at sizes 0.25 and 0.125 its meshes gave Poisson a max-norm rate of
-  1.74 against 1.90 (the perturbed points first: 1.90 again).
+  which a Delaunay point insertion removes (15.00 with both). The first
+  round does nearly all the work (at about 100k tetrahedra and 15 degrees,
+  the cube minus a ball: 1,310 points, then 1; the torus: 1,566, then 9 and
+  1), and each further round costs passes over the whole mesh: one round,
+  the improvement finishes the rest. On the cube at sizes 0.25 and 0.125
+  (``max_radius_edge`` None) Poisson's max-norm rate is 1.88 with the round
+  and 1.74 without it (the improvement then makes 132 edge removals instead
+  of 2); but with other seeds of the random candidates the round gives 1.78,
+  1.66 and 1.74: over these two sizes the rate moves by about 0.1 with small
+  changes of the meshes (the maximum error's node and its star are the same).
 * The surface is kept: faces on the surface (and between regions) are never
   flipped; the points the refinement put inside move freely, those it put
   inside a facet slide in the facet's plane (to rounding, as they were
@@ -41,11 +48,11 @@ from numba import njit
 
 from meshcore.delaunay.recovery3d import (
     TET_FACES,
+    RegionLabels,
     SurfaceRecovery,
     face_keys,
     member,
     recover,
-    regions,
     tri_circumcenters,
 )
 from meshcore.mesh.tetstore import N_ROWS, CellStore
@@ -55,9 +62,8 @@ from meshcore.tets.refinement import (
     _flat_folds,
     _least_dihedral,
     _least_dihedral_cos,
+    _measured,
     _shortest2,
-    _shortest_edge,
-    _tet_circumcenters,
 )
 
 __all__ = ["improve", "remove_slivers", "sliver_pass"]
@@ -73,14 +79,17 @@ PASSES = 30
 #: Poisson on the cube converged at rate 1.74 instead of 1.9 in the max norm.
 UNBOUNDED_CAP = 2.0
 #: Rounds of perturbed insertion before the improvement (each is a pass over the whole mesh;
-#: the improvement finishes what they leave).
-PERTURBED_ROUNDS = 3
+#: the improvement finishes what they leave; see the module docstring).
+PERTURBED_ROUNDS = 1
 #: Random candidates per sliver in perturbed insertion, besides its circumcentre, and the
 #: radius of the ball they are drawn from, in units of the circumradius.
 CANDIDATES = 16
 CANDIDATE_BALL = 0.5
 #: Spare point rows for insertion (grown as needed).
 SPARE = 1024
+#: Rings of vertex neighbours around the tetrahedra under the bound that the improvement
+#: edits (an operation on a sliver reaches its first ring; what it makes, the next ones).
+ZONE_RINGS = 3
 
 
 def _face_keys(F: np.ndarray) -> np.ndarray:
@@ -126,19 +135,33 @@ def improve(
         positive by the exact ``orient3d``, filling the same regions, every
         constrained face still a face), their regions, and the counts of
         ``edge_removals``, ``face_removals``, ``smoothing_moves``, ``passes``.
+        Only the tetrahedra within ``ZONE_RINGS`` rings of vertex neighbours of
+        those under ``bound`` are edited (the faces bounding that zone are kept
+        and the vertices on them stay, except the surface's, which slide as
+        above): the others come first, unchanged, then the zone's.
 
     References
     ----------
     Methods text §8.3 (local operations on sub-topologies); Klingner and
     Shewchuk (2007).
     """
-    T = np.ascontiguousarray(tetra[:, [0, 1, 3, 2]], dtype=np.int64)
-    state = CellStore(np.asarray(points, dtype=np.float64), T, ~np.asarray(free, bool), SPARE)
+    tetra = np.asarray(tetra, dtype=np.int64)
+    points = np.asarray(points, dtype=np.float64)
+    fixed = ~np.asarray(free, bool)
+    # Only the zone around the tetrahedra under the bound is edited; its boundary faces
+    # are constrained and their vertices fixed, so the tetrahedra outside stay as they are.
+    zone = _zone(tetra, _least_dihedral(points, tetra) < bound, len(points))
+    rim = _rim(tetra[zone])
+    subk = np.sort(_face_keys(np.asarray(faces, dtype=np.int64)))
+    rim_k = _face_keys(rim)
+    fixed[rim[~member(rim_k, subk)].ravel()] = True  # not the surface's: it may slide
+    T = np.ascontiguousarray(tetra[zone][:, [0, 1, 3, 2]])
+    state = CellStore(points, T, fixed, SPARE)
     reg = np.full(state.T.shape[0], -1, dtype=np.int64)
-    reg[: len(T)] = region
+    reg[: len(T)] = region[zone]
     N = np.zeros_like(state.P)
     N[: len(normals)] = normals
-    subk = np.sort(_face_keys(np.asarray(faces, dtype=np.int64)))
+    subk = np.sort(np.concatenate([subk, rim_k]))
     counters = np.zeros(4, np.int64)
     left = PASSES
     while left > 0:
@@ -169,8 +192,31 @@ def improve(
         "points_inserted": int(counters[3]),
         "passes": PASSES - left,
     }
-    out = state.T[:rows][alive][:, [0, 1, 3, 2]].copy()
-    return state.points().copy(), out, reg[:rows][alive].copy(), stats
+    out = np.concatenate([tetra[~zone], state.T[:rows][alive][:, [0, 1, 3, 2]]])
+    return state.points().copy(), out, np.concatenate([region[~zone], reg[:rows][alive]]), stats
+
+
+def _zone(tetra: np.ndarray, bad: np.ndarray, n: int) -> np.ndarray:
+    """(m,) bool: the tetrahedra within ``ZONE_RINGS`` rings of vertex neighbours of ``bad``."""
+    zone = bad
+    for _ in range(ZONE_RINGS):
+        mark = np.zeros(n, dtype=bool)
+        mark[tetra[zone].ravel()] = True
+        zone = mark[tetra].any(axis=1)
+    return zone
+
+
+def _rim(tetra: np.ndarray) -> np.ndarray:
+    """(k, 3): the faces of ``tetra`` that only one of them holds (the zone's boundary)."""
+    F = tetra[:, [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]].reshape(-1, 3)
+    keys = _face_keys(F)
+    order = np.argsort(keys, kind="stable")
+    k = keys[order]
+    lone = np.ones(len(k), dtype=bool)
+    same = k[1:] == k[:-1]
+    lone[1:] &= ~same
+    lone[:-1] &= ~same
+    return F[order[lone]]
 
 
 def remove_slivers(
@@ -203,8 +249,8 @@ def remove_slivers(
             stats[key] = stats.get(key, 0) + value
     stats["radius_edge_traded"] = 0
     if math.isfinite(mre):
-        c, R = _tet_circumcenters(b.P, tetra)
-        stats["radius_edge_traded"] = int((R > mre * _shortest_edge(b.P, tetra)).sum())
+        _, R, short, _ = _measured(b.P, tetra)
+        stats["radius_edge_traded"] = int((R > mre * short).sum())
     added = len(b.P) - b.n
     b.pt_edge = np.concatenate([b.pt_edge, np.full(added, -1, dtype=np.int64)])
     b.pt_facet = np.concatenate([b.pt_facet, np.full(added, -1, dtype=np.int64)])
@@ -217,7 +263,9 @@ def _least(P: np.ndarray, tetra: np.ndarray) -> float:
     return float(_least_dihedral(P, tetra).min()) if len(tetra) else 180.0
 
 
-def sliver_pass(b: SurfaceRecovery, bound: float, max_radius_edge: float, progress) -> int:
+def sliver_pass(
+    b: SurfaceRecovery, bound: float, max_radius_edge: float, region_of: RegionLabels, progress
+) -> int:
     """Slivers removed by perturbed insertion (Chew; Li and Teng); returns the rounds.
 
     Each tetrahedron whose least dihedral angle is below ``bound`` is
@@ -243,15 +291,14 @@ def sliver_pass(b: SurfaceRecovery, bound: float, max_radius_edge: float, progre
     for rounds in range(1, PERTURBED_ROUNDS + 1):
         recover(b, None)
         slots, T = b.tets()
-        region = regions(b, slots, T)
+        region = region_of(slots, T)
         dih = _least_dihedral(b.P, T)
         rows = np.flatnonzero((region >= 0) & (dih < bound))
         rows = rows[~_flat_folds(b, T[rows])]
         if rows.size == 0:
             break
         rows = rows[np.argsort(dih[rows], kind="stable")]
-        top = int(max(slots.max(), b.dt.adjacent(slots).max())) + 1
-        cache = _SlotCache(b, top, slots, region)
+        cache = _SlotCache(b, slots, T, region)
         sub_keys = np.sort(face_keys(b.sub))
         done = 0
         buf = np.concatenate([b.P, np.empty((len(rows), 3))])  # at most one point a sliver
@@ -434,46 +481,79 @@ def _best_candidate(P, V, A, C, R, reg, t0, X, reg_id, max_radius_edge, bound):
 
 
 class _SlotCache:
-    """Vertices, neighbours, circumspheres and regions of the kernel's slots (one round)."""
+    """Vertices, neighbours, circumspheres and regions of the kernel's slots (one round).
 
-    def __init__(self, b: SurfaceRecovery, top: int, slots: np.ndarray, region: np.ndarray) -> None:
+    Vertex, slot and region numbers in int32 (the kernel's own width: its slots and
+    vertices are below 2**31); grown by a quarter as insertions add slots.
+    """
+
+    def __init__(self, b: SurfaceRecovery, slots, T, region) -> None:
+        """The real tetrahedra ``T`` at ``slots`` (as :meth:`SurfaceRecovery.tets` gives
+        them) and their regions."""
         self.b = b
-        self.V = np.full((top, 4), -1, dtype=np.int64)
-        self.A = np.full((top, 4), -1, dtype=np.int64)
+        A = b.dt.adjacent(slots)
+        top = int(max(slots.max(), A.max())) + 1
+        self.V = np.full((top, 4), -1, dtype=np.int32)
+        self.A = np.full((top, 4), -1, dtype=np.int32)
         self.C = np.zeros((top, 3))
         self.R = np.full(top, -1.0)
-        self.reg = np.full(top, -1, dtype=np.int64)
+        self.reg = np.full(top, -1, dtype=np.int32)
         self.stale = np.zeros(top, dtype=bool)
-        self._set(slots)
+        _store(b.P, slots, T, A, self.V, self.A, self.C, self.R)
         self.reg[slots] = region
 
     def _grow(self, top: int) -> None:
         if top <= len(self.V):
             return
-        extra = max(top, 2 * len(self.V)) - len(self.V)
-        self.V = np.concatenate([self.V, np.full((extra, 4), -1, dtype=np.int64)])
-        self.A = np.concatenate([self.A, np.full((extra, 4), -1, dtype=np.int64)])
+        extra = max(top, len(self.V) + len(self.V) // 4 + 1024) - len(self.V)
+        self.V = np.concatenate([self.V, np.full((extra, 4), -1, dtype=np.int32)])
+        self.A = np.concatenate([self.A, np.full((extra, 4), -1, dtype=np.int32)])
         self.C = np.concatenate([self.C, np.zeros((extra, 3))])
         self.R = np.concatenate([self.R, np.full(extra, -1.0)])
-        self.reg = np.concatenate([self.reg, np.full(extra, -1, dtype=np.int64)])
+        self.reg = np.concatenate([self.reg, np.full(extra, -1, dtype=np.int32)])
         self.stale = np.concatenate([self.stale, np.zeros(extra, dtype=bool)])
-
-    def _set(self, slots: np.ndarray) -> None:
-        V = self.b.dt.tets(slots)
-        self.V[slots] = V
-        self.A[slots] = self.b.dt.adjacent(slots)
-        real = (V >= 0).all(axis=1)
-        c, R = _tet_circumcenters(self.b.P, V[real])
-        self.C[slots[real]] = c
-        self.R[slots[real]] = np.where(np.isfinite(R), R, -1.0)
-        self.R[slots[~real]] = -1.0
 
     def update(self, res, reg: int) -> None:
         created = np.asarray(res.created, dtype=np.int64)
-        self._grow(int(max(created.max(), self.b.dt.adjacent(created).max())) + 1)
+        A = self.b.dt.adjacent(created)
+        self._grow(int(max(created.max(), A.max())) + 1)
         self.stale[res.removed] = True
-        self._set(created)
-        self.reg[created] = np.where((self.V[created] >= 0).all(axis=1), reg, -1)
-        nb = np.unique(self.A[created])
-        nb = nb[nb >= 0]
+        _store(self.b.P, created, self.b.dt.tets(created), A, self.V, self.A, self.C, self.R)
+        nb = _set_regions(created, self.V, self.A, self.reg, reg)
         self.A[nb] = self.b.dt.adjacent(nb)
+
+
+@njit(cache=True, error_model="numpy")
+def _store(P, slots, V, A, V_out, A_out, C, R):
+    """Vertices, neighbours and circumspheres (as :func:`_tet_circumcenters`; radius -1 for a
+    ghost or where it is not finite) of the tetrahedra ``V`` at ``slots``."""
+    for k in range(slots.shape[0]):
+        s = slots[k]
+        real = True
+        for i in range(4):
+            V_out[s, i] = V[k, i]
+            A_out[s, i] = A[k, i]
+            real &= V[k, i] >= 0
+        if not real:
+            R[s] = -1.0
+            continue
+        ox, oy, oz, r, _ = _circumsphere(P, V_out, s)
+        i0 = V_out[s, 0]
+        C[s, 0], C[s, 1], C[s, 2] = P[i0, 0] + ox, P[i0, 1] + oy, P[i0, 2] + oz
+        R[s] = r if math.isfinite(r) else -1.0
+
+
+@njit(cache=True)
+def _set_regions(created, V, A, reg, reg_id):
+    """Regions of the created slots (``reg_id``, -1 for a ghost) set; the distinct slots
+    their neighbours are (whose neighbours changed), sorted."""
+    seen = np.empty(4 * created.shape[0], np.int64)
+    n = 0
+    for k in range(created.shape[0]):
+        s = created[k]
+        reg[s] = reg_id if V[s, 0] >= 0 and V[s, 1] >= 0 and V[s, 2] >= 0 and V[s, 3] >= 0 else -1
+        for i in range(4):
+            if A[s, i] >= 0:
+                seen[n] = A[s, i]
+                n += 1
+    return np.unique(seen[:n])
