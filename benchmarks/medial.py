@@ -11,9 +11,8 @@ Three tables, one run:
 1. **Ours vs Triangle, same points.** The 2 x 1 rectangle sampled with
    ``N`` = 10k, 100k and 1M boundary points (``h = perimeter / N``). Ours:
    the whole :func:`meshcore.medial.axis.medial_axis` call (sampling, our
-   Delaunay kernel, types, Voronoi graph, pruning, radii) and, apart, its
-   Delaunay phase (``stats["seconds"]["delaunay"]``). Triangle: only its
-   Delaunay triangulation of the same samples
+   Delaunay kernel, types, Voronoi graph, pruning, radii) and, apart, our
+   Delaunay of the samples. Triangle: only its Delaunay triangulation of the same samples
    (``triangle.triangulate({"vertices": samples}, "")``), the step that
    dominates any Delaunay-based axis. The Hausdorff error of our axis to the
    analytic one is given too.
@@ -43,10 +42,15 @@ nearest of our segments (GEOS STR-tree). scikit-image's ``skeletonize``
 (a thinning) does not keep the branches into the rectangle's corners: its
 error there is the corner's distance to the central segment, 0.707.
 
-Timing: wall clock of the call alone, best of ``--repeat`` runs (default 3;
-one for 1M points and for 8192² rasters), ours after a warm-up call that
-loads numba's cache. Triangle and scikit-image are bench-only dependencies
-(``pip install -e .[bench]``), skipped with a note when absent.
+Timing: table 1 in CPU seconds of this process (``time.process_time``: the
+machine is shared, and wall time counts the other processes' turns), the
+median of ``--repeat`` runs, ours and Triangle taking turns, the load average
+printed under it; our Delaunay is timed apart, as a call of
+:func:`meshcore.delaunay.kernel2d.delaunay` on the samples. Tables 2-4: wall
+clock of the call alone, best of ``--repeat`` runs (default 3; one for 8192²
+rasters). Ours after a warm-up call that loads numba's cache. Triangle and
+scikit-image are bench-only dependencies (``pip install -e .[bench]``),
+skipped with a note when absent.
 """
 
 from __future__ import annotations
@@ -63,6 +67,7 @@ from scipy.spatial import cKDTree
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 sys.path.insert(0, ROOT)
 
+from meshcore.delaunay.kernel2d import delaunay  # noqa: E402
 from meshcore.domain.planar import parse_domain  # noqa: E402
 from meshcore.medial.axis import medial_axis  # noqa: E402
 
@@ -203,7 +208,7 @@ def raster(shape: str, res: int):
 def table_triangle(sizes, repeat, have_triangle, notes):
     print("\n### 1. Rectangle 2 x 1, N boundary points: our axis vs Triangle's Delaunay\n")
     print(
-        "| N | ours: axis s | ours: Delaunay phase s | Triangle Delaunay s | "
+        "| N | ours: axis CPU s | ours: Delaunay CPU s | Triangle Delaunay CPU s | "
         "axis / Triangle | our Delaunay / Triangle | axis Hausdorff error | error / h |"
     )
     print("|---:|---:|---:|---:|---:|---:|---:|---:|")
@@ -211,23 +216,35 @@ def table_triangle(sizes, repeat, have_triangle, notes):
     medial_axis(domain, h=0.05)  # warm-up: numba's cache
     for n in sizes:
         h = 6.0 / n
-        rep = 1 if n >= 1_000_000 else repeat
-        t_ours, ax = best_time(lambda h=h: medial_axis(domain, h=h), rep)
-        t_del = ax.stats["seconds"]["delaunay"]
+        ours, phase, tri = [], [], []
+        for _ in range(repeat):  # ours and Triangle take turns
+            t = time.process_time()
+            ax = medial_axis(domain, h=h)
+            ours.append(time.process_time() - t)
+            pts = np.ascontiguousarray(ax.samples)
+            t = time.process_time()
+            delaunay(pts)
+            phase.append(time.process_time() - t)
+            if have_triangle:
+                import triangle
+
+                t = time.process_time()
+                triangle.triangulate({"vertices": pts}, "")
+                tri.append(time.process_time() - t)
+        t_ours, t_del = float(np.median(ours)), float(np.median(phase))
         err = axis_error("rectangle", ax)
         if have_triangle:
-            import triangle
-
-            pts = np.ascontiguousarray(ax.samples)
-            t_tri, _ = best_time(lambda pts=pts: triangle.triangulate({"vertices": pts}, ""), rep)
-            tri = f"{t_tri:.4f} | {t_ours / t_tri:.2f} | {t_del / t_tri:.2f}"
+            t_tri = float(np.median(tri))
+            cells = f"{t_tri:.4f} | {t_ours / t_tri:.2f} | {t_del / t_tri:.2f}"
         else:
-            tri = "skipped | | "
+            cells = "skipped | | "
         print(
-            f"| {len(ax.samples):,} | {t_ours:.4f} | {t_del:.4f} | {tri} | {err:.3g} | "
+            f"| {len(ax.samples):,} | {t_ours:.4f} | {t_del:.4f} | {cells} | {err:.3g} | "
             f"{err / ax.h:.2f} |",
             flush=True,
         )
+    with open("/proc/loadavg") as f:
+        print("\nload average:", " ".join(f.read().split()[:3]))
     if not have_triangle:
         notes.append("Triangle not installed (pip install -e .[bench]): skipped")
 

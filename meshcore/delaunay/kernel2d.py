@@ -60,7 +60,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.errors import InputError
-from meshcore.geometry.expansions import two_sum
+from meshcore.geometry.expansions import two_product, two_sum
 from meshcore.geometry.ordering import radix_sort
 from meshcore.geometry.predicates import WORK_SIZE, incircle_exact, orient2d_exact
 
@@ -409,6 +409,77 @@ def _incircle_two_lines(ax, ay, bx, by, cx, cy, dx, dy):
 
 
 @njit(cache=True, inline="always")
+def _sign(x):
+    return 1 if x > 0.0 else (-1 if x < 0.0 else 0)
+
+
+@njit(cache=True)
+def _corner_inside(delta, omega, hu, hv):
+    """Whether a point lies inside a circle, from offsets along two
+    perpendicular lines through a corner ``P``: the circle meets one line at
+    offsets ``hu, hv`` from ``P``, the other at ``omega`` and, by the power
+    of ``P``, at ``hu hv / omega``; the point, at offset ``delta`` on the
+    second line, is inside exactly when it lies strictly between those two,
+    i.e. when ``(delta - omega)(delta omega - hu hv) / omega < 0``.
+    +1 inside, -1 outside, 0 on the circle; 2 when an offset given is not
+    the exact difference of the coordinates (not settled here)."""
+    if omega == 0.0:
+        return 2
+    p1, e1 = two_product(delta, omega)
+    p2, e2 = two_product(hu, hv)
+    return -_sign(delta - omega) * _sign(omega) * _sum4_sign(p1, e1, p2, e2)
+
+
+@njit(cache=True, inline="always")
+def _exact_diff(a, b):
+    """``a - b`` and whether it is exact."""
+    x, e = two_sum(a, -b)
+    return x, e == 0.0
+
+
+@njit(cache=True)
+def _corner_vertical(ax, ay, bx, by, cx, cy, dx, dy):
+    """:func:`_incircle_corner` when ``d`` and ``w`` share their ``x``."""
+    if dx == cx and ay == by:
+        wy, ux, vx, line, turn = cy, ax, bx, ay, _sign(bx - ax) * _sign(cy - ay)
+    elif dx == ax and by == cy:
+        wy, ux, vx, line, turn = ay, bx, cx, by, _sign(cx - bx) * _sign(ay - by)
+    elif dx == bx and ay == cy:
+        wy, ux, vx, line, turn = by, ax, cx, ay, _sign(ax - cx) * _sign(by - ay)
+    else:
+        return 2
+    omega, ok1 = _exact_diff(wy, line)
+    delta, ok2 = _exact_diff(dy, line)
+    hu, ok3 = _exact_diff(ux, dx)
+    hv, ok4 = _exact_diff(vx, dx)
+    if not (ok1 and ok2 and ok3 and ok4) or turn == 0 or dy == wy:
+        return 2
+    return turn * _corner_inside(delta, omega, hu, hv)
+
+
+@njit(cache=True)
+def _incircle_corner(ax, ay, bx, by, cx, cy, dx, dy):
+    """Exact in-circle sign when two of ``a, b, c`` lie on one axis-parallel
+    line and the third, ``w``, on the perpendicular line through ``d`` (the
+    samples near a rectangle's corner, where the Delaunay triangles along
+    the corner's bisector are nearly co-circular); 2 when they do not, or
+    when a coordinate difference is not exact.
+
+    The lines cross at ``P``; :func:`_corner_inside` decides by the power of
+    ``P``, and ``orient(a, b, c)`` is the product of two coordinate
+    differences' signs (two of its corners share a coordinate). With ``d``
+    and ``w`` on a horizontal line the answer is minus that of the mirror
+    image in ``y = x``.
+    """
+    s = _corner_vertical(ax, ay, bx, by, cx, cy, dx, dy)
+    if s == 2:
+        s = -_corner_vertical(ay, ax, by, bx, cy, cx, dy, dx)
+        if s == -2:
+            return 2
+    return s
+
+
+@njit(cache=True, inline="always")
 def _incircle(pts, a, b, c, d, work):
     """Perturbed in-circle sign of d against CCW (a, b, c); never 0."""
     ax = pts[a, 0]
@@ -446,6 +517,10 @@ def _incircle(pts, a, b, c, d, work):
     if -det > errbound:
         return -1
     s = _incircle_two_lines(ax, ay, bx, by, cx, cy, dx, dy)
+    if s == 2:  # two vertical lines: the mirror image in y = x, whose sign is opposite
+        s = -_incircle_two_lines(ay, ax, by, bx, cy, cx, dy, dx)
+        if s == -2:
+            s = _incircle_corner(ax, ay, bx, by, cx, cy, dx, dy)
     if s == 2:
         s = incircle_exact(ax, ay, bx, by, cx, cy, dx, dy, work)
     if s != 0:

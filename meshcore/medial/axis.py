@@ -86,6 +86,12 @@ Choices where the text leaves freedom
   :data:`DEFAULT_PRUNE` = 25 (keeps the corners of polygons up to 12
   sides' worth of turning, removes the branches a sampled circle makes
   at 16 or more sides). ``prune=0`` keeps every branch.
+* **Row order.** The Delaunay kernel's rows are spatially random (their
+  order is not part of its guarantee); the triangles are renumbered in
+  increasing order of their smallest sample index (stably) before step 3,
+  so that, the samples being numbered along the boundary, every later pass
+  reads memory nearly in order. ``triangles`` and the node numbering (nodes
+  in order of their first triangle) follow that order.
 
 References
 ----------
@@ -387,8 +393,8 @@ def _admissible(pts, succ, source, progress):
     succ2[res.segments[:, 0]] = res.segments[:, 1]
     source2 = np.empty(len(res.points), dtype=np.int64)
     source2[res.segments[:, 0]] = source[res.source]
-    tri = res.delaunay
-    fill = _empty_triangulation(tri.triangles, tri.neighbors, succ2)
+    tri = _along_boundary(res.delaunay.triangles, res.delaunay.neighbors, len(res.points))
+    fill = _empty_triangulation(tri[0], tri[1], succ2)
     return res.points, succ2, source2, tri, res.added, fill
 
 
@@ -396,6 +402,36 @@ def _admissible(pts, succ, source, progress):
 # Compiled kernels (sequential: a flood fill, a union-find, a heap of
 # branches, walks along chains)
 # ---------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _along_boundary(tri, nb, n):
+    """The Delaunay triangles and their neighbour table with the rows in
+    increasing order of each triangle's smallest sample index (stably), the
+    samples being numbered along the boundary: neighbouring triangles then
+    sit in nearby rows and read nearby samples, where the kernel's row order
+    is spatially random and every later pass would read memory at random
+    (module docstring, "Row order")."""
+    m = tri.shape[0]
+    start = np.zeros(n + 1, np.int64)
+    for t in range(m):
+        start[min(tri[t, 0], tri[t, 1], tri[t, 2]) + 1] += 1
+    for v in range(n):
+        start[v + 1] += start[v]
+    row = np.empty(m, np.int64)
+    for t in range(m):
+        k = min(tri[t, 0], tri[t, 1], tri[t, 2])
+        row[t] = start[k]
+        start[k] += 1
+    out_tri = np.empty((m, 3), np.int64)
+    out_nb = np.empty((m, 3), np.int64)
+    for t in range(m):
+        r = row[t]
+        for i in range(3):
+            out_tri[r, i] = tri[t, i]
+            u = nb[t, i]
+            out_nb[r, i] = row[u] if u >= 0 else -1
+    return out_tri, out_nb
 
 
 @njit(cache=True)
@@ -1301,12 +1337,13 @@ def medial_axis(
     report(0.1, f"Delaunay triangulation of {len(pts)} boundary samples", "sampling")
     thin = None if points is None else cloud_ids
     try:
-        tri = delaunay(pts)
+        dt = delaunay(pts)
     except InputError as exc:  # samples of two nearly overlapping segments coincide
         raise _too_thin(exc, domain, source, thin) from None
     report(0.5, "typing the triangles", "delaunay")
     added = 0
-    fill = _empty_triangulation(tri.triangles, tri.neighbors, succ)
+    tri = _along_boundary(dt.triangles, dt.neighbors, len(pts))
+    fill = _empty_triangulation(tri[0], tri[1], succ)
     if fill[3][1] < len(pts):  # some piece is not a Delaunay edge
         try:
             pts, succ, source, tri, added, fill = _admissible(pts, succ, source, progress)
@@ -1316,7 +1353,7 @@ def medial_axis(
     if status[0] < 0:
         raise AlgorithmError("the boundary pieces do not bound the domain (fill leaked)")
     tol = TOLERANCES.node_merge * domain.diameter
-    graph = _voronoi_classes(pts, tri.triangles, tri.neighbors, inside, bnd, ttype, tol)
+    graph = _voronoi_classes(pts, tri[0], tri[1], inside, bnd, ttype, tol)
     keep, T, types, label, n_nodes, g_edges, g_pq, n_merged, rep, centre, cradius, spread = graph
     report(0.6, "Voronoi graph", "types")
     node_alive, edge_alive, pruned = _prune(

@@ -21,6 +21,7 @@ from meshcore.delaunay.kernel2d import (
     IncrementalDelaunay,
     Triangulation,
     _brio_hilbert_keys,
+    _incircle_corner,
     _incircle_two_lines,
     _insertion_order,
     delaunay,
@@ -159,7 +160,7 @@ def test_radix_argsort_is_the_stable_argsort(top):
 
 
 def test_two_lines_incircle_is_the_exact_sign():
-    # Two points on each of two horizontal lines, in every order: symmetric
+    # Two points on each of two horizontal (or vertical) lines, in every order: symmetric
     # trapezoids (exact ties on linspace samples), rectangles and random ones.
     rng = np.random.default_rng(2)
     g = np.linspace(0.0, 2.0, 1001) * 0.25
@@ -182,8 +183,67 @@ def test_two_lines_incircle_is_the_exact_sign():
             exact = incircle_exact(*q, work)
             assert _incircle_two_lines(*q) == exact
             ties += exact == 0
+            # the mirror image in y = x (two vertical lines), which the kernel
+            # settles as minus the sign of this one
+            mirror = [q[k ^ 1] for k in range(8)]
+            assert incircle_exact(*mirror, work) == -exact
     assert ties > 100
     assert _incircle_two_lines(*rng.uniform(-1, 1, 8)) == 2  # not two lines: not settled
+
+
+def test_corner_incircle_is_the_exact_sign():
+    # Two points on one axis-parallel line and two on the perpendicular one, in
+    # every order: samples of a rectangle's sides near a corner (exact ties
+    # where the offsets' products match: the corner's bisector), corners away
+    # from the origin (inexact offsets are left unsettled), random ones.
+    rng = np.random.default_rng(3)
+    g = np.linspace(0.0, 1.0, 1001) * 0.25
+    work = np.empty(WORK_SIZE)
+    ties = settled = 0
+    for trial in range(240):
+        if trial % 4 < 2:
+            i, j = rng.integers(0, 40, 2)
+            k, m = rng.integers(0, 3, 2)
+            h, v = g[[i, i + 1 + k]], g[[j, j + 1 + m]]
+            if trial % 4 == 0:
+                v = h  # on the bisector: co-circular
+            if trial % 8 == 1:
+                h, v = h[::-1], v[::-1]  # offsets in both directions
+        else:
+            h, v = rng.uniform(-1, 1, 2), rng.uniform(-1, 1, 2)
+        X, Y = (0.0, 0.0) if trial % 3 else tuple(rng.choice([0.5, 0.25, -0.125], 2))
+        sides = rng.choice([-1.0, 1.0], 2)
+        pts = [(X + sides[0] * h[0], Y), (X + sides[0] * h[1], Y)]
+        pts += [(X, Y + sides[1] * v[0]), (X, Y + sides[1] * v[1])]
+        if len(set(pts)) < 4:
+            continue
+        for perm in itertools.permutations(pts):
+            if len({x for x, _ in perm[:3]}) == 1 or len({y for _, y in perm[:3]}) == 1:
+                continue  # a, b, c on one line: never a triangle of the kernel
+            q = [c for pt in perm for c in pt]
+            s = _incircle_corner(*q)
+            exact = incircle_exact(*q, work)
+            if s != 2:
+                assert s == exact
+                settled += 1
+                ties += exact == 0
+    assert ties > 300 and settled > 3000, (ties, settled)
+    assert _incircle_corner(*rng.uniform(-1, 1, 8)) == 2  # not a corner: not settled
+
+
+@pytest.mark.parametrize("width, height", [(2.0, 1.0), (1.0, 2.0)])
+def test_sampled_rectangle_is_delaunay(width, height):
+    # A rectangle's sides sampled from each corner in travel order (as the
+    # medial axis samples them: the top's x are not the bottom's), wide and
+    # tall: the corners' bisectors and the long sides are the fast paths.
+    n = 200
+    t = np.arange(n) / n
+    corners = np.array([[0.0, 0.0], [width, 0.0], [width, height], [0.0, height]])
+    ends = np.roll(corners, -1, axis=0)
+    p = np.concatenate([a + t[:, None] * (b - a) for a, b in zip(corners, ends, strict=True)])
+    tri = delaunay(p)
+    assert_delaunay(p, tri)
+    assert len(tri.triangles) == len(p) - 2
 
 
 @pytest.mark.parametrize("spread", [1.0, 1e-12])

@@ -21,6 +21,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial import cKDTree
 
+from meshcore.delaunay.kernel2d import delaunay
 from meshcore.domain.planar import Domain, parse_domain
 from meshcore.errors import InputError
 from meshcore.medial.axis import medial_axis
@@ -143,6 +144,19 @@ class TestRectangle:
     def test_midpoints_approximation_has_the_same_topology(self):
         ax = medial_axis(rect(), approximation="midpoints")
         assert (ax.kind == "critical").sum() == 2 and (ax.kind == "terminal").sum() == 4
+
+    def test_triangles_in_boundary_order_are_the_delaunay_ones(self):
+        # Rows in increasing order of their smallest sample (the samples are
+        # numbered along the boundary); the set is the kernel's (the whole
+        # convex hull is the domain); each node's triangle is that node's.
+        ax = medial_axis(rect(), h=0.01)
+        assert (np.diff(ax.triangles.min(axis=1)) >= 0).all()
+        kernel = delaunay(ax.samples).triangles
+        assert sorted(map(tuple, np.sort(ax.triangles, axis=1).tolist())) == sorted(
+            map(tuple, np.sort(kernel, axis=1).tolist())
+        )
+        own = np.flatnonzero(ax.node_triangle >= 0)
+        np.testing.assert_array_equal(ax.triangle_node[ax.node_triangle[own]], own)
 
     def test_line_mesh_carries_the_radius(self):
         ax = medial_axis(rect(), h=0.05)
