@@ -246,9 +246,16 @@ def run_delaunay_admissible(params: DelaunayAdmissibleParams, progress) -> dict:
     if params.surface is not None:
         return _run_surface_admissible(params.surface.to_surface(), progress)
     dom = params.domain.to_domain(params.segments)
-    res = make_admissible(
-        dom, curves=[c.model_dump() for c in params.curves or []], progress=progress
-    )
+    try:
+        res = make_admissible(
+            dom, curves=[c.model_dump() for c in params.curves or []], progress=progress
+        )
+    except InputError as exc:  # located in the domain: prefixed as params.domain's own
+        errors = [
+            {**e, "loc": list(e["loc"]) if e["loc"][:1] == ["segments"] else ["domain", *e["loc"]]}
+            for e in exc.errors
+        ]
+        raise InputError(exc.message, code=exc.code, errors=errors) from None
     boundary = len(dom.segments)
     ring_of = np.searchsorted(dom.ring_offsets, res.source, side="right") - 1
     return {
