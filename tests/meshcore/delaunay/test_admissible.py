@@ -782,7 +782,7 @@ def test_domains_with_a_vertex_within_rounding_of_a_segment_are_refused_there(ri
     assert all(e["loc"][0] == "coordinates" for e in info.value.errors)
 
 
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=50, deadline=None)
 @given(
     st.lists(
         st.tuples(st.integers(0, 20), st.integers(0, 20)), min_size=3, max_size=9, unique=True
