@@ -34,6 +34,11 @@ between them, so both sides' counts grow about as ``n ** 1.8``: at 10,000
 vertices ours adds about 604,000 points in 146 rounds, Triangle's ``pcD``
 millions (see the README for this machine's figures).
 
+``--phases N`` then runs the ``N``-vertex star once more with a CPU timer
+around each phase of the rounds (the compiled searches, the insertions, the
+look-up of the pieces they removed, the bookkeeping) and prints seconds,
+calls and microseconds per added point: where the time goes.
+
 Times are CPU seconds (``time.process_time``: this process alone, so a
 loaded machine slows both sides alike), medians of three runs (one run
 above 1,000 points; ours after a warm-up that loads numba's cache);
@@ -147,10 +152,68 @@ def run_triangle(points, segments, holes, repeat=3, switches="pD"):
     return added, not_delaunay(out["vertices"], out["segments"]), seconds
 
 
+#: The phases ``--phases`` times: (module, name) of each function wrapped.
+PHASES = (
+    ("admissible", "_widest_angle_points"),
+    ("admissible", "_projection_points"),
+    ("admissible", "_split_points"),
+    ("admissible", "_segment_reach"),
+    ("pieces", "_split_pieces"),
+    ("pieces", "_missing_pieces"),
+    ("pieces", "_disc_edges"),
+    ("kernel", "_insert_rings"),
+)
+
+
+def phases(n: int) -> None:
+    """CPU seconds per phase of ``admissible_segments`` on the ``n``-vertex star."""
+    from collections import Counter
+
+    import meshcore.delaunay.admissible as adm
+    import meshcore.delaunay.admissible_pieces as pieces
+    import meshcore.delaunay.kernel2d as kernel
+
+    modules = {"admissible": adm, "pieces": pieces, "kernel": kernel}
+    spent: Counter = Counter()
+    calls: Counter = Counter()
+    saved = []
+
+    def timed(name, fn):
+        def wrapper(*args):
+            t = time.process_time()
+            try:
+                return fn(*args)
+            finally:
+                spent[name] += time.process_time() - t
+                calls[name] += 1
+
+        return wrapper
+
+    for mod, name in PHASES:
+        fn = getattr(modules[mod], name)
+        saved.append((modules[mod], name, fn))
+        setattr(modules[mod], name, timed(name, fn))
+    try:
+        points, segments, _ = star(n)
+        t = time.process_time()
+        res = adm.admissible_segments(points, segments)
+        total = time.process_time() - t
+    finally:
+        for mod, name, fn in saved:
+            setattr(mod, name, fn)
+    print(f"\nphases of star-{n}: {res.added} points added, {res.rounds} rounds, {total:.3f} CPU s")
+    print(f"{'phase':<22}{'CPU s':>8}{'calls':>7}{'us/point':>10}")
+    for name, sec in [*spent.most_common(), ("(rest: Python)", total - sum(spent.values()))]:
+        print(f"{name:<22}{sec:>8.3f}{calls.get(name, 0):>7}{1e6 * sec / res.added:>10.2f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument(
         "--stars", default="1000,3000,10000", help="vertex counts of the random stars"
+    )
+    parser.add_argument(
+        "--phases", type=int, default=0, help="time the phases on a star of this many vertices"
     )
     args = parser.parse_args()
     inputs = {"star-50": star(), "corners-5deg": corners(), "comb-5deg": comb()}
@@ -191,6 +254,8 @@ def main() -> None:
         "projection rule,\n  quoted from the issue on its own star, 5°-corner polygon and "
         "la.poly: fixed figures, not run here."
     )
+    if args.phases:
+        phases(args.phases)
 
 
 if __name__ == "__main__":

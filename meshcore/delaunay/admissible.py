@@ -69,7 +69,14 @@ Choices where the text leaves freedom
   point raises :class:`~meshcore.errors.InputError` (``point_on_segment``),
   an added one means two segments cross, and the splits, converging on the
   crossing, stop with :class:`~meshcore.errors.AlgorithmError` naming both
-  (or when the points reach float64 resolution there).
+  (or when the points reach float64 resolution there). An input point
+  that lies within float64 rounding of a segment (a valid polygon in
+  floating point, e.g. a spike whose sides nearly overlap: a lattice vertex
+  that is on the segment in exact rationals, off it by rounding) cannot be
+  resolved: the projection split rounds onto the point itself, or onto an
+  end of the piece; that is refused with
+  :class:`~meshcore.errors.InputError` ``point_near_segment``, naming the
+  segment and the point.
 * **Acute angles and non-manifold vertices (Exercises 9.2-9.4).** Two
   segments meeting at a vertex ``E`` at an angle below 90° (exact sign of
   ``(X - E).(Y - E)``, on the input segments) form an *acute cluster* at
@@ -196,6 +203,7 @@ from meshcore.delaunay.admissible_pieces import (
     _projection_points,
     _split_points,
     _State,
+    _unresolvable,
     _widest_angle_points,
 )
 from meshcore.delaunay.kernel2d import (
@@ -857,7 +865,10 @@ def admissible_segments(
     InputError
         Bad shapes, non-finite points, indices out of range, zero-length,
         duplicate or overlapping segments; what :func:`delaunay` refuses
-        (duplicate or all-collinear points).
+        (duplicate or all-collinear points); ``point_near_segment`` (located
+        at the segment and at the point) for an input point within float64
+        rounding of a segment it does not end (valid in floating point, but
+        a split point between them rounds onto the point or onto an end).
     AlgorithmError
         More than :data:`MAX_ROUNDS` rounds or too many added points (an
         input that is not a planar straight-line graph), or a segment too
@@ -975,13 +986,39 @@ def _rounds(st, budget, circles, tol, progress, first=None) -> Triangulation | N
     (:attr:`AdmissibleSegments.delaunay`: the one :func:`delaunay` gives;
     the triangulator does not read it).
     """
-    tri = first if first is not None else delaunay(st.P)
+    try:
+        tri = first if first is not None else delaunay(st.P)
+    except InputError as exc:
+        if exc.code != "duplicate_points" or first is not None:
+            raise
+        _coinciding(st)  # an added point rounded onto another back in the input's frame
+        raise
     budget.rounds += 1
     missing = np.flatnonzero(~_present(tri, st.S))
     if _report(budget, st, missing, progress):
         return tri
     _incremental_rounds(st, budget, missing, circles, tol, progress)
     return None
+
+
+def _coinciding(st: _State) -> None:
+    """Raise for an added point that coincides with another point: with an
+    input point, that point is within rounding of the added point's segment
+    (:func:`_unresolvable`); with an added one, two segments cross or touch."""
+    order = np.lexsort((st.P[:, 1], st.P[:, 0]))
+    same = np.flatnonzero((st.P[order[1:]] == st.P[order[:-1]]).all(axis=1))
+    for k in same:
+        a, b = sorted((int(order[k]), int(order[k + 1])))
+        if b < st.n0:
+            continue
+        src = int(st.source[np.flatnonzero((st.S == b).any(axis=1))[0]])
+        if a < st.n0:
+            _unresolvable(st.P, src, a)
+        other = int(st.source[np.flatnonzero((st.S == a).any(axis=1))[0]])
+        raise AlgorithmError(
+            f"segments {min(src, other)} and {max(src, other)} cross or touch near "
+            f"{st.P[a].tolist()}: segments may meet only at their endpoints"
+        )
 
 
 def _report(budget, st, missing, progress) -> bool:
@@ -1076,6 +1113,13 @@ def _split_round(st: _Pieces, missing, scale, circles, tol, round_no) -> None:
         _curved_split_points(st, circles, rows, xy, protect_side, near_vertex, bad)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
+        if near_side[i] >= 0:  # a projection that rounds onto an end of the piece
+            x = int(enc[np.searchsorted(missing, rows[i])])
+            e = int(st.a[rows[i]] if near_side[i] == 0 else st.b[rows[i]])
+            if x < st.n0:  # x within rounding of the piece
+                _unresolvable(P, int(st.source[rows[i]]), x)
+            if e < st.n0:  # x, on another segment, within rounding of the end e
+                _unresolvable(P, int(st.src[st.right[x]]), e)
         a, b = P[st.a[rows[i]]], P[st.b[rows[i]]]
         raise AlgorithmError(
             f"cannot split the segment from {a.tolist()} to {b.tolist()}: it is too "
@@ -1331,6 +1375,20 @@ def circles_of(
     return np.asarray(rows, dtype=np.float64), seg_circle
 
 
+def _located(exc: InputError, domain: Domain, segments: np.ndarray) -> InputError:
+    """``exc`` of :func:`admissible_segments` located in the domain: a point
+    at its vertex, a segment at its first vertex (:meth:`Domain.vertex_loc`)."""
+    errors = []
+    for e in exc.errors:
+        path = list(e["loc"])
+        if len(path) == 2 and path[0] in ("points", "segments"):
+            v = path[1] if path[0] == "points" else int(segments[path[1], 0])
+            if v < len(domain.points):
+                path = list(domain.vertex_loc(v))
+        errors.append({**e, "loc": path})
+    return InputError(exc.message, code=exc.code, errors=errors)
+
+
 def make_admissible(
     domain: Domain,
     curves: Sequence[Mapping] | None = None,
@@ -1361,7 +1419,8 @@ def make_admissible(
     Raises
     ------
     InputError
-        Bad curves (:func:`circles_of`).
+        Bad curves (:func:`circles_of`); as :func:`admissible_segments`,
+        located at the domain's vertices (:meth:`Domain.vertex_loc`).
     AlgorithmError
         As :func:`admissible_segments`.
 
@@ -1371,13 +1430,16 @@ def make_admissible(
     """
     circles, seg_circle = circles_of(domain, curves)
     segments = np.concatenate([domain.segments, domain.constraints]).astype(np.int64)
-    result = admissible_segments(
-        domain.points,
-        segments,
-        circles=circles,
-        segment_circle=seg_circle,
-        progress=progress,
-    )
+    try:
+        result = admissible_segments(
+            domain.points,
+            segments,
+            circles=circles,
+            segment_circle=seg_circle,
+            progress=progress,
+        )
+    except InputError as exc:
+        raise _located(exc, domain, segments) from None
     two_sided = result.source >= len(domain.segments)
     inside = restricted_triangles(result.delaunay, result.segments, two_sided)
     mesh = Mesh(result.points, (CellBlock("triangle", result.delaunay.triangles[inside]),))

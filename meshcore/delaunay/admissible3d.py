@@ -219,6 +219,12 @@ class AdmissibleSurface:
         point strictly inside any circumsphere, exact) holding every output
         triangle, positively oriented (meshio order): the kernel's, after
         its cells of co-spherical points re-tetrahedralized (:attr:`tie_flips`).
+    inside : (j,) int64
+        The rows of :attr:`tetrahedra` inside the surface, increasing: the
+        tetrahedra of :attr:`mesh`, in its order.
+    tie_tetrahedra : (i,) int64
+        The rows of :attr:`tetrahedra` made by those re-tetrahedralizations
+        (each on its cell's empty sphere), increasing; empty without ties.
     tie_flips : int
         Cells of co-spherical points re-tetrahedralized in the last round, so
         that exactly co-circular quadrilaterals get their missing diagonal
@@ -239,6 +245,8 @@ class AdmissibleSurface:
     swaps: int
     mesh: Mesh
     tetrahedra: np.ndarray
+    inside: np.ndarray
+    tie_tetrahedra: np.ndarray
     tie_flips: int
     timings: dict = field(default_factory=dict)
 
@@ -628,6 +636,7 @@ class _TieFlips:
     def __init__(self, P: np.ndarray, T: np.ndarray, sub: np.ndarray) -> None:
         self.P = P
         self.T = T
+        self.kernel_rows = len(T)  # rows from here on are the cones'
         self.order = self.keys = None  # the faces of T, sorted when first needed
         self.added: dict[tuple[int, ...], list[int]] = {}  # faces of the rows added
         self.sub_keys = np.sort(face_keys(sub))
@@ -814,11 +823,18 @@ class _TieFlips:
                 return cone
         return None
 
-    def tets(self) -> np.ndarray:
-        """The live tetrahedra."""
+    def _live(self) -> np.ndarray:
         keep = np.ones(len(self.T), dtype=bool)
         keep[list(self.dead)] = False
-        return self.T[keep]
+        return keep
+
+    def tets(self) -> np.ndarray:
+        """The live tetrahedra."""
+        return self.T[self._live()]
+
+    def cone_rows(self) -> np.ndarray:
+        """The rows of :meth:`tets` made by the cones (increasing)."""
+        return np.flatnonzero(np.flatnonzero(self._live()) >= self.kernel_rows)
 
 
 class _Reflipped:
@@ -1211,8 +1227,10 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     timings["enforcement"] = time.perf_counter() - t2
     t3 = time.perf_counter()
     slots, T = b.tets()
+    tie_rows = np.zeros(0, dtype=np.int64)
     if ties.cones:
         T = ties.tets()
+        tie_rows = ties.cone_rows()
         region = regions(_Reflipped(b, T), np.arange(len(T)), T)
     else:
         region = regions(b, slots, T)
@@ -1242,6 +1260,8 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
         swaps=swaps,
         mesh=mesh,
         tetrahedra=out_index[T[:, [0, 1, 3, 2]]],
+        inside=np.flatnonzero(keep),
+        tie_tetrahedra=tie_rows,
         tie_flips=ties.cones,
         timings=timings,
     )

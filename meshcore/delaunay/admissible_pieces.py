@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.delaunay.kernel2d import IncrementalDelaunay, _corner, _has_edges, _nxt, _prv
-from meshcore.errors import AlgorithmError
+from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import WORK_SIZE, dot2d_filtered, orient2d_filtered
 
 #: A projection closer than this fraction of ``|EP|`` to the nearer endpoint
@@ -552,6 +552,26 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
     return near_vertex[order], order
 
 
+def _unresolvable(xy: np.ndarray, segment: int, point: int) -> None:
+    """Raise for input point ``point`` lying within float64 rounding of input
+    segment ``segment`` (valid in floating point, not resolvable: a split
+    point between them rounds onto the point or onto an end of the piece)."""
+    msg = (
+        f"point {point} {xy[point].tolist()} lies within float64 rounding of segment "
+        f"{segment} (closer than float64 resolves there: a split point between them rounds "
+        "onto an existing point); segments must stay apart by more than rounding"
+    )
+    code = "point_near_segment"
+    raise InputError(
+        msg,
+        code=code,
+        errors=[
+            {"loc": ["segments", segment], "msg": msg, "type": code},
+            {"loc": ["points", point], "msg": msg, "type": code},
+        ],
+    )
+
+
 @dataclass
 class _State:
     P: np.ndarray
@@ -689,6 +709,8 @@ class _Pieces:
         if dup is not None:
             i = dup[0] - n
             rows = rows[order]
+            if dup[1] < self.n0:
+                _unresolvable(self.xy, int(self.src[rows[i]]), dup[1])
             last = i + int(np.count_nonzero(rows[i:] == rows[i])) - 1  # the piece's last part
             ends_a, ends_b = self.xy[self.a[rows[i]]], self.xy[self.b[m + last]]
             raise AlgorithmError(

@@ -154,7 +154,8 @@ def default_registry() -> Registry:
             "at projections of encroaching points (on declared circles for curved rings) until "
             "every one is a Delaunay edge, or a closed surface's triangles (3D) refined with "
             "points on the surface until every one is a Delaunay face; per-case counts and the "
-            "empty Delaunay triangulation (tetrahedralization) of the inside.",
+            "empty Delaunay triangulation (tetrahedralization) of the inside; in 3D also the "
+            "Delaunay tetrahedralization holding the surface, with its co-spherical tie cells.",
             section="§9.1.2-§9.1.5 (classification, splitting, curves), Exercises 9.2-9.4; "
             "§9.4.1; §9.2-§9.3.5 (surfaces)",
             params=triangulation.DelaunayAdmissibleParams,

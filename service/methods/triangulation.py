@@ -246,9 +246,16 @@ def run_delaunay_admissible(params: DelaunayAdmissibleParams, progress) -> dict:
     if params.surface is not None:
         return _run_surface_admissible(params.surface.to_surface(), progress)
     dom = params.domain.to_domain(params.segments)
-    res = make_admissible(
-        dom, curves=[c.model_dump() for c in params.curves or []], progress=progress
-    )
+    try:
+        res = make_admissible(
+            dom, curves=[c.model_dump() for c in params.curves or []], progress=progress
+        )
+    except InputError as exc:  # located in the domain: prefixed as params.domain's own
+        errors = [
+            {**e, "loc": list(e["loc"]) if e["loc"][:1] == ["segments"] else ["domain", *e["loc"]]}
+            for e in exc.errors
+        ]
+        raise InputError(exc.message, code=exc.code, errors=errors) from None
     boundary = len(dom.segments)
     ring_of = np.searchsorted(dom.ring_offsets, res.source, side="right") - 1
     return {
@@ -274,7 +281,8 @@ def run_delaunay_admissible(params: DelaunayAdmissibleParams, progress) -> dict:
 
 
 def _run_surface_admissible(surface, progress) -> dict:
-    """The 3D form (§9.2-§9.3.5): refined surface, empty tetrahedralization, counts."""
+    """The 3D form (§9.2-§9.3.5): refined surface, empty tetrahedralization, the
+    whole Delaunay tetrahedralization holding the surface with its tie cells, counts."""
     res = make_admissible_surface(surface, progress=progress)
     tetra = res.mesh.cells[0].data
     return {
@@ -284,6 +292,11 @@ def _run_surface_admissible(surface, progress) -> dict:
             "source": res.source,
         },
         "mesh": res.mesh,
+        "delaunay": {
+            "tetrahedra": res.tetrahedra,
+            "inside": res.inside,
+            "ties": res.tie_tetrahedra,
+        },
         "stats": {
             "input_points": int(len(surface.vertices)),
             "input_triangles": int(len(surface.triangles)),
@@ -296,6 +309,9 @@ def _run_surface_admissible(surface, progress) -> dict:
             "rounds": res.rounds,
             "coplanar_swaps": res.swaps,
             "tetrahedra": len(tetra),
+            "delaunay_tetrahedra": len(res.tetrahedra),
+            "tie_cells": res.tie_flips,
+            "tie_tetrahedra": len(res.tie_tetrahedra),
             "seconds": {k: round(v, 6) for k, v in res.timings.items()},
         },
     }

@@ -136,6 +136,17 @@ class TestDelaunayAdmissible:
         ]
         assert set(pieces) == {1}
 
+    def test_a_vertex_within_rounding_of_a_segment_fails_the_job_at_its_vertex(self, client):
+        # Vertex 3 (0.25, 0.5) is on segment 4 in exact rationals, off it by
+        # rounding: valid, but no split point between them exists in float64
+        # (an AlgorithmError, a 500, before).
+        ring = (np.array([[9, 6], [14, 7], [2, 2], [5, 10], [2, 13]]) / 20).tolist()
+        job = submit(client, "delaunay_admissible", polygon(ring), wait=30).json()
+        assert job["status"] == "failed" and job["error"]["status"] == 422, job
+        assert ["params", "domain", "coordinates", 0, 3] in [
+            e["loc"] for e in job["error"]["errors"]
+        ]
+
     def test_the_method_is_listed_with_its_section(self, client):
         methods = {m["name"]: m for m in client.get("/v1/methods").json()}
         spec = methods["delaunay_admissible"]
@@ -167,6 +178,40 @@ class TestDelaunayAdmissibleSurface:
         assert all(tuple(sorted(t)) in have for t in tri.tolist())
         (block,) = res["mesh"]["cells"]
         assert block["type"] == "tetra" and len(block["data"]) == stats["tetrahedra"]
+
+    def test_a_cube_comes_back_with_its_tie_cells_and_no_point(self, client):
+        # The cube's 8 corners are co-spherical: the kernel's symbolic
+        # perturbation misses some face diagonals; the tie cells are
+        # re-tetrahedralized instead of split, and the result carries that
+        # Delaunay tetrahedralization (whole hull), which rows are inside
+        # (the mesh) and which the ties made.
+        from meshcore.delaunay.kernel3d import delaunay3d
+        from meshcore.geometry.predicates3d import insphere, orient3d
+
+        res = finished(client, {"surface": UNIT_CUBE})
+        surf, stats, dt = res["surface"], res["stats"], res["delaunay"]
+        P = np.asarray(surf["points"], dtype=float)
+        tri = np.asarray(surf["triangles"])
+        T = np.asarray(dt["tetrahedra"])
+        assert stats["points_added"] == 0 and len(P) == 8 and len(tri) == 12
+        assert stats["tie_cells"] >= 1 and len(dt["ties"]) == stats["tie_tetrahedra"] > 0
+        assert len(T) == stats["delaunay_tetrahedra"] and set(dt["ties"]) <= set(range(len(T)))
+        # positively oriented (meshio order: a, b, d, c for orient3d), filling the cube
+        assert (orient3d(P[T[:, 0]], P[T[:, 1]], P[T[:, 3]], P[T[:, 2]]) != 0).all()
+        e1, e2, e3 = (P[T[:, k]] - P[T[:, 0]] for k in (1, 2, 3))
+        vol = np.einsum("ij,ij->i", np.cross(e1, e2), e3) / 6
+        assert (vol > 0).all() and math.isclose(vol.sum(), 1.0, rel_tol=1e-12)
+        # Delaunay, exactly: no point strictly inside any circumsphere
+        a, b, c, d = (np.repeat(P[T[:, k]], 8, axis=0) for k in (0, 1, 3, 2))
+        assert (insphere(a, b, c, d, np.tile(P, (len(T), 1))) <= 0).all()
+        faces = {tuple(sorted(f)) for f in T[:, [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]]]
+                 .reshape(-1, 3).tolist()}  # fmt: skip
+        assert all(tuple(sorted(t)) in faces for t in tri.tolist())
+        kernel = delaunay3d(P).tetra[:, [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]]]
+        have = {tuple(sorted(f)) for f in kernel.reshape(-1, 3).tolist()}
+        assert not all(tuple(sorted(t)) in have for t in tri.tolist())  # the ties mattered
+        (block,) = res["mesh"]["cells"]
+        assert block["data"] == T[dt["inside"]].tolist() and len(dt["inside"]) == len(T)
 
     @pytest.mark.parametrize(
         ("params", "loc"),

@@ -660,3 +660,148 @@ def test_grid_pairs_find_every_segment_within_each_vertex_radius(seed):
     found[q, s] = True
     assert len(set(zip(q.tolist(), s.tolist(), strict=True))) == len(q)
     assert near.sum() > 300 and not (near & ~found).any()
+
+
+# ---------------------------------------------------------------------------
+# A vertex within float64 rounding of a segment (issue 19's bug)
+# ---------------------------------------------------------------------------
+
+#: Lattice polygons (coordinates / 20) valid in floating point (parse_domain
+#: accepts them) where a vertex is on another segment in exact rationals and
+#: off it by rounding: the spike at the segment's end is thinner than float64
+#: resolves. The first is the example of the medial axis's ``TestAnyPolygon``
+#: that raised AlgorithmError "the split point is an existing point"; the
+#: second raised "too short for float64" (its split point landed one ulp from
+#: the vertex, and the next projection rounded onto that point).
+NEAR_TOUCHING = [
+    ([[9, 6], [14, 7], [2, 2], [5, 10], [2, 13]], 4, 3),
+    ([[15, 6], [0, 8], [7, 19], [11, 16], [17, 13], [9, 17], [20, 6], [11, 9], [2, 11]], 4, 3),
+]
+
+
+@pytest.mark.parametrize(("ring", "segment", "point"), NEAR_TOUCHING)
+def test_a_point_within_rounding_of_a_segment_is_refused_with_its_location(ring, segment, point):
+    P = np.array(ring, dtype=float) / 20
+    assert orient2d(P[[segment]], P[[(segment + 1) % len(P)]], P[[point]])[0] != 0
+    with pytest.raises(InputError) as info:
+        admissible_segments(P, ring_segments(len(P)))
+    assert info.value.code == "point_near_segment"
+    assert [e["loc"] for e in info.value.errors] == [["segments", segment], ["points", point]]
+    domain = parse_domain(polygon(P))
+    with pytest.raises(InputError) as info:
+        make_admissible(domain)
+    (_, seg_ring, seg_vertex), (_, ring_no, vertex) = (e["loc"] for e in info.value.errors)
+    assert ring_no == seg_ring == 0 and ring[vertex] == ring[point]  # the vertex, as given
+    assert ring[seg_vertex] in (ring[segment], ring[(segment + 1) % len(ring)])
+
+
+def test_the_medial_axis_refuses_the_near_touching_polygon_with_a_location():
+    from meshcore.medial import medial_axis
+
+    geometry = {"type": "Polygon", "coordinates": [(np.array(NEAR_TOUCHING[0][0]) / 20).tolist()]}
+    with pytest.raises(InputError) as info:
+        medial_axis(parse_domain(geometry), h=0.01)
+    assert info.value.errors[0]["loc"][0] == "coordinates"
+
+
+#: Star polygons with holes on a lattice of step 0.05 (found by a fuzz of
+#: this session): an input vertex within rounding of another segment's
+#: added point (AlgorithmError "too short for float64" before), and, moved
+#: by 1e6, an added point that rounds onto an input vertex back in the
+#: input's frame (a "duplicate points" error on an added point before).
+NEAR_TOUCHING_DOMAINS = [
+    [
+        [
+            [0.65, 0.0],
+            [0.7, 0.15],
+            [0.55, 0.4],
+            [0.6, 0.55],
+            [0.65, 0.65],
+            [0.3, 0.5],
+            [0.15, 0.9],
+            [0.15, 0.8],
+            [0.1, 0.8],
+            [-0.1, 0.85],
+            [-0.3, 0.55],
+            [-0.7, 0.25],
+            [-0.65, 0.15],
+            [-0.9, -0.1],
+            [-0.85, -0.5],
+            [-0.55, -0.35],
+            [-0.65, -0.4],
+            [-0.4, -0.35],
+            [-0.45, -0.45],
+            [-0.6, -0.55],
+            [-0.1, -0.6],
+            [0.05, -0.95],
+            [0.0, -0.6],
+            [0.2, -0.5],
+            [0.55, -0.45],
+            [0.85, -0.15],
+            [0.6, -0.05],
+            [0.6, -0.0],
+        ],
+        [[0.1, -0.4], [-0.3, 0.05], [-0.1, 0.25], [0.0, 0.2], [0.05, 0.1], [0.4, 0.0]],
+    ],
+    [
+        [
+            [1000000.75, 1000000.65],
+            [1000000.7, 1000000.65],
+            [1000000.3, 1000000.9],
+            [1000000.25, 1000000.95],
+            [999999.7, 1000000.75],
+            [999999.35, 1000000.55],
+            [999999.5, 1000000.25],
+            [999999.45, 1000000.25],
+            [999999.3, 1000000.25],
+            [999999.45, 1000000.15],
+            [999999.4, 999999.8],
+            [999999.65, 999999.55],
+            [999999.7, 999999.45],
+            [1000000.25, 999999.5],
+            [1000000.85, 999999.9],
+        ],
+        [
+            [1000000.4, 999999.85],
+            [1000000.05, 999999.85],
+            [999999.95, 999999.75],
+            [1000000.0, 999999.8],
+            [999999.85, 1000000.0],
+            [1000000.15, 1000000.3],
+        ],
+    ],
+]
+
+
+@pytest.mark.parametrize("rings", NEAR_TOUCHING_DOMAINS)
+def test_domains_with_a_vertex_within_rounding_of_a_segment_are_refused_there(rings):
+    domain = parse_domain({"type": "Polygon", "coordinates": rings})
+    with pytest.raises(InputError) as info:
+        make_admissible(domain)
+    assert info.value.code == "point_near_segment"
+    assert all(e["loc"][0] == "coordinates" for e in info.value.errors)
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    st.lists(
+        st.tuples(st.integers(0, 20), st.integers(0, 20)), min_size=3, max_size=9, unique=True
+    ),
+    st.sampled_from([(0.0, 1.0), (1e6, 1.0), (0.0, 1e-6)]),
+)
+def test_lattice_polygons_are_admissible_or_refused_with_a_location(ring, move):
+    # Small lattice polygons are full of vertices on other segments in exact
+    # rationals: valid ones (in floating point) must become admissible or be
+    # refused with a location in the domain, never an AlgorithmError.
+    shift, scale = move
+    coords = (np.array(ring, dtype=float) / 20 * scale + shift).tolist()
+    try:
+        domain = parse_domain({"type": "Polygon", "coordinates": [coords]})
+    except InputError:
+        return
+    try:
+        res = make_admissible(domain)
+    except InputError as exc:
+        assert exc.errors[0]["loc"][0] == "coordinates"
+        return
+    assert_delaunay_edges(res.points, res.segments)

@@ -115,6 +115,16 @@ def assert_admissible(res, surface, case1=True):
         have = {tuple(f) for f in np.sort(D.tetra[:, FACES].reshape(-1, 3), 1).tolist()}
         tri = np.sort(inv.reshape(-1, 3), 1)
         assert all(tuple(t) in have for t in tri.tolist())
+    # The mesh is the inside rows of the tetrahedralization; the rows the tie cells
+    # made are listed, and every other row is one of our kernel's tetrahedra.
+    np.testing.assert_array_equal(res.mesh.cells[0].data, res.tetrahedra[res.inside])
+    ties = res.tie_tetrahedra
+    assert (len(ties) > 0) == (res.tie_flips > 0) and (np.diff(ties) > 0).all()
+    if len(ties):
+        kernel = {tuple(t) for t in np.sort(used[delaunay3d(P[used]).tetra], 1).tolist()}
+        rows = np.sort(res.tetrahedra, 1).tolist()
+        assert all(tuple(rows[r]) in kernel for r in np.setdiff1d(np.arange(len(rows)), ties))
+        assert not all(tuple(rows[r]) in kernel for r in ties)
     # Every added point is used; only surface points are in the mesh.
     assert set(range(n_in, len(P))) <= set(used.tolist())
     # 2. Tiling: per input triangle, the output area vectors add up to its own,
