@@ -48,7 +48,7 @@ import math
 import numpy as np
 from numba import njit
 
-from meshcore.geometry.predicates import orient2d_scalar
+from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered, orient2d_scalar
 from meshcore.mesh.tetstore import N_PTS, N_ROWS, STAMP, link_row, remove_cell, room, take_row
 
 BALL, PAIR, UNION = 0, 1, 2
@@ -91,7 +91,8 @@ def _better(pa, sa, qa, pb, sb, qb, tie, gain):
 
 
 @njit(cache=True)
-def _add(T, alive, head, nxt, prv, freeT, cnt, a, b, c):
+def add_triangle(T, alive, head, nxt, prv, freeT, cnt, a, b, c):
+    """Triangle (a, b, c) in a new row (:func:`~meshcore.mesh.tetstore.take_row`), linked."""
     t = take_row(alive, freeT, cnt)
     T[t, 0] = a
     T[t, 1] = b
@@ -363,7 +364,7 @@ def _try(
         for j in range(L):
             if j == best or (j + 1) % L == best:
                 continue
-            _add(T, alive, head, nxt, prv, freeT, cnt, cyc[j], cyc[(j + 1) % L], q_)
+            add_triangle(T, alive, head, nxt, prv, freeT, cnt, cyc[j], cyc[(j + 1) % L], q_)
         counters[C_REMOVED] += n_inner
         if kind == BALL:
             counters[C_FAN] += 1
@@ -388,7 +389,7 @@ def _grow(T, head, nxt, t, st, tmark, stamp, size):
     while i < k and k < size:
         u = st[i]
         for j in range(3):
-            w = _neighbour(T, head, nxt, T[u, j], T[u, (j + 1) % 3])
+            w = neighbour(T, head, nxt, T[u, j], T[u, (j + 1) % 3])
             if w >= 0 and tmark[w] != stamp and k < size:
                 tmark[w] = stamp
                 st[k] = w
@@ -398,7 +399,7 @@ def _grow(T, head, nxt, t, st, tmark, stamp, size):
 
 
 @njit(cache=True)
-def _neighbour(T, head, nxt, a, b):
+def neighbour(T, head, nxt, a, b):
     """The triangle holding the oriented edge b -> a, or -1."""
     s = head[b]
     while s >= 0:
@@ -504,7 +505,7 @@ def sweep(
                 if not alive[t]:
                     break
                 a, b = T[t, j], T[t, (j + 1) % 3]
-                u = _neighbour(T, head, nxt, a, b)
+                u = neighbour(T, head, nxt, a, b)
                 if u < 0 or u == t:
                     continue
                 st[0] = t
@@ -620,51 +621,6 @@ def sweep(
 
 
 @njit(cache=True)
-def insert_centroids(P, T, alive, head, nxt, prv, freeT, cnt, fixed, rows, cand, disjoint):
-    """Op(G, δK) for the triangles ``rows[cand]`` in order (``disjoint``: none sharing a vertex).
-
-    A candidate is taken when its row still holds the same triangle, (with
-    ``disjoint``) no vertex of it was touched in this call, and the three
-    triangles on its centroid G are positive (exact). Returns the points added, or -1 (and
-    nothing done beyond the points already added) when out of triangle rows.
-    """
-    touched = np.zeros(P.shape[0], np.uint8)
-    added = 0
-    for i in range(len(cand)):
-        r = rows[cand[i]]
-        a, b, c = r[0], r[1], r[2]
-        if disjoint and (touched[a] or touched[b] or touched[c]):
-            continue
-        t = _neighbour(T, head, nxt, b, a)  # the triangle holding a -> b
-        if t < 0 or not (T[t, 0] == c or T[t, 1] == c or T[t, 2] == c):
-            continue
-        gx = (P[a, 0] + P[b, 0] + P[c, 0]) / 3.0
-        gy = (P[a, 1] + P[b, 1] + P[c, 1]) / 3.0
-        if (
-            orient2d_scalar(P[a, 0], P[a, 1], P[b, 0], P[b, 1], gx, gy) <= 0
-            or orient2d_scalar(P[b, 0], P[b, 1], P[c, 0], P[c, 1], gx, gy) <= 0
-            or orient2d_scalar(P[c, 0], P[c, 1], P[a, 0], P[a, 1], gx, gy) <= 0
-        ):
-            continue
-        if not room(T, cnt, 3) or cnt[N_PTS] >= P.shape[0]:
-            return -1 if added == 0 else added
-        g = cnt[N_PTS]
-        cnt[N_PTS] += 1
-        P[g, 0] = gx
-        P[g, 1] = gy
-        fixed[g] = 0
-        remove_cell(T, alive, head, nxt, prv, freeT, cnt, t)
-        _add(T, alive, head, nxt, prv, freeT, cnt, a, b, g)
-        _add(T, alive, head, nxt, prv, freeT, cnt, b, c, g)
-        _add(T, alive, head, nxt, prv, freeT, cnt, c, a, g)
-        touched[a] = 1
-        touched[b] = 1
-        touched[c] = 1
-        added += 1
-    return added
-
-
-@njit(cache=True)
 def sur(P, T, alive, rows):
     """Sur(𝒯): the sum of the unsigned areas of the live triangles of ``T[:rows]``."""
     s = 0.0
@@ -676,3 +632,48 @@ def sur(P, T, alive, rows):
                 - (P[b, 1] - P[a, 1]) * (P[c, 0] - P[a, 0])
             )
     return s
+
+
+@njit(cache=True, inline="always")
+def _holders(T, head, nxt, a, b):
+    """How many triangles hold the oriented edge a -> b."""
+    k = 0
+    s = head[a]
+    while s >= 0:
+        if T[s // 3, (s % 3 + 1) % 3] == b:
+            k += 1
+        s = nxt[s]
+    return k
+
+
+@njit(cache=True)
+def check_mesh(P, T, head, nxt, bnd):
+    """True when ``T`` is a valid mesh bounded by exactly the edges ``bnd`` (Definition 8.1).
+
+    Every triangle positive (exact orient2d), every oriented edge in exactly
+    one triangle and its reverse in at most one (a consistently oriented
+    mesh topology), and the edges without a reverse exactly the rows of
+    ``bnd`` (oriented as in the triangles). ``head``/``nxt``: the corner
+    lists of ``T`` (:func:`meshcore.mesh.tetstore.build`).
+    """
+    work = np.empty(WORK_SIZE)
+    nb = 0
+    for t in range(T.shape[0]):
+        a, b, c = T[t, 0], T[t, 1], T[t, 2]
+        if orient2d_filtered(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], work) <= 0:
+            return False
+        for j in range(3):
+            a, b = T[t, j], T[t, (j + 1) % 3]
+            if _holders(T, head, nxt, a, b) != 1:
+                return False
+            r = _holders(T, head, nxt, b, a)
+            if r > 1:
+                return False
+            nb += r == 0
+    if nb != bnd.shape[0]:
+        return False
+    for i in range(bnd.shape[0]):
+        a, b = bnd[i, 0], bnd[i, 1]
+        if _holders(T, head, nxt, a, b) != 1 or _holders(T, head, nxt, b, a) != 0:
+            return False
+    return True
