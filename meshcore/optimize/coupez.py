@@ -96,7 +96,7 @@ from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import WORK_SIZE, orient2d
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh, quality
-from meshcore.mesh.tetstore import N_PTS, N_ROWS, CellStore, build
+from meshcore.mesh.tetstore import N_PTS, N_ROWS, CellStore
 from meshcore.mesh.topology import unique_ints
 from meshcore.optimize import kernel2d as k2
 from meshcore.optimize import refine2d as r2
@@ -637,19 +637,10 @@ def _insert_stage(
     Returns the stage's counts (pair replacements, circumcentres, off-centres,
     segment apexes, triangles given up, whether the point budget stopped it).
     """
-    work = np.empty(WORK_SIZE)
-    counts = np.zeros(5, np.int64)
-    counts[r2.K_FLIP] = r2.delaunay_pairs(
-        state.P,
-        state.T,
-        state.alive,
-        state.head,
-        state.nxt,
-        state.prv,
-        state.free,
-        state.cnt,
-        work,
-    )
+
+    def neighbours():
+        return r2.neighbours(state.T, state.alive, int(state.cnt[N_ROWS]), len(state.P))
+
     n0 = int(state.cnt[N_PTS])
     # about 1.1 area / size² interior points come out at the circumradius bound (measured)
     expected = int(min(1.25 * area / (size * size), 1e9)) + n0
@@ -658,6 +649,19 @@ def _insert_stage(
         state.grow_points(expected - n0)
     if state.T.shape[0] < 2 * len(state.P) + 64:
         state.grow_rows(2 * len(state.P) + 64 - 2 * state.T.shape[0])
+    counts = np.zeros(5, np.int64)
+    N = neighbours()
+    counts[r2.K_FLIP] = r2.delaunay_pairs(
+        state.P,
+        state.T,
+        N,
+        state.alive,
+        state.head,
+        state.nxt,
+        state.prv,
+        state.cnt,
+        np.empty(WORK_SIZE),
+    )
     ver = np.zeros(state.T.shape[0], np.int64)
     stack = np.empty((2, state.T.shape[0]), np.int64)
     prm = np.array(
@@ -671,6 +675,7 @@ def _insert_stage(
         status = r2.refine(
             state.P,
             state.T,
+            N,
             state.alive,
             state.head,
             state.nxt,
@@ -694,6 +699,7 @@ def _insert_stage(
         elif status == r2.NEED_STACK:
             stack = np.empty((2, 2 * stack.shape[1]), np.int64)
         ver = np.zeros(state.T.shape[0], np.int64)
+        N = neighbours()
     sweeps[0] += 1
     sur.append(state.sur())
     names = ("delaunay_pair", "circumcentre", "offcentre", "segment_apex", "given_up")
@@ -894,11 +900,7 @@ def _mesh2d(P, T, bnd, total, allow_remove, measure, max_sweeps, progress):
 def verify(P, cells, bnd, use, sweeps):
     """Every cell positive (exact), a mesh topology, boundary facets exactly ``bnd``."""
     if cells.shape[1] == 3 and len(cells):
-        m = len(cells)
-        head = np.empty(len(P), np.int64)
-        nxt = np.empty(3 * m, np.int64)
-        build(cells, m, len(P), head, nxt, np.empty(3 * m, np.int64))
-        if k2.check_mesh(P, cells, head, nxt, np.ascontiguousarray(bnd, dtype=np.int64)):
+        if k2.check_mesh(P, cells, np.ascontiguousarray(bnd, dtype=np.int64)):
             return
     sign = signs(P, cells)
     if (sign <= 0).any():

@@ -91,8 +91,7 @@ def _better(pa, sa, qa, pb, sb, qb, tie, gain):
 
 
 @njit(cache=True)
-def add_triangle(T, alive, head, nxt, prv, freeT, cnt, a, b, c):
-    """Triangle (a, b, c) in a new row (:func:`~meshcore.mesh.tetstore.take_row`), linked."""
+def _add(T, alive, head, nxt, prv, freeT, cnt, a, b, c):
     t = take_row(alive, freeT, cnt)
     T[t, 0] = a
     T[t, 1] = b
@@ -364,7 +363,7 @@ def _try(
         for j in range(L):
             if j == best or (j + 1) % L == best:
                 continue
-            add_triangle(T, alive, head, nxt, prv, freeT, cnt, cyc[j], cyc[(j + 1) % L], q_)
+            _add(T, alive, head, nxt, prv, freeT, cnt, cyc[j], cyc[(j + 1) % L], q_)
         counters[C_REMOVED] += n_inner
         if kind == BALL:
             counters[C_FAN] += 1
@@ -389,7 +388,7 @@ def _grow(T, head, nxt, t, st, tmark, stamp, size):
     while i < k and k < size:
         u = st[i]
         for j in range(3):
-            w = neighbour(T, head, nxt, T[u, j], T[u, (j + 1) % 3])
+            w = _neighbour(T, head, nxt, T[u, j], T[u, (j + 1) % 3])
             if w >= 0 and tmark[w] != stamp and k < size:
                 tmark[w] = stamp
                 st[k] = w
@@ -399,7 +398,7 @@ def _grow(T, head, nxt, t, st, tmark, stamp, size):
 
 
 @njit(cache=True)
-def neighbour(T, head, nxt, a, b):
+def _neighbour(T, head, nxt, a, b):
     """The triangle holding the oriented edge b -> a, or -1."""
     s = head[b]
     while s >= 0:
@@ -505,7 +504,7 @@ def sweep(
                 if not alive[t]:
                     break
                 a, b = T[t, j], T[t, (j + 1) % 3]
-                u = neighbour(T, head, nxt, a, b)
+                u = _neighbour(T, head, nxt, a, b)
                 if u < 0 or u == t:
                     continue
                 st[0] = t
@@ -634,46 +633,91 @@ def sur(P, T, alive, rows):
     return s
 
 
-@njit(cache=True, inline="always")
-def _holders(T, head, nxt, a, b):
-    """How many triangles hold the oriented edge a -> b."""
-    k = 0
-    s = head[a]
-    while s >= 0:
-        if T[s // 3, (s % 3 + 1) % 3] == b:
-            k += 1
-        s = nxt[s]
-    return k
+@njit(cache=True)
+def edge_index(T, alive, rows, n):
+    """The oriented edges a -> b of the live rows of ``T[:rows]`` grouped by a, sorted by b.
+
+    Returns ``start`` (n + 1), ``dst`` and ``slot``: the edges from a are
+    ``dst[start[a]:start[a + 1]]`` in increasing order, edge ``slot`` = 3 t + j
+    running from corner j of row t to corner j + 1. A counting sort by a,
+    then each group sorted: the cost does not depend on vertex degrees
+    beyond a log (the initial fan has a vertex in every triangle).
+    """
+    start = np.zeros(n + 1, np.int64)
+    for t in range(rows):
+        if alive[t]:
+            for j in range(3):
+                start[T[t, j] + 1] += 1
+    for v in range(n):
+        start[v + 1] += start[v]
+    fill = start[:n].copy()
+    dst = np.empty(start[n], np.int64)
+    slot = np.empty(start[n], np.int64)
+    for t in range(rows):
+        if alive[t]:
+            for j in range(3):
+                a = T[t, j]
+                dst[fill[a]] = T[t, (j + 1) % 3]
+                slot[fill[a]] = 3 * t + j
+                fill[a] += 1
+    for v in range(n):
+        lo, hi = start[v], start[v + 1]
+        if hi - lo > 32:
+            order = np.argsort(dst[lo:hi]) + lo
+            dst[lo:hi] = dst[order]
+            slot[lo:hi] = slot[order]
+        else:  # insertion sort of a vertex's few edges
+            for i in range(lo + 1, hi):
+                d, s = dst[i], slot[i]
+                k = i - 1
+                while k >= lo and dst[k] > d:
+                    dst[k + 1] = dst[k]
+                    slot[k + 1] = slot[k]
+                    k -= 1
+                dst[k + 1] = d
+                slot[k + 1] = s
+    return start, dst, slot
 
 
 @njit(cache=True)
-def check_mesh(P, T, head, nxt, bnd):
+def find_edge(start, dst, a, b):
+    """Index of the edge a -> b in :func:`edge_index`'s arrays (the first if repeated), or -1."""
+    lo, hi = start[a], start[a + 1]
+    i = lo + np.searchsorted(dst[lo:hi], b)
+    return i if i < hi and dst[i] == b else -1
+
+
+@njit(cache=True)
+def check_mesh(P, T, bnd):
     """True when ``T`` is a valid mesh bounded by exactly the edges ``bnd`` (Definition 8.1).
 
     Every triangle positive (exact orient2d), every oriented edge in exactly
     one triangle and its reverse in at most one (a consistently oriented
     mesh topology), and the edges without a reverse exactly the rows of
-    ``bnd`` (oriented as in the triangles). ``head``/``nxt``: the corner
-    lists of ``T`` (:func:`meshcore.mesh.tetstore.build`).
+    ``bnd`` (oriented as in the triangles). Edges grouped by their first
+    vertex (:func:`edge_index`): the cost does not depend on vertex degrees.
     """
     work = np.empty(WORK_SIZE)
-    nb = 0
-    for t in range(T.shape[0]):
+    m = T.shape[0]
+    n = 0
+    for t in range(m):
         a, b, c = T[t, 0], T[t, 1], T[t, 2]
+        n = max(n, a + 1, b + 1, c + 1)
         if orient2d_filtered(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], work) <= 0:
             return False
-        for j in range(3):
-            a, b = T[t, j], T[t, (j + 1) % 3]
-            if _holders(T, head, nxt, a, b) != 1:
+    for i in range(bnd.shape[0]):
+        n = max(n, bnd[i, 0] + 1, bnd[i, 1] + 1)
+    start, dst, _ = edge_index(T, np.ones(m, np.uint8), m, n)
+    nb = 0
+    for a in range(n):
+        for i in range(start[a], start[a + 1]):
+            if i > start[a] and dst[i] == dst[i - 1]:
                 return False
-            r = _holders(T, head, nxt, b, a)
-            if r > 1:
-                return False
-            nb += r == 0
+            nb += find_edge(start, dst, dst[i], a) < 0
     if nb != bnd.shape[0]:
         return False
     for i in range(bnd.shape[0]):
         a, b = bnd[i, 0], bnd[i, 1]
-        if _holders(T, head, nxt, a, b) != 1 or _holders(T, head, nxt, b, a) != 0:
+        if find_edge(start, dst, a, b) < 0 or find_edge(start, dst, b, a) >= 0:
             return False
     return True

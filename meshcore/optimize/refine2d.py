@@ -63,11 +63,10 @@ from meshcore.mesh.tetstore import (
     N_ROWS,
     STAMP,
     link_row,
-    remove_cell,
     room,
     take_row,
 )
-from meshcore.optimize.kernel2d import add_triangle, neighbour
+from meshcore.optimize.kernel2d import edge_index, find_edge
 
 #: Kernel statuses: done, out of point rows, out of triangle rows, out of stack, budget reached.
 DONE, NEED_POINTS, NEED_ROWS, NEED_STACK, BUDGET = range(5)
@@ -91,12 +90,40 @@ _OK, _FAIL, _ENCROACH = 0, 1, 2
 
 
 @njit(cache=True)
-def delaunay_pairs(P, T, alive, head, nxt, prv, freeT, cnt, work):
+def neighbours(T, alive, rows, n):
+    """``(len(T), 3)``: N[t, j] the row across edge T[t, j] -> T[t, j + 1], -1 on the boundary.
+
+    From the edges grouped by vertex (:func:`.kernel2d.edge_index`): the cost does not
+    depend on vertex degrees (the initial fan has a vertex in every triangle).
+    """
+    N = np.full((T.shape[0], 3), -1, np.int64)
+    start, dst, slot = edge_index(T, alive, rows, n)
+    for a in range(n):
+        for i in range(start[a], start[a + 1]):
+            r = find_edge(start, dst, dst[i], a)
+            if r >= 0:
+                N[slot[i] // 3, slot[i] % 3] = slot[r] // 3
+    return N
+
+
+@njit(cache=True, inline="always")
+def _redirect(T, N, x, p, q, t):
+    """In triangle x (if any), the edge p -> q now has triangle t across it."""
+    if x >= 0:
+        for j in range(3):
+            if T[x, j] == p and T[x, (j + 1) % 3] == q:
+                N[x, j] = t
+
+
+@njit(cache=True)
+def delaunay_pairs(P, T, N, alive, head, nxt, prv, cnt, work):
     """Lawson's flips over every pair of adjacent triangles until none is replaced.
 
-    A pair (a, b, c), (b, a, d) becomes (a, d, c), (d, b, c) when d lies
-    strictly inside the circumcircle of (a, b, c) and both new triangles are
-    positive (exact). Returns the number of replacements.
+    A pair (a, b, c), (b, a, d) becomes (a, d, c), (d, b, c), in the same
+    two rows, when d lies strictly inside the circumcircle of (a, b, c) and
+    both new triangles are positive (exact). ``N`` (:func:`neighbours`) is
+    kept up to date; the corner lists are relinked at the end. Returns the
+    number of replacements.
     """
     rows = cnt[N_ROWS]
     stack = np.empty(max(rows, 16), np.int64)
@@ -109,14 +136,15 @@ def delaunay_pairs(P, T, alive, head, nxt, prv, freeT, cnt, work):
     while top > 0:
         top -= 1
         t = stack[top]
-        if not alive[t]:
-            continue
         for j in range(3):
-            a, b, c = T[t, j], T[t, (j + 1) % 3], T[t, (j + 2) % 3]
-            u = neighbour(T, head, nxt, a, b)
+            u = N[t, j]
             if u < 0:
                 continue
-            d = T[u, 0] + T[u, 1] + T[u, 2] - a - b
+            a, b, c = T[t, j], T[t, (j + 1) % 3], T[t, (j + 2) % 3]
+            ju = 0
+            while T[u, ju] != b:
+                ju += 1
+            d = T[u, (ju + 2) % 3]
             if (
                 incircle_filtered(
                     P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], P[d, 0], P[d, 1], work
@@ -130,17 +158,24 @@ def delaunay_pairs(P, T, alive, head, nxt, prv, freeT, cnt, work):
                 <= 0
             ):
                 continue
-            remove_cell(T, alive, head, nxt, prv, freeT, cnt, t)
-            remove_cell(T, alive, head, nxt, prv, freeT, cnt, u)
+            x_ad, x_db = N[u, (ju + 1) % 3], N[u, (ju + 2) % 3]
+            x_bc, x_ca = N[t, (j + 1) % 3], N[t, (j + 2) % 3]
+            T[t, 0], T[t, 1], T[t, 2] = a, d, c
+            T[u, 0], T[u, 1], T[u, 2] = d, b, c
+            N[t, 0], N[t, 1], N[t, 2] = x_ad, u, x_ca
+            N[u, 0], N[u, 1], N[u, 2] = x_db, x_bc, t
+            _redirect(T, N, x_ad, d, a, t)
+            _redirect(T, N, x_bc, c, b, u)
             if top + 2 > len(stack):
                 grown = np.empty(2 * len(stack), np.int64)
                 grown[:top] = stack[:top]
                 stack = grown
-            stack[top] = add_triangle(T, alive, head, nxt, prv, freeT, cnt, a, d, c)
-            stack[top + 1] = add_triangle(T, alive, head, nxt, prv, freeT, cnt, d, b, c)
+            stack[top] = t
+            stack[top + 1] = u
             top += 2
             flips += 1
             break
+    _relink(T, alive, head, nxt, prv, cnt, head.shape[0], 0)
     return flips
 
 
@@ -334,16 +369,7 @@ def _insert(P, T, N, alive, freeT, cnt, fixed, t, x, y, work, sc, tmark, vmark, 
 
 
 @njit(cache=True)
-def _neighbours(T, alive, head, nxt, rows, N):
-    """N[t, j]: the row across edge T[t, j] -> T[t, j + 1], or -1 on the boundary."""
-    for t in range(rows):
-        if alive[t]:
-            for j in range(3):
-                N[t, j] = neighbour(T, head, nxt, T[t, j], T[t, (j + 1) % 3])
-
-
-@njit(cache=True)
-def refine(P, T, alive, head, nxt, prv, freeT, cnt, fixed, ver, stack, prm, budget, counts):
+def refine(P, T, N, alive, head, nxt, prv, freeT, cnt, fixed, ver, stack, prm, budget, counts):
     """Insert points at bad triangles until none is left (module docstring, step 2).
 
     ``prm``: sin² of ``min_angle``, the squared circumradius bound, the
@@ -354,14 +380,13 @@ def refine(P, T, alive, head, nxt, prv, freeT, cnt, fixed, ver, stack, prm, budg
     around the mesh and took twice as long). Returns DONE, BUDGET
     (``budget`` points reached), or NEED_POINTS / NEED_ROWS / NEED_STACK:
     the caller grows that and calls again (growing the store renumbers its
-    rows, so the stack is filled again). The corner lists are relinked on
-    return (the kernel keeps triangle neighbours instead).
+    rows: ``N`` is made again and the stack filled again). The kernel keeps
+    ``N`` (:func:`neighbours`) up to date, not the corner lists: they are
+    relinked on return.
     """
     sin2, r2max, off = prm[0], prm[1], prm[2]
     work = np.empty(WORK_SIZE)
     mcap = T.shape[0]
-    N = np.full((mcap, 3), -1, np.int64)
-    _neighbours(T, alive, head, nxt, cnt[N_ROWS], N)
     sc = np.empty((4, mcap + 2), np.int64)
     tmark = np.zeros(mcap, np.int64)
     vmark = np.zeros(P.shape[0], np.int64)
