@@ -135,6 +135,24 @@ class TestGeneration:
         assert quality.triangle_angles(P, T).min() >= 20
         assert res.stats["points_inserted"] > 0
 
+    @pytest.mark.parametrize("spacing", [1, 4])
+    def test_with_insertion_on_a_kept_boundary_least_angle_at_least_25(self, spacing):
+        # a 120-gon: the interior at the boundary's spacing, or graded from it to 4x
+        m = 120
+        dom = parse_domain({"type": "Polygon", "coordinates": [star(np.ones(m))]})
+        size = spacing * 2 * np.sin(np.pi / m)
+        res = optimize(domain=dom, size=size)
+        P, T = _tri(res)
+        assert_valid_2d(P, T, segments=dom.segments, area=dom.area)
+        assert np.array_equal(P[:m], dom.points)
+        assert quality.triangle_angles(P, T).min() >= 25
+        assert res.stats["insertion"]["given_up"] == 0
+        assert_monotone(res.stats["sur"])
+        # the size bound: circumradius at most 0.8 size
+        e = [np.linalg.norm(P[T[:, (j + 1) % 3]] - P[T[:, (j + 2) % 3]], axis=1) for j in range(3)]
+        radius = e[0] * e[1] * e[2] / (4 * np.abs(quality.signed_area(P, T)))
+        assert radius.max() <= 0.8 * size * (1 + 1e-12)
+
     def test_l_shape_example(self):
         L = {"type": "Polygon", "coordinates": [[[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]]]}
         res = optimize(domain=L, size=0.1, keep_boundary=False)
