@@ -91,6 +91,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -155,8 +156,6 @@ class OptimizationResult:
     ----------
     mesh : Mesh
         Triangles (2D) or tetrahedra (3D), every one positive.
-    quality : dict
-        :func:`meshcore.mesh.quality.report` of the mesh.
     stats : dict
         ``use`` (generation, correction or optimization), ``sur`` (Sur(𝒯)
         at the start and after each pass), ``measure`` (the area or volume
@@ -165,11 +164,18 @@ class OptimizationResult:
         ``points_removed``, ``operators`` (replacements by sub-topology and
         operator), ``least_quality_before`` / ``least_quality_after`` (the
         measure of (8.2)), ``stages``.
+    quality : dict
+        :func:`meshcore.mesh.quality.report` of the mesh, made on first use
+        (it costs as much as the second stage on large meshes).
     """
 
     mesh: Mesh
-    quality: dict
     stats: dict = field(default_factory=dict)
+
+    @cached_property
+    def quality(self) -> dict:
+        """:func:`meshcore.mesh.quality.report` of the mesh."""
+        return quality.report(self.mesh)
 
 
 # ----------------------------------------------------------------------------- input checks
@@ -367,22 +373,12 @@ def signs(P: np.ndarray, cells: np.ndarray) -> np.ndarray:
 
 
 def measure_q(P: np.ndarray, cells: np.ndarray, measure: str) -> np.ndarray:
-    """The (8.2) measure of every cell from its unsigned area or volume."""
+    """The (8.2) measure of every cell from its unsigned area or volume (as the loops see it)."""
     if cells.shape[1] == 3:
-        q = quality.triangle_shape(P, cells) if measure == "shape" else _radius2(P, cells)
-    else:
-        q = _shape3(P, cells) if measure == "shape" else quality.tetra_radius_ratio(P, cells)
+        P, cells = np.ascontiguousarray(P, dtype=float), np.ascontiguousarray(cells)
+        return k2.qualities(P, cells, np.int64(MEASURES.index(measure)))
+    q = _shape3(P, cells) if measure == "shape" else quality.tetra_radius_ratio(P, cells)
     return np.abs(q)
-
-
-def _radius2(P, T):
-    a = np.linalg.norm(P[T[:, 1]] - P[T[:, 2]], axis=1)
-    b = np.linalg.norm(P[T[:, 2]] - P[T[:, 0]], axis=1)
-    c = np.linalg.norm(P[T[:, 0]] - P[T[:, 1]], axis=1)
-    A = quality.signed_area(P, T)
-    den = 0.5 * (a + b + c) * a * b * c
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(den > 0, 8.0 * A * A / den, 0.0)
 
 
 def _shape3(P, C):
@@ -882,7 +878,7 @@ def make_result(P, cells, measure, stats):
     least quality after (the (8.2) measure, §8.3.1)."""
     mesh = Mesh(P, (CellBlock("triangle" if cells.shape[1] == 3 else "tetra", cells),))
     stats["least_quality_after"] = float(measure_q(P, cells, MEASURES[measure]).min())
-    return OptimizationResult(mesh, quality.report(mesh), stats)
+    return OptimizationResult(mesh, stats)
 
 
 def _mesh2d(P, T, bnd, total, allow_remove, measure, max_sweeps, progress):

@@ -721,3 +721,13 @@ def check_mesh(P, T, bnd):
         if find_edge(start, dst, a, b) < 0 or find_edge(start, dst, b, a) >= 0:
             return False
     return True
+
+
+@njit(cache=True)
+def qualities(P, T, measure):
+    """The (8.2) measure of every triangle of ``T`` (:func:`_quality`, as the loop sees it)."""
+    q = np.empty(T.shape[0])
+    for t in range(T.shape[0]):
+        a, b, c = T[t, 0], T[t, 1], T[t, 2]
+        q[t] = _quality(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], measure)
+    return q
