@@ -51,7 +51,8 @@ Choices where the text leaves freedom
   when the centroid G of the boundary vertices sees every segment (exact
   orient2d: the domain is star-shaped from G), the initial topology is
   Op(G, δ𝒮), the operator's second case (Figure 8.8 ii), a valid mesh at
-  once; otherwise the text's Op(P, δ𝒮) from a boundary vertex. (From a
+  once, handed to the second stage without passes; otherwise the text's
+  Op(P, δ𝒮) from a boundary vertex. (From a
   boundary vertex, a 10k-point five-petal flower stays stuck with 157
   inverted triangles after 1,000 passes.)
 * **Stages** (§8.3.3): a first stage without insertion; then, for generation
@@ -978,7 +979,8 @@ def _generate2d(dom: Domain, insert, size, measure, max_sweeps, keep_boundary, m
         state = LoopState(k2, P0, T, fixed, spare_points=len(P) if insert else 0)
         inverted = state.inverted()
         sweeps, sur, ops = [0], [state.sur()], {}
-        _loop2d(state, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 0.5))
+        if inverted or not insert:  # valid at once: the second stage takes over
+            _loop2d(state, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 0.5))
         left = state.inverted()
         if not left:
             break
