@@ -689,6 +689,7 @@ def _insert_stage(
             math.sin(math.radians(min_angle)) ** 2,
             (r2.CIRCUMRADIUS * size) ** 2,
             r2.OFFCENTRE / math.tan(math.radians(min_angle) / 2.0),
+            size,
         ]
     )
     while True:

@@ -31,9 +31,12 @@ replaces. Here, on the same store (:class:`meshcore.mesh.tetstore.CellStore`):
    a new point, so the validity condition of §8.3.3 holds. Sur is unchanged
    (the mesh stays valid) and the mesh stays constrained Delaunay.
 3. **Boundary kept.** No point goes on a boundary segment. When G lies
-   behind one, or in its open diametral disk (exact sign), the apex of the
-   equilateral triangle standing on that segment inside the domain is tried
-   instead; when that fails too, the triangle is given up (counted). A
+   behind one, or in its open diametral disk (exact sign) nearer it than
+   √3/2 min(its length, ``size``) (the whole disk for a segment up to
+   ``size``: Ruppert's rule; a band along a longer, coarse one, so that the
+   interior is still refined), the point on the segment's inner bisector at
+   that height (the equilateral apex) is tried instead; when that fails
+   too, the triangle is given up (counted). A
    point budget bounds the stage (:data:`BUDGET_FACTOR`).
 
 References
@@ -264,7 +267,34 @@ def _locate(P, T, N, t, x, y, work, out):
 
 
 @njit(cache=True)
-def _insert(P, T, N, alive, freeT, cnt, fixed, t, x, y, work, sc, tmark, vmark, vpos, out):
+def _encroaches(P, a, b, x, y, size, work):
+    """Whether (x, y) is too near the boundary segment a -> b to go in.
+
+    In its open diametral disk (exact sign) and nearer its line than the
+    apex height :func:`_apex` uses: for a segment up to ``size`` long, the
+    whole disk (Ruppert's rule); for a longer one (kept coarse), a band
+    along it, so that the interior can still be refined to ``size``.
+    """
+    if dot2d_filtered(P[a, 0], P[a, 1], P[b, 0], P[b, 1], x, y, work) > 0:
+        return False
+    dx, dy = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1]
+    L = math.sqrt(dx * dx + dy * dy)
+    dist = abs(dx * (y - P[a, 1]) - dy * (x - P[a, 0])) / L
+    return dist < _HALF_SQRT3 * min(L, size)
+
+
+@njit(cache=True)
+def _apex(P, a, b, size):
+    """The point on the inner bisector of segment a -> b at √3/2 min(|ab|, size) from it: the
+    apex of the equilateral triangle on a segment up to ``size`` long."""
+    dx, dy = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1]
+    L = math.sqrt(dx * dx + dy * dy)
+    f = _HALF_SQRT3 * min(L, size) / L
+    return 0.5 * (P[a, 0] + P[b, 0]) - f * dy, 0.5 * (P[a, 1] + P[b, 1]) + f * dx
+
+
+@njit(cache=True)
+def _insert(P, T, N, alive, freeT, cnt, fixed, t, x, y, size, work, sc, tmark, vmark, vpos, out):
     """Op(G, δ𝒮) for G = (x, y) and 𝒮 its Delaunay cavity, reached by a walk from triangle t.
 
     ``sc`` is scratch ``(4, rows)``. Returns _OK (the new triangles' rows in
@@ -308,7 +338,7 @@ def _insert(P, T, N, alive, freeT, cnt, fixed, t, x, y, work, sc, tmark, vmark, 
             if u >= 0 and tmark[u] == stamp:
                 continue
             a, b = T[s, j], T[s, (j + 1) % 3]
-            if u < 0 and dot2d_filtered(P[a, 0], P[a, 1], P[b, 0], P[b, 1], x, y, work) <= 0:
+            if u < 0 and _encroaches(P, a, b, x, y, size, work):
                 out[0] = s
                 out[1] = a
                 out[2] = b
@@ -373,7 +403,7 @@ def refine(P, T, N, alive, head, nxt, prv, freeT, cnt, fixed, ver, stack, prm, b
     """Insert points at bad triangles until none is left (module docstring, step 2).
 
     ``prm``: sin² of ``min_angle``, the squared circumradius bound, the
-    off-centre factor. Bad triangles wait on ``stack`` (rows, and their
+    off-centre factor, ``size``. Bad triangles wait on ``stack`` (rows, and their
     versions ``ver`` that tell a reused row), filled from every live row
     first; the new bad triangles of an insertion go on top, so the points
     go in near each other (memory locality: a queue ordered by size jumps
@@ -384,7 +414,7 @@ def refine(P, T, N, alive, head, nxt, prv, freeT, cnt, fixed, ver, stack, prm, b
     ``N`` (:func:`neighbours`) up to date, not the corner lists: they are
     relinked on return.
     """
-    sin2, r2max, off = prm[0], prm[1], prm[2]
+    sin2, r2max, off, size = prm[0], prm[1], prm[2], prm[3]
     work = np.empty(WORK_SIZE)
     mcap = T.shape[0]
     sc = np.empty((4, mcap + 2), np.int64)
@@ -425,6 +455,7 @@ def refine(P, T, N, alive, head, nxt, prv, freeT, cnt, fixed, ver, stack, prm, b
                 t,
                 x,
                 y,
+                size,
                 work,
                 sc,
                 tmark,
@@ -433,11 +464,9 @@ def refine(P, T, N, alive, head, nxt, prv, freeT, cnt, fixed, ver, stack, prm, b
                 out,
             )
         if r == _ENCROACH:
-            # the apex of the equilateral triangle on the segment a -> b, inside the domain
+            # the apex on the segment a -> b, inside the domain
             s, a, b = out[0], out[1], out[2]
-            dx, dy = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1]
-            x = 0.5 * (P[a, 0] + P[b, 0]) - _HALF_SQRT3 * dy
-            y = 0.5 * (P[a, 1] + P[b, 1]) + _HALF_SQRT3 * dx
+            x, y = _apex(P, a, b, size)
             r = _insert(
                 P,
                 T,
@@ -449,6 +478,7 @@ def refine(P, T, N, alive, head, nxt, prv, freeT, cnt, fixed, ver, stack, prm, b
                 s,
                 x,
                 y,
+                size,
                 work,
                 sc,
                 tmark,
