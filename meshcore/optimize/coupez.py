@@ -654,7 +654,7 @@ def _insert_stage(
 
     Bad: least angle under ``min_angle``, or a circumradius over ``0.8 size`` (not on a
     boundary segment longer than that allows).
-    Returns the stage's counts (pair replacements, circumcentres, off-centres,
+    Returns the stage's counts (pair replacements, circumcentres or off-centres,
     segment apexes, triangles given up, whether the point budget stopped it).
     """
 
@@ -669,7 +669,7 @@ def _insert_stage(
         state.grow_points(expected - n0)
     if state.T.shape[0] < 2 * len(state.P) + 64:
         state.grow_rows(2 * len(state.P) + 64 - 2 * state.T.shape[0])
-    counts = np.zeros(5, np.int64)
+    counts = np.zeros(4, np.int64)
     N = neighbours()
     counts[r2.K_FLIP] = r2.delaunay_pairs(
         state.P,
@@ -723,7 +723,7 @@ def _insert_stage(
         N = neighbours()
     sweeps[0] += 1
     sur.append(state.sur())
-    names = ("delaunay_pair", "circumcentre", "offcentre", "segment_apex", "given_up")
+    names = ("delaunay_pair", "steiner_point", "segment_apex", "given_up")
     for name, c in zip(names, counts, strict=True):
         ops[name] = ops.get(name, 0) + int(c)
     return {"budget_reached": status == r2.BUDGET, "given_up": int(counts[r2.K_GIVEN_UP])}

@@ -20,7 +20,8 @@ replaces. Here, on the same store (:class:`meshcore.mesh.tetstore.CellStore`):
    split). Bad triangles wait on a stack, those an insertion makes
    on top (the points go in near each other; a queue by shortest edge, as
    Triangle's, took twice as long for the same least angle). Each gets
-   a point G: its circumcentre, or Üngör's off-centre when that is nearer
+   a point G (:func:`meshcore.delaunay.cdt.steiner_point`): its circumcentre,
+   or Üngör's off-centre when that is nearer
    (on the bisector of the shortest edge, where that edge sees G under a
    little more than ``min_angle``: fewer points). 𝒮 is the connected set
    of triangles, grown across interior edges from the one holding G, whose
@@ -54,6 +55,7 @@ import math
 import numpy as np
 from numba import njit
 
+from meshcore.delaunay.cdt import steiner_point
 from meshcore.geometry.predicates import (
     WORK_SIZE,
     dot2d_filtered,
@@ -73,8 +75,8 @@ from meshcore.optimize.kernel2d import edge_index, find_edge
 
 #: Kernel statuses: done, out of point rows, out of triangle rows, out of stack, budget reached.
 DONE, NEED_POINTS, NEED_ROWS, NEED_STACK, BUDGET = range(5)
-#: ``counts`` entries: pair replacements, circumcentres, off-centres, segment apexes, given up.
-K_FLIP, K_CIRCUM, K_OFF, K_APEX, K_GIVEN_UP = range(5)
+#: ``counts`` entries: pair replacements, circumcentres or off-centres, segment apexes, given up.
+K_FLIP, K_STEINER, K_APEX, K_GIVEN_UP = range(4)
 #: A triangle whose circumradius exceeds this times ``size`` is split (an equilateral
 #: triangle of side ``size`` has circumradius 0.577 ``size``; ``triangulate``'s bound).
 CIRCUMRADIUS = 0.8
@@ -206,36 +208,6 @@ def _bad(P, T, N, t, sin2, r2max):
         j = 0 if hi == l2 else (1 if hi == l0 else 2)
         return N[t, j] >= 0  # the longest edge is not a boundary segment
     return False
-
-
-@njit(cache=True)
-def _steiner(P, T, t, off):
-    """Circumcentre of triangle t, or Üngör's off-centre when it is nearer the shortest edge.
-
-    Returns (x, y, is_offcentre); computed relative to the first vertex.
-    """
-    a, b, c = T[t, 0], T[t, 1], T[t, 2]
-    ax, ay = P[a, 0], P[a, 1]
-    bx, by = P[b, 0] - ax, P[b, 1] - ay
-    cx, cy = P[c, 0] - ax, P[c, 1] - ay
-    lb = bx * bx + by * by
-    lc = cx * cx + cy * cy
-    d = 2.0 * (bx * cy - by * cx)
-    ux = (cy * lb - by * lc) / d
-    uy = (bx * lc - cx * lb) / d
-    la = (cx - bx) ** 2 + (cy - by) ** 2
-    if lb <= lc and lb <= la:
-        px, py, qx, qy = 0.0, 0.0, bx, by
-    elif la <= lc:
-        px, py, qx, qy = bx, by, cx, cy
-    else:
-        px, py, qx, qy = cx, cy, 0.0, 0.0
-    dx, dy = qx - px, qy - py
-    ox = px + 0.5 * dx - off * dy
-    oy = py + 0.5 * dy + off * dx
-    if (ox - px) ** 2 + (oy - py) ** 2 < (ux - px) ** 2 + (uy - py) ** 2:
-        return ax + ox, ay + oy, True
-    return ax + ux, ay + uy, False
 
 
 @njit(cache=True)
@@ -441,58 +413,24 @@ def refine(P, T, N, alive, head, nxt, prv, freeT, cnt, fixed, ver, stack, prm, b
         t, v = stack[0, top], stack[1, top]
         if not alive[t] or ver[t] != v:
             continue
-        x, y, is_off = _steiner(P, T, t, off)
-        r = _FAIL
-        if math.isfinite(x) and math.isfinite(y):
+        x, y = steiner_point(P, T[t, 0], T[t, 1], T[t, 2], off)
+        r = _FAIL if not (math.isfinite(x) and math.isfinite(y)) else _ENCROACH
+        kind = K_STEINER
+        s = t
+        while r == _ENCROACH:
             r = _insert(
-                P,
-                T,
-                N,
-                alive,
-                freeT,
-                cnt,
-                fixed,
-                t,
-                x,
-                y,
-                size,
-                work,
-                sc,
-                tmark,
-                vmark,
-                vpos,
-                out,
-            )
-        if r == _ENCROACH:
-            # the apex on the segment a -> b, inside the domain
-            s, a, b = out[0], out[1], out[2]
-            x, y = _apex(P, a, b, size)
-            r = _insert(
-                P,
-                T,
-                N,
-                alive,
-                freeT,
-                cnt,
-                fixed,
-                s,
-                x,
-                y,
-                size,
-                work,
-                sc,
-                tmark,
-                vmark,
-                vpos,
-                out,
-            )
-            if r == _OK:
-                counts[K_APEX] += 1
-        elif r == _OK:
-            counts[K_OFF if is_off else K_CIRCUM] += 1
+                P, T, N, alive, freeT, cnt, fixed, s, x, y, size, work, sc, tmark, vmark, vpos, out
+            )  # fmt: skip
+            if r == _ENCROACH and kind == K_STEINER:  # the apex on the segment, inside
+                s = out[0]
+                x, y = _apex(P, out[1], out[2], size)
+                kind = K_APEX
+            elif r == _ENCROACH:
+                r = _FAIL
         if r != _OK:
             counts[K_GIVEN_UP] += 1
             continue
+        counts[kind] += 1
         for e in range(out[3]):
             s = sc[0, e]
             ver[s] += 1
