@@ -1053,7 +1053,7 @@ def init_queues(M, D, Qs, st, work):
 
 
 @njit(cache=True)
-def _steiner_point(P, a, b, c, off):
+def steiner_point(P, a, b, c, off):
     """Circumcentre of CCW (a, b, c), or Ungor's off-centre when it is closer.
 
     The off-centre lies on the bisector of the shortest edge pq, on the side
@@ -1061,6 +1061,9 @@ def _steiner_point(P, a, b, c, off):
     little under ``cot(theta / 2) / 2`` the triangle it makes with pq has
     an angle a little over the bound theta. Used when it is nearer to p
     than the circumcentre (a skinny triangle): fewer points, as Triangle.
+    Shared with the insertion stage of :mod:`meshcore.optimize.refine2d`.
+
+    References: A. Üngör, "Off-centers" (2004); methods text §9.1.
     """
     ax = P[a, 0]
     ay = P[a, 1]
@@ -1148,7 +1151,7 @@ def refine(M, D, Qs, st, scr, work):
         if bad == 0:
             continue
         gen = G[t] + 1
-        x, y = _steiner_point(P, V[3 * t], V[3 * t + 1], V[3 * t + 2], prm[PR_OFF])
+        x, y = steiner_point(P, V[3 * t], V[3 * t + 1], V[3 * t + 2], prm[PR_OFF])
         r = _insert(M, st, x, y, t, np.int64(-1), np.int32(-1), 0.0, np.bool_(True), gen, scr, work)
         if r == OK:
             st[ST_ADD_I] += 1

@@ -47,16 +47,24 @@ Choices where the text leaves freedom
   starts again from Op(P', δ𝒮), P' the next vertex by distance to the
   centroid (the text: "any point in δ𝒮 could be used"), up to ``RESTARTS``
   initial vertices; ``stats["restarts"]`` lists the stuck attempts.
+* **Initialization with insertion.** With ``insert_points`` and one ring,
+  when the centroid G of the boundary vertices sees every segment (exact
+  orient2d: the domain is star-shaped from G), the initial topology is
+  Op(G, δ𝒮), the operator's second case (Figure 8.8 ii), a valid mesh at
+  once, handed to the second stage without passes; otherwise the text's
+  Op(P, δ𝒮) from a boundary vertex. (From a
+  boundary vertex, a 10k-point five-petal flower stays stuck with 157
+  inverted triangles after 1,000 passes.)
 * **Stages** (§8.3.3): a first stage without insertion; then, for generation
-  with ``insert_points``, a second stage that inserts G = the centroid of a
-  triangle whose longest edge exceeds ``size`` (Op(G, δK), K one element, a
-  connected set of one), followed by the same optimization loop, in rounds,
-  until no edge is longer than ``size`` and no triangle with an edge longer
-  than ``size / 2`` is worse than the target quality. The size rounds split
-  every such triangle at once (the number of points grows geometrically,
-  so the rounds are few), but not one whose centroid would come within
-  ``size / 2`` of a boundary segment; the quality rounds take triangles
-  sharing no vertex, worst first. ``size`` defaults to the median
+  with ``insert_points``, a second stage (:mod:`.refine2d`): pairs of
+  adjacent triangles replaced by their Delaunay diagonal (the larger least
+  angle), then points G at the circumcentre (or Üngör's off-centre) of
+  every triangle whose least angle is under ``min_angle`` or whose
+  circumradius exceeds ``0.8 size``, each by Op(G, δ𝒮) with 𝒮 the triangles
+  whose circumcircle holds G (a connected set). Never on a boundary
+  segment: a point that would encroach one is replaced by the apex of the
+  equilateral triangle on it, or the triangle is given up
+  (``stats["insertion"]["given_up"]``). ``size`` defaults to the median
   boundary segment.
 * **keep_boundary=false** (generation only): the boundary segments are first
   split evenly to at most ``size``; boundary vertices never move.
@@ -84,6 +92,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -93,12 +102,13 @@ from scipy.sparse.linalg import splu
 from meshcore.domain.planar import Domain, parse_domain
 from meshcore.domain.surface import as_surface
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.geometry.predicates import orient2d
+from meshcore.geometry.predicates import WORK_SIZE, orient2d
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.mesh.tetstore import N_PTS, N_ROWS, CellStore
 from meshcore.mesh.topology import unique_ints
 from meshcore.optimize import kernel2d as k2
+from meshcore.optimize import refine2d as r2
 
 Progress = Callable[[float, str], None] | None
 
@@ -147,8 +157,6 @@ class OptimizationResult:
     ----------
     mesh : Mesh
         Triangles (2D) or tetrahedra (3D), every one positive.
-    quality : dict
-        :func:`meshcore.mesh.quality.report` of the mesh.
     stats : dict
         ``use`` (generation, correction or optimization), ``sur`` (Sur(𝒯)
         at the start and after each pass), ``measure`` (the area or volume
@@ -157,11 +165,18 @@ class OptimizationResult:
         ``points_removed``, ``operators`` (replacements by sub-topology and
         operator), ``least_quality_before`` / ``least_quality_after`` (the
         measure of (8.2)), ``stages``.
+    quality : dict
+        :func:`meshcore.mesh.quality.report` of the mesh, made on first use
+        (it costs as much as the second stage on large meshes).
     """
 
     mesh: Mesh
-    quality: dict
     stats: dict = field(default_factory=dict)
+
+    @cached_property
+    def quality(self) -> dict:
+        """:func:`meshcore.mesh.quality.report` of the mesh."""
+        return quality.report(self.mesh)
 
 
 # ----------------------------------------------------------------------------- input checks
@@ -359,22 +374,12 @@ def signs(P: np.ndarray, cells: np.ndarray) -> np.ndarray:
 
 
 def measure_q(P: np.ndarray, cells: np.ndarray, measure: str) -> np.ndarray:
-    """The (8.2) measure of every cell from its unsigned area or volume."""
+    """The (8.2) measure of every cell from its unsigned area or volume (as the loops see it)."""
     if cells.shape[1] == 3:
-        q = quality.triangle_shape(P, cells) if measure == "shape" else _radius2(P, cells)
-    else:
-        q = _shape3(P, cells) if measure == "shape" else quality.tetra_radius_ratio(P, cells)
+        P, cells = np.ascontiguousarray(P, dtype=float), np.ascontiguousarray(cells)
+        return k2.qualities(P, cells, np.int64(MEASURES.index(measure)))
+    q = _shape3(P, cells) if measure == "shape" else quality.tetra_radius_ratio(P, cells)
     return np.abs(q)
-
-
-def _radius2(P, T):
-    a = np.linalg.norm(P[T[:, 1]] - P[T[:, 2]], axis=1)
-    b = np.linalg.norm(P[T[:, 2]] - P[T[:, 0]], axis=1)
-    c = np.linalg.norm(P[T[:, 0]] - P[T[:, 1]], axis=1)
-    A = quality.signed_area(P, T)
-    den = 0.5 * (a + b + c) * a * b * c
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(den > 0, 8.0 * A * A / den, 0.0)
 
 
 def _shape3(P, C):
@@ -578,6 +583,22 @@ def _initial_topology(
     return T
 
 
+def _centre_fan(P: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Op(G, δ𝒮) with G the centroid of the boundary vertices, when that is a valid mesh.
+
+    The operator's second case (Figure 8.8 ii, P inside 𝒯): G joined to every
+    segment. Valid when G sees every segment from its inner side (exact
+    orient2d), i.e. the domain is star-shaped from G. Returns the points
+    (G last) and triangles, or None.
+    """
+    g = P[S[:, 0]].mean(axis=0)
+    T = np.column_stack([S, np.full(len(S), len(P))])
+    Q = np.vstack([P, g])
+    if (orient2d(Q[T[:, 0]], Q[T[:, 1]], Q[T[:, 2]]) > 0).all():
+        return Q, T
+    return None
+
+
 def _zipper(P: np.ndarray, outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
     """Triangles of the annulus between a counter-clockwise triangle and a CCW ring inside it."""
     k = len(inner)
@@ -626,100 +647,86 @@ def _split_boundary(dom: Domain, size: float) -> tuple[np.ndarray, np.ndarray]:
     return np.vstack([P, newP]), rows
 
 
-def _on_boundary(T, j, bkeys, n):
-    """Whether edge ``j`` (opposite corner j) of each triangle is a boundary segment."""
-    a = T[np.arange(len(T)), (j + 1) % 3]
-    b = T[np.arange(len(T)), (j + 2) % 3]
-    key = np.minimum(a, b) * n + np.maximum(a, b)
-    return np.isin(key, bkeys[:, 0] * n + bkeys[:, 1])
-
-
 def _insert_stage(
-    state: LoopState,
-    S: np.ndarray,
-    size: float,
-    min_angle: float,
-    measure: int,
-    max_sweeps: int,
-    sweeps: list,
-    sur: list,
-    ops: dict,
-    progress: Progress,
-    rounds: int,
-) -> int:
-    """Second stage (§8.3.3): Op(G, δK) at the centroid G of large or badly shaped triangles.
+    state: LoopState, size: float, min_angle: float, area: float, sweeps: list, sur: list, ops: dict
+) -> dict:
+    """Second stage (§8.3.3): pairs made Delaunay, then points at bad triangles (:mod:`.refine2d`).
 
-    Size rounds first: every triangle whose longest edge exceeds ``size`` is
-    split at its centroid (triangles are disjoint sub-topologies, so all of
-    them in one round), except where that centroid would lie nearer than
-    ``size / 2`` to a boundary segment of the triangle (no move could take
-    such a point away from the segment again); then the mesh is optimized
-    (no removal). When no
-    edge exceeds ``size``, quality rounds: the triangles whose least angle is
-    below ``min_angle`` while their longest edge exceeds ``size / 2`` (or
-    whose longest edge exceeds ``size`` again), worst first, none sharing a
-    vertex with one already picked (so that new points do not crowd), then
-    the same optimization. Rounds repeat until none is picked or ``rounds``
-    ran; returns the points inserted.
+    Bad: least angle under ``min_angle``, or a circumradius over ``0.8 size`` (not on a
+    boundary segment longer than that allows).
+    Returns the stage's counts (pair replacements, circumcentres or off-centres,
+    segment apexes, triangles given up, whether the point budget stopped it).
     """
-    inserted = 0
-    bkeys = np.sort(S, axis=1)
-    size_rounds = True
-    for _ in range(rounds):
-        P, T = state.points(), state.cells()
-        e = np.stack([P[T[:, 1]] - P[T[:, 2]], P[T[:, 2]] - P[T[:, 0]], P[T[:, 0]] - P[T[:, 1]]])
-        e2 = np.sum(e * e, axis=2)
-        longest = np.sqrt(np.max(e2, axis=0))
-        # a triangle whose longest edge is a boundary segment is left to the optimization:
-        # its centroid would only crowd that segment (it cannot be split)
-        inside = ~_on_boundary(T, np.argmax(e2, axis=0), bkeys, len(P))
-        long = longest > size
-        bad = long & inside
-        if size_rounds:
-            # a centroid nearer a boundary segment than size / 2 waits for the quality
-            # rounds: split all at once, such centroids crowd the segments for good
-            area2 = np.abs(e[1, :, 0] * e[2, :, 1] - e[1, :, 1] * e[2, :, 0])
-            on = np.zeros(len(T), bool)
-            for j in range(3):
-                near = area2 / (3.0 * np.sqrt(e2[j])) < 0.5 * size
-                on |= near & _on_boundary(T, j, bkeys, len(P))
-            size_rounds = bool((bad & ~on).any())
-        if size_rounds:
-            cand = np.flatnonzero(bad & ~on)
-            cand = cand[np.argsort(-longest[cand], kind="stable")]
-        else:
-            angle = quality.triangle_angles(P, T).min(axis=1)
-            bad |= (angle < min_angle) & (longest > 0.5 * size) & inside
-            if not bad.any():
-                break
-            cand = np.flatnonzero(bad)
-            cand = cand[np.argsort(angle[cand] - 90.0 * long[cand], kind="stable")]
-        n0 = int(state.cnt[N_PTS])
-        if len(state.P) < n0 + len(cand):
-            state.grow_points(len(cand) + n0)
-        while True:
-            added = k2.insert_centroids(
-                state.P,
-                state.T,
-                state.alive,
-                state.head,
-                state.nxt,
-                state.prv,
-                state.free,
-                state.cnt,
-                state.fixed,
-                T,
-                cand,
-                not size_rounds,
-            )
-            if added >= 0:
-                break
-            state.grow_rows()
-        inserted += added
-        if not added:
+
+    def neighbours():
+        return r2.neighbours(state.T, state.alive, int(state.cnt[N_ROWS]), len(state.P))
+
+    n0 = int(state.cnt[N_PTS])
+    # about 1.1 area / size² interior points come out at the circumradius bound (measured)
+    expected = int(min(1.25 * area / (size * size), 1e9)) + n0
+    budget = n0 + r2.BUDGET_FACTOR * expected + 64
+    if len(state.P) < expected:
+        state.grow_points(expected - n0)
+    if state.T.shape[0] < 2 * len(state.P) + 64:
+        state.grow_rows(2 * len(state.P) + 64 - 2 * state.T.shape[0])
+    counts = np.zeros(4, np.int64)
+    N = neighbours()
+    counts[r2.K_FLIP] = r2.delaunay_pairs(
+        state.P,
+        state.T,
+        N,
+        state.alive,
+        state.head,
+        state.nxt,
+        state.prv,
+        state.cnt,
+        np.empty(WORK_SIZE),
+    )
+    ver = np.zeros(state.T.shape[0], np.int64)
+    stack = np.empty((2, state.T.shape[0]), np.int64)
+    prm = np.array(
+        [
+            math.sin(math.radians(min_angle)) ** 2,
+            (r2.CIRCUMRADIUS * size) ** 2,
+            r2.OFFCENTRE / math.tan(math.radians(min_angle) / 2.0),
+            size,
+        ]
+    )
+    while True:
+        status = r2.refine(
+            state.P,
+            state.T,
+            N,
+            state.alive,
+            state.head,
+            state.nxt,
+            state.prv,
+            state.free,
+            state.cnt,
+            state.fixed,
+            ver,
+            stack,
+            prm,
+            budget,
+            counts,
+        )
+        if status in (r2.DONE, r2.BUDGET):
             break
-        _loop2d(state, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.5, 0.95))
-    return inserted
+        if status == r2.NEED_POINTS:
+            n = int(state.cnt[N_PTS])
+            state.grow_points(min(budget, 2 * n) - n + 2)
+        elif status == r2.NEED_ROWS:
+            state.grow_rows()
+        elif status == r2.NEED_STACK:
+            stack = np.empty((2, 2 * stack.shape[1]), np.int64)
+        ver = np.zeros(state.T.shape[0], np.int64)
+        N = neighbours()
+    sweeps[0] += 1
+    sur.append(state.sur())
+    names = ("delaunay_pair", "steiner_point", "segment_apex", "given_up")
+    for name, c in zip(names, counts, strict=True):
+        ops[name] = ops.get(name, 0) + int(c)
+    return {"budget_reached": status == r2.BUDGET, "given_up": int(counts[r2.K_GIVEN_UP])}
 
 
 # ----------------------------------------------------------------------------- the method
@@ -785,14 +792,15 @@ def optimize(
         generated from it (Figure 8.11), its vertices and triangles kept.
     insert_points : bool, optional
         Domain input (default true): the second stage of §8.3.3 adds interior
-        points until no edge exceeds ``size`` and the least angle reaches
-        ``min_angle`` away from the boundary constraints; false keeps the
-        boundary points only. Surface input (default true): where the first
-        stage is stuck, Op(G, δ𝒮) adds a point G around what is still
-        inverted, then interior edges over ``size`` are bisected (their
-        shell joined to the midpoint); false keeps the surface's points
-        only. Mesh input (default false): true lets a fan remove a free
-        vertex where its ball is inverted; false keeps the point set.
+        points until no circumradius exceeds ``0.8 size`` and every least
+        angle reaches ``min_angle`` (but where a point would encroach a
+        boundary segment); false keeps the boundary points only. Surface
+        input (default true): where the first stage is stuck, Op(G, δ𝒮)
+        adds a point G around what is still inverted, then interior edges
+        over ``size`` are bisected (their shell joined to the midpoint);
+        false keeps the surface's points only. Mesh input (default false):
+        true lets a fan remove a free vertex where its ball is inverted;
+        false keeps the point set.
     size : float, optional
         Domain or surface input: target edge length (default: the median
         boundary segment or surface edge).
@@ -804,7 +812,8 @@ def optimize(
         True: the boundary as given. False (domain input only): its
         segments are first split evenly to at most ``size``.
     min_angle : float
-        Degrees: the quality target of the insertion stage.
+        Degrees: the quality target of the insertion stage (every triangle
+        under it gets a point).
     progress : callable(fraction, message), optional
         May raise to cancel.
 
@@ -871,7 +880,7 @@ def make_result(P, cells, measure, stats):
     least quality after (the (8.2) measure, §8.3.1)."""
     mesh = Mesh(P, (CellBlock("triangle" if cells.shape[1] == 3 else "tetra", cells),))
     stats["least_quality_after"] = float(measure_q(P, cells, MEASURES[measure]).min())
-    return OptimizationResult(mesh, quality.report(mesh), stats)
+    return OptimizationResult(mesh, stats)
 
 
 def _mesh2d(P, T, bnd, total, allow_remove, measure, max_sweeps, progress):
@@ -911,6 +920,9 @@ def _mesh2d(P, T, bnd, total, allow_remove, measure, max_sweeps, progress):
 
 def verify(P, cells, bnd, use, sweeps):
     """Every cell positive (exact), a mesh topology, boundary facets exactly ``bnd``."""
+    if cells.shape[1] == 3 and len(cells):
+        if k2.check_mesh(P, cells, np.ascontiguousarray(bnd, dtype=np.int64)):
+            return
     sign = signs(P, cells)
     if (sign <= 0).any():
         _failure(P, cells, sign <= 0, use, sweeps)
@@ -938,6 +950,11 @@ def verify(P, cells, bnd, use, sweeps):
             "no mesh is returned",
             code="boundary_changed",
         )
+    if cells.shape[1] == 3 and len(cells):  # check_mesh refused what the above let through
+        raise AlgorithmError(
+            f"{use}: the result is not a mesh bounded by the input's edges; no mesh is returned",
+            code="topology_broken",
+        )
 
 
 def _generate2d(dom: Domain, insert, size, measure, max_sweeps, keep_boundary, min_angle, progress):
@@ -952,25 +969,32 @@ def _generate2d(dom: Domain, insert, size, measure, max_sweeps, keep_boundary, m
     else:
         seg_ring = np.repeat(dom.segment_ring, _split_counts(dom, h))
     restarts = []
+    centre = _centre_fan(P, S) if insert and dom.ring_count == 1 else None
     for attempt in range(RESTARTS):
-        T = _initial_topology(P, S, seg_ring, dom, attempt)
-        fixed = np.ones(len(P), np.uint8)
-        state = LoopState(k2, P, T, fixed, spare_points=len(P) if insert else 0)
+        if centre is not None:
+            P0, T = centre
+            fixed = np.r_[np.ones(len(P), np.uint8), np.uint8(0)]
+        else:
+            P0, T = P, _initial_topology(P, S, seg_ring, dom, attempt)
+            fixed = np.ones(len(P), np.uint8)
+        state = LoopState(k2, P0, T, fixed, spare_points=len(P) if insert else 0)
         inverted = state.inverted()
         sweeps, sur, ops = [0], [state.sur()], {}
-        _loop2d(state, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 0.5))
+        if inverted or not insert:  # valid at once: the second stage takes over
+            _loop2d(state, False, measure, max_sweeps, sweeps, sur, ops, progress, (0.0, 0.5))
         left = state.inverted()
         if not left:
             break
         restarts.append({"attempt": attempt, "inverted": left, "sweeps": sweeps[0]})
     stages = 1
+    insertion = None
     Pn, Tn = state.points(), state.cells()
     verify(Pn, Tn, S, "generation", sweeps[0])
     if insert:
         stages = 2
-        _insert_stage(
-            state, S, h, min_angle, measure, max_sweeps, sweeps, sur, ops, progress, rounds=60
-        )
+        if progress is not None:
+            progress(0.5, "insertion")
+        insertion = _insert_stage(state, h, min_angle, float(dom.area), sweeps, sur, ops)
         Pn, Tn = state.points(), state.cells()
         verify(Pn, Tn, S, "generation", sweeps[0])
     stats = {
@@ -983,9 +1007,11 @@ def _generate2d(dom: Domain, insert, size, measure, max_sweeps, keep_boundary, m
         "points_inserted": int(len(Pn) - len(P)),
         "points_removed": 0,
         "operators": ops,
-        "least_quality_before": float(measure_q(P, T, MEASURES[measure]).min()),
+        "least_quality_before": float(measure_q(P0, T, MEASURES[measure]).min()),
         "stages": stages,
         "boundary_points": int(len(P)),
         "restarts": restarts,
     }
+    if insertion is not None:
+        stats["insertion"] = insertion
     return make_result(Pn, Tn, measure, stats)

@@ -48,7 +48,7 @@ import math
 import numpy as np
 from numba import njit
 
-from meshcore.geometry.predicates import orient2d_scalar
+from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered, orient2d_scalar
 from meshcore.mesh.tetstore import N_PTS, N_ROWS, STAMP, link_row, remove_cell, room, take_row
 
 BALL, PAIR, UNION = 0, 1, 2
@@ -620,51 +620,6 @@ def sweep(
 
 
 @njit(cache=True)
-def insert_centroids(P, T, alive, head, nxt, prv, freeT, cnt, fixed, rows, cand, disjoint):
-    """Op(G, δK) for the triangles ``rows[cand]`` in order (``disjoint``: none sharing a vertex).
-
-    A candidate is taken when its row still holds the same triangle, (with
-    ``disjoint``) no vertex of it was touched in this call, and the three
-    triangles on its centroid G are positive (exact). Returns the points added, or -1 (and
-    nothing done beyond the points already added) when out of triangle rows.
-    """
-    touched = np.zeros(P.shape[0], np.uint8)
-    added = 0
-    for i in range(len(cand)):
-        r = rows[cand[i]]
-        a, b, c = r[0], r[1], r[2]
-        if disjoint and (touched[a] or touched[b] or touched[c]):
-            continue
-        t = _neighbour(T, head, nxt, b, a)  # the triangle holding a -> b
-        if t < 0 or not (T[t, 0] == c or T[t, 1] == c or T[t, 2] == c):
-            continue
-        gx = (P[a, 0] + P[b, 0] + P[c, 0]) / 3.0
-        gy = (P[a, 1] + P[b, 1] + P[c, 1]) / 3.0
-        if (
-            orient2d_scalar(P[a, 0], P[a, 1], P[b, 0], P[b, 1], gx, gy) <= 0
-            or orient2d_scalar(P[b, 0], P[b, 1], P[c, 0], P[c, 1], gx, gy) <= 0
-            or orient2d_scalar(P[c, 0], P[c, 1], P[a, 0], P[a, 1], gx, gy) <= 0
-        ):
-            continue
-        if not room(T, cnt, 3) or cnt[N_PTS] >= P.shape[0]:
-            return -1 if added == 0 else added
-        g = cnt[N_PTS]
-        cnt[N_PTS] += 1
-        P[g, 0] = gx
-        P[g, 1] = gy
-        fixed[g] = 0
-        remove_cell(T, alive, head, nxt, prv, freeT, cnt, t)
-        _add(T, alive, head, nxt, prv, freeT, cnt, a, b, g)
-        _add(T, alive, head, nxt, prv, freeT, cnt, b, c, g)
-        _add(T, alive, head, nxt, prv, freeT, cnt, c, a, g)
-        touched[a] = 1
-        touched[b] = 1
-        touched[c] = 1
-        added += 1
-    return added
-
-
-@njit(cache=True)
 def sur(P, T, alive, rows):
     """Sur(𝒯): the sum of the unsigned areas of the live triangles of ``T[:rows]``."""
     s = 0.0
@@ -676,3 +631,103 @@ def sur(P, T, alive, rows):
                 - (P[b, 1] - P[a, 1]) * (P[c, 0] - P[a, 0])
             )
     return s
+
+
+@njit(cache=True)
+def edge_index(T, alive, rows, n):
+    """The oriented edges a -> b of the live rows of ``T[:rows]`` grouped by a, sorted by b.
+
+    Returns ``start`` (n + 1), ``dst`` and ``slot``: the edges from a are
+    ``dst[start[a]:start[a + 1]]`` in increasing order, edge ``slot`` = 3 t + j
+    running from corner j of row t to corner j + 1. A counting sort by a,
+    then each group sorted: the cost does not depend on vertex degrees
+    beyond a log (the initial fan has a vertex in every triangle).
+    """
+    start = np.zeros(n + 1, np.int64)
+    for t in range(rows):
+        if alive[t]:
+            for j in range(3):
+                start[T[t, j] + 1] += 1
+    for v in range(n):
+        start[v + 1] += start[v]
+    fill = start[:n].copy()
+    dst = np.empty(start[n], np.int64)
+    slot = np.empty(start[n], np.int64)
+    for t in range(rows):
+        if alive[t]:
+            for j in range(3):
+                a = T[t, j]
+                dst[fill[a]] = T[t, (j + 1) % 3]
+                slot[fill[a]] = 3 * t + j
+                fill[a] += 1
+    for v in range(n):
+        lo, hi = start[v], start[v + 1]
+        if hi - lo > 32:
+            order = np.argsort(dst[lo:hi]) + lo
+            dst[lo:hi] = dst[order]
+            slot[lo:hi] = slot[order]
+        else:  # insertion sort of a vertex's few edges
+            for i in range(lo + 1, hi):
+                d, s = dst[i], slot[i]
+                k = i - 1
+                while k >= lo and dst[k] > d:
+                    dst[k + 1] = dst[k]
+                    slot[k + 1] = slot[k]
+                    k -= 1
+                dst[k + 1] = d
+                slot[k + 1] = s
+    return start, dst, slot
+
+
+@njit(cache=True)
+def find_edge(start, dst, a, b):
+    """Index of the edge a -> b in :func:`edge_index`'s arrays (the first if repeated), or -1."""
+    lo, hi = start[a], start[a + 1]
+    i = lo + np.searchsorted(dst[lo:hi], b)
+    return i if i < hi and dst[i] == b else -1
+
+
+@njit(cache=True)
+def check_mesh(P, T, bnd):
+    """True when ``T`` is a valid mesh bounded by exactly the edges ``bnd`` (Definition 8.1).
+
+    Every triangle positive (exact orient2d), every oriented edge in exactly
+    one triangle and its reverse in at most one (a consistently oriented
+    mesh topology), and the edges without a reverse exactly the rows of
+    ``bnd`` (oriented as in the triangles). Edges grouped by their first
+    vertex (:func:`edge_index`): the cost does not depend on vertex degrees.
+    """
+    work = np.empty(WORK_SIZE)
+    m = T.shape[0]
+    n = 0
+    for t in range(m):
+        a, b, c = T[t, 0], T[t, 1], T[t, 2]
+        n = max(n, a + 1, b + 1, c + 1)
+        if orient2d_filtered(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], work) <= 0:
+            return False
+    for i in range(bnd.shape[0]):
+        n = max(n, bnd[i, 0] + 1, bnd[i, 1] + 1)
+    start, dst, _ = edge_index(T, np.ones(m, np.uint8), m, n)
+    nb = 0
+    for a in range(n):
+        for i in range(start[a], start[a + 1]):
+            if i > start[a] and dst[i] == dst[i - 1]:
+                return False
+            nb += find_edge(start, dst, dst[i], a) < 0
+    if nb != bnd.shape[0]:
+        return False
+    for i in range(bnd.shape[0]):
+        a, b = bnd[i, 0], bnd[i, 1]
+        if find_edge(start, dst, a, b) < 0 or find_edge(start, dst, b, a) >= 0:
+            return False
+    return True
+
+
+@njit(cache=True)
+def qualities(P, T, measure):
+    """The (8.2) measure of every triangle of ``T`` (:func:`_quality`, as the loop sees it)."""
+    q = np.empty(T.shape[0])
+    for t in range(T.shape[0]):
+        a, b, c = T[t, 0], T[t, 1], T[t, 2]
+        q[t] = _quality(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], measure)
+    return q

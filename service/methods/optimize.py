@@ -78,7 +78,8 @@ class OptimizeParams(MethodParams):
         le=30,
         allow_inf_nan=False,
         description="Domain input with insertion: triangles below this least angle (degrees) "
-        "get a point while their longest edge exceeds size / 2.",
+        "get a point (their circumcentre or off-centre), except where it would encroach a "
+        "boundary segment.",
     )
 
     @model_validator(mode="after")

@@ -135,6 +135,42 @@ class TestGeneration:
         assert quality.triangle_angles(P, T).min() >= 20
         assert res.stats["points_inserted"] > 0
 
+    @pytest.mark.parametrize("spacing", [1, 4])
+    def test_with_insertion_on_a_kept_boundary_least_angle_at_least_25(self, spacing):
+        # a 120-gon: the interior at the boundary's spacing, or graded from it to 4x
+        m = 120
+        dom = parse_domain({"type": "Polygon", "coordinates": [star(np.ones(m))]})
+        size = spacing * 2 * np.sin(np.pi / m)
+        res = optimize(domain=dom, size=size)
+        P, T = _tri(res)
+        assert_valid_2d(P, T, segments=dom.segments, area=dom.area)
+        assert np.array_equal(P[:m], dom.points)
+        assert quality.triangle_angles(P, T).min() >= 25
+        assert res.stats["insertion"]["given_up"] == 0
+        assert_monotone(res.stats["sur"])
+        # the size bound: circumradius at most 0.8 size
+        e = [np.linalg.norm(P[T[:, (j + 1) % 3]] - P[T[:, (j + 2) % 3]], axis=1) for j in range(3)]
+        radius = e[0] * e[1] * e[2] / (4 * np.abs(quality.signed_area(P, T)))
+        assert radius.max() <= 0.8 * size * (1 + 1e-12)
+
+    def test_with_insertion_a_kept_coarse_boundary_still_gets_its_interior_refined(self):
+        # segments 10-20x the size, kept: the interior goes to size, thin triangles stay
+        # along the segments (given up, counted), never a point on a segment
+        L = {"type": "Polygon", "coordinates": [[[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]]]}
+        dom = parse_domain(L)
+        res = optimize(domain=L, size=0.1)
+        P, T = _tri(res)
+        assert_valid_2d(P, T, segments=dom.segments, area=3.0)
+        assert len(P) > 200
+        assert res.stats["insertion"]["given_up"] > 0
+        # away from the segments (centroid over 3 sizes from each), every angle at least 25
+        c = P[T].mean(axis=1)
+        a, b = dom.points[dom.segments[:, 0]], dom.points[dom.segments[:, 1]]
+        t = np.clip(np.einsum("ksi,si->ks", c[:, None] - a, b - a) / np.sum((b - a) ** 2, 1), 0, 1)
+        dist = np.linalg.norm(c[:, None] - (a + t[..., None] * (b - a)), axis=2).min(axis=1)
+        assert (dist > 0.3).sum() > 100
+        assert quality.triangle_angles(P, T[dist > 0.3]).min() >= 25
+
     def test_l_shape_example(self):
         L = {"type": "Polygon", "coordinates": [[[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]]]}
         res = optimize(domain=L, size=0.1, keep_boundary=False)
