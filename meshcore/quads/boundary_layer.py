@@ -104,6 +104,9 @@ SPACING_WINDOW = 2
 #: they shrink inwards (three rows on the annulus of radii 1 and 0.45 at size
 #: 0.15 gave 1.56 times; the count is to stay within 1.5 times).
 MOST_QUADS = 1.4
+#: The corner row is at most this share of the local width deep (a spike narrower
+#: than two rows would make its offset ring cross itself).
+WIDTH_SHARE = 0.45
 #: The corner row's quads must reach this quality (8.4) before the optimization.
 CORNER_LEAST_QUALITY = 0.2
 
@@ -309,9 +312,10 @@ def _turns(dom: Domain, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return seg, np.hypot(*e.T), turn
 
 
-def _corner_ring(dom: Domain, k: int, size: float, max_turn: float):
+def _corner_ring(dom: Domain, k: int, size: float, max_turn: float, share: float):
     """One row of quads along ring ``k`` with corners: ``(ids, Z, nb, local, forced, m)``
-    as :func:`_assembled` takes it (module docstring, "Corners")."""
+    as :func:`_assembled` takes it (module docstring, "Corners"), at most ``share`` of
+    the local width deep."""
     seg, length, turn = _turns(dom, k)
     ns = len(seg)
     convex = turn > max_turn
@@ -356,9 +360,12 @@ def _corner_ring(dom: Domain, k: int, size: float, max_turn: float):
     mid /= np.hypot(*mid.T)[:, None]
     half = np.maximum((mid * nrm).sum(axis=1), 0.5)
     d = 0.5 * (le + np.roll(le, 1))
+    others = [_ring_points(dom, j, size)[1] for j in range(len(dom.ring_offsets) - 1) if j != k]
+    gap = share * _widths(X, others)
     Y = np.empty((m, 2))
     inner = take == 1
-    Y[ystart[inner]] = X[inner] + mid[inner] * (d[inner] / half[inner])[:, None]
+    depth = np.minimum(d / half, gap)
+    Y[ystart[inner]] = X[inner] + mid[inner] * depth[inner][:, None]
     quads, forced = [], []
     after = ystart.copy()  # the offset point after each boundary point
     before = ystart.copy()  # and before it
@@ -376,7 +383,7 @@ def _corner_ring(dom: Domain, k: int, size: float, max_turn: float):
         c, s_ = np.cos(ang), np.sin(ang)
         nx, ny = nprev[i]
         u = np.column_stack([c * nx - s_ * ny, s_ * nx + c * ny])
-        r = X[i] + d[i] * u
+        r = X[i] + min(d[i], gap[i]) * u
         y0 = ystart[i]
         Y[y0 : y0 + 2 * f + 1 : 2] = r
         Y[y0 + 1 : y0 + 2 * f : 2] = r[:-1] + r[1:] - X[i]
@@ -397,9 +404,29 @@ def _corner_ring(dom: Domain, k: int, size: float, max_turn: float):
     return ids, np.concatenate([X, Y]), n, local, forced, m
 
 
+def _widths(X: np.ndarray, others: list[np.ndarray], window: int = 3) -> np.ndarray:
+    """The distance from each point of the closed loop ``X`` to the nearest point of
+    ``others`` or of ``X`` more than ``window`` places away along the loop (inf if
+    none among the nearest few): the local width of the domain there."""
+    allp = np.concatenate([X, *others]) if others else X
+    kq = min(4 * window, len(allp))
+    dist, hit = cKDTree(allp).query(X, k=kq)
+    n = len(X)
+    own = hit < n
+    sep = np.abs(hit - np.arange(n)[:, None])
+    near = own & (np.minimum(sep, n - sep) <= window)
+    dist = np.where(near, np.inf, dist)
+    return dist.min(axis=1)
+
+
 def _corner_layer(dom, size, mesh_inner, max_turn, least_quality):
     """One row of quads along every ring, corners included (module docstring), or None."""
-    parts = [_corner_ring(dom, k, size, max_turn) for k in range(len(dom.ring_offsets) - 1)]
-    if any(p is None for p in parts):
-        return None
-    return _assembled(dom, mesh_inner, parts, least_quality)
+    for share in (np.inf, WIDTH_SHARE):  # a loop of two tries: full depth, then thinner
+        rings = range(len(dom.ring_offsets) - 1)
+        parts = [_corner_ring(dom, k, size, max_turn, share) for k in rings]
+        if any(p is None for p in parts):
+            return None
+        out = _assembled(dom, mesh_inner, parts, least_quality)
+        if out is not None:
+            return out
+    return None
