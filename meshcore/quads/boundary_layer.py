@@ -366,8 +366,10 @@ def _corner_ring(dom: Domain, k: int, size: float, max_turn: float, share: float
     mid /= np.hypot(*mid.T)[:, None]
     half = np.maximum((mid * nrm).sum(axis=1), 0.5)
     d = 0.5 * (le + np.roll(le, 1))
-    others = [_ring_points(dom, j, size)[1] for j in range(len(dom.ring_offsets) - 1) if j != k]
-    gap = share * _widths(X, others)
+    gap = np.full(n, np.inf)
+    if np.isfinite(share):
+        rings = range(len(dom.ring_offsets) - 1)
+        gap = share * _widths(X, [_ring_points(dom, j, size)[1] for j in rings if j != k])
     Y = np.empty((m, 2))
     inner = take == 1
     depth = np.minimum(d / half, gap)
