@@ -82,10 +82,11 @@ Pipeline
    completely (Remark 8.3): for domain input, one boundary edge of each odd
    part (the longest) is split at its midpoint, which makes the count even
    and keeps every input segment a chain of edges
-   (:mod:`meshcore.quads.lattice`). With ``all_quad`` and ``twice_size`` on
-   a smooth domain, a row of quads along the boundary comes first and the
-   lattice fills the inside of its offset rings
-   (:mod:`meshcore.quads.boundary_layer`: where and why).
+   (:mod:`meshcore.quads.lattice`). With ``all_quad`` and ``twice_size``,
+   rows of quads along the boundary come first (one row, with a quad at each
+   convex corner and a fan at each reflex one, where the boundary has corners
+   and a segment off the axes) and the lattice fills the inside of their
+   offset rings (:mod:`meshcore.quads.boundary_layer`: where and why).
 4. **all_quad** (Figure 8.13): on domain input with ``matching``, the
    pairing is first re-worked for fewer irregular vertices after the split
    (:mod:`meshcore.quads.valence`: leftover triangles moved along
