@@ -208,6 +208,7 @@ _RING_STEPS = (0.5, 0.35, 0.65)  # shares of the way to the centroid tried by _r
 _LADDER_TRIES = 4  # strips made again at most this many times around stuck polygons
 _CLEAN_Q = 0.85  # quads below this quality (8.4) seed the clean-up region
 _CLEAN_RINGS = 2  # rings of quads around the seeds in the clean-up region
+_RELAX = 3  # sweeps evening out a new front (wedges) before its checks
 
 
 @dataclass(frozen=True)
@@ -361,7 +362,33 @@ def _row(P: np.ndarray, f: np.ndarray, sizes: SizeMap):
         seq = seq[np.append(True, seq[1:] != seq[:-1])]
         if seq[0] == seq[-1]:
             seq = seq[:-1]
+    free = np.zeros(len(pts), bool)
+    wi = np.flatnonzero(wedge)
+    free[first[side] - base] = True
+    free[first[wi] - base] = free[first[wi] + 2 - base] = True
+    if wedge.any():
+        _relax(pts, seq.astype(np.int64) - base, free)
     return pts, seq.astype(np.int64), quads.astype(np.int64), cls
+
+
+def _relax(pts: np.ndarray, seq: np.ndarray, free: np.ndarray) -> None:
+    """Even out the new front in place: ``_RELAX`` Jacobi sweeps moving each free
+    new node half-way to the midpoint of its neighbours along the new front.
+
+    A wedge's kite (its middle node ``1.3 h`` ahead) would otherwise be a bump
+    that the next row reads as corners, each adding two more nodes. The row's
+    quads are checked after this (exact), so it only shapes the row.
+    """
+    if len(seq) < 4:
+        return
+    mov = free[seq]
+    if not mov.any():
+        return
+    at = seq[mov]
+    for _ in range(_RELAX):
+        X = pts[seq]
+        mid = (np.roll(X, 1, axis=0) + np.roll(X, -1, axis=0)) / 2
+        pts[at] += 0.5 * (mid[mov] - X[mov])
 
 
 def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
