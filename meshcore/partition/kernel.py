@@ -418,8 +418,9 @@ def _closable(nfix, P, h, scratch):
 
 @njit(cache=True)
 def recurse(
-    nfix, P, npts, buf, st_start, st_len, st_depth, nst, H, grid, quad, strategy, cells, stats
-):
+    nfix, P, npts, buf, st_start, st_len, st_depth, nst, H, grid, quad, strategy, cells, stats,
+    stuck,
+):  # fmt: skip
     """Split the polygons on the stack until only triangles (or convex quads) are left.
 
     ``P`` (cap, 2) holds ``npts`` points; new separator points are appended.
@@ -428,7 +429,12 @@ def recurse(
     ``stats`` (int64): [0] cells, [1] points, [2] max depth, [3..6] separators
     by pieces 1, 2-3, 4-7, 8+, [7] quads met as leaves, [8] triangles met,
     [9] full enumerations needed, [10], [11] start and length
-    in ``buf`` of the polygon that is stuck, [12] centre patterns used.
+    in ``buf`` of the polygon that is stuck, [12] centre patterns used,
+    [13] the length of ``stuck`` used.
+
+    A polygon without a valid split is written to ``stuck`` (its length,
+    then its vertices) and the others go on; when ``stuck`` has no room
+    for it (a zero-length ``stuck``: never), the call returns STUCK.
 
     Returns OK, FULL or STUCK.
     """
@@ -483,7 +489,14 @@ def recurse(
         if i < 0:
             stats[10] = s0
             stats[11] = n
-            return STUCK
+            w = stats[13]
+            if w + n + 1 > len(stuck):
+                return STUCK
+            stuck[w] = n
+            for t in range(n):
+                stuck[w + 1 + t] = poly[t]
+            stats[13] = w + n + 1
+            continue
         if npts + k - 1 > len(P) or s0 + n + 2 * k + 2 > len(buf) or nst + 2 > len(st_start):
             return FULL
         a = poly[i]

@@ -218,6 +218,7 @@ def partition_polygon(
     *,
     quad: bool,
     strategy: str = "balanced",
+    leave_stuck: bool = False,
 ):
     """Mesh polygons given as point loops by recursive partition, keeping their vertices.
 
@@ -233,6 +234,12 @@ def partition_polygon(
     quad : bool
         Only strictly convex quads (every polygon's side count must be even).
     strategy : {"balanced", "angle"}
+    leave_stuck : bool
+        In quad mode, a sub-polygon without a valid even split is left
+        unmeshed and handed back (``stats["stuck"]``, counter-clockwise
+        cycles of point indices, possibly weakly simple: a bridge walked
+        both ways) instead of making the whole call fail; the cells cover
+        the rest exactly.
 
     Returns
     -------
@@ -241,8 +248,9 @@ def partition_polygon(
     cells : (m, 3) or (m, 4) int64
         Counter-clockwise cells; no point is added on the loops.
     stats : dict or None
-        As :class:`PartitionResult` ``stats``; None when quad mode is stuck
-        (a polygon without a valid even split).
+        As :class:`PartitionResult` ``stats`` (with ``stuck`` when
+        ``leave_stuck``); cells and stats None when quad mode is stuck (a
+        polygon without a valid even split) and ``leave_stuck`` is off.
 
     References
     ----------
@@ -271,10 +279,11 @@ def partition_polygon(
             st_start[c], st_len[c] = w, len(cyc)
             w += len(cyc)
         cells = np.full((est + 4 * total, 4), -1, np.int64)
-        st = np.zeros(13, np.int64)
+        st = np.zeros(14, np.int64)
+        stuck = np.empty(len(buf) if leave_stuck else 0, np.int64)
         status = kernel.recurse(
             n_fixed, P, len(P0), buf, st_start, st_len, st_depth, len(cycles), sizes.H, sizes.grid,
-            quad, strat, cells, st,
+            quad, strat, cells, st, stuck,
         )  # fmt: skip
         if status == kernel.FULL:
             if est >= 4 * _MAX_CELLS:
@@ -293,6 +302,12 @@ def partition_polygon(
         "patterns": {"quad": int(st[7]), "triangle": int(st[8]), "centre": int(st[12])},
         "full_searches": int(st[9]),
     }
+    if leave_stuck:
+        left, w = [], 0
+        while w < st[13]:
+            left.append(stuck[w + 1 : w + 1 + stuck[w]].copy())
+            w += 1 + int(stuck[w])
+        stats["stuck"] = left
     return P[:npts].copy(), cells, stats
 
 

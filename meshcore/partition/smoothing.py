@@ -19,10 +19,13 @@ in turn (Gauss-Seidel: each move sees the moves before it), ``sweeps`` times:
   point is strictly convex (exact
   :func:`~meshcore.geometry.predicates.orient2d_scalar`) and their least
   quality (8.4) is at least ``min(its old value, floor)``, where ``floor`` is
-  the larger of 0.5 and the least quality of the mesh at the start.
+  the larger of 0.5 and the least quality of the mesh at the start, and
+  either the sum of their qualities does not drop or their least rises.
   So no cell inverts and the least quality of the mesh never drops, while
   cells above 0.5 may give a little to lift their neighbours (a strict
-  "never lower a cell" rule stalls the smoothing).
+  "never lower a cell" rule stalls the smoothing); a move that only lowers
+  the quality around the point on the whole is not made (on a coarse square
+  with a hole the plain rule lowered the mean quality, 0.842 to 0.837).
 
 The angle-correction directions are computed once (boundary points never
 move); a free point's order of neighbours around a boundary point is that
@@ -257,16 +260,25 @@ def _sweeps(P, quads, fixed, nptr, nidx, cptr, cidx, direc, sweeps, steps):
             if math.sqrt(dx * dx + dy * dy) < 1e-3 * sw / deg:
                 continue
             old = 2.0
+            total = 0.0
             for r in range(cptr[v], cptr[v + 1]):
                 old = min(old, qc[cidx[r]])
+                total += qc[cidx[r]]
             need = min(old, floor)
             kept = False
             for t in steps:
                 P[v, 0] = x + t * dx
                 P[v, 1] = y + t * dy
                 if _local_new(P, quads, cptr, cidx, v, need, qnew):
-                    kept = True
-                    break
+                    # the cells around v gain on the whole, or their least rises
+                    gain = 0.0
+                    low = 2.0
+                    for k in range(cptr[v + 1] - cptr[v]):
+                        gain += qnew[k]
+                        low = min(low, qnew[k])
+                    if gain >= total or low > old:
+                        kept = True
+                        break
             if not kept:
                 P[v, 0] = x
                 P[v, 1] = y

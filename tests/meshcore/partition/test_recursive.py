@@ -19,7 +19,13 @@ from meshcore import InputError, parse_domain
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import quality
 from meshcore.mesh.quality import quad_quality
-from meshcore.partition import kernel, recursive_partition, resample_boundary, size_map
+from meshcore.partition import (
+    kernel,
+    partition_polygon,
+    recursive_partition,
+    resample_boundary,
+    size_map,
+)
 
 SQUARE = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
 L_SHAPE = {
@@ -228,3 +234,28 @@ def test_split_search_compiles_once():
     assert len(kernel.recurse.signatures) == 1
     assert len(kernel._best_split.signatures) <= 1
     assert len(kernel._score.signatures) <= 1
+
+
+def test_stuck_sub_polygon_handed_back():
+    # a 12-gon the quad recursion gets stuck on after one split: the quad it cut
+    # off is kept and the 10-gon left is handed back, the two covering the polygon
+    P = np.array(
+        [[0.8, 0.0], [0.7, 0.4], [0.3, 0.9], [0.2, 0.6], [-0.1, 0.6], [-0.8, 0.1],
+         [-0.4, -0.8], [0.2, -1.0], [0.2, -0.5], [0.5, -0.6], [0.6, -0.7], [0.5, -0.5]]
+    )  # fmt: skip
+    loop = [np.arange(len(P))]
+    sizes = size_map(parse_domain({"type": "Polygon", "coordinates": [P.tolist()]}), 10.0, None)
+    assert partition_polygon(P, loop, np.zeros(1, np.int64), sizes, quad=True)[1] is None
+    Q, cells, stats = partition_polygon(
+        P, loop, np.zeros(1, np.int64), sizes, quad=True, leave_stuck=True
+    )
+    assert len(cells) and len(stats["stuck"]) == 1
+    assert kernel.strictly_convex_rows(Q, cells).all()
+    left = stats["stuck"][0]
+    assert len(left) % 2 == 0
+    fan = np.column_stack([np.full(len(left) - 2, left[0]), left[1:-1], left[2:]])
+    whole = np.column_stack(
+        [np.zeros(len(P) - 2, np.int64), np.arange(1, len(P) - 1), np.arange(2, len(P))]
+    )
+    total = quality.signed_area(Q, cells, "quad").sum() + quality.signed_area(Q, fan).sum()
+    assert math.isclose(total, quality.signed_area(P, whole).sum())

@@ -15,7 +15,7 @@ from meshcore import InputError, parse_domain
 from meshcore.mesh.quality import quad_quality
 from meshcore.partition import boundary_points, size_map, smooth_quads
 from meshcore.partition.kernel import strictly_convex_rows
-from meshcore.quads import advancing_front, paving, paving_kernel
+from meshcore.quads import advancing_front, paving, paving_fronts, paving_kernel
 from tests.meshcore.partition.test_recursive import (
     L_SHAPE,
     SQUARE,
@@ -130,15 +130,16 @@ def test_guaranteed_route_when_the_closure_is_stuck(monkeypatch):
     # made at 2.5 h with a triangle closure and split into quads
     real = advancing_front.partition_polygon
 
-    def stuck(points, loops, ring_polygon, sizes, *, quad, strategy="balanced"):
+    def stuck(points, loops, ring_polygon, sizes, *, quad, strategy="balanced", **kw):
         if quad:
             return points, None, None
         return real(points, loops, ring_polygon, sizes, quad=quad, strategy=strategy)
 
     monkeypatch.setattr(advancing_front, "partition_polygon", stuck)
+    monkeypatch.setattr(paving_fronts, "partition_polygon", stuck)
     # the closure's local rescues of stuck polygons are stuck too
-    monkeypatch.setattr(advancing_front, "_ring", lambda *args: None)
-    monkeypatch.setattr(advancing_front, "_coarse_split", lambda *args: None)
+    monkeypatch.setattr(paving_fronts, "_ring", lambda *args: None)
+    monkeypatch.setattr(paving_fronts, "_coarse_split", lambda *args: None)
     res = paving(SQUARE_HOLE, size=0.05)
     assert res.stats["fallback"] == 1
     check_mesh(SQUARE_HOLE, res, 0.05, "quad")
@@ -212,7 +213,7 @@ class TestFrontsMeeting:
         P = np.array([[0.5, 0.0], [1.0, 0.0], [0.35, 0.8], [0.0, 0.0]])
         loop = np.arange(4)
         sizes = size_map(parse_domain(SQUARE), 0.3, None)
-        Q, cells = advancing_front._ring(P, loop, sizes, "balanced")
+        Q, cells = paving_fronts._ring(P, loop, sizes, "balanced")
         assert len(cells) == 5
         _closes(Q, loop, cells)
 
@@ -225,7 +226,7 @@ class TestFrontsMeeting:
         P = np.stack([hexagon, mid], axis=1).reshape(-1, 2)
         loop = np.arange(12)
         sizes = size_map(parse_domain(SQUARE), 1.0, None)
-        Q, cells = advancing_front._coarse_split(P, loop, sizes, "balanced")
+        Q, cells = paving_fronts._coarse_split(P, loop, sizes, "balanced")
         assert np.array_equal(Q[:12], P)
         _closes(Q, loop, cells)
 

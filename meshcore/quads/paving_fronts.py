@@ -1,0 +1,305 @@
+"""Paving's fronts as chains of directed edges, and their closure (§8.5.1, §8.7.2).
+
+Helpers of :mod:`meshcore.quads.advancing_front` (its module docstring,
+steps 3 and 6, says what they are for): the fronts left when quads are cut
+out of a region (:func:`_trace`, chain arithmetic), the polygons the fronts
+make (:func:`_polygons`), and the closure of those polygons by the
+recursive partition in its quad mode (:func:`_close`), with the local
+rescues of the sub-polygons the partition hands back stuck: a ring of quads
+around a shrunk copy (:func:`_ring`), the guaranteed route locally
+(:func:`_coarse_split`), and, when both fail, a *cavity*: the stuck polygon
+together with the quads around it (rows, strips, the partition's own) made
+one polygon and closed again, up to ``_CAVITY_TRIES`` rings of quads wide.
+
+Why the cells cover each polygon exactly once: every closure cell is
+strictly convex and counter-clockwise (exact :func:`orient2d`), and the sum
+of the cells' boundary chains is the polygon's (the partition splits
+polygons by separators; a ring, a coarse split and a cavity are built so),
+so the number of cells over a point is the polygon's winding number there:
+one inside, none outside. This holds for weakly simple polygons too (a
+bridge to a hole walked both ways).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from meshcore.errors import AlgorithmError
+from meshcore.mesh.quality import quad_quality
+from meshcore.mesh.topology import isin_ints, unique_ints
+from meshcore.partition import SizeMap, partition_polygon
+from meshcore.quads import paving_kernel as pk
+
+_MIN_Q = 0.1  # least quality (8.4) of a quad laid in a row or a closure
+_RING_STEPS = (0.5, 0.35, 0.65)  # shares of the way to the centroid tried by _ring
+_CAVITY_TRIES = 3  # rings of quads around a stuck polygon taken into its cavity at most
+
+
+def _angles(P: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Interior angle (radians, domain on the left) at each node of front f."""
+    prv, nxt = np.roll(f, 1), np.roll(f, -1)
+    u = P[prv] - P[f]
+    w = P[nxt] - P[f]
+    t = np.arctan2(w[:, 0] * u[:, 1] - w[:, 1] * u[:, 0], np.einsum("ij,ij->i", w, u))
+    return np.where(t <= 0, t + 2 * np.pi, t)
+
+
+def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
+    """Undirected key of each segment (a, b) among n points."""
+    return np.minimum(a, b) * n + np.maximum(a, b)
+
+
+def _trace(fronts: list, quads: np.ndarray, n: int) -> list | None:
+    """The fronts left when the quads are cut out of the region inside ``fronts``.
+
+    Chain arithmetic: the directed front edges plus the reversed quad edges,
+    opposite pairs cancelling (a front of two segments, one edge and its
+    reverse, closes itself this way). None when the result is not a set of
+    simple even cycles of at least 4 nodes (a node with two outgoing edges,
+    a doubled edge, an odd cycle).
+    """
+    fa = np.concatenate([*fronts, np.roll(quads, -1, axis=1).ravel()])
+    fb = np.concatenate([*(np.roll(g, -1) for g in fronts), quads.ravel()])
+    fwd = fa * n + fb
+    back = fb * n + fa
+    keys, cnt = unique_ints(fwd, counts=True)
+    rk, rc = unique_ints(back, counts=True)
+    net = cnt - np.where(isin_ints(keys, rk), rc[np.searchsorted(rk, keys).clip(0, len(rk) - 1)], 0)
+    if (net > 1).any():
+        return None
+    keys = keys[net == 1]
+    a, b = keys // n, keys % n  # a ascending
+    k = len(a)
+    if not k:
+        return []
+    succ = np.searchsorted(a, b).clip(0, k - 1)
+    if (np.diff(a) == 0).any() or (a[succ] != b).any() or len(unique_ints(succ)) != k:
+        return None  # a node with two outgoing edges, or a chain that is not closed
+    # each cycle from its largest node, the cycles by their largest node, descending:
+    # pointer doubling for the largest index of each cycle, then list ranking
+    top, jump = np.arange(k), succ.copy()
+    for _ in range(k.bit_length() + 1):
+        top = np.maximum(top, top[jump])
+        jump = jump[jump]
+    last = succ == top  # the cycle's last node before its largest
+    rank = (~last).astype(np.int64)
+    jump = np.where(last, np.arange(k), succ)
+    for _ in range(k.bit_length() + 1):
+        rank = rank + rank[jump]
+        jump = jump[jump]
+    order = np.lexsort((-rank, -top))
+    cuts = np.flatnonzero(np.diff(top[order])) + 1
+    loops = np.split(a[order], cuts)
+    if any(len(c) < 4 or len(c) % 2 for c in loops):
+        return None
+    return loops
+
+
+def _polygons(P: np.ndarray, fronts: list):
+    """(loops, ring_polygon) for the closure: each counter-clockwise front an outer
+    ring, each clockwise one a hole of the smallest outer ring around it."""
+    area = []
+    for g in fronts:
+        a, b = P[g], P[np.roll(g, -1)]
+        area.append(float((a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]).sum()) / 2)
+    outer = [k for k, a in enumerate(area) if a > 0]
+    loops: list[np.ndarray] = []
+    ring_polygon: list[int] = []
+    holes: dict[int, list[int]] = {k: [] for k in outer}
+    for k, a in enumerate(area):
+        if a > 0:
+            continue
+        x, y = P[fronts[k][0]]
+        best = None
+        for o in outer:
+            R = P[fronts[o]]
+            S = np.roll(R, -1, axis=0)
+            up = (R[:, 1] > y) != (S[:, 1] > y)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                xc = R[:, 0] + (y - R[:, 1]) * (S[:, 0] - R[:, 0]) / (S[:, 1] - R[:, 1])
+            if np.count_nonzero(up & (xc > x)) % 2 and (best is None or area[o] < area[best]):
+                best = o
+        if best is None:
+            raise AlgorithmError("a paving front is a hole of no front", code="front_lost")
+        holes[best].append(k)
+    for p, o in enumerate(outer):
+        for k in (o, *holes[o]):
+            loops.append(fronts[k])
+            ring_polygon.append(p)
+    return loops, np.asarray(ring_polygon, np.int64)
+
+
+def _fit(P: np.ndarray, quads: np.ndarray) -> bool:
+    """Every quad strictly convex (exact) and of quality (8.4) at least ``_MIN_Q``."""
+    return bool(pk.strictly_convex_rows(P, quads).all()) and bool(
+        (quad_quality(P, quads) >= _MIN_Q).all()
+    )
+
+
+def _ring(P: np.ndarray, loop: np.ndarray, sizes: SizeMap, strategy: str):
+    """A small stuck polygon closed by a ring of quads around a shrunk copy of it.
+
+    Each vertex ``v`` gets an inner point on its way to the vertices' centroid
+    (less far for flatter or reflex vertices, so the copy has no flat corner);
+    the ring quads ``(v_i, v_i+1, c_i+1, c_i)`` must all be strictly convex
+    (exact), and the copy, an even polygon, is closed by the partition (one
+    quad when it has 4 sides); every quad of quality (8.4) at least
+    ``_MIN_Q``. Returns ``(points, cells)`` or None.
+    """
+    n = len(loop)
+    V = P[loop]
+    g = V.mean(axis=0)
+    bend = np.clip((_angles(P, loop) - np.pi / 2) / (np.pi / 2), -1.0, 1.0)
+    ids = len(P) + np.arange(n)
+    ring = np.column_stack([loop, np.roll(loop, -1), np.roll(ids, -1), ids])
+    for base in _RING_STEPS:
+        t = base - 0.25 * bend
+        Q = np.concatenate([P, V + t[:, None] * (g - V)])
+        if not _fit(Q, ring):
+            continue
+        if n == 4:
+            if _fit(Q, ids[None, :]):
+                return Q, np.concatenate([ring, ids[None, :]])
+            continue
+        Q2, cells, _ = partition_polygon(
+            Q, [ids], np.zeros(1, np.int64), sizes, quad=True, strategy=strategy
+        )
+        if cells is not None and _fit(Q2, cells):
+            return Q2, np.concatenate([ring, cells])
+    return None
+
+
+def _coarse_split(P: np.ndarray, loop: np.ndarray, sizes: SizeMap, strategy: str):
+    """A stuck even polygon closed by the guaranteed route, locally (§8.4, Figure 8.13).
+
+    Every other vertex makes a coarse polygon, triangulated by the partition
+    (its triangle mode); each triangle is cut in three quads through its
+    edges' "midpoints" and its centroid, the midpoint of a coarse boundary
+    edge being the polygon vertex it skipped (so the polygon's edges are
+    kept) and shared edges getting one new midpoint. Both choices of the
+    coarse vertices are tried; kept only when every quad is strictly convex
+    (exact) and of quality (8.4) at least ``_MIN_Q``. Returns ``(points,
+    cells)`` or None.
+    """
+    n = len(loop)
+    for parity in (0, 1):
+        coarse = loop[parity::2]
+        skipped = loop[1::2] if parity == 0 else np.roll(loop[0::2], -1)
+        Q, tri, _ = partition_polygon(
+            P, [coarse], np.zeros(1, np.int64), sizes, quad=False, strategy=strategy
+        )
+        if tri is None:
+            continue
+        N = len(Q)
+        key = _edge_keys(coarse, np.roll(coarse, -1), N)
+        e = np.stack([tri, np.roll(tri, -1, axis=1)], axis=2).reshape(-1, 2)
+        ekey = _edge_keys(e[:, 0], e[:, 1], N)
+        ukey, inv = unique_ints(ekey, return_inverse=True)
+        mid = np.full(len(ukey), -1, np.int64)
+        on = isin_ints(ukey, key)
+        mid[on] = skipped[np.argsort(key)][np.searchsorted(np.sort(key), ukey[on])]
+        fresh = np.flatnonzero(~on)
+        a, b = ukey[fresh] // N, ukey[fresh] % N
+        mid[fresh] = N + np.arange(len(fresh))
+        cen = N + len(fresh) + np.arange(len(tri))
+        Q = np.concatenate([Q, (Q[a] + Q[b]) / 2, Q[tri].mean(axis=1)])
+        em = mid[inv].reshape(-1, 3)
+        cells = np.concatenate(
+            [np.column_stack([tri[:, j], em[:, j], cen, em[:, (j - 1) % 3]]) for j in range(3)]
+        )
+        if len(coarse) * 2 == n and _fit(Q, cells):
+            return Q, cells
+    return None
+
+
+def _close_one(P: np.ndarray, loop: np.ndarray, sizes: SizeMap, strategy: str):
+    """One polygon closed locally: the partition, else :func:`_ring`, else
+    :func:`_coarse_split`. Returns ``(points, cells, kind)`` (cells in the
+    indices of ``P``, new points appended) or None."""
+    used = unique_ints(loop)
+    local = np.searchsorted(used, loop)
+    Pk, ck, _ = partition_polygon(
+        P[used], [local], np.zeros(1, np.int64), sizes, quad=True, strategy=strategy
+    )
+    kind = "partition"
+    if ck is None:
+        kind = "rings"
+        res = _ring(P[used], local, sizes, strategy)
+        if res is None:
+            kind = "coarse_splits"
+            res = _coarse_split(P[used], local, sizes, strategy)
+        if res is None:
+            return None
+        Pk, ck = res
+    glob = np.concatenate([used, len(P) + np.arange(len(Pk) - len(used))])
+    return np.concatenate([P, Pk[len(used) :]]), glob[ck], kind
+
+
+def _cavity(loop: np.ndarray, pool: np.ndarray, alive: np.ndarray, n: int):
+    """The stuck polygon ``loop`` grown by the live quads of ``pool`` sharing an edge
+    with it: ``(new loop, the pool rows taken)``, or None when the union is not one
+    simple even cycle (chain arithmetic, :func:`_trace` on the reversed quads)."""
+    key = _edge_keys(loop, np.roll(loop, -1), n)
+    rows = np.flatnonzero(alive)
+    q = pool[rows]
+    qk = _edge_keys(q.ravel(), np.roll(q, -1, axis=1).ravel(), n).reshape(-1, 4)
+    take = rows[isin_ints(qk, key).any(axis=1)]
+    if not len(take):
+        return None
+    grown = _trace([loop], pool[take][:, ::-1], n)
+    if grown is None or len(grown) != 1:
+        return None
+    return grown[0], take
+
+
+def _close(P: np.ndarray, fronts: list, sizes: SizeMap, strategy: str, around: np.ndarray):
+    """The quad closure of the fronts: ``(points, cells, stats, gone)``, cells None if stuck.
+
+    The partition (:func:`meshcore.partition.partition_polygon`) on every
+    polygon at once; it hands back the sub-polygons it is stuck on (cut out
+    of a polygon with holes too), each closed by :func:`_ring`
+    (``stats["rings"]``), or else by :func:`_coarse_split`
+    (``stats["coarse_splits"]``), or else as a cavity (``stats["cavities"]``):
+    the quads sharing an edge with it (of ``around``, the quads laid
+    already, or of the closure) taken out and the union closed by the
+    partition, a ring or a coarse split, one more ring of quads at a time.
+    ``gone`` (bool, one per row of ``around``) marks the quads taken out.
+    """
+    loops, ring_polygon = _polygons(P, fronts)
+    gone = np.zeros(len(around), bool)
+    P, cells, cstats = partition_polygon(
+        P, loops, ring_polygon, sizes, quad=True, strategy=strategy, leave_stuck=True
+    )
+    if cells is None:
+        return P, None, {}, gone
+    pool = [around, cells]
+    alive = [np.ones(len(around) + len(cells), bool)]
+    count = {"rings": 0, "coarse_splits": 0, "cavities": 0}
+    for loop in cstats.pop("stuck"):
+        res = _close_one(P, loop, sizes, strategy)
+        grown = 0
+        while res is None and grown < _CAVITY_TRIES:
+            grown += 1
+            flat = np.concatenate(pool)
+            live = np.concatenate(alive)
+            cav = _cavity(loop, flat, live, len(P))
+            if cav is None:
+                break
+            loop, take = cav
+            live[take] = False
+            alive = [live]
+            pool = [flat]
+            res = _close_one(P, loop, sizes, strategy)
+        if res is None:
+            return P, None, {}, gone
+        if grown:
+            count["cavities"] += 1
+        elif res[2] != "partition":
+            count[res[2]] += 1
+        P, new, _ = res
+        pool.append(new)
+        alive.append(np.ones(len(new), bool))
+    flat = np.concatenate(pool)
+    live = np.concatenate(alive)
+    gone = ~live[: len(around)]
+    return P, flat[len(around) :][live[len(around) :]], {**cstats, **count}, gone
