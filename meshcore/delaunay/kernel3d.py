@@ -841,8 +841,7 @@ def _start(pts, order, n, V, A, vt, state, work):
         state[_STATUS] = _DUPLICATE
         state[_INFO] = 1
         return
-    # Rows as int64, not literals: each literal would compile another copy of the callee.
-    i0, i1, i2, i3 = np.int64(0), np.int64(1), np.int64(2), np.int64(3)
+    i0, i1, i2, i3 = np.int64(0), np.int64(1), np.int64(2), np.int64(3)  # no literal copies
     k = i2
     while k < n and _collinear(pts, i0, i1, k, work):
         k += 1
