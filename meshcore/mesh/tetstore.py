@@ -235,6 +235,33 @@ def positive(P, a, b, c, d):
     )
 
 
+@njit(cache=True, inline="always")
+def det_edges(P, a, b, c, d):
+    """(6 V signed, the sum of the squared edges) of tet (a, b, c, d), in floats."""
+    ux, uy, uz = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1], P[b, 2] - P[a, 2]
+    vx, vy, vz = P[c, 0] - P[a, 0], P[c, 1] - P[a, 1], P[c, 2] - P[a, 2]
+    wx, wy, wz = P[d, 0] - P[a, 0], P[d, 1] - P[a, 1], P[d, 2] - P[a, 2]
+    det = ux * (vy * wz - vz * wy) - uy * (vx * wz - vz * wx) + uz * (vx * wy - vy * wx)
+    s = ux * ux + uy * uy + uz * uz + vx * vx + vy * vy + vz * vz + wx * wx + wy * wy + wz * wz
+    s += (vx - ux) ** 2 + (vy - uy) ** 2 + (vz - uz) ** 2
+    s += (wx - ux) ** 2 + (wy - uy) ** 2 + (wz - uz) ** 2
+    s += (wx - vx) ** 2 + (wy - vy) ** 2 + (wz - vz) ** 2
+    return det, s
+
+
+@njit(cache=True, inline="always")
+def solid(P, a, b, c, d, flat):
+    """Tet (a, b, c, d) positive by the exact orient3d and not flat to the placement:
+    6 V > ``flat`` times the sum of its squared edges (``meshcore.optimize.coupez.flatness``;
+    ``flat`` 0: :func:`positive`)."""
+    if not positive(P, a, b, c, d):
+        return False
+    if flat <= 0.0:
+        return True
+    det, s = det_edges(P, a, b, c, d)
+    return det > flat * s
+
+
 @njit(cache=True)
 def holds(T, t, v):
     """True when row t has vertex v."""
@@ -351,14 +378,15 @@ def star_point(P, T, head, nxt, t, c, g):
 
 
 @njit(cache=True)
-def star_cavity(P, T, head, nxt, t, g, st, tmark, stamp):
+def star_cavity(P, T, head, nxt, t, g, st, tmark, stamp, flat=0.0):
     """The star cavity of point g around tet t in st; its size, or -1.
 
     From 𝒮 = {t}, every tet across a face of δ𝒮 that g does not see
-    positively (exact orient3d) joins 𝒮, breadth first, so that on return
-    every tet of Op(g, δ𝒮) is positive. g may be a vertex of the mesh: the
-    faces holding it make no tet (Op skips them). -1 when such a face is a
-    boundary face (g is not inside there) or 𝒮 would exceed ``SMAX`` tets.
+    positively (:func:`solid`: exact orient3d, not flat to ``flat``) joins 𝒮,
+    breadth first, so that on return every tet of Op(g, δ𝒮) is positive. g
+    may be a vertex of the mesh: the faces holding it make no tet (Op skips
+    them). -1 when such a face is a boundary face (g is not inside there) or
+    𝒮 would exceed ``SMAX`` tets.
     """
     st[0] = t
     tmark[t] = stamp
@@ -372,7 +400,7 @@ def star_cavity(P, T, head, nxt, t, g, st, tmark, stamp):
                 continue
             f = FACE[j]
             x, y, z = T[u, f[0]], T[u, f[1]], T[u, f[2]]
-            if x == g or y == g or z == g or positive(P, g, x, y, z):
+            if x == g or y == g or z == g or solid(P, g, x, y, z, flat):
                 continue
             if w < 0 or k >= SMAX:
                 return -1

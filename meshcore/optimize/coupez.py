@@ -131,11 +131,21 @@ class _Tolerances:
         Squared distances to a centroid closer than this fraction of the
         largest tie (:func:`by_distance`): above the rounding a translation
         by 1e6 puts on the coordinates of a unit-sized input (about 1e-10).
+    flat : float
+        A tetrahedron whose exact orient3d says positive but whose 6 V is at most
+        this fraction of D times the sum of its squared edges (D the diagonal of
+        the input's bounding box, :func:`flatness`) counts as flat, not positive:
+        rounding the coordinates of a unit-sized input translated by 1e6 moves a
+        volume by about 1e-10 D that sum, so where the input lies never decides
+        whether a tet is valid (four coplanar surface points make a flat tet
+        wherever the input lies, not one positive by 1e-18 at the origin and
+        exactly zero at 1e6).
     """
 
     sur_tie: float = 1e-12
     quality_gain: float = 1e-4
     distance_tie: float = 1e-9
+    flat: float = 1e-9
 
 
 TOL = _Tolerances()
@@ -355,6 +365,7 @@ class LoopState(CellStore):
 
     def __init__(self, kernel, P, cells, fixed, spare_points: int = 0):
         self.k = kernel
+        self.flat = flatness(P) if cells.shape[1] == 4 else 0.0
         super().__init__(P, cells, fixed, spare_points)
 
     def sur(self) -> float:
@@ -362,15 +373,33 @@ class LoopState(CellStore):
         return float(self.k.sur(self.P, self.T, self.alive, int(self.cnt[N_ROWS])))
 
     def inverted(self) -> int:
-        """Cells that are not positive (exact orient2d / orient3d)."""
-        return int(np.sum(signs(self.points(), self.cells()) <= 0))
+        """Cells that are not positive (exact orient2d / orient3d; flat tets count)."""
+        return int(np.sum(signs(self.points(), self.cells(), self.flat) <= 0))
 
 
-def signs(P: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """Orientation of every triangle (orient2d) or tetrahedron (-orient3d); > 0 is positive."""
+def flatness(P: np.ndarray) -> float:
+    """``TOL.flat`` times the diagonal of the bounding box of ``P``: the ``flat`` of
+    :func:`signs` and of the 3D kernel's signs, the same wherever the input lies."""
+    P = np.asarray(P, dtype=float)
+    return TOL.flat * float(np.linalg.norm(P.max(axis=0) - P.min(axis=0))) if len(P) else 0.0
+
+
+def signs(P: np.ndarray, cells: np.ndarray, flat: float = 0.0) -> np.ndarray:
+    """Orientation of every triangle (orient2d) or tetrahedron (-orient3d); > 0 is positive.
+
+    A tetrahedron positive by the exact sign but with 6 V at most ``flat`` times
+    the sum of its squared edges gets 0 (flat, :func:`flatness`).
+    """
     if cells.shape[1] == 3:
         return orient2d(P[cells[:, 0]], P[cells[:, 1]], P[cells[:, 2]])
-    return -orient3d(P[cells[:, 0]], P[cells[:, 1]], P[cells[:, 2]], P[cells[:, 3]])
+    A, B, C, D = (P[cells[:, i]] for i in range(4))
+    sign = -orient3d(A, B, C, D)
+    if flat > 0.0:
+        u, v, w = B - A, C - A, D - A
+        det = np.einsum("ij,ij->i", u, np.cross(v, w))
+        s = sum(np.einsum("ij,ij->i", e, e) for e in (u, v, w, v - u, w - u, w - v))
+        sign = np.where((sign > 0) & (det <= flat * s), 0.0, sign)
+    return sign
 
 
 def measure_q(P: np.ndarray, cells: np.ndarray, measure: str) -> np.ndarray:
@@ -487,7 +516,7 @@ def barycentric(state: LoopState, sweeps: list, sur: list, ops: dict) -> None:
     free = state.fixed[:n] == 0
     free &= np.bincount(C.ravel(), minlength=n) > 0
     near = np.zeros(n, bool)
-    near[C[signs(P, C) <= 0].ravel()] = True
+    near[C[signs(P, C, state.flat) <= 0].ravel()] = True
     for _ in range(BARYCENTRIC_RINGS):
         grown = np.zeros(n, bool)
         grown[C[near[C].any(axis=1)].ravel()] = True
@@ -536,10 +565,18 @@ def by_distance(X: np.ndarray, c: np.ndarray) -> np.ndarray:
     The initial vertex of Op(P, δ𝒮) (§8.3.2, "any point in δ𝒮 could be
     used") then does not depend on where the input lies.
     """
-    d = np.sum((X - c) ** 2, axis=1)
+    return near_order(np.sum((X - c) ** 2, axis=1))
+
+
+def near_order(d: np.ndarray) -> np.ndarray:
+    """Indices sorting ``d`` ascending, values within ``TOL.distance_tie`` of the largest
+    magnitude of each other (chained) tied and taken in index order: equal values of a
+    symmetric input that only rounding, which a translation or scaling changes, would order."""
     order = np.argsort(d, kind="stable")
     ds = d[order]
-    group = np.cumsum(np.diff(ds, prepend=ds[:1]) > TOL.distance_tie * ds[-1])
+    if not len(ds):
+        return order
+    group = np.cumsum(np.diff(ds, prepend=ds[:1]) > TOL.distance_tie * np.abs(ds).max())
     return order[np.lexsort((order, group))]
 
 
@@ -918,12 +955,13 @@ def _mesh2d(P, T, bnd, total, allow_remove, measure, max_sweeps, progress):
     return make_result(Pn, Tn, measure, stats)
 
 
-def verify(P, cells, bnd, use, sweeps):
-    """Every cell positive (exact), a mesh topology, boundary facets exactly ``bnd``."""
+def verify(P, cells, bnd, use, sweeps, flat=0.0):
+    """Every cell positive (exact; no tet flat to ``flat``, :func:`signs`), a mesh topology,
+    boundary facets exactly ``bnd``."""
     if cells.shape[1] == 3 and len(cells):
         if k2.check_mesh(P, cells, np.ascontiguousarray(bnd, dtype=np.int64)):
             return
-    sign = signs(P, cells)
+    sign = signs(P, cells, flat)
     if (sign <= 0).any():
         _failure(P, cells, sign <= 0, use, sweeps)
     try:

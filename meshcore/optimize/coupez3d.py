@@ -20,7 +20,15 @@ vertices near it, and with insertion star cavities of a new point G
 
 * Flat tets (four coplanar surface points, common on planar faces) add
   nothing to Sur, so (8.1) cannot see them: among configurations of equal
-  Sur, fewer non-positive tets wins before the quality. A flat tet capping
+  Sur, fewer non-positive tets wins before the quality. A tet counts as
+  flat, not positive, when its exact orient3d is positive but its volume is
+  within the rounding that translating the input by 1e6 puts on it
+  (``coupez.TOL.flat``; :func:`meshcore.mesh.tetstore.solid`), and Sur ties
+  within that rounding too: four points of a planar quad make a flat tet
+  wherever the input lies (at the origin rounding made them positive by
+  1e-18, at 1e6 exactly zero), so where the input lies decides nothing.
+  Centroids and kernel points are worked out relative to a vertex of the
+  set, so that their rounding does not grow with the distance to the origin. A flat tet capping
   a planar surface quad is held by the shell of the quad's inner diagonal,
   whose ring has the quad's other diagonal as a side: no fan Op(q, δ𝒮) of
   that shell is positive, but a triangulation of its ring may be, and
@@ -32,10 +40,11 @@ vertices near it, and with insertion star cavities of a new point G
   stable but invalid, the generation starts again from Op(P', δ𝒮) with P'
   the next vertex by distance to the centroid (the text: "any point in δ𝒮
   could be used"), up to ``coupez.RESTARTS`` initial vertices; ``stats["restarts"]``
-  lists the stuck ones. Surfaces with coplanar points on either side of a
-  hole (the 12×6 ring: inner and outer equators in one plane to rounding)
-  let flat tetrahedra span the hole, which Sur cannot see: from the first
-  vertex the state sticks there, from others it does not.
+  lists the stuck ones. Some surfaces have no tetrahedralization of their
+  points without flat tets (the 12×6 ring: its side quads are planar and
+  their diagonals turn the same way round each section, as in Schönhardt's
+  prism; TetGen -pY adds 11 points): without insertion they fail wherever
+  they lie; with it, Op(G, δ𝒮) makes them.
 * Stages: the first without insertion; with ``insert_points``, if tets are
   still not positive, the same passes where the larger sets may also take
   Op(G, δ𝒮) with G a new point seeing all of δ𝒮 (relaxation from the
@@ -49,8 +58,7 @@ vertices near it, and with insertion star cavities of a new point G
   ``SLIVER`` kind of :func:`.kernel3d.fan_sweep` (face pairs and, with
   insertion, star cavities around tets under ``SLIVER_Q``), every
   replacement raising its set's worst quality: the least quality never
-  drops; flat tets on planar surface quads need a point, so without
-  insertion they stay.
+  drops.
 
 The result is verified (every tet positive by the exact orient3d, a mesh
 topology, the boundary faces exactly the input's) before it is returned;
@@ -73,7 +81,7 @@ def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progre
         bnd = bnd[:, ::-1].copy()
     fixed = np.zeros(len(P), np.uint8)
     fixed[bnd.ravel()] = 1
-    inverted = int(np.sum(_c.signs(P, T) <= 0))
+    inverted = int(np.sum(_c.signs(P, T, _c.flatness(P)) <= 0))
     use = "correction" if inverted else "optimization"
     q0 = float(_c.measure_q(P, T, _c.MEASURES[measure]).min())
     state = _c.LoopState(k3, P, T, fixed)
@@ -90,7 +98,7 @@ def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progre
         changed = k3.sweep(
             state.P, state.T, state.alive, state.head, state.nxt, state.prv, state.cnt,
             state.fixed, todo, dirty, allow_remove, measure, _c.TOL.sur_tie,
-            _c.TOL.quality_gain, counters,
+            _c.TOL.quality_gain, state.flat, counters,
         )  # fmt: skip
         todo |= dirty
         sweeps += 1
@@ -100,7 +108,7 @@ def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progre
         if not changed:
             break
     P, Tn = state.points(), state.cells()
-    _c.verify(P, Tn, bnd, use, sweeps)
+    _c.verify(P, Tn, bnd, use, sweeps, state.flat)
     Pn, Tn, removed = _c.compact(P, Tn, 0)
     stats = {
         "use": use,
@@ -153,7 +161,7 @@ def _loop3d(
                 changed = k3.sweep(
                     state.P, state.T, state.alive, state.head, state.nxt, state.prv,
                     state.cnt, state.fixed, mark, dirty, False, measure,
-                    _c.TOL.sur_tie, _c.TOL.quality_gain, counters,
+                    _c.TOL.sur_tie, _c.TOL.quality_gain, state.flat, counters,
                 )  # fmt: skip
             else:
                 if kind == k3.UNION and state.inverted() == 0:
@@ -163,7 +171,8 @@ def _loop3d(
                     changed, status = k3.fan_sweep(
                         state.P, state.T, state.alive, state.head, state.nxt, state.prv,
                         state.free, state.cnt, state.fixed, mark, dirty, kind, allow_remove,
-                        insert, measure, _c.TOL.sur_tie, _c.TOL.quality_gain, counters,
+                        insert, measure, _c.TOL.sur_tie, _c.TOL.quality_gain, state.flat,
+                        counters,
                     )  # fmt: skip
                     if status != 2:
                         break
@@ -224,14 +233,15 @@ def initial_candidates(P: np.ndarray, F: np.ndarray) -> np.ndarray:
 
 
 def _long_edges(state, size):
-    """The distinct edges of the live tets longer than ``size``, longest first."""
+    """The distinct edges of the live tets longer than ``size``, longest first (lengths equal
+    to rounding in index order, :func:`.coupez.near_order`)."""
     T = state.cells()
     e = np.sort(T[:, ts.EDGES].reshape(-1, 2), axis=1)
     e = np.unique(e, axis=0)
     d = state.P[e[:, 0]] - state.P[e[:, 1]]
     length = np.sqrt(np.sum(d * d, axis=1))
     pick = length > size
-    return np.ascontiguousarray(e[pick][np.argsort(-length[pick], kind="stable")])
+    return np.ascontiguousarray(e[pick][_c.near_order(-length[pick])])
 
 
 def _insert_stage3d(state, size, measure, max_sweeps, sweeps, sur, ops, progress, rounds):
@@ -255,7 +265,7 @@ def _insert_stage3d(state, size, measure, max_sweeps, sweeps, sur, ops, progress
             state.grow_rows(8 * len(edges))
         added = k3.insert_midpoints(
             state.P, state.T, state.alive, state.head, state.nxt, state.prv,
-            state.free, state.cnt, state.fixed, edges,
+            state.free, state.cnt, state.fixed, edges, state.flat,
         )  # fmt: skip
         if added <= 0:
             break
@@ -293,15 +303,15 @@ def generate3d(surface, insert, size, measure, max_sweeps, progress):
         if not left:
             break
         restarts.append({"vertex": int(p), "inverted": left, "sweeps": sweeps[0]})
-    _c.verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
+    _c.verify(state.points(), state.cells(), bnd, "generation", sweeps[0], state.flat)
     if insert:
         _insert_stage3d(state, h, measure, max_sweeps, sweeps, sur, ops, progress, rounds=30)
-        _c.verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
+        _c.verify(state.points(), state.cells(), bnd, "generation", sweeps[0], state.flat)
     # the optimization stage (§8.3.2, "possibly after an optimization stage"; the third use)
     q1 = float(_c.measure_q(state.points(), state.cells(), _c.MEASURES[measure]).min())
     frac = (0.95, 1.0)
     _loop3d(state, False, insert, measure, max_sweeps, sweeps, sur, ops, progress, frac, True)
-    _c.verify(state.points(), state.cells(), bnd, "generation", sweeps[0])
+    _c.verify(state.points(), state.cells(), bnd, "generation", sweeps[0], state.flat)
     Pn, Tn, _ = _c.compact(state.points(), state.cells(), len(P))  # G of a removed pillow
     stats = {
         "use": "generation",

@@ -7,6 +7,10 @@ over vertices is inherently sequential (each replacement changes the next
 ball): one numba function per pass.
 
 Sub-topologies are the balls ℬ_P of free (interior, not fixed) vertices.
+"Positive" is :func:`meshcore.mesh.tetstore.solid` throughout: the exact
+orient3d, a tet flat to the rounding of where the input lies counting as
+not positive (``flat``, :func:`meshcore.optimize.coupez.flatness`); Sur
+values tie within that rounding too (:func:`_tie`).
 Candidates, compared by the rule of :mod:`.kernel2d` (positive first, then
 Sur = the sum of unsigned volumes, then the worst quality):
 
@@ -76,13 +80,14 @@ from meshcore.mesh.tetstore import (
     across,
     add_tet,
     boundary,
+    det_edges,
     face_cross,
     gather,
     holds,
     link_corner,
-    positive,
     remove_cell,
     room,
+    solid,
     star_cavity,
     star_point,
     unlink_corner,
@@ -144,7 +149,18 @@ def _better(pa, sa, qa, pb, sb, qb, tie, gain):
 
 
 @njit(cache=True)
-def _evaluate(P, T, st, pos_of, k, v, x, y, z, skip_q, measure):
+def _tie(P, T, st, k, tie_rel, cur_s, flat):
+    """Sur values closer than this tie on (8.1): ``tie_rel`` of Sur(𝒮) plus the volume
+    rounding of where the input lies (``flat`` / 6 times the squared edges of 𝒮)."""
+    ss = 0.0
+    for i in range(k):
+        t = st[i]
+        ss += det_edges(P, T[t, 0], T[t, 1], T[t, 2], T[t, 3])[1]
+    return tie_rel * cur_s + flat * ss / 6.0
+
+
+@njit(cache=True)
+def _evaluate(P, T, st, pos_of, k, v, x, y, z, skip_q, measure, flat):
     """Ball tets with v at (x, y, z) (skip_q < 0) or replaced by vertex skip_q (collapse)."""
     ox, oy, oz = P[v, 0], P[v, 1], P[v, 2]
     if skip_q < 0:
@@ -167,7 +183,7 @@ def _evaluate(P, T, st, pos_of, k, v, x, y, z, skip_q, measure):
                 c = skip_q
             else:
                 d = skip_q
-        if not positive(P, a, b, c, d):
+        if not solid(P, a, b, c, d, flat):
             pos = False
         vol, qq = _vol_q(P, a, b, c, d, measure)
         sur += vol
@@ -179,6 +195,8 @@ def _evaluate(P, T, st, pos_of, k, v, x, y, z, skip_q, measure):
 @njit(cache=True)
 def _relaxed_kernel_point(P, T, st, pos_of, k, v, x, y, z, h):
     """A point seeing every face of δℬ_v from inside, by relaxation from (x, y, z); NaN if none."""
+    ox, oy, oz = P[v, 0], P[v, 1], P[v, 2]  # relative to v, as the G it starts from
+    x, y, z = x - ox, y - oy, z - oz
     for _ in range(60):
         worst = np.inf
         wn0 = wn1 = wn2 = 0.0
@@ -192,12 +210,12 @@ def _relaxed_kernel_point(P, T, st, pos_of, k, v, x, y, z, h):
             if nn == 0.0:
                 return np.nan, np.nan, np.nan
             n0, n1, n2 = -n0 / nn, -n1 / nn, -n2 / nn
-            d = (x - P[a, 0]) * n0 + (y - P[a, 1]) * n1 + (z - P[a, 2]) * n2
+            d = (x - (P[a, 0] - ox)) * n0 + (y - (P[a, 1] - oy)) * n1 + (z - (P[a, 2] - oz)) * n2
             if d < worst:
                 worst = d
                 wn0, wn1, wn2 = n0, n1, n2
         if worst >= 0.1 * h:
-            return x, y, z
+            return ox + x, oy + y, oz + z
         step = 0.1 * h - worst
         x += step * wn0
         y += step * wn1
@@ -268,6 +286,7 @@ def sweep(
     measure,
     tie_rel,
     gain,
+    flat,
     counters,
 ):
     """One pass over the balls of the free vertices marked in ``todo``; the replacements."""
@@ -294,9 +313,9 @@ def sweep(
         if s >= 0:
             continue
         cur_p, cur_s, cur_q = _evaluate(
-            P, T, st, pos_of, k, v, P[v, 0], P[v, 1], P[v, 2], np.int64(-1), measure
+            P, T, st, pos_of, k, v, P[v, 0], P[v, 1], P[v, 2], np.int64(-1), measure, flat
         )
-        tie = tie_rel * cur_s
+        tie = _tie(P, T, st, k, tie_rel, cur_s, flat)
         gx = gy = gz = 0.0
         nl = 0
         h = 0.0
@@ -306,29 +325,33 @@ def sweep(
                 w = T[t, j]
                 if w != v and vmark[w] != stamp:
                     vmark[w] = stamp
-                    gx += P[w, 0]
-                    gy += P[w, 1]
-                    gz += P[w, 2]
+                    # relative to P[v]: sums of coordinates far from the origin would
+                    # round G by the placement's ulp times the count
+                    gx += P[w, 0] - P[v, 0]
+                    gy += P[w, 1] - P[v, 1]
+                    gz += P[w, 2] - P[v, 2]
                     h += math.sqrt(
                         (P[w, 0] - P[v, 0]) ** 2
                         + (P[w, 1] - P[v, 1]) ** 2
                         + (P[w, 2] - P[v, 2]) ** 2
                     )
                     nl += 1
-        gx /= nl
-        gy /= nl
-        gz /= nl
+        gx = P[v, 0] + gx / nl
+        gy = P[v, 1] + gy / nl
+        gz = P[v, 2] + gz / nl
         h /= nl
         best = -3
         bp, bs, bq = cur_p, cur_s, cur_q
-        p, s_, q = _evaluate(P, T, st, pos_of, k, v, gx, gy, gz, np.int64(-1), measure)
+        p, s_, q = _evaluate(P, T, st, pos_of, k, v, gx, gy, gz, np.int64(-1), measure, flat)
         if _better(p, s_, q, bp, bs, bq, tie, gain):
             best, bp, bs, bq = -2, p, s_, q
         kx = ky = kz = np.nan
         if not p:
             kx, ky, kz = _relaxed_kernel_point(P, T, st, pos_of, k, v, gx, gy, gz, h)
             if kx == kx:
-                p, s_, q = _evaluate(P, T, st, pos_of, k, v, kx, ky, kz, np.int64(-1), measure)
+                p, s_, q = _evaluate(
+                    P, T, st, pos_of, k, v, kx, ky, kz, np.int64(-1), measure, flat
+                )
                 if _better(p, s_, q, bp, bs, bq, tie, gain):
                     best, bp, bs, bq = -1, p, s_, q
         if allow_remove and not cur_p and best == -3:
@@ -337,7 +360,7 @@ def sweep(
                     w = T[st[i], j]
                     if w == v:
                         continue
-                    p, s_, q = _evaluate(P, T, st, pos_of, k, v, 0.0, 0.0, 0.0, w, measure)
+                    p, s_, q = _evaluate(P, T, st, pos_of, k, v, 0.0, 0.0, 0.0, w, measure, flat)
                     if _better(p, s_, q, bp, bs, bq, tie, gain):
                         cnt[STAMP] += 1
                         # membership marks of the ball under the new stamp
@@ -394,8 +417,8 @@ def sur(P, T, alive, rows):
 BALL, SHELL, UNION, SLIVER = 0, 1, 2, 3
 #: Tets of worse quality (the measure of (8.2)) are the items of the ``SLIVER`` kind.
 SLIVER_Q = 0.5
-#: Slivers of worse quality (nearly flat: a planar surface quad's cap, positive by rounding)
-#: also try the star cavities of existing vertices.
+#: Slivers of worse quality (nearly flat, though above the flat rule) also try the star
+#: cavities of existing vertices.
 FLAT_Q = 1e-3
 #: Sizes of the face-adjacent sets grown around a non-positive tetrahedron (UNION).
 GROW = (8, 16, 32, 64)
@@ -495,7 +518,7 @@ def _better_n(na, sa, qa, nb, sb, qb, tie, gain):
 
 
 @njit(cache=True)
-def _fan_measure(P, bf, nb, q, measure):
+def _fan_measure(P, bf, nb, q, measure, flat):
     """(non-positive count, Sur, worst quality) of Op(q, δ𝒮)."""
     nn = 0
     s_ = 0.0
@@ -504,7 +527,7 @@ def _fan_measure(P, bf, nb, q, measure):
         a, b, c = bf[f, 0], bf[f, 1], bf[f, 2]
         if a == q or b == q or c == q:
             continue
-        if not positive(P, q, a, b, c):
+        if not solid(P, q, a, b, c, flat):
             nn += 1
         vol, qq = _vol_q(P, q, a, b, c, measure)
         s_ += vol
@@ -519,20 +542,24 @@ def _kernel_point(P, bf, nb, g):
     Each step pushes the point past the face that sees it worst, to 5 % of
     the mean radius inside (Agmon-Motzkin); after 100 steps the last point
     is kept and the exact signs of Op(G, δ𝒮) decide. False: a flat face.
+    The point is worked out relative to a vertex o of δ𝒮 (its rounding is then
+    that of the coordinates, wherever the input lies).
     """
+    o = bf[0, 0]
+    ox, oy, oz = P[o, 0], P[o, 1], P[o, 2]
     x = y = z = 0.0
     h = 0.0
     for f in range(nb):
         for e in range(3):
-            x += P[bf[f, e], 0]
-            y += P[bf[f, e], 1]
-            z += P[bf[f, e], 2]
+            x += P[bf[f, e], 0] - ox
+            y += P[bf[f, e], 1] - oy
+            z += P[bf[f, e], 2] - oz
     x /= 3 * nb
     y /= 3 * nb
     z /= 3 * nb
     for f in range(nb):
         a = bf[f, 0]
-        h += math.sqrt((P[a, 0] - x) ** 2 + (P[a, 1] - y) ** 2 + (P[a, 2] - z) ** 2)
+        h += math.sqrt((P[a, 0] - ox - x) ** 2 + (P[a, 1] - oy - y) ** 2 + (P[a, 2] - oz - z) ** 2)
     h /= nb
     for _ in range(100):
         worst = np.inf
@@ -544,17 +571,17 @@ def _kernel_point(P, bf, nb, g):
             if nn == 0.0:
                 return False
             n0, n1, n2 = -n0 / nn, -n1 / nn, -n2 / nn
-            d = (x - P[a, 0]) * n0 + (y - P[a, 1]) * n1 + (z - P[a, 2]) * n2
+            d = (x - (P[a, 0] - ox)) * n0 + (y - (P[a, 1] - oy)) * n1 + (z - (P[a, 2] - oz)) * n2
             if d < worst:
                 worst, w0, w1, w2 = d, n0, n1, n2
         if worst >= 0.05 * h:
-            P[g, 0], P[g, 1], P[g, 2] = x, y, z
+            P[g, 0], P[g, 1], P[g, 2] = ox + x, oy + y, oz + z
             return True
         step = 0.05 * h - worst
         x += step * w0
         y += step * w1
         z += step * w2
-    P[g, 0], P[g, 1], P[g, 2] = x, y, z  # short of the margin: the exact signs decide
+    P[g, 0], P[g, 1], P[g, 2] = ox + x, oy + y, oz + z  # short of the margin: signs decide
     return True
 
 
@@ -579,6 +606,7 @@ def _try_fans(
     measure,
     tie_rel,
     gain,
+    flat,
     dirty,
     counters,
 ):
@@ -628,12 +656,12 @@ def _try_fans(
     for i in range(k):
         t = st[i]
         a, b, c, d = T[t, 0], T[t, 1], T[t, 2], T[t, 3]
-        if not positive(P, a, b, c, d):
+        if not solid(P, a, b, c, d, flat):
             cur_n += 1
         vol, qq = _vol_q(P, a, b, c, d, measure)
         cur_s += vol
         cur_q = min(cur_q, qq)
-    tie = tie_rel * cur_s
+    tie = _tie(P, T, st, k, tie_rel, cur_s, flat)
     best = -1
     bn, bs, bq = cur_n, cur_s, cur_q
     cnt[STAMP] += 1
@@ -644,7 +672,7 @@ def _try_fans(
             if vmark[q] == qst:
                 continue
             vmark[q] = qst
-            nn, s_, qmin = _fan_measure(P, bf, nb, q, measure)
+            nn, s_, qmin = _fan_measure(P, bf, nb, q, measure, flat)
             if _better_n(nn, s_, qmin, bn, bs, bq, tie, gain) and _fan_valid(
                 T, head, nxt, bf, nb, q, n + 1, tmark, stamp
             ):
@@ -654,7 +682,7 @@ def _try_fans(
         if g >= P.shape[0]:
             return 2
         if insert == 2 or _kernel_point(P, bf, nb, g):
-            nn, s_, qmin = _fan_measure(P, bf, nb, g, measure)
+            nn, s_, qmin = _fan_measure(P, bf, nb, g, measure, flat)
             if _better_n(nn, s_, qmin, bn, bs, bq, tie, gain) and _fan_valid(
                 T, head, nxt, bf, nb, g, n + 1, tmark, stamp
             ):
@@ -790,7 +818,7 @@ def _ring(T, st, k, a, b, ring):
 
 @njit(cache=True)
 def _try_removal(
-    P, T, alive, head, nxt, prv, freeT, cnt, st, k, a, b, measure, gain, dirty, counters
+    P, T, alive, head, nxt, prv, freeT, cnt, st, k, a, b, measure, gain, flat, dirty, counters
 ):
     """Edge removal: the shell st[:k] of edge (a, b) replaced by its best triangulated ring.
 
@@ -812,7 +840,7 @@ def _try_removal(
     cur_q = 2.0
     for i in range(k):
         t = st[i]
-        if not positive(P, T[t, 0], T[t, 1], T[t, 2], T[t, 3]):
+        if not solid(P, T[t, 0], T[t, 1], T[t, 2], T[t, 3], flat):
             cur_n += 1
         cur_q = min(cur_q, _vol_q(P, T[t, 0], T[t, 1], T[t, 2], T[t, 3], measure)[1])
     # edges among ring vertices already in the mesh (a diagonal must be new)
@@ -852,7 +880,7 @@ def _try_removal(
                     if found:
                         continue
                 ri, rc, rj = ring[i], ring[c], ring[j]
-                if not positive(P, a, ri, rc, rj) or not positive(P, b, rj, rc, ri):
+                if not solid(P, a, ri, rc, rj, flat) or not solid(P, b, rj, rc, ri, flat):
                     continue
                 q = min(q, _vol_q(P, a, ri, rc, rj, measure)[1])
                 q = min(q, _vol_q(P, b, rj, rc, ri, measure)[1])
@@ -940,6 +968,7 @@ def fan_sweep(
     measure,
     tie_rel,
     gain,
+    flat,
     counters,
 ):
     """One pass of fans Op(q, δ𝒮) over sub-topologies of ``kind``; (replacements, status).
@@ -982,7 +1011,7 @@ def fan_sweep(
                 continue
         else:
             a, b, c = T[i, 0], T[i, 1], T[i, 2]
-            if positive(P, a, b, c, T[i, 3]) != (kind == SLIVER):
+            if solid(P, a, b, c, T[i, 3], flat) != (kind == SLIVER):
                 continue
             qi = _vol_q(P, a, b, c, T[i, 3], measure)[1] if kind == SLIVER else 0.0
             if qi >= SLIVER_Q:
@@ -1004,7 +1033,7 @@ def fan_sweep(
                     continue
                 r = _try_removal(
                     P, T, alive, head, nxt, prv, freeT, cnt, st, k, ea, eb, measure, gain,
-                    dirty, counters,
+                    flat, dirty, counters,
                 )  # fmt: skip
             else:
                 if kind >= UNION and j >= j_stars:
@@ -1017,7 +1046,7 @@ def fan_sweep(
                         return changed, 2
                     if not star_point(P, T, head, nxt, i, j - j_stars, g):
                         continue
-                    k = star_cavity(P, T, head, nxt, i, g, st, tmark, cnt[STAMP])
+                    k = star_cavity(P, T, head, nxt, i, g, st, tmark, cnt[STAMP], flat)
                     m = 2
                 elif kind >= UNION and j >= j_verts:
                     # the star cavity of an existing vertex Z near tet i: Op(Z, δ𝒮) positive
@@ -1026,7 +1055,9 @@ def fan_sweep(
                     if j - j_verts >= nc:
                         continue
                     cnt[STAMP] += 1
-                    k = star_cavity(P, T, head, nxt, i, cand[j - j_verts], st, tmark, cnt[STAMP])
+                    k = star_cavity(
+                        P, T, head, nxt, i, cand[j - j_verts], st, tmark, cnt[STAMP], flat
+                    )
                 else:
                     jj = j if kind < UNION or j < 4 else j - 6
                     k = _subtopology(T, head, nxt, kind_sets, i, jj, st, tmark, cnt[STAMP])
@@ -1034,7 +1065,7 @@ def fan_sweep(
                     continue
                 r = _try_fans(
                     P, T, alive, head, nxt, prv, freeT, cnt, fixed, st, k, tmark, vmark, bf,
-                    allow_remove, m, measure, tie_rel, gain, dirty, counters,
+                    allow_remove, m, measure, tie_rel, gain, flat, dirty, counters,
                 )  # fmt: skip
             if r == 2:
                 if kind == BALL:
@@ -1050,7 +1081,7 @@ def fan_sweep(
 
 
 @njit(cache=True)
-def insert_midpoints(P, T, alive, head, nxt, prv, freeT, cnt, fixed, edges):
+def insert_midpoints(P, T, alive, head, nxt, prv, freeT, cnt, fixed, edges, flat):
     """Op(M, δ𝒮) for 𝒮 the shell of each interior edge ``edges[i]``, M its midpoint.
 
     In order, skipping an edge with a vertex touched in this call, one on the
@@ -1089,7 +1120,7 @@ def insert_midpoints(P, T, alive, head, nxt, prv, freeT, cnt, fixed, edges):
             P[n, x] = 0.5 * (P[a, x] + P[b, x])
         ok = True
         for f in range(nb):
-            if not positive(P, n, bf[f, 0], bf[f, 1], bf[f, 2]):
+            if not solid(P, n, bf[f, 0], bf[f, 1], bf[f, 2], flat):
                 ok = False
                 break
         if not ok:
