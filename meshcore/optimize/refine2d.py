@@ -132,8 +132,20 @@ def delaunay_pairs(P, T, N, alive, head, nxt, prv, cnt, work):
     """
     rows = cnt[N_ROWS]
     stack = np.empty(max(rows, 16), np.int64)
-    top = 0
+    # rows taken in bit-reversed order (0, rows/2, rows/4, 3 rows/4, ...): the initial fan's
+    # rows run round the boundary, and flipping them in turn makes long cascades
+    bits = 1
+    while (1 << bits) < rows:
+        bits += 1
+    key = np.empty(rows, np.int64)
     for t in range(rows):
+        r, x = 0, t
+        for _ in range(bits):
+            r = (r << 1) | (x & 1)
+            x >>= 1
+        key[t] = r
+    top = 0
+    for t in np.argsort(key)[::-1]:
         if alive[t]:
             stack[top] = t
             top += 1
