@@ -112,6 +112,13 @@ class TestGeneration:
         dom = parse_domain({"type": "Polygon", "coordinates": rings})
         res = optimize(domain=dom, insert_points=False)
         assert_valid_2d(*_tri(res), dom.segments, dom.area)
+        # with insertion (segments split to size): least angle at least 20 around the holes too
+        res = optimize(domain=dom, size=0.4, keep_boundary=False)
+        P, T = _tri(res)
+        assert_valid_2d(P, T, area=dom.area)
+        assert quality.triangle_angles(P, T).min() >= 20
+        assert res.stats["points_inserted"] > 0
+        assert_monotone(res.stats["sur"])
 
     @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
     @given(st.lists(st.floats(0.8, 1.0), min_size=6, max_size=12).map(np.array))
@@ -202,7 +209,8 @@ def _tangled(nx=30, noise=1.5, seed=0):
 
 class TestCorrection:
     def test_tangled_triangle_mesh_is_made_valid_with_the_same_boundary(self):
-        P, T, bnd = _tangled()
+        P, T, bnd = _tangled(nx=67)
+        assert len(T) >= 10_000  # the 10k triangles
         inverted = np.mean(orient2d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]) <= 0)
         assert 0.05 <= inverted <= 0.30
         res = optimize(Mesh(P, (CellBlock("triangle", T),)))
