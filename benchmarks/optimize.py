@@ -465,15 +465,32 @@ def generation3d():
     the stuck first stage and the optimization stage add) for both measures of (8.2). Columns:
     CPU seconds (median of 3), points, tets, the least quality of the run's measure before
     and after the optimization stage, the least radius ratio 3r/R of the result, the stuck
-    initial vertices restarted from, the volume's relative error.
+    initial vertices restarted from, the volume's relative error, and whether the surface
+    translated by 1e6 and scaled by 1e-6 gives the same tets (or fails the same way).
     """
     from meshcore.domain.surface import parse_surface
     from tests.meshcore.optimize.test_generate3d import grid_cube, icosphere, ring
 
     print(
         f"\n{'generation from a surface':<36} {'CPU s':>6} {'points':>6} {'tets':>6} "
-        f"{'q before':>9} {'q after':>8} {'min rr':>8} {'restarts':>8} {'vol err':>8}"
+        f"{'q before':>9} {'q after':>8} {'min rr':>8} {'restarts':>8} {'vol err':>8} placed"
     )
+
+    def placed(P, F, kw, ref):
+        """'same' when +1e6 and x1e-6 give the cells of ``ref`` (or its failure's count)."""
+        for Q, f in ((P + 1e6, 1.0), (P * 1e-6, 1e-6)):
+            k = dict(kw, size=kw["size"] * f) if "size" in kw else kw
+            try:
+                got = optimize(surface=parse_surface(Q, F), **k).mesh.cells[0].data
+            except Exception as exc:
+                got = str(exc).split(", within")[0]
+            if isinstance(ref, str) or isinstance(got, str):
+                if not (isinstance(ref, str) and isinstance(got, str) and got == ref):
+                    return "differs"
+            elif not np.array_equal(got, ref):
+                return "differs"
+        return "same"
+
     shapes = {
         "cube 6x6 per face": grid_cube(6),
         "icosphere level 3": icosphere(3),
@@ -499,7 +516,8 @@ def generation3d():
                 times.append(time.process_time() - t)
             dt = float(np.median(times))
             if isinstance(res, Exception):
-                print(f"{'ours ' + name + ', ' + label:<36} {dt:>6.3f}  {str(res)[:60]}")
+                where = placed(P, F, kw, str(res).split(", within")[0])
+                print(f"{'ours ' + name + ', ' + label:<36} {dt:>6.3f}  {str(res)[:60]} {where}")
                 continue
             Pn, Tn = res.mesh.points, res.mesh.cells[0].data
             err = abs(np.sum(quality.signed_volume(Pn, Tn)) - surf.volume) / surf.volume
@@ -509,7 +527,7 @@ def generation3d():
                 f"{'ours ' + name + ', ' + label:<36} {dt:>6.3f} {len(Pn):>6} {len(Tn):>6} "
                 f"{st['least_quality_before_optimization']:>9.3g} "
                 f"{st['least_quality_after']:>8.3g} "
-                f"{q:>8.3g} {len(st['restarts']):>8} {err:>8.1e}"
+                f"{q:>8.3g} {len(st['restarts']):>8} {err:>8.1e} {placed(P, F, kw, Tn)}"
             )
         try:
             import tetgen

@@ -301,7 +301,7 @@ def _insert(P, T, N, alive, freeT, cnt, fixed, t, x, y, size, work, sc, tmark, v
         i += 1
         for j in range(3):
             u = N[s, j]
-            if u < 0 or tmark[u] == stamp:
+            if u < 0 or tmark[u] == stamp or tmark[u] == -stamp:  # -stamp: tested, outside
                 continue
             c0, c1, c2 = T[u, 0], T[u, 1], T[u, 2]
             if (
@@ -313,6 +313,8 @@ def _insert(P, T, N, alive, freeT, cnt, fixed, t, x, y, size, work, sc, tmark, v
                 tmark[u] = stamp
                 cav[k] = u
                 k += 1
+            else:
+                tmark[u] = -stamp
     # δ𝒮: the edges of 𝒮 whose other side is outside 𝒮 (a triangle, or none: a segment)
     nb = 0
     for i in range(k):
