@@ -414,6 +414,23 @@ class TestTetrahedra:
         Pn, Tn = res.mesh.points, res.mesh.cells[0].data
         assert math.fsum(quality.signed_volume(Pn, Tn)) == pytest.approx(1.0, rel=1e-12)
 
+    def test_an_optimal_mesh_comes_back_unchanged(self):
+        cube = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
+        kuhn = np.array([[0, 1, 3, 7], [0, 1, 7, 5], [0, 5, 7, 4], [0, 3, 2, 7], [0, 2, 6, 7]])
+        kuhn = np.vstack([kuhn, [[0, 6, 4, 7]]])
+        flip = quality.signed_volume(cube, kuhn) < 0
+        kuhn[flip] = kuhn[flip][:, [1, 0, 2, 3]]
+        sq = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
+        m = extrude(triangulate(sq, size=0.25).mesh, Translate([0, 0, 1], layers=4), simplices=True)
+        once = optimize(Mesh(m.mesh.points, (CellBlock("tetra", m.mesh.cells_by_type["tetra"]),)))
+        # the cube's six Kuhn tetrahedra, and a mesh this method has already optimized
+        for P, T in ((cube, kuhn), (once.mesh.points, once.mesh.cells[0].data)):
+            res = optimize(Mesh(P, (CellBlock("tetra", T),)))
+            assert res.stats["use"] == "optimization"
+            assert (res.mesh.points == P).all()
+            rows = np.sort(res.mesh.cells[0].data, 1)
+            assert sorted(map(tuple, rows.tolist())) == sorted(map(tuple, np.sort(T, 1).tolist()))
+
 
 def test_generation_does_not_depend_on_translation_or_scale():
     ring = star(np.array([1.0, 0.5, 0.9, 0.45, 0.95, 0.5, 1.0, 0.55]))
