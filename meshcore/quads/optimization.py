@@ -167,18 +167,28 @@ class OptimizeResult:
 # All cells are rows of C (c, 4), a triangle with -1 in its last slot.
 
 
-def _incidence(C: np.ndarray, alive: np.ndarray, n: int):
-    """CSR vertex -> alive cells: ``(ptr (n + 1,), cells)``."""
-    rows = np.flatnonzero(alive)
-    sub = C[rows]
-    cell = np.repeat(rows, 4)
-    v = sub.ravel()
-    keep = v >= 0
-    v, cell = v[keep], cell[keep]
-    order = np.argsort(v, kind="stable")
+@njit(cache=True)
+def _incidence(C, alive, n):
+    """CSR vertex -> alive cells: ``(ptr (n + 1,), cells)``, each vertex's cells in
+    increasing order (a counting sort, compiled)."""
     ptr = np.zeros(n + 1, np.int64)
-    np.cumsum(np.bincount(v, minlength=n), out=ptr[1:])
-    return ptr, cell[order]
+    for r in range(C.shape[0]):
+        if alive[r]:
+            for s in range(4):
+                if C[r, s] >= 0:
+                    ptr[C[r, s] + 1] += 1
+    for v in range(n):
+        ptr[v + 1] += ptr[v]
+    fill = ptr[:-1].copy()
+    cells = np.empty(ptr[n], np.int64)
+    for r in range(C.shape[0]):
+        if alive[r]:
+            for s in range(4):
+                v = C[r, s]
+                if v >= 0:
+                    cells[fill[v]] = r
+                    fill[v] += 1
+    return ptr, cells
 
 
 def _edge_keys(C: np.ndarray, alive: np.ndarray, n: int):
@@ -456,6 +466,8 @@ class _State:
         self.measure = measure
         self.metric = metric
         self.interior = interior
+        #: len(C) when the swaps last ran (None before the first sweep)
+        self.swapped = None
 
     def quality_of(self, rows: np.ndarray) -> np.ndarray:
         return _cell_quality(self.P, rows, self.measure, self.metric)
@@ -642,6 +654,12 @@ def _op_swap(st: _State) -> int:
     irregular = np.diff(ptr) != st.ideal
     near = irregular[st.C[pairs].reshape(len(pairs), -1)].any(axis=1)
     pairs = pairs[near | (_old_min(st, pairs) < TOL.active_below)]
+    if st.swapped is not None:  # a later sweep: only next to the cells made since the last swaps
+        dirty = np.zeros(n, bool)
+        new = st.C[st.swapped :][st.alive[st.swapped :]]
+        dirty[new[new >= 0]] = True
+        pairs = pairs[dirty[st.C[pairs].reshape(len(pairs), -1)].any(axis=1)]
+    st.swapped = len(st.C)
     if not len(pairs):
         return 0
     return _apply_hex(st, *_hex_splits(st, pairs, unique_ints(key), topological=True))
@@ -770,6 +788,12 @@ def _op_lift(st: _State) -> int:
     dirs = np.tile(np.column_stack([np.cos(ang), np.sin(ang)]), (2, 1))
     steps = np.repeat([0.25, 0.0625], 8)  # times the mean edge length
     moved = np.zeros(n, bool)
+    if st.measure == "angle" and st.metric is None:  # planar (8.4): one compiled loop per round
+        order = verts[np.argsort(color[verts], kind="stable")]
+        for _ in range(TOL.lift_rounds):
+            if not _lift_round(st.P, st.C, st.q, order, ptr, cells, dirs, steps, TOL.gain, moved):
+                break
+        return int(moved.sum())
     for _ in range(TOL.lift_rounds):
         any_move = False
         for c in range(int(color[verts].max()) + 1):
@@ -827,6 +851,56 @@ def _op_lift(st: _State) -> int:
         if not any_move:
             break
     return int(moved.sum())
+
+
+@njit(cache=True)
+def _lift_round(P, C, q, order, ptr, cells, dirs, steps, gain, moved):
+    """One round of :func:`_op_lift` over ``order`` (sorted by colour), planar, (8.4).
+
+    Sequential: a vertex's cells hold no other vertex of its colour, so this
+    is the colour-at-once search of the vectorized path. Returns whether a
+    vertex moved.
+    """
+    work = np.empty(WORK_SIZE)
+    any_move = False
+    for i in range(order.shape[0]):
+        v = order[i]
+        hx, hy = P[v, 0], P[v, 1]
+        cur = np.inf
+        dist = 0.0
+        cnt = 0
+        for j in range(ptr[v], ptr[v + 1]):
+            c = cells[j]
+            cur = min(cur, q[c])
+            nv = 4 if C[c, 3] >= 0 else 3
+            d = 0.0
+            for s in range(nv):
+                u = C[c, s]
+                d += math.sqrt((P[u, 0] - hx) ** 2 + (P[u, 1] - hy) ** 2)
+            dist += d
+            cnt += nv - 1
+        h = dist / max(cnt, 1)
+        best, bx, by = cur, hx, hy
+        for t in range(steps.shape[0]):  # in order: the first clear best wins
+            P[v, 0] = hx + steps[t] * h * dirs[t, 0]
+            P[v, 1] = hy + steps[t] * h * dirs[t, 1]
+            least = np.inf
+            for j in range(ptr[v], ptr[v + 1]):
+                c = cells[j]
+                least = min(
+                    least, _angle_quality(P, C, c) if _row_valid(P, C, c, work) else -np.inf
+                )
+            if least > best + gain:
+                best, bx, by = least, P[v, 0], P[v, 1]
+        if best > cur + gain:
+            P[v, 0], P[v, 1] = bx, by
+            for j in range(ptr[v], ptr[v + 1]):
+                q[cells[j]] = _angle_quality(P, C, cells[j])
+            moved[v] = True
+            any_move = True
+        else:
+            P[v, 0], P[v, 1] = hx, hy
+    return any_move
 
 
 @njit(cache=True)
@@ -902,6 +976,39 @@ def _smooth_pass(P, C, q, order, active, nptr, nidx, ptr, cells, floor, still, k
 
 
 @njit(cache=True)
+def _smooth_passes(P, C, q, live, order, movable, csr, passes, tol, moved):
+    """Up to ``passes`` of :func:`_smooth_pass` as :func:`_op_smooth` runs them: a pass
+    is undone and ends the smoothing unless the mean quality of the ``live`` cells
+    rises; then only the vertices that moved and their neighbours are tried. ``tol``:
+    ``smooth_floor``, ``smooth_still``, ``smooth_gain``."""
+    nptr, nidx, ptr, cells = csr
+    floor0, still, gain = tol
+    n = P.shape[0]
+    active = movable.copy()
+    kept = np.zeros(n, np.bool_)
+    moved_now = np.zeros(n, np.bool_)
+    for _ in range(passes):
+        P0, q0 = P.copy(), q.copy()
+        mean0 = q[live].mean()
+        floor = max(q[live].min(), floor0)
+        kept[:] = False
+        moved_now[:] = False
+        _smooth_pass(P, C, q, order, active, nptr, nidx, ptr, cells, floor, still, kept, moved_now)
+        if not q[live].mean() > mean0 + gain:
+            P[:] = P0
+            q[:] = q0
+            return
+        moved |= kept
+        if not moved_now.any():
+            return
+        active[:] = moved_now
+        for v in np.flatnonzero(moved_now):
+            for j in range(nptr[v], nptr[v + 1]):
+                active[nidx[j]] = True
+        active &= movable
+
+
+@njit(cache=True)
 def _row_valid(P, C, r, work):
     nv = 4 if C[r, 3] >= 0 else 3
     for i in range(nv if nv == 4 else 1):
@@ -942,33 +1049,21 @@ def _op_smooth(st: _State, passes: int | None = None, below: float | None = None
     color = _colors(st.C, ptr, cells, movable)
     ncol = int(color.max()) + 1 if movable.any() else 0
     by_color = [np.flatnonzero(color == k) for k in range(ncol)]
-    # the compiled pass: planar, measure (8.4) without a metric
-    fast = st.P.shape[1] == 2 and st.measure == "angle" and st.metric is None
     order = np.concatenate(by_color) if by_color else np.zeros(0, np.int64)
     moved = np.zeros(n, bool)  # kept moves, however small
+    passes = TOL.smooth_passes if passes is None else passes
+    if st.P.shape[1] == 2 and st.measure == "angle" and st.metric is None:  # (8.4): compiled
+        tol = (TOL.smooth_floor, TOL.smooth_still, TOL.smooth_gain)
+        csr = (nptr, nidx, ptr, cells)
+        _smooth_passes(st.P, st.C, st.q, live, order, movable, csr, passes, tol, moved)
+        return int(moved.sum())
     active = movable.copy()
-    for _ in range(TOL.smooth_passes if passes is None else passes):
+    for _ in range(passes):
         P0, q0, mean0 = st.P.copy(), st.q.copy(), float(st.q[live].mean())
         floor = _floor(st)
         moved_now = np.zeros(n, bool)
         kept = np.zeros(n, bool)
-        if fast:
-            _smooth_pass(
-                st.P,
-                st.C,
-                st.q,
-                order,
-                active,
-                nptr,
-                nidx,
-                ptr,
-                cells,
-                floor,
-                TOL.smooth_still,
-                kept,
-                moved_now,
-            )
-        for verts in [] if fast else by_color:
+        for verts in by_color:
             verts = verts[active[verts]]
             if not len(verts):
                 continue
