@@ -887,9 +887,7 @@ def _lift_round(P, C, q, order, ptr, cells, dirs, steps, gain, moved):
             least = np.inf
             for j in range(ptr[v], ptr[v + 1]):
                 c = cells[j]
-                least = min(
-                    least, _angle_quality(P, C, c) if _row_valid(P, C, c, work) else -np.inf
-                )
+                least = min(least, _checked_quality(P, C, c, work))
             if least > best + gain:
                 best, bx, by = least, P[v, 0], P[v, 1]
         if best > cur + gain:
@@ -955,9 +953,7 @@ def _smooth_pass(P, C, q, order, active, nptr, nidx, ptr, cells, floor, still, k
         for j in range(nc):
             c = cells[ptr[v] + j]
             omin = min(omin, q[c])
-            nq = -np.inf
-            if _row_valid(P, C, c, work):
-                nq = _angle_quality(P, C, c)
+            nq = _checked_quality(P, C, c, work)
             if j < 64:
                 newq[j] = nq
             nmin = min(nmin, nq)
@@ -1006,6 +1002,21 @@ def _smooth_passes(P, C, q, live, order, movable, csr, passes, tol, moved):
             for j in range(nptr[v], nptr[v + 1]):
                 active[nidx[j]] = True
         active &= movable
+
+
+@njit(cache=True)
+def _checked_quality(P, C, c, work):
+    """:func:`_angle_quality` of row c, -inf unless it is strictly convex (exact).
+
+    Above 1e-6 the quality proves it: every corner's sine is then above 1e-6,
+    so each corner's floating-point determinant exceeds the error bound of
+    ``orient2d_filtered`` many times over, and the predicate would return its
+    sign unchanged; below, the predicate decides.
+    """
+    q = _angle_quality(P, C, c)
+    if q > 1e-6 or _row_valid(P, C, c, work):
+        return q
+    return -np.inf
 
 
 @njit(cache=True)
