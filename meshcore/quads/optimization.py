@@ -55,9 +55,12 @@ Each sweep applies the operators in the order valence2, valence3, collapse,
 hexagon, swap, smooth, a set of non-overlapping candidates at a time (best
 gain first, by a compiled greedy selection); sweeps repeat until no
 operator changes the topology or ``sweeps`` is reached; after the first,
-``swap`` looks only at pairs with a vertex in a cell made since its last
-run (no other swap was found in later sweeps at 1k and 10k triangles, and
-the search cost as much as the first). Then a longer
+``swap`` tries a pair without an irregular vertex (it can only raise the
+quality) only next to a cell made since its last run: on Gmsh's meshes of
+1k, 10k and 100k triangles no such pair swapped elsewhere, and the search
+cost as much as in the first sweep (100k: swaps 1.25 -> 0.70 s CPU, the
+same mesh; restricting the pairs near irregular vertices too lost 9 of 346
+swaps there, mean 0.8606 -> 0.8601). Then a longer
 smoothing over every interior vertex (``final_smooth_passes``), then the
 lift. Candidates are found
 and rebuilt by compiled loops over configurations (numba), and every quality
@@ -626,13 +629,14 @@ def _op_swap(st: _State) -> int:
     ptr, _ = _incidence(st.C, st.alive, n)
     irregular = np.diff(ptr) != st.ideal
     near = irregular[st.C[pairs].reshape(len(pairs), -1)].any(axis=1)
-    pairs = pairs[near | (_old_min(st, pairs) < TOL.active_below)]
-    if st.swapped is not None:  # a later sweep: only next to the cells made since the last swaps
+    poor = _old_min(st, pairs) < TOL.active_below
+    if st.swapped is not None:  # a later sweep: poor pairs only next to the cells made since
         dirty = np.zeros(n, bool)
         new = st.C[st.swapped :][st.alive[st.swapped :]]
         dirty[new[new >= 0]] = True
-        pairs = pairs[dirty[st.C[pairs].reshape(len(pairs), -1)].any(axis=1)]
+        poor &= dirty[st.C[pairs].reshape(len(pairs), -1)].any(axis=1)
     st.swapped = len(st.C)
+    pairs = pairs[near | poor]
     if not len(pairs):
         return 0
     return _apply_hex(st, *_hex_splits(st, pairs, unique_ints(key), topological=True))

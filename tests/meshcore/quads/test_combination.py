@@ -310,6 +310,14 @@ class TestOptimize:
         assert_strictly_convex(res.mesh)
         assert_conforming(res.mesh)
         assert boundary_segments(res.mesh) == boundary_segments(mesh)
+        # the compiled smoothing and lift (no metric) move the vertices as the
+        # vectorized path does (taken with the identity metric); this star's pairs
+        # get every kind of move (valence3 4, smooth 107, lift 20)
+        pairs = combine(random_mesh(3), algorithm="matching").mesh
+        fast, slow = optimize_quads(pairs), optimize_quads(pairs, metric=np.eye(2))
+        assert fast.operators == slow.operators and fast.operators["lift"] > 0
+        assert np.array_equal(fast.mesh.cells[0].data, slow.mesh.cells[0].data)
+        np.testing.assert_allclose(fast.mesh.points, slow.mesh.points, rtol=0, atol=1e-12)
 
     def test_all_quad_optimized(self):
         mesh = perturbed_grid(10, 0.3, seed=5)
