@@ -121,8 +121,9 @@ Cost (``benchmarks/quads.py``, one Gmsh mesh of a square with a hole)
 97k triangles: ``heap`` 0.17 s, ``frontal`` 0.18 s, ``stack`` 0.32 s,
 ``matching`` 0.38 s with no triangle left (Gmsh's Blossom 18.2 s); with
 ``optimize`` 4.6 s, mean quality (8.4) 0.861, least 0.53 (Blossom 0.822,
-0.476). 10k triangles: ``matching`` with ``optimize`` 0.37 s (Blossom
-0.18 s). 964k triangles: ``heap`` 3.0 s, ``matching`` 7.3 s (17.8 s
+0.476). ``matching`` with ``optimize`` against Blossom (with its own
+optimization), CPU: 1.94x at 1k triangles, 0.86x at 10k, 0.14x at 100k
+(README). 964k triangles: ``heap`` 3.0 s, ``matching`` 7.3 s (17.8 s
 before the forest search). The tail of the matching dominated there: the last
 ~900 leftovers sit deep inside the domain (median 92 triangle sizes from
 the boundary, measured) and one search per leftover grew trees of
