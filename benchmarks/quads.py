@@ -31,7 +31,9 @@ with ``all_quad`` and ``twice_size`` (about N / 2 final quads; ``heap`` and
 needs the OpenCASCADE geometry: its full-quad algorithms fail ("1D mesh
 cannot be divided by 2") on the geo-kernel polygon.
 
-Every row: wall time, quads, triangles left, mean and min quad quality
+Every row: wall time, CPU time (``process_time``; the ratio to the peer is
+on CPU, wall times swinging 2-4x on a loaded machine; ``--repeat N``: the
+run of median CPU among N), quads, triangles left, mean and min quad quality
 (8.4) by :func:`meshcore.mesh.quality.quad_quality` (clockwise quads reversed
 first: Gmsh orients by its surface normal), the fraction of quads under 0.5.
 Every run is a child process. Gmsh is a bench-only dependency (``pip
