@@ -166,7 +166,7 @@ from meshcore.domain.planar import Domain, parse_domain
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
-from meshcore.quads.boundary_layer import boundary_layer
+from meshcore.quads.boundary_layer import CORNER_LEAST_QUALITY, boundary_layer, meets_targets
 from meshcore.quads.lattice import triangulated
 from meshcore.quads.optimization import corners_relaxed, optimize_quads
 from meshcore.quads.valence import fewer_defects
@@ -1245,6 +1245,7 @@ def combine(
     twice_size: bool = False,
     optimize: bool = False,
     inner: bool = False,
+    corner_least: float | None = None,
     progress: Progress | None = None,
 ) -> QuadResult:
     """Combine the triangles of a mesh (or of a domain meshed here) into quads.
@@ -1285,6 +1286,12 @@ def combine(
         boundary vertices end inside the final mesh and may move, so the
         valence clean-up may pair leftover triangles with a flat corner there
         too (:mod:`meshcore.quads.valence`).
+    corner_least : float, optional
+        The least quality (8.4) of the corner row's quads before the
+        optimization (:mod:`meshcore.quads.boundary_layer`; None: its
+        ``CORNER_LEAST_QUALITY``). Where that refuses the row, ``optimize`` with
+        ``angle`` tries it once more at 0 and keeps it when the optimized mesh
+        meets :func:`~meshcore.quads.boundary_layer.meets_targets`.
     progress : callable(fraction, message), optional
 
     Returns
@@ -1360,7 +1367,24 @@ def combine(
                     twice_size=True,
                     inner=True,
                 ),
+                corner_least=CORNER_LEAST_QUALITY if corner_least is None else corner_least,
             )
+            if layered is None and corner_least is None and optimize and measure == "angle":
+                res = combine(
+                    domain=_dom,
+                    size=size,
+                    min_angle=min_angle,
+                    algorithm=algorithm,
+                    min_quality=min_quality,
+                    all_quad=True,
+                    twice_size=True,
+                    optimize=True,
+                    corner_least=0.0,
+                    progress=progress,
+                )
+                # without a row it is the lattice's mesh, as below
+                if "boundary_layer" not in res.stats or meets_targets(res.mesh, _dom, size):
+                    return res
         if layered is None:
             mesh, _dom = triangulated(_dom, tsize, field_, min_angle, pattern, keep_boundary, sub)
         lap("triangulate")
