@@ -116,6 +116,7 @@ from meshcore.mesh.topology import isin_ints, unique_ints
 from meshcore.quads.vertex_moves import (
     _angle_quality_rows,
     _colors,
+    _held,
     _incidence,
     _lift_round,
     _smooth_passes,
@@ -490,7 +491,8 @@ def _hex_splits(st: _State, sets: np.ndarray, edge_keys: np.ndarray, topological
     valid = _valid(st.P, flat).reshape(k, 3, 2).all(axis=2)
     d0, d1 = cand[:, :, 0, 0], cand[:, :, 0, 3]
     dkey = np.minimum(d0, d1) * n + np.maximum(d0, d1)
-    exists = isin_ints(dkey, edge_keys)
+    # edge_keys come sorted and unique (unique_ints): a binary search, as isin_ints
+    exists = edge_keys[np.searchsorted(edge_keys, dkey).clip(0, len(edge_keys) - 1)] == dkey
     # the current diagonal of a pair of quads is an existing edge: the split is the pair itself
     valid &= ~exists
     old = _old_min(st, sets)
@@ -499,10 +501,7 @@ def _hex_splits(st: _State, sets: np.ndarray, edge_keys: np.ndarray, topological
         val = np.diff(ptr)
         r = np.arange(k)
         # valences after each split: minus the old cells holding the vertex, plus the new
-        oldc = np.zeros((k, 6), np.int64)
-        for j in range(sets.shape[1]):
-            rows = st.C[sets[:, j]]
-            oldc += (rows[:, None, :] == H[:, :, None]).any(axis=2)
+        oldc = _held(st.C, sets, H)
         ideal = st.ideal[H]
         dev_old = np.abs(val[H] - ideal).sum(axis=1)
         # interior vertices of the set (not on the hexagon) disappear with it

@@ -272,3 +272,20 @@ def _row_valid(P, C, r, work):
         if orient2d_filtered(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], work) <= 0:
             return False
     return True
+
+
+@njit(cache=True)
+def _held(C, sets, H):
+    """(k, 6): how many of the cells ``sets[i]`` hold each vertex ``H[i, j]`` of their
+    hexagon (a triangle's -1 slot holds none)."""
+    out = np.zeros(H.shape, np.int64)
+    for i in range(H.shape[0]):
+        for j in range(6):
+            v = H[i, j]
+            for a in range(sets.shape[1]):
+                c = sets[i, a]
+                for s in range(4 if c >= 0 else 0):
+                    if C[c, s] == v:
+                        out[i, j] += 1
+                        break
+    return out
