@@ -122,7 +122,7 @@ Cost (``benchmarks/quads.py``, one Gmsh mesh of a square with a hole)
 ``matching`` 0.38 s with no triangle left (Gmsh's Blossom 18.2 s); with
 ``optimize`` 4.6 s, mean quality (8.4) 0.861, least 0.53 (Blossom 0.822,
 0.476). ``matching`` with ``optimize`` against Blossom (with its own
-optimization), CPU: 1.9-7.7x at 1k triangles, 0.86-0.97x at 10k, 0.11x at 100k
+optimization), CPU: 1.9-7.7x at 1k triangles, 0.86-1.05x at 10k, 0.11x at 100k
 (README). 964k triangles: ``heap`` 3.0 s, ``matching`` 7.3 s (17.8 s
 before the forest search). The tail of the matching dominated there: the last
 ~900 leftovers sit deep inside the domain (median 92 triangle sizes from
