@@ -121,8 +121,9 @@ Cost (``benchmarks/quads.py``, one Gmsh mesh of a square with a hole)
 97k triangles: ``heap`` 0.17 s, ``frontal`` 0.18 s, ``stack`` 0.32 s,
 ``matching`` 0.38 s with no triangle left (Gmsh's Blossom 18.2 s); with
 ``optimize`` 4.6 s, mean quality (8.4) 0.861, least 0.53 (Blossom 0.822,
-0.476). 10k triangles: ``matching`` with ``optimize`` 0.37 s (Blossom
-0.18 s). 964k triangles: ``heap`` 3.0 s, ``matching`` 7.3 s (17.8 s
+0.476). ``matching`` with ``optimize`` against Blossom (with its own
+optimization), CPU: 1.9-7.7x at 1k triangles, 0.86-1.05x at 10k, 0.11x at 100k
+(README). 964k triangles: ``heap`` 3.0 s, ``matching`` 7.3 s (17.8 s
 before the forest search). The tail of the matching dominated there: the last
 ~900 leftovers sit deep inside the domain (median 92 triangle sizes from
 the boundary, measured) and one search per leftover grew trees of
@@ -165,7 +166,7 @@ from meshcore.domain.planar import Domain, parse_domain
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
-from meshcore.quads.boundary_layer import boundary_layer
+from meshcore.quads.boundary_layer import CORNER_LEAST_QUALITY, boundary_layer, meets_targets
 from meshcore.quads.lattice import triangulated
 from meshcore.quads.optimization import corners_relaxed, optimize_quads
 from meshcore.quads.valence import fewer_defects
@@ -1244,6 +1245,7 @@ def combine(
     twice_size: bool = False,
     optimize: bool = False,
     inner: bool = False,
+    corner_least: float | None = None,
     progress: Progress | None = None,
 ) -> QuadResult:
     """Combine the triangles of a mesh (or of a domain meshed here) into quads.
@@ -1284,6 +1286,12 @@ def combine(
         boundary vertices end inside the final mesh and may move, so the
         valence clean-up may pair leftover triangles with a flat corner there
         too (:mod:`meshcore.quads.valence`).
+    corner_least : float, optional
+        The least quality (8.4) of the corner row's quads before the
+        optimization (:mod:`meshcore.quads.boundary_layer`; None: its
+        ``CORNER_LEAST_QUALITY``). Where that refuses the row, ``optimize`` with
+        ``angle`` tries it once more at 0 and keeps it when the optimized mesh
+        meets :func:`~meshcore.quads.boundary_layer.meets_targets`.
     progress : callable(fraction, message), optional
 
     Returns
@@ -1359,7 +1367,24 @@ def combine(
                     twice_size=True,
                     inner=True,
                 ),
+                corner_least=CORNER_LEAST_QUALITY if corner_least is None else corner_least,
             )
+            if layered is None and corner_least is None and optimize and measure == "angle":
+                res = combine(
+                    domain=_dom,
+                    size=size,
+                    min_angle=min_angle,
+                    algorithm=algorithm,
+                    min_quality=min_quality,
+                    all_quad=True,
+                    twice_size=True,
+                    optimize=True,
+                    corner_least=0.0,
+                    progress=progress,
+                )
+                # without a row it is the lattice's mesh, as below
+                if "boundary_layer" not in res.stats or meets_targets(res.mesh, _dom, size):
+                    return res
         if layered is None:
             mesh, _dom = triangulated(_dom, tsize, field_, min_angle, pattern, keep_boundary, sub)
         lap("triangulate")

@@ -20,6 +20,7 @@ from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.quads import combination
+from meshcore.quads.boundary_layer import meets_targets
 from meshcore.quads.combination import ALGORITHMS, combine, split_all
 from meshcore.quads.optimization import optimize_quads
 from meshcore.triangulation.refinement import triangulate
@@ -289,6 +290,22 @@ class TestDomainInput:
         assert res.quality_before["quad"]["quality"]["mean"] > 0.85
         assert area(res.mesh) == pytest.approx(parse_domain(self.HOLE).area, rel=1e-12)
 
+    def test_spiky_star_gets_the_corner_row_on_a_second_try(self):
+        # 33 vertices, 43 % radial jitter: quads of the corner row fall under
+        # CORNER_LEAST_QUALITY before the optimization and the row was refused (the
+        # lattice then left least quality 0.39, corners 35-134 degrees); tried again
+        # at 0 and optimized, it is kept because it meets the targets
+        rng = np.random.default_rng(282266799)
+        t = 2 * np.pi * (np.arange(33) + rng.uniform(-0.3, 0.3, 33)) / 33
+        r = 1 + 0.43 * rng.uniform(-1, 1, 33)
+        ring = np.column_stack([r * np.cos(t), r * np.sin(t)])
+        dom = parse_domain({"type": "Polygon", "coordinates": [[*ring.tolist(), ring[0].tolist()]]})
+        res = combine(domain=dom, size=0.1, all_quad=True, twice_size=True, optimize=True)
+        assert "boundary_layer" in res.stats and set(res.mesh.cells_by_type) == {"quad"}
+        assert meets_targets(res.mesh, dom, 0.1)
+        assert area(res.mesh) == pytest.approx(dom.area, rel=1e-12)
+        assert_strictly_convex(res.mesh)
+
     def test_twice_size_needs_domain_and_all_quad(self):
         with pytest.raises(InputError) as err:
             combine(domain=self.HOLE, size=0.1, twice_size=True)
@@ -310,6 +327,14 @@ class TestOptimize:
         assert_strictly_convex(res.mesh)
         assert_conforming(res.mesh)
         assert boundary_segments(res.mesh) == boundary_segments(mesh)
+        # the compiled smoothing and lift (no metric) move the vertices as the
+        # vectorized path does (taken with the identity metric); this star's pairs
+        # get every kind of move (valence3 4, smooth 107, lift 20)
+        pairs = combine(random_mesh(3), algorithm="matching").mesh
+        fast, slow = optimize_quads(pairs), optimize_quads(pairs, metric=np.eye(2))
+        assert fast.operators == slow.operators and fast.operators["lift"] > 0
+        assert np.array_equal(fast.mesh.cells[0].data, slow.mesh.cells[0].data)
+        np.testing.assert_allclose(fast.mesh.points, slow.mesh.points, rtol=0, atol=1e-12)
 
     def test_all_quad_optimized(self):
         mesh = perturbed_grid(10, 0.3, seed=5)
