@@ -278,19 +278,20 @@ def _facet_subfaces(
                     out[n, 0], out[n, 1], out[n, 2] = ids[a], ids[b], ids[c]
                     owner[n] = f
                     n += 1
-        for i in range(sptr[k], sptr[k + 1]):
-            key = seg_keys[segs[i]]
-            found = False
+        if sptr[k + 1] > sptr[k]:
+            # The facet's subface edges, sorted: each subsegment found by bisection.
+            ek = np.empty(3 * (n - first), np.int64)
             for t in range(first, n):
                 for j in range(3):
                     u, v = out[t, j], out[t, (j + 1) % 3]
-                    if u > v:
-                        u, v = v, u
-                    if (u << 32) | v == key:
-                        found = True
-            if not found:
-                unsettled[nu] = key
-                nu += 1
+                    ek[3 * (t - first) + j] = (min(u, v) << 32) | max(u, v)
+            ek.sort()
+            for i in range(sptr[k], sptr[k + 1]):
+                key = seg_keys[segs[i]]
+                at = np.searchsorted(ek, key)
+                if at == ek.shape[0] or ek[at] != key:
+                    unsettled[nu] = key
+                    nu += 1
         uptr[k + 1] = nu
     return out[:n].copy(), owner[:n].copy(), uptr, unsettled[:nu].copy()
 
