@@ -1152,42 +1152,42 @@ class SurfaceRecovery:
         """The size of subsegments ``rows``: the smaller ``facet_size`` of their two facets."""
         return self.facet_size[self.edge_groups[self.seg_edge[rows]]].min(axis=1)
 
-    def in_facet(self, X: np.ndarray, f: np.ndarray) -> np.ndarray:
-        """Whether points (in their facet's plane) lie inside facet ``f`` (float)."""
-        out = np.zeros(len(X), dtype=bool)
-        for g in np.unique(f).tolist():  # a loop over the facets concerned
-            rows = np.flatnonzero(f == g)
-            tri = self.facets[self.group_tris[g]]
-            a, b, c = (self.P[tri[:, k]][None] for k in range(3))
-            n = np.cross(b - a, c - a)
-            x = X[rows][:, None]
-            s1 = np.einsum("ijk,ijk->ij", np.cross(b - a, x - a), n)
-            s2 = np.einsum("ijk,ijk->ij", np.cross(c - b, x - b), n)
-            s3 = np.einsum("ijk,ijk->ij", np.cross(a - c, x - c), n)
-            out[rows] = ((s1 > 0) & (s2 > 0) & (s3 > 0)).any(axis=1)
-        return out
-
-    def sources(self) -> np.ndarray:
-        """The input triangle each subface lies in (the one that best holds its centroid)."""
+    def _facet_triangles(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For facets ``g`` (one per row): the pairs (row, input triangle of its facet),
+        row by row, each facet's triangles in ``group_tris`` order."""
         sizes = np.array([len(t) for t in self.group_tris])
         start = np.concatenate([[0], np.cumsum(sizes)])
         flat = np.concatenate(self.group_tris)
-        g = self.sub_facet
         k = np.repeat(np.arange(len(g)), sizes[g])
         j = flat[np.arange(len(k)) - np.repeat(np.cumsum(sizes[g]) - sizes[g], sizes[g])
                  + np.repeat(start[g], sizes[g])]  # fmt: skip
-        x = self.P[self.sub[k]].mean(axis=1)
+        return k, j
+
+    def _sides(self, x: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """(k, 3): the side of each point ``x`` of the three edges of input triangle ``j``
+        (positive inside; float)."""
         tri = self.facets[j]
         a, b, c = self.P[tri[:, 0]], self.P[tri[:, 1]], self.P[tri[:, 2]]
         n = np.cross(b - a, c - a)
-        s = np.stack(
+        return np.stack(
             [
                 np.einsum("ij,ij->i", np.cross(b - a, x - a), n),
                 np.einsum("ij,ij->i", np.cross(c - b, x - b), n),
                 np.einsum("ij,ij->i", np.cross(a - c, x - c), n),
             ],
             1,
-        ).min(axis=1)
+        )
+
+    def in_facet(self, X: np.ndarray, f: np.ndarray) -> np.ndarray:
+        """Whether points (in their facet's plane) lie inside facet ``f`` (float)."""
+        k, j = self._facet_triangles(f)
+        inside = (self._sides(X[k], j) > 0).all(axis=1)
+        return np.bincount(k[inside], minlength=len(X)) > 0
+
+    def sources(self) -> np.ndarray:
+        """The input triangle each subface lies in (the one that best holds its centroid)."""
+        k, j = self._facet_triangles(self.sub_facet)
+        s = self._sides(self.P[self.sub[k]].mean(axis=1), j).min(axis=1)
         order = np.lexsort((-s, k))
         first = np.unique(k[order], return_index=True)[1]
         return j[order[first]]
