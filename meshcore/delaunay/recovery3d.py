@@ -702,7 +702,9 @@ class SurfaceRecovery:
             corners = np.unique(self.facets[self.group_tris[g]])
             starts = [de[:, 0] for de, _ in self.loops(g)]
             on_loop = np.concatenate(starts) if starts else np.zeros(0, dtype=np.int64)
-            self._corner_cache[g] = (corners, np.setdiff1d(corners, on_loop))
+            # Not np.setdiff1d: 170 us on 6 values.
+            lonely = sorted(set(corners.tolist()) - set(on_loop.tolist()))
+            self._corner_cache[g] = (corners, np.array(lonely, dtype=corners.dtype))
         return self._corner_cache[g]
 
     # -- points ----------------------------------------------------------------
@@ -772,7 +774,7 @@ class SurfaceRecovery:
         ball). With ``defer`` (a list), the facets to retriangulate are
         appended to it instead.
         """
-        rows = np.unique(rows)
+        rows = unique_ints(rows)
         if rows.size == 0:
             return 0
         s = self.seg[rows]
@@ -931,7 +933,7 @@ class SurfaceRecovery:
         these splits, so that ``rows`` still name the subfaces they named.
         Returns (subfaces split, subsegments split).
         """
-        rows = np.unique(rows)
+        rows = unique_ints(rows)
         touched = [] if touched is None else touched
         if rows.size == 0:
             self._retriangulate_after(touched, np.zeros(0, dtype=np.int64))

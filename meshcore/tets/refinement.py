@@ -185,6 +185,7 @@ from meshcore.domain.surface import as_surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh
+from meshcore.mesh.topology import unique_ints
 from meshcore.tets.angles import (
     held_by_cylinders,
     input_forced,
@@ -944,9 +945,8 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
         if size_at is not None:
             cap = np.minimum(cap, size_at(0.5 * (b.P[b.seg[:, 0]] + b.P[b.seg[:, 1]])))
         L = np.linalg.norm(b.P[b.seg[:, 0]] - b.P[b.seg[:, 1]], axis=1)
-        seg_bad = np.union1d(
-            seg_bad, np.flatnonzero((L > cap) & (L >= 1.5 * b.radial_floor(b.seg)))
-        )
+        long = np.flatnonzero((L > cap) & (L >= 1.5 * b.radial_floor(b.seg)))
+        seg_bad = unique_ints(np.concatenate([seg_bad, long]))
         if seg_bad.size:
             b.split_segments(seg_bad)
             continue
@@ -955,7 +955,9 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
             cap = np.minimum(cap, size_at(b.P[b.sub].mean(axis=1)))
         if np.isfinite(cap).any():
             _, r = tri_circumcenters(b.P, b.sub)
-            sub_bad = np.union1d(sub_bad, np.flatnonzero(r > b.knobs.size_radius * cap))
+            sub_bad = unique_ints(
+                np.concatenate([sub_bad, np.flatnonzero(r > b.knobs.size_radius * cap)])
+            )
         if sub_bad.size:
             b.split_subfaces(sub_bad)
             continue
