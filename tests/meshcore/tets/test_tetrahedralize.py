@@ -442,10 +442,11 @@ def test_poisson_converges():
     0.1 to 0.2. h is measured, not the ``size`` asked: as ``size`` halves the
     mean edge shrinks by 1.93 then 1.96 and the points grow 5.8 then 6.7
     times (the surface's share falls), so the slope against ``size`` reads
-    1.84 and against N^(-1/3) 2.08. With ``min_dihedral=15`` the slope is
-    1.91; with 7 other seeds of the sliver pass's random candidates, 1.83 to
-    1.96. Over 13 sizes from 0.25 to 0.031, error / h² stays within 1.15 to
-    1.74 and the slope over the finer half is 2.04.
+    1.80 and against N^(-1/3) 2.05; against h, 1.88. With the former round of
+    perturbed insertion before the sliver improvement, 1.91, and 1.83 to 1.96
+    over 8 seeds of its random candidates; there, over 13 sizes from 0.25 to
+    0.031, error / h² stayed within 1.15 to 1.74 and the slope over the finer
+    half was 2.04.
     """
     from skfem import (
         Basis,
