@@ -51,7 +51,9 @@ imports, ``base`` in ``--json``), and the ratio of the row's time per
 tetrahedron to TetGen ``-pq1.414``'s. ``--repeat N`` gives the median of N
 runs of each row (alternating rows). ``--json FILE`` writes every run.
 TetGen, Gmsh and pytetwild are bench-only dependencies, skipped with a note
-when absent.
+when absent. ``--baseline DIR`` adds a row ``baseline + dihedral 15``: the
+same run of the checkout at ``DIR`` (its own copy of this script, its
+``meshcore``), for before/after figures measured in one run.
 """
 
 from __future__ import annotations
@@ -263,8 +265,10 @@ def _child(spec: dict) -> None:
 
 
 def _run(spec: dict, wall_limit: float) -> dict:
-    cmd = [sys.executable, os.path.abspath(__file__), "--child", json.dumps(spec)]
-    env = {**os.environ, "PYTHONPATH": ROOT + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    root = spec.get("root", ROOT)  # another checkout (``--baseline``): its copy of this script
+    script = os.path.join(root, "benchmarks", os.path.basename(__file__))
+    cmd = [sys.executable, script, "--child", json.dumps(spec)]
+    env = {**os.environ, "PYTHONPATH": root + os.pathsep + os.environ.get("PYTHONPATH", "")}
     try:
         p = subprocess.run(cmd, capture_output=True, text=True, timeout=wall_limit, env=env)
     except subprocess.TimeoutExpired:
@@ -315,6 +319,8 @@ def _rows(tools, n_target, args):
     if "ours" in tools:
         rows.append(("ours r/e 2", "ours", {}, False))
         rows.append(("ours r/e 2 + dihedral 15", "ours", {"min_dihedral": 15.0}, False))
+        if args.baseline:
+            rows.append(("baseline + dihedral 15", "ours", {"min_dihedral": 15.0}, False))
         if n_target <= args.dihedral20_below:
             rows.append(("ours r/e 2 + dihedral 20", "ours", {"min_dihedral": 20.0}, False))
     if "tetgen" in tools:
@@ -356,6 +362,9 @@ def main() -> None:
         "--match-count", type=int, default=None, help="match peers to this count (no ours row)"
     )
     ap.add_argument("--json", default=None, help="write every run to this file")
+    ap.add_argument(
+        "--baseline", default=None, help="also a row of this checkout's ours (before/after)"
+    )
     ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child is not None:
@@ -384,6 +393,8 @@ def main() -> None:
                 for row, runner, opts, match in rows:
                     spec = {"shape": name, "runner": runner, "opts": opts, "size": size}
                     spec["cpu_limit"] = args.cpu_limit
+                    if row.startswith("baseline"):
+                        spec["root"] = os.path.abspath(args.baseline)
                     if match and n_ours is not None and row not in matched:
                         matched[row], out = _matched(spec, n_ours, args.wall_limit)
                         spec["size"] = matched[row]

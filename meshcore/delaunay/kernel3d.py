@@ -57,19 +57,14 @@ Choices where the methods text leaves freedom:
   The incremental API instead reports the existing vertex.
 
 Incremental API, for boundary recovery and Delaunay refinement
-(:class:`IncrementalDelaunay3d`): it keeps the structure between calls.
-``IncrementalDelaunay3d(points)`` tetrahedralizes the initial points (as
-:func:`delaunay3d`); ``insert(point)`` adds one point and returns an
-:class:`Insertion` (its vertex index, the slots of the tetrahedra removed
-and created); ``insert_many(points)`` adds a batch in BRIO/Hilbert order;
-``locate(point)`` returns a :class:`Location` (a real tetrahedron whose
-closure holds the point and whether it lies inside, on a face, an edge or a
-vertex, or -1 outside the hull); ``tets(slots)`` and ``adjacent(slots)``
-read the structure; ``alive()`` lists the real tetrahedra's slots and
-``tetrahedralization()`` returns a compact :class:`Tetrahedralization`.
-Vertices are numbered as given: the initial points first, then each
-inserted point in turn. Slots are stable until the tetrahedron is removed;
-removed slots are reused by later insertions.
+(:class:`IncrementalDelaunay3d`, keeping the structure between calls):
+``insert`` (an :class:`Insertion`: the vertex, the slots removed and
+created), ``insert_many`` (a batch in BRIO/Hilbert order, one compiled
+loop), ``insert_guarded``, ``locate`` (a :class:`Location`), ``tets``,
+``adjacent``, ``alive`` and ``tetrahedralization``. Vertices are numbered
+as given: the initial points first, then each inserted point in turn.
+Slots are stable until the tetrahedron is removed; removed slots are reused
+by later insertions.
 
 References
 ----------
@@ -359,10 +354,13 @@ def _orient_filter(pts, a, b, c, d):
 
 @njit(cache=True)
 def _orient(pts, a, b, c, d, work):
-    """orient3d of the vertices a, b, c, d: the semi-static filter, then Shewchuk's, then exact."""
+    """orient3d of vertices a, b, c, d: semi-static filter, 0 in an axis plane, then exact."""
     s = _orient_filter(pts, a, b, c, d)
     if s != 0:
         return s
+    for k in range(3):
+        if pts[a, k] == pts[d, k] and pts[b, k] == pts[d, k] and pts[c, k] == pts[d, k]:
+            return 0
     return orient3d_filtered(
         pts[a, 0], pts[a, 1], pts[a, 2], pts[b, 0], pts[b, 1], pts[b, 2],
         pts[c, 0], pts[c, 1], pts[c, 2], pts[d, 0], pts[d, 1], pts[d, 2], work,
@@ -1169,7 +1167,7 @@ class IncrementalDelaunay3d:
         )  # fmt: skip
         if stop < hi:
             status = int(self._state[_STATUS])
-            if status == _DUPLICATE:
+            if status == _DUPLICATE and pts_in is not None:
                 raise _duplicates_error(pts_in)
             self._handle(status)
         return stop
@@ -1233,9 +1231,7 @@ class IncrementalDelaunay3d:
             The new vertex (or the coinciding one, ``duplicate=True``) and the
             slots of the tetrahedra removed and created.
         """
-        return self._insert_scaled(self._scaled(point, "point")[0], near)
-
-    def _insert_scaled(self, q: np.ndarray, near: int | None) -> Insertion:
+        q = self._scaled(point, "point")[0]
         self._ensure_points(1)
         p = self._n
         self._pts[p] = q
@@ -1291,26 +1287,30 @@ class IncrementalDelaunay3d:
             return out
         nbits = min(_HILBERT_BITS, max(6, (k.bit_length() + 4) // 3 + 2))
         keys, _ = _brio_hilbert_keys(q, nbits, self._n)
-        n0 = self._n
-        near = None
-        for j in np.argsort(keys, kind="stable"):
-            # provisional vertex numbers: the insertion order
-            res = self._insert_scaled(q[j], near)
-            out[j] = res.vertex
-            if not res.duplicate:
-                near = res.vertex
+        src = np.argsort(keys, kind="stable")  # the point at row n0 + i, in insertion order
+        n0, hi = self._n, self._n + k
+        self._ensure_points(k)
+        self._pts[n0:hi] = q[src]
+        self._order[n0:hi] = self._inv[n0:hi] = np.arange(n0, hi)  # provisional: the rows
+        hint = np.empty(hi, np.int64)  # each walk starts at the last vertex inserted
+        hint[n0:] = np.concatenate([[-1], np.arange(n0, hi - 1)])
+        p = n0
+        while p < hi:  # one compiled loop, left only to grow buffers or at a duplicate
+            p = self._run(hint, p, hi, None)
+            if p < hi and int(self._state[_STATUS]) == _DUPLICATE:
+                out[src[p - n0]] = self._order[int(self._state[_INFO])]
+                self._pts[p : hi - 1] = self._pts[p + 1 : hi]  # the next points move up a row
+                src[p - n0 : hi - n0 - 1] = src[p - n0 + 1 : hi - n0].copy()
+                hi -= 1
+        out[src[: hi - n0]] = np.arange(n0, hi)
+        self._n = hi
         if self._n == n0:  # every point coincided with a vertex
             return out
         # Renumber the new vertices in batch order: the first new point of
         # the batch becomes vertex n0, the next n0 + 1, ...
-        first = np.zeros(k, bool)
-        seen = np.zeros(self._n - n0, bool)
-        for j in range(k):
-            v = out[j] - n0
-            if v >= 0 and not seen[v]:
-                seen[v] = True
-                first[j] = True
-        provisional = out[first]  # in batch order
+        new = np.flatnonzero(out >= n0)
+        _, at = np.unique(out[new], return_index=True)
+        provisional = out[new[np.sort(at)]]  # in batch order
         final = n0 + np.arange(provisional.size)
         relabel = np.empty(self._n - n0, np.int64)
         relabel[provisional - n0] = final

@@ -278,19 +278,20 @@ def _facet_subfaces(
                     out[n, 0], out[n, 1], out[n, 2] = ids[a], ids[b], ids[c]
                     owner[n] = f
                     n += 1
-        for i in range(sptr[k], sptr[k + 1]):
-            key = seg_keys[segs[i]]
-            found = False
+        if sptr[k + 1] > sptr[k]:
+            # The facet's subface edges, sorted: each subsegment found by bisection.
+            ek = np.empty(3 * (n - first), np.int64)
             for t in range(first, n):
                 for j in range(3):
                     u, v = out[t, j], out[t, (j + 1) % 3]
-                    if u > v:
-                        u, v = v, u
-                    if (u << 32) | v == key:
-                        found = True
-            if not found:
-                unsettled[nu] = key
-                nu += 1
+                    ek[3 * (t - first) + j] = (min(u, v) << 32) | max(u, v)
+            ek.sort()
+            for i in range(sptr[k], sptr[k + 1]):
+                key = seg_keys[segs[i]]
+                at = np.searchsorted(ek, key)
+                if at == ek.shape[0] or ek[at] != key:
+                    unsettled[nu] = key
+                    nu += 1
         uptr[k + 1] = nu
     return out[:n].copy(), owner[:n].copy(), uptr, unsettled[:nu].copy()
 
@@ -701,7 +702,9 @@ class SurfaceRecovery:
             corners = np.unique(self.facets[self.group_tris[g]])
             starts = [de[:, 0] for de, _ in self.loops(g)]
             on_loop = np.concatenate(starts) if starts else np.zeros(0, dtype=np.int64)
-            self._corner_cache[g] = (corners, np.setdiff1d(corners, on_loop))
+            # Not np.setdiff1d: 170 us on 6 values.
+            lonely = sorted(set(corners.tolist()) - set(on_loop.tolist()))
+            self._corner_cache[g] = (corners, np.array(lonely, dtype=corners.dtype))
         return self._corner_cache[g]
 
     # -- points ----------------------------------------------------------------
@@ -771,7 +774,7 @@ class SurfaceRecovery:
         ball). With ``defer`` (a list), the facets to retriangulate are
         appended to it instead.
         """
-        rows = np.unique(rows)
+        rows = unique_ints(rows)
         if rows.size == 0:
             return 0
         s = self.seg[rows]
@@ -930,7 +933,7 @@ class SurfaceRecovery:
         these splits, so that ``rows`` still name the subfaces they named.
         Returns (subfaces split, subsegments split).
         """
-        rows = np.unique(rows)
+        rows = unique_ints(rows)
         touched = [] if touched is None else touched
         if rows.size == 0:
             self._retriangulate_after(touched, np.zeros(0, dtype=np.int64))
@@ -1151,42 +1154,42 @@ class SurfaceRecovery:
         """The size of subsegments ``rows``: the smaller ``facet_size`` of their two facets."""
         return self.facet_size[self.edge_groups[self.seg_edge[rows]]].min(axis=1)
 
-    def in_facet(self, X: np.ndarray, f: np.ndarray) -> np.ndarray:
-        """Whether points (in their facet's plane) lie inside facet ``f`` (float)."""
-        out = np.zeros(len(X), dtype=bool)
-        for g in np.unique(f).tolist():  # a loop over the facets concerned
-            rows = np.flatnonzero(f == g)
-            tri = self.facets[self.group_tris[g]]
-            a, b, c = (self.P[tri[:, k]][None] for k in range(3))
-            n = np.cross(b - a, c - a)
-            x = X[rows][:, None]
-            s1 = np.einsum("ijk,ijk->ij", np.cross(b - a, x - a), n)
-            s2 = np.einsum("ijk,ijk->ij", np.cross(c - b, x - b), n)
-            s3 = np.einsum("ijk,ijk->ij", np.cross(a - c, x - c), n)
-            out[rows] = ((s1 > 0) & (s2 > 0) & (s3 > 0)).any(axis=1)
-        return out
-
-    def sources(self) -> np.ndarray:
-        """The input triangle each subface lies in (the one that best holds its centroid)."""
+    def _facet_triangles(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For facets ``g`` (one per row): the pairs (row, input triangle of its facet),
+        row by row, each facet's triangles in ``group_tris`` order."""
         sizes = np.array([len(t) for t in self.group_tris])
         start = np.concatenate([[0], np.cumsum(sizes)])
         flat = np.concatenate(self.group_tris)
-        g = self.sub_facet
         k = np.repeat(np.arange(len(g)), sizes[g])
         j = flat[np.arange(len(k)) - np.repeat(np.cumsum(sizes[g]) - sizes[g], sizes[g])
                  + np.repeat(start[g], sizes[g])]  # fmt: skip
-        x = self.P[self.sub[k]].mean(axis=1)
+        return k, j
+
+    def _sides(self, x: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """(k, 3): the side of each point ``x`` of the three edges of input triangle ``j``
+        (positive inside; float)."""
         tri = self.facets[j]
         a, b, c = self.P[tri[:, 0]], self.P[tri[:, 1]], self.P[tri[:, 2]]
         n = np.cross(b - a, c - a)
-        s = np.stack(
+        return np.stack(
             [
                 np.einsum("ij,ij->i", np.cross(b - a, x - a), n),
                 np.einsum("ij,ij->i", np.cross(c - b, x - b), n),
                 np.einsum("ij,ij->i", np.cross(a - c, x - c), n),
             ],
             1,
-        ).min(axis=1)
+        )
+
+    def in_facet(self, X: np.ndarray, f: np.ndarray) -> np.ndarray:
+        """Whether points (in their facet's plane) lie inside facet ``f`` (float)."""
+        k, j = self._facet_triangles(f)
+        inside = (self._sides(X[k], j) > 0).all(axis=1)
+        return np.bincount(k[inside], minlength=len(X)) > 0
+
+    def sources(self) -> np.ndarray:
+        """The input triangle each subface lies in (the one that best holds its centroid)."""
+        k, j = self._facet_triangles(self.sub_facet)
+        s = self._sides(self.P[self.sub[k]].mean(axis=1), j).min(axis=1)
         order = np.lexsort((-s, k))
         first = np.unique(k[order], return_index=True)[1]
         return j[order[first]]

@@ -56,15 +56,11 @@ phases and only ever grown by point insertion):
    the surface pieces the rejected centres encroach are split after them,
    only for the tetrahedra still alive. Flat folds (:func:`_flat_folds`)
    are not refined.
-5. **Slivers** (``min_dihedral``, :mod:`meshcore.tets.slivers`): first
-   one round of perturbed insertion (Chew's random points near the circumcentre, as Li and Teng
-   analyse them; a point is inserted only when it raises the least dihedral
-   angle of the tetrahedra it replaces, keeps the radius-edge bound and does
-   not cut the surface), the radius-edge refinement once more for what
-   their splits left; then, on the final tetrahedra, flips, smoothing and
-   insertion (:func:`meshcore.tets.slivers.improve`, after Klingner and
-   Shewchuk) raise every tetrahedron under the bound, never flipping a face
-   on the surface. **The output is then no longer Delaunay.** What is left
+5. **Slivers** (``min_dihedral``, :mod:`meshcore.tets.slivers`): on the
+   final tetrahedra, flips, smoothing and insertion
+   (:func:`meshcore.tets.slivers.improve`, after Klingner and Shewchuk)
+   raise every tetrahedron under the bound, never flipping a face on the
+   surface. **The output is then no longer Delaunay.** What is left
    is reported with its cause (``left``; ``left["improvement"]`` counts the
    operations and the tetrahedra the second stage left above the ratio).
 
@@ -185,6 +181,7 @@ from meshcore.domain.surface import as_surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh
+from meshcore.mesh.topology import unique_ints
 from meshcore.tets.angles import (
     held_by_cylinders,
     input_forced,
@@ -918,8 +915,7 @@ def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> 
 def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, progress):
     """Delaunay refinement rounds; returns (rounds, bad tetrahedra left).
 
-    ``region_of`` and ``bad_tets`` are kept between rounds and between calls (the
-    sliver rounds between two calls only add points): each round measures only
+    ``region_of`` and ``bad_tets`` are kept between rounds: each round measures only
     what was created since the last.
     """
     size_at = bad_tets.size_at
@@ -944,9 +940,8 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
         if size_at is not None:
             cap = np.minimum(cap, size_at(0.5 * (b.P[b.seg[:, 0]] + b.P[b.seg[:, 1]])))
         L = np.linalg.norm(b.P[b.seg[:, 0]] - b.P[b.seg[:, 1]], axis=1)
-        seg_bad = np.union1d(
-            seg_bad, np.flatnonzero((L > cap) & (L >= 1.5 * b.radial_floor(b.seg)))
-        )
+        long = np.flatnonzero((L > cap) & (L >= 1.5 * b.radial_floor(b.seg)))
+        seg_bad = unique_ints(np.concatenate([seg_bad, long]))
         if seg_bad.size:
             b.split_segments(seg_bad)
             continue
@@ -955,7 +950,9 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
             cap = np.minimum(cap, size_at(b.P[b.sub].mean(axis=1)))
         if np.isfinite(cap).any():
             _, r = tri_circumcenters(b.P, b.sub)
-            sub_bad = np.union1d(sub_bad, np.flatnonzero(r > b.knobs.size_radius * cap))
+            sub_bad = unique_ints(
+                np.concatenate([sub_bad, np.flatnonzero(r > b.knobs.size_radius * cap)])
+            )
         if sub_bad.size:
             b.split_subfaces(sub_bad)
             continue
@@ -1093,10 +1090,9 @@ def tetrahedralize(
         next to input angles too small for it (the rounds are capped and the
         rest counted in ``given_up``). None: no radius-edge bound.
     min_dihedral : float, optional
-        Degrees in (0, 70]: slivers removed after refinement (rounds of
-        perturbed insertion, then flips, smoothing and
-        insertion, each raising the local least dihedral angle; the result is
-        then not Delaunay). Best effort: ``left`` counts the tetrahedra still
+        Degrees in (0, 70]: slivers removed after refinement (flips,
+        smoothing and insertion, each raising the local least dihedral
+        angle; the result is then not Delaunay). Best effort: ``left`` counts the tetrahedra still
         below it, by cause, and ``left["improvement"]`` the operations.
     max_volume : float, optional
         Every tetrahedron's volume at most this.
@@ -1207,17 +1203,6 @@ def tetrahedralize(
             r, given_up = _refine(b, region_of, bad_tets, progress)
             rounds += r
             timings["refinement"] = time.perf_counter() - t2
-        if not empty and mdh is not None:
-            from meshcore.tets.slivers import remove_slivers, sliver_pass  # (imports this module)
-
-            t3 = time.perf_counter()
-            n_before = b.n
-            rounds += sliver_pass(b, mdh, mre or math.inf, region_of, progress)
-            if bounded and b.n > n_before:
-                # The sliver rounds' surface splits may have left bad tetrahedra.
-                r, given_up = _refine(b, region_of, bad_tets, progress)
-                rounds += r
-            timings["slivers"] = time.perf_counter() - t3
         # Encroachment fixes may have left pieces missing: recover again (no-op if whole).
         rounds += recover(b, progress)
         slots, T = b.tets()
@@ -1226,7 +1211,9 @@ def tetrahedralize(
         tetra, region = T[keep], region[keep]
         tetra, region, sub, sub_src, triangle_facet = _drop_flat_folds(b, tetra, region)
         if not empty and mdh is not None:
-            # Slivers: flips and smoothing (the result is no longer Delaunay).
+            from meshcore.tets.slivers import remove_slivers  # (imports this module)
+
+            # Slivers: flips, smoothing and insertion (the result is no longer Delaunay).
             t4 = time.perf_counter()
             tetra, region, improved = remove_slivers(b, tetra, region, sub, mdh, mre or math.inf)
             timings["improvement"] = time.perf_counter() - t4
