@@ -28,9 +28,12 @@ splits:
 2. For each missing segment ``f = AB`` find the point of its closed
    diametral ball (the exact predicate
    :func:`~meshcore.geometry.predicates.dot2d` decides membership) with the
-   largest angle ``APB`` (§9.1.2): a compiled search over the triangles
-   meeting the ball, from those the segment crosses, narrowed to the lens
-   of the points that could still beat the best angle found.
+   largest angle ``APB`` (§9.1.2): a compiled walk over the triangles the
+   segment crosses, whose vertices hold the widest point of each side
+   (the proof of Case 1 in §9.1.3: that point's circle through ``A`` and
+   ``B`` is empty on its side); a search over the triangles meeting the
+   ball, narrowed to the lens of the points that could still beat the best
+   angle found, only when rounding stopped the walk.
 3. Split ``f`` at the projection of ``P`` on ``f`` (§9.1.4, Figure 9.4), or,
    for a segment of a ring that declares a circle, at that projection moved
    radially onto the circle (§9.1.5). Segments meeting at an acute angle
@@ -63,7 +66,12 @@ Choices where the text leaves freedom
   9.4), so this is a choice, not a sign decision. Angles within
   :attr:`Tolerances.angle_tie` of the largest are tied and the point of
   smallest index wins, so that translated or exactly scaled inputs make the
-  same choices.
+  same choices. Ties are looked for among the vertices of the triangles
+  the segment crosses (where the widest point is): a point of another
+  triangle on (or within the tie of) the same circle is not a candidate.
+  On the test polygons and the random stars up to 10,000 vertices this
+  picks the same points as a search of the whole lens of tied angles, in
+  a third of the triangles.
 * **Input that is not a planar straight-line graph.** A point found
   strictly inside a segment (collinear, angle 180°) is refused: an input
   point raises :class:`~meshcore.errors.InputError` (``point_on_segment``),

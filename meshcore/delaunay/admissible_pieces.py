@@ -80,9 +80,10 @@ def _enters_cone(pts, e, f, x, tip):
 @njit(cache=True)
 def _crossed_triangles(pts, V, A, vt, ia, ib, tstamp, stamp, queue):
     """Seeds of :func:`_widest_angle_points`: a triangle at ``ia``, then the
-    triangles the segment ``ia ib`` crosses, walked in float arithmetic (a
-    heuristic: the search is correct from the first seed alone), stamped
-    and put in ``queue``. Returns how many (at most the queue's length)."""
+    triangles the segment ``ia ib`` crosses, walked in float arithmetic,
+    stamped and put in ``queue``. Returns how many (at most the queue's
+    length) and whether the walk reached ``ib``: then, unless rounding
+    misled it, they are the triangles the segment crosses."""
     t0 = vt[ia]
     tstamp[t0] = stamp
     queue[0] = t0
@@ -105,7 +106,7 @@ def _crossed_triangles(pts, V, A, vt, ia, ib, tstamp, stamp, queue):
                 break
         t = A[_prv(k)] // 3
         if t == t0:
-            return count
+            return count, False
     while count < queue.shape[0]:
         x = V[kin]
         if x < 0:
@@ -116,14 +117,14 @@ def _crossed_triangles(pts, V, A, vt, ia, ib, tstamp, stamp, queue):
             queue[count] = t
             count += 1
         if x == ib:
-            break
+            return count, True
         sx = ex * (pts[x, 1] - ay) - ey * (pts[x, 0] - ax)
         p1 = V[_nxt(kin)]
         s1 = ex * (pts[p1, 1] - ay) - ey * (pts[p1, 0] - ax)
         if sx == 0.0:
             break
         kin = A[_nxt(kin)] if (sx > 0.0) == (s1 > 0.0) else A[_prv(kin)]
-    return count
+    return count, False
 
 
 @njit(cache=True)
@@ -131,16 +132,23 @@ def _widest_angle_points(pts, V, A, vt, order, a, b, radius, tie, tstamp, vstamp
     """Per segment (a[i], b[i]) of the triangulation's points, the point of
     its closed diametral ball seen under the widest angle (§9.1.2).
 
-    A search over the triangles that meet the region still worth looking
-    in: first the ball (radius ``radius[i]``, enlarged), then, once a point
-    with angle ``w`` is found, the lens of the points that see the segment
-    under at least ``w - tie`` (the intersection of two discs through both
-    ends; convex, so the triangles meeting it are connected, and each one
-    meets the segment). Regions only shrink, so no point that can still
-    win is missed. The points of the seeds (:func:`_crossed_triangles`)
-    come first, so that the lens is tight before the search spreads. The
-    disc tests pass for every edge at an end of the segment, so such an edge
-    is crossed only when it leaves that end inside the region's tangent cone
+    That point is a vertex of the triangles the segment crosses (the seeds,
+    :func:`_crossed_triangles`): on each side of a segment that is not an
+    edge, the triangle of the constrained triangulation (the segment the
+    only constraint) has an empty circle, so its apex, a vertex of those
+    triangles, sees the segment under the widest angle of that side. When
+    the walk reached the far end and found a point of the ball, the search
+    stops there: ties within ``tie`` are broken among the seeds' points.
+    Otherwise it is a search over the triangles that meet the region still
+    worth looking in: first the ball (radius ``radius[i]``, enlarged),
+    then, once a point with angle ``w`` is found, the lens of the points
+    that see the segment under at least ``w - tie`` (the intersection of two
+    discs through both ends; convex, so the triangles meeting it are
+    connected, and each one meets the segment). Regions only shrink, so no
+    point that can still win is missed. The points of the seeds come
+    first, so that the lens is tight before the search spreads. The disc
+    tests pass for every edge at an end of the segment, so such an edge is
+    crossed only when it leaves that end inside the region's tangent cone
     (:func:`_enters_cone`): otherwise it meets the region at the end alone.
     Triangle tests are float, padded; ball membership is exact (``dot2d``);
     angles are float. Returns the chosen point (input index; -1 for an
@@ -174,13 +182,15 @@ def _widest_angle_points(pts, V, A, vt, order, a, b, radius, tie, tstamp, vstamp
         tip = 0.0  # cosine of the region's half-angle at the ends: the ball's
         best = -np.inf
         nc = 0
-        seeds = _crossed_triangles(pts, V, A, vt, ia, ib, tstamp, stamp, queue)
+        seeds, crossed = _crossed_triangles(pts, V, A, vt, ia, ib, tstamp, stamp, queue)
         tail = seeds
         head = 0
         spreading = False
         while True:
             if head == tail or (not spreading and head == seeds):
                 if spreading:
+                    break
+                if crossed and nc > 0:
                     break
                 spreading = True
                 head = 0
