@@ -231,6 +231,7 @@ __all__ = [
     "admissible_segments",
     "circles_of",
     "classify_segments",
+    "located_in_domain",
     "make_admissible",
     "restricted_triangles",
 ]
@@ -1383,14 +1384,32 @@ def circles_of(
     return np.asarray(rows, dtype=np.float64), seg_circle
 
 
-def _located(exc: InputError, domain: Domain, segments: np.ndarray) -> InputError:
-    """``exc`` of :func:`admissible_segments` located in the domain: a point
-    at its vertex, a segment at its first vertex (:meth:`Domain.vertex_loc`)."""
+def located_in_domain(
+    exc: InputError,
+    domain: Domain,
+    segments: np.ndarray,
+    rows: np.ndarray | None = None,
+    point_segment: np.ndarray | None = None,
+) -> InputError:
+    """``exc`` of :func:`admissible_segments` located in the domain (§9.1.5).
+
+    ``segments`` are the domain's segments then constraints; a point the
+    error names is located at its vertex, a segment at its first vertex
+    (:meth:`Domain.vertex_loc`). When :func:`admissible_segments` ran on
+    pieces of them (the triangulator's subsegments), ``rows`` gives each
+    piece's segment and ``point_segment`` the segment each point beyond
+    the domain's lies on: such a point is located at that segment.
+    """
     errors = []
     for e in exc.errors:
         path = list(e["loc"])
         if len(path) == 2 and path[0] in ("points", "segments"):
-            v = path[1] if path[0] == "points" else int(segments[path[1], 0])
+            i = int(path[1])
+            if path[0] == "points" and i >= len(domain.points) and point_segment is not None:
+                path[0], i = "segments", int(point_segment[i])
+            elif path[0] == "segments" and rows is not None:
+                i = int(rows[i])
+            v = i if path[0] == "points" else int(segments[i, 0])
             if v < len(domain.points):
                 path = list(domain.vertex_loc(v))
         errors.append({**e, "loc": path})
@@ -1447,7 +1466,7 @@ def make_admissible(
             progress=progress,
         )
     except InputError as exc:
-        raise _located(exc, domain, segments) from None
+        raise located_in_domain(exc, domain, segments) from None
     two_sided = result.source >= len(domain.segments)
     inside = restricted_triangles(result.delaunay, result.segments, two_sided)
     mesh = Mesh(result.points, (CellBlock("triangle", result.delaunay.triangles[inside]),))
