@@ -428,7 +428,7 @@ def _push(buf, nb, r):
 
 
 @njit(cache=True)
-def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings):
+def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings, chain):
     """The pieces that are not edges after the insertion of points
     ``first, first + 1, ...`` (:meth:`_Pieces.missing`), from the
     neighbours each point had when it went in (``rings``).
@@ -441,7 +441,10 @@ def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings):
     ends at an older point), or when a later insertion removed it: both
     ends are then neighbours of the inserted point, not consecutive ones
     (an added point ends two pieces, an input point the chains it starts or
-    ends); such pieces are looked up in the triangulation. Returns the ids,
+    ends); such pieces are looked up in the triangulation. Two added
+    neighbours can only be joined by a piece when they lie on the same
+    input segment (``chain``), so their pieces are read only then; a piece
+    from an input point is found from that point. Returns the ids,
     increasing.
     """
     a, b, left, right, head, tail = rows
@@ -451,6 +454,7 @@ def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings):
     ns = 0
     maybe = np.empty(64, np.int64)
     nm = 0
+    on = np.empty(64, np.int64)  # the ring's input segments (-1: none, an input point)
     for i in range(ring_start.shape[0] - 1):
         lo = ring_start[i]
         hi = ring_start[i + 1]
@@ -460,15 +464,25 @@ def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings):
         w = b[right[p]]
         if w < first and _position(ring, lo, hi, w) < 0:
             sure, ns = _push(sure, ns, right[p])
+        if hi - lo > on.shape[0]:
+            on = np.empty(2 * (hi - lo), np.int64)
+        for j in range(lo, hi):
+            u = ring[j]
+            on[j - lo] = chain[u] if u >= n0 else -1
         for j in range(lo, hi):
             u = ring[j]
             if u < 0:
                 continue
             if u >= n0:
-                if _apart(ring, lo, hi, j, a[left[u]]):
-                    maybe, nm = _push(maybe, nm, left[u])
-                if _apart(ring, lo, hi, j, b[right[u]]):
-                    maybe, nm = _push(maybe, nm, right[u])
+                # Later neighbours on the same input segment, not next to u.
+                for h in range(j + 2, hi - 1 if j == lo else hi):
+                    if on[h - lo] != on[j - lo]:
+                        continue
+                    w = ring[h]
+                    if a[left[u]] == w:
+                        maybe, nm = _push(maybe, nm, left[u])
+                    elif b[right[u]] == w:
+                        maybe, nm = _push(maybe, nm, right[u])
                 continue
             for e in range(end_start[u], end_start[u + 1]):
                 c = end_chain[e]
@@ -496,7 +510,7 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
     """
     rows, t, xy_new, protect_side, near_side, near_vertex = split
     a, b, nxt, src, circ, acute, done, near, tail = piece
-    xy, radius, left, right, born = point
+    xy, radius, left, right, born, chain = point
     key = np.empty(rows.shape[0])
     for i in range(rows.shape[0]):
         s = src[rows[i]]
@@ -539,6 +553,7 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
             left[n + i] = r if i == i0 else q - 1
             right[n + i] = q
             born[n + i] = round_no
+            chain[n + i] = src[r]
         last = m + i1
         acute[last, 1] = acute[r, 1]
         done[last, 1] = done[r, 1]
@@ -627,7 +642,7 @@ class _Pieces:
     """
 
     _ROW = ("a", "b", "nxt", "src", "circ", "acute", "done", "near")
-    _POINT = ("xy", "radius", "left", "right", "born")
+    _POINT = ("xy", "radius", "left", "right", "born", "chain")
 
     def __init__(self, st: _State, dt: IncrementalDelaunay) -> None:
         S, m, n = st.S, len(st.S), len(st.P)
@@ -650,6 +665,7 @@ class _Pieces:
         self.left[S[:, 1]] = np.arange(m)
         self.right[S[:, 0]] = np.arange(m)
         self.born = np.zeros(n, dtype=np.int64)
+        self.chain = np.full(n, -1, dtype=np.int64)  # an added point's input segment
         # Chain ends at the input points: (chain, side) per point, CSR.
         ends = np.concatenate([S[self.head, 0], S[self.tail, 1]])
         chain = np.concatenate([np.arange(m0), np.arange(m0)])
@@ -711,7 +727,7 @@ class _Pieces:
             round_no, m, n, self.n0, self.origin, self.direction,
             (self.a, self.b, self.nxt, self.src, self.circ, self.acute, self.done, self.near,
              self.tail),
-            (self.xy, self.radius, self.left, self.right, self.born),
+            (self.xy, self.radius, self.left, self.right, self.born, self.chain),
         )  # fmt: skip
         self.m, self.n, self.first = m + k, n + k, n
         xy = self.xy[n : n + k]
@@ -773,6 +789,7 @@ class _Pieces:
             (self.a, self.b, self.left, self.right, self.head, self.tail),
             (self.end_start, self.end_chain, self.end_side),
             self.dt.rings(),
+            self.chain,
         )  # fmt: skip
 
     def to_state(self, st: _State) -> None:
