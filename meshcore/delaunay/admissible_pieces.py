@@ -339,10 +339,10 @@ def _grid_pairs(X, radius, U, V, cell):
     """(point, segment) pairs, a superset of those where segment ``U[j] V[j]``
     comes within ``radius[i]`` of point ``X[i]`` (a float test padded by a
     millionth): each point is filed in the cells of side ``cell`` that its
-    disc's bounding box meets; each segment is sampled at most ``cell / 2``
-    apart (ends included) and meets the points filed in the 3 x 3 cells
-    around each sample (the cell of its nearest point to ``X[i]`` is among
-    them). Each pair once."""
+    disc's bounding box meets; each segment meets the points filed in the
+    cells it crosses, column by column (its span in each column of cells,
+    padded by a millionth of a cell: the cell of its nearest point to
+    ``X[i]`` is among them). Each pair once."""
     k = X.shape[0]
     x0 = (X[:, 0] - radius).min()
     y0 = (X[:, 1] - radius).min()
@@ -370,31 +370,44 @@ def _grid_pairs(X, radius, U, V, cell):
     qs = np.empty(64, np.int64)
     ss = np.empty(64, np.int64)
     m = 0
+    pad = 1e-6
     for j in range(U.shape[0]):
         ux = U[j, 0]
         uy = U[j, 1]
         dx = V[j, 0] - ux
         dy = V[j, 1] - uy
         ll = dx * dx + dy * dy
-        steps = int(np.sqrt(ll) / (0.5 * cell)) + 1
-        for h in range(steps + 1):
-            f = h / steps
-            cx = int(np.floor((ux + dx * f - x0) / cell))
-            cy = int(np.floor((uy + dy * f - y0) / cell))
-            for ix in range(max(cx - 1, 0), min(cx + 2, nx)):
-                for iy in range(max(cy - 1, 0), min(cy + 2, ny)):
-                    c = ix * ny + iy
-                    for e in range(start[c], start[c + 1]):
-                        i = members[e]
-                        if seen[i] == j:
-                            continue
-                        seen[i] = j
-                        t = min(1.0, max(0.0, ((X[i, 0] - ux) * dx + (X[i, 1] - uy) * dy) / ll))
-                        d = np.hypot(X[i, 0] - (ux + t * dx), X[i, 1] - (uy + t * dy))
-                        if d > radius[i] * (1.0 + 1e-6):
-                            continue
-                        qs, _ = _push(qs, m, i)
-                        ss, m = _push(ss, m, j)
+        xa = min(ux, V[j, 0])
+        xb = max(ux, V[j, 0])
+        ya = min(uy, V[j, 1])
+        yb = max(uy, V[j, 1])
+        c0 = max(int(np.floor((xa - x0) / cell - pad)), 0)
+        c1 = min(int(np.floor((xb - x0) / cell + pad)), nx - 1)
+        for ix in range(c0, c1 + 1):
+            lo = ya
+            hi = yb
+            if dx != 0.0:  # the segment's span of y over this column
+                xl = max(xa, x0 + (ix - pad) * cell)
+                xh = min(xb, x0 + (ix + 1 + pad) * cell)
+                y1 = uy + (xl - ux) * (dy / dx)
+                y2 = uy + (xh - ux) * (dy / dx)
+                lo = max(ya, min(y1, y2))
+                hi = min(yb, max(y1, y2))
+            r0 = max(int(np.floor((lo - y0) / cell - pad)), 0)
+            r1 = min(int(np.floor((hi - y0) / cell + pad)), ny - 1)
+            for iy in range(r0, r1 + 1):
+                c = ix * ny + iy
+                for e in range(start[c], start[c + 1]):
+                    i = members[e]
+                    if seen[i] == j:
+                        continue
+                    seen[i] = j
+                    t = min(1.0, max(0.0, ((X[i, 0] - ux) * dx + (X[i, 1] - uy) * dy) / ll))
+                    d = np.hypot(X[i, 0] - (ux + t * dx), X[i, 1] - (uy + t * dy))
+                    if d > radius[i] * (1.0 + 1e-6):
+                        continue
+                    qs, _ = _push(qs, m, i)
+                    ss, m = _push(ss, m, j)
     return qs[:m], ss[:m]
 
 
