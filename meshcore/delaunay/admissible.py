@@ -752,17 +752,17 @@ def _protection_bounds(P, S, acute, reach, verts) -> np.ndarray:
     distance to the nearest other point or segment not incident to the
     vertex, and :data:`SHARE_FRACTION` times the shortest segment of the
     vertex's acute cluster (so that the protection points of both ends of a
-    segment stay apart).
+    segment stay apart). ``verts`` are sorted; ``S`` and ``acute`` hold at
+    least the segments with an acute end at one of them.
     """
-    slot = np.full(len(P), -1, dtype=np.int64)
-    slot[verts] = np.arange(len(verts))
     ends = np.flatnonzero(acute.ravel())
     end_vertex = S.ravel()[ends]
-    mine = slot[end_vertex] >= 0
+    pos = np.minimum(np.searchsorted(verts, end_vertex), len(verts) - 1)
+    mine = verts[pos] == end_vertex
     seg = ends[mine] // 2
     d = P[S[seg, 1]] - P[S[seg, 0]]
     shortest = np.full(len(verts), np.inf)
-    np.minimum.at(shortest, slot[end_vertex[mine]], np.hypot(d[:, 0], d[:, 1]))
+    np.minimum.at(shortest, pos[mine], np.hypot(d[:, 0], d[:, 1]))
     return np.minimum(PROTECT_FRACTION * reach, SHARE_FRACTION * shortest)
 
 
@@ -1112,7 +1112,7 @@ def _split_round(st: _Pieces, missing, scale, circles, tol, round_no) -> None:
         if q.size:
             d = _point_segment_distance(P[verts[q]], P[st.a[near_rows]], P[st.b[near_rows]])
             np.minimum.at(reach, q, d)
-        r = _protection_bounds(P, st.S, st.acute[: st.m], reach, verts)
+        r = _protection_bounds(P, *st.end_pieces(verts), reach, verts)
         np.minimum.at(r, inv, x)
         st.radius[verts] = r
     rows, xy, t, protect_side, near_side, near_vertex, bad = _split_points(

@@ -787,6 +787,16 @@ class _Pieces:
         match = ((ra == uu) & (rb == ww)) | ((ra == ww) & (rb == uu))
         return qq[match], rows[match]
 
+    def end_pieces(self, verts):
+        """The pieces at input points ``verts`` (the first or last piece of
+        each chain that ends there): their ends (k, 2) and acute flags (k, 2)."""
+        lo, hi = self.end_start[verts], self.end_start[verts + 1]
+        counts = hi - lo
+        idx = np.repeat(lo - (np.cumsum(counts) - counts), counts) + np.arange(counts.sum())
+        chain, side = self.end_chain[idx], self.end_side[idx]
+        rows = np.where(side == 0, self.head[chain], self.tail[chain])
+        return np.column_stack([self.a[rows], self.b[rows]]), self.acute[rows]
+
     def _input_segment(self, u, w) -> np.ndarray:
         """The chain (input segment) joining input points u and w, or -1."""
         keys = _edge_keys(u, w, self.n0)
