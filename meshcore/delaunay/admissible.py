@@ -703,18 +703,18 @@ def _point_segment_distance(X: np.ndarray, U: np.ndarray, V: np.ndarray) -> np.n
     return np.hypot(X[:, 0] - foot[:, 0], X[:, 1] - foot[:, 1])
 
 
-def _segment_reach(P, S, reach, verts, tol) -> np.ndarray:
+def _segment_reach(P, S, reach, verts, scale, tol) -> np.ndarray:
     """``reach`` lowered to the distance from each vertex to the nearest
     segment of ``S`` not incident to it, where that is closer.
 
     Up to :data:`_ALL_PAIRS` (vertex, segment) pairs are all measured.
     Otherwise the pairs are those :func:`_grid_pairs` finds (cells about
     as many as the vertices, each vertex filed in those its disc of radius
-    ``reach``, padded, meets): a superset of the pairs closer than
-    ``reach``, and the pairs it leaves out would not lower it, so both ways
-    give the same distances. (A search by length class in k-d trees of
-    midpoints met a million pairs of long pieces and vertices near them on
-    a 10,000-vertex star.)
+    ``reach``, padded, meets; ``scale``: the largest coordinate magnitude):
+    a superset of the pairs closer than ``reach``, and the pairs it leaves
+    out would not lower it, so both ways give the same distances. (A search
+    by length class in k-d trees of midpoints met a million pairs of long
+    pieces and vertices near them on a 10,000-vertex star.)
     """
     X = P[verts]
     reach = reach.copy()
@@ -723,7 +723,7 @@ def _segment_reach(P, S, reach, verts, tol) -> np.ndarray:
         q = np.repeat(np.arange(len(verts)), len(S))
         _lower_reach(reach, q, np.tile(np.arange(len(S)), len(verts)), X, U, V, S, verts)
         return reach
-    padded = reach * (1.0 + tol.ball_slack) + tol.coordinate_slack * _scale(P)
+    padded = reach * (1.0 + tol.ball_slack) + tol.coordinate_slack * scale
     ex, ey = (X.max(axis=0) - X.min(axis=0)).tolist()
     cell = max(math.sqrt(ex * ey / len(X)), max(ex, ey) / len(X), float(np.median(padded)))
     q, seg = _grid_pairs(X, padded, U, V, cell)
@@ -1107,7 +1107,7 @@ def _split_round(st: _Pieces, missing, scale, circles, tol, round_no) -> None:
         # nearest piece that is an edge (an edge of a triangle meeting the
         # disc of that radius).
         reach = st.dt.nearest_distance(verts)
-        reach = _segment_reach(P, S, reach, verts, tol)
+        reach = _segment_reach(P, S, reach, verts, scale, tol)
         q, near_rows = st.edge_pieces_near(verts, reach)
         if q.size:
             d = _point_segment_distance(P[verts[q]], P[st.a[near_rows]], P[st.b[near_rows]])
