@@ -165,19 +165,26 @@ start and, when it is read, one at the end. Rounds are few on the test
 polygons (2 to 8). A random star of ``n`` vertices (``benchmarks/admissible.py``)
 is ``n`` spikes about ``2 pi / n`` wide, and the added points grow about as
 ``n ** 1.8`` (9,291 at 1,000 vertices, 67,859 at 3,000, 603,670 at 10,000,
-spread evenly along the segments: the pieces are a few times the gap to the
-neighbouring segments). The measurements point to the input more than to
-the rule: Triangle's full conforming Delaunay (``pcD``) adds 6 to 11 times
-more; on a 200-vertex star a greedy pass that drops added points one at a
-time while every segment stays a Delaunay edge drops only 9 % of them, and
-splitting one segment per round instead of all saves 7 %; the near-end
-clamp's constants move the count by under 10 %. The 10,000-vertex star
-takes 146 rounds (each spike's chain of splits is sequential) and about 6
-CPU s: the widest-angle searches about half (5 µs and 19 triangles per
-search, one search per added point), the insertions and the look-up of the
-pieces they removed about a sixth each, the protection radii's segment
-searches 0.4 s; 126 s when every round re-triangulated everything. The
-case counts of the result are computed when first read.
+spread evenly along the segments: on the 3,000-vertex star the median
+piece is 11 times its distance to the nearest other segment, the pieces of
+neighbouring segments lining up in rungs). The measurements point to the
+input more than to the rule: Triangle's full conforming Delaunay (``pcD``)
+adds 6 to 11 times more; on a 200-vertex star a greedy pass that drops
+added points one at a time while every segment stays a Delaunay edge drops
+only 9 % of them, and splitting one segment per round instead of all saves
+7 %; the near-end clamp's constants move the count by under 10 %. Two
+"concentric shell" rules at acute ends were tried and add more points
+(3,000-vertex star, 67,859 now): a split at the encroaching point's
+distance from the apex (the two sides of a wedge then split alike) 79,234,
+and Ruppert's power-of-two distances (quarter powers) 121,726. The
+10,000-vertex star takes 146 rounds (each spike's chain of splits is
+sequential) and about 3.5 CPU s (5.6 before the searches stopped at the
+crossed triangles), in memory-bound compiled passes of about 1 to 2 µs
+per added point each: the widest-angle searches (7 triangles per search,
+one search per added point), the insertions, the look-up of the pieces
+they removed; then the split bookkeeping, the protection radii and Python
+(about 0.8 µs per point in all); 126 s when every round re-triangulated
+everything. The case counts of the result are computed when first read.
 
 The restricted triangulation (:func:`restricted_triangles`) keeps the
 triangles reached by a flood fill across non-segment edges from the left
