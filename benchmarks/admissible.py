@@ -41,7 +41,8 @@ calls and microseconds per added point: where the time goes.
 
 Times are CPU seconds (``time.process_time``: this process alone, so a
 loaded machine slows both sides alike), medians of three runs (one run
-above 1,000 points; ours after a warm-up that loads numba's cache);
+above 1,000 points unless ``--repeat`` says; ours after a warm-up that
+loads numba's cache);
 ``t ours/pcD`` is the ratio of CPU times. The machine's load average is
 printed first.
 """
@@ -215,6 +216,9 @@ def main() -> None:
     parser.add_argument(
         "--phases", type=int, default=0, help="time the phases on a star of this many vertices"
     )
+    parser.add_argument(
+        "--repeat", type=int, default=0, help="runs per input (default: 3, 1 above 1,000 points)"
+    )
     args = parser.parse_args()
     inputs = {"star-50": star(), "corners-5deg": corners(), "comb-5deg": comb()}
     if triangle is not None:
@@ -235,7 +239,7 @@ def main() -> None:
     print(head)
     print("-" * len(head))
     for name, (points, segments, holes) in inputs.items():
-        repeat = 1 if len(points) > 1000 else 3
+        repeat = args.repeat or (1 if len(points) > 1000 else 3)
         ours, ours_left, ours_s = run_ours(points, segments, repeat)
         row = f"{name:<12}{len(points):>6} | {ours:>9}{ours_left:>8}{ours_s:>9.4f} | "
         if triangle is not None:
