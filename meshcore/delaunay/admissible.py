@@ -799,11 +799,16 @@ def _protection_on_circle(apex, far, radius, cc) -> np.ndarray:
     return centre + np.column_stack([cos * u[:, 0] - sin * u[:, 1], sin * u[:, 0] + cos * u[:, 1]])
 
 
-def _choose_encroachers(P, a, b, st: _Pieces, scale, tol):
-    """Per missing segment ``a[i] b[i]``, the point of its closed diametral
-    ball with the largest angle APB (ties within ``angle_tie``: smallest
-    index), found by :func:`_widest_angle_points` in the rounds'
-    triangulation; and whether it lies on the segment (collinear)."""
+def _choose_encroachers(P, missing, st: _Pieces, scale, tol):
+    """Per missing piece, the point of its closed diametral ball with the
+    largest angle APB (ties within ``angle_tie``: smallest index), found by
+    :func:`_widest_angle_points` in the rounds' triangulation; and whether
+    it lies on the piece (collinear). The searches go along the chains
+    (:meth:`_Pieces.along`): consecutive ones then meet the same triangles
+    (each choice is independent of the order; 40 % less time on the
+    10,000-vertex star than in piece order)."""
+    seq = st.along(missing)
+    a, b = st.a[missing[seq]], st.b[missing[seq]]
     _, radii = _query_radii(P[a], P[b], scale, tol)
     pts, V, A, vt, order, slot = st.dt.arrays()
     if len(st.tstamp) < len(V) // 3 or len(st.vstamp) < len(pts):
@@ -826,12 +831,14 @@ def _choose_encroachers(P, a, b, st: _Pieces, scale, tol):
         st.work,
     )
     if (choice < 0).any():
-        i = int(np.flatnonzero(choice < 0)[0])
+        i = int(missing[seq[np.flatnonzero(choice < 0)[0]]])
         raise AlgorithmError(
-            f"segment {i} is not a Delaunay edge yet its closed diametral ball is empty "
+            f"piece {i} is not a Delaunay edge yet its closed diametral ball is empty "
             "(inconsistent predicates)"
         )
-    return choice, on_segment
+    out, flat = np.empty_like(choice), np.empty_like(on_segment)
+    out[seq], flat[seq] = choice, on_segment
+    return out, flat
 
 
 # ---------------------------------------------------------------------------
@@ -1093,7 +1100,7 @@ def _split_round(st: _Pieces, missing, scale, circles, tol, round_no) -> None:
     """
     # The missing pieces' own rows: a round costs time in them, not in all.
     P = st.P
-    enc, on_segment = _choose_encroachers(P, st.a[missing], st.b[missing], st, scale, tol)
+    enc, on_segment = _choose_encroachers(P, missing, st, scale, tol)
     if on_segment.any():
         _not_planar(st, missing[on_segment][0], enc[on_segment][0])
     M, near, again = _projection_points(

@@ -787,6 +787,14 @@ class _Pieces:
         match = ((ra == uu) & (rb == ww)) | ((ra == ww) & (rb == uu))
         return qq[match], rows[match]
 
+    def along(self, rows) -> np.ndarray:
+        """The order of pieces ``rows`` by input segment, then by position
+        (of their midpoints) along it."""
+        s = self.src[rows]
+        mid = 0.5 * (self.xy[self.a[rows]] + self.xy[self.b[rows]])
+        key = np.einsum("ij,ij->i", mid - self.origin[s], self.direction[s])
+        return np.lexsort((key, s))
+
     def end_pieces(self, verts):
         """The pieces at input points ``verts`` (the first or last piece of
         each chain that ends there): their ends (k, 2) and acute flags (k, 2)."""
