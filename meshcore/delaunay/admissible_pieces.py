@@ -788,12 +788,14 @@ class _Pieces:
         return qq[match], rows[match]
 
     def along(self, rows) -> np.ndarray:
-        """The order of pieces ``rows`` by input segment, then by position
-        (of their midpoints) along it."""
+        """An order of pieces ``rows`` by input segment, then by position
+        along it (of their midpoints, as a fraction of the segment in
+        ``[0, 1]`` added to twice the segment's id: one float sort)."""
         s = self.src[rows]
+        d = self.direction[s]
         mid = 0.5 * (self.xy[self.a[rows]] + self.xy[self.b[rows]])
-        key = np.einsum("ij,ij->i", mid - self.origin[s], self.direction[s])
-        return np.lexsort((key, s))
+        t = np.einsum("ij,ij->i", mid - self.origin[s], d) / np.einsum("ij,ij->i", d, d)
+        return np.argsort(2.0 * s + np.clip(t, 0.0, 1.0))
 
     def end_pieces(self, verts):
         """The pieces at input points ``verts`` (the first or last piece of
