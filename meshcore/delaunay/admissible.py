@@ -178,13 +178,13 @@ only 9 % of them, and splitting one segment per round instead of all saves
 distance from the apex (the two sides of a wedge then split alike) 79,234,
 and Ruppert's power-of-two distances (quarter powers) 121,726. The
 10,000-vertex star takes 146 rounds (each spike's chain of splits is
-sequential) and about 3.5 CPU s (5.6 before the searches stopped at the
-crossed triangles), in memory-bound compiled passes of about 1 to 2 µs
-per added point each: the widest-angle searches (7 triangles per search,
-one search per added point), the insertions, the look-up of the pieces
-they removed; then the split bookkeeping, the protection radii and Python
-(about 0.8 µs per point in all); 126 s when every round re-triangulated
-everything. The case counts of the result are computed when first read.
+sequential) and about 3.4 CPU s (5.5 before the searches stopped at the
+crossed triangles and went along the chains), in memory-bound compiled
+passes of about 1.2 to 1.4 µs per added point each: the insertions, the
+widest-angle searches (7 triangles per search, one search per added
+point), the look-up of the pieces they removed; then the split
+bookkeeping, the protection radii and Python (about 1 µs per point in
+all); 126 s when every round re-triangulated everything. The case counts of the result are computed when first read.
 
 The restricted triangulation (:func:`restricted_triangles`) keeps the
 triangles reached by a flood fill across non-segment edges from the left
