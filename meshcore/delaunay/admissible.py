@@ -184,7 +184,8 @@ passes of about 1.2 to 1.4 µs per added point each: the insertions, the
 widest-angle searches (7 triangles per search, one search per added
 point), the look-up of the pieces they removed; then the split
 bookkeeping, the protection radii and Python (about 1 µs per point in
-all); 126 s when every round re-triangulated everything. The case counts of the result are computed when first read.
+all); 126 s when every round re-triangulated everything. The case counts
+of the result are computed when first read.
 
 The restricted triangulation (:func:`restricted_triangles`) keeps the
 triangles reached by a flood fill across non-segment edges from the left
