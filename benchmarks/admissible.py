@@ -41,7 +41,9 @@ calls and microseconds per added point: where the time goes.
 
 Times are CPU seconds (``time.process_time``: this process alone, so a
 loaded machine slows both sides alike), medians of three runs (one run
-above 1,000 points; ours after a warm-up that loads numba's cache);
+above 1,000 points unless ``--repeat`` says; ours after a warm-up on the
+1,000-vertex star that loads every compiled function from numba's cache:
+about 0.12 s, paid once per process);
 ``t ours/pcD`` is the ratio of CPU times. The machine's load average is
 printed first.
 """
@@ -215,6 +217,9 @@ def main() -> None:
     parser.add_argument(
         "--phases", type=int, default=0, help="time the phases on a star of this many vertices"
     )
+    parser.add_argument(
+        "--repeat", type=int, default=0, help="runs per input (default: 3, 1 above 1,000 points)"
+    )
     args = parser.parse_args()
     inputs = {"star-50": star(), "corners-5deg": corners(), "comb-5deg": comb()}
     if triangle is not None:
@@ -225,7 +230,7 @@ def main() -> None:
         print("      A / face / la inputs are skipped\n")
     for n in (int(v) for v in args.stars.split(",") if v):
         inputs[f"star-{n}"] = star(n)
-    admissible_segments(*star(10)[:2])  # warm-up: numba's cache
+    admissible_segments(*star(1000)[:2])  # warm-up: loads every compiled function
     print("load average (1, 5, 15 min): {:.1f} {:.1f} {:.1f}\n".format(*os.getloadavg()))
     head = (
         f"{'input':<12}{'pts':>6} | {'ours +pts':>9}{'non-Del':>8}{'CPU s':>9} | "
@@ -235,7 +240,7 @@ def main() -> None:
     print(head)
     print("-" * len(head))
     for name, (points, segments, holes) in inputs.items():
-        repeat = 1 if len(points) > 1000 else 3
+        repeat = args.repeat or (1 if len(points) > 1000 else 3)
         ours, ours_left, ours_s = run_ours(points, segments, repeat)
         row = f"{name:<12}{len(points):>6} | {ours:>9}{ours_left:>8}{ours_s:>9.4f} | "
         if triangle is not None:

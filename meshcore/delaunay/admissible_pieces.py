@@ -80,9 +80,10 @@ def _enters_cone(pts, e, f, x, tip):
 @njit(cache=True)
 def _crossed_triangles(pts, V, A, vt, ia, ib, tstamp, stamp, queue):
     """Seeds of :func:`_widest_angle_points`: a triangle at ``ia``, then the
-    triangles the segment ``ia ib`` crosses, walked in float arithmetic (a
-    heuristic: the search is correct from the first seed alone), stamped
-    and put in ``queue``. Returns how many (at most the queue's length)."""
+    triangles the segment ``ia ib`` crosses, walked in float arithmetic,
+    stamped and put in ``queue``. Returns how many (at most the queue's
+    length) and whether the walk reached ``ib``: then, unless rounding
+    misled it, they are the triangles the segment crosses."""
     t0 = vt[ia]
     tstamp[t0] = stamp
     queue[0] = t0
@@ -105,7 +106,7 @@ def _crossed_triangles(pts, V, A, vt, ia, ib, tstamp, stamp, queue):
                 break
         t = A[_prv(k)] // 3
         if t == t0:
-            return count
+            return count, False
     while count < queue.shape[0]:
         x = V[kin]
         if x < 0:
@@ -116,14 +117,14 @@ def _crossed_triangles(pts, V, A, vt, ia, ib, tstamp, stamp, queue):
             queue[count] = t
             count += 1
         if x == ib:
-            break
+            return count, True
         sx = ex * (pts[x, 1] - ay) - ey * (pts[x, 0] - ax)
         p1 = V[_nxt(kin)]
         s1 = ex * (pts[p1, 1] - ay) - ey * (pts[p1, 0] - ax)
         if sx == 0.0:
             break
         kin = A[_nxt(kin)] if (sx > 0.0) == (s1 > 0.0) else A[_prv(kin)]
-    return count
+    return count, False
 
 
 @njit(cache=True)
@@ -131,16 +132,23 @@ def _widest_angle_points(pts, V, A, vt, order, a, b, radius, tie, tstamp, vstamp
     """Per segment (a[i], b[i]) of the triangulation's points, the point of
     its closed diametral ball seen under the widest angle (§9.1.2).
 
-    A search over the triangles that meet the region still worth looking
-    in: first the ball (radius ``radius[i]``, enlarged), then, once a point
-    with angle ``w`` is found, the lens of the points that see the segment
-    under at least ``w - tie`` (the intersection of two discs through both
-    ends; convex, so the triangles meeting it are connected, and each one
-    meets the segment). Regions only shrink, so no point that can still
-    win is missed. The points of the seeds (:func:`_crossed_triangles`)
-    come first, so that the lens is tight before the search spreads. The
-    disc tests pass for every edge at an end of the segment, so such an edge
-    is crossed only when it leaves that end inside the region's tangent cone
+    That point is a vertex of the triangles the segment crosses (the seeds,
+    :func:`_crossed_triangles`): on each side of a segment that is not an
+    edge, the triangle of the constrained triangulation (the segment the
+    only constraint) has an empty circle, so its apex, a vertex of those
+    triangles, sees the segment under the widest angle of that side. When
+    the walk reached the far end and found a point of the ball, the search
+    stops there: ties within ``tie`` are broken among the seeds' points.
+    Otherwise it is a search over the triangles that meet the region still
+    worth looking in: first the ball (radius ``radius[i]``, enlarged),
+    then, once a point with angle ``w`` is found, the lens of the points
+    that see the segment under at least ``w - tie`` (the intersection of two
+    discs through both ends; convex, so the triangles meeting it are
+    connected, and each one meets the segment). Regions only shrink, so no
+    point that can still win is missed. The points of the seeds come
+    first, so that the lens is tight before the search spreads. The disc
+    tests pass for every edge at an end of the segment, so such an edge is
+    crossed only when it leaves that end inside the region's tangent cone
     (:func:`_enters_cone`): otherwise it meets the region at the end alone.
     Triangle tests are float, padded; ball membership is exact (``dot2d``);
     angles are float. Returns the chosen point (input index; -1 for an
@@ -174,13 +182,15 @@ def _widest_angle_points(pts, V, A, vt, order, a, b, radius, tie, tstamp, vstamp
         tip = 0.0  # cosine of the region's half-angle at the ends: the ball's
         best = -np.inf
         nc = 0
-        seeds = _crossed_triangles(pts, V, A, vt, ia, ib, tstamp, stamp, queue)
+        seeds, crossed = _crossed_triangles(pts, V, A, vt, ia, ib, tstamp, stamp, queue)
         tail = seeds
         head = 0
         spreading = False
         while True:
             if head == tail or (not spreading and head == seeds):
                 if spreading:
+                    break
+                if crossed and nc > 0:
                     break
                 spreading = True
                 head = 0
@@ -329,10 +339,10 @@ def _grid_pairs(X, radius, U, V, cell):
     """(point, segment) pairs, a superset of those where segment ``U[j] V[j]``
     comes within ``radius[i]`` of point ``X[i]`` (a float test padded by a
     millionth): each point is filed in the cells of side ``cell`` that its
-    disc's bounding box meets; each segment is sampled at most ``cell / 2``
-    apart (ends included) and meets the points filed in the 3 x 3 cells
-    around each sample (the cell of its nearest point to ``X[i]`` is among
-    them). Each pair once."""
+    disc's bounding box meets; each segment meets the points filed in the
+    cells it crosses, column by column (its span in each column of cells,
+    padded by a millionth of a cell: the cell of its nearest point to
+    ``X[i]`` is among them). Each pair once."""
     k = X.shape[0]
     x0 = (X[:, 0] - radius).min()
     y0 = (X[:, 1] - radius).min()
@@ -360,31 +370,44 @@ def _grid_pairs(X, radius, U, V, cell):
     qs = np.empty(64, np.int64)
     ss = np.empty(64, np.int64)
     m = 0
+    pad = 1e-6
     for j in range(U.shape[0]):
         ux = U[j, 0]
         uy = U[j, 1]
         dx = V[j, 0] - ux
         dy = V[j, 1] - uy
         ll = dx * dx + dy * dy
-        steps = int(np.sqrt(ll) / (0.5 * cell)) + 1
-        for h in range(steps + 1):
-            f = h / steps
-            cx = int(np.floor((ux + dx * f - x0) / cell))
-            cy = int(np.floor((uy + dy * f - y0) / cell))
-            for ix in range(max(cx - 1, 0), min(cx + 2, nx)):
-                for iy in range(max(cy - 1, 0), min(cy + 2, ny)):
-                    c = ix * ny + iy
-                    for e in range(start[c], start[c + 1]):
-                        i = members[e]
-                        if seen[i] == j:
-                            continue
-                        seen[i] = j
-                        t = min(1.0, max(0.0, ((X[i, 0] - ux) * dx + (X[i, 1] - uy) * dy) / ll))
-                        d = np.hypot(X[i, 0] - (ux + t * dx), X[i, 1] - (uy + t * dy))
-                        if d > radius[i] * (1.0 + 1e-6):
-                            continue
-                        qs, _ = _push(qs, m, i)
-                        ss, m = _push(ss, m, j)
+        xa = min(ux, V[j, 0])
+        xb = max(ux, V[j, 0])
+        ya = min(uy, V[j, 1])
+        yb = max(uy, V[j, 1])
+        c0 = max(int(np.floor((xa - x0) / cell - pad)), 0)
+        c1 = min(int(np.floor((xb - x0) / cell + pad)), nx - 1)
+        for ix in range(c0, c1 + 1):
+            lo = ya
+            hi = yb
+            if dx != 0.0:  # the segment's span of y over this column
+                xl = max(xa, x0 + (ix - pad) * cell)
+                xh = min(xb, x0 + (ix + 1 + pad) * cell)
+                y1 = uy + (xl - ux) * (dy / dx)
+                y2 = uy + (xh - ux) * (dy / dx)
+                lo = max(ya, min(y1, y2))
+                hi = min(yb, max(y1, y2))
+            r0 = max(int(np.floor((lo - y0) / cell - pad)), 0)
+            r1 = min(int(np.floor((hi - y0) / cell + pad)), ny - 1)
+            for iy in range(r0, r1 + 1):
+                c = ix * ny + iy
+                for e in range(start[c], start[c + 1]):
+                    i = members[e]
+                    if seen[i] == j:
+                        continue
+                    seen[i] = j
+                    t = min(1.0, max(0.0, ((X[i, 0] - ux) * dx + (X[i, 1] - uy) * dy) / ll))
+                    d = np.hypot(X[i, 0] - (ux + t * dx), X[i, 1] - (uy + t * dy))
+                    if d > radius[i] * (1.0 + 1e-6):
+                        continue
+                    qs, _ = _push(qs, m, i)
+                    ss, m = _push(ss, m, j)
     return qs[:m], ss[:m]
 
 
@@ -418,7 +441,7 @@ def _push(buf, nb, r):
 
 
 @njit(cache=True)
-def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings):
+def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings, chain):
     """The pieces that are not edges after the insertion of points
     ``first, first + 1, ...`` (:meth:`_Pieces.missing`), from the
     neighbours each point had when it went in (``rings``).
@@ -431,7 +454,10 @@ def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings):
     ends at an older point), or when a later insertion removed it: both
     ends are then neighbours of the inserted point, not consecutive ones
     (an added point ends two pieces, an input point the chains it starts or
-    ends); such pieces are looked up in the triangulation. Returns the ids,
+    ends); such pieces are looked up in the triangulation. Two added
+    neighbours can only be joined by a piece when they lie on the same
+    input segment (``chain``), so their pieces are read only then; a piece
+    from an input point is found from that point. Returns the ids,
     increasing.
     """
     a, b, left, right, head, tail = rows
@@ -441,6 +467,7 @@ def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings):
     ns = 0
     maybe = np.empty(64, np.int64)
     nm = 0
+    on = np.empty(64, np.int64)  # the ring's input segments (-1: none, an input point)
     for i in range(ring_start.shape[0] - 1):
         lo = ring_start[i]
         hi = ring_start[i + 1]
@@ -450,15 +477,25 @@ def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings):
         w = b[right[p]]
         if w < first and _position(ring, lo, hi, w) < 0:
             sure, ns = _push(sure, ns, right[p])
+        if hi - lo > on.shape[0]:
+            on = np.empty(2 * (hi - lo), np.int64)
+        for j in range(lo, hi):
+            u = ring[j]
+            on[j - lo] = chain[u] if u >= n0 else -1
         for j in range(lo, hi):
             u = ring[j]
             if u < 0:
                 continue
             if u >= n0:
-                if _apart(ring, lo, hi, j, a[left[u]]):
-                    maybe, nm = _push(maybe, nm, left[u])
-                if _apart(ring, lo, hi, j, b[right[u]]):
-                    maybe, nm = _push(maybe, nm, right[u])
+                # Later neighbours on the same input segment, not next to u.
+                for h in range(j + 2, hi - 1 if j == lo else hi):
+                    if on[h - lo] != on[j - lo]:
+                        continue
+                    w = ring[h]
+                    if a[left[u]] == w:
+                        maybe, nm = _push(maybe, nm, left[u])
+                    elif b[right[u]] == w:
+                        maybe, nm = _push(maybe, nm, right[u])
                 continue
             for e in range(end_start[u], end_start[u + 1]):
                 c = end_chain[e]
@@ -486,7 +523,7 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
     """
     rows, t, xy_new, protect_side, near_side, near_vertex = split
     a, b, nxt, src, circ, acute, done, near, tail = piece
-    xy, radius, left, right, born = point
+    xy, radius, left, right, born, chain = point
     key = np.empty(rows.shape[0])
     for i in range(rows.shape[0]):
         s = src[rows[i]]
@@ -529,6 +566,7 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
             left[n + i] = r if i == i0 else q - 1
             right[n + i] = q
             born[n + i] = round_no
+            chain[n + i] = src[r]
         last = m + i1
         acute[last, 1] = acute[r, 1]
         done[last, 1] = done[r, 1]
@@ -617,7 +655,7 @@ class _Pieces:
     """
 
     _ROW = ("a", "b", "nxt", "src", "circ", "acute", "done", "near")
-    _POINT = ("xy", "radius", "left", "right", "born")
+    _POINT = ("xy", "radius", "left", "right", "born", "chain")
 
     def __init__(self, st: _State, dt: IncrementalDelaunay) -> None:
         S, m, n = st.S, len(st.S), len(st.P)
@@ -640,6 +678,7 @@ class _Pieces:
         self.left[S[:, 1]] = np.arange(m)
         self.right[S[:, 0]] = np.arange(m)
         self.born = np.zeros(n, dtype=np.int64)
+        self.chain = np.full(n, -1, dtype=np.int64)  # an added point's input segment
         # Chain ends at the input points: (chain, side) per point, CSR.
         ends = np.concatenate([S[self.head, 0], S[self.tail, 1]])
         chain = np.concatenate([np.arange(m0), np.arange(m0)])
@@ -701,7 +740,7 @@ class _Pieces:
             round_no, m, n, self.n0, self.origin, self.direction,
             (self.a, self.b, self.nxt, self.src, self.circ, self.acute, self.done, self.near,
              self.tail),
-            (self.xy, self.radius, self.left, self.right, self.born),
+            (self.xy, self.radius, self.left, self.right, self.born, self.chain),
         )  # fmt: skip
         self.m, self.n, self.first = m + k, n + k, n
         xy = self.xy[n : n + k]
@@ -748,6 +787,26 @@ class _Pieces:
         match = ((ra == uu) & (rb == ww)) | ((ra == ww) & (rb == uu))
         return qq[match], rows[match]
 
+    def along(self, rows) -> np.ndarray:
+        """An order of pieces ``rows`` by input segment, then by position
+        along it (of their midpoints, as a fraction of the segment in
+        ``[0, 1]`` added to twice the segment's id: one float sort)."""
+        s = self.src[rows]
+        d = self.direction[s]
+        mid = 0.5 * (self.xy[self.a[rows]] + self.xy[self.b[rows]])
+        t = np.einsum("ij,ij->i", mid - self.origin[s], d) / np.einsum("ij,ij->i", d, d)
+        return np.argsort(2.0 * s + np.clip(t, 0.0, 1.0))
+
+    def end_pieces(self, verts):
+        """The pieces at input points ``verts`` (the first or last piece of
+        each chain that ends there): their ends (k, 2) and acute flags (k, 2)."""
+        lo, hi = self.end_start[verts], self.end_start[verts + 1]
+        counts = hi - lo
+        idx = np.repeat(lo - (np.cumsum(counts) - counts), counts) + np.arange(counts.sum())
+        chain, side = self.end_chain[idx], self.end_side[idx]
+        rows = np.where(side == 0, self.head[chain], self.tail[chain])
+        return np.column_stack([self.a[rows], self.b[rows]]), self.acute[rows]
+
     def _input_segment(self, u, w) -> np.ndarray:
         """The chain (input segment) joining input points u and w, or -1."""
         keys = _edge_keys(u, w, self.n0)
@@ -763,6 +822,7 @@ class _Pieces:
             (self.a, self.b, self.left, self.right, self.head, self.tail),
             (self.end_start, self.end_chain, self.end_side),
             self.dt.rings(),
+            self.chain,
         )  # fmt: skip
 
     def to_state(self, st: _State) -> None:

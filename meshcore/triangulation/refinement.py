@@ -107,7 +107,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from meshcore.delaunay import cdt
-from meshcore.delaunay.admissible import admissible_segments, circles_of
+from meshcore.delaunay.admissible import admissible_segments, circles_of, located_in_domain
 from meshcore.delaunay.kernel2d import delaunay
 from meshcore.domain.planar import Domain, as_domain, parse_size_field
 from meshcore.errors import AlgorithmError, InputError
@@ -855,7 +855,10 @@ def triangulate(
     ppar = np.concatenate([np.zeros(n_input), newpar])
     sub = _subsegments(seg_in, newsid, n_input)
     if not keep_boundary:
-        P, pseg, ppar, sub = _admissible(P, pseg, ppar, sub, seg_in, seg_circle, circles)
+        try:
+            P, pseg, ppar, sub = _admissible(P, pseg, ppar, sub, seg_in, seg_circle, circles)
+        except InputError as exc:  # indices of the subsegments: the domain's vertices
+            raise located_in_domain(exc, dom, seg_in, sub[1], pseg) from None
     pseg = pseg.astype(np.int32)
     lap("boundary")
 

@@ -31,6 +31,7 @@ from meshcore.domain.planar import parse_domain
 from meshcore.errors import AlgorithmError, Cancelled, InputError
 from meshcore.geometry.predicates import dot2d, incircle, orient2d
 from meshcore.mesh import CellBlock, Mesh
+from meshcore.triangulation.refinement import triangulate
 
 # ---------------------------------------------------------------------------
 # Test domains
@@ -688,11 +689,14 @@ def test_a_point_within_rounding_of_a_segment_is_refused_with_its_location(ring,
     assert info.value.code == "point_near_segment"
     assert [e["loc"] for e in info.value.errors] == [["segments", segment], ["points", point]]
     domain = parse_domain(polygon(P))
-    with pytest.raises(InputError) as info:
-        make_admissible(domain)
-    (_, seg_ring, seg_vertex), (_, ring_no, vertex) = (e["loc"] for e in info.value.errors)
-    assert ring_no == seg_ring == 0 and ring[vertex] == ring[point]  # the vertex, as given
-    assert ring[seg_vertex] in (ring[segment], ring[(segment + 1) % len(ring)])
+    # make_admissible and the triangulator (on its subsegments) locate it in the domain.
+    for run in (make_admissible, triangulate):
+        with pytest.raises(InputError) as info:
+            run(domain)
+        assert info.value.code == "point_near_segment"
+        (_, seg_ring, seg_vertex), (_, ring_no, vertex) = (e["loc"] for e in info.value.errors)
+        assert ring_no == seg_ring == 0 and ring[vertex] == ring[point]  # the vertex, as given
+        assert ring[seg_vertex] in (ring[segment], ring[(segment + 1) % len(ring)])
 
 
 def test_the_medial_axis_refuses_the_near_touching_polygon_with_a_location():
