@@ -58,11 +58,17 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
+from numba.cpython.unsafe.numbers import trailing_zeros
 
 from meshcore.errors import InputError
 from meshcore.geometry.expansions import two_product, two_sum
 from meshcore.geometry.ordering import radix_sort
-from meshcore.geometry.predicates import WORK_SIZE, incircle_exact, orient2d_exact
+from meshcore.geometry.predicates import (
+    WORK_SIZE,
+    _axis_rectangle,
+    incircle_exact,
+    orient2d_exact,
+)
 
 __all__ = ["IncrementalDelaunay", "Triangulation", "delaunay"]
 
@@ -196,11 +202,8 @@ def _brio_hilbert_keys(pts, factor, nbits):
         z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
         z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
         z = z ^ (z >> np.uint64(31))
-        level = 0
-        while level < rounds and (z & np.uint64(1)) == np.uint64(0):
-            z >>= np.uint64(1)
-            level += 1
-        rnd[i] = rounds - level
+        # The number of trailing zero bits (64 for z = 0), at most ``rounds``.
+        rnd[i] = rounds - min(trailing_zeros(z), rounds)
         curve[i] = d
     return rnd, curve, rounds + 1
 
@@ -516,6 +519,24 @@ def _incircle(pts, a, b, c, d, work):
         return 1
     if -det > errbound:
         return -1
+    return _incircle_near_zero(pts, a, b, c, d, work)
+
+
+@njit(cache=True)
+def _incircle_near_zero(pts, a, b, c, d, work):
+    """:func:`_incircle` when the float filter cannot decide: an exact sign
+    (the special cases of axis-parallel lines first), the tie broken
+    symbolically. Not inlined, so that the common path stays small."""
+    ax = pts[a, 0]
+    ay = pts[a, 1]
+    bx = pts[b, 0]
+    by = pts[b, 1]
+    cx = pts[c, 0]
+    cy = pts[c, 1]
+    dx = pts[d, 0]
+    dy = pts[d, 1]
+    if _axis_rectangle(ax, ay, bx, by, cx, cy, dx, dy):  # an exact tie, the commonest
+        return _incircle_tie(pts, a, b, c, d, work)
     s = _incircle_two_lines(ax, ay, bx, by, cx, cy, dx, dy)
     if s == 2:  # two vertical lines: the mirror image in y = x, whose sign is opposite
         s = -_incircle_two_lines(ay, ax, by, bx, cy, cx, dy, dx)
@@ -756,7 +777,11 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop):
             stack[1] = 3 * T2 + 1
             stack[2] = 3 * T3 + 2
             stack[3] = 3 * T4 + 1
-            sp = 4
+            # On a hull edge (d the vertex at infinity) p is in the closed hull,
+            # so no ghost triangle can be in conflict: only the two real
+            # triangles' outer edges are tested (a boundary sample's every
+            # insertion, in collinear runs).
+            sp = 4 if d >= 0 else 2
             last = T1
         else:
             # p lies on two edges of t: it coincides with their common vertex.
