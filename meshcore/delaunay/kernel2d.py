@@ -70,7 +70,7 @@ from numba.extending import intrinsic
 
 from meshcore.errors import InputError
 from meshcore.geometry.expansions import two_product, two_sum
-from meshcore.geometry.ordering import radix_sort
+from meshcore.geometry.ordering import radix_sort_into
 from meshcore.geometry.predicates import (
     WORK_SIZE,
     _axis_rectangle,
@@ -146,8 +146,9 @@ _HILBERT_TABLE = _hilbert_table()
 
 
 @njit(cache=True)
-def _brio_hilbert_keys(pts, factor, nbits):
-    """Each point's BRIO round and Hilbert index, and the number of rounds.
+def _brio_hilbert_keys(pts, factor, nbits, rnd, curve):
+    """Each point's BRIO round and Hilbert index, written to ``rnd`` and
+    ``curve`` (int64, one per point); returns the number of rounds.
 
     The coordinates are taken times ``factor`` (a power of two, so exactly)
     to keep the bounding box finite.
@@ -176,8 +177,6 @@ def _brio_hilbert_keys(pts, factor, nbits):
     while m > 64:
         m >>= 1
         rounds += 1
-    rnd = np.empty(n, np.int64)
-    curve = np.empty(n, np.int64)
     head = nbits % 4
     for i in range(n):
         hx = int((pts[i, 0] * factor - xmin) * scale)
@@ -213,12 +212,15 @@ def _brio_hilbert_keys(pts, factor, nbits):
         # The number of trailing zero bits (64 for z = 0), at most ``rounds``.
         rnd[i] = rounds - min(trailing_zeros(z), rounds)
         curve[i] = d
-    return rnd, curve, rounds + 1
+    return rounds + 1
 
 
 @njit(cache=True)
-def _insertion_order(rnd, curve, nrounds):
+def _insertion_order(rnd, curve, nrounds, order, along, buf):
     """The insertion order and the walk hints' inputs, from one sort.
+
+    Writes ``order`` and ``along`` (int64, one per point) and returns
+    ``curve_sorted``, a row of the scratch ``buf`` (int64, ``(5, n)``).
 
     ``order``: the points round after round, each round along the Hilbert
     curve, forwards in even rounds and backwards in odd ones (so that each
@@ -232,17 +234,15 @@ def _insertion_order(rnd, curve, nrounds):
     insertion order took two.
     """
     n = curve.shape[0]
-    carried = np.empty(n, np.int64)
+    carried = buf[0]
     for i in range(n):
         carried[i] = (i << 6) | rnd[i]
-    curve_sorted, carried = radix_sort(curve, carried)
+    curve_sorted, carried = radix_sort_into(curve, carried, buf[1:])
     fill = np.zeros(nrounds + 1, np.int64)
     for i in range(n):
         fill[rnd[i] + 1] += 1
     for r in range(nrounds):
         fill[r + 1] += fill[r]
-    order = np.empty(n, np.int64)
-    along = np.empty(n, np.int64)
     for j in range(n):  # even rounds, forwards
         r = carried[j] & 63
         if r % 2 == 0:
@@ -269,22 +269,30 @@ def _insertion_order(rnd, curve, nrounds):
         if g > j:
             along[j : g + 1] = np.sort(along[j : g + 1])
         j = g + 1
-    return order, along, curve_sorted
+    return curve_sorted
 
 
 @njit(cache=True)
 def _walk_hints(seq, curve_sorted):
+    """:func:`_walk_hints_into` on fresh arrays; the int32 hints."""
+    n = seq.shape[0]
+    hint = np.empty(n, np.int32)
+    _walk_hints_into(seq, curve_sorted, np.empty(n, np.int64), np.empty(n, np.int64), hint)
+    return hint
+
+
+@njit(cache=True)
+def _walk_hints_into(seq, curve_sorted, left, stack, hint):
     """For each insertion position, an earlier-inserted point near it on the curve.
 
     ``seq[j]`` is the insertion position of the j-th point along the Hilbert
     curve and ``curve_sorted[j]`` its curve index. For each point the nearest
     point on either side along the curve that was inserted before it is found
     with two monotonic-stack sweeps (previous / next smaller element); the
-    closer of the two is the walk's starting vertex. -1: none.
+    closer of the two is the walk's starting vertex (``hint``, int32, by
+    insertion position). -1: none. ``left`` and ``stack`` are int64 scratch.
     """
     n = seq.shape[0]
-    left = np.empty(n, np.int64)
-    stack = np.empty(n, np.int64)
     sp = 0
     for j in range(n):
         while sp > 0 and seq[stack[sp - 1]] > seq[j]:
@@ -292,7 +300,6 @@ def _walk_hints(seq, curve_sorted):
         left[j] = stack[sp - 1] if sp > 0 else -1
         stack[sp] = j
         sp += 1
-    hint = np.empty(n, np.int32)
     sp = 0
     for j in range(n - 1, -1, -1):
         while sp > 0 and seq[stack[sp - 1]] > seq[j]:
@@ -306,7 +313,6 @@ def _walk_hints(seq, curve_sorted):
         ):
             best = right
         hint[seq[j]] = seq[best] if best >= 0 else -1
-    return hint
 
 
 @intrinsic
@@ -916,9 +922,8 @@ def _scan(pts):
 
 
 @njit(cache=True)
-def _gather(pts, order, factor):
-    """Rows of pts in insertion order, times the power of two factor."""
-    out = np.empty((order.shape[0], 2))
+def _gather(pts, order, factor, out):
+    """Rows of pts in insertion order, times the power of two factor, into ``out``."""
     for i in range(order.shape[0]):
         j = order[i]
         out[i, 0] = pts[j, 0] * factor
@@ -1309,12 +1314,19 @@ def _build(pts_in: np.ndarray, progress):
     # Hilbert cells: about 4n per side, so that even points sampling a curve
     # (boundaries) rarely share a cell.
     nbits = min(_HILBERT_BITS, max(8, n.bit_length() + 2))
-    rnd, curve, nrounds = _brio_hilbert_keys(pts_in, factor, nbits)
-    order, along, curve_sorted = _insertion_order(rnd, curve, nrounds)
-    del rnd, curve
-    hint = _walk_hints(along, curve_sorted)
-    del along, curve_sorted
-    pts = _gather(pts_in, order, factor)
+    # The ordering's arrays are rows of one numpy allocation (see _output:
+    # from 65,536 points on it gets huge pages, where numba's own arrays
+    # took a page fault every 4 kB): the keys (rows 0-1), ``along`` (2),
+    # the sort's scratch (3-7); then the hints' scratch (0-1) and the
+    # int32 hints (3).
+    pool = np.empty((8, n), np.int64)
+    nrounds = _brio_hilbert_keys(pts_in, factor, nbits, pool[0], pool[1])
+    order = np.empty(n, np.int64)
+    curve_sorted = _insertion_order(pool[0], pool[1], nrounds, order, pool[2], pool[3:])
+    hint = pool[3].view(np.int32)[:n]
+    _walk_hints_into(pool[2], curve_sorted, pool[0], pool[1], hint)
+    pts = np.empty((n, 2))
+    _gather(pts_in, order, factor, pts)
 
     ntri_max = 2 * n
     # One allocation for both (see _output: 4 MB or more gets huge pages).
