@@ -70,7 +70,7 @@ from numba.extending import intrinsic
 
 from meshcore.errors import InputError
 from meshcore.geometry.expansions import two_product, two_sum
-from meshcore.geometry.ordering import radix_sort_into
+from meshcore.geometry.ordering import radix_sort
 from meshcore.geometry.predicates import (
     WORK_SIZE,
     _axis_rectangle,
@@ -146,9 +146,8 @@ _HILBERT_TABLE = _hilbert_table()
 
 
 @njit(cache=True)
-def _brio_hilbert_keys(pts, factor, nbits, rnd, curve):
-    """Each point's BRIO round and Hilbert index, written to ``rnd`` and
-    ``curve`` (int64, one per point); returns the number of rounds.
+def _brio_hilbert_keys(pts, factor, nbits):
+    """Each point's BRIO round and Hilbert index, and the number of rounds.
 
     The coordinates are taken times ``factor`` (a power of two, so exactly)
     to keep the bounding box finite.
@@ -177,6 +176,8 @@ def _brio_hilbert_keys(pts, factor, nbits, rnd, curve):
     while m > 64:
         m >>= 1
         rounds += 1
+    rnd = np.empty(n, np.int64)
+    curve = np.empty(n, np.int64)
     head = nbits % 4
     for i in range(n):
         hx = int((pts[i, 0] * factor - xmin) * scale)
@@ -212,15 +213,12 @@ def _brio_hilbert_keys(pts, factor, nbits, rnd, curve):
         # The number of trailing zero bits (64 for z = 0), at most ``rounds``.
         rnd[i] = rounds - min(trailing_zeros(z), rounds)
         curve[i] = d
-    return rounds + 1
+    return rnd, curve, rounds + 1
 
 
 @njit(cache=True)
-def _insertion_order(rnd, curve, nrounds, order, along, buf):
+def _insertion_order(rnd, curve, nrounds):
     """The insertion order and the walk hints' inputs, from one sort.
-
-    Writes ``order`` and ``along`` (int64, one per point) and returns
-    ``curve_sorted``, a row of the scratch ``buf`` (int64, ``(5, n)``).
 
     ``order``: the points round after round, each round along the Hilbert
     curve, forwards in even rounds and backwards in odd ones (so that each
@@ -234,15 +232,17 @@ def _insertion_order(rnd, curve, nrounds, order, along, buf):
     insertion order took two.
     """
     n = curve.shape[0]
-    carried = buf[0]
+    carried = np.empty(n, np.int64)
     for i in range(n):
         carried[i] = (i << 6) | rnd[i]
-    curve_sorted, carried = radix_sort_into(curve, carried, buf[1:])
+    curve_sorted, carried = radix_sort(curve, carried)
     fill = np.zeros(nrounds + 1, np.int64)
     for i in range(n):
         fill[rnd[i] + 1] += 1
     for r in range(nrounds):
         fill[r + 1] += fill[r]
+    order = np.empty(n, np.int64)
+    along = np.empty(n, np.int64)
     for j in range(n):  # even rounds, forwards
         r = carried[j] & 63
         if r % 2 == 0:
@@ -269,30 +269,22 @@ def _insertion_order(rnd, curve, nrounds, order, along, buf):
         if g > j:
             along[j : g + 1] = np.sort(along[j : g + 1])
         j = g + 1
-    return curve_sorted
+    return order, along, curve_sorted
 
 
 @njit(cache=True)
 def _walk_hints(seq, curve_sorted):
-    """:func:`_walk_hints_into` on fresh arrays; the int32 hints."""
-    n = seq.shape[0]
-    hint = np.empty(n, np.int32)
-    _walk_hints_into(seq, curve_sorted, np.empty(n, np.int64), np.empty(n, np.int64), hint)
-    return hint
-
-
-@njit(cache=True)
-def _walk_hints_into(seq, curve_sorted, left, stack, hint):
     """For each insertion position, an earlier-inserted point near it on the curve.
 
     ``seq[j]`` is the insertion position of the j-th point along the Hilbert
     curve and ``curve_sorted[j]`` its curve index. For each point the nearest
     point on either side along the curve that was inserted before it is found
     with two monotonic-stack sweeps (previous / next smaller element); the
-    closer of the two is the walk's starting vertex (``hint``, int32, by
-    insertion position). -1: none. ``left`` and ``stack`` are int64 scratch.
+    closer of the two is the walk's starting vertex. -1: none.
     """
     n = seq.shape[0]
+    left = np.empty(n, np.int64)
+    stack = np.empty(n, np.int64)
     sp = 0
     for j in range(n):
         while sp > 0 and seq[stack[sp - 1]] > seq[j]:
@@ -300,6 +292,7 @@ def _walk_hints_into(seq, curve_sorted, left, stack, hint):
         left[j] = stack[sp - 1] if sp > 0 else -1
         stack[sp] = j
         sp += 1
+    hint = np.empty(n, np.int32)
     sp = 0
     for j in range(n - 1, -1, -1):
         while sp > 0 and seq[stack[sp - 1]] > seq[j]:
@@ -313,6 +306,7 @@ def _walk_hints_into(seq, curve_sorted, left, stack, hint):
         ):
             best = right
         hint[seq[j]] = seq[best] if best >= 0 else -1
+    return hint
 
 
 @intrinsic
@@ -922,8 +916,9 @@ def _scan(pts):
 
 
 @njit(cache=True)
-def _gather(pts, order, factor, out):
-    """Rows of pts in insertion order, times the power of two factor, into ``out``."""
+def _gather(pts, order, factor):
+    """Rows of pts in insertion order, times the power of two factor."""
+    out = np.empty((order.shape[0], 2))
     for i in range(order.shape[0]):
         j = order[i]
         out[i, 0] = pts[j, 0] * factor
@@ -932,10 +927,11 @@ def _gather(pts, order, factor, out):
 
 
 @njit(cache=True)
-def _real_rows(V, ntri, ids):
-    """``ids[t]``: the output row of triangle slot t, -1 for a ghost (int32,
-    as the slots: half the memory that the neighbour look-ups read at
-    random); returns the number of real triangles."""
+def _output(V, A, ntri, order):
+    """Real triangles as input point indices, and their neighbour table (the
+    row of each triangle slot held in int32, as the slots: half the memory
+    that the neighbour look-ups read at random)."""
+    ids = np.empty(ntri, np.int32)
     m = 0
     for t in range(ntri):
         if V[3 * t] >= 0 and V[3 * t + 1] >= 0 and V[3 * t + 2] >= 0:
@@ -943,37 +939,14 @@ def _real_rows(V, ntri, ids):
             m += 1
         else:
             ids[t] = -1
-    return m
-
-
-@njit(cache=True)
-def _fill_output(V, A, ntri, order, ids, triangles, neighbors):
-    """Write the rows of :func:`_output` (``ids`` from :func:`_real_rows`)."""
+    triangles = np.empty((m, 3), np.int64)
+    neighbors = np.empty((m, 3), np.int64)
     for t in range(ntri):
         r = ids[t]
         if r >= 0:
             for i in range(3):
                 triangles[r, i] = order[V[3 * t + i]]
                 neighbors[r, i] = ids[A[3 * t + i] // 3]
-
-
-def _output(V, A, ntri, order):
-    """Real triangles as input point indices, and their neighbour table.
-
-    The two arrays are allocated here by numpy, not inside the compiled
-    code: numpy asks the operating system for transparent huge pages on
-    arrays of 4 MB or more (``madvise``), numba's allocator does not, and
-    first touching 96 MB of fresh small pages took 50 ms of the
-    10^6-point triangulation where writing them now takes 17 ms (about
-    2.5 us a page fault on this project's machine). The two are halves of
-    one array, so that they reach those 4 MB twice as soon.
-    """
-    ids = np.empty(ntri, np.int32)
-    m = _real_rows(V, ntri, ids)
-    # One allocation for both: from about 45,000 triangles on it reaches the
-    # 4 MB from which numpy asks for huge pages.
-    triangles, neighbors = np.empty((2, m, 3), np.int64)
-    _fill_output(V, A, ntri, order, ids, triangles, neighbors)
     return triangles, neighbors
 
 
@@ -1314,24 +1287,16 @@ def _build(pts_in: np.ndarray, progress):
     # Hilbert cells: about 4n per side, so that even points sampling a curve
     # (boundaries) rarely share a cell.
     nbits = min(_HILBERT_BITS, max(8, n.bit_length() + 2))
-    # One numpy allocation of nine int64 rows holds the ordering's arrays,
-    # then the triangulation's: fresh memory costs 0.3-0.5 ms a megabyte on
-    # this project's machine (page faults, zeroing), about a quarter of the
-    # time at 10^5 points when each array had its own. Rows 0-1: the keys,
-    # then the hints' scratch, then the scaled points; 2: ``along``; 3-7:
-    # the sort's scratch; 2-4 and 5-7 then V and A; 8: the int32 hints.
-    pool = np.empty((9, n), np.int64)
-    nrounds = _brio_hilbert_keys(pts_in, factor, nbits, pool[0], pool[1])
-    order = np.empty(n, np.int64)
-    curve_sorted = _insertion_order(pool[0], pool[1], nrounds, order, pool[2], pool[3:8])
-    hint = pool[8].view(np.int32)[:n]
-    _walk_hints_into(pool[2], curve_sorted, pool[0], pool[1], hint)
-    pts = pool[0:2].reshape(-1).view(np.float64).reshape(n, 2)
-    _gather(pts_in, order, factor, pts)
+    rnd, curve, nrounds = _brio_hilbert_keys(pts_in, factor, nbits)
+    order, along, curve_sorted = _insertion_order(rnd, curve, nrounds)
+    del rnd, curve
+    hint = _walk_hints(along, curve_sorted)
+    del along, curve_sorted
+    pts = _gather(pts_in, order, factor)
 
-    # V and A: 3 (2n) int32 each, three rows.
-    V = pool[2:5].reshape(-1).view(np.int32)
-    A = pool[5:8].reshape(-1).view(np.int32)
+    ntri_max = 2 * n
+    V = np.empty(3 * ntri_max, np.int32)
+    A = np.empty(3 * ntri_max, np.int32)
     stack = np.empty(n + 8, np.int32)
     state = np.zeros(5, np.int64)
     work = np.empty(WORK_SIZE)

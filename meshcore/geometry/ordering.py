@@ -14,22 +14,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["radix_argsort", "radix_sort", "radix_sort_into"]
+__all__ = ["radix_argsort", "radix_sort"]
 
 
 @njit(cache=True)
 def radix_sort(keys, values):
     """Non-negative int64 ``keys`` sorted, stably, and int64 ``values`` (one per
     key) moved with them: ``(keys[p], values[p])`` for ``p`` the permutation
-    ``np.argsort(keys, kind="stable")``; the inputs are not modified
-    (:func:`radix_sort_into` on fresh scratch)."""
-    return radix_sort_into(keys, values, np.empty((4, keys.shape[0]), np.int64))
-
-
-@njit(cache=True)
-def radix_sort_into(keys, values, buf):
-    """:func:`radix_sort` with the caller's scratch ``buf`` (int64, ``(4, n)``),
-    two rows of which are returned: ``(sorted keys, moved values)``. A
+    ``np.argsort(keys, kind="stable")``; the inputs are not modified. A
     least-significant-digit radix sort, 11 bits a pass: one read of the keys
     counts every digit, passes whose digit is the same for every key are
     skipped, and the first pass reads the inputs in place of copies of them.
@@ -49,10 +41,10 @@ def radix_sort_into(keys, values, buf):
             count[d, ((k >> (11 * d)) & 2047) + 1] += 1
     src_k = keys
     src_i = values
-    a_k = buf[0]  # two pairs of rows taking turns as the destination
-    a_i = buf[1]
-    b_k = buf[2]
-    b_i = buf[3]
+    a_k = np.empty(n, np.int64)  # two buffers taking turns as the destination
+    a_i = np.empty(n, np.int64)
+    b_k = np.empty(n, np.int64)
+    b_i = np.empty(n, np.int64)
     moved = 0
     for d in range(ndigits):
         c = count[d]
@@ -72,9 +64,7 @@ def radix_sort_into(keys, values, buf):
         src_i = dst_i
         moved += 1
     if moved == 0:
-        a_k[:] = keys
-        a_i[:] = values
-        return a_k, a_i
+        return keys.copy(), values.copy()
     return src_k, src_i
 
 

@@ -256,11 +256,9 @@ def test_insertion_order_is_the_stable_sort_of_round_and_curve(spread):
     rng = np.random.default_rng(5)
     p = np.concatenate([rng.random((40, 2)), 0.5 + spread * rng.random((3000, 2))])
     nbits = 14
-    n = len(p)
-    rnd, curve, order, along = np.empty((4, n), np.int64)
-    nrounds = _brio_hilbert_keys(p, 1.0, nbits, rnd, curve)
+    rnd, curve, nrounds = _brio_hilbert_keys(p, 1.0, nbits)
     assert rnd.min() >= 0 and rnd.max() < nrounds
-    curve_sorted = _insertion_order(rnd, curve, nrounds, order, along, np.empty((5, n), np.int64))
+    order, along, curve_sorted = _insertion_order(rnd, curve, nrounds)
     forward = np.where(rnd % 2 == 1, (1 << (2 * nbits)) - 1 - curve, curve)
     assert np.array_equal(order, np.argsort((rnd << (2 * nbits)) | forward, kind="stable"))
     assert np.array_equal(along, np.argsort(curve[order], kind="stable"))
