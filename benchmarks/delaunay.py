@@ -20,7 +20,7 @@ the other processes' turns), the median of ``--repeat`` runs, ours and
 Triangle taking turns; the ratio is that of the medians. The load average is
 printed with the table. Peak memory is the
 tracemalloc peak of one extra run of ours (numpy allocations, which hold all
-of the kernel's large arrays).
+of the kernel's arrays but its sort keys).
 """
 
 from __future__ import annotations
