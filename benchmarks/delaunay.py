@@ -4,6 +4,7 @@ Run from the repository root::
 
     .venv/bin/python benchmarks/delaunay.py            # 100k and 1M points
     .venv/bin/python benchmarks/delaunay.py --sizes 100000 --qhull-timeout 20
+    .venv/bin/python benchmarks/delaunay.py --inputs rect-boundary --no-qhull --repeat 7
 
 Inputs: uniform random points in the unit square, and points evenly spaced
 on the boundary of a 2 x 1 rectangle (top and bottom share their x
@@ -128,6 +129,9 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=5, help="median of R runs (ours, Triangle)")
     parser.add_argument("--qhull-timeout", type=float, default=60.0)
     parser.add_argument("--no-qhull", action="store_true")
+    parser.add_argument(
+        "--inputs", nargs="+", choices=list(INPUTS), default=list(INPUTS), help="inputs to run"
+    )
     args = parser.parse_args()
 
     t = time.perf_counter()
@@ -146,8 +150,8 @@ def main() -> None:
     print(header)
     print("-" * len(header))
     for n in args.sizes:
-        for name, make in INPUTS.items():
-            p = make(n)
+        for name in args.inputs:
+            p = INPUTS[name](n)
             ours, tri = time_pair(p, args.repeat)
             qh = None if args.no_qhull else time_qhull(p, args.qhull_timeout)
             ratio = f"{ours / tri:.2f}" if tri else "n/a"

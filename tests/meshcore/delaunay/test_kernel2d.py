@@ -155,8 +155,11 @@ def test_radix_argsort_is_the_stable_argsort(top):
         assert np.array_equal(radix_argsort(keys), np.argsort(keys, kind="stable"))
         perm = np.argsort(keys, kind="stable")
         values = rng.integers(-5, 5, size, dtype=np.int64)
+        keys_in, values_in = keys.copy(), values.copy()
         sorted_keys, moved = radix_sort(keys, values)
         assert np.array_equal(sorted_keys, keys[perm]) and np.array_equal(moved, values[perm])
+        # The first pass reads the inputs in place: they must come back untouched.
+        assert np.array_equal(keys, keys_in) and np.array_equal(values, values_in)
 
 
 def test_two_lines_incircle_is_the_exact_sign():
