@@ -73,7 +73,7 @@ from meshcore.geometry.expansions import two_product, two_sum
 from meshcore.geometry.ordering import radix_sort
 from meshcore.geometry.predicates import (
     WORK_SIZE,
-    _axis_rectangle,
+    axis_rectangle,
     incircle_exact,
     orient2d_exact,
 )
@@ -569,7 +569,7 @@ def _incircle_near_zero(pts, a, b, c, d, work):
     cy = pts[c, 1]
     dx = pts[d, 0]
     dy = pts[d, 1]
-    if _axis_rectangle(ax, ay, bx, by, cx, cy, dx, dy):  # an exact tie, the commonest
+    if axis_rectangle(ax, ay, bx, by, cx, cy, dx, dy):  # an exact tie, the commonest
         return _incircle_tie(pts, a, b, c, d, work)
     s = _incircle_two_lines(ax, ay, bx, by, cx, cy, dx, dy)
     if s == 2:  # two vertical lines: the mirror image in y = x, whose sign is opposite

@@ -269,7 +269,7 @@ def dot2d_filtered(ax, ay, bx, by, cx, cy, work):
 
 
 @njit(cache=True, inline="always")
-def _axis_rectangle(ax, ay, bx, by, cx, cy, dx, dy):
+def axis_rectangle(ax, ay, bx, by, cx, cy, dx, dy):
     """Whether a, b, c, d are the four corners of an axis-parallel rectangle, by
     exact comparisons: two pairs share their x, two other pairs their y, and
     the points sharing an x differ in y. Such points are co-circular (the
@@ -316,7 +316,7 @@ def incircle_exact(ax, ay, bx, by, cx, cy, dx, dy, work):
         For counter-clockwise a, b, c: +1 if d is inside the circle through
         them, -1 outside, 0 on it (signs reverse when a, b, c is clockwise).
     """
-    if _axis_rectangle(ax, ay, bx, by, cx, cy, dx, dy):
+    if axis_rectangle(ax, ay, bx, by, cx, cy, dx, dy):
         return 0
     adx, adxt = _two_diff(ax, dx)
     ady, adyt = _two_diff(ay, dy)
