@@ -209,6 +209,17 @@ MOST_COUNT = 1.5
 #: A border vertex whose quads' corners there average more than this (degrees) gets
 #: one quad more (:func:`_opened`).
 OPEN_ANGLE = 125.0
+#: An input corner under this angle (degrees) is a spike: cut off into a triangle
+#: region of its own (:func:`_spike_chords`) whose subdivision is a small coarse quad at
+#: the tip (a kite: the points of its two sides :data:`KITE_SIDE` x size from the tip, at
+#: most a third of the side, the inner point just past them) and two strips along the
+#: sides. The midpoint subdivision's kite there has corners (alpha, 90, 180 - alpha,
+#: 90), over 135 degrees, and its fill repeats the angle alpha along its diagonal.
+KITE_ANGLE = 45.0
+KITE_SIDE = 1.0
+#: The kite's inner point is tried this many times the distance of its two side points
+#: past their middle (away from the tip).
+KITE_PAST = (0.05, 0.1, 0.2, 0.35, 0.5, 0.8)
 #: Where the count passes :data:`MOST_COUNT` x area / size**2, the classes' counts are
 #: taken again for ``size`` times each of these in turn (the input vertices' counts
 #: still bind): rounding each class up and the ring of an annulus carrying the outer
@@ -442,6 +453,71 @@ def _faces(points: np.ndarray, edges: np.ndarray, kind: np.ndarray, succ: np.nda
     return cycles, corners, kinds
 
 
+def _chord_inside(P: np.ndarray, verts: np.ndarray, i: int, j: int) -> bool:
+    """Whether the chord from cycle vertex ``i`` to ``j`` of a counter-clockwise
+    cycle leaves both ends into the region and touches no cycle edge but at its
+    ends (exact :func:`~meshcore.geometry.predicates.orient2d`)."""
+    n = len(verts)
+    a, b = P[verts[i]], P[verts[j]]
+    for k, t in ((i, b), (j, a)):  # strictly inside the interior angle at each end
+        prv, v, nxt = P[verts[k - 1]], P[verts[k]], P[verts[(k + 1) % n]]
+        turn = orient2d(prv, v, nxt)
+        s1, s2 = orient2d(v, nxt, t), orient2d(prv, v, t)
+        if not ((s1 > 0 and s2 > 0) if turn >= 0 else (s1 > 0 or s2 > 0)):
+            return False
+    e = np.arange(n)
+    e = e[(e != i) & (e != j) & ((e + 1) % n != i) & ((e + 1) % n != j)]
+    c, d = P[verts[e]], P[verts[(e + 1) % n]]
+    A, B = np.broadcast_to(a, c.shape), np.broadcast_to(b, c.shape)
+    o1, o2 = orient2d(A, B, c).astype(np.int64), orient2d(A, B, d).astype(np.int64)
+    o3, o4 = orient2d(c, d, A).astype(np.int64), orient2d(c, d, B).astype(np.int64)
+    apart = (o1 * o2 > 0) | (o3 * o4 > 0)  # collinear pieces count as touching
+    return bool(apart.all())
+
+
+def _spike_chords(points, cycles, corners, kinds, turn):
+    """The regions with every input spike cut off (:data:`KITE_ANGLE`): a region
+    vertex that is not one of its corners, where the boundary turns by more than
+    ``180 - KITE_ANGLE`` degrees, is cut off by the chord between the region corners
+    before and after it (the two samples the node's circle touches at the spike's
+    base), when the chord lies inside and leaves another corner on the far side. The
+    spike then is a triangle region of its own (its tip a corner of the midpoint
+    subdivision, :data:`SHARP_TURN`), whose subdivision is a kite at the tip and two
+    strips along its sides; cut with the rest, the tip's coarse quad was as long
+    as the spike and its fill repeated the tip's angle along its diagonal.
+    Returns the cycles, corner flags, edge kinds and the chords (vertex pairs)."""
+    spike = turn > math.pi - math.radians(KITE_ANGLE)
+    p = len(turn)
+    todo = list(zip(cycles, corners, kinds, strict=True))
+    out, chords = [], []
+    while todo:
+        verts, corner, kind = todo.pop()
+        n = len(verts)
+        tips = np.flatnonzero((verts < p) & ~corner)
+        tips = tips[spike[verts[tips]]]
+        at = np.flatnonzero(corner)
+        cut = None
+        for t in tips:  # a loop over a region's spikes (a few)
+            k = np.searchsorted(at, t)
+            i, j = int(at[k - 1]), int(at[k % len(at)])  # corners before and after
+            if len(at) >= 3 and _chord_inside(points, verts, i, j):
+                cut = (i, j, int(t))
+                break
+        if cut is None:
+            out.append((verts, corner, kind))
+            continue
+        i, j, t = cut
+        near = np.roll(np.arange(n), -i)[: (j - i) % n + 1]  # i ... tip ... j
+        far = np.roll(np.arange(n), -j)[: (i - j) % n + 1]  # j ... i
+        for part in (near, far):
+            flag = corner[part]
+            flag[part == t] = True  # the tip: a corner of the spike's region
+            todo.append((verts[part], flag, np.append(kind[part[:-1]], np.int8(_CUT))))
+        chords.append((int(verts[i]), int(verts[j])))
+    cycles, corners, kinds = zip(*out, strict=True) if out else ((), (), ())
+    return list(cycles), list(corners), list(kinds), chords
+
+
 def _ring_area(xy: np.ndarray) -> float:
     x, y = xy[:, 0] - xy[0, 0], xy[:, 1] - xy[0, 1]
     return 0.5 * math.fsum(x * np.roll(y, -1) - np.roll(x, -1) * y)
@@ -526,6 +602,8 @@ def partition(
     proper = edges[:, 0] != edges[:, 1]
     succ = ax.succ
     cycles, corners, kinds = _faces(points, edges[proper], kind[first][proper], succ)
+    cycles, corners, kinds, chords = _spike_chords(points, cycles, corners, kinds, _turns(ax))
+    cut_edges = np.concatenate([cut_edges, np.array(chords, np.int64).reshape(-1, 2)])
     regions = []
     total = 0.0
     for verts, corner in zip(cycles, corners, strict=True):
@@ -544,7 +622,7 @@ def partition(
     stats = {
         "regions": len(regions),
         "sides": {str(k): int((sides == k).sum()) for k in np.unique(sides)},
-        "cuts": int(len(cuts)),
+        "cuts": int(len(cut_edges)),
         "area": total,
         "domain_area": ax.domain.area,
         "axis": ax.stats,
@@ -588,26 +666,29 @@ def _polyline_points(xy: np.ndarray, n: int, fixed: np.ndarray) -> np.ndarray:
     return out
 
 
-def _side_point(xy: np.ndarray, s: np.ndarray, fixed: np.ndarray):
+def _side_point(xy: np.ndarray, s: np.ndarray, fixed: np.ndarray, at: float | None = None):
     """The point of a side (a polyline with cumulative lengths ``s``).
 
     Its input corner nearest to the middle when one lies in the middle half
     (so that no coarse quad cuts a corner), else the arclength midpoint, or
-    the vertex within 5 % of the side's length of it.
+    the vertex within 5 % of the side's length of it. ``at``: the arclength
+    wanted instead of the middle (the kite at a spike, :data:`KITE_ANGLE`), an
+    input corner within half of the shorter part from there taken instead.
     Returns ``(m, point, at_vertex)``: the point is vertex ``m``, or lies
     inside the piece from vertex ``m`` to ``m + 1``.
     """
+    mid_s = s[-1] / 2 if at is None else at
+    reach = s[-1] / 4 if at is None else min(at, s[-1] - at) / 2
     inner = np.flatnonzero(fixed[1:-1]) + 1
     if inner.size:
-        k = inner[np.argmin(np.abs(s[inner] - s[-1] / 2))]
-        if abs(s[k] - s[-1] / 2) <= s[-1] / 4:
+        k = inner[np.argmin(np.abs(s[inner] - mid_s))]
+        if abs(s[k] - mid_s) <= reach:
             return int(k), xy[k], True
-    mid_s = s[-1] / 2
     m = min(int(np.searchsorted(s, mid_s, side="right")) - 1, len(s) - 2)
     # a midpoint within 5 % of the side's length of a vertex is that vertex: a point
     # a rounding error away from an input corner would make a zero-length edge
     for k in (m, m + 1):
-        if 0 < k < len(s) - 1 and abs(s[k] - mid_s) <= 0.05 * s[-1]:
+        if 0 < k < len(s) - 1 and abs(s[k] - mid_s) <= 0.05 * min(s[-1], 4 * reach):
             return k, xy[k], True
     t = (mid_s - s[m]) / (s[m + 1] - s[m]) if s[m + 1] > s[m] else 0.0
     return m, xy[m] + t * (xy[m + 1] - xy[m]), False
@@ -790,11 +871,16 @@ def _corner_area(a, b, c) -> float:
     return 0.5 * float((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
 
 
-def _inner_point(ring: np.ndarray, corners: np.ndarray, mids: np.ndarray) -> np.ndarray:
+def _inner_point(
+    ring: np.ndarray, corners: np.ndarray, mids: np.ndarray, sharp: np.ndarray
+) -> np.ndarray:
     """The point joined to the side points: among the mean of the side points, the
-    mean of the corners, the area centroid and a 9 x 9 lattice over the corners'
-    bounding box, the one whose coarse quads ``(corner, side point, G, previous
-    side point)`` have the best worst quality ((8.4), 0 when not convex)."""
+    mean of the corners, the area centroid, a 9 x 9 lattice over the corners'
+    bounding box and, at each ``sharp`` corner (a spike's tip, its side points next
+    to it), points just past the middle of its two side points
+    (:data:`KITE_PAST`), the one whose coarse quads ``(corner, side point, G,
+    previous side point)`` have the best worst corner quality ((8.3), 0 when not
+    convex; a sharp corner's own angle left out: it is the input's)."""
     x, y = ring[:, 0], ring[:, 1]
     cross = x * np.roll(y, -1) - np.roll(x, -1) * y
     centroid = np.array(
@@ -803,7 +889,13 @@ def _inner_point(ring: np.ndarray, corners: np.ndarray, mids: np.ndarray) -> np.
     lo, hi = corners.min(axis=0), corners.max(axis=0)
     t = (np.arange(9) + 0.5) / 9
     lattice = lo + np.stack(np.meshgrid(t, t), axis=-1).reshape(-1, 2) * (hi - lo)
-    g = np.vstack([mids.mean(axis=0), corners.mean(axis=0), centroid, lattice])
+    g = [mids.mean(axis=0), corners.mean(axis=0), centroid, lattice]
+    for j in np.flatnonzero(sharp):  # a loop over the region's spikes (one or none)
+        a, b = mids[j - 1], mids[j]
+        u = (a + b) / 2 - corners[j]
+        u /= max(float(np.hypot(*u)), np.finfo(float).tiny)
+        g.append((a + b) / 2 + np.outer(KITE_PAST, u) * float(np.hypot(*(b - a))))
+    g = np.vstack(g)
     k, c = len(corners), len(g)
     quads = np.stack(
         [
@@ -816,8 +908,10 @@ def _inner_point(ring: np.ndarray, corners: np.ndarray, mids: np.ndarray) -> np.
     ).reshape(-1, 4, 2)
     pts = quads.reshape(-1, 2)
     cells = np.arange(len(pts)).reshape(-1, 4)
-    q = quality.cell_quality(pts, cells, "quad")
-    q = np.where(_corner_areas(pts, cells).min(axis=1) > 0, q, -1.0)
+    ang = quality.quad_angles(pts, cells)
+    qp = np.where(ang <= 90.0, ang / 90.0, np.maximum(2.0 - ang / 90.0, 0.0))
+    qp[:, 0] = np.where(np.tile(sharp, c), 1.0, qp[:, 0])
+    q = np.where(_corner_areas(pts, cells).min(axis=1) > 0, qp.min(axis=1), -1.0)
     return g[int(np.argmax(q.reshape(c, k).min(axis=1)))]
 
 
@@ -1221,6 +1315,11 @@ def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bo
             b, r, t, lft = refs
             patches.append((b, r, (t[0], not t[1]), (lft[0], not lft[1])))
             continue
+        ring = points[verts]
+        nxt, prv = ring[(ci + 1) % len(verts)] - ring[ci], ring[ci - 1] - ring[ci]
+        cos_sin = ((nxt * prv).sum(axis=1), nxt[:, 0] * prv[:, 1] - nxt[:, 1] * prv[:, 0])
+        alpha = np.degrees(np.mod(np.arctan2(cos_sin[1], cos_sin[0]), 2 * np.pi))
+        tip = (alpha < KITE_ANGLE) & (k == 3) & (verts[ci] < p)  # a spike cut off
         for j in range(k):
             side = np.append(verts[bounds[j] : bounds[j + 1]], verts[bounds[(j + 1)] % len(verts)])
             canon = (
@@ -1234,7 +1333,14 @@ def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bo
             s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
             if (key, 0) not in half_id:
                 fixed = is_corner[canon]
-                m, mid, at_vertex = _side_point(xy, s, fixed)
+                at = None  # next to a spike's tip: the kite's side (KITE_ANGLE)
+                if size is not None and tip[[j, (j + 1) % k]].any():
+                    at = min(KITE_SIDE * size, s[-1] / 3)
+                    if not tip[j] or alpha[(j + 1) % k] < alpha[j]:
+                        at = s[-1] - at  # from the tip at the side's end
+                    if flipped:
+                        at = s[-1] - at
+                m, mid, at_vertex = _side_point(xy, s, fixed, at)
                 if at_vertex:  # the side point is vertex m
                     first, second = xy[: m + 1], xy[m:]
                     f1, f2 = fixed[: m + 1].copy(), fixed[m:].copy()
@@ -1247,9 +1353,7 @@ def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bo
             a, b = half_id[(key, 0)], half_id[(key, 1)]
             mids.append(seg_xy[a][-1])
             halves.append(((b, True), (a, True)) if flipped else ((a, False), (b, False)))
-        ring = points[verts]
-        cpts = points[verts[ci]]
-        g = _inner_point(ring, cpts, np.array(mids))
+        g = _inner_point(ring, points[verts[ci]], np.array(mids), tip)
         spokes = [new_segment(np.vstack([mids[j], g]), np.ones(2, bool)) for j in range(k)]
         for j in range(k):
             h = halves[j - 1][1]
