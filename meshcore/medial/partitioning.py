@@ -224,6 +224,9 @@ KITE_PAST = (0.05, 0.1, 0.2, 0.35, 0.5, 0.8)
 #: At a reflex input corner, one region (one coarse quad) per this many degrees of its
 #: angle: the others' cuts there are removed (:func:`_reflex_merged`).
 REFLEX_SHARE = 135.0
+#: The last relaxation (:func:`_optimized`) minimizes the summed (1 / sin angle) ** this
+#: over the quads under quality 0.5 and their neighbours: the worst corners weigh most.
+LEAST_POWER = 8.0
 #: Where the count passes :data:`MOST_COUNT` x area / size**2, the classes' counts are
 #: taken again for ``size`` times each of these in turn (the input vertices' counts
 #: still bind): rounding each class up and the ring of an annulus carrying the outer
@@ -1068,9 +1071,36 @@ def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
     if kept:
         P = new
     out["corners_relaxed"] = bool(kept)
+    # then the worst corners alone (a higher power), over the quads under 0.5 and their
+    # neighbours: kept when it raises the least corner quality away from input vertices
+    q = quality.quad_quality(P, Q)
+    bad = np.zeros(len(P), dtype=bool)
+    bad[Q[q < 0.5].ravel()] = True
+    active = bad[Q].any(axis=1)
+    kept = False
+    if active.any():
+        new = relax_quads(
+            P, Q, fixed, slide=sliding_nodes(P, Q, fixed), active=active, angle_power=LEAST_POWER
+        )
+        kept = (
+            not (_folded(new, Q) > 0).any()
+            and _least_free(new, Q, fixed) > _least_free(P, Q, fixed)
+            and quality.quad_quality(new, Q).mean() >= q.mean() - LEAST_GIVE
+        )
+        if kept:
+            P = new
+    out["least_relaxed"] = bool(kept)
     out["quads"] = int(len(Q))
     out["points"] = int(len(P))
     return Mesh(P, (CellBlock("quad", Q),)), out
+
+
+def _least_free(P: np.ndarray, Q: np.ndarray, fixed: np.ndarray) -> float:
+    """The least corner quality ((8.3)) of the quads over their corners that are not
+    ``fixed`` points (an input corner's angle is the input's)."""
+    ang = quality.quad_angles(P, Q)
+    qp = np.where(ang <= 90.0, ang / 90.0, np.maximum(2.0 - ang / 90.0, 0.0))
+    return float(qp[~fixed[Q]].min(initial=1.0))
 
 
 def _special(ax: MedialAxis, size: float | None, levels: int | None):
