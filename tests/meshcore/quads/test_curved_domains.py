@@ -309,3 +309,18 @@ def test_quad_medial_opens_a_wide_reflex_corner():
     wide = ~_unforced(P, Q, dom, below=0.0, above=250.0)  # the quads at reflex corners
     assert wide.any() and ang[wide].max() <= 150
     assert q.min() >= 0.5 and ang.min() >= 30 and ang.max() <= 150 and ratio <= 1.5
+
+
+@pytest.mark.parametrize("tip", [(2.5, 0.5), (2.2, 0.3)])
+def test_quad_medial_cuts_off_a_spike(tip):
+    # a spike of 4-6 degrees on a square: in the region of the axis node its tip was the
+    # corner of a coarse quad as long as the spike, whose fill repeated the tip's angle
+    # along its diagonal (corners 8-172 degrees, least quality 0.09 away from the tip);
+    # cut off by a chord, it is a kite at the tip and two strips along the sides
+    ring = [[0, 0], [1, 0], [1, 0.4], list(tip), [1, 0.6], [1, 1], [0, 1], [0, 0]]
+    dom = parse_domain({"type": "Polygon", "coordinates": [ring]})
+    res = quad_medial(dom, size=0.1)
+    ang, q, ratio = _check(res.mesh, dom, 0.1)
+    ok = _unforced(res.mesh.points, res.mesh.cells_by_type["quad"], dom)
+    assert ang[ok].min() >= 30 and ang[ok].max() <= 150 and q[ok].min() >= 0.5
+    assert 1 / 1.5 <= ratio <= 1.5
