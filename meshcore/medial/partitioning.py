@@ -114,35 +114,37 @@ to about 120 degrees); kept when it leaves fewer folded corners, or as many
 and a better least quality. Last, the mesh is optimized as any all-quad mesh
 (§8.4.3, :func:`_optimized`): the quad operators and smoothing of
 :func:`meshcore.quads.optimization.optimize_quads`, then the corner angles
-relaxed with the boundary points sliding; on 24 random stars at size 0.1 this
-and the sharp corners took the least quality from 0.04-0.45 to 0.27-0.66 and
-the mean from 0.69-0.84 to 0.72-0.93. A reflex input corner cut once is the
-corner of two quads (up to 155 degrees each over 300 degrees): where a border
-vertex's corners average more than :data:`OPEN_ANGLE` (125 degrees) the fill
-gets one quad more there (:func:`_opened`, before the smoothing); on 24
-stars of the issue's kind (5-60 vertices, jitter 10-80 %, size 0.1) the largest
-corner came under 150 degrees on 13 of them (was 10; 154 -> 131, 166 -> 138)
-and the least quality rose on 8 (0.28 -> 0.32, 0.15 -> 0.19, 0.46 -> 0.57,
-0.49 -> 0.60; 0.076 -> 0.066 on one), 1 to 12 openings each.
-The opened quad's corner at the reflex vertex stays small (29-40 degrees: its
-two new neighbours are held by three quads, the far one by five) and the
-corners of 38-44 degrees next to the triangle regions of spiky stars stay: the
-issue's 0.5 is not met there. The
-relaxation's untangling rounds shrink Escobar's
+relaxed with the boundary points sliding (kept when the mean rises), then once
+more with the power :data:`LEAST_POWER` over the quads under 0.5 and their
+neighbours (kept when the least corner quality away from input vertices rises).
+Where a border vertex's corners average more than :data:`OPEN_ANGLE` (125
+degrees) the fill gets one quad more there (:func:`_opened`, before the
+smoothing). The relaxation's untangling rounds shrink Escobar's
 regularization each round, so that a fold among corners far smaller than
 the median (a reflex input corner next to a short piece) is not lost in
 it, and a sliding point stays between the midpoints to its neighbours (it
-can neither collapse onto an input corner nor pass another point). On 50
-random stars of the issue's kind (5 to 60 vertices, radial jitter 10-80 %,
-every other one with a star-shaped hole) at size 0.05, 20 of them with
-``terminal`` and 12 at size 0.02, every job succeeds and every quad is
-strictly convex (``stats["not_convex"]`` counts them, exact); before, 4 of
-21 kept a non-convex quad at a sharp reflex corner. Their least quality
-(0.01-0.40) is forced by the stars' spikes of 2-20 degrees, each held by
-one quad whose other corners share the rest (the midpoint subdivision of
-a thin triangle region adds corners of 2-6 degrees beside it); the count
-is 1.1-2.0x area / size**2 where spikes and input vertices closer than
-``size`` fix more divisions. On 150 random star polygons the ``critical``
+can neither collapse onto an input corner nor pass another point).
+
+Spikes and crowded reflex corners (:mod:`meshcore.medial.regions`). An input
+corner under 45 degrees inside a larger region is cut off by a chord between the
+region corners around it (:func:`partition`), and its triangle's subdivision is a
+small kite at the tip (side points :data:`KITE_SIDE` x size from it, the inner
+point just past them) and two strips along its sides; ``quad_medial`` keeps
+``ceil(angle / 135) - 1`` of the cuts at a reflex input corner, merging the
+regions on both sides of the others. On 32 random stars of the issue's kind (5-60
+vertices, radial jitter 10-80 %, every other one with a star-shaped hole) at size
+0.1, away from the quads at input corners under 45 degrees (forced: such a corner
+is held by one quad): corners in [30, 150] degrees on 25 (was 21), least quality
+0.3 on 28 (was 25) and 0.5 on 10 (was 9), least 0.04-0.58 (was 0.03-0.58); quads
+under 0.5 there 281 (was 647: 199 -> 73 at reflex corners, 311 -> 161 in
+triangle regions); the count 0.92-1.72x area / size**2 (was 0.97-1.63x; over
+1.5x on one star (was two), 60 vertices with spikes and input vertices
+closer than ``size``). What is left under 0.5: quads next to the kites of the
+thinnest spikes (2-10 degrees) and to reflex corners, and thin regions of the
+``critical`` partition around its Type 0 nodes (the text's midpoint subdivision
+of a triangle region with a corner of 10-30 degrees at an axis node).
+Every job succeeds and every quad is strictly convex (``stats["not_convex"]``
+counts them, exact). On 150 random star polygons the ``critical``
 partition so gives only valid quads; the ``terminal`` one's 5- and 6-sided
 regions around reflex corners still folded on 19 of them, so when it does
 the mesh is made on the ``critical`` partition instead (said in

@@ -23,7 +23,7 @@ corners in [30, 150], least quality 0.5 and the count within 1.5x (0.88x at size
 degrees (forced) and over 270 degrees, corners in [30, 150] and least quality
 0.3 (the issue's 0.5 is not met: a reflex corner opened into three quads keeps
 a corner of 29-40 degrees); one star with a 281-degree corner, opened, asserts
-0.5.
+0.5, and so does a square with a spike of 4-6 degrees, away from its tip.
 """
 
 from __future__ import annotations
