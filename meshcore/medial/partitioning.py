@@ -778,6 +778,7 @@ def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
             Q[q][Q[q] == b] = b2
         added.append(P[b] + (c2 - P[b]) / 3)
         P = np.vstack([P, added[-1]])
+        border = np.append(border, False)  # b2 is inside
         P[b] += (c1 - P[b]) / 3
         Q = np.vstack([Q, np.array([[v, b, z, b2]], dtype=Q.dtype)])
         start, cells = _csr(len(P), Q)
