@@ -49,7 +49,9 @@ curve) at the mesh size that gives about as many quads: least and mean
 quality (8.4), corner range, seconds. ``--poisson``: scikit-fem's Q1
 solution of a Poisson problem on the disk meshed by both methods at sizes
 0.2 to 0.025, its L2 and H1 errors and their rates per halving (2 and 1
-expected).
+expected). ``--stars N SIZE``: ``quad_medial`` on the issue's first N random
+stars (5-60 vertices, radial jitter 10-80 %, a hole on every other one): count
+ratio, least quality and corner range away from input corners under 45 degrees.
 """
 
 from __future__ import annotations
@@ -501,6 +503,63 @@ def _curved_row(name, size, label, r):
     )
 
 
+def _random_star(seed: int) -> tuple[dict, int, float]:
+    """The issue's random star ``seed`` (5-60 vertices, radial jitter 10-80 %, a
+    star-shaped hole on odd seeds): its GeoJSON polygon, vertex count and jitter."""
+    rng = np.random.default_rng(1000 + seed)
+    n, jitter = int(rng.integers(5, 61)), float(rng.uniform(0.1, 0.8))
+    t = 2 * np.pi * (np.arange(n) + rng.uniform(-0.3, 0.3, n)) / n
+    r = 1 + jitter * rng.uniform(-1, 1, n)
+    rings = [np.column_stack([r * np.cos(t), r * np.sin(t)])]
+    if seed % 2:
+        m = int(rng.integers(5, 11))
+        th = 2 * np.pi * np.arange(m) / m
+        rh = 0.15 * (1 - jitter) * (1 + 0.5 * rng.uniform(-1, 1, m))
+        rings.append(np.column_stack([rh * np.cos(th), rh * np.sin(th)])[::-1])
+    coords = [np.vstack([x, x[:1]]).tolist() for x in rings]
+    return {"type": "Polygon", "coordinates": coords}, n, jitter
+
+
+def stars_main(count: int, size: float) -> None:
+    """``--stars N SIZE``: ``quad_medial`` on the issue's first N random stars, per star
+    the count over area / size**2, and away from the quads at input corners under 45
+    degrees (forced: one quad holds such a corner) the least quality (8.4) and the
+    corner range. Gmsh a8r3 is not run: its full-quad recombination fails on these
+    polygons ("1D mesh cannot be divided by 2")."""
+    from meshcore.domain.planar import parse_domain
+    from meshcore.medial import quad_medial
+    from meshcore.mesh import quality
+
+    print("| star | vertices | jitter | count / (area / size²) | least Q | corners | seconds |")
+    print("|---:|---:|---:|---:|---:|---|---:|")
+    for seed in range(count):
+        geo, n, jitter = _random_star(seed)
+        dom = parse_domain(geo)
+        t0 = time.process_time()
+        res = quad_medial(dom, size=size)
+        sec = time.process_time() - t0
+        P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
+        nxt = np.full(len(dom.points), -1)
+        prv = np.full(len(dom.points), -1)
+        nxt[dom.segments[:, 0]], prv[dom.segments[:, 1]] = dom.segments[:, 1], dom.segments[:, 0]
+        b = np.flatnonzero(nxt >= 0)
+        u, w = dom.points[prv[b]] - dom.points[b], dom.points[nxt[b]] - dom.points[b]
+        angle = np.degrees(
+            np.mod(np.arctan2(u[:, 1], u[:, 0]) - np.arctan2(w[:, 1], w[:, 0]), 2 * np.pi)
+        )
+        sharp = np.zeros(len(P), bool)
+        for x in dom.points[b[angle < 45]]:  # a loop over the spikes
+            sharp |= (P == x).all(axis=1)
+        ok = ~sharp[Q].any(axis=1)
+        q = quality.quad_quality(P, Q)[ok]
+        ang = quality.quad_angles(P, Q)[ok]
+        print(
+            f"| {seed} | {n} | {jitter:.2f} | {len(Q) * size**2 / dom.area:.2f} | {q.min():.3f} | "
+            f"{ang.min():.0f}-{ang.max():.0f} | {sec:.2f} |",
+            flush=True,
+        )
+
+
 def poisson_child(tool: str, size: float) -> dict:
     """L2 and H1 errors of scikit-fem's Q1 solution of -lap u = f on the disk
     (u = sin(pi x) sin(pi y) + x y, Dirichlet data from u at the boundary nodes)."""
@@ -612,6 +671,7 @@ def main() -> None:
     ap.add_argument("--domains", nargs="*", default=None, help="--curved: only these domains")
     ap.add_argument("--curved-child", nargs=3, metavar=("TOOL", "DOMAIN", "SIZE"))
     ap.add_argument("--poisson", action="store_true", help="Q1 Poisson convergence on the disk")
+    ap.add_argument("--stars", nargs=2, metavar=("N", "SIZE"), help="quad_medial on random stars")
     ap.add_argument("--poisson-child", nargs=2, metavar=("TOOL", "SIZE"))
     args = ap.parse_args()
     if args.poisson_child:
@@ -619,6 +679,9 @@ def main() -> None:
         return
     if args.poisson:
         poisson_main(args.timeout)
+        return
+    if args.stars:
+        stars_main(int(args.stars[0]), float(args.stars[1]))
         return
     if args.curved_child:
         tool, name, size = args.curved_child

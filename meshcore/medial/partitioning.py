@@ -71,7 +71,12 @@ Four-sided regions are one patch each (§9.7.2: "if the polygon is not a
 quad itself, the midpoint subdivision completes"); the others get the
 medial partition below.
 
-Quads (§9.7.2, §8.5.3). Every region is split by midpoint subdivision (a
+Quads (§9.7.2, §8.5.3). With ``size``, a partition whose regions all have four
+corners (an annulus: the regions between its loop's cross-sections and the two
+rings) is filled one patch per region, as the text's "if the polygon is not a quad
+itself": the midpoint subdivision put two quads at least across each ring (1.76x
+area / size**2 at size 0.15; one patch each: 0.88x, least quality 0.80). Otherwise
+every region is split by midpoint subdivision (a
 sharp convex input corner, turning by more than 60 degrees, counts as one of
 the region's corners there, so that it is the corner of one coarse quad, not
 the side point of two, each of half its angle): a
@@ -109,35 +114,38 @@ to about 120 degrees); kept when it leaves fewer folded corners, or as many
 and a better least quality. Last, the mesh is optimized as any all-quad mesh
 (§8.4.3, :func:`_optimized`): the quad operators and smoothing of
 :func:`meshcore.quads.optimization.optimize_quads`, then the corner angles
-relaxed with the boundary points sliding; on 24 random stars at size 0.1 this
-and the sharp corners took the least quality from 0.04-0.45 to 0.27-0.66 and
-the mean from 0.69-0.84 to 0.72-0.93. A reflex input corner cut once is the
-corner of two quads (up to 155 degrees each over 300 degrees): where a border
-vertex's corners average more than :data:`OPEN_ANGLE` (125 degrees) the fill
-gets one quad more there (:func:`_opened`, before the smoothing); on 24
-stars of the issue's kind (5-60 vertices, jitter 10-80 %, size 0.1) the largest
-corner came under 150 degrees on 13 of them (was 10; 154 -> 131, 166 -> 138)
-and the least quality rose on 8 (0.28 -> 0.32, 0.15 -> 0.19, 0.46 -> 0.57,
-0.49 -> 0.60; 0.076 -> 0.066 on one), 1 to 12 openings each.
-The opened quad's corner at the reflex vertex stays small (29-40 degrees: its
-two new neighbours are held by three quads, the far one by five) and the
-corners of 38-44 degrees next to the triangle regions of spiky stars stay: the
-issue's 0.5 is not met there. The
-relaxation's untangling rounds shrink Escobar's
+relaxed with the boundary points sliding (kept when the mean rises), then once
+more with the power :data:`LEAST_POWER` over the quads under 0.5 and their
+neighbours (kept when the least corner quality away from input vertices rises).
+Where a border vertex's corners average more than :data:`OPEN_ANGLE` (125
+degrees) the fill gets one quad more there (:func:`_opened`, before the
+smoothing). The relaxation's untangling rounds shrink Escobar's
 regularization each round, so that a fold among corners far smaller than
 the median (a reflex input corner next to a short piece) is not lost in
 it, and a sliding point stays between the midpoints to its neighbours (it
-can neither collapse onto an input corner nor pass another point). On 50
-random stars of the issue's kind (5 to 60 vertices, radial jitter 10-80 %,
-every other one with a star-shaped hole) at size 0.05, 20 of them with
-``terminal`` and 12 at size 0.02, every job succeeds and every quad is
-strictly convex (``stats["not_convex"]`` counts them, exact); before, 4 of
-21 kept a non-convex quad at a sharp reflex corner. Their least quality
-(0.01-0.40) is forced by the stars' spikes of 2-20 degrees, each held by
-one quad whose other corners share the rest (the midpoint subdivision of
-a thin triangle region adds corners of 2-6 degrees beside it); the count
-is 1.1-2.0x area / size**2 where spikes and input vertices closer than
-``size`` fix more divisions. On 150 random star polygons the ``critical``
+can neither collapse onto an input corner nor pass another point).
+
+Spikes and crowded reflex corners (:mod:`meshcore.medial.regions`). An input
+corner under 45 degrees inside a larger region is cut off by a chord between the
+region corners around it (:func:`partition`), and its triangle's subdivision is a
+small kite at the tip (side points :data:`KITE_SIDE` x size from it, the inner
+point just past them) and two strips along its sides; ``quad_medial`` keeps
+``ceil(angle / 135) - 1`` of the cuts at a reflex input corner, merging the
+regions on both sides of the others. On 32 random stars of the issue's kind (5-60
+vertices, radial jitter 10-80 %, every other one with a star-shaped hole) at size
+0.1, away from the quads at input corners under 45 degrees (forced: such a corner
+is held by one quad): corners in [30, 150] degrees on 25 (was 21), least quality
+0.3 on 27 (was 25) and 0.5 on 9 (as before), least 0.05-0.58 (was 0.03-0.58); quads
+under 0.5 there 290 (was 647: 199 -> 77 at reflex corners, 311 -> 153 in
+triangle regions, 137 -> 49 in four-sided ones); the count 0.92-1.72x area /
+size**2 (was 0.97-1.63x; over 1.5x on two stars as before, one of them
+60 vertices with spikes and input vertices
+closer than ``size``). What is left under 0.5: quads next to the kites of the
+thinnest spikes (2-10 degrees) and to reflex corners, and thin regions of the
+``critical`` partition around its Type 0 nodes (the text's midpoint subdivision
+of a triangle region with a corner of 10-30 degrees at an axis node).
+Every job succeeds and every quad is strictly convex (``stats["not_convex"]``
+counts them, exact). On 150 random star polygons the ``critical``
 partition so gives only valid quads; the ``terminal`` one's 5- and 6-sided
 regions around reflex corners still folded on 19 of them, so when it does
 the mesh is made on the ``critical`` partition instead (said in
@@ -164,6 +172,15 @@ from meshcore.domain.planar import Domain
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.medial.axis import DEFAULT_PRUNE, MedialAxis, _classes, _csr, _cycles, medial_axis
+from meshcore.medial.regions import (
+    _AXIS,
+    _BOUNDARY,
+    _CUT,
+    KITE_ANGLE,
+    reflex_merged,
+    spike_chords,
+    turns,
+)
 from meshcore.mesh import CellBlock, Mesh, quality, topology
 from meshcore.quads.combination import TOL
 from meshcore.quads.optimization import optimize_quads, relax_quads, sliding_nodes
@@ -204,6 +221,17 @@ MOST_COUNT = 1.5
 #: A border vertex whose quads' corners there average more than this (degrees) gets
 #: one quad more (:func:`_opened`).
 OPEN_ANGLE = 125.0
+#: The kite at a spike's tip (:data:`meshcore.medial.regions.KITE_ANGLE`): the points of
+#: its two sides this times size from the tip (at most a third of the side), its inner
+#: point tried at :data:`KITE_PAST` times their distance past their middle.
+KITE_SIDE = 1.0
+#: The kite's inner point is tried this many times the distance of its two side points
+#: past their middle (away from the tip).
+KITE_PAST = (0.05, 0.1, 0.2, 0.35, 0.5, 0.8)
+#: The last relaxation (:func:`_optimized`) minimizes the summed (1 / sin angle) ** this
+#: over the quads under quality 0.5 and their neighbours: the worst corners weigh most.
+LEAST_POWER = 8.0
+
 #: Where the count passes :data:`MOST_COUNT` x area / size**2, the classes' counts are
 #: taken again for ``size`` times each of these in turn (the input vertices' counts
 #: still bind): rounding each class up and the ring of an annulus carrying the outer
@@ -214,8 +242,6 @@ STRETCH = (1.0, 1.15, 1.3, 1.5)
 #: opened, it took the mean from 0.778 to 0.836 and the least from 0.486 to 0.481, and
 #: was refused (mean 0.84 without the opening).
 LEAST_GIVE = 0.01
-
-_BOUNDARY, _AXIS, _CUT = 0, 1, 2
 
 
 @dataclass(frozen=True, eq=False)
@@ -521,6 +547,8 @@ def partition(
     proper = edges[:, 0] != edges[:, 1]
     succ = ax.succ
     cycles, corners, kinds = _faces(points, edges[proper], kind[first][proper], succ)
+    cycles, corners, kinds, chords = spike_chords(points, cycles, corners, kinds, turns(ax))
+    cut_edges = np.concatenate([cut_edges, np.array(chords, np.int64).reshape(-1, 2)])
     regions = []
     total = 0.0
     for verts, corner in zip(cycles, corners, strict=True):
@@ -539,7 +567,7 @@ def partition(
     stats = {
         "regions": len(regions),
         "sides": {str(k): int((sides == k).sum()) for k in np.unique(sides)},
-        "cuts": int(len(cuts)),
+        "cuts": int(len(cut_edges)),
         "area": total,
         "domain_area": ax.domain.area,
         "axis": ax.stats,
@@ -583,26 +611,33 @@ def _polyline_points(xy: np.ndarray, n: int, fixed: np.ndarray) -> np.ndarray:
     return out
 
 
-def _side_point(xy: np.ndarray, s: np.ndarray, fixed: np.ndarray):
+def _side_point(xy: np.ndarray, s: np.ndarray, fixed: np.ndarray, at: float | None = None):
     """The point of a side (a polyline with cumulative lengths ``s``).
 
     Its input corner nearest to the middle when one lies in the middle half
     (so that no coarse quad cuts a corner), else the arclength midpoint, or
-    the vertex within 5 % of the side's length of it.
+    the vertex within 5 % of the side's length of it. ``at``: the arclength
+    wanted instead of the middle (the kite at a spike, :data:`KITE_ANGLE`), an
+    input corner within half of the shorter part from there taken instead.
     Returns ``(m, point, at_vertex)``: the point is vertex ``m``, or lies
     inside the piece from vertex ``m`` to ``m + 1``.
     """
+    mid_s = s[-1] / 2 if at is None else at
+    reach = s[-1] / 4 if at is None else min(at, s[-1] - at) / 2
     inner = np.flatnonzero(fixed[1:-1]) + 1
     if inner.size:
-        k = inner[np.argmin(np.abs(s[inner] - s[-1] / 2))]
-        if abs(s[k] - s[-1] / 2) <= s[-1] / 4:
+        k = inner[np.argmin(np.abs(s[inner] - mid_s))]
+        if abs(s[k] - mid_s) <= reach:
             return int(k), xy[k], True
-    mid_s = s[-1] / 2
     m = min(int(np.searchsorted(s, mid_s, side="right")) - 1, len(s) - 2)
-    # a midpoint within 5 % of the side's length of a vertex is that vertex: a point
-    # a rounding error away from an input corner would make a zero-length edge
-    for k in (m, m + 1):
-        if 0 < k < len(s) - 1 and abs(s[k] - mid_s) <= 0.05 * s[-1]:
+    # a midpoint within 5 % of the side's length of a vertex is that vertex (the nearest
+    # of the two: the first one changed with rounding where the midpoint fell on a
+    # sample): a point a rounding error away from an input corner would make a
+    # zero-length edge
+    near = [k for k in (m, m + 1) if 0 < k < len(s) - 1]
+    if near:
+        k = min(near, key=lambda i: abs(s[i] - mid_s))
+        if abs(s[k] - mid_s) <= 0.05 * min(s[-1], 4 * reach):
             return k, xy[k], True
     t = (mid_s - s[m]) / (s[m + 1] - s[m]) if s[m + 1] > s[m] else 0.0
     return m, xy[m] + t * (xy[m + 1] - xy[m]), False
@@ -748,6 +783,7 @@ def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
             Q[q][Q[q] == b] = b2
         added.append(P[b] + (c2 - P[b]) / 3)
         P = np.vstack([P, added[-1]])
+        border = np.append(border, False)  # b2 is inside
         P[b] += (c1 - P[b]) / 3
         Q = np.vstack([Q, np.array([[v, b, z, b2]], dtype=Q.dtype)])
         start, cells = _csr(len(P), Q)
@@ -785,11 +821,17 @@ def _corner_area(a, b, c) -> float:
     return 0.5 * float((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
 
 
-def _inner_point(ring: np.ndarray, corners: np.ndarray, mids: np.ndarray) -> np.ndarray:
+def _inner_point(
+    ring: np.ndarray, corners: np.ndarray, mids: np.ndarray, sharp: np.ndarray
+) -> np.ndarray:
     """The point joined to the side points: among the mean of the side points, the
-    mean of the corners, the area centroid and a 9 x 9 lattice over the corners'
-    bounding box, the one whose coarse quads ``(corner, side point, G, previous
-    side point)`` have the best worst quality ((8.4), 0 when not convex)."""
+    mean of the corners, the area centroid, a 9 x 9 lattice over the corners'
+    bounding box and, at each ``sharp`` corner (a spike's tip, its side points next
+    to it), points just past the middle of its two side points
+    (:data:`KITE_PAST`), the one whose coarse quads ``(corner, side point, G,
+    previous side point)`` have the best worst corner quality ((8.3), 0 when not
+    convex; a sharp corner's own angle left out: it is the input's), the mean of
+    the corners' qualities breaking ties."""
     x, y = ring[:, 0], ring[:, 1]
     cross = x * np.roll(y, -1) - np.roll(x, -1) * y
     centroid = np.array(
@@ -798,7 +840,13 @@ def _inner_point(ring: np.ndarray, corners: np.ndarray, mids: np.ndarray) -> np.
     lo, hi = corners.min(axis=0), corners.max(axis=0)
     t = (np.arange(9) + 0.5) / 9
     lattice = lo + np.stack(np.meshgrid(t, t), axis=-1).reshape(-1, 2) * (hi - lo)
-    g = np.vstack([mids.mean(axis=0), corners.mean(axis=0), centroid, lattice])
+    g = [mids.mean(axis=0), corners.mean(axis=0), centroid, lattice]
+    for j in np.flatnonzero(sharp):  # a loop over the region's spikes (one or none)
+        a, b = mids[j - 1], mids[j]
+        u = (a + b) / 2 - corners[j]
+        u /= max(float(np.hypot(*u)), np.finfo(float).tiny)
+        g.append((a + b) / 2 + np.outer(KITE_PAST, u) * float(np.hypot(*(b - a))))
+    g = np.vstack(g)
     k, c = len(corners), len(g)
     quads = np.stack(
         [
@@ -811,9 +859,14 @@ def _inner_point(ring: np.ndarray, corners: np.ndarray, mids: np.ndarray) -> np.
     ).reshape(-1, 4, 2)
     pts = quads.reshape(-1, 2)
     cells = np.arange(len(pts)).reshape(-1, 4)
-    q = quality.cell_quality(pts, cells, "quad")
-    q = np.where(_corner_areas(pts, cells).min(axis=1) > 0, q, -1.0)
-    return g[int(np.argmax(q.reshape(c, k).min(axis=1)))]
+    ang = quality.quad_angles(pts, cells)
+    qp = np.where(ang <= 90.0, ang / 90.0, np.maximum(2.0 - ang / 90.0, 0.0))
+    qp[:, 0] = np.where(np.tile(sharp, c), 1.0, qp[:, 0])
+    qp = np.where((_corner_areas(pts, cells).min(axis=1) > 0)[:, None], qp, -1.0).reshape(c, -1)
+    # the least to 1e-9, then the mean: a fixed corner of the region is often the least
+    # for every candidate, and rounding then chose (a translated input changed the mesh)
+    least, mean = np.round(qp.min(axis=1), 9), qp.mean(axis=1)
+    return g[int(np.lexsort((-mean, -least))[0])]
 
 
 def quad_medial(
@@ -890,7 +943,7 @@ def quad_medial(
         if size is not None and stats["quads"] * size * size > MOST_COUNT * domain.area:
             # the butterfly's central quad carries the boundary's count both ways (a gear
             # at size 0.1: 1.88x): the medial partition when it keeps the count
-            part = partition(axis=axis, method=method)
+            part = _reflex_merged(partition(axis=axis, method=method))
             mesh2, stats2 = _quads_on(part, size, levels)
             if stats2["invalid"] or stats2["quads"] * size * size > MOST_COUNT * domain.area:
                 part = None
@@ -903,12 +956,12 @@ def quad_medial(
             )
         mesh, stats = mesh2, stats2
     else:
-        part = partition(axis=axis, method=method)
+        part = _reflex_merged(partition(axis=axis, method=method))
         mesh, stats = _quads_on(part, size, levels)
     if stats["invalid"] and method == "terminal":
         # regions of 5 or 6 sides around reflex corners can fold; the critical
         # partition's triangles and quads do not on the domains tested
-        fallback = partition(axis=part.axis, method="critical")
+        fallback = _reflex_merged(partition(axis=part.axis, method="critical"))
         mesh, stats2 = _quads_on(fallback, size, levels)
         stats = {
             **stats2,
@@ -965,9 +1018,36 @@ def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
     if kept:
         P = new
     out["corners_relaxed"] = bool(kept)
+    # then the worst corners alone (a higher power), over the quads under 0.5 and their
+    # neighbours: kept when it raises the least corner quality away from input vertices
+    q = quality.quad_quality(P, Q)
+    bad = np.zeros(len(P), dtype=bool)
+    bad[Q[q < 0.5].ravel()] = True
+    active = bad[Q].any(axis=1)
+    kept = False
+    if active.any():
+        new = relax_quads(
+            P, Q, fixed, slide=sliding_nodes(P, Q, fixed), active=active, angle_power=LEAST_POWER
+        )
+        kept = (
+            not (_folded(new, Q) > 0).any()
+            and _least_free(new, Q, fixed) > _least_free(P, Q, fixed)
+            and quality.quad_quality(new, Q).mean() >= q.mean() - LEAST_GIVE
+        )
+        if kept:
+            P = new
+    out["least_relaxed"] = bool(kept)
     out["quads"] = int(len(Q))
     out["points"] = int(len(P))
     return Mesh(P, (CellBlock("quad", Q),)), out
+
+
+def _least_free(P: np.ndarray, Q: np.ndarray, fixed: np.ndarray) -> float:
+    """The least corner quality ((8.3)) of the quads over their corners that are not
+    ``fixed`` points (an input corner's angle is the input's)."""
+    ang = quality.quad_angles(P, Q)
+    qp = np.where(ang <= 90.0, ang / 90.0, np.maximum(2.0 - ang / 90.0, 0.0))
+    return float(qp[~fixed[Q]].min(initial=1.0))
 
 
 def _special(ax: MedialAxis, size: float | None, levels: int | None):
@@ -1033,16 +1113,6 @@ def _folded(P: np.ndarray, quads: np.ndarray) -> np.ndarray:
     return sum((orient2d(prv[:, k], c[:, k], nxt[:, k]) <= 0).astype(np.int64) for k in range(4))
 
 
-def _turns(ax: MedialAxis) -> np.ndarray:
-    """Turning angle (radians, positive to the left) of the boundary at each sample."""
-    p = len(ax.samples)
-    pred = np.empty(p, dtype=np.int64)
-    pred[ax.succ] = np.arange(p)
-    a = ax.samples - ax.samples[pred]
-    b = ax.samples[ax.succ] - ax.samples
-    return np.arctan2(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], (a * b).sum(axis=1))
-
-
 def _one_ring(ax: MedialAxis) -> np.ndarray | None:
     """The samples of a domain bounded by one ring, in boundary order (None otherwise)."""
     ring = [0]
@@ -1061,7 +1131,7 @@ def _four_sided(ax: MedialAxis) -> Partition | None:
     ring = _one_ring(ax)
     if ring is None:
         return None
-    turn = _turns(ax)[ring]
+    turn = turns(ax)[ring]
     if (turn < -1e-12).any() or int((turn > SMOOTH_TURN).sum()) != 4:
         return None
     return _made(ax, ax.samples, [ring], [turn > SMOOTH_TURN])
@@ -1075,7 +1145,7 @@ def _butterfly(ax: MedialAxis, fraction: float) -> Partition | None:
     None when the domain has a corner (a turn above :data:`SMOOTH_TURN`) or is not
     star-shaped from its centroid."""
     ring = _one_ring(ax)
-    if ring is None or (np.abs(_turns(ax)[ring]) > BUTTERFLY_TURN).any():
+    if ring is None or (np.abs(turns(ax)[ring]) > BUTTERFLY_TURN).any():
         return None
     xy = ax.samples[ring]
     x, y = xy[:, 0], xy[:, 1]
@@ -1124,6 +1194,45 @@ def _butterfly(ax: MedialAxis, fraction: float) -> Partition | None:
     return _made(ax, points, cycles, corners)
 
 
+def _reflex_merged(part: Partition) -> Partition:
+    """The partition with regions merged at crowded reflex input corners
+    (:func:`meshcore.medial.regions.reflex_merged`)."""
+    pts = part.points
+    cycles, corners, kinds, removed = reflex_merged(
+        part.axis, pts, part.cycles, part.corners, part.edge_kind
+    )
+    if not removed:
+        return part
+    regions = []
+    for cyc, flag in zip(cycles, corners, strict=True):
+        ring = pts[cyc]
+        coords = np.concatenate([ring, ring[:1]]).tolist()
+        regions.append(
+            {
+                "type": "Polygon",
+                "coordinates": [coords],
+                "sides": int(flag.sum()),
+                "area": _ring_area(ring),
+            }
+        )
+    gone = np.array([np.concatenate([pts[a], pts[b]]) for a, b in removed])
+    c = part.cuts.reshape(-1, 4)
+    drop = (
+        (c[:, None] == gone[None]).all(-1) | (c[:, None] == gone[None][..., [2, 3, 0, 1]]).all(-1)
+    ).any(1)
+    stats = {**part.stats, "regions": len(regions), "merged_at_reflex": len(removed)}
+    return Partition(
+        regions=regions,
+        cuts=part.cuts[~drop],
+        axis=part.axis,
+        points=pts,
+        cycles=tuple(cycles),
+        corners=tuple(corners),
+        edge_kind=tuple(kinds),
+        stats=stats,
+    )
+
+
 def _made(ax: MedialAxis, points, cycles, corners) -> Partition:
     """A Partition of given regions (vertex cycles over ``points``, the samples first)."""
     regions = []
@@ -1151,10 +1260,14 @@ def _made(ax: MedialAxis, points, cycles, corners) -> Partition:
     )
 
 
-def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bool = False):
+def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bool | None = None):
     """Midpoint subdivision and transfinite fill of a partition's regions, then
     smoothing; the mesh and its counts (``invalid``: quads of area <= 0).
-    ``whole``: every region has four sides and is one patch (no subdivision)."""
+    ``whole``: every region has four sides and is one patch (no subdivision); None:
+    so, with ``size``, when every region has four corners, the sharp input corners
+    (:data:`SHARP_TURN`) counted (an annulus: its rings' regions one patch each, so
+    that one quad across each ring is possible: the midpoint subdivision made at
+    least two, 1.76x area / size**2 at size 0.15)."""
     ax = part.axis
     points = part.points
     p = len(ax.samples)
@@ -1179,9 +1292,14 @@ def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bo
     # a sharp convex input corner is a corner of the midpoint subdivision: one coarse
     # quad there (as a side point it got two of half its angle)
     sharp = np.zeros(len(points), dtype=bool)
-    sharp[:p] = _turns(ax) > SHARP_TURN
+    sharp[:p] = turns(ax) > SHARP_TURN
+    with_sharp = not whole
+    if whole is None:  # (with levels, the halving is the subdivision asked for)
+        whole = size is not None and all(
+            int((c | sharp[v]).sum()) == 4 for v, c in zip(part.cycles, part.corners, strict=True)
+        )
     for verts, corner in zip(part.cycles, part.corners, strict=True):
-        if not whole:
+        if with_sharp:
             corner = corner | sharp[verts]
         ci = np.flatnonzero(corner)
         verts = np.roll(verts, -ci[0])
@@ -1207,6 +1325,11 @@ def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bo
             b, r, t, lft = refs
             patches.append((b, r, (t[0], not t[1]), (lft[0], not lft[1])))
             continue
+        ring = points[verts]
+        nxt, prv = ring[(ci + 1) % len(verts)] - ring[ci], ring[ci - 1] - ring[ci]
+        cos_sin = ((nxt * prv).sum(axis=1), nxt[:, 0] * prv[:, 1] - nxt[:, 1] * prv[:, 0])
+        alpha = np.degrees(np.mod(np.arctan2(cos_sin[1], cos_sin[0]), 2 * np.pi))
+        tip = (alpha < KITE_ANGLE) & (k == 3) & (verts[ci] < p)  # a spike cut off
         for j in range(k):
             side = np.append(verts[bounds[j] : bounds[j + 1]], verts[bounds[(j + 1)] % len(verts)])
             canon = (
@@ -1220,7 +1343,14 @@ def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bo
             s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
             if (key, 0) not in half_id:
                 fixed = is_corner[canon]
-                m, mid, at_vertex = _side_point(xy, s, fixed)
+                at = None  # next to a spike's tip: the kite's side (KITE_ANGLE)
+                if size is not None and tip[[j, (j + 1) % k]].any():
+                    at = min(KITE_SIDE * size, s[-1] / 3)
+                    if not tip[j] or alpha[(j + 1) % k] < alpha[j]:
+                        at = s[-1] - at  # from the tip at the side's end
+                    if flipped:
+                        at = s[-1] - at
+                m, mid, at_vertex = _side_point(xy, s, fixed, at)
                 if at_vertex:  # the side point is vertex m
                     first, second = xy[: m + 1], xy[m:]
                     f1, f2 = fixed[: m + 1].copy(), fixed[m:].copy()
@@ -1233,9 +1363,7 @@ def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bo
             a, b = half_id[(key, 0)], half_id[(key, 1)]
             mids.append(seg_xy[a][-1])
             halves.append(((b, True), (a, True)) if flipped else ((a, False), (b, False)))
-        ring = points[verts]
-        cpts = points[verts[ci]]
-        g = _inner_point(ring, cpts, np.array(mids))
+        g = _inner_point(ring, points[verts[ci]], np.array(mids), tip)
         spokes = [new_segment(np.vstack([mids[j], g]), np.ones(2, bool)) for j in range(k)]
         for j in range(k):
             h = halves[j - 1][1]
