@@ -735,7 +735,7 @@ def _ladders(P: np.ndarray, fronts: list, sizes: SizeMap, banned: np.ndarray, re
 
     def good(a: int, b: int, c: int, e: int) -> bool:
         q = nodes[[a, b, c, e]][None, :]
-        return bool(pk.strictly_convex_rows(P, q)[0]) and quad_quality(P, q)[0] >= _LADDER_Q
+        return bool(pk.convex_and_good(P, q, _LADDER_Q)[0])
 
     seeds = np.flatnonzero((partner >= 0) & (np.arange(len(nodes)) < partner))
     seeds = seeds[np.argsort(np.hypot(*(X[partner[seeds]] - X[seeds]).T), kind="stable")]
