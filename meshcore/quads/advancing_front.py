@@ -20,16 +20,10 @@ Algorithm
    (the two normals, the normal half-way between them, and the two
    parallelograms), so four quads turn around it. Row ends closer than
    three nodes apart are demoted to sides. *Wedges*: where the new front
-   would stretch (new edges longer than ``h``, as on a front growing out of
-   a hole), one side node per ``2 h`` of excess length gets the corner's
-   three nodes spread along the front (a kite, ``h / 2`` either side and
-   ``1.3 h`` ahead); never a node of the boundary (it would have three
-   quads on a smooth side). The excess is counted from ``h`` on (it was
-   from ``1.15 h``: the front then grew without wedges for a few rows and
-   got them all at once, 15 on the 176-node front of the square with a
-   hole at 10k quads); over 8k/10k/12k quads the mean quality (8.4) went
-   0.9603 -> 0.9620 on the square with a hole, 0.9366 -> 0.9414 on the
-   gear, 0.8851 -> 0.8855 on the plate. A front node count changes by ``-2`` per row
+   would stretch (a new edge longer than ``1.15 h``, as on a front growing
+   out of a hole), one side node per ``2 h`` of excess length gets the
+   corner's three nodes spread along the front (a kite, ``h / 2`` either
+   side and ``1.3 h`` ahead). A front node count changes by ``-2`` per row
    end and ``+2`` per corner, reversal or wedge: every front stays even.
    In a row with wedges the new front is evened out before the checks
    (``_RELAX`` Jacobi sweeps moving each side node, and each wedge's two
@@ -234,7 +228,7 @@ from meshcore.quads.paving_fronts import _MIN_Q, _angles, _close, _edge_keys, _p
 __all__ = ["PavingResult", "clean_up", "paving"]
 
 _END, _SIDE, _CORNER, _REVERSAL, _WEDGE = 0, 1, 2, 3, 4
-_STRETCH = 1.0  # a new front edge longer than this times h counts toward a wedge
+_STRETCH = 1.15  # a new front edge longer than this times h counts toward a wedge
 _SMALL_FRONT = 8  # fronts with this many nodes or fewer go to the closure
 _SEAM = 0.4  # new nodes closer than this times h are seamed
 _CLEARANCE = 0.5  # a row's new nodes stay this far (times h) from other nodes...
@@ -310,11 +304,10 @@ def _classify(theta: np.ndarray) -> np.ndarray:
     return cls
 
 
-def _row(P: np.ndarray, f: np.ndarray, sizes: SizeMap, sides: np.ndarray, n_fixed: int):
+def _row(P: np.ndarray, f: np.ndarray, sizes: SizeMap, sides: np.ndarray):
     """One row on front f: (new points, new front, quads) with new ids from len(P).
 
-    ``sides`` (bool, one per node of f) forces those nodes to be sides; the
-    points below ``n_fixed`` (the boundary's) are never wedges.
+    ``sides`` (bool, one per node of f) forces those nodes to be sides.
     """
     n = len(f)
     theta = _angles(P, f)
@@ -344,7 +337,7 @@ def _row(P: np.ndarray, f: np.ndarray, sizes: SizeMap, sides: np.ndarray, n_fixe
     # length of the new front, at sides between sides; +2 nodes each
     span = np.hypot(*(side_pt[nxt] - side_pt).T) / h
     excess = np.cumsum(np.where(span > _STRETCH, span - 1.0, 0.0))
-    plain = (cls == _SIDE) & ~near_end & ~sides & (f >= n_fixed)
+    plain = (cls == _SIDE) & ~near_end & ~sides
     plain &= (cls[prv] == _SIDE) & (cls[nxt] == _SIDE)
     wedge = plain & (np.floor(excess / 2) > np.floor(np.roll(excess, 1) / 2))
     wedge[0] = False
@@ -600,7 +593,7 @@ def _snap(Q, f, nf, quads, fronts, which, n_old, h):
     return Q, remap[quads], dropped, len(to)
 
 
-def _try_row(P, fronts, which, sizes, n_fixed):
+def _try_row(P, fronts, which, sizes):
     """The row on ``fronts[which]``, when every quad of it passes every check.
 
     Returns None when some quad fails or the fronts left would not be simple
@@ -609,15 +602,14 @@ def _try_row(P, fronts, which, sizes, n_fixed):
     replaced by ``loops``. A row failing on a few quads is tried again (up to
     ``_RETRIES`` times) with the front nodes of the failed quads made sides
     (a corner, reversal, wedge or row end there is given up), and without
-    its snaps when a failed quad has a snapped node. ``n_fixed``: as in
-    :func:`_row`.
+    its snaps when a failed quad has a snapped node.
     """
     f = fronts[which]
     n_old = len(P)
     sides = np.zeros(len(f), bool)
     snap = True
     for attempt in range(_RETRIES + 1):
-        pts, nf, quads, cls = _row(P, f, sizes, sides, n_fixed)
+        pts, nf, quads, cls = _row(P, f, sizes, sides)
         Q = np.concatenate([P, pts])
         Q, nf, quads, seams = _seam(Q, nf, quads, sizes(Q[nf]), n_old)
         h = sizes(Q)
@@ -1097,7 +1089,7 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
             k = next((i for i, g in enumerate(fronts) if id(g) == key), None)
             if k is None or not active[k]:
                 continue  # merged into another front this round
-            res = _try_row(P, fronts, k, sizes, len(bnd.points))
+            res = _try_row(P, fronts, k, sizes)
             if res is None:
                 active[k] = False
                 stats["frozen"] += 1
