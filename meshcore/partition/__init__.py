@@ -14,7 +14,12 @@ from meshcore.partition.recursive import (
     split_triangles,
 )
 from meshcore.partition.recursive3d import recursive_partition_3d
-from meshcore.partition.smoothing import boundary_edges, boundary_points, smooth_quads
+from meshcore.partition.smoothing import (
+    boundary_edges,
+    boundary_points,
+    smooth_quads,
+    square_corners,
+)
 
 __all__ = [
     "BoundaryResampling",
@@ -29,4 +34,5 @@ __all__ = [
     "size_map",
     "smooth_quads",
     "split_triangles",
+    "square_corners",
 ]

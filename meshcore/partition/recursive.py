@@ -69,7 +69,12 @@ Choices the text leaves open
   a hole at 10k quads the least quality (8.4) goes from 0.18-0.30 to 0.55,
   the mean to 0.85. The separators are then no longer all chains of edges
   (the clean-up may swap or remove their inner edges); the input segments
-  still are. Triangles are not smoothed.
+  still are. Last the corners are squared
+  (:func:`~meshcore.partition.smoothing.square_corners`, steepest descent
+  on their skew, under the same rules): at 10k quads the mean quality goes
+  0.853 -> 0.892 (square with a hole), 0.875 -> 0.908 (L), 0.825 -> 0.869
+  (plate), 0.821 -> 0.863 (gear), the least unchanged, for about 0.15 s.
+  Triangles are not smoothed.
 * Ties between candidates (symmetric domains are full of them) are broken
   by position after rounding the scores to 1e-7, so that a translated or
   scaled domain gives the same mesh.
@@ -99,7 +104,12 @@ from meshcore.errors import AlgorithmError, InputError
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.partition import kernel
 from meshcore.partition.boundary import SizeMap, resample_boundary, size_map
-from meshcore.partition.smoothing import boundary_edges, boundary_points, smooth_quads
+from meshcore.partition.smoothing import (
+    boundary_edges,
+    boundary_points,
+    smooth_quads,
+    square_corners,
+)
 
 __all__ = [
     "FALLBACK_SCALE",
@@ -130,7 +140,9 @@ class PartitionResult:
         ``depth`` (recursion depth), ``separators`` by pieces (``"1"``,
         ``"2-3"``, ``"4-7"``, ``"8+"``), ``bridges``, ``patterns`` (leaves
         met: triangles, quads), ``full_searches``, ``fallback``,
-        ``parity_repairs``, ``seconds`` per phase.
+        ``parity_repairs``, ``smoothing_undone``, ``corners_squared`` (moves
+        kept by :func:`~meshcore.partition.smoothing.square_corners`),
+        ``clean_up``, ``seconds`` per phase.
     """
 
     mesh: Mesh
@@ -379,8 +391,9 @@ def recursive_partition(
     smooth : bool
         Quads: relocate the separator points by
         :func:`~meshcore.partition.smoothing.smooth_quads`, then the
-        topological clean-up (both never inverting a cell nor lowering the
-        least quality). Triangles are not smoothed.
+        topological clean-up, then
+        :func:`~meshcore.partition.smoothing.square_corners` (none inverting
+        a cell nor lowering the least quality). Triangles are not smoothed.
     progress : callable, optional
         ``progress(fraction, message)``; may raise to cancel.
 
@@ -472,7 +485,7 @@ def recursive_partition(
         )
         pts, cells = split_triangles(pts, tri)
     lap("recursion")
-    undone = 0
+    undone = squared = 0
     clean: dict = {"region": 0, "operators": {}}
     if quad and smooth:
         # here, not at the top: meshcore.quads imports this package (paving)
@@ -486,6 +499,8 @@ def recursive_partition(
         pts, cells, ops, region = clean_up(pts, cells, np.flatnonzero(fixed))
         clean = {"region": region, "operators": ops}
         lap("clean-up")
+        pts, squared = square_corners(pts, cells, boundary_points(pts, cells))
+        lap("corners")
     mesh = Mesh(pts, (CellBlock("quad" if quad else "triangle", cells),))
     report(0.9, "quality")
     # the edges of one cell are the resampled rings (tested: input segments as chains)
@@ -498,6 +513,7 @@ def recursive_partition(
         "fallback": fallback,
         "parity_repairs": bnd.repairs,
         "smoothing_undone": int(undone),
+        "corners_squared": int(squared),
         "clean_up": clean,
         "seconds": timings,
     }

@@ -128,6 +128,16 @@ Algorithm
    meshes", 1998); measured on the square with a hole at 10k quads it
    lifts the least quality from 0.37 (smoothing alone) to 0.55 and the
    interior valence-4 share from 95.7 % to 96.7 %.
+9. **Corners squared** (``smooth``):
+   :func:`~meshcore.partition.smoothing.square_corners`, ``_SQUARE_SWEEPS``
+   Gauss-Seidel sweeps of steepest descent at each free point on the sum,
+   over the quads around it, of the 4-norm of their corners' ``cos^2``,
+   under the same acceptance rule as the smoothing (never inverting a cell
+   nor lowering the least quality). The Laplacian evens out lengths but
+   leaves skewed corners next to the irregular points of the closure, the
+   strips and the wedges; at 10k quads this lifts the mean quality (8.4) of
+   the plate 0.866 -> 0.896, the gear 0.914 -> 0.932, the square with a
+   hole 0.950 -> 0.960.
 
 Why it always ends with only quads
 ----------------------------------
@@ -207,6 +217,7 @@ from meshcore.partition import (
     resample_boundary,
     size_map,
     smooth_quads,
+    square_corners,
 )
 from meshcore.partition.recursive import FALLBACK_SCALE
 from meshcore.partition.smoothing import SWEEPS
@@ -233,6 +244,7 @@ _BOW = 0.2  # a strip's end rungs bow this far (times the distance between rungs
 _LADDER_TRIES = 4  # strips made again at most this many times around stuck polygons
 _CLEAN_Q = 0.85  # quads below this quality (8.4) seed the clean-up region
 _CLEAN_RINGS = 2  # rings of quads around the seeds in the clean-up region
+_SQUARE_SWEEPS = 10  # sweeps of square_corners after the clean-up
 _RELAX = 3  # sweeps evening out a new front (wedges) before its checks
 _RETRIES = 2  # a failed row tried again this many times with its failed nodes made sides...
 _RETRY_BAD = 12  # ... when at most this many of its quads failed
@@ -723,7 +735,7 @@ def _ladders(P: np.ndarray, fronts: list, sizes: SizeMap, banned: np.ndarray, re
 
     def good(a: int, b: int, c: int, e: int) -> bool:
         q = nodes[[a, b, c, e]][None, :]
-        return bool(pk.strictly_convex_rows(P, q)[0]) and quad_quality(P, q)[0] >= _LADDER_Q
+        return bool(pk.convex_and_good(P, q, _LADDER_Q)[0])
 
     seeds = np.flatnonzero((partner >= 0) & (np.arange(len(nodes)) < partner))
     seeds = seeds[np.argsort(np.hypot(*(X[partner[seeds]] - X[seeds]).T), kind="stable")]
@@ -1187,8 +1199,9 @@ def paving(
         ``{"points": (k, 2), "values": (k,)}`` (as :func:`recursive_partition`).
     smooth : bool
         Length-weighted Laplacian smoothing with the boundary angle
-        correction, then the topological clean-up (module docstring, steps 6
-        and 7); neither inverts a cell nor lowers the least quality.
+        correction, the topological clean-up, then the corners squared
+        (module docstring, steps 7 to 9); none inverts a cell nor lowers the
+        least quality.
     max_rows : int, optional
         Rows laid at most on each front (default: until every front is
         frozen).
@@ -1255,7 +1268,7 @@ def paving(
     lap("rows and closure")
     P, cells = _compact(P, cells)
     fixed = boundary_points(P, cells)
-    undone = 0
+    undone = squared = 0
     clean: dict = {"region": 0, "operators": {}}
     if smooth:
         report(0.7, "smoothing")
@@ -1265,6 +1278,8 @@ def paving(
         P, cells, ops, region = clean_up(P, cells, np.flatnonzero(fixed))
         clean = {"region": region, "operators": ops}
         lap("clean-up")
+        P, squared = square_corners(P, cells, boundary_points(P, cells), _SQUARE_SWEEPS)
+        lap("corners")
     mesh = Mesh(P, (CellBlock("quad", cells),))
     # the edges of one cell are the resampled rings (tested: input segments as chains)
     rings = boundary_edges(cells)
@@ -1279,7 +1294,11 @@ def paving(
         "fallback": fallback,
         "parity_repairs": bnd.repairs,
         "valence": _valence(cells, len(P), np.flatnonzero(fixed)),
-        "smoothing": {"sweeps": SWEEPS if smooth else 0, "undone": int(undone)},
+        "smoothing": {
+            "sweeps": SWEEPS if smooth else 0,
+            "undone": int(undone),
+            "squared": int(squared),
+        },
         "clean_up": clean,
         "seconds": timings,
     }

@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.partition.kernel import orient, strictly_convex_rows, touch
+from meshcore.partition.smoothing import quad_q
 
 __all__ = ["near_pairs", "pairs_touch", "points_in_quads", "strictly_convex_rows"]
 
@@ -143,3 +144,17 @@ def near_pairs(A, B, r):
     if k:
         _pair_scan(A, B, r, lo_x, lo_y, cell, nx, ny, start, order, out_i, out_j, out_d)
     return out_i, out_j, out_d
+
+
+@njit(cache=True)
+def convex_and_good(P, quads, q_min):
+    """(m,) bool: each quad strictly convex (exact) and of quality (8.4) at least q_min.
+
+    One compiled call for the strips' quad-by-quad growth (numpy's quality
+    report per quad cost more than the strip itself).
+    """
+    out = strictly_convex_rows(P, quads)
+    for r in range(len(quads)):
+        if out[r] and quad_q(P, quads, r) < q_min:
+            out[r] = False
+    return out

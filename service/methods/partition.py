@@ -87,8 +87,8 @@ class RecursivePartitionParams(SizedDomainParams):
     )
     smooth: bool = Field(
         True,
-        description="Quads: smoothing and the topological clean-up (§8.4.3), never inverting "
-        "a cell nor lowering the least quality.",
+        description="Quads: smoothing, the topological clean-up (§8.4.3) and the corners "
+        "squared, never inverting a cell nor lowering the least quality.",
     )
 
     @model_validator(mode="after")

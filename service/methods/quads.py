@@ -208,7 +208,8 @@ class PavingParams(SizedDomainParams):
     smooth: bool = Field(
         True,
         description="Length-weighted Laplacian smoothing with the boundary angle correction, "
-        "then the topological clean-up (§8.4.3) where quads are poor or valences irregular; "
+        "then the topological clean-up (§8.4.3) where quads are poor or valences irregular, "
+        "then the corners squared (steepest descent on their skew); "
         "never inverting a cell nor lowering the least quality.",
     )
     max_rows: int | None = Field(

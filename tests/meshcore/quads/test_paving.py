@@ -13,7 +13,7 @@ from scipy.spatial import cKDTree
 
 from meshcore import InputError, parse_domain
 from meshcore.mesh.quality import quad_quality
-from meshcore.partition import boundary_points, size_map, smooth_quads
+from meshcore.partition import boundary_points, size_map, smooth_quads, square_corners
 from meshcore.partition.kernel import strictly_convex_rows
 from meshcore.quads import advancing_front, paving, paving_fronts, paving_kernel
 from tests.meshcore.partition.test_recursive import (
@@ -104,12 +104,20 @@ class TestCanonical:
         assert q1.min() >= q0.min()
         assert q1.mean() > q0.mean()
         assert strictly_convex_rows(P1, C).all()
+        # the corners squared: valid, the least kept, the mean up, the boundary still
+        fixed = boundary_points(P1, C)
+        P2, moved = square_corners(P1, C, fixed)
+        q3 = quad_quality(P2, C)
+        assert moved > 0 and strictly_convex_rows(P2, C).all()
+        assert q3.min() >= q1.min() and q3.mean() > q1.mean()
+        assert np.array_equal(P2[fixed], P1[fixed])
         # then the clean-up: still only quads, valid, and better still
         smooth = paving(SQUARE_HOLE, size=0.05)
         check_mesh(SQUARE_HOLE, smooth, 0.05, "quad")
         q2 = quad_quality(smooth.mesh.points, smooth.mesh.cells[0].data)
         assert q2.min() >= q1.min()
         assert smooth.stats["clean_up"]["region"] > 0
+        assert smooth.stats["smoothing"]["squared"] > 0
 
     def test_zero_rows_is_the_closure_alone(self):
         res = paving(L_SHAPE, size=0.1, max_rows=0)
