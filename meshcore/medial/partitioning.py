@@ -1194,18 +1194,12 @@ def _butterfly(ax: MedialAxis, fraction: float) -> Partition | None:
     return _made(ax, points, cycles, corners)
 
 
-def _reflex_merged(part: Partition) -> Partition:
-    """The partition with regions merged at crowded reflex input corners
-    (:func:`meshcore.medial.regions.reflex_merged`)."""
-    pts = part.points
-    cycles, corners, kinds, removed = reflex_merged(
-        part.axis, pts, part.cycles, part.corners, part.edge_kind
-    )
-    if not removed:
-        return part
+def _regions(points: np.ndarray, cycles, corners) -> list[dict]:
+    """The GeoJSON region of each vertex cycle over ``points``, with its number
+    of sides (corners flagged) and its area."""
     regions = []
     for cyc, flag in zip(cycles, corners, strict=True):
-        ring = pts[cyc]
+        ring = points[cyc]
         coords = np.concatenate([ring, ring[:1]]).tolist()
         regions.append(
             {
@@ -1215,6 +1209,19 @@ def _reflex_merged(part: Partition) -> Partition:
                 "area": _ring_area(ring),
             }
         )
+    return regions
+
+
+def _reflex_merged(part: Partition) -> Partition:
+    """The partition with regions merged at crowded reflex input corners
+    (:func:`meshcore.medial.regions.reflex_merged`)."""
+    pts = part.points
+    cycles, corners, kinds, removed = reflex_merged(
+        part.axis, pts, part.cycles, part.corners, part.edge_kind
+    )
+    if not removed:
+        return part
+    regions = _regions(pts, cycles, corners)
     gone = np.array([np.concatenate([pts[a], pts[b]]) for a, b in removed])
     c = part.cuts.reshape(-1, 4)
     drop = (
@@ -1235,18 +1242,7 @@ def _reflex_merged(part: Partition) -> Partition:
 
 def _made(ax: MedialAxis, points, cycles, corners) -> Partition:
     """A Partition of given regions (vertex cycles over ``points``, the samples first)."""
-    regions = []
-    for cyc, flag in zip(cycles, corners, strict=True):
-        ring = points[cyc]
-        coords = np.concatenate([ring, ring[:1]]).tolist()
-        regions.append(
-            {
-                "type": "Polygon",
-                "coordinates": [coords],
-                "sides": int(flag.sum()),
-                "area": _ring_area(ring),
-            }
-        )
+    regions = _regions(points, cycles, corners)
     kinds = tuple(np.zeros(len(c), np.int8) for c in cycles)
     return Partition(
         regions=regions,
