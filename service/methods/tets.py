@@ -53,8 +53,8 @@ class TetrahedralizeParams(MethodParams):
     min_dihedral: Annotated[float, Field(gt=0, le=70, allow_inf_nan=False)] | None = Field(
         default=None,
         description="Degrees: slivers removed after refinement for the tetrahedra whose least "
-        "dihedral angle is below it: one round of perturbed insertion, then edge removal, "
-        "flips, smoothing and point insertion, each raising the local least angle and keeping "
+        "dihedral angle is below it: edge removal, flips, smoothing and point insertion, "
+        "each raising the local least angle and keeping "
         "max_radius_edge (where that is not enough, a second stage trades the ratio: "
         "stats.left.improvement.radius_edge_traded); the output is then not Delaunay. "
         "Best effort: quality.tetra.dihedral says what was reached, stats.left counts "
