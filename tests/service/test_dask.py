@@ -160,7 +160,7 @@ class TestDask:
 
     def test_time_limit_kills_the_process_on_the_worker(self, start_server, cluster, tmp_path):
         server = start_server(
-            MESHSERVICE_DASK_SCHEDULER=cluster.address, MESHSERVICE_JOB_TIME_LIMIT="8"
+            MESHSERVICE_DASK_SCHEDULER=cluster.address, MESHSERVICE_JOB_TIME_LIMIT="15"
         )
         marker = tmp_path / "pid"
         with server.client() as c:
