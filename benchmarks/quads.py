@@ -539,16 +539,8 @@ def stars_main(count: int, size: float) -> None:
         res = quad_medial(dom, size=size)
         sec = time.process_time() - t0
         P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
-        nxt = np.full(len(dom.points), -1)
-        prv = np.full(len(dom.points), -1)
-        nxt[dom.segments[:, 0]], prv[dom.segments[:, 1]] = dom.segments[:, 1], dom.segments[:, 0]
-        b = np.flatnonzero(nxt >= 0)
-        u, w = dom.points[prv[b]] - dom.points[b], dom.points[nxt[b]] - dom.points[b]
-        angle = np.degrees(
-            np.mod(np.arctan2(u[:, 1], u[:, 0]) - np.arctan2(w[:, 1], w[:, 0]), 2 * np.pi)
-        )
         sharp = np.zeros(len(P), bool)
-        for x in dom.points[b[angle < 45]]:  # a loop over the spikes
+        for x in dom.points[np.flatnonzero(dom.corner_angles() < 45)]:  # a loop over the spikes
             sharp |= (P == x).all(axis=1)
         ok = ~sharp[Q].any(axis=1)
         q = quality.quad_quality(P, Q)[ok]

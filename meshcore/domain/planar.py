@@ -266,6 +266,20 @@ class Domain:
         """(m,) int64: the ring of each boundary segment (and of each ring vertex)."""
         return np.repeat(np.arange(self.ring_count, dtype=np.int64), np.diff(self.ring_offsets))
 
+    def corner_angles(self) -> np.ndarray:
+        """(boundary_point_count,) float64: the angle inside the domain at each ring
+        vertex, in degrees in [0, 360) (over 180 at a reflex corner); from the
+        directions of its two segments, to rounding."""
+        m = self.boundary_point_count
+        nxt = np.empty(m, np.int64)
+        prv = np.empty(m, np.int64)
+        nxt[self.segments[:, 0]] = self.segments[:, 1]
+        prv[self.segments[:, 1]] = self.segments[:, 0]
+        P = self.points
+        u, w = P[prv] - P[:m], P[nxt] - P[:m]
+        turn = np.arctan2(u[:, 1], u[:, 0]) - np.arctan2(w[:, 1], w[:, 0])
+        return np.degrees(np.mod(turn, 2 * np.pi))
+
     def ring_name(self, k: int) -> str:
         """Human name of ring ``k``: ``"ring 1"`` or ``"polygon 0, ring 1"``."""
         return _ring_name(self.multi, *self._ring_position(k))

@@ -230,15 +230,9 @@ def meets_targets(mesh: Mesh, dom: Domain, size: float) -> bool:
     ratio = len(Q) * size**2 / dom.area
     if not 1 / 1.5 <= ratio <= 1.5 or not np.array_equal(P[:n0], dom.points):
         return False
-    nxt, prv = np.full(n0, -1), np.full(n0, -1)
-    nxt[dom.segments[:, 0]], prv[dom.segments[:, 1]] = dom.segments[:, 1], dom.segments[:, 0]
-    b = np.flatnonzero(nxt >= 0)
-    u, w = dom.points[prv[b]] - dom.points[b], dom.points[nxt[b]] - dom.points[b]
-    inside = np.degrees(
-        np.mod(np.arctan2(u[:, 1], u[:, 0]) - np.arctan2(w[:, 1], w[:, 0]), 2 * np.pi)
-    )
+    inside = dom.corner_angles()
     sharp = np.zeros(len(P), bool)
-    sharp[b[(inside < 45) | (inside > 270)]] = True
+    sharp[np.flatnonzero((inside < 45) | (inside > 270))] = True
     ok = ~sharp[Q].any(axis=1)
     if not ok.any():
         return True

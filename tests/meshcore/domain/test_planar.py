@@ -664,3 +664,17 @@ class TestDomainIn:
             square.to_domain([[[5, 5], [6, 6]]])
         assert info.value.code == "constraint_outside"
         assert info.value.errors[0]["loc"] == ["segments", 0, 0]
+
+
+def test_corner_angles_are_the_angles_inside_the_domain():
+    """An L's reflex corner reads 270, a hole's corners 270 (the domain is outside them),
+    whichever way the rings were given."""
+    ell = [[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2], [0, 0]]
+    hole = [[0.2, 0.2], [0.2, 0.5], [0.5, 0.5], [0.5, 0.2], [0.2, 0.2]]
+    for outer, inner in ((ell, hole), (ell[::-1], hole[::-1])):
+        d = parse_domain({"type": "Polygon", "coordinates": [outer, inner]})
+        ring = d.points[: d.boundary_point_count].tolist()
+        angles = dict(zip(map(tuple, ring), d.corner_angles().tolist(), strict=True))
+        assert angles[(1.0, 1.0)] == pytest.approx(270)
+        assert angles[(2.0, 0.0)] == pytest.approx(90)
+        assert all(angles[tuple(map(float, p))] == pytest.approx(270) for p in hole[:4])

@@ -149,14 +149,8 @@ def _unforced(P, Q, dom, below=45.0, above=270.0):
     domain is under ``below`` degrees (such a corner is held by one quad at best, its
     quality (8.4) then at most ``2 * angle / 180``: forced by the input) or over
     ``above`` (a reflex corner that ``quad_medial``'s subdivision gives two quads)."""
-    nxt = np.full(len(dom.points), -1)
-    prv = np.full(len(dom.points), -1)
-    nxt[dom.segments[:, 0]], prv[dom.segments[:, 1]] = dom.segments[:, 1], dom.segments[:, 0]
-    b = np.flatnonzero(nxt >= 0)
-    a, c = dom.points[prv[b]] - dom.points[b], dom.points[nxt[b]] - dom.points[b]
-    turn = np.arctan2(a[:, 1], a[:, 0]) - np.arctan2(c[:, 1], c[:, 0])
-    angle = np.degrees(np.mod(turn, 2 * np.pi))
-    sharp = dom.points[b[(angle < below) | (angle > above)]]
+    angle = dom.corner_angles()
+    sharp = dom.points[np.flatnonzero((angle < below) | (angle > above))]
     at = np.zeros(len(P), bool)
     for x in sharp:  # a loop over the input's sharp corners (exact matches)
         at |= (P == x).all(axis=1)
