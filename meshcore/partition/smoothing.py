@@ -79,6 +79,15 @@ def _csr(src: np.ndarray, dst: np.ndarray, n: int):
     return ptr, dst[order]
 
 
+def _incidence(quads: np.ndarray, n: int):
+    """The points around each of the ``n`` points (``nptr``, ``nidx``: along quad
+    edges) and the quads around it (``cptr``, ``cidx``), in CSR form."""
+    e, _ = unique_edges(quads, "quad")
+    nptr, nidx = _csr(np.concatenate([e[:, 0], e[:, 1]]), np.concatenate([e[:, 1], e[:, 0]]), n)
+    cptr, cidx = _csr(quads.ravel(), np.repeat(np.arange(len(quads)), 4), n)
+    return nptr, nidx, cptr, cidx
+
+
 def _angle_targets(P, quads, fixed, nptr, nidx):
     """(n_adj,) unit directions: for each adjacency entry (x -> b), x free and b a
     boundary point, the direction from b that splits b's interior angle evenly among
@@ -163,10 +172,7 @@ def smooth_quads(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray, sweep
     """
     P = np.ascontiguousarray(points, dtype=np.float64).copy()
     quads = np.ascontiguousarray(quads, dtype=np.int64)
-    n = len(P)
-    e, _ = unique_edges(quads, "quad")
-    nptr, nidx = _csr(np.concatenate([e[:, 0], e[:, 1]]), np.concatenate([e[:, 1], e[:, 0]]), n)
-    cptr, cidx = _csr(quads.ravel(), np.repeat(np.arange(len(quads)), 4), n)
+    nptr, nidx, cptr, cidx = _incidence(quads, len(P))
     fixed = np.asarray(fixed, bool)
     direc = _angle_targets(P, quads, fixed, nptr, nidx)
     undone = _sweeps(P, quads, fixed, nptr, nidx, cptr, cidx, direc, sweeps, np.array(_STEPS))
@@ -353,10 +359,7 @@ def square_corners(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray, swe
     """
     P = np.ascontiguousarray(points, dtype=np.float64).copy()
     quads = np.ascontiguousarray(quads, dtype=np.int64)
-    n = len(P)
-    e, _ = unique_edges(quads, "quad")
-    nptr, nidx = _csr(np.concatenate([e[:, 0], e[:, 1]]), np.concatenate([e[:, 1], e[:, 0]]), n)
-    cptr, cidx = _csr(quads.ravel(), np.repeat(np.arange(len(quads)), 4), n)
+    nptr, nidx, cptr, cidx = _incidence(quads, len(P))
     fixed = np.ascontiguousarray(fixed, dtype=np.bool_)
     moved = _descents(P, quads, fixed, nptr, nidx, cptr, cidx, np.int64(sweeps))
     return P, int(moved)
