@@ -109,6 +109,7 @@ from meshcore.mesh.tetstore import N_PTS, N_ROWS, CellStore
 from meshcore.mesh.topology import unique_ints
 from meshcore.optimize import kernel2d as k2
 from meshcore.optimize import refine2d as r2
+from meshcore.triangulation import MAX_POINTS
 
 Progress = Callable[[float, str], None] | None
 
@@ -360,12 +361,13 @@ class LoopState(CellStore):
     kernel: :mod:`.kernel2d` (triangles) or :mod:`.kernel3d` (tetrahedra).
 
     Adds Sur(𝒯) (:meth:`sur`, criterion (8.1) of §8.3.1) and the count of
-    non-positive cells (:meth:`inverted`, exact predicates).
+    non-positive cells (:meth:`inverted`, exact predicates; with ``flat`` > 0,
+    tetrahedra flatter than it count too, :func:`signs`).
     """
 
-    def __init__(self, kernel, P, cells, fixed, spare_points: int = 0):
+    def __init__(self, kernel, P, cells, fixed, spare_points: int = 0, flat: float = 0.0):
         self.k = kernel
-        self.flat = flatness(P) if cells.shape[1] == 4 else 0.0
+        self.flat = flat
         super().__init__(P, cells, fixed, spare_points)
 
     def sur(self) -> float:
@@ -657,8 +659,14 @@ def _zipper(P: np.ndarray, outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
 def _split_counts(dom: Domain, size: float) -> np.ndarray:
     """Pieces of each boundary segment split evenly to at most ``size``."""
     P, S = dom.points, dom.segments
-    length = np.linalg.norm(P[S[:, 1]] - P[S[:, 0]], axis=1)
-    return np.maximum(1, np.ceil(length / size).astype(np.int64))
+    pieces = np.ceil(np.linalg.norm(P[S[:, 1]] - P[S[:, 0]], axis=1) / size)
+    if not (pieces < 2**40).all():
+        raise InputError(
+            f"size {size:.6g} would split a boundary segment into {pieces.max():.6g} pieces",
+            loc=("size",),
+            code="too_many_points",
+        )
+    return np.maximum(1, pieces.astype(np.int64))
 
 
 def _split_boundary(dom: Domain, size: float) -> tuple[np.ndarray, np.ndarray]:
@@ -684,6 +692,24 @@ def _split_boundary(dom: Domain, size: float) -> tuple[np.ndarray, np.ndarray]:
     return np.vstack([P, newP]), rows
 
 
+def _check_point_count(kind: str, data, size: float) -> None:
+    """Refuse a ``size`` whose insertion stage would exceed :data:`MAX_POINTS` points
+    (about 1.25 area / size² in 2D, measured; volume / size³ in 3D), before anything
+    is allocated for them."""
+    if kind == "domain":
+        extent, expected = data.area, 1.25 * data.area / size / size
+    else:
+        extent, expected = data.volume, data.volume / size / size / size
+    if expected > MAX_POINTS:
+        raise InputError(
+            f"size {size:.6g} would insert about {expected:.3g} points in "
+            f"{'an area' if kind == 'domain' else 'a volume'} of {extent:.6g}; at most "
+            f"{MAX_POINTS:,}: ask for a larger size",
+            loc=("size",),
+            code="too_many_points",
+        )
+
+
 def _insert_stage(
     state: LoopState, size: float, min_angle: float, area: float, sweeps: list, sur: list, ops: dict
 ) -> dict:
@@ -700,7 +726,7 @@ def _insert_stage(
 
     n0 = int(state.cnt[N_PTS])
     # about 1.1 area / size² interior points come out at the circumradius bound (measured)
-    expected = int(min(1.25 * area / (size * size), 1e9)) + n0
+    expected = int(1.25 * area / size / size) + n0  # at most MAX_POINTS (_check_point_count)
     budget = n0 + r2.BUDGET_FACTOR * expected + 64
     if len(state.P) < expected:
         state.grow_points(expected - n0)
@@ -724,7 +750,7 @@ def _insert_stage(
     prm = np.array(
         [
             math.sin(math.radians(min_angle)) ** 2,
-            (r2.CIRCUMRADIUS * size) ** 2,
+            (r2.CIRCUMRADIUS * size) * (r2.CIRCUMRADIUS * size),
             r2.OFFCENTRE / math.tan(math.radians(min_angle) / 2.0),
             size,
         ]
@@ -886,6 +912,8 @@ def optimize(
     if size is not None and not (math.isfinite(size) and size > 0):
         raise InputError("size must be a positive number", loc=("size",), code="bad_value")
     kind, data = _inputs(mesh, domain, keep_boundary, surface)
+    if size is not None and insert_points is not False and kind != "mesh":
+        _check_point_count(kind, data, size)
     measure = MEASURES.index(quality)
     if kind == "surface":
         from meshcore.optimize.coupez3d import generate3d

@@ -60,9 +60,12 @@ vertices near it, and with insertion star cavities of a new point G
   replacement raising its set's worst quality: the least quality never
   drops.
 
-The result is verified (every tet positive by the exact orient3d, a mesh
-topology, the boundary faces exactly the input's) before it is returned;
-otherwise the job fails saying how many tets are still inverted and where.
+The result is verified (every tet positive by the exact orient3d, and in
+generation not flat either, a mesh topology, the boundary faces exactly the
+input's) before it is returned; otherwise the job fails saying how many tets
+are still inverted or flat and where. A given mesh (correction, optimization)
+is judged by the exact orient3d alone: the flat rule below is generation's,
+so a valid input mesh, however thin its tets, is never refused.
 """
 
 from __future__ import annotations
@@ -81,10 +84,10 @@ def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progre
         bnd = bnd[:, ::-1].copy()
     fixed = np.zeros(len(P), np.uint8)
     fixed[bnd.ravel()] = 1
-    inverted = int(np.sum(_c.signs(P, T, _c.flatness(P)) <= 0))
+    state = _c.LoopState(k3, P, T, fixed)
+    inverted = state.inverted()
     use = "correction" if inverted else "optimization"
     q0 = float(_c.measure_q(P, T, _c.MEASURES[measure]).min())
-    state = _c.LoopState(k3, P, T, fixed)
     counters = np.zeros(3, np.int64)
     todo = np.ones(len(P), np.uint8)
     sur = [state.sur()]
@@ -291,7 +294,7 @@ def generate3d(surface, insert, size, measure, max_sweeps, progress):
     for p in initial_candidates(P, S)[: _c.RESTARTS]:
         T = initial_topology(P, S, int(p))
         state = _c.LoopState(
-            k3, P, T, np.ones(len(P), np.uint8), spare_points=len(P) if insert else 0
+            k3, P, T, np.ones(len(P), np.uint8), len(P) if insert else 0, _c.flatness(P)
         )
         inverted = state.inverted()
         q0 = float(_c.measure_q(P, T, _c.MEASURES[measure]).min())

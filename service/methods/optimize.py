@@ -10,6 +10,7 @@ neighbour oriented against another, each named by ``loc``).
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
 import numpy as np
@@ -101,10 +102,12 @@ class OptimizeParams(MethodParams):
             surf = self.surface.to_surface()
             check_input(surface=surf)
             if self.size is not None and self.insert_points is not False:
-                estimate = 6.0 * np.sqrt(2.0) * surf.volume / self.size**3
+                # a regular tetrahedron of edge size has volume size³ / (6 √2)
+                estimate = 6.0 * math.sqrt(2.0) * float(surf.volume) / self.size / self.size
+                estimate /= self.size
                 if estimate > MAX_TETRAHEDRA:
                     raise InputError(
-                        f"size {self.size:.6g} would make about {int(estimate):,} tetrahedra in "
+                        f"size {self.size:.6g} would make about {estimate:.3g} tetrahedra in "
                         f"a volume of {surf.volume:.6g}; this service makes at most "
                         f"{MAX_TETRAHEDRA:,} here: ask for a larger size",
                         loc=("size",),
@@ -113,16 +116,25 @@ class OptimizeParams(MethodParams):
             return
         dom = self.domain.to_domain()
         check_input(domain=dom)
-        if self.size is not None and self.insert_points is not False:
-            estimate = 2.0 * dom.area / (0.433 * self.size**2)
-            if estimate > MAX_TRIANGLES:
-                raise InputError(
-                    f"size {self.size:.6g} would make about {int(estimate):,} triangles on a "
-                    f"domain of area {dom.area:.6g}; this service makes at most "
-                    f"{MAX_TRIANGLES:,} here: ask for a larger size",
-                    loc=("size",),
-                    code="too_many_triangles",
-                )
+        if self.size is None:
+            return
+        # with insertion, about two triangles per equilateral triangle of side size in the
+        # area; without, the boundary split to size (keep_boundary false) makes them all
+        if self.insert_points is not False:
+            estimate = 2.0 * dom.area / 0.433 / self.size / self.size
+        elif not self.keep_boundary:
+            seg = dom.points[dom.segments[:, 1]] - dom.points[dom.segments[:, 0]]
+            estimate = float(np.sum(np.ceil(np.hypot(seg[:, 0], seg[:, 1]) / self.size)))
+        else:
+            return
+        if estimate > MAX_TRIANGLES:
+            raise InputError(
+                f"size {self.size:.6g} would make about {estimate:.3g} triangles on a "
+                f"domain of area {dom.area:.6g}; this service makes at most "
+                f"{MAX_TRIANGLES:,} here: ask for a larger size",
+                loc=("size",),
+                code="too_many_triangles",
+            )
 
     def optimize_kwargs(self) -> dict:
         """Keyword arguments of :func:`meshcore.optimize.optimize`."""

@@ -21,8 +21,10 @@ import yaml
 
 import service.downloads
 import service.store
+from meshcore.errors import InputError
 from service.methods.registry import default_registry
 from service.runner import JobFailed, run_job
+from tests.meshcore.domain import shapes
 from tests.service.conftest import ROOT
 from tests.service.inprocess import Gate, running_app
 from tests.service.testing_methods import SQUARE
@@ -342,3 +344,32 @@ def test_store_close_waits_for_a_result_write_in_flight(tmp_path, monkeypatch):
     closer.join(10)
     assert not closer.is_alive()
     assert store.write_result(job_id, b"{}") is False  # closed: nothing written
+
+
+@pytest.mark.parametrize(
+    "params",
+    [
+        {"domain": RECT, "size": 1e-300},
+        {"domain": RECT, "size": 1e-300, "insert_points": False, "keep_boundary": False},
+        {"surface": "box", "size": 1e-300},
+    ],
+    ids=["domain", "domain_split_only", "surface"],
+)
+def test_optimize_with_a_tiny_size_fails_with_422(params):
+    """The size checks divide step by step (size ** 3 overflowed: a 500)."""
+    if params.get("surface") == "box":
+        P, T = shapes.box()
+        params = {**params, "surface": {"points": P.tolist(), "triangles": T.tolist()}}
+    problem = failed_with("optimize", params)  # the job, as a worker runs it
+    assert problem["status"] == 422, problem
+    assert "size" in problem["detail"]
+    with pytest.raises(InputError) as info:  # the check made at submission
+        default_registry()["optimize"].params.model_validate(params).check()
+    assert info.value.errors[0]["loc"][0] == "size"
+
+
+def test_optimize_with_a_huge_size_keeps_the_boundary_points():
+    spec = default_registry()["optimize"]
+    params = {"domain": RECT, "size": 1e300}  # size**2 overflowed: a 500
+    spec.params.model_validate(params).check()
+    assert run_job(spec, json.dumps(params).encode(), lambda f, m: None) is not None

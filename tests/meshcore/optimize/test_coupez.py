@@ -414,6 +414,15 @@ class TestTetrahedra:
         Pn, Tn = res.mesh.points, res.mesh.cells[0].data
         assert math.fsum(quality.signed_volume(Pn, Tn)) == pytest.approx(1.0, rel=1e-12)
 
+    def test_a_thin_valid_mesh_is_not_refused(self):
+        """The flat rule is generation's: a given mesh is judged by the exact orient3d."""
+        P = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0.3, 0.3, 1e-10]], float)
+        far = np.vstack([P, [[1e9, 0, 0]]])  # an unused point far away
+        T = np.array([[0, 1, 2, 3]])  # numbered the other way: the method turns it round
+        for Q in (P, far):
+            res = optimize(Mesh(Q, (CellBlock("tetra", T),)))
+            assert res.stats["use"] == "optimization" and res.stats["inverted_before"] == 0
+
     def test_an_optimal_mesh_comes_back_unchanged(self):
         cube = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
         kuhn = np.array([[0, 1, 3, 7], [0, 1, 7, 5], [0, 5, 7, 4], [0, 3, 2, 7], [0, 2, 6, 7]])
