@@ -113,9 +113,35 @@ def _needs_kernels(item: pytest.Item) -> bool:
     )
 
 
+def _shared_group(item: pytest.Item) -> str | None:
+    """The test's module (with the parameters of its shared fixtures) when it uses a
+    module- or class-scoped fixture, else None."""
+    info = getattr(item, "_fixtureinfo", None)
+    if info is None:
+        return None
+    callspec = getattr(item, "callspec", None)
+    shared = []
+    for name in item.fixturenames:
+        defs = info.name2fixturedefs.get(name)
+        if defs and defs[-1].scope in ("module", "class"):
+            param = callspec.params.get(name) if callspec else None
+            shared.append("" if param is None else f"[{param}]")
+    return f"{item.module.__name__}{''.join(sorted(shared))}" if shared else None
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """The tests that need no kernel first (a stable sort: the same order in every worker)."""
+    """The tests that need no kernel first (a stable sort: the same order in every worker).
+
+    The tests that share a module-scoped fixture (a server with its own settings, the Dask
+    cluster, the browser) form one group, which ``--dist loadgroup`` (``pyproject.toml``)
+    hands to one worker: before, each worker that ran one of them started its own copy.
+    """
     items.sort(key=_needs_kernels)
+    for item in items:
+        group = _shared_group(item)
+        if group:
+            item.add_marker(pytest.mark.xdist_group(group))
 
 
 def kernels_ready(env: str = READY_ENV) -> None:
