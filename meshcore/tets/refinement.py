@@ -457,8 +457,8 @@ def _flat_folds(b: SurfaceRecovery, T: np.ndarray) -> np.ndarray:
     Two of its faces are subfaces and its least dihedral angle is below
     ``flat_fold`` degrees: the four corners of a planar quadrilateral whose
     coordinates are not exactly coplanar (a torus's trapezoids). No point
-    can improve it; it is kept out of the refinement and the sliver pass
-    and, at the end, out of the mesh (:func:`_drop_flat_folds`). (Refining
+    can improve it; it is kept out of the refinement and, at the end, out
+    of the mesh (:func:`_drop_flat_folds`, before the sliver improvement). (Refining
     it split its subfaces, whose new points made new flat folds: on the
     32 x 16 torus 830 of the 938 points added, and a cascade once the splits
     were made lazy, :func:`_insert_interior`.)
@@ -1153,9 +1153,11 @@ def tetrahedralize(
         lfs = _feature_sizes(b)
         thin = lfs < b.knobs.thin * b.facet_short
         b.facet_size[thin] = b.knobs.feature_size * lfs[thin]
-    if not (empty or keep_boundary):
-        # Small input angles: protecting balls at the sharp vertices.
+    if not keep_boundary:
+        # Small input angles: protecting balls at the sharp vertices (recovery's
+        # concentric shells spiral into a sharp vertex without them, `empty` too).
         protecting_balls(b)
+    if not (empty or keep_boundary):
         protecting_cylinders(b)
     timings["delaunay"] = time.perf_counter() - t0
     rounds = 0
