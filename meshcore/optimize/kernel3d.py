@@ -100,18 +100,14 @@ C_MOVE, C_KERNEL, C_COLLAPSE = range(3)
 @njit(cache=True, inline="always")
 def _vol_q(P, a, b, c, d, measure):
     """(unsigned volume, quality) of tet (a, b, c, d): shape or radius ratio 3r/R."""
+    det, s = det_edges(P, a, b, c, d)
+    vol = abs(det) / 6.0
+    if measure == 0:
+        return vol, (12.0 * (3.0 * vol) ** (2.0 / 3.0) / s if s > 0.0 else 0.0)
+    # 3 r / R with r = 3V / S and R = |num| / (12 V)
     ux, uy, uz = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1], P[b, 2] - P[a, 2]
     vx, vy, vz = P[c, 0] - P[a, 0], P[c, 1] - P[a, 1], P[c, 2] - P[a, 2]
     wx, wy, wz = P[d, 0] - P[a, 0], P[d, 1] - P[a, 1], P[d, 2] - P[a, 2]
-    det = ux * (vy * wz - vz * wy) - uy * (vx * wz - vz * wx) + uz * (vx * wy - vy * wx)
-    vol = abs(det) / 6.0
-    if measure == 0:
-        s = ux * ux + uy * uy + uz * uz + vx * vx + vy * vy + vz * vz + wx * wx + wy * wy + wz * wz
-        s += (vx - ux) ** 2 + (vy - uy) ** 2 + (vz - uz) ** 2
-        s += (wx - ux) ** 2 + (wy - uy) ** 2 + (wz - uz) ** 2
-        s += (wx - vx) ** 2 + (wy - vy) ** 2 + (wz - vz) ** 2
-        return vol, (12.0 * (3.0 * vol) ** (2.0 / 3.0) / s if s > 0.0 else 0.0)
-    # 3 r / R with r = 3V / S and R = |num| / (12 V)
     bcx, bcy, bcz = vy * wz - vz * wy, vz * wx - vx * wz, vx * wy - vy * wx
     cax, cay, caz = wy * uz - wz * uy, wz * ux - wx * uz, wx * uy - wy * ux
     abx, aby, abz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
