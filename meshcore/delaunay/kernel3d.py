@@ -1290,7 +1290,8 @@ class IncrementalDelaunay3d:
         self._ensure_points(k)
         self._pts[n0:hi] = q[src]
         self._order[n0:hi] = self._inv[n0:hi] = np.arange(n0, hi)  # provisional: the rows
-        hint = np.empty(hi, np.int64)  # each walk starts at the last vertex inserted
+        hint = np.empty(hi, np.int32)  # each walk starts at the last vertex inserted (int32:
+        # the dtype of _walk_hints', one compiled _insert_range)
         hint[n0:] = np.concatenate([[-1], np.arange(n0, hi - 1)])
         p = n0
         while p < hi:  # one compiled loop, left only to grow buffers or at a duplicate

@@ -1166,7 +1166,7 @@ def tetrahedralize(
     if keep_boundary:
         t1 = time.perf_counter()
         slots, T = b.tets()
-        seg_missing, sub_missing = b.missing(T)
+        seg_missing, sub_missing = b.missing()
         if seg_missing.size == 0 and sub_missing.size == 0:
             region = regions(b, slots, T)
             keep = region >= 0
