@@ -1083,7 +1083,9 @@ def tetrahedralize(
     empty : bool
         Only the surface points and the Steiner points on the surface that
         recovery needs (the empty tetrahedralization of §9.5); the bounds
-        below are ignored.
+        below are ignored. As in refinement, splits next to a sharp input
+        vertex stop at its protecting ball (:mod:`meshcore.tets.angles`):
+        without it the splits spiralled into the vertex.
     max_radius_edge : float or None
         Refine until every tetrahedron's circumradius over its shortest edge
         is at most this (TetGen's ``-q``; default 2.0, at least 1.1), except
