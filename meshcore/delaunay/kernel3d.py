@@ -91,6 +91,7 @@ from meshcore.delaunay.kernel2d import _walk_hints
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered
 from meshcore.geometry.predicates3d import insphere_filtered, insphere_tie, orient3d_filtered
+from meshcore.mesh.topology import unique_ints
 
 __all__ = [
     "SKIP_CHANGED",
@@ -354,13 +355,10 @@ def _orient_filter(pts, a, b, c, d):
 
 @njit(cache=True)
 def _orient(pts, a, b, c, d, work):
-    """orient3d of vertices a, b, c, d: semi-static filter, 0 in an axis plane, then exact."""
+    """orient3d of vertices a, b, c, d: semi-static filter, then the predicate."""
     s = _orient_filter(pts, a, b, c, d)
     if s != 0:
         return s
-    for k in range(3):
-        if pts[a, k] == pts[d, k] and pts[b, k] == pts[d, k] and pts[c, k] == pts[d, k]:
-            return 0
     return orient3d_filtered(
         pts[a, 0], pts[a, 1], pts[a, 2], pts[b, 0], pts[b, 1], pts[b, 2],
         pts[c, 0], pts[c, 1], pts[c, 2], pts[d, 0], pts[d, 1], pts[d, 2], work,
@@ -1292,7 +1290,8 @@ class IncrementalDelaunay3d:
         self._ensure_points(k)
         self._pts[n0:hi] = q[src]
         self._order[n0:hi] = self._inv[n0:hi] = np.arange(n0, hi)  # provisional: the rows
-        hint = np.empty(hi, np.int64)  # each walk starts at the last vertex inserted
+        hint = np.empty(hi, np.int32)  # each walk starts at the last vertex inserted (int32:
+        # the dtype of _walk_hints', one compiled _insert_range)
         hint[n0:] = np.concatenate([[-1], np.arange(n0, hi - 1)])
         p = n0
         while p < hi:  # one compiled loop, left only to grow buffers or at a duplicate
@@ -1309,7 +1308,7 @@ class IncrementalDelaunay3d:
         # Renumber the new vertices in batch order: the first new point of
         # the batch becomes vertex n0, the next n0 + 1, ...
         new = np.flatnonzero(out >= n0)
-        _, at = np.unique(out[new], return_index=True)
+        _, at = unique_ints(out[new], return_index=True)
         provisional = out[new[np.sort(at)]]  # in batch order
         final = n0 + np.arange(provisional.size)
         relabel = np.empty(self._n - n0, np.int64)

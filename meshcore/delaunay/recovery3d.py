@@ -36,7 +36,7 @@ from scipy.spatial import cKDTree
 
 from meshcore.delaunay.hashgrid import _find, _find_all, _shift, _table, ball_pairs
 from meshcore.delaunay.kernel2d import delaunay as delaunay2d
-from meshcore.delaunay.kernel3d import IncrementalDelaunay3d
+from meshcore.delaunay.kernel3d import _NTET, IncrementalDelaunay3d
 from meshcore.domain.surface import Surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import orient2d
@@ -389,6 +389,71 @@ def _present(T, on, seg_tk, seg_tv, n_seg, sub_tk, sub_tv, n_sub, edges, faces):
 
 
 @njit(cache=True)
+def _held_in_kernel(V, A, vt, inv, ntet, pieces, wit):
+    """Which ``pieces`` (rows of 2 or 3 vertex ids) are edges / faces of a real
+    tetrahedron of the kernel (``V``, ``A``, ``vt``: vertex slots, adjacency and a
+    tetrahedron of each vertex, in the kernel's numbering ``inv``); ``wit`` (a slot
+    per piece, -1 none) is tried first and set to the slot found (-1: missing).
+
+    Otherwise the star of the piece's first corner is walked across the faces
+    that hold it. Returns (hit, ok): ``ok`` False when a corner's ``vt`` entry
+    does not hold it (then nothing is decided).
+    """
+    k, w = pieces.shape
+    hit = np.zeros(k, np.bool_)
+    mark = np.zeros(ntet, np.int64)
+    stack = np.empty(ntet, np.int64)
+    stamp = 0
+    for i in range(k):
+        a = inv[pieces[i, 0]]
+        b = inv[pieces[i, 1]]
+        c = inv[pieces[i, w - 1]]
+        s = wit[i]
+        if 0 <= s < ntet and _holds3(V, s, a, b, c):
+            hit[i] = True
+            continue
+        wit[i] = -1
+        s = vt[a]
+        if not (0 <= s < ntet) or not (
+            V[4 * s] == a or V[4 * s + 1] == a or V[4 * s + 2] == a or V[4 * s + 3] == a
+        ):
+            return hit, False
+        stamp += 1
+        mark[s] = stamp
+        stack[0] = s
+        top = 1
+        while top > 0:
+            top -= 1
+            s = stack[top]
+            if _holds3(V, s, a, b, c):
+                hit[i] = True
+                wit[i] = s
+                break
+            for j in range(4):
+                if V[4 * s + j] != a:  # the face opposite j holds a
+                    u = A[4 * s + j] >> 2
+                    if mark[u] != stamp:
+                        mark[u] = stamp
+                        stack[top] = u
+                        top += 1
+    return hit, True
+
+
+@njit(cache=True, inline="always")
+def _holds3(V, s, a, b, c):
+    """True when slot s is a real tetrahedron (no vertex at infinity, not dead) holding
+    vertices a, b and c."""
+    x0, x1, x2, x3 = V[4 * s], V[4 * s + 1], V[4 * s + 2], V[4 * s + 3]
+    if x0 < 0 or x1 < 0 or x2 < 0 or x3 < 0:
+        return False
+    return (
+        (x0 == a or x1 == a or x2 == a or x3 == a)
+        and (x0 == b or x1 == b or x2 == b or x3 == b)
+        and (x0 == c or x1 == c or x2 == c or x3 == c)
+    )
+
+
+@njit(cache=True)
 def _row_of(slots):
     """(top,) int64: the row of each slot in ``slots`` (-1 for slots not listed)."""
     top = 0
@@ -620,6 +685,7 @@ class SurfaceRecovery:
         by_group = np.argsort(group, kind="stable")
         bounds = np.searchsorted(group[by_group], np.arange(n_groups + 1))
         self.group_tris = [by_group[bounds[g] : bounds[g + 1]] for g in range(n_groups)]
+        self._by_group, self._group_start = by_group, bounds
         self._directed = np.stack([facets[:, [0, 1]], facets[:, [1, 2]], facets[:, [2, 0]]], 1)
         self._edge_id = inv.reshape(3, F).T
         self._flat = flat
@@ -666,6 +732,9 @@ class SurfaceRecovery:
         )
         self.surface_added = 0
         self.interior_added = 0
+        #: Per kind (subsegments, subfaces): the keys and witness slots of :meth:`missing`.
+        empty = (*_table(np.zeros(0, np.int64)), np.zeros(0, np.int64))
+        self._witness = [empty, empty]
 
     def loops(self, g: int) -> list:
         """Boundary loops of facet ``g``: (directed input edges, edge ids), chained."""
@@ -699,12 +768,10 @@ class SurfaceRecovery:
     def _corners(self, g: int) -> tuple[np.ndarray, np.ndarray]:
         """Input vertices of facet ``g``, and those on none of its boundary loops."""
         if g not in self._corner_cache:
-            corners = np.unique(self.facets[self.group_tris[g]])
+            corners = unique_ints(self.facets[self.group_tris[g]])
             starts = [de[:, 0] for de, _ in self.loops(g)]
             on_loop = np.concatenate(starts) if starts else np.zeros(0, dtype=np.int64)
-            # Not np.setdiff1d: 170 us on 6 values.
-            lonely = sorted(set(corners.tolist()) - set(on_loop.tolist()))
-            self._corner_cache[g] = (corners, np.array(lonely, dtype=corners.dtype))
+            self._corner_cache[g] = (corners, corners[~isin_ints(corners, on_loop)])
         return self._corner_cache[g]
 
     # -- points ----------------------------------------------------------------
@@ -717,7 +784,7 @@ class SurfaceRecovery:
         n0 = self.n
         new = ids >= n0
         keep = np.zeros(len(X), dtype=bool)
-        _, first = np.unique(ids, return_index=True)
+        _, first = unique_ints(ids, return_index=True)
         keep[first] = True
         keep &= new
         order = np.argsort(ids[keep], kind="stable")
@@ -992,7 +1059,7 @@ class SurfaceRecovery:
         calls would give (the facets of the subsegments only, first seen first, then
         ``mine``)."""
         first = np.concatenate([np.zeros(0, dtype=np.int64), *touched])
-        _, at = np.unique(first, return_index=True)
+        _, at = unique_ints(first, return_index=True)
         first = first[np.sort(at)]
         self.retriangulate(np.concatenate([first[~isin_ints(first, mine)], mine]))
 
@@ -1002,7 +1069,7 @@ class SurfaceRecovery:
         out = np.full(len(A), -1, dtype=np.int64)
         on = self.edge_groups[self.seg_edge]
         origin, e1, e2 = self.frame
-        for g in np.unique(f).tolist():  # a loop over the facets concerned
+        for g in unique_ints(f).tolist():  # a loop over the facets concerned
             rows = np.flatnonzero(f == g)
             segs = np.flatnonzero((on[:, 0] == g) | (on[:, 1] == g))
             if segs.size == 0:
@@ -1157,12 +1224,11 @@ class SurfaceRecovery:
     def _facet_triangles(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """For facets ``g`` (one per row): the pairs (row, input triangle of its facet),
         row by row, each facet's triangles in ``group_tris`` order."""
-        sizes = np.array([len(t) for t in self.group_tris])
-        start = np.concatenate([[0], np.cumsum(sizes)])
-        flat = np.concatenate(self.group_tris)
-        k = np.repeat(np.arange(len(g)), sizes[g])
-        j = flat[np.arange(len(k)) - np.repeat(np.cumsum(sizes[g]) - sizes[g], sizes[g])
-                 + np.repeat(start[g], sizes[g])]  # fmt: skip
+        start = self._group_start
+        sizes = np.diff(start)[g]
+        k = np.repeat(np.arange(len(g)), sizes)
+        shift = np.repeat(start[g] - (np.cumsum(sizes) - sizes), sizes)
+        j = self._by_group[np.arange(len(k)) + shift]
         return k, j
 
     def _sides(self, x: np.ndarray, j: np.ndarray) -> np.ndarray:
@@ -1191,7 +1257,7 @@ class SurfaceRecovery:
         k, j = self._facet_triangles(self.sub_facet)
         s = self._sides(self.P[self.sub[k]].mean(axis=1), j).min(axis=1)
         order = np.lexsort((-s, k))
-        first = np.unique(k[order], return_index=True)[1]
+        first = unique_ints(k[order], return_index=True)[1]
         return j[order[first]]
 
     # -- encroachment --------------------------------------------------------------
@@ -1251,29 +1317,57 @@ class SurfaceRecovery:
 
     # -- presence ------------------------------------------------------------------
 
-    def missing(self, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Subsegments that are not edges, subfaces that are not faces of ``T``."""
+    def missing(self) -> tuple[np.ndarray, np.ndarray]:
+        """Subsegments that are not edges, subfaces that are not faces of the tetrahedralization.
+
+        Each piece is looked for in the tetrahedron that held it at the last
+        call (its *witness*, found by key), else in the star of its first
+        corner (:func:`_held_in_kernel`): one tetrahedron for most pieces, not a pass
+        over the whole mesh.
+        """
         keys = edge_keys(self.seg)
         sub_keys = face_keys(self.sub)
+        seg_hit, sub_hit = self._held(0, self.seg, keys), self._held(1, self.sub, sub_keys)
+        if seg_hit is None or sub_hit is None:
+            seg_hit, sub_hit = self._present(keys, sub_keys)
+        seg_missing = ~seg_hit
+        if self.unsettled:
+            seg_missing |= isin_ints(keys, np.concatenate(list(self.unsettled.values())))
+        return np.flatnonzero(seg_missing), np.flatnonzero(~sub_hit)
+
+    def _held(self, kind: int, pieces: np.ndarray, keys: np.ndarray) -> np.ndarray | None:
+        """:func:`_held_in_kernel` on subsegments (``kind`` 0) or subfaces (1), their witnesses kept
+        by key; None when the kernel's vertex tetrahedra cannot start the walk."""
+        tk, tv, slots = self._witness[kind]
+        at = _find_all(tk, tv, keys)
+        wit = np.where(at >= 0, slots[np.maximum(at, 0)], -1) if len(slots) else at
+        dt = self.dt
+        hit, ok = _held_in_kernel(
+            dt._V, dt._A, dt._vt, dt._inv, int(dt._state[_NTET]),
+            np.ascontiguousarray(pieces, dtype=np.int64), wit,
+        )  # fmt: skip
+        if not ok:
+            return None
+        self._witness[kind] = (*_table(keys), wit)
+        return hit
+
+    def _present(self, keys: np.ndarray, sub_keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Presence of the subsegments and subfaces by a pass over every tetrahedron."""
         seg_tk, seg_tv = _table(keys)
         sub_tk, sub_tv = _table(sub_keys)
         seg_hit, sub_hit = _present(
-            np.ascontiguousarray(T, dtype=np.int64), self.on_surface(), seg_tk, seg_tv,
-            len(keys), sub_tk, sub_tv, len(sub_keys), TET_EDGES, TET_FACES,
+            np.ascontiguousarray(self.tets()[1], dtype=np.int64), self.on_surface(), seg_tk,
+            seg_tv, len(keys), sub_tk, sub_tv, len(sub_keys), TET_EDGES, TET_FACES,
         )  # fmt: skip
-        seg_missing = ~seg_hit[_find_all(seg_tk, seg_tv, keys)]
-        if self.unsettled:
-            seg_missing |= isin_ints(keys, np.concatenate(list(self.unsettled.values())))
-        seg_missing = np.flatnonzero(seg_missing)
-        sub_missing = np.flatnonzero(~sub_hit[_find_all(sub_tk, sub_tv, sub_keys)])
-        return seg_missing, sub_missing
+        return seg_hit[_find_all(seg_tk, seg_tv, keys)], sub_hit[
+            _find_all(sub_tk, sub_tv, sub_keys)
+        ]
 
 
 def recover(b: SurfaceRecovery, progress) -> int:
     """Split missing subsegments, then missing subfaces, until all are present."""
     for r in range(b.knobs.recovery_rounds):
-        _, T = b.tets()
-        seg_missing, sub_missing = b.missing(T)
+        seg_missing, sub_missing = b.missing()
         if seg_missing.size:
             b.split_segments(seg_missing)
         elif sub_missing.size:
@@ -1289,11 +1383,19 @@ def recover(b: SurfaceRecovery, progress) -> int:
     )
 
 
+def _read_only(a: np.ndarray) -> np.ndarray:
+    """A read-only contiguous int64 view: ``b.tets()``'s arrays are read-only, and numba
+    compiles a separate copy for a writeable argument."""
+    v = np.ascontiguousarray(a, dtype=np.int64).view()
+    v.flags.writeable = False
+    return v
+
+
 def regions(b: SurfaceRecovery, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
     """Region of each tetrahedron of ``T`` (-1 outside), by flood fill across non-subfaces."""
     slots = np.ascontiguousarray(slots, dtype=np.int64)
     comp, n_comp, out_comp, t_i, f_j, s_rows = _regions_pass(
-        np.ascontiguousarray(T, dtype=np.int64), slots, b.dt.adjacent(slots), b.on_surface(),
+        _read_only(T), _read_only(slots), b.dt.adjacent(slots), b.on_surface(),
         *_table(face_keys(b.sub)), TET_FACES,
     )  # fmt: skip
     met = np.full(n_comp, -2, dtype=np.int64)

@@ -90,7 +90,17 @@ def orient3d_exact(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, work):
     int
         +1 if d lies below the plane through a, b, c (a, b, c appearing
         counter-clockwise seen from above), -1 above, 0 coplanar.
+
+    Four points sharing a coordinate (in an axis plane: a column of the
+    determinant is zero) give 0 without the expansions: the coplanar facet
+    points of axis-aligned boxes are most of the exact calls there.
     """
+    if (
+        (ax == dx and bx == dx and cx == dx)
+        or (ay == dy and by == dy and cy == dy)
+        or (az == dz and bz == dz and cz == dz)
+    ):
+        return 0
     d = work[0:18]
     n = np.empty(9, np.int64)
     n[0] = _set_diff(ax, dx, d[0:2])

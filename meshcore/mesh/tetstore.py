@@ -164,7 +164,7 @@ def build(T, m, n, head, nxt, prv):
             link_corner(head, nxt, prv, per * t + j, T[t, j])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # inlined: no compiled copy per literal ``need``
 def room(T, cnt, need):
     """True when ``need`` more rows fit (free rows plus rows never used)."""
     return cnt[N_FREE] + T.shape[0] - cnt[N_ROWS] >= need
@@ -262,7 +262,7 @@ def solid(P, a, b, c, d, flat):
     return det > flat * s
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def holds(T, t, v):
     """True when row t has vertex v."""
     return T[t, 0] == v or T[t, 1] == v or T[t, 2] == v or T[t, 3] == v

@@ -94,24 +94,22 @@ from meshcore.mesh.tetstore import (
 )
 
 KMAX = 256
+#: int64 arguments, not literals (each literal compiles the callee again).
+_NONE, _ZERO, _ONE, _SMAX = np.int64(-1), np.int64(0), np.int64(1), np.int64(SMAX)
 C_MOVE, C_KERNEL, C_COLLAPSE = range(3)
 
 
 @njit(cache=True, inline="always")
 def _vol_q(P, a, b, c, d, measure):
     """(unsigned volume, quality) of tet (a, b, c, d): shape or radius ratio 3r/R."""
+    det, s = det_edges(P, a, b, c, d)
+    vol = abs(det) / 6.0
+    if measure == 0:
+        return vol, (12.0 * (3.0 * vol) ** (2.0 / 3.0) / s if s > 0.0 else 0.0)
+    # 3 r / R with r = 3V / S and R = |num| / (12 V)
     ux, uy, uz = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1], P[b, 2] - P[a, 2]
     vx, vy, vz = P[c, 0] - P[a, 0], P[c, 1] - P[a, 1], P[c, 2] - P[a, 2]
     wx, wy, wz = P[d, 0] - P[a, 0], P[d, 1] - P[a, 1], P[d, 2] - P[a, 2]
-    det = ux * (vy * wz - vz * wy) - uy * (vx * wz - vz * wx) + uz * (vx * wy - vy * wx)
-    vol = abs(det) / 6.0
-    if measure == 0:
-        s = ux * ux + uy * uy + uz * uz + vx * vx + vy * vy + vz * vz + wx * wx + wy * wy + wz * wz
-        s += (vx - ux) ** 2 + (vy - uy) ** 2 + (vz - uz) ** 2
-        s += (wx - ux) ** 2 + (wy - uy) ** 2 + (wz - uz) ** 2
-        s += (wx - vx) ** 2 + (wy - vy) ** 2 + (wz - vz) ** 2
-        return vol, (12.0 * (3.0 * vol) ** (2.0 / 3.0) / s if s > 0.0 else 0.0)
-    # 3 r / R with r = 3V / S and R = |num| / (12 V)
     bcx, bcy, bcz = vy * wz - vz * wy, vz * wx - vx * wz, vx * wy - vy * wx
     cax, cay, caz = wy * uz - wz * uy, wz * ux - wx * uz, wx * uy - wy * ux
     abx, aby, abz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
@@ -662,7 +660,7 @@ def _try_fans(
         cur_s += vol
         cur_q = min(cur_q, qq)
     tie = _tie(P, T, st, k, tie_rel, cur_s, flat)
-    best = -1
+    best = _NONE
     bn, bs, bq = cur_n, cur_s, cur_q
     cnt[STAMP] += 1
     qst = cnt[STAMP]
@@ -739,7 +737,7 @@ def _nearby_vertices(T, head, nxt, t, st, tmark, vmark, cnt, cand):
     """The first ``VERTS`` vertices (not of tet t) met growing t's face-connected set to
     ``SMAX`` tets, breadth first, in ``cand``; their count."""
     cnt[STAMP] += 1
-    k = _grow_tets(T, head, nxt, st, 1, tmark, cnt[STAMP], SMAX)
+    k = _grow_tets(T, head, nxt, st, _ONE, tmark, cnt[STAMP], _SMAX)
     cnt[STAMP] += 1
     vst = cnt[STAMP]
     for j in range(4):
@@ -923,9 +921,9 @@ def _subtopology(T, head, nxt, kind, i, j, st, tmark, stamp):
     puts the edge removals of tet i's six edges after the face pairs.)
     """
     if kind == BALL:
-        return gather(head, nxt, i, -1, T, st, tmark, stamp, 0)
+        return gather(head, nxt, i, _NONE, T, st, tmark, stamp, _ZERO)
     if kind == SHELL:
-        return gather(head, nxt, T[i, EDGES[j, 0]], T[i, EDGES[j, 1]], T, st, tmark, stamp, 0)
+        return gather(head, nxt, T[i, EDGES[j, 0]], T[i, EDGES[j, 1]], T, st, tmark, stamp, _ZERO)
     st[0] = i
     tmark[i] = stamp
     k = 1
@@ -937,16 +935,16 @@ def _subtopology(T, head, nxt, kind, i, j, st, tmark, stamp):
         st[1] = u
         return 2
     if j < 10:
-        k = gather(head, nxt, T[i, EDGES[j - 4, 0]], -1, T, st, tmark, stamp, k)
+        k = gather(head, nxt, T[i, EDGES[j - 4, 0]], _NONE, T, st, tmark, stamp, k)
         if k >= 0:
-            k = gather(head, nxt, T[i, EDGES[j - 4, 1]], -1, T, st, tmark, stamp, k)
+            k = gather(head, nxt, T[i, EDGES[j - 4, 1]], _NONE, T, st, tmark, stamp, k)
         return k
     if j == 10:
         for c in range(4):
             if k >= 0:
-                k = gather(head, nxt, T[i, c], -1, T, st, tmark, stamp, k)
+                k = gather(head, nxt, T[i, c], _NONE, T, st, tmark, stamp, k)
         return k
-    return _grow_tets(T, head, nxt, st, 1, tmark, stamp, GROW[j - 11])
+    return _grow_tets(T, head, nxt, st, _ONE, tmark, stamp, GROW[j - 11])
 
 
 @njit(cache=True)
@@ -1028,7 +1026,7 @@ def fan_sweep(
             if kind >= UNION and 4 <= j < 10:
                 # edge removal on the shell of tet i's edge j - 4
                 ea, eb = T[i, EDGES[j - 4, 0]], T[i, EDGES[j - 4, 1]]
-                k = gather(head, nxt, ea, eb, T, st, tmark, cnt[STAMP], 0)
+                k = gather(head, nxt, ea, eb, T, st, tmark, cnt[STAMP], _ZERO)
                 if k < 0:
                     continue
                 r = _try_removal(
@@ -1099,7 +1097,7 @@ def insert_midpoints(P, T, alive, head, nxt, prv, freeT, cnt, fixed, edges, flat
         if touched[a] or touched[b]:
             continue
         cnt[STAMP] += 1
-        k = gather(head, nxt, a, b, T, st, tmark, cnt[STAMP], 0)
+        k = gather(head, nxt, a, b, T, st, tmark, cnt[STAMP], _ZERO)
         if k <= 0:
             continue
         n = cnt[N_PTS]

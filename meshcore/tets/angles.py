@@ -311,7 +311,7 @@ def _feature_tables(b: SurfaceRecovery):
     return tables
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # no copy per literal argument
 def _has(arr, lo, hi, x):
     for i in range(lo, hi):
         if arr[i] == x:
@@ -437,7 +437,7 @@ def _forced_candidates(
     return cos, bound, at
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _feature(p, n_surface, pt_edge, pt_facet):
     """Kind (0 vertex, 1 segment, 2 facet, 3 interior) and id of point ``p``'s feature."""
     if p < n_surface:

@@ -54,6 +54,8 @@ OUT_OF_ROWS, OUT_OF_POINTS = 2, 3
 C_EDGE, C_FACE, C_SMOOTH, C_INSERT = range(4)
 #: Base of the face keys (vertex numbers below it): keys stay valid as points are added.
 NK = np.int64(1 << 21)  # int64 in kernels, not a literal (one compiled copy of callees)
+#: ``gather``'s "no second vertex" and empty start, int64 for the same reason.
+_NONE, _ZERO = np.int64(-1), np.int64(0)
 
 _FACE = ts.FACE
 
@@ -162,7 +164,7 @@ def _remove_edge(
     """Edge removal of (a, b) when it raises its shell's least angle: 1, 0, or -1 (no room)."""
     cnt[ts.STAMP] += 1
     stamp = cnt[ts.STAMP]
-    k = ts.gather(head, nxt, a, b, T, st, tmark, stamp, 0)
+    k = ts.gather(head, nxt, a, b, T, st, tmark, stamp, _ZERO)
     if k < 3 or k > RING_MAX:
         return 0
     for i in range(k):
@@ -176,7 +178,7 @@ def _remove_edge(
         return 0  # the edge is on the boundary
     old_q, old_r = _set_quality(P, T, st, k)
     cap = max(mre, old_r)
-    best = -1
+    best = np.int64(-1)  # not a literal: _replace and add_tet compiled once
     best_q = old_q + EPS
     for i in range(k):
         t = st[i]
@@ -266,7 +268,7 @@ def _smooth(P, T, head, nxt, cnt, v, st, tmark, G, N, mre):
     """Move free vertex v up the least dihedral angle of its star, within the plane of unit
     normal N[v] when it is not zero (a point inside a facet); True if it moved."""
     cnt[ts.STAMP] += 1
-    k = ts.gather(head, nxt, v, -1, T, st, tmark, cnt[ts.STAMP], 0)
+    k = ts.gather(head, nxt, v, _NONE, T, st, tmark, cnt[ts.STAMP], _ZERO)
     if k <= 0:
         return False
     f0, r0 = _set_quality(P, T, st, k)
@@ -409,7 +411,7 @@ def _insert(
         _replace(T, alive, head, nxt, prv, freeT, cnt, reg, st, k, bf, nb, g)
         _smooth(P, T, head, nxt, cnt, g, st, tmark, G, N, mre)
         cnt[ts.STAMP] += 1
-        m = ts.gather(head, nxt, g, -1, T, st, tmark, cnt[ts.STAMP], 0)
+        m = ts.gather(head, nxt, g, _NONE, T, st, tmark, cnt[ts.STAMP], _ZERO)
         new_q, new_r = _set_quality(P, T, st, m)
         if new_q > old_q + EPS and new_r <= max(mre, old_r):
             return 1

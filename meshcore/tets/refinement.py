@@ -457,8 +457,8 @@ def _flat_folds(b: SurfaceRecovery, T: np.ndarray) -> np.ndarray:
     Two of its faces are subfaces and its least dihedral angle is below
     ``flat_fold`` degrees: the four corners of a planar quadrilateral whose
     coordinates are not exactly coplanar (a torus's trapezoids). No point
-    can improve it; it is kept out of the refinement and the sliver pass
-    and, at the end, out of the mesh (:func:`_drop_flat_folds`). (Refining
+    can improve it; it is kept out of the refinement and, at the end, out
+    of the mesh (:func:`_drop_flat_folds`, before the sliver improvement). (Refining
     it split its subfaces, whose new points made new flat folds: on the
     32 x 16 torus 830 of the 938 points added, and a cascade once the splits
     were made lazy, :func:`_insert_interior`.)
@@ -1083,7 +1083,9 @@ def tetrahedralize(
     empty : bool
         Only the surface points and the Steiner points on the surface that
         recovery needs (the empty tetrahedralization of §9.5); the bounds
-        below are ignored.
+        below are ignored. As in refinement, splits next to a sharp input
+        vertex stop at its protecting ball (:mod:`meshcore.tets.angles`):
+        without it the splits spiralled into the vertex.
     max_radius_edge : float or None
         Refine until every tetrahedron's circumradius over its shortest edge
         is at most this (TetGen's ``-q``; default 2.0, at least 1.1), except
@@ -1153,9 +1155,11 @@ def tetrahedralize(
         lfs = _feature_sizes(b)
         thin = lfs < b.knobs.thin * b.facet_short
         b.facet_size[thin] = b.knobs.feature_size * lfs[thin]
-    if not (empty or keep_boundary):
-        # Small input angles: protecting balls at the sharp vertices.
+    if not keep_boundary:
+        # Small input angles: protecting balls at the sharp vertices (recovery's
+        # concentric shells spiral into a sharp vertex without them, `empty` too).
         protecting_balls(b)
+    if not (empty or keep_boundary):
         protecting_cylinders(b)
     timings["delaunay"] = time.perf_counter() - t0
     rounds = 0
@@ -1164,7 +1168,7 @@ def tetrahedralize(
     if keep_boundary:
         t1 = time.perf_counter()
         slots, T = b.tets()
-        seg_missing, sub_missing = b.missing(T)
+        seg_missing, sub_missing = b.missing()
         if seg_missing.size == 0 and sub_missing.size == 0:
             region = regions(b, slots, T)
             keep = region >= 0

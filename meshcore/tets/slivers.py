@@ -9,32 +9,22 @@ bound where it can. The result is no longer a Delaunay tetrahedralization.
 Choices the methods text leaves open (it names sliver exudation,
 perturbation or smoothing):
 
-* Local improvement alone. Perturbed insertion alone (Chew's random points
-  near the circumcentre, as Li and Teng analyse them; 8 rounds) left 1.74
-  degrees on the icosphere at size 0.05 in 25 CPU s. One round of it before
-  the improvement was kept until now: without it the improvement once
-  stopped at 9.4 degrees on the thin slab, and Poisson's max-norm rate on
-  the cube, measured against ``size`` over two sizes, fell from 1.88 to
-  1.74. Both are gone: the improvement inserts points itself and reaches
-  15.00 degrees on every test shape and on the benchmark's cube minus a
-  ball, 32 x 16 torus and 1 x 1 x 0.01 plate (20.00 too, the torus with 3
-  of 90k tetrahedra traded above ratio 2), and the rate measured against
-  the mean edge length over sizes 0.25 to 0.0625 is 1.88 without the round,
-  1.91 with it (1.83 to 1.96 over 8 seeds of its random candidates). The
-  round cost a pass over the whole mesh and a second refinement: at about
-  100k tetrahedra and 15 degrees, 1.64 -> 1.16 CPU s on the cube minus a
-  ball, 2.63 -> 1.97 on the torus, 2.59 -> 1.45 on the plate (one run each,
-  load 7-10), with 9-14 % fewer tetrahedra.
+* Local improvement alone, on the tetrahedra within ``ZONE_RINGS`` rings of
+  those under the bound: edge and face removal, smoothing of a free vertex,
+  and a new point in a star cavity where none of those gains. No perturbed
+  insertion round (Chew's random points near the circumcentre) runs before
+  it: the improvement reaches 15 degrees (and 20) on every test shape and on
+  the benchmark's cube minus a ball, torus and thin plate without one, with
+  fewer tetrahedra and without a second pass over the whole mesh.
 * The surface is kept: faces on the surface (and between regions) are never
   flipped; the points the refinement put inside move freely, those it put
   inside a facet slide in the facet's plane (to rounding, as they were
   placed), the input vertices and the points on input edges stay.
 * The radius-edge bound is kept: no operation makes a tetrahedron above
-  ``max(max_radius_edge, the worst of the tetrahedra it replaces)``; only
-  when that leaves tetrahedra under the bound, a second stage without the
-  cap runs, and ``radius_edge_traded`` counts the tetrahedra left above the
-  ratio (the 32 x 16 torus: 15.20 degrees, 13 tetrahedra up to ratio 6.5;
-  with the cap, 6.8 degrees).
+  ``max(max_radius_edge, the worst of the tetrahedra it replaces)``
+  (``UNBOUNDED_CAP`` when none is asked); only where that leaves tetrahedra
+  under the bound, a second stage without the cap runs, and
+  ``radius_edge_traded`` counts the tetrahedra left above the ratio.
 """
 
 from __future__ import annotations
@@ -86,7 +76,7 @@ def improve(
     bound: float,
     max_radius_edge: float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
-    """Flips and smoothing that raise the least dihedral angle towards ``bound`` degrees.
+    """Flips, smoothing and insertion that raise the least dihedral angle towards ``bound``.
 
     Parameters
     ----------
@@ -109,10 +99,12 @@ def improve(
     Returns
     -------
     points, tetra, region, stats
-        The moved points, the new tetrahedra (same order convention; each
-        positive by the exact ``orient3d``, filling the same regions, every
-        constrained face still a face), their regions, and the counts of
-        ``edge_removals``, ``face_removals``, ``smoothing_moves``, ``passes``.
+        The moved points followed by the inserted ones (free, inside the
+        zone), the new tetrahedra (same order convention; each positive by
+        the exact ``orient3d``, filling the same regions, every constrained
+        face still a face), their regions, and the counts of
+        ``edge_removals``, ``face_removals``, ``smoothing_moves``,
+        ``points_inserted``, ``passes``.
         Only the tetrahedra within ``ZONE_RINGS`` rings of vertex neighbours of
         those under ``bound`` are edited (the faces bounding that zone are kept
         and the vertices on them stay, except the surface's, which slide as

@@ -168,8 +168,8 @@ def default_registry() -> Registry:
             "3D Delaunay, conforming boundary recovery (points on the surface; with "
             "keep_boundary, interior points only: one for a star-shaped region, else the "
             "recovery's surface points moved inside), Delaunay refinement "
-            "to a radius-edge, volume and size bound, optional sliver rounds; a cell set per "
-            "region.",
+            "to a radius-edge, volume and size bound, then optionally flips, smoothing and "
+            "insertion to a least dihedral angle; a cell set per region.",
             section="§9.2, §9.3.4-§9.3.5 (edges then faces, points on the surface), §9.5",
             params=tets.TetrahedralizeParams,
             run=tets.run_tetrahedralize,

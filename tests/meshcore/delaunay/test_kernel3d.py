@@ -45,9 +45,8 @@ def check_delaunay(tz) -> None:
     )
     assert (shared == 3).all()
     # locally Delaunay: the vertex across each interior face is not inside
-    opp = np.array(
-        [np.setdiff1d(t[o], t[r])[0] for r, o in zip(rows, other, strict=True)], dtype=np.int64
-    )
+    # (the vertex of the neighbour across from it: the one whose own neighbour is this row)
+    opp = t[other, np.argmax(nb[other] == rows[:, None], axis=1)]
     s = insphere(p[t[rows, 0]], p[t[rows, 1]], p[t[rows, 2]], p[t[rows, 3]], p[opp])
     assert (s <= 0).all()
     # volumes add up to the hull's; hull facets outward and closed

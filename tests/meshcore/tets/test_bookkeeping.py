@@ -37,8 +37,11 @@ def test_least_dihedral_is_the_least_of_the_six():
 
 
 def test_region_labels_kept_between_rounds_equal_the_flood_fill(monkeypatch):
+    """And the missing pieces found from their witnesses (``SurfaceRecovery.missing``) are
+    those a pass over every tetrahedron finds."""
     call = recovery3d.RegionLabels.__call__
-    checked = []
+    missing = recovery3d.SurfaceRecovery.missing
+    checked, pieces = [], []
 
     def checked_call(self, slots, T):
         labels = call(self, slots, T)
@@ -46,7 +49,21 @@ def test_region_labels_kept_between_rounds_equal_the_flood_fill(monkeypatch):
         checked.append(len(T))
         return labels
 
+    def checked_missing(self):
+        seg, sub = missing(self)
+        keys = recovery3d.edge_keys(self.seg)
+        seg_hit, sub_hit = self._present(keys, recovery3d.face_keys(self.sub))
+        unsettled = list(self.unsettled.values())
+        if unsettled:  # subsegments that are no edges of their facet's triangulation
+            seg_hit &= ~np.isin(keys, np.concatenate(unsettled))
+        assert np.array_equal(seg, np.flatnonzero(~seg_hit))
+        assert np.array_equal(sub, np.flatnonzero(~sub_hit))
+        pieces.append(len(seg) + len(sub))
+        return seg, sub
+
     monkeypatch.setattr(recovery3d.RegionLabels, "__call__", checked_call)
+    monkeypatch.setattr(recovery3d.SurfaceRecovery, "missing", checked_missing)
     surface = parse_surface(*shapes.torus(nu=10, nv=5))
     tetrahedralize(surface, size=0.4)
     assert len(checked) > 3
+    assert len(pieces) > 3 and sum(pieces) > 0
