@@ -13,7 +13,7 @@ from meshcore.domain import parse_surface
 from meshcore.errors import InputError
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import io
-from meshcore.mesh.topology import unique_ints
+from meshcore.mesh.topology import unique_edges, unique_ints
 from meshcore.tets import tetra_dihedral_angles, tetrahedralize
 from tests.meshcore.domain import shapes
 
@@ -445,7 +445,7 @@ def test_poisson_converges():
     the max-norm error at the nodes falls as h², h the mesh's mean edge length.
 
     The rate is the least-squares slope of log error against log h over the
-    sizes 0.25, 0.125 and 0.0625, required within 0.25 of 2. A factor 4 in
+    sizes 0.25, 0.125 and 0.0625, required in [1.8, 2.25]. A factor 4 in
     size: error / h² moves by about 20 % from mesh to mesh (a node whose star
     happens to be irregular), which over one halving alone moved the rate by
     0.1 to 0.2. h is measured, not the ``size`` asked: as ``size`` halves the
@@ -485,8 +485,7 @@ def test_poisson_converges():
         system = condense(asm(laplace, basis), asm(rhs, basis), x=exact, D=D)
         u = solve(*system, solver=solver_iter_pcg(rtol=1e-12))
         errors.append(np.abs(u - exact).max())
-        a, b = K[:, [0, 0, 0, 1, 1, 2]].ravel(), K[:, [1, 2, 3, 2, 3, 3]].ravel()
-        edges = unique_ints(np.minimum(a, b) * len(P) + np.maximum(a, b))
-        h.append(np.linalg.norm(P[edges // len(P)] - P[edges % len(P)], axis=1).mean())
+        edges = unique_edges(K, "tetra")[0]
+        h.append(np.linalg.norm(P[edges[:, 0]] - P[edges[:, 1]], axis=1).mean())
     rate = np.polyfit(np.log(h), np.log(errors), 1)[0]
-    assert abs(rate - 2) <= 0.25, (rate, h, errors)
+    assert 1.8 <= rate <= 2.25, (rate, h, errors)
