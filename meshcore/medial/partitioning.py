@@ -451,11 +451,7 @@ def _faces(points: np.ndarray, edges: np.ndarray, kind: np.ndarray, succ: np.nda
         if backwards[hs].any():
             continue
         verts = tail[hs]
-        xy = points[verts]
-        area = 0.5 * float(
-            np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1])
-        )
-        if area <= 0:
+        if _ring_area(points[verts]) <= 0:
             continue
         cycles.append(verts)
         corners.append(degree[verts] >= 3)
@@ -464,8 +460,20 @@ def _faces(points: np.ndarray, edges: np.ndarray, kind: np.ndarray, succ: np.nda
 
 
 def _ring_area(xy: np.ndarray) -> float:
+    """The signed area of a ring, from coordinates relative to its first vertex (the
+    absolute ones lost a spike of area 2e-5 at an offset of 1e6 to cancellation)."""
     x, y = xy[:, 0] - xy[0, 0], xy[:, 1] - xy[0, 1]
     return 0.5 * math.fsum(x * np.roll(y, -1) - np.roll(x, -1) * y)
+
+
+def _area_centroid(xy: np.ndarray) -> tuple[float, np.ndarray]:
+    """The signed area and area centroid of a ring, relative to its first vertex."""
+    d = xy - xy[0]
+    x, y = d[:, 0], d[:, 1]
+    cross = x * np.roll(y, -1) - np.roll(x, -1) * y
+    area = float(cross.sum()) / 2
+    c = np.array([((x + np.roll(x, -1)) * cross).sum(), ((y + np.roll(y, -1)) * cross).sum()])
+    return area, xy[0] + c / (6 * area)
 
 
 def partition(
@@ -832,11 +840,7 @@ def _inner_point(
     previous side point)`` have the best worst corner quality ((8.3), 0 when not
     convex; a sharp corner's own angle left out: it is the input's), the mean of
     the corners' qualities breaking ties."""
-    x, y = ring[:, 0], ring[:, 1]
-    cross = x * np.roll(y, -1) - np.roll(x, -1) * y
-    centroid = np.array(
-        [((x + np.roll(x, -1)) * cross).sum(), ((y + np.roll(y, -1)) * cross).sum()]
-    ) / (3 * cross.sum())
+    centroid = _area_centroid(ring)[1]
     lo, hi = corners.min(axis=0), corners.max(axis=0)
     t = (np.arange(9) + 0.5) / 9
     lattice = lo + np.stack(np.meshgrid(t, t), axis=-1).reshape(-1, 2) * (hi - lo)
@@ -1148,23 +1152,21 @@ def _butterfly(ax: MedialAxis, fraction: float) -> Partition | None:
     if ring is None or (np.abs(turns(ax)[ring]) > BUTTERFLY_TURN).any():
         return None
     xy = ax.samples[ring]
-    x, y = xy[:, 0], xy[:, 1]
-    cross = x * np.roll(y, -1) - np.roll(x, -1) * y
-    area = cross.sum() / 2
-    c = np.array([((x + np.roll(x, -1)) * cross).sum(), ((y + np.roll(y, -1)) * cross).sum()]) / (
-        6 * area
-    )
+    c = _area_centroid(xy)[1]
     d = xy - c
     if ((d[:, 0] * np.roll(d[:, 1], -1) - np.roll(d[:, 0], -1) * d[:, 1]) <= 0).any():
         return None  # not star-shaped from c
-    _, vec = np.linalg.eigh(d.T @ d)
-    e1, e2 = vec[:, 1], vec[:, 0]
-    if e1[0] * e2[1] - e1[1] * e2[0] < 0:
-        e2 = -e2
+    lam, vec = np.linalg.eigh(d.T @ d)
+    if lam[1] - lam[0] <= 1e-9 * lam[1]:  # no principal direction (a regular polygon)
+        vec = np.eye(2)[:, ::-1]
+    e1 = vec[:, 1]
+    if e1[np.argmax(np.abs(e1))] < 0:  # its largest component positive (eigh's sign is free)
+        e1 = -e1
+    e2 = np.array([-e1[1], e1[0]])
     ang = np.arctan2(d[:, 1], d[:, 0])
 
     def reach(u):  # distance from c to the boundary along u (nearest sample by angle)
-        k = int(np.argmin(np.abs(np.angle(np.exp(1j * (ang - math.atan2(u[1], u[0])))))))
+        k = _first_least(np.abs(np.angle(np.exp(1j * (ang - math.atan2(u[1], u[0]))))), 1e-9)
         return float(np.hypot(*d[k]))
 
     a = min(reach(e1), reach(-e1))
@@ -1173,7 +1175,8 @@ def _butterfly(ax: MedialAxis, fraction: float) -> Partition | None:
     a, b = a - t, b - t
     inner = c + np.array([-a * e1 - b * e2, a * e1 - b * e2, a * e1 + b * e2, -a * e1 + b * e2])
     # each corner is cut to its nearest sample: cuts about normal to the boundary
-    foot = [int(np.argmin(np.hypot(*(xy - q).T))) for q in inner]
+    tie = 1e-9 * float(np.hypot(*np.ptp(d, axis=0)))
+    foot = [_first_least(np.hypot(*(xy - q).T), tie) for q in inner]
     if len(set(foot)) < 4 or not all(
         (foot[(i + 1) % 4] - foot[i]) % len(ring) < (foot[(i + 2) % 4] - foot[i]) % len(ring)
         for i in range(4)
@@ -1192,6 +1195,12 @@ def _butterfly(ax: MedialAxis, fraction: float) -> Partition | None:
         cycles.append(cyc)
         corners.append(flag)
     return _made(ax, points, cycles, corners)
+
+
+def _first_least(v: np.ndarray, tol: float) -> int:
+    """The first index whose value is within ``tol`` of the least: a regular polygon's
+    samples tie (two at the same distance), and rounding chose between them."""
+    return int(np.flatnonzero(v <= v.min() + tol)[0])
 
 
 def _regions(points: np.ndarray, cycles, corners) -> list[dict]:
@@ -1415,8 +1424,14 @@ def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bo
     for s0, s1, s2, s3 in patches:
         grids.append(_coons(along(s0), along(s1), along(s2), along(s3)))
     allpts = np.concatenate([g.reshape(-1, 2) for g in grids])
-    uniq, inverse = np.unique(allpts, axis=0, return_inverse=True)
-    inverse = inverse.ravel()
+    # coincident points (the shared sides' copies) are one, numbered in order of first
+    # occurrence: a lexicographic numbering followed the coordinates' rounding (a
+    # translated input renumbered, and the smoothing's sweeps then moved differently)
+    uniq, first, inverse = np.unique(allpts, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    uniq, inverse = uniq[order], rank[inverse.ravel()]
     quads = []
     offset = 0
     for g in grids:

@@ -24,6 +24,7 @@ from meshcore.quads.boundary_layer import meets_targets
 from meshcore.quads.combination import ALGORITHMS, combine, split_all
 from meshcore.quads.optimization import optimize_quads
 from meshcore.triangulation.refinement import triangulate
+from tests.meshcore.quads.stars import star
 
 # 3 --- 2
 # |   / |     two triangles of the unit square, sharing the diagonal 0-2
@@ -295,11 +296,7 @@ class TestDomainInput:
         # CORNER_LEAST_QUALITY before the optimization and the row was refused (the
         # lattice then left least quality 0.39, corners 35-134 degrees); tried again
         # at 0 and optimized, it is kept because it meets the targets
-        rng = np.random.default_rng(282266799)
-        t = 2 * np.pi * (np.arange(33) + rng.uniform(-0.3, 0.3, 33)) / 33
-        r = 1 + 0.43 * rng.uniform(-1, 1, 33)
-        ring = np.column_stack([r * np.cos(t), r * np.sin(t)])
-        dom = parse_domain({"type": "Polygon", "coordinates": [[*ring.tolist(), ring[0].tolist()]]})
+        dom = parse_domain(star(np.random.default_rng(282266799), 33, 0.43))
         res = combine(domain=dom, size=0.1, all_quad=True, twice_size=True, optimize=True)
         assert "boundary_layer" in res.stats and set(res.mesh.cells_by_type) == {"quad"}
         assert meets_targets(res.mesh, dom, 0.1)
