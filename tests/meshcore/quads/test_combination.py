@@ -312,6 +312,11 @@ class TestDomainInput:
 
 
 class TestOptimize:
+    def test_empty_quad_mesh_comes_back_empty(self):
+        # the compiled smoothing took the least quality of no cells (a ValueError)
+        res = optimize_quads(Mesh(np.zeros((0, 2)), (CellBlock("quad", np.zeros((0, 4), int)),)))
+        assert len(res.mesh.cells_by_type["quad"]) == 0 and res.operators["smooth"] == 0
+
     def test_never_lowers_the_min_and_raises_the_mean(self):
         mesh = perturbed_grid(16, 0.3, seed=3)
         res = combine(mesh, algorithm="matching", optimize=True)
