@@ -80,7 +80,7 @@ class TestRandomDomains:
         part = partition(dom, method=method)
         assert sum(r["area"] for r in part.regions) == pytest.approx(dom.area, rel=1e-12)
         assert min(r["sides"] for r in part.regions) >= 3
-        res = quad_medial(dom, method=method, size=0.05)
+        res = quad_medial(dom, method=method, size=0.1)
         area = quality.signed_area(res.mesh.points, res.mesh.cells[0].data, "quad")
         assert (area > 0).all()
         assert area.sum() == pytest.approx(dom.area, rel=1e-12)
@@ -89,7 +89,7 @@ class TestRandomDomains:
 class TestQuadMedial:
     @pytest.mark.parametrize(
         "name, kwargs",
-        [(n, {}) for n in SHAPES] + [(n, {"size": 0.05}) for n in SHAPES],
+        [(n, {}) for n in SHAPES] + [(n, {"size": 0.1}) for n in SHAPES],
     )
     def test_only_valid_conforming_quads_covering_the_domain(self, name, kwargs):
         dom = domain(name)
