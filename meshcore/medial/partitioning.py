@@ -134,8 +134,10 @@ point just past them) and two strips along its sides; ``quad_medial`` keeps
 regions on both sides of the others. On 32 random stars of the issue's kind (5-60
 vertices, radial jitter 10-80 %, every other one with a star-shaped hole) at size
 0.1, away from the quads at input corners under 45 degrees (forced: such a corner
-is held by one quad): corners in [30, 150] degrees on 25 (was 21), least quality
-0.3 on 27 (was 25) and 0.5 on 9 (as before), least 0.05-0.58 (was 0.03-0.58); quads
+is held by one quad): corners in [30, 150] degrees on 26 (was 21), least quality
+0.3 on 27 (was 25) and 0.5 on 11 (was 9; two more since the quad operators of
+:func:`_optimized` are dropped when they take a quad from an input corner: a
+collapse undid the opened reflex corners), least 0.07-0.58 (was 0.03-0.58); quads
 under 0.5 there 290 (was 647: 199 -> 77 at reflex corners, 311 -> 153 in
 triangle regions, 137 -> 49 in four-sided ones); the count 0.92-1.72x area /
 size**2 (was 0.97-1.63x; over 1.5x on two stars as before, one of them
@@ -149,7 +151,14 @@ counts them, exact). On 150 random star polygons the ``critical``
 partition so gives only valid quads; the ``terminal`` one's 5- and 6-sided
 regions around reflex corners still folded on 19 of them, so when it does
 the mesh is made on the ``critical`` partition instead (said in
-``stats["fallback"]``). The ``terminal`` method also made regions of 7 sides
+``stats["fallback"]``); so too when one of its regions passes a vertex twice (a
+dead-end cut inside it, a slit: its fill left a sliver hole along the slit).
+
+Translation and scale: areas and centroids relative to a vertex; rounding ties
+decided by rules (a sample count within 1e-7 above an integer is that integer, no
+principal direction: the x and y axes, an eigenvector's largest component positive,
+the first sample within 1e-9 of the least distance; fill points numbered by first
+occurrence): the same cells at +1e6 and x1e-6. The ``terminal`` method also made regions of 7 sides
 on 2 of those 150 (footnote 12 of the text presumes 6 at most).
 
 References
@@ -177,6 +186,8 @@ from meshcore.medial.regions import (
     _BOUNDARY,
     _CUT,
     KITE_ANGLE,
+    input_fans,
+    input_index,
     reflex_merged,
     spike_chords,
     turns,
@@ -1006,15 +1017,15 @@ def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
     opt = optimize_quads(mesh)
     P, Q = opt.mesh.points, opt.mesh.cells_by_type["quad"]
     out = {**stats, "optimized": {k: int(v) for k, v in opt.operators.items()}}
-    fans = _input_fans(mesh.points, mesh.cells_by_type["quad"], domain.points)
-    out["optimize_undone"] = bool((_input_fans(P, Q, domain.points) < fans).any())
+    fans = input_fans(mesh.points, mesh.cells_by_type["quad"], domain.points)
+    out["optimize_undone"] = bool((input_fans(P, Q, domain.points) < fans).any())
     if out["optimize_undone"]:
         # an operator took a quad from an input corner (a collapse undid an opened
         # reflex corner, _opened: two quads of 137 degrees were left at 273): the fill
         # is relaxed as it is (least Q >= 0.5 on 11 of 32 random stars, was 9)
         P, Q = mesh.points, mesh.cells_by_type["quad"]
     q = quality.quad_quality(P, Q)
-    fixed = _input_index(P, domain.points) >= 0
+    fixed = input_index(P, domain.points) >= 0
     bad = np.zeros(len(P), dtype=bool)
     bad[Q[q < TOL.relax_below].ravel()] = True
     active = bad[Q].any(axis=1)
@@ -1053,26 +1064,6 @@ def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
     out["quads"] = int(len(Q))
     out["points"] = int(len(P))
     return Mesh(P, (CellBlock("quad", Q),)), out
-
-
-def _input_index(P: np.ndarray, inputs: np.ndarray) -> np.ndarray:
-    """(n,) int: the input vertex each point is (exact match), -1 for the others."""
-    at = np.full(len(P), -1, np.int64)
-    order = np.lexsort(P.T[::-1])
-    key = P[order]
-    for k, v in enumerate(inputs):  # the input vertices (exact matches)
-        i = int(np.searchsorted(key[:, 0], v[0]))
-        while i < len(key) and key[i, 0] == v[0]:
-            if key[i, 1] == v[1]:
-                at[order[i]] = k
-            i += 1
-    return at
-
-
-def _input_fans(P: np.ndarray, Q: np.ndarray, inputs: np.ndarray) -> np.ndarray:
-    """(len(inputs),) int: how many quads hold each input vertex."""
-    at = _input_index(P, inputs)[Q.ravel()]
-    return np.bincount(at[at >= 0], minlength=len(inputs))
 
 
 def _least_free(P: np.ndarray, Q: np.ndarray, fixed: np.ndarray) -> float:
