@@ -960,9 +960,16 @@ def quad_medial(
         if size is not None and stats["quads"] * size * size > MOST_COUNT * domain.area:
             # the butterfly's central quad carries the boundary's count both ways (a gear
             # at size 0.1: 1.88x): the medial partition when it keeps the count
-            part = _reflex_merged(partition(axis=axis, method=method))
-            mesh2, stats2 = _quads_on(part, size, levels)
-            if stats2["invalid"] or stats2["quads"] * size * size > MOST_COUNT * domain.area:
+            try:  # (a 2:1 ellipse's medial partition has a 2-sided region: the butterfly)
+                part = _reflex_merged(partition(axis=axis, method=method))
+                mesh2, stats2 = _quads_on(part, size, levels)
+            except AlgorithmError:
+                part, stats2 = None, {"invalid": 1}
+            if (
+                stats2["invalid"]
+                or stats2["slits"]
+                or stats2["quads"] * size**2 > MOST_COUNT * domain.area
+            ):
                 part = None
         if part is None:
             kind = "four-sided" if len(special.regions) == 1 else "butterfly"

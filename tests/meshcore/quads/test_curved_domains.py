@@ -344,3 +344,15 @@ def test_quad_medial_same_cells_translated_or_scaled(ring, size):
         _check(res.mesh, dom, size * scale)
         cells.append(res.mesh.cells_by_type["quad"])
     assert all(np.array_equal(c, cells[0]) for c in cells[1:])
+
+
+def test_quad_medial_keeps_the_butterfly_where_the_medial_partition_fails():
+    # a 2:1 ellipse sampled more finely than size: the butterfly passes 1.5x area /
+    # size**2 (the boundary's count), and the medial partition tried instead raised
+    # "a region ... has 2 sides": the job failed though the butterfly was valid
+    t = np.linspace(0, 2 * np.pi, 48, endpoint=False)
+    dom = parse_domain({"type": "Polygon", "coordinates": [_ring(np.c_[2 * np.cos(t), np.sin(t)])]})
+    res = quad_medial(dom, size=0.3)
+    assert res.stats["partition"] == "butterfly"
+    ang, q, _ = _check(res.mesh, dom, 0.3)
+    assert ang.min() >= 30 and ang.max() <= 150
