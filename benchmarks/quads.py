@@ -460,10 +460,16 @@ def curved_child(tool: str, name: str, size: float) -> dict:
     return out
 
 
+def _load() -> str:
+    """The load line printed before a table (not inside it)."""
+    return "load average (1, 5, 15 min): {:.1f} {:.1f} {:.1f}".format(*os.getloadavg())
+
+
 def curved_main(sizes, timeout: float, tools=None, domains=None) -> None:
     """Tables of the curved domains (``--curved``): each of ours (``tools``, default
     all three), then Gmsh a8r3 at the size that gives about as many quads (one
     calibration run)."""
+    print(f"{_load()}\n")
     print("| domain | size | run | quads | least Q | mean Q | corners | seconds |")
     print("|---|---:|---|---:|---:|---:|---|---:|")
     for name in domains or ("disk", "annulus", "ellipse", "gear", "star"):
@@ -503,23 +509,6 @@ def _curved_row(name, size, label, r):
     )
 
 
-def _random_star(seed: int) -> tuple[dict, int, float]:
-    """The issue's random star ``seed`` (5-60 vertices, radial jitter 10-80 %, a
-    star-shaped hole on odd seeds): its GeoJSON polygon, vertex count and jitter."""
-    rng = np.random.default_rng(1000 + seed)
-    n, jitter = int(rng.integers(5, 61)), float(rng.uniform(0.1, 0.8))
-    t = 2 * np.pi * (np.arange(n) + rng.uniform(-0.3, 0.3, n)) / n
-    r = 1 + jitter * rng.uniform(-1, 1, n)
-    rings = [np.column_stack([r * np.cos(t), r * np.sin(t)])]
-    if seed % 2:
-        m = int(rng.integers(5, 11))
-        th = 2 * np.pi * np.arange(m) / m
-        rh = 0.15 * (1 - jitter) * (1 + 0.5 * rng.uniform(-1, 1, m))
-        rings.append(np.column_stack([rh * np.cos(th), rh * np.sin(th)])[::-1])
-    coords = [np.vstack([x, x[:1]]).tolist() for x in rings]
-    return {"type": "Polygon", "coordinates": coords}, n, jitter
-
-
 def stars_main(count: int, size: float) -> None:
     """``--stars N SIZE``: ``quad_medial`` on the issue's first N random stars, per star
     the count over area / size**2, and away from the quads at input corners under 45
@@ -529,11 +518,13 @@ def stars_main(count: int, size: float) -> None:
     from meshcore.domain.planar import parse_domain
     from meshcore.medial import quad_medial
     from meshcore.mesh import quality
+    from tests.meshcore.quads.stars import issue_star
 
+    print(f"{_load()}\n")
     print("| star | vertices | jitter | count / (area / size²) | least Q | corners | seconds |")
     print("|---:|---:|---:|---:|---:|---|---:|")
     for seed in range(count):
-        geo, n, jitter = _random_star(seed)
+        geo, n, jitter = issue_star(seed)
         dom = parse_domain(geo)
         t0 = time.process_time()
         res = quad_medial(dom, size=size)
@@ -691,11 +682,11 @@ def main() -> None:
             "note: Gmsh not installed (pip install -e .[bench]): no triangle mesh to share; "
             "ours runs on its own domain input only"
         )
+    print(f"{_load()}, medians of {args.repeat}\n")
     print(
         "| run | seconds | CPU s | quads | triangles left | mean Q (8.4) | min Q | Q < 0.5 | "
         "CPU ratio to peer |"
     )
-    print(f"load average {open('/proc/loadavg').read().split()[:3]}, medians of {args.repeat}")
     print("|---|---:|---:|---:|---:|---:|---:|---:|---|")
     with tempfile.TemporaryDirectory() as tmp:
         for n in args.sizes:

@@ -321,7 +321,10 @@ def _sampled(domain: Domain, h: float | None):
     else:
         length = np.hypot(*(b - a).T)
         with np.errstate(over="ignore"):  # float, inf for a tiny h: int64 would overflow
-            wanted = np.maximum(1, np.ceil(length / h))
+            # a ratio within 1e-7 above an integer is that integer: a regular polygon's
+            # sides are perimeter / DEFAULT_SAMPLES long times an integer, and rounding
+            # (a translated or scaled input) decided between two sample counts
+            wanted = np.maximum(1, np.ceil(length / h * (1 - 1e-7)))
         total = float(wanted.sum())
         if total > MAX_SAMPLES:
             raise InputError(

@@ -134,8 +134,10 @@ point just past them) and two strips along its sides; ``quad_medial`` keeps
 regions on both sides of the others. On 32 random stars of the issue's kind (5-60
 vertices, radial jitter 10-80 %, every other one with a star-shaped hole) at size
 0.1, away from the quads at input corners under 45 degrees (forced: such a corner
-is held by one quad): corners in [30, 150] degrees on 25 (was 21), least quality
-0.3 on 27 (was 25) and 0.5 on 9 (as before), least 0.05-0.58 (was 0.03-0.58); quads
+is held by one quad): corners in [30, 150] degrees on 26 (was 21), least quality
+0.3 on 27 (was 25) and 0.5 on 11 (was 9; two more since the quad operators of
+:func:`_optimized` are dropped when they take a quad from an input corner: a
+collapse undid the opened reflex corners), least 0.07-0.58 (was 0.03-0.58); quads
 under 0.5 there 290 (was 647: 199 -> 77 at reflex corners, 311 -> 153 in
 triangle regions, 137 -> 49 in four-sided ones); the count 0.92-1.72x area /
 size**2 (was 0.97-1.63x; over 1.5x on two stars as before, one of them
@@ -149,7 +151,14 @@ counts them, exact). On 150 random star polygons the ``critical``
 partition so gives only valid quads; the ``terminal`` one's 5- and 6-sided
 regions around reflex corners still folded on 19 of them, so when it does
 the mesh is made on the ``critical`` partition instead (said in
-``stats["fallback"]``). The ``terminal`` method also made regions of 7 sides
+``stats["fallback"]``); so too when one of its regions passes a vertex twice (a
+dead-end cut inside it, a slit: its fill left a sliver hole along the slit).
+
+Translation and scale: areas and centroids relative to a vertex; rounding ties
+decided by rules (a sample count within 1e-7 above an integer is that integer, no
+principal direction: the x and y axes, an eigenvector's largest component positive,
+the first sample within 1e-9 of the least distance; fill points numbered by first
+occurrence): the same cells at +1e6 and x1e-6. The ``terminal`` method also made regions of 7 sides
 on 2 of those 150 (footnote 12 of the text presumes 6 at most).
 
 References
@@ -177,6 +186,8 @@ from meshcore.medial.regions import (
     _BOUNDARY,
     _CUT,
     KITE_ANGLE,
+    input_fans,
+    input_index,
     reflex_merged,
     spike_chords,
     turns,
@@ -451,11 +462,7 @@ def _faces(points: np.ndarray, edges: np.ndarray, kind: np.ndarray, succ: np.nda
         if backwards[hs].any():
             continue
         verts = tail[hs]
-        xy = points[verts]
-        area = 0.5 * float(
-            np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1])
-        )
-        if area <= 0:
+        if _ring_area(points[verts]) <= 0:
             continue
         cycles.append(verts)
         corners.append(degree[verts] >= 3)
@@ -464,8 +471,20 @@ def _faces(points: np.ndarray, edges: np.ndarray, kind: np.ndarray, succ: np.nda
 
 
 def _ring_area(xy: np.ndarray) -> float:
+    """The signed area of a ring, from coordinates relative to its first vertex (the
+    absolute ones lost a spike of area 2e-5 at an offset of 1e6 to cancellation)."""
     x, y = xy[:, 0] - xy[0, 0], xy[:, 1] - xy[0, 1]
     return 0.5 * math.fsum(x * np.roll(y, -1) - np.roll(x, -1) * y)
+
+
+def _area_centroid(xy: np.ndarray) -> tuple[float, np.ndarray]:
+    """The signed area and area centroid of a ring, relative to its first vertex."""
+    d = xy - xy[0]
+    x, y = d[:, 0], d[:, 1]
+    cross = x * np.roll(y, -1) - np.roll(x, -1) * y
+    area = float(cross.sum()) / 2
+    c = np.array([((x + np.roll(x, -1)) * cross).sum(), ((y + np.roll(y, -1)) * cross).sum()])
+    return area, xy[0] + c / (6 * area)
 
 
 def partition(
@@ -832,11 +851,7 @@ def _inner_point(
     previous side point)`` have the best worst corner quality ((8.3), 0 when not
     convex; a sharp corner's own angle left out: it is the input's), the mean of
     the corners' qualities breaking ties."""
-    x, y = ring[:, 0], ring[:, 1]
-    cross = x * np.roll(y, -1) - np.roll(x, -1) * y
-    centroid = np.array(
-        [((x + np.roll(x, -1)) * cross).sum(), ((y + np.roll(y, -1)) * cross).sum()]
-    ) / (3 * cross.sum())
+    centroid = _area_centroid(ring)[1]
     lo, hi = corners.min(axis=0), corners.max(axis=0)
     t = (np.arange(9) + 0.5) / 9
     lattice = lo + np.stack(np.meshgrid(t, t), axis=-1).reshape(-1, 2) * (hi - lo)
@@ -911,7 +926,9 @@ def quad_medial(
         is not strictly convex (exact; none on the domains tested), counted
         (:func:`_optimized` runs only when there are none, and keeps every
         quad strictly convex); ``stats["optimized"]`` its operator counts and
-        ``stats["corners_relaxed"]`` whether its angle relaxation was kept.
+        ``stats["corners_relaxed"]`` whether its angle relaxation was kept;
+        ``stats["optimize_undone"]``: its operators took a quad from an input
+        corner, and the fill was relaxed without them.
 
     Raises
     ------
@@ -943,9 +960,16 @@ def quad_medial(
         if size is not None and stats["quads"] * size * size > MOST_COUNT * domain.area:
             # the butterfly's central quad carries the boundary's count both ways (a gear
             # at size 0.1: 1.88x): the medial partition when it keeps the count
-            part = _reflex_merged(partition(axis=axis, method=method))
-            mesh2, stats2 = _quads_on(part, size, levels)
-            if stats2["invalid"] or stats2["quads"] * size * size > MOST_COUNT * domain.area:
+            try:  # (a 2:1 ellipse's medial partition has a 2-sided region: the butterfly)
+                part = _reflex_merged(partition(axis=axis, method=method))
+                mesh2, stats2 = _quads_on(part, size, levels)
+            except AlgorithmError:
+                part, stats2 = None, {"invalid": 1}
+            if (
+                stats2["invalid"]
+                or stats2["slits"]
+                or stats2["quads"] * size**2 > MOST_COUNT * domain.area
+            ):
                 part = None
         if part is None:
             kind = "four-sided" if len(special.regions) == 1 else "butterfly"
@@ -958,17 +982,25 @@ def quad_medial(
     else:
         part = _reflex_merged(partition(axis=axis, method=method))
         mesh, stats = _quads_on(part, size, levels)
-    if stats["invalid"] and method == "terminal":
+    if (stats["invalid"] or stats["slits"]) and method == "terminal":
         # regions of 5 or 6 sides around reflex corners can fold; the critical
-        # partition's triangles and quads do not on the domains tested
+        # partition's triangles and quads do not on the domains tested. A region
+        # around a dead-end cut (a slit: its cycle passes a vertex twice) gave a
+        # non-conforming fill, a sliver hole along the slit (a random star at size 0.5)
         fallback = _reflex_merged(partition(axis=part.axis, method="critical"))
         mesh, stats2 = _quads_on(fallback, size, levels)
         stats = {
             **stats2,
             "fallback": f"the terminal partition gave {stats['invalid']} "
-            "inverted quads: meshed on the critical partition",
+            f"inverted quads and {stats['slits']} regions with a slit: meshed on the "
+            "critical partition",
         }
         part = fallback
+    if stats["slits"]:
+        raise AlgorithmError(
+            f"{stats['slits']} regions of this partition pass a vertex twice (a slit); try "
+            "another method or a smaller h"
+        )
     if stats["invalid"]:
         raise AlgorithmError(
             f"{stats['invalid']} quads came out inverted on this partition; try another "
@@ -991,17 +1023,16 @@ def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
         return mesh, stats  # optimize_quads takes strictly convex quads only
     opt = optimize_quads(mesh)
     P, Q = opt.mesh.points, opt.mesh.cells_by_type["quad"]
-    q = quality.quad_quality(P, Q)
     out = {**stats, "optimized": {k: int(v) for k, v in opt.operators.items()}}
-    fixed = np.zeros(len(P), dtype=bool)
-    order = np.lexsort(P.T[::-1])
-    key = P[order]
-    for v in domain.points:  # the input vertices (exact matches)
-        i = int(np.searchsorted(key[:, 0], v[0]))
-        while i < len(key) and key[i, 0] == v[0]:
-            if key[i, 1] == v[1]:
-                fixed[order[i]] = True
-            i += 1
+    fans = input_fans(mesh.points, mesh.cells_by_type["quad"], domain.points)
+    out["optimize_undone"] = bool((input_fans(P, Q, domain.points) < fans).any())
+    if out["optimize_undone"]:
+        # an operator took a quad from an input corner (a collapse undid an opened
+        # reflex corner, _opened: two quads of 137 degrees were left at 273): the fill
+        # is relaxed as it is (least Q >= 0.5 on 11 of 32 random stars, was 9)
+        P, Q = mesh.points, mesh.cells_by_type["quad"]
+    q = quality.quad_quality(P, Q)
+    fixed = input_index(P, domain.points) >= 0
     bad = np.zeros(len(P), dtype=bool)
     bad[Q[q < TOL.relax_below].ravel()] = True
     active = bad[Q].any(axis=1)
@@ -1148,23 +1179,21 @@ def _butterfly(ax: MedialAxis, fraction: float) -> Partition | None:
     if ring is None or (np.abs(turns(ax)[ring]) > BUTTERFLY_TURN).any():
         return None
     xy = ax.samples[ring]
-    x, y = xy[:, 0], xy[:, 1]
-    cross = x * np.roll(y, -1) - np.roll(x, -1) * y
-    area = cross.sum() / 2
-    c = np.array([((x + np.roll(x, -1)) * cross).sum(), ((y + np.roll(y, -1)) * cross).sum()]) / (
-        6 * area
-    )
+    c = _area_centroid(xy)[1]
     d = xy - c
     if ((d[:, 0] * np.roll(d[:, 1], -1) - np.roll(d[:, 0], -1) * d[:, 1]) <= 0).any():
         return None  # not star-shaped from c
-    _, vec = np.linalg.eigh(d.T @ d)
-    e1, e2 = vec[:, 1], vec[:, 0]
-    if e1[0] * e2[1] - e1[1] * e2[0] < 0:
-        e2 = -e2
+    lam, vec = np.linalg.eigh(d.T @ d)
+    if lam[1] - lam[0] <= 1e-9 * lam[1]:  # no principal direction (a regular polygon)
+        vec = np.eye(2)[:, ::-1]
+    e1 = vec[:, 1]
+    if e1[np.argmax(np.abs(e1))] < 0:  # its largest component positive (eigh's sign is free)
+        e1 = -e1
+    e2 = np.array([-e1[1], e1[0]])
     ang = np.arctan2(d[:, 1], d[:, 0])
 
     def reach(u):  # distance from c to the boundary along u (nearest sample by angle)
-        k = int(np.argmin(np.abs(np.angle(np.exp(1j * (ang - math.atan2(u[1], u[0])))))))
+        k = _first_least(np.abs(np.angle(np.exp(1j * (ang - math.atan2(u[1], u[0]))))), 1e-9)
         return float(np.hypot(*d[k]))
 
     a = min(reach(e1), reach(-e1))
@@ -1173,7 +1202,8 @@ def _butterfly(ax: MedialAxis, fraction: float) -> Partition | None:
     a, b = a - t, b - t
     inner = c + np.array([-a * e1 - b * e2, a * e1 - b * e2, a * e1 + b * e2, -a * e1 + b * e2])
     # each corner is cut to its nearest sample: cuts about normal to the boundary
-    foot = [int(np.argmin(np.hypot(*(xy - q).T))) for q in inner]
+    tie = 1e-9 * float(np.hypot(*np.ptp(d, axis=0)))
+    foot = [_first_least(np.hypot(*(xy - q).T), tie) for q in inner]
     if len(set(foot)) < 4 or not all(
         (foot[(i + 1) % 4] - foot[i]) % len(ring) < (foot[(i + 2) % 4] - foot[i]) % len(ring)
         for i in range(4)
@@ -1192,6 +1222,12 @@ def _butterfly(ax: MedialAxis, fraction: float) -> Partition | None:
         cycles.append(cyc)
         corners.append(flag)
     return _made(ax, points, cycles, corners)
+
+
+def _first_least(v: np.ndarray, tol: float) -> int:
+    """The first index whose value is within ``tol`` of the least: a regular polygon's
+    samples tie (two at the same distance), and rounding chose between them."""
+    return int(np.flatnonzero(v <= v.min() + tol)[0])
 
 
 def _regions(points: np.ndarray, cycles, corners) -> list[dict]:
@@ -1415,8 +1451,14 @@ def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bo
     for s0, s1, s2, s3 in patches:
         grids.append(_coons(along(s0), along(s1), along(s2), along(s3)))
     allpts = np.concatenate([g.reshape(-1, 2) for g in grids])
-    uniq, inverse = np.unique(allpts, axis=0, return_inverse=True)
-    inverse = inverse.ravel()
+    # coincident points (the shared sides' copies) are one, numbered in order of first
+    # occurrence: a lexicographic numbering followed the coordinates' rounding (a
+    # translated input renumbered, and the smoothing's sweeps then moved differently)
+    uniq, first, inverse = np.unique(allpts, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    uniq, inverse = uniq[order], rank[inverse.ravel()]
     quads = []
     offset = 0
     for g in grids:
@@ -1452,6 +1494,7 @@ def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bo
         "relaxed": relaxed,
         "opened": opened,
         "invalid": int((area <= 0).sum()),
+        "slits": sum(len(topology.unique_ints(c)) < len(c) for c in part.cycles),
         "not_convex": int((_folded(uniq, quads) > 0).sum()),
         "domain_area": ax.domain.area,
     }

@@ -13,6 +13,9 @@ changed here:
   quad at the corner, so that corners of 280-290 degrees were held by 6-7 quads.
   :func:`reflex_merged` keeps about one region per :data:`REFLEX_SHARE` degrees.
 
+:func:`input_index` and :func:`input_fans` find the input vertices among a mesh's
+points and count their quads (the optimization of the fill keeps them).
+
 References
 ----------
 Methods text §9.7.1 (domain partitioning), §9.7.2 (quad mesh construction).
@@ -28,7 +31,15 @@ import numpy as np
 from meshcore.geometry.predicates import orient2d
 from meshcore.medial.axis import MedialAxis
 
-__all__ = ["KITE_ANGLE", "REFLEX_SHARE", "reflex_merged", "spike_chords", "turns"]
+__all__ = [
+    "KITE_ANGLE",
+    "REFLEX_SHARE",
+    "input_fans",
+    "input_index",
+    "reflex_merged",
+    "spike_chords",
+    "turns",
+]
 
 _BOUNDARY, _AXIS, _CUT = 0, 1, 2
 
@@ -210,3 +221,25 @@ def _merged_at(cycles, corners, kinds, degree, v: int, w: int):
         return None
     degree[[v, w]] -= 1
     return new_cycles, new_corners, new_kinds
+
+
+def input_index(P: np.ndarray, inputs: np.ndarray) -> np.ndarray:
+    """(n,) int: the input vertex each point ``P`` is (exact coordinate match), -1 for
+    the others: the input corners of a quad mesh, fixed in its optimization (§9.7.2)."""
+    at = np.full(len(P), -1, np.int64)
+    order = np.lexsort(P.T[::-1])
+    key = P[order]
+    for k, v in enumerate(inputs):  # the input vertices (exact matches)
+        i = int(np.searchsorted(key[:, 0], v[0]))
+        while i < len(key) and key[i, 0] == v[0]:
+            if key[i, 1] == v[1]:
+                at[order[i]] = k
+            i += 1
+    return at
+
+
+def input_fans(P: np.ndarray, Q: np.ndarray, inputs: np.ndarray) -> np.ndarray:
+    """(len(inputs),) int: how many quads ``Q`` over ``P`` hold each input vertex (a
+    reflex corner's quads, §9.7.2: an optimization must not take one away)."""
+    at = input_index(P, inputs)[Q.ravel()]
+    return np.bincount(at[at >= 0], minlength=len(inputs))

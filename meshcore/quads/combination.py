@@ -340,7 +340,7 @@ def _heap_kernel(nb, w, order, mate, urgent):
                 cnt[t] += 1
     hk = np.empty(m + 1)
     hv = np.empty(m + 1, np.int64)
-    hn = 0
+    hn = np.int64(0)  # not a literal: one compiled _push / _pop
     for t in range(m):
         if urgent and cnt[t] == 1:
             i = _last_option(nb, w, mate, t)
@@ -498,7 +498,7 @@ def _augment_kernel(nb, w, thr, mate, cap, step):
         dist[root] = 0.0
         touched[nt] = root
         nt += 1
-        hn = _scan(nb, w, mate, root, 0.0, step, hk, hv, 0)
+        hn = _scan(nb, w, mate, root, 0.0, step, hk, hv, np.int64(0))
         end = -1
         while hn > 0 and end < 0 and nt < cap:
             h = hv[0]
@@ -511,7 +511,7 @@ def _augment_kernel(nb, w, thr, mate, cap, step):
             if to == root or (mate[to] >= 0 and p[mate[to]] >= 0):
                 # a blossom: contract it onto the base of the paths' meeting point
                 cb = _lca(v, to, base, p, mate, mark)
-                nbuf = _mark_path(v, cb, to, base, p, mate, buf, 0)
+                nbuf = _mark_path(v, cb, to, base, p, mate, buf, np.int64(0))
                 nbuf = _mark_path(to, cb, v, base, p, mate, buf, nbuf)
                 for i in range(nbuf):
                     r = _find(base, buf[i])
@@ -595,7 +595,7 @@ def _forest_kernel(nb, w, thr, mate):
     head = np.full(m, -1, np.int64)
     q = np.empty(max(m, 16), np.int64)
     qh = 0
-    qt = 0
+    qt = np.int64(0)
     for r in range(m):
         if mate[r] < 0:
             root[r] = r
@@ -631,7 +631,7 @@ def _forest_kernel(nb, w, thr, mate):
                 continue
             if root[to] == rv:
                 cb = _lca(v, to, base, p, mate, mark)
-                nbuf = _mark_path(v, cb, to, base, p, mate, buf, 0)
+                nbuf = _mark_path(v, cb, to, base, p, mate, buf, np.int64(0))
                 nbuf = _mark_path(to, cb, v, base, p, mate, buf, nbuf)
                 for i in range(nbuf):
                     r = _find(base, buf[i])

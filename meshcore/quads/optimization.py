@@ -830,6 +830,8 @@ def _op_smooth(st: _State, passes: int | None = None, below: float | None = None
     has = ptr[1:] > ptr[:-1]
     vmin[has] = np.minimum.reduceat(st.q[cells], ptr[:-1][has])
     movable = st.interior & (deg > 0) & (vmin < (TOL.active_below if below is None else below))
+    if not movable.any():  # nothing to move (an empty mesh: no least quality to keep)
+        return 0
     color = _colors(st.C, ptr, cells, movable)
     ncol = int(color.max()) + 1 if movable.any() else 0
     by_color = [np.flatnonzero(color == k) for k in range(ncol)]

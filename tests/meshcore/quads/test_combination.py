@@ -24,6 +24,7 @@ from meshcore.quads.boundary_layer import meets_targets
 from meshcore.quads.combination import ALGORITHMS, combine, split_all
 from meshcore.quads.optimization import optimize_quads
 from meshcore.triangulation.refinement import triangulate
+from tests.meshcore.quads.stars import star
 
 # 3 --- 2
 # |   / |     two triangles of the unit square, sharing the diagonal 0-2
@@ -222,12 +223,14 @@ class TestRandomDomains:
     @given(seed=st.integers(0, 2**32 - 1), fine=st.booleans())
     def test_matching_is_a_maximum_matching_of_the_allowed_pairs(self, seed, fine):
         # the count an independent maximum-cardinality matching (networkx) reaches; the
-        # fine meshes (a few thousand triangles) leave work for the forest search
+        # fine meshes (about a thousand triangles) leave work for the forest search (it
+        # gained 1-3 pairs after the bounded search on 10 of 12 seeds; networkx's blossom
+        # took 1.4 s on the 2,500 triangles of size 0.04, 0.25 s here)
         import networkx as nx
 
         from meshcore.quads.combination import TOL, _candidates, _neighbours
 
-        mesh = random_mesh(seed, 0.04 if fine else 0.12)
+        mesh = random_mesh(seed, 0.06 if fine else 0.12)
         P, tri = mesh.points, mesh.cells[0].data.astype(np.int64)
         nb = _neighbours(mesh, P, tri)
         _, w = _candidates(P, tri, nb, "angle", None, 0.0, TOL.flat_corner)
@@ -295,11 +298,7 @@ class TestDomainInput:
         # CORNER_LEAST_QUALITY before the optimization and the row was refused (the
         # lattice then left least quality 0.39, corners 35-134 degrees); tried again
         # at 0 and optimized, it is kept because it meets the targets
-        rng = np.random.default_rng(282266799)
-        t = 2 * np.pi * (np.arange(33) + rng.uniform(-0.3, 0.3, 33)) / 33
-        r = 1 + 0.43 * rng.uniform(-1, 1, 33)
-        ring = np.column_stack([r * np.cos(t), r * np.sin(t)])
-        dom = parse_domain({"type": "Polygon", "coordinates": [[*ring.tolist(), ring[0].tolist()]]})
+        dom = parse_domain(star(np.random.default_rng(282266799), 33, 0.43))
         res = combine(domain=dom, size=0.1, all_quad=True, twice_size=True, optimize=True)
         assert "boundary_layer" in res.stats and set(res.mesh.cells_by_type) == {"quad"}
         assert meets_targets(res.mesh, dom, 0.1)
@@ -315,6 +314,11 @@ class TestDomainInput:
 
 
 class TestOptimize:
+    def test_empty_quad_mesh_comes_back_empty(self):
+        # the compiled smoothing took the least quality of no cells (a ValueError)
+        res = optimize_quads(Mesh(np.zeros((0, 2)), (CellBlock("quad", np.zeros((0, 4), int)),)))
+        assert len(res.mesh.cells_by_type["quad"]) == 0 and res.operators["smooth"] == 0
+
     def test_never_lowers_the_min_and_raises_the_mean(self):
         mesh = perturbed_grid(16, 0.3, seed=3)
         res = combine(mesh, algorithm="matching", optimize=True)

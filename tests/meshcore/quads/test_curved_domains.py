@@ -28,6 +28,8 @@ a corner of 29-40 degrees); one star with a 281-degree corner, opened, asserts
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, example, given, settings
@@ -38,6 +40,7 @@ from meshcore.geometry.predicates import orient2d
 from meshcore.medial.partitioning import quad_medial
 from meshcore.mesh import quality
 from meshcore.quads import combine
+from tests.meshcore.quads.stars import star
 
 
 def _ring(xy):
@@ -118,13 +121,11 @@ def curved_domains(draw):
 def _star_case(n, jitter, seed, hole, size):
     """(GeoJSON polygon, size, "star"): a random star of ``n`` vertices, radial jitter
     ``jitter / 2``, with a square hole or not."""
-    rng = np.random.default_rng(seed)
-    t = 2 * np.pi * (np.arange(n) + rng.uniform(-0.3, 0.3, n)) / n
-    r = 1 + jitter * rng.uniform(-1, 1, n) * 0.5
-    rings = [_ring(np.column_stack([r * np.cos(t), r * np.sin(t)]))]
+    geo = star(np.random.default_rng(seed), n, jitter / 2)
     if hole:
-        rings.append(_ring(np.array([[-0.2, -0.2], [0.2, -0.2], [0.2, 0.2], [-0.2, 0.2]])[::-1]))
-    return {"type": "Polygon", "coordinates": rings}, size, "star"
+        square = np.array([[-0.2, -0.2], [0.2, -0.2], [0.2, 0.2], [-0.2, 0.2]])
+        geo["coordinates"].append(_ring(square[::-1]))
+    return geo, size, "star"
 
 
 def _corners(P, Q):
@@ -227,18 +228,9 @@ def test_quad_medial_on_curved_domains(case):
 @st.composite
 def spiky_stars(draw):
     """(GeoJSON polygon) of a star with up to 80 % radial jitter, with or without a
-    star-shaped hole inside its smallest radius."""
+    star-shaped hole inside its smallest radius (:func:`tests.meshcore.quads.stars.star`)."""
     rng = np.random.default_rng(draw(st.integers(0, 2**31)))
-    n, jitter = draw(st.integers(5, 24)), draw(st.floats(0.1, 0.8))
-    t = 2 * np.pi * (np.arange(n) + rng.uniform(-0.3, 0.3, n)) / n
-    r = 1 + jitter * rng.uniform(-1, 1, n)
-    rings = [_ring(np.column_stack([r * np.cos(t), r * np.sin(t)]))]
-    if draw(st.booleans()):
-        m = draw(st.integers(5, 10))
-        th = 2 * np.pi * np.arange(m) / m
-        rh = 0.15 * (1 - jitter) * (1 + 0.5 * rng.uniform(-1, 1, m))
-        rings.append(_ring(np.column_stack([rh * np.cos(th), rh * np.sin(th)])[::-1]))
-    return {"type": "Polygon", "coordinates": rings}
+    return star(rng, draw(st.integers(5, 24)), draw(st.floats(0.1, 0.8)), draw(st.booleans()))
 
 
 @settings(SETTINGS, max_examples=4)
@@ -318,3 +310,49 @@ def test_quad_medial_cuts_off_a_spike(tip):
     ok = _unforced(res.mesh.points, res.mesh.cells_by_type["quad"], dom)
     assert ang[ok].min() >= 30 and ang[ok].max() <= 150 and q[ok].min() >= 0.5
     assert 1 / 1.5 <= ratio <= 1.5
+
+
+_NARROW = math.tan(math.radians(0.25)) * 1.5
+
+
+@pytest.mark.parametrize(
+    "ring, size",
+    [
+        (
+            np.column_stack(
+                [np.cos(np.arange(32) * np.pi / 16), np.sin(np.arange(32) * np.pi / 16)]
+            ),
+            0.2,
+        ),
+        (
+            np.array(
+                [[0, 0], [1, 0], [1, 0.5 - _NARROW], [2.5, 0.5], [1, 0.5 + _NARROW], [1, 1], [0, 1]]
+            ),
+            0.1,
+        ),
+    ],
+    ids=["32-gon", "spike-0.5-degrees"],
+)
+def test_quad_medial_same_cells_translated_or_scaled(ring, size):
+    # at +1e6 the 32-gon was not a butterfly (its centroid from absolute coordinates,
+    # its samples' count and feet decided by rounding: 312 quads for 325) and the
+    # spike of 0.5 degrees was lost (its region's area, from absolute coordinates, <= 0)
+    cells = []
+    for scale, offset in ((1.0, 0.0), (1.0, 1e6), (1e-6, 0.0)):
+        dom = parse_domain({"type": "Polygon", "coordinates": [_ring(ring * scale + offset)]})
+        res = quad_medial(dom, size=size * scale)
+        _check(res.mesh, dom, size * scale)
+        cells.append(res.mesh.cells_by_type["quad"])
+    assert all(np.array_equal(c, cells[0]) for c in cells[1:])
+
+
+def test_quad_medial_keeps_the_butterfly_where_the_medial_partition_fails():
+    # a 2:1 ellipse sampled more finely than size: the butterfly passes 1.5x area /
+    # size**2 (the boundary's count), and the medial partition tried instead raised
+    # "a region ... has 2 sides": the job failed though the butterfly was valid
+    t = np.linspace(0, 2 * np.pi, 48, endpoint=False)
+    dom = parse_domain({"type": "Polygon", "coordinates": [_ring(np.c_[2 * np.cos(t), np.sin(t)])]})
+    res = quad_medial(dom, size=0.3)
+    assert res.stats["partition"] == "butterfly"
+    ang, q, _ = _check(res.mesh, dom, 0.3)
+    assert ang.min() >= 30 and ang.max() <= 150
