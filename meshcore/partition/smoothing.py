@@ -204,25 +204,6 @@ def quad_q(P, quads, c):
 
 
 @njit(cache=True)
-def _local_new(P, quads, cptr, cidx, v, need, qnew):
-    """Whether every quad around v is strictly convex (exact) with quality (8.4) at
-    least need; their qualities in qnew."""
-    k = 0
-    for r in range(cptr[v], cptr[v + 1]):
-        q = quad_q(P, quads, cidx[r])
-        if q < need:
-            return False
-        qnew[k] = q
-        k += 1
-    for r in range(cptr[v], cptr[v + 1]):
-        c = cidx[r]
-        for j in range(4):
-            if orient(P, quads[c, j], quads[c, (j + 1) % 4], quads[c, (j + 2) % 4]) <= 0:
-                return False
-    return True
-
-
-@njit(cache=True)
 def _accepted(P, quads, cptr, cidx, v, qc, floor, qnew):
     """Whether point v where it stands now is kept (module docstring, *Acceptance*):
     every quad around it strictly convex (exact), their least quality (8.4) at least
@@ -233,13 +214,23 @@ def _accepted(P, quads, cptr, cidx, v, qc, floor, qnew):
     for r in range(cptr[v], cptr[v + 1]):
         old = min(old, qc[cidx[r]])
         total += qc[cidx[r]]
-    if not _local_new(P, quads, cptr, cidx, v, min(old, floor), qnew):
-        return False
+    need = min(old, floor)
     gain = 0.0
     low = 2.0
-    for k in range(cptr[v + 1] - cptr[v]):
-        gain += qnew[k]
-        low = min(low, qnew[k])
+    k = 0
+    for r in range(cptr[v], cptr[v + 1]):
+        q = quad_q(P, quads, cidx[r])
+        if q < need:
+            return False
+        qnew[k] = q
+        gain += q
+        low = min(low, q)
+        k += 1
+    for r in range(cptr[v], cptr[v + 1]):
+        c = cidx[r]
+        for j in range(4):
+            if orient(P, quads[c, j], quads[c, (j + 1) % 4], quads[c, (j + 2) % 4]) <= 0:
+                return False
     if gain < total and low <= old:
         return False
     k = 0
