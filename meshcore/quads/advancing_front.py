@@ -200,6 +200,14 @@ around them, and on the plate at 10k quads it took 15 s for a lower mean
 quality).
 Interior constraint segments are refused.
 
+Local coordinates
+-----------------
+(A choice of this module.) The paving runs on the domain moved to the least
+corner of its box and scaled by its diagonal (:func:`_local`), and its points
+are moved back at the end, the input vertices restored as given: every
+length, threshold and tie is then the same wherever and at whatever scale the
+domain is given, up to the rounding of the input itself.
+
 References
 ----------
 Methods text §8.5.1 (advancing-front quads), Remark 8.9 (even counts);
@@ -211,7 +219,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -1189,6 +1197,25 @@ def _compact(P: np.ndarray, cells: np.ndarray):
     return P[used], remap[cells]
 
 
+def _local(dom, sizes: SizeMap):
+    """The domain and size map in local coordinates, with (origin, scale) to undo them.
+
+    The origin is the least corner of the domain's box and the scale its
+    diagonal: every length, threshold and tie of the paving is then the same,
+    up to rounding of the input itself, wherever and at whatever scale the
+    domain is given (module docstring, *Local coordinates*).
+    """
+    o = dom.points.min(axis=0)
+    s = dom.diameter
+    local = replace(
+        dom, points=(dom.points - o) / s, area=dom.area / s**2, diameter=dom.diameter / s
+    )
+    grid = sizes.grid
+    if not sizes.uniform:
+        grid = np.concatenate([(grid[:2] - o) / s, grid[2:] / s])
+    return local, SizeMap(sizes.H / s, grid), o, s
+
+
 def paving(
     domain,
     *,
@@ -1247,7 +1274,8 @@ def paving(
         raise InputError(
             "max_rows must be an integer >= 0", loc=("max_rows",), code="bad_parameter"
         )
-    sizes = size_map(dom, size, size_field)
+    given = dom
+    dom, sizes, origin, scale = _local(dom, size_map(dom, size, size_field))
     timings: dict[str, float] = {}
     clock = time.perf_counter()
 
@@ -1295,6 +1323,8 @@ def paving(
         lap("clean-up")
         P, squared = square_corners(P, cells, boundary_points(P, cells), _SQUARE_SWEEPS)
         lap("corners")
+    P = P * scale + origin
+    P[: len(given.points)] = given.points  # the input vertices, as given
     mesh = Mesh(P, (CellBlock("quad", cells),))
     # the edges of one cell are the resampled rings (tested: input segments as chains)
     rings = boundary_edges(cells)
