@@ -22,7 +22,9 @@ in turn (Gauss-Seidel: each move sees the moves before it), ``sweeps`` times:
   :func:`~meshcore.geometry.predicates.orient2d_scalar`) and their least
   quality (8.4) is at least ``min(its old value, floor)``, where ``floor`` is
   the larger of 0.5 and the least quality of the mesh at the start, and
-  either the sum of their qualities does not drop or their least rises.
+  either the sum of their qualities does not drop or their least rises, both
+  beyond rounding (``_TIE`` per quad: a point sliding along a row of
+  rectangles leaves every quality 1 up to rounding, whose sign would choose).
   So no cell inverts and the least quality of the mesh never drops, while
   cells above 0.5 may give a little to lift their neighbours (a strict
   "never lower a cell" rule stalls the smoothing); a move that only lowers
@@ -57,6 +59,7 @@ __all__ = [
 SWEEPS = 8
 _FLOOR = 0.5  # cells above this may drop to it when a neighbour gains
 _STEPS = (1.0, 0.5, 0.25)
+_TIE = 1e-12  # qualities (8.4) within this of each other, per quad, tie
 
 
 def boundary_edges(cells: np.ndarray) -> np.ndarray:
@@ -231,7 +234,7 @@ def _accepted(P, quads, cptr, cidx, v, qc, floor, qnew):
         for j in range(4):
             if orient(P, quads[c, j], quads[c, (j + 1) % 4], quads[c, (j + 2) % 4]) <= 0:
                 return False
-    if gain < total and low <= old:
+    if gain < total - _TIE * k and low <= old + _TIE:
         return False
     k = 0
     for r in range(cptr[v], cptr[v + 1]):

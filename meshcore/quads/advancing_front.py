@@ -269,6 +269,7 @@ _RETRIES = 2  # a failed row tried again this many times with its failed nodes m
 _RETRY_BAD = 12  # ... when at most this many of its quads failed
 _LEFT_SHARE = 0.5  # rows leaving more than this share of the area to the closure...
 _LEFT_CELLS = 20000  # ... and more than this many cells of the least size: guaranteed route
+_TIE = 1e-6  # lengths within this share of each other tie (broken by index)
 
 
 @dataclass(frozen=True)
@@ -675,6 +676,19 @@ def _try_row(P, fronts, which, sizes, even):
     return Q, involved, loops, quads, cls, seams, snaps
 
 
+def _by_length(group: np.ndarray, length: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """The order by group, then length, lengths within ``_TIE`` of the previous tying.
+
+    Tied lengths (a symmetric domain's, equal but for rounding) are ordered
+    by index, so that rounding never chooses.
+    """
+    order = np.lexsort((length, group))
+    g, d = group[order], length[order]
+    step = np.ones(len(order), bool)
+    step[1:] = (g[1:] != g[:-1]) | (d[1:] - d[:-1] > _TIE * d[1:])
+    return order[np.lexsort((index[order], np.cumsum(step)))]
+
+
 def _rungs(P: np.ndarray, fronts: list, sizes: SizeMap, reach: float):
     """Facing front nodes: (nodes, succ, pred, partner), local indices into ``nodes``.
 
@@ -707,7 +721,7 @@ def _rungs(P: np.ndarray, fronts: list, sizes: SizeMap, reach: float):
     cos = np.cos(np.radians(_LADDER_TURN))
     keep = (np.einsum("ij,ij->i", u, nrm[i]) > cos) & (np.einsum("ij,ij->i", u, nrm[j]) < -cos)
     i, j, d = i[keep], j[keep], d[keep]
-    order = np.lexsort((j, d, i))
+    order = _by_length(i, d, j)
     i, j = i[order], j[order]
     first = np.ones(len(i), bool)
     first[1:] = i[1:] != i[:-1]
@@ -761,7 +775,8 @@ def _ladders(P: np.ndarray, fronts: list, sizes: SizeMap, banned: np.ndarray, re
         return bool(pk.convex_and_good(P, q, _LADDER_Q)[0])
 
     seeds = np.flatnonzero((partner >= 0) & (np.arange(len(nodes)) < partner))
-    seeds = seeds[np.argsort(np.hypot(*(X[partner[seeds]] - X[seeds]).T), kind="stable")]
+    length = np.hypot(*(X[partner[seeds]] - X[seeds]).T)
+    seeds = seeds[_by_length(np.zeros(len(seeds), np.int64), length, seeds)]
     used = banned[nodes].copy()
     strips: list[list[tuple[int, int]]] = []
     for s in seeds.tolist():

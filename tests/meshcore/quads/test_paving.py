@@ -60,6 +60,22 @@ class TestCanonical:
         check_mesh(geometry, res, 0.05, "quad")
         assert res.quality["quad"]["invalid"] == 0
         assert res.stats["rows"] >= 2
+        # translated by 1e6 or scaled by 1e-6: the same cells; scaled, the same points
+        # moved back (translated, the input is rounded at 1e-10 and the corners'
+        # squaring, step 9, amplifies that: not asserted)
+        cells = res.mesh.cells[0].data
+        for shift, scale in ((1e6, 1.0), (0.0, 1e-6)):
+            moved = {
+                "type": "Polygon",
+                "coordinates": [
+                    (np.array(r) * scale + shift).tolist() for r in geometry["coordinates"]
+                ],
+            }
+            other = paving(moved, size=0.05 * scale)
+            check_mesh(moved, other, 0.05 * scale, "quad")
+            assert np.array_equal(other.mesh.cells[0].data, cells)
+            if scale != 1.0:
+                assert np.allclose(other.mesh.points / scale, res.mesh.points, rtol=0, atol=1e-9)
 
     def test_a_front_meeting_itself_splits(self):
         # two rooms joined by a neck one size wide: the rows from both sides of the
