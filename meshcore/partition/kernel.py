@@ -39,6 +39,7 @@ _SAMPLE = 30  # sampled positions per polygon above this count (twice, for parit
 _ANGLE_WEIGHT = 1.5
 _MIN_SPLIT_ANGLE = 0.05  # radians: separators closer to an edge only in the full search
 _TINY_ANGLE = 1e-6  # radians: never closer than this
+_TINY_Q = 2.0 * _TINY_ANGLE / math.pi  # corner quality (8.3) of a corner _TINY_ANGLE from flat
 _RESOLUTION = 1e-7  # scores and separator integrals are compared at this resolution
 _FLAT_BONUS = 0.5  # quads: score bonus per separator end at a flat vertex
 _MIN_Q = 0.1  # quads: least corner quality (8.3) of a leaf or pattern quad
@@ -159,12 +160,13 @@ def _convex4(P, a, b, c, d, nfix):
     ):
         return False
     # corners at fixed points (index < nfix) must be good; the others may be
-    # nearly flat: smoothing moves them afterwards
+    # nearly flat (smoothing moves them afterwards) but not within _TINY_ANGLE of
+    # flat: a separator's own points are flat up to rounding, whose sign would choose
     return (
-        (b >= nfix or _corner_q(_angle(P, b, c, a)) >= _MIN_Q)
-        and (c >= nfix or _corner_q(_angle(P, c, d, b)) >= _MIN_Q)
-        and (d >= nfix or _corner_q(_angle(P, d, a, c)) >= _MIN_Q)
-        and (a >= nfix or _corner_q(_angle(P, a, b, d)) >= _MIN_Q)
+        _corner_q(_angle(P, b, c, a)) >= (_TINY_Q if b >= nfix else _MIN_Q)
+        and _corner_q(_angle(P, c, d, b)) >= (_TINY_Q if c >= nfix else _MIN_Q)
+        and _corner_q(_angle(P, d, a, c)) >= (_TINY_Q if d >= nfix else _MIN_Q)
+        and _corner_q(_angle(P, a, b, d)) >= (_TINY_Q if a >= nfix else _MIN_Q)
     )
 
 

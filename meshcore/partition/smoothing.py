@@ -22,7 +22,9 @@ in turn (Gauss-Seidel: each move sees the moves before it), ``sweeps`` times:
   :func:`~meshcore.geometry.predicates.orient2d_scalar`) and their least
   quality (8.4) is at least ``min(its old value, floor)``, where ``floor`` is
   the larger of 0.5 and the least quality of the mesh at the start, and
-  either the sum of their qualities does not drop or their least rises.
+  either the sum of their qualities does not drop or their least rises, both
+  beyond rounding (``_TIE`` per quad: a point sliding along a row of
+  rectangles leaves every quality 1 up to rounding, whose sign would choose).
   So no cell inverts and the least quality of the mesh never drops, while
   cells above 0.5 may give a little to lift their neighbours (a strict
   "never lower a cell" rule stalls the smoothing); a move that only lowers
@@ -57,6 +59,7 @@ __all__ = [
 SWEEPS = 8
 _FLOOR = 0.5  # cells above this may drop to it when a neighbour gains
 _STEPS = (1.0, 0.5, 0.25)
+_TIE = 1e-12  # qualities (8.4) within this of each other, per quad, tie
 
 
 def boundary_edges(cells: np.ndarray) -> np.ndarray:
@@ -204,25 +207,6 @@ def quad_q(P, quads, c):
 
 
 @njit(cache=True)
-def _local_new(P, quads, cptr, cidx, v, need, qnew):
-    """Whether every quad around v is strictly convex (exact) with quality (8.4) at
-    least need; their qualities in qnew."""
-    k = 0
-    for r in range(cptr[v], cptr[v + 1]):
-        q = quad_q(P, quads, cidx[r])
-        if q < need:
-            return False
-        qnew[k] = q
-        k += 1
-    for r in range(cptr[v], cptr[v + 1]):
-        c = cidx[r]
-        for j in range(4):
-            if orient(P, quads[c, j], quads[c, (j + 1) % 4], quads[c, (j + 2) % 4]) <= 0:
-                return False
-    return True
-
-
-@njit(cache=True)
 def _accepted(P, quads, cptr, cidx, v, qc, floor, qnew):
     """Whether point v where it stands now is kept (module docstring, *Acceptance*):
     every quad around it strictly convex (exact), their least quality (8.4) at least
@@ -233,14 +217,24 @@ def _accepted(P, quads, cptr, cidx, v, qc, floor, qnew):
     for r in range(cptr[v], cptr[v + 1]):
         old = min(old, qc[cidx[r]])
         total += qc[cidx[r]]
-    if not _local_new(P, quads, cptr, cidx, v, min(old, floor), qnew):
-        return False
+    need = min(old, floor)
     gain = 0.0
     low = 2.0
-    for k in range(cptr[v + 1] - cptr[v]):
-        gain += qnew[k]
-        low = min(low, qnew[k])
-    if gain < total and low <= old:
+    k = 0
+    for r in range(cptr[v], cptr[v + 1]):
+        q = quad_q(P, quads, cidx[r])
+        if q < need:
+            return False
+        qnew[k] = q
+        gain += q
+        low = min(low, q)
+        k += 1
+    for r in range(cptr[v], cptr[v + 1]):
+        c = cidx[r]
+        for j in range(4):
+            if orient(P, quads[c, j], quads[c, (j + 1) % 4], quads[c, (j + 2) % 4]) <= 0:
+                return False
+    if gain < total - _TIE * k and low <= old + _TIE:
         return False
     k = 0
     for r in range(cptr[v], cptr[v + 1]):

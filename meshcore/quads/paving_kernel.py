@@ -82,41 +82,16 @@ def points_in_quads(P, quads, pts, cand):
 
 
 @njit(cache=True)
-def _pair_scan(A, B, r, lo_x, lo_y, cell, nx, ny, start, order, out_i, out_j, out_d):
-    """Count (outputs None-sized) or fill the pairs within r; returns the count."""
-    k = 0
-    r2 = r * r
-    for i in range(len(A)):
-        cx = int(np.floor((A[i, 0] - lo_x) / cell))
-        cy = int(np.floor((A[i, 1] - lo_y) / cell))
-        for gx in range(max(cx - 1, 0), min(cx + 2, nx)):
-            for gy in range(max(cy - 1, 0), min(cy + 2, ny)):
-                g = gx * ny + gy
-                for s in range(start[g], start[g + 1]):
-                    j = order[s]
-                    dx = A[i, 0] - B[j, 0]
-                    dy = A[i, 1] - B[j, 1]
-                    d2 = dx * dx + dy * dy
-                    if d2 <= r2:
-                        if len(out_i):
-                            out_i[k] = i
-                            out_j[k] = j
-                            out_d[k] = np.sqrt(d2)
-                        k += 1
-    return k
-
-
-@njit(cache=True)
 def near_pairs(A, B, r):
     """Every pair (i, j) with ``|A[i] - B[j]| <= r``: (i, j, distance) arrays.
 
     The same pairs as ``cKDTree(A).sparse_distance_matrix(cKDTree(B), r)``;
-    B is binned in a grid of cells at least r wide (and at most about
-    4 len(B) cells), each point of A scans its 3 x 3 block of cells.
+    B is binned (a counting sort) in a grid of cells at least r wide (and at
+    most about 4 len(B) cells), each point of A scans its 3 x 3 block of
+    cells, once to count the pairs and once to fill them.
     """
-    empty_i = np.zeros(0, np.int64)
     if len(A) == 0 or len(B) == 0:
-        return empty_i, empty_i.copy(), np.zeros(0)
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
     lo_x = B[:, 0].min()
     lo_y = B[:, 1].min()
     wx = B[:, 0].max() - lo_x
@@ -125,24 +100,48 @@ def near_pairs(A, B, r):
     nx = int(wx / cell) + 1
     ny = int(wy / cell) + 1
     key = np.empty(len(B), np.int64)
+    start = np.zeros(nx * ny + 1, np.int64)
     for j in range(len(B)):
         gx = min(int((B[j, 0] - lo_x) / cell), nx - 1)
         gy = min(int((B[j, 1] - lo_y) / cell), ny - 1)
         key[j] = gx * ny + gy
-    order = np.argsort(key, kind="mergesort")
-    start = np.zeros(nx * ny + 1, np.int64)
-    for j in range(len(B)):
         start[key[j] + 1] += 1
     for g in range(nx * ny):
         start[g + 1] += start[g]
-    none_i = np.zeros(0, np.int64)
-    none_d = np.zeros(0)
-    k = _pair_scan(A, B, r, lo_x, lo_y, cell, nx, ny, start, order, none_i, none_i, none_d)
-    out_i = np.empty(k, np.int64)
-    out_j = np.empty(k, np.int64)
-    out_d = np.empty(k)
-    if k:
-        _pair_scan(A, B, r, lo_x, lo_y, cell, nx, ny, start, order, out_i, out_j, out_d)
+    order = np.empty(len(B), np.int64)
+    fill = start[:-1].copy()
+    for j in range(len(B)):
+        order[fill[key[j]]] = j
+        fill[key[j]] += 1
+    r2 = r * r
+    out_i = np.zeros(0, np.int64)
+    out_j = np.zeros(0, np.int64)
+    out_d = np.zeros(0)
+    for fill_in in range(2):
+        k = 0
+        for i in range(len(A)):
+            cx = int(np.floor((A[i, 0] - lo_x) / cell))
+            cy = int(np.floor((A[i, 1] - lo_y) / cell))
+            for gx in range(max(cx - 1, 0), min(cx + 2, nx)):
+                for gy in range(max(cy - 1, 0), min(cy + 2, ny)):
+                    g = gx * ny + gy
+                    for s in range(start[g], start[g + 1]):
+                        j = order[s]
+                        dx = A[i, 0] - B[j, 0]
+                        dy = A[i, 1] - B[j, 1]
+                        d2 = dx * dx + dy * dy
+                        if d2 <= r2:
+                            if fill_in:
+                                out_i[k] = i
+                                out_j[k] = j
+                                out_d[k] = np.sqrt(d2)
+                            k += 1
+        if fill_in == 0:
+            if k == 0:
+                break
+            out_i = np.empty(k, np.int64)
+            out_j = np.empty(k, np.int64)
+            out_d = np.empty(k)
     return out_i, out_j, out_d
 
 

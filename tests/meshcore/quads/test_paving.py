@@ -60,6 +60,22 @@ class TestCanonical:
         check_mesh(geometry, res, 0.05, "quad")
         assert res.quality["quad"]["invalid"] == 0
         assert res.stats["rows"] >= 2
+        # translated by 1e6 or scaled by 1e-6: the same cells; scaled, the same points
+        # moved back (translated, the input is rounded at 1e-10 and the corners'
+        # squaring, step 9, amplifies that: not asserted)
+        cells = res.mesh.cells[0].data
+        for shift, scale in ((1e6, 1.0), (0.0, 1e-6)):
+            moved = {
+                "type": "Polygon",
+                "coordinates": [
+                    (np.array(r) * scale + shift).tolist() for r in geometry["coordinates"]
+                ],
+            }
+            other = paving(moved, size=0.05 * scale)
+            check_mesh(moved, other, 0.05 * scale, "quad")
+            assert np.array_equal(other.mesh.cells[0].data, cells)
+            if scale != 1.0:
+                assert np.allclose(other.mesh.points / scale, res.mesh.points, rtol=0, atol=1e-9)
 
     def test_a_front_meeting_itself_splits(self):
         # two rooms joined by a neck one size wide: the rows from both sides of the
@@ -134,8 +150,21 @@ def test_random_polygons_with_holes_only_quads(case):
 
 
 def test_guaranteed_route_when_the_closure_is_stuck(monkeypatch):
-    # force the even closure to fail: the rows are taken back, then the whole mesh is
-    # made at 2.5 h with a triangle closure and split into quads
+    # rows that stop early: laid again with every new front evened out, only quads
+    pave = advancing_front._pave
+
+    def early(bnd, sizes, max_rows, quad_closure, strategy, even):
+        if quad_closure and not even:
+            return None
+        return pave(bnd, sizes, max_rows, quad_closure, strategy, even)
+
+    monkeypatch.setattr(advancing_front, "_pave", early)
+    res = paving(SQUARE_HOLE, size=0.05)
+    assert res.stats["evened"] == 1 and res.stats["fallback"] == 0
+    check_mesh(SQUARE_HOLE, res, 0.05, "quad")
+    monkeypatch.setattr(advancing_front, "_pave", pave)
+    # force the even closure to fail: the rows are taken back (the evened rows too),
+    # then the whole mesh is made at 2.5 h with a triangle closure and split into quads
     real = advancing_front.partition_polygon
 
     def stuck(points, loops, ring_polygon, sizes, *, quad, strategy="balanced", **kw):
@@ -149,7 +178,7 @@ def test_guaranteed_route_when_the_closure_is_stuck(monkeypatch):
     monkeypatch.setattr(paving_fronts, "_ring", lambda *args: None)
     monkeypatch.setattr(paving_fronts, "_coarse_split", lambda *args: None)
     res = paving(SQUARE_HOLE, size=0.05)
-    assert res.stats["fallback"] == 1
+    assert res.stats["fallback"] == 1 and res.stats["evened"] == 0
     check_mesh(SQUARE_HOLE, res, 0.05, "quad")
 
 
