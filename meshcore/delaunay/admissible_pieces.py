@@ -441,7 +441,7 @@ def _push(buf, nb, r):
 
 
 @njit(cache=True)
-def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings, chain):
+def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings, src):
     """The pieces that are not edges after the insertion of points
     ``first, first + 1, ...`` (:meth:`_Pieces.missing`), from the
     neighbours each point had when it went in (``rings``).
@@ -456,9 +456,9 @@ def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings, chain):
     (an added point ends two pieces, an input point the chains it starts or
     ends); such pieces are looked up in the triangulation. Two added
     neighbours can only be joined by a piece when they lie on the same
-    input segment (``chain``), so their pieces are read only then; a piece
-    from an input point is found from that point. Returns the ids,
-    increasing.
+    input segment (``src`` of the piece ending there), so their pieces are
+    read only then; a piece from an input point is found from that point.
+    Returns the ids, increasing.
     """
     a, b, left, right, head, tail = rows
     end_start, end_chain, end_side = ends
@@ -481,7 +481,7 @@ def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings, chain):
             on = np.empty(2 * (hi - lo), np.int64)
         for j in range(lo, hi):
             u = ring[j]
-            on[j - lo] = chain[u] if u >= n0 else -1
+            on[j - lo] = src[left[u]] if u >= n0 else -1
         for j in range(lo, hi):
             u = ring[j]
             if u < 0:
@@ -523,7 +523,7 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
     """
     rows, t, xy_new, protect_side, near_side, near_vertex = split
     a, b, nxt, src, circ, acute, done, near, tail = piece
-    xy, radius, left, right, born, chain = point
+    xy, radius, left, right, born = point
     key = np.empty(rows.shape[0])
     for i in range(rows.shape[0]):
         s = src[rows[i]]
@@ -566,7 +566,6 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
             left[n + i] = r if i == i0 else q - 1
             right[n + i] = q
             born[n + i] = round_no
-            chain[n + i] = src[r]
         last = m + i1
         acute[last, 1] = acute[r, 1]
         done[last, 1] = done[r, 1]
@@ -655,7 +654,7 @@ class _Pieces:
     """
 
     _ROW = ("a", "b", "nxt", "src", "circ", "acute", "done", "near")
-    _POINT = ("xy", "radius", "left", "right", "born", "chain")
+    _POINT = ("xy", "radius", "left", "right", "born")
 
     def __init__(self, st: _State, dt: IncrementalDelaunay) -> None:
         S, m, n = st.S, len(st.S), len(st.P)
@@ -678,7 +677,6 @@ class _Pieces:
         self.left[S[:, 1]] = np.arange(m)
         self.right[S[:, 0]] = np.arange(m)
         self.born = np.zeros(n, dtype=np.int64)
-        self.chain = np.full(n, -1, dtype=np.int64)  # an added point's input segment
         # Chain ends at the input points: (chain, side) per point, CSR.
         ends = np.concatenate([S[self.head, 0], S[self.tail, 1]])
         chain = np.concatenate([np.arange(m0), np.arange(m0)])
@@ -740,7 +738,7 @@ class _Pieces:
             round_no, m, n, self.n0, self.origin, self.direction,
             (self.a, self.b, self.nxt, self.src, self.circ, self.acute, self.done, self.near,
              self.tail),
-            (self.xy, self.radius, self.left, self.right, self.born, self.chain),
+            (self.xy, self.radius, self.left, self.right, self.born),
         )  # fmt: skip
         self.m, self.n, self.first = m + k, n + k, n
         xy = self.xy[n : n + k]
@@ -822,7 +820,7 @@ class _Pieces:
             (self.a, self.b, self.left, self.right, self.head, self.tail),
             (self.end_start, self.end_chain, self.end_side),
             self.dt.rings(),
-            self.chain,
+            self.src,
         )  # fmt: skip
 
     def to_state(self, st: _State) -> None:
