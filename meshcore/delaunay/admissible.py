@@ -215,6 +215,7 @@ from scipy.spatial import cKDTree
 from meshcore.delaunay.admissible_pieces import (
     _edge_keys,
     _grid_pairs,
+    _near_segment_message,
     _Pieces,
     _projection_points,
     _split_points,
@@ -1413,22 +1414,43 @@ def located_in_domain(
     (:meth:`Domain.vertex_loc`). When :func:`admissible_segments` ran on
     pieces of them (the triangulator's subsegments), ``rows`` gives each
     piece's segment and ``point_segment`` the segment each point beyond
-    the domain's lies on: such a point is located at that segment.
+    the domain's lies on: such a point is located at that segment. The
+    message of ``point_near_segment`` then names the point and the segment
+    by their rings and vertices (:meth:`Domain.vertex_name`).
     """
     errors = []
+    names = {}
     for e in exc.errors:
         path = list(e["loc"])
         if len(path) == 2 and path[0] in ("points", "segments"):
-            i = int(path[1])
-            if path[0] == "points" and i >= len(domain.points) and point_segment is not None:
+            kind, i = path[0], int(path[1])
+            if kind == "points" and i >= len(domain.points) and point_segment is not None:
                 path[0], i = "segments", int(point_segment[i])
-            elif path[0] == "segments" and rows is not None:
+            elif kind == "segments" and rows is not None:
                 i = int(rows[i])
-            v = i if path[0] == "points" else int(segments[i, 0])
+            at = path[0]
+            v = i if at == "points" else int(segments[i, 0])
             if v < len(domain.points):
                 path = list(domain.vertex_loc(v))
+                names[kind] = _domain_name(domain, segments, kind, at, i)
         errors.append({**e, "loc": path})
-    return InputError(exc.message, code=exc.code, errors=errors)
+    message = exc.message
+    if exc.code == "point_near_segment" and len(names) == 2:
+        message = _near_segment_message(names["points"], names["segments"])
+        errors = [{**e, "msg": message} for e in errors]
+    return InputError(message, code=exc.code, errors=errors)
+
+
+def _domain_name(domain: Domain, segments: np.ndarray, kind: str, at: str, i: int) -> str:
+    """A point or segment of :func:`located_in_domain` named in the domain:
+    an input point (``kind`` "points", located there: ``at`` "points") by
+    its vertex, a segment or a point added on one (located at segment ``i``)
+    by the segment's vertices."""
+    if kind == "points" and at == "points":
+        return f"{domain.vertex_name(i)} {domain.points[i].tolist()}"
+    a, b = (domain.vertex_name(int(u)) for u in segments[i])
+    name = f"the segment from {a} to {b}"
+    return name if kind == "segments" else "a point added on " + name
 
 
 def make_admissible(

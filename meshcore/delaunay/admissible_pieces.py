@@ -589,15 +589,20 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
     return near_vertex[order], order
 
 
+def _near_segment_message(point: str, segment: str) -> str:
+    """The message of ``point_near_segment``, the point and segment named."""
+    return (
+        f"{point} lies within float64 rounding of {segment} (closer than float64 resolves "
+        "there: a split point between them rounds onto an existing point); segments must "
+        "stay apart by more than rounding"
+    )
+
+
 def _unresolvable(xy: np.ndarray, segment: int, point: int) -> None:
     """Raise for input point ``point`` lying within float64 rounding of input
     segment ``segment`` (valid in floating point, not resolvable: a split
     point between them rounds onto the point or onto an end of the piece)."""
-    msg = (
-        f"point {point} {xy[point].tolist()} lies within float64 rounding of segment "
-        f"{segment} (closer than float64 resolves there: a split point between them rounds "
-        "onto an existing point); segments must stay apart by more than rounding"
-    )
+    msg = _near_segment_message(f"point {point} {xy[point].tolist()}", f"segment {segment}")
     code = "point_near_segment"
     raise InputError(
         msg,
