@@ -215,13 +215,13 @@ from scipy.spatial import cKDTree
 from meshcore.delaunay.admissible_pieces import (
     _edge_keys,
     _grid_pairs,
-    _near_segment_message,
     _Pieces,
     _projection_points,
     _split_points,
     _State,
     _unresolvable,
     _widest_angle_points,
+    located_in_domain,
 )
 from meshcore.delaunay.kernel2d import (
     IncrementalDelaunay,
@@ -1398,59 +1398,6 @@ def circles_of(
         seg_circle[lo:hi] = len(rows)
         rows.append([centre[0], centre[1], float(radius)])
     return np.asarray(rows, dtype=np.float64), seg_circle
-
-
-def located_in_domain(
-    exc: InputError,
-    domain: Domain,
-    segments: np.ndarray,
-    rows: np.ndarray | None = None,
-    point_segment: np.ndarray | None = None,
-) -> InputError:
-    """``exc`` of :func:`admissible_segments` located in the domain (§9.1.5).
-
-    ``segments`` are the domain's segments then constraints; a point the
-    error names is located at its vertex, a segment at its first vertex
-    (:meth:`Domain.vertex_loc`). When :func:`admissible_segments` ran on
-    pieces of them (the triangulator's subsegments), ``rows`` gives each
-    piece's segment and ``point_segment`` the segment each point beyond
-    the domain's lies on: such a point is located at that segment. The
-    message of ``point_near_segment`` then names the point and the segment
-    by their rings and vertices (:meth:`Domain.vertex_name`).
-    """
-    errors = []
-    names = {}
-    for e in exc.errors:
-        path = list(e["loc"])
-        if len(path) == 2 and path[0] in ("points", "segments"):
-            kind, i = path[0], int(path[1])
-            if kind == "points" and i >= len(domain.points) and point_segment is not None:
-                path[0], i = "segments", int(point_segment[i])
-            elif kind == "segments" and rows is not None:
-                i = int(rows[i])
-            at = path[0]
-            v = i if at == "points" else int(segments[i, 0])
-            if v < len(domain.points):
-                path = list(domain.vertex_loc(v))
-                names[kind] = _domain_name(domain, segments, kind, at, i)
-        errors.append({**e, "loc": path})
-    message = exc.message
-    if exc.code == "point_near_segment" and len(names) == 2:
-        message = _near_segment_message(names["points"], names["segments"])
-        errors = [{**e, "msg": message} for e in errors]
-    return InputError(message, code=exc.code, errors=errors)
-
-
-def _domain_name(domain: Domain, segments: np.ndarray, kind: str, at: str, i: int) -> str:
-    """A point or segment of :func:`located_in_domain` named in the domain:
-    an input point (``kind`` "points", located there: ``at`` "points") by
-    its vertex, a segment or a point added on one (located at segment ``i``)
-    by the segment's vertices."""
-    if kind == "points" and at == "points":
-        return f"{domain.vertex_name(i)} {domain.points[i].tolist()}"
-    a, b = (domain.vertex_name(int(u)) for u in segments[i])
-    name = f"the segment from {a} to {b}"
-    return name if kind == "segments" else "a point added on " + name
 
 
 def make_admissible(
