@@ -987,7 +987,8 @@ def verify(P, cells, bnd, use, sweeps, flat=0.0):
     """Every cell positive (exact; no tet flat to ``flat``, :func:`signs`), a mesh topology,
     boundary facets exactly ``bnd``."""
     if cells.shape[1] == 3 and len(cells):
-        if k2.check_mesh(P, cells, np.ascontiguousarray(bnd, dtype=np.int64)):
+        # a writable copy: one compiled signature whether bnd is read-only or not
+        if k2.check_mesh(P, cells, np.array(bnd, dtype=np.int64, order="C")):
             return
     sign = signs(P, cells, flat)
     if (sign <= 0).any():

@@ -24,6 +24,7 @@ from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.mesh.topology import boundary
 from meshcore.optimize import check_topology, optimize
+from meshcore.optimize.kernel2d import check_mesh
 from meshcore.product import Translate, extrude
 from meshcore.triangulation import triangulate
 
@@ -303,6 +304,25 @@ def _hexagon():
     P = np.vstack([[0.0, 0.0], np.column_stack([np.cos(a), np.sin(a)])])
     T = np.array([[0, 1 + i, 1 + (i + 1) % 6] for i in range(6)])
     return P, T
+
+
+def test_check_mesh_refuses_a_non_manifold_edge_a_flipped_cell_and_a_wrong_boundary():
+    P, T = _hexagon()
+
+    def edges(rows):
+        return np.array(rows, dtype=np.int64)
+
+    bnd = [[1 + i, 1 + (i + 1) % 6] for i in range(6)]  # as in the triangles
+    assert check_mesh(P, T, edges(bnd))
+    flipped = T.copy()
+    flipped[2] = flipped[2, [0, 2, 1]]
+    assert not check_mesh(P, flipped, edges(bnd))
+    # edge 1 -> 0 in a seventh triangle too (positive, outside the hexagon)
+    Q = np.vstack([P, [[0.5, -2.0]]])
+    assert not check_mesh(Q, np.vstack([T, [[1, 0, 7]]]), edges(bnd))
+    assert not check_mesh(P, T, edges(bnd[:-1]))  # a boundary edge missing from bnd
+    assert not check_mesh(P, T, edges([e[::-1] for e in bnd]))  # against the triangles
+    assert not check_mesh(P, T, edges([[0, 1], *bnd[1:]]))  # an inner edge for a boundary one
 
 
 class TestOptimization:
