@@ -535,7 +535,8 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
     # np.lexsort((t, key, src[rows])): stable sorts, last key first.
     order = np.argsort(t, kind="mergesort")
     order = order[np.argsort(key[order], kind="mergesort")]
-    order = order[np.argsort(src[rows[order]], kind="mergesort")]
+    # src as floats (exact): one compiled merge sort, for float keys only
+    order = order[np.argsort(src[rows[order]].astype(np.float64), kind="mergesort")]
     rows = rows[order]
     protect_side = protect_side[order]
     near_side = near_side[order]

@@ -68,6 +68,7 @@ from numba.core import cgutils, types
 from numba.cpython.unsafe.numbers import trailing_zeros
 from numba.extending import intrinsic
 
+from meshcore.domain.planar import _read_only
 from meshcore.errors import InputError
 from meshcore.geometry.expansions import two_product, two_sum
 from meshcore.geometry.ordering import radix_sort
@@ -1216,7 +1217,7 @@ def _validated(points) -> np.ndarray:
             loc=("points",),
             code="too_few_points",
         )
-    finite, _, _ = _scan(pts)
+    finite, _, _ = _scan(_read_only(pts))  # read-only views: one compiled signature
     if not finite:
         bad = ~np.isfinite(pts)
         rows = np.flatnonzero(bad.any(axis=1))
@@ -1237,7 +1238,7 @@ def _validated(points) -> np.ndarray:
 
 def _scale_factor(pts: np.ndarray) -> float:
     """Power of two bringing max |coordinate| into [0.5, 1) (exact scaling)."""
-    _, big, small = _scan(pts)
+    _, big, small = _scan(_read_only(pts))
     if big == 0.0:
         return 1.0
     e = int(np.frexp(big)[1])
@@ -1289,12 +1290,12 @@ def _build(pts_in: np.ndarray, progress):
     # Hilbert cells: about 4n per side, so that even points sampling a curve
     # (boundaries) rarely share a cell.
     nbits = min(_HILBERT_BITS, max(8, n.bit_length() + 2))
-    rnd, curve, nrounds = _brio_hilbert_keys(pts_in, factor, nbits)
+    rnd, curve, nrounds = _brio_hilbert_keys(_read_only(pts_in), factor, nbits)
     order, along, curve_sorted = _insertion_order(rnd, curve, nrounds)
     del rnd, curve
     hint = _walk_hints(along, curve_sorted)
     del along, curve_sorted
-    pts = _gather(pts_in, order, factor)
+    pts = _gather(_read_only(pts_in), order, factor)
 
     ntri_max = 2 * n
     V = np.empty(3 * ntri_max, np.int32)

@@ -71,10 +71,23 @@ so a valid input mesh, however thin its tets, is never refused.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from meshcore.mesh import tetstore as ts
 from meshcore.optimize import coupez as _c
 from meshcore.optimize import kernel3d as k3
+
+
+@njit(cache=True)
+def flat_tets(P, T, flat):
+    """Whether each tet of ``T`` is flat by the kernels' rule (:func:`.tetstore.solid`):
+    6 V at most ``flat`` times the sum of its squared edges, the same float sums, so
+    :func:`.coupez.signs` and the kernels agree at a tie."""
+    out = np.empty(T.shape[0], np.bool_)
+    for t in range(T.shape[0]):
+        det, s = ts.det_edges(P, T[t, 0], T[t, 1], T[t, 2], T[t, 3])
+        out[t] = det <= flat * s
+    return out
 
 
 def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progress):
