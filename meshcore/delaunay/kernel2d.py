@@ -68,7 +68,6 @@ from numba.core import cgutils, types
 from numba.cpython.unsafe.numbers import trailing_zeros
 from numba.extending import intrinsic
 
-from meshcore.domain.planar import _read_only
 from meshcore.errors import InputError
 from meshcore.geometry.expansions import two_product, two_sum
 from meshcore.geometry.ordering import radix_sort
@@ -1217,7 +1216,13 @@ def _validated(points) -> np.ndarray:
             loc=("points",),
             code="too_few_points",
         )
-    finite, _, _ = _scan(_read_only(pts))  # read-only views: one compiled signature
+    return pts
+
+
+def _scale_factor(pts: np.ndarray) -> float:
+    """Power of two bringing max |coordinate| into [0.5, 1) (exact scaling);
+    raises for non-finite or too widely spread coordinates (one pass)."""
+    finite, big, small = _scan(pts)
     if not finite:
         bad = ~np.isfinite(pts)
         rows = np.flatnonzero(bad.any(axis=1))
@@ -1233,12 +1238,6 @@ def _validated(points) -> np.ndarray:
                 for i in rows[:20]
             ],
         )
-    return pts
-
-
-def _scale_factor(pts: np.ndarray) -> float:
-    """Power of two bringing max |coordinate| into [0.5, 1) (exact scaling)."""
-    _, big, small = _scan(_read_only(pts))
     if big == 0.0:
         return 1.0
     e = int(np.frexp(big)[1])
@@ -1286,16 +1285,20 @@ def _build(pts_in: np.ndarray, progress):
     space and the scale factor.
     """
     n = len(pts_in)
-    factor = _scale_factor(pts_in)
+    # A read-only view: the compiled passes see one array type whatever the
+    # input's flags (numba compiles read-only and writable arrays apart).
+    view = pts_in.view()
+    view.flags.writeable = False
+    factor = _scale_factor(view)
     # Hilbert cells: about 4n per side, so that even points sampling a curve
     # (boundaries) rarely share a cell.
     nbits = min(_HILBERT_BITS, max(8, n.bit_length() + 2))
-    rnd, curve, nrounds = _brio_hilbert_keys(_read_only(pts_in), factor, nbits)
+    rnd, curve, nrounds = _brio_hilbert_keys(view, factor, nbits)
     order, along, curve_sorted = _insertion_order(rnd, curve, nrounds)
     del rnd, curve
     hint = _walk_hints(along, curve_sorted)
     del along, curve_sorted
-    pts = _gather(_read_only(pts_in), order, factor)
+    pts = _gather(view, order, factor)
 
     ntri_max = 2 * n
     V = np.empty(3 * ntri_max, np.int32)

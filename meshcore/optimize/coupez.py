@@ -99,7 +99,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import splu
 
-from meshcore.domain.planar import Domain, _read_only, parse_domain
+from meshcore.domain.planar import Domain, parse_domain
 from meshcore.domain.surface import as_surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import WORK_SIZE, orient2d
@@ -403,8 +403,9 @@ def signs(P: np.ndarray, cells: np.ndarray, flat: float = 0.0) -> np.ndarray:
     if flat > 0.0:
         from meshcore.optimize.coupez3d import flat_tets
 
-        P = _read_only(np.ascontiguousarray(P, dtype=np.float64))
-        cells = _read_only(np.ascontiguousarray(cells, dtype=np.int64))
+        # copies, writable: one compiled signature whatever the input's flags
+        P = np.array(P, dtype=np.float64, order="C")
+        cells = np.array(cells, dtype=np.int64, order="C")
         sign = np.where((sign > 0) & flat_tets(P, cells, float(flat)), 0.0, sign)
     return sign
 
@@ -412,7 +413,8 @@ def signs(P: np.ndarray, cells: np.ndarray, flat: float = 0.0) -> np.ndarray:
 def measure_q(P: np.ndarray, cells: np.ndarray, measure: str) -> np.ndarray:
     """The (8.2) measure of every cell from its unsigned area or volume (as the loops see it)."""
     if cells.shape[1] == 3:
-        P, cells = _read_only(np.ascontiguousarray(P, dtype=float)), np.ascontiguousarray(cells)
+        # copies, writable: one compiled signature whatever the input's flags
+        P, cells = np.array(P, dtype=np.float64, order="C"), np.ascontiguousarray(cells)
         return k2.qualities(P, cells, np.int64(MEASURES.index(measure)))
     q = _shape3(P, cells) if measure == "shape" else quality.tetra_radius_ratio(P, cells)
     return np.abs(q)
