@@ -395,18 +395,18 @@ def signs(P: np.ndarray, cells: np.ndarray, flat: float = 0.0) -> np.ndarray:
 
     A tetrahedron positive by the exact sign but with 6 V at most ``flat`` times
     the sum of its squared edges gets 0 (flat, :func:`flatness`): the kernels' rule
-    (:func:`meshcore.mesh.tetstore.solid`), computed by the same compiled sums.
+    (:func:`meshcore.mesh.tetstore.solid`, the same compiled function).
     """
     if cells.shape[1] == 3:
         return orient2d(P[cells[:, 0]], P[cells[:, 1]], P[cells[:, 2]])
     sign = -orient3d(*(P[cells[:, i]] for i in range(4)))
     if flat > 0.0:
-        from meshcore.optimize.coupez3d import flat_tets
+        from meshcore.optimize.coupez3d import solid_tets
 
         # copies, writable: one compiled signature whatever the input's flags
         P = np.array(P, dtype=np.float64, order="C")
         cells = np.array(cells, dtype=np.int64, order="C")
-        sign = np.where((sign > 0) & flat_tets(P, cells, float(flat)), 0.0, sign)
+        sign = np.where((sign > 0) & ~solid_tets(P, cells, float(flat)), 0.0, sign)
     return sign
 
 

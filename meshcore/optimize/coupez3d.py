@@ -79,14 +79,12 @@ from meshcore.optimize import kernel3d as k3
 
 
 @njit(cache=True)
-def flat_tets(P, T, flat):
-    """Whether each tet of ``T`` is flat by the kernels' rule (:func:`.tetstore.solid`):
-    6 V at most ``flat`` times the sum of its squared edges, the same float sums, so
-    :func:`.coupez.signs` and the kernels agree at a tie."""
+def solid_tets(P, T, flat):
+    """:func:`.tetstore.solid` of each tet of ``T`` (positive and not flat to ``flat``):
+    the kernels' rule itself, so :func:`.coupez.signs` and the kernels agree at a tie."""
     out = np.empty(T.shape[0], np.bool_)
     for t in range(T.shape[0]):
-        det, s = ts.det_edges(P, T[t, 0], T[t, 1], T[t, 2], T[t, 3])
-        out[t] = det <= flat * s
+        out[t] = ts.solid(P, T[t, 0], T[t, 1], T[t, 2], T[t, 3], flat)
     return out
 
 
