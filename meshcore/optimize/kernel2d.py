@@ -708,7 +708,7 @@ def check_mesh(P, T, bnd):
             return False
     for i in range(bnd.shape[0]):
         n = max(n, bnd[i, 0] + 1, bnd[i, 1] + 1)
-    start, dst, _ = edge_index(T, np.ones(m, np.bool_), m, n)
+    start, dst, _ = edge_index(T, np.ones(m, np.uint8), m, n)  # uint8: as the loops' alive
     lone = 0
     for a in range(n):
         for i in range(start[a], start[a + 1]):
