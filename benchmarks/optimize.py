@@ -44,6 +44,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
+from meshcore.errors import AlgorithmError
 from meshcore.geometry.predicates import orient2d
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh, quality
@@ -296,7 +297,7 @@ def correction(sizes, gmsh_timeout, ff_limit, peers_max_cells):
         t, w = time.process_time(), time.perf_counter()
         try:
             res = optimize(Mesh(P, (CellBlock("triangle", T),)), max_sweeps=5000)
-        except Exception as exc:  # a failure is a row, not a crash
+        except AlgorithmError as exc:  # a failure is a row, not a crash
             dt, dw = time.process_time() - t, time.perf_counter() - w
             row(f"ours {label}", dt, dw, before, -1, 0, 0, str(exc)[:60])
             res = None
@@ -358,7 +359,7 @@ def correction3d():
             t, w = time.process_time(), time.perf_counter()
             try:
                 res = optimize(Mesh(P, (CellBlock("tetra", T),)), max_sweeps=2000)
-            except Exception as exc:
+            except AlgorithmError as exc:
                 print(f"{label:<36} {time.process_time() - t:>7.2f}  {str(exc)[:70]}")
                 continue
             dt, dw = time.process_time() - t, time.perf_counter() - w
@@ -385,7 +386,7 @@ def generation():
         t = time.perf_counter()
         try:
             res = optimize(domain=dom, insert_points=False, max_sweeps=1000)
-        except Exception as exc:
+        except AlgorithmError as exc:
             print(f"{label:<34} {time.perf_counter() - t:>8.2f}  {str(exc)[:70]}")
             continue
         dt = time.perf_counter() - t
@@ -482,7 +483,7 @@ def generation3d():
             k = dict(kw, size=kw["size"] * f) if "size" in kw else kw
             try:
                 got = optimize(surface=parse_surface(Q, F), **k).mesh.cells[0].data
-            except Exception as exc:
+            except AlgorithmError as exc:  # no valid mesh: the same failure wherever it lies?
                 got = str(exc).split(", within")[0]
             if isinstance(ref, str) or isinstance(got, str):
                 if not (isinstance(ref, str) and isinstance(got, str) and got == ref):
@@ -511,7 +512,7 @@ def generation3d():
                 t = time.process_time()
                 try:
                     res = optimize(surface=surf, **kw)
-                except Exception as exc:
+                except AlgorithmError as exc:
                     res = exc
                 times.append(time.process_time() - t)
             dt = float(np.median(times))

@@ -221,6 +221,7 @@ from meshcore.delaunay.admissible_pieces import (
     _State,
     _unresolvable,
     _widest_angle_points,
+    located_in_domain,
 )
 from meshcore.delaunay.kernel2d import (
     IncrementalDelaunay,
@@ -1397,38 +1398,6 @@ def circles_of(
         seg_circle[lo:hi] = len(rows)
         rows.append([centre[0], centre[1], float(radius)])
     return np.asarray(rows, dtype=np.float64), seg_circle
-
-
-def located_in_domain(
-    exc: InputError,
-    domain: Domain,
-    segments: np.ndarray,
-    rows: np.ndarray | None = None,
-    point_segment: np.ndarray | None = None,
-) -> InputError:
-    """``exc`` of :func:`admissible_segments` located in the domain (§9.1.5).
-
-    ``segments`` are the domain's segments then constraints; a point the
-    error names is located at its vertex, a segment at its first vertex
-    (:meth:`Domain.vertex_loc`). When :func:`admissible_segments` ran on
-    pieces of them (the triangulator's subsegments), ``rows`` gives each
-    piece's segment and ``point_segment`` the segment each point beyond
-    the domain's lies on: such a point is located at that segment.
-    """
-    errors = []
-    for e in exc.errors:
-        path = list(e["loc"])
-        if len(path) == 2 and path[0] in ("points", "segments"):
-            i = int(path[1])
-            if path[0] == "points" and i >= len(domain.points) and point_segment is not None:
-                path[0], i = "segments", int(point_segment[i])
-            elif path[0] == "segments" and rows is not None:
-                i = int(rows[i])
-            v = i if path[0] == "points" else int(segments[i, 0])
-            if v < len(domain.points):
-                path = list(domain.vertex_loc(v))
-        errors.append({**e, "loc": path})
-    return InputError(exc.message, code=exc.code, errors=errors)
 
 
 def make_admissible(

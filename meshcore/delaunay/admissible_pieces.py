@@ -9,7 +9,8 @@ the vertex of widest angle in a segment's ball (the encroacher of §9.1 whose
 projection splits it), the edges inside a disc; and, on a grid, the pieces
 near each vertex to protect (:func:`_grid_pairs`). Split from
 :mod:`meshcore.delaunay.admissible`, which runs the rounds; the names stay
-private to the package.
+private to the package but :func:`located_in_domain` (the errors of the
+rounds located in a domain), which that module exports.
 
 References
 ----------
@@ -25,6 +26,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.delaunay.kernel2d import IncrementalDelaunay, _corner, _has_edges, _nxt, _prv
+from meshcore.domain.planar import Domain
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import WORK_SIZE, dot2d_filtered, orient2d_filtered
 
@@ -441,7 +443,7 @@ def _push(buf, nb, r):
 
 
 @njit(cache=True)
-def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings, chain):
+def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings, src):
     """The pieces that are not edges after the insertion of points
     ``first, first + 1, ...`` (:meth:`_Pieces.missing`), from the
     neighbours each point had when it went in (``rings``).
@@ -456,9 +458,9 @@ def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings, chain):
     (an added point ends two pieces, an input point the chains it starts or
     ends); such pieces are looked up in the triangulation. Two added
     neighbours can only be joined by a piece when they lie on the same
-    input segment (``chain``), so their pieces are read only then; a piece
-    from an input point is found from that point. Returns the ids,
-    increasing.
+    input segment (``src`` of the piece ending there), so their pieces are
+    read only then; a piece from an input point is found from that point.
+    Returns the ids, increasing.
     """
     a, b, left, right, head, tail = rows
     end_start, end_chain, end_side = ends
@@ -481,7 +483,7 @@ def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings, chain):
             on = np.empty(2 * (hi - lo), np.int64)
         for j in range(lo, hi):
             u = ring[j]
-            on[j - lo] = chain[u] if u >= n0 else -1
+            on[j - lo] = src[left[u]] if u >= n0 else -1
         for j in range(lo, hi):
             u = ring[j]
             if u < 0:
@@ -523,7 +525,7 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
     """
     rows, t, xy_new, protect_side, near_side, near_vertex = split
     a, b, nxt, src, circ, acute, done, near, tail = piece
-    xy, radius, left, right, born, chain = point
+    xy, radius, left, right, born = point
     key = np.empty(rows.shape[0])
     for i in range(rows.shape[0]):
         s = src[rows[i]]
@@ -533,7 +535,8 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
     # np.lexsort((t, key, src[rows])): stable sorts, last key first.
     order = np.argsort(t, kind="mergesort")
     order = order[np.argsort(key[order], kind="mergesort")]
-    order = order[np.argsort(src[rows[order]], kind="mergesort")]
+    # src as floats (exact): one compiled merge sort, for float keys only
+    order = order[np.argsort(src[rows[order]].astype(np.float64), kind="mergesort")]
     rows = rows[order]
     protect_side = protect_side[order]
     near_side = near_side[order]
@@ -566,7 +569,6 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
             left[n + i] = r if i == i0 else q - 1
             right[n + i] = q
             born[n + i] = round_no
-            chain[n + i] = src[r]
         last = m + i1
         acute[last, 1] = acute[r, 1]
         done[last, 1] = done[r, 1]
@@ -590,15 +592,20 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
     return near_vertex[order], order
 
 
+def _near_segment_message(point: str, segment: str) -> str:
+    """The message of ``point_near_segment``, the point and segment named."""
+    return (
+        f"{point} lies within float64 rounding of {segment} (closer than float64 resolves "
+        "there: a split point between them rounds onto an existing point); segments must "
+        "stay apart by more than rounding"
+    )
+
+
 def _unresolvable(xy: np.ndarray, segment: int, point: int) -> None:
     """Raise for input point ``point`` lying within float64 rounding of input
     segment ``segment`` (valid in floating point, not resolvable: a split
     point between them rounds onto the point or onto an end of the piece)."""
-    msg = (
-        f"point {point} {xy[point].tolist()} lies within float64 rounding of segment "
-        f"{segment} (closer than float64 resolves there: a split point between them rounds "
-        "onto an existing point); segments must stay apart by more than rounding"
-    )
+    msg = _near_segment_message(f"point {point} {xy[point].tolist()}", f"segment {segment}")
     code = "point_near_segment"
     raise InputError(
         msg,
@@ -608,6 +615,59 @@ def _unresolvable(xy: np.ndarray, segment: int, point: int) -> None:
             {"loc": ["points", point], "msg": msg, "type": code},
         ],
     )
+
+
+def located_in_domain(
+    exc: InputError,
+    domain: Domain,
+    segments: np.ndarray,
+    rows: np.ndarray | None = None,
+    point_segment: np.ndarray | None = None,
+) -> InputError:
+    """``exc`` of :func:`admissible_segments` located in the domain (§9.1.5).
+
+    ``segments`` are the domain's segments then constraints; a point the
+    error names is located at its vertex, a segment at its first vertex
+    (:meth:`Domain.vertex_loc`). When :func:`admissible_segments` ran on
+    pieces of them (the triangulator's subsegments), ``rows`` gives each
+    piece's segment and ``point_segment`` the segment each point beyond
+    the domain's lies on: such a point is located at that segment. The
+    message of ``point_near_segment`` then names the point and the segment
+    by their rings and vertices (:meth:`Domain.vertex_name`).
+    """
+    errors = []
+    names = {}
+    for e in exc.errors:
+        path = list(e["loc"])
+        if len(path) == 2 and path[0] in ("points", "segments"):
+            kind, i = path[0], int(path[1])
+            if kind == "points" and i >= len(domain.points) and point_segment is not None:
+                path[0], i = "segments", int(point_segment[i])
+            elif kind == "segments" and rows is not None:
+                i = int(rows[i])
+            at = path[0]
+            v = i if at == "points" else int(segments[i, 0])
+            if v < len(domain.points):
+                path = list(domain.vertex_loc(v))
+                names[kind] = _domain_name(domain, segments, kind, at, i)
+        errors.append({**e, "loc": path})
+    message = exc.message
+    if exc.code == "point_near_segment" and len(names) == 2:
+        message = _near_segment_message(names["points"], names["segments"])
+        errors = [{**e, "msg": message} for e in errors]
+    return InputError(message, code=exc.code, errors=errors)
+
+
+def _domain_name(domain: Domain, segments: np.ndarray, kind: str, at: str, i: int) -> str:
+    """A point or segment of :func:`located_in_domain` named in the domain:
+    an input point (``kind`` "points", located there: ``at`` "points") by
+    its vertex, a segment or a point added on one (located at segment ``i``)
+    by the segment's vertices."""
+    if kind == "points" and at == "points":
+        return f"{domain.vertex_name(i)} {domain.points[i].tolist()}"
+    a, b = (domain.vertex_name(int(u)) for u in segments[i])
+    name = f"the segment from {a} to {b}"
+    return name if kind == "segments" else "a point added on " + name
 
 
 @dataclass
@@ -655,7 +715,7 @@ class _Pieces:
     """
 
     _ROW = ("a", "b", "nxt", "src", "circ", "acute", "done", "near")
-    _POINT = ("xy", "radius", "left", "right", "born", "chain")
+    _POINT = ("xy", "radius", "left", "right", "born")
 
     def __init__(self, st: _State, dt: IncrementalDelaunay) -> None:
         S, m, n = st.S, len(st.S), len(st.P)
@@ -678,7 +738,6 @@ class _Pieces:
         self.left[S[:, 1]] = np.arange(m)
         self.right[S[:, 0]] = np.arange(m)
         self.born = np.zeros(n, dtype=np.int64)
-        self.chain = np.full(n, -1, dtype=np.int64)  # an added point's input segment
         # Chain ends at the input points: (chain, side) per point, CSR.
         ends = np.concatenate([S[self.head, 0], S[self.tail, 1]])
         chain = np.concatenate([np.arange(m0), np.arange(m0)])
@@ -740,7 +799,7 @@ class _Pieces:
             round_no, m, n, self.n0, self.origin, self.direction,
             (self.a, self.b, self.nxt, self.src, self.circ, self.acute, self.done, self.near,
              self.tail),
-            (self.xy, self.radius, self.left, self.right, self.born, self.chain),
+            (self.xy, self.radius, self.left, self.right, self.born),
         )  # fmt: skip
         self.m, self.n, self.first = m + k, n + k, n
         xy = self.xy[n : n + k]
@@ -822,7 +881,7 @@ class _Pieces:
             (self.a, self.b, self.left, self.right, self.head, self.tail),
             (self.end_start, self.end_chain, self.end_side),
             self.dt.rings(),
-            self.chain,
+            self.src,
         )  # fmt: skip
 
     def to_state(self, st: _State) -> None:

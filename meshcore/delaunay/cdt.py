@@ -94,7 +94,7 @@ def _prv(k):
     return k + 2 if k % 3 == 0 else k - 1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # int32 and int64 indices: no compiled copy per mix
 def _orient(P, a, b, c, work):
     return orient2d_filtered(P[a, 0], P[a, 1], P[b, 0], P[b, 1], P[c, 0], P[c, 1], work)
 

@@ -73,7 +73,6 @@ from meshcore.geometry.expansions import two_product, two_sum
 from meshcore.geometry.ordering import radix_sort
 from meshcore.geometry.predicates import (
     WORK_SIZE,
-    axis_rectangle,
     incircle_exact,
     orient2d_exact,
 )
@@ -327,7 +326,9 @@ def _prefetch(typingctx, arr, idx):
         i8p = ir.IntType(8).as_pointer()
         i32 = ir.IntType(32)
         fnty = ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32])
-        fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.prefetch.p0")
+        # Named by llvmlite from the pointer type: llvm.prefetch.p0i8 with
+        # LLVM's typed pointers (numba 0.59/0.60), llvm.prefetch.p0 after.
+        fn = builder.module.declare_intrinsic("llvm.prefetch", [i8p], fnty)
         # read, keep in every cache level, data cache
         builder.call(fn, [builder.bitcast(ptr, i8p), i32(0), i32(3), i32(1)])
         return context.get_dummy_value()
@@ -421,8 +422,9 @@ def _sum4_sign(p, q, r, s):
 def _incircle_two_lines(ax, ay, bx, by, cx, cy, dx, dy):
     """Exact in-circle sign when two of the four points lie on one horizontal
     line and the other two, ``d`` among them, on another (a rectangle's
-    sampled top and bottom: the commonest exact call after the rectangles
-    that :func:`incircle_exact` settles at once); 2 when they do not.
+    sampled top and bottom, the commonest exact call; an axis-parallel
+    rectangle's four corners give 0 here, the co-circular tie); 2 when they
+    do not.
 
     With ``u, v`` the pair on one line and ``w`` the point of ``a, b, c`` on
     ``d``'s line, the circle through ``u, v, w`` is centred above
@@ -559,8 +561,10 @@ def _incircle(pts, a, b, c, d, work):
 @njit(cache=True)
 def _incircle_near_zero(pts, a, b, c, d, work):
     """:func:`_incircle` when the float filter cannot decide: an exact sign
-    (the special cases of axis-parallel lines first), the tie broken
-    symbolically. Not inlined, so that the common path stays small."""
+    (the special cases of axis-parallel lines first: two horizontal or two
+    vertical lines, which include the axis-parallel rectangles' exact ties,
+    then a corner), the tie broken symbolically. Not inlined, so that the
+    common path stays small."""
     ax = pts[a, 0]
     ay = pts[a, 1]
     bx = pts[b, 0]
@@ -569,8 +573,6 @@ def _incircle_near_zero(pts, a, b, c, d, work):
     cy = pts[c, 1]
     dx = pts[d, 0]
     dy = pts[d, 1]
-    if axis_rectangle(ax, ay, bx, by, cx, cy, dx, dy):  # an exact tie, the commonest
-        return _incircle_tie(pts, a, b, c, d, work)
     s = _incircle_two_lines(ax, ay, bx, by, cx, cy, dx, dy)
     if s == 2:  # two vertical lines: the mirror image in y = x, whose sign is opposite
         s = -_incircle_two_lines(ay, ax, by, bx, cy, cx, dy, dx)
@@ -1214,7 +1216,13 @@ def _validated(points) -> np.ndarray:
             loc=("points",),
             code="too_few_points",
         )
-    finite, _, _ = _scan(pts)
+    return pts
+
+
+def _scale_factor(pts: np.ndarray) -> float:
+    """Power of two bringing max |coordinate| into [0.5, 1) (exact scaling);
+    raises for non-finite or too widely spread coordinates (one pass)."""
+    finite, big, small = _scan(pts)
     if not finite:
         bad = ~np.isfinite(pts)
         rows = np.flatnonzero(bad.any(axis=1))
@@ -1230,12 +1238,6 @@ def _validated(points) -> np.ndarray:
                 for i in rows[:20]
             ],
         )
-    return pts
-
-
-def _scale_factor(pts: np.ndarray) -> float:
-    """Power of two bringing max |coordinate| into [0.5, 1) (exact scaling)."""
-    _, big, small = _scan(pts)
     if big == 0.0:
         return 1.0
     e = int(np.frexp(big)[1])
@@ -1283,16 +1285,20 @@ def _build(pts_in: np.ndarray, progress):
     space and the scale factor.
     """
     n = len(pts_in)
-    factor = _scale_factor(pts_in)
+    # A read-only view: the compiled passes see one array type whatever the
+    # input's flags (numba compiles read-only and writable arrays apart).
+    view = pts_in.view()
+    view.flags.writeable = False
+    factor = _scale_factor(view)
     # Hilbert cells: about 4n per side, so that even points sampling a curve
     # (boundaries) rarely share a cell.
     nbits = min(_HILBERT_BITS, max(8, n.bit_length() + 2))
-    rnd, curve, nrounds = _brio_hilbert_keys(pts_in, factor, nbits)
+    rnd, curve, nrounds = _brio_hilbert_keys(view, factor, nbits)
     order, along, curve_sorted = _insertion_order(rnd, curve, nrounds)
     del rnd, curve
     hint = _walk_hints(along, curve_sorted)
     del along, curve_sorted
-    pts = _gather(pts_in, order, factor)
+    pts = _gather(view, order, factor)
 
     ntri_max = 2 * n
     V = np.empty(3 * ntri_max, np.int32)

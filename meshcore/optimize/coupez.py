@@ -129,9 +129,11 @@ class _Tolerances:
         A replacement on quality alone must raise the worst quality of the
         sub-topology by at least this much (it stops endless tiny moves).
     distance_tie : float
-        Squared distances to a centroid closer than this fraction of the
-        largest tie (:func:`by_distance`): above the rounding a translation
-        by 1e6 puts on the coordinates of a unit-sized input (about 1e-10).
+        Values closer than this fraction of the largest magnitude tie
+        (:func:`near_order`: the squared distances to a centroid of
+        :func:`by_distance`, the edge lengths of the 3D insertion stage):
+        above the rounding a translation by 1e6 puts on the coordinates of a
+        unit-sized input (about 1e-10).
     flat : float
         A tetrahedron whose exact orient3d says positive but whose 6 V is at most
         this fraction of D times the sum of its squared edges (D the diagonal of
@@ -353,7 +355,7 @@ def _inputs(mesh, domain, keep_boundary, surface=None):
     return "domain", dom
 
 
-# ----------------------------------------------------------------------------- the 2D state
+# ----------------------------------------------------------------------------- the loop state
 
 
 class LoopState(CellStore):
@@ -361,8 +363,10 @@ class LoopState(CellStore):
     kernel: :mod:`.kernel2d` (triangles) or :mod:`.kernel3d` (tetrahedra).
 
     Adds Sur(𝒯) (:meth:`sur`, criterion (8.1) of §8.3.1) and the count of
-    non-positive cells (:meth:`inverted`, exact predicates; with ``flat`` > 0,
-    tetrahedra flatter than it count too, :func:`signs`).
+    non-positive cells (:meth:`inverted`, exact predicates). ``flat`` is the
+    flat rule of :func:`signs`: 0 for triangles and for a given tet mesh
+    (judged by the exact orient3d alone), :func:`flatness` of the points in
+    tet generation, where the kernel's loops use the same value.
     """
 
     def __init__(self, kernel, P, cells, fixed, spare_points: int = 0, flat: float = 0.0):
@@ -390,24 +394,27 @@ def signs(P: np.ndarray, cells: np.ndarray, flat: float = 0.0) -> np.ndarray:
     """Orientation of every triangle (orient2d) or tetrahedron (-orient3d); > 0 is positive.
 
     A tetrahedron positive by the exact sign but with 6 V at most ``flat`` times
-    the sum of its squared edges gets 0 (flat, :func:`flatness`).
+    the sum of its squared edges gets 0 (flat, :func:`flatness`): the kernels' rule
+    (:func:`meshcore.mesh.tetstore.solid`, the same compiled function).
     """
     if cells.shape[1] == 3:
         return orient2d(P[cells[:, 0]], P[cells[:, 1]], P[cells[:, 2]])
-    A, B, C, D = (P[cells[:, i]] for i in range(4))
-    sign = -orient3d(A, B, C, D)
+    sign = -orient3d(*(P[cells[:, i]] for i in range(4)))
     if flat > 0.0:
-        u, v, w = B - A, C - A, D - A
-        det = np.einsum("ij,ij->i", u, np.cross(v, w))
-        s = sum(np.einsum("ij,ij->i", e, e) for e in (u, v, w, v - u, w - u, w - v))
-        sign = np.where((sign > 0) & (det <= flat * s), 0.0, sign)
+        from meshcore.optimize.coupez3d import solid_tets
+
+        # copies, writable: one compiled signature whatever the input's flags
+        P = np.array(P, dtype=np.float64, order="C")
+        cells = np.array(cells, dtype=np.int64, order="C")
+        sign = np.where((sign > 0) & ~solid_tets(P, cells, float(flat)), 0.0, sign)
     return sign
 
 
 def measure_q(P: np.ndarray, cells: np.ndarray, measure: str) -> np.ndarray:
     """The (8.2) measure of every cell from its unsigned area or volume (as the loops see it)."""
     if cells.shape[1] == 3:
-        P, cells = np.ascontiguousarray(P, dtype=float), np.ascontiguousarray(cells)
+        # copies, writable: one compiled signature whatever the input's flags
+        P, cells = np.array(P, dtype=np.float64, order="C"), np.ascontiguousarray(cells)
         return k2.qualities(P, cells, np.int64(MEASURES.index(measure)))
     q = _shape3(P, cells) if measure == "shape" else quality.tetra_radius_ratio(P, cells)
     return np.abs(q)
@@ -883,19 +890,33 @@ def optimize(
     Returns
     -------
     OptimizationResult
-        Every element positive by the exact predicates; boundary facets
-        exactly the input's (the domain's segments, the mesh's boundary);
-        area or volume preserved; ``stats["sur"]`` non-increasing.
+        Every element positive by the exact predicates (generated
+        tetrahedra also not flat to the input's placement, :data:`TOL`
+        ``flat``; a given mesh is judged by the exact sign alone); boundary
+        facets exactly the input's (the domain's segments, split evenly
+        when ``keep_boundary`` is false; the surface's triangles; the
+        mesh's boundary); area or volume preserved; ``stats["sur"]``
+        non-increasing within each stage; the least quality not lowered
+        on a valid mesh.
 
     Raises
     ------
     InputError
-        Not exactly one input; a mesh that is not a mesh topology (an edge or
-        face in three or more cells, a neighbour oriented against another),
-        mixed or unsupported cell types, NaN, a bad domain; each named by ``loc``.
+        Not exactly one input (``bad_input``); a mesh that is not a mesh
+        topology (an edge or face in three or more cells, a neighbour
+        oriented against another), mixed or unsupported cell types, NaN,
+        cells enclosing no area (``degenerate_mesh``); a bad domain or
+        surface, interior constraints or a surface of several shells
+        (``unsupported_input``); a bad ``quality``, ``max_sweeps`` or
+        ``size``; ``keep_boundary`` false without a domain;
+        ``too_many_points`` when ``size`` would insert more than
+        :data:`~meshcore.triangulation.MAX_POINTS` points or split a
+        segment into 2**40 pieces or more. Each named by ``loc``.
     AlgorithmError
-        When no valid mesh is reached: how many elements are still inverted
-        and where.
+        ``not_converged`` when no valid mesh is reached (how many elements
+        are still inverted and where); ``topology_broken`` or
+        ``boundary_changed`` if the result fails the final check (never a
+        wrong mesh returned).
 
     References
     ----------
@@ -987,7 +1008,8 @@ def verify(P, cells, bnd, use, sweeps, flat=0.0):
     """Every cell positive (exact; no tet flat to ``flat``, :func:`signs`), a mesh topology,
     boundary facets exactly ``bnd``."""
     if cells.shape[1] == 3 and len(cells):
-        if k2.check_mesh(P, cells, np.ascontiguousarray(bnd, dtype=np.int64)):
+        # a writable copy: one compiled signature whether bnd is read-only or not
+        if k2.check_mesh(P, cells, np.array(bnd, dtype=np.int64, order="C")):
             return
     sign = signs(P, cells, flat)
     if (sign <= 0).any():

@@ -71,10 +71,21 @@ so a valid input mesh, however thin its tets, is never refused.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from meshcore.mesh import tetstore as ts
 from meshcore.optimize import coupez as _c
 from meshcore.optimize import kernel3d as k3
+
+
+@njit(cache=True)
+def solid_tets(P, T, flat):
+    """:func:`.tetstore.solid` of each tet of ``T`` (positive and not flat to ``flat``):
+    the kernels' rule itself, so :func:`.coupez.signs` and the kernels agree at a tie."""
+    out = np.empty(T.shape[0], np.bool_)
+    for t in range(T.shape[0]):
+        out[t] = ts.solid(P, T[t, 0], T[t, 1], T[t, 2], T[t, 3], flat)
+    return out
 
 
 def optimize3d(mesh, P, T, bnd, total, allow_remove, measure, max_sweeps, progress):

@@ -694,14 +694,13 @@ def check_mesh(P, T, bnd):
     Every triangle positive (exact orient2d), every oriented edge in exactly
     one triangle and its reverse in at most one (a consistently oriented
     mesh topology), and the edges without a reverse exactly the rows of
-    ``bnd`` (oriented as in the triangles). Each edge is filed once under its
-    smaller vertex with its direction (a counting sort, then each vertex's
-    few entries sorted): a pair there is an inner edge, a lone one a boundary
-    edge; the cost does not depend on vertex degrees beyond a log.
+    ``bnd`` (oriented as in the triangles). From the edges grouped by vertex
+    (:func:`edge_index`): the cost does not depend on vertex degrees beyond
+    a log.
     """
     work = np.empty(WORK_SIZE)
     m = T.shape[0]
-    n = 0
+    n = np.int64(0)
     for t in range(m):
         a, b, c = T[t, 0], T[t, 1], T[t, 2]
         n = max(n, a + 1, b + 1, c + 1)
@@ -709,57 +708,20 @@ def check_mesh(P, T, bnd):
             return False
     for i in range(bnd.shape[0]):
         n = max(n, bnd[i, 0] + 1, bnd[i, 1] + 1)
-    start = np.zeros(n + 1, np.int64)
-    for t in range(m):
-        for j in range(3):
-            start[min(T[t, j], T[t, (j + 1) % 3]) + 1] += 1
-    for v in range(n):
-        start[v + 1] += start[v]
-    fill = start[:n].copy()
-    # entry: 2 * (the larger vertex) + 1 when the edge runs from the smaller one
-    key = np.empty(3 * m, np.int64)
-    for t in range(m):
-        for j in range(3):
-            a, b = T[t, j], T[t, (j + 1) % 3]
-            lo = min(a, b)
-            key[fill[lo]] = 2 * max(a, b) + (1 if a < b else 0)
-            fill[lo] += 1
+    start, dst, _ = edge_index(T, np.ones(m, np.uint8), m, n)  # uint8: as the loops' alive
     lone = 0
-    for v in range(n):
-        lo, hi = start[v], start[v + 1]
-        if hi - lo > 32:
-            key[lo:hi] = np.sort(key[lo:hi])
-        else:
-            for i in range(lo + 1, hi):
-                d = key[i]
-                k = i - 1
-                while k >= lo and key[k] > d:
-                    key[k + 1] = key[k]
-                    k -= 1
-                key[k + 1] = d
-        i = lo
-        while i < hi:
-            if i + 1 < hi and key[i + 1] // 2 == key[i] // 2:
-                # both ways once: the entries differ in their last bit, and no third
-                if key[i + 1] == key[i] or (i + 2 < hi and key[i + 2] // 2 == key[i] // 2):
-                    return False
-                i += 2
-            else:
+    for a in range(n):
+        for i in range(start[a], start[a + 1]):
+            if i > start[a] and dst[i] == dst[i - 1]:
+                return False  # an oriented edge in two triangles
+            if find_edge(start, dst, dst[i], a) < 0:
                 lone += 1
-                i += 1
     if lone != bnd.shape[0]:
         return False
     for i in range(bnd.shape[0]):
         a, b = bnd[i, 0], bnd[i, 1]
-        lo = min(a, b)
-        want = 2 * max(a, b) + (1 if a < b else 0)
-        k = start[lo] + np.searchsorted(key[start[lo] : start[lo + 1]], want)
-        if k >= start[lo + 1] or key[k] != want:
+        if find_edge(start, dst, a, b) < 0 or find_edge(start, dst, b, a) >= 0:
             return False
-        if (k > start[lo] and key[k - 1] // 2 == want // 2) or (
-            k + 1 < start[lo + 1] and key[k + 1] // 2 == want // 2
-        ):
-            return False  # paired: an inner edge
     return True
 
 

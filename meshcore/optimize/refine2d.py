@@ -192,7 +192,7 @@ def delaunay_pairs(P, T, N, alive, head, nxt, prv, cnt, work):
             top += 2
             flips += 1
             break
-    _relink(T, alive, head, nxt, prv, cnt, head.shape[0], 0)
+    _relink(T, alive, head, nxt, prv, cnt, head.shape[0])
     return flips
 
 
@@ -412,17 +412,21 @@ def refine(P, T, N, alive, head, nxt, prv, freeT, cnt, fixed, ver, stack, prm, b
     for t in range(cnt[N_ROWS]):
         if alive[t] and _bad(P, T, N, t, sin2, r2max):
             if top >= stack.shape[1]:
-                return _relink(T, alive, head, nxt, prv, cnt, P.shape[0], NEED_STACK)
+                _relink(T, alive, head, nxt, prv, cnt, P.shape[0])
+                return NEED_STACK
             stack[0, top] = t
             stack[1, top] = ver[t]
             top += 1
     while top > 0:
         if cnt[N_PTS] >= budget:
-            return _relink(T, alive, head, nxt, prv, cnt, P.shape[0], BUDGET)
+            _relink(T, alive, head, nxt, prv, cnt, P.shape[0])
+            return BUDGET
         if cnt[N_PTS] + 2 > P.shape[0]:
-            return _relink(T, alive, head, nxt, prv, cnt, P.shape[0], NEED_POINTS)
+            _relink(T, alive, head, nxt, prv, cnt, P.shape[0])
+            return NEED_POINTS
         if not room(T, cnt, 4):
-            return _relink(T, alive, head, nxt, prv, cnt, P.shape[0], NEED_ROWS)
+            _relink(T, alive, head, nxt, prv, cnt, P.shape[0])
+            return NEED_ROWS
         top -= 1
         t, v = stack[0, top], stack[1, top]
         if not alive[t] or ver[t] != v:
@@ -450,18 +454,19 @@ def refine(P, T, N, alive, head, nxt, prv, freeT, cnt, fixed, ver, stack, prm, b
             ver[s] += 1
             if _bad(P, T, N, s, sin2, r2max):
                 if top >= stack.shape[1]:
-                    return _relink(T, alive, head, nxt, prv, cnt, P.shape[0], NEED_STACK)
+                    _relink(T, alive, head, nxt, prv, cnt, P.shape[0])
+                    return NEED_STACK
                 stack[0, top] = s
                 stack[1, top] = ver[s]
                 top += 1
-    return _relink(T, alive, head, nxt, prv, cnt, P.shape[0], DONE)
+    _relink(T, alive, head, nxt, prv, cnt, P.shape[0])
+    return DONE
 
 
 @njit(cache=True)
-def _relink(T, alive, head, nxt, prv, cnt, n, status):
-    """The corner lists of the live rows rebuilt; returns ``status``."""
+def _relink(T, alive, head, nxt, prv, cnt, n):
+    """The corner lists of the live rows rebuilt."""
     head[:n] = -1
     for t in range(cnt[N_ROWS]):
         if alive[t]:
             link_row(T, head, nxt, prv, t)
-    return status

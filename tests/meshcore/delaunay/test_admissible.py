@@ -697,6 +697,8 @@ def test_a_point_within_rounding_of_a_segment_is_refused_with_its_location(ring,
         (_, seg_ring, seg_vertex), (_, ring_no, vertex) = (e["loc"] for e in info.value.errors)
         assert ring_no == seg_ring == 0 and ring[vertex] == ring[point]  # the vertex, as given
         assert ring[seg_vertex] in (ring[segment], ring[(segment + 1) % len(ring)])
+        assert f"vertex {vertex} of ring 0" in info.value.message  # named as given
+        assert f"point {point}" not in info.value.message
 
 
 def test_the_medial_axis_refuses_the_near_touching_polygon_with_a_location():

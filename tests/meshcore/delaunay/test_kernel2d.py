@@ -256,6 +256,7 @@ def test_insertion_order_is_the_stable_sort_of_round_and_curve(spread):
     rng = np.random.default_rng(5)
     p = np.concatenate([rng.random((40, 2)), 0.5 + spread * rng.random((3000, 2))])
     nbits = 14
+    p.flags.writeable = False  # as delaunay passes it (one compiled signature)
     rnd, curve, nrounds = _brio_hilbert_keys(p, 1.0, nbits)
     assert rnd.min() >= 0 and rnd.max() < nrounds
     order, along, curve_sorted = _insertion_order(rnd, curve, nrounds)

@@ -24,10 +24,20 @@ from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.mesh.topology import boundary
 from meshcore.optimize import check_topology, optimize
+from meshcore.optimize.kernel2d import check_mesh
 from meshcore.product import Translate, extrude
 from meshcore.triangulation import triangulate
 
 SUR_SLACK = 1e-12  # float rounding of a sum of areas that is equal in exact arithmetic
+UNIT_SQUARE = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
+
+
+@pytest.fixture(scope="module")
+def cube_tets() -> tuple[np.ndarray, np.ndarray]:
+    """The unit cube's tetrahedra: the square's triangles (size 0.25) extruded by 4 layers."""
+    m = extrude(triangulate(UNIT_SQUARE, size=0.25).mesh, Translate([0, 0, 1], layers=4),
+                simplices=True).mesh  # fmt: skip
+    return m.points, m.cells_by_type["tetra"]
 
 
 def _tri(res) -> tuple[np.ndarray, np.ndarray]:
@@ -190,7 +200,7 @@ class TestGeneration:
 
 def _tangled(nx=30, noise=1.5, seed=0):
     """A triangulate mesh of the unit square, interior nodes moved up to ``noise`` local edges."""
-    sq = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
+    sq = UNIT_SQUARE
     mesh = triangulate(sq, size=1.0 / nx).mesh
     P, T = mesh.points.copy(), mesh.cells[0].data
     bnd = check_topology(mesh, T)
@@ -236,18 +246,14 @@ class TestCorrection:
         )
 
     @pytest.mark.parametrize("tangle", ["noise", "random"])
-    def test_tetrahedral_mesh_is_made_valid_with_the_same_volume(self, tangle):
-        sq = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
-        base = triangulate(sq, size=0.15).mesh
-        m = extrude(base, Translate([0, 0, 1], layers=6), simplices=True).mesh
-        T = m.cells_by_type["tetra"]
-        P = m.points.copy()
+    def test_tetrahedral_mesh_is_made_valid_with_the_same_volume(self, tangle, cube_tets):
+        P, T = cube_tets[0].copy(), cube_tets[1]
         tets = Mesh(P, (CellBlock("tetra", T),))
         faces = boundary(tets).cells[0].data
         free = np.setdiff1d(np.arange(len(P)), faces.ravel())
         rng = np.random.default_rng(2)
         if tangle == "noise":
-            P[free] += rng.uniform(-1, 1, (len(free), 3)) * np.array([0.15, 0.15, 1 / 6])
+            P[free] += rng.uniform(-1, 1, (len(free), 3)) * np.array([0.25, 0.25, 1 / 4])
         else:  # anywhere in the cube
             P[free] = rng.uniform(0, 1, (len(free), 3))
         sign = -orient3d(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]], P[T[:, 3]])
@@ -276,7 +282,7 @@ class TestCorrection:
     def test_random_interior_positions_are_untangled(self, shape):
         # every free node anywhere in the box: the barycentric fixed point of the G moves first
         if shape == "square":
-            sq = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
+            sq = UNIT_SQUARE
             mesh = triangulate(sq, size=0.05).mesh
         else:
             a = np.pi / 2 + np.pi * np.arange(14) / 7
@@ -305,6 +311,25 @@ def _hexagon():
     return P, T
 
 
+def test_check_mesh_refuses_a_non_manifold_edge_a_flipped_cell_and_a_wrong_boundary():
+    P, T = _hexagon()
+
+    def edges(rows):
+        return np.array(rows, dtype=np.int64)
+
+    bnd = [[1 + i, 1 + (i + 1) % 6] for i in range(6)]  # as in the triangles
+    assert check_mesh(P, T, edges(bnd))
+    flipped = T.copy()
+    flipped[2] = flipped[2, [0, 2, 1]]
+    assert not check_mesh(P, flipped, edges(bnd))
+    # edge 1 -> 0 in a seventh triangle too (positive, outside the hexagon)
+    Q = np.vstack([P, [[0.5, -2.0]]])
+    assert not check_mesh(Q, np.vstack([T, [[1, 0, 7]]]), edges(bnd))
+    assert not check_mesh(P, T, edges(bnd[:-1]))  # a boundary edge missing from bnd
+    assert not check_mesh(P, T, edges([e[::-1] for e in bnd]))  # against the triangles
+    assert not check_mesh(P, T, edges([[0, 1], *bnd[1:]]))  # an inner edge for a boundary one
+
+
 class TestOptimization:
     def test_an_optimal_mesh_comes_back_unchanged(self):
         P, T = _hexagon()
@@ -319,7 +344,7 @@ class TestOptimization:
     @settings(max_examples=15, deadline=None)
     @given(st.integers(0, 10_000), st.sampled_from(["shape", "radius_ratio"]))
     def test_least_quality_never_decreases(self, seed, measure):
-        sq = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
+        sq = UNIT_SQUARE
         mesh = triangulate(sq, size=0.2).mesh
         P, T = mesh.points.copy(), mesh.cells[0].data
         bnd = np.unique(check_topology(mesh, T))
@@ -404,11 +429,9 @@ class TestTetrahedra:
             optimize(Mesh(P, (CellBlock("tetra", T),)))
         assert exc.value.code == "nonmanifold_face"
 
-    def test_optimization_never_lowers_the_least_quality(self):
-        sq = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
-        m = extrude(triangulate(sq, size=0.25).mesh, Translate([0, 0, 1], layers=4), simplices=True)
-        T = m.mesh.cells_by_type["tetra"]
-        res = optimize(Mesh(m.mesh.points, (CellBlock("tetra", T),)), quality="radius_ratio")
+    def test_optimization_never_lowers_the_least_quality(self, cube_tets):
+        P, T = cube_tets
+        res = optimize(Mesh(P, (CellBlock("tetra", T),)), quality="radius_ratio")
         assert res.stats["use"] == "optimization"
         assert res.stats["least_quality_after"] >= res.stats["least_quality_before"]
         Pn, Tn = res.mesh.points, res.mesh.cells[0].data
@@ -423,15 +446,13 @@ class TestTetrahedra:
             res = optimize(Mesh(Q, (CellBlock("tetra", T),)))
             assert res.stats["use"] == "optimization" and res.stats["inverted_before"] == 0
 
-    def test_an_optimal_mesh_comes_back_unchanged(self):
+    def test_an_optimal_mesh_comes_back_unchanged(self, cube_tets):
         cube = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
         kuhn = np.array([[0, 1, 3, 7], [0, 1, 7, 5], [0, 5, 7, 4], [0, 3, 2, 7], [0, 2, 6, 7]])
         kuhn = np.vstack([kuhn, [[0, 6, 4, 7]]])
         flip = quality.signed_volume(cube, kuhn) < 0
         kuhn[flip] = kuhn[flip][:, [1, 0, 2, 3]]
-        sq = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]}
-        m = extrude(triangulate(sq, size=0.25).mesh, Translate([0, 0, 1], layers=4), simplices=True)
-        once = optimize(Mesh(m.mesh.points, (CellBlock("tetra", m.mesh.cells_by_type["tetra"]),)))
+        once = optimize(Mesh(cube_tets[0], (CellBlock("tetra", cube_tets[1]),)))
         # the cube's six Kuhn tetrahedra, and a mesh this method has already optimized
         for P, T in ((cube, kuhn), (once.mesh.points, once.mesh.cells[0].data)):
             res = optimize(Mesh(P, (CellBlock("tetra", T),)))

@@ -201,12 +201,14 @@ def test_translated_far_away(name, place):
 def test_ring_without_insertion_fails_wherever_it_lies():
     """The 12x6 ring's side quads are planar (to rounding at the origin, exactly at 1e6): no
     tetrahedralization of its points without flat tets exists (TetGen -pY adds 11-12
-    points). Without insertion it fails, at 1e6 as at the origin (6 flat left both), never
-    a mesh whose validity rounding decided (the origin's used to hold tets of volume 1e-18)."""
+    points). Without insertion it fails, at 1e6 and scaled by 1e-6 as at the origin (6 flat
+    left each time), never a mesh whose validity rounding decided (the origin's used to hold
+    tets of volume 1e-18)."""
     P, F = ring(12, 6)
-    with pytest.raises(AlgorithmError) as err:
-        optimize(surface=parse_surface(P + 1e6, F), insert_points=False)
-    assert "6 element(s) still inverted or flat" in str(err.value)
+    for Q in (P, P + 1e6, P * 1e-6):
+        with pytest.raises(AlgorithmError) as err:
+            optimize(surface=parse_surface(Q, F), insert_points=False)
+        assert "6 element(s) still inverted or flat" in str(err.value)
 
 
 @pytest.mark.parametrize(

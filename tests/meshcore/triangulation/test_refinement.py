@@ -437,9 +437,11 @@ class TestQuality:
             assert np.median(length[band]) == pytest.approx(0.02 + 0.04 * x0, rel=0.2)
 
     def test_two_constraints_1e5_apart(self):
-        # 0.1 long (not 0.4): the same 1e-5 gap, growing to 1.25e-5; 133k
+        # 0.03 long (not 0.4): the same 1e-5 gap, growing to 1.075e-5; 51k
         # triangles instead of 421k.
-        domain = parse_domain(UNIT, [[[0.3, 0.5], [0.4, 0.5]], [[0.3, 0.50001], [0.4, 0.5000125]]])
+        domain = parse_domain(
+            UNIT, [[[0.3, 0.5], [0.33, 0.5]], [[0.3, 0.50001], [0.33, 0.50001075]]]
+        )
         res = triangulate(domain, min_angle=30)
         assert_conforming(domain, res)
         angles = triangle_angles(res.mesh.points, res.mesh.cells[0].data)
