@@ -965,11 +965,8 @@ def quad_medial(
                 mesh2, stats2 = _quads_on(part, size, levels)
             except AlgorithmError:
                 part, stats2 = None, {"invalid": 1}
-            if (
-                stats2["invalid"]
-                or stats2["slits"]
-                or stats2["quads"] * size**2 > MOST_COUNT * domain.area
-            ):
+            bad = stats2["invalid"] or stats2["slits"]
+            if bad or stats2["quads"] * size**2 > MOST_COUNT * domain.area:
                 part = None
         if part is None:
             kind = "four-sided" if len(special.regions) == 1 else "butterfly"
