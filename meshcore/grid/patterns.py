@@ -84,6 +84,8 @@ __all__ = ["MAX_PATTERN_CELLS", "check_pattern", "pattern"]
 
 #: Largest number of pattern cells laid over the domain's bounding box.
 MAX_PATTERN_CELLS = 4_000_000
+#: Largest number of boundary samples of the retention test (step ii).
+MAX_BOUNDARY_SAMPLES = 1 << 22
 
 
 def _bad(msg: str, *loc) -> InputError:
@@ -254,10 +256,26 @@ def _radial(spec: Mapping, P: np.ndarray):
 _BUILDERS = {"parallelogram": _parallelogram, "hexagon": _hexagon, "radial": _radial}
 
 
-def _boundary_samples(dom, step: float):
+def _boundary_samples(dom, step: float, margin: float):
+    """Samples at most ``step`` apart along the segments and constraints, each end included.
+
+    Raises InputError (``margin``) past :data:`MAX_BOUNDARY_SAMPLES` samples: ``step``
+    is a quarter of ``margin`` times the pattern's size, so a tiny margin asks for a
+    boundary sampled finer than any job can hold.
+    """
     seg = np.concatenate([dom.segments, dom.constraints])
     a, b = dom.points[seg[:, 0]], dom.points[seg[:, 1]]
-    n = np.ceil(np.hypot(*(b - a).T) / step).astype(np.int64) + 1
+    with np.errstate(over="ignore"):  # float, inf for a tiny step: int64 would overflow
+        n = np.ceil(np.hypot(*(b - a).T) / step) + 1
+    if n.sum() > MAX_BOUNDARY_SAMPLES:
+        raise InputError(
+            f"margin {margin:g} would test the patterns against {n.sum():.3g} boundary "
+            f"samples {step:.3g} apart; at most {MAX_BOUNDARY_SAMPLES:,}: give a larger "
+            "margin or a coarser pattern",
+            loc=("margin",),
+            code="too_many_samples",
+        )
+    n = n.astype(np.int64)
     s = np.repeat(np.arange(len(seg)), n)
     k = np.arange(len(s)) - np.repeat(np.cumsum(n) - n, n)
     t = (k / (n[s] - 1))[:, None]
@@ -318,7 +336,8 @@ def pattern(
         A bad domain (``loc`` under ``domain``), a bad pattern (``loc``
         under ``pattern``: zero or parallel vectors, a zero radius, radii not
         increasing, a size not above 0), a bad ``margin`` or ``gap``,
-        ``too_many_cells``.
+        ``too_many_cells``, ``too_many_samples`` (a margin so small that the
+        boundary would need more than :data:`MAX_BOUNDARY_SAMPLES` samples).
 
     References
     ----------
@@ -349,7 +368,7 @@ def pattern(
     cen = V.mean(axis=1)
     rad = np.hypot(*(V - cen[:, None]).transpose(2, 0, 1)).max(axis=1)
     step = 0.25 * m * float(size.min())
-    S = _boundary_samples(dom, step)
+    S = _boundary_samples(dom, step, m)
     tree = cKDTree(S)
     d0, _ = tree.query(cen)
     need = m * size

@@ -50,7 +50,7 @@ class SizedDomainParams(MethodParams):
         super().check()
         dom = self.domain.to_domain()
         sizes = size_map(dom, self.size, self.field())
-        estimate = dom.area / sizes.smallest**2
+        estimate = dom.area / sizes.smallest / sizes.smallest  # not **2: it overflows
         if estimate > MAX_CELLS:
             name = "size" if self.size is not None and self.size <= sizes.smallest else "size_field"
             raise InputError(
@@ -119,7 +119,7 @@ class RecursivePartitionParams(SizedDomainParams):
                 code="unsupported",
             )
         surface = self.surface.to_surface()
-        estimate = 6.0 * surface.volume / self.size**3
+        estimate = 6.0 * surface.volume / self.size / self.size / self.size
         if estimate > MAX_CELLS:
             raise InputError(
                 f"this size would make about {estimate:,.0f} tetrahedra in a volume of "
