@@ -112,10 +112,11 @@ def _positive(value, *loc) -> float:
     return x
 
 
-def _count(n: int) -> None:
-    if n > MAX_PATTERN_CELLS:
+def _count(n: float) -> None:
+    if not n <= MAX_PATTERN_CELLS:  # NaN too
         raise InputError(
-            f"the pattern lays about {n} cells over the domain, more than {MAX_PATTERN_CELLS}",
+            f"the pattern lays about {n:.3g} cells over the domain, more than "
+            f"{MAX_PATTERN_CELLS:,}",
             loc=("pattern",),
             code="too_many_cells",
         )
@@ -143,10 +144,10 @@ def _parallelogram(spec: Mapping, P: np.ndarray):
     o = _point(spec["origin"], "origin") if spec.get("origin") is not None else P.min(axis=0)
     M = np.column_stack([V[0], V[1]])
     ij = np.linalg.solve(M, (P - o).T).T
+    _count(float(np.prod(np.ceil(ij.max(axis=0)) - np.floor(ij.min(axis=0)) + 2)))  # before int
     i0, j0 = np.floor(ij.min(axis=0)).astype(int) - 1
     i1, j1 = np.ceil(ij.max(axis=0)).astype(int) + 1
     ni, nj = i1 - i0, j1 - j0
-    _count(ni * nj)
     ii, jj = np.meshgrid(np.arange(i0, i1 + 1), np.arange(j0, j1 + 1))
     pts = o + ii.ravel()[:, None] * V[0] + jj.ravel()[:, None] * V[1]
     w = ni + 1
@@ -166,10 +167,10 @@ def _hexagon(spec: Mapping, P: np.ndarray):
     u, v = np.array([s, 0.0]), np.array([0.5 * s, 0.5 * math.sqrt(3.0) * s])
     M = np.column_stack([u, v])
     ij = np.linalg.solve(M, (P - o).T).T
+    _count(2 * float(np.prod(np.ceil(ij.max(axis=0)) - np.floor(ij.min(axis=0)) + 5)))
     i0, j0 = np.floor(ij.min(axis=0)).astype(int) - 2
     i1, j1 = np.ceil(ij.max(axis=0)).astype(int) + 2
-    ni, nj = i1 - i0 + 1, j1 - j0 + 1
-    _count(2 * ni * nj)
+    ni = i1 - i0 + 1
     ii, jj = np.meshgrid(np.arange(i0, i1 + 1), np.arange(j0, j1 + 1))
     ii, jj = ii.ravel(), jj.ravel()
     pts = o + ii[:, None] * u + jj[:, None] * v

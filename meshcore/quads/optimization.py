@@ -1225,9 +1225,10 @@ def relax_quads(
 
     # each sliding node stays between the midpoints to its neighbours on its segment
     # (to the segment's ends for the first and last): none reaches an end or passes
-    # another, which would collapse a boundary edge
+    # another, which would collapse a boundary edge (a node projecting off its segment, as
+    # rounding at coordinates 1e12 makes, is bounded as if at the segment's end)
     order = np.lexsort((t0, sb, sa))
-    ts = t0[order]
+    ts = np.clip(t0[order], 0.0, 1.0)
     first = np.ones(len(order), bool)
     first[1:] = (sa[order][1:] != sa[order][:-1]) | (sb[order][1:] != sb[order][:-1])
     last = np.roll(first, -1)

@@ -18,7 +18,7 @@ from pydantic import Field, model_validator
 
 from meshcore.errors import InputError
 from meshcore.optimize import check_input, optimize
-from service.methods.domain_schema import DomainIn
+from service.methods.domain_schema import DomainIn, check_resolution
 from service.methods.surface_schema import SurfaceIn
 from service.schemas import MeshIn, MethodParams
 
@@ -116,6 +116,7 @@ class OptimizeParams(MethodParams):
             return
         dom = self.domain.to_domain()
         check_input(domain=dom)
+        check_resolution(dom, self.size, ("size",))
         if self.size is None:
             return
         # with insertion, about two triangles per equilateral triangle of side size in the

@@ -17,7 +17,7 @@ from pydantic import Field, model_validator
 
 from meshcore.errors import InputError
 from meshcore.partition import recursive_partition, size_map
-from service.methods.domain_schema import DomainIn
+from service.methods.domain_schema import DomainIn, check_resolution
 from service.methods.surface_schema import UNIT_CUBE, SurfaceIn
 from service.methods.triangulation import SizeField
 from service.schemas import MethodParams
@@ -51,8 +51,9 @@ class SizedDomainParams(MethodParams):
         dom = self.domain.to_domain()
         sizes = size_map(dom, self.size, self.field())
         estimate = dom.area / sizes.smallest / sizes.smallest  # not **2: it overflows
+        name = "size" if self.size is not None and self.size <= sizes.smallest else "size_field"
+        check_resolution(dom, sizes.smallest, (name,))
         if estimate > MAX_CELLS:
-            name = "size" if self.size is not None and self.size <= sizes.smallest else "size_field"
             raise InputError(
                 f"these sizes would make about {estimate:,.0f} cells on a domain of area "
                 f"{dom.area:.6g}; at most {MAX_CELLS:,}",
