@@ -144,7 +144,8 @@ def _parallelogram(spec: Mapping, P: np.ndarray):
     o = _point(spec["origin"], "origin") if spec.get("origin") is not None else P.min(axis=0)
     M = np.column_stack([V[0], V[1]])
     ij = np.linalg.solve(M, (P - o).T).T
-    _count(float(np.prod(np.ceil(ij.max(axis=0)) - np.floor(ij.min(axis=0)) + 2)))  # before int
+    with np.errstate(over="ignore"):  # counted in float before the int casts: inf for a tiny cell
+        _count(float(np.prod(np.ceil(ij.max(axis=0)) - np.floor(ij.min(axis=0)) + 2)))
     i0, j0 = np.floor(ij.min(axis=0)).astype(int) - 1
     i1, j1 = np.ceil(ij.max(axis=0)).astype(int) + 1
     ni, nj = i1 - i0, j1 - j0
@@ -167,7 +168,8 @@ def _hexagon(spec: Mapping, P: np.ndarray):
     u, v = np.array([s, 0.0]), np.array([0.5 * s, 0.5 * math.sqrt(3.0) * s])
     M = np.column_stack([u, v])
     ij = np.linalg.solve(M, (P - o).T).T
-    _count(2 * float(np.prod(np.ceil(ij.max(axis=0)) - np.floor(ij.min(axis=0)) + 5)))
+    with np.errstate(over="ignore"):  # as for the parallelogram
+        _count(2 * float(np.prod(np.ceil(ij.max(axis=0)) - np.floor(ij.min(axis=0)) + 5)))
     i0, j0 = np.floor(ij.min(axis=0)).astype(int) - 2
     i1, j1 = np.ceil(ij.max(axis=0)).astype(int) + 2
     ni = i1 - i0 + 1

@@ -52,7 +52,6 @@ class SizedDomainParams(MethodParams):
         sizes = size_map(dom, self.size, self.field())
         estimate = dom.area / sizes.smallest / sizes.smallest  # not **2: it overflows
         name = "size" if self.size is not None and self.size <= sizes.smallest else "size_field"
-        check_resolution(dom, sizes.smallest, (name,))
         if estimate > MAX_CELLS:
             raise InputError(
                 f"these sizes would make about {estimate:,.0f} cells on a domain of area "
@@ -60,6 +59,7 @@ class SizedDomainParams(MethodParams):
                 loc=(name,),
                 code="too_many_cells",
             )
+        check_resolution(dom, sizes.smallest, (name,))
 
 
 class RecursivePartitionParams(SizedDomainParams):
