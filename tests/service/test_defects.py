@@ -435,8 +435,11 @@ def shapes_surface() -> dict:
     return {"points": P.tolist(), "triangles": T.tolist()}
 
 
-@pytest.mark.parametrize("method", ["paving", "recursive_partition"])
-@pytest.mark.parametrize("domain", [SPIKE, THIN], ids=["spike", "thin"])
+@pytest.mark.parametrize(
+    "method, domain",
+    [("recursive_partition", SPIKE), ("recursive_partition", THIN), ("paving", THIN)],
+    ids=["recursive_partition-spike", "recursive_partition-thin", "paving-thin"],
+)
 def test_partition_stuck_on_a_tiny_feature_is_a_located_422(method, domain):
     """Even the triangle recursion finds no separator by a 1e-6 degree spike or in a 1e-9
     thin triangle; the job unpacked its None result (a TypeError, a 500)."""
@@ -464,6 +467,13 @@ def test_pattern_runaway_counts_are_a_located_422(pattern, loc):
     problem = failed_with("pattern", {**default_registry()["pattern"].example, **pattern})
     assert problem["status"] == 422, problem
     assert problem["errors"][0]["loc"] == loc
+
+
+def test_quad_grid_merge_failure_names_no_params_it_does_not_have():
+    """The band's internal merge located its error at params.meshes.1.cells..."""
+    problem = failed_with("quad_grid", {"domain": SPIKE, "size": 0.05})
+    assert problem["status"] == 422, problem
+    assert problem["type"].endswith("merge-failed") and not problem.get("errors")
 
 
 @pytest.mark.parametrize(
