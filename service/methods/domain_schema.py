@@ -305,8 +305,9 @@ class DomainIn(BaseModel):
 MIN_RELATIVE_SIZE = 2.0**-40
 
 
-def check_resolution(dom: Domain, size: float | None, loc: tuple[str | int, ...]) -> None:
-    """Refuse a target ``size`` too small for the float64 spacing at ``dom``'s coordinates.
+def check_resolution(points: np.ndarray, size: float | None, loc: tuple[str | int, ...]) -> None:
+    """Refuse a target ``size`` too small for the float64 spacing at the input's coordinates
+    (a domain's or a surface's ``points``).
 
     Raises
     ------
@@ -315,12 +316,12 @@ def check_resolution(dom: Domain, size: float | None, loc: tuple[str | int, ...]
     """
     if size is None:
         return
-    magnitude = float(np.abs(dom.points).max())
+    magnitude = float(np.abs(points).max())
     if size < MIN_RELATIVE_SIZE * magnitude:
         raise InputError(
-            f"size {size:.6g} is too small for the domain's coordinates (magnitude "
+            f"size {size:.6g} is too small for the input's coordinates (magnitude "
             f"{magnitude:.6g}, where float64 numbers are {np.spacing(magnitude):.3g} apart): "
-            f"give a size of at least {MIN_RELATIVE_SIZE * magnitude:.3g}, or move the domain "
+            f"give a size of at least {MIN_RELATIVE_SIZE * magnitude:.3g}, or move the input "
             "nearer the origin",
             loc=loc,
             code="below_resolution",

@@ -65,7 +65,7 @@ class GridParams(MethodParams):
     def check(self) -> None:
         super().check()
         dom = self.domain.to_domain(self.segments)
-        check_resolution(dom, self.size, ("size",))
+        check_resolution(dom.points, self.size, ("size",))
         if self.size is not None:
             est = cartesian.estimated_cells(dom, size=self.size, angle=self.angle)
             if est > self.max_cells:
@@ -120,7 +120,7 @@ class QuadGridParams(MethodParams):
     def check(self) -> None:
         super().check()
         dom = self.domain.to_domain(self.segments)
-        check_resolution(dom, self.size, ("size",))
+        check_resolution(dom.points, self.size, ("size",))
         if self.size is not None:
             est = cartesian.estimated_cells(dom, size=self.size)
             if est > self.max_cells:

@@ -300,7 +300,7 @@ class QuadMedialParams(PartitionParams):
     def check(self) -> None:
         super().check()
         dom = self.domain.to_domain()
-        check_resolution(dom, self.size, ("size",))
+        check_resolution(dom.points, self.size, ("size",))
         if self.size is not None:
             estimate = dom.area / self.size / self.size  # not size**2: it overflows
             if estimate > 4_000_000:

@@ -59,7 +59,7 @@ class SizedDomainParams(MethodParams):
                 loc=(name,),
                 code="too_many_cells",
             )
-        check_resolution(dom, sizes.smallest, (name,))
+        check_resolution(dom.points, sizes.smallest, (name,))
 
 
 class RecursivePartitionParams(SizedDomainParams):
@@ -120,6 +120,7 @@ class RecursivePartitionParams(SizedDomainParams):
                 code="unsupported",
             )
         surface = self.surface.to_surface()
+        check_resolution(surface.points, self.size, ("size",))
         estimate = 6.0 * surface.volume / self.size / self.size / self.size
         if estimate > MAX_CELLS:
             raise InputError(

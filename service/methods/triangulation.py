@@ -110,7 +110,7 @@ class TriangulateParams(MethodParams):
         dom = self.domain.to_domain(self.segments)
         curves = [c.model_dump() for c in self.curves or []]
         circles_of(dom, curves)
-        check_resolution(dom, self.size, ("size",))
+        check_resolution(dom.points, self.size, ("size",))
         if self.empty:
             for name in ("min_angle", "max_area", "size", "size_field"):
                 if getattr(self, name) is not None:

@@ -489,6 +489,15 @@ def test_size_below_the_coordinates_resolution_is_refused(method):
     assert (error["loc"], error["type"]) == (["size"], "below_resolution")
 
 
+@pytest.mark.parametrize("method", ["tetrahedralize", "optimize", "recursive_partition"])
+def test_size_below_a_surface_coordinates_resolution_is_refused(method):
+    """tetrahedralize at 1e15 with size 0.25: recovery did not finish (a 422 naming nothing)."""
+    surface = shapes_surface()
+    surface["points"] = [[c + 1e15 for c in p] for p in surface["points"]]
+    error = refused_at_submit(method, {"surface": surface, "size": 0.25})
+    assert (error["loc"], error["type"]) == (["size"], "below_resolution")
+
+
 def test_size_at_a_1e6_offset_is_not_refused():
     params = translated(default_registry()["grid"].example, 1e6)
     default_registry()["grid"].params.model_validate(params).check()
