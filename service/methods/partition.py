@@ -120,7 +120,6 @@ class RecursivePartitionParams(SizedDomainParams):
                 code="unsupported",
             )
         surface = self.surface.to_surface()
-        check_resolution(surface.points, self.size, ("size",))
         estimate = 6.0 * surface.volume / self.size / self.size / self.size
         if estimate > MAX_CELLS:
             raise InputError(
@@ -129,6 +128,7 @@ class RecursivePartitionParams(SizedDomainParams):
                 loc=("size",),
                 code="too_many_cells",
             )
+        check_resolution(surface.points, self.size, ("size",))
 
 
 def run_recursive_partition(params: RecursivePartitionParams, progress) -> dict:
