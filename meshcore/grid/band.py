@@ -261,6 +261,12 @@ def fill_gap(
     stats : dict
         ``gap_triangles`` (the triangulation of the gap), ``gap_cells``,
         ``pattern_cells``, ``loops``.
+
+    Raises
+    ------
+    AlgorithmError
+        ``merge_failed``: the two meshes do not merge (the merge's own error, whose
+        location is in its arguments, not in the caller's input, is in the message).
     """
     used = np.unique(np.concatenate([d.ravel() for _, d in kept]))
     remap = np.full(len(points), -1, dtype=np.int64)
@@ -303,7 +309,15 @@ def fill_gap(
     gmesh = Mesh(
         gmesh.points, gmesh.cells, cell_sets={"gap": [np.arange(len(b)) for b in gmesh.cells]}
     )
-    out = merged([kept_mesh, gmesh])
+    try:
+        out = merged([kept_mesh, gmesh])
+    except InputError as exc:  # located in merged's own arguments: not the caller's input
+        raise AlgorithmError(
+            "the kept cells and the mesh of the gap to the boundary do not merge into one "
+            f"conforming mesh ({exc.message}); boundary features far below the cell size "
+            "(a sliver spike, vertices nearly coincident) do this: remove them",
+            code="merge_failed",
+        ) from None
     stats["pattern_cells"] = int(sum(len(b) for b in kept_mesh.cells))
     stats["gap_cells"] = int(sum(len(b) for b in gmesh.cells))
     return out.mesh, stats

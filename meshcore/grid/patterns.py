@@ -84,6 +84,8 @@ __all__ = ["MAX_PATTERN_CELLS", "check_pattern", "pattern"]
 
 #: Largest number of pattern cells laid over the domain's bounding box.
 MAX_PATTERN_CELLS = 4_000_000
+#: Largest number of boundary samples of the retention test (step ii).
+MAX_BOUNDARY_SAMPLES = 1 << 22
 
 
 def _bad(msg: str, *loc) -> InputError:
@@ -110,10 +112,11 @@ def _positive(value, *loc) -> float:
     return x
 
 
-def _count(n: int) -> None:
-    if n > MAX_PATTERN_CELLS:
+def _count(n: float) -> None:
+    if not n <= MAX_PATTERN_CELLS:  # NaN too
         raise InputError(
-            f"the pattern lays about {n} cells over the domain, more than {MAX_PATTERN_CELLS}",
+            f"the pattern lays about {n:.3g} cells over the domain, more than "
+            f"{MAX_PATTERN_CELLS:,}",
             loc=("pattern",),
             code="too_many_cells",
         )
@@ -141,10 +144,11 @@ def _parallelogram(spec: Mapping, P: np.ndarray):
     o = _point(spec["origin"], "origin") if spec.get("origin") is not None else P.min(axis=0)
     M = np.column_stack([V[0], V[1]])
     ij = np.linalg.solve(M, (P - o).T).T
+    with np.errstate(over="ignore"):  # counted in float before the int casts: inf for a tiny cell
+        _count(float(np.prod(np.ceil(ij.max(axis=0)) - np.floor(ij.min(axis=0)) + 2)))
     i0, j0 = np.floor(ij.min(axis=0)).astype(int) - 1
     i1, j1 = np.ceil(ij.max(axis=0)).astype(int) + 1
     ni, nj = i1 - i0, j1 - j0
-    _count(ni * nj)
     ii, jj = np.meshgrid(np.arange(i0, i1 + 1), np.arange(j0, j1 + 1))
     pts = o + ii.ravel()[:, None] * V[0] + jj.ravel()[:, None] * V[1]
     w = ni + 1
@@ -164,10 +168,11 @@ def _hexagon(spec: Mapping, P: np.ndarray):
     u, v = np.array([s, 0.0]), np.array([0.5 * s, 0.5 * math.sqrt(3.0) * s])
     M = np.column_stack([u, v])
     ij = np.linalg.solve(M, (P - o).T).T
+    with np.errstate(over="ignore"):  # as for the parallelogram
+        _count(2 * float(np.prod(np.ceil(ij.max(axis=0)) - np.floor(ij.min(axis=0)) + 5)))
     i0, j0 = np.floor(ij.min(axis=0)).astype(int) - 2
     i1, j1 = np.ceil(ij.max(axis=0)).astype(int) + 2
-    ni, nj = i1 - i0 + 1, j1 - j0 + 1
-    _count(2 * ni * nj)
+    ni = i1 - i0 + 1
     ii, jj = np.meshgrid(np.arange(i0, i1 + 1), np.arange(j0, j1 + 1))
     ii, jj = ii.ravel(), jj.ravel()
     pts = o + ii[:, None] * u + jj[:, None] * v
@@ -254,10 +259,26 @@ def _radial(spec: Mapping, P: np.ndarray):
 _BUILDERS = {"parallelogram": _parallelogram, "hexagon": _hexagon, "radial": _radial}
 
 
-def _boundary_samples(dom, step: float):
+def _boundary_samples(dom, step: float, margin: float):
+    """Samples at most ``step`` apart along the segments and constraints, each end included.
+
+    Raises InputError (``margin``) past :data:`MAX_BOUNDARY_SAMPLES` samples: ``step``
+    is a quarter of ``margin`` times the pattern's size, so a tiny margin asks for a
+    boundary sampled finer than any job can hold.
+    """
     seg = np.concatenate([dom.segments, dom.constraints])
     a, b = dom.points[seg[:, 0]], dom.points[seg[:, 1]]
-    n = np.ceil(np.hypot(*(b - a).T) / step).astype(np.int64) + 1
+    with np.errstate(over="ignore"):  # float, inf for a tiny step: int64 would overflow
+        n = np.ceil(np.hypot(*(b - a).T) / step) + 1
+    if n.sum() > MAX_BOUNDARY_SAMPLES:
+        raise InputError(
+            f"margin {margin:g} would test the patterns against {n.sum():.3g} boundary "
+            f"samples {step:.3g} apart; at most {MAX_BOUNDARY_SAMPLES:,}: give a larger "
+            "margin or a coarser pattern",
+            loc=("margin",),
+            code="too_many_samples",
+        )
+    n = n.astype(np.int64)
     s = np.repeat(np.arange(len(seg)), n)
     k = np.arange(len(s)) - np.repeat(np.cumsum(n) - n, n)
     t = (k / (n[s] - 1))[:, None]
@@ -318,7 +339,8 @@ def pattern(
         A bad domain (``loc`` under ``domain``), a bad pattern (``loc``
         under ``pattern``: zero or parallel vectors, a zero radius, radii not
         increasing, a size not above 0), a bad ``margin`` or ``gap``,
-        ``too_many_cells``.
+        ``too_many_cells``, ``too_many_samples`` (a margin so small that the
+        boundary would need more than :data:`MAX_BOUNDARY_SAMPLES` samples).
 
     References
     ----------
@@ -349,7 +371,7 @@ def pattern(
     cen = V.mean(axis=1)
     rad = np.hypot(*(V - cen[:, None]).transpose(2, 0, 1)).max(axis=1)
     step = 0.25 * m * float(size.min())
-    S = _boundary_samples(dom, step)
+    S = _boundary_samples(dom, step, m)
     tree = cKDTree(S)
     d0, _ = tree.query(cen)
     need = m * size

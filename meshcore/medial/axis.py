@@ -137,8 +137,9 @@ DEFAULT_PRUNE = 25.0
 DEFAULT_SAMPLES = 4096
 #: ... and at least the perimeter over this.
 MAX_DEFAULT_SAMPLES = 1 << 18
-#: A given ``h`` may ask for at most this many boundary samples.
-MAX_SAMPLES = 1 << 23
+#: A given ``h`` may ask for at most this many boundary samples (6M samples of a 2 x 1
+#: rectangle, h = 1e-6, took 42 s of CPU, 3.2 GB and made a 454 MB result).
+MAX_SAMPLES = 1 << 21
 
 
 @dataclass(frozen=True)

@@ -117,6 +117,7 @@ __all__ = [
     "partition_polygon",
     "recursive_partition",
     "split_triangles",
+    "stuck_error",
 ]
 
 _NEAREST = 16  # outer vertices tried per hole vertex before every pair
@@ -275,7 +276,7 @@ def partition_polygon(
     h = sizes.smallest
     # rough capacity: the cells the sizes ask for, grown when a buffer fills
     lo, hi = P0.min(axis=0), P0.max(axis=0)
-    est = int(min(4.0 * float(np.prod(hi - lo)) / h**2, _MAX_CELLS)) + 4 * total + 64
+    est = int(min(4.0 * float(np.prod(hi - lo)) / h / h, _MAX_CELLS)) + 4 * total + 64
     while True:
         P = np.empty((len(P0) + est, 2))
         P[: len(P0)] = P0
@@ -321,6 +322,28 @@ def partition_polygon(
             w += 1 + int(stuck[w])
         stats["stuck"] = left
     return P[:npts].copy(), cells, stats
+
+
+def stuck_error(dom, size: float) -> InputError:
+    """The error when even the triangle recursion (the guaranteed route) found no valid
+    separator in some part of ``dom``: a boundary feature far below ``size`` (a sliver
+    spike, nearly coincident vertices, a hole almost touching a ring) leaves no
+    separator that passes the exact tests. Located at the domain; the message names
+    its shortest segment and sharpest corner, the usual culprits."""
+    P, S = dom.points, dom.segments
+    length = np.hypot(*(P[S[:, 1]] - P[S[:, 0]]).T)
+    short = int(np.argmin(length))
+    angle = dom.corner_angles()
+    sharp = int(np.argmin(angle))
+    return InputError(
+        f"recursive partition into triangles at size {size:.6g} found no valid separator "
+        "in some part of the domain: it has features far below the size (its shortest "
+        f"segment is {length[short]:.3g} long, from "
+        f"{dom.vertex_name(int(S[short, 0]))}; its sharpest corner is {angle[sharp]:.3g} "
+        f"degrees, at {dom.vertex_name(sharp)}): remove them or mesh with triangulate",
+        loc=("domain",),
+        code="features_below_size",
+    )
 
 
 def split_triangles(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -409,7 +432,8 @@ def recursive_partition(
     ------
     InputError
         Bad domain, size, element or strategy (``loc`` names it), or
-        interior constraints (``code="unsupported"``).
+        interior constraints (``code="unsupported"``); ``features_below_size``
+        (:func:`stuck_error`) when even the triangle recursion is stuck.
 
     References
     ----------
@@ -476,6 +500,8 @@ def recursive_partition(
         bnd.points, bnd.loops, bnd.ring_polygon, sizes, quad=quad, strategy=strategy
     )
     fallback = False
+    if cells is None and not quad:
+        raise stuck_error(dom, sizes.smallest)
     if cells is None:
         fallback = True
         twice = SizeMap(FALLBACK_SCALE * sizes.H, sizes.grid)
@@ -483,6 +509,8 @@ def recursive_partition(
         pts, tri, stats = partition_polygon(
             bnd.points, bnd.loops, bnd.ring_polygon, twice, quad=False, strategy=strategy
         )
+        if tri is None:
+            raise stuck_error(dom, twice.smallest)
         pts, cells = split_triangles(pts, tri)
     lap("recursion")
     undone = squared = 0

@@ -238,7 +238,7 @@ from meshcore.partition import (
     smooth_quads,
     square_corners,
 )
-from meshcore.partition.recursive import FALLBACK_SCALE
+from meshcore.partition.recursive import FALLBACK_SCALE, stuck_error
 from meshcore.partition.smoothing import SWEEPS
 from meshcore.quads import paving_kernel as pk
 from meshcore.quads.optimization import optimize_quads
@@ -1202,7 +1202,7 @@ def _left_large(P: np.ndarray, rings: list, quads: list, sizes: SizeMap) -> bool
         total += float(quality.signed_area(P, fan).sum())
     laid = float(quality.signed_area(P, np.concatenate(quads), "quad").sum()) if quads else 0.0
     left = total - laid
-    return left > _LEFT_SHARE * total and left > _LEFT_CELLS * sizes.smallest**2
+    return left > _LEFT_SHARE * total and left > _LEFT_CELLS * sizes.smallest * sizes.smallest
 
 
 def _compact(P: np.ndarray, cells: np.ndarray):
@@ -1272,7 +1272,9 @@ def paving(
     ------
     InputError
         Bad domain or sizes (``loc`` names them), interior constraints
-        (``code="unsupported"``), ``max_rows`` below 0.
+        (``code="unsupported"``), ``max_rows`` below 0; ``features_below_size``
+        (:func:`meshcore.partition.recursive.stuck_error`) when even the guaranteed
+        route is stuck.
 
     References
     ----------
@@ -1321,7 +1323,10 @@ def paving(
         fallback = 1
         twice = SizeMap(FALLBACK_SCALE * sizes.H, sizes.grid)
         bnd = resample_boundary(dom, twice, even=True)
-        P, row_q, closure, stats = _pave(bnd, twice, max_rows, False, "balanced", False)
+        res = _pave(bnd, twice, max_rows, False, "balanced", False)
+        if res is None:
+            raise stuck_error(given, twice.smallest * scale)  # in the input's units
+        P, row_q, closure, stats = res
         P, cells = _split_all(P, [row_q, closure])
     lap("rows and closure")
     P, cells = _compact(P, cells)

@@ -1227,7 +1227,8 @@ def relax_quads(
 
     # each sliding node stays between the midpoints to its neighbours on its segment
     # (to the segment's ends for the first and last): none reaches an end or passes
-    # another, which would collapse a boundary edge
+    # another, which would collapse a boundary edge; a node projecting off its segment (as
+    # rounding at coordinates 1e12 makes) keeps its own position within its range
     order = np.lexsort((t0, sb, sa))
     ts = t0[order]
     first = np.ones(len(order), bool)
@@ -1236,6 +1237,7 @@ def relax_quads(
     lo, hi = np.empty(len(order)), np.empty(len(order))
     lo[order] = (ts + np.where(first, 0.0, np.roll(ts, 1))) / 2
     hi[order] = (ts + np.where(last, 1.0, np.roll(ts, -1))) / 2
+    lo, hi = np.minimum(lo, t0), np.maximum(hi, t0)
     x = np.concatenate([P[free].ravel(), t0])
     bounds = [(None, None)] * (2 * nf) + list(zip(lo.tolist(), hi.tolist(), strict=True))
     for r in range(6):

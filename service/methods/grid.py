@@ -17,7 +17,12 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from meshcore.errors import InputError
 from meshcore.grid import cartesian, patterns, superposition
 from meshcore.mesh import quality
-from service.methods.domain_schema import ConstraintPolylines, DomainIn, Position
+from service.methods.domain_schema import (
+    ConstraintPolylines,
+    DomainIn,
+    Position,
+    check_resolution,
+)
 from service.schemas import MethodParams
 
 Progress = object  # the registry's Progress: callable(fraction, message)
@@ -60,6 +65,7 @@ class GridParams(MethodParams):
     def check(self) -> None:
         super().check()
         dom = self.domain.to_domain(self.segments)
+        check_resolution(dom.points, self.size, ("size",))
         if self.size is not None:
             est = cartesian.estimated_cells(dom, size=self.size, angle=self.angle)
             if est > self.max_cells:
@@ -114,6 +120,7 @@ class QuadGridParams(MethodParams):
     def check(self) -> None:
         super().check()
         dom = self.domain.to_domain(self.segments)
+        check_resolution(dom.points, self.size, ("size",))
         if self.size is not None:
             est = cartesian.estimated_cells(dom, size=self.size)
             if est > self.max_cells:

@@ -17,11 +17,12 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from meshcore.errors import InputError
+from meshcore.geometry.tolerances import MAX_COORDINATE
 from meshcore.medial.axis import DEFAULT_PRUNE, medial_axis
 from meshcore.medial.partitioning import partition, quad_medial
 from meshcore.medial.simplification import DEFAULT_THRESHOLD, simplify
 from meshcore.medial.transform import checked_axis, medial_transform
-from service.methods.domain_schema import DomainIn, Position
+from service.methods.domain_schema import DomainIn, Position, check_resolution
 from service.schemas import MethodParams
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
@@ -48,6 +49,14 @@ PruneField = Field(
 
 def _domain_geometry(domain: DomainIn) -> dict:
     return domain.geometry()
+
+
+def _in_domain(exc: InputError) -> InputError:
+    """A meshcore error on the domain argument, located under the params' ``domain``
+    (meshcore locates it from the geometry: ``["coordinates", ring, vertex]``)."""
+    if exc.errors[0]["loc"][:1] not in (["coordinates"], ["segments"]):
+        return exc
+    return exc.prefixed("domain")
 
 
 # ---------------------------------------------------------------------------
@@ -91,19 +100,31 @@ class MedialAxisParams(MethodParams):
                 loc=("points",),
                 code="too_few_points",
             )
+        else:
+            big = np.flatnonzero(np.abs(np.asarray(self.points)).max(axis=1) > MAX_COORDINATE)
+            if big.size:
+                i = int(big[0])
+                raise InputError(
+                    f"point {i} has a coordinate of magnitude above {MAX_COORDINATE:g}",
+                    loc=("points", i),
+                    code="out_of_range",
+                )
 
 
 def run_medial_axis(params: MedialAxisParams, progress) -> dict:
     """The axis (nodes, radii, edges, kinds, branches), as a line mesh too, the domain
     (for a point cloud: the one reconstructed from it) and counts."""
     if params.domain is not None:
-        axis = medial_axis(
-            params.domain.to_domain(),
-            h=params.h,
-            prune=params.prune,
-            approximation=params.approximation,
-            progress=progress,
-        )
+        try:
+            axis = medial_axis(
+                params.domain.to_domain(),
+                h=params.h,
+                prune=params.prune,
+                approximation=params.approximation,
+                progress=progress,
+            )
+        except InputError as exc:
+            raise _in_domain(exc) from None
         domain = _domain_geometry(params.domain)
     else:
         axis = medial_axis(
@@ -227,13 +248,16 @@ def _partition_json(part) -> dict:
 
 def run_partition(params: PartitionParams, progress) -> dict:
     """The regions (GeoJSON Polygons with their side counts), the cut lines and the axis."""
-    part = partition(
-        params.domain.to_domain(),
-        method=params.method,
-        h=params.h,
-        prune=params.prune,
-        progress=progress,
-    )
+    try:
+        part = partition(
+            params.domain.to_domain(),
+            method=params.method,
+            h=params.h,
+            prune=params.prune,
+            progress=progress,
+        )
+    except InputError as exc:
+        raise _in_domain(exc) from None
     out = _partition_json(part)
     return {
         "regions": out["regions"],
@@ -276,6 +300,7 @@ class QuadMedialParams(PartitionParams):
     def check(self) -> None:
         super().check()
         dom = self.domain.to_domain()
+        check_resolution(dom.points, self.size, ("size",))
         if self.size is not None:
             estimate = dom.area / self.size / self.size  # not size**2: it overflows
             if estimate > 4_000_000:
@@ -289,15 +314,18 @@ class QuadMedialParams(PartitionParams):
 
 def run_quad_medial(params: QuadMedialParams, progress) -> dict:
     """The quad mesh, its quality report, the regions and the counts."""
-    res = quad_medial(
-        params.domain.to_domain(),
-        method=params.method,
-        size=params.size,
-        levels=params.levels,
-        h=params.h,
-        prune=params.prune,
-        progress=progress,
-    )
+    try:
+        res = quad_medial(
+            params.domain.to_domain(),
+            method=params.method,
+            size=params.size,
+            levels=params.levels,
+            h=params.h,
+            prune=params.prune,
+            progress=progress,
+        )
+    except InputError as exc:
+        raise _in_domain(exc) from None
     stats = {k: v for k, v in res.stats.items() if k != "quality"}
     return {
         "mesh": res.mesh,
@@ -335,9 +363,12 @@ class SimplifyParams(MethodParams):
 
 def run_simplify(params: SimplifyParams, progress) -> dict:
     """The simplified domain and the removed features with their sizes."""
-    res = simplify(
-        params.domain.to_domain(), threshold=params.threshold, h=params.h, progress=progress
-    )
+    try:
+        res = simplify(
+            params.domain.to_domain(), threshold=params.threshold, h=params.h, progress=progress
+        )
+    except InputError as exc:
+        raise _in_domain(exc) from None
     return {"domain": res.domain, "stats": {**res.stats, "removed": res.removed}}
 
 

@@ -18,7 +18,7 @@ from pydantic import Field, model_validator
 
 from meshcore.errors import InputError
 from meshcore.optimize import check_input, optimize
-from service.methods.domain_schema import DomainIn
+from service.methods.domain_schema import DomainIn, check_resolution
 from service.methods.surface_schema import SurfaceIn
 from service.schemas import MeshIn, MethodParams
 
@@ -101,6 +101,7 @@ class OptimizeParams(MethodParams):
         if self.surface is not None:
             surf = self.surface.to_surface()
             check_input(surface=surf)
+            check_resolution(surf.points, self.size, ("size",))
             if self.size is not None and self.insert_points is not False:
                 # a regular tetrahedron of edge size has volume size³ / (6 √2)
                 estimate = 6.0 * math.sqrt(2.0) * float(surf.volume) / self.size / self.size
@@ -116,6 +117,7 @@ class OptimizeParams(MethodParams):
             return
         dom = self.domain.to_domain()
         check_input(domain=dom)
+        check_resolution(dom.points, self.size, ("size",))
         if self.size is None:
             return
         # with insertion, about two triangles per equilateral triangle of side size in the

@@ -17,7 +17,7 @@ from pydantic import Field, model_validator
 
 from meshcore.errors import InputError
 from meshcore.partition import recursive_partition, size_map
-from service.methods.domain_schema import DomainIn
+from service.methods.domain_schema import DomainIn, check_resolution
 from service.methods.surface_schema import UNIT_CUBE, SurfaceIn
 from service.methods.triangulation import SizeField
 from service.schemas import MethodParams
@@ -50,15 +50,16 @@ class SizedDomainParams(MethodParams):
         super().check()
         dom = self.domain.to_domain()
         sizes = size_map(dom, self.size, self.field())
-        estimate = dom.area / sizes.smallest**2
+        estimate = dom.area / sizes.smallest / sizes.smallest  # not **2: it overflows
+        name = "size" if self.size is not None and self.size <= sizes.smallest else "size_field"
         if estimate > MAX_CELLS:
-            name = "size" if self.size is not None and self.size <= sizes.smallest else "size_field"
             raise InputError(
                 f"these sizes would make about {estimate:,.0f} cells on a domain of area "
                 f"{dom.area:.6g}; at most {MAX_CELLS:,}",
                 loc=(name,),
                 code="too_many_cells",
             )
+        check_resolution(dom.points, sizes.smallest, (name,))
 
 
 class RecursivePartitionParams(SizedDomainParams):
@@ -119,7 +120,7 @@ class RecursivePartitionParams(SizedDomainParams):
                 code="unsupported",
             )
         surface = self.surface.to_surface()
-        estimate = 6.0 * surface.volume / self.size**3
+        estimate = 6.0 * surface.volume / self.size / self.size / self.size
         if estimate > MAX_CELLS:
             raise InputError(
                 f"this size would make about {estimate:,.0f} tetrahedra in a volume of "
@@ -127,6 +128,7 @@ class RecursivePartitionParams(SizedDomainParams):
                 loc=("size",),
                 code="too_many_cells",
             )
+        check_resolution(surface.points, self.size, ("size",))
 
 
 def run_recursive_partition(params: RecursivePartitionParams, progress) -> dict:

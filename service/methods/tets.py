@@ -19,6 +19,7 @@ from meshcore.mesh import quality
 from meshcore.tets import tetra_dihedral_angles, tetrahedralize
 from meshcore.tets.refinement import MIN_RADIUS_EDGE
 from meshcore.tets.sizing import MAX_TETRAHEDRA, SizeField3d, estimated_tetrahedra
+from service.methods.domain_schema import check_resolution
 from service.methods.surface_schema import UNIT_CUBE, Position3, SurfaceIn
 from service.methods.triangulation import SizeField
 from service.schemas import MethodParams
@@ -87,6 +88,7 @@ class TetrahedralizeParams(MethodParams):
             SizeField3d(self.size_field)  # distinct points: refused here, located
         if self.empty or self.keep_boundary:
             return  # no interior refinement to the bounds
+        check_resolution(surface.points, self.size, ("size",))
         by_size = estimated_tetrahedra(surface.volume, size=self.size)
         by_volume = estimated_tetrahedra(surface.volume, max_volume=self.max_volume)
         estimate = max(by_size, by_volume)

@@ -19,7 +19,12 @@ from meshcore.delaunay.admissible3d import make_admissible_surface
 from meshcore.errors import InputError
 from meshcore.mesh import quality
 from meshcore.triangulation.refinement import MAX_MIN_ANGLE, estimated_triangles, triangulate
-from service.methods.domain_schema import ConstraintPolylines, DomainIn, Position
+from service.methods.domain_schema import (
+    ConstraintPolylines,
+    DomainIn,
+    Position,
+    check_resolution,
+)
 from service.methods.surface_schema import SurfaceIn
 from service.schemas import MethodParams
 
@@ -105,6 +110,7 @@ class TriangulateParams(MethodParams):
         dom = self.domain.to_domain(self.segments)
         curves = [c.model_dump() for c in self.curves or []]
         circles_of(dom, curves)
+        check_resolution(dom.points, self.size, ("size",))
         if self.empty:
             for name in ("min_angle", "max_area", "size", "size_field"):
                 if getattr(self, name) is not None:

@@ -16,6 +16,7 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -221,9 +222,10 @@ def test_quad_medial_extreme_size_is_not_a_500(tmp_path, size):
     run(scenario())
 
 
+@pytest.mark.parametrize("h", [1e-300, 1e-6])  # 1e-6: 6e6 samples, 42 s and a 454 MB result
 @pytest.mark.parametrize("method", MEDIAL_METHODS)
-def test_medial_methods_with_a_tiny_h_fail_with_422(method):
-    problem = failed_with(method, {"domain": RECT, "h": 1e-300})
+def test_medial_methods_with_a_tiny_h_fail_with_422(method, h):
+    problem = failed_with(method, {"domain": RECT, "h": h})
     assert problem["status"] == 422, problem
     assert "h" in problem["detail"]
 
@@ -373,3 +375,159 @@ def test_optimize_with_a_huge_size_keeps_the_boundary_points():
     params = {"domain": RECT, "size": 1e300}  # size**2 overflowed: a 500
     spec.params.model_validate(params).check()
     assert run_job(spec, json.dumps(params).encode(), lambda f, m: None) is not None
+
+
+# -- the probe sweep: each method's example mutated (sizes, coordinates, tiny features) ----
+
+SPIKE = {  # the rectangle with a 1e-6 degree spike out of its bottom side
+    "type": "Polygon",
+    "coordinates": [
+        [[0, 0], [0.99999999, 0], [1, -2], [1.00000001, 0], [2, 0], [2, 1], [0, 1], [0, 0]]
+    ],
+}
+THIN = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [0, 1e-9], [0, 0]]]}
+
+
+def refused_at_submit(method: str, params: dict) -> dict:
+    """The error of ``method``'s submit checks (which must refuse ``params``)."""
+    with pytest.raises(InputError) as info:
+        default_registry()[method].params.model_validate(params).check()
+    return info.value.errors[0]
+
+
+def translated(params: dict, offset: float) -> dict:
+    """``params`` with every position of its domain moved by ``offset``."""
+    coords = params["domain"]["coordinates"]
+    rings = [[[x + offset, y + offset] for x, y in ring] for ring in coords]
+    return {**params, "domain": {"type": "Polygon", "coordinates": rings}}
+
+
+@pytest.mark.parametrize("method", ["paving", "recursive_partition"])
+@pytest.mark.parametrize("size", [1e300, 1e-300])
+def test_sized_domain_extreme_size_is_checked_without_overflow(method, size):
+    """size**2 overflowed (1e300) or underflowed to a division by zero (1e-300): 500s."""
+    params = {**default_registry()[method].example, "size": size}
+    if size < 1:
+        error = refused_at_submit(method, params)
+        assert (error["loc"], error["type"]) == (["size"], "too_many_cells")
+    else:
+        default_registry()[method].params.model_validate(params).check()
+
+
+def test_recursive_partition_with_a_huge_size_runs():
+    spec = default_registry()["recursive_partition"]
+    params = {**spec.example, "size": 1e300}  # h**2 in the cell estimate overflowed
+    assert run_job(spec, json.dumps(params).encode(), lambda f, m: None) is not None
+
+
+@pytest.mark.parametrize("size", [1e300, 1e-300])
+def test_recursive_partition_3d_extreme_size_is_checked_without_overflow(size):
+    params = {"surface": shapes_surface(), "size": size}
+    spec = default_registry()["recursive_partition"]
+    if size < 1:
+        error = refused_at_submit("recursive_partition", params)
+        assert (error["loc"], error["type"]) == (["size"], "too_many_cells")
+    else:
+        spec.params.model_validate(params).check()
+
+
+def shapes_surface() -> dict:
+    P, T = shapes.box()
+    return {"points": P.tolist(), "triangles": T.tolist()}
+
+
+@pytest.mark.parametrize(
+    "method, domain",
+    [("recursive_partition", SPIKE), ("recursive_partition", THIN), ("paving", THIN)],
+    ids=["recursive_partition-spike", "recursive_partition-thin", "paving-thin"],
+)
+def test_partition_stuck_on_a_tiny_feature_is_a_located_422(method, domain):
+    """Even the triangle recursion finds no separator by a 1e-6 degree spike or in a 1e-9
+    thin triangle; the job unpacked its None result (a TypeError, a 500)."""
+    problem = failed_with(method, {"domain": domain, "size": 0.05})
+    assert problem["status"] == 422, problem
+    assert problem["errors"][0]["loc"] == ["params", "domain"]
+    assert problem["type"].endswith("features-below-size")
+    assert "sharpest corner" in problem["detail"]
+
+
+@pytest.mark.parametrize(
+    "pattern, loc",
+    [
+        ({"margin": 1e-300}, ["params", "margin"]),  # negative repeat counts: a 500
+        ({"margin": 1e-6}, ["params", "margin"]),  # 2e8 boundary samples: minutes
+        ({"pattern": {"type": "hexagon", "size": 1e-300}}, ["params", "pattern"]),
+        (
+            {"pattern": {"type": "parallelogram", "vectors": [[1, 0], [1, 1e-300]]}},
+            ["params", "pattern"],
+        ),
+    ],
+    ids=["margin_1e-300", "margin_1e-6", "hexagon_1e-300", "flat_parallelogram"],
+)
+def test_pattern_runaway_counts_are_a_located_422(pattern, loc):
+    problem = failed_with("pattern", {**default_registry()["pattern"].example, **pattern})
+    assert problem["status"] == 422, problem
+    assert problem["errors"][0]["loc"] == loc
+
+
+def test_quad_grid_merge_failure_names_no_params_it_does_not_have():
+    """The band's internal merge located its error at params.meshes.1.cells..."""
+    problem = failed_with("quad_grid", {"domain": SPIKE, "size": 0.05})
+    assert problem["status"] == 422, problem
+    assert problem["type"].endswith("merge-failed") and not problem.get("errors")
+
+
+@pytest.mark.parametrize(
+    "method",
+    ["grid", "quad_grid", "paving", "recursive_partition", "quad_medial", "optimize"],
+)
+def test_size_below_the_coordinates_resolution_is_refused(method):
+    """A grid at 1e15 with cells of 0.05 had coincident corners and a NaN quality (a 500)."""
+    params = translated({**default_registry()[method].example, "domain": RECT}, 1e15)
+    params["size"] = 0.05
+    error = refused_at_submit(method, params)
+    assert (error["loc"], error["type"]) == (["size"], "below_resolution")
+
+
+@pytest.mark.parametrize("method", ["tetrahedralize", "optimize", "recursive_partition"])
+def test_size_below_a_surface_coordinates_resolution_is_refused(method):
+    """tetrahedralize at 1e15 with size 0.25: recovery did not finish (a 422 naming nothing)."""
+    surface = shapes_surface()
+    surface["points"] = [[c + 1e15 for c in p] for p in surface["points"]]
+    error = refused_at_submit(method, {"surface": surface, "size": 0.25})
+    assert (error["loc"], error["type"]) == (["size"], "below_resolution")
+
+
+def test_size_at_a_1e6_offset_is_not_refused():
+    params = translated(default_registry()["grid"].example, 1e6)
+    default_registry()["grid"].params.model_validate(params).check()
+
+
+@pytest.mark.parametrize("method", MEDIAL_METHODS)
+def test_medial_methods_locate_a_geometry_error_under_domain(method):
+    """meshcore's loc ["coordinates", ring, vertex] came out as params.coordinates."""
+    params = translated({"domain": RECT}, 1e15)
+    problem = failed_with(method, params)
+    assert problem["status"] == 422, problem
+    assert problem["errors"][0]["loc"][:3] == ["params", "domain", "coordinates"]
+
+
+def test_medial_axis_point_cloud_beyond_float_range_is_refused():
+    points = [[1e300 * x, 1e300 * y] for x, y in ((0, 0), (1, 0), (1, 1), (0, 1))]
+    error = refused_at_submit("medial_axis", {"points": points})  # an IndexError: a 500
+    assert (error["loc"], error["type"]) == (["points", 1], "out_of_range")
+
+
+def test_relax_quads_with_nodes_off_their_segment():
+    """Sliding nodes projecting before their segment's start (rounding at 1e12 did it in
+    quad_medial) made a lower bound above the upper one: scipy's ValueError, a 500."""
+    from meshcore.quads.optimization import relax_quads
+
+    P = np.array([[0, 0], [1, 0], [2, 0], [3, 0], [0, 1], [1, 1], [2, 1], [3, 1], [10, 0], [20, 0]])
+    Q = np.array([[0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6]])
+    fixed = np.ones(10, bool)
+    fixed[[1, 2]] = False
+    slide = (np.array([1, 2]), np.array([8, 8]), np.array([9, 9]))
+    out = relax_quads(P.astype(float), Q, fixed, slide=slide)
+    assert np.isfinite(out).all()
+    assert out[1, 0] < out[2, 0] < 10  # order kept, neither moved onto the segment's end
