@@ -34,6 +34,10 @@ RECT = {"type": "Polygon", "coordinates": [[[0, 0], [2, 0], [2, 1], [0, 1], [0, 
 TINY_TRIANGLE = {"type": "Polygon", "coordinates": [[[0, 0], [1e-300, 0], [0, 1e-300], [0, 0]]]}
 MEDIAL_METHODS = ("medial_axis", "simplify", "partition", "quad_medial")
 
+# most cases here run a method's kernels in this process: they wait for numba's cache
+# (tests/conftest.py) instead of compiling them beside the warm-up
+pytestmark = pytest.mark.kernels
+
 
 def run(coro):
     return asyncio.run(coro)
@@ -204,7 +208,6 @@ def test_empty_idempotency_key_is_no_key(tmp_path):
     run(scenario())
 
 
-@pytest.mark.kernels
 @pytest.mark.parametrize("size", [1e-300, 1e300])
 def test_quad_medial_extreme_size_is_not_a_500(tmp_path, size):
     async def scenario():
