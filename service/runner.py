@@ -17,7 +17,7 @@ from pydantic import ValidationError
 
 from meshcore.errors import AlgorithmError, InputError, MeshcoreError
 from meshcore.mesh import Mesh, io
-from service.methods.domain_schema import unpack
+from service.methods.domain_schema import DomainIn, unpack
 from service.methods.registry import MethodSpec, Progress
 from service.problems import problem_document
 
@@ -96,6 +96,15 @@ def result_files(result: dict, formats: tuple[str, ...] = ()) -> dict[str, bytes
     return files
 
 
+def _under_domain(exc: InputError, params) -> InputError:
+    """A meshcore error located on a domain's geometry (``["coordinates", ring, vertex]``,
+    ``["segments", i]``) placed under the params' domain field, when they have one."""
+    if params is None or exc.errors[0]["loc"][:1] not in (["coordinates"], ["segments"]):
+        return exc
+    fields = [name for name, value in params if isinstance(value, DomainIn)]
+    return exc.prefixed(fields[0]) if len(fields) == 1 else exc
+
+
 def run_job(
     spec: MethodSpec,
     params_json: bytes,
@@ -115,9 +124,12 @@ def run_job(
         for any failure, with the problem document of :func:`failure`; an
         unexpected exception is also logged with its traceback.
     """
+    params = None
     try:
         params = spec.params.model_validate_json(params_json, context=unpack(arrays) or None)
         return result_files(spec.run(params, progress), formats)
+    except InputError as exc:
+        raise JobFailed(failure(_under_domain(exc, params), spec.name)) from None
     except (MeshcoreError, ValidationError, MemoryError) as exc:
         raise JobFailed(failure(exc, spec.name)) from None
     except Exception as exc:

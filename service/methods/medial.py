@@ -51,14 +51,6 @@ def _domain_geometry(domain: DomainIn) -> dict:
     return domain.geometry()
 
 
-def _in_domain(exc: InputError) -> InputError:
-    """A meshcore error on the domain argument, located under the params' ``domain``
-    (meshcore locates it from the geometry: ``["coordinates", ring, vertex]``)."""
-    if exc.errors[0]["loc"][:1] not in (["coordinates"], ["segments"]):
-        return exc
-    return exc.prefixed("domain")
-
-
 # ---------------------------------------------------------------------------
 # medial_axis (§9.4.1, §9.4.2)
 # ---------------------------------------------------------------------------
@@ -115,16 +107,13 @@ def run_medial_axis(params: MedialAxisParams, progress) -> dict:
     """The axis (nodes, radii, edges, kinds, branches), as a line mesh too, the domain
     (for a point cloud: the one reconstructed from it) and counts."""
     if params.domain is not None:
-        try:
-            axis = medial_axis(
-                params.domain.to_domain(),
-                h=params.h,
-                prune=params.prune,
-                approximation=params.approximation,
-                progress=progress,
-            )
-        except InputError as exc:
-            raise _in_domain(exc) from None
+        axis = medial_axis(
+            params.domain.to_domain(),
+            h=params.h,
+            prune=params.prune,
+            approximation=params.approximation,
+            progress=progress,
+        )
         domain = _domain_geometry(params.domain)
     else:
         axis = medial_axis(
@@ -248,16 +237,13 @@ def _partition_json(part) -> dict:
 
 def run_partition(params: PartitionParams, progress) -> dict:
     """The regions (GeoJSON Polygons with their side counts), the cut lines and the axis."""
-    try:
-        part = partition(
-            params.domain.to_domain(),
-            method=params.method,
-            h=params.h,
-            prune=params.prune,
-            progress=progress,
-        )
-    except InputError as exc:
-        raise _in_domain(exc) from None
+    part = partition(
+        params.domain.to_domain(),
+        method=params.method,
+        h=params.h,
+        prune=params.prune,
+        progress=progress,
+    )
     out = _partition_json(part)
     return {
         "regions": out["regions"],
@@ -314,18 +300,15 @@ class QuadMedialParams(PartitionParams):
 
 def run_quad_medial(params: QuadMedialParams, progress) -> dict:
     """The quad mesh, its quality report, the regions and the counts."""
-    try:
-        res = quad_medial(
-            params.domain.to_domain(),
-            method=params.method,
-            size=params.size,
-            levels=params.levels,
-            h=params.h,
-            prune=params.prune,
-            progress=progress,
-        )
-    except InputError as exc:
-        raise _in_domain(exc) from None
+    res = quad_medial(
+        params.domain.to_domain(),
+        method=params.method,
+        size=params.size,
+        levels=params.levels,
+        h=params.h,
+        prune=params.prune,
+        progress=progress,
+    )
     stats = {k: v for k, v in res.stats.items() if k != "quality"}
     return {
         "mesh": res.mesh,
@@ -363,12 +346,9 @@ class SimplifyParams(MethodParams):
 
 def run_simplify(params: SimplifyParams, progress) -> dict:
     """The simplified domain and the removed features with their sizes."""
-    try:
-        res = simplify(
-            params.domain.to_domain(), threshold=params.threshold, h=params.h, progress=progress
-        )
-    except InputError as exc:
-        raise _in_domain(exc) from None
+    res = simplify(
+        params.domain.to_domain(), threshold=params.threshold, h=params.h, progress=progress
+    )
     return {"domain": res.domain, "stats": {**res.stats, "removed": res.removed}}
 
 
