@@ -108,7 +108,13 @@ from meshcore.errors import MeshcoreError
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
 
-__all__ = ["CORNER_LEAST_QUALITY", "boundary_layer", "meets_targets"]
+__all__ = [
+    "CORNER_LEAST_QUALITY",
+    "beats_lattice",
+    "boundary_layer",
+    "least_off_sharp",
+    "meets_targets",
+]
 
 #: Each offset is by the local spacing averaged over this many points on either
 #: side: the few pieces cut shorter so that a ring's count is a multiple of four
@@ -125,6 +131,9 @@ MOST_QUADS = 1.4
 WIDTH_SHARE = 0.45
 #: The corner row's quads must reach this quality (8.4) before the optimization.
 CORNER_LEAST_QUALITY = 0.2
+#: A row that misses the targets is kept over the lattice with at most this many
+#: times its quads (the row's short pieces at convex corners add some).
+ROW_MOST_QUADS = 1.2
 
 
 def _ring_points(dom: Domain, k: int, size: float):
@@ -220,6 +229,19 @@ def boundary_layer(
     return _corner_layer(dom, size, mesh_inner, max_turn, corner_least)
 
 
+def _off_sharp(mesh: Mesh, dom: Domain) -> np.ndarray:
+    """(q,) bool: the quads of ``mesh`` with no corner at an input vertex of ``dom``
+    whose angle inside is under 45 or over 270 degrees (a quad there is forced to a
+    small or a large corner)."""
+    P, Q = mesh.points, mesh.cells_by_type["quad"]
+    inside = dom.corner_angles()
+    sharp = dom.points[(inside < 45) | (inside > 270)]
+    if not len(sharp):
+        return np.ones(len(Q), bool)
+    at = cKDTree(sharp).query(P)[0] == 0  # the input vertex itself, not a point near it
+    return ~at[Q].any(axis=1)
+
+
 def meets_targets(mesh: Mesh, dom: Domain, size: float) -> bool:
     """Whether an all-quad mesh of ``dom`` (the input vertices first) has within 1.5
     times area / size² quads and, away from the input's sharp corners (under 45 or
@@ -230,16 +252,33 @@ def meets_targets(mesh: Mesh, dom: Domain, size: float) -> bool:
     ratio = len(Q) * size**2 / dom.area
     if not 1 / 1.5 <= ratio <= 1.5 or not np.array_equal(P[:n0], dom.points):
         return False
-    inside = dom.corner_angles()
-    sharp = np.zeros(len(P), bool)
-    sharp[np.flatnonzero((inside < 45) | (inside > 270))] = True
-    ok = ~sharp[Q].any(axis=1)
+    ok = _off_sharp(mesh, dom)
     if not ok.any():
         return True
     ang = quality.quad_angles(P, Q[ok])
     return bool(
         ang.min() >= 30 and ang.max() <= 150 and quality.quad_quality(P, Q[ok]).min() >= 0.5
     )
+
+
+def least_off_sharp(mesh: Mesh, dom: Domain) -> float:
+    """The least quality (8.4) of the quads of ``mesh`` away from the sharp input
+    corners of ``dom`` (as :func:`meets_targets`; 1.0 if none)."""
+    ok = _off_sharp(mesh, dom)
+    if not ok.any():
+        return 1.0
+    return float(quality.quad_quality(mesh.points, mesh.cells_by_type["quad"][ok]).min())
+
+
+def beats_lattice(row: Mesh, lattice: Mesh, dom: Domain) -> bool:
+    """Whether the optimized mesh with the corner row laid at least quality 0 (``row``)
+    is kept over the lattice's (``lattice``) where it misses :func:`meets_targets`: a
+    higher least quality away from the sharp input corners, with at most
+    ``ROW_MOST_QUADS`` times the lattice's quads."""
+    n_row, n_lat = len(row.cells_by_type["quad"]), len(lattice.cells_by_type["quad"])
+    if n_row > ROW_MOST_QUADS * n_lat:
+        return False
+    return least_off_sharp(row, dom) > least_off_sharp(lattice, dom)
 
 
 def _layer(dom, size, mesh_inner, max_turn, least_quality, rows):

@@ -166,9 +166,16 @@ from meshcore.domain.planar import Domain, parse_domain
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
-from meshcore.quads.boundary_layer import CORNER_LEAST_QUALITY, boundary_layer, meets_targets
+from meshcore.quads.boundary_layer import (
+    CORNER_LEAST_QUALITY,
+    beats_lattice,
+    boundary_layer,
+    least_off_sharp,
+    meets_targets,
+)
 from meshcore.quads.lattice import triangulated
 from meshcore.quads.optimization import corners_relaxed, optimize_quads
+from meshcore.quads.paths import frontal_kernel, stack_kernel
 from meshcore.quads.valence import fewer_defects
 
 __all__ = [
@@ -726,145 +733,6 @@ def _swap_kernel(nb, w, mate, gain, sweeps):
     return swaps
 
 
-@njit(cache=True)
-def _local_index(nb, t, s):
-    for k in range(3):
-        if nb[t, k] == s:
-            return k
-    return -1
-
-
-@njit(cache=True)
-def _stack_kernel(nb, w, w3, starts, start_edge, mate, triples):
-    """The stack path of §8.4.2; returns the number of three-quad patterns."""
-    m = nb.shape[0]
-    color = np.zeros(m, np.bool_)
-    active = np.ones(m, np.bool_)
-    father = np.full(m, -1, np.int64)
-    came = np.zeros(m, np.int64)
-    tried = np.zeros(m, np.int64)
-    stack = np.empty(m, np.int64)
-    ntr = 0
-    for s0 in range(starts.shape[0]):
-        st = starts[s0]
-        if color[st]:
-            continue
-        color[st] = True
-        came[st] = start_edge[s0]
-        sp = 1
-        stack[0] = st
-        while sp > 0:
-            K = stack[sp - 1]
-            pushed = False
-            while tried[K] < 3:
-                k = (came[K] + 1 + tried[K]) % 3
-                tried[K] += 1
-                N = nb[K, k]
-                if N >= 0 and not color[N] and w[K, k] >= 0:
-                    color[N] = True
-                    father[N] = K
-                    came[N] = _local_index(nb, N, K)
-                    stack[sp] = N
-                    sp += 1
-                    pushed = True
-                    break
-            if pushed:
-                continue
-            sp -= 1
-            if not active[K]:
-                continue
-            nc = 0
-            c0 = -1
-            c1 = -1
-            for k in range(3):
-                N = nb[K, k]
-                if N >= 0 and father[N] == K and active[N]:
-                    if nc == 0:
-                        c0 = k
-                    else:
-                        c1 = k
-                    nc += 1
-            F = father[K]
-            kf = -1 if F < 0 else _local_index(nb, K, F)
-            if nc == 0:
-                continue
-            if nc == 2 and F >= 0 and active[F] and w3[K]:
-                triples[ntr, 0] = K
-                for k in range(3):
-                    triples[ntr, 1 + k] = nb[K, k]
-                    active[nb[K, k]] = False
-                active[K] = False
-                ntr += 1
-                continue
-            kc = c0
-            if nc == 2 and w[K, c1] > w[K, c0]:
-                kc = c1
-            if w[K, kc] >= 0:
-                N = nb[K, kc]
-            elif kf >= 0 and active[F] and w[K, kf] >= 0:
-                N = F
-            else:
-                continue
-            mate[K] = N
-            mate[N] = K
-            active[K] = False
-            active[N] = False
-    return ntr
-
-
-@njit(cache=True)
-def _frontal_kernel(nb, w, seeds, mate):
-    """Remark 8.8: combine in breadth-first order from the boundary inward."""
-    m = nb.shape[0]
-    queued = np.zeros(m, np.bool_)
-    queue = np.empty(m, np.int64)
-    qh = 0
-    qt = 0
-    for i in range(seeds.shape[0]):
-        t = seeds[i]
-        if not queued[t]:
-            queued[t] = True
-            queue[qt] = t
-            qt += 1
-    nxt = 0
-    pairs = 0
-    while True:
-        if qh == qt:  # a part with no boundary (a closed surface): seed it
-            while nxt < m and queued[nxt]:
-                nxt += 1
-            if nxt == m:
-                break
-            queued[nxt] = True
-            queue[qt] = nxt
-            qt += 1
-        t = queue[qh]
-        qh += 1
-        if mate[t] < 0:
-            best = -1
-            for k in range(3):
-                s = nb[t, k]
-                if s >= 0 and mate[s] < 0 and w[t, k] >= 0 and (best < 0 or w[t, k] > w[t, best]):
-                    best = k
-            if best >= 0:
-                s = nb[t, best]
-                mate[t] = s
-                mate[s] = t
-                pairs += 1
-                for k in range(3):
-                    r = nb[s, k]
-                    if r >= 0 and not queued[r]:
-                        queued[r] = True
-                        queue[qt] = r
-                        qt += 1
-        for k in range(3):
-            r = nb[t, k]
-            if r >= 0 and not queued[r]:
-                queued[r] = True
-                queue[qt] = r
-                qt += 1
-    return pairs
-
-
 # ----------------------------------------------------------------------------- input
 
 
@@ -1186,14 +1054,14 @@ def _combined(
                 )
     elif algorithm == "frontal":
         seeds = np.flatnonzero((nb < 0).any(axis=1))
-        _frontal_kernel(nb, w, seeds, mate)
+        frontal_kernel(nb, w, seeds, mate)
     else:
         nbound = (nb < 0).sum(axis=1)
         starts = np.argsort(-nbound, kind="stable")
         start_edge = np.argmax(nb[starts] < 0, axis=1)
         w3 = _three_quads_allowed(P, tri, nb, measure, metric, min_quality, flat)
         buf = np.zeros((m // 4 + 1, 4), np.int64)
-        ntr = _stack_kernel(nb, w, w3, starts, start_edge, mate, buf)
+        ntr = stack_kernel(nb, w, w3, starts, start_edge, mate, buf)
         triples = buf[:ntr]
     lap("selection")
     # -- the mixed mesh ------------------------------------------------------
@@ -1291,7 +1159,10 @@ def combine(
         optimization (:mod:`meshcore.quads.boundary_layer`; None: its
         ``CORNER_LEAST_QUALITY``). Where that refuses the row, ``optimize`` with
         ``angle`` tries it once more at 0 and keeps it when the optimized mesh
-        meets :func:`~meshcore.quads.boundary_layer.meets_targets`.
+        meets :func:`~meshcore.quads.boundary_layer.meets_targets`, or else when
+        it beats the lattice's mesh
+        (:func:`~meshcore.quads.boundary_layer.beats_lattice`; ``stats``
+        ``lattice_least``: the lattice's least quality away from sharp corners).
     progress : callable(fraction, message), optional
 
     Returns
@@ -1333,7 +1204,7 @@ def combine(
             loc=("twice_size",),
             code="conflicting_parameters",
         )
-    layered = None
+    layered = retried = None
     layer_fits = size is not None and size_field is None and metric is None
     if domain is not None:
         if metric is not None:
@@ -1350,7 +1221,7 @@ def combine(
         def sub(f: float, msg: str) -> None:
             report(0.4 * f, msg)
 
-        _dom = domain if isinstance(domain, Domain) else parse_domain(domain)
+        _dom = domain_in = domain if isinstance(domain, Domain) else parse_domain(domain)
         if layer_fits and all_quad and twice_size and pattern == "squares" and not keep_boundary:
             layered = boundary_layer(
                 _dom,
@@ -1385,6 +1256,7 @@ def combine(
                 # without a row it is the lattice's mesh, as below
                 if "boundary_layer" not in res.stats or meets_targets(res.mesh, _dom, size):
                     return res
+                retried = res
         if layered is None:
             mesh, _dom = triangulated(_dom, tsize, field_, min_angle, pattern, keep_boundary, sub)
         lap("triangulate")
@@ -1440,6 +1312,10 @@ def combine(
                 "max": float(wp.max()),
             }
     stats["seconds"] = timings
+    if retried is not None and beats_lattice(retried.mesh, out_mesh, domain_in):
+        retried.stats["lattice_least"] = least_off_sharp(out_mesh, domain_in)
+        report(1.0, "done")
+        return retried
     report(1.0, "done")
     return QuadResult(
         mesh=out_mesh,

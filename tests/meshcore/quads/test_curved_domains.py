@@ -40,7 +40,7 @@ from meshcore.geometry.predicates import orient2d
 from meshcore.medial.partitioning import quad_medial
 from meshcore.mesh import quality
 from meshcore.quads import combine
-from tests.meshcore.quads.stars import star
+from tests.meshcore.quads.stars import issue_star, star
 
 
 def _ring(xy):
@@ -179,11 +179,29 @@ def test_quad_combine_all_quad_on_curved_domains(case):
     # sizes (coarser teeth: the offset rings cross and the lattice is kept)
     if kind in SMOOTH or (kind.startswith("gear") and int(kind[4:]) * size <= 1.0):
         assert "boundary_layer" in res.stats
-    if "boundary_layer" in res.stats:  # stars too, where their offset ring is valid
+    if "lattice_least" in res.stats:  # a row missing the targets, kept over the lattice
+        _assert_beats_lattice(res, dom, size)
+    elif "boundary_layer" in res.stats:  # stars too, where their offset ring is valid
         ok = _unforced(res.mesh.points, res.mesh.cells_by_type["quad"], dom)
         assert ang[ok].min() >= 30 and ang[ok].max() <= 150
         assert q[ok].min() >= 0.5
         assert 1 / 1.5 <= ratio <= 1.5
+
+
+def _assert_beats_lattice(res, dom, size):
+    """The row kept over the lattice: a higher least quality away from the input's
+    sharp corners than the lattice's mesh (``corner_least`` 1 refuses every corner
+    row), with at most 1.2 times its quads."""
+    lat = combine(
+        domain=dom, size=size, all_quad=True, twice_size=True, optimize=True, corner_least=1.0
+    )
+    assert "boundary_layer" not in lat.stats
+    least = []
+    for r in (res, lat):
+        P, Q = r.mesh.points, r.mesh.cells_by_type["quad"]
+        least.append(quality.quad_quality(P, Q[_unforced(P, Q, dom)]).min())
+    assert least[0] > least[1] == pytest.approx(res.stats["lattice_least"], abs=1e-12)
+    assert len(res.mesh.cells_by_type["quad"]) <= 1.2 * len(lat.mesh.cells_by_type["quad"])
 
 
 @pytest.mark.parametrize(
@@ -203,6 +221,20 @@ def test_quad_combine_row_along_star_corners(star):
     assert ang[ok].min() >= 45 and ang[ok].max() <= 135
     assert q[ok].min() >= 0.55 and q.mean() >= 0.85
     assert 1 / 1.5 <= ratio <= 1.5
+
+
+@pytest.mark.parametrize("seed", [8, 9])
+def test_quad_combine_keeps_a_row_that_beats_the_lattice(seed):
+    # issue 20's random stars 8 and 9: the corner row laid at least quality 0 misses the
+    # targets (least 0.28 / 0.49 away from sharp corners) and the lattice's mesh was
+    # kept, worse (least 0.155 / 0.290, corners 14-166 / 26-152 degrees): the row now
+    dom = parse_domain(issue_star(seed)[0])
+    res = combine(domain=dom, size=0.1, all_quad=True, twice_size=True, optimize=True)
+    assert "boundary_layer" in res.stats and "lattice_least" in res.stats
+    ang, _, _ = _check(res.mesh, dom, 0.1)
+    _assert_beats_lattice(res, dom, 0.1)
+    ok = _unforced(res.mesh.points, res.mesh.cells_by_type["quad"], dom)
+    assert ang[ok].min() >= 25 and ang[ok].max() <= 145
 
 
 @settings(SETTINGS, max_examples=3)
