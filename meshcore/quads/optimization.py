@@ -445,6 +445,27 @@ class _State:
         self.interior = interior
         #: len(C) when the swaps last ran (None before the first sweep)
         self.swapped = None
+        self._inc = self._edges = None
+
+    def incidence(self) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`~meshcore.quads.vertex_moves._incidence` of the alive cells, kept until
+        the cells change (most operator runs change nothing)."""
+        if self._inc is None:
+            self._inc = _incidence(self.C, self.alive, len(self.P))
+        return self._inc
+
+    def edges(self):
+        """The directed edges of :func:`_edge_keys` ``(key, a, b, cell)``, their stable
+        sort order and the sorted unique keys with each one's first edge (as
+        :func:`~meshcore.mesh.topology.unique_ints`), kept until the cells change."""
+        if self._edges is None:
+            key, a, b, cell = _edge_keys(self.C, self.alive, len(self.P))
+            order = np.argsort(key, kind="stable")
+            ks = key[order]
+            head = np.ones(len(ks), bool)
+            head[1:] = ks[1:] != ks[:-1]
+            self._edges = (key, a, b, cell, order, ks[head], order[head])
+        return self._edges
 
     def quality_of(self, rows: np.ndarray) -> np.ndarray:
         return _cell_quality(self.P, rows, self.measure, self.metric)
@@ -452,6 +473,7 @@ class _State:
     def replace(self, old: np.ndarray, new: np.ndarray, newq: np.ndarray) -> None:
         old = old[old >= 0]
         self.alive[old] = False
+        self._inc = self._edges = None
         self.C = np.concatenate([self.C, new])
         self.alive = np.concatenate([self.alive, np.ones(len(new), bool)])
         self.q = np.concatenate([self.q, newq])
@@ -497,7 +519,7 @@ def _hex_splits(st: _State, sets: np.ndarray, edge_keys: np.ndarray, topological
     valid &= ~exists
     old = _old_min(st, sets)
     if topological:
-        ptr, _ = _incidence(st.C, st.alive, n)
+        ptr, _ = st.incidence()
         val = np.diff(ptr)
         r = np.arange(k)
         # valences after each split: minus the old cells holding the vertex, plus the new
@@ -546,7 +568,7 @@ def _apply_hex(st: _State, sets, new, gain) -> int:
 
 
 def _op_valence2(st: _State) -> int:
-    ptr, cells = _incidence(st.C, st.alive, len(st.P))
+    ptr, cells = st.incidence()
     val = np.diff(ptr)
     verts = np.flatnonzero((val == 2) & st.interior)
     if not len(verts):
@@ -578,8 +600,8 @@ def _valence3_vertices(st: _State, ptr, cells):
 
 
 def _op_valence3(st: _State) -> int:
-    ptr, cells = _incidence(st.C, st.alive, len(st.P))
-    keys = unique_ints(_edge_keys(st.C, st.alive, len(st.P))[0])
+    ptr, cells = st.incidence()
+    keys = st.edges()[5]
     _, sets = _valence3_vertices(st, ptr, cells)
     if not len(sets):
         return 0
@@ -588,9 +610,8 @@ def _op_valence3(st: _State) -> int:
 
 def _op_hexagon(st: _State) -> int:
     n = len(st.P)
-    ptr, cells = _incidence(st.C, st.alive, n)
-    key, a, b, _ = _edge_keys(st.C, st.alive, n)
-    keys = unique_ints(key)
+    ptr, cells = st.incidence()
+    _, a, b, _, _, keys, _ = st.edges()
     v3, sets3 = _valence3_vertices(st, ptr, cells)
     if len(v3) < 2:
         return 0
@@ -615,8 +636,7 @@ def _op_hexagon(st: _State) -> int:
 
 def _op_swap(st: _State) -> int:
     n = len(st.P)
-    key, _, _, cell = _edge_keys(st.C, st.alive, n)
-    order = np.argsort(key, kind="stable")
+    key, _, _, cell, order, keys, _ = st.edges()
     ks, cs = key[order], cell[order]
     same = np.flatnonzero(ks[1:] == ks[:-1])
     pairs = np.column_stack([cs[same], cs[same + 1]])
@@ -625,7 +645,7 @@ def _op_swap(st: _State) -> int:
     if not len(pairs):
         return 0
     # a swap can only relax valences next to an irregular vertex, or lift a poor pair
-    ptr, _ = _incidence(st.C, st.alive, n)
+    ptr, _ = st.incidence()
     irregular = np.diff(ptr) != st.ideal
     near = irregular[st.C[pairs].reshape(len(pairs), -1)].any(axis=1)
     poor = _old_min(st, pairs) < TOL.active_below
@@ -638,12 +658,11 @@ def _op_swap(st: _State) -> int:
     pairs = pairs[near | poor]
     if not len(pairs):
         return 0
-    return _apply_hex(st, *_hex_splits(st, pairs, unique_ints(key), topological=True))
+    return _apply_hex(st, *_hex_splits(st, pairs, keys, topological=True))
 
 
 def _op_collapse(st: _State) -> int:
-    n = len(st.P)
-    ptr, cells = _incidence(st.C, st.alive, n)
+    ptr, cells = st.incidence()
     val = np.diff(ptr)
     three = (val == 3) & st.interior
     qrows = np.flatnonzero(st.alive & (st.C[:, 3] >= 0))
@@ -731,7 +750,7 @@ def _op_lift(st: _State) -> int:
     verts = verts[st.interior[verts]]
     if not len(verts):
         return 0
-    ptr, cells = _incidence(st.C, st.alive, n)
+    ptr, cells = st.incidence()
     movable = np.zeros(n, bool)
     movable[verts] = True
     color = _colors(st.C, ptr, cells, movable)
@@ -815,8 +834,7 @@ def _op_smooth(st: _State, passes: int | None = None, below: float | None = None
     the vertices that moved and their neighbours are tried again.
     """
     n = len(st.P)
-    key, a, b, _ = _edge_keys(st.C, st.alive, n)
-    _, first = unique_ints(key, return_index=True)
+    _, a, b, _, _, _, first = st.edges()
     src = np.concatenate([a[first], b[first]])
     dst = np.concatenate([b[first], a[first]])
     order = np.argsort(src, kind="stable")
@@ -824,7 +842,7 @@ def _op_smooth(st: _State, passes: int | None = None, below: float | None = None
     deg = np.bincount(src, minlength=n)
     nptr = np.zeros(n + 1, np.int64)
     np.cumsum(deg, out=nptr[1:])
-    ptr, cells = _incidence(st.C, st.alive, n)
+    ptr, cells = st.incidence()
     live = np.flatnonzero(st.alive)
     vmin = np.full(n, np.inf)
     has = ptr[1:] > ptr[:-1]
