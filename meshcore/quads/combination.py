@@ -28,7 +28,7 @@ Pipeline
    quality: ``angle`` (8.3)/(8.4) or (8.6) with a metric, ``simplified``
    (8.7), or ``shape`` (8.8), all from :mod:`meshcore.mesh.quality`.
 2. **Selection** of the pairs, one compiled sequential kernel (numba) per
-   algorithm:
+   algorithm (``stack`` and ``frontal``: :mod:`meshcore.quads.paths`):
 
    * ``stack`` (§8.4.2): a depth-first path from a triangle with two
      boundary edges; from triangle ``K`` entered through edge ``e1`` the
