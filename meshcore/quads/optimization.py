@@ -1207,8 +1207,14 @@ def relax_quads(
         The moved points. Whether they are valid is the caller's check
         (exact predicates): a tangle that cannot be undone with the fixed
         nodes stays tangled.
+
+    L-BFGS-B runs on one BLAS thread (:func:`threadpoolctl.threadpool_limits`):
+    its many small calls made a multithreaded OpenBLAS up to 12 times slower
+    in CPU on busy cores, for library callers that did not set
+    ``OPENBLAS_NUM_THREADS=1`` as the service's job processes do.
     """
     from scipy.optimize import minimize
+    from threadpoolctl import threadpool_limits
 
     P0 = np.asarray(points, np.float64)
     C = np.asarray(quads, np.int64)
@@ -1271,28 +1277,29 @@ def relax_quads(
     lo, hi = np.minimum(lo, t0), np.maximum(hi, t0)
     x = np.concatenate([P[free].ravel(), t0])
     bounds = [(None, None)] * (2 * nf) + list(zip(lo.tolist(), hi.tolist(), strict=True))
-    for r in range(6):
-        Q = unpack(x)
-        p = Q[Ca]
-        a, b = np.roll(p, -1, axis=1) - p, np.roll(p, 1, axis=1) - p
-        least = float((a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]).min())
-        # untangling rounds (Escobar's delta) only while a corner is folded; delta
-        # shrinks each round, so that a fold among corners far smaller than the
-        # median is not lost in the regularization
-        eps = 1e-2 * 0.1**r
-        delta = math.sqrt(eps * (eps - least)) if least <= 0 else 1e-6
-        res = minimize(
-            fun,
-            x,
-            args=(delta,),
-            jac=True,
-            method="L-BFGS-B",
-            bounds=bounds,
-            options={"maxiter": iterations},
-        )
-        x = res.x
-        if least > 0:
-            break
+    with threadpool_limits(limits=1, user_api="blas"):
+        for r in range(6):
+            Q = unpack(x)
+            p = Q[Ca]
+            a, b = np.roll(p, -1, axis=1) - p, np.roll(p, 1, axis=1) - p
+            least = float((a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]).min())
+            # untangling rounds (Escobar's delta) only while a corner is folded; delta
+            # shrinks each round, so that a fold among corners far smaller than the
+            # median is not lost in the regularization
+            eps = 1e-2 * 0.1**r
+            delta = math.sqrt(eps * (eps - least)) if least <= 0 else 1e-6
+            res = minimize(
+                fun,
+                x,
+                args=(delta,),
+                jac=True,
+                method="L-BFGS-B",
+                bounds=bounds,
+                options={"maxiter": iterations},
+            )
+            x = res.x
+            if least > 0:
+                break
     out = P0.copy()
     out[free] = x[: 2 * nf].reshape(-1, 2) * scale + centre
     out[node] = P0[sa] + x[2 * nf :, None] * (P0[sb] - P0[sa])
