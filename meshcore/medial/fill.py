@@ -74,14 +74,14 @@ from numba import njit
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.medial.axis import MedialAxis, _classes, _csr
-from meshcore.medial.regions import KITE_ANGLE, turns
+from meshcore.medial.regions import KITE_ANGLE, input_index, turns
 from meshcore.mesh import CellBlock, Mesh, quality, topology
 from meshcore.quads.optimization import relax_quads, sliding_nodes
 
 if TYPE_CHECKING:
     from meshcore.medial.partitioning import Partition
 
-__all__ = ["MAX_QUADS", "MOST_COUNT", "area_centroid", "folded", "quads_on"]
+__all__ = ["MAX_QUADS", "MOST_COUNT", "area_centroid", "boundary_slides", "folded", "quads_on"]
 
 #: Most quads a ``quad_medial`` job may make.
 MAX_QUADS = 4_000_000
@@ -398,27 +398,52 @@ def _relaxed(points: np.ndarray, quads: np.ndarray, corner: np.ndarray, ax: Medi
     that are input vertices stay, the other boundary points slide along their input
     segment. Kept when it leaves fewer folded quads, or as many and a better least
     quality, than the fill; returns the points and whether they were kept."""
-    fixed = corner.copy()
     p = len(ax.samples)
     pred = np.empty(p, dtype=np.int64)
     pred[ax.succ] = np.arange(p)
     vertex = ax.samples[ax.segment_source[pred] != ax.segment_source]
-    order = np.lexsort(points.T[::-1])
-    srt = points[order]
-    at = np.searchsorted(srt[:, 0], vertex[:, 0])
-    for v, i in zip(vertex, at, strict=True):  # exact matches only
-        while i < len(srt) and srt[i, 0] == v[0]:
-            if srt[i, 1] == v[1]:
-                fixed[order[i]] = True
-            i += 1
-
-    new = relax_quads(points, quads, fixed, slide=sliding_nodes(points, quads, fixed))
+    fixed = corner | (input_index(points, vertex) >= 0)
+    new = relax_quads(points, quads, fixed, slide=boundary_slides(points, quads, fixed, vertex))
     before, after = folded(points, quads).sum(), folded(new, quads).sum()
     q0 = quality.cell_quality(points, quads, "quad").min()
     q1 = quality.cell_quality(new, quads, "quad").min()
     if after < before or (after == before and q1 > q0):
         return new, True
     return points, False
+
+
+def boundary_slides(P: np.ndarray, Q: np.ndarray, fixed: np.ndarray, inputs: np.ndarray):
+    """The boundary points of a fill that slide, as
+    :func:`~meshcore.quads.optimization.sliding_nodes` (``node, a, b``: ``node`` slides on
+    the segment from point ``a`` to point ``b``): every boundary point between two
+    consecutive ``fixed`` points of a boundary loop, when every input vertex
+    (``inputs``) is one of the ``fixed`` points. The fill puts every boundary point on
+    the input boundary, so those between two fixed points then lie on one input
+    segment; they are off it by rounding (interpolated), and the exact collinearity
+    test of ``sliding_nodes`` let none of them slide on a random star (a boundary
+    fixed in every relaxation). Otherwise (an input vertex not a mesh point:
+    ``sliding_nodes``, exact)."""
+    at = input_index(P, inputs)
+    if len(topology.unique_ints(at[at >= 0])) < len(inputs) or not fixed[at >= 0].all():
+        return sliding_nodes(P, Q, fixed)
+    n = len(P)
+    a, b = Q.ravel(), np.roll(Q, -1, axis=1).ravel()
+    key, rev = a * np.int64(n) + b, b * np.int64(n) + a
+    once = ~topology.isin_ints(key, rev)  # a boundary edge: its reverse is in no quad
+    nxt = np.full(n, -1, np.int64)
+    nxt[a[once]] = b[once]
+    node, sa, sb = [], [], []
+    for s in np.flatnonzero((nxt >= 0) & fixed):  # a walk from every fixed boundary point
+        run = []
+        v = int(nxt[s])
+        while not fixed[v] and v != s:
+            run.append(v)
+            v = int(nxt[v])
+        if run and v != s:
+            node += run
+            sa += [int(s)] * len(run)
+            sb += [v] * len(run)
+    return tuple(np.array(x, np.int64) for x in (node, sa, sb))
 
 
 def folded(P: np.ndarray, quads: np.ndarray) -> np.ndarray:

@@ -130,7 +130,7 @@ from numba import njit
 from meshcore.domain.planar import Domain
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.medial.axis import DEFAULT_PRUNE, MedialAxis, _csr, _cycles, medial_axis
-from meshcore.medial.fill import MOST_COUNT, area_centroid, folded, quads_on
+from meshcore.medial.fill import MOST_COUNT, area_centroid, boundary_slides, folded, quads_on
 from meshcore.medial.regions import (
     _AXIS,
     _BOUNDARY,
@@ -143,7 +143,7 @@ from meshcore.medial.regions import (
 )
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.quads.combination import TOL
-from meshcore.quads.optimization import optimize_quads, relax_quads, sliding_nodes
+from meshcore.quads.optimization import optimize_quads, relax_quads
 
 __all__ = ["Partition", "QuadMedial", "partition", "quad_medial"]
 
@@ -670,7 +670,12 @@ def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
     bad[Q[q < TOL.relax_below].ravel()] = True
     active = bad[Q].any(axis=1)
     new = relax_quads(
-        P, Q, fixed, slide=sliding_nodes(P, Q, fixed), active=active, angle_power=TOL.relax_power
+        P,
+        Q,
+        fixed,
+        slide=boundary_slides(P, Q, fixed, domain.points),
+        active=active,
+        angle_power=TOL.relax_power,
     )
     q2 = quality.quad_quality(new, Q)
     kept = (
@@ -691,7 +696,12 @@ def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
     kept = False
     if active.any():
         new = relax_quads(
-            P, Q, fixed, slide=sliding_nodes(P, Q, fixed), active=active, angle_power=LEAST_POWER
+            P,
+            Q,
+            fixed,
+            slide=boundary_slides(P, Q, fixed, domain.points),
+            active=active,
+            angle_power=LEAST_POWER,
         )
         kept = (
             not (folded(new, Q) > 0).any()
