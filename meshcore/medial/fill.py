@@ -105,9 +105,12 @@ KITE_SIDE = 1.0
 KITE_PAST = (0.05, 0.1, 0.2, 0.35, 0.5, 0.8)
 #: Where the count passes :data:`MOST_COUNT` x area / size**2, the classes' counts are
 #: taken again for ``size`` times each of these in turn (the input vertices' counts
-#: still bind): rounding each class up and the ring of an annulus carrying the outer
-#: circle's count inwards made 1.68x at size 0.1.
-STRETCH = (1.0, 1.15, 1.3, 1.5)
+#: still bind), counting the quads :func:`_opened` adds: rounding each class up and the
+#: ring of an annulus carrying the outer circle's count inwards made 1.68x at size 0.1.
+#: Up to 1.5 a random star of 60 vertices (95 regions, 343 coarse quads for area /
+#: size**2 = 315) kept 1.74x; 2.0 to 3.0 take it to 1.47x (least quality away from
+#: input spikes 0.44 -> 0.46), and another from 1.51x (with its opened corners) to 1.35x.
+STRETCH = (1.0, 1.15, 1.3, 1.5, 2.0, 2.5, 3.0)
 
 
 def area_centroid(xy: np.ndarray) -> tuple[float, np.ndarray]:
@@ -454,6 +457,47 @@ def folded(P: np.ndarray, quads: np.ndarray) -> np.ndarray:
     return sum((orient2d(prv[:, k], c[:, k], nxt[:, k]) <= 0).astype(np.int64) for k in range(4))
 
 
+def _filled(seg_xy, seg_fixed, n_of, patches):
+    """The transfinite fill of the coarse quads (:func:`_coons`), the segments divided
+    into ``n_of`` pieces each: the points (coincident copies merged), the quads and the
+    ids of the coarse quads' corners."""
+    seg_pts = [
+        _polyline_points(xy, int(n_of[i]), fx)
+        for i, (xy, fx) in enumerate(zip(seg_xy, seg_fixed, strict=True))
+    ]
+
+    def along(ref):
+        sid, rev = ref
+        return seg_pts[sid][::-1] if rev else seg_pts[sid]
+
+    grids = []
+    corner_ids = []
+    for s0, s1, s2, s3 in patches:
+        grids.append(_coons(along(s0), along(s1), along(s2), along(s3)))
+    allpts = np.concatenate([g.reshape(-1, 2) for g in grids])
+    # coincident points (the shared sides' copies) are one, numbered in order of first
+    # occurrence: a lexicographic numbering followed the coordinates' rounding (a
+    # translated input renumbered, and the smoothing's sweeps then moved differently)
+    uniq, first, inverse = np.unique(allpts, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    uniq, inverse = uniq[order], rank[inverse.ravel()]
+    quads = []
+    offset = 0
+    for g in grids:
+        n1, n2 = g.shape[0] - 1, g.shape[1] - 1
+        ids = inverse[offset : offset + g.shape[0] * g.shape[1]].reshape(g.shape[0], g.shape[1])
+        offset += g.shape[0] * g.shape[1]
+        corner_ids += [ids[0, 0], ids[-1, 0], ids[0, -1], ids[-1, -1]]
+        quads.append(
+            np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], axis=-1).reshape(
+                n1 * n2, 4
+            )
+        )
+    return uniq, np.concatenate(quads), corner_ids
+
+
 def quads_on(part: Partition, size: float | None, levels: int | None, whole: bool | None = None):
     """Midpoint subdivision and transfinite fill of a partition's regions, then
     smoothing; the mesh and its counts (``invalid``: quads of area <= 0).
@@ -576,7 +620,7 @@ def quads_on(part: Partition, size: float | None, levels: int | None, whole: boo
     )
     label, n_classes = _classes(n_seg, pairs)
     if levels is not None:
-        count = np.full(n_classes, 2 ** int(levels), dtype=np.int64)
+        stretches, mean, need = (None,), None, None
     else:
         length = np.array([np.hypot(*np.diff(xy, axis=0).T).sum() for xy in seg_xy])
         # the mean length of a class: its sides' points come out about `size` apart on
@@ -584,60 +628,32 @@ def quads_on(part: Partition, size: float | None, levels: int | None, whole: boo
         mean = np.bincount(label, length, n_classes) / np.bincount(label, None, n_classes)
         # enough points for every input vertex of a side (a polygon covered exactly)
         need = np.array([int(f[1:-1].sum()) + 1 for f in seg_fixed], dtype=np.int64)
-        for stretch in STRETCH:  # the first whose count is within MOST_COUNT, else the last
+        stretches = STRETCH
+    for stretch in stretches:  # the first whose count is within MOST_COUNT, else the last
+        if stretch is None:
+            count = np.full(n_classes, 2 ** int(levels), dtype=np.int64)
+        else:
             with np.errstate(over="ignore"):  # tiny sizes: inf, clipped (no int overflow)
                 count = np.clip(np.round(mean / (stretch * size)), 1, MAX_QUADS + 1)
             count = count.astype(np.int64)
             np.maximum.at(count, label, need)
-            n_of = count[label]
-            total = sum(int(n_of[s0[0]] * n_of[s1[0]]) for s0, s1, _, _ in patches)
-            if total * size * size <= MOST_COUNT * ax.domain.area:
-                break
-    n_of = count[label]
-    total = sum(int(n_of[s0[0]] * n_of[s1[0]]) for s0, s1, _, _ in patches)
-    if total > MAX_QUADS:
-        raise InputError(
-            f"this would make {total:,} quads; at most {MAX_QUADS:,}: ask for a larger size "
-            "or fewer levels",
-            loc=("size" if size is not None else "levels",),
-            code="too_many_quads",
-        )
-    seg_pts = [
-        _polyline_points(xy, int(n_of[i]), fx)
-        for i, (xy, fx) in enumerate(zip(seg_xy, seg_fixed, strict=True))
-    ]
-
-    def along(ref):
-        sid, rev = ref
-        return seg_pts[sid][::-1] if rev else seg_pts[sid]
-
-    grids = []
-    corner_ids = []
-    for s0, s1, s2, s3 in patches:
-        grids.append(_coons(along(s0), along(s1), along(s2), along(s3)))
-    allpts = np.concatenate([g.reshape(-1, 2) for g in grids])
-    # coincident points (the shared sides' copies) are one, numbered in order of first
-    # occurrence: a lexicographic numbering followed the coordinates' rounding (a
-    # translated input renumbered, and the smoothing's sweeps then moved differently)
-    uniq, first, inverse = np.unique(allpts, axis=0, return_index=True, return_inverse=True)
-    order = np.argsort(first)
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    uniq, inverse = uniq[order], rank[inverse.ravel()]
-    quads = []
-    offset = 0
-    for g in grids:
-        n1, n2 = g.shape[0] - 1, g.shape[1] - 1
-        ids = inverse[offset : offset + g.shape[0] * g.shape[1]].reshape(g.shape[0], g.shape[1])
-        offset += g.shape[0] * g.shape[1]
-        corner_ids += [ids[0, 0], ids[-1, 0], ids[0, -1], ids[-1, -1]]
-        quads.append(
-            np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], axis=-1).reshape(
-                n1 * n2, 4
+        n_of = count[label]
+        total = sum(int(n_of[s0[0]] * n_of[s1[0]]) for s0, s1, _, _ in patches)
+        within = stretch is None or total * size * size <= MOST_COUNT * ax.domain.area
+        if not within and stretch != stretches[-1]:
+            continue
+        if total > MAX_QUADS:
+            raise InputError(
+                f"this would make {total:,} quads; at most {MAX_QUADS:,}: ask for a larger "
+                "size or fewer levels",
+                loc=("size" if size is not None else "levels",),
+                code="too_many_quads",
             )
-        )
-    quads = np.concatenate(quads)
-    uniq, quads, opened = _opened(uniq, quads)
+        uniq, quads, corner_ids = _filled(seg_xy, seg_fixed, n_of, patches)
+        uniq, quads, opened = _opened(uniq, quads)
+        # the quads opened at wide reflex corners count too (a star: 1.49x -> 1.51x)
+        if stretch is None or len(quads) * size * size <= MOST_COUNT * ax.domain.area:
+            break
     before = _corner_areas(uniq, quads).min(axis=1)
     boundary = topology.boundary(Mesh(uniq, (CellBlock("quad", quads),))).cells[0].data
     fixed = np.zeros(len(uniq), dtype=bool)
@@ -652,6 +668,7 @@ def quads_on(part: Partition, size: float | None, levels: int | None, whole: boo
         "quads": int(len(quads)),
         "points": int(len(uniq)),
         "coarse_quads": len(patches),
+        "stretch": stretch,
         "regions": len(part.regions),
         "side_classes": int(n_classes),
         "area": float(area.sum()),
