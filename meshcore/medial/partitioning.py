@@ -81,21 +81,21 @@ region corners around it (:func:`partition`), and its triangle's subdivision is 
 small kite at the tip (side points :data:`meshcore.medial.fill.KITE_SIDE` x size from it, the inner
 point just past them) and two strips along its sides; ``quad_medial`` keeps
 ``ceil(angle / 135) - 1`` of the cuts at a reflex input corner, merging the
-regions on both sides of the others. On 32 random stars of the issue's kind (5-60
-vertices, radial jitter 10-80 %, every other one with a star-shaped hole) at size
-0.1, away from the quads at input corners under 45 degrees (forced: such a corner
-is held by one quad): corners in [30, 150] degrees on 26 (was 21), least quality
-0.3 on 27 (was 25) and 0.5 on 11 (was 9; two more since the quad operators of
-:func:`_optimized` are dropped when they take a quad from an input corner: a
-collapse undid the opened reflex corners), least 0.07-0.58 (was 0.03-0.58); quads
-under 0.5 there 290 (was 647: 199 -> 77 at reflex corners, 311 -> 153 in
-triangle regions, 137 -> 49 in four-sided ones); the count 0.92-1.72x area /
-size**2 (was 0.97-1.63x; over 1.5x on two stars as before, one of them
-60 vertices with spikes and input vertices
-closer than ``size``). What is left under 0.5: quads next to the kites of the
-thinnest spikes (2-10 degrees) and to reflex corners, and thin regions of the
-``critical`` partition around its Type 0 nodes (the text's midpoint subdivision
-of a triangle region with a corner of 10-30 degrees at an axis node).
+regions on both sides of the others. On 32 random stars of the issue's kind
+(:func:`tests.meshcore.quads.stars.issue_star` 0-31: 5-60 vertices, radial jitter
+10-80 %, every other one with a star-shaped hole) at size 0.1, away from the quads at
+input corners under 45 degrees (forced: such a corner is held by one quad): corners
+in [30, 150] degrees on 31, least quality 0.3 on 31 and 0.5 on 19 (26, 27 and 11
+before the boundary points slid in the relaxations:
+:func:`meshcore.medial.fill.boundary_slides`), least 0.15-0.61, quads under 0.5
+there 110 (307 before); the count 0.92-1.47x area / size**2 (1.74x before the
+larger stretches, :data:`meshcore.medial.fill.STRETCH`). What is left under 0.5:
+the strips of spikes whose base chord is oblique and reflex corners (quads of 36-44
+degrees next to them), the few regions of the ``critical`` partition around its
+Type 0 nodes with a corner of 10-30 degrees at the node (the text's midpoint
+subdivision of a triangle region), and one star of 53 vertices with 74 % jitter and
+no hole (star 22: least 0.15, corners 14-163 degrees, in thin regions between its
+spikes).
 Every job succeeds and every quad is strictly convex (``stats["not_convex"]``
 counts them, exact). On 150 random star polygons the ``critical``
 partition so gives only valid quads; the ``terminal`` one's 5- and 6-sided
