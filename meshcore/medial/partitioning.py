@@ -89,7 +89,10 @@ in [30, 150] degrees on 31, least quality 0.3 on 31 and 0.5 on 19 (26, 27 and 11
 before the boundary points slid in the relaxations:
 :func:`meshcore.medial.fill.boundary_slides`), least 0.15-0.61, quads under 0.5
 there 110 (307 before); the count 0.92-1.47x area / size**2 (1.74x before the
-larger stretches, :data:`meshcore.medial.fill.STRETCH`). What is left under 0.5:
+larger stretches, :data:`meshcore.medial.fill.STRETCH`); at size 0.15 the regions
+are about as small as ``size`` and the coarse quads alone pass the count: over 1.5x
+on 9 of the 32 (13 before the axis was pruned more where the count passed,
+:data:`PRUNE_MORE`; up to 2.86x). What is left under 0.5:
 the strips of spikes whose base chord is oblique and reflex corners (quads of 36-44
 degrees next to them), the few regions of the ``critical`` partition around its
 Type 0 nodes with a corner of 10-30 degrees at the node (the text's midpoint
@@ -135,6 +138,7 @@ from meshcore.medial.regions import (
     _AXIS,
     _BOUNDARY,
     _CUT,
+    KITE_ANGLE,
     input_fans,
     input_index,
     reflex_merged,
@@ -171,6 +175,16 @@ INNER_FRACTIONS = (0.5, 0.6)
 #: The last relaxation (:func:`_optimized`) minimizes the summed (1 / sin angle) ** this
 #: over the quads under quality 0.5 and their neighbours: the worst corners weigh most.
 LEAST_POWER = 8.0
+#: Where the count passes :data:`~meshcore.medial.fill.MOST_COUNT` x area / size**2 on
+#: the axis pruned as asked, the axis is pruned at each larger of these angles (degrees)
+#: in turn, and the first mesh within the count is kept when its least quality away
+#: from input spikes is at least :data:`PRUNE_LEAST` or the first mesh's: fewer branches
+#: make fewer regions, whose coarse quads bound the count from below (a 12-tooth gear at
+#: size 0.1: 100 regions, 2.46x area / size**2 on the butterfly; 1.30x pruned at 45).
+PRUNE_MORE = (45.0, 60.0, 90.0)
+#: The least quality (away from input spikes) a more pruned mesh must keep (or the
+#: first one's, when lower).
+PRUNE_LEAST = 0.35
 
 #: The final corner relaxation (:func:`_optimized`) may lower the least quality by this
 #: for a higher mean: on the benchmark's spiky star at size 0.1, with a reflex corner
@@ -555,6 +569,8 @@ def quad_medial(
         (coincident boundary points of neighbouring patches are one point),
         boundary points on the input boundary (snapped onto its corners
         where the counts allow, which covers a polygonal domain exactly).
+        ``stats["prune"]``: the larger pruning angle whose axis was meshed, where the
+        count passed 1.5x area / size**2 on the one asked (:data:`PRUNE_MORE`);
         ``stats["fallback"]`` says when a ``terminal`` partition folded and
         the ``critical`` one was meshed instead; ``stats["partition"]`` is
         ``"four-sided"`` or ``"butterfly"`` when one of those was used
@@ -589,6 +605,40 @@ def quad_medial(
         raise InputError(
             f"levels must be between 0 and 10, got {levels!r}", loc=("levels",), code="bad_value"
         )
+    res = _meshed(domain, method, size, levels, h, prune, progress)
+    if size is None or not _over(res, domain, size):
+        return res
+    for more in (x for x in PRUNE_MORE if x > prune):  # a loop over at most three axes
+        try:
+            alt = _meshed(domain, method, size, levels, h, more, progress)
+        except AlgorithmError:
+            continue
+        least = min(PRUNE_LEAST, _least_away(res.mesh, domain))
+        if not _over(alt, domain, size) and _least_away(alt.mesh, domain) >= least:
+            return QuadMedial(
+                mesh=alt.mesh, partition=alt.partition, stats={**alt.stats, "prune": more}
+            )
+    return res
+
+
+def _over(res: QuadMedial, domain: Domain, size: float) -> bool:
+    """Whether a mesh passes :data:`~meshcore.medial.fill.MOST_COUNT` x area / size**2."""
+    return len(res.mesh.cells_by_type["quad"]) * size * size > MOST_COUNT * domain.area
+
+
+def _least_away(mesh: Mesh, domain: Domain) -> float:
+    """The least quality (8.4) of the quads with no corner at an input corner under
+    :data:`~meshcore.medial.regions.KITE_ANGLE` (one quad holds such a corner)."""
+    P, Q = mesh.points, mesh.cells_by_type["quad"]
+    at = input_index(P, domain.points)
+    angle = np.full(len(domain.points) + 1, 180.0)
+    angle[: domain.boundary_point_count] = domain.corner_angles()
+    ok = ~(angle[at] < KITE_ANGLE)[Q].any(axis=1)
+    return float(quality.quad_quality(P, Q)[ok].min(initial=1.0))
+
+
+def _meshed(domain, method, size, levels, h, prune, progress) -> QuadMedial:
+    """:func:`quad_medial` on the axis pruned at ``prune`` (arguments checked)."""
     axis = medial_axis(domain, h=h, prune=prune, progress=progress)
     special, mesh, stats = _special(axis, size, levels)
     part = None

@@ -26,8 +26,10 @@ everywhere: 19 of the issue's first 32 stars at size 0.1, 27 of 30 drawn spiky
 stars; at size 0.15 the partition's regions are about as small as ``size`` and 13
 of those 32 stars pass 1.5x, up to 2.9x); one of the issue's stars asserts 0.5, and
 a star with a 281-degree corner, opened, and a square with a spike of 4-6 degrees, away
-from its tip. Gears are not asserted for ``quad_medial``: 1.3-3.0x at these sizes,
-least quality down to 0.18 (an 11-tooth gear at 0.1).
+from its tip. Gears (6-12 teeth): the count within 1.5x at size 0.1 (its axis pruned
+more where it passed: a 12-tooth gear 2.46x -> 1.30x); not their quality (least down
+to 0.18, corners to 16 degrees on an 11-tooth gear at 0.1) nor the count at 0.15
+(1.68-2.47x on 6, 7 and 9 teeth).
 """
 
 from __future__ import annotations
@@ -223,6 +225,8 @@ def test_quad_medial_on_curved_domains(case):
         assert 1 / 1.5 <= ratio <= 1.5
     if kind == "annulus":  # its ring regions one patch each (1.76x at 0.15 when halved)
         assert ang.min() >= 30 and ang.max() <= 150 and q.min() >= 0.5
+        assert 1 / 1.5 <= ratio <= 1.5
+    if kind.startswith("gear") and size == 0.1:
         assert 1 / 1.5 <= ratio <= 1.5
     if kind == "star":  # away from input corners under 45 degrees (docstring)
         ok = _unforced(res.mesh.points, res.mesh.cells_by_type["quad"], dom, above=360.0)
