@@ -41,7 +41,9 @@ against a concave boundary). Then the whole mesh is relaxed
 (:func:`meshcore.quads.optimization.relax_quads`: the regularized condition
 number of every corner minimized, which untangles and smooths at once),
 with the coarse corners on the boundary and the input vertices fixed, the
-other boundary points sliding along their input segment and the interior
+other boundary points sliding along their input segment (:func:`boundary_slides`:
+the fill's points are on it only to rounding, so an exact collinearity test let
+none slide) and the interior
 coarse corners free (the butterfly's valence-3 corners open from 90/135/135
 to about 120 degrees); kept when it leaves fewer folded corners, or as many
 and a better least quality. Last, the mesh is optimized as any all-quad mesh
