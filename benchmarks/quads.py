@@ -513,17 +513,22 @@ def _curved_row(name, size, label, r):
 def stars_main(count: int, size: float) -> None:
     """``--stars N SIZE``: ``quad_medial`` on the issue's first N random stars, per star
     the count over area / size**2, and away from the quads at input corners under 45
-    degrees (forced: one quad holds such a corner) the least quality (8.4) and the
-    corner range. Gmsh a8r3 is not run: its full-quad recombination fails on these
-    polygons ("1D mesh cannot be divided by 2")."""
+    degrees (forced: one quad holds such a corner) the least quality (8.4), the quads
+    under 0.5 and the corner range; then a summary line (on how many stars each of the
+    issue's facts holds). Gmsh a8r3 is not run: its full-quad recombination fails on
+    these polygons ("1D mesh cannot be divided by 2")."""
     from meshcore.domain.planar import parse_domain
     from meshcore.medial import quad_medial
     from meshcore.mesh import quality
     from tests.meshcore.quads.stars import issue_star
 
     print(f"{_load()}\n")
-    print("| star | vertices | jitter | count / (area / size²) | least Q | corners | seconds |")
-    print("|---:|---:|---:|---:|---:|---|---:|")
+    print(
+        "| star | vertices | jitter | count / (area / size²) | least Q | Q < 0.5 | corners "
+        "| seconds |"
+    )
+    print("|---:|---:|---:|---:|---:|---:|---|---:|")
+    rows = []
     for seed in range(count):
         geo, n, jitter = issue_star(seed)
         dom = parse_domain(geo)
@@ -537,11 +542,19 @@ def stars_main(count: int, size: float) -> None:
         ok = ~sharp[Q].any(axis=1)
         q = quality.quad_quality(P, Q)[ok]
         ang = quality.quad_angles(P, Q)[ok]
+        rows.append((len(Q) * size**2 / dom.area, q.min(), ang.min(), ang.max(), (q < 0.5).sum()))
         print(
-            f"| {seed} | {n} | {jitter:.2f} | {len(Q) * size**2 / dom.area:.2f} | {q.min():.3f} | "
+            f"| {seed} | {n} | {jitter:.2f} | {rows[-1][0]:.2f} | {q.min():.3f} | {rows[-1][4]} | "
             f"{ang.min():.0f}-{ang.max():.0f} | {sec:.2f} |",
             flush=True,
         )
+    r, q, lo, hi, under = (np.array(c) for c in zip(*rows, strict=True))
+    print(
+        f"\n{count} stars at size {size}: count {r.min():.2f}-{r.max():.2f}x (over 1.5x on "
+        f"{(r > 1.5).sum()}), least Q {q.min():.3f}-{q.max():.3f} (>= 0.5 on {(q >= 0.5).sum()}, "
+        f">= 0.3 on {(q >= 0.3).sum()}), corners in [30, 150] on "
+        f"{((lo >= 30) & (hi <= 150)).sum()}, quads under 0.5: {under.sum()}"
+    )
 
 
 def poisson_child(tool: str, size: float) -> dict:

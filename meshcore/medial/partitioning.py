@@ -71,81 +71,34 @@ Four-sided regions are one patch each (§9.7.2: "if the polygon is not a
 quad itself, the midpoint subdivision completes"); the others get the
 medial partition below.
 
-Quads (§9.7.2, §8.5.3). With ``size``, a partition whose regions all have four
-corners (an annulus: the regions between its loop's cross-sections and the two
-rings) is filled one patch per region, as the text's "if the polygon is not a quad
-itself": the midpoint subdivision put two quads at least across each ring (1.76x
-area / size**2 at size 0.15; one patch each: 0.88x, least quality 0.80). Otherwise
-every region is split by midpoint subdivision (a
-sharp convex input corner, turning by more than 60 degrees, counts as one of
-the region's corners there, so that it is the corner of one coarse quad, not
-the side point of two, each of half its angle): a
-point inside (the centroid of its side points, or of its corners, or its
-area centroid, whichever gives the best smallest corner area) joined to
-one point on each side (the arclength midpoint, on the boundary for a
-boundary side), giving as many coarse quads as sides. Each coarse quad is
-then filled by transfinite (Coons) interpolation of its four sides on an
-``n1 x n2`` grid. Conformity: the two pairs of opposite sides of every
-coarse quad must have equal counts and a side shared by two coarse quads
-one count, so counts are constant on classes of sides (a union-find), each
-class taking ``round(mean length / size)`` of its members (the largest, as
-before, multiplied the count along chains of classes: 24,600 quads for
-1,300 asked on a 128-gon disk), but at least one more than the input
-vertices inside each member side, so that every input vertex is a mesh
-point (polygons covered exactly; a boundary sampled more finely than
-``size`` then raises the count)
-(``levels`` instead gives ``2**levels`` everywhere: repeated midpoint
-subdivision). Boundary points are placed by arclength along the boundary
-pieces (so they lie on the input boundary) and the input vertices of a
-boundary side are snapped onto division points when there are enough of
-them, so polygonal domains are covered exactly. A side's point is its
-input corner nearest to the middle when one lies in its middle half (no
-coarse quad cuts a corner). The transfinite fill folds cells next to reflex
-corners; Gauss-Seidel Laplacian sweeps over the interior points then keep
-each move that raises the smallest corner area around the point or keeps it
-above half of what the fill gave (untangling without flattening quads
-against a concave boundary). Then the whole mesh is relaxed
-(:func:`meshcore.quads.optimization.relax_quads`: the regularized condition
-number of every corner minimized, which untangles and smooths at once),
-with the coarse corners on the boundary and the input vertices fixed, the
-other boundary points sliding along their input segment and the interior
-coarse corners free (the butterfly's valence-3 corners open from 90/135/135
-to about 120 degrees); kept when it leaves fewer folded corners, or as many
-and a better least quality. Last, the mesh is optimized as any all-quad mesh
-(§8.4.3, :func:`_optimized`): the quad operators and smoothing of
-:func:`meshcore.quads.optimization.optimize_quads`, then the corner angles
-relaxed with the boundary points sliding (kept when the mean rises), then once
-more with the power :data:`LEAST_POWER` over the quads under 0.5 and their
-neighbours (kept when the least corner quality away from input vertices rises).
-Where a border vertex's corners average more than :data:`OPEN_ANGLE` (125
-degrees) the fill gets one quad more there (:func:`_opened`, before the
-smoothing). The relaxation's untangling rounds shrink Escobar's
-regularization each round, so that a fold among corners far smaller than
-the median (a reflex input corner next to a short piece) is not lost in
-it, and a sliding point stays between the midpoints to its neighbours (it
-can neither collapse onto an input corner nor pass another point).
+Quads (§9.7.2, §8.5.3): the midpoint subdivision of every region, the counts of its
+sides, the transfinite fill and its untangling are :func:`meshcore.medial.fill.quads_on`
+(its module docstring); then the mesh is optimized as any all-quad mesh (:func:`_optimized`).
 
 Spikes and crowded reflex corners (:mod:`meshcore.medial.regions`). An input
 corner under 45 degrees inside a larger region is cut off by a chord between the
 region corners around it (:func:`partition`), and its triangle's subdivision is a
-small kite at the tip (side points :data:`KITE_SIDE` x size from it, the inner
+small kite at the tip (side points :data:`meshcore.medial.fill.KITE_SIDE` x size from it, the inner
 point just past them) and two strips along its sides; ``quad_medial`` keeps
 ``ceil(angle / 135) - 1`` of the cuts at a reflex input corner, merging the
-regions on both sides of the others. On 32 random stars of the issue's kind (5-60
-vertices, radial jitter 10-80 %, every other one with a star-shaped hole) at size
-0.1, away from the quads at input corners under 45 degrees (forced: such a corner
-is held by one quad): corners in [30, 150] degrees on 26 (was 21), least quality
-0.3 on 27 (was 25) and 0.5 on 11 (was 9; two more since the quad operators of
-:func:`_optimized` are dropped when they take a quad from an input corner: a
-collapse undid the opened reflex corners), least 0.07-0.58 (was 0.03-0.58); quads
-under 0.5 there 290 (was 647: 199 -> 77 at reflex corners, 311 -> 153 in
-triangle regions, 137 -> 49 in four-sided ones); the count 0.92-1.72x area /
-size**2 (was 0.97-1.63x; over 1.5x on two stars as before, one of them
-60 vertices with spikes and input vertices
-closer than ``size``). What is left under 0.5: quads next to the kites of the
-thinnest spikes (2-10 degrees) and to reflex corners, and thin regions of the
-``critical`` partition around its Type 0 nodes (the text's midpoint subdivision
-of a triangle region with a corner of 10-30 degrees at an axis node).
+regions on both sides of the others. On 32 random stars of the issue's kind
+(:func:`tests.meshcore.quads.stars.issue_star` 0-31: 5-60 vertices, radial jitter
+10-80 %, every other one with a star-shaped hole) at size 0.1, away from the quads at
+input corners under 45 degrees (forced: such a corner is held by one quad): corners
+in [30, 150] degrees on 31, least quality 0.3 on 31 and 0.5 on 19 (26, 27 and 11
+before the boundary points slid in the relaxations:
+:func:`meshcore.medial.fill.boundary_slides`), least 0.15-0.61, quads under 0.5
+there 110 (307 before); the count 0.92-1.47x area / size**2 (1.74x before the
+larger stretches, :data:`meshcore.medial.fill.STRETCH`); at size 0.15 the regions
+are about as small as ``size`` and the coarse quads alone pass the count: over 1.5x
+on 9 of the 32 (13 before the axis was pruned more where the count passed,
+:data:`PRUNE_MORE`; up to 2.86x). What is left under 0.5:
+the strips of spikes whose base chord is oblique and reflex corners (quads of 36-44
+degrees next to them), the few regions of the ``critical`` partition around its
+Type 0 nodes with a corner of 10-30 degrees at the node (the text's midpoint
+subdivision of a triangle region), and one star of 53 vertices with 74 % jitter and
+no hole (star 22: least 0.15, corners 14-163 degrees, in thin regions between its
+spikes).
 Every job succeeds and every quad is strictly convex (``stats["not_convex"]``
 counts them, exact). On 150 random star polygons the ``critical``
 partition so gives only valid quads; the ``terminal`` one's 5- and 6-sided
@@ -179,8 +132,8 @@ from numba import njit
 
 from meshcore.domain.planar import Domain
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.geometry.predicates import orient2d
-from meshcore.medial.axis import DEFAULT_PRUNE, MedialAxis, _classes, _csr, _cycles, medial_axis
+from meshcore.medial.axis import DEFAULT_PRUNE, MedialAxis, _csr, _cycles, medial_axis
+from meshcore.medial.fill import MOST_COUNT, area_centroid, boundary_slides, folded, quads_on
 from meshcore.medial.regions import (
     _AXIS,
     _BOUNDARY,
@@ -192,18 +145,14 @@ from meshcore.medial.regions import (
     spike_chords,
     turns,
 )
-from meshcore.mesh import CellBlock, Mesh, quality, topology
+from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.quads.combination import TOL
-from meshcore.quads.optimization import optimize_quads, relax_quads, sliding_nodes
+from meshcore.quads.optimization import optimize_quads, relax_quads
 
 __all__ = ["Partition", "QuadMedial", "partition", "quad_medial"]
 
 Progress = Callable[[float, str], None]
 
-#: Most quads a ``quad_medial`` job may make.
-MAX_QUADS = 4_000_000
-#: Gauss-Seidel smoothing sweeps after the transfinite fill (at most).
-SMOOTHING_SWEEPS = 50
 #: A boundary turn above this (radians) is a corner of the domain: 40 degrees,
 #: so a regular polygon of 9 or more sides is smooth (butterfly) and a rectangle
 #: has four corners (one patch).
@@ -223,31 +172,20 @@ BUTTERFLY_TURN = math.radians(75.0)
 #: a stadium from 1.74x to 1.29x; 0.6 is reached on a 64-gon disk at 0.1 (1.57x
 #: at 0.5, 1.36x at 0.6, mean quality 0.932 -> 0.914).
 INNER_FRACTIONS = (0.5, 0.6)
-#: A convex input corner turning by more than this (radians; an interior angle under
-#: 120 degrees) is a corner of its region's midpoint subdivision (one quad there, not
-#: two of half its angle).
-SHARP_TURN = math.radians(60.0)
-#: The count promised: at most this times area / size**2 where the partition allows.
-MOST_COUNT = 1.5
-#: A border vertex whose quads' corners there average more than this (degrees) gets
-#: one quad more (:func:`_opened`).
-OPEN_ANGLE = 125.0
-#: The kite at a spike's tip (:data:`meshcore.medial.regions.KITE_ANGLE`): the points of
-#: its two sides this times size from the tip (at most a third of the side), its inner
-#: point tried at :data:`KITE_PAST` times their distance past their middle.
-KITE_SIDE = 1.0
-#: The kite's inner point is tried this many times the distance of its two side points
-#: past their middle (away from the tip).
-KITE_PAST = (0.05, 0.1, 0.2, 0.35, 0.5, 0.8)
 #: The last relaxation (:func:`_optimized`) minimizes the summed (1 / sin angle) ** this
 #: over the quads under quality 0.5 and their neighbours: the worst corners weigh most.
 LEAST_POWER = 8.0
+#: Where the count passes :data:`~meshcore.medial.fill.MOST_COUNT` x area / size**2 on
+#: the axis pruned as asked, the axis is pruned at each larger of these angles (degrees)
+#: in turn, and the first mesh within the count is kept when its least quality away
+#: from input spikes is at least :data:`PRUNE_LEAST` or the first mesh's: fewer branches
+#: make fewer regions, whose coarse quads bound the count from below (a 12-tooth gear at
+#: size 0.1: 100 regions, 2.46x area / size**2 on the butterfly; 1.30x pruned at 45).
+PRUNE_MORE = (45.0, 60.0, 90.0)
+#: The least quality (away from input spikes) a more pruned mesh must keep (or the
+#: first one's, when lower).
+PRUNE_LEAST = 0.35
 
-#: Where the count passes :data:`MOST_COUNT` x area / size**2, the classes' counts are
-#: taken again for ``size`` times each of these in turn (the input vertices' counts
-#: still bind): rounding each class up and the ring of an annulus carrying the outer
-#: circle's count inwards made 1.68x at size 0.1.
-STRETCH = (1.0, 1.15, 1.3, 1.5)
 #: The final corner relaxation (:func:`_optimized`) may lower the least quality by this
 #: for a higher mean: on the benchmark's spiky star at size 0.1, with a reflex corner
 #: opened, it took the mean from 0.778 to 0.836 and the least from 0.486 to 0.481, and
@@ -477,16 +415,6 @@ def _ring_area(xy: np.ndarray) -> float:
     return 0.5 * math.fsum(x * np.roll(y, -1) - np.roll(x, -1) * y)
 
 
-def _area_centroid(xy: np.ndarray) -> tuple[float, np.ndarray]:
-    """The signed area and area centroid of a ring, relative to its first vertex."""
-    d = xy - xy[0]
-    x, y = d[:, 0], d[:, 1]
-    cross = x * np.roll(y, -1) - np.roll(x, -1) * y
-    area = float(cross.sum()) / 2
-    c = np.array([((x + np.roll(x, -1)) * cross).sum(), ((y + np.roll(y, -1)) * cross).sum()])
-    return area, xy[0] + c / (6 * area)
-
-
 def partition(
     domain: Domain | None = None,
     *,
@@ -604,284 +532,6 @@ def partition(
 
 
 # ---------------------------------------------------------------------------
-# Quads: midpoint subdivision, then a transfinite fill (§9.7.2, §8.5.3)
-# ---------------------------------------------------------------------------
-
-
-def _polyline_points(xy: np.ndarray, n: int, fixed: np.ndarray) -> np.ndarray:
-    """``n + 1`` points along a polyline by arclength, with the vertices flagged
-    in ``fixed`` (interior corners) moved onto division points where they fit."""
-    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
-    target = np.linspace(0.0, s[-1], n + 1)
-    knots = [0]
-    corners = np.flatnonzero(fixed[1:-1]) + 1
-    for i, k in enumerate(corners):
-        left_after = len(corners) - i - 1  # corners still to place after this one
-        j = int(round(s[k] / s[-1] * n)) if s[-1] > 0 else 0
-        j = min(max(j, knots[-1] + 1), n - 1 - left_after)
-        if knots[-1] < j < n:
-            target[j] = s[k]
-            knots.append(j)
-    knots.append(n)
-    for a, b in zip(knots[:-1], knots[1:], strict=True):
-        target[a : b + 1] = np.linspace(target[a], target[b], b - a + 1)
-    out = np.column_stack([np.interp(target, s, xy[:, 0]), np.interp(target, s, xy[:, 1])])
-    out[0], out[-1] = xy[0], xy[-1]
-    return out
-
-
-def _side_point(xy: np.ndarray, s: np.ndarray, fixed: np.ndarray, at: float | None = None):
-    """The point of a side (a polyline with cumulative lengths ``s``).
-
-    Its input corner nearest to the middle when one lies in the middle half
-    (so that no coarse quad cuts a corner), else the arclength midpoint, or
-    the vertex within 5 % of the side's length of it. ``at``: the arclength
-    wanted instead of the middle (the kite at a spike, :data:`KITE_ANGLE`), an
-    input corner within half of the shorter part from there taken instead.
-    Returns ``(m, point, at_vertex)``: the point is vertex ``m``, or lies
-    inside the piece from vertex ``m`` to ``m + 1``.
-    """
-    mid_s = s[-1] / 2 if at is None else at
-    reach = s[-1] / 4 if at is None else min(at, s[-1] - at) / 2
-    inner = np.flatnonzero(fixed[1:-1]) + 1
-    if inner.size:
-        k = inner[np.argmin(np.abs(s[inner] - mid_s))]
-        if abs(s[k] - mid_s) <= reach:
-            return int(k), xy[k], True
-    m = min(int(np.searchsorted(s, mid_s, side="right")) - 1, len(s) - 2)
-    # a midpoint within 5 % of the side's length of a vertex is that vertex (the nearest
-    # of the two: the first one changed with rounding where the midpoint fell on a
-    # sample): a point a rounding error away from an input corner would make a
-    # zero-length edge
-    near = [k for k in (m, m + 1) if 0 < k < len(s) - 1]
-    if near:
-        k = min(near, key=lambda i: abs(s[i] - mid_s))
-        if abs(s[k] - mid_s) <= 0.05 * min(s[-1], 4 * reach):
-            return k, xy[k], True
-    t = (mid_s - s[m]) / (s[m + 1] - s[m]) if s[m + 1] > s[m] else 0.0
-    return m, xy[m] + t * (xy[m + 1] - xy[m]), False
-
-
-def _corner_areas(points: np.ndarray, quads: np.ndarray) -> np.ndarray:
-    """(m, 4): twice the signed area of the triangle at each corner of each quad
-    (all positive iff the quad is strictly convex)."""
-    p = points[quads]
-    a, b = np.roll(p, 1, axis=1) - p, np.roll(p, -1, axis=1) - p
-    return b[..., 0] * a[..., 1] - b[..., 1] * a[..., 0]
-
-
-@njit(cache=True)
-def _worst_corner(P, quads, start, cells, v, x, y):
-    """Smallest corner area of the quads around vertex v with v moved to (x, y)."""
-    worst = np.inf
-    for j in range(start[v], start[v + 1]):
-        q = cells[j]
-        for k in range(4):
-            a = quads[q, (k + 3) % 4]
-            b = quads[q, k]
-            c = quads[q, (k + 1) % 4]
-            ax, ay = (x, y) if a == v else (P[a, 0], P[a, 1])
-            bx, by = (x, y) if b == v else (P[b, 0], P[b, 1])
-            cx, cy = (x, y) if c == v else (P[c, 0], P[c, 1])
-            area = (cx - bx) * (ay - by) - (cy - by) * (ax - bx)
-            if area < worst:
-                worst = area
-    return worst
-
-
-@njit(cache=True)
-def _smoothed(points, quads, fixed, sweeps):
-    """Gauss-Seidel Laplacian sweeps over the free vertices. A move is kept when
-    it raises the smallest corner area of the quads around the vertex, or keeps
-    it above half of what the transfinite fill gave there: this untangles what
-    the fill folded at reflex corners and evens the rest without flattening
-    quads against a concave boundary. (A sequential sweep: each move sees the
-    previous ones.)"""
-    P = points.copy()
-    n = P.shape[0]
-    start, cells = _csr(n, quads)
-    floor = np.empty(n)
-    for v in range(n):
-        floor[v] = 0.5 * _worst_corner(P, quads, start, cells, v, P[v, 0], P[v, 1])
-    for _ in range(sweeps):
-        moved = 0
-        for v in range(n):
-            if fixed[v]:
-                continue
-            sx = 0.0
-            sy = 0.0
-            cnt = 0
-            for j in range(start[v], start[v + 1]):
-                q = cells[j]
-                for k in range(4):
-                    if quads[q, k] == v:
-                        for w in (quads[q, (k + 1) % 4], quads[q, (k + 3) % 4]):
-                            sx += P[w, 0]
-                            sy += P[w, 1]
-                            cnt += 1
-            x = sx / cnt
-            y = sy / cnt
-            now = _worst_corner(P, quads, start, cells, v, P[v, 0], P[v, 1])
-            new = _worst_corner(P, quads, start, cells, v, x, y)
-            if new > now or (new > 0.0 and new >= floor[v]):
-                if x != P[v, 0] or y != P[v, 1]:
-                    moved += 1
-                P[v, 0] = x
-                P[v, 1] = y
-        if moved == 0:
-            break
-    return P
-
-
-def _around(Q: np.ndarray, start: np.ndarray, cells: np.ndarray, b: int, first: int):
-    """The quads at an interior vertex ``b`` counter-clockwise from ``first``
-    (None when ``b`` is on the border: the walk stops)."""
-    ring = [first]
-    while True:
-        cur = ring[-1]
-        p = Q[cur, (int(np.flatnonzero(Q[cur] == b)[0]) + 3) % 4]  # edge b - p, then ccw
-        nxt = [int(q) for q in cells[start[b] : start[b + 1]] if q != cur and p in Q[q]]
-        if not nxt:
-            return None
-        if nxt[0] == first:
-            return ring
-        if len(ring) > len(cells):
-            return None
-        ring.append(nxt[0])
-
-
-def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
-    """A quad more at every border vertex whose quads' corners there average more
-    than :data:`OPEN_ANGLE` (a reflex input corner over 250 degrees that the
-    midpoint subdivision gave two quads, each with a corner over 125 degrees): the
-    interior edge ``v - b`` between its two widest corners is opened into a quad
-    ``(v, b, z, b2)``, ``b`` split in two along the path ``v - b - z`` (``z`` the
-    neighbour of ``b`` across from ``v``; ``b`` keeps the quads on one side, the new
-    point ``b2`` takes the others). ``b`` and ``b2`` start a third of the way to the
-    centroids of their quads, the smoothing that follows places them. Returns the
-    points, the quads and how many edges were opened."""
-    n = len(points)
-    P, Q = points.copy(), quads.copy()
-    start, cells = _csr(n, Q)
-    e = np.stack([Q, np.roll(Q, -1, axis=1)], axis=-1).reshape(-1, 2)
-    key = np.sort(e, axis=1) @ np.array([n, 1], np.int64)
-    uk, cnt = np.unique(key, return_counts=True)
-    border = np.zeros(n, dtype=bool)
-    border[uk[cnt == 1] // n] = border[uk[cnt == 1] % n] = True
-    added: list[np.ndarray] = []
-    for v in np.flatnonzero(border):
-        fan = [int(q) for q in cells[start[v] : start[v + 1]]]
-        if len(fan) < 2:
-            continue
-        at = {q: int(np.flatnonzero(Q[q] == v)[0]) for q in fan}
-        ang = {}
-        for q in fan:
-            c = P[Q[q]]
-            a, b = c[at[q] - 1] - c[at[q]], c[(at[q] + 1) % 4] - c[at[q]]
-            ang[q] = math.atan2(abs(a[0] * b[1] - a[1] * b[0]), float(a @ b))
-        if math.degrees(sum(ang.values())) / len(fan) <= OPEN_ANGLE:
-            continue
-        best = None
-        for q1 in fan:  # q1 = (v, a, x, b) and q2 = (v, b, y, c) around the edge v - b
-            b = int(Q[q1, (at[q1] + 3) % 4])
-            q2 = [q for q in fan if Q[q, (at[q] + 1) % 4] == b]
-            if q2 and not border[b] and (best is None or ang[q1] + ang[q2[0]] > best[0]):
-                best = (ang[q1] + ang[q2[0]], q1, q2[0], b)
-        if best is None:
-            continue
-        _, q1, q2, b = best
-        ring = _around(Q, start, cells, b, q1)
-        if ring is None or len(ring) < 4 or ring[-1] != q2:
-            continue
-        side1, side2 = ring[: len(ring) // 2], ring[len(ring) // 2 :]
-        z = int(Q[side1[-1], (int(np.flatnonzero(Q[side1[-1]] == b)[0]) + 3) % 4])
-        b2 = n + len(added)
-        c1 = P[Q[side1]].reshape(-1, 2).mean(axis=0)
-        c2 = P[Q[side2]].reshape(-1, 2).mean(axis=0)
-        for q in side2:
-            Q[q][Q[q] == b] = b2
-        added.append(P[b] + (c2 - P[b]) / 3)
-        P = np.vstack([P, added[-1]])
-        border = np.append(border, False)  # b2 is inside
-        P[b] += (c1 - P[b]) / 3
-        Q = np.vstack([Q, np.array([[v, b, z, b2]], dtype=Q.dtype)])
-        start, cells = _csr(len(P), Q)
-    return P, Q, len(added)
-
-
-def _coons(bottom, right, top, left) -> np.ndarray:
-    """Transfinite interpolation on an ``(n1 + 1) x (n2 + 1)`` grid.
-
-    ``bottom`` and ``top`` run in ``u`` (n1 + 1 points), ``left`` and
-    ``right`` in ``v`` (n2 + 1); the corners are shared::
-
-        left[-1] = top[0]  ----  top[-1] = right[-1]
-           |                        |
-        left[0] = bottom[0] ---- bottom[-1] = right[0]
-    """
-    n1, n2 = len(bottom) - 1, len(left) - 1
-    u = np.linspace(0.0, 1.0, n1 + 1)[:, None, None]
-    v = np.linspace(0.0, 1.0, n2 + 1)[None, :, None]
-    B, T = bottom[:, None, :], top[:, None, :]
-    L, R = left[None, :, :], right[None, :, :]
-    grid = (
-        (1 - v) * B
-        + v * T
-        + (1 - u) * L
-        + u * R
-        - ((1 - u) * (1 - v) * bottom[0] + u * (1 - v) * bottom[-1])
-        - ((1 - u) * v * top[0] + u * v * top[-1])
-    )
-    grid[:, 0], grid[:, -1], grid[0, :], grid[-1, :] = bottom, top, left, right
-    return grid
-
-
-def _corner_area(a, b, c) -> float:
-    return 0.5 * float((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
-
-
-def _inner_point(
-    ring: np.ndarray, corners: np.ndarray, mids: np.ndarray, sharp: np.ndarray
-) -> np.ndarray:
-    """The point joined to the side points: among the mean of the side points, the
-    mean of the corners, the area centroid, a 9 x 9 lattice over the corners'
-    bounding box and, at each ``sharp`` corner (a spike's tip, its side points next
-    to it), points just past the middle of its two side points
-    (:data:`KITE_PAST`), the one whose coarse quads ``(corner, side point, G,
-    previous side point)`` have the best worst corner quality ((8.3), 0 when not
-    convex; a sharp corner's own angle left out: it is the input's), the mean of
-    the corners' qualities breaking ties."""
-    centroid = _area_centroid(ring)[1]
-    lo, hi = corners.min(axis=0), corners.max(axis=0)
-    t = (np.arange(9) + 0.5) / 9
-    lattice = lo + np.stack(np.meshgrid(t, t), axis=-1).reshape(-1, 2) * (hi - lo)
-    g = [mids.mean(axis=0), corners.mean(axis=0), centroid, lattice]
-    for j in np.flatnonzero(sharp):  # a loop over the region's spikes (one or none)
-        a, b = mids[j - 1], mids[j]
-        u = (a + b) / 2 - corners[j]
-        u /= max(float(np.hypot(*u)), np.finfo(float).tiny)
-        g.append((a + b) / 2 + np.outer(KITE_PAST, u) * float(np.hypot(*(b - a))))
-    g = np.vstack(g)
-    k, c = len(corners), len(g)
-    quads = np.stack(
-        [
-            np.broadcast_to(corners, (c, k, 2)),
-            np.broadcast_to(mids, (c, k, 2)),
-            np.broadcast_to(g[:, None, :], (c, k, 2)),
-            np.broadcast_to(np.roll(mids, 1, axis=0), (c, k, 2)),
-        ],
-        axis=2,
-    ).reshape(-1, 4, 2)
-    pts = quads.reshape(-1, 2)
-    cells = np.arange(len(pts)).reshape(-1, 4)
-    ang = quality.quad_angles(pts, cells)
-    qp = np.where(ang <= 90.0, ang / 90.0, np.maximum(2.0 - ang / 90.0, 0.0))
-    qp[:, 0] = np.where(np.tile(sharp, c), 1.0, qp[:, 0])
-    qp = np.where((_corner_areas(pts, cells).min(axis=1) > 0)[:, None], qp, -1.0).reshape(c, -1)
-    # the least to 1e-9, then the mean: a fixed corner of the region is often the least
-    # for every candidate, and rounding then chose (a translated input changed the mesh)
-    least, mean = np.round(qp.min(axis=1), 9), qp.mean(axis=1)
-    return g[int(np.lexsort((-mean, -least))[0])]
 
 
 def quad_medial(
@@ -919,6 +569,8 @@ def quad_medial(
         (coincident boundary points of neighbouring patches are one point),
         boundary points on the input boundary (snapped onto its corners
         where the counts allow, which covers a polygonal domain exactly).
+        ``stats["prune"]``: the larger pruning angle whose axis was meshed, where the
+        count passed 1.5x area / size**2 on the one asked (:data:`PRUNE_MORE`);
         ``stats["fallback"]`` says when a ``terminal`` partition folded and
         the ``critical`` one was meshed instead; ``stats["partition"]`` is
         ``"four-sided"`` or ``"butterfly"`` when one of those was used
@@ -934,7 +586,7 @@ def quad_medial(
     ------
     InputError
         Both ``size`` and ``levels``, values out of range, or more than
-        :data:`MAX_QUADS` quads.
+        :data:`meshcore.medial.fill.MAX_QUADS` quads.
     AlgorithmError
         As :func:`partition`, or inverted quads left on the critical
         partition (none on the domains tested).
@@ -953,6 +605,40 @@ def quad_medial(
         raise InputError(
             f"levels must be between 0 and 10, got {levels!r}", loc=("levels",), code="bad_value"
         )
+    res = _meshed(domain, method, size, levels, h, prune, progress)
+    if size is None or not _over(res, domain, size):
+        return res
+    for more in (x for x in PRUNE_MORE if x > prune):  # a loop over at most three axes
+        try:
+            alt = _meshed(domain, method, size, levels, h, more, progress)
+        except AlgorithmError:
+            continue
+        least = min(PRUNE_LEAST, _least_away(res.mesh, domain))
+        if not _over(alt, domain, size) and _least_away(alt.mesh, domain) >= least:
+            return QuadMedial(
+                mesh=alt.mesh, partition=alt.partition, stats={**alt.stats, "prune": more}
+            )
+    return res
+
+
+def _over(res: QuadMedial, domain: Domain, size: float) -> bool:
+    """Whether a mesh passes :data:`~meshcore.medial.fill.MOST_COUNT` x area / size**2."""
+    return len(res.mesh.cells_by_type["quad"]) * size * size > MOST_COUNT * domain.area
+
+
+def _least_away(mesh: Mesh, domain: Domain) -> float:
+    """The least quality (8.4) of the quads with no corner at an input corner under
+    :data:`~meshcore.medial.regions.KITE_ANGLE` (one quad holds such a corner)."""
+    P, Q = mesh.points, mesh.cells_by_type["quad"]
+    at = input_index(P, domain.points)
+    angle = np.full(len(domain.points) + 1, 180.0)
+    angle[: domain.boundary_point_count] = domain.corner_angles()
+    ok = ~(angle[at] < KITE_ANGLE)[Q].any(axis=1)
+    return float(quality.quad_quality(P, Q)[ok].min(initial=1.0))
+
+
+def _meshed(domain, method, size, levels, h, prune, progress) -> QuadMedial:
+    """:func:`quad_medial` on the axis pruned at ``prune`` (arguments checked)."""
     axis = medial_axis(domain, h=h, prune=prune, progress=progress)
     special, mesh, stats = _special(axis, size, levels)
     part = None
@@ -962,7 +648,7 @@ def quad_medial(
             # at size 0.1: 1.88x): the medial partition when it keeps the count
             try:  # (a 2:1 ellipse's medial partition has a 2-sided region: the butterfly)
                 part = _reflex_merged(partition(axis=axis, method=method))
-                mesh2, stats2 = _quads_on(part, size, levels)
+                mesh2, stats2 = quads_on(part, size, levels)
             except AlgorithmError:
                 part, stats2 = None, {"invalid": 1}
             bad = stats2["invalid"] or stats2["slits"]
@@ -978,14 +664,14 @@ def quad_medial(
         mesh, stats = mesh2, stats2
     else:
         part = _reflex_merged(partition(axis=axis, method=method))
-        mesh, stats = _quads_on(part, size, levels)
+        mesh, stats = quads_on(part, size, levels)
     if (stats["invalid"] or stats["slits"]) and method == "terminal":
         # regions of 5 or 6 sides around reflex corners can fold; the critical
         # partition's triangles and quads do not on the domains tested. A region
         # around a dead-end cut (a slit: its cycle passes a vertex twice) gave a
         # non-conforming fill, a sliver hole along the slit (a random star at size 0.5)
         fallback = _reflex_merged(partition(axis=part.axis, method="critical"))
-        mesh, stats2 = _quads_on(fallback, size, levels)
+        mesh, stats2 = quads_on(fallback, size, levels)
         stats = {
             **stats2,
             "fallback": f"the terminal partition gave {stats['invalid']} "
@@ -1034,11 +720,16 @@ def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
     bad[Q[q < TOL.relax_below].ravel()] = True
     active = bad[Q].any(axis=1)
     new = relax_quads(
-        P, Q, fixed, slide=sliding_nodes(P, Q, fixed), active=active, angle_power=TOL.relax_power
+        P,
+        Q,
+        fixed,
+        slide=boundary_slides(P, Q, fixed, domain.points),
+        active=active,
+        angle_power=TOL.relax_power,
     )
     q2 = quality.quad_quality(new, Q)
     kept = (
-        not (_folded(new, Q) > 0).any()
+        not (folded(new, Q) > 0).any()
         and q2.mean() > q.mean()
         and (q2 < 0.5).sum() <= (q < 0.5).sum()
         and q2.min() >= q.min() - LEAST_GIVE
@@ -1055,10 +746,15 @@ def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
     kept = False
     if active.any():
         new = relax_quads(
-            P, Q, fixed, slide=sliding_nodes(P, Q, fixed), active=active, angle_power=LEAST_POWER
+            P,
+            Q,
+            fixed,
+            slide=boundary_slides(P, Q, fixed, domain.points),
+            active=active,
+            angle_power=LEAST_POWER,
         )
         kept = (
-            not (_folded(new, Q) > 0).any()
+            not (folded(new, Q) > 0).any()
             and _least_free(new, Q, fixed) > _least_free(P, Q, fixed)
             and quality.quad_quality(new, Q).mean() >= q.mean() - LEAST_GIVE
         )
@@ -1085,13 +781,13 @@ def _special(ax: MedialAxis, size: float | None, levels: int | None):
     quads; else the last tried, its inverted quads counted in its stats)."""
     four = _four_sided(ax)
     if four is not None:
-        return four, *_quads_on(four, size, levels, whole=True)
+        return four, *quads_on(four, size, levels, whole=True)
     best = None
     for f in INNER_FRACTIONS:  # a loop over at most two partitions
         part = _butterfly(ax, f)
         if part is None:
             return None, None, None
-        mesh, stats = _quads_on(part, size, levels, whole=True)
+        mesh, stats = quads_on(part, size, levels, whole=True)
         if (
             best is None
             or best[2]["invalid"]
@@ -1102,43 +798,6 @@ def _special(ax: MedialAxis, size: float | None, levels: int | None):
         if levels is not None or not (over or stats["invalid"]):
             break
     return best
-
-
-def _relaxed(points: np.ndarray, quads: np.ndarray, corner: np.ndarray, ax: MedialAxis):
-    """The fill untangled and smoothed (:func:`meshcore.quads.optimization.relax_quads`):
-    the coarse quads' corners on the boundary (``corner``) and the boundary samples
-    that are input vertices stay, the other boundary points slide along their input
-    segment. Kept when it leaves fewer folded quads, or as many and a better least
-    quality, than the fill; returns the points and whether they were kept."""
-    fixed = corner.copy()
-    p = len(ax.samples)
-    pred = np.empty(p, dtype=np.int64)
-    pred[ax.succ] = np.arange(p)
-    vertex = ax.samples[ax.segment_source[pred] != ax.segment_source]
-    order = np.lexsort(points.T[::-1])
-    srt = points[order]
-    at = np.searchsorted(srt[:, 0], vertex[:, 0])
-    for v, i in zip(vertex, at, strict=True):  # exact matches only
-        while i < len(srt) and srt[i, 0] == v[0]:
-            if srt[i, 1] == v[1]:
-                fixed[order[i]] = True
-            i += 1
-
-    new = relax_quads(points, quads, fixed, slide=sliding_nodes(points, quads, fixed))
-    before, after = _folded(points, quads).sum(), _folded(new, quads).sum()
-    q0 = quality.cell_quality(points, quads, "quad").min()
-    q1 = quality.cell_quality(new, quads, "quad").min()
-    if after < before or (after == before and q1 > q0):
-        return new, True
-    return points, False
-
-
-def _folded(P: np.ndarray, quads: np.ndarray) -> np.ndarray:
-    """(q,) int: the corners of each quad that are not strictly convex (exact
-    :func:`~meshcore.geometry.predicates.orient2d`)."""
-    c = P[quads]
-    prv, nxt = np.roll(c, 1, axis=1), np.roll(c, -1, axis=1)
-    return sum((orient2d(prv[:, k], c[:, k], nxt[:, k]) <= 0).astype(np.int64) for k in range(4))
 
 
 def _one_ring(ax: MedialAxis) -> np.ndarray | None:
@@ -1176,7 +835,7 @@ def _butterfly(ax: MedialAxis, fraction: float) -> Partition | None:
     if ring is None or (np.abs(turns(ax)[ring]) > BUTTERFLY_TURN).any():
         return None
     xy = ax.samples[ring]
-    c = _area_centroid(xy)[1]
+    c = area_centroid(xy)[1]
     d = xy - c
     if ((d[:, 0] * np.roll(d[:, 1], -1) - np.roll(d[:, 0], -1) * d[:, 1]) <= 0).any():
         return None  # not star-shaped from c
@@ -1287,212 +946,3 @@ def _made(ax: MedialAxis, points, cycles, corners) -> Partition:
         edge_kind=kinds,
         stats={"regions": len(regions), "area": sum(r["area"] for r in regions)},
     )
-
-
-def _quads_on(part: Partition, size: float | None, levels: int | None, whole: bool | None = None):
-    """Midpoint subdivision and transfinite fill of a partition's regions, then
-    smoothing; the mesh and its counts (``invalid``: quads of area <= 0).
-    ``whole``: every region has four sides and is one patch (no subdivision); None:
-    so, with ``size``, when every region has four corners, the sharp input corners
-    (:data:`SHARP_TURN`) counted (an annulus: its rings' regions one patch each, so
-    that one quad across each ring is possible: the midpoint subdivision made at
-    least two, 1.76x area / size**2 at size 0.15)."""
-    ax = part.axis
-    points = part.points
-    p = len(ax.samples)
-    succ = ax.succ
-    pred = np.empty(p, dtype=np.int64)
-    pred[succ] = np.arange(p)
-    src = ax.segment_source
-    is_corner = np.zeros(len(points), dtype=bool)
-    is_corner[:p] = src[pred] != src  # input vertices between two input segments
-
-    # segments: half-sides (in canonical direction) and spokes
-    seg_xy: list[np.ndarray] = []
-    seg_fixed: list[np.ndarray] = []
-    half_id: dict[tuple[bytes, int], int] = {}
-    patches = []  # (s0, s0 reversed?, s1, s2, s3 reversed?) and corner points
-
-    def new_segment(xy, fixed) -> int:
-        seg_xy.append(xy)
-        seg_fixed.append(fixed)
-        return len(seg_xy) - 1
-
-    # a sharp convex input corner is a corner of the midpoint subdivision: one coarse
-    # quad there (as a side point it got two of half its angle)
-    sharp = np.zeros(len(points), dtype=bool)
-    sharp[:p] = turns(ax) > SHARP_TURN
-    with_sharp = not whole
-    if whole is None:  # (with levels, the halving is the subdivision asked for)
-        whole = size is not None and all(
-            int((c | sharp[v]).sum()) == 4 for v, c in zip(part.cycles, part.corners, strict=True)
-        )
-    for verts, corner in zip(part.cycles, part.corners, strict=True):
-        if with_sharp:
-            corner = corner | sharp[verts]
-        ci = np.flatnonzero(corner)
-        verts = np.roll(verts, -ci[0])
-        ci = ci - ci[0]
-        k = len(ci)
-        bounds = np.append(ci, len(verts))
-        halves = []  # per side: (first-half id, reversed?), (second-half id, reversed?)
-        mids = []
-        if whole:  # a four-sided region is one patch (its sides are not halved)
-            refs = []
-            for j in range(k):
-                side = np.append(
-                    verts[bounds[j] : bounds[j + 1]], verts[bounds[j + 1] % len(verts)]
-                )
-                flipped = not (side[0] < side[-1] or (side[0] == side[-1] and side[1] < side[-2]))
-                canon = side[::-1] if flipped else side
-                key = canon.tobytes()
-                if (key, 0) not in half_id:
-                    fixed = is_corner[canon].copy()
-                    fixed[[0, -1]] = True
-                    half_id[(key, 0)] = new_segment(points[canon], fixed)
-                refs.append((half_id[(key, 0)], flipped))
-            b, r, t, lft = refs
-            patches.append((b, r, (t[0], not t[1]), (lft[0], not lft[1])))
-            continue
-        ring = points[verts]
-        nxt, prv = ring[(ci + 1) % len(verts)] - ring[ci], ring[ci - 1] - ring[ci]
-        cos_sin = ((nxt * prv).sum(axis=1), nxt[:, 0] * prv[:, 1] - nxt[:, 1] * prv[:, 0])
-        alpha = np.degrees(np.mod(np.arctan2(cos_sin[1], cos_sin[0]), 2 * np.pi))
-        tip = (alpha < KITE_ANGLE) & (k == 3) & (verts[ci] < p)  # a spike cut off
-        for j in range(k):
-            side = np.append(verts[bounds[j] : bounds[j + 1]], verts[bounds[(j + 1)] % len(verts)])
-            canon = (
-                side
-                if side[0] < side[-1] or (side[0] == side[-1] and side[1] < side[-2])
-                else side[::-1]
-            )
-            flipped = canon is not side
-            key = canon.tobytes()
-            xy = points[canon]
-            s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
-            if (key, 0) not in half_id:
-                fixed = is_corner[canon]
-                at = None  # next to a spike's tip: the kite's side (KITE_ANGLE)
-                if size is not None and tip[[j, (j + 1) % k]].any():
-                    at = min(KITE_SIDE * size, s[-1] / 3)
-                    if not tip[j] or alpha[(j + 1) % k] < alpha[j]:
-                        at = s[-1] - at  # from the tip at the side's end
-                    if flipped:
-                        at = s[-1] - at
-                m, mid, at_vertex = _side_point(xy, s, fixed, at)
-                if at_vertex:  # the side point is vertex m
-                    first, second = xy[: m + 1], xy[m:]
-                    f1, f2 = fixed[: m + 1].copy(), fixed[m:].copy()
-                else:  # inside the piece (m, m + 1)
-                    first, second = np.vstack([xy[: m + 1], mid]), np.vstack([mid, xy[m + 1 :]])
-                    f1, f2 = np.append(fixed[: m + 1], True), np.insert(fixed[m + 1 :], 0, True)
-                f1[-1] = f2[0] = True
-                half_id[(key, 0)] = new_segment(first, f1)
-                half_id[(key, 1)] = new_segment(second, f2)
-            a, b = half_id[(key, 0)], half_id[(key, 1)]
-            mids.append(seg_xy[a][-1])
-            halves.append(((b, True), (a, True)) if flipped else ((a, False), (b, False)))
-        g = _inner_point(ring, points[verts[ci]], np.array(mids), tip)
-        spokes = [new_segment(np.vstack([mids[j], g]), np.ones(2, bool)) for j in range(k)]
-        for j in range(k):
-            h = halves[j - 1][1]
-            patches.append(
-                (halves[j][0], (spokes[j], False), (spokes[j - 1], False), (h[0], not h[1]))
-            )
-    # conformity classes: opposite patch sides, shared sides
-    n_seg = len(seg_xy)
-    pairs = np.array(
-        [[s0[0], s2[0]] for s0, s1, s2, s3 in patches]
-        + [[s1[0], s3[0]] for s0, s1, s2, s3 in patches],
-        dtype=np.int64,
-    )
-    label, n_classes = _classes(n_seg, pairs)
-    if levels is not None:
-        count = np.full(n_classes, 2 ** int(levels), dtype=np.int64)
-    else:
-        length = np.array([np.hypot(*np.diff(xy, axis=0).T).sum() for xy in seg_xy])
-        # the mean length of a class: its sides' points come out about `size` apart on
-        # average (the largest would multiply the count along chains of classes)
-        mean = np.bincount(label, length, n_classes) / np.bincount(label, None, n_classes)
-        # enough points for every input vertex of a side (a polygon covered exactly)
-        need = np.array([int(f[1:-1].sum()) + 1 for f in seg_fixed], dtype=np.int64)
-        for stretch in STRETCH:  # the first whose count is within MOST_COUNT, else the last
-            with np.errstate(over="ignore"):  # tiny sizes: inf, clipped (no int overflow)
-                count = np.clip(np.round(mean / (stretch * size)), 1, MAX_QUADS + 1)
-            count = count.astype(np.int64)
-            np.maximum.at(count, label, need)
-            n_of = count[label]
-            total = sum(int(n_of[s0[0]] * n_of[s1[0]]) for s0, s1, _, _ in patches)
-            if total * size * size <= MOST_COUNT * ax.domain.area:
-                break
-    n_of = count[label]
-    total = sum(int(n_of[s0[0]] * n_of[s1[0]]) for s0, s1, _, _ in patches)
-    if total > MAX_QUADS:
-        raise InputError(
-            f"this would make {total:,} quads; at most {MAX_QUADS:,}: ask for a larger size "
-            "or fewer levels",
-            loc=("size" if size is not None else "levels",),
-            code="too_many_quads",
-        )
-    seg_pts = [
-        _polyline_points(xy, int(n_of[i]), fx)
-        for i, (xy, fx) in enumerate(zip(seg_xy, seg_fixed, strict=True))
-    ]
-
-    def along(ref):
-        sid, rev = ref
-        return seg_pts[sid][::-1] if rev else seg_pts[sid]
-
-    grids = []
-    corner_ids = []
-    for s0, s1, s2, s3 in patches:
-        grids.append(_coons(along(s0), along(s1), along(s2), along(s3)))
-    allpts = np.concatenate([g.reshape(-1, 2) for g in grids])
-    # coincident points (the shared sides' copies) are one, numbered in order of first
-    # occurrence: a lexicographic numbering followed the coordinates' rounding (a
-    # translated input renumbered, and the smoothing's sweeps then moved differently)
-    uniq, first, inverse = np.unique(allpts, axis=0, return_index=True, return_inverse=True)
-    order = np.argsort(first)
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    uniq, inverse = uniq[order], rank[inverse.ravel()]
-    quads = []
-    offset = 0
-    for g in grids:
-        n1, n2 = g.shape[0] - 1, g.shape[1] - 1
-        ids = inverse[offset : offset + g.shape[0] * g.shape[1]].reshape(g.shape[0], g.shape[1])
-        offset += g.shape[0] * g.shape[1]
-        corner_ids += [ids[0, 0], ids[-1, 0], ids[0, -1], ids[-1, -1]]
-        quads.append(
-            np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], axis=-1).reshape(
-                n1 * n2, 4
-            )
-        )
-    quads = np.concatenate(quads)
-    uniq, quads, opened = _opened(uniq, quads)
-    before = _corner_areas(uniq, quads).min(axis=1)
-    boundary = topology.boundary(Mesh(uniq, (CellBlock("quad", quads),))).cells[0].data
-    fixed = np.zeros(len(uniq), dtype=bool)
-    fixed[boundary.ravel()] = True
-    uniq = _smoothed(uniq, quads, fixed, SMOOTHING_SWEEPS)
-    corner = np.zeros(len(uniq), dtype=bool)
-    corner[np.asarray(corner_ids, np.int64)] = True
-    uniq, relaxed = _relaxed(uniq, quads, corner & fixed, ax)
-    mesh = Mesh(uniq, (CellBlock("quad", quads),))
-    area = quality.signed_area(uniq, quads, "quad")
-    stats = {
-        "quads": int(len(quads)),
-        "points": int(len(uniq)),
-        "coarse_quads": len(patches),
-        "regions": len(part.regions),
-        "side_classes": int(n_classes),
-        "area": float(area.sum()),
-        "not_convex_before_smoothing": int((before <= 0).sum()),
-        "relaxed": relaxed,
-        "opened": opened,
-        "invalid": int((area <= 0).sum()),
-        "slits": sum(len(topology.unique_ints(c)) < len(c) for c in part.cycles),
-        "not_convex": int((_folded(uniq, quads) > 0).sum()),
-        "domain_area": ax.domain.area,
-    }
-    return mesh, stats

@@ -8,7 +8,7 @@ changed here:
   tip became the corner of one coarse quad as long as the spike, whose transfinite
   fill repeated the tip's angle along its diagonal. :func:`spike_chords` cuts it off
   by a chord, so that it is a triangle region of its own (subdivided as a small kite
-  at the tip and two strips along its sides, :mod:`meshcore.medial.partitioning`);
+  at the tip and two strips along its sides, :mod:`meshcore.medial.fill`);
 * a reflex input corner met by many cuts: each region meeting there puts a coarse
   quad at the corner, so that corners of 280-290 degrees were held by 6-7 quads.
   :func:`reflex_merged` keeps about one region per :data:`REFLEX_SHARE` degrees.
@@ -46,7 +46,7 @@ _BOUNDARY, _AXIS, _CUT = 0, 1, 2
 #: An input corner under this angle (degrees) is a spike: cut off into a triangle
 #: region of its own (:func:`spike_chords`), subdivided as a small coarse quad at the
 #: tip (a kite) and two strips along its sides
-#: (:data:`meshcore.medial.partitioning.KITE_SIDE`). The midpoint subdivision's kite
+#: (:data:`meshcore.medial.fill.KITE_SIDE`). The midpoint subdivision's kite
 #: there has corners (alpha, 90, 180 - alpha, 90), over 135 degrees, and its fill
 #: repeats the angle alpha along its diagonal.
 KITE_ANGLE = 45.0

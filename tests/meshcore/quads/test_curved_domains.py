@@ -19,13 +19,19 @@ these sizes); where the corner row misses those targets but beats the lattice's
 mesh (a higher least quality away from sharp corners, at most 1.2 times its quads:
 ``stats["lattice_least"]``) it is kept, and that is asserted instead;
 ``quad_medial`` on disks, ellipses and stadiums (the butterfly), corners in
-[30, 150] degrees and the count within 1.5x of area / size**2; on the annulus
-corners in [30, 150], least quality 0.5 and the count within 1.5x (0.88x at size
-0.15, 1.12x at 0.1: its regions are one patch each); on stars, away from input corners under 45
-degrees (forced) and over 270 degrees, corners in [30, 150] and least quality
-0.3 (the issue's 0.5 is not met: a reflex corner opened into three quads keeps
-a corner of 29-40 degrees); one star with a 281-degree corner, opened, asserts
-0.5, and so does a square with a spike of 4-6 degrees, away from its tip.
+[30, 150] degrees, least quality 0.5 and the count within 1.5x of area / size**2; on
+the annulus corners in [30, 150], least quality 0.5 and the count within 1.5x (0.88x
+at size 0.15, 1.12x at 0.1: its regions are one patch each); on stars, away from
+input corners under 45 degrees (forced), corners in [30, 150] and least quality 0.3,
+and at size 0.1 the count within 1.5x (the issue's least quality 0.5 is not met
+everywhere: 19 of the issue's first 32 stars at size 0.1, 27 of 30 drawn spiky
+stars; at size 0.15 the partition's regions are about as small as ``size`` and 13
+of those 32 stars pass 1.5x, up to 2.9x); one of the issue's stars asserts 0.5, and
+a star with a 281-degree corner, opened, and a square with a spike of 4-6 degrees, away
+from its tip. Gears (6-12 teeth): the count within 1.5x at size 0.1 (its axis pruned
+more where it passed: a 12-tooth gear 2.46x -> 1.30x); not their quality (least down
+to 0.18, corners to 16 degrees on an 11-tooth gear at 0.1) nor the count at 0.15
+(1.68-2.47x on 6, 7 and 9 teeth).
 """
 
 from __future__ import annotations
@@ -247,16 +253,19 @@ def test_quad_medial_on_curved_domains(case):
     dom = parse_domain(geo)
     res = quad_medial(dom, size=size)
     ang, q, ratio = _check(res.mesh, dom, size)
-    if kind in ("disk", "stadium", "ellipse"):  # the butterfly (measured: least Q 0.49-0.66)
+    if kind in ("disk", "stadium", "ellipse"):  # the butterfly (measured: least Q 0.61-0.66)
         assert res.stats["partition"] == "butterfly"
-        assert ang.min() >= 30 and ang.max() <= 150
+        assert ang.min() >= 30 and ang.max() <= 150 and q.min() >= 0.5
         assert 1 / 1.5 <= ratio <= 1.5
     if kind == "annulus":  # its ring regions one patch each (1.76x at 0.15 when halved)
         assert ang.min() >= 30 and ang.max() <= 150 and q.min() >= 0.5
         assert 1 / 1.5 <= ratio <= 1.5
-    if kind == "star":  # away from input corners under 45 or over 270 degrees (docstring)
-        ok = _unforced(res.mesh.points, res.mesh.cells_by_type["quad"], dom)
+    if kind.startswith("gear") and size == 0.1:
+        assert 1 / 1.5 <= ratio <= 1.5
+    if kind == "star":  # away from input corners under 45 degrees (docstring)
+        ok = _unforced(res.mesh.points, res.mesh.cells_by_type["quad"], dom, above=360.0)
         assert ang[ok].min() >= 30 and ang[ok].max() <= 150 and q[ok].min() >= 0.3
+        assert size > 0.1 or 1 / 1.5 <= ratio <= 1.5
 
 
 @st.composite
@@ -269,17 +278,31 @@ def spiky_stars(draw):
 
 @settings(SETTINGS, max_examples=4)
 @given(spiky_stars())
+@example(issue_star(17)[0])  # 60 vertices, 95 regions: 1.74x before the larger stretches
 def test_quad_medial_on_spiky_stars(geo):
     # every drawn star succeeds: the fill's folds at sharp reflex corners are untangled
     # (relax_quads, boundary points sliding), every quad strictly convex (exact orient2d)
     dom = parse_domain(geo)
     res = quad_medial(dom, size=0.1)
-    ang, q, _ = _check(res.mesh, dom, 0.1)
+    ang, q, ratio = _check(res.mesh, dom, 0.1)
     P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
-    ok = _unforced(P, Q, dom)
+    ok = _unforced(P, Q, dom, above=360.0)
     assert ang[ok].min() >= 30 and ang[ok].max() <= 150 and q[ok].min() >= 0.3
+    assert 1 / 1.5 <= ratio <= 1.5
     for k in range(4):
         assert (orient2d(P[Q[:, k - 1]], P[Q[:, k]], P[Q[:, (k + 1) % 4]]) > 0).all()
+
+
+def test_quad_medial_slides_boundary_points():
+    # the fill's boundary points lie on the input segments only to rounding: the exact
+    # collinearity test of sliding_nodes let none slide, and strips along spikes kept
+    # the slant of their bases (least quality 0.32 away from input corners under 45
+    # degrees on this star; 0.504 with the points sliding)
+    dom = parse_domain(issue_star(8)[0])
+    res = quad_medial(dom, size=0.1)
+    ang, q, ratio = _check(res.mesh, dom, 0.1)
+    ok = _unforced(res.mesh.points, res.mesh.cells_by_type["quad"], dom, above=360.0)
+    assert q[ok].min() >= 0.5 and 1 / 1.5 <= ratio <= 1.5
 
 
 def _combined_annulus(size: float):
