@@ -38,6 +38,10 @@ NEAR_END_FRACTION = 0.5
 #: Split points move away from the nearer end by this fraction of their
 #: distance to it (see "Ties of the projection" above).
 NUDGE = 2.0**-20
+#: Split points of two segments that meet this close (times the largest
+#: coordinate magnitude) to an end of one of them: that end is within float64
+#: rounding of the other segment (:meth:`_Pieces.split`).
+TOUCH = 2.0**-40
 
 __all__: list[str] = []
 
@@ -809,6 +813,7 @@ class _Pieces:
             rows = rows[order]
             if dup[1] < self.n0:
                 _unresolvable(self.xy, int(self.src[rows[i]]), dup[1])
+            self._touching(int(self.src[rows[i]]), int(self.src[self.right[dup[1]]]), dup[1])
             last = i + int(np.count_nonzero(rows[i:] == rows[i])) - 1  # the piece's last part
             ends_a, ends_b = self.xy[self.a[rows[i]]], self.xy[self.b[m + last]]
             raise AlgorithmError(
@@ -816,6 +821,24 @@ class _Pieces:
                 f"the split "
                 f"point {xy[i].tolist()} is an existing point (do segments cross or touch?)"
             )
+
+    def _touching(self, s1: int, s2: int, y: int) -> None:
+        """Raise ``point_near_segment`` when the split points of input
+        segments ``s1`` and ``s2`` met at added point ``y`` next to an end
+        ``E`` of one of them (within :data:`TOUCH` times the largest
+        coordinate magnitude): ``E`` lies within float64 rounding of the
+        other segment, and the splits between them reached float64
+        resolution (a valid polygon in floating point whose vertex is on
+        another side in exact rationals). Segments that cross meet away
+        from their ends and are left to the caller's AlgorithmError."""
+        if s1 == s2:
+            return
+        chains = np.array([s1, s2])
+        ends = np.concatenate([self.a[self.head[chains]], self.b[self.tail[chains]]])
+        d = np.hypot(*(self.xy[ends] - self.xy[y]).T)
+        k = int(np.argmin(d))
+        if d[k] <= TOUCH * float(np.abs(self.xy[: self.n]).max()):
+            _unresolvable(self.xy, s2 if k % 2 == 0 else s1, int(ends[k]))
 
     def edge_pieces_near(self, verts, radius):
         """(query, piece) pairs: pieces that are edges of the triangulation,
