@@ -28,6 +28,7 @@ from numba import njit
 from meshcore.delaunay.kernel2d import IncrementalDelaunay, _corner, _has_edges, _nxt, _prv
 from meshcore.domain.planar import Domain
 from meshcore.errors import AlgorithmError, InputError
+from meshcore.geometry.ordering import radix_sort
 from meshcore.geometry.predicates import WORK_SIZE, dot2d_filtered, orient2d_filtered
 
 #: A projection closer than this fraction of ``|EP|`` to the nearer endpoint
@@ -702,8 +703,9 @@ def _chain_order(head, nxt, m):
 
 
 def _grown(arr: np.ndarray, size: int, fill) -> np.ndarray:
-    out = np.full((size,) + arr.shape[1:], fill, dtype=arr.dtype)
+    out = np.empty((size,) + arr.shape[1:], dtype=arr.dtype)
     out[: len(arr)] = arr
+    out[len(arr) :] = fill
     return out
 
 
@@ -914,7 +916,8 @@ class _Pieces:
         pos = np.empty(self.m, dtype=np.int64)
         pos[order] = np.arange(self.m)
         new = np.arange(self.base, self.n)
-        new = new[np.lexsort((pos[self.right[new]], self.born[new]))]
+        # by round, then position (one linear-time sort of a unique key)
+        _, new = radix_sort(self.born[new] * np.int64(self.m) + pos[self.right[new]], new)
         label = np.arange(self.n)
         label[new] = np.arange(self.base, self.n)
         st.P = np.concatenate([self.xy[: self.base], self.xy[new]])
