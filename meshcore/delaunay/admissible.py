@@ -82,7 +82,10 @@ Choices where the text leaves freedom
   floating point, e.g. a spike whose sides nearly overlap: a lattice vertex
   that is on the segment in exact rationals, off it by rounding) cannot be
   resolved: the projection split rounds onto the point itself, or onto an
-  end of the piece; that is refused with
+  end of the piece, or the splits of both sides meet at one added point
+  next to it (within ``TOUCH``, 2**-40 of the largest coordinate magnitude,
+  of an end of one of the two segments; crossing segments meet away from
+  their ends); that is refused with
   :class:`~meshcore.errors.InputError` ``point_near_segment``, naming the
   segment and the point.
 * **Acute angles and non-manifold vertices (Exercises 9.2-9.4).** Two

@@ -28,6 +28,7 @@ from numba import njit
 from meshcore.delaunay.kernel2d import IncrementalDelaunay, _corner, _has_edges, _nxt, _prv
 from meshcore.domain.planar import Domain
 from meshcore.errors import AlgorithmError, InputError
+from meshcore.geometry.ordering import radix_sort
 from meshcore.geometry.predicates import WORK_SIZE, dot2d_filtered, orient2d_filtered
 
 #: A projection closer than this fraction of ``|EP|`` to the nearer endpoint
@@ -38,6 +39,10 @@ NEAR_END_FRACTION = 0.5
 #: Split points move away from the nearer end by this fraction of their
 #: distance to it (see "Ties of the projection" above).
 NUDGE = 2.0**-20
+#: Split points of two segments that meet this close (times the largest
+#: coordinate magnitude) to an end of one of them: that end is within float64
+#: rounding of the other segment (:meth:`_Pieces.split`).
+TOUCH = 2.0**-40
 
 __all__: list[str] = []
 
@@ -698,8 +703,9 @@ def _chain_order(head, nxt, m):
 
 
 def _grown(arr: np.ndarray, size: int, fill) -> np.ndarray:
-    out = np.full((size,) + arr.shape[1:], fill, dtype=arr.dtype)
+    out = np.empty((size,) + arr.shape[1:], dtype=arr.dtype)
     out[: len(arr)] = arr
+    out[len(arr) :] = fill
     return out
 
 
@@ -809,6 +815,7 @@ class _Pieces:
             rows = rows[order]
             if dup[1] < self.n0:
                 _unresolvable(self.xy, int(self.src[rows[i]]), dup[1])
+            self._touching(int(self.src[rows[i]]), int(self.src[self.right[dup[1]]]), dup[1])
             last = i + int(np.count_nonzero(rows[i:] == rows[i])) - 1  # the piece's last part
             ends_a, ends_b = self.xy[self.a[rows[i]]], self.xy[self.b[m + last]]
             raise AlgorithmError(
@@ -816,6 +823,24 @@ class _Pieces:
                 f"the split "
                 f"point {xy[i].tolist()} is an existing point (do segments cross or touch?)"
             )
+
+    def _touching(self, s1: int, s2: int, y: int) -> None:
+        """Raise ``point_near_segment`` when the split points of input
+        segments ``s1`` and ``s2`` met at added point ``y`` next to an end
+        ``E`` of one of them (within :data:`TOUCH` times the largest
+        coordinate magnitude): ``E`` lies within float64 rounding of the
+        other segment, and the splits between them reached float64
+        resolution (a valid polygon in floating point whose vertex is on
+        another side in exact rationals). Segments that cross meet away
+        from their ends and are left to the caller's AlgorithmError."""
+        if s1 == s2:
+            return
+        chains = np.array([s1, s2])
+        ends = np.concatenate([self.a[self.head[chains]], self.b[self.tail[chains]]])
+        d = np.hypot(*(self.xy[ends] - self.xy[y]).T)
+        k = int(np.argmin(d))
+        if d[k] <= TOUCH * float(np.abs(self.xy[: self.n]).max()):
+            _unresolvable(self.xy, s2 if k % 2 == 0 else s1, int(ends[k]))
 
     def edge_pieces_near(self, verts, radius):
         """(query, piece) pairs: pieces that are edges of the triangulation,
@@ -891,7 +916,8 @@ class _Pieces:
         pos = np.empty(self.m, dtype=np.int64)
         pos[order] = np.arange(self.m)
         new = np.arange(self.base, self.n)
-        new = new[np.lexsort((pos[self.right[new]], self.born[new]))]
+        # by round, then position (one linear-time sort of a unique key)
+        _, new = radix_sort(self.born[new] * np.int64(self.m) + pos[self.right[new]], new)
         label = np.arange(self.n)
         label[new] = np.arange(self.base, self.n)
         st.P = np.concatenate([self.xy[: self.base], self.xy[new]])

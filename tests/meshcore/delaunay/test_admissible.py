@@ -701,10 +701,22 @@ def test_a_point_within_rounding_of_a_segment_is_refused_with_its_location(ring,
         assert f"point {point}" not in info.value.message
 
 
-def test_the_medial_axis_refuses_the_near_touching_polygon_with_a_location():
+#: Lattice rings (coordinates / 20) whose boundary samples (h = 0.01) pass
+#: within rounding of a vertex (on another side in exact rationals): the
+#: splits on both sides met at one added point next to the vertex, which
+#: raised AlgorithmError "the split point is an existing point" (found by
+#: the medial axis's ``TestAnyPolygon``; now ``point_near_segment``).
+NEAR_TOUCHING_SAMPLED = [
+    [[1, 2], [2, 3], [3, 0], [19, 20]],
+    [[10, 17], [0, 20], [19, 1], [20, 3], [17, 3]],
+]
+
+
+@pytest.mark.parametrize("ring", [NEAR_TOUCHING[0][0], *NEAR_TOUCHING_SAMPLED])
+def test_the_medial_axis_refuses_the_near_touching_polygon_with_a_location(ring):
     from meshcore.medial import medial_axis
 
-    geometry = {"type": "Polygon", "coordinates": [(np.array(NEAR_TOUCHING[0][0]) / 20).tolist()]}
+    geometry = {"type": "Polygon", "coordinates": [(np.array(ring) / 20).tolist()]}
     with pytest.raises(InputError) as info:
         medial_axis(parse_domain(geometry), h=0.01)
     assert info.value.errors[0]["loc"][0] == "coordinates"
