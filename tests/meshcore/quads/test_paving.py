@@ -38,12 +38,13 @@ class TestBadInput:
         assert ei.value.errors[0]["loc"] == ["max_rows"]
 
     def test_dense_boundary_refused_before_any_work(self):
-        # a 20,000-vertex circle at size 0.05: every vertex stays, so the rows' neighbour
-        # searches would hold about 8e7 pairs (the 100,000-vertex one ran out of 8 GB)
-        t = 2 * np.pi * np.arange(20_000) / 20_000
+        # a 6,000-vertex circle at size 0.2: every vertex stays, so the rows' neighbour
+        # searches would hold about 3e7 pairs (a 100,000-vertex one at size 0.05, 2e9,
+        # ran out of 8 GB)
+        t = 2 * np.pi * np.arange(6_000) / 6_000
         ring = np.column_stack([np.cos(t), np.sin(t)]) / 2
         with pytest.raises(InputError) as ei:
-            paving({"type": "Polygon", "coordinates": [ring.tolist()]}, size=0.05)
+            paving({"type": "Polygon", "coordinates": [ring.tolist()]}, size=0.2)
         assert ei.value.code == "boundary_denser_than_size"
         assert ei.value.errors[0]["loc"] == ["domain"]
 
