@@ -81,7 +81,11 @@ Algorithm
    left (``stats["strips"]``, at most ``_MEETINGS`` times); at the closure,
    strips across bands up to ``_LADDER_REACH h`` wide
    (``stats["ladders"]``), made again without the front nodes of a polygon
-   the partition is stuck on, up to ``_LADDER_TRIES`` times.
+   the partition is stuck on, up to ``_LADDER_TRIES`` times (2: over the
+   paving tests and the benchmark's domains at 2k to 100k quads a third or
+   fourth try never closed what the second left stuck, and each costs a
+   whole closure: the plate at 100k quads took 18.7 s of CPU with 4 tries,
+   15.2 s with 2, the same mesh).
 6. **Closure.** Each counter-clockwise front left is an outer ring, each
    clockwise one a hole of the smallest outer ring around it; the
    polygons are closed by the recursive partition in its quad mode
@@ -200,6 +204,20 @@ around them, and on the plate at 10k quads it took 15 s for a lower mean
 quality).
 Interior constraint segments are refused.
 
+Dense boundaries
+----------------
+(A choice of this module.) Every input vertex stays a mesh vertex, so a ring
+sampled far below the size (a circle of 100,000 vertices meshed at size 0.05)
+makes fronts whose nodes have thousands of neighbours within the rows'
+clearance and the strips' reach: the row checks and strips would hold
+billions of neighbour pairs (the 100,000-vertex circle ran out of 8 GB), and
+rows of such slivers fail their clearance checks anyway (an 8,000-vertex
+circle at 0.05 took the guaranteed route, 40 s and 1.5 GB). A grading
+of the size away from the boundary would be the way to mesh it; it is not
+done: such a domain is refused before any work (:func:`_dense_boundary`,
+``code="boundary_denser_than_size"``, located at the domain), when the pairs
+along its rings would exceed ``_PAIRS``.
+
 Local coordinates
 -----------------
 (A choice of this module.) The paving runs on the domain moved to the least
@@ -260,7 +278,7 @@ _LADDER_TAPER = (0.0, 100.0)  # a strip's rungs stay within these times its firs
 _MEET_REACH = 2.6  # between rows, strips join fronts this close (times h)
 _MEETINGS = 8  # rounds of strips between rows at most
 _BOW = 0.2  # a strip's end rungs bow this far (times the distance between rungs) inward
-_LADDER_TRIES = 4  # strips made again at most this many times around stuck polygons
+_LADDER_TRIES = 2  # strips made at most this many times (again around stuck polygons)
 _CLEAN_Q = 0.85  # quads below this quality (8.4) seed the clean-up region
 _CLEAN_RINGS = 2  # rings of quads around the seeds in the clean-up region
 _SQUARE_SWEEPS = 10  # sweeps of square_corners after the clean-up
@@ -270,6 +288,7 @@ _RETRY_BAD = 12  # ... when at most this many of its quads failed
 _LEFT_SHARE = 0.5  # rows leaving more than this share of the area to the closure...
 _LEFT_CELLS = 20000  # ... and more than this many cells of the least size: guaranteed route
 _TIE = 1e-6  # lengths within this share of each other tie (broken by index)
+_PAIRS = 2e7  # neighbour pairs along the boundary rings within _LADDER_REACH h at most
 
 
 @dataclass(frozen=True)
@@ -1231,6 +1250,40 @@ def _local(dom, sizes: SizeMap):
     return local, SizeMap(sizes.H / s, grid), o, s
 
 
+def _dense_boundary(dom, sizes: SizeMap) -> None:
+    """Refuse rings far denser than the size (module docstring, *Dense boundaries*).
+
+    The rows and strips look for neighbours within up to ``_LADDER_REACH h``
+    of each front node; a ring of ``n`` vertices and length ``L`` has about
+    ``2 _LADDER_REACH h n^2 / L`` such pairs along itself. Above ``_PAIRS``
+    (about 2 GB of pairs; a 100,000-vertex unit circle at size 0.05 would
+    need 2e9) the domain is refused before any work, naming the densest ring.
+    """
+    P, S, off = dom.points, dom.segments, dom.ring_offsets
+    length = np.hypot(*(P[S[:, 1]] - P[S[:, 0]]).T)
+    worst, pairs, total = 0, 0.0, 0.0
+    for k in range(len(off) - 1):
+        n = int(off[k + 1] - off[k])
+        h = float(sizes(P[off[k] : off[k + 1]]).max())
+        est = 2 * _LADDER_REACH * h * n * n / float(length[off[k] : off[k + 1]].sum())
+        total += est
+        if est > pairs:
+            worst, pairs = k, est
+    if total <= _PAIRS:
+        return
+    a, b = int(off[worst]), int(off[worst + 1])
+    h = float(sizes(P[a:b]).max())
+    raise InputError(
+        f"paving keeps every boundary vertex, and {dom.ring_name(worst)} has {b - a} "
+        f"vertices {float(length[a:b].mean()):.3g} apart on average, far below the size "
+        f"{h:.6g}: the rows' neighbour searches would need about {total:.3g} pairs (at most "
+        f"{_PAIRS:.0e}); give a size near the boundary's spacing, a size_field, or fewer "
+        "boundary vertices",
+        loc=("domain",),
+        code="boundary_denser_than_size",
+    )
+
+
 def paving(
     domain,
     *,
@@ -1274,7 +1327,8 @@ def paving(
         Bad domain or sizes (``loc`` names them), interior constraints
         (``code="unsupported"``), ``max_rows`` below 0; ``features_below_size``
         (:func:`meshcore.partition.recursive.stuck_error`) when even the guaranteed
-        route is stuck.
+        route is stuck; ``boundary_denser_than_size`` when a ring is far denser than
+        the size (module docstring, *Dense boundaries*).
 
     References
     ----------
@@ -1292,7 +1346,9 @@ def paving(
             "max_rows must be an integer >= 0", loc=("max_rows",), code="bad_parameter"
         )
     given = dom
-    dom, sizes, origin, scale = _local(dom, size_map(dom, size, size_field))
+    sizes = size_map(dom, size, size_field)
+    _dense_boundary(dom, sizes)
+    dom, sizes, origin, scale = _local(dom, sizes)
     timings: dict[str, float] = {}
     clock = time.perf_counter()
 

@@ -37,6 +37,17 @@ class TestBadInput:
             paving(SQUARE, size=0.1, max_rows=-1)
         assert ei.value.errors[0]["loc"] == ["max_rows"]
 
+    def test_dense_boundary_refused_before_any_work(self):
+        # a 6,000-vertex circle at size 0.2: every vertex stays, so the rows' neighbour
+        # searches would hold about 3e7 pairs (a 100,000-vertex one at size 0.05, 2e9,
+        # ran out of 8 GB)
+        t = 2 * np.pi * np.arange(6_000) / 6_000
+        ring = np.column_stack([np.cos(t), np.sin(t)]) / 2
+        with pytest.raises(InputError) as ei:
+            paving({"type": "Polygon", "coordinates": [ring.tolist()]}, size=0.2)
+        assert ei.value.code == "boundary_denser_than_size"
+        assert ei.value.errors[0]["loc"] == ["domain"]
+
     def test_constraints_refused(self):
         dom = parse_domain(SQUARE, segments=[[[0.2, 0.2], [0.8, 0.8]]])
         with pytest.raises(InputError) as ei:
@@ -60,9 +71,8 @@ class TestCanonical:
         check_mesh(geometry, res, 0.05, "quad")
         assert res.quality["quad"]["invalid"] == 0
         assert res.stats["rows"] >= 2
-        # translated by 1e6 or scaled by 1e-6: the same cells; scaled, the same points
-        # moved back (translated, the input is rounded at 1e-10 and the corners'
-        # squaring, step 9, amplifies that: not asserted)
+        # translated by 1e6 or scaled by 1e-6: the same cells and the same points moved
+        # back (translated, the input itself is rounded at 1e-10)
         cells = res.mesh.cells[0].data
         for shift, scale in ((1e6, 1.0), (0.0, 1e-6)):
             moved = {
@@ -74,8 +84,8 @@ class TestCanonical:
             other = paving(moved, size=0.05 * scale)
             check_mesh(moved, other, 0.05 * scale, "quad")
             assert np.array_equal(other.mesh.cells[0].data, cells)
-            if scale != 1.0:
-                assert np.allclose(other.mesh.points / scale, res.mesh.points, rtol=0, atol=1e-9)
+            back = (other.mesh.points - shift) / scale
+            assert np.allclose(back, res.mesh.points, rtol=0, atol=1e-8 if shift else 1e-9)
 
     def test_a_front_meeting_itself_splits(self):
         # two rooms joined by a neck one size wide: the rows from both sides of the
