@@ -289,9 +289,9 @@ class _Sizing:
 def _expected_points(domain: Domain, sizing: _Sizing) -> int:
     """Points of an equilateral mesh following the sizes: area / (0.866 h**2)."""
     if sizing.uniform:
-        inv = 1.0 / sizing.H[0, 0] ** 2
+        inv = 1.0 / float(sizing.H[0, 0]) / float(sizing.H[0, 0])  # h**2 overflows at 1e300
     else:
-        inv = float(np.mean(1.0 / sizing.H**2))
+        inv = float(np.mean(1.0 / sizing.H / sizing.H))
     points = domain.area * inv / (math.sqrt(3.0) / 2.0)
     return _ESTIMATE_CAP if math.isnan(points) else int(min(points, _ESTIMATE_CAP))  # 0 * inf
 
@@ -505,6 +505,8 @@ def _lattice(P, bseg, allseg, h: float, keep_boundary: bool, window=None):
     lo = P.min(axis=0)
     hi = P.max(axis=0)
     dy = h * math.sqrt(3.0) / 2.0
+    if dy > hi[1] - lo[1]:  # two rows, dy / 2 below and above the box: no point inside
+        return np.zeros((0, 2))  # (and a size of 1e300 would overflow the capsules below)
     nx = int(math.floor((hi[0] - lo[0]) / h)) + 2
     ny = int(math.floor((hi[1] - lo[1]) / dy)) + 2
     y0 = lo[1] + 0.5 * ((hi[1] - lo[1]) - (ny - 1) * dy)
