@@ -23,6 +23,7 @@ from service.methods.domain_schema import (
     Position,
     check_resolution,
 )
+from service.methods.triangulation import check_thinness
 from service.schemas import InputModel, MethodParams
 
 Progress = object  # the registry's Progress: callable(fraction, message)
@@ -121,6 +122,7 @@ class QuadGridParams(MethodParams):
         super().check()
         dom = self.domain.to_domain(self.segments)
         check_resolution(dom.points, self.size, ("size",))
+        check_thinness(dom)  # the band is triangulated: its thin parts' triangles
         if self.size is not None:
             est = cartesian.estimated_cells(dom, size=self.size)
             if est > self.max_cells:
@@ -215,7 +217,7 @@ class PatternParams(MethodParams):
 
     def check(self) -> None:
         super().check()
-        self.domain.to_domain(self.segments)
+        check_thinness(self.domain.to_domain(self.segments))  # the gap is triangulated
         patterns.check_pattern(self.pattern.model_dump())
 
     def pattern_kwargs(self) -> dict:

@@ -119,6 +119,7 @@ class TriangulateParams(MethodParams):
                         loc=(name,),
                         code="conflicting_parameters",
                     )
+        check_thinness(dom)
         field = None if self.size_field is None else self.size_field.model_dump()
         estimate = estimated_triangles(
             dom, max_area=self.max_area, size=self.size, size_field=field
@@ -132,6 +133,21 @@ class TriangulateParams(MethodParams):
                 loc=(name,),
                 code="too_many_triangles",
             )
+
+
+def check_thinness(dom) -> None:
+    """Refuse a domain so thin that a mesh meeting the angle bound, whatever the size, would
+    be more than ``MAX_TRIANGLES`` triangles (a strip of width w and length L needs about
+    2 L / w: :func:`~meshcore.triangulation.estimated_triangles` without sizes)."""
+    estimate = estimated_triangles(dom)
+    if estimate > MAX_TRIANGLES:
+        raise InputError(
+            f"the domain is so thin (area {dom.area:.3g} for its boundary's length) that "
+            f"triangles meeting the angle bound would be about {estimate:,} whatever the "
+            f"size; this service makes at most {MAX_TRIANGLES:,}",
+            loc=("domain",),
+            code="too_many_triangles",
+        )
 
 
 def run_triangulate(params: TriangulateParams, progress) -> dict:

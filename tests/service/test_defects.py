@@ -605,3 +605,30 @@ def test_meshcore_medial_axis_point_cloud_beyond_float_range_is_an_input_error()
     with pytest.raises(InputError) as info:
         medial_axis(points=points)
     assert (info.value.errors[0]["loc"], info.value.code) == (["points", 1], "out_of_range")
+
+
+def strip(width: float) -> dict:
+    return {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, width], [0, width], [0, 0]]]}
+
+
+def test_thin_strip_estimate_counts_the_triangles_the_angle_bound_forces():
+    """Estimated by area only, a 1 x 1e-3 strip at size 0.1 was 0 triangles (it makes 1,216:
+    edges about as long as the strip is wide); at 1e-6 triangulate made 1.25M in 12 s."""
+    from meshcore.triangulation import estimated_triangles
+
+    spec = default_registry()["triangulate"]
+    params = {"domain": strip(1e-3), "size": 0.1}
+    result = json.loads(run_job(spec, json.dumps(params).encode(), lambda f, m: None)["json"])
+    made = result["stats"]["triangles"]
+    estimate = estimated_triangles(spec.params.model_validate(params).domain.to_domain(), size=0.1)
+    assert made / 2 <= estimate <= 2 * made, (made, estimate)
+
+
+@pytest.mark.parametrize("method", ["triangulate", "quad_grid", "quad_combine", "pattern"])
+def test_strip_too_thin_for_any_size_is_refused_up_front(method):
+    """A 1 x 1e-8 strip needs about 2e8 triangles whatever the size (quad_grid on a 1e-9
+    thin triangle ran 27 s into the refinement's point budget)."""
+    example = default_registry()[method].example
+    params = {**{k: v for k, v in example.items() if k != "curves"}, "domain": strip(1e-8)}
+    error = refused_at_submit(method, params)
+    assert (error["loc"], error["type"]) == (["domain"], "too_many_triangles")
