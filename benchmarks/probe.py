@@ -163,6 +163,8 @@ def domain_mutations(ex: dict) -> dict:
         p = copy.deepcopy(ex)
         rest = p["domain"]["coordinates"][1:]
         p["domain"] = {"type": "Polygon", "coordinates": [new] + (rest if holes is None else holes)}
+        if holes is not None:
+            p.pop("curves", None)  # they name the example's rings
         return p
 
     a, b = ring[0], ring[1]
