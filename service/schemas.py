@@ -1,8 +1,9 @@
 """Wire models: what clients send and what the API answers.
 
 Input models reject NaN and infinities at parse time and carry the JSON
-location of every fault; the checks that need numpy (indices in range,
-degenerate cells) run in :meth:`MethodParams.check`, which maps meshcore's
+location of every fault; their numbers must be JSON numbers (:class:`InputModel`:
+``true``/``false`` and strings are refused, not read as 1/0). The checks that need
+numpy (indices in range, degenerate cells) run in :meth:`MethodParams.check`, which maps meshcore's
 :class:`~meshcore.errors.InputError` locations under the params field.
 """
 
@@ -11,7 +12,8 @@ from __future__ import annotations
 from datetime import UTC, datetime
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, GetCoreSchemaHandler
+from pydantic_core import PydanticCustomError, core_schema
 
 from meshcore.errors import InputError
 from meshcore.mesh import CELL_TYPES, Mesh, io
@@ -23,19 +25,56 @@ CellType = Literal["vertex", "line", "triangle", "quad", "tetra", "pyramid", "we
 assert set(CellType.__args__) == set(CELL_TYPES)
 
 
-class CellBlockIn(BaseModel):
-    """One block of cells of one type (meshio's names and node order)."""
+def _json_integer(value: Any) -> Any:
+    if type(value) is not int and type(value) is not float:  # bool is a subclass of int
+        raise PydanticCustomError("int_type", "Input should be a valid integer (a JSON number)")
+    return value
+
+
+def _numbers_only(schema: Any) -> None:
+    """Make every number of a core schema a JSON number, in place: a float strict (it still
+    takes an integer), an integer refusing ``true``, ``false`` and strings (it still takes
+    ``2.0``, as before)."""
+    items = schema.items() if isinstance(schema, dict) else enumerate(schema)
+    for key, value in list(items):
+        if not isinstance(value, dict | list):
+            continue
+        kind = value.get("type") if isinstance(value, dict) else None
+        if kind == "float":
+            value["strict"] = True
+        elif kind == "int":
+            schema[key] = core_schema.no_info_before_validator_function(_json_integer, value)
+        elif kind != "function-before" or value["function"]["function"] is not _json_integer:
+            _numbers_only(value)
+
+
+class InputModel(BaseModel):
+    """Base of the input models: unknown fields refused, and every number a JSON number.
+
+    pydantic's lax mode reads ``true`` as 1 in a number field; here ``true`` answers a 422
+    naming the field, in this model and in any model or list nested in it.
+    """
 
     model_config = ConfigDict(extra="forbid")
+
+    @classmethod
+    def __get_pydantic_core_schema__(
+        cls, source: Any, handler: GetCoreSchemaHandler
+    ) -> core_schema.CoreSchema:
+        schema = handler(source)
+        _numbers_only(schema)
+        return schema
+
+
+class CellBlockIn(InputModel):
+    """One block of cells of one type (meshio's names and node order)."""
 
     type: CellType
     data: list[list[Index]] = Field(description="Point indices, one row per cell.")
 
 
-class MeshIn(BaseModel):
+class MeshIn(InputModel):
     """A mesh: points and typed cell blocks, with optional data and cell sets (meshio layout)."""
-
-    model_config = ConfigDict(extra="forbid")
 
     points: list[Coordinates] = Field(min_length=1, description="[x, y] or [x, y, z] rows.")
     cells: list[CellBlockIn] = Field(min_length=1)
@@ -55,10 +94,8 @@ class MeshIn(BaseModel):
         return len(self.points)
 
 
-class MethodParams(BaseModel):
-    """Base of every method's params: unknown fields are refused."""
-
-    model_config = ConfigDict(extra="forbid")
+class MethodParams(InputModel):
+    """Base of every method's params: unknown fields are refused, numbers are JSON numbers."""
 
     def meshes(self) -> dict[str, MeshIn]:
         """The mesh-valued fields, by name."""

@@ -117,7 +117,7 @@ from meshcore.delaunay.admissible import admissible_segments
 from meshcore.delaunay.kernel2d import delaunay
 from meshcore.domain.planar import Domain, parse_domain, ray_parity
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.geometry.tolerances import MIN_DIAMETER
+from meshcore.geometry.tolerances import MAX_COORDINATE, MIN_DIAMETER
 from meshcore.mesh import CellBlock, Mesh
 
 __all__ = [
@@ -126,6 +126,7 @@ __all__ = [
     "MAX_DEFAULT_SAMPLES",
     "MAX_SAMPLES",
     "MedialAxis",
+    "cloud_points",
     "medial_axis",
 ]
 
@@ -1120,10 +1121,13 @@ def _cycles(succ_a, succ_b):
     return order, offsets[: r + 1]
 
 
-def _cloud_domain(points) -> tuple[Domain, np.ndarray]:
-    """Closed curves through the samples (NN-crust), as a validated domain.
+def cloud_points(points) -> np.ndarray:
+    """The samples of a point cloud (§9.4.2) as an (n, 2) float64 array, checked.
 
-    Returns the domain and, per domain point, the index of its sample.
+    Raises InputError located at ``points`` (shape: ``bad_shape``; fewer than 3:
+    ``too_few_points``) or at the first bad point ``("points", i)`` (``non_finite``;
+    ``out_of_range``: a coordinate above ``MAX_COORDINATE``, where squared distances
+    overflow). The service runs it when a job is submitted.
     """
     try:
         P = np.asarray(points, dtype=np.float64)
@@ -1149,6 +1153,23 @@ def _cloud_domain(points) -> tuple[Domain, np.ndarray]:
             loc=("points", int(bad[0])),
             code="non_finite",
         )
+    big = np.flatnonzero(np.abs(P).max(axis=1) > MAX_COORDINATE)
+    if big.size:
+        raise InputError(
+            f"point {big[0]} has a coordinate of magnitude above {MAX_COORDINATE:g}",
+            loc=("points", int(big[0])),
+            code="out_of_range",
+        )
+    return P
+
+
+def _cloud_domain(points) -> tuple[Domain, np.ndarray]:
+    """Closed curves through the samples (NN-crust), as a validated domain.
+
+    Returns the domain and, per domain point, the index of its sample.
+    """
+    P = cloud_points(points)
+    n = len(P)
     k = min(n, 16)
     dist, idx = cKDTree(P).query(P, k=k)
     dup = np.flatnonzero(dist[:, 1] == 0)

@@ -146,16 +146,30 @@ def _checked(center, inner_radius, outer_radius, angle, radial_layers, segments)
             code="out_of_range",
         )
     # the closest two vertices: on a radial line, or on the innermost ring with n vertices
-    inner = r0 if r0 > 0 else (r1 - r0) / layers
-    spacing = min((r1 - r0) / layers, inner * math.radians(a) / n)
+    radial = (r1 - r0) / layers
+    inner = r0 if r0 > 0 else radial
+    spacing = min(radial, inner * math.radians(a) / n)
     if not spacing > TOLERANCES.coincident * reach:
         raise InputError(
             f"vertices {spacing:.3g} apart cannot be told apart at distance {reach:.3g} from the "
             "origin: give a larger radius, fewer layers or segments, or a centre nearer 0",
-            loc=("center",) if np.abs(c).max() > r1 else ("outer_radius",),
+            loc=(_closest_cause(spacing, radial, r0, r1, a),),
             code="out_of_range",
         )
     return c, r0, r1, a, layers, n
+
+
+def _closest_cause(spacing: float, radial: float, r0: float, r1: float, a: float) -> str:
+    """The parameter that brings two vertices within rounding: the centre when they would be
+    apart at the origin; else the inner radius of a ring shorter than a layer, the outer
+    radius of a band too thin for its layers, the segments or a sliver of an angle."""
+    if spacing > TOLERANCES.coincident * r1:
+        return "center"
+    if spacing == radial:
+        return "outer_radius"
+    if 0 < r0 < radial:
+        return "inner_radius"
+    return "segments" if a >= 1 else "angle"
 
 
 def _classical(c, r0, r1, angle, layers, n) -> Mesh:

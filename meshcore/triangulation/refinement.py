@@ -66,7 +66,8 @@ Choices the methods text leaves open
   practice, and triangles near input angles under 60 degrees may stay
   under the bound. Bad triangles are split shortest edge first: without
   that order refinement above 30 degrees ran away on random polygons. A
-  point budget (``8`` times the points the sizes call for, at least 4M,
+  point budget (``8`` times the points the sizes and the thin parts call
+  for, :func:`estimated_triangles`, at least 4M,
   at most :data:`MAX_POINTS`) turns any runaway into an
   :class:`~meshcore.errors.AlgorithmError`.
 * **Kept boundary.** With ``keep_boundary`` no point is ever added on an
@@ -134,6 +135,10 @@ BUDGET_FACTOR = 8
 MIN_BUDGET = 1 << 22
 # Triangle and point estimates saturate here (sizes near underflow).
 _ESTIMATE_CAP = 10**18
+#: Points of a min-angle mesh per unit of perimeter**2 / area in thin parts: a strip of width
+#: w (and length 1, size 0.1) gets edges about w long, 0.9 / w points at the default 20
+#: degrees (measured at w = 1e-3 to 1e-5), 0.25 * (2 / w)**2 * w = 1 / w here.
+_THIN = 0.25
 # Lattices with fewer (row, column) slots than this mark dropped points in a
 # dense mask; finer (windowed) ones in a sorted search.
 _DENSE_MASK_LIMIT = 1 << 26
@@ -286,13 +291,22 @@ class _Sizing:
         )
 
 
-def _expected_points(domain: Domain, sizing: _Sizing) -> int:
-    """Points of an equilateral mesh following the sizes: area / (0.866 h**2)."""
-    if sizing.uniform:
-        inv = 1.0 / sizing.H[0, 0] ** 2
+def _expected_points(domain: Domain, sizing: _Sizing | None) -> int:
+    """Points of an equilateral mesh following the sizes, area / (0.866 h**2), plus those
+    the angle bound forces where the boundary runs close to itself: ``_THIN * perimeter**2
+    / area`` (constraints counted on both sides)."""
+    if sizing is None:
+        inv = 0.0
+    elif sizing.uniform:
+        inv = 1.0 / float(sizing.H[0, 0]) / float(sizing.H[0, 0])  # h**2 overflows at 1e300
     else:
-        inv = float(np.mean(1.0 / sizing.H**2))
-    points = domain.area * inv / (math.sqrt(3.0) / 2.0)
+        inv = float(np.mean(1.0 / sizing.H / sizing.H))
+    P = domain.points
+    edges = np.concatenate([domain.segments, domain.constraints, domain.constraints])
+    perimeter = float(np.hypot(*(P[edges[:, 1]] - P[edges[:, 0]]).T).sum())
+    points = (
+        domain.area * inv / (math.sqrt(3.0) / 2.0) + _THIN * (perimeter / domain.area) * perimeter
+    )
     return _ESTIMATE_CAP if math.isnan(points) else int(min(points, _ESTIMATE_CAP))  # 0 * inf
 
 
@@ -309,8 +323,11 @@ def estimated_triangles(domain, *, max_area=None, size=None, size_field=None) ->
     -------
     int
         Twice the points of an equilateral mesh following the sizes (area /
-        (0.866 h**2)); 0 when no size is given (the mesh then follows the
-        boundary's own spacing). Meant for refusing runaway requests up front.
+        (0.866 h**2); none when no size is given: the mesh then follows the
+        boundary's own spacing) and of those the angle bound forces where the
+        boundary runs close to itself (``0.25 perimeter**2 / area``: a strip of
+        width w and length L needs edges about w long, about L / w points,
+        whatever the size). Meant for refusing runaway requests up front.
 
     Raises
     ------
@@ -325,7 +342,7 @@ def estimated_triangles(domain, *, max_area=None, size=None, size_field=None) ->
         fp, fv = parse_size_field(size_field)
     # nearest field values: an estimate needs no triangulation of the field
     sizing = _sizing(dom, size, max_area, fp, fv, linear=False)
-    return 0 if sizing is None else 2 * _expected_points(dom, sizing)
+    return 2 * _expected_points(dom, sizing)
 
 
 def _interpolate_field(fp: np.ndarray, fv: np.ndarray, q: np.ndarray, linear=True) -> np.ndarray:
@@ -505,6 +522,8 @@ def _lattice(P, bseg, allseg, h: float, keep_boundary: bool, window=None):
     lo = P.min(axis=0)
     hi = P.max(axis=0)
     dy = h * math.sqrt(3.0) / 2.0
+    if dy > hi[1] - lo[1]:  # two rows, dy / 2 below and above the box: no point inside
+        return np.zeros((0, 2))  # (and a size of 1e300 would overflow the capsules below)
     nx = int(math.floor((hi[0] - lo[0]) / h)) + 2
     ny = int(math.floor((hi[1] - lo[1]) / dy)) + 2
     y0 = lo[1] + 0.5 * ((hi[1] - lo[1]) - (ny - 1) * dy)
@@ -937,7 +956,7 @@ def triangulate(
         prm[cdt.PR_KEEP] = 1.0 if keep_boundary else 0.0
         prm[cdt.PR_UNIT] = TOL.shell_unit * dom.diameter
         prm[cdt.PR_EQUI] = TOL.equidistant
-        expected = npts + (_expected_points(dom, sizing) if sizing is not None else 0)
+        expected = npts + _expected_points(dom, sizing)
         budget = min(MAX_POINTS, max(MIN_BUDGET, BUDGET_FACTOR * expected))
         prm[cdt.PR_BUDGET] = budget
         prm[cdt.PR_OPS] = 1 << 16

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import ConfigDict, Field, model_validator
 
 from meshcore.errors import InputError
 from meshcore.grid import cartesian, patterns, superposition
@@ -23,7 +23,8 @@ from service.methods.domain_schema import (
     Position,
     check_resolution,
 )
-from service.schemas import MethodParams
+from service.methods.triangulation import check_thinness
+from service.schemas import InputModel, MethodParams
 
 Progress = object  # the registry's Progress: callable(fraction, message)
 
@@ -121,6 +122,7 @@ class QuadGridParams(MethodParams):
         super().check()
         dom = self.domain.to_domain(self.segments)
         check_resolution(dom.points, self.size, ("size",))
+        check_thinness(dom)  # the band is triangulated: its thin parts' triangles
         if self.size is not None:
             est = cartesian.estimated_cells(dom, size=self.size)
             if est > self.max_cells:
@@ -146,7 +148,7 @@ def run_quad_grid(params: QuadGridParams, progress: Progress) -> dict:
     return {"mesh": res.mesh, "quality": quality.report(res.mesh), "stats": stats}
 
 
-class ParallelogramPattern(BaseModel):
+class ParallelogramPattern(InputModel):
     """Cells ``origin + i a + j b`` (Figure 8.6, left)."""
 
     model_config = ConfigDict(extra="forbid")
@@ -158,7 +160,7 @@ class ParallelogramPattern(BaseModel):
     origin: Position | None = Field(None, description="A pattern vertex (default: box corner).")
 
 
-class HexagonPattern(BaseModel):
+class HexagonPattern(InputModel):
     """Regular hexagons of six equilateral triangles of side ``size``."""
 
     model_config = ConfigDict(extra="forbid")
@@ -168,7 +170,7 @@ class HexagonPattern(BaseModel):
     origin: Position | None = None
 
 
-class RadialPattern(BaseModel):
+class RadialPattern(InputModel):
     """Quads between circles about a centre, in angular sectors (Figure 8.6, middle, right)."""
 
     model_config = ConfigDict(extra="forbid")
@@ -215,7 +217,7 @@ class PatternParams(MethodParams):
 
     def check(self) -> None:
         super().check()
-        self.domain.to_domain(self.segments)
+        check_thinness(self.domain.to_domain(self.segments))  # the gap is triangulated
         patterns.check_pattern(self.pattern.model_dump())
 
     def pattern_kwargs(self) -> dict:

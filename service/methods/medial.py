@@ -14,16 +14,15 @@ from __future__ import annotations
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import ConfigDict, Field, model_validator
 
 from meshcore.errors import InputError
-from meshcore.geometry.tolerances import MAX_COORDINATE
-from meshcore.medial.axis import DEFAULT_PRUNE, medial_axis
+from meshcore.medial.axis import DEFAULT_PRUNE, cloud_points, medial_axis
 from meshcore.medial.partitioning import partition, quad_medial
 from meshcore.medial.simplification import DEFAULT_THRESHOLD, simplify
 from meshcore.medial.transform import checked_axis, medial_transform
 from service.methods.domain_schema import DomainIn, Position, check_resolution
-from service.schemas import MethodParams
+from service.schemas import InputModel, MethodParams
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
@@ -86,21 +85,8 @@ class MedialAxisParams(MethodParams):
         super().check()
         if self.domain is not None:
             self.domain.to_domain()
-        elif len(self.points) < 3:
-            raise InputError(
-                f"a point cloud needs at least 3 points, got {len(self.points)}",
-                loc=("points",),
-                code="too_few_points",
-            )
         else:
-            big = np.flatnonzero(np.abs(np.asarray(self.points)).max(axis=1) > MAX_COORDINATE)
-            if big.size:
-                i = int(big[0])
-                raise InputError(
-                    f"point {i} has a coordinate of magnitude above {MAX_COORDINATE:g}",
-                    loc=("points", i),
-                    code="out_of_range",
-                )
+            cloud_points(self.points)
 
 
 def run_medial_axis(params: MedialAxisParams, progress) -> dict:
@@ -138,7 +124,7 @@ MEDIAL_AXIS_EXAMPLE = {
 # ---------------------------------------------------------------------------
 
 
-class AxisIn(BaseModel):
+class AxisIn(InputModel):
     """A medial axis: nodes, their radii and the edges joining them (a previous result's
     ``axis``; ``kind`` and ``branches`` may be present and are not used)."""
 

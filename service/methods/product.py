@@ -15,14 +15,14 @@ from __future__ import annotations
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import ConfigDict, Field, field_validator, model_validator
 
 from meshcore.errors import InputError
 from meshcore.mesh import Mesh, quality
 from meshcore.product import extrusion, merge, radial_mesh
 from service.methods.domain_schema import DomainIn
 from service.methods.triangulation import TriangulateParams, run_triangulate
-from service.schemas import FiniteFloat, MeshIn, MethodParams
+from service.schemas import FiniteFloat, InputModel, MeshIn, MethodParams
 
 Progress = extrusion.Progress
 
@@ -40,7 +40,7 @@ def _nonzero(v: list[float], what: str) -> list[float]:
     return v
 
 
-class _Path(BaseModel):
+class _Path(InputModel):
     model_config = ConfigDict(extra="forbid")
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import ConfigDict, Field, model_validator
 
 from meshcore.delaunay.admissible import circles_of, make_admissible
 from meshcore.delaunay.admissible3d import make_admissible_surface
@@ -26,7 +26,7 @@ from service.methods.domain_schema import (
     check_resolution,
 )
 from service.methods.surface_schema import SurfaceIn
-from service.schemas import MethodParams
+from service.schemas import InputModel, MethodParams
 
 Progress = object  # the registry's Progress: callable(fraction, message)
 
@@ -36,7 +36,7 @@ MAX_TRIANGLES = 20_000_000
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
 
-class CircleCurve(BaseModel):
+class CircleCurve(InputModel):
     """A ring that samples a circle: new points on it go on the circle (§9.1.5)."""
 
     model_config = ConfigDict(extra="forbid")
@@ -47,7 +47,7 @@ class CircleCurve(BaseModel):
     radius: PositiveFloat
 
 
-class SizeField(BaseModel):
+class SizeField(InputModel):
     """Target edge lengths at scattered points (the control space of Remark 8.10)."""
 
     model_config = ConfigDict(extra="forbid")
@@ -119,6 +119,7 @@ class TriangulateParams(MethodParams):
                         loc=(name,),
                         code="conflicting_parameters",
                     )
+        check_thinness(dom)
         field = None if self.size_field is None else self.size_field.model_dump()
         estimate = estimated_triangles(
             dom, max_area=self.max_area, size=self.size, size_field=field
@@ -132,6 +133,21 @@ class TriangulateParams(MethodParams):
                 loc=(name,),
                 code="too_many_triangles",
             )
+
+
+def check_thinness(dom) -> None:
+    """Refuse a domain so thin that a mesh meeting the angle bound, whatever the size, would
+    be more than ``MAX_TRIANGLES`` triangles (a strip of width w and length L needs about
+    2 L / w: :func:`~meshcore.triangulation.estimated_triangles` without sizes)."""
+    estimate = estimated_triangles(dom)
+    if estimate > MAX_TRIANGLES:
+        raise InputError(
+            f"the domain is so thin (area {dom.area:.3g} for its boundary's length) that "
+            f"triangles meeting the angle bound would be about {estimate:,} whatever the "
+            f"size; this service makes at most {MAX_TRIANGLES:,}",
+            loc=("domain",),
+            code="too_many_triangles",
+        )
 
 
 def run_triangulate(params: TriangulateParams, progress) -> dict:

@@ -534,3 +534,101 @@ def test_relax_quads_with_nodes_off_their_segment():
     out = relax_quads(P.astype(float), Q, fixed, slide=slide)
     assert np.isfinite(out).all()
     assert out[1, 0] < out[2, 0] < 10  # order kept, neither moved onto the segment's end
+
+
+# -- the sweep's leftovers: booleans as numbers, locations, warnings, thin strips ------------
+
+
+def numeric_leaves(value, path=()):
+    """Paths of the numbers (not booleans) in a JSON value."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            yield from numeric_leaves(v, (*path, k))
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            yield from numeric_leaves(v, (*path, i))
+    elif isinstance(value, int | float) and not isinstance(value, bool):
+        yield path
+
+
+def test_true_is_not_a_number_in_any_params():
+    """pydantic's lax mode read true as 1 (and false as 0) in every numeric field."""
+    from pydantic import ValidationError
+
+    for name, spec in default_registry().items():
+        for path in numeric_leaves(spec.example):
+            params = json.loads(json.dumps(spec.example))
+            target = params
+            for key in path[:-1]:
+                target = target[key]
+            target[path[-1]] = True
+            with pytest.raises(ValidationError) as info:
+                spec.params.model_validate_json(json.dumps(params))
+            loc = [k for k in info.value.errors()[0]["loc"] if k not in ("translate", "radial")]
+            assert tuple(loc) == path, (name, path, loc)
+    radial = default_registry()["radial"]  # an integer where a float goes, 8.0 for an int
+    params = radial.params.model_validate_json(
+        json.dumps({"outer_radius": 2, "radial_layers": 8.0, "segments": 32})
+    )
+    assert (params.outer_radius, params.radial_layers) == (2.0, 8)
+
+
+@pytest.mark.parametrize("inner", [1e-300, 1e-12])
+def test_radial_tiny_inner_radius_is_located_at_inner_radius(inner):
+    params = {**default_registry()["radial"].example, "inner_radius": inner}
+    problem = failed_with("radial", params)
+    assert problem["status"] == 422
+    assert problem["errors"][0]["loc"] == ["params", "inner_radius"]
+
+
+def test_triangulate_with_a_1e300_size_warns_nothing():
+    """The interior lattice's capsules squared 1e300 (an overflow, then a NaN cast)."""
+    import warnings
+
+    spec = default_registry()["triangulate"]
+    meshes = []
+    for size in (1e300, 10.0):  # both larger than the domain: the same mesh
+        params = {"domain": RECT, "size": size}
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            spec.params.model_validate(params).check()
+            files = run_job(spec, json.dumps(params).encode(), lambda f, m: None)
+        meshes.append(json.loads(files["json"])["mesh"])
+    assert meshes[0] == meshes[1]
+
+
+def test_meshcore_medial_axis_point_cloud_beyond_float_range_is_an_input_error():
+    """meshcore's own point-cloud domain had no range check (an IndexError at 1e300)."""
+    from meshcore.medial.axis import medial_axis
+
+    points = [[1e300 * x, 1e300 * y] for x, y in ((0, 0), (1, 0), (1, 1), (0, 1))]
+    with pytest.raises(InputError) as info:
+        medial_axis(points=points)
+    assert (info.value.errors[0]["loc"], info.value.code) == (["points", 1], "out_of_range")
+
+
+def strip(width: float) -> dict:
+    return {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, width], [0, width], [0, 0]]]}
+
+
+def test_thin_strip_estimate_counts_the_triangles_the_angle_bound_forces():
+    """Estimated by area only, a 1 x 1e-3 strip at size 0.1 was 0 triangles (it makes 1,216:
+    edges about as long as the strip is wide); at 1e-6 triangulate made 1.25M in 12 s."""
+    from meshcore.triangulation import estimated_triangles
+
+    spec = default_registry()["triangulate"]
+    params = {"domain": strip(1e-3), "size": 0.1}
+    result = json.loads(run_job(spec, json.dumps(params).encode(), lambda f, m: None)["json"])
+    made = result["stats"]["triangles"]
+    estimate = estimated_triangles(spec.params.model_validate(params).domain.to_domain(), size=0.1)
+    assert made / 2 <= estimate <= 2 * made, (made, estimate)
+
+
+@pytest.mark.parametrize("method", ["triangulate", "quad_grid", "quad_combine", "pattern"])
+def test_strip_too_thin_for_any_size_is_refused_up_front(method):
+    """A 1 x 1e-8 strip needs about 2e8 triangles whatever the size (quad_grid on a 1e-9
+    thin triangle ran 27 s into the refinement's point budget)."""
+    example = default_registry()[method].example
+    params = {**{k: v for k, v in example.items() if k != "curves"}, "domain": strip(1e-8)}
+    error = refused_at_submit(method, params)
+    assert (error["loc"], error["type"]) == (["domain"], "too_many_triangles")

@@ -60,8 +60,9 @@ class TestTriangulate:
     def test_runaway_size_names_the_numbers(self, client):
         r = submit(client, "triangulate", {"domain": SQUARE, "size": 1e-4})
         doc = assert_problem(r, 422, ["body", "params", "size"])
-        # 2 * area / (0.866 h**2) triangles, the service's cap, the domain's area
-        assert "230,940,10" in doc["detail"] and "20,000,000" in doc["detail"]
+        # 2 * (area / (0.866 h**2) + 0.25 perimeter**2 / area) triangles, the service's cap,
+        # the domain's area
+        assert "230,940,11" in doc["detail"] and "20,000,000" in doc["detail"]
         assert "area 1" in doc["detail"]
 
     @pytest.mark.parametrize(
