@@ -175,7 +175,6 @@ from meshcore.delaunay.recovery3d import (
     member,
     recover,
     regions,
-    tri_circumcenters,
 )
 from meshcore.domain.surface import as_surface
 from meshcore.errors import AlgorithmError, InputError
@@ -949,7 +948,7 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
         if size_at is not None:
             cap = np.minimum(cap, size_at(b.P[b.sub].mean(axis=1)))
         if np.isfinite(cap).any():
-            _, r = tri_circumcenters(b.P, b.sub)
+            _, r = b.sub_circles()
             sub_bad = unique_ints(
                 np.concatenate([sub_bad, np.flatnonzero(r > b.knobs.size_radius * cap)])
             )
