@@ -875,22 +875,42 @@ class SurfaceRecovery:
         for k, f in enumerate(facets.tolist()):
             self.unsettled[f] = unsettled[uptr[k] : uptr[k + 1]]
         keep = ~isin_ints(self.sub_facet, facets)
+        self._carry_circles(keep, sub)
         self.sub = np.concatenate([self.sub[keep], sub])
         self.sub_facet = np.concatenate([self.sub_facet[keep], owner])
+
+    def _carry_circles(self, keep: np.ndarray, sub: np.ndarray) -> None:
+        """The circles of :meth:`sub_circles` for the subfaces ``sub[keep]`` followed by
+        ``sub`` (the new ones of a retriangulation): those kept, and those of the new
+        rows that were rows before, corners in the same order (a facet triangulated
+        again mostly gives its triangles again; the circle's rounding depends on the
+        order, so only the same row reuses it)."""
         o, r, known = self._circles
-        if len(known) == len(keep):  # the circles kept with their subfaces
-            self._circles = (
-                np.concatenate([o[keep], np.zeros((len(sub), 3))]),
-                np.concatenate([r[keep], np.zeros(len(sub))]),
-                np.concatenate([known[keep], np.zeros(len(sub), dtype=bool)]),
-            )
+        if len(known) != len(keep):
+            return
+        no, nr = np.zeros((len(sub), 3)), np.zeros(len(sub))
+        nk = np.zeros(len(sub), dtype=bool)
+        old = np.flatnonzero(~keep & known)
+        if old.size and sub.size and len(self.P) < 1 << 21:
+
+            def row_keys(F):
+                return (F[:, 0] << 42) | (F[:, 1] << 21) | F[:, 2]
+
+            at = _find_all(*_table(row_keys(self.sub[old])), row_keys(sub))
+            hit = at >= 0
+            no[hit], nr[hit] = o[old[at[hit]]], r[old[at[hit]]]
+            nk[hit] = True
+        self._circles = (
+            np.concatenate([o[keep], no]),
+            np.concatenate([r[keep], nr]),
+            np.concatenate([known[keep], nk]),
+        )
 
     def sub_circles(self, rows: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """The circumcentres and circumradii of subfaces ``rows`` (all: the cache itself,
-        not to be written), as
-        :func:`tri_circumcenters` gives them: each subface's computed once, kept while
-        it and the points are (points are appended; a subface kept by
-        :meth:`retriangulate` keeps its circle)."""
+        """The circumcentres and circumradii of subfaces ``rows`` (all of them when
+        None: the cache itself, not to be written), as :func:`tri_circumcenters` gives
+        them; each subface's computed once and kept while it and the points are
+        (points are only appended during refinement; :meth:`_carry_circles`)."""
         o, r, known = self._circles
         m = len(self._circles_P)
         if len(known) != len(self.sub) or not np.array_equal(self.P[:m], self._circles_P):

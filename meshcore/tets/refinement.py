@@ -603,6 +603,10 @@ class _SizeMap:
             return self.field(X)
         return np.minimum(self.field(X), self.size)
 
+    def at(self, where: Callable[[], np.ndarray]) -> float | np.ndarray:
+        """``self(where())``, or just the uniform size (the points not computed)."""
+        return self.uniform if self.uniform is not None else self(where())
+
 
 def _size_map(size: float | None, field: SizeField3d | None) -> _SizeMap | None:
     """The size map of ``size`` and ``size_field``; None when neither is given."""
@@ -937,7 +941,7 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
         # The size bound and each facet's feature size (``_feature_sizes``).
         cap = b.segment_size(np.arange(len(b.seg)))
         if size_at is not None:
-            cap = np.minimum(cap, size_at(0.5 * (b.P[b.seg[:, 0]] + b.P[b.seg[:, 1]])))
+            cap = np.minimum(cap, size_at.at(lambda: 0.5 * (b.P[b.seg[:, 0]] + b.P[b.seg[:, 1]])))
         L = np.linalg.norm(b.P[b.seg[:, 0]] - b.P[b.seg[:, 1]], axis=1)
         long = np.flatnonzero((L > cap) & (L >= 1.5 * b.radial_floor(b.seg)))
         seg_bad = unique_ints(np.concatenate([seg_bad, long]))
@@ -946,7 +950,7 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
             continue
         cap = b.facet_size[b.sub_facet]
         if size_at is not None:
-            cap = np.minimum(cap, size_at(b.P[b.sub].mean(axis=1)))
+            cap = np.minimum(cap, size_at.at(lambda: b.P[b.sub].mean(axis=1)))
         if np.isfinite(cap).any():
             _, r = b.sub_circles()
             sub_bad = unique_ints(
