@@ -189,7 +189,9 @@ def triangulate_facets(uv, ptr, plain):
 
     The steps of :func:`meshcore.delaunay.kernel2d.delaunay` (its ``_build`` and
     ``_output``: the same scale factor, insertion order and chunks), so the rows are
-    the same as its; one call for all facets instead of one each.
+    the same as its; one call for all facets instead of one each. ``uv`` read-only,
+    as :func:`~meshcore.delaunay.kernel2d.delaunay` passes its points: the kernel's
+    passes compiled for it serve both.
     """
     K = ptr.shape[0] - 1
     cap = 0
@@ -208,7 +210,7 @@ def triangulate_facets(uv, ptr, plain):
         if n < 3:
             status[k] = FAILED
             continue
-        pts_in = uv[ptr[k] : ptr[k + 1]].copy()
+        pts_in = uv[ptr[k] : ptr[k + 1]]
         big = 0.0
         small = np.inf
         finite = True

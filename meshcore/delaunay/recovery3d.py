@@ -854,7 +854,9 @@ class SurfaceRecovery:
             d = self.P[ids[ptr[k] : ptr[k + 1]]] - origin[f]
             uv[ptr[k] : ptr[k + 1], 0] = d @ e1[f]
             uv[ptr[k] : ptr[k + 1], 1] = d @ e2[f]
-        tri, tptr, status = triangulate_facets(uv, ptr, plain)
+        ro = uv.view()
+        ro.flags.writeable = False
+        tri, tptr, status = triangulate_facets(ro, ptr, plain)
         for k in np.flatnonzero(status).tolist():  # the kernel's own error, to name it
             f = int(facets[k])
             try:
@@ -1216,12 +1218,18 @@ class SurfaceRecovery:
         return np.bincount(k[inside], minlength=len(X)) > 0
 
     def sources(self) -> np.ndarray:
-        """The input triangle each subface lies in (the one that best holds its centroid)."""
-        k, j = self._facet_triangles(self.sub_facet)
-        s = self._sides(self.P[self.sub[k]].mean(axis=1), j).min(axis=1)
+        """The input triangle each subface lies in (the one that best holds its centroid;
+        a facet of one input triangle: that one)."""
+        start = self._group_start
+        one = np.diff(start)[self.sub_facet] == 1
+        out = self._by_group[start[self.sub_facet]]
+        rows = np.flatnonzero(~one)
+        k, j = self._facet_triangles(self.sub_facet[rows])
+        s = self._sides(self.P[self.sub[rows[k]]].mean(axis=1), j).min(axis=1)
         order = np.lexsort((-s, k))
         first = unique_ints(k[order], return_index=True)[1]
-        return j[order[first]]
+        out[rows] = j[order[first]]
+        return out
 
     # -- encroachment --------------------------------------------------------------
 
