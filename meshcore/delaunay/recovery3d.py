@@ -1074,9 +1074,12 @@ class SurfaceRecovery:
         out = self._nearest(X) <= self.knobs.merge * R
         if len(X) > 1:
             r = self.knobs.separation * R
-            pairs = cKDTree(X).query_pairs(float(r.max()), output_type="ndarray")
-            if len(pairs):
-                i, j = pairs[:, 0], pairs[:, 1]
+            # The pairs within the radius of either (widened past rounding): every pair
+            # within the smaller one's, each once (i < j), as a query at the largest
+            # radius gave them, with far fewer to test where the radii differ.
+            i, j = ball_pairs(X, X, np.maximum(r * (1.0 + 1e-9), 1e-300))
+            i, j = i[i < j], j[i < j]
+            if len(i):
                 # j is the one of smaller radius (ties: the later index).
                 swap = (R[i] < R[j]) | ((R[i] == R[j]) & (i > j))
                 i, j = np.where(swap, j, i), np.where(swap, i, j)
