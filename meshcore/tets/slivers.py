@@ -34,6 +34,7 @@ import math
 import numpy as np
 
 from meshcore.delaunay.recovery3d import (
+    TET_FACES,
     SurfaceRecovery,
     member,
 )
@@ -62,7 +63,11 @@ ZONE_RINGS = 3
 
 def _face_keys(F: np.ndarray) -> np.ndarray:
     """Keys of faces as :func:`meshcore.mesh.tetstore.face_key` makes them (base ``NK``)."""
-    a, b, c = F[:, 0], F[:, 1], F[:, 2]
+    return _key3(F[:, 0], F[:, 1], F[:, 2])
+
+
+def _key3(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """:func:`_face_keys` of the faces with corners ``a``, ``b``, ``c`` (one per row)."""
     lo = np.minimum(np.minimum(a, b), c)
     hi = np.maximum(np.maximum(a, b), c)
     return (lo * NK + (a + b + c - lo - hi)) * NK + hi
@@ -180,8 +185,8 @@ def _zone(tetra: np.ndarray, bad: np.ndarray, n: int) -> np.ndarray:
 def _rim(tetra: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The faces of ``tetra`` that only one of them holds (the zone's boundary): their
     corners, sorted ((k, 3)), and their keys (:func:`_face_keys`), in key order."""
-    F = tetra[:, [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]].reshape(-1, 3)
-    k = np.sort(_face_keys(F))
+    v = [np.ascontiguousarray(tetra[:, i]) for i in range(4)]
+    k = np.sort(np.concatenate([_key3(*(v[i] for i in f)) for f in TET_FACES.tolist()]))
     lone = np.ones(len(k), dtype=bool)
     same = k[1:] == k[:-1]
     lone[1:] &= ~same
