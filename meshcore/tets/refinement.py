@@ -419,7 +419,7 @@ def _feature_sizes(b: SurfaceRecovery) -> np.ndarray:
     g, rep = g[keep], rep[keep]
     if g.size == 0:
         return out
-    pairs = np.unique(rep)
+    pairs = rep[np.concatenate([[True], rep[1:] != rep[:-1]])]  # rep is sorted
     d = np.full(len(vi), np.inf)
     d[pairs] = _point_triangle_distance(P[vi[pairs]], a[ti[pairs]], bb[ti[pairs]], c[ti[pairs]])
     np.minimum.at(out, g, d[rep])
