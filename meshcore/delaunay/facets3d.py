@@ -261,7 +261,8 @@ def triangulate_facets(uv, ptr, plain):
             status[k] = FAILED
             continue
         triangles, _ = _output(V, A, state[0], order)
-        tri[nt : nt + triangles.shape[0]] = triangles
-        nt += triangles.shape[0]
+        for t in range(triangles.shape[0]):
+            tri[nt, 0], tri[nt, 1], tri[nt, 2] = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+            nt += 1
         tptr[k + 1] = nt
     return tri[:nt].copy(), tptr, status
