@@ -34,6 +34,7 @@ from numba import njit
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from meshcore.delaunay.facets3d import _facet_points, _facet_subfaces, triangulate_facets
 from meshcore.delaunay.hashgrid import _find, _find_all, _shift, _table, ball_pairs
 from meshcore.delaunay.kernel2d import delaunay as delaunay2d
 from meshcore.delaunay.kernel3d import _NTET, IncrementalDelaunay3d
@@ -157,143 +158,6 @@ def tri_circumcenters(P: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndar
     with np.errstate(divide="ignore", invalid="ignore"):
         off = num / (2.0 * ww)[:, None]
     return a + off, np.sqrt(np.einsum("ij,ij->i", off, off))
-
-
-@njit(cache=True)
-def _facet_points(
-    facets, bptr, bu, be, bl, bfwd, lptr, lonely, by_edge, edge_bounds, by_facet,
-    facet_bounds, seg_order, seg_bounds,
-):  # fmt: skip
-    """The points of each facet to triangulate (CSR over ``facets``): its boundary
-    loops (each input edge's first vertex, then the points on the edge in the
-    loop's direction), then its corners on no loop and the points inside it;
-    with each point's loop and rank along the boundary (-1 inside), and the
-    subsegments of its boundary edges (CSR)."""
-    K = facets.shape[0]
-    ptr = np.zeros(K + 1, np.int64)
-    sptr = np.zeros(K + 1, np.int64)
-    for k in range(K):
-        f = facets[k]
-        n = lptr[f + 1] - lptr[f] + facet_bounds[f + 1] - facet_bounds[f]
-        ns = 0
-        for q in range(bptr[f], bptr[f + 1]):
-            e = be[q]
-            n += 1 + edge_bounds[e + 1] - edge_bounds[e]
-            ns += seg_bounds[e + 1] - seg_bounds[e]
-        ptr[k + 1] = ptr[k] + n
-        sptr[k + 1] = sptr[k] + ns
-    ids = np.empty(ptr[K], np.int64)
-    loop = np.empty(ptr[K], np.int64)
-    pos = np.empty(ptr[K], np.int64)
-    segs = np.empty(sptr[K], np.int64)
-    for k in range(K):
-        f = facets[k]
-        j = ptr[k]
-        js = sptr[k]
-        for q in range(bptr[f], bptr[f + 1]):
-            e = be[q]
-            lo, hi = edge_bounds[e], edge_bounds[e + 1]
-            ids[j] = bu[q]
-            loop[j] = bl[q]
-            pos[j] = j - ptr[k]
-            j += 1
-            for i in range(hi - lo):
-                ids[j] = by_edge[lo + i] if bfwd[q] else by_edge[hi - 1 - i]
-                loop[j] = bl[q]
-                pos[j] = j - ptr[k]
-                j += 1
-            for i in range(seg_bounds[e], seg_bounds[e + 1]):
-                segs[js] = seg_order[i]
-                js += 1
-        for i in range(lptr[f], lptr[f + 1]):
-            ids[j] = lonely[i]
-            loop[j] = -1
-            pos[j] = -1
-            j += 1
-        for i in range(facet_bounds[f], facet_bounds[f + 1]):
-            ids[j] = by_facet[i]
-            loop[j] = -1
-            pos[j] = -1
-            j += 1
-    return ptr, ids, loop, pos, sptr, segs
-
-
-@njit(cache=True)
-def _facet_subfaces(
-    facets, plain, ptr, ids, loop, pos, tptr, tri, uv, in_ptr, in_tri, tu, tol, sptr, segs,
-    seg_keys,
-):  # fmt: skip
-    """The subfaces of each facet (in ``facets`` order) and its unsettled subsegments.
-
-    A facet with no point added (``plain``) keeps its input triangles
-    (``in_tri``, CSR ``in_ptr``). Otherwise, of its 2D Delaunay triangles
-    (``tri``, local to its points, CSR ``tptr``) a triangle whose three
-    corners lie on one boundary loop is kept when it visits them in the
-    loop's cyclic order (two of its three steps forward: the triangles of
-    the convex hull's pockets outside the facet, and the slivers of three
-    points of one edge that rounding put a hair inside it, run against it);
-    another is kept when its centroid lies in one of the facet's input
-    triangles (``tu``, projected, non-strict up to ``tol``). The unsettled
-    subsegments: the keys ``seg_keys[segs]`` of the facet's boundary
-    subsegments that are no edges of its subfaces.
-    """
-    K = facets.shape[0]
-    out = np.empty((tri.shape[0] + in_tri.shape[0], 3), np.int64)
-    owner = np.empty(out.shape[0], np.int64)
-    uptr = np.zeros(K + 1, np.int64)
-    unsettled = np.empty(segs.shape[0], np.int64)
-    n = 0
-    nu = 0
-    for k in range(K):
-        f = facets[k]
-        first = n
-        if plain[k]:
-            for t in range(in_ptr[f], in_ptr[f + 1]):
-                out[n, 0], out[n, 1], out[n, 2] = in_tri[t, 0], in_tri[t, 1], in_tri[t, 2]
-                owner[n] = f
-                n += 1
-        else:
-            base = ptr[k]
-            for t in range(tptr[k], tptr[k + 1]):
-                a, b, c = tri[t, 0] + base, tri[t, 1] + base, tri[t, 2] + base
-                if loop[a] >= 0 and loop[a] == loop[b] and loop[b] == loop[c]:
-                    steps = (pos[b] > pos[a]) + (pos[c] > pos[b]) + (pos[a] > pos[c])
-                    keep = steps == 2
-                else:
-                    x0 = ((uv[a, 0] + uv[b, 0]) + uv[c, 0]) / 3.0
-                    x1 = ((uv[a, 1] + uv[b, 1]) + uv[c, 1]) / 3.0
-                    keep = False
-                    for q in range(in_ptr[f], in_ptr[f + 1]):
-                        ok = True
-                        for i in range(3):
-                            p0, p1 = tu[q, i, 0], tu[q, i, 1]
-                            q0, q1 = tu[q, (i + 1) % 3, 0], tu[q, (i + 1) % 3, 1]
-                            if not ((q0 - p0) * (x1 - p1) - (q1 - p1) * (x0 - p0) >= tol[f]):
-                                ok = False
-                                break
-                        if ok:
-                            keep = True
-                            break
-                if keep:
-                    out[n, 0], out[n, 1], out[n, 2] = ids[a], ids[b], ids[c]
-                    owner[n] = f
-                    n += 1
-        if sptr[k + 1] > sptr[k]:
-            # The facet's subface edges, sorted: each subsegment found by bisection.
-            ek = np.empty(3 * (n - first), np.int64)
-            for t in range(first, n):
-                for j in range(3):
-                    u, v = out[t, j], out[t, (j + 1) % 3]
-                    ek[3 * (t - first) + j] = (min(u, v) << 32) | max(u, v)
-            ek.sort()
-            for i in range(sptr[k], sptr[k + 1]):
-                key = seg_keys[segs[i]]
-                at = np.searchsorted(ek, key)
-                if at == ek.shape[0] or ek[at] != key:
-                    unsettled[nu] = key
-                    nu += 1
-        uptr[k + 1] = nu
-    return out[:n].copy(), owner[:n].copy(), uptr, unsettled[:nu].copy()
 
 
 def edge_keys(E: np.ndarray) -> np.ndarray:
@@ -691,7 +555,11 @@ class SurfaceRecovery:
         self._flat = flat
         self._loops: dict[int, list] = {}
         self._corner_cache: dict[int, tuple] = {}
-        self._static: dict[int, tuple] = {}
+        self._static: tuple | None = None
+        #: Per subface: circumcentre, circumradius, whether computed (:meth:`sub_circles`).
+        self._circles: tuple = (np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=bool))
+        self._circles_P = np.zeros((0, 3))
+        self._near: tuple = (None, np.zeros((0, 3)))  # see :meth:`_nearest`
         # Facet frames for the 2D triangulations: origin, two orthonormal axes
         # (counter-clockwise in the frame is outward), from the facet's first triangle.
         first = facets[[t[0] for t in self.group_tris]]
@@ -879,36 +747,80 @@ class SurfaceRecovery:
     def _facet_static(self, g: int) -> tuple:
         """Facet ``g``'s boundary (first vertex, edge, loop, whether the edge runs from
         its first vertex), its corners on no loop, its input triangles projected in
-        its frame and the inside tolerance; built once."""
-        if g not in self._static:
-            corners, lonely = self._corners(g)
-            parts = [
-                (de[:, 0], ei, np.full(len(ei), li)) for li, (de, ei) in enumerate(self.loops(g))
-            ]
-            if parts:
-                u, e, li = (np.concatenate(x) for x in zip(*parts, strict=True))
-            else:
-                u = e = li = np.zeros(0, dtype=np.int64)
-            origin, e1, e2 = self.frame
-            q = self.P[self.facets[self.group_tris[g]]] - origin[g]
-            tu = np.stack([q @ e1[g], q @ e2[g]], -1)  # (k, 3, 2)
-            # Non-strict up to rounding: a centroid may lie on an edge inside the
-            # facet (a diagonal its input triangles share).
-            tol = -1e-9 * float(np.ptp(tu.reshape(-1, 2), axis=0).max()) ** 2
-            fwd = u == self.edges[e, 0]
-            self._static[g] = (u, e, li, fwd, lonely, len(corners), tu, tol)
-        return self._static[g]
+        its frame and the inside tolerance."""
+        corners, lonely = self._corners(g)
+        parts = [(de[:, 0], ei, np.full(len(ei), li)) for li, (de, ei) in enumerate(self.loops(g))]
+        if parts:
+            u, e, li = (np.concatenate(x) for x in zip(*parts, strict=True))
+        else:
+            u = e = li = np.zeros(0, dtype=np.int64)
+        origin, e1, e2 = self.frame
+        q = self.P[self.facets[self.group_tris[g]]] - origin[g]
+        tu = np.stack([q @ e1[g], q @ e2[g]], -1)  # (k, 3, 2)
+        # Non-strict up to rounding: a centroid may lie on an edge inside the
+        # facet (a diagonal its input triangles share).
+        tol = -1e-9 * float(np.ptp(tu.reshape(-1, 2), axis=0).max()) ** 2
+        fwd = u == self.edges[e, 0]
+        return u, e, li, fwd, lonely, len(corners), tu, tol
+
+    def _facet_tables(self) -> tuple:
+        """:meth:`_facet_static` of every facet as CSR tables indexed by facet id
+        (boundary ``bptr, bu, be, bl, bfwd``, lonely corners ``lptr, lonely``, corner
+        counts, input triangles ``in_ptr, in_tri``, projected ``tu``, ``tol``); built
+        once, a one-triangle facet (its boundary the triangle's three edges in order,
+        no lonely corner) without a loop in Python."""
+        if self._static is not None:
+            return self._static
+        G = len(self.group_tris)
+        in_ptr = self._group_start
+        sizes = np.diff(in_ptr)
+        single = np.flatnonzero(sizes == 1)
+        multi = np.flatnonzero(sizes > 1).tolist()
+        st = [self._facet_static(g) for g in multi]
+        bcount = np.full(G, 3, dtype=np.int64)
+        bcount[sizes == 0] = 0
+        bcount[multi] = [len(x[0]) for x in st]
+        lcount = np.zeros(G, dtype=np.int64)
+        lcount[multi] = [len(x[4]) for x in st]
+        ncorner = bcount.copy()
+        ncorner[multi] = [x[5] for x in st]
+        bptr = np.concatenate([[0], np.cumsum(bcount)])
+        lptr = np.concatenate([[0], np.cumsum(lcount)])
+        bu, be, bl = (np.zeros(bptr[-1], dtype=np.int64) for _ in range(3))
+        lonely = np.zeros(lptr[-1], dtype=np.int64)
+        in_tri = self.facets[self._by_group]
+        tu = np.zeros((len(in_tri), 3, 2))
+        tol = np.zeros(G)
+        t = in_ptr[single]  # the facet's one triangle (row of in_tri)
+        at = bptr[single][:, None] + np.arange(3)
+        bu[at] = in_tri[t]
+        be[at] = self._edge_id[self._by_group[t]]
+        origin, e1, e2 = self.frame
+        q = self.P[in_tri[t]] - origin[single][:, None, :]
+        tu[t] = np.stack([q @ e1[single][:, :, None], q @ e2[single][:, :, None]], -1)[:, :, 0]
+        span = (tu[t].max(axis=1) - tu[t].min(axis=1)).max(axis=1)
+        tol[single] = -1e-9 * span**2
+        for g, x in zip(multi, st, strict=True):  # facets of several input triangles
+            bu[bptr[g] : bptr[g + 1]], be[bptr[g] : bptr[g + 1]] = x[0], x[1]
+            bl[bptr[g] : bptr[g + 1]] = x[2]
+            lonely[lptr[g] : lptr[g + 1]] = x[4]
+            tu[in_ptr[g] : in_ptr[g + 1]], tol[g] = x[6], x[7]
+        bfwd = bu == self.edges[be, 0]
+        self._static = (bptr, bu, be, bl, bfwd, lptr, lonely, ncorner, in_ptr, in_tri, tu, tol)
+        return self._static
 
     def retriangulate(self, facets: np.ndarray) -> None:
         """Recompute the subfaces of ``facets``: 2D Delaunay of each facet's points.
 
         The points: the facet's input vertices, the points added on its
         boundary edges and inside it; the triangles outside the facet are
-        dropped (:func:`_facet_subfaces`). A subsegment of the facet's
-        boundary that is not an edge of the result (its diametral circle
-        holds a facet point) is *unsettled*: :meth:`missing` reports it, and
-        recovery splits it. A loop over the facets whose point set changed
-        (each a compiled kernel2d call), the bookkeeping around it compiled.
+        dropped (:func:`~meshcore.delaunay.facets3d._facet_subfaces`). A
+        subsegment of the facet's boundary that is not an edge of the result
+        (its diametral circle holds a facet point) is *unsettled*:
+        :meth:`missing` reports it, and recovery splits it. One compiled call
+        triangulates every facet whose point set changed
+        (:func:`~meshcore.delaunay.facets3d.triangulate_facets`); the points
+        are projected in each facet's frame in a loop over those facets.
         """
         if facets.size == 0:
             return
@@ -925,66 +837,99 @@ class SurfaceRecovery:
         facet_bounds = np.searchsorted(self.pt_facet[by_facet], np.arange(len(self.group_tris) + 1))
         seg_order = np.argsort(self.seg_edge, kind="stable")
         seg_bounds = np.searchsorted(self.seg_edge[seg_order], np.arange(len(self.edges) + 1))
-        G = len(self.group_tris)
-        st = [self._facet_static(f) for f in facets.tolist()]
-        # Per-facet tables indexed by facet id (only the rows of ``facets`` filled).
-        bcount = np.zeros(G, dtype=np.int64)
-        bcount[facets] = [len(x[0]) for x in st]
-        lcount = np.zeros(G, dtype=np.int64)
-        lcount[facets] = [len(x[4]) for x in st]
-        tcount = np.zeros(G, dtype=np.int64)
-        tcount[facets] = [len(x[6]) for x in st]
-        bptr = np.concatenate([[0], np.cumsum(bcount)])
-        lptr = np.concatenate([[0], np.cumsum(lcount)])
-        in_ptr = np.concatenate([[0], np.cumsum(tcount)])
-        order = np.argsort(facets, kind="stable")  # CSR rows in facet id order
-        byf = [st[i] for i in order.tolist()]
-        fid = facets[order]
-        bu, be, bl, bfwd, lonely = (
-            np.concatenate([x[k] for x in byf]).astype(dt)
-            for k, dt in ((0, np.int64), (1, np.int64), (2, np.int64), (3, np.bool_), (4, np.int64))
+        bptr, bu, be, bl, bfwd, lptr, lonely, ncorner, in_ptr, in_tri, tu, tol = (
+            self._facet_tables()
         )
-        in_tri = np.concatenate([self.facets[self.group_tris[f]] for f in fid.tolist()])
-        tu = np.concatenate([x[6] for x in byf])
-        tol = np.zeros(G)
-        tol[facets] = [x[7] for x in st]
         ptr, ids, loop, pos, sptr, segs = _facet_points(
             facets, bptr, bu, be, bl, bfwd, lptr, lonely, by_edge, edge_bounds, by_facet,
             facet_bounds, seg_order, seg_bounds,
         )  # fmt: skip
         origin, e1, e2 = self.frame
-        plain = np.diff(ptr) == np.array([x[5] for x in st])
+        # No point added: the input triangles (what the 3D mesh most likely holds
+        # when the facet's corners are co-circular, as a square's).
+        plain = np.diff(ptr) == ncorner[facets]
         uv = np.zeros((len(ids), 2))
-        tris = [np.zeros((0, 3), dtype=np.int64)]
-        for k, f in enumerate(facets.tolist()):  # a loop over changed facets
-            if plain[k]:
-                # No point added: the input triangles (what the 3D mesh most likely
-                # holds when the facet's corners are co-circular, as a square's).
-                continue
+        for k in np.flatnonzero(~plain).tolist():  # the projections, facet by facet
+            f = int(facets[k])
             d = self.P[ids[ptr[k] : ptr[k + 1]]] - origin[f]
             uv[ptr[k] : ptr[k + 1], 0] = d @ e1[f]
             uv[ptr[k] : ptr[k + 1], 1] = d @ e2[f]
+        ro = uv.view()
+        ro.flags.writeable = False
+        tri, tptr, status = triangulate_facets(ro, ptr, plain)
+        for k in np.flatnonzero(status).tolist():  # the kernel's own error, to name it
+            f = int(facets[k])
             try:
-                tris.append(delaunay2d(uv[ptr[k] : ptr[k + 1]]).triangles)
+                delaunay2d(uv[ptr[k] : ptr[k + 1]])
+                msg = "the 2D kernel failed"
             except InputError as exc:  # rounding made two projections coincide
-                raise AlgorithmError(
-                    f"the points added on facet {f} (input triangles "
-                    f"{self.group_tris[f][:5].tolist()}) could not be triangulated in its "
-                    f"plane ({exc.message})",
-                    code="recovery_failed",
-                ) from None
-        tptr = np.zeros(len(facets) + 1, dtype=np.int64)
-        tptr[1:][~plain] = [len(t) for t in tris[1:]]
-        tptr = np.cumsum(tptr)
+                msg = exc.message
+            raise AlgorithmError(
+                f"the points added on facet {f} (input triangles "
+                f"{self.group_tris[f][:5].tolist()}) could not be triangulated in its "
+                f"plane ({msg})",
+                code="recovery_failed",
+            )
         sub, owner, uptr, unsettled = _facet_subfaces(
-            facets, plain, ptr, ids, loop, pos, tptr, np.concatenate(tris).astype(np.int64),
-            uv, in_ptr, in_tri, tu, tol, sptr, segs, edge_keys(self.seg),
+            facets, plain, ptr, ids, loop, pos, tptr, tri, uv, in_ptr, in_tri, tu, tol, sptr,
+            segs, edge_keys(self.seg),
         )  # fmt: skip
         for k, f in enumerate(facets.tolist()):
             self.unsettled[f] = unsettled[uptr[k] : uptr[k + 1]]
         keep = ~isin_ints(self.sub_facet, facets)
+        self._carry_circles(keep, sub)
         self.sub = np.concatenate([self.sub[keep], sub])
         self.sub_facet = np.concatenate([self.sub_facet[keep], owner])
+
+    def _carry_circles(self, keep: np.ndarray, sub: np.ndarray) -> None:
+        """The circles of :meth:`sub_circles` for the subfaces ``sub[keep]`` followed by
+        ``sub`` (the new ones of a retriangulation): those kept, and those of the new
+        rows that were rows before, corners in the same order (a facet triangulated
+        again mostly gives its triangles again; the circle's rounding depends on the
+        order, so only the same row reuses it)."""
+        o, r, known = self._circles
+        if len(known) != len(keep):
+            return
+        no, nr = np.zeros((len(sub), 3)), np.zeros(len(sub))
+        nk = np.zeros(len(sub), dtype=bool)
+        old = np.flatnonzero(~keep & known)
+        if old.size and sub.size and len(self.P) < 1 << 21:
+
+            def row_keys(F):
+                return (F[:, 0] << 42) | (F[:, 1] << 21) | F[:, 2]
+
+            at = _find_all(*_table(row_keys(self.sub[old])), row_keys(sub))
+            hit = at >= 0
+            no[hit], nr[hit] = o[old[at[hit]]], r[old[at[hit]]]
+            nk[hit] = True
+        self._circles = (
+            np.concatenate([o[keep], no]),
+            np.concatenate([r[keep], nr]),
+            np.concatenate([known[keep], nk]),
+        )
+
+    def sub_circles(self, rows: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The circumcentres and circumradii of subfaces ``rows`` (all of them when
+        None: the cache itself, not to be written), as :func:`tri_circumcenters` gives
+        them; each subface's computed once and kept while it and the points are
+        (points are only appended during refinement; :meth:`_carry_circles`)."""
+        o, r, known = self._circles
+        m = len(self._circles_P)
+        if len(known) != len(self.sub) or not np.array_equal(self.P[:m], self._circles_P):
+            o, r = np.zeros((len(self.sub), 3)), np.zeros(len(self.sub))
+            known = np.zeros(len(self.sub), dtype=bool)
+            m = 0
+        if len(self.P) > m:
+            self._circles_P = self.P.copy()
+        need = np.flatnonzero(~known) if rows is None else rows[~known[rows]]
+        if need.size:
+            need = unique_ints(need)
+            o[need], r[need] = tri_circumcenters(self.P, self.sub[need])
+            known[need] = True
+        self._circles = (o, r, known)
+        if rows is None:
+            return o, r
+        return o[rows], r[rows]
 
     def split_subfaces(self, rows: np.ndarray, touched: list | None = None) -> tuple[int, int]:
         """Split subfaces ``rows`` at their circumcentres (Shewchuk's rule).
@@ -1005,7 +950,7 @@ class SurfaceRecovery:
         if rows.size == 0:
             self._retriangulate_after(touched, np.zeros(0, dtype=np.int64))
             return 0, 0
-        c, R = tri_circumcenters(self.P, self.sub[rows])
+        c, R = self.sub_circles(rows)
         flat = ~np.isfinite(c).all(axis=1)
         if flat.any():
             T = self.P[self.sub[rows[flat]]]
@@ -1095,6 +1040,27 @@ class SurfaceRecovery:
             out[rows[found]] = segs[k[found]]
         return out
 
+    def _nearest(self, X: np.ndarray) -> np.ndarray:
+        """The distance from each point ``X`` to the nearest point of ``P``.
+
+        From a KD-tree of the first points, kept while they are unchanged (points
+        are appended between calls), and one of the points appended since, as a
+        tree of every point would give: built again once those are a quarter of
+        the first (each refinement round appends its points; the tree of every
+        point was built again each round).
+        """
+        n = len(self.P)
+        tree, ref = self._near
+        m = len(ref)
+        if tree is None or 4 * (n - m) > m or not np.array_equal(self.P[:m], ref):
+            tree, ref = cKDTree(self.P), self.P.copy()
+            self._near = (tree, ref)
+            m = n
+        d, _ = tree.query(X)
+        if n > m:
+            d = np.minimum(d, cKDTree(self.P[m:]).query(X)[0])
+        return d
+
     def crowded(self, X: np.ndarray, R: np.ndarray) -> np.ndarray:
         """Candidates to drop from one batch of insertions.
 
@@ -1105,13 +1071,15 @@ class SurfaceRecovery:
         an edge far shorter than the local size; the survivor's insertion
         settles the other's subface, or the next round splits it).
         """
-        d, _ = cKDTree(self.P).query(X)
-        out = d <= self.knobs.merge * R
+        out = self._nearest(X) <= self.knobs.merge * R
         if len(X) > 1:
             r = self.knobs.separation * R
-            pairs = cKDTree(X).query_pairs(float(r.max()), output_type="ndarray")
-            if len(pairs):
-                i, j = pairs[:, 0], pairs[:, 1]
+            # The pairs within the radius of either (widened past rounding): every pair
+            # within the smaller one's, each once (i < j), as a query at the largest
+            # radius gave them, with far fewer to test where the radii differ.
+            i, j = ball_pairs(X, X, np.maximum(r * (1.0 + 1e-9), 1e-300))
+            i, j = i[i < j], j[i < j]
+            if len(i):
                 # j is the one of smaller radius (ties: the later index).
                 swap = (R[i] < R[j]) | ((R[i] == R[j]) & (i > j))
                 i, j = np.where(swap, j, i), np.where(swap, i, j)
@@ -1208,7 +1176,7 @@ class SurfaceRecovery:
     def protected_subfaces(self, rows: np.ndarray) -> np.ndarray:
         """Which subfaces ``rows`` are not split for encroachment: too small (``protect``)
         or with their circumcentre inside a protecting cylinder (:meth:`in_cylinders`)."""
-        c, R = tri_circumcenters(self.P, self.sub[rows])
+        c, R = self.sub_circles(rows)
         g = self.sub_facet[rows]
         ref = np.minimum(np.minimum(self.facet_short[g], self.facet_size[g]), self.size_cap)
         out = R < self.knobs.protect * ref
@@ -1253,12 +1221,18 @@ class SurfaceRecovery:
         return np.bincount(k[inside], minlength=len(X)) > 0
 
     def sources(self) -> np.ndarray:
-        """The input triangle each subface lies in (the one that best holds its centroid)."""
-        k, j = self._facet_triangles(self.sub_facet)
-        s = self._sides(self.P[self.sub[k]].mean(axis=1), j).min(axis=1)
+        """The input triangle each subface lies in (the one that best holds its centroid;
+        a facet of one input triangle: that one)."""
+        start = self._group_start
+        one = np.diff(start)[self.sub_facet] == 1
+        out = self._by_group[start[self.sub_facet]]
+        rows = np.flatnonzero(~one)
+        k, j = self._facet_triangles(self.sub_facet[rows])
+        s = self._sides(self.P[self.sub[rows[k]]].mean(axis=1), j).min(axis=1)
         order = np.lexsort((-s, k))
         first = unique_ints(k[order], return_index=True)[1]
-        return j[order[first]]
+        out[rows] = j[order[first]]
+        return out
 
     # -- encroachment --------------------------------------------------------------
 
@@ -1298,7 +1272,7 @@ class SurfaceRecovery:
             si, pi = si[other], pi[other]
             inside = dot3d(a[si], b[si], self.P[pi]) < 0
             seg_bad[si[inside]] = True
-        o, r = tri_circumcenters(self.P, self.sub)
+        o, r = self.sub_circles()
         sub_bad = np.zeros(len(self.sub), dtype=bool)
         hits = tree.query_ball_point(o, r=r * self.knobs.subface_ball)
         counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
@@ -1312,7 +1286,7 @@ class SurfaceRecovery:
 
     def encroached_subfaces(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Pairs (point row, subface) with the point inside the equatorial ball (float)."""
-        o, r = tri_circumcenters(self.P, self.sub)
+        o, r = self.sub_circles()
         return ball_pairs(X, o, r * self.knobs.subface_ball)
 
     # -- presence ------------------------------------------------------------------

@@ -175,7 +175,6 @@ from meshcore.delaunay.recovery3d import (
     member,
     recover,
     regions,
-    tri_circumcenters,
 )
 from meshcore.domain.surface import as_surface
 from meshcore.errors import AlgorithmError, InputError
@@ -420,7 +419,7 @@ def _feature_sizes(b: SurfaceRecovery) -> np.ndarray:
     g, rep = g[keep], rep[keep]
     if g.size == 0:
         return out
-    pairs = np.unique(rep)
+    pairs = rep[np.concatenate([[True], rep[1:] != rep[:-1]])]  # rep is sorted
     d = np.full(len(vi), np.inf)
     d[pairs] = _point_triangle_distance(P[vi[pairs]], a[ti[pairs]], bb[ti[pairs]], c[ti[pairs]])
     np.minimum.at(out, g, d[rep])
@@ -603,6 +602,10 @@ class _SizeMap:
         if self.size is None:
             return self.field(X)
         return np.minimum(self.field(X), self.size)
+
+    def at(self, where: Callable[[], np.ndarray]) -> float | np.ndarray:
+        """``self(where())``, or just the uniform size (the points not computed)."""
+        return self.uniform if self.uniform is not None else self(where())
 
 
 def _size_map(size: float | None, field: SizeField3d | None) -> _SizeMap | None:
@@ -938,7 +941,7 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
         # The size bound and each facet's feature size (``_feature_sizes``).
         cap = b.segment_size(np.arange(len(b.seg)))
         if size_at is not None:
-            cap = np.minimum(cap, size_at(0.5 * (b.P[b.seg[:, 0]] + b.P[b.seg[:, 1]])))
+            cap = np.minimum(cap, size_at.at(lambda: 0.5 * (b.P[b.seg[:, 0]] + b.P[b.seg[:, 1]])))
         L = np.linalg.norm(b.P[b.seg[:, 0]] - b.P[b.seg[:, 1]], axis=1)
         long = np.flatnonzero((L > cap) & (L >= 1.5 * b.radial_floor(b.seg)))
         seg_bad = unique_ints(np.concatenate([seg_bad, long]))
@@ -947,9 +950,9 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
             continue
         cap = b.facet_size[b.sub_facet]
         if size_at is not None:
-            cap = np.minimum(cap, size_at(b.P[b.sub].mean(axis=1)))
+            cap = np.minimum(cap, size_at.at(lambda: b.P[b.sub].mean(axis=1)))
         if np.isfinite(cap).any():
-            _, r = tri_circumcenters(b.P, b.sub)
+            _, r = b.sub_circles()
             sub_bad = unique_ints(
                 np.concatenate([sub_bad, np.flatnonzero(r > b.knobs.size_radius * cap)])
             )

@@ -34,6 +34,7 @@ import math
 import numpy as np
 
 from meshcore.delaunay.recovery3d import (
+    TET_FACES,
     SurfaceRecovery,
     member,
 )
@@ -62,8 +63,14 @@ ZONE_RINGS = 3
 
 def _face_keys(F: np.ndarray) -> np.ndarray:
     """Keys of faces as :func:`meshcore.mesh.tetstore.face_key` makes them (base ``NK``)."""
-    s = np.sort(F, axis=1)
-    return (s[:, 0] * NK + s[:, 1]) * NK + s[:, 2]
+    return _key3(F[:, 0], F[:, 1], F[:, 2])
+
+
+def _key3(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """:func:`_face_keys` of the faces with corners ``a``, ``b``, ``c`` (one per row)."""
+    lo = np.minimum(np.minimum(a, b), c)
+    hi = np.maximum(np.maximum(a, b), c)
+    return (lo * NK + (a + b + c - lo - hi)) * NK + hi
 
 
 def improve(
@@ -121,9 +128,8 @@ def improve(
     # Only the zone around the tetrahedra under the bound is edited; its boundary faces
     # are constrained and their vertices fixed, so the tetrahedra outside stay as they are.
     zone = _zone(tetra, _least_dihedral(points, tetra) < bound, len(points))
-    rim = _rim(tetra[zone])
+    rim, rim_k = _rim(tetra[zone])
     subk = np.sort(_face_keys(np.asarray(faces, dtype=np.int64)))
-    rim_k = _face_keys(rim)
     fixed[rim[~member(rim_k, subk)].ravel()] = True  # not the surface's: it may slide
     T = np.ascontiguousarray(tetra[zone][:, [0, 1, 3, 2]])
     state = CellStore(points, T, fixed, SPARE)
@@ -176,17 +182,17 @@ def _zone(tetra: np.ndarray, bad: np.ndarray, n: int) -> np.ndarray:
     return zone
 
 
-def _rim(tetra: np.ndarray) -> np.ndarray:
-    """(k, 3): the faces of ``tetra`` that only one of them holds (the zone's boundary)."""
-    F = tetra[:, [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]].reshape(-1, 3)
-    keys = _face_keys(F)
-    order = np.argsort(keys, kind="stable")
-    k = keys[order]
+def _rim(tetra: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The faces of ``tetra`` that only one of them holds (the zone's boundary): their
+    corners, sorted ((k, 3)), and their keys (:func:`_face_keys`), in key order."""
+    v = [np.ascontiguousarray(tetra[:, i]) for i in range(4)]
+    k = np.sort(np.concatenate([_key3(*(v[i] for i in f)) for f in TET_FACES.tolist()]))
     lone = np.ones(len(k), dtype=bool)
     same = k[1:] == k[:-1]
     lone[1:] &= ~same
     lone[:-1] &= ~same
-    return F[order[lone]]
+    k = k[lone]
+    return np.stack([k // (NK * NK), (k // NK) % NK, k % NK], 1), k
 
 
 def remove_slivers(

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
+import meshcore.delaunay.facets3d as facets3d
 import meshcore.delaunay.recovery3d as recovery3d
+from meshcore.delaunay import delaunay
 from meshcore.delaunay.kernel3d import delaunay3d
 from meshcore.domain import parse_surface
 from meshcore.tets import refinement, tetra_dihedral_angles, tetrahedralize
@@ -38,10 +40,28 @@ def test_least_dihedral_is_the_least_of_the_six():
 
 def test_region_labels_kept_between_rounds_equal_the_flood_fill(monkeypatch):
     """And the missing pieces found from their witnesses (``SurfaceRecovery.missing``) are
-    those a pass over every tetrahedron finds."""
+    those a pass over every tetrahedron finds; the facets triangulated in one compiled
+    call get the rows ``delaunay`` gives each; the kept subface circles are those
+    computed afresh."""
     call = recovery3d.RegionLabels.__call__
     missing = recovery3d.SurfaceRecovery.missing
-    checked, pieces = [], []
+    triangulate = recovery3d.triangulate_facets
+    circles = recovery3d.SurfaceRecovery.sub_circles
+    checked, pieces, facets = [], [], []
+
+    def checked_triangulate(uv, ptr, plain):
+        tri, tptr, status = triangulate(uv, ptr, plain)
+        for k in np.flatnonzero(~plain):
+            want = delaunay(uv[ptr[k] : ptr[k + 1]]).triangles
+            assert status[k] == 0 and np.array_equal(tri[tptr[k] : tptr[k + 1]], want)
+            facets.append(k)
+        return tri, tptr, status
+
+    def checked_circles(self, rows=None):
+        o, r = circles(self, rows)
+        want = recovery3d.tri_circumcenters(self.P, self.sub if rows is None else self.sub[rows])
+        assert np.array_equal(o, want[0]) and np.array_equal(r, want[1])
+        return o, r
 
     def checked_call(self, slots, T):
         labels = call(self, slots, T)
@@ -63,7 +83,15 @@ def test_region_labels_kept_between_rounds_equal_the_flood_fill(monkeypatch):
 
     monkeypatch.setattr(recovery3d.RegionLabels, "__call__", checked_call)
     monkeypatch.setattr(recovery3d.SurfaceRecovery, "missing", checked_missing)
+    monkeypatch.setattr(recovery3d, "triangulate_facets", checked_triangulate)
+    monkeypatch.setattr(recovery3d.SurfaceRecovery, "sub_circles", checked_circles)
     surface = parse_surface(*shapes.torus(nu=10, nv=5))
     tetrahedralize(surface, size=0.4)
     assert len(checked) > 3
     assert len(pieces) > 3 and sum(pieces) > 0
+    assert len(facets) > 10
+    # A facet the 2D kernel refuses (two points coincide) is reported, not triangulated.
+    uv = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 0.0], [0.0, 0.0], [2.0, 0.0]])
+    uv.flags.writeable = False
+    _, tptr, status = triangulate(uv, np.array([0, 3, 6]), np.zeros(2, dtype=bool))
+    assert status.tolist() == [0, facets3d.FAILED] and tptr.tolist() == [0, 1, 1]
