@@ -122,7 +122,9 @@ class TestQuadGrid:
         size = data.draw(st.floats(0.02, 0.05))
         rings = [[[0, 0], [w, 0], [w, 1], [0, 1]]]
         for k in range(data.draw(st.integers(0, 2))):
-            r = data.draw(st.floats(0.06, 0.15))
+            # the holes sit w / 4 from the sides and w / 2 apart: radii under w / 4 - 0.02
+            # keep them off the sides and each other (0.15 at w = 0.6 touched the side)
+            r = data.draw(st.floats(0.06, min(0.15, w / 4 - 0.02)))
             n = max(8, int(2 * math.pi * r / size))
             rings.append(circle((k + 0.5) * w / 2, data.draw(st.floats(0.3, 0.7)), r, n))
         domain = {"type": "Polygon", "coordinates": rings}
