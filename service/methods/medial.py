@@ -92,24 +92,17 @@ class MedialAxisParams(MethodParams):
 def run_medial_axis(params: MedialAxisParams, progress) -> dict:
     """The axis (nodes, radii, edges, kinds, branches), as a line mesh too, the domain
     (for a point cloud: the one reconstructed from it) and counts."""
-    if params.domain is not None:
-        axis = medial_axis(
-            params.domain.to_domain(),
-            h=params.h,
-            prune=params.prune,
-            approximation=params.approximation,
-            progress=progress,
-        )
-        domain = _domain_geometry(params.domain)
-    else:
-        axis = medial_axis(
-            points=np.asarray(params.points, dtype=float),
-            h=params.h,
-            prune=params.prune,
-            approximation=params.approximation,
-            progress=progress,
-        )
-        domain = axis.domain.as_geojson()  # the curves reconstructed from the cloud
+    cloud = params.domain is None
+    axis = medial_axis(
+        None if cloud else params.domain.to_domain(),
+        points=np.asarray(params.points, dtype=float) if cloud else None,
+        h=params.h,
+        prune=params.prune,
+        approximation=params.approximation,
+        progress=progress,
+    )
+    # for a point cloud: the curves reconstructed from it
+    domain = axis.domain.as_geojson() if cloud else _domain_geometry(params.domain)
     return {"axis": axis.to_json(), "mesh": axis.to_mesh(), "domain": domain, "stats": axis.stats}
 
 
@@ -213,14 +206,6 @@ class PartitionParams(MethodParams):
         self.domain.to_domain()
 
 
-def _partition_json(part) -> dict:
-    return {
-        "regions": part.regions,
-        "cuts": part.cuts.tolist(),
-        "axis": part.axis.to_json(),
-    }
-
-
 def run_partition(params: PartitionParams, progress) -> dict:
     """The regions (GeoJSON Polygons with their side counts), the cut lines and the axis."""
     part = partition(
@@ -230,12 +215,11 @@ def run_partition(params: PartitionParams, progress) -> dict:
         prune=params.prune,
         progress=progress,
     )
-    out = _partition_json(part)
     return {
-        "regions": out["regions"],
-        "axis": out["axis"],
+        "regions": part.regions,
+        "axis": part.axis.to_json(),
         "domain": _domain_geometry(params.domain),
-        "stats": {**part.stats, "cuts": out["cuts"]},
+        "stats": {**part.stats, "cuts": part.cuts.tolist()},
     }
 
 
