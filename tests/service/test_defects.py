@@ -632,3 +632,11 @@ def test_strip_too_thin_for_any_size_is_refused_up_front(method):
     params = {**{k: v for k, v in example.items() if k != "curves"}, "domain": strip(1e-8)}
     error = refused_at_submit(method, params)
     assert (error["loc"], error["type"]) == (["domain"], "too_many_triangles")
+
+
+def test_thin_strip_without_angle_bound_is_meshed():
+    # triangulate's empty=true adds no interior point: the 1 x 1e-8 strip is two triangles
+    spec = default_registry()["triangulate"]
+    params = {"domain": strip(1e-8), "empty": True}
+    result = json.loads(run_job(spec, json.dumps(params).encode(), lambda f, m: None)["json"])
+    assert result["stats"]["triangles"] == 2
