@@ -119,8 +119,8 @@ class TriangulateParams(MethodParams):
                         loc=(name,),
                         code="conflicting_parameters",
                     )
-        else:  # the empty triangulation has no angle bound: a thin strip is two triangles
-            check_thinness(dom)
+            return  # no interior point, no angle bound: a thin strip is two triangles
+        check_thinness(dom)
         field = None if self.size_field is None else self.size_field.model_dump()
         estimate = estimated_triangles(
             dom, max_area=self.max_area, size=self.size, size_field=field

@@ -638,5 +638,6 @@ def test_thin_strip_without_angle_bound_is_meshed():
     # triangulate's empty=true adds no interior point: the 1 x 1e-8 strip is two triangles
     spec = default_registry()["triangulate"]
     params = {"domain": strip(1e-8), "empty": True}
+    spec.params.model_validate(params).check()  # the submit's checks
     result = json.loads(run_job(spec, json.dumps(params).encode(), lambda f, m: None)["json"])
     assert result["stats"]["triangles"] == 2
