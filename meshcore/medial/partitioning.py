@@ -608,12 +608,12 @@ def quad_medial(
     res = _meshed(domain, method, size, levels, h, prune, progress)
     if size is None or not _over(res, domain, size):
         return res
+    least = min(PRUNE_LEAST, _least_away(res.mesh, domain))
     for more in (x for x in PRUNE_MORE if x > prune):  # a loop over at most three axes
         try:
             alt = _meshed(domain, method, size, levels, h, more, progress)
         except AlgorithmError:
             continue
-        least = min(PRUNE_LEAST, _least_away(res.mesh, domain))
         if not _over(alt, domain, size) and _least_away(alt.mesh, domain) >= least:
             return QuadMedial(
                 mesh=alt.mesh, partition=alt.partition, stats={**alt.stats, "prune": more}

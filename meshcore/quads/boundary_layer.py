@@ -278,15 +278,15 @@ def least_off_sharp(mesh: Mesh, dom: Domain) -> float:
     return float(quality.quad_quality(mesh.points, mesh.cells_by_type["quad"][ok]).min())
 
 
-def beats_lattice(row: Mesh, lattice: Mesh, dom: Domain) -> bool:
+def beats_lattice(row: Mesh, lattice: Mesh, lattice_least: float, dom: Domain) -> bool:
     """Whether the optimized mesh with the corner row laid at least quality 0 (``row``)
-    is kept over the lattice's (``lattice``) where it misses :func:`meets_targets`: a
-    higher least quality away from the sharp input corners, with at most
-    ``ROW_MOST_QUADS`` times the lattice's quads."""
+    is kept over the lattice's (``lattice``, of :func:`least_off_sharp` ``lattice_least``)
+    where it misses :func:`meets_targets`: a higher least quality away from the sharp
+    input corners, with at most ``ROW_MOST_QUADS`` times the lattice's quads."""
     n_row, n_lat = len(row.cells_by_type["quad"]), len(lattice.cells_by_type["quad"])
     if n_row > ROW_MOST_QUADS * n_lat:
         return False
-    return least_off_sharp(row, dom) > least_off_sharp(lattice, dom)
+    return least_off_sharp(row, dom) > lattice_least
 
 
 def _layer(dom, size, mesh_inner, max_turn, least_quality, rows):

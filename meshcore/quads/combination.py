@@ -1312,10 +1312,12 @@ def combine(
                 "max": float(wp.max()),
             }
     stats["seconds"] = timings
-    if retried is not None and beats_lattice(retried.mesh, out_mesh, domain_in):
-        retried.stats["lattice_least"] = least_off_sharp(out_mesh, domain_in)
-        report(1.0, "done")
-        return retried
+    if retried is not None:
+        lattice_least = least_off_sharp(out_mesh, domain_in)
+        if beats_lattice(retried.mesh, out_mesh, lattice_least, domain_in):
+            retried.stats["lattice_least"] = lattice_least
+            report(1.0, "done")
+            return retried
     report(1.0, "done")
     return QuadResult(
         mesh=out_mesh,
