@@ -33,6 +33,7 @@ from meshcore.delaunay.kernel2d import (
     _insert_range,
     _insertion_order,
     _output,
+    _scan,
     _start,
     _walk_hints,
 )
@@ -211,18 +212,7 @@ def triangulate_facets(uv, ptr, plain):
             status[k] = FAILED
             continue
         pts_in = uv[ptr[k] : ptr[k + 1]]
-        big = 0.0
-        small = np.inf
-        finite = True
-        for i in range(n):
-            for c in range(2):
-                x = pts_in[i, c]
-                if not np.isfinite(x):
-                    finite = False
-                x = abs(x)
-                big = max(big, x)
-                if x > 0.0:
-                    small = min(small, x)
+        finite, big, small = _scan(pts_in)
         factor = 1.0
         if big > 0.0:
             e = math.frexp(big)[1]
