@@ -115,7 +115,7 @@ from scipy.spatial import cKDTree
 
 from meshcore.delaunay.admissible import admissible_segments
 from meshcore.delaunay.kernel2d import delaunay
-from meshcore.domain.planar import Domain, parse_domain, ray_parity
+from meshcore.domain.planar import Domain, as_domain, parse_domain, ray_parity
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.tolerances import MAX_COORDINATE, MIN_DIAMETER
 from meshcore.mesh import CellBlock, Mesh
@@ -1281,8 +1281,9 @@ def medial_axis(
 
     Parameters
     ----------
-    domain : Domain, optional
-        From :func:`meshcore.domain.planar.parse_domain`; its constraints are ignored.
+    domain : Domain or GeoJSON mapping, optional
+        From :func:`meshcore.domain.planar.parse_domain`, or parsed here; its
+        constraints are ignored.
     points : (n, 2) float64, optional
         Instead of ``domain``: samples of closed boundary curves (§9.4.2).
     h : float, optional
@@ -1330,6 +1331,8 @@ def medial_axis(
 
     if (domain is None) == (points is None):
         raise InputError("give exactly one of domain and points", loc=(), code="bad_input")
+    if domain is not None:
+        domain = as_domain(domain)
     if approximation not in ("voronoi", "midpoints"):
         raise InputError(
             f"approximation must be 'voronoi' or 'midpoints', got {approximation!r}",

@@ -130,7 +130,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from meshcore.domain.planar import Domain
+from meshcore.domain.planar import Domain, as_domain
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.medial.axis import DEFAULT_PRUNE, MedialAxis, _csr, _cycles, medial_axis
 from meshcore.medial.fill import MOST_COUNT, area_centroid, boundary_slides, folded, quads_on
@@ -548,7 +548,7 @@ def quad_medial(
 
     Parameters
     ----------
-    domain : Domain
+    domain : Domain or GeoJSON mapping
     method : {"critical", "terminal"}
         The partition (:func:`partition`).
     size : float, optional
@@ -595,6 +595,7 @@ def quad_medial(
     ----------
     Methods text §9.7.2, Figure 9.14; §8.5.3; Chapter 4 (algebraic methods).
     """
+    domain = as_domain(domain)
     if size is not None and levels is not None:
         raise InputError("give size or levels, not both", loc=("levels",), code="bad_input")
     if size is not None and not (math.isfinite(size) and size > 0):

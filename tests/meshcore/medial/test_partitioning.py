@@ -147,3 +147,12 @@ class TestQuadMedial:
     def test_size_and_levels_exclude_each_other(self):
         with pytest.raises(InputError):
             quad_medial(domain("rectangle"), size=0.1, levels=1)
+
+
+def test_geojson_mapping_is_parsed_as_the_other_methods_do():
+    # quad_medial (and medial_axis under it) took only a parsed Domain: a GeoJSON mapping,
+    # as triangulate and combine take, failed with an AttributeError
+    geo = {"type": "Polygon", "coordinates": [[[0, 0], [2, 0], [2, 1], [0, 1], [0, 0]]]}
+    a, b = quad_medial(geo, size=0.1), quad_medial(parse_domain(geo), size=0.1)
+    assert np.array_equal(a.mesh.points, b.mesh.points)
+    assert np.array_equal(a.mesh.cells_by_type["quad"], b.mesh.cells_by_type["quad"])
