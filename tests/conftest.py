@@ -13,8 +13,9 @@ request (the domain checks, the body parser: the warm-up's first task, a few
 seconds; every worker compiled them at once before). Every other test waits
 until the cache is filled, so that no
 kernel is compiled twice at once (four workers compiling the same kernels made
-a cold run's compile work about four times larger). ``--dist load`` with small
-chunks (``pyproject.toml``) hands the tests out in the order set here.
+a cold run's compile work about four times larger). ``--dist loadgroup
+--no-loadscope-reorder`` (``pyproject.toml``) hands the tests out in the order set
+here, a group where its first test falls.
 
 A single-process run (``-n 0``), or a run of chosen files or tests, fills
 nothing ahead: each test compiles what it reaches as it goes.
