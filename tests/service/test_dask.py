@@ -92,9 +92,10 @@ def cluster(tmp_path_factory):
 def dask_server(start_server, cluster):
     server = start_server(MESHSERVICE_DASK_SCHEDULER=cluster.address)
     deadline = time.monotonic() + 60
-    while httpx.get(server.url + "/readyz").json().get("workers", 0) < 2:
-        assert time.monotonic() < deadline, "the two workers never joined"
-        time.sleep(0.2)
+    with server.client() as c:
+        while c.get("/readyz").json().get("workers", 0) < 2:
+            assert time.monotonic() < deadline, "the two workers never joined"
+            time.sleep(0.2)
     return server
 
 

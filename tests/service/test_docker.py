@@ -82,15 +82,16 @@ def test_compose_commands_serve_a_job(tmp_path):
         key = _env_file()["MESHSERVICE_API_KEYS"].split(",")[0].split(":")[0]
         url = f"http://127.0.0.1:{api_port}"
         deadline = time.monotonic() + 90
-        while True:
-            try:
-                ready = httpx.get(url + "/readyz")
-                if ready.status_code == 200 and ready.json()["workers"] == 1:
-                    break
-            except httpx.HTTPError:
-                pass
-            assert time.monotonic() < deadline, (tmp_path / "api.log").read_text()[-2000:]
-            time.sleep(0.2)
+        with httpx.Client() as probe:
+            while True:
+                try:
+                    ready = probe.get(url + "/readyz")
+                    if ready.status_code == 200 and ready.json()["workers"] == 1:
+                        break
+                except httpx.HTTPError:
+                    pass
+                assert time.monotonic() < deadline, (tmp_path / "api.log").read_text()[-2000:]
+                time.sleep(0.2)
         assert ready.json()["executor"] == "dask"
         r = httpx.post(
             url + "/v1/jobs",

@@ -202,22 +202,24 @@ class TestFirstStart:
         try:
             warming, job = [], None
             deadline = time.monotonic() + 120
-            while time.monotonic() < deadline:
-                try:
-                    r = httpx.get(server.url + "/readyz", timeout=2)
-                except httpx.HTTPError:
+            with httpx.Client(base_url=server.url, timeout=2) as probe:
+                while time.monotonic() < deadline:
+                    try:
+                        r = probe.get("/readyz")
+                    except httpx.HTTPError:
+                        time.sleep(0.05)
+                        continue
+                    if job is None:
+                        job = probe.post(
+                            "/v1/jobs",
+                            json={"method": "quality", "params": {"mesh": SQUARE}},
+                            timeout=5,
+                        ).json()
+                    if r.status_code == 200:
+                        break
+                    assert r.status_code == 503
+                    warming.append(r.json()["warming"])
                     time.sleep(0.05)
-                    continue
-                if job is None:
-                    job = httpx.post(
-                        server.url + "/v1/jobs",
-                        json={"method": "quality", "params": {"mesh": SQUARE}},
-                    ).json()
-                if r.status_code == 200:
-                    break
-                assert r.status_code == 503
-                warming.append(r.json()["warming"])
-                time.sleep(0.05)
             assert warming, "the port answered only once everything was warm"
             assert set(warming[-1]) == {"done", "total", "current", "left"}
             assert job["status"] in ("queued", "running", "succeeded")
