@@ -132,7 +132,14 @@ from numba import njit
 
 from meshcore.domain.planar import Domain, as_domain
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.medial.axis import DEFAULT_PRUNE, MedialAxis, _csr, _cycles, medial_axis
+from meshcore.medial.axis import (
+    DEFAULT_PRUNE,
+    MedialAxis,
+    _csr,
+    _cycles,
+    medial_axis,
+    pruned_axes,
+)
 from meshcore.medial.fill import MOST_COUNT, area_centroid, boundary_slides, folded, quads_on
 from meshcore.medial.regions import (
     _AXIS,
@@ -606,18 +613,21 @@ def quad_medial(
         raise InputError(
             f"levels must be between 0 and 10, got {levels!r}", loc=("levels",), code="bad_value"
         )
-    res = _meshed(domain, method, size, levels, h, prune, progress)
+    more = [x for x in PRUNE_MORE if x > prune] if size is not None else []
+    # the axis built once (samples, Delaunay, Voronoi graph), pruned at each angle in turn
+    axes = pruned_axes(domain, h=h, prunes=(prune, *more), progress=progress)
+    res = _meshed(next(axes), domain, method, size, levels)
     if size is None or not _over(res, domain, size):
         return res
     least = min(PRUNE_LEAST, _least_away(res.mesh, domain))
-    for more in (x for x in PRUNE_MORE if x > prune):  # a loop over at most three axes
+    for angle, axis in zip(more, axes, strict=True):  # a loop over at most three axes
         try:
-            alt = _meshed(domain, method, size, levels, h, more, progress)
+            alt = _meshed(axis, domain, method, size, levels)
         except AlgorithmError:
             continue
         if not _over(alt, domain, size) and _least_away(alt.mesh, domain) >= least:
             return QuadMedial(
-                mesh=alt.mesh, partition=alt.partition, stats={**alt.stats, "prune": more}
+                mesh=alt.mesh, partition=alt.partition, stats={**alt.stats, "prune": angle}
             )
     return res
 
@@ -638,9 +648,8 @@ def _least_away(mesh: Mesh, domain: Domain) -> float:
     return float(quality.quad_quality(P, Q)[ok].min(initial=1.0))
 
 
-def _meshed(domain, method, size, levels, h, prune, progress) -> QuadMedial:
-    """:func:`quad_medial` on the axis pruned at ``prune`` (arguments checked)."""
-    axis = medial_axis(domain, h=h, prune=prune, progress=progress)
+def _meshed(axis: MedialAxis, domain, method, size, levels) -> QuadMedial:
+    """:func:`quad_medial` on the axis (of ``domain``; arguments checked)."""
     special, mesh, stats = _special(axis, size, levels)
     part = None
     if special is not None and not stats["invalid"]:
