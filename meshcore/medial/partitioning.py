@@ -28,6 +28,14 @@ text counts it.
   axis; terminal branches are not cuts. Regions are triangles (a cut, the
   boundary around a terminal branch, a cut) and quads (cut, boundary, cut,
   axis), as the text says.
+  A *crowded* junction (more than :data:`CROWDED` lines: axis edges and
+  cuts) keeps only the cuts at least :data:`CROWD_ANGLE` degrees from every
+  axis edge there: a gear's centre is one node whose circle touches all the
+  tooth gaps, and its 11 axis edges and 22 cuts made regions of 16 degrees at
+  the node (an 11-tooth gear at size 0.1: least quality 0.18, corners from 16
+  degrees, 1.32x area / size**2; without those cuts 0.36, from 33 degrees,
+  1.08x; no other gear of 6-12 teeth nor any of the 32 issue stars at sizes
+  0.1 and 0.15 changed).
 
 Choices where the text leaves freedom ("numerous variations can be used in
 order to optimize such a partition"): the branches that regions lie along
@@ -193,6 +201,14 @@ PRUNE_MORE = (45.0, 60.0, 90.0)
 #: first one's, when lower).
 PRUNE_LEAST = 0.35
 
+#: A junction of the ``critical`` partition with more than this many lines (axis edges
+#: and cuts) is crowded: its cuts within :data:`CROWD_ANGLE` degrees of an axis edge
+#: are left out (:func:`_spread`). A gear's centre is one node whose circle touches every
+#: tooth gap: 11 axis edges and 22 cuts there made regions of 16 degrees at the node.
+CROWDED = 6
+#: See :data:`CROWDED` (degrees).
+CROWD_ANGLE = 20.0
+
 #: The final corner relaxation (:func:`_optimized`) may lower the least quality by this
 #: for a higher mean: on the benchmark's spiky star at size 0.1, with a reflex corner
 #: opened, it took the mean from 0.778 to 0.836 and the least from 0.486 to 0.481, and
@@ -313,6 +329,16 @@ def _stripped(n, edges, keep):
     return alive
 
 
+def _spread(ax: MedialAxis, v: int, touch: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """The contacts of a crowded junction ``v`` (more than :data:`CROWDED` lines) whose
+    cut makes at least :data:`CROWD_ANGLE` with every axis edge there."""
+    w = ax.edges[edges].sum(axis=1) - v
+    a = np.arctan2(*(ax.nodes[w] - ax.nodes[v]).T[::-1])
+    b = np.arctan2(*(ax.samples[touch] - ax.nodes[v]).T[::-1])
+    gap = np.abs(np.angle(np.exp(1j * (b[:, None] - a[None]))))
+    return touch[gap.min(axis=1) >= math.radians(CROWD_ANGLE)]
+
+
 def _cut_lines(ax: MedialAxis, method: str):
     """Axis edges kept and cuts (node, sample) of the partition."""
     n = len(ax.nodes)
@@ -324,7 +350,10 @@ def _cut_lines(ax: MedialAxis, method: str):
     keep_edge = np.ones(len(ax.edges), dtype=bool)
     for v in np.flatnonzero((deg >= 3) | (deg == 0)):
         if method == "critical" or deg[v] == 0:
-            cuts += [(int(v), int(s)) for s in contact[start[v] : start[v + 1]]]
+            touch = contact[start[v] : start[v + 1]]
+            if deg[v] >= 3 and deg[v] + len(touch) > CROWDED:
+                touch = _spread(ax, v, touch, incident[first[v] : first[v + 1]])
+            cuts += [(int(v), int(s)) for s in touch]
     sections: list[int] = []
     for b, chain in enumerate(ax.branches):
         closed = chain[0] == chain[-1]
