@@ -28,9 +28,9 @@ text counts it.
   axis; terminal branches are not cuts. Regions are triangles (a cut, the
   boundary around a terminal branch, a cut) and quads (cut, boundary, cut,
   axis), as the text says.
-  A *crowded* junction (more than :data:`CROWDED` lines: axis edges and
-  cuts) keeps only the cuts at least :data:`CROWD_ANGLE` degrees from every
-  axis edge there: a gear's centre is one node whose circle touches all the
+  A *crowded* junction (more than :data:`CROWDED` lines: cuts and branches
+  to other junctions) keeps only the cuts at least :data:`CROWD_ANGLE` degrees
+  from every such branch: a gear's centre is one node whose circle touches all the
   tooth gaps, and its 11 axis edges and 22 cuts made regions of 16 degrees at
   the node (an 11-tooth gear at size 0.1: least quality 0.18, corners from 16
   degrees, 1.32x area / size**2; without those cuts 0.36, from 33 degrees,
@@ -201,10 +201,12 @@ PRUNE_MORE = (45.0, 60.0, 90.0)
 #: first one's, when lower).
 PRUNE_LEAST = 0.35
 
-#: A junction of the ``critical`` partition with more than this many lines (axis edges
-#: and cuts) is crowded: its cuts within :data:`CROWD_ANGLE` degrees of an axis edge
-#: are left out (:func:`_spread`). A gear's centre is one node whose circle touches every
-#: tooth gap: 11 axis edges and 22 cuts there made regions of 16 degrees at the node.
+#: A junction of the ``critical`` partition with more than this many lines (cuts, and
+#: branches to other junctions) is crowded: its cuts within :data:`CROWD_ANGLE` degrees
+#: of such a branch are left out (:func:`_spread`). A gear's centre is one node whose
+#: circle touches every tooth gap: 11 axis edges and 22 cuts there made regions of 16
+#: degrees at the node. (A junction whose branches all end at leaves keeps its cuts: a
+#: random star's only junction lost them all, and the domain was one region.)
 CROWDED = 6
 #: See :data:`CROWDED` (degrees).
 CROWD_ANGLE = 20.0
@@ -329,11 +331,14 @@ def _stripped(n, edges, keep):
     return alive
 
 
-def _spread(ax: MedialAxis, v: int, touch: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    """The contacts of a crowded junction ``v`` (more than :data:`CROWDED` lines) whose
-    cut makes at least :data:`CROWD_ANGLE` with every axis edge there."""
-    w = ax.edges[edges].sum(axis=1) - v
-    a = np.arctan2(*(ax.nodes[w] - ax.nodes[v]).T[::-1])
+def _spread(ax: MedialAxis, v: int, touch: np.ndarray, ahead: list) -> np.ndarray:
+    """The contacts of a junction ``v`` whose cuts make at least :data:`CROWD_ANGLE` with
+    every branch there that leads to another junction (``ahead``: their second nodes; a
+    terminal branch is not a cut line of the ``critical`` partition), when it is
+    crowded: more than :data:`CROWDED` such branches and cuts. All of them otherwise."""
+    if len(ahead) < 3 or len(ahead) + len(touch) <= CROWDED:
+        return touch
+    a = np.arctan2(*(ax.nodes[ahead] - ax.nodes[v]).T[::-1])
     b = np.arctan2(*(ax.samples[touch] - ax.nodes[v]).T[::-1])
     gap = np.abs(np.angle(np.exp(1j * (b[:, None] - a[None]))))
     return touch[gap.min(axis=1) >= math.radians(CROWD_ANGLE)]
@@ -348,11 +353,16 @@ def _cut_lines(ax: MedialAxis, method: str):
     first, incident = _csr(n, ax.edges)  # the axis edges of each node
     cuts: list[tuple[int, int]] = []
     keep_edge = np.ones(len(ax.edges), dtype=bool)
+    ahead: dict[int, list[int]] = {}  # per junction, the second node of each branch ...
+    for c in ax.branches:  # ... from it to a junction (both ways on a loop)
+        for k, e in ((1, 0), (-2, -1)):
+            if deg[c[-1 - e]] >= 3:
+                ahead.setdefault(int(c[e]), []).append(int(c[k]))
     for v in np.flatnonzero((deg >= 3) | (deg == 0)):
         if method == "critical" or deg[v] == 0:
             touch = contact[start[v] : start[v + 1]]
-            if deg[v] >= 3 and deg[v] + len(touch) > CROWDED:
-                touch = _spread(ax, v, touch, incident[first[v] : first[v + 1]])
+            if deg[v] >= 3:
+                touch = _spread(ax, v, touch, ahead.get(int(v), []))
             cuts += [(int(v), int(s)) for s in touch]
     sections: list[int] = []
     for b, chain in enumerate(ax.branches):
