@@ -5,6 +5,7 @@ Run from the repository root::
     .venv/bin/python benchmarks/medial.py                  # 10k, 100k, 1M points; 512², 2048²
     .venv/bin/python benchmarks/medial.py --big            # also 8192² rasters (minutes, ~5 GB)
     .venv/bin/python benchmarks/medial.py --sizes 10000 100000 --rasters 512
+    .venv/bin/python benchmarks/medial.py --quad-medial 0.1 0.15   # quad_medial's table only
 
 Three tables, one run:
 
@@ -41,6 +42,14 @@ computed one: to the nearest pixel centre (k-d tree), or exactly to the
 nearest of our segments (GEOS STR-tree). scikit-image's ``skeletonize``
 (a thinning) does not keep the branches into the rectangle's corners: its
 error there is the corner's distance to the central segment, 0.707.
+
+``--quad-medial SIZE...``: instead, :func:`meshcore.medial.partitioning.quad_medial` on
+issue 20's first 32 random stars (:func:`tests.meshcore.quads.stars.issue_star`) and on
+gears of 6-12 teeth (depth 0.12, sampled about ``size`` apart, as the tests draw them)
+at each size: per domain the count over area / size**2 and, away from the quads at
+input corners under 45 degrees (one quad holds such a corner), the least quality
+(8.4), the corner range and the quads under 0.5, with the CPU seconds; then a summary
+line per family and size (on how many domains each of the issue's facts holds).
 
 Timing: table 1 in CPU seconds of this process (``time.process_time``: the
 machine is shared, and wall time counts the other processes' turns), the
@@ -326,8 +335,60 @@ def table_equal_time(raster_rows, our_rows):
         )
 
 
+def quad_medial_main(sizes) -> None:
+    """``--quad-medial``: the stars and gears table (module docstring)."""
+    from meshcore.medial import quad_medial
+    from meshcore.mesh import quality
+    from tests.meshcore.quads.stars import issue_star
+    from tests.meshcore.quads.test_curved_domains import _gear, _ring, _sampled
+
+    print(f"load average {os.getloadavg()[0]:.2f}\n")
+    print("| domain | size | count / (area / size²) | least Q | Q < 0.5 | corners | CPU s |")
+    print("|---|---:|---:|---:|---:|---|---:|")
+    rows: dict[tuple[str, float], list] = {}
+    for size in sizes:
+        cases = [("star", f"star {k}", issue_star(k)[0]) for k in range(32)]
+        cases += [
+            (
+                "gear",
+                f"gear {k}",
+                {"type": "Polygon", "coordinates": [_ring(_sampled(_gear(k, 0.12), size))]},
+            )
+            for k in range(6, 13)
+        ]
+        for family, name, geo in cases:  # a loop over 39 domains
+            dom = parse_domain(geo)
+            t0 = time.process_time()
+            res = quad_medial(dom, size=size)
+            sec = time.process_time() - t0
+            P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
+            sharp = np.zeros(len(P), bool)
+            for x in dom.points[np.flatnonzero(dom.corner_angles() < 45)]:  # the spikes
+                sharp |= (P == x).all(axis=1)
+            ok = ~sharp[Q].any(axis=1)
+            q, ang = quality.quad_quality(P, Q)[ok], quality.quad_angles(P, Q)[ok]
+            ratio = len(Q) * size**2 / dom.area
+            row = (ratio, q.min(), ang.min(), ang.max(), int((q < 0.5).sum()))
+            rows.setdefault((family, size), []).append(row)
+            print(
+                f"| {name} | {size} | {ratio:.2f} | {q.min():.3f} | {row[4]} | "
+                f"{ang.min():.1f}-{ang.max():.1f} | {sec:.2f} |",
+                flush=True,
+            )
+    print()
+    for (family, size), got in rows.items():
+        r, q, lo, hi, under = (np.array(c) for c in zip(*got, strict=True))
+        print(
+            f"{len(got)} {family}s at size {size}: count {r.min():.2f}-{r.max():.2f}x (over 1.5x "
+            f"on {(r > 1.5).sum()}), least Q {q.min():.3f}-{q.max():.3f} (>= 0.5 on "
+            f"{(q >= 0.5).sum()}, >= 0.3 on {(q >= 0.3).sum()}), corners in [30, 150] on "
+            f"{((lo >= 30) & (hi <= 150)).sum()}, quads under 0.5: {under.sum()}"
+        )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quad-medial", type=float, nargs="+", default=None, metavar="SIZE")
     ap.add_argument("--sizes", type=int, nargs="*", default=[10_000, 100_000, 1_000_000])
     ap.add_argument("--rasters", type=int, nargs="*", default=[512, 2048])
     ap.add_argument("--big", action="store_true", help="add 8192² rasters (minutes, ~5 GB)")
@@ -336,6 +397,9 @@ def main() -> None:
     )
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args()
+    if args.quad_medial:
+        quad_medial_main(args.quad_medial)
+        return
     notes: list[str] = []
     rasters = list(args.rasters) + ([8192] if args.big and 8192 not in args.rasters else [])
     if not args.big and 8192 not in rasters:

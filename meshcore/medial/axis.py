@@ -7,91 +7,73 @@ boundary), edges, node kinds and branches.
 
 Pipeline (§9.4.1):
 
-1. **Sampling.** Every boundary segment is split into equal pieces no longer
-   than ``h``; input vertices stay samples.
-2. **Admissibility.** The samples are triangulated by
-   :func:`meshcore.delaunay.kernel2d.delaunay` (our exact kernel). If some piece is
-   not a Delaunay edge, :func:`meshcore.delaunay.admissible.admissible_segments`
-   splits pieces until every one is (§9.1.4).
-3. **Empty triangulation and types.** A compiled flood fill keeps the
-   triangles on the domain side of the pieces (regions, never centroid
-   tests) and counts each one's boundary edges: Type 0, 1, 2 (and 3, a
-   triangle that is the whole domain), Figure 9.9.
-4. **Voronoi graph.** Circumcentres of adjacent triangles are joined across
-   interior edges (Theorem 9.1). Adjacent triangles whose four vertices are
-   co-circular have the same circumcentre: they are one node, of degree 4
-   or more where co-circularity joins branches (Figure 9.10, left;
-   §9.4.3). The test is on the two centres, computed relative to a shared
-   vertex, being within :attr:`Tolerances.node_merge` of the diameter: it
-   takes the exact ties (which the Delaunay kernel broke symbolically, one
-   way or the other) and the near-ties whose Voronoi edge is shorter than
-   any meaningful length, which has no direction worth keeping.
-5. **Pruning** (Remarks 9.10-9.13, §9.4.3): a *terminal branch* runs from
-   a leaf to the first node where three or more edges meet. Its
-   *significance* is the angle that the boundary edge through which it
-   leaves that junction subtends at the junction's centre: the angle between
-   the two boundary points that the maximal circle there touches on either
-   side of the branch. A corner of interior angle ``θ`` gives a branch of
-   significance ``180° - θ`` (90° at a rectangle's corners); a branch made
-   by the discretization (a Type 2 triangle on a sampled curve, Remark
-   9.11) spans a few samples, a few ``h / r``. Branches are removed, least
-   significant first, while their significance is below ``prune`` degrees;
-   when a junction is left with two edges, the branches through it merge
-   and are measured again at the next junction. Only leaves are ever
-   removed, so loops (holes) and connectivity are kept, and at least two
-   branches survive at every junction.
-6. **Terminal nodes** (§9.4.1, Type 1-Type 2 pair): "the medial axis ends at
-   the centre of the circle of the triangle of Type 2; to complete it, one
-   can link this point with the terminal node": a surviving leaf that is a
-   Type 2 triangle at a *corner* (the boundary turns there by at least
-   ``prune`` degrees, the significance of that corner's branch) is joined
-   to it (radius 0), so corner branches reach their corners. At a smooth
-   convex end the contacts of the circles close up towards the osculating
-   circle (Remark 9.11): leaves whose circle touches the boundary within
-   less than ``prune`` degrees (the minor arc between its farthest two
-   contacts) are trimmed, repeatedly, so the axis ends near the centre of
-   curvature (1.49 for 1.5 on the 2 x 1 ellipse). A component left as a single
-   path is measured from its widest node, each half removed when
+1. **Sampling.** Every boundary segment is split into equal pieces no longer than ``h``; input
+   vertices stay samples.
+2. **Admissibility.** The samples are triangulated by :func:`meshcore.delaunay.kernel2d.delaunay`
+   (our exact kernel). If some piece is not a Delaunay edge,
+   :func:`meshcore.delaunay.admissible.admissible_segments` splits pieces until every one is
+   (§9.1.4).
+3. **Empty triangulation and types.** A compiled flood fill keeps the triangles on the domain side
+   of the pieces (regions, never centroid tests) and counts each one's boundary edges: Type 0, 1, 2
+   (and 3, a triangle that is the whole domain), Figure 9.9.
+4. **Voronoi graph.** Circumcentres of adjacent triangles are joined across interior edges (Theorem
+   9.1). Adjacent triangles whose four vertices are co-circular have the same circumcentre: they
+   are one node, of degree 4 or more where co-circularity joins branches (Figure 9.10, left;
+   §9.4.3). The test is on the two centres, computed relative to a shared vertex, being within
+   :attr:`Tolerances.node_merge` of the diameter: it takes the exact ties (which the Delaunay
+   kernel broke symbolically, one way or the other) and the near-ties whose Voronoi edge is shorter
+   than any meaningful length, which has no direction worth keeping.
+5. **Pruning** (Remarks 9.10-9.13, §9.4.3): a *terminal branch* runs from a leaf to the first node
+   where three or more edges meet. Its *significance* is the angle that the boundary edge through
+   which it leaves that junction subtends at the junction's centre: the angle between the two
+   boundary points that the maximal circle there touches on either side of the branch. A corner of
+   interior angle ``θ`` gives a branch of significance ``180° - θ`` (90° at a rectangle's corners);
+   a branch made by the discretization (a Type 2 triangle on a sampled curve, Remark 9.11) spans a
+   few samples, a few ``h / r``. Branches are removed, least significant first, while their
+   significance is below ``prune`` degrees; when a junction is left with two edges, the branches
+   through it merge and are measured again at the next junction. Only leaves are ever removed, so
+   loops (holes) and connectivity are kept, and at least two branches survive at every junction.
+6. **Terminal nodes** (§9.4.1, Type 1-Type 2 pair): "the medial axis ends at the centre of the
+   circle of the triangle of Type 2; to complete it, one can link this point with the terminal
+   node": a surviving leaf that is a Type 2 triangle at a *corner* (the boundary turns there by at
+   least ``prune`` degrees, the significance of that corner's branch) is joined to it (radius 0),
+   so corner branches reach their corners. At a smooth convex end the contacts of the circles close
+   up towards the osculating circle (Remark 9.11): leaves whose circle touches the boundary within
+   less than ``prune`` degrees (the minor arc between its farthest two contacts) are trimmed,
+   repeatedly, so the axis ends near the centre of curvature (1.49 for 1.5 on the 2 x 1 ellipse). A
+   component left as a single path is measured from its widest node, each half removed when
    insignificant there, so that a disk's axis is its centre.
-7. **Radii.** Each node's radius is its distance to the boundary pieces
-   (not the circumradius: a circle through three samples bulges past the
-   boundary between samples), found by descending along the boundary from
-   the node's contact samples (compiled).
+7. **Radii.** Each node's radius is its distance to the boundary pieces (not the circumradius: a
+   circle through three samples bulges past the boundary between samples), found by descending
+   along the boundary from the node's contact samples (compiled).
 
 Choices where the text leaves freedom
 -------------------------------------
-* **Default ``h``.** §9.4.1 suggests ``h <= h_min / 2`` (``h_min`` the
-  smallest distance between non-consecutive boundary vertices), which makes
-  the sampling admissible; that alone can be coarse (0.56 on a 2 x 1
-  rectangle), so the default is also at most the perimeter over
-  :data:`DEFAULT_SAMPLES`, and at least the perimeter over
-  :data:`MAX_DEFAULT_SAMPLES` (so that tiny input features cannot make a
-  default job huge; admissibility then comes from step 2). A given ``h``
-  may ask for up to :data:`MAX_SAMPLES` samples.
-* **Point clouds** (§9.4.2) are joined into closed curves by the NN-crust
-  rule (each sample to its nearest neighbour and to its nearest neighbour
-  on the other side, Dey and Kumar 1999, with the closed half-plane so that
-  right-angled corners sampled evenly are joined), nested by exact ray
-  parity into outer rings and holes, validated as a domain, and then
-  treated as a polygon whose vertices are the samples. Without ``h`` the
-  samples are used as given, so a cloud of a polygon's samples gives that
-  polygon's axis. A cloud that does not make closed, simple curves is
-  refused naming the point where the reconstruction fails.
-* **Approximation.** ``voronoi`` (default) gives the circumcentres (the
-  axis of Theorem 9.1). ``midpoints`` is Remark 9.14's coarse line: nodes
-  at the midpoints of the interior edges the Voronoi edges cross, junctions
-  at the centroids of their triangles, with the same topology as
+* **Default ``h``.** §9.4.1 suggests ``h <= h_min / 2`` (``h_min`` the smallest distance between
+  non-consecutive boundary vertices), which makes the sampling admissible; that alone can be coarse
+  (0.56 on a 2 x 1 rectangle), so the default is also at most the perimeter over
+  :data:`DEFAULT_SAMPLES`, and at least the perimeter over :data:`MAX_DEFAULT_SAMPLES` (so that
+  tiny input features cannot make a default job huge; admissibility then comes from step 2). A
+  given ``h`` may ask for up to :data:`MAX_SAMPLES` samples.
+* **Point clouds** (§9.4.2) are joined into closed curves by the NN-crust rule (each sample to its
+  nearest neighbour and to its nearest neighbour on the other side, Dey and Kumar 1999, with the
+  closed half-plane so that right-angled corners sampled evenly are joined), nested by exact ray
+  parity into outer rings and holes, validated as a domain, and then treated as a polygon whose
+  vertices are the samples. Without ``h`` the samples are used as given, so a cloud of a polygon's
+  samples gives that polygon's axis. A cloud that does not make closed, simple curves is refused
+  naming the point where the reconstruction fails.
+* **Approximation.** ``voronoi`` (default) gives the circumcentres (the axis of Theorem 9.1).
+  ``midpoints`` is Remark 9.14's coarse line: nodes at the midpoints of the interior edges the
+  Voronoi edges cross, junctions at the centroids of their triangles, with the same topology as
   ``voronoi`` after pruning.
-* **Pruning measure.** See step 5: ``prune`` is an angle in degrees,
-  :data:`DEFAULT_PRUNE` = 25 (keeps the corners of polygons up to 12
-  sides' worth of turning, removes the branches a sampled circle makes
-  at 16 or more sides). ``prune=0`` keeps every branch.
-* **Row order.** The Delaunay kernel's rows are spatially random (their
-  order is not part of its guarantee); the triangles are renumbered in
-  increasing order of their smallest sample index (stably) before step 3,
-  so that, the samples being numbered along the boundary, every later pass
-  reads memory nearly in order. ``triangles`` and the node numbering (nodes
-  in order of their first triangle) follow that order.
+* **Pruning measure.** See step 5: ``prune`` is an angle in degrees, :data:`DEFAULT_PRUNE` = 25
+  (keeps the corners of polygons up to 12 sides' worth of turning, removes the branches a sampled
+  circle makes at 16 or more sides). ``prune=0`` keeps every branch.
+* **Row order.** The Delaunay kernel's rows are spatially random (their order is not part of its
+  guarantee); the triangles are renumbered in increasing order of their smallest sample index
+  (stably) before step 3, so that, the samples being numbered along the boundary, every later pass
+  reads memory nearly in order. ``triangles`` and the node numbering (nodes in order of their first
+  triangle) follow that order.
 
 References
 ----------
@@ -105,7 +87,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -128,6 +110,7 @@ __all__ = [
     "MedialAxis",
     "cloud_points",
     "medial_axis",
+    "pruned_axes",
 ]
 
 Progress = Callable[[float, str], None]
@@ -1318,6 +1301,22 @@ def medial_axis(
     ----------
     Methods text §9.4.1-§9.4.3, Remarks 9.10-9.14.
     """
+    args = {"points": points, "h": h, "approximation": approximation, "progress": progress}
+    return next(pruned_axes(domain, prunes=(prune,), **args))
+
+
+def pruned_axes(
+    domain: Domain | None = None,
+    *,
+    points=None,
+    h: float | None = None,
+    prunes=(DEFAULT_PRUNE,),
+    approximation: str = "voronoi",
+    progress: Progress | None = None,
+) -> Iterator[MedialAxis]:
+    """:func:`medial_axis` pruned at each angle of ``prunes`` in turn, the samples,
+    triangulation and Voronoi graph built once (only step 5 on depends on the angle):
+    the same axes as one call per angle, each made when the next is asked for."""
     timings: dict[str, float] = {}
     clock = [time.perf_counter()]
 
@@ -1339,12 +1338,13 @@ def medial_axis(
             loc=("approximation",),
             code="bad_value",
         )
-    if not (isinstance(prune, int | float) and math.isfinite(prune) and 0 <= prune <= 180):
-        raise InputError(
-            f"prune must be an angle in degrees in [0, 180], got {prune!r}",
-            loc=("prune",),
-            code="bad_value",
-        )
+    for prune in prunes:  # (a loop over the few angles asked for)
+        if not (isinstance(prune, int | float) and math.isfinite(prune) and 0 <= prune <= 180):
+            raise InputError(
+                f"prune must be an angle in degrees in [0, 180], got {prune!r}",
+                loc=("prune",),
+                code="bad_value",
+            )
     if h is not None and not (isinstance(h, int | float) and math.isfinite(h) and h > 0):
         raise InputError(f"h must be a positive number, got {h!r}", loc=("h",), code="bad_value")
     if domain is None:
@@ -1384,82 +1384,83 @@ def medial_axis(
     graph = _voronoi_classes(pts, tri[0], tri[1], inside, bnd, ttype, tol)
     keep, T, types, label, n_nodes, g_edges, g_pq, n_merged, rep, centre, cradius, spread = graph
     report(0.6, "Voronoi graph", "types")
-    node_alive, edge_alive, pruned = _prune(
-        n_nodes, g_edges, g_pq, centre, cradius, spread, pts, math.radians(prune)
-    )
-    report(0.75, "terminal nodes and radii", "graph_and_pruning")
     class_type2 = np.full(n_nodes, -1, dtype=np.int64)
     t2 = np.flatnonzero(types == 2)
     class_type2[label[t2]] = t2
-    alive_nodes, new_id, edges, g_pq, deg = _compact(node_alive, edge_alive, g_edges, g_pq)
-    # Type 2 leaves at a corner reach it (the sample shared by both boundary
-    # edges, where the boundary turns by at least the pruning angle)
     pred = np.empty_like(succ)
     pred[succ] = np.arange(len(succ))
-    ends = np.flatnonzero((deg == 1) & (class_type2[alive_nodes] >= 0))
-    t_end = class_type2[alive_nodes[ends]]
-    apex_col = np.argmin(bnd[keep[t_end]], axis=1)  # the vertex opposite the interior edge
-    apex = T[t_end, apex_col]
-    din = pts[apex] - pts[pred[apex]]
-    dout = pts[succ[apex]] - pts[apex]
-    turn = np.degrees(
-        np.arctan2(np.abs(din[:, 0] * dout[:, 1] - din[:, 1] * dout[:, 0]), (din * dout).sum(1))
-    )
-    corner = turn >= prune
-    ends, apex = ends[corner], apex[corner]
-    if approximation == "voronoi":
-        nodes, node_tri, seeds, edges, edge_pq = _with_corners(
-            centre, rep, alive_nodes, T, edges, g_pq, ends, apex, pts
-        )
-        triangle_node = new_id[label]
-    else:
-        nodes, seeds, node_tri, edges = _midpoint_graph(
-            pts, T, rep, alive_nodes, edges, g_pq, deg, ends, apex, label
-        )
-        triangle_node = np.full(len(T), -1, dtype=np.int64)
-        edge_pq = np.full((len(edges), 2), -1, dtype=np.int64)
-    node_sample = np.full(len(nodes), -1, dtype=np.int64)
-    node_sample[len(nodes) - len(apex) :] = apex
-    radius = _boundary_distance(nodes, seeds, node_sample, pts, succ, pred)
-    report(0.9, "branches", "nodes_and_radii")
-    offsets, ids = _branches(len(nodes), edges)
-    branches = tuple(ids[offsets[i] : offsets[i + 1]] for i in range(len(offsets) - 1))
-    deg = np.bincount(edges.ravel(), minlength=len(nodes))
     counts = np.bincount(types, minlength=4)
-    stats = {
-        "h": h_used,
-        "samples": int(len(pts)),
-        "points_added": int(added),
-        "triangles": int(len(T)),
-        "triangle_types": {f"type{i}": int(counts[i]) for i in range(4)},
-        "merged_pairs": int(n_merged),
-        "nodes": int(len(nodes)),
-        "edges": int(len(edges)),
-        "critical": int((deg >= 3).sum()),
-        "terminal": int((deg == 1).sum()),
-        "branches": len(branches),
-        "branches_pruned": int(pruned),
-    }
-    report(1.0, "done", "branches")
-    stats["seconds"] = timings
-    return MedialAxis(
-        nodes=nodes,
-        radius=radius,
-        edges=edges,
-        branches=branches,
-        h=h_used,
-        domain=domain,
-        samples=pts,
-        succ=succ,
-        segment_source=source,
-        triangles=T,
-        triangle_type=types,
-        node_triangle=node_tri,
-        triangle_node=triangle_node,
-        node_sample=node_sample,
-        edge_pq=edge_pq,
-        stats=stats,
-    )
+    for prune in prunes:  # the pruning and what depends on it, per angle
+        node_alive, edge_alive, pruned = _prune(
+            n_nodes, g_edges, g_pq, centre, cradius, spread, pts, math.radians(prune)
+        )
+        report(0.75, "terminal nodes and radii", "graph_and_pruning")
+        alive_nodes, new_id, edges, pq, deg = _compact(node_alive, edge_alive, g_edges, g_pq)
+        # Type 2 leaves at a corner reach it (the sample shared by both boundary
+        # edges, where the boundary turns by at least the pruning angle)
+        ends = np.flatnonzero((deg == 1) & (class_type2[alive_nodes] >= 0))
+        t_end = class_type2[alive_nodes[ends]]
+        apex_col = np.argmin(bnd[keep[t_end]], axis=1)  # the vertex opposite the interior edge
+        apex = T[t_end, apex_col]
+        din = pts[apex] - pts[pred[apex]]
+        dout = pts[succ[apex]] - pts[apex]
+        turn = np.degrees(
+            np.arctan2(np.abs(din[:, 0] * dout[:, 1] - din[:, 1] * dout[:, 0]), (din * dout).sum(1))
+        )
+        corner = turn >= prune
+        ends, apex = ends[corner], apex[corner]
+        if approximation == "voronoi":
+            nodes, node_tri, seeds, edges, edge_pq = _with_corners(
+                centre, rep, alive_nodes, T, edges, pq, ends, apex, pts
+            )
+            triangle_node = new_id[label]
+        else:
+            nodes, seeds, node_tri, edges = _midpoint_graph(
+                pts, T, rep, alive_nodes, edges, pq, deg, ends, apex, label
+            )
+            triangle_node = np.full(len(T), -1, dtype=np.int64)
+            edge_pq = np.full((len(edges), 2), -1, dtype=np.int64)
+        node_sample = np.full(len(nodes), -1, dtype=np.int64)
+        node_sample[len(nodes) - len(apex) :] = apex
+        radius = _boundary_distance(nodes, seeds, node_sample, pts, succ, pred)
+        report(0.9, "branches", "nodes_and_radii")
+        offsets, ids = _branches(len(nodes), edges)
+        branches = tuple(ids[offsets[i] : offsets[i + 1]] for i in range(len(offsets) - 1))
+        deg = np.bincount(edges.ravel(), minlength=len(nodes))
+        stats = {
+            "h": h_used,
+            "samples": int(len(pts)),
+            "points_added": int(added),
+            "triangles": int(len(T)),
+            "triangle_types": {f"type{i}": int(counts[i]) for i in range(4)},
+            "merged_pairs": int(n_merged),
+            "nodes": int(len(nodes)),
+            "edges": int(len(edges)),
+            "critical": int((deg >= 3).sum()),
+            "terminal": int((deg == 1).sum()),
+            "branches": len(branches),
+            "branches_pruned": int(pruned),
+        }
+        report(1.0, "done", "branches")
+        stats["seconds"] = dict(timings)
+        yield MedialAxis(
+            nodes=nodes,
+            radius=radius,
+            edges=edges,
+            branches=branches,
+            h=h_used,
+            domain=domain,
+            samples=pts,
+            succ=succ,
+            segment_source=source,
+            triangles=T,
+            triangle_type=types,
+            node_triangle=node_tri,
+            triangle_node=triangle_node,
+            node_sample=node_sample,
+            edge_pq=edge_pq,
+            stats=stats,
+        )
 
 
 def _midpoint_graph(pts, T, rep, alive_nodes, edges, g_pq, deg, ends, apex, label):

@@ -28,6 +28,14 @@ text counts it.
   axis; terminal branches are not cuts. Regions are triangles (a cut, the
   boundary around a terminal branch, a cut) and quads (cut, boundary, cut,
   axis), as the text says.
+  A *crowded* junction (more than :data:`CROWDED` lines: cuts and branches
+  to other junctions) keeps only the cuts at least :data:`CROWD_ANGLE` degrees
+  from every such branch: a gear's centre is one node whose circle touches all the
+  tooth gaps, and its 11 axis edges and 22 cuts made regions of 16 degrees at
+  the node (an 11-tooth gear at size 0.1: least quality 0.18, corners from 16
+  degrees, 1.32x area / size**2; without those cuts 0.36, from 33 degrees,
+  1.08x; no other gear of 6-12 teeth nor any of the 32 issue stars at sizes
+  0.1 and 0.15 changed).
 
 Choices where the text leaves freedom ("numerous variations can be used in
 order to optimize such a partition"): the branches that regions lie along
@@ -132,7 +140,14 @@ from numba import njit
 
 from meshcore.domain.planar import Domain, as_domain
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.medial.axis import DEFAULT_PRUNE, MedialAxis, _csr, _cycles, medial_axis
+from meshcore.medial.axis import (
+    DEFAULT_PRUNE,
+    MedialAxis,
+    _csr,
+    _cycles,
+    medial_axis,
+    pruned_axes,
+)
 from meshcore.medial.fill import MOST_COUNT, area_centroid, boundary_slides, folded, quads_on
 from meshcore.medial.regions import (
     _AXIS,
@@ -185,6 +200,16 @@ PRUNE_MORE = (45.0, 60.0, 90.0)
 #: The least quality (away from input spikes) a more pruned mesh must keep (or the
 #: first one's, when lower).
 PRUNE_LEAST = 0.35
+
+#: A junction of the ``critical`` partition with more than this many lines (cuts, and
+#: branches to other junctions) is crowded: its cuts within :data:`CROWD_ANGLE` degrees
+#: of such a branch are left out (:func:`_spread`). A gear's centre is one node whose
+#: circle touches every tooth gap: 11 axis edges and 22 cuts there made regions of 16
+#: degrees at the node. (A junction whose branches all end at leaves keeps its cuts: a
+#: random star's only junction lost them all, and the domain was one region.)
+CROWDED = 6
+#: See :data:`CROWDED` (degrees).
+CROWD_ANGLE = 20.0
 
 #: The final corner relaxation (:func:`_optimized`) may lower the least quality by this
 #: for a higher mean: on the benchmark's spiky star at size 0.1, with a reflex corner
@@ -306,6 +331,19 @@ def _stripped(n, edges, keep):
     return alive
 
 
+def _spread(ax: MedialAxis, v: int, touch: np.ndarray, ahead: list) -> np.ndarray:
+    """The contacts of a junction ``v`` whose cuts make at least :data:`CROWD_ANGLE` with
+    every branch there that leads to another junction (``ahead``: their second nodes; a
+    terminal branch is not a cut line of the ``critical`` partition), when it is
+    crowded: more than :data:`CROWDED` such branches and cuts. All of them otherwise."""
+    if len(ahead) < 3 or len(ahead) + len(touch) <= CROWDED:
+        return touch
+    a = np.arctan2(*(ax.nodes[ahead] - ax.nodes[v]).T[::-1])
+    b = np.arctan2(*(ax.samples[touch] - ax.nodes[v]).T[::-1])
+    gap = np.abs(np.angle(np.exp(1j * (b[:, None] - a[None]))))
+    return touch[gap.min(axis=1) >= math.radians(CROWD_ANGLE)]
+
+
 def _cut_lines(ax: MedialAxis, method: str):
     """Axis edges kept and cuts (node, sample) of the partition."""
     n = len(ax.nodes)
@@ -315,9 +353,17 @@ def _cut_lines(ax: MedialAxis, method: str):
     first, incident = _csr(n, ax.edges)  # the axis edges of each node
     cuts: list[tuple[int, int]] = []
     keep_edge = np.ones(len(ax.edges), dtype=bool)
+    ahead: dict[int, list[int]] = {}  # per junction, the second node of each branch ...
+    for c in ax.branches:  # ... from it to a junction (both ways on a loop)
+        for k, e in ((1, 0), (-2, -1)):
+            if deg[c[-1 - e]] >= 3:
+                ahead.setdefault(int(c[e]), []).append(int(c[k]))
     for v in np.flatnonzero((deg >= 3) | (deg == 0)):
         if method == "critical" or deg[v] == 0:
-            cuts += [(int(v), int(s)) for s in contact[start[v] : start[v + 1]]]
+            touch = contact[start[v] : start[v + 1]]
+            if deg[v] >= 3:
+                touch = _spread(ax, v, touch, ahead.get(int(v), []))
+            cuts += [(int(v), int(s)) for s in touch]
     sections: list[int] = []
     for b, chain in enumerate(ax.branches):
         closed = chain[0] == chain[-1]
@@ -606,18 +652,21 @@ def quad_medial(
         raise InputError(
             f"levels must be between 0 and 10, got {levels!r}", loc=("levels",), code="bad_value"
         )
-    res = _meshed(domain, method, size, levels, h, prune, progress)
+    more = [x for x in PRUNE_MORE if x > prune] if size is not None else []
+    # the axis built once (samples, Delaunay, Voronoi graph), pruned at each angle in turn
+    axes = pruned_axes(domain, h=h, prunes=(prune, *more), progress=progress)
+    res = _meshed(next(axes), domain, method, size, levels)
     if size is None or not _over(res, domain, size):
         return res
     least = min(PRUNE_LEAST, _least_away(res.mesh, domain))
-    for more in (x for x in PRUNE_MORE if x > prune):  # a loop over at most three axes
+    for angle, axis in zip(more, axes, strict=True):  # a loop over at most three axes
         try:
-            alt = _meshed(domain, method, size, levels, h, more, progress)
+            alt = _meshed(axis, domain, method, size, levels)
         except AlgorithmError:
             continue
         if not _over(alt, domain, size) and _least_away(alt.mesh, domain) >= least:
             return QuadMedial(
-                mesh=alt.mesh, partition=alt.partition, stats={**alt.stats, "prune": more}
+                mesh=alt.mesh, partition=alt.partition, stats={**alt.stats, "prune": angle}
             )
     return res
 
@@ -638,9 +687,8 @@ def _least_away(mesh: Mesh, domain: Domain) -> float:
     return float(quality.quad_quality(P, Q)[ok].min(initial=1.0))
 
 
-def _meshed(domain, method, size, levels, h, prune, progress) -> QuadMedial:
-    """:func:`quad_medial` on the axis pruned at ``prune`` (arguments checked)."""
-    axis = medial_axis(domain, h=h, prune=prune, progress=progress)
+def _meshed(axis: MedialAxis, domain, method, size, levels) -> QuadMedial:
+    """:func:`quad_medial` on the axis (of ``domain``; arguments checked)."""
     special, mesh, stats = _special(axis, size, levels)
     part = None
     if special is not None and not stats["invalid"]:

@@ -14,6 +14,7 @@ from meshcore.medial.partitioning import partition, quad_medial
 from meshcore.mesh import quality, topology
 from tests.meshcore.medial.test_axis import stars
 from tests.meshcore.quads.stars import issue_star
+from tests.meshcore.quads.test_curved_domains import _gear, _ring, _sampled
 
 
 def circle(c, r, n, cw=False):
@@ -64,6 +65,21 @@ class TestPartition:
     def test_a_loop_without_junction_is_cut(self):
         part = partition(domain("annulus"))
         assert len(part.regions) >= 8 and all(r["sides"] == 4 for r in part.regions)
+
+    def test_a_crowded_junction_keeps_its_cuts_off_its_axis_edges(self):
+        # an 11-tooth gear's centre is one node whose circle touches every tooth gap: its
+        # 11 axis edges and 22 cuts made regions of 16 degrees there (quads of 16 degrees)
+        ring = _ring(_sampled(_gear(11, 0.12), 0.1))
+        part = partition(parse_domain({"type": "Polygon", "coordinates": [ring]}))
+        p = len(part.axis.samples)
+        hub = p + int(np.argmax(np.bincount(part.axis.edges.ravel())))
+        angles = []
+        for cyc in part.cycles:  # the regions' angles at the hub
+            xy = part.points[cyc]
+            a, b = np.roll(xy, 1, axis=0) - xy, np.roll(xy, -1, axis=0) - xy
+            ang = np.degrees(np.arctan2(b[:, 0] * a[:, 1] - b[:, 1] * a[:, 0], (a * b).sum(1)))
+            angles += np.mod(ang, 360)[cyc == hub].tolist()
+        assert len(angles) == 11 and min(angles) >= 30
 
     def test_bad_method(self):
         with pytest.raises(InputError) as exc:
