@@ -404,13 +404,15 @@ def _is_seq(value: object) -> bool:
     return isinstance(value, Sequence) and not isinstance(value, str | bytes)
 
 
-def _positions(value: object, loc: tuple, what: str) -> np.ndarray:
-    """A list of ``[x, y]`` positions as a (k, 2) float64 array, or InputError.
+def _positions(value: object, loc: tuple, what: str) -> tuple[np.ndarray, tuple]:
+    """A list of ``[x, y]`` positions as a (k, 2) float64 array, or InputError;
+    and its bounding box ``(min x, min y, max x, max y)``.
 
     ``loc`` locates the list; faults are located at the offending position
     (and coordinate, for non-finite numbers). A read-only C-contiguous
     float64 array is returned as it is; a writable one is copied (the
-    domain must not change under the caller's hands).
+    domain must not change under the caller's hands) in the pass that
+    checks it (:func:`_first_bad`).
     """
     if not _is_seq(value):
         raise InputError(f"{what} must be a list of [x, y] positions", loc=loc, code="bad_geometry")
@@ -420,16 +422,15 @@ def _positions(value: object, loc: tuple, what: str) -> np.ndarray:
     except (ValueError, TypeError, OverflowError):
         arr = None
     if arr is not None and arr.ndim == 1 and arr.size == 0:
-        return np.zeros((0, 2))
+        return np.zeros((0, 2)), (np.inf, np.inf, -np.inf, -np.inf)
+    out = _NO_COPY
     if arr is None or arr.dtype.kind not in "iuf" or arr.ndim != 2 or arr.shape[1] != 2:
         arr = _positions_slow(value, loc, what)
-    elif (
-        arr.dtype != np.float64
-        or not arr.flags.c_contiguous
-        or (arr is value and arr.flags.writeable)
-    ):
-        arr = np.array(arr, dtype=np.float64, order="C")  # a caller's writable array: copied
-    v, c, kind = _first_bad(arr, MAX_COORDINATE)
+    elif arr.dtype != np.float64 or not arr.flags.c_contiguous:
+        arr = np.array(arr, dtype=np.float64, order="C")
+    elif arr is value and arr.flags.writeable:
+        out = np.empty_like(arr)  # a caller's writable array: copied
+    v, c, kind, *box = _first_bad(_read_only(arr), MAX_COORDINATE, out)
     if kind == 1:
         raise InputError(
             f"{what}: vertex {v} has a non-finite coordinate ({float(arr[v, c])!r})",
@@ -443,26 +444,44 @@ def _positions(value: object, loc: tuple, what: str) -> np.ndarray:
             loc=(*loc, v, c),
             code="out_of_range",
         )
-    return arr
+    return (arr if out is _NO_COPY else out), tuple(box)
+
+
+#: The ``out`` of :func:`_first_bad` that asks for no copy.
+_NO_COPY = np.empty((0, 2))
 
 
 @njit(cache=True)
-def _first_bad(arr, limit):
+def _first_bad(arr, limit, out):
     """(vertex, coordinate, kind) of the first non-finite coordinate (kind 1), else of the
-    first above ``limit`` in magnitude (kind 2), else (0, 0, 0); row-major order."""
+    first above ``limit`` in magnitude (kind 2), else (0, 0, 0), row-major order; then
+    the bounding box (min x, min y, max x, max y) of the rows read. One pass, which
+    also copies ``arr`` into ``out`` when ``out`` has as many rows (else no copy)."""
+    copy = out.shape[0] == arr.shape[0]
     big_v = -1
     big_c = 0
+    lx = ly = np.inf
+    hx = hy = -np.inf
     for v in range(arr.shape[0]):
-        for c in range(2):
-            x = arr[v, c]
-            if not np.isfinite(x):
-                return v, c, 1
-            if big_v < 0 and abs(x) > limit:
-                big_v = v
-                big_c = c
+        x = arr[v, 0]
+        y = arr[v, 1]
+        if copy:
+            out[v, 0] = x
+            out[v, 1] = y
+        if not np.isfinite(x):
+            return v, 0, 1, lx, ly, hx, hy
+        if not np.isfinite(y):
+            return v, 1, 1, lx, ly, hx, hy
+        if big_v < 0 and (abs(x) > limit or abs(y) > limit):
+            big_v = v
+            big_c = 0 if abs(x) > limit else 1
+        lx = min(lx, x)
+        hx = max(hx, x)
+        ly = min(ly, y)
+        hy = max(hy, y)
     if big_v >= 0:
-        return big_v, big_c, 2
-    return 0, 0, 0
+        return big_v, big_c, 2, lx, ly, hx, hy
+    return 0, 0, 0, lx, ly, hx, hy
 
 
 def _positions_slow(value: Sequence, loc: tuple, what: str) -> np.ndarray:
@@ -748,10 +767,12 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
     # -- rings: structure, numbers, closing position ---------------------
     rings: list[np.ndarray] = []
     ring_pos: list[tuple[int, int]] = []
+    boxes: list[tuple] = []  # dropping a closing position leaves a ring's box as it is
     for p, poly in enumerate(polygons):
         for r, ring in enumerate(poly):
             loc = _ring_loc(multi, p, r)
-            arr = _positions(ring, loc, _ring_name(multi, p, r))
+            arr, box = _positions(ring, loc, _ring_name(multi, p, r))
+            boxes.append(box)
             if len(arr) >= 2 and (arr[0] == arr[-1]).all():
                 arr = arr[:-1]
             rings.append(arr)
@@ -772,8 +793,9 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
     del rings
     nb = len(pts)
 
-    # One pass for the box: the scales below and the diameter.
-    lo_x, lo_y, hi_x, hi_y = _bounding_box(pts)
+    # The box (from the checks' pass): the scales below and the diameter.
+    lo_x, lo_y = (min(b[i] for b in boxes) for i in (0, 1))
+    hi_x, hi_y = (max(b[i] for b in boxes) for i in (2, 3))
     big = max(-lo_x, -lo_y, hi_x, hi_y)
     low = _check_ring_points(pts, offsets, lengths, names, _power_of_two_scale(big=big))
 
@@ -999,19 +1021,6 @@ def _read_only(arr: np.ndarray) -> np.ndarray:
     return view
 
 
-@njit(cache=True)
-def _bounding_box(pts):
-    """(min x, min y, max x, max y) of the points."""
-    lx = ly = np.inf
-    hx = hy = -np.inf
-    for i in range(len(pts)):
-        lx = min(lx, pts[i, 0])
-        hx = max(hx, pts[i, 0])
-        ly = min(ly, pts[i, 1])
-        hy = max(hy, pts[i, 1])
-    return lx, ly, hx, hy
-
-
 def _constraint_lines(segments) -> list[np.ndarray]:
     if segments is None:
         return []
@@ -1023,7 +1032,7 @@ def _constraint_lines(segments) -> list[np.ndarray]:
         )
     lines = []
     for i, line in enumerate(segments):
-        arr = _positions(line, ("segments", i), f"constraint {i}")
+        arr, _ = _positions(line, ("segments", i), f"constraint {i}")
         if len(arr) < 2:
             raise InputError(
                 f"constraint {i} has {len(arr)} point(s); a polyline needs at least 2",

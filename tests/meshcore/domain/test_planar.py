@@ -93,8 +93,17 @@ class TestAccepted:
         assert closed.points.shape == (8, 2)
 
     def test_numpy_input_equals_list_input(self):
-        d = parse_domain({"type": "Polygon", "coordinates": [np.array(SQUARE, dtype=float)]})
+        ring = np.array(SQUARE, dtype=float)
+        d = parse_domain({"type": "Polygon", "coordinates": [ring]})
         assert d == parse_domain(polygon(SQUARE))
+        assert d.diameter == parse_domain(polygon(SQUARE)).diameter
+        # A writable array is copied (in the checking pass), a read-only one is used as is.
+        assert not np.shares_memory(d.points, ring)
+        ring[0, 0] = -1.0
+        assert d.points[0, 0] == SQUARE[0][0]
+        ring.setflags(write=False)
+        frozen = parse_domain({"type": "Polygon", "coordinates": [ring]})
+        assert np.shares_memory(frozen.points, ring)
 
     def test_multipolygon_ring_numbering(self):
         # polygon 0: square with hole; polygon 1: a triangle beside it; polygon 2:
