@@ -792,8 +792,11 @@ class _BadTets:
         return rows, self.C[si[rows]]
 
 
-def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> tuple[int, int]:
-    """Insert circumcentres of tetrahedra ``rows``, or split what they encroach.
+def _insert_interior(
+    b: SurfaceRecovery, slots, region, rows, centres, tets, oversized
+) -> tuple[int, int]:
+    """Insert circumcentres of tetrahedra ``rows``, or split what they encroach, and
+    split subfaces ``oversized``.
 
     ``slots`` and ``region`` (per tetrahedron row) describe the structure at
     the start of the round. A circumcentre that encroaches a subsegment or a
@@ -911,7 +914,9 @@ def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> 
     # splits: a retriangulation renumbers ``b.sub``, and ``sub_pairs`` name rows of it.
     touched: list = []
     done += b.split_segments(seg_pairs[1][alive[seg_pairs[0]]], touched)
-    n_sub, n_seg = b.split_subfaces(sub_pairs[1][alive[sub_pairs[0]]], touched)
+    n_sub, n_seg = b.split_subfaces(
+        np.concatenate([sub_pairs[1][alive[sub_pairs[0]]], oversized]), touched
+    )
     return done + n_sub + n_seg, outside
 
 
@@ -931,7 +936,13 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
                 "the tetrahedra met the bounds; ask for a larger size, size_field or max_volume",
                 code="too_many_points",
             )
-        recover(b, None)
+        # Missing subsegments first (with the subfaces that then go missing); missing
+        # subfaces alone are split with the round's oversized ones below, in one
+        # batch (a retriangulation of their facets each, not one round apiece).
+        seg_missing, sub_missing = b.missing()
+        if seg_missing.size:
+            recover(b, None)
+            sub_missing = seg_missing[:0]
         if b.knobs.eager:
             seg_bad, sub_bad = b.encroached_by_vertices()
             seg_bad = seg_bad[~b.protected_segments(seg_bad)]
@@ -956,9 +967,14 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
             sub_bad = unique_ints(
                 np.concatenate([sub_bad, np.flatnonzero(r > b.knobs.size_radius * cap)])
             )
-        if sub_bad.size:
-            b.split_subfaces(sub_bad)
+        # The last few oversized subfaces (a tail of rounds, each retriangulating
+        # whole facets for a handful of points) are split with the interior round's.
+        tail = sub_bad.size <= b.knobs.tail * len(b.sub) and not sub_missing.size
+        if sub_bad.size and not tail:
+            b.split_subfaces(np.concatenate([sub_missing, sub_bad]))
             continue
+        if sub_missing.size:
+            recover(b, None)
         slots, T = b.tets()
         region = region_of(slots, T)
         inside = np.flatnonzero(region >= 0)
@@ -972,8 +988,13 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
         rows, centres = rows[~forced], centres[~forced]
         left = len(rows)
         if left == 0:
+            if sub_bad.size:
+                b.split_subfaces(sub_bad)
+                continue
             return rounds, 0
-        done, skipped = _insert_interior(b, slots[inside], region[inside], rows, centres, Ti)
+        done, skipped = _insert_interior(
+            b, slots[inside], region[inside], rows, centres, Ti, sub_bad
+        )
         if progress is not None:
             progress(0.5, f"refinement round {rounds}: {left} bad tetrahedra")
         if done == 0:
