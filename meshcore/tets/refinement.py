@@ -33,7 +33,10 @@ phases and only ever grown by point insertion):
    vertex, exact), groups touching the convex hull's outside are dropped.
 4. **Delaunay refinement** (Shewchuk, "Tetrahedral mesh generation by
    Delaunay refinement", 1998), in rounds, *lazy*: the surface pieces that
-   went missing are recovered as in 2. (the eager variant, ``Knobs.eager``,
+   went missing are recovered as in 2. (missing subfaces alone are split in
+   one batch with the round's oversized subfaces below, and the last oversized
+   ones, at most ``Knobs.tail`` of all subfaces, with the interior round's
+   splits: each batch retriangulates whole facets; the eager variant, ``Knobs.eager``,
    also splits every subsegment and subface any vertex encroaches; measured
    on the torus it adds 4x more points); with a radius-edge bound, every
    subsegment longer than ``feature_size`` (2) times the feature size of a
@@ -462,11 +465,11 @@ def _flat_folds(b: SurfaceRecovery, T: np.ndarray) -> np.ndarray:
     32 x 16 torus 830 of the 938 points added, and a cascade once the splits
     were made lazy, :func:`_insert_interior`.)
     """
-    if len(T) == 0:
-        return np.zeros(0, dtype=bool)
-    two = _boundary_face_count(b, T) >= 2
     out = np.zeros(len(T), dtype=bool)
-    rows = np.flatnonzero(two)
+    # Two subfaces cover the four corners: only tetrahedra with every corner on the
+    # surface are looked up.
+    rows = np.flatnonzero(b.on_surface()[T].all(axis=1)) if len(T) else np.zeros(0, np.int64)
+    rows = rows[_boundary_face_count(b, T[rows]) >= 2]
     if rows.size:
         out[rows] = _least_dihedral(b.P, T[rows]) < b.knobs.flat_fold
     return out
