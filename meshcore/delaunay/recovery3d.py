@@ -91,6 +91,9 @@ class Knobs:
     #: shortest edge (thin parts: on a torus the tube's width is comparable to
     #: its edges, and refining to it only added points).
     thin: float = 0.25
+    #: Oversized subfaces (``size_radius``) of at most this fraction of all are split
+    #: in the round's interior insertion rather than in a round of their own.
+    tail: float = 0.1
     #: A vertex encroaches a subface when its distance to the circumcentre is
     #: below this fraction of the circumradius (float: keeps co-circular
     #: facet points, at the radius up to rounding, from counting).

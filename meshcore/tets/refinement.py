@@ -33,7 +33,10 @@ phases and only ever grown by point insertion):
    vertex, exact), groups touching the convex hull's outside are dropped.
 4. **Delaunay refinement** (Shewchuk, "Tetrahedral mesh generation by
    Delaunay refinement", 1998), in rounds, *lazy*: the surface pieces that
-   went missing are recovered as in 2. (the eager variant, ``Knobs.eager``,
+   went missing are recovered as in 2. (missing subfaces alone are split in
+   one batch with the round's oversized subfaces below, and the last oversized
+   ones, at most ``Knobs.tail`` of all subfaces, with the interior round's
+   splits: each batch retriangulates whole facets; the eager variant, ``Knobs.eager``,
    also splits every subsegment and subface any vertex encroaches; measured
    on the torus it adds 4x more points); with a radius-edge bound, every
    subsegment longer than ``feature_size`` (2) times the feature size of a
@@ -462,11 +465,11 @@ def _flat_folds(b: SurfaceRecovery, T: np.ndarray) -> np.ndarray:
     32 x 16 torus 830 of the 938 points added, and a cascade once the splits
     were made lazy, :func:`_insert_interior`.)
     """
-    if len(T) == 0:
-        return np.zeros(0, dtype=bool)
-    two = _boundary_face_count(b, T) >= 2
     out = np.zeros(len(T), dtype=bool)
-    rows = np.flatnonzero(two)
+    # Two subfaces cover the four corners: only tetrahedra with every corner on the
+    # surface are looked up.
+    rows = np.flatnonzero(b.on_surface()[T].all(axis=1)) if len(T) else np.zeros(0, np.int64)
+    rows = rows[_boundary_face_count(b, T[rows]) >= 2]
     if rows.size:
         out[rows] = _least_dihedral(b.P, T[rows]) < b.knobs.flat_fold
     return out
@@ -792,8 +795,11 @@ class _BadTets:
         return rows, self.C[si[rows]]
 
 
-def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> tuple[int, int]:
-    """Insert circumcentres of tetrahedra ``rows``, or split what they encroach.
+def _insert_interior(
+    b: SurfaceRecovery, slots, region, rows, centres, tets, oversized
+) -> tuple[int, int]:
+    """Insert circumcentres of tetrahedra ``rows``, or split what they encroach, and
+    split subfaces ``oversized``.
 
     ``slots`` and ``region`` (per tetrahedron row) describe the structure at
     the start of the round. A circumcentre that encroaches a subsegment or a
@@ -911,7 +917,9 @@ def _insert_interior(b: SurfaceRecovery, slots, region, rows, centres, tets) -> 
     # splits: a retriangulation renumbers ``b.sub``, and ``sub_pairs`` name rows of it.
     touched: list = []
     done += b.split_segments(seg_pairs[1][alive[seg_pairs[0]]], touched)
-    n_sub, n_seg = b.split_subfaces(sub_pairs[1][alive[sub_pairs[0]]], touched)
+    n_sub, n_seg = b.split_subfaces(
+        np.concatenate([sub_pairs[1][alive[sub_pairs[0]]], oversized]), touched
+    )
     return done + n_sub + n_seg, outside
 
 
@@ -931,7 +939,13 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
                 "the tetrahedra met the bounds; ask for a larger size, size_field or max_volume",
                 code="too_many_points",
             )
-        recover(b, None)
+        # Missing subsegments first (with the subfaces that then go missing); missing
+        # subfaces alone are split with the round's oversized ones below, in one
+        # batch (a retriangulation of their facets each, not one round apiece).
+        seg_missing, sub_missing = b.missing()
+        if seg_missing.size:
+            recover(b, None)
+            sub_missing = seg_missing[:0]
         if b.knobs.eager:
             seg_bad, sub_bad = b.encroached_by_vertices()
             seg_bad = seg_bad[~b.protected_segments(seg_bad)]
@@ -956,9 +970,14 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
             sub_bad = unique_ints(
                 np.concatenate([sub_bad, np.flatnonzero(r > b.knobs.size_radius * cap)])
             )
-        if sub_bad.size:
-            b.split_subfaces(sub_bad)
+        # The last few oversized subfaces (a tail of rounds, each retriangulating
+        # whole facets for a handful of points) are split with the interior round's.
+        tail = sub_bad.size <= b.knobs.tail * len(b.sub) and not sub_missing.size
+        if sub_bad.size and not tail:
+            b.split_subfaces(np.concatenate([sub_missing, sub_bad]))
             continue
+        if sub_missing.size:
+            recover(b, None)
         slots, T = b.tets()
         region = region_of(slots, T)
         inside = np.flatnonzero(region >= 0)
@@ -972,8 +991,13 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
         rows, centres = rows[~forced], centres[~forced]
         left = len(rows)
         if left == 0:
+            if sub_bad.size:
+                b.split_subfaces(sub_bad)
+                continue
             return rounds, 0
-        done, skipped = _insert_interior(b, slots[inside], region[inside], rows, centres, Ti)
+        done, skipped = _insert_interior(
+            b, slots[inside], region[inside], rows, centres, Ti, sub_bad
+        )
         if progress is not None:
             progress(0.5, f"refinement round {rounds}: {left} bad tetrahedra")
         if done == 0:
