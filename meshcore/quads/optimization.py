@@ -707,6 +707,9 @@ def _op_lift(st: _State) -> int:
     sixteenth, of its mean edge length, and takes the position with the
     best least quality of its cells when that beats the current one (and
     every cell stays valid). Colour by colour, so each move is judged alone.
+    Under (8.4) without a metric (compiled) a round searches again only the
+    vertices of the cells a move changed since their last search (the same
+    search would find nothing else).
     Returns the vertices moved.
     """
     n = len(st.P)
