@@ -60,7 +60,10 @@ quality) only next to a cell made since its last run: on Gmsh's meshes of
 1k, 10k and 100k triangles no such pair swapped elsewhere, and the search
 cost as much as in the first sweep (100k: swaps 1.25 -> 0.70 s CPU, the
 same mesh; restricting the pairs near irregular vertices too lost 9 of 346
-swaps there, mean 0.8606 -> 0.8601). Then a longer
+swaps there, mean 0.8606 -> 0.8601), and once a run has swapped nothing
+a pair next to an irregular vertex too (the Gmsh meshes of 1k and 10k
+triangles and the square with a hole: the same meshes, swaps 10k
+45 -> 35 ms CPU). Then a longer
 smoothing over every interior vertex (``final_smooth_passes``), then the
 lift. Candidates are found
 and rebuilt by compiled loops over configurations (numba), and every quality
@@ -116,10 +119,11 @@ from meshcore.mesh.topology import isin_ints, unique_ints
 from meshcore.quads.vertex_moves import (
     _angle_quality_rows,
     _colors,
-    _held,
     _incidence,
     _lift_round,
     _smooth_passes,
+    _split_rows,
+    _split_scores,
     _valid_planar,
 )
 
@@ -443,8 +447,10 @@ class _State:
         self.measure = measure
         self.metric = metric
         self.interior = interior
-        #: len(C) when the swaps last ran (None before the first sweep)
+        #: len(C) when the swaps last ran (None before the first sweep), and how many
+        #: pairs they swapped
         self.swapped = None
+        self.swaps = 0
         self._inc = self._edges = None
 
     def incidence(self) -> tuple[np.ndarray, np.ndarray]:
@@ -484,70 +490,37 @@ def _old_min(st: _State, old: np.ndarray) -> np.ndarray:
     return qq.min(axis=1)
 
 
-def _hex_splits(st: _State, sets: np.ndarray, edge_keys: np.ndarray, topological=False):
+def _hex_splits(st: _State, sets: np.ndarray, edge_keys: np.ndarray):
     """Best two-quad split of the hexagon of each cell set: (sets, new quads (k, 2, 4), gain).
 
-    ``topological`` (a pair of quads): the gain is first the drop of
-    ``sum |valence - ideal|`` over the four vertices whose valence the swap
-    changes (the "topological criterion" of §8.4.3, degrees relaxed towards
-    4), a split being allowed to lower the quality down to
-    :func:`_floor`; then the rise of the least quality.
+    The gain is first the drop of ``sum |valence - ideal|`` over the vertices
+    whose valence the split changes (the "topological criterion" of §8.4.3,
+    degrees relaxed towards 4), a split being allowed to lower the quality
+    down to :func:`_floor`; then the rise of the least quality
+    (:func:`~meshcore.quads.vertex_moves._split_scores`).
     """
-    n = len(st.P)
-    if not topological:
-        sets = sets[_old_min(st, sets) < TOL.active_below]
     H = _hexagons(st.C, sets)
     ok = H[:, 0] >= 0
     sets, H = sets[ok], H[ok]
     k = len(sets)
     if not k:
         return sets, np.zeros((0, 2, 4), np.int64), np.zeros(0)
-    cand = np.empty((k, 3, 2, 4), np.int64)
-    for s in range(3):
-        idx = (np.arange(6) + s) % 6
-        Hs = H[:, idx]
-        cand[:, s, 0] = Hs[:, [0, 1, 2, 3]]
-        cand[:, s, 1] = Hs[:, [3, 4, 5, 0]]
-    flat = cand.reshape(-1, 4)
-    q = st.quality_of(flat).reshape(k, 3, 2).min(axis=2)
-    valid = _valid(st.P, flat).reshape(k, 3, 2).all(axis=2)
-    d0, d1 = cand[:, :, 0, 0], cand[:, :, 0, 3]
-    dkey = np.minimum(d0, d1) * n + np.maximum(d0, d1)
-    # edge_keys come sorted and unique (unique_ints): a binary search, as isin_ints
-    exists = edge_keys[np.searchsorted(edge_keys, dkey).clip(0, len(edge_keys) - 1)] == dkey
-    # the current diagonal of a pair of quads is an existing edge: the split is the pair itself
-    valid &= ~exists
-    old = _old_min(st, sets)
-    if topological:
-        ptr, _ = st.incidence()
-        val = np.diff(ptr)
-        r = np.arange(k)
-        # valences after each split: minus the old cells holding the vertex, plus the new
-        oldc = _held(st.C, sets, H)
-        ideal = st.ideal[H]
-        dev_old = np.abs(val[H] - ideal).sum(axis=1)
-        # interior vertices of the set (not on the hexagon) disappear with it
-        nin = np.maximum((4 * sets.shape[1] - oldc.sum(axis=1)), 0)
-        gone = nin // 3  # each removed interior vertex is held by 3 of the cells
-        dev_old = dev_old + gone  # |3 - 4| each
-        dev = np.zeros((k, 3))
-        for s_ in range(3):
-            newc = np.ones((k, 6), np.int64)
-            newc[:, s_] = 2
-            newc[:, s_ + 3] = 2
-            dev[:, s_] = dev_old - np.abs(val[H] - oldc + newc - ideal).sum(axis=1)
-        floor = np.minimum(old, _floor(st, TOL.swap_floor))
-        ok = valid & (dev >= 0) & (q >= floor[:, None]) & ((dev > 0) | (q > old[:, None]))
-        score = np.where(ok, dev + (q - old[:, None]), -np.inf)
-        best = np.argmax(score, axis=1)
-        gain = score[r, best]
-        return sets, cand[r, best], gain
-    q = np.where(valid, q, -np.inf)
-    best = np.argmax(q, axis=1)
-    bq = q[np.arange(k), best]
-    gain = bq - old
-    new = cand[np.arange(k), best]
-    return sets, new, gain
+    rows = _split_rows(H)
+    ptr, _ = st.incidence()
+    best, gain = _split_scores(
+        st.C,
+        sets,
+        H,
+        st.quality_of(rows),
+        _valid(st.P, rows),
+        edge_keys,
+        len(st.P),
+        ptr,
+        st.ideal,
+        st.q,
+        _floor(st, TOL.swap_floor),
+    )
+    return sets, rows.reshape(k, 3, 2, 4)[np.arange(k), best], gain
 
 
 def _floor(st: _State, floor: float | None = None) -> float:
@@ -605,7 +578,7 @@ def _op_valence3(st: _State) -> int:
     _, sets = _valence3_vertices(st, ptr, cells)
     if not len(sets):
         return 0
-    return _apply_hex(st, *_hex_splits(st, sets, keys, topological=True))
+    return _apply_hex(st, *_hex_splits(st, sets, keys))
 
 
 def _op_hexagon(st: _State) -> int:
@@ -631,7 +604,7 @@ def _op_hexagon(st: _State) -> int:
     keep = np.ones_like(six, bool)
     keep[:, 1:] &= ~dup
     sets = six[keep].reshape(-1, 4)
-    return _apply_hex(st, *_hex_splits(st, sets, keys, topological=True))
+    return _apply_hex(st, *_hex_splits(st, sets, keys))
 
 
 def _op_swap(st: _State) -> int:
@@ -653,12 +626,14 @@ def _op_swap(st: _State) -> int:
         dirty = np.zeros(n, bool)
         new = st.C[st.swapped :][st.alive[st.swapped :]]
         dirty[new[new >= 0]] = True
-        poor &= dirty[st.C[pairs].reshape(len(pairs), -1)].any(axis=1)
+        made = dirty[st.C[pairs].reshape(len(pairs), -1)].any(axis=1)
+        poor &= made
+        if not st.swaps:  # the last run swapped nothing: irregular pairs only there too
+            near &= made
     st.swapped = len(st.C)
     pairs = pairs[near | poor]
-    if not len(pairs):
-        return 0
-    return _apply_hex(st, *_hex_splits(st, pairs, keys, topological=True))
+    st.swaps = _apply_hex(st, *_hex_splits(st, pairs, keys)) if len(pairs) else 0
+    return st.swaps
 
 
 def _op_collapse(st: _State) -> int:
@@ -739,6 +714,9 @@ def _op_lift(st: _State) -> int:
     sixteenth, of its mean edge length, and takes the position with the
     best least quality of its cells when that beats the current one (and
     every cell stays valid). Colour by colour, so each move is judged alone.
+    Under (8.4) without a metric (compiled) a round searches again only the
+    vertices of the cells a move changed since their last search (the same
+    search would find nothing else).
     Returns the vertices moved.
     """
     n = len(st.P)
@@ -760,8 +738,10 @@ def _op_lift(st: _State) -> int:
     moved = np.zeros(n, bool)
     if st.measure == "angle" and st.metric is None:  # planar (8.4): one compiled loop per round
         order = verts[np.argsort(color[verts], kind="stable")]
+        dirty = np.ones(n, bool)
         for _ in range(TOL.lift_rounds):
-            if not _lift_round(st.P, st.C, st.q, order, ptr, cells, dirs, steps, TOL.gain, moved):
+            args = (st.P, st.C, st.q, order, ptr, cells, dirs, steps, TOL.gain, moved, dirty)
+            if not _lift_round(*args):
                 break
         return int(moved.sum())
     for _ in range(TOL.lift_rounds):

@@ -97,17 +97,22 @@ def _colors(C, ptr, cells, movable):
 
 
 @njit(cache=True)
-def _lift_round(P, C, q, order, ptr, cells, dirs, steps, gain, moved):
+def _lift_round(P, C, q, order, ptr, cells, dirs, steps, gain, moved, dirty):
     """One round of :func:`_op_lift` over ``order`` (sorted by colour), planar, (8.4).
 
     Sequential: a vertex's cells hold no other vertex of its colour, so this
-    is the colour-at-once search of the vectorized path. Returns whether a
-    vertex moved.
+    is the colour-at-once search of the vectorized path. Only ``dirty``
+    vertices are searched: a vertex searched without a move stays where it is
+    until a vertex of its cells moves (the search would find the same), so a
+    move marks the vertices of the mover's cells. Returns whether a vertex moved.
     """
     work = np.empty(WORK_SIZE)
     any_move = False
     for i in range(order.shape[0]):
         v = order[i]
+        if not dirty[v]:
+            continue
+        dirty[v] = False
         hx, hy = P[v, 0], P[v, 1]
         cur = np.inf
         dist = 0.0
@@ -136,7 +141,11 @@ def _lift_round(P, C, q, order, ptr, cells, dirs, steps, gain, moved):
         if best > cur + gain:
             P[v, 0], P[v, 1] = bx, by
             for j in range(ptr[v], ptr[v + 1]):
-                q[cells[j]] = _angle_quality(P, C, cells[j])
+                c = cells[j]
+                q[c] = _angle_quality(P, C, c)
+                for s in range(4):
+                    if C[c, s] >= 0:
+                        dirty[C[c, s]] = True
             moved[v] = True
             any_move = True
         else:
@@ -275,17 +284,84 @@ def _row_valid(P, C, r, work):
 
 
 @njit(cache=True)
-def _held(C, sets, H):
-    """(k, 6): how many of the cells ``sets[i]`` hold each vertex ``H[i, j]`` of their
-    hexagon (a triangle's -1 slot holds none)."""
-    out = np.zeros(H.shape, np.int64)
-    for i in range(H.shape[0]):
+def _split_rows(H):
+    """The three two-quad splits of each hexagon ``H`` (k, 6): rows ``6 i + 2 s`` and
+    ``6 i + 2 s + 1`` are split ``s`` of hexagon ``i``, along its diagonal from ``H[i, s]``
+    to ``H[i, s + 3]``."""
+    k = H.shape[0]
+    rows = np.empty((6 * k, 4), np.int64)
+    for i in range(k):
+        for s in range(3):
+            for j in range(4):
+                rows[6 * i + 2 * s, j] = H[i, (s + j) % 6]
+                rows[6 * i + 2 * s + 1, j] = H[i, (s + 3 + j) % 6]
+    return rows
+
+
+@njit(cache=True)
+def _split_scores(C, sets, H, q, valid, keys, n, ptr, ideal, cq, floor):
+    """The best split of each hexagon by the topological criterion of
+    :func:`meshcore.quads.optimization._hex_splits`: (split index (k,), score (k,)).
+
+    ``q``, ``valid``: quality and validity of the rows of :func:`_split_rows`; ``keys``
+    the mesh's sorted unique edge keys ``min * n + max`` (a split whose diagonal is an
+    edge already is not valid); ``ptr`` the vertex -> cell CSR (valences), ``ideal``
+    the ideal valences, ``cq`` the cells' qualities, ``floor`` the least quality a split
+    may leave (:func:`meshcore.quads.optimization._floor`). A split is kept when it does
+    not raise ``sum |valence - ideal|`` over the hexagon (its removed interior vertices
+    counting 1 each), stays above ``min(floor, old least)``, and lowers that sum or
+    raises the least quality; its score is the drop of the sum plus the rise of the
+    least quality, -inf if not kept.
+    """
+    k = H.shape[0]
+    best = np.zeros(k, np.int64)
+    gain = np.empty(k)
+    held = np.zeros(6, np.int64)
+    nk = keys.shape[0]
+    for i in range(k):
+        old = np.inf
+        for a in range(sets.shape[1]):
+            c = sets[i, a]
+            if c >= 0:
+                old = min(old, cq[c])
+        # how many of the set's cells hold each hexagon vertex
+        total = 0
+        dev_old = 0
         for j in range(6):
             v = H[i, j]
+            held[j] = 0
             for a in range(sets.shape[1]):
                 c = sets[i, a]
                 for s in range(4 if c >= 0 else 0):
                     if C[c, s] == v:
-                        out[i, j] += 1
+                        held[j] += 1
                         break
-    return out
+            total += held[j]
+            dev_old += abs(ptr[v + 1] - ptr[v] - ideal[v])
+        # interior vertices of the set (not on the hexagon) disappear with it, each
+        # held by 3 of the cells: |3 - 4| each
+        dev_old += max(4 * sets.shape[1] - total, 0) // 3
+        low = min(old, floor)
+        bs = -np.inf
+        for s in range(3):
+            r0, r1 = 6 * i + 2 * s, 6 * i + 2 * s + 1
+            d0, d1 = H[i, s], H[i, s + 3]
+            key = min(d0, d1) * n + max(d0, d1)
+            at = np.searchsorted(keys, key)
+            exists = nk > 0 and keys[min(at, nk - 1)] == key
+            qs = min(q[r0], q[r1])
+            dev_new = 0
+            for j in range(6):
+                v = H[i, j]
+                newc = 2 if j == s or j == s + 3 else 1
+                dev_new += abs(ptr[v + 1] - ptr[v] - held[j] + newc - ideal[v])
+            dev = float(dev_old - dev_new)
+            score = -np.inf
+            if valid[r0] and valid[r1] and not exists and dev >= 0 and qs >= low:
+                if dev > 0 or qs > old:
+                    score = dev + (qs - old)
+            if score > bs:
+                bs = score
+                best[i] = s
+        gain[i] = bs
+    return best, gain
