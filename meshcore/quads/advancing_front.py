@@ -105,8 +105,8 @@ Algorithm
    edge with it (rows, strips, the closure's own) are taken out and the
    union closed again, one ring of quads wider at a time, up to three
    (``closure.cavities``; :mod:`meshcore.quads.paving_fronts`). When a
-   piece is still stuck, the strips' last try and the closure without strips
-   close the polygons one by one, and a polygon (without holes) still stuck
+   piece is still stuck, the strips' last try closes the polygons one by
+   one, and a polygon (without holes) still stuck
    gets the guaranteed route locally: its coarse split with the coarse
    triangles at 2.5 times the size (``closure.polygon_splits``; the stuck
    pieces are slivers between two separators from nearly one point, which no
@@ -114,7 +114,7 @@ Algorithm
    (below): on the plate with 20 holes at 10k quads all but 3,128 of 7,547
    row quads, mean quality 0.860; now 0.876, valence-4 share 82.7 % ->
    86.4 %, no irregular boundary vertex (was 2), but the least scaled
-   Jacobian 0.705 -> 0.664 (the coarse splits' corners). When the
+   Jacobian 0.705 -> 0.664. When the
    rows leave more than half the domain's area, and over 20,000 cells of the
    least size, to the closure (the gear at 100k quads: its fronts freeze
    between the teeth after a few rows), the closure is not tried: the rows
@@ -1196,7 +1196,7 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
             row_q = row_q[~gone]
             break
         if quad_closure:
-            P2, cells, cstats, gone = _close(P, fronts, sizes, strategy, row_q, True)
+            P2, cells, cstats, gone = _close(P, fronts, sizes, strategy, row_q)
             row_q = row_q[~gone]
         else:
             P2, cells, cstats = partition_polygon(
