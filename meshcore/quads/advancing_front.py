@@ -104,7 +104,17 @@ Algorithm
    ``_MIN_Q``. When both fail it becomes a *cavity*: the quads sharing an
    edge with it (rows, strips, the closure's own) are taken out and the
    union closed again, one ring of quads wider at a time, up to three
-   (``closure.cavities``; :mod:`meshcore.quads.paving_fronts`). When the
+   (``closure.cavities``; :mod:`meshcore.quads.paving_fronts`). When a
+   piece is still stuck, the strips' last try closes the polygons one by
+   one, and a polygon (without holes) still stuck
+   gets the guaranteed route locally: its coarse split with the coarse
+   triangles at 2.5 times the size (``closure.polygon_splits``; the stuck
+   pieces are slivers between two separators from nearly one point, which no
+   quad of quality ``_MIN_Q`` fits). Before, such a piece took the rows back
+   (below): on the plate with 20 holes at 10k quads all but 3,128 of 7,547
+   row quads, mean quality 0.860; now 0.876, valence-4 share 82.7 % ->
+   86.4 %, no irregular boundary vertex (was 2), but the least scaled
+   Jacobian 0.705 -> 0.664. When the
    rows leave more than half the domain's area, and over 20,000 cells of the
    least size, to the closure (the gear at 100k quads: its fronts freeze
    between the teeth after a few rows), the closure is not tried: the rows
@@ -173,7 +183,8 @@ the closure is even (Remark 8.9).
 *The closure ends with quads.* It works on even polygons; when the
 recursive partition finds one without a valid even split (it can: flat
 vertices, see :mod:`meshcore.partition.recursive`) and neither a ring, a
-coarse split nor a cavity closes it (each covers its polygon exactly: the
+coarse split nor a cavity closes it, nor the coarse split of its whole
+polygon (each covers its polygon exactly: the
 winding-number argument of :mod:`meshcore.quads.paving_fronts`), the
 *guaranteed route* is taken instead (first the rows are taken back, one round, then two,
 four... more, the closure retried each time, ending with no row at all:
@@ -309,7 +320,8 @@ class PavingResult:
         by a failed check), ``strips`` and ``strip_quads`` (laid between
         rows), ``ladders`` and ``ladder_quads`` (strips laid at the closure),
         ``rows_taken_back``, ``closure`` (the partition's stats: patterns,
-        separators; ``rings``, ``coarse_splits``), ``evened`` (1 when the
+        separators; ``rings``, ``coarse_splits``, ``cavities``,
+        ``polygon_splits``), ``evened`` (1 when the
         rows were laid again with every new front evened out, module
         docstring step 6), ``fallback``,
         ``parity_repairs``, ``valence`` (histogram of interior vertex
@@ -934,7 +946,7 @@ def _ladder_closure(P: np.ndarray, fronts: list, sizes: SizeMap, strategy: str, 
     """
     banned = np.zeros(len(P), bool)
     none = P, None, {}, np.zeros(len(rows), bool)
-    for _ in range(_LADDER_TRIES):
+    for attempt in range(_LADDER_TRIES):
         P1, cut, ladder_q, n_ladders = _ladders(P, fronts, sizes, banned, _LADDER_REACH)
         if not n_ladders:
             return none
@@ -942,7 +954,8 @@ def _ladder_closure(P: np.ndarray, fronts: list, sizes: SizeMap, strategy: str, 
         if not cut:
             return P1, ladder_q, found, none[3]
         around = np.concatenate([rows, ladder_q])
-        P2, cells, cstats, gone = _close(P1, cut, sizes, strategy, around)
+        last = attempt == _LADDER_TRIES - 1
+        P2, cells, cstats, gone = _close(P1, cut, sizes, strategy, around, last)
         if cells is not None:
             kept = ladder_q[~gone[len(rows) :]]
             return P2, np.concatenate([kept, cells]), {**cstats, **found}, gone[: len(rows)]

@@ -264,7 +264,7 @@ class TestFrontsMeeting:
         assert len(cells) == 5
         _closes(Q, loop, cells)
 
-    def test_coarse_split_keeps_the_polygon_edges(self):
+    def test_coarse_split_keeps_the_polygon_edges(self, monkeypatch):
         # a hexagon with every side split: every other vertex is the hexagon, its
         # triangles cut in three quads through the skipped vertices
         t = np.radians(np.arange(6) * 60.0)
@@ -274,6 +274,23 @@ class TestFrontsMeeting:
         loop = np.arange(12)
         sizes = size_map(parse_domain(SQUARE), 1.0, None)
         Q, cells = paving_fronts._coarse_split(P, loop, sizes, "balanced")
+        assert np.array_equal(Q[:12], P)
+        _closes(Q, loop, cells)
+        # the closure with every quad partition and local rescue stuck: stuck as a
+        # whole, then the polygon's own coarse split (the local guaranteed route)
+        real = paving_fronts.partition_polygon
+
+        def stuck(points, loops, ring_polygon, sizes, *, quad, strategy="balanced", **kw):
+            if quad:
+                return points, None, None
+            return real(points, loops, ring_polygon, sizes, quad=quad, strategy=strategy)
+
+        monkeypatch.setattr(paving_fronts, "partition_polygon", stuck)
+        monkeypatch.setattr(paving_fronts, "_ring", lambda *args: None)
+        none = np.zeros((0, 4), np.int64)
+        assert paving_fronts._close(P, [loop], sizes, "balanced", none)[1] is None
+        Q, cells, stats, gone = paving_fronts._close(P, [loop], sizes, "balanced", none, True)
+        assert stats["polygon_splits"] == 1 and len(gone) == 0
         assert np.array_equal(Q[:12], P)
         _closes(Q, loop, cells)
 
