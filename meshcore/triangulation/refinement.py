@@ -114,6 +114,7 @@ from meshcore.domain.planar import Domain, as_domain, parse_size_field
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import WORK_SIZE
 from meshcore.mesh import CellBlock, Mesh
+from meshcore.triangulation.features import feature_cuts
 
 __all__ = ["MAX_POINTS", "TriangulationResult", "estimated_triangles", "triangulate"]
 
@@ -181,6 +182,9 @@ class _Tolerances:
     grid_cells: int = 512
     #: Samples of the size along each segment when subdividing.
     segment_samples: int = 9
+    #: Boundary pieces are cut to at most this times their distance to the nearest
+    #: segment sharing no vertex with theirs (:mod:`meshcore.triangulation.features`).
+    feature: float = 1.5
     #: Relative slack when counting a segment's pieces: one exactly n sizes
     #: long gets n pieces, not n + 1 for a rounding of its length.
     count_slack: float = 1e-12
@@ -403,16 +407,40 @@ def _sizing(domain: Domain, size, max_area, field_pts, field_vals, linear=True) 
 # ---------------------------------------------------------------------------
 
 
-def _subdivide(P, seg, sizing: _Sizing | None, seg_circle: np.ndarray, circles: np.ndarray):
-    """Split every segment into pieces no longer than h along it.
+def _subdivide(P, seg, sizing: _Sizing | None, seg_circle: np.ndarray, circles: np.ndarray, beta):
+    """Split every segment into pieces no longer than h along it and, unless ``beta`` is
+    None, than ``beta`` times their feature size (:mod:`meshcore.triangulation.features`).
 
     Returns new points (q, 2), their segment ids (q,) and parameters (q,)
     (0 at the segment's first vertex, 1 at its second), ordered by segment
     then parameter.
     """
     empty = (np.zeros((0, 2)), np.zeros(0, np.int64), np.zeros(0))
-    if sizing is None or len(seg) == 0:
+    if len(seg) == 0:
         return empty
+    if sizing is None:
+        sid, t = np.zeros(0, np.int64), np.zeros(0)
+    else:
+        sid, t = _size_cuts(P, seg, sizing)
+    if beta is not None:
+        sid, t = feature_cuts(P, seg, sid, t, beta)
+    if len(sid) == 0:
+        return empty
+    a = P[seg[:, 0]]
+    d = P[seg[:, 1]] - a
+    pts = a[sid] + t[:, None] * d[sid]
+    c = seg_circle[sid]
+    on = c >= 0
+    if on.any():
+        cc = circles[c[on]]
+        v = pts[on] - cc[:, :2]
+        r = np.hypot(v[:, 0], v[:, 1])
+        pts[on] = cc[:, :2] + v * (cc[:, 2] / np.where(r > 0, r, 1))[:, None]
+    return pts, sid.astype(np.int64), t
+
+
+def _size_cuts(P, seg, sizing: _Sizing):
+    """Segment ids and parameters of the cuts making pieces no longer than h along them."""
     a = P[seg[:, 0]]
     b = P[seg[:, 1]]
     d = b - a
@@ -453,15 +481,7 @@ def _subdivide(P, seg, sizing: _Sizing | None, seg_circle: np.ndarray, circles: 
         hi_c = cum.ravel()[pos + 1]
         w = np.where(hi_c > lo_c, (target - lo_c) / np.where(hi_c > lo_c, hi_c - lo_c, 1), 0)
         t = (pos - sid * k + w) / (k - 1)
-    pts = a[sid] + t[:, None] * d[sid]
-    c = seg_circle[sid]
-    on = c >= 0
-    if on.any():
-        cc = circles[c[on]]
-        v = pts[on] - cc[:, :2]
-        r = np.hypot(v[:, 0], v[:, 1])
-        pts[on] = cc[:, :2] + v * (cc[:, 2] / np.where(r > 0, r, 1))[:, None]
-    return pts, sid.astype(np.int64), t
+    return sid.astype(np.int64), t
 
 
 # ---------------------------------------------------------------------------
@@ -868,7 +888,8 @@ def triangulate(
     if keep_boundary:
         newp, newsid, newpar = np.zeros((0, 2)), np.zeros(0, np.int64), np.zeros(0)
     else:
-        newp, newsid, newpar = _subdivide(P_in, seg_in, sizing, seg_circle, circle_arr)
+        beta = None if empty else TOL.feature
+        newp, newsid, newpar = _subdivide(P_in, seg_in, sizing, seg_circle, circle_arr, beta)
     P = np.concatenate([P_in, newp])
     pseg = np.concatenate([np.full(n_input, -1, np.int64), newsid])
     ppar = np.concatenate([np.zeros(n_input), newpar])
