@@ -121,6 +121,7 @@ from meshcore.geometry.predicates import orient2d
 from meshcore.grid.band import outline_loops
 from meshcore.mesh import CellBlock, Mesh
 from meshcore.mesh.quality import quad_quality, triangle_shape
+from meshcore.triangulation.features import point_segment_distance
 from meshcore.triangulation.refinement import triangulate
 
 __all__ = ["MAX_CELLS", "GridResult", "grid"]
@@ -391,14 +392,6 @@ def _outline_edges(mask: np.ndarray) -> np.ndarray:
     return np.concatenate(out)
 
 
-def _point_segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray):
-    """Distance from each q to segment (a, b) and the parameter of the nearest point."""
-    d = b - a
-    dd = np.einsum("ij,ij->i", d, d)
-    t = np.clip(np.einsum("ij,ij->i", q - a, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
-    return np.hypot(*(a + t[:, None] * d - q).T), t
-
-
 def _hausdorff(A: np.ndarray, B: np.ndarray, step: float) -> float:
     """Hausdorff distance between two segment sets (k, 2, 2), to within ``step / 2``.
 
@@ -418,7 +411,7 @@ def _hausdorff(A: np.ndarray, B: np.ndarray, step: float) -> float:
         q, owner = sample(S)
         _, nearest = cKDTree(q).query(P)
         s = owner[nearest]
-        d, _ = _point_segment_distance(P, S[s, 0], S[s, 1])
+        d, _ = point_segment_distance(P, S[s, 0], S[s, 1])
         return float(d.max())
 
     return max(directed(sample(A)[0], B), directed(sample(B)[0], A))
@@ -494,7 +487,7 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
     pn, ps = key // S, key % S
     nodeL = np.column_stack([pn % nx1, pn // nx1]).astype(np.float64)
     a, b = L[seg[ps, 0]], L[seg[ps, 1]]
-    dseg, tseg = _point_segment_distance(nodeL, a, b)
+    dseg, tseg = point_segment_distance(nodeL, a, b)
     da = np.hypot(*(nodeL - a).T)
     db = np.hypot(*(nodeL - b).T)
     # vertex snaps first: the nearest vertex within TOL.snap

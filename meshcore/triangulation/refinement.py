@@ -894,9 +894,10 @@ def triangulate(
     pseg = np.concatenate([np.full(n_input, -1, np.int64), newsid])
     ppar = np.concatenate([np.zeros(n_input), newpar])
     sub = _subsegments(seg_in, newsid, n_input)
+    adm = None
     if not keep_boundary:
         try:
-            P, pseg, ppar, sub = _admissible(P, pseg, ppar, sub, seg_in, seg_circle, circles)
+            P, pseg, ppar, sub, adm = _admissible(P, pseg, ppar, sub, seg_in, seg_circle, circles)
         except InputError as exc:  # indices of the subsegments: the domain's vertices
             raise located_in_domain(exc, dom, seg_in, sub[1], pseg) from None
     pseg = pseg.astype(np.int32)
@@ -919,7 +920,8 @@ def triangulate(
 
     # -- one Delaunay triangulation -----------------------------------------
     report(0.15, "Delaunay triangulation")
-    tri = delaunay(P)
+    # without pattern points, the admissible boundary's own triangulation is that of P
+    tri = adm.delaunay if adm is not None and n_lattice == 0 else delaunay(P)
     lap("delaunay")
 
     # -- segments and regions -----------------------------------------------
@@ -1050,10 +1052,11 @@ def triangulate(
 
 
 def _admissible(P, pseg, ppar, sub, seg_in, seg_circle, circles):
-    """Split subsegments until each is a Delaunay edge (§9.1.4, meshcore.delaunay.admissible)."""
+    """Split subsegments until each is a Delaunay edge (§9.1.4, meshcore.delaunay.admissible);
+    the last item returned is the :class:`~meshcore.delaunay.admissible.AdmissibleSegments`."""
     adm = admissible_segments(P, sub[0], circles=circles, segment_circle=seg_circle[sub[1]])
     if adm.added == 0:
-        return P, pseg, ppar, sub
+        return P, pseg, ppar, sub, adm
     sid = sub[1][adm.source]
     n = len(P)
     new_sid = np.empty(adm.added, np.int64)
@@ -1069,6 +1072,7 @@ def _admissible(P, pseg, ppar, sub, seg_in, seg_circle, circles):
         np.concatenate([pseg, new_sid]),
         np.concatenate([ppar, t]),
         (np.array(adm.segments, dtype=np.int64), sid),
+        adm,
     )
 
 
