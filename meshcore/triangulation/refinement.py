@@ -15,8 +15,11 @@ Pipeline (each phase timed in :attr:`TriangulationResult.timings`):
    points (nearest value outside their hull) and sampled on a grid (at most
    512 cells a side) that everything after reads bilinearly.
 2. **Boundary.** Unless the boundary is kept, each input segment is split
-   into pieces no longer than ``h`` (by the integral of ``1 / h`` along it),
-   new points on a ring declared as a circle going on the circle (§9.1.5),
+   into pieces no longer than ``h`` (by the integral of ``1 / h`` along it)
+   and, unless ``empty``, than 1.5 times their distance to the nearest
+   segment sharing no vertex with theirs (:mod:`meshcore.triangulation.features`:
+   a 1 x 1e-6 strip's sides cut in one step, not by 17 rounds of
+   refinement splits), new points on a ring declared as a circle going on the circle (§9.1.5),
    and the pieces are made Delaunay-admissible by
    :func:`meshcore.delaunay.admissible.admissible_segments` (§9.1.4: projections of
    the encroaching point of largest angle, protected acute vertices).
