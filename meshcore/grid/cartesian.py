@@ -121,6 +121,8 @@ from meshcore.geometry.predicates import orient2d
 from meshcore.grid.band import outline_loops
 from meshcore.mesh import CellBlock, Mesh
 from meshcore.mesh.quality import quad_quality, triangle_shape
+from meshcore.mesh.topology import isin_ints, unique_ints
+from meshcore.triangulation.features import point_segment_distance
 from meshcore.triangulation.refinement import triangulate
 
 __all__ = ["MAX_CELLS", "GridResult", "grid"]
@@ -327,7 +329,7 @@ def _cell_seg_pairs(L, seg, nx, ny, ring: int = 1):
             i = np.clip(ci + di, 0, nx - 1)
             j = np.clip(cj + dj, 0, ny - 1)
             keys.append((j * nx + i) * len(seg) + s)
-    key = np.unique(np.concatenate(keys))
+    key = unique_ints(np.concatenate(keys))
     return key // len(seg), key % len(seg)
 
 
@@ -391,14 +393,6 @@ def _outline_edges(mask: np.ndarray) -> np.ndarray:
     return np.concatenate(out)
 
 
-def _point_segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray):
-    """Distance from each q to segment (a, b) and the parameter of the nearest point."""
-    d = b - a
-    dd = np.einsum("ij,ij->i", d, d)
-    t = np.clip(np.einsum("ij,ij->i", q - a, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
-    return np.hypot(*(a + t[:, None] * d - q).T), t
-
-
 def _hausdorff(A: np.ndarray, B: np.ndarray, step: float) -> float:
     """Hausdorff distance between two segment sets (k, 2, 2), to within ``step / 2``.
 
@@ -418,7 +412,7 @@ def _hausdorff(A: np.ndarray, B: np.ndarray, step: float) -> float:
         q, owner = sample(S)
         _, nearest = cKDTree(q).query(P)
         s = owner[nearest]
-        d, _ = _point_segment_distance(P, S[s, 0], S[s, 1])
+        d, _ = point_segment_distance(P, S[s, 0], S[s, 1])
         return float(d.max())
 
     return max(directed(sample(A)[0], B), directed(sample(B)[0], A))
@@ -488,13 +482,13 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
     # -- snapping -----------------------------------------------------------
     q, qs = _samples(L, seg, TOL.sample)
     qc = np.floor(q[:, 1]).astype(np.int64) * nx1 + np.floor(q[:, 0]).astype(np.int64)
-    key = np.unique(
+    key = unique_ints(
         np.concatenate([(qc + o) * S + qs for o in (0, 1, nx1, nx1 + 1)])
     )  # (node, segment) pairs: corners of the sample's cell
     pn, ps = key // S, key % S
     nodeL = np.column_stack([pn % nx1, pn // nx1]).astype(np.float64)
     a, b = L[seg[ps, 0]], L[seg[ps, 1]]
-    dseg, tseg = _point_segment_distance(nodeL, a, b)
+    dseg, tseg = point_segment_distance(nodeL, a, b)
     da = np.hypot(*(nodeL - a).T)
     db = np.hypot(*(nodeL - b).T)
     # vertex snaps first: the nearest vertex within TOL.snap
@@ -577,7 +571,7 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
     if len(core_out):
         ck = np.sort(core_out, axis=1)
         ekey = edges[:, 0] * N + edges[:, 1]
-        edges = edges[~np.isin(ekey, ck[:, 0] * N + ck[:, 1])]
+        edges = edges[~isin_ints(ekey, ck[:, 0] * N + ck[:, 1])]
     E = len(edges)
     # (edge, segment) candidates: the four edges of each candidate cell, found
     # in the sorted edge keys
@@ -600,7 +594,7 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
         pseg.append(cs[ok])
     pe = np.concatenate(pe)
     pseg = np.concatenate(pseg)
-    pk = np.unique(pe * S + pseg)
+    pk = unique_ints(pe * S + pseg)
     pe, pseg = pk // S, pk % S
     A = coords_L(alias[edges[pe, 0]])
     B = coords_L(alias[edges[pe, 1]])
@@ -653,7 +647,7 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
     split_t = np.concatenate(split_t)
     # dedupe (a vertex found through both its segments)
     if len(split_e):
-        uk, first = np.unique(split_e * (N + V + n_extra) + split_id, return_index=True)
+        uk, first = unique_ints(split_e * (N + V + n_extra) + split_id, return_index=True)
         split_e, split_id, split_t = split_e[first], split_id[first], split_t[first]
     lap("crossings")
 
@@ -677,7 +671,7 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
     # (id, segment) incidences: the ids lying on each segment
     inc_id = np.concatenate([on_id, N + seg[:, 0], N + seg[:, 1]])
     inc_seg = np.concatenate([on_seg, np.arange(S), np.arange(S)])
-    inc_key = np.unique(inc_id * S + inc_seg)
+    inc_key = unique_ints(inc_id * S + inc_seg)
 
     # -- edge pieces -> constraints ------------------------------------------
     # per edge: [start, splits sorted by t, end]
@@ -784,7 +778,7 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
     if len(tp) != len(band_dom.points):
         raise AlgorithmError("grid: the band's triangulation added points")
     # band points -> global ids (by exact coordinates)
-    all_ids = np.unique(
+    all_ids = unique_ints(
         np.concatenate(
             [*rings_ids, cons.ravel(), *(np.asarray(c, dtype=np.int64) for c in constraint_lines)]
         )
@@ -801,7 +795,7 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
     sk = np.minimum(tri.segments[:, 0], tri.segments[:, 1]) * len(tp) + np.maximum(
         tri.segments[:, 0], tri.segments[:, 1]
     )
-    free = ~np.isin(hk, sk)
+    free = ~isin_ints(hk, sk)
     o = np.argsort(hk[free], kind="stable")
     fk, fo, fe = hk[free][o], owner[free][o], np.flatnonzero(free)[o]
     pair = np.flatnonzero(fk[1:] == fk[:-1])

@@ -59,6 +59,19 @@ Steps
    never inverts a cell nor lowers the least quality), the domain boundary
    and the squares beyond staying fixed.
 
+**Refused up front.** The fallback triangulates the band (at least every
+ring vertex, and what the angle bound forces where the boundary runs close
+to itself: :func:`meshcore.triangulation.estimated_triangles` without
+sizes, a strip of width ``w`` and length ``L`` about ``2 L / w`` triangles
+whatever the size), then combines and optimizes about three quads per
+triangle, some 15k quads a CPU second. Where it would take more than
+:data:`MAX_FALLBACK_TRIANGLES` (a 1 x 1e-5 strip; a ring of more than 50k
+vertices that the projection cannot follow), ``quad_grid`` raises
+``InputError`` ``too_many_cells`` at ``domain`` before triangulating,
+naming the reason the projection failed and the estimate: a user waiting
+for a mesh gets the reason in milliseconds rather than a time limit
+(a 1 x 1e-6 strip ran past 60 s); ``triangulate`` meshes such domains.
+
 **Fallback.** Where the projection does not apply (a loop and a ring not one
 to one: narrow parts, holes closer than the band's width to each other or to
 the outer ring, constraint segments; a ring with more vertices than lines; a
@@ -119,6 +132,7 @@ from meshcore.mesh import CellBlock, Mesh
 from meshcore.mesh.quality import quad_quality
 from meshcore.quads.combination import combine
 from meshcore.quads.optimization import optimize_quads
+from meshcore.triangulation import estimated_triangles
 
 __all__ = ["quad_grid"]
 
@@ -133,6 +147,8 @@ UNIFORM = 0.2
 REPAIR_ROUNDS = 4
 #: Rings of core squares optimized with the band.
 SMOOTH_RINGS = 2
+#: The fallback is refused above this many estimated band triangles (module docstring).
+MAX_FALLBACK_TRIANGLES = 100_000
 # ----------------------------------------------------------------------------- projection
 
 
@@ -449,6 +465,22 @@ def _triangulated_band(dom: Domain, h: float, layers: int, smooth: bool):
     return mesh.points, Q[inner], Q[rest]
 
 
+def _check_fallback(dom: Domain, why: str) -> None:
+    """Refuse a fallback band estimated above MAX_FALLBACK_TRIANGLES triangles."""
+    forced = estimated_triangles(dom)  # what the angle bound forces in thin parts
+    est = forced + 2 * len(dom.points)
+    if est > MAX_FALLBACK_TRIANGLES:
+        thin = f", {forced:,} of them forced by its thin parts" if forced > len(dom.points) else ""
+        raise InputError(
+            f"quad_grid cannot project the grid onto this boundary ({why}); its fallback "
+            f"would triangulate the band into about {est:,} triangles{thin}, above "
+            f"{MAX_FALLBACK_TRIANGLES:,}, and combine them into quads: coarsen the "
+            "boundary (fewer ring vertices) or mesh this domain with triangulate",
+            loc=("domain",),
+            code="too_many_cells",
+        )
+
+
 def _core(dom: Domain, h: float, layers: int):
     """The core squares of a grid of side ``h`` (step 1) and the grid's nodes."""
     o = dom.points.min(axis=0)
@@ -539,7 +571,8 @@ def quad_grid(
     ------
     InputError
         A bad domain (``loc`` under ``domain``), ``size``, ``layers``,
-        ``too_many_cells``.
+        ``too_many_cells`` (at ``size``: the grid; at ``domain``: a fallback
+        band past :data:`MAX_FALLBACK_TRIANGLES`).
 
     References
     ----------
@@ -573,6 +606,7 @@ def quad_grid(
         P, (inner, band) = _compact(P, [inner, band])
         route = "projection"
     else:
+        _check_fallback(dom, why)
         P, inner, band = _triangulated_band(dom, h, layers, bool(smooth))
         route = "triangulation"
     Q = np.concatenate([inner, band])

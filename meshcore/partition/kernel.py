@@ -219,8 +219,9 @@ def _positions(n):
 
 
 @njit(cache=True)
-def _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch, full):
-    """(score, pieces) of the separator (i, j), i < j; score inf when not allowed."""
+def _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch, relaxed):
+    """(score, pieces) of the separator (i, j), i < j; score inf when not allowed (relaxed:
+    separators down to _TINY_ANGLE from an edge, else _MIN_SPLIT_ANGLE)."""
     m1 = j - i
     m2 = n - m1
     if quad:
@@ -274,7 +275,7 @@ def _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratc
     b2 = _angle(P, b, nb, a)  # part 2 at b
     target = math.pi / 2.0 if quad else math.pi / 3.0
     amin = min(min(a1, a2), min(b1, b2))
-    if amin < (_TINY_ANGLE if full else _MIN_SPLIT_ANGLE):
+    if amin < (_TINY_ANGLE if relaxed else _MIN_SPLIT_ANGLE):
         # exactly inside but nearly along an edge (a subdivided separator, its
         # points rounded off the line): slivers and coincident points
         return np.inf, 0
@@ -292,8 +293,9 @@ def _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratc
 
 
 @njit(cache=True)
-def _best_split(nfix, P, poly, n, H, grid, quad, strategy, full, scratch):
-    """Best valid separator (i, j, k) of the polygon, or (-1, -1, 0)."""
+def _best_split(nfix, P, poly, n, H, grid, quad, strategy, full, relaxed, scratch):
+    """Best valid separator (i, j, k) of the polygon, or (-1, -1, 0): among all pairs
+    (``full``) or those of the sampled positions, angles as :func:`_score` ``relaxed``."""
     pos = np.arange(n) if full else _positions(n)
     reflex_at = -1
     reflex_angle = 0.0
@@ -320,7 +322,7 @@ def _best_split(nfix, P, poly, n, H, grid, quad, strategy, full, scratch):
             if i == j:
                 continue
             s, k = _score(
-                nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch, full
+                nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch, relaxed
             )
             if s < np.inf:
                 sc[c] = s
@@ -333,7 +335,9 @@ def _best_split(nfix, P, poly, n, H, grid, quad, strategy, full, scratch):
             for w in range(u + 1, m):
                 i = pos[u]
                 j = pos[w]
-                s, k = _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, 0.0, scratch, full)
+                s, k = _score(
+                    nfix, P, poly, n, i, j, H, grid, quad, strategy, 0.0, scratch, relaxed
+                )
                 if s < np.inf:
                     sc[c] = s
                     ci[c] = i
@@ -464,15 +468,21 @@ def recurse(
             else:
                 stats[8] += 1
             continue
-        # the sampled candidates first, then all pairs; ``full`` is a runtime
-        # bool (a literal True/False would compile _best_split twice)
-        for attempt in range(2):
-            full = attempt == 1
-            i, j, k = _best_split(nfix, P, poly, n, H, grid, quad, strategy, full, npts)
+        # the sampled candidates first, then (above 2 * _SAMPLE vertices) the same with
+        # separators closer to an edge, then all pairs: along a finely sampled arc every
+        # separator is that close, and all pairs of a polygon of m vertices are m**2
+        # scores at each of its splits; ``full`` and ``relaxed`` are runtime bools (literal
+        # ones would compile _best_split once per combination)
+        for attempt in range(3):
+            if attempt == 1 and n <= 2 * _SAMPLE:
+                continue  # the sampled positions are all of them
+            full = attempt == 2
+            relaxed = attempt >= 1
+            if full:
+                stats[9] += 1
+            i, j, k = _best_split(nfix, P, poly, n, H, grid, quad, strategy, full, relaxed, npts)
             if i >= 0:
                 break
-            if not full:
-                stats[9] += 1
         if i < 0 and quad and n <= _CENTRE_MAX:
             # the centre pattern: n/2 quads around the vertex average
             if ncell + n // 2 > len(cells) or npts >= len(P):

@@ -22,8 +22,12 @@ Algorithm
    interior angle of that occurrence of the vertex and touches no other
    polygon edge (closed test, collinear overlaps included): then it lies
    inside the polygon. Candidates (every pair of vertices, or of 60 sampled
-   positions above 60 vertices, all pairs when no sampled pair is valid) are
-   ranked, the best valid one is taken:
+   positions above 60 vertices; when no sampled pair is valid, the sampled
+   pairs again with separators down to 1e-6 rad from an edge instead of 0.05,
+   then all pairs) are ranked, the best valid one is taken. (Along a finely
+   sampled arc every separator is that close to an edge: all pairs there
+   cost m**2 scores per split of an m-vertex polygon, 21 CPU s for a
+   100k-vertex circle, 3.7 s with the relaxed sampled pairs first.)
 
    * ``balanced``: ``I / min(m1, m2) + 1.5 * c`` where ``I`` is the
      integral of ``1 / h`` along the separator (its length in local sizes),

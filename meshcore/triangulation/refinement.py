@@ -15,8 +15,11 @@ Pipeline (each phase timed in :attr:`TriangulationResult.timings`):
    points (nearest value outside their hull) and sampled on a grid (at most
    512 cells a side) that everything after reads bilinearly.
 2. **Boundary.** Unless the boundary is kept, each input segment is split
-   into pieces no longer than ``h`` (by the integral of ``1 / h`` along it),
-   new points on a ring declared as a circle going on the circle (§9.1.5),
+   into pieces no longer than ``h`` (by the integral of ``1 / h`` along it)
+   and, unless ``empty``, than 1.5 times their distance to the nearest
+   segment sharing no vertex with theirs (:mod:`meshcore.triangulation.features`:
+   a 1 x 1e-6 strip's sides cut in one step, not by 17 rounds of
+   refinement splits), new points on a ring declared as a circle going on the circle (§9.1.5),
    and the pieces are made Delaunay-admissible by
    :func:`meshcore.delaunay.admissible.admissible_segments` (§9.1.4: projections of
    the encroaching point of largest angle, protected acute vertices).
@@ -114,6 +117,7 @@ from meshcore.domain.planar import Domain, as_domain, parse_size_field
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import WORK_SIZE
 from meshcore.mesh import CellBlock, Mesh
+from meshcore.triangulation.features import feature_cuts
 
 __all__ = ["MAX_POINTS", "TriangulationResult", "estimated_triangles", "triangulate"]
 
@@ -181,6 +185,9 @@ class _Tolerances:
     grid_cells: int = 512
     #: Samples of the size along each segment when subdividing.
     segment_samples: int = 9
+    #: Boundary pieces are cut to at most this times their distance to the nearest
+    #: segment sharing no vertex with theirs (:mod:`meshcore.triangulation.features`).
+    feature: float = 1.5
     #: Relative slack when counting a segment's pieces: one exactly n sizes
     #: long gets n pieces, not n + 1 for a rounding of its length.
     count_slack: float = 1e-12
@@ -403,16 +410,40 @@ def _sizing(domain: Domain, size, max_area, field_pts, field_vals, linear=True) 
 # ---------------------------------------------------------------------------
 
 
-def _subdivide(P, seg, sizing: _Sizing | None, seg_circle: np.ndarray, circles: np.ndarray):
-    """Split every segment into pieces no longer than h along it.
+def _subdivide(P, seg, sizing: _Sizing | None, seg_circle: np.ndarray, circles: np.ndarray, beta):
+    """Split every segment into pieces no longer than h along it and, unless ``beta`` is
+    None, than ``beta`` times their feature size (:mod:`meshcore.triangulation.features`).
 
     Returns new points (q, 2), their segment ids (q,) and parameters (q,)
     (0 at the segment's first vertex, 1 at its second), ordered by segment
     then parameter.
     """
     empty = (np.zeros((0, 2)), np.zeros(0, np.int64), np.zeros(0))
-    if sizing is None or len(seg) == 0:
+    if len(seg) == 0:
         return empty
+    if sizing is None:
+        sid, t = np.zeros(0, np.int64), np.zeros(0)
+    else:
+        sid, t = _size_cuts(P, seg, sizing)
+    if beta is not None:
+        sid, t = feature_cuts(P, seg, sid, t, beta)
+    if len(sid) == 0:
+        return empty
+    a = P[seg[:, 0]]
+    d = P[seg[:, 1]] - a
+    pts = a[sid] + t[:, None] * d[sid]
+    c = seg_circle[sid]
+    on = c >= 0
+    if on.any():
+        cc = circles[c[on]]
+        v = pts[on] - cc[:, :2]
+        r = np.hypot(v[:, 0], v[:, 1])
+        pts[on] = cc[:, :2] + v * (cc[:, 2] / np.where(r > 0, r, 1))[:, None]
+    return pts, sid.astype(np.int64), t
+
+
+def _size_cuts(P, seg, sizing: _Sizing):
+    """Segment ids and parameters of the cuts making pieces no longer than h along them."""
     a = P[seg[:, 0]]
     b = P[seg[:, 1]]
     d = b - a
@@ -453,15 +484,7 @@ def _subdivide(P, seg, sizing: _Sizing | None, seg_circle: np.ndarray, circles: 
         hi_c = cum.ravel()[pos + 1]
         w = np.where(hi_c > lo_c, (target - lo_c) / np.where(hi_c > lo_c, hi_c - lo_c, 1), 0)
         t = (pos - sid * k + w) / (k - 1)
-    pts = a[sid] + t[:, None] * d[sid]
-    c = seg_circle[sid]
-    on = c >= 0
-    if on.any():
-        cc = circles[c[on]]
-        v = pts[on] - cc[:, :2]
-        r = np.hypot(v[:, 0], v[:, 1])
-        pts[on] = cc[:, :2] + v * (cc[:, 2] / np.where(r > 0, r, 1))[:, None]
-    return pts, sid.astype(np.int64), t
+    return sid.astype(np.int64), t
 
 
 # ---------------------------------------------------------------------------
@@ -868,14 +891,16 @@ def triangulate(
     if keep_boundary:
         newp, newsid, newpar = np.zeros((0, 2)), np.zeros(0, np.int64), np.zeros(0)
     else:
-        newp, newsid, newpar = _subdivide(P_in, seg_in, sizing, seg_circle, circle_arr)
+        beta = None if empty else TOL.feature
+        newp, newsid, newpar = _subdivide(P_in, seg_in, sizing, seg_circle, circle_arr, beta)
     P = np.concatenate([P_in, newp])
     pseg = np.concatenate([np.full(n_input, -1, np.int64), newsid])
     ppar = np.concatenate([np.zeros(n_input), newpar])
     sub = _subsegments(seg_in, newsid, n_input)
+    adm = None
     if not keep_boundary:
         try:
-            P, pseg, ppar, sub = _admissible(P, pseg, ppar, sub, seg_in, seg_circle, circles)
+            P, pseg, ppar, sub, adm = _admissible(P, pseg, ppar, sub, seg_in, seg_circle, circles)
         except InputError as exc:  # indices of the subsegments: the domain's vertices
             raise located_in_domain(exc, dom, seg_in, sub[1], pseg) from None
     pseg = pseg.astype(np.int32)
@@ -898,7 +923,8 @@ def triangulate(
 
     # -- one Delaunay triangulation -----------------------------------------
     report(0.15, "Delaunay triangulation")
-    tri = delaunay(P)
+    # without pattern points, the admissible boundary's own triangulation is that of P
+    tri = adm.delaunay if adm is not None and n_lattice == 0 else delaunay(P)
     lap("delaunay")
 
     # -- segments and regions -----------------------------------------------
@@ -1029,10 +1055,11 @@ def triangulate(
 
 
 def _admissible(P, pseg, ppar, sub, seg_in, seg_circle, circles):
-    """Split subsegments until each is a Delaunay edge (§9.1.4, meshcore.delaunay.admissible)."""
+    """Split subsegments until each is a Delaunay edge (§9.1.4, meshcore.delaunay.admissible);
+    the last item returned is the :class:`~meshcore.delaunay.admissible.AdmissibleSegments`."""
     adm = admissible_segments(P, sub[0], circles=circles, segment_circle=seg_circle[sub[1]])
     if adm.added == 0:
-        return P, pseg, ppar, sub
+        return P, pseg, ppar, sub, adm
     sid = sub[1][adm.source]
     n = len(P)
     new_sid = np.empty(adm.added, np.int64)
@@ -1048,6 +1075,7 @@ def _admissible(P, pseg, ppar, sub, seg_in, seg_circle, circles):
         np.concatenate([pseg, new_sid]),
         np.concatenate([ppar, t]),
         (np.array(adm.segments, dtype=np.int64), sid),
+        adm,
     )
 
 

@@ -134,9 +134,23 @@ class TestQuadGrid:
 
     @pytest.mark.parametrize(
         "kw, loc",
-        [({"size": 1e-6}, ("size",)), ({"size": 0}, ("size",)), ({"layers": 0}, ("layers",))],
+        [
+            ({"size": 1e-6}, ("size",)),
+            ({"size": 0}, ("size",)),
+            ({"layers": 0}, ("layers",)),
+            # no square fits a thin strip, and the fallback's band would be about 2 / w
+            # triangles: refused before triangulating
+            ({"domain": [[0, 0], [1, 0], [1, 1e-5], [0, 1e-5]], "size": 0.025}, ("domain",)),
+            # a ring far denser than the grid: no projection, a band of 120k triangles
+            ({"domain": circle(0.5, 0.5, 0.5, 60_000), "size": 0.025}, ("domain",)),
+        ],
     )
     def test_bad_input(self, kw, loc):
+        kw = dict(kw)
+        ring = kw.pop("domain", None)
+        domain = square_with_hole() if ring is None else {"type": "Polygon", "coordinates": [ring]}
         with pytest.raises(InputError) as err:
-            quad_grid(square_with_hole(), **kw)
+            quad_grid(domain, **kw)
         assert tuple(err.value.errors[0]["loc"]) == loc
+        if ring is not None:
+            assert err.value.code == "too_many_cells" and "triangulate" in str(err.value)

@@ -447,6 +447,21 @@ class TestQuality:
         angles = triangle_angles(res.mesh.points, res.mesh.cells[0].data)
         assert angles.min() >= 30 - ANGLE_ROUNDING
 
+    def test_thin_strip_cut_before_refinement(self):
+        # the long sides are cut to 1.5 times the width before the triangulation
+        # (features.feature_cuts): refinement has nothing to split (it took 10 rounds)
+        w = 1e-4
+        strip = [[[0, 0], [1, 0], [1, w], [0, w]]]
+        domain = parse_domain({"type": "Polygon", "coordinates": strip})
+        res = triangulate(domain, size=0.05, min_angle=30)
+        assert_conforming(domain, res)
+        angles = triangle_angles(res.mesh.points, res.mesh.cells[0].data)
+        assert angles.min() >= 30 - ANGLE_ROUNDING
+        assert res.rounds == 0 and res.interior_points_added == 0
+        P = res.mesh.points
+        e = res.boundary_segments
+        assert np.hypot(*(P[e[:, 1]] - P[e[:, 0]]).T).max() <= 1.5 * w * (1 + 1e-9)
+
     def test_size_field_nearest_value_outside_its_points(self):
         # one field point: the same size everywhere, as `size`
         domain = parse_domain(l_shape())
