@@ -41,6 +41,14 @@ __all__ = ["feature_cuts", "point_segment_distance"]
 
 #: Rounds of halving at most (a piece is halved at most this many times).
 MAX_HALVINGS = 60
+#: Cut points made here at most; past it the cutting stops and refinement goes
+#: on from the pieces as they are (with its own runaway budget).
+MAX_CUTS = 1 << 24
+#: A feature nearer than this times the largest coordinate magnitude is within
+#: rounding of the piece (a vertex on a segment up to rounding): then nothing is
+#: cut here, and the admissible boundary names the vertex and the segment as
+#: given.
+RESOLUTION = 2.0**-40
 
 
 def point_segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray):
@@ -144,6 +152,8 @@ def feature_cuts(P: np.ndarray, seg: np.ndarray, sid: np.ndarray, t: np.ndarray,
     cstart = np.cumsum(ncand) - ncand
     Y0, Y1 = X0[pj], X1[pj]
     out_s, out_t = [np.zeros(0, np.int64)], [np.zeros(0)]  # the cuts made
+    made = 0
+    resolution = RESOLUTION * float(np.abs(P).max())
     root = np.flatnonzero(ncand > 0)
     a, b = t0[root], t1[root]
     for _ in range(MAX_HALVINGS):
@@ -163,19 +173,23 @@ def feature_cuts(P: np.ndarray, seg: np.ndarray, sid: np.ndarray, t: np.ndarray,
         dmax = np.full(len(root), np.inf)
         np.minimum.at(dmax, rows, dend)
         length = (b - a) * np.hypot(*D[s].T)
+        if (dmin <= resolution).any():
+            return sid.astype(np.int64), t
         cut = length > beta * dmin
         flat = cut & (dmax <= 2.0 * dmin)
         n = np.where(flat, np.ceil(length / (beta * np.where(flat, dmin, 1.0))), 1.0)
-        n = np.minimum(n, 1 << 40).astype(np.int64)
-        # flat pieces: n equal pieces at once
         fr = np.flatnonzero(flat)
-        m = n[fr] - 1
+        hr = np.flatnonzero(cut & ~flat)
+        made += float((n[fr] - 1).sum()) + len(hr)
+        if made > MAX_CUTS:
+            break
+        # flat pieces: n equal pieces at once
+        m = n[fr].astype(np.int64) - 1
         j = np.arange(m.sum()) - np.repeat(np.cumsum(m) - m, m) + 1
         u = np.repeat(a[fr], m) + j / np.repeat(n[fr], m) * np.repeat(b[fr] - a[fr], m)
         out_s.append(np.repeat(s[fr], m))
         out_t.append(u)
         # the others: halved, both halves again
-        hr = np.flatnonzero(cut & ~flat)
         mid = 0.5 * (a[hr] + b[hr])
         keep = (mid > a[hr]) & (mid < b[hr])
         hr, mid = hr[keep], mid[keep]

@@ -29,9 +29,9 @@ stars; at size 0.15 the partition's regions are about as small as ``size`` and 1
 of those 32 stars pass 1.5x, up to 2.9x); one of the issue's stars asserts 0.5, and
 a star with a 281-degree corner, opened, and a square with a spike of 4-6 degrees, away
 from its tip. Gears (6-12 teeth): the count within 1.5x at size 0.1 (its axis pruned
-more where it passed: a 12-tooth gear 2.46x -> 1.30x); not their quality (least down
-to 0.18, corners to 16 degrees on an 11-tooth gear at 0.1) nor the count at 0.15
-(1.68-2.47x on 6, 7 and 9 teeth).
+more where it passed: a 12-tooth gear 2.46x -> 1.30x); not their quality (least
+0.36-0.49 at 0.1, corners from 32.7 degrees since a crowded hub keeps only its cuts
+off the axis edges) nor the count at 0.15 (1.68-2.47x on 6, 7 and 9 teeth).
 """
 
 from __future__ import annotations
