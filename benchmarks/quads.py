@@ -49,9 +49,8 @@ curve) at the mesh size that gives about as many quads: least and mean
 quality (8.4), corner range, wall and CPU seconds. ``--poisson``: scikit-fem's Q1
 solution of a Poisson problem on the disk meshed by both methods at sizes
 0.2 to 0.025, its L2 and H1 errors and their rates per halving (2 and 1
-expected). ``--stars N SIZE``: ``quad_medial`` on the issue's first N random
-stars (5-60 vertices, radial jitter 10-80 %, a hole on every other one): count
-ratio, least quality and corner range away from input corners under 45 degrees.
+expected). ``quad_medial`` on the issue's random stars and on gears:
+``benchmarks/medial.py --quad-medial SIZE...``.
 """
 
 from __future__ import annotations
@@ -510,53 +509,6 @@ def _curved_row(name, size, label, r):
     )
 
 
-def stars_main(count: int, size: float) -> None:
-    """``--stars N SIZE``: ``quad_medial`` on the issue's first N random stars, per star
-    the count over area / size**2, and away from the quads at input corners under 45
-    degrees (forced: one quad holds such a corner) the least quality (8.4), the quads
-    under 0.5 and the corner range; then a summary line (on how many stars each of the
-    issue's facts holds). Gmsh a8r3 is not run: its full-quad recombination fails on
-    these polygons ("1D mesh cannot be divided by 2")."""
-    from meshcore.domain.planar import parse_domain
-    from meshcore.medial import quad_medial
-    from meshcore.mesh import quality
-    from tests.meshcore.quads.stars import issue_star
-
-    print(f"{_load()}\n")
-    print(
-        "| star | vertices | jitter | count / (area / size²) | least Q | Q < 0.5 | corners "
-        "| seconds |"
-    )
-    print("|---:|---:|---:|---:|---:|---:|---|---:|")
-    rows = []
-    for seed in range(count):
-        geo, n, jitter = issue_star(seed)
-        dom = parse_domain(geo)
-        t0 = time.process_time()
-        res = quad_medial(dom, size=size)
-        sec = time.process_time() - t0
-        P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
-        sharp = np.zeros(len(P), bool)
-        for x in dom.points[np.flatnonzero(dom.corner_angles() < 45)]:  # a loop over the spikes
-            sharp |= (P == x).all(axis=1)
-        ok = ~sharp[Q].any(axis=1)
-        q = quality.quad_quality(P, Q)[ok]
-        ang = quality.quad_angles(P, Q)[ok]
-        rows.append((len(Q) * size**2 / dom.area, q.min(), ang.min(), ang.max(), (q < 0.5).sum()))
-        print(
-            f"| {seed} | {n} | {jitter:.2f} | {rows[-1][0]:.2f} | {q.min():.3f} | {rows[-1][4]} | "
-            f"{ang.min():.0f}-{ang.max():.0f} | {sec:.2f} |",
-            flush=True,
-        )
-    r, q, lo, hi, under = (np.array(c) for c in zip(*rows, strict=True))
-    print(
-        f"\n{count} stars at size {size}: count {r.min():.2f}-{r.max():.2f}x (over 1.5x on "
-        f"{(r > 1.5).sum()}), least Q {q.min():.3f}-{q.max():.3f} (>= 0.5 on {(q >= 0.5).sum()}, "
-        f">= 0.3 on {(q >= 0.3).sum()}), corners in [30, 150] on "
-        f"{((lo >= 30) & (hi <= 150)).sum()}, quads under 0.5: {under.sum()}"
-    )
-
-
 def poisson_child(tool: str, size: float) -> dict:
     """L2 and H1 errors of scikit-fem's Q1 solution of -lap u = f on the disk
     (u = sin(pi x) sin(pi y) + x y, Dirichlet data from u at the boundary nodes)."""
@@ -668,7 +620,6 @@ def main() -> None:
     ap.add_argument("--domains", nargs="*", default=None, help="--curved: only these domains")
     ap.add_argument("--curved-child", nargs=3, metavar=("TOOL", "DOMAIN", "SIZE"))
     ap.add_argument("--poisson", action="store_true", help="Q1 Poisson convergence on the disk")
-    ap.add_argument("--stars", nargs=2, metavar=("N", "SIZE"), help="quad_medial on random stars")
     ap.add_argument("--poisson-child", nargs=2, metavar=("TOOL", "SIZE"))
     args = ap.parse_args()
     if args.poisson_child:
@@ -676,9 +627,6 @@ def main() -> None:
         return
     if args.poisson:
         poisson_main(args.timeout)
-        return
-    if args.stars:
-        stars_main(int(args.stars[0]), float(args.stars[1]))
         return
     if args.curved_child:
         tool, name, size = args.curved_child

@@ -25,6 +25,17 @@ from tests.meshcore.partition.test_recursive import (
 )
 
 
+def quad_partition_stuck(real):
+    """``partition_polygon`` that gives no cells in quad mode (as when it is stuck)."""
+
+    def stuck(points, loops, ring_polygon, sizes, *, quad, strategy="balanced", **kw):
+        if quad:
+            return points, None, None
+        return real(points, loops, ring_polygon, sizes, quad=quad, strategy=strategy)
+
+    return stuck
+
+
 class TestBadInput:
     @pytest.mark.parametrize("size", [0, -1, float("inf")])
     def test_size_is_named(self, size):
@@ -175,13 +186,7 @@ def test_guaranteed_route_when_the_closure_is_stuck(monkeypatch):
     monkeypatch.setattr(advancing_front, "_pave", pave)
     # force the even closure to fail: the rows are taken back (the evened rows too),
     # then the whole mesh is made at 2.5 h with a triangle closure and split into quads
-    real = advancing_front.partition_polygon
-
-    def stuck(points, loops, ring_polygon, sizes, *, quad, strategy="balanced", **kw):
-        if quad:
-            return points, None, None
-        return real(points, loops, ring_polygon, sizes, quad=quad, strategy=strategy)
-
+    stuck = quad_partition_stuck(advancing_front.partition_polygon)
     monkeypatch.setattr(advancing_front, "partition_polygon", stuck)
     monkeypatch.setattr(paving_fronts, "partition_polygon", stuck)
     # the closure's local rescues of stuck polygons are stuck too
@@ -278,13 +283,7 @@ class TestFrontsMeeting:
         _closes(Q, loop, cells)
         # the closure with every quad partition and local rescue stuck: stuck as a
         # whole, then the polygon's own coarse split (the local guaranteed route)
-        real = paving_fronts.partition_polygon
-
-        def stuck(points, loops, ring_polygon, sizes, *, quad, strategy="balanced", **kw):
-            if quad:
-                return points, None, None
-            return real(points, loops, ring_polygon, sizes, quad=quad, strategy=strategy)
-
+        stuck = quad_partition_stuck(paving_fronts.partition_polygon)
         monkeypatch.setattr(paving_fronts, "partition_polygon", stuck)
         monkeypatch.setattr(paving_fronts, "_ring", lambda *args: None)
         none = np.zeros((0, 4), np.int64)
