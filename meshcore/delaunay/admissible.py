@@ -233,6 +233,7 @@ from meshcore.delaunay.kernel2d import (
 )
 from meshcore.domain.planar import Domain
 from meshcore.errors import AlgorithmError, InputError
+from meshcore.geometry.constructions import point_segment_distance
 from meshcore.geometry.predicates import dot2d, orient2d
 from meshcore.mesh import CellBlock, Mesh
 
@@ -707,14 +708,6 @@ def _acute_ends(P: np.ndarray, S: np.ndarray) -> np.ndarray:
     return acute.reshape(m, 2)
 
 
-def _point_segment_distance(X: np.ndarray, U: np.ndarray, V: np.ndarray) -> np.ndarray:
-    d = V - U
-    ll = np.einsum("ij,ij->i", d, d)
-    t = np.clip(np.einsum("ij,ij->i", X - U, d) / ll, 0.0, 1.0)
-    foot = U + t[:, None] * d
-    return np.hypot(X[:, 0] - foot[:, 0], X[:, 1] - foot[:, 1])
-
-
 def _segment_reach(P, S, reach, verts, scale, tol) -> np.ndarray:
     """``reach`` lowered to the distance from each vertex to the nearest
     segment of ``S`` not incident to it, where that is closer.
@@ -753,7 +746,7 @@ def _lower_reach(reach, q, seg, X, U, V, S, verts) -> None:
     keep = (S[seg, 0] != verts[q]) & (S[seg, 1] != verts[q])
     q, seg = q[keep], seg[keep]
     if q.size:
-        d = _point_segment_distance(X[q], U[seg], V[seg])
+        d = point_segment_distance(X[q], U[seg], V[seg])[0]
         np.minimum.at(reach, q, d)
 
 
@@ -1129,7 +1122,7 @@ def _split_round(st: _Pieces, missing, scale, circles, tol, round_no) -> None:
         reach = _segment_reach(P, S, reach, verts, scale, tol)
         q, near_rows = st.edge_pieces_near(verts, reach)
         if q.size:
-            d = _point_segment_distance(P[verts[q]], P[st.a[near_rows]], P[st.b[near_rows]])
+            d = point_segment_distance(P[verts[q]], P[st.a[near_rows]], P[st.b[near_rows]])[0]
             np.minimum.at(reach, q, d)
         r = _protection_bounds(P, *st.end_pieces(verts), reach, verts)
         np.minimum.at(r, inv, x)

@@ -13,7 +13,7 @@ import numpy as np
 
 from meshcore.errors import InputError
 
-__all__ = ["circumcenter", "circumradius"]
+__all__ = ["circumcenter", "circumradius", "point_segment_distance"]
 
 
 def _triple(a, b, c) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -113,3 +113,19 @@ def circumradius(a, b, c) -> np.ndarray:
     """
     u, _ = _offset(a, b, c)
     return np.hypot(u[..., 0], u[..., 1])
+
+
+def point_segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray):
+    """Distance from each point ``q`` (n, 2) to the segment ``(a[i], b[i])`` (rows), and
+    the parameter of the segment's nearest point (0 at ``a``, 1 at ``b``; 0 on a segment of
+    length 0).
+
+    Returns
+    -------
+    (n,) float64, (n,) float64
+        Distances, parameters. Rounded as the foot ``a + t (b - a)`` is.
+    """
+    d = b - a
+    dd = np.einsum("ij,ij->i", d, d)
+    t = np.clip(np.einsum("ij,ij->i", q - a, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
+    return np.hypot(*(a + t[:, None] * d - q).T), t

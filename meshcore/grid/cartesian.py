@@ -117,12 +117,12 @@ from scipy.spatial import cKDTree
 
 from meshcore.domain.planar import Domain, parse_domain, ray_parity
 from meshcore.errors import AlgorithmError, InputError
+from meshcore.geometry.constructions import point_segment_distance
 from meshcore.geometry.predicates import orient2d
 from meshcore.grid.band import outline_loops
 from meshcore.mesh import CellBlock, Mesh
 from meshcore.mesh.quality import quad_quality, triangle_shape
 from meshcore.mesh.topology import isin_ints, unique_ints
-from meshcore.triangulation.features import point_segment_distance
 from meshcore.triangulation.refinement import triangulate
 
 __all__ = ["MAX_CELLS", "GridResult", "grid"]

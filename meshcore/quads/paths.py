@@ -107,6 +107,18 @@ def stack_kernel(nb, w, w3, starts, start_edge, mate, triples):
 
 
 @njit(cache=True)
+def _enqueue_neighbours(nb, t, queued, queue, qt):
+    """Queue the neighbours of triangle ``t`` not queued yet; the new queue tail."""
+    for k in range(3):
+        r = nb[t, k]
+        if r >= 0 and not queued[r]:
+            queued[r] = True
+            queue[qt] = r
+            qt += 1
+    return qt
+
+
+@njit(cache=True)
 def frontal_kernel(nb, w, seeds, mate):
     """Remark 8.8: combine in breadth-first order from the boundary inward."""
     m = nb.shape[0]
@@ -144,16 +156,6 @@ def frontal_kernel(nb, w, seeds, mate):
                 mate[t] = s
                 mate[s] = t
                 pairs += 1
-                for k in range(3):
-                    r = nb[s, k]
-                    if r >= 0 and not queued[r]:
-                        queued[r] = True
-                        queue[qt] = r
-                        qt += 1
-        for k in range(3):
-            r = nb[t, k]
-            if r >= 0 and not queued[r]:
-                queued[r] = True
-                queue[qt] = r
-                qt += 1
+                qt = _enqueue_neighbours(nb, s, queued, queue, qt)
+        qt = _enqueue_neighbours(nb, t, queued, queue, qt)
     return pairs

@@ -37,7 +37,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-__all__ = ["feature_cuts", "point_segment_distance"]
+from meshcore.geometry.constructions import point_segment_distance
+
+__all__ = ["feature_cuts"]
 
 #: Rounds of halving at most (a piece is halved at most this many times).
 MAX_HALVINGS = 60
@@ -49,15 +51,6 @@ MAX_CUTS = 1 << 24
 #: cut here, and the admissible boundary names the vertex and the segment as
 #: given.
 RESOLUTION = 2.0**-40
-
-
-def point_segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray):
-    """Distance from each ``q`` (n, 2) to segment ``(a, b)`` (rows) and the parameter
-    (0 at ``a``, 1 at ``b``) of the nearest point."""
-    d = b - a
-    dd = np.einsum("ij,ij->i", d, d)
-    t = np.clip(np.einsum("ij,ij->i", q - a, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
-    return np.hypot(*(a + t[:, None] * d - q).T), t
 
 
 def _segment_distance(a0, a1, b0, b1) -> np.ndarray:
