@@ -5,7 +5,7 @@ each take the next task as soon as they are free: the kernels the API process
 runs on a request (the domain checks of a submit, the big-body parser, the
 previews and download writers), then every step of the job fork server's
 warm-up (:data:`service.executors.preload.STEPS`), the 3D methods on small
-surfaces, and every method example of the service's registry through the job
+surfaces, Coupez's 2D generation, and every method example of the service's registry through the job
 runner, as a job would. The API kernels come first, and the file named
 ``API_READY`` is created as soon as they are in the cache: the service tests
 that run no method kernel wait only for them (every pytest worker compiled
@@ -58,10 +58,22 @@ def _three_d() -> None:
     optimize(surface={"points": sphere_points.tolist(), "triangles": sphere_triangles.tolist()})
 
 
+def _optimize_2d() -> None:
+    """Coupez's 2D generation, with and without insertion (the registry's example is 3D):
+    the tests of four workers compiled its kernels at once otherwise."""
+    from meshcore.domain.planar import parse_domain
+    from meshcore.optimize import optimize
+
+    rings = [[[0, 0], [4, 0], [4, 4], [0, 4]], [[1, 1], [1, 2], [2, 2], [2, 1]]]
+    domain = parse_domain({"type": "Polygon", "coordinates": rings})
+    optimize(domain=domain, insert_points=False)
+    optimize(domain=domain, size=0.4, keep_boundary=False)
+
+
 def _tasks() -> list[str]:
     steps = [name for name, _ in STEPS]
     examples = sorted(default_registry())
-    return ["api", "3d", *steps, *examples]
+    return ["api", "3d", *steps, "optimize 2d", *examples]
 
 
 def _run(task: str) -> str:
@@ -73,6 +85,8 @@ def _run(task: str) -> str:
             _api()
         elif task == "3d":
             _three_d()
+        elif task == "optimize 2d":
+            _optimize_2d()
         else:
             spec = default_registry()[task]
             run_job(spec, json.dumps(spec.example).encode(), lambda *_: None, ("vtu",))
