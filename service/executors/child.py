@@ -49,6 +49,7 @@ from pathlib import Path
 from typing import Any
 
 from service.executors import Task
+from service.methods.registry import METHOD_CODE
 from service.problems import problem_document
 from service.runner import JobFailed, run_job
 
@@ -67,12 +68,14 @@ NICE_AFTER = 0.1
 # main-module fixup). ``service.cli`` (``meshservice`` and ``python -m service``) imports the
 # batch client's httpx: each job's process imported it again, about 70 ms of CPU, two thirds
 # of a small job's CPU, in the spare that the next job takes. Preloaded, that costs nothing.
+# The methods' meshcore code (METHOD_CODE), which the API process does not import, too.
 PRELOAD = [
     "fastapi",
     "uvicorn",
     "service.cli",
     "service.executors.child",
     "service.methods.registry",
+    *METHOD_CODE,
     "service.executors.preload",
 ]
 
