@@ -4,7 +4,10 @@ Each params model refuses, with the field's location, what JSON Schema can
 say (choices, signs, NaN and infinities); its :meth:`check` runs meshcore's
 own checks before the job is queued: the domain (every error of
 ``triangulate``'s domain, located under ``domain`` or ``segments``) and the
-grid's size against ``max_cells`` (a 422 on ``size`` giving the estimate).
+grid's size against ``max_cells`` (a 422 on ``size`` giving the estimate);
+``quad_grid``'s also refuses a fallback band past its bound where the grid
+alone tells that the projection cannot apply
+(:func:`meshcore.grid.superposition.check_band`).
 
 meshcore's method packages are imported in the functions that use them (see
 :mod:`service.methods.registry`).
@@ -129,7 +132,7 @@ class QuadGridParams(MethodParams):
     max_cells: int = Field(MAX_CELLS, ge=1, le=MAX_CELLS)
 
     def check(self) -> None:
-        from meshcore.grid import cartesian
+        from meshcore.grid import cartesian, superposition
 
         super().check()
         dom = self.domain.to_domain(self.segments)
@@ -144,6 +147,8 @@ class QuadGridParams(MethodParams):
                     loc=("size",),
                     code="too_many_cells",
                 )
+        # the fallback band's refusal, where the grid alone decides it (else in the job)
+        superposition.check_band(dom, size=self.size, layers=self.layers, max_cells=self.max_cells)
 
 
 def run_quad_grid(params: QuadGridParams, progress: Progress) -> dict:
