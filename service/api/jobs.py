@@ -17,12 +17,10 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.sse import EventSourceResponse, ServerSentEvent
 from pydantic import ConfigDict, Field, TypeAdapter, ValidationError, create_model
 
-from meshcore.errors import InputError
-from meshcore.mesh.formats import FORMATS
 from service import bodies, downloads
 from service.deps import ClientDep, JobDep, ManagerDep, SettingsDep, StoreDep
 from service.methods.domain_schema import ARRAYS, PACK, pack_arrays, write_npz
-from service.methods.registry import Registry
+from service.methods.registry import FORMATS, InputError, Registry
 from service.problems import (
     Damaged,
     Gone,

@@ -26,6 +26,7 @@ from typing import Any
 
 from meshcore.errors import InputError as InputError  # re-exported: the API answers it as a 422
 from meshcore.mesh import io, quality
+from meshcore.mesh.formats import FORMATS as FORMATS  # re-exported: the download formats
 from service.methods import (
     delaunay,
     grid,
