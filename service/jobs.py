@@ -35,10 +35,6 @@ from service.store import DiskFull, Job, Store
 #: Submits admitted at once (:meth:`JobManager.admission`): enough to keep the threads
 #: that parse, check and store busy.
 SUBMITS_AT_ONCE = 4
-#: Results of at most this many bytes are written on the event loop (without ``durable``'s
-#: fsync): the two thread hops of a write elsewhere cost more, a quarter of a small job's
-#: round trip on a busy machine.
-INLINE_RESULT = 1 << 16
 
 log = logging.getLogger("meshservice.jobs")
 
@@ -297,10 +293,7 @@ class JobManager:
                 self.settings.job_time_limit,
             )
             try:
-                if self.store.durable or sum(map(len, result.values())) > INLINE_RESULT:
-                    await asyncio.to_thread(self.store.write_results, job_id, result)
-                else:
-                    self.store.write_results(job_id, result)
+                await asyncio.to_thread(self.store.write_results, job_id, result)
             except DiskFull as exc:
                 raise JobFailed(
                     problem_document(
