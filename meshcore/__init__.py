@@ -5,8 +5,9 @@ kernel (:mod:`.geometry`, :mod:`.mesh`, :mod:`.domain`, :mod:`.delaunay`)
 below one package per method family (:mod:`.triangulation`,
 :mod:`.product`, :mod:`.quads`, :mod:`.medial`, :mod:`.grid`, :mod:`.partition`,
 :mod:`.optimize`, :mod:`.tets`). Each method's entry point is re-exported
-here, loaded on first use so that ``import meshcore`` stays
-cheap::
+here, loaded on first use (as are :class:`~meshcore.mesh.Mesh`,
+``CellBlock`` and ``CELL_TYPES``) so that ``import meshcore`` stays cheap
+(the standard library only)::
 
     from meshcore import parse_domain, triangulate, medial_axis, extrude
 
@@ -22,9 +23,11 @@ from __future__ import annotations
 import importlib
 
 from meshcore.errors import AlgorithmError, Cancelled, InputError, MeshcoreError
-from meshcore.mesh import CELL_TYPES, CellBlock, Mesh
 
 _ENTRY_POINTS = {
+    "CELL_TYPES": "meshcore.mesh",
+    "CellBlock": "meshcore.mesh",
+    "Mesh": "meshcore.mesh",
     "parse_domain": "meshcore.domain",
     "parse_surface": "meshcore.domain",
     "tetrahedralize": "meshcore.tets",
@@ -47,20 +50,11 @@ _ENTRY_POINTS = {
     "report": "meshcore.mesh.quality",
 }
 
-__all__ = [
-    "CELL_TYPES",
-    "AlgorithmError",
-    "Cancelled",
-    "CellBlock",
-    "InputError",
-    "Mesh",
-    "MeshcoreError",
-    *_ENTRY_POINTS,
-]
+__all__ = ["AlgorithmError", "Cancelled", "InputError", "MeshcoreError", *_ENTRY_POINTS]
 
 
 def __getattr__(name: str):
-    """The entry point ``name``, imported from its family's package on first use."""
+    """The entry point or mesh type ``name``, imported from its package on first use."""
     if name in _ENTRY_POINTS:
         value = getattr(importlib.import_module(_ENTRY_POINTS[name]), name)
         globals()[name] = value

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TextIO
 
-from meshcore.mesh.io import FORMATS
+from meshcore.mesh.formats import FORMATS
 from service.client import MeshClient, ServiceError
 
 

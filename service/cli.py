@@ -14,7 +14,7 @@ from pathlib import Path
 
 from pydantic import ValidationError
 
-from meshcore.mesh.io import FORMATS
+from meshcore.mesh.formats import FORMATS
 from service.client import ServiceError
 
 

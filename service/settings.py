@@ -16,6 +16,8 @@ from pathlib import Path
 from pydantic import Field, field_validator, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from meshcore.mesh.formats import FORMATS
+
 
 def _default_memory_limit() -> int:
     """Half the machine's memory: one job must not take the whole machine down."""
@@ -113,8 +115,6 @@ class Settings(BaseSettings):
     @field_validator("job_formats")
     @classmethod
     def _known_formats(cls, value: str) -> str:
-        from meshcore.mesh.io import FORMATS
-
         unknown = [f for f in _split(value) if f not in FORMATS]
         if unknown:
             raise ValueError(

@@ -134,7 +134,7 @@ from meshcore.quads.combination import combine
 from meshcore.quads.optimization import optimize_quads
 from meshcore.triangulation import estimated_triangles
 
-__all__ = ["quad_grid"]
+__all__ = ["check_band", "quad_grid"]
 
 #: A ring vertex turning by more than 60 degrees (cosine of the turn below
 #: this) is a sharp convex corner: it gets the corner pattern.
@@ -361,14 +361,22 @@ def _bad_pairs(C, node, B):
     return ~ok & (node[a] != node[b])
 
 
-def _projected_band(dom: Domain, P: np.ndarray, core: np.ndarray, h: float, layers: int):
-    """The band's points (appended to ``P``) and quads by projection, or the reason it fails."""
-    n = len(P)
-    edges, _, _, _ = _outline([core], n)
-    loops = outline_loops(edges, n)
-    pairs = _pair_loops(dom, P, loops, h)
+def _paired_loops(dom: Domain, P: np.ndarray, core: np.ndarray, h: float):
+    """The core's outline loops paired with the domain's rings (step 2's start), or None and
+    the reason the projection cannot apply that the grid alone tells."""
+    if not len(core):
+        return None, "no grid cell lies far enough inside the domain"
+    edges, _, _, _ = _outline([core], len(P))
+    pairs = _pair_loops(dom, P, outline_loops(edges, len(P)), h)
     if pairs is None:
         return None, "the outline's loops and the domain's rings are not one to one"
+    return pairs, ""
+
+
+def _projected_band(dom: Domain, P: np.ndarray, pairs: list, h: float, layers: int):
+    """The band's points (appended to ``P``) and quads by projecting each paired loop onto
+    its ring, or the reason it fails."""
+    n = len(P)
     new_pts, quads = [], []
     base = n
     L = layers
@@ -465,10 +473,16 @@ def _triangulated_band(dom: Domain, h: float, layers: int, smooth: bool):
     return mesh.points, Q[inner], Q[rest]
 
 
+def _fallback_estimate(dom: Domain) -> tuple[int, int]:
+    """The fallback band's estimated triangles, and those the angle bound forces in thin
+    parts."""
+    forced = estimated_triangles(dom)
+    return forced + 2 * len(dom.points), forced
+
+
 def _check_fallback(dom: Domain, why: str) -> None:
     """Refuse a fallback band estimated above MAX_FALLBACK_TRIANGLES triangles."""
-    forced = estimated_triangles(dom)  # what the angle bound forces in thin parts
-    est = forced + 2 * len(dom.points)
+    est, forced = _fallback_estimate(dom)
     if est > MAX_FALLBACK_TRIANGLES:
         thin = f", {forced:,} of them forced by its thin parts" if forced > len(dom.points) else ""
         raise InputError(
@@ -502,6 +516,20 @@ def _core(dom: Domain, h: float, layers: int):
     nodes = np.arange(nx1 * (ny + 1))
     pts = frame.world(np.column_stack([nodes % nx1, nodes // nx1]).astype(np.float64))
     return quads, pts
+
+
+def _layers(layers) -> int:
+    if (
+        isinstance(layers, bool)
+        or not isinstance(layers, (int, np.integer))
+        or not 1 <= layers <= 8
+    ):
+        raise InputError(
+            f"layers must be an integer from 1 to 8, got {layers!r}",
+            loc=("layers",),
+            code="bad_parameter",
+        )
+    return int(layers)
 
 
 def _size(dom: Domain, size, max_cells: int) -> float:
@@ -580,22 +608,13 @@ def quad_grid(
     """
     t0 = time.process_time()
     dom = _as_domain(domain)
-    if (
-        isinstance(layers, bool)
-        or not isinstance(layers, (int, np.integer))
-        or not 1 <= layers <= 8
-    ):
-        raise InputError(
-            f"layers must be an integer from 1 to 8, got {layers!r}",
-            loc=("layers",),
-            code="bad_parameter",
-        )
+    layers = _layers(layers)
     h = _size(dom, size, max_cells)
-    layers = int(layers)
     core, P = _core(dom, h, layers)
-    got, why = (None, "no grid cell lies far enough inside the domain")
-    if len(core):
-        got, why = _projected_band(dom, P, core, h, layers)
+    pairs, why = _paired_loops(dom, P, core, h)
+    got = None
+    if pairs is not None:
+        got, why = _projected_band(dom, P, pairs, h, layers)
     if progress is not None:
         progress(0.5, "quad_grid: the band")
     if got is not None:
@@ -645,3 +664,35 @@ def quad_grid(
         "domain_area": dom.area,
     }
     return GridResult(mesh=mesh, stats=stats, timings={"total": time.process_time() - t0})
+
+
+def check_band(
+    domain, *, size: float | None = None, layers: int = 1, max_cells: int = MAX_CELLS
+) -> None:
+    """Raise now the refusal of :func:`quad_grid` that the grid alone decides, if any.
+
+    :func:`quad_grid` refuses (``InputError`` ``too_many_cells`` at
+    ``domain``) when the projection does not apply and the fallback band
+    would be past :data:`MAX_FALLBACK_TRIANGLES`. The estimate depends on the
+    domain only; whether the projection applies is known from the grid (step
+    1) when no square lies far enough inside or the core's loops and the
+    domain's rings are not one to one, and otherwise only by projecting.
+    This raises exactly the error :func:`quad_grid` raises in the first two
+    cases (and the errors of a bad ``domain``, ``size`` or ``layers``), and
+    returns None otherwise: the service calls it before queueing a job. It
+    costs the estimate, plus the grid's core (linear in its cells) when the
+    estimate is past the bound.
+
+    References
+    ----------
+    Methods text §8.5.2 (module docstring, "Refused up front").
+    """
+    dom = _as_domain(domain)
+    layers = _layers(layers)
+    h = _size(dom, size, max_cells)
+    if _fallback_estimate(dom)[0] <= MAX_FALLBACK_TRIANGLES:
+        return
+    core, P = _core(dom, h, layers)
+    pairs, why = _paired_loops(dom, P, core, h)
+    if pairs is None:
+        _check_fallback(dom, why)

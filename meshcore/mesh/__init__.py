@@ -3,9 +3,21 @@
 :class:`Mesh` is points plus meshio-named cell blocks; :mod:`.topology`
 derives facets, boundaries and conformity (Definition 8.1);
 :mod:`.quality` holds every element measure and the report; :mod:`.io` is
-the only file-format code.
+the only file-format code (:mod:`.formats`, the formats' names, is plain data).
+
+``CELL_TYPES``, ``CellBlock`` and ``Mesh`` are loaded on first use, so that
+importing :mod:`.formats` does not load numpy and numba.
 """
 
-from meshcore.mesh.mesh import CELL_TYPES, CellBlock, Mesh
+import importlib
 
 __all__ = ["CELL_TYPES", "CellBlock", "Mesh"]
+
+
+def __getattr__(name: str):
+    """``CELL_TYPES``, ``CellBlock`` or ``Mesh``, imported from :mod:`.mesh` on first use."""
+    if name in __all__:
+        value = getattr(importlib.import_module("meshcore.mesh.mesh"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'meshcore.mesh' has no attribute {name!r}")

@@ -174,20 +174,83 @@ def router(registry: Registry) -> APIRouter:
             if paused:
                 gc.enable()
 
-    async def parsed_body(raw: bytes | bytearray) -> Any:
-        """The body parsed and validated in one pass from its bytes, off the event loop
-        (a 422 naming the place in the body otherwise).
+    def parsed_body(raw: bytes | bytearray) -> Any:
+        """The body parsed and validated in one pass from its bytes (a 422 naming the
+        place in the body otherwise).
 
         A million-vertex domain is 40 MB of JSON; parsing it to Python
         objects first and validating those after would hold both at once.
         """
         try:
-            return await asyncio.to_thread(validate, raw)
+            return validate(raw)
         except ValidationError as exc:
             errors = [{**e, "loc": ("body", *e["loc"])} for e in exc.errors()]
             loc = errors[0]["loc"] if errors else ()
             method = loc[1] if len(loc) > 1 and loc[1] in registry else None
             raise RequestValidationError(errors, body={"method": method}) from None
+
+    def admit(
+        held: list[bytes | bytearray],
+        store: Any,
+        settings: Any,
+        client: str,
+        idempotency_key: str | None,
+    ) -> tuple[Job, str, bool]:
+        """Parse, validate, check, store and commit a submitted job (blocking: one call off
+        the event loop from the body's bytes to the committed row); the job, the body's
+        hash and whether the job is new. A repeated ``Idempotency-Key`` gives the first
+        job (not new) without the deep checks.
+
+        ``held`` holds the body's only reference (tens of MB for a big domain): it is
+        taken out, so the body is freed as soon as it is parsed.
+        """
+        body = parsed_body(held.pop())
+        params = body.params
+        packed: dict = {}  # domains, surfaces: arrays apart (pack), a marker in the JSON
+        params_json = params.model_dump_json(context={PACK: packed}).encode()
+        digest = hashlib.sha256(body.method.encode() + b"\0" + params_json)
+        for model in packed.values():
+            for arr in model.content_arrays():
+                digest.update(len(arr).to_bytes(8, "little"))
+                digest.update(np.ascontiguousarray(arr))
+        body_hash = digest.hexdigest()
+        job = store.by_idempotency_key(client, idempotency_key) if idempotency_key else None
+        if job is not None:
+            return job, body_hash, False
+        try:  # deep checks (a million-vertex domain takes a while)
+            params.check()
+        except InputError as exc:
+            raise from_input_error(exc, "body", "params") from None
+        points = params.point_count()
+        if points > settings.max_points:
+            raise TooLarge(
+                f"the job has {points} input points; this service takes at most "
+                f"{settings.max_points} (MESHSERVICE_MAX_POINTS)"
+            )
+        too_many = TooManyJobs(
+            f"you have {settings.max_queued} unfinished jobs (MESHSERVICE_MAX_QUEUED); "
+            "wait for some to finish",
+            headers={"Retry-After": "5"},
+        )
+        if store.unfinished_count(client) >= settings.max_queued:  # early, before writing
+            raise too_many
+        try:
+            job_id = _store_params(store, params_json, packed)
+        except DiskFull as exc:
+            raise InsufficientStorage(
+                f"the job could not be stored: {exc}; try again later"
+            ) from None
+        job = store.create(  # counts again and inserts in one statement
+            job_id,
+            client=client,
+            method=body.method,
+            idempotency_key=idempotency_key,
+            body_hash=body_hash,
+            max_unfinished=settings.max_queued,
+        )
+        if job is None:
+            raise too_many
+        return job, body_hash, job.id == job_id  # another request with this key committed first
 
     @api.post(
         "",
@@ -224,59 +287,14 @@ def router(registry: Registry) -> APIRouter:
         body and answers 422 for a different one; an empty key is no key.
         """
         idempotency_key = idempotency_key or None
-        replayed = False
-        raw = await _read_body(request)  # before admission: a slow sender holds no slot
+        held = [await _read_body(request)]  # before admission: a slow sender holds no slot
         async with manager.admission():  # a status read keeps its turn in a burst
-            body = await parsed_body(raw)
-            del raw
-            params = body.params
-            packed: dict = {}  # domains, surfaces: arrays apart (pack), a marker in the JSON
-            params_json = params.model_dump_json(context={PACK: packed}).encode()
-            digest = hashlib.sha256(body.method.encode() + b"\0" + params_json)
-            for model in packed.values():
-                for arr in model.content_arrays():
-                    digest.update(len(arr).to_bytes(8, "little"))
-                    digest.update(np.ascontiguousarray(arr))
-            body_hash = digest.hexdigest()
-            job = store.by_idempotency_key(client, idempotency_key) if idempotency_key else None
-            if job is not None:
-                replayed = True
-            else:
-                try:  # deep checks (a million-vertex domain takes a while): off the event loop
-                    await asyncio.to_thread(params.check)
-                except InputError as exc:
-                    raise from_input_error(exc, "body", "params") from None
-                points = params.point_count()
-                if points > settings.max_points:
-                    raise TooLarge(
-                        f"the job has {points} input points; this service takes at most "
-                        f"{settings.max_points} (MESHSERVICE_MAX_POINTS)"
-                    )
-                too_many = TooManyJobs(
-                    f"you have {settings.max_queued} unfinished jobs (MESHSERVICE_MAX_QUEUED); "
-                    "wait for some to finish",
-                    headers={"Retry-After": "5"},
-                )
-                if store.unfinished_count(client) >= settings.max_queued:  # early, before writing
-                    raise too_many
-                try:
-                    job_id = await asyncio.to_thread(_store_params, store, params_json, packed)
-                except DiskFull as exc:
-                    raise InsufficientStorage(
-                        f"the job could not be stored: {exc}; try again later"
-                    ) from None
-                job = store.create(  # counts again and inserts in one statement
-                    job_id,
-                    client=client,
-                    method=body.method,
-                    idempotency_key=idempotency_key,
-                    body_hash=body_hash,
-                    max_unfinished=settings.max_queued,
-                )
-                if job is None:
-                    raise too_many
-                replayed = job.id != job_id  # another request with this key committed first
-                manager.wake()
+            job, body_hash, new = await asyncio.to_thread(
+                admit, held, store, settings, client, idempotency_key
+            )
+        if new:
+            manager.wake()
+        replayed = not new
         if replayed:
             response.headers["Idempotent-Replayed"] = "true"
         if job.body_hash != body_hash:

@@ -7,9 +7,10 @@ interpreter and dies alone: a segfault, ``os._exit`` or the out-of-memory
 killer fails that job with the reason, and the next job gets a new process
 (``ProcessPoolExecutor`` instead breaks every job once one child dies). The
 child gets an address-space limit and a CPU-time limit and dies with its
-parent (``PR_SET_PDEATHSIG``), and runs at a lower CPU priority than the API
-(:data:`JOB_NICE`): with every core busy with jobs, status reads and event
-streams still answer at once. Progress and the result come back over a
+parent (``PR_SET_PDEATHSIG``). It runs at the API's CPU priority for its first
+:data:`NICE_AFTER` seconds, so that a small job answers at once on a busy
+machine, then at a lower one (:data:`JOB_NICE`): with every core busy with
+jobs, status reads and event streams still answer at once. Progress and the result come back over a
 pipe. The call blocks; it kills the child as soon as ``should_stop()``
 turns true (cancellation, time limit, shutdown) and raises :class:`Stopped`.
 
@@ -48,24 +49,33 @@ from pathlib import Path
 from typing import Any
 
 from service.executors import Task
+from service.methods.registry import METHOD_CODE
 from service.problems import problem_document
 from service.runner import JobFailed, run_job
 
 log = logging.getLogger("meshservice.child")
 
-PROGRESS_INTERVAL = 0.1  # seconds between progress messages a job sends
+#: Seconds between progress messages a job sends, the first one this long after it starts:
+#: a small job sends none, only its answer (each message wakes the API and writes the row).
+PROGRESS_INTERVAL = 0.1
 #: Niceness added to a job's process: the API (and a Dask worker's own threads) run first.
 JOB_NICE = 10
+#: Seconds a job runs at the API's priority before :data:`JOB_NICE` is added to it: on a
+#: machine busy with other work, a small job at +10 waited behind it for most of its round
+#: trip (its few ms of CPU took 20 ms).
+NICE_AFTER = 0.1
 # The server's main module's imports too: a forked child re-runs that module (multiprocessing's
 # main-module fixup). ``service.cli`` (``meshservice`` and ``python -m service``) imports the
 # batch client's httpx: each job's process imported it again, about 70 ms of CPU, two thirds
 # of a small job's CPU, in the spare that the next job takes. Preloaded, that costs nothing.
+# The methods' meshcore code (METHOD_CODE), which the API process does not import, too.
 PRELOAD = [
     "fastapi",
     "uvicorn",
     "service.cli",
     "service.executors.child",
     "service.methods.registry",
+    *METHOD_CODE,
     "service.executors.preload",
 ]
 
@@ -119,11 +129,10 @@ def die_with_parent() -> None:
 def job_body(task: Task, memory_limit: int, send: Callable[[tuple], None]) -> None:
     """Body of a job's process (forked or spawned): limits, run, send the outcome, exit."""
     die_with_parent()
-    os.nice(JOB_NICE)
     resource.setrlimit(resource.RLIMIT_AS, (memory_limit, memory_limit))
     cpu = int(task.time_limit) + 5
     resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 5))
-    last = 0.0
+    last = time.monotonic()
 
     def progress(fraction: float, message: str) -> None:
         nonlocal last
@@ -137,6 +146,32 @@ def job_body(task: Task, memory_limit: int, send: Callable[[tuple], None]) -> No
     except JobFailed as exc:
         send(("error", exc.problem))
     os._exit(0)  # the answer is sent: skip interpreter teardown
+
+
+def demotion(pid: int) -> Callable[[], None]:
+    """A function to call as job process ``pid`` runs: the first call :data:`NICE_AFTER`
+    seconds from now or later adds :data:`JOB_NICE` to the niceness of each of its threads
+    (Linux keeps one per thread), the others do nothing."""
+    at = time.monotonic() + NICE_AFTER
+    done = False
+
+    def demote() -> None:
+        nonlocal done
+        if done or time.monotonic() < at:
+            return
+        done = True
+        nice = os.getpriority(os.PRIO_PROCESS, 0) + JOB_NICE  # this thread's, the API's
+        try:
+            threads = [int(t) for t in os.listdir(f"/proc/{pid}/task")]
+        except OSError:  # it has ended
+            return
+        for tid in threads:
+            try:
+                os.setpriority(os.PRIO_PROCESS, tid, nice)
+            except OSError:  # that thread has ended
+                pass
+
+    return demote
 
 
 class Spares:
@@ -313,10 +348,13 @@ def run_in_child(
     except OSError:
         pass  # it died meanwhile: its exit code says why, below
     child.tasks.close()
+    demote = demotion(proc.pid)
     try:
         # Sequential by nature: one blocking reader per job's pipe.
         while True:
-            if not receiver.poll(poll):
+            ready = receiver.poll(poll)
+            demote()
+            if not ready:
                 if should_stop():
                     raise Stopped(task.job_id)
                 continue
@@ -343,12 +381,20 @@ def run_in_child(
             _reap(proc)
 
 
-def _frames(proc: subprocess.Popen, poll: float, should_stop: Callable[[], bool], job_id: str):
-    """The messages of a spawned job's stdout, checking ``should_stop`` every ``poll`` s."""
+def _frames(
+    proc: subprocess.Popen,
+    poll: float,
+    should_stop: Callable[[], bool],
+    demote: Callable[[], None],
+    job_id: str,
+):
+    """The messages of a spawned job's stdout, checking ``should_stop`` every ``poll`` s
+    and calling ``demote`` (:func:`demotion`) at each wake-up."""
     fd = proc.stdout.fileno()
     buffer = bytearray()
     while True:
         ready, _, _ = select.select([fd], [], [], poll)
+        demote()
         if not ready:
             if should_stop():
                 raise Stopped(job_id)
@@ -435,7 +481,8 @@ def run_in_subprocess(
     except BrokenPipeError:
         pass  # it died at once: its exit code says why, below
     try:
-        for kind, *payload in _frames(proc, poll, should_stop, task.job_id):
+        frames = _frames(proc, poll, should_stop, demotion(proc.pid), task.job_id)
+        for kind, *payload in frames:
             if kind == "progress":
                 progress(*payload)
             elif kind == "ok":

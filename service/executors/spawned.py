@@ -2,7 +2,7 @@
 
 :func:`service.executors.child.run_in_subprocess` starts it where
 ``multiprocessing`` may not start children (a stock Dask worker is a
-daemonic process): it imports every method first (it may wait as a spare
+daemonic process): it imports every method's code first (it may wait as a spare
 meanwhile), then reads one pickled ``(task, memory_limit)`` from stdin
 (none, at end of file: it exits), sets the same limits as a forked job
 (address space, CPU time, death with its parent), runs :func:`service.runner.run_job` and writes its
@@ -14,6 +14,7 @@ stream.
 
 from __future__ import annotations
 
+import importlib
 import os
 import pickle
 import struct
@@ -24,7 +25,10 @@ def main() -> None:
     out = os.fdopen(os.dup(sys.stdout.fileno()), "wb", buffering=0)
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())  # stray prints go to stderr
     from service.executors.child import die_with_parent, job_body
-    from service.methods import registry  # noqa: F401  (every method, before the job comes)
+    from service.methods.registry import METHOD_CODE
+
+    for name in METHOD_CODE:  # every method's code, before the job comes
+        importlib.import_module(name)
 
     die_with_parent()
     data = sys.stdin.buffer.read()

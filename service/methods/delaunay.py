@@ -6,6 +6,9 @@ the other checks before the job is queued: points of mixed dimensions
 (naming the first odd one), too few points, duplicates (naming both
 points), all points collinear (2D) or coplanar (3D), the last two with
 exact predicates.
+
+meshcore's method packages are imported in the functions that use them (see
+:mod:`service.methods.registry`).
 """
 
 from __future__ import annotations
@@ -15,7 +18,6 @@ import time
 import numpy as np
 from pydantic import Field
 
-from meshcore.delaunay import delaunay, delaunay3d
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.geometry.predicates3d import orient3d
@@ -113,6 +115,8 @@ def check_points(p: np.ndarray) -> None:
 
 def run_delaunay(params: DelaunayParams, progress: Progress) -> dict:
     """The triangles or tetrahedra, the hull facets as cell set ``hull``, and counts."""
+    from meshcore.delaunay import delaunay, delaunay3d
+
     p = params.array()
     t0 = time.perf_counter()
     if p.shape[1] == 2:

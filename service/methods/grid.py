@@ -4,7 +4,13 @@ Each params model refuses, with the field's location, what JSON Schema can
 say (choices, signs, NaN and infinities); its :meth:`check` runs meshcore's
 own checks before the job is queued: the domain (every error of
 ``triangulate``'s domain, located under ``domain`` or ``segments``) and the
-grid's size against ``max_cells`` (a 422 on ``size`` giving the estimate).
+grid's size against ``max_cells`` (a 422 on ``size`` giving the estimate);
+``quad_grid``'s also refuses a fallback band past its bound where the grid
+alone tells that the projection cannot apply
+(:func:`meshcore.grid.superposition.check_band`).
+
+meshcore's method packages are imported in the functions that use them (see
+:mod:`service.methods.registry`).
 """
 
 from __future__ import annotations
@@ -15,7 +21,6 @@ from typing import Annotated, Literal
 from pydantic import ConfigDict, Field, model_validator
 
 from meshcore.errors import InputError
-from meshcore.grid import cartesian, patterns, superposition
 from meshcore.mesh import quality
 from service.methods.domain_schema import (
     ConstraintPolylines,
@@ -27,6 +32,10 @@ from service.methods.triangulation import check_thinness
 from service.schemas import InputModel, MethodParams
 
 Progress = object  # the registry's Progress: callable(fraction, message)
+
+#: The largest grid, in cells of its bounding box: :data:`meshcore.grid.cartesian.MAX_CELLS`
+#: (equal, tests/service/test_imports.py).
+MAX_CELLS = 4_000_000
 
 
 class GridParams(MethodParams):
@@ -57,13 +66,15 @@ class GridParams(MethodParams):
         "quad", description="Squares, or each square as two right triangles."
     )
     max_cells: int = Field(
-        cartesian.MAX_CELLS,
+        MAX_CELLS,
         ge=1,
-        le=cartesian.MAX_CELLS,
+        le=MAX_CELLS,
         description="Largest number of cells of the grid's bounding box.",
     )
 
     def check(self) -> None:
+        from meshcore.grid import cartesian
+
         super().check()
         dom = self.domain.to_domain(self.segments)
         check_resolution(dom.points, self.size, ("size",))
@@ -92,6 +103,8 @@ class GridParams(MethodParams):
 
 def run_grid(params: GridParams, progress: Progress) -> dict:
     """The grid mesh, its quality report and the counts by kind and template."""
+    from meshcore.grid import cartesian
+
     res = cartesian.grid(**params.grid_kwargs(), progress=progress)
     stats = {**res.stats, "seconds": res.timings}
     return {"mesh": res.mesh, "quality": quality.report(res.mesh), "stats": stats}
@@ -116,9 +129,11 @@ class QuadGridParams(MethodParams):
         description="Optimize the band and two rings of squares along it: operators and "
         "smoothing that never inverts a cell; the boundary stays.",
     )
-    max_cells: int = Field(cartesian.MAX_CELLS, ge=1, le=cartesian.MAX_CELLS)
+    max_cells: int = Field(MAX_CELLS, ge=1, le=MAX_CELLS)
 
     def check(self) -> None:
+        from meshcore.grid import cartesian, superposition
+
         super().check()
         dom = self.domain.to_domain(self.segments)
         check_resolution(dom.points, self.size, ("size",))
@@ -132,10 +147,14 @@ class QuadGridParams(MethodParams):
                     loc=("size",),
                     code="too_many_cells",
                 )
+        # the fallback band's refusal, where the grid alone decides it (else in the job)
+        superposition.check_band(dom, size=self.size, layers=self.layers, max_cells=self.max_cells)
 
 
 def run_quad_grid(params: QuadGridParams, progress: Progress) -> dict:
     """The all-quad mesh, its quality report and the counts."""
+    from meshcore.grid import superposition
+
     res = superposition.quad_grid(
         params.domain.to_domain(params.segments),
         size=params.size,
@@ -216,6 +235,8 @@ class PatternParams(MethodParams):
     )
 
     def check(self) -> None:
+        from meshcore.grid import patterns
+
         super().check()
         check_thinness(self.domain.to_domain(self.segments))  # the gap is triangulated
         patterns.check_pattern(self.pattern.model_dump())
@@ -231,6 +252,8 @@ class PatternParams(MethodParams):
 
 def run_pattern(params: PatternParams, progress: Progress) -> dict:
     """The merged mesh (cell sets pattern and gap), its quality and the Figure 8.7 counts."""
+    from meshcore.grid import patterns
+
     res = patterns.pattern(**params.pattern_kwargs(), progress=progress)
     stats = {**res.stats, "seconds": res.timings}
     return {"mesh": res.mesh, "quality": quality.report(res.mesh), "stats": stats}

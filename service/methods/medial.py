@@ -7,6 +7,9 @@ applications of §9.7. Each params model refuses, with the field's location,
 what JSON Schema can say; its :meth:`check` runs the meshcore checks that
 need numpy and raises :class:`~meshcore.errors.InputError` located relative
 to the params.
+
+meshcore's method packages are imported in the functions that use them (see
+:mod:`service.methods.registry`).
 """
 
 from __future__ import annotations
@@ -17,15 +20,17 @@ import numpy as np
 from pydantic import ConfigDict, Field, model_validator
 
 from meshcore.errors import InputError
-from meshcore.medial.axis import DEFAULT_PRUNE, cloud_points, medial_axis
-from meshcore.medial.partitioning import partition, quad_medial
-from meshcore.medial.simplification import DEFAULT_THRESHOLD, simplify
-from meshcore.medial.transform import checked_axis, medial_transform
 from service.methods.domain_schema import DomainIn, Position, check_resolution
 from service.schemas import InputModel, MethodParams
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+
+#: The defaults of :data:`meshcore.medial.axis.DEFAULT_PRUNE` and
+#: :data:`meshcore.medial.simplification.DEFAULT_THRESHOLD` (equal,
+#: tests/service/test_imports.py).
+DEFAULT_PRUNE = 25.0
+DEFAULT_THRESHOLD = 0.5
 
 StepField = Field(
     None,
@@ -86,12 +91,16 @@ class MedialAxisParams(MethodParams):
         if self.domain is not None:
             self.domain.to_domain()
         else:
+            from meshcore.medial.axis import cloud_points
+
             cloud_points(self.points)
 
 
 def run_medial_axis(params: MedialAxisParams, progress) -> dict:
     """The axis (nodes, radii, edges, kinds, branches), as a line mesh too, the domain
     (for a point cloud: the one reconstructed from it) and counts."""
+    from meshcore.medial.axis import medial_axis
+
     cloud = params.domain is None
     axis = medial_axis(
         None if cloud else params.domain.to_domain(),
@@ -153,6 +162,8 @@ class MedialTransformParams(MethodParams):
         )
 
     def check(self) -> None:
+        from meshcore.medial.transform import checked_axis
+
         super().check()
         boundary = None if self.domain is None else self.domain.to_domain()
         try:
@@ -165,6 +176,8 @@ class MedialTransformParams(MethodParams):
 
 def run_medial_transform(params: MedialTransformParams, progress) -> dict:
     """The rebuilt domain, its area and the Hausdorff distance to the original."""
+    from meshcore.medial.transform import medial_transform
+
     boundary = None if params.domain is None else params.domain.to_domain()
     res = medial_transform(*params.arrays(), boundary=boundary, h=params.h, progress=progress)
     return {
@@ -208,6 +221,8 @@ class PartitionParams(MethodParams):
 
 def run_partition(params: PartitionParams, progress) -> dict:
     """The regions (GeoJSON Polygons with their side counts), the cut lines and the axis."""
+    from meshcore.medial.partitioning import partition
+
     part = partition(
         params.domain.to_domain(),
         method=params.method,
@@ -270,6 +285,8 @@ class QuadMedialParams(PartitionParams):
 
 def run_quad_medial(params: QuadMedialParams, progress) -> dict:
     """The quad mesh, its quality report, the regions and the counts."""
+    from meshcore.medial.partitioning import quad_medial
+
     res = quad_medial(
         params.domain.to_domain(),
         method=params.method,
@@ -316,6 +333,8 @@ class SimplifyParams(MethodParams):
 
 def run_simplify(params: SimplifyParams, progress) -> dict:
     """The simplified domain and the removed features with their sizes."""
+    from meshcore.medial.simplification import simplify
+
     res = simplify(
         params.domain.to_domain(), threshold=params.threshold, h=params.h, progress=progress
     )

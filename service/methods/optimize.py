@@ -6,6 +6,9 @@ options that go with one input only); its :meth:`check` runs meshcore's
 checks before the job is queued: the domain's validation, or the mesh's
 shape, cell types and topology (an edge or face in three or more cells, a
 neighbour oriented against another, each named by ``loc``).
+
+meshcore's method packages are imported in the functions that use them (see
+:mod:`service.methods.registry`).
 """
 
 from __future__ import annotations
@@ -17,7 +20,6 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from meshcore.errors import InputError
-from meshcore.optimize import check_input, optimize
 from service.methods.domain_schema import DomainIn, check_resolution
 from service.methods.surface_schema import SurfaceIn
 from service.schemas import MeshIn, MethodParams
@@ -94,6 +96,8 @@ class OptimizeParams(MethodParams):
         return self
 
     def check(self) -> None:
+        from meshcore.optimize import check_input
+
         super().check()
         if self.mesh is not None:
             check_input(self.mesh.to_mesh())
@@ -158,6 +162,8 @@ class OptimizeParams(MethodParams):
 
 def run_optimize(params: OptimizeParams, progress: Progress) -> dict:
     """The valid mesh, its quality report and the run's figures (the Sur series per pass)."""
+    from meshcore.optimize import optimize
+
     res = optimize(**params.optimize_kwargs(), progress=progress)
     return {"mesh": res.mesh, "quality": res.quality, "stats": res.stats}
 

@@ -7,6 +7,9 @@ Remark 8.10); its :meth:`~SizedDomainParams.check` validates the domain and
 the size field and refuses runaway sizes, every error located relative to
 the params. :class:`RecursivePartitionParams` takes a ``surface``
 instead of the ``domain`` for the 3D form (``tetra``).
+
+meshcore's method packages are imported in the functions that use them (see
+:mod:`service.methods.registry`).
 """
 
 from __future__ import annotations
@@ -16,7 +19,6 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from meshcore.errors import InputError
-from meshcore.partition import recursive_partition, size_map
 from service.methods.domain_schema import DomainIn, check_resolution
 from service.methods.surface_schema import UNIT_CUBE, SurfaceIn
 from service.methods.triangulation import SizeField
@@ -47,6 +49,8 @@ class SizedDomainParams(MethodParams):
         return None if self.size_field is None else self.size_field.model_dump()
 
     def check(self) -> None:
+        from meshcore.partition import size_map
+
         super().check()
         dom = self.domain.to_domain()
         sizes = size_map(dom, self.size, self.field())
@@ -133,6 +137,8 @@ class RecursivePartitionParams(SizedDomainParams):
 
 def run_recursive_partition(params: RecursivePartitionParams, progress) -> dict:
     """The mesh, its quality report and the recursion's counts."""
+    from meshcore.partition import recursive_partition
+
     if params.surface is not None:
         res = recursive_partition(
             surface=params.surface.to_surface(),

@@ -8,23 +8,28 @@ mesh, cell types, boundary sizes), which need numpy, and raises
 
 ``extrude`` takes its base as ``mesh`` today; ``domain`` plus ``size``
 (meshed by ``triangulate`` first) will join it as an alternative field.
+
+meshcore's method packages are imported in the functions that use them (see
+:mod:`service.methods.registry`).
 """
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 import numpy as np
 from pydantic import ConfigDict, Field, field_validator, model_validator
 
 from meshcore.errors import InputError
 from meshcore.mesh import Mesh, quality
-from meshcore.product import extrusion, merge, radial_mesh
 from service.methods.domain_schema import DomainIn
 from service.methods.triangulation import TriangulateParams, run_triangulate
 from service.schemas import FiniteFloat, InputModel, MeshIn, MethodParams
 
-Progress = extrusion.Progress
+if TYPE_CHECKING:
+    from meshcore.product import extrusion
+
+Progress = object  # the registry's Progress: callable(fraction, message)
 
 Vec3 = Annotated[list[FiniteFloat], Field(min_length=3, max_length=3)]
 Vec2 = Annotated[list[FiniteFloat], Field(min_length=2, max_length=2)]
@@ -70,6 +75,8 @@ class TranslatePath(_Path):
         return self
 
     def to_path(self) -> extrusion.Path:
+        from meshcore.product import extrusion
+
         steps = None if self.steps is None else tuple(self.steps)
         return extrusion.Translate(self.vector, layers=self.layers, steps=steps)
 
@@ -94,6 +101,8 @@ class RotatePath(_Path):
         return _nonzero([v], "angle")[0]
 
     def to_path(self) -> extrusion.Path:
+        from meshcore.product import extrusion
+
         return extrusion.Rotate(self.axis_point, self.axis_direction, self.angle, self.layers)
 
 
@@ -118,6 +127,8 @@ class HelixPath(_Path):
         return _nonzero([v], "angle")[0]
 
     def to_path(self) -> extrusion.Path:
+        from meshcore.product import extrusion
+
         return extrusion.Helix(
             self.axis_point, self.axis_direction, self.angle, self.vector, self.layers
         )
@@ -140,6 +151,8 @@ class TransformsPath(_Path):
         return m
 
     def to_path(self) -> extrusion.Path:
+        from meshcore.product import extrusion
+
         return extrusion.Transforms(np.asarray(self.matrices, dtype=np.float64))
 
 
@@ -163,6 +176,8 @@ class SectionsPath(_Path):
         return self
 
     def to_path(self) -> extrusion.Path:
+        from meshcore.product import extrusion
+
         return extrusion.Sections(np.asarray(self.points, dtype=np.float64))
 
 
@@ -214,6 +229,8 @@ class ExtrudeParams(_ProductOptions):
         return TriangulateParams(domain=self.domain, size=self.size)
 
     def check(self) -> None:
+        from meshcore.product import extrusion
+
         super().check()
         if self.mesh is not None:
             extrusion.check_extrude(self.mesh.to_mesh(), self.path.to_path())
@@ -253,6 +270,8 @@ class SweepParams(_ProductOptions):
         return len(self.source.points) + len(self.target) + sum(map(len, self.sides or []))
 
     def check(self) -> None:
+        from meshcore.product import extrusion
+
         super().check()
         extrusion.check_sweep(self.source.to_mesh(), self.target, self.sides, self.layers)
 
@@ -337,6 +356,8 @@ def _product_result(res: extrusion.ProductResult, progress: Progress) -> dict:
 
 def run_extrude(params: ExtrudeParams, progress: Progress) -> dict:
     """The product mesh of the base and the path."""
+    from meshcore.product import extrusion
+
     res = extrusion.extrude(
         params.base(_scaled(progress, 0.0, 0.2)),
         params.path.to_path(),
@@ -350,6 +371,8 @@ def run_extrude(params: ExtrudeParams, progress: Progress) -> dict:
 
 def run_sweep(params: SweepParams, progress: Progress) -> dict:
     """The swept mesh between source and target."""
+    from meshcore.product import extrusion
+
     res = extrusion.sweep(
         params.source.to_mesh(),
         params.target,
@@ -365,6 +388,8 @@ def run_sweep(params: SweepParams, progress: Progress) -> dict:
 
 def run_merge(params: MergeParams, progress: Progress) -> dict:
     """One conforming mesh from several."""
+    from meshcore.product import merge
+
     res = merge.merged(
         [m.to_mesh() for m in params.inputs],
         params.tolerance,
@@ -379,6 +404,8 @@ def run_merge(params: MergeParams, progress: Progress) -> dict:
 
 def run_radial(params: RadialParams, progress: Progress) -> dict:
     """A radial mesh, with the classical mesh's quality as ``stats.quality_before`` if balanced."""
+    from meshcore.product import radial_mesh
+
     res = radial_mesh.radial(
         params.center,
         params.inner_radius,

@@ -9,6 +9,9 @@ inverted, flat, non-manifold or inconsistently oriented triangles, each
 named by ``loc``), the metric (symmetric positive definite, one per point
 when given per point), and for domain input the triangulation's own checks
 (the domain, the size field, runaway sizes).
+
+meshcore's method packages are imported in the functions that use them (see
+:mod:`service.methods.registry`).
 """
 
 from __future__ import annotations
@@ -17,7 +20,6 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from meshcore.quads import combination, paving
 from service.methods.domain_schema import ConstraintPolylines, DomainIn
 from service.methods.partition import SizedDomainParams
 from service.methods.triangulation import (
@@ -27,7 +29,7 @@ from service.methods.triangulation import (
 )
 from service.schemas import FiniteFloat, MeshIn, MethodParams
 
-Progress = combination.Progress
+Progress = object  # the registry's Progress: callable(fraction, message)
 
 MetricRow = Annotated[list[FiniteFloat], Field(min_length=2, max_length=3)]
 Metric = Annotated[list[MetricRow], Field(min_length=2, max_length=3)]
@@ -126,6 +128,8 @@ class QuadCombineParams(MethodParams):
         )
 
     def check(self) -> None:
+        from meshcore.quads import combination
+
         super().check()
         if self.mesh is not None:
             combination.check_input(self.mesh.to_mesh(), self.metric)
@@ -161,6 +165,8 @@ class QuadCombineParams(MethodParams):
 
 def run_quad_combine(params: QuadCombineParams, progress: Progress) -> dict:
     """The quad mesh, its quality report (after optimization) and the counts."""
+    from meshcore.quads import combination
+
     res = combination.combine(**params.combine_kwargs(), progress=progress)
     stats = {
         "quads": int(sum(len(b) for b in res.mesh.cells if b.type == "quad")),
@@ -219,6 +225,8 @@ class PavingParams(SizedDomainParams):
 
 def run_paving(params: PavingParams, progress: Progress) -> dict:
     """The quad mesh, its quality report, rows, seams, closures and valences."""
+    from meshcore.quads import paving
+
     res = paving(
         params.domain.to_domain(),
         size=params.size,

@@ -9,6 +9,13 @@ over this table (see :func:`service.api.jobs.request_model`).
 
 Run functions are module-level so that they pickle by reference into the
 job's process.
+
+The API process imports this module to validate and queue jobs: the method
+modules hold the params models, and import meshcore's method packages only in
+the checks and run functions that use them. So the API loads meshcore's
+domain and surface validation, and the rest of a method's code on its first
+check that needs it; the job fork server imports all of it before any job
+(:data:`METHOD_CODE`, :data:`service.executors.child.PRELOAD`).
 """
 
 from __future__ import annotations
@@ -19,6 +26,7 @@ from typing import Any
 
 from meshcore.errors import InputError as InputError  # re-exported: the API answers it as a 422
 from meshcore.mesh import io, quality
+from meshcore.mesh.formats import FORMATS as FORMATS  # re-exported: the download formats
 from service.methods import (
     delaunay,
     grid,
@@ -34,8 +42,31 @@ from service.schemas import MeshIn, MethodParams
 
 Progress = Callable[[float, str], None]
 
-#: Download formats of a result's mesh, by ``?format=`` name.
-FORMATS = io.FORMATS
+#: The meshcore modules that the method modules import only in their checks and run
+#: functions (tests/service/test_imports.py keeps this list whole): the job fork server
+#: imports them before any job (:data:`service.executors.child.PRELOAD`).
+METHOD_CODE = (
+    "meshcore.delaunay",
+    "meshcore.delaunay.admissible",
+    "meshcore.delaunay.admissible3d",
+    "meshcore.grid.cartesian",
+    "meshcore.grid.patterns",
+    "meshcore.grid.superposition",
+    "meshcore.medial.axis",
+    "meshcore.medial.partitioning",
+    "meshcore.medial.simplification",
+    "meshcore.medial.transform",
+    "meshcore.optimize",
+    "meshcore.partition",
+    "meshcore.product.extrusion",
+    "meshcore.product.merge",
+    "meshcore.product.radial_mesh",
+    "meshcore.quads",
+    "meshcore.quads.combination",
+    "meshcore.tets",
+    "meshcore.tets.sizing",
+    "meshcore.triangulation.refinement",
+)
 
 
 def mesh_of_file(data: bytes, filename: str) -> dict:

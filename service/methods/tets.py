@@ -5,6 +5,9 @@ say (shapes, signs, ranges, NaN and infinities); its :meth:`check` runs
 :func:`meshcore.domain.surface.parse_surface` (open, non-manifold,
 inconsistently oriented or self-intersecting surfaces, ...) and raises
 :class:`~meshcore.errors.InputError` located under ``surface``.
+
+meshcore's method packages are imported in the functions that use them (see
+:mod:`service.methods.registry`).
 """
 
 from __future__ import annotations
@@ -16,15 +19,16 @@ from pydantic import Field
 
 from meshcore.errors import InputError
 from meshcore.mesh import quality
-from meshcore.tets import tetra_dihedral_angles, tetrahedralize
-from meshcore.tets.refinement import MIN_RADIUS_EDGE
-from meshcore.tets.sizing import MAX_TETRAHEDRA, SizeField3d, estimated_tetrahedra
 from service.methods.domain_schema import check_resolution
 from service.methods.surface_schema import UNIT_CUBE, Position3, SurfaceIn
 from service.methods.triangulation import SizeField
 from service.schemas import MethodParams
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+
+#: The least ``max_radius_edge``: :data:`meshcore.tets.refinement.MIN_RADIUS_EDGE` (equal,
+#: tests/service/test_imports.py).
+MIN_RADIUS_EDGE = 1.1
 
 
 class SizeField3(SizeField):
@@ -82,6 +86,8 @@ class TetrahedralizeParams(MethodParams):
     )
 
     def check(self) -> None:
+        from meshcore.tets.sizing import MAX_TETRAHEDRA, SizeField3d, estimated_tetrahedra
+
         super().check()
         surface = self.surface.to_surface()
         if self.size_field is not None:
@@ -105,6 +111,8 @@ class TetrahedralizeParams(MethodParams):
 
 def run_tetrahedralize(params: TetrahedralizeParams, progress) -> dict:
     """The tetrahedral mesh, its quality report (with dihedral angles) and the counts."""
+    from meshcore.tets import tetra_dihedral_angles, tetrahedralize
+
     surface = params.surface.to_surface()
 
     def sub(fraction: float, message: str) -> None:

@@ -1,5 +1,8 @@
 """Params and run functions of the triangulation methods (§9.1).
 
+meshcore's method packages are imported in the functions that use them (see
+:mod:`service.methods.registry`).
+
 Each params model refuses, with the field's location, what JSON Schema can
 say (shapes, signs, ranges, NaN and infinities); its :meth:`check` runs
 meshcore's own checks (domain validation, curves against their rings, size
@@ -14,11 +17,8 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import ConfigDict, Field, model_validator
 
-from meshcore.delaunay.admissible import circles_of, make_admissible
-from meshcore.delaunay.admissible3d import make_admissible_surface
 from meshcore.errors import InputError
 from meshcore.mesh import quality
-from meshcore.triangulation.refinement import MAX_MIN_ANGLE, estimated_triangles, triangulate
 from service.methods.domain_schema import (
     ConstraintPolylines,
     DomainIn,
@@ -32,6 +32,9 @@ Progress = object  # the registry's Progress: callable(fraction, message)
 
 #: Requests whose sizes would make more triangles than this are refused (422).
 MAX_TRIANGLES = 20_000_000
+#: The largest ``min_angle``, degrees: :data:`meshcore.triangulation.refinement.MAX_MIN_ANGLE`
+#: (equal, tests/service/test_imports.py), whose module this one imports only to run.
+MAX_MIN_ANGLE = 34.0
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
@@ -106,6 +109,9 @@ class TriangulateParams(MethodParams):
     )
 
     def check(self) -> None:
+        from meshcore.delaunay.admissible import circles_of
+        from meshcore.triangulation.refinement import estimated_triangles
+
         super().check()
         dom = self.domain.to_domain(self.segments)
         curves = [c.model_dump() for c in self.curves or []]
@@ -140,6 +146,8 @@ def check_thinness(dom) -> None:
     """Refuse a domain so thin that a mesh meeting the angle bound, whatever the size, would
     be more than ``MAX_TRIANGLES`` triangles (a strip of width w and length L needs about
     2 L / w: :func:`~meshcore.triangulation.estimated_triangles` without sizes)."""
+    from meshcore.triangulation.refinement import estimated_triangles
+
     estimate = estimated_triangles(dom)
     if estimate > MAX_TRIANGLES:
         raise InputError(
@@ -153,6 +161,8 @@ def check_thinness(dom) -> None:
 
 def run_triangulate(params: TriangulateParams, progress) -> dict:
     """The mesh, its quality report and the counts of added points."""
+    from meshcore.triangulation.refinement import triangulate
+
     dom = params.domain.to_domain(params.segments)
 
     def sub(fraction: float, message: str) -> None:
@@ -255,6 +265,8 @@ class DelaunayAdmissibleParams(MethodParams):
         return self.domain.point_count() + sum(len(line) for line in self.segments or [])
 
     def check(self) -> None:
+        from meshcore.delaunay.admissible import circles_of
+
         super().check()
         if self.surface is not None:
             self.surface.to_surface()
@@ -266,6 +278,8 @@ class DelaunayAdmissibleParams(MethodParams):
 def run_delaunay_admissible(params: DelaunayAdmissibleParams, progress) -> dict:
     """The new boundary discretization, the empty Delaunay triangulation (2D) or
     tetrahedralization (3D) and the counts."""
+    from meshcore.delaunay.admissible import make_admissible
+
     if params.surface is not None:
         return _run_surface_admissible(params.surface.to_surface(), progress)
     dom = params.domain.to_domain(params.segments)
@@ -306,6 +320,8 @@ def run_delaunay_admissible(params: DelaunayAdmissibleParams, progress) -> dict:
 def _run_surface_admissible(surface, progress) -> dict:
     """The 3D form (§9.2-§9.3.5): refined surface, empty tetrahedralization, the
     whole Delaunay tetrahedralization holding the surface with its tie cells, counts."""
+    from meshcore.delaunay.admissible3d import make_admissible_surface
+
     res = make_admissible_surface(surface, progress=progress)
     tetra = res.mesh.cells[0].data
     return {

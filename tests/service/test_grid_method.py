@@ -15,6 +15,8 @@ from tests.service.test_jobs import assert_problem, submit
 
 SQUARE = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]]]}
 BOWTIE = {"type": "Polygon", "coordinates": [[[0, 0], [1, 1], [1, 0], [0, 1], [0, 0]]]}
+#: No grid square fits it, and its fallback band would be about 2e5 triangles.
+STRIP = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1e-5], [0, 1e-5], [0, 0]]]}
 
 
 def finished(c, params: dict) -> dict:
@@ -75,6 +77,7 @@ class TestQuadGrid:
             ({"domain": SQUARE, "size": 1e-5}, ["size"]),
             ({"domain": SQUARE, "layers": 0}, ["layers"]),
             ({"domain": BOWTIE}, ["domain", "coordinates", 0]),
+            ({"domain": STRIP, "size": 0.025}, ["domain"]),  # refused at submit, not in the job
         ],
     )
     def test_bad_params_are_422_naming_the_field(self, client, params, loc):
