@@ -236,6 +236,11 @@ class TestLimits:
         server = start_server(MESHSERVICE_JOB_TIME_LIMIT="1")
         marker = tmp_path / "pid"
         with server.client() as c:
+            # the limit counts from the submit, and this server's fork server may still be
+            # importing meshcore (seconds on a loaded machine): wait until a job gets through
+            deadline = time.monotonic() + 120
+            while submit(c, "sleep", {"seconds": 0}, wait=10).json()["status"] != "succeeded":
+                assert time.monotonic() < deadline, "no job got through the 1 s limit in 120 s"
             job = submit(c, "sleep", {"seconds": 30, "marker": str(marker)}).json()
             pid = int(wait_file(marker))
             job = wait_status(c, job["id"], {"failed"})
