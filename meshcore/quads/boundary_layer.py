@@ -310,10 +310,17 @@ def _layer(dom, size, mesh_inner, max_turn, least_quality, rows):
             for r in range(len(chain) - 1)
         ]
         parts.append((ids, np.concatenate(chain), n, np.concatenate(quads), None, n))
+    if rows > 1 and _too_many(sum(len(p[3]) for p in parts), dom, size):
+        return None  # the rows alone are too many: the inner mesh is not made
     out = _assembled(dom, mesh_inner, parts, least_quality)
-    if out is not None and rows > 1 and len(out[0].cells[0].data) * size**2 > MOST_QUADS * dom.area:
+    if out is not None and rows > 1 and _too_many(len(out[0].cells[0].data), dom, size):
         return None
     return out
+
+
+def _too_many(quads: int, dom: Domain, size: float) -> bool:
+    """Whether ``quads`` pass ``MOST_QUADS`` times area / size²."""
+    return quads * size**2 > MOST_QUADS * dom.area
 
 
 def _assembled(dom, mesh_inner, parts, least_quality):
