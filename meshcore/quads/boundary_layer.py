@@ -122,6 +122,7 @@ __all__ = [
     "boundary_layer",
     "least_off_sharp",
     "meets_targets",
+    "off_sharp",
 ]
 
 #: Each offset is by the local spacing averaged over this many points on either
@@ -237,7 +238,7 @@ def boundary_layer(
     return _corner_layer(dom, size, mesh_inner, max_turn, corner_least)
 
 
-def _off_sharp(mesh: Mesh, dom: Domain) -> np.ndarray:
+def off_sharp(mesh: Mesh, dom: Domain) -> np.ndarray:
     """(q,) bool: the quads of ``mesh`` with no corner at an input vertex of ``dom``
     whose angle inside is under 45 or over 270 degrees (a quad there is forced to a
     small or a large corner)."""
@@ -260,7 +261,7 @@ def meets_targets(mesh: Mesh, dom: Domain, size: float) -> bool:
     ratio = len(Q) * size**2 / dom.area
     if not 1 / 1.5 <= ratio <= 1.5 or not np.array_equal(P[:n0], dom.points):
         return False
-    ok = _off_sharp(mesh, dom)
+    ok = off_sharp(mesh, dom)
     if not ok.any():
         return True
     ang = quality.quad_angles(P, Q[ok])
@@ -272,7 +273,7 @@ def meets_targets(mesh: Mesh, dom: Domain, size: float) -> bool:
 def least_off_sharp(mesh: Mesh, dom: Domain) -> float:
     """The least quality (8.4) of the quads of ``mesh`` away from the sharp input
     corners of ``dom`` (as :func:`meets_targets`; 1.0 if none)."""
-    ok = _off_sharp(mesh, dom)
+    ok = off_sharp(mesh, dom)
     if not ok.any():
         return 1.0
     return float(quality.quad_quality(mesh.points, mesh.cells_by_type["quad"][ok]).min())

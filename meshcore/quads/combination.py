@@ -172,9 +172,10 @@ from meshcore.quads.boundary_layer import (
     boundary_layer,
     least_off_sharp,
     meets_targets,
+    off_sharp,
 )
 from meshcore.quads.lattice import triangulated
-from meshcore.quads.optimization import corners_relaxed, optimize_quads
+from meshcore.quads.optimization import corners_relaxed, lifted_least, optimize_quads
 from meshcore.quads.paths import frontal_kernel, stack_kernel
 from meshcore.quads.valence import fewer_defects
 from meshcore.triangulation import estimated_triangles
@@ -227,6 +228,10 @@ class _Tolerances:
     #: More quads than this in that band: not optimized (a 1,488-quad disk spends
     #: 0.7 s CPU there, against 0.5 s for the rest of the combination).
     relax_most: int = 50_000
+    #: Then the nodes of the quads under this quality away from sharp input corners
+    #: (the issue's least quality) are moved to raise it
+    #: (:func:`~meshcore.quads.optimization.lifted_least`).
+    least_target: float = 0.5
     #: Qualities (in [0, 1]) are rounded to this before they are compared: far
     #: above what a 1e6 translation does to them (the moved input is itself
     #: rounded at 1.2e-10, ~1e-9 of a quality at size 0.1; at 1e-9 two of 200
@@ -1337,6 +1342,9 @@ def combine(
         if domain is not None and all_quad and metric is None and measure == "angle":
             out_mesh, ops["relax"] = corners_relaxed(
                 out_mesh, _dom, TOL.relax_below, TOL.relax_power, TOL.relax_most
+            )
+            out_mesh, ops["lift_off_sharp"] = lifted_least(
+                out_mesh, _dom, off_sharp(out_mesh, _dom), TOL.least_target, TOL.quality_resolution
             )
         if metric is not None and metric.ndim == 3:
             metric = metric[opt.point_map >= 0]

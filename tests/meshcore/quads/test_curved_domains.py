@@ -245,6 +245,19 @@ def test_quad_combine_keeps_a_row_that_beats_the_lattice(seed):
     assert ang[ok].min() >= 25 and ang[ok].max() <= 145
 
 
+def test_quad_combine_lifts_the_quad_next_to_a_spike_tip():
+    # issue 20's random star 28 (22-degree spike tips): the quad beyond a tip's quad kept
+    # a 43-degree corner (least 0.479 away from sharp corners), the tip's quad, capped by
+    # its input corner, holding the node between them; now lifted (least 0.553)
+    dom = parse_domain(issue_star(28)[0])
+    res = combine(domain=dom, size=0.1, all_quad=True, twice_size=True, optimize=True)
+    ang, q, ratio = _check(res.mesh, dom, 0.1)
+    assert res.operators["lift_off_sharp"] > 0
+    ok = _unforced(res.mesh.points, res.mesh.cells_by_type["quad"], dom)
+    assert ang[ok].min() >= 30 and ang[ok].max() <= 150
+    assert q[ok].min() >= 0.5 and 1 / 1.5 <= ratio <= 1.5
+
+
 @settings(SETTINGS, max_examples=3)
 @given(curved_domains())
 @example(_star_case(30, 0.8, 7, True, 0.1))  # a spiky star with a hole, whatever is drawn
