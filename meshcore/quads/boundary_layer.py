@@ -122,6 +122,7 @@ __all__ = [
     "boundary_layer",
     "least_off_sharp",
     "meets_targets",
+    "off_sharp",
 ]
 
 #: Each offset is by the local spacing averaged over this many points on either
@@ -237,7 +238,7 @@ def boundary_layer(
     return _corner_layer(dom, size, mesh_inner, max_turn, corner_least)
 
 
-def _off_sharp(mesh: Mesh, dom: Domain) -> np.ndarray:
+def off_sharp(mesh: Mesh, dom: Domain) -> np.ndarray:
     """(q,) bool: the quads of ``mesh`` with no corner at an input vertex of ``dom``
     whose angle inside is under 45 or over 270 degrees (a quad there is forced to a
     small or a large corner)."""
@@ -260,7 +261,7 @@ def meets_targets(mesh: Mesh, dom: Domain, size: float) -> bool:
     ratio = len(Q) * size**2 / dom.area
     if not 1 / 1.5 <= ratio <= 1.5 or not np.array_equal(P[:n0], dom.points):
         return False
-    ok = _off_sharp(mesh, dom)
+    ok = off_sharp(mesh, dom)
     if not ok.any():
         return True
     ang = quality.quad_angles(P, Q[ok])
@@ -272,7 +273,7 @@ def meets_targets(mesh: Mesh, dom: Domain, size: float) -> bool:
 def least_off_sharp(mesh: Mesh, dom: Domain) -> float:
     """The least quality (8.4) of the quads of ``mesh`` away from the sharp input
     corners of ``dom`` (as :func:`meets_targets`; 1.0 if none)."""
-    ok = _off_sharp(mesh, dom)
+    ok = off_sharp(mesh, dom)
     if not ok.any():
         return 1.0
     return float(quality.quad_quality(mesh.points, mesh.cells_by_type["quad"][ok]).min())
@@ -310,10 +311,17 @@ def _layer(dom, size, mesh_inner, max_turn, least_quality, rows):
             for r in range(len(chain) - 1)
         ]
         parts.append((ids, np.concatenate(chain), n, np.concatenate(quads), None, n))
+    if rows > 1 and _too_many(sum(len(p[3]) for p in parts), dom, size):
+        return None  # the rows alone are too many: the inner mesh is not made
     out = _assembled(dom, mesh_inner, parts, least_quality)
-    if out is not None and rows > 1 and len(out[0].cells[0].data) * size**2 > MOST_QUADS * dom.area:
+    if out is not None and rows > 1 and _too_many(len(out[0].cells[0].data), dom, size):
         return None
     return out
+
+
+def _too_many(quads: int, dom: Domain, size: float) -> bool:
+    """Whether ``quads`` pass ``MOST_QUADS`` times area / size²."""
+    return quads * size**2 > MOST_QUADS * dom.area
 
 
 def _assembled(dom, mesh_inner, parts, least_quality):

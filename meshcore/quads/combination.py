@@ -172,18 +172,22 @@ from meshcore.quads.boundary_layer import (
     boundary_layer,
     least_off_sharp,
     meets_targets,
+    off_sharp,
 )
 from meshcore.quads.lattice import triangulated
-from meshcore.quads.optimization import corners_relaxed, optimize_quads
+from meshcore.quads.optimization import corners_relaxed, lifted_least, optimize_quads
 from meshcore.quads.paths import frontal_kernel, stack_kernel
 from meshcore.quads.valence import fewer_defects
+from meshcore.triangulation import estimated_triangles
 
 __all__ = [
     "ALGORITHMS",
     "MEASURES",
     "QuadResult",
+    "MAX_FORCED_TRIANGLES",
     "check_input",
     "check_metric_2d",
+    "check_thinness",
     "combine",
     "split_all",
 ]
@@ -191,6 +195,10 @@ __all__ = [
 ALGORITHMS = ("stack", "heap", "frontal", "matching")
 MEASURES = ("angle", "simplified", "shape")
 PATTERNS = ("squares", "equilateral")
+#: A domain whose thin parts force more triangles than this whatever the size (a strip
+#: of width w and length L about 2 L / w: :func:`meshcore.triangulation.estimated_triangles`
+#: without sizes) is refused before it is triangulated (:func:`check_thinness`).
+MAX_FORCED_TRIANGLES = 1_000_000
 
 Progress = Callable[[float, str], None]
 
@@ -220,6 +228,10 @@ class _Tolerances:
     #: More quads than this in that band: not optimized (a 1,488-quad disk spends
     #: 0.7 s CPU there, against 0.5 s for the rest of the combination).
     relax_most: int = 50_000
+    #: Then the nodes of the quads under this quality away from sharp input corners
+    #: (the issue's least quality) are moved to raise it
+    #: (:func:`~meshcore.quads.optimization.lifted_least`).
+    least_target: float = 0.5
     #: Qualities (in [0, 1]) are rounded to this before they are compared: far
     #: above what a 1e6 translation does to them (the moved input is itself
     #: rounded at 1.2e-10, ~1e-9 of a quality at size 0.1; at 1e-9 two of 200
@@ -902,6 +914,33 @@ def check_input(mesh: Mesh, metric=None) -> None:
     _check_metric(metric, P)
 
 
+def check_thinness(domain) -> None:
+    """Refuse a domain whose thin parts alone force more than :data:`MAX_FORCED_TRIANGLES`
+    triangles, whatever ``size``.
+
+    The triangles of a strip of width ``w`` meeting the angle bound have edges
+    about ``w`` long, and the quads made of them keep that size: ``size`` no
+    longer decides the count (a 1 x 1e-6 strip at size 0.05 gave 1.54M
+    triangles and 3.08M quads in 52 CPU s). Refused up front, in milliseconds,
+    with the estimate, rather than met by a time limit; ``triangulate`` meshes
+    such domains.
+
+    Raises
+    ------
+    InputError
+        ``too_many_cells`` at ``domain``.
+    """
+    forced = estimated_triangles(domain)
+    if forced > MAX_FORCED_TRIANGLES:
+        raise InputError(
+            f"the domain is so thin that triangles meeting the angle bound would be about "
+            f"{forced:,} whatever the size, and their quads keep that size; quad_combine "
+            f"makes at most {MAX_FORCED_TRIANGLES:,} of them: mesh it with triangulate",
+            loc=("domain",),
+            code="too_many_cells",
+        )
+
+
 def check_metric_2d(metric) -> None:
     """Raise an InputError unless ``metric`` is a constant 2x2 SPD matrix (domain input)."""
     if np.ndim(metric) == 3:
@@ -1178,7 +1217,8 @@ def combine(
     InputError
         Bad parameters (``loc`` names them), a bad mesh (``loc`` under
         ``mesh``: non-triangle blocks, indices out of range, inverted, flat,
-        non-manifold or inconsistently oriented triangles) or a bad domain.
+        non-manifold or inconsistently oriented triangles) or a bad domain
+        (``too_many_cells`` for a domain too thin: :func:`check_thinness`).
 
     References
     ----------
@@ -1226,6 +1266,7 @@ def combine(
             report(0.4 * f, msg)
 
         _dom = domain_in = domain if isinstance(domain, Domain) else parse_domain(domain)
+        check_thinness(_dom)
         if layer_fits and all_quad and twice_size and pattern == "squares" and not keep_boundary:
             layered = boundary_layer(
                 _dom,
@@ -1301,6 +1342,9 @@ def combine(
         if domain is not None and all_quad and metric is None and measure == "angle":
             out_mesh, ops["relax"] = corners_relaxed(
                 out_mesh, _dom, TOL.relax_below, TOL.relax_power, TOL.relax_most
+            )
+            out_mesh, ops["lift_off_sharp"] = lifted_least(
+                out_mesh, _dom, off_sharp(out_mesh, _dom), TOL.least_target, TOL.quality_resolution
             )
         if metric is not None and metric.ndim == 3:
             metric = metric[opt.point_map >= 0]

@@ -26,6 +26,9 @@ from meshcore.triangulation.refinement import triangulate
 
 __all__ = ["triangulated"]
 
+#: Boundary edges this close in relative length count as equally long.
+LENGTH_RESOLUTION = 1e-6
+
 _SHEAR = np.array([[1.0, 0.5], [0.0, math.sqrt(3.0) / 2.0]])
 
 
@@ -72,10 +75,28 @@ def triangulated(domain, size, size_field, min_angle, pattern, keep_boundary, pr
     )
     P = res.mesh.points @ np.linalg.inv(A).T
     P[: len(dom.points)] = dom.points  # the input vertices exactly, not their round trip
-    tri = res.mesh.cells[0].data
+    P, tri = _canonical(P, res.mesh.cells[0].data, len(dom.points))
     P, tri = _drop_lonely_boundary_points(P, tri, len(dom.points))
     P, tri = _even_parts(P, tri)
     return Mesh(P, (CellBlock("triangle", tri),)), dom
+
+
+def _canonical(P, tri, n_input: int):
+    """The triangulation numbered by its geometry alone: the input vertices first, then
+    the other points by x, then y; each triangle starting at its least point, the
+    triangles in lexicographic order. The triangulator's numbering follows its
+    refinement queue, whose ties went another way under a translation by 1e6 or a
+    scaling by 1e-6 (the same triangles, numbered otherwise: another matching); two
+    points ordered otherwise in two frames must be closer in x than the rounding of
+    the coordinates (1e-10 of the size at 1e6) without being equal."""
+    rest = n_input + np.lexsort((P[n_input:, 1], P[n_input:, 0]))
+    order = np.concatenate([np.arange(n_input), rest])
+    new = np.empty(len(P), np.int64)
+    new[order] = np.arange(len(P))
+    T = new[tri]
+    first = np.argmin(T, axis=1)[:, None]
+    T = np.take_along_axis(T, (first + np.arange(3)) % 3, axis=1)  # the same orientation
+    return P[order], T[np.lexsort(T.T[::-1])]
 
 
 def _drop_lonely_boundary_points(P, tri, n_input: int):
@@ -130,7 +151,11 @@ def _drop_lonely_boundary_points(P, tri, n_input: int):
 
 
 def _even_parts(P, tri):
-    """Split the longest boundary edge of every part with an odd triangle count (Remark 8.3)."""
+    """Split the longest boundary edge of every part with an odd triangle count (Remark 8.3):
+    the first (in the order of :func:`_canonical`) of those within ``LENGTH_RESOLUTION``
+    of the longest, since equal pieces of a segment differ in length by rounding only,
+    otherwise under a translation by 1e6 or a scaling by 1e-6 (issue 20's star 28: the
+    inner domain of its corner row split another edge)."""
     m = len(tri)
     a = tri.ravel()
     b = np.roll(tri, -1, axis=1).ravel()
@@ -154,7 +179,8 @@ def _even_parts(P, tri):
     for part in odd:  # a loop over parts, not cells
         cand = np.flatnonzero(bpart == part)
         if len(cand):
-            pick.append(bh[cand[np.argmax(blen[cand])]])
+            longest = blen[cand] >= (1 - LENGTH_RESOLUTION) * blen[cand].max()
+            pick.append(bh[cand[np.argmax(longest)]])  # the first of the longest
     pick = np.asarray(pick, dtype=np.int64)
     t = pick // 3
     k = pick % 3

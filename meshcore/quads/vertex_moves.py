@@ -133,9 +133,10 @@ def _lift_round(P, C, q, order, ptr, cells, dirs, steps, gain, moved, dirty):
             P[v, 0] = hx + steps[t] * h * dirs[t, 0]
             P[v, 1] = hy + steps[t] * h * dirs[t, 1]
             least = np.inf
-            for j in range(ptr[v], ptr[v + 1]):
-                c = cells[j]
-                least = min(least, _checked_quality(P, C, c, work))
+            for j in range(ptr[v], ptr[v + 1]):  # stops at the first cell that rules it out
+                least = min(least, _checked_quality(P, C, cells[j], work))
+                if not least > best + gain:
+                    break
             if least > best + gain:
                 best, bx, by = least, P[v, 0], P[v, 1]
         if best > cur + gain:
@@ -186,7 +187,8 @@ def _smooth_pass(P, C, q, order, active, nptr, nidx, ptr, cells, floor, still, k
     newq = np.empty(64)
     for i in range(order.shape[0]):
         v = order[i]
-        if not active[v]:
+        nc = ptr[v + 1] - ptr[v]
+        if not active[v] or nc > 64:
             continue
         k0, k1 = nptr[v], nptr[v + 1]
         tx = 0.0
@@ -196,20 +198,20 @@ def _smooth_pass(P, C, q, order, active, nptr, nidx, ptr, cells, floor, still, k
             ty += P[nidx[j], 1]
         tx /= k1 - k0
         ty /= k1 - k0
+        omin = np.inf
+        for j in range(nc):
+            omin = min(omin, q[cells[ptr[v] + j]])
+        need = min(omin, floor)
         hx, hy = P[v, 0], P[v, 1]
         P[v, 0] = tx
         P[v, 1] = ty
-        omin = np.inf
-        nmin = np.inf
-        nc = ptr[v + 1] - ptr[v]
-        for j in range(nc):
-            c = cells[ptr[v] + j]
-            omin = min(omin, q[c])
-            nq = _checked_quality(P, C, c, work)
-            if j < 64:
-                newq[j] = nq
-            nmin = min(nmin, nq)
-        if not nmin >= min(omin, floor) or nc > 64:
+        ok = True
+        for j in range(nc):  # stops at the first cell that refuses the move
+            newq[j] = _checked_quality(P, C, cells[ptr[v] + j], work)
+            if not newq[j] >= need:
+                ok = False
+                break
+        if not ok:
             P[v, 0] = hx
             P[v, 1] = hy
             continue

@@ -191,6 +191,11 @@ class _Tolerances:
     #: Relative slack when counting a segment's pieces: one exactly n sizes
     #: long gets n pieces, not n + 1 for a rounding of its length.
     count_slack: float = 1e-12
+    #: Relative slack on the lattice's row and column counts: a box exactly ``n``
+    #: lattice steps across gets the same lattice in every frame (the square with a
+    #: hole, sheared, is 10 rows high at size 0.1 and was 9.9999999993 translated by
+    #: 1e6: a lattice shifted by half a row, another mesh).
+    lattice_slack: float = 1e-9
 
 
 TOL = _Tolerances()
@@ -547,8 +552,8 @@ def _lattice(P, bseg, allseg, h: float, keep_boundary: bool, window=None):
     dy = h * math.sqrt(3.0) / 2.0
     if dy > hi[1] - lo[1]:  # two rows, dy / 2 below and above the box: no point inside
         return np.zeros((0, 2))  # (and a size of 1e300 would overflow the capsules below)
-    nx = int(math.floor((hi[0] - lo[0]) / h)) + 2
-    ny = int(math.floor((hi[1] - lo[1]) / dy)) + 2
+    nx = int(math.floor((hi[0] - lo[0]) / h * (1 + TOL.lattice_slack))) + 2
+    ny = int(math.floor((hi[1] - lo[1]) / dy * (1 + TOL.lattice_slack))) + 2
     y0 = lo[1] + 0.5 * ((hi[1] - lo[1]) - (ny - 1) * dy)
     x0 = lo[0] + 0.5 * ((hi[0] - lo[0]) - (nx - 1.5) * h)
     # Scan lines: even-odd intervals of each row inside the boundary rings.

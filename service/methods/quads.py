@@ -135,6 +135,7 @@ class QuadCombineParams(MethodParams):
             combination.check_input(self.mesh.to_mesh(), self.metric)
         else:
             self._triangulation().check()
+            combination.check_thinness(self.domain.to_domain(self.segments))
             if self.metric is not None:
                 combination.check_metric_2d(self.metric)
 

@@ -21,6 +21,7 @@ SQUARE_MESH = {
     "cells": [{"type": "triangle", "data": [[0, 1, 2], [0, 2, 3]]}],
 }
 SQUARE = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]]]}
+STRIP = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1e-6], [0, 1e-6], [0, 0]]]}
 
 
 def finished(c, params: dict) -> dict:
@@ -43,6 +44,8 @@ class TestQuadCombine:
             ({"domain": SQUARE, "size": 0.1, "twice_size": True}, []),
             ({"domain": SQUARE, "size": -1}, ["size"]),
             ({"domain": SQUARE, "size": 1e-5}, ["size"]),
+            # about 2M triangles forced by a 1 x 1e-6 strip whatever the size
+            ({"domain": STRIP, "size": 0.05, "all_quad": True}, ["domain"]),
             ({"mesh": SQUARE_MESH, "metric": [[1, 2], [2, 1]]}, ["metric"]),
             ({"mesh": SQUARE_MESH, "metric": [[[1, 0], [0, 1]]]}, ["metric"]),
             ({"domain": SQUARE, "metric": [[[1, 0], [0, 1]]] * 4}, ["metric"]),
