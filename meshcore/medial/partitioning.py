@@ -148,7 +148,14 @@ from meshcore.medial.axis import (
     medial_axis,
     pruned_axes,
 )
-from meshcore.medial.fill import MOST_COUNT, area_centroid, boundary_slides, folded, quads_on
+from meshcore.medial.fill import (
+    MOST_COUNT,
+    area_centroid,
+    boundary_slides,
+    folded,
+    lift_least,
+    quads_on,
+)
 from meshcore.medial.regions import (
     _AXIS,
     _BOUNDARY,
@@ -216,6 +223,9 @@ CROWD_ANGLE = 20.0
 #: opened, it took the mean from 0.778 to 0.836 and the least from 0.486 to 0.481, and
 #: was refused (mean 0.84 without the opening).
 LEAST_GIVE = 0.01
+#: Last, the corners of the quads under this quality (8.4) and of two rings of quads
+#: around them are lifted (:func:`meshcore.medial.fill.lift_least`).
+LIFT_BELOW = 0.6
 
 
 @dataclass(frozen=True, eq=False)
@@ -810,6 +820,7 @@ def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
         if kept:
             P = new
     out["least_relaxed"] = bool(kept)
+    P, out["least_lifted"] = lift_least(P, Q, fixed, domain.points, LIFT_BELOW)
     out["quads"] = int(len(Q))
     out["points"] = int(len(P))
     return Mesh(P, (CellBlock("quad", Q),)), out
