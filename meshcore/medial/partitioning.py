@@ -160,6 +160,7 @@ from meshcore.medial.regions import (
     _AXIS,
     _BOUNDARY,
     _CUT,
+    BOUNDARY_SHARE,
     KITE_ANGLE,
     input_fans,
     input_index,
@@ -665,18 +666,30 @@ def quad_medial(
     more = [x for x in PRUNE_MORE if x > prune] if size is not None else []
     # the axis built once (samples, Delaunay, Voronoi graph), pruned at each angle in turn
     axes = pruned_axes(domain, h=h, prunes=(prune, *more), progress=progress)
-    res = _meshed(next(axes), domain, method, size, levels)
+    first = next(axes)
+    special = _special(first, size, levels)  # the same samples on every pruned axis
+    res = _meshed(first, domain, method, size, levels, BOUNDARY_SHARE, special)
     if size is None or not _over(res, domain, size):
         return res
     least = min(PRUNE_LEAST, _least_away(res.mesh, domain))
-    for angle, axis in zip(more, axes, strict=True):  # a loop over at most three axes
+    # the more pruned axes with the regions merged at crowded boundary points, then
+    # every axis without those merges (a region merged at a gear's tooth gap has a
+    # longer boundary side, whose input vertices bind its count: BOUNDARY_SHARE)
+    tries = [(BOUNDARY_SHARE, a) for a in more] + [(None, a) for a in (prune, *more)]
+    axis_at = {prune: first}
+    for share, angle in tries:  # a loop over at most seven partitions
+        if angle not in axis_at:
+            axis_at[angle] = next(axes)
         try:
-            alt = _meshed(axis, domain, method, size, levels)
+            alt = _meshed(axis_at[angle], domain, method, size, levels, share, special)
         except AlgorithmError:
             continue
         if not _over(alt, domain, size) and _least_away(alt.mesh, domain) >= least:
+            extra = {"prune": angle} if angle != prune else {}
             return QuadMedial(
-                mesh=alt.mesh, partition=alt.partition, stats={**alt.stats, "prune": angle}
+                mesh=alt.mesh,
+                partition=alt.partition,
+                stats={**alt.stats, **extra, "boundary_merged": share is not None},
             )
     return res
 
@@ -697,17 +710,18 @@ def _least_away(mesh: Mesh, domain: Domain) -> float:
     return float(quality.quad_quality(P, Q)[ok].min(initial=1.0))
 
 
-def _meshed(axis: MedialAxis, domain, method, size, levels) -> QuadMedial:
-    """:func:`quad_medial` on the axis (of ``domain``; arguments checked)."""
-    special, mesh, stats = _special(axis, size, levels)
+def _meshed(axis: MedialAxis, domain, method, size, levels, share, special) -> QuadMedial:
+    """:func:`quad_medial` on the axis (of ``domain``; arguments checked), the medial
+    partition's regions merged at crowded boundary points as ``share`` says
+    (:func:`_medial_fill`); ``special``: :func:`_special` of the domain's samples."""
+    special, mesh, stats = special
     part = None
     if special is not None and not stats["invalid"]:
         if size is not None and stats["quads"] * size * size > MOST_COUNT * domain.area:
             # the butterfly's central quad carries the boundary's count both ways (a gear
             # at size 0.1: 1.88x): the medial partition when it keeps the count
             try:  # (a 2:1 ellipse's medial partition has a 2-sided region: the butterfly)
-                part = _reflex_merged(partition(axis=axis, method=method))
-                mesh2, stats2 = quads_on(part, size, levels)
+                part, mesh2, stats2 = _medial_fill(axis, method, size, levels, share)
             except AlgorithmError:
                 part, stats2 = None, {"invalid": 1}
             bad = stats2["invalid"] or stats2["slits"]
@@ -722,15 +736,13 @@ def _meshed(axis: MedialAxis, domain, method, size, levels) -> QuadMedial:
             )
         mesh, stats = mesh2, stats2
     else:
-        part = _reflex_merged(partition(axis=axis, method=method))
-        mesh, stats = quads_on(part, size, levels)
+        part, mesh, stats = _medial_fill(axis, method, size, levels, share)
     if (stats["invalid"] or stats["slits"]) and method == "terminal":
         # regions of 5 or 6 sides around reflex corners can fold; the critical
         # partition's triangles and quads do not on the domains tested. A region
         # around a dead-end cut (a slit: its cycle passes a vertex twice) gave a
         # non-conforming fill, a sliver hole along the slit (a random star at size 0.5)
-        fallback = _reflex_merged(partition(axis=part.axis, method="critical"))
-        mesh, stats2 = quads_on(fallback, size, levels)
+        fallback, mesh, stats2 = _medial_fill(part.axis, "critical", size, levels, share)
         stats = {
             **stats2,
             "fallback": f"the terminal partition gave {stats['invalid']} "
@@ -964,12 +976,21 @@ def _regions(points: np.ndarray, cycles, corners) -> list[dict]:
     return regions
 
 
-def _reflex_merged(part: Partition) -> Partition:
-    """The partition with regions merged at crowded reflex input corners
+def _medial_fill(axis: MedialAxis, method: str, size, levels, share):
+    """The medial partition (:func:`partition`, regions merged at crowded boundary points:
+    :func:`_reflex_merged` with ``share``) and its fill
+    (:func:`meshcore.medial.fill.quads_on`): the partition, the mesh and its stats."""
+    part = _reflex_merged(partition(axis=axis, method=method), share)
+    return part, *quads_on(part, size, levels)
+
+
+def _reflex_merged(part: Partition, share: float | None) -> Partition:
+    """The partition with regions merged at crowded reflex input corners and, with
+    ``share``, at other crowded boundary points
     (:func:`meshcore.medial.regions.reflex_merged`)."""
     pts = part.points
     cycles, corners, kinds, removed = reflex_merged(
-        part.axis, pts, part.cycles, part.corners, part.edge_kind
+        part.axis, pts, part.cycles, part.corners, part.edge_kind, share
     )
     if not removed:
         return part

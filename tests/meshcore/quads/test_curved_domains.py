@@ -413,3 +413,41 @@ def test_quad_medial_keeps_the_butterfly_where_the_medial_partition_fails():
     assert res.stats["partition"] == "butterfly"
     ang, q, _ = _check(res.mesh, dom, 0.3)
     assert ang.min() >= 30 and ang.max() <= 150
+
+
+def test_o_grid_at_a_vertex_of_ten_quads():
+    # a crowded junction of the partition (a gear's hub) put every region's coarse quad
+    # at one node: ten quads of 36 degrees there. The fan is an O-grid: a ring of 20
+    # quads around a 5 x 5 grid, no vertex in more than 7 quads, the area kept
+    from meshcore.medial.fill import MOST_VALENCE, _flowered
+
+    t = np.arange(20) * np.pi / 10
+    rim = np.c_[np.cos(t), np.sin(t)] * np.where(np.arange(20) % 2, 1.0, 0.9)[:, None]
+    P = np.vstack([[0.0, 0.0], rim])
+    Q = np.array([[0, 1 + 2 * i, 2 + 2 * i, 1 + (2 * i + 2) % 20] for i in range(10)])
+    P2, Q2, done = _flowered(P, Q)
+    assert done == 1 and len(Q2) == 20 + 25
+    assert np.bincount(Q2.ravel()).max() <= MOST_VALENCE
+    area = quality.signed_area(P2, Q2, "quad")
+    assert (area > 0).all()
+    assert area.sum() == pytest.approx(quality.signed_area(P, Q, "quad").sum(), rel=1e-12)
+
+
+def test_lift_raises_the_least_corner_and_keeps_the_boundary():
+    # a 4 x 4 grid with its inner points pushed aside (corners of 27-153 degrees): the
+    # pattern search lifts the least corner quality, the border stays on the square
+    from meshcore.medial.fill import lift_least
+
+    x = np.linspace(0, 1, 5)
+    P = np.stack(np.meshgrid(x, x, indexing="ij"), axis=-1).reshape(-1, 2)
+    ids = np.arange(25).reshape(5, 5)
+    Q = np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], -1).reshape(-1, 4)
+    inner = (P > 0) & (P < 1)
+    P[inner.all(axis=1)] += [0.12, 0.09]
+    fixed = ~inner.all(axis=1) & ~inner.any(axis=1)  # the square's corners
+    before = quality.quad_quality(P, Q).min()
+    new, moves = lift_least(P, Q, fixed, P[fixed], 0.6)
+    assert moves > 0 and quality.quad_quality(new, Q).min() > before + 0.2
+    border = ~inner.all(axis=1)
+    assert ((new[border] == 0) | (new[border] == 1)).any(axis=1).all()
+    assert quality.signed_area(new, Q, "quad").sum() == pytest.approx(1.0, rel=1e-12)
