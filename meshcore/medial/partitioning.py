@@ -88,25 +88,33 @@ corner under 45 degrees inside a larger region is cut off by a chord between the
 region corners around it (:func:`partition`), and its triangle's subdivision is a
 small kite at the tip (side points :data:`meshcore.medial.fill.KITE_SIDE` x size from it, the inner
 point just past them) and two strips along its sides; ``quad_medial`` keeps
-``ceil(angle / 135) - 1`` of the cuts at a reflex input corner, merging the
-regions on both sides of the others. On 32 random stars of the issue's kind
+``ceil(angle / 135) - 1`` of the cuts at a reflex input corner, and
+``ceil(angle / 60) - 1`` at any other boundary point, merging the regions on both
+sides of the others (the latter only where the count allows: else the partition is
+meshed without them, :func:`quad_medial`). On 32 random stars of the issue's kind
 (:func:`tests.meshcore.quads.stars.issue_star` 0-31: 5-60 vertices, radial jitter
 10-80 %, every other one with a star-shaped hole) at size 0.1, away from the quads at
 input corners under 45 degrees (forced: such a corner is held by one quad): corners
-in [30, 150] degrees on 31, least quality 0.3 on 31 and 0.5 on 19 (26, 27 and 11
+in [30, 150] degrees on 31, least quality 0.3 on 31 and 0.5 on 24 (19 before the
+least corners were lifted, :func:`meshcore.medial.fill.lift_least`; 26, 27 and 11
 before the boundary points slid in the relaxations:
-:func:`meshcore.medial.fill.boundary_slides`), least 0.15-0.61, quads under 0.5
-there 110 (307 before); the count 0.92-1.47x area / size**2 (1.74x before the
-larger stretches, :data:`meshcore.medial.fill.STRETCH`); at size 0.15 the regions
-are about as small as ``size`` and the coarse quads alone pass the count: over 1.5x
-on 9 of the 32 (13 before the axis was pruned more where the count passed,
-:data:`PRUNE_MORE`; up to 2.86x). What is left under 0.5:
+:func:`meshcore.medial.fill.boundary_slides`), least 0.24-0.61, quads under 0.5
+there 44 (163 before the lift); the count 0.92-1.47x area / size**2 (1.74x before the
+larger stretches, :data:`meshcore.medial.fill.STRETCH`); at size 0.15 least 0.5 on
+20 (14), and the regions are about as small as ``size`` and the coarse quads alone
+pass the count: over 1.5x on 8 of the 32 (13 before the axis was pruned more where
+the count passed, :data:`PRUNE_MORE`; up to 2.86x). Gears of 6-12 teeth at size 0.1:
+least 0.5 on 4 of 7 (0 before the O-grid at their hub,
+:func:`meshcore.medial.fill._flowered`, and the merges at their tooth gaps,
+:data:`~meshcore.medial.regions.BOUNDARY_SHARE`), 0.46-0.62, count 1.21-1.49x; at
+0.15 least 0.5 on 5 of 7, count over 1.5x on 4 (1.68-2.47x). What is left under 0.5:
 the strips of spikes whose base chord is oblique and reflex corners (quads of 36-44
-degrees next to them), the few regions of the ``critical`` partition around its
-Type 0 nodes with a corner of 10-30 degrees at the node (the text's midpoint
-subdivision of a triangle region), and one star of 53 vertices with 74 % jitter and
-no hole (star 22: least 0.15, corners 14-163 degrees, in thin regions between its
-spikes).
+degrees next to them), thin 4-sided regions between the close nodes of a crowded
+junction of the ``critical`` partition (parallelograms of 42-45 degrees: gear 9,
+star 18), the few regions around its Type 0 nodes with a corner of 10-30 degrees at
+the node (the text's midpoint subdivision of a triangle region), and one star of 53
+vertices with 74 % jitter and no hole (star 22: least 0.24, corners 22-157 degrees,
+in thin regions between its spikes).
 Every job succeeds and every quad is strictly convex (``stats["not_convex"]``
 counts them, exact). On 150 random star polygons the ``critical``
 partition so gives only valid quads; the ``terminal`` one's 5- and 6-sided

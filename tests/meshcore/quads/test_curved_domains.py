@@ -24,14 +24,15 @@ the annulus corners in [30, 150], least quality 0.5 and the count within 1.5x (0
 at size 0.15, 1.12x at 0.1: its regions are one patch each); on stars, away from
 input corners under 45 degrees (forced), corners in [30, 150] and least quality 0.3,
 and at size 0.1 the count within 1.5x (the issue's least quality 0.5 is not met
-everywhere: 19 of the issue's first 32 stars at size 0.1, 27 of 30 drawn spiky
-stars; at size 0.15 the partition's regions are about as small as ``size`` and 13
-of those 32 stars pass 1.5x, up to 2.9x); one of the issue's stars asserts 0.5, and
+everywhere: 24 of the issue's first 32 stars at size 0.1, 20 at 0.15; at size 0.15
+the partition's regions are about as small as ``size`` and 8 of those 32 stars pass
+1.5x, up to 2.9x); one of the issue's stars asserts 0.5, and
 a star with a 281-degree corner, opened, and a square with a spike of 4-6 degrees, away
 from its tip. Gears (6-12 teeth): the count within 1.5x at size 0.1 (its axis pruned
 more where it passed: a 12-tooth gear 2.46x -> 1.30x); not their quality (least
-0.36-0.49 at 0.1, corners from 32.7 degrees since a crowded hub keeps only its cuts
-off the axis edges) nor the count at 0.15 (1.68-2.47x on 6, 7 and 9 teeth).
+0.46-0.62 at 0.1, 0.5 on 4 of 7, after the O-grid at the hub and the merges at the
+tooth gaps: those two are asserted on their own) nor the count at 0.15 (1.68-2.47x
+on 6-9 teeth).
 """
 
 from __future__ import annotations
