@@ -88,25 +88,33 @@ corner under 45 degrees inside a larger region is cut off by a chord between the
 region corners around it (:func:`partition`), and its triangle's subdivision is a
 small kite at the tip (side points :data:`meshcore.medial.fill.KITE_SIDE` x size from it, the inner
 point just past them) and two strips along its sides; ``quad_medial`` keeps
-``ceil(angle / 135) - 1`` of the cuts at a reflex input corner, merging the
-regions on both sides of the others. On 32 random stars of the issue's kind
+``ceil(angle / 135) - 1`` of the cuts at a reflex input corner, and
+``ceil(angle / 60) - 1`` at any other boundary point, merging the regions on both
+sides of the others (the latter only where the count allows: else the partition is
+meshed without them, :func:`quad_medial`). On 32 random stars of the issue's kind
 (:func:`tests.meshcore.quads.stars.issue_star` 0-31: 5-60 vertices, radial jitter
 10-80 %, every other one with a star-shaped hole) at size 0.1, away from the quads at
 input corners under 45 degrees (forced: such a corner is held by one quad): corners
-in [30, 150] degrees on 31, least quality 0.3 on 31 and 0.5 on 19 (26, 27 and 11
+in [30, 150] degrees on 31, least quality 0.3 on 31 and 0.5 on 24 (19 before the
+least corners were lifted, :func:`meshcore.medial.fill.lift_least`; 26, 27 and 11
 before the boundary points slid in the relaxations:
-:func:`meshcore.medial.fill.boundary_slides`), least 0.15-0.61, quads under 0.5
-there 110 (307 before); the count 0.92-1.47x area / size**2 (1.74x before the
-larger stretches, :data:`meshcore.medial.fill.STRETCH`); at size 0.15 the regions
-are about as small as ``size`` and the coarse quads alone pass the count: over 1.5x
-on 9 of the 32 (13 before the axis was pruned more where the count passed,
-:data:`PRUNE_MORE`; up to 2.86x). What is left under 0.5:
+:func:`meshcore.medial.fill.boundary_slides`), least 0.24-0.61, quads under 0.5
+there 44 (163 before the lift); the count 0.92-1.47x area / size**2 (1.74x before the
+larger stretches, :data:`meshcore.medial.fill.STRETCH`); at size 0.15 least 0.5 on
+20 (14), and the regions are about as small as ``size`` and the coarse quads alone
+pass the count: over 1.5x on 8 of the 32 (13 before the axis was pruned more where
+the count passed, :data:`PRUNE_MORE`; up to 2.86x). Gears of 6-12 teeth at size 0.1:
+least 0.5 on 4 of 7 (0 before the O-grid at their hub,
+:func:`meshcore.medial.fill._flowered`, and the merges at their tooth gaps,
+:data:`~meshcore.medial.regions.BOUNDARY_SHARE`), 0.46-0.62, count 1.21-1.49x; at
+0.15 least 0.5 on 5 of 7, count over 1.5x on 4 (1.68-2.47x). What is left under 0.5:
 the strips of spikes whose base chord is oblique and reflex corners (quads of 36-44
-degrees next to them), the few regions of the ``critical`` partition around its
-Type 0 nodes with a corner of 10-30 degrees at the node (the text's midpoint
-subdivision of a triangle region), and one star of 53 vertices with 74 % jitter and
-no hole (star 22: least 0.15, corners 14-163 degrees, in thin regions between its
-spikes).
+degrees next to them), thin 4-sided regions between the close nodes of a crowded
+junction of the ``critical`` partition (parallelograms of 42-45 degrees: gear 9,
+star 18), the few regions around its Type 0 nodes with a corner of 10-30 degrees at
+the node (the text's midpoint subdivision of a triangle region), and one star of 53
+vertices with 74 % jitter and no hole (star 22: least 0.24, corners 22-157 degrees,
+in thin regions between its spikes).
 Every job succeeds and every quad is strictly convex (``stats["not_convex"]``
 counts them, exact). On 150 random star polygons the ``critical``
 partition so gives only valid quads; the ``terminal`` one's 5- and 6-sided
@@ -148,11 +156,19 @@ from meshcore.medial.axis import (
     medial_axis,
     pruned_axes,
 )
-from meshcore.medial.fill import MOST_COUNT, area_centroid, boundary_slides, folded, quads_on
+from meshcore.medial.fill import (
+    MOST_COUNT,
+    area_centroid,
+    boundary_slides,
+    folded,
+    lift_least,
+    quads_on,
+)
 from meshcore.medial.regions import (
     _AXIS,
     _BOUNDARY,
     _CUT,
+    BOUNDARY_SHARE,
     KITE_ANGLE,
     input_fans,
     input_index,
@@ -216,6 +232,9 @@ CROWD_ANGLE = 20.0
 #: opened, it took the mean from 0.778 to 0.836 and the least from 0.486 to 0.481, and
 #: was refused (mean 0.84 without the opening).
 LEAST_GIVE = 0.01
+#: Last, the corners of the quads under this quality (8.4) and of two rings of quads
+#: around them are lifted (:func:`meshcore.medial.fill.lift_least`).
+LIFT_BELOW = 0.6
 
 
 @dataclass(frozen=True, eq=False)
@@ -655,18 +674,30 @@ def quad_medial(
     more = [x for x in PRUNE_MORE if x > prune] if size is not None else []
     # the axis built once (samples, Delaunay, Voronoi graph), pruned at each angle in turn
     axes = pruned_axes(domain, h=h, prunes=(prune, *more), progress=progress)
-    res = _meshed(next(axes), domain, method, size, levels)
+    first = next(axes)
+    special = _special(first, size, levels)  # the same samples on every pruned axis
+    res = _meshed(first, domain, method, size, levels, BOUNDARY_SHARE, special)
     if size is None or not _over(res, domain, size):
         return res
     least = min(PRUNE_LEAST, _least_away(res.mesh, domain))
-    for angle, axis in zip(more, axes, strict=True):  # a loop over at most three axes
+    # the more pruned axes with the regions merged at crowded boundary points, then
+    # every axis without those merges (a region merged at a gear's tooth gap has a
+    # longer boundary side, whose input vertices bind its count: BOUNDARY_SHARE)
+    tries = [(BOUNDARY_SHARE, a) for a in more] + [(None, a) for a in (prune, *more)]
+    axis_at = {prune: first}
+    for share, angle in tries:  # a loop over at most seven partitions
+        if angle not in axis_at:
+            axis_at[angle] = next(axes)
         try:
-            alt = _meshed(axis, domain, method, size, levels)
+            alt = _meshed(axis_at[angle], domain, method, size, levels, share, special)
         except AlgorithmError:
             continue
         if not _over(alt, domain, size) and _least_away(alt.mesh, domain) >= least:
+            extra = {"prune": angle} if angle != prune else {}
             return QuadMedial(
-                mesh=alt.mesh, partition=alt.partition, stats={**alt.stats, "prune": angle}
+                mesh=alt.mesh,
+                partition=alt.partition,
+                stats={**alt.stats, **extra, "boundary_merged": share is not None},
             )
     return res
 
@@ -687,17 +718,18 @@ def _least_away(mesh: Mesh, domain: Domain) -> float:
     return float(quality.quad_quality(P, Q)[ok].min(initial=1.0))
 
 
-def _meshed(axis: MedialAxis, domain, method, size, levels) -> QuadMedial:
-    """:func:`quad_medial` on the axis (of ``domain``; arguments checked)."""
-    special, mesh, stats = _special(axis, size, levels)
+def _meshed(axis: MedialAxis, domain, method, size, levels, share, special) -> QuadMedial:
+    """:func:`quad_medial` on the axis (of ``domain``; arguments checked), the medial
+    partition's regions merged at crowded boundary points as ``share`` says
+    (:func:`_medial_fill`); ``special``: :func:`_special` of the domain's samples."""
+    special, mesh, stats = special
     part = None
     if special is not None and not stats["invalid"]:
         if size is not None and stats["quads"] * size * size > MOST_COUNT * domain.area:
             # the butterfly's central quad carries the boundary's count both ways (a gear
             # at size 0.1: 1.88x): the medial partition when it keeps the count
             try:  # (a 2:1 ellipse's medial partition has a 2-sided region: the butterfly)
-                part = _reflex_merged(partition(axis=axis, method=method))
-                mesh2, stats2 = quads_on(part, size, levels)
+                part, mesh2, stats2 = _medial_fill(axis, method, size, levels, share)
             except AlgorithmError:
                 part, stats2 = None, {"invalid": 1}
             bad = stats2["invalid"] or stats2["slits"]
@@ -712,15 +744,13 @@ def _meshed(axis: MedialAxis, domain, method, size, levels) -> QuadMedial:
             )
         mesh, stats = mesh2, stats2
     else:
-        part = _reflex_merged(partition(axis=axis, method=method))
-        mesh, stats = quads_on(part, size, levels)
+        part, mesh, stats = _medial_fill(axis, method, size, levels, share)
     if (stats["invalid"] or stats["slits"]) and method == "terminal":
         # regions of 5 or 6 sides around reflex corners can fold; the critical
         # partition's triangles and quads do not on the domains tested. A region
         # around a dead-end cut (a slit: its cycle passes a vertex twice) gave a
         # non-conforming fill, a sliver hole along the slit (a random star at size 0.5)
-        fallback = _reflex_merged(partition(axis=part.axis, method="critical"))
-        mesh, stats2 = quads_on(fallback, size, levels)
+        fallback, mesh, stats2 = _medial_fill(part.axis, "critical", size, levels, share)
         stats = {
             **stats2,
             "fallback": f"the terminal partition gave {stats['invalid']} "
@@ -810,6 +840,7 @@ def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
         if kept:
             P = new
     out["least_relaxed"] = bool(kept)
+    P, out["least_lifted"] = lift_least(P, Q, fixed, domain.points, LIFT_BELOW)
     out["quads"] = int(len(Q))
     out["points"] = int(len(P))
     return Mesh(P, (CellBlock("quad", Q),)), out
@@ -953,12 +984,21 @@ def _regions(points: np.ndarray, cycles, corners) -> list[dict]:
     return regions
 
 
-def _reflex_merged(part: Partition) -> Partition:
-    """The partition with regions merged at crowded reflex input corners
+def _medial_fill(axis: MedialAxis, method: str, size, levels, share):
+    """The medial partition (:func:`partition`, regions merged at crowded boundary points:
+    :func:`_reflex_merged` with ``share``) and its fill
+    (:func:`meshcore.medial.fill.quads_on`): the partition, the mesh and its stats."""
+    part = _reflex_merged(partition(axis=axis, method=method), share)
+    return part, *quads_on(part, size, levels)
+
+
+def _reflex_merged(part: Partition, share: float | None) -> Partition:
+    """The partition with regions merged at crowded reflex input corners and, with
+    ``share``, at other crowded boundary points
     (:func:`meshcore.medial.regions.reflex_merged`)."""
     pts = part.points
     cycles, corners, kinds, removed = reflex_merged(
-        part.axis, pts, part.cycles, part.corners, part.edge_kind
+        part.axis, pts, part.cycles, part.corners, part.edge_kind, share
     )
     if not removed:
         return part

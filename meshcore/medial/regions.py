@@ -9,9 +9,11 @@ changed here:
   fill repeated the tip's angle along its diagonal. :func:`spike_chords` cuts it off
   by a chord, so that it is a triangle region of its own (subdivided as a small kite
   at the tip and two strips along its sides, :mod:`meshcore.medial.fill`);
-* a reflex input corner met by many cuts: each region meeting there puts a coarse
-  quad at the corner, so that corners of 280-290 degrees were held by 6-7 quads.
-  :func:`reflex_merged` keeps about one region per :data:`REFLEX_SHARE` degrees.
+* a boundary point met by many cuts: each region meeting there puts a coarse
+  quad at the point, so that reflex corners of 280-290 degrees were held by 6-7
+  quads, and a straight point of a gear's tooth gap by 4 (45 degrees each).
+  :func:`reflex_merged` keeps about one region per :data:`REFLEX_SHARE` degrees at a
+  reflex input corner and one per :data:`BOUNDARY_SHARE` degrees elsewhere.
 
 :func:`input_index` and :func:`input_fans` find the input vertices among a mesh's
 points and count their quads (the optimization of the fill keeps them).
@@ -32,6 +34,7 @@ from meshcore.geometry.predicates import orient2d
 from meshcore.medial.axis import MedialAxis
 
 __all__ = [
+    "BOUNDARY_SHARE",
     "KITE_ANGLE",
     "REFLEX_SHARE",
     "input_fans",
@@ -53,6 +56,9 @@ KITE_ANGLE = 45.0
 #: At a reflex input corner, one region (one coarse quad) per this many degrees of its
 #: angle: the others' cuts there are removed (:func:`reflex_merged`).
 REFLEX_SHARE = 135.0
+#: At any other boundary sample, one region per this many degrees: four regions at a
+#: straight boundary point of a gear's tooth gap gave its quads 45 degrees there.
+BOUNDARY_SHARE = 60.0
 
 
 def turns(ax: MedialAxis) -> np.ndarray:
@@ -130,15 +136,19 @@ def spike_chords(points, cycles, corners, kinds, turn):
     return list(cycles), list(corners), list(kinds), chords
 
 
-def reflex_merged(ax: MedialAxis, pts: np.ndarray, cycles, corners, kinds):
-    """Regions merged at reflex input corners that too many of them meet: a corner of
-    angle theta keeps ``ceil(theta / REFLEX_SHARE) - 1`` of its cuts from axis nodes
-    (those leaving the most even angles between them), the two regions on each side
-    of another are merged, when every region keeps three corners or more and the
-    merged cycle is simple. Each region meeting there puts a coarse quad at the
-    corner: on 32 random stars, corners of 281 and 291 degrees were held by 6 and 7
-    quads (41 degrees each: least quality 0.36 there). Returns the cycles, corner
-    flags, edge kinds and the removed cuts (vertex pairs)."""
+def reflex_merged(ax: MedialAxis, pts: np.ndarray, cycles, corners, kinds, share: float | None):
+    """Regions merged at boundary points that too many of them meet: a reflex input
+    corner of angle theta keeps ``ceil(theta / REFLEX_SHARE) - 1`` of its cuts from
+    axis nodes, any other boundary sample ``ceil(theta / share) - 1`` (none when
+    ``share`` is None; :data:`BOUNDARY_SHARE` where the count allows) (those
+    leaving the most even angles between them); the two regions on each side of
+    another are merged, when every region keeps three corners or more and the merged
+    cycle is simple. Each region meeting there puts a coarse quad at the point: on
+    32 random stars, corners of 281 and 291 degrees were held by 6 and 7 quads (41
+    degrees each: least quality 0.36 there); on gears of 6, 10 and 12 teeth at size
+    0.1, straight points of the tooth gaps by 4 (least 0.44-0.50 there; none under
+    0.5 with 3). Returns the cycles, corner flags, edge kinds and the removed cuts
+    (vertex pairs)."""
     p = len(ax.samples)
     pred = np.empty(p, dtype=np.int64)
     pred[ax.succ] = np.arange(p)
@@ -153,15 +163,19 @@ def reflex_merged(ax: MedialAxis, pts: np.ndarray, cycles, corners, kinds):
     for a, b in und:
         degree[a] += 1
         degree[b] += 1
-    reflex = np.flatnonzero((src[pred] != src) & (turn < 0))
+    reflex = (src[pred] != src) & (turn < 0)
+    ends: dict[int, list[int]] = {}  # per sample, the cuts from axis nodes (not the chords)
+    for (a, b), n in und.items():
+        if n == 2 and min(a, b) < p <= max(a, b):
+            ends.setdefault(int(min(a, b)), []).append(int(max(a, b)))
     removed = []
-    for v in reflex.tolist():  # a loop over the reflex input corners
+    for v in sorted(ends):  # a loop over the samples that cuts reach
         theta = math.pi - turn[v]
         out = pts[ax.succ[v]] - pts[v]
-        cut_ends = [  # the cuts from axis nodes (not the spikes' chords)
-            int(a + b - v) for (a, b), n in und.items() if n == 2 and v in (a, b) and a + b - v >= p
-        ]
-        keep = math.ceil(math.degrees(theta) / REFLEX_SHARE) - 1
+        cut_ends = ends[v]
+        if not reflex[v] and share is None:
+            continue
+        keep = math.ceil(math.degrees(theta) / (REFLEX_SHARE if reflex[v] else share) - 1e-9) - 1
         if len(cut_ends) <= keep:
             continue
         d = pts[cut_ends] - pts[v]
