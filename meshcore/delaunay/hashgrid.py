@@ -86,7 +86,7 @@ def ball_pairs(X: np.ndarray, centres: np.ndarray, radii: np.ndarray):
     X = np.ascontiguousarray(X, dtype=np.float64).reshape(-1, 3)
     centres = np.ascontiguousarray(centres, dtype=np.float64).reshape(-1, 3)
     radii = np.ascontiguousarray(radii, dtype=np.float64)
-    if len(X) < 4096 or not np.isfinite(radii).any():
+    if len(X) < 32768 or not np.isfinite(radii).any():
         return _ball_pairs(X, centres, radii)
     # The points in the order of coarse cells (neighbours look up the same cells while
     # they are in cache), their pairs then put back in point order.

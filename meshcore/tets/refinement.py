@@ -123,11 +123,14 @@ Choices the methods text leaves open
   Refining every facet to its feature size (no ``thin`` filter) would split
   half the edges of a torus, whose tube is narrower than twice its long
   edges, and only add points.
-* **Facets far above their size** (:mod:`meshcore.tets.seeding`): with a
-  uniform size (``size``, or a thin facet's feature size), a facet whose
-  largest subface is over 3 times the bound gets a triangular lattice of
-  0.9 times its size in one batch, the rounds then only finishing the band
-  along its boundary (the thin plate at size 0.00616: 36 rounds -> 15).
+* **Thin facets far above their size** (:mod:`meshcore.tets.seeding`): with
+  a uniform size (``size`` and the feature size above, the smaller), a thin
+  facet whose largest subface is over 3 times the bound gets a triangular
+  lattice of 0.9 times its size in one batch, the rounds then only
+  finishing the band along its boundary (the thin plate at size 0.00616:
+  36 rounds -> 15). Other facets are refined as before: on the cube minus
+  a ball at 100k the seeded faces' later rounds retriangulated them whole
+  more often (31 retriangulations against 18) and took longer.
 * **Small input angles** (:mod:`meshcore.tets.angles`): subsegments at
   one input vertex are split on concentric shells; a *sharp* input vertex
   (features meeting below ``Knobs.small_angle``, 60 degrees, or a dihedral
@@ -970,9 +973,10 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
             b.split_segments(seg_bad)
             continue
         if size_at is None or size_at.uniform is not None:
-            # A facet far above its (uniform) size: a lattice of points at once
+            # A thin facet far above its (uniform) size: a lattice of points at once
             # (``meshcore.tets.seeding``), not a round per 1.5x more points.
             bound = b.facet_size if size_at is None else np.minimum(b.facet_size, size_at.uniform)
+            bound = np.where(np.isfinite(b.facet_size), bound, np.inf)
             far = far_facets(b, b.knobs.size_radius * bound, seeded)
             if far.size:
                 seeded[far] = True

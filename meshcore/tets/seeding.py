@@ -7,8 +7,9 @@ larger than its size grows by about 1.5 times its points per round. The thin
 plate's two large faces (1 x 1, refined to its size of about its 0.01
 thickness) took about 20 such rounds, each retriangulating the facets and
 inserting a batch in the kernel. :func:`seed_facets` puts the points of such
-a facet (its largest subface circumradius above :data:`SEED_FAR` times the
-bound) in one batch instead: a triangular lattice in its plane, of spacing
+a facet (a thin one, ``refinement``'s feature size rule, whose largest
+subface circumradius is above :data:`SEED_FAR` times the bound) in one batch
+instead: a triangular lattice in its plane, of spacing
 :data:`SPACING` times the facet's size, kept inside the facet (float sides of its input
 triangles), :data:`MARGIN` spacings away from its boundary subsegments (so
 that no point lies in a subsegment's diametral ball), out of the protecting
