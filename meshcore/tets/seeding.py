@@ -51,13 +51,20 @@ SEED_FAR = 3.0
 MARGIN = 0.75
 
 
+def _lattice_shape(uv: np.ndarray, h: float) -> tuple[int, int]:
+    """(points per row, rows) of the lattice of spacing ``h`` over the box of ``uv``."""
+    lo, hi = uv.min(axis=0), uv.max(axis=0)
+    nu = int(min(math.floor((hi[0] - lo[0]) / h), 2**40)) + 2
+    nv = int(min(math.floor((hi[1] - lo[1]) / (h * math.sqrt(3.0) / 2.0)), 2**40)) + 2
+    return nu, nv
+
+
 def _lattice(uv: np.ndarray, h: float) -> np.ndarray:
     """The points of the triangular lattice of spacing ``h`` (rows along u, every other
     row shifted by ``h / 2``) in the bounding box of ``uv``."""
-    lo, hi = uv.min(axis=0), uv.max(axis=0)
+    lo = uv.min(axis=0)
     dv = h * math.sqrt(3.0) / 2.0
-    nu = int(math.floor((hi[0] - lo[0]) / h)) + 2
-    nv = int(math.floor((hi[1] - lo[1]) / dv)) + 2
+    nu, nv = _lattice_shape(uv, h)
     j, i = np.divmod(np.arange(nu * nv), nu)
     u = lo[0] + h * (i + 0.5 * (j % 2))
     v = lo[1] + dv * j
@@ -80,14 +87,23 @@ def seed_facets(b: SurfaceRecovery, facets: np.ndarray, size: np.ndarray) -> int
     of the facet, or than half a spacing to a point already in the facet,
     are not added. The facets are retriangulated once
     (:meth:`~meshcore.delaunay.recovery3d.SurfaceRecovery.retriangulate`).
+    None is added when the lattices would hold more points than the
+    refinement may still add (``Knobs.max_points``): the rounds then reach
+    that limit as before (a 1 x 1 x 1e-5 plate's lattice asked for 3e9).
     """
     origin, e1, e2 = b.frame
+    corners_uv = []
+    for f in facets.tolist():
+        d = b.P[np.unique(b.facets[b.group_tris[f]])] - origin[f]
+        corners_uv.append(np.stack([d @ e1[f], d @ e2[f]], 1))
+    h_all = (SPACING * size).tolist()
+    count = sum(math.prod(_lattice_shape(uv, h)) for uv, h in zip(corners_uv, h_all, strict=True))
+    if count > b.knobs.max_points - b.n:
+        return 0
     X_all, f_all = [], []
     on = b.edge_groups[b.seg_edge]
-    for f, h in zip(facets.tolist(), (SPACING * size).tolist(), strict=True):
-        corners = np.unique(b.facets[b.group_tris[f]])
-        d = b.P[corners] - origin[f]
-        uv = _lattice(np.stack([d @ e1[f], d @ e2[f]], 1), h)
+    for f, h, cuv in zip(facets.tolist(), h_all, corners_uv, strict=True):
+        uv = _lattice(cuv, h)
         X = origin[f] + uv[:, :1] * e1[f] + uv[:, 1:] * e2[f]
         X = X[b.in_facet(X, np.full(len(X), f))]
         segs = np.flatnonzero((on[:, 0] == f) | (on[:, 1] == f))

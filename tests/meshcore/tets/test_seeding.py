@@ -56,3 +56,13 @@ def test_a_thin_strip_at_a_size_finishes_in_few_rounds():
     assert r.given_up == 0
     assert r.left["radius_edge_above"] == NONE_LEFT
     assert r.rounds <= 17
+
+
+def test_no_lattice_beyond_the_point_limit():
+    """A lattice holding more points than the refinement may still add is not laid (a
+    1 x 1 x 1e-5 plate's asked for 3e9): nothing added, the rounds go on to the limit."""
+    b = SurfaceRecovery(parse_surface(*shapes.box((0, 0, 0), (1, 1, 1e-5))), KNOBS)
+    n0 = b.n
+    bottom = b.group[(b.P[b.facets][:, :, 2] == 0).all(axis=1)][:1]  # the 1 x 1 face
+    assert seed_facets(b, bottom, np.array([2e-5])) == 0
+    assert b.n == n0 == len(b.P)
