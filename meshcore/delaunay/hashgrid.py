@@ -71,18 +71,31 @@ def _find_all(tk, tv, keys):
 
 
 def ball_pairs(X: np.ndarray, centres: np.ndarray, radii: np.ndarray):
-    """All pairs (i, j) with ``|X[i] - centres[j]| < radii[j]`` (float), in no set order.
+    """All pairs (i, j) with ``|X[i] - centres[j]| < radii[j]`` (float), point by point
+    (``i`` increasing), each point's by power of two of the radius, then ``j`` decreasing.
 
     A hash grid per power of two of the radius: a ball of radius below
     ``2**e`` is registered in the cells of side ``2**(e + 1)`` its bounding
     box meets (at most 8 but for rounding), so each point looks in one cell
     per radius scale. One compiled pass; the distance is numpy's
-    ``norm(X[i] - centres[j])``.
+    ``norm(X[i] - centres[j])``. From 32,768 points on, the points are looked
+    up in the order of coarse cells (neighbours walk the same cells while
+    they are in cache) and their pairs put back in point order: on the thin
+    plate at 1M tetrahedra (156k subfaces, about 150 balls a cell) the
+    subface queries took 3.2-3.8 CPU s in point order, 1.1 s so.
     """
     X = np.ascontiguousarray(X, dtype=np.float64).reshape(-1, 3)
     centres = np.ascontiguousarray(centres, dtype=np.float64).reshape(-1, 3)
     radii = np.ascontiguousarray(radii, dtype=np.float64)
-    return _ball_pairs(X, centres, radii)
+    if len(X) < 32768 or not np.isfinite(radii).any():
+        return _ball_pairs(X, centres, radii)
+    # Coarse cells of the largest finite radius; the stable sort keeps each point's order.
+    span = float(np.nanmax(np.where(np.isfinite(radii), radii, np.nan)))
+    cell = np.floor(np.nan_to_num(X / max(span, 1e-300))).astype(np.int64)
+    order = np.lexsort((cell[:, 2], cell[:, 1], cell[:, 0]))
+    xi, ci = _ball_pairs(X[order], centres, radii)
+    back = np.argsort(order[xi], kind="stable")
+    return order[xi][back], ci[back]
 
 
 @njit(cache=True)

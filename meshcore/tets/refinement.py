@@ -123,6 +123,14 @@ Choices the methods text leaves open
   Refining every facet to its feature size (no ``thin`` filter) would split
   half the edges of a torus, whose tube is narrower than twice its long
   edges, and only add points.
+* **Thin facets far above their size** (:mod:`meshcore.tets.seeding`): with
+  a uniform size (``size`` and the feature size above, the smaller), a thin
+  facet whose largest subface is over 3 times the bound gets a triangular
+  lattice of 0.9 times its size in one batch, the rounds then only
+  finishing the band along its boundary (the thin plate at size 0.00616:
+  36 rounds -> 15). Other facets are refined as before: on the cube minus
+  a ball at 100k the seeded faces' later rounds retriangulated them whole
+  more often (31 retriangulations against 18) and took longer.
 * **Small input angles** (:mod:`meshcore.tets.angles`): subsegments at
   one input vertex are split on concentric shells; a *sharp* input vertex
   (features meeting below ``Knobs.small_angle``, 60 degrees, or a dihedral
@@ -191,6 +199,7 @@ from meshcore.tets.angles import (
     protecting_cylinders,
 )
 from meshcore.tets.keep import flip_slivers, lift_surface_points
+from meshcore.tets.seeding import far_facets, seed_facets
 from meshcore.tets.sizing import SizeField3d
 
 __all__ = ["TetrahedralizationResult", "tetrahedralize", "tetra_dihedral_angles"]
@@ -930,6 +939,7 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
     what was created since the last.
     """
     size_at = bad_tets.size_at
+    seeded = np.zeros(len(b.facet_size), dtype=bool)
     rounds = 0
     left = 0
     for rounds in range(1, b.knobs.refinement_rounds + 1):
@@ -962,6 +972,16 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
         if seg_bad.size:
             b.split_segments(seg_bad)
             continue
+        if size_at is None or size_at.uniform is not None:
+            # A thin facet far above its (uniform) size: a lattice of points at once
+            # (``meshcore.tets.seeding``), not a round per 1.5x more points.
+            bound = b.facet_size if size_at is None else np.minimum(b.facet_size, size_at.uniform)
+            bound = np.where(np.isfinite(b.facet_size), bound, np.inf)
+            far = far_facets(b, b.knobs.size_radius * bound, seeded)
+            if far.size:
+                seeded[far] = True
+                seed_facets(b, far, bound[far])
+                continue
         cap = b.facet_size[b.sub_facet]
         if size_at is not None:
             cap = np.minimum(cap, size_at.at(lambda: b.P[b.sub].mean(axis=1)))
