@@ -114,7 +114,8 @@ Algorithm
    (below): on the plate with 20 holes at 10k quads all but 3,128 of 7,547
    row quads, mean quality 0.860; now 0.876, valence-4 share 82.7 % ->
    86.4 %, no irregular boundary vertex (was 2), but the least scaled
-   Jacobian 0.705 -> 0.664. When the
+   Jacobian 0.705 -> 0.664 (0.734, mean 0.881, valence-4 87.5 %, since the
+   partition takes no quad separator within 17 degrees of an edge). When the
    rows leave more than half the domain's area, and over 20,000 cells of the
    least size, to the closure (the gear at 100k quads: its fronts freeze
    between the teeth after a few rows), the closure is not tried: the rows
