@@ -58,7 +58,16 @@ Algorithm
    ``_RETRY_BAD`` quads is laid again (up to ``_RETRIES`` times) with the
    front nodes of the failed quads made sides (their corner, reversal,
    wedge or row end given up), and without its snaps when a failed quad has
-   a snapped node. A row that still fails is
+   a snapped node. A row whose failed quads (still failing then) fail only
+   the ``2 h`` gap to other fronts, and are at most ``_PARTIAL`` of its
+   quads, is committed without them (a *partial row*: the front stops
+   short of the other fronts there and goes on elsewhere; a set of quads
+   passing the checks overlaps nothing, and the trace below checks the
+   fronts left). Measured side by side at 10k quads: the square with a
+   hole mean quality 0.952 -> 0.961, valence-4 share 96.4 -> 97.8 %; the
+   plate with 20 holes 0.881 -> 0.897, 87.5 -> 90.0 %, least scaled
+   Jacobian 0.734 -> 0.744 (its outer front froze at its second row by the
+   holes); the gear, the L unchanged. Any other row that still fails is
    not committed and its front is *frozen* (it is unfrozen when a merge
    makes it part of a new front). A front is frozen too when it has 8
    nodes or fewer, or after ``max_rows`` rounds.
@@ -210,10 +219,11 @@ Not done: fronts that meet with counts far apart are paired only where
 their nodes face each other (strips); the junctions between strips, and
 bands wider than ``_LADDER_REACH h``, are closed by the partition, which is
 where the irregular vertices are; the rows still freeze a whole front when
-more than ``_RETRY_BAD`` quads fail (committing only the quads that pass,
-leaving steps in the front, was tried: the steps make the next rows fail
-around them, and on the plate at 10k quads it took 15 s for a lower mean
-quality).
+a quad fails for another reason than the gap (committing every quad that
+passes, leaving steps in the front, was tried: the steps make the next rows
+fail around them, and on the plate at 10k quads it took 15 s for a lower
+mean quality; partial rows on gap failures above a quarter of the row
+lowered the gear's mean quality at 10k quads 0.933 -> 0.927).
 Interior constraint segments are refused.
 
 Dense boundaries
@@ -297,6 +307,7 @@ _SQUARE_SWEEPS = 10  # sweeps of square_corners after the clean-up
 _RELAX = 3  # sweeps evening out a new front (wedges) before its checks
 _RETRIES = 2  # a failed row tried again this many times with its failed nodes made sides...
 _RETRY_BAD = 12  # ... when at most this many of its quads failed
+_PARTIAL = 0.25  # a row failing only on the gap, on at most this share of its quads, stops there
 _LEFT_SHARE = 0.5  # rows leaving more than this share of the area to the closure...
 _LEFT_CELLS = 20000  # ... and more than this many cells of the least size: guaranteed route
 _TIE = 1e-6  # lengths within this share of each other tie (broken by index)
@@ -482,7 +493,9 @@ def _relax(pts: np.ndarray, seq: np.ndarray, free: np.ndarray) -> None:
         pts[at] += 0.5 * (mid[mov] - X[mov])
 
 
-def _good_quads(Q, quads: np.ndarray, fronts: list, which: int, n_old: int, h: np.ndarray):
+def _good_quads(
+    Q, quads: np.ndarray, fronts: list, which: int, n_old: int, h: np.ndarray, gap=_GAP
+):
     """(m,) bool: the quads of a proposed row that pass every check (exact predicates).
 
     A quad fails when it is not strictly convex or below quality ``_MIN_Q``;
@@ -490,9 +503,10 @@ def _good_quads(Q, quads: np.ndarray, fronts: list, which: int, n_old: int, h: n
     another new edge except at a shared node (both quads fail then); when a
     front node or a new node not its corner lies in it; or when a new node of
     it lies closer than ``_CLEARANCE * h`` to a front node or new node that
-    is not a corner of a quad of that node. ``h`` is the size at each point
-    of ``Q``. The quads that pass form a set that overlaps no front and no
-    other of them.
+    is not a corner of a quad of that node, or closer than ``gap * h`` to a
+    node of another front when its quad does not join that front (0: no gap
+    check). ``h`` is the size at each point of ``Q``. The quads that pass
+    form a set that overlaps no front and no other of them.
     """
     m, N = len(quads), len(Q)
     ok = pk.strictly_convex_rows(Q, quads)
@@ -540,9 +554,9 @@ def _good_quads(Q, quads: np.ndarray, fronts: list, which: int, n_old: int, h: n
         joined = np.zeros(len(Q), bool)
         joined[quads[other[quads].any(axis=1)]] = True
         hx = h[new_nodes]
-        i, t, dist = pk.near_pairs(Q[new_nodes], Q[nodes], _GAP * float(hx.max()))
+        i, t, dist = pk.near_pairs(Q[new_nodes], Q[nodes], max(gap, _CLEARANCE) * float(hx.max()))
         x, y = new_nodes[i], nodes[t]
-        lim = np.where(joined[x] | ~other[y], _CLEARANCE, _GAP)
+        lim = np.where(joined[x] | ~other[y], _CLEARANCE, gap)
         close = (dist < lim * hx[i]) & (x != y)
         # allowed: the corners of the quads at x
         mine = (quads[:, :, None] * N + quads[:, None, :]).ravel()
@@ -685,7 +699,12 @@ def _try_row(P, fronts, which, sizes, even):
             break
         bad = quads[~ok]
         if attempt == _RETRIES or (~ok).sum() > _RETRY_BAD:
-            return None
+            if (~ok).sum() > _PARTIAL * len(ok) or not _good_quads(
+                Q, quads, fronts, which, n_old, h, 0.0
+            ).all():
+                return None
+            quads = quads[ok]  # only gap failures: the row stops short of the other fronts
+            break
         pos = np.full(len(Q), -1, np.int64)
         pos[f] = np.arange(len(f))
         at = pos[bad[bad < n_old]]
