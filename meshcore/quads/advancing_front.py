@@ -298,7 +298,15 @@ from meshcore.partition.recursive import FALLBACK_SCALE, stuck_error
 from meshcore.partition.smoothing import SWEEPS
 from meshcore.quads import paving_kernel as pk
 from meshcore.quads.optimization import optimize_quads
-from meshcore.quads.paving_fronts import _MIN_Q, _angles, _close, _edge_keys, _polygons, _trace
+from meshcore.quads.paving_fronts import (
+    _MIN_Q,
+    _angles,
+    _chains,
+    _close,
+    _edge_keys,
+    _polygons,
+    _trace,
+)
 
 __all__ = ["PavingResult", "clean_up", "paving"]
 
@@ -530,8 +538,7 @@ def _good_quads(
     ok &= (quads[:, [0, 1, 2, 3]] != quads[:, [1, 2, 3, 0]]).all(axis=1)
     ok &= (quads[:, 0] != quads[:, 2]) & (quads[:, 1] != quads[:, 3])
     ok[ok] = quad_quality(Q, quads[ok]) >= _MIN_Q
-    fa = np.concatenate(fronts)
-    fb = np.concatenate([np.roll(g, -1) for g in fronts])
+    fa, fb = _chains(fronts)
     qa, qb = quads.ravel(), np.roll(quads, -1, axis=1).ravel()
     qid = np.repeat(np.arange(m), 4)
     qkey = _edge_keys(qa, qb, N)
@@ -627,8 +634,9 @@ def _snap(Q, f, nf, quads, fronts, which, n_old, h):
         for v in quads[q]:
             corners.setdefault(int(v), set()).update(quads[q].tolist())
     succ = np.full(N, -1, np.int64)
-    for g in (*fronts, nf):
-        succ[g] = np.roll(g, -1)
+    a, b = _chains(fronts)
+    succ[a] = b
+    succ[nf] = np.roll(nf, -1)
     # greedy, nearest first: each node once; a node of its own front is taken only if
     # it is no source of a node snapped already, and conversely
     to: dict[int, int] = {}
