@@ -38,6 +38,7 @@ ANGLE = 1
 _SAMPLE = 30  # sampled positions per polygon above this count (twice, for parity)
 _ANGLE_WEIGHT = 1.5
 _MIN_SPLIT_ANGLE = 0.05  # radians: separators closer to an edge only in the full search
+_QUAD_SPLIT_ANGLE = 0.3  # radians (17 degrees): quads, the least angle to an edge
 _TINY_ANGLE = 1e-6  # radians: never closer than this
 _TINY_Q = 2.0 * _TINY_ANGLE / math.pi  # corner quality (8.3) of a corner _TINY_ANGLE from flat
 _RESOLUTION = 1e-7  # scores and separator integrals are compared at this resolution
@@ -220,8 +221,9 @@ def _positions(n):
 
 @njit(cache=True)
 def _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch, relaxed):
-    """(score, pieces) of the separator (i, j), i < j; score inf when not allowed (relaxed:
-    separators down to _TINY_ANGLE from an edge, else _MIN_SPLIT_ANGLE)."""
+    """(score, pieces) of the separator (i, j), i < j; score inf when not allowed (quads:
+    separators down to _QUAD_SPLIT_ANGLE from an edge; triangles, relaxed: down to
+    _TINY_ANGLE, else _MIN_SPLIT_ANGLE)."""
     m1 = j - i
     m2 = n - m1
     if quad:
@@ -275,7 +277,7 @@ def _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratc
     b2 = _angle(P, b, nb, a)  # part 2 at b
     target = math.pi / 2.0 if quad else math.pi / 3.0
     amin = min(min(a1, a2), min(b1, b2))
-    if amin < (_TINY_ANGLE if relaxed else _MIN_SPLIT_ANGLE):
+    if amin < (_QUAD_SPLIT_ANGLE if quad else (_TINY_ANGLE if relaxed else _MIN_SPLIT_ANGLE)):
         # exactly inside but nearly along an edge (a subdivided separator, its
         # points rounded off the line): slivers and coincident points
         return np.inf, 0

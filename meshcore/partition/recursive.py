@@ -24,7 +24,11 @@ Algorithm
    inside the polygon. Candidates (every pair of vertices, or of 60 sampled
    positions above 60 vertices; when no sampled pair is valid, the sampled
    pairs again with separators down to 1e-6 rad from an edge instead of 0.05,
-   then all pairs) are ranked, the best valid one is taken. (Along a finely
+   then all pairs) are ranked, the best valid one is taken. For quads no
+   separator closer than 0.3 rad (17 degrees) to an edge at its ends is
+   taken: such a separator leaves a sliver no quad of quality 0.1 fits
+   (paving's closure was stuck on them); the polygon goes to the centre
+   pattern or is handed back stuck instead. (Along a finely
    sampled arc every separator is that close to an edge: all pairs there
    cost m**2 scores per split of an m-vertex polygon, 21 CPU s for a
    100k-vertex circle, 3.7 s with the relaxed sampled pairs first.)

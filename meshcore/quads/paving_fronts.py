@@ -52,6 +52,17 @@ def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
     return np.minimum(a, b) * n + np.maximum(a, b)
 
 
+def _chains(fronts: list) -> tuple[np.ndarray, np.ndarray]:
+    """``(a, b)``: the directed edges of every front, ``a`` the fronts' nodes in
+    order (concatenated), ``b`` the next node of each along its front."""
+    a = np.concatenate(fronts) if fronts else np.zeros(0, np.int64)
+    lens = np.array([len(g) for g in fronts], np.int64)
+    end = np.cumsum(lens)
+    nxt = np.arange(1, len(a) + 1)
+    nxt[end - 1] = end - lens
+    return a, a[nxt]
+
+
 def _trace(fronts: list, quads: np.ndarray, n: int) -> list | None:
     """The fronts left when the quads are cut out of the region inside ``fronts``.
 
@@ -61,8 +72,9 @@ def _trace(fronts: list, quads: np.ndarray, n: int) -> list | None:
     simple even cycles of at least 4 nodes (a node with two outgoing edges,
     a doubled edge, an odd cycle).
     """
-    fa = np.concatenate([*fronts, np.roll(quads, -1, axis=1).ravel()])
-    fb = np.concatenate([*(np.roll(g, -1) for g in fronts), quads.ravel()])
+    ca, cb = _chains(fronts)
+    fa = np.concatenate([ca, np.roll(quads, -1, axis=1).ravel()])
+    fb = np.concatenate([cb, quads.ravel()])
     fwd = fa * n + fb
     back = fb * n + fa
     keys, cnt = unique_ints(fwd, counts=True)

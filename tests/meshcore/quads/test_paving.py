@@ -302,3 +302,14 @@ class TestFrontsMeeting:
         res = paving(geo, size=0.06)
         check_mesh(geo, res, 0.06, "quad", median=False)
         assert res.stats["strips"] + res.stats["ladders"] >= 1
+
+    def test_a_row_failing_only_the_gap_stops_short_there(self):
+        # the benchmark's square with a hole at about 2,000 quads: a row of the outer
+        # front meets the hole's front at a few nodes only; it is committed without
+        # those quads (a partial row) instead of freezing the whole front, only quads
+        from benchmarks.paving import geometry
+
+        geo = geometry("hole", 0.02)
+        res = paving(geo, size=0.02)
+        check_mesh(geo, res, 0.02, "quad", median=False)
+        assert res.stats["partial_rows"] >= 1
