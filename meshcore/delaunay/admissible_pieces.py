@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from meshcore.delaunay.kernel2d import IncrementalDelaunay, _corner, _has_edges, _nxt, _prv
+from meshcore.delaunay.kernel2d import IncrementalDelaunay, _corner, _nxt, _prv
 from meshcore.domain.planar import Domain
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.ordering import radix_sort
@@ -428,18 +428,6 @@ def _position(ring, lo, hi, w):
 
 
 @njit(cache=True, inline="always")
-def _apart(ring, lo, hi, j, w):
-    """Whether ``w`` is a neighbour in ``ring[lo:hi]`` other than the two
-    next to position ``j``: every edge the insertion removed joins two such
-    neighbours (a diagonal of its cavity; not every such pair is one)."""
-    i = _position(ring, lo, hi, w)
-    if i < 0:
-        return False
-    d = (i - j) % (hi - lo)
-    return d != 1 and d != hi - lo - 1
-
-
-@njit(cache=True, inline="always")
 def _push(buf, nb, r):
     if nb == buf.shape[0]:
         buf = np.concatenate((buf, np.empty(nb, np.int64)))
@@ -448,71 +436,54 @@ def _push(buf, nb, r):
 
 
 @njit(cache=True)
-def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings, src):
+def _missing_pieces(first, n0, rows, ends, rings, gone):
     """The pieces that are not edges after the insertion of points
     ``first, first + 1, ...`` (:meth:`_Pieces.missing`), from the
-    neighbours each point had when it went in (``rings``).
+    neighbours each point had when it went in (``rings``) and the edges
+    its insertion removed (``gone``).
 
     Every piece that is not new was an edge before (a round splits every
     missing piece), and an edge once removed comes back only at an
     insertion of one of its ends. So a piece is missing when the later of
     its ends went in without it (the other end not among that point's
     neighbours: a new point's first piece, and its second one when that
-    ends at an older point), or when a later insertion removed it: both
-    ends are then neighbours of the inserted point, not consecutive ones
-    (an added point ends two pieces, an input point the chains it starts or
-    ends); such pieces are looked up in the triangulation. Two added
-    neighbours can only be joined by a piece when they lie on the same
-    input segment (``src`` of the piece ending there), so their pieces are
-    read only then; a piece from an input point is found from that point.
+    ends at an older point), or when a later insertion removed it. A
+    removed edge is a piece when it joins an added point to the next or
+    previous point of its chain, or two input points that end one chain.
     Returns the ids, increasing.
     """
     a, b, left, right, head, tail = rows
     end_start, end_chain, end_side = ends
     ring_start, ring = rings
-    sure = np.empty(64, np.int64)
-    ns = 0
-    maybe = np.empty(64, np.int64)
-    nm = 0
-    on = np.empty(64, np.int64)  # the ring's input segments (-1: none, an input point)
+    gone_start, gone = gone
+    out = np.empty(64, np.int64)
+    no = 0
     for i in range(ring_start.shape[0] - 1):
         lo = ring_start[i]
         hi = ring_start[i + 1]
         p = first + i
         if _position(ring, lo, hi, a[left[p]]) < 0:
-            sure, ns = _push(sure, ns, left[p])
+            out, no = _push(out, no, left[p])
         w = b[right[p]]
         if w < first and _position(ring, lo, hi, w) < 0:
-            sure, ns = _push(sure, ns, right[p])
-        if hi - lo > on.shape[0]:
-            on = np.empty(2 * (hi - lo), np.int64)
-        for j in range(lo, hi):
-            u = ring[j]
-            on[j - lo] = src[left[u]] if u >= n0 else -1
-        for j in range(lo, hi):
-            u = ring[j]
-            if u < 0:
-                continue
-            if u >= n0:
-                # Later neighbours on the same input segment, not next to u.
-                for h in range(j + 2, hi - 1 if j == lo else hi):
-                    if on[h - lo] != on[j - lo]:
-                        continue
-                    w = ring[h]
-                    if a[left[u]] == w:
-                        maybe, nm = _push(maybe, nm, left[u])
-                    elif b[right[u]] == w:
-                        maybe, nm = _push(maybe, nm, right[u])
-                continue
-            for e in range(end_start[u], end_start[u + 1]):
-                c = end_chain[e]
-                r = head[c] if end_side[e] == 0 else tail[c]
-                w = b[r] if end_side[e] == 0 else a[r]
-                if _apart(ring, lo, hi, j, w):
-                    maybe, nm = _push(maybe, nm, r)
-    maybe = np.unique(maybe[:nm])
-    present = _has_edges(V, A, vt, slot[a[maybe]], slot[b[maybe]])
-    return np.unique(np.concatenate((sure[:ns], maybe[~present])))
+            out, no = _push(out, no, right[p])
+    for j in range(gone_start[-1]):
+        u = gone[2 * j]
+        w = gone[2 * j + 1]
+        if u < n0:
+            u, w = w, u
+        if u >= n0:
+            if a[left[u]] == w:
+                out, no = _push(out, no, left[u])
+            elif b[right[u]] == w:
+                out, no = _push(out, no, right[u])
+            continue
+        for e in range(end_start[u], end_start[u + 1]):
+            c = end_chain[e]
+            r = head[c] if end_side[e] == 0 else tail[c]
+            if (b[r] if end_side[e] == 0 else a[r]) == w:
+                out, no = _push(out, no, r)
+    return np.unique(out[:no])
 
 
 @njit(cache=True)
@@ -900,13 +871,12 @@ class _Pieces:
     def missing(self) -> np.ndarray:
         """The pieces that are not edges after the last split (the new and
         shortened pieces, and those its insertions removed)."""
-        _, V, A, vt, _, slot = self.dt.arrays()
         return _missing_pieces(
-            V, A, vt, slot, self.first, self.n0,
+            self.first, self.n0,
             (self.a, self.b, self.left, self.right, self.head, self.tail),
             (self.end_start, self.end_chain, self.end_side),
             self.dt.rings(),
-            self.src,
+            self.dt.removed(),
         )  # fmt: skip
 
     def to_state(self, st: _State) -> None:

@@ -243,7 +243,8 @@ def triangulate_facets(uv, ptr, plain):
         done = np.int64(3)
         while done < n:
             stop = min(n, done + _CHUNK)
-            _insert_range(pts, V, A, stack, vt, hint, state, work, done, stop)
+            no_record = np.empty(0, np.int32)
+            _insert_range(pts, V, A, stack, vt, hint, state, work, done, stop, no_record)
             if state[2] == _DUPLICATE:
                 break
             done = stop

@@ -672,13 +672,18 @@ def _start(pts, order, V, A, vt, state, work):
 
 
 @njit(cache=True)
-def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop):
+def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, removed):
     """Insert points start..stop-1 (insertion order = row order of pts).
 
-    state = [ntri, last real triangle, status, info1, info2].
+    state = [ntri, last real triangle, status, info1, info2]. ``removed``
+    empty, or (one point inserted) room for the edges the insertion
+    removes, written there as slot pairs (-1: the vertex at infinity): the
+    edge a 2->4 split splits, then each flipped diagonal. Returns how many.
     """
     ntri = state[0]
     last = state[1]
+    record = removed.shape[0] > 0
+    nrem = 0
     for p in range(start, stop):
         # --- prefetch the walk starts of the next points, one level of
         # indirection per point ahead: vt[hint], then the triangle, then
@@ -779,6 +784,10 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop):
             a = V[k]
             b = V[_nxt(k)]
             c = V[_prv(k)]
+            if record:
+                removed[0] = b
+                removed[1] = c
+                nrem = 1
             ab_ = A[_nxt(k)]  # edge (c, a)
             ac_ = A[_prv(k)]  # edge (a, b)
             kk = A[k]
@@ -841,7 +850,7 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop):
             state[2] = _DUPLICATE
             state[3] = p
             state[4] = V[other]
-            return
+            return nrem
         # --- Lawson flips around p -----------------------------------------
         while sp > 0:
             sp -= 1
@@ -862,6 +871,10 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop):
                 flip = _incircle(pts, q, v, u, p, work) > 0
             if not flip:
                 continue
+            if record:
+                removed[2 * nrem] = u
+                removed[2 * nrem + 1] = v
+                nrem += 1
             t = k // 3
             t2 = kk // 3
             e_vp = A[kn]
@@ -898,6 +911,7 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop):
     state[0] = ntri
     state[1] = last
     state[2] = _OK
+    return nrem
 
 
 @njit(cache=True)
@@ -969,20 +983,35 @@ def _corner(V, t, v):
 
 
 @njit(cache=True)
-def _insert_rings(pts, V, A, stack, vt, hint, state, work, order, start, stop):
+def _insert_rings(pts, V, A, stack, vt, hint, state, work, order, start, stop, removed):
     """Insert points start..stop-1 one by one; after each, record its
     neighbours counter-clockwise (input indices, -1 the vertex at infinity),
-    consecutive ones joined by an edge. Every edge an insertion removes is a
-    diagonal of its cavity: it joins two neighbours of the inserted point
-    that are not consecutive. Returns ``(ring_start, ring)`` in CSR form."""
+    consecutive ones joined by an edge, and the edges its insertion removed
+    (input index pairs; those at infinity left out). Returns
+    ``(ring_start, ring, gone_start, gone)`` in CSR form (``gone`` holds
+    pairs: point ``i``'s are ``gone[2 * gone_start[i]:2 * gone_start[i + 1]]``)."""
     k = stop - start
     ring_start = np.zeros(k + 1, np.int64)
     ring = np.empty(8 * k + 8, np.int64)
+    gone_start = np.zeros(k + 1, np.int64)
+    gone = np.empty(8 * k + 8, np.int64)
     m = 0
+    g = 0
     for p in range(start, stop):
-        _insert_range(pts, V, A, stack, vt, hint, state, work, p, p + 1)
+        nrem = _insert_range(pts, V, A, stack, vt, hint, state, work, p, p + 1, removed)
         if state[2] != _OK:
             break
+        for j in range(nrem):
+            u = removed[2 * j]
+            w = removed[2 * j + 1]
+            if u < 0 or w < 0:
+                continue
+            if g + 2 > gone.shape[0]:
+                gone = np.concatenate((gone, np.empty(g, np.int64)))
+            gone[g] = order[u]
+            gone[g + 1] = order[w]
+            g += 2
+        gone_start[p - start + 1] = g // 2
         t0 = vt[p]
         t = t0
         while True:
@@ -996,7 +1025,7 @@ def _insert_rings(pts, V, A, stack, vt, hint, state, work, order, start, stop):
             if t == t0:
                 break
         ring_start[p - start + 1] = m
-    return ring_start, ring[:m]
+    return ring_start, ring[:m], gone_start, gone[:g]
 
 
 @njit(cache=True)
@@ -1087,8 +1116,10 @@ class IncrementalDelaunay:
         self._V, self._A, self._vt = V, A, vt
         self._state, self._work = state, work
         self._stack = np.empty(n + 8, np.int32)
+        self._removed = np.empty(2 * (n + 8), np.int32)
         self._hint = np.full(n, -1, np.int32)
         self._rings = (np.zeros(1, np.int64), np.zeros(0, np.int64))
+        self._gone = (np.zeros(1, np.int64), np.zeros(0, np.int64))
 
     def __len__(self) -> int:
         return self._n
@@ -1113,6 +1144,7 @@ class IncrementalDelaunay:
         self._A = grown(self._A, 6 * cap)
         self._vt = grown(self._vt, cap)
         self._stack = np.empty(cap + 8, np.int32)
+        self._removed = np.empty(2 * (cap + 8), np.int32)
         self._hint = grown(self._hint, cap, -1)
 
     def insert(self, xy: np.ndarray, near: np.ndarray) -> tuple[int, int] | None:
@@ -1129,7 +1161,7 @@ class IncrementalDelaunay:
         self._order[n : n + k] = slots
         self._slot[n : n + k] = slots
         self._hint[n : n + k] = self._slot[near]
-        self._rings = _insert_rings(
+        ring_start, ring, gone_start, gone = _insert_rings(
             self._pts,
             self._V,
             self._A,
@@ -1141,7 +1173,10 @@ class IncrementalDelaunay:
             self._order,
             n,
             n + k,
+            self._removed,
         )
+        self._rings = (ring_start, ring)
+        self._gone = (gone_start, gone)
         if self._state[2] == _DUPLICATE:
             return int(self._order[self._state[3]]), int(self._order[self._state[4]])
         self._n = n + k
@@ -1154,6 +1189,14 @@ class IncrementalDelaunay:
         cyclically; -1 the vertex at infinity). An edge an insertion removed
         joins two of its point's neighbours that are not consecutive."""
         return self._rings
+
+    def removed(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(start, pairs)``: the edges the insertion of the ``i``-th point
+        of the last :meth:`insert` removed are the point index pairs
+        ``pairs[2 * start[i]:2 * start[i + 1]]`` (those at infinity left
+        out). An edge once removed comes back only at an insertion of one
+        of its ends."""
+        return self._gone
 
     def has_edges(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(m,) bool: whether each ``(a[i], b[i])`` is an edge."""
@@ -1323,7 +1366,7 @@ def _build(pts_in: np.ndarray, progress):
     done = 3
     while done < n:
         stop = min(n, done + _CHUNK)
-        _insert_range(pts, V, A, stack, vt, hint, state, work, done, stop)
+        _insert_range(pts, V, A, stack, vt, hint, state, work, done, stop, np.empty(0, np.int32))
         if state[2] == _DUPLICATE:
             raise _duplicates_error(pts_in, int(order[state[3]]), int(order[state[4]]))
         done = stop
