@@ -28,7 +28,7 @@ from numba import njit
 from meshcore.delaunay.kernel2d import IncrementalDelaunay, _corner, _nxt, _prv
 from meshcore.domain.planar import Domain
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.geometry.ordering import radix_sort
+from meshcore.geometry.ordering import radix_argsort, radix_sort
 from meshcore.geometry.predicates import WORK_SIZE, dot2d_filtered, orient2d_filtered
 
 #: A projection closer than this fraction of ``|EP|`` to the nearer endpoint
@@ -181,10 +181,9 @@ def _widest_angle_points(pts, V, A, vt, order, a, b, radius, tie, tstamp, vstamp
         cy = 0.5 * (ay + by)
         r2 = radius[i] * radius[i]
         ball2 = r2 * (1.0 + 1e-6)
-        half = 0.5 * np.hypot(bx - ax, by - ay)
-        nx = -(by - ay) / (2.0 * half)
-        ny = (bx - ax) / (2.0 * half)
-        lens = False
+        # The lens of the angles >= w - tie (w the widest angle with a lens,
+        # ``lens_angle``), made when the spreading search first needs it.
+        lens_angle = made = -np.inf
         lx1 = ly1 = lx2 = ly2 = lens2 = 0.0
         tip = 0.0  # cosine of the region's half-angle at the ends: the ball's
         best = -np.inf
@@ -220,7 +219,11 @@ def _widest_angle_points(pts, V, A, vt, order, a, b, radius, tie, tstamp, vstamp
                 wx = bx - px
                 wy = by - py
                 angle = np.arctan2(abs(ux * wy - uy * wx), ux * wx + uy * wy)
-                flat = orient2d_filtered(ax, ay, bx, by, px, py, work) == 0
+                # A point on the segment makes a float angle within rounding
+                # (a few ulps) of pi: only such angles are tested exactly.
+                flat = angle > np.pi - 1e-6 and (
+                    orient2d_filtered(ax, ay, bx, by, px, py, work) == 0
+                )
                 if flat:
                     angle = np.pi
                 if nc == cand.shape[0]:
@@ -233,20 +236,26 @@ def _widest_angle_points(pts, V, A, vt, order, a, b, radius, tie, tstamp, vstamp
                 nc += 1
                 if angle > best:
                     best = angle
-                    # Lens of the angles >= best - tie, a little wider.
-                    phi = np.pi - (best - tie - 1e-9)
-                    if 1e-6 < phi < 0.5 * np.pi:
-                        d = half / np.tan(phi)
-                        rr = half / np.sin(phi)
-                        lx1 = cx + nx * d
-                        ly1 = cy + ny * d
-                        lx2 = cx - nx * d
-                        ly2 = cy - ny * d
-                        lens2 = (rr * (1.0 + 1e-9) + 1e-9 * half) ** 2
-                        lens = True
-                        tip = np.cos(phi)
+                    if 1e-6 < np.pi - (best - tie - 1e-9) < 0.5 * np.pi:
+                        lens_angle = best
             if not spreading:
                 continue
+            if lens_angle != made:
+                # Lens of the angles >= lens_angle - tie, a little wider.
+                made = lens_angle
+                phi = np.pi - (lens_angle - tie - 1e-9)
+                half = 0.5 * np.hypot(bx - ax, by - ay)
+                nx = -(by - ay) / (2.0 * half)
+                ny = (bx - ax) / (2.0 * half)
+                d = half / np.tan(phi)
+                rr = half / np.sin(phi)
+                lx1 = cx + nx * d
+                ly1 = cy + ny * d
+                lx2 = cx - nx * d
+                ly2 = cy - ny * d
+                lens2 = (rr * (1.0 + 1e-9) + 1e-9 * half) ** 2
+                tip = np.cos(phi)
+            lens = made > -np.inf
             for j in range(3):
                 kk = 3 * t + j
                 u = V[_nxt(kk)]
@@ -486,6 +495,56 @@ def _missing_pieces(first, n0, rows, ends, rings, gone):
     return np.unique(out[:no])
 
 
+#: Runs of one chain longer than this are sorted by merge sort, shorter ones
+#: by insertion (a round's points on one chain are few).
+_SHORT_RUN = 32
+
+
+@njit(cache=True)
+def _chain_key_order(first, chain, key):
+    """The permutation ``first[p]`` of items sorted stably by ``chain``
+    (non-negative int64), then ``key`` (float64): what
+    ``np.lexsort((key, chain))`` gives for the items in the order ``first``.
+    A radix sort of the chains, then each chain's run sorted by key (linear
+    time when runs are short)."""
+    order = first[radix_argsort(chain[first])]
+    n = order.shape[0]
+    i0 = 0
+    while i0 < n:
+        c = chain[order[i0]]
+        i1 = i0 + 1
+        while i1 < n and chain[order[i1]] == c:
+            i1 += 1
+        if i1 - i0 > _SHORT_RUN:
+            run = order[i0:i1].copy()
+            order[i0:i1] = run[np.argsort(key[run], kind="mergesort")]
+        else:
+            for i in range(i0 + 1, i1):
+                x = order[i]
+                kx = key[x]
+                j = i - 1
+                while j >= i0 and key[order[j]] > kx:
+                    order[j + 1] = order[j]
+                    j -= 1
+                order[j + 1] = x
+        i0 = i1
+    return order
+
+
+@njit(cache=True)
+def _along_order(rows, src, a, b, xy, direction):
+    """An order of pieces ``rows`` by input segment, then by position of
+    their midpoints along it (:func:`_chain_key_order`)."""
+    key = np.empty(rows.shape[0])
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        s = src[r]
+        key[i] = (xy[a[r], 0] + xy[b[r], 0]) * direction[s, 0] + (
+            xy[a[r], 1] + xy[b[r], 1]
+        ) * direction[s, 1]
+    return _chain_key_order(np.arange(rows.shape[0]), src[rows], key)
+
+
 @njit(cache=True)
 def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
     """Pieces split at new points ``n, n + 1, ...`` (:meth:`_Pieces.split`).
@@ -508,11 +567,16 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
         key[i] = (xy_new[i, 0] - origin[s, 0]) * direction[s, 0] + (
             xy_new[i, 1] - origin[s, 1]
         ) * direction[s, 1]
-    # np.lexsort((t, key, src[rows])): stable sorts, last key first.
-    order = np.argsort(t, kind="mergesort")
-    order = order[np.argsort(key[order], kind="mergesort")]
-    # src as floats (exact): one compiled merge sort, for float keys only
-    order = order[np.argsort(src[rows[order]].astype(np.float64), kind="mergesort")]
+    # np.lexsort((t, key, src[rows])): by t (0, 0.5 or 1) in index order,
+    # then by chain and key, stably.
+    by_t = np.empty(rows.shape[0], np.int64)
+    j = 0
+    for side in (0.0, 0.5, 1.0):
+        for i in range(rows.shape[0]):
+            if t[i] == side:
+                by_t[j] = i
+                j += 1
+    order = _chain_key_order(by_t, src[rows], key)
     rows = rows[order]
     protect_side = protect_side[order]
     near_side = near_side[order]
@@ -673,10 +737,11 @@ def _chain_order(head, nxt, m):
     return out
 
 
-def _grown(arr: np.ndarray, size: int, fill) -> np.ndarray:
+def _grown(arr: np.ndarray, size: int) -> np.ndarray:
+    """``arr`` in a longer array (the rows beyond it are written before
+    they are read: :func:`_split_pieces` fills every new piece and point)."""
     out = np.empty((size,) + arr.shape[1:], dtype=arr.dtype)
     out[: len(arr)] = arr
-    out[len(arr) :] = fill
     return out
 
 
@@ -755,13 +820,11 @@ class _Pieces:
         if self.m + rows > len(self.a):
             size = max(self.m + rows, 2 * len(self.a))
             for name in self._ROW:
-                arr = getattr(self, name)
-                setattr(self, name, _grown(arr, size, np.nan if arr.dtype.kind == "f" else 0))
+                setattr(self, name, _grown(getattr(self, name), size))
         if self.n + points > len(self.xy):
             size = max(self.n + points, 2 * len(self.xy))
             for name in self._POINT:
-                arr = getattr(self, name)
-                setattr(self, name, _grown(arr, size, np.nan if arr.dtype.kind == "f" else -1))
+                setattr(self, name, _grown(getattr(self, name), size))
 
     def split(self, rows, t, xy, protect_side, near_side, near_vertex, round_no) -> None:
         """Split pieces ``rows`` at the points ``xy`` (ordered along each piece
@@ -844,13 +907,8 @@ class _Pieces:
 
     def along(self, rows) -> np.ndarray:
         """An order of pieces ``rows`` by input segment, then by position
-        along it (of their midpoints, as a fraction of the segment in
-        ``[0, 1]`` added to twice the segment's id: one float sort)."""
-        s = self.src[rows]
-        d = self.direction[s]
-        mid = 0.5 * (self.xy[self.a[rows]] + self.xy[self.b[rows]])
-        t = np.einsum("ij,ij->i", mid - self.origin[s], d) / np.einsum("ij,ij->i", d, d)
-        return np.argsort(2.0 * s + np.clip(t, 0.0, 1.0))
+        along it (of their midpoints, :func:`_along_order`)."""
+        return _along_order(rows, self.src, self.a, self.b, self.xy, self.direction)
 
     def end_pieces(self, verts):
         """The pieces at input points ``verts`` (the first or last piece of
