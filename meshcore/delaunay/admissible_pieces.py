@@ -492,7 +492,13 @@ def _missing_pieces(first, n0, rows, ends, rings, gone):
             r = head[c] if end_side[e] == 0 else tail[c]
             if (b[r] if end_side[e] == 0 else a[r]) == w:
                 out, no = _push(out, no, r)
-    return np.unique(out[:no])
+    ids = radix_sort(out[:no], out[:no])[0]
+    k = 0
+    for i in range(no):
+        if i == 0 or ids[i] != ids[i - 1]:
+            ids[k] = ids[i]
+            k += 1
+    return ids[:k]
 
 
 #: Runs of one chain longer than this are sorted by merge sort, shorter ones

@@ -672,18 +672,21 @@ def _start(pts, order, V, A, vt, state, work):
 
 
 @njit(cache=True)
-def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, removed):
+def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
     """Insert points start..stop-1 (insertion order = row order of pts).
 
-    state = [ntri, last real triangle, status, info1, info2]. ``removed``
-    empty, or (one point inserted) room for the edges the insertion
-    removes, written there as slot pairs (-1: the vertex at infinity): the
-    edge a 2->4 split splits, then each flipped diagonal. Returns how many.
+    state = [ntri, last real triangle, status, info1, info2]. ``log``
+    empty, or (one point inserted) room for what the insertion changed,
+    as slot triples ``(u, v, q)`` (-1: the vertex at infinity): edge ``uv``
+    removed (-2, -2: none), ``q`` made a neighbour of the point: the
+    vertices of the split triangle or edge (and the edge a 2->4 split
+    splits), then each flip's removed diagonal and new neighbour. Returns
+    how many triples.
     """
     ntri = state[0]
     last = state[1]
-    record = removed.shape[0] > 0
-    nrem = 0
+    record = log.shape[0] > 0
+    nlog = 0
     for p in range(start, stop):
         # --- prefetch the walk starts of the next points, one level of
         # indirection per point ahead: vt[hint], then the triangle, then
@@ -741,6 +744,12 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, removed)
             a = V[base]
             b = V[base + 1]
             c = V[base + 2]
+            if record:
+                log[0:9] = -2
+                log[2] = a
+                log[5] = b
+                log[8] = c
+                nlog = 3
             a1 = A[base + 1]
             a2 = A[base + 2]
             t0 = t
@@ -785,9 +794,14 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, removed)
             b = V[_nxt(k)]
             c = V[_prv(k)]
             if record:
-                removed[0] = b
-                removed[1] = c
-                nrem = 1
+                log[0:12] = -2
+                log[0] = b
+                log[1] = c
+                log[2] = a
+                log[5] = b
+                log[8] = c
+                log[11] = V[A[k]]
+                nlog = 4
             ab_ = A[_nxt(k)]  # edge (c, a)
             ac_ = A[_prv(k)]  # edge (a, b)
             kk = A[k]
@@ -850,7 +864,7 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, removed)
             state[2] = _DUPLICATE
             state[3] = p
             state[4] = V[other]
-            return nrem
+            return nlog
         # --- Lawson flips around p -----------------------------------------
         while sp > 0:
             sp -= 1
@@ -872,9 +886,10 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, removed)
             if not flip:
                 continue
             if record:
-                removed[2 * nrem] = u
-                removed[2 * nrem + 1] = v
-                nrem += 1
+                log[3 * nlog] = u
+                log[3 * nlog + 1] = v
+                log[3 * nlog + 2] = q
+                nlog += 1
             t = k // 3
             t2 = kk // 3
             e_vp = A[kn]
@@ -911,7 +926,7 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, removed)
     state[0] = ntri
     state[1] = last
     state[2] = _OK
-    return nrem
+    return nlog
 
 
 @njit(cache=True)
@@ -983,13 +998,13 @@ def _corner(V, t, v):
 
 
 @njit(cache=True)
-def _insert_rings(pts, V, A, stack, vt, hint, state, work, order, start, stop, removed):
+def _insert_rings(pts, V, A, stack, vt, hint, state, work, order, start, stop, log):
     """Insert points start..stop-1 one by one; after each, record its
-    neighbours counter-clockwise (input indices, -1 the vertex at infinity),
-    consecutive ones joined by an edge, and the edges its insertion removed
-    (input index pairs; those at infinity left out). Returns
-    ``(ring_start, ring, gone_start, gone)`` in CSR form (``gone`` holds
-    pairs: point ``i``'s are ``gone[2 * gone_start[i]:2 * gone_start[i + 1]]``)."""
+    neighbours (input indices, -1 the vertex at infinity) and the edges its
+    insertion removed (input index pairs; those at infinity left out), from
+    the insertion's log (:func:`_insert_range`). Returns ``(ring_start,
+    ring, gone_start, gone)`` in CSR form (point ``i``'s removed pairs are
+    ``gone[2 * gone_start[i]:2 * gone_start[i + 1]]``)."""
     k = stop - start
     ring_start = np.zeros(k + 1, np.int64)
     ring = np.empty(8 * k + 8, np.int64)
@@ -998,64 +1013,32 @@ def _insert_rings(pts, V, A, stack, vt, hint, state, work, order, start, stop, r
     m = 0
     g = 0
     for p in range(start, stop):
-        nrem = _insert_range(pts, V, A, stack, vt, hint, state, work, p, p + 1, removed)
+        # the walk starts of the next points, as _insert_range prefetches them
+        if p + 3 < stop and hint[p + 3] >= 0:
+            _prefetch(vt, hint[p + 3])
+        if p + 2 < stop and hint[p + 2] >= 0:
+            _prefetch(V, 3 * vt[hint[p + 2]])
+            _prefetch(A, 3 * vt[hint[p + 2]])
+        nlog = _insert_range(pts, V, A, stack, vt, hint, state, work, p, p + 1, log)
         if state[2] != _OK:
             break
-        for j in range(nrem):
-            u = removed[2 * j]
-            w = removed[2 * j + 1]
-            if u < 0 or w < 0:
-                continue
-            if g + 2 > gone.shape[0]:
-                gone = np.concatenate((gone, np.empty(g, np.int64)))
-            gone[g] = order[u]
-            gone[g + 1] = order[w]
-            g += 2
-        gone_start[p - start + 1] = g // 2
-        t0 = vt[p]
-        t = t0
-        while True:
-            c = _corner(V, t, p)
-            u = V[_nxt(c)]
-            if m == ring.shape[0]:
-                ring = np.concatenate((ring, np.empty(m, np.int64)))
-            ring[m] = order[u] if u >= 0 else -1
+        if m + nlog > ring.shape[0]:
+            ring = np.concatenate((ring, np.empty(m + nlog, np.int64)))
+        if g + 2 * nlog > gone.shape[0]:
+            gone = np.concatenate((gone, np.empty(g + 2 * nlog, np.int64)))
+        for j in range(nlog):
+            u = log[3 * j]
+            w = log[3 * j + 1]
+            q = log[3 * j + 2]
+            ring[m] = order[q] if q >= 0 else -1
             m += 1
-            t = A[_prv(c)] // 3
-            if t == t0:
-                break
+            if u >= 0 and w >= 0:
+                gone[g] = order[u]
+                gone[g + 1] = order[w]
+                g += 2
         ring_start[p - start + 1] = m
+        gone_start[p - start + 1] = g // 2
     return ring_start, ring[:m], gone_start, gone[:g]
-
-
-@njit(cache=True)
-def _has_edges(V, A, vt, a, b):
-    """Whether each (a[i], b[i]) is an edge: turns around a's and b's
-    triangles in step, so the cost is the smaller of the two degrees."""
-    out = np.zeros(a.shape[0], np.bool_)
-    for i in range(a.shape[0]):
-        u = a[i]
-        w = b[i]
-        s0 = vt[u]
-        r0 = vt[w]
-        s = s0
-        r = r0
-        while True:
-            k = _corner(V, s, u)
-            if V[_nxt(k)] == w:
-                out[i] = True
-                break
-            s = A[_prv(k)] // 3
-            if s == s0:
-                break
-            k = _corner(V, r, w)
-            if V[_nxt(k)] == u:
-                out[i] = True
-                break
-            r = A[_prv(k)] // 3
-            if r == r0:
-                break
-    return out
 
 
 @njit(cache=True)
@@ -1093,11 +1076,11 @@ class IncrementalDelaunay:
     :func:`delaunay` gives for the same point set. Points are named by their
     index: the first ones as given, then each inserted batch in order.
 
-    Queries for :mod:`meshcore.delaunay.admissible`: which segments are
-    edges (:meth:`has_edges`), each vertex's nearest other point
-    (:meth:`nearest_distance`), the neighbours each point of the last
-    :meth:`insert` had when it went in (:meth:`rings`: the edges an
-    insertion removes join two of them).
+    Queries for :mod:`meshcore.delaunay.admissible`: each vertex's nearest
+    other point (:meth:`nearest_distance`), the neighbours each point of the
+    last :meth:`insert` had when it went in (:meth:`rings`) and the edges
+    its insertion removed (:meth:`removed`), both recorded by the insertion
+    itself.
 
     Added points must lie in the convex hull of the first ones (split
     points of segments do), so that the power-of-two scale stays valid.
@@ -1116,7 +1099,7 @@ class IncrementalDelaunay:
         self._V, self._A, self._vt = V, A, vt
         self._state, self._work = state, work
         self._stack = np.empty(n + 8, np.int32)
-        self._removed = np.empty(2 * (n + 8), np.int32)
+        self._log = np.empty(3 * (n + 8), np.int32)
         self._hint = np.full(n, -1, np.int32)
         self._rings = (np.zeros(1, np.int64), np.zeros(0, np.int64))
         self._gone = (np.zeros(1, np.int64), np.zeros(0, np.int64))
@@ -1144,7 +1127,7 @@ class IncrementalDelaunay:
         self._A = grown(self._A, 6 * cap)
         self._vt = grown(self._vt, cap)
         self._stack = np.empty(cap + 8, np.int32)
-        self._removed = np.empty(2 * (cap + 8), np.int32)
+        self._log = np.empty(3 * (cap + 8), np.int32)
         self._hint = grown(self._hint, cap, -1)
 
     def insert(self, xy: np.ndarray, near: np.ndarray) -> tuple[int, int] | None:
@@ -1173,7 +1156,7 @@ class IncrementalDelaunay:
             self._order,
             n,
             n + k,
-            self._removed,
+            self._log,
         )
         self._rings = (ring_start, ring)
         self._gone = (gone_start, gone)
@@ -1185,9 +1168,7 @@ class IncrementalDelaunay:
     def rings(self) -> tuple[np.ndarray, np.ndarray]:
         """``(start, ring)``: the neighbours of the ``i``-th point of the last
         :meth:`insert` right after it went in are ``ring[start[i]:start[i + 1]]``
-        (point indices counter-clockwise, consecutive ones joined by an edge,
-        cyclically; -1 the vertex at infinity). An edge an insertion removed
-        joins two of its point's neighbours that are not consecutive."""
+        (point indices, in no particular order; -1 the vertex at infinity)."""
         return self._rings
 
     def removed(self) -> tuple[np.ndarray, np.ndarray]:
@@ -1197,10 +1178,6 @@ class IncrementalDelaunay:
         out). An edge once removed comes back only at an insertion of one
         of its ends."""
         return self._gone
-
-    def has_edges(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """(m,) bool: whether each ``(a[i], b[i])`` is an edge."""
-        return _has_edges(self._V, self._A, self._vt, self._slot[a], self._slot[b])
 
     def nearest_distance(self, verts: np.ndarray) -> np.ndarray:
         """(k,) float64: distance from each vertex to its nearest other point."""
