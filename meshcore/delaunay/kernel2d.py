@@ -89,6 +89,10 @@ _MAX_POINTS = 1 << 28  # corners 3 * (2n) must fit the kernel's int32 arrays
 _MIN_SCALED = 2.0**-140
 
 _OK, _DUPLICATE, _COLLINEAR = 0, 1, 2
+#: The incremental insertions' log holds the triples of one point's worst
+#: case (the points so far plus 8) and this many more: thousands of points
+#: per compiled call.
+_LOG_ROOM = 1 << 14
 
 
 @dataclass(frozen=True, eq=False)
@@ -676,18 +680,22 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
     """Insert points start..stop-1 (insertion order = row order of pts).
 
     state = [ntri, last real triangle, status, info1, info2]. ``log``
-    empty, or (one point inserted) room for what the insertion changed,
-    as slot triples ``(u, v, q)`` (-1: the vertex at infinity): edge ``uv``
-    removed (-2, -2: none), ``q`` made a neighbour of the point: the
-    vertices of the split triangle or edge (and the edge a 2->4 split
-    splits), then each flip's removed diagonal and new neighbour. Returns
-    how many triples.
+    empty, or room for what each insertion changed, as slot triples
+    ``(u, v, q)`` (-1: the vertex at infinity): edge ``uv`` removed (-2,
+    -2: none), ``q`` made a neighbour of the point: the vertices of the
+    split triangle or edge (and the edge a 2->4 split splits), then each
+    flip's removed diagonal and new neighbour; ``(-3, -3, -3)`` ends a
+    point. The insertions stop early, at a point whose log might not fit
+    (one can hold up to the number of points so far plus 8 triples).
+    Returns how many triples.
     """
     ntri = state[0]
     last = state[1]
     record = log.shape[0] > 0
     nlog = 0
     for p in range(start, stop):
+        if record and 3 * (nlog + p + 8) > log.shape[0]:
+            break
         # --- prefetch the walk starts of the next points, one level of
         # indirection per point ahead: vt[hint], then the triangle, then
         # its vertices (a miss each at 10^6 points, where BRIO's rounds
@@ -745,11 +753,12 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
             b = V[base + 1]
             c = V[base + 2]
             if record:
-                log[0:9] = -2
-                log[2] = a
-                log[5] = b
-                log[8] = c
-                nlog = 3
+                j = 3 * nlog
+                log[j : j + 9] = -2
+                log[j + 2] = a
+                log[j + 5] = b
+                log[j + 8] = c
+                nlog += 3
             a1 = A[base + 1]
             a2 = A[base + 2]
             t0 = t
@@ -794,14 +803,15 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
             b = V[_nxt(k)]
             c = V[_prv(k)]
             if record:
-                log[0:12] = -2
-                log[0] = b
-                log[1] = c
-                log[2] = a
-                log[5] = b
-                log[8] = c
-                log[11] = V[A[k]]
-                nlog = 4
+                j = 3 * nlog
+                log[j : j + 12] = -2
+                log[j] = b
+                log[j + 1] = c
+                log[j + 2] = a
+                log[j + 5] = b
+                log[j + 8] = c
+                log[j + 11] = V[A[k]]
+                nlog += 4
             ab_ = A[_nxt(k)]  # edge (c, a)
             ac_ = A[_prv(k)]  # edge (a, b)
             kk = A[k]
@@ -923,6 +933,9 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
             stack[sp] = b0
             stack[sp + 1] = b2
             sp += 2
+        if record:
+            log[3 * nlog : 3 * nlog + 3] = -3
+            nlog += 1
     state[0] = ntri
     state[1] = last
     state[2] = _OK
@@ -999,10 +1012,10 @@ def _corner(V, t, v):
 
 @njit(cache=True)
 def _insert_rings(pts, V, A, stack, vt, hint, state, work, order, start, stop, log):
-    """Insert points start..stop-1 one by one; after each, record its
-    neighbours (input indices, -1 the vertex at infinity) and the edges its
+    """Insert points start..stop-1; record each one's neighbours right after
+    it went in (input indices, -1 the vertex at infinity) and the edges its
     insertion removed (input index pairs; those at infinity left out), from
-    the insertion's log (:func:`_insert_range`). Returns ``(ring_start,
+    the insertions' log (:func:`_insert_range`). Returns ``(ring_start,
     ring, gone_start, gone)`` in CSR form (point ``i``'s removed pairs are
     ``gone[2 * gone_start[i]:2 * gone_start[i + 1]]``)."""
     k = stop - start
@@ -1012,16 +1025,9 @@ def _insert_rings(pts, V, A, stack, vt, hint, state, work, order, start, stop, l
     gone = np.empty(8 * k + 8, np.int64)
     m = 0
     g = 0
-    for p in range(start, stop):
-        # the walk starts of the next points, as _insert_range prefetches them
-        if p + 3 < stop and hint[p + 3] >= 0:
-            _prefetch(vt, hint[p + 3])
-        if p + 2 < stop and hint[p + 2] >= 0:
-            _prefetch(V, 3 * vt[hint[p + 2]])
-            _prefetch(A, 3 * vt[hint[p + 2]])
-        nlog = _insert_range(pts, V, A, stack, vt, hint, state, work, p, p + 1, log)
-        if state[2] != _OK:
-            break
+    p = start
+    while p < stop:
+        nlog = _insert_range(pts, V, A, stack, vt, hint, state, work, p, stop, log)
         if m + nlog > ring.shape[0]:
             ring = np.concatenate((ring, np.empty(m + nlog, np.int64)))
         if g + 2 * nlog > gone.shape[0]:
@@ -1030,14 +1036,19 @@ def _insert_rings(pts, V, A, stack, vt, hint, state, work, order, start, stop, l
             u = log[3 * j]
             w = log[3 * j + 1]
             q = log[3 * j + 2]
+            if q == -3:  # the end of point p's log
+                p += 1
+                ring_start[p - start] = m
+                gone_start[p - start] = g // 2
+                continue
             ring[m] = order[q] if q >= 0 else -1
             m += 1
             if u >= 0 and w >= 0:
                 gone[g] = order[u]
                 gone[g + 1] = order[w]
                 g += 2
-        ring_start[p - start + 1] = m
-        gone_start[p - start + 1] = g // 2
+        if state[2] != _OK:
+            break
     return ring_start, ring[:m], gone_start, gone[:g]
 
 
@@ -1099,7 +1110,7 @@ class IncrementalDelaunay:
         self._V, self._A, self._vt = V, A, vt
         self._state, self._work = state, work
         self._stack = np.empty(n + 8, np.int32)
-        self._log = np.empty(3 * (n + 8), np.int32)
+        self._log = np.empty(3 * (n + _LOG_ROOM), np.int32)
         self._hint = np.full(n, -1, np.int32)
         self._rings = (np.zeros(1, np.int64), np.zeros(0, np.int64))
         self._gone = (np.zeros(1, np.int64), np.zeros(0, np.int64))
@@ -1127,7 +1138,7 @@ class IncrementalDelaunay:
         self._A = grown(self._A, 6 * cap)
         self._vt = grown(self._vt, cap)
         self._stack = np.empty(cap + 8, np.int32)
-        self._log = np.empty(3 * (cap + 8), np.int32)
+        self._log = np.empty(3 * (cap + _LOG_ROOM), np.int32)
         self._hint = grown(self._hint, cap, -1)
 
     def insert(self, xy: np.ndarray, near: np.ndarray) -> tuple[int, int] | None:
