@@ -243,8 +243,7 @@ def triangulate_facets(uv, ptr, plain):
         done = np.int64(3)
         while done < n:
             stop = min(n, done + _CHUNK)
-            no_record = np.empty(0, np.int32)
-            _insert_range(pts, V, A, stack, vt, hint, state, work, done, stop, no_record)
+            _insert_range(pts, V, A, stack, vt, hint, state, work, done, stop, None)
             if state[2] == _DUPLICATE:
                 break
             done = stop

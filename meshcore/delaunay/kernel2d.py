@@ -680,7 +680,8 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
     """Insert points start..stop-1 (insertion order = row order of pts).
 
     state = [ntri, last real triangle, status, info1, info2]. ``log``
-    empty, or room for what each insertion changed, as slot triples
+    None (whole triangulations: the logging compiled away), or room for
+    what each insertion changed, as slot triples
     ``(u, v, q)`` (-1: the vertex at infinity): edge ``uv`` removed (-2,
     -2: none), ``q`` made a neighbour of the point: the vertices of the
     split triangle or edge (and the edge a 2->4 split splits), then each
@@ -691,11 +692,11 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
     """
     ntri = state[0]
     last = state[1]
-    record = log.shape[0] > 0
     nlog = 0
     for p in range(start, stop):
-        if record and 3 * (nlog + p + 8) > log.shape[0]:
-            break
+        if log is not None:
+            if 3 * (nlog + p + 8) > log.shape[0]:
+                break
         # --- prefetch the walk starts of the next points, one level of
         # indirection per point ahead: vt[hint], then the triangle, then
         # its vertices (a miss each at 10^6 points, where BRIO's rounds
@@ -752,7 +753,7 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
             a = V[base]
             b = V[base + 1]
             c = V[base + 2]
-            if record:
+            if log is not None:
                 j = 3 * nlog
                 log[j : j + 9] = -2
                 log[j + 2] = a
@@ -802,7 +803,7 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
             a = V[k]
             b = V[_nxt(k)]
             c = V[_prv(k)]
-            if record:
+            if log is not None:
                 j = 3 * nlog
                 log[j : j + 12] = -2
                 log[j] = b
@@ -895,7 +896,7 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
                 flip = _incircle(pts, q, v, u, p, work) > 0
             if not flip:
                 continue
-            if record:
+            if log is not None:
                 log[3 * nlog] = u
                 log[3 * nlog + 1] = v
                 log[3 * nlog + 2] = q
@@ -933,7 +934,7 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
             stack[sp] = b0
             stack[sp + 1] = b2
             sp += 2
-        if record:
+        if log is not None:
             log[3 * nlog : 3 * nlog + 3] = -3
             nlog += 1
     state[0] = ntri
@@ -1354,7 +1355,7 @@ def _build(pts_in: np.ndarray, progress):
     done = 3
     while done < n:
         stop = min(n, done + _CHUNK)
-        _insert_range(pts, V, A, stack, vt, hint, state, work, done, stop, np.empty(0, np.int32))
+        _insert_range(pts, V, A, stack, vt, hint, state, work, done, stop, None)
         if state[2] == _DUPLICATE:
             raise _duplicates_error(pts_in, int(order[state[3]]), int(order[state[4]]))
         done = stop
