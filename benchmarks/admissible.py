@@ -36,8 +36,8 @@ millions (see the README for this machine's figures).
 
 ``--phases N`` then runs the ``N``-vertex star once more with a CPU timer
 around each phase of the rounds (the compiled searches, the insertions, the
-look-up of the pieces they removed, the bookkeeping) and prints seconds,
-calls and microseconds per added point: where the time goes.
+pieces they removed, read off the insertions' log, the bookkeeping) and
+prints seconds, calls and microseconds per added point: where the time goes.
 
 Times are CPU seconds (``time.process_time``: this process alone, so a
 loaded machine slows both sides alike), medians of three runs (one run

@@ -18,12 +18,11 @@ splits:
    :class:`~meshcore.delaunay.kernel2d.IncrementalDelaunay`: each round
    inserts its split points (the same triangles as triangulating anew: the
    kernel's ties depend only on the point set) and finds the pieces that
-   are no longer edges from the neighbours each new point had when it went
-   in: a new piece is missing when its later end went in without the other
-   end among its neighbours, an older one only when an insertion may have
-   removed it (both ends neighbours of the new point, not consecutive
-   ones: the edges an insertion removes are diagonals of its cavity), then
-   looked up. The last triangulation is made anew from the final
+   are no longer edges from what each insertion logged: a new piece is
+   missing when its later end went in without the other end among its
+   neighbours, an older one when an insertion removed it (flipped it away:
+   an edge once removed comes back only at an insertion of one of its
+   ends). The last triangulation is made anew from the final
    points when first read, so that it is the one :func:`delaunay` gives.
 2. For each missing segment ``f = AB`` find the point of its closed
    diametral ball (the exact predicate
@@ -162,7 +161,7 @@ other tie-breaking may need a swap to show it (§9.1.3, footnote 4);
 floating-point codes such as Qhull may take either diagonal.
 
 Cost: a round costs time in the pieces it splits and checks (insertions,
-edge look-ups, lens searches, split points and the pieces' bookkeeping in
+lens searches, split points and the pieces' bookkeeping in
 compiled code), not in all points, plus one whole triangulation at the
 start and, when it is read, one at the end. Rounds are few on the test
 polygons (2 to 8). A random star of ``n`` vertices (``benchmarks/admissible.py``)
@@ -181,14 +180,14 @@ only 9 % of them, and splitting one segment per round instead of all saves
 distance from the apex (the two sides of a wedge then split alike) 79,234,
 and Ruppert's power-of-two distances (quarter powers) 121,726. The
 10,000-vertex star takes 146 rounds (each spike's chain of splits is
-sequential) and about 3.4 CPU s (5.5 before the searches stopped at the
-crossed triangles and went along the chains), in memory-bound compiled
-passes of about 1.2 to 1.4 µs per added point each: the insertions, the
-widest-angle searches (7 triangles per search, one search per added
-point), the look-up of the pieces they removed; then the split
-bookkeeping, the protection radii and Python (about 1 µs per point in
-all); 126 s when every round re-triangulated everything. The case counts
-of the result are computed when first read.
+sequential) and about 1.9 CPU s (2.7 in the same run before the
+insertions logged the edges they remove; 5.5 before the searches stopped
+at the crossed triangles), per added point: the insertion about 1.1 µs (12 in-circle
+tests, the new points having 9 neighbours), the widest-angle search 0.9
+(7 triangles, one search per added point), the pieces' bookkeeping,
+protection radii and Python 1.6 in all; 126 s when every round
+re-triangulated everything. The case counts of the result are computed
+when first read.
 
 The restricted triangulation (:func:`restricted_triangles`) keeps the
 triangles reached by a flood fill across non-segment edges from the left

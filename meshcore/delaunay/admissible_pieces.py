@@ -25,10 +25,10 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from meshcore.delaunay.kernel2d import IncrementalDelaunay, _corner, _has_edges, _nxt, _prv
+from meshcore.delaunay.kernel2d import IncrementalDelaunay, _corner, _nxt, _prv
 from meshcore.domain.planar import Domain
 from meshcore.errors import AlgorithmError, InputError
-from meshcore.geometry.ordering import radix_sort
+from meshcore.geometry.ordering import radix_argsort, radix_sort
 from meshcore.geometry.predicates import WORK_SIZE, dot2d_filtered, orient2d_filtered
 
 #: A projection closer than this fraction of ``|EP|`` to the nearer endpoint
@@ -181,10 +181,9 @@ def _widest_angle_points(pts, V, A, vt, order, a, b, radius, tie, tstamp, vstamp
         cy = 0.5 * (ay + by)
         r2 = radius[i] * radius[i]
         ball2 = r2 * (1.0 + 1e-6)
-        half = 0.5 * np.hypot(bx - ax, by - ay)
-        nx = -(by - ay) / (2.0 * half)
-        ny = (bx - ax) / (2.0 * half)
-        lens = False
+        # The lens of the angles >= w - tie (w the widest angle with a lens,
+        # ``lens_angle``), made when the spreading search first needs it.
+        lens_angle = made = -np.inf
         lx1 = ly1 = lx2 = ly2 = lens2 = 0.0
         tip = 0.0  # cosine of the region's half-angle at the ends: the ball's
         best = -np.inf
@@ -220,7 +219,11 @@ def _widest_angle_points(pts, V, A, vt, order, a, b, radius, tie, tstamp, vstamp
                 wx = bx - px
                 wy = by - py
                 angle = np.arctan2(abs(ux * wy - uy * wx), ux * wx + uy * wy)
-                flat = orient2d_filtered(ax, ay, bx, by, px, py, work) == 0
+                # A point on the segment makes a float angle within rounding
+                # (a few ulps) of pi: only such angles are tested exactly.
+                flat = angle > np.pi - 1e-6 and (
+                    orient2d_filtered(ax, ay, bx, by, px, py, work) == 0
+                )
                 if flat:
                     angle = np.pi
                 if nc == cand.shape[0]:
@@ -233,20 +236,26 @@ def _widest_angle_points(pts, V, A, vt, order, a, b, radius, tie, tstamp, vstamp
                 nc += 1
                 if angle > best:
                     best = angle
-                    # Lens of the angles >= best - tie, a little wider.
-                    phi = np.pi - (best - tie - 1e-9)
-                    if 1e-6 < phi < 0.5 * np.pi:
-                        d = half / np.tan(phi)
-                        rr = half / np.sin(phi)
-                        lx1 = cx + nx * d
-                        ly1 = cy + ny * d
-                        lx2 = cx - nx * d
-                        ly2 = cy - ny * d
-                        lens2 = (rr * (1.0 + 1e-9) + 1e-9 * half) ** 2
-                        lens = True
-                        tip = np.cos(phi)
+                    if 1e-6 < np.pi - (best - tie - 1e-9) < 0.5 * np.pi:
+                        lens_angle = best
             if not spreading:
                 continue
+            if lens_angle != made:
+                # Lens of the angles >= lens_angle - tie, a little wider.
+                made = lens_angle
+                phi = np.pi - (lens_angle - tie - 1e-9)
+                half = 0.5 * np.hypot(bx - ax, by - ay)
+                nx = -(by - ay) / (2.0 * half)
+                ny = (bx - ax) / (2.0 * half)
+                d = half / np.tan(phi)
+                rr = half / np.sin(phi)
+                lx1 = cx + nx * d
+                ly1 = cy + ny * d
+                lx2 = cx - nx * d
+                ly2 = cy - ny * d
+                lens2 = (rr * (1.0 + 1e-9) + 1e-9 * half) ** 2
+                tip = np.cos(phi)
+            lens = made > -np.inf
             for j in range(3):
                 kk = 3 * t + j
                 u = V[_nxt(kk)]
@@ -428,18 +437,6 @@ def _position(ring, lo, hi, w):
 
 
 @njit(cache=True, inline="always")
-def _apart(ring, lo, hi, j, w):
-    """Whether ``w`` is a neighbour in ``ring[lo:hi]`` other than the two
-    next to position ``j``: every edge the insertion removed joins two such
-    neighbours (a diagonal of its cavity; not every such pair is one)."""
-    i = _position(ring, lo, hi, w)
-    if i < 0:
-        return False
-    d = (i - j) % (hi - lo)
-    return d != 1 and d != hi - lo - 1
-
-
-@njit(cache=True, inline="always")
 def _push(buf, nb, r):
     if nb == buf.shape[0]:
         buf = np.concatenate((buf, np.empty(nb, np.int64)))
@@ -448,71 +445,110 @@ def _push(buf, nb, r):
 
 
 @njit(cache=True)
-def _missing_pieces(V, A, vt, slot, first, n0, rows, ends, rings, src):
+def _missing_pieces(first, n0, rows, ends, rings, gone):
     """The pieces that are not edges after the insertion of points
     ``first, first + 1, ...`` (:meth:`_Pieces.missing`), from the
-    neighbours each point had when it went in (``rings``).
+    neighbours each point had when it went in (``rings``) and the edges
+    its insertion removed (``gone``).
 
     Every piece that is not new was an edge before (a round splits every
     missing piece), and an edge once removed comes back only at an
     insertion of one of its ends. So a piece is missing when the later of
     its ends went in without it (the other end not among that point's
     neighbours: a new point's first piece, and its second one when that
-    ends at an older point), or when a later insertion removed it: both
-    ends are then neighbours of the inserted point, not consecutive ones
-    (an added point ends two pieces, an input point the chains it starts or
-    ends); such pieces are looked up in the triangulation. Two added
-    neighbours can only be joined by a piece when they lie on the same
-    input segment (``src`` of the piece ending there), so their pieces are
-    read only then; a piece from an input point is found from that point.
+    ends at an older point), or when a later insertion removed it. A
+    removed edge is a piece when it joins an added point to the next or
+    previous point of its chain, or two input points that end one chain.
     Returns the ids, increasing.
     """
     a, b, left, right, head, tail = rows
     end_start, end_chain, end_side = ends
     ring_start, ring = rings
-    sure = np.empty(64, np.int64)
-    ns = 0
-    maybe = np.empty(64, np.int64)
-    nm = 0
-    on = np.empty(64, np.int64)  # the ring's input segments (-1: none, an input point)
+    gone_start, gone = gone
+    out = np.empty(64, np.int64)
+    no = 0
     for i in range(ring_start.shape[0] - 1):
         lo = ring_start[i]
         hi = ring_start[i + 1]
         p = first + i
         if _position(ring, lo, hi, a[left[p]]) < 0:
-            sure, ns = _push(sure, ns, left[p])
+            out, no = _push(out, no, left[p])
         w = b[right[p]]
         if w < first and _position(ring, lo, hi, w) < 0:
-            sure, ns = _push(sure, ns, right[p])
-        if hi - lo > on.shape[0]:
-            on = np.empty(2 * (hi - lo), np.int64)
-        for j in range(lo, hi):
-            u = ring[j]
-            on[j - lo] = src[left[u]] if u >= n0 else -1
-        for j in range(lo, hi):
-            u = ring[j]
-            if u < 0:
-                continue
-            if u >= n0:
-                # Later neighbours on the same input segment, not next to u.
-                for h in range(j + 2, hi - 1 if j == lo else hi):
-                    if on[h - lo] != on[j - lo]:
-                        continue
-                    w = ring[h]
-                    if a[left[u]] == w:
-                        maybe, nm = _push(maybe, nm, left[u])
-                    elif b[right[u]] == w:
-                        maybe, nm = _push(maybe, nm, right[u])
-                continue
-            for e in range(end_start[u], end_start[u + 1]):
-                c = end_chain[e]
-                r = head[c] if end_side[e] == 0 else tail[c]
-                w = b[r] if end_side[e] == 0 else a[r]
-                if _apart(ring, lo, hi, j, w):
-                    maybe, nm = _push(maybe, nm, r)
-    maybe = np.unique(maybe[:nm])
-    present = _has_edges(V, A, vt, slot[a[maybe]], slot[b[maybe]])
-    return np.unique(np.concatenate((sure[:ns], maybe[~present])))
+            out, no = _push(out, no, right[p])
+    for j in range(gone_start[-1]):
+        u = gone[2 * j]
+        w = gone[2 * j + 1]
+        if u < n0:
+            u, w = w, u
+        if u >= n0:
+            if a[left[u]] == w:
+                out, no = _push(out, no, left[u])
+            elif b[right[u]] == w:
+                out, no = _push(out, no, right[u])
+            continue
+        for e in range(end_start[u], end_start[u + 1]):
+            c = end_chain[e]
+            r = head[c] if end_side[e] == 0 else tail[c]
+            if (b[r] if end_side[e] == 0 else a[r]) == w:
+                out, no = _push(out, no, r)
+    ids = radix_sort(out[:no], out[:no])[0]
+    k = 0
+    for i in range(no):
+        if i == 0 or ids[i] != ids[i - 1]:
+            ids[k] = ids[i]
+            k += 1
+    return ids[:k]
+
+
+#: Runs of one chain longer than this are sorted by merge sort, shorter ones
+#: by insertion (a round's points on one chain are few).
+_SHORT_RUN = 32
+
+
+@njit(cache=True)
+def _chain_key_order(first, chain, key):
+    """The permutation ``first[p]`` of items sorted stably by ``chain``
+    (non-negative int64), then ``key`` (float64): what
+    ``np.lexsort((key, chain))`` gives for the items in the order ``first``.
+    A radix sort of the chains, then each chain's run sorted by key (linear
+    time when runs are short)."""
+    order = first[radix_argsort(chain[first])]
+    n = order.shape[0]
+    i0 = 0
+    while i0 < n:
+        c = chain[order[i0]]
+        i1 = i0 + 1
+        while i1 < n and chain[order[i1]] == c:
+            i1 += 1
+        if i1 - i0 > _SHORT_RUN:
+            run = order[i0:i1].copy()
+            order[i0:i1] = run[np.argsort(key[run], kind="mergesort")]
+        else:
+            for i in range(i0 + 1, i1):
+                x = order[i]
+                kx = key[x]
+                j = i - 1
+                while j >= i0 and key[order[j]] > kx:
+                    order[j + 1] = order[j]
+                    j -= 1
+                order[j + 1] = x
+        i0 = i1
+    return order
+
+
+@njit(cache=True)
+def _along_order(rows, src, a, b, xy, direction):
+    """An order of pieces ``rows`` by input segment, then by position of
+    their midpoints along it (:func:`_chain_key_order`)."""
+    key = np.empty(rows.shape[0])
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        s = src[r]
+        key[i] = (xy[a[r], 0] + xy[b[r], 0]) * direction[s, 0] + (
+            xy[a[r], 1] + xy[b[r], 1]
+        ) * direction[s, 1]
+    return _chain_key_order(np.arange(rows.shape[0]), src[rows], key)
 
 
 @njit(cache=True)
@@ -537,11 +573,16 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
         key[i] = (xy_new[i, 0] - origin[s, 0]) * direction[s, 0] + (
             xy_new[i, 1] - origin[s, 1]
         ) * direction[s, 1]
-    # np.lexsort((t, key, src[rows])): stable sorts, last key first.
-    order = np.argsort(t, kind="mergesort")
-    order = order[np.argsort(key[order], kind="mergesort")]
-    # src as floats (exact): one compiled merge sort, for float keys only
-    order = order[np.argsort(src[rows[order]].astype(np.float64), kind="mergesort")]
+    # np.lexsort((t, key, src[rows])): by t (0, 0.5 or 1) in index order,
+    # then by chain and key, stably.
+    by_t = np.empty(rows.shape[0], np.int64)
+    j = 0
+    for side in (0.0, 0.5, 1.0):
+        for i in range(rows.shape[0]):
+            if t[i] == side:
+                by_t[j] = i
+                j += 1
+    order = _chain_key_order(by_t, src[rows], key)
     rows = rows[order]
     protect_side = protect_side[order]
     near_side = near_side[order]
@@ -702,10 +743,11 @@ def _chain_order(head, nxt, m):
     return out
 
 
-def _grown(arr: np.ndarray, size: int, fill) -> np.ndarray:
+def _grown(arr: np.ndarray, size: int) -> np.ndarray:
+    """``arr`` in a longer array (the rows beyond it are written before
+    they are read: :func:`_split_pieces` fills every new piece and point)."""
     out = np.empty((size,) + arr.shape[1:], dtype=arr.dtype)
     out[: len(arr)] = arr
-    out[len(arr) :] = fill
     return out
 
 
@@ -784,13 +826,11 @@ class _Pieces:
         if self.m + rows > len(self.a):
             size = max(self.m + rows, 2 * len(self.a))
             for name in self._ROW:
-                arr = getattr(self, name)
-                setattr(self, name, _grown(arr, size, np.nan if arr.dtype.kind == "f" else 0))
+                setattr(self, name, _grown(getattr(self, name), size))
         if self.n + points > len(self.xy):
             size = max(self.n + points, 2 * len(self.xy))
             for name in self._POINT:
-                arr = getattr(self, name)
-                setattr(self, name, _grown(arr, size, np.nan if arr.dtype.kind == "f" else -1))
+                setattr(self, name, _grown(getattr(self, name), size))
 
     def split(self, rows, t, xy, protect_side, near_side, near_vertex, round_no) -> None:
         """Split pieces ``rows`` at the points ``xy`` (ordered along each piece
@@ -873,13 +913,8 @@ class _Pieces:
 
     def along(self, rows) -> np.ndarray:
         """An order of pieces ``rows`` by input segment, then by position
-        along it (of their midpoints, as a fraction of the segment in
-        ``[0, 1]`` added to twice the segment's id: one float sort)."""
-        s = self.src[rows]
-        d = self.direction[s]
-        mid = 0.5 * (self.xy[self.a[rows]] + self.xy[self.b[rows]])
-        t = np.einsum("ij,ij->i", mid - self.origin[s], d) / np.einsum("ij,ij->i", d, d)
-        return np.argsort(2.0 * s + np.clip(t, 0.0, 1.0))
+        along it (of their midpoints, :func:`_along_order`)."""
+        return _along_order(rows, self.src, self.a, self.b, self.xy, self.direction)
 
     def end_pieces(self, verts):
         """The pieces at input points ``verts`` (the first or last piece of
@@ -900,13 +935,12 @@ class _Pieces:
     def missing(self) -> np.ndarray:
         """The pieces that are not edges after the last split (the new and
         shortened pieces, and those its insertions removed)."""
-        _, V, A, vt, _, slot = self.dt.arrays()
         return _missing_pieces(
-            V, A, vt, slot, self.first, self.n0,
+            self.first, self.n0,
             (self.a, self.b, self.left, self.right, self.head, self.tail),
             (self.end_start, self.end_chain, self.end_side),
             self.dt.rings(),
-            self.src,
+            self.dt.removed(),
         )  # fmt: skip
 
     def to_state(self, st: _State) -> None:

@@ -243,7 +243,7 @@ def triangulate_facets(uv, ptr, plain):
         done = np.int64(3)
         while done < n:
             stop = min(n, done + _CHUNK)
-            _insert_range(pts, V, A, stack, vt, hint, state, work, done, stop)
+            _insert_range(pts, V, A, stack, vt, hint, state, work, done, stop, None)
             if state[2] == _DUPLICATE:
                 break
             done = stop

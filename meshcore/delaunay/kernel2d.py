@@ -89,6 +89,10 @@ _MAX_POINTS = 1 << 28  # corners 3 * (2n) must fit the kernel's int32 arrays
 _MIN_SCALED = 2.0**-140
 
 _OK, _DUPLICATE, _COLLINEAR = 0, 1, 2
+#: The incremental insertions' log holds the triples of one point's worst
+#: case (the points so far plus 8) and this many more: thousands of points
+#: per compiled call.
+_LOG_ROOM = 1 << 14
 
 
 @dataclass(frozen=True, eq=False)
@@ -672,14 +676,27 @@ def _start(pts, order, V, A, vt, state, work):
 
 
 @njit(cache=True)
-def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop):
+def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
     """Insert points start..stop-1 (insertion order = row order of pts).
 
-    state = [ntri, last real triangle, status, info1, info2].
+    state = [ntri, last real triangle, status, info1, info2]. ``log``
+    None (whole triangulations: the logging compiled away), or room for
+    what each insertion changed, as slot triples
+    ``(u, v, q)`` (-1: the vertex at infinity): edge ``uv`` removed (-2,
+    -2: none), ``q`` made a neighbour of the point: the vertices of the
+    split triangle or edge (and the edge a 2->4 split splits), then each
+    flip's removed diagonal and new neighbour; ``(-3, -3, -3)`` ends a
+    point. The insertions stop early, at a point whose log might not fit
+    (one can hold up to the number of points so far plus 8 triples).
+    Returns how many triples.
     """
     ntri = state[0]
     last = state[1]
+    nlog = 0
     for p in range(start, stop):
+        if log is not None:
+            if 3 * (nlog + p + 8) > log.shape[0]:
+                break
         # --- prefetch the walk starts of the next points, one level of
         # indirection per point ahead: vt[hint], then the triangle, then
         # its vertices (a miss each at 10^6 points, where BRIO's rounds
@@ -736,6 +753,13 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop):
             a = V[base]
             b = V[base + 1]
             c = V[base + 2]
+            if log is not None:
+                j = 3 * nlog
+                log[j : j + 9] = -2
+                log[j + 2] = a
+                log[j + 5] = b
+                log[j + 8] = c
+                nlog += 3
             a1 = A[base + 1]
             a2 = A[base + 2]
             t0 = t
@@ -779,6 +803,16 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop):
             a = V[k]
             b = V[_nxt(k)]
             c = V[_prv(k)]
+            if log is not None:
+                j = 3 * nlog
+                log[j : j + 12] = -2
+                log[j] = b
+                log[j + 1] = c
+                log[j + 2] = a
+                log[j + 5] = b
+                log[j + 8] = c
+                log[j + 11] = V[A[k]]
+                nlog += 4
             ab_ = A[_nxt(k)]  # edge (c, a)
             ac_ = A[_prv(k)]  # edge (a, b)
             kk = A[k]
@@ -841,7 +875,7 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop):
             state[2] = _DUPLICATE
             state[3] = p
             state[4] = V[other]
-            return
+            return nlog
         # --- Lawson flips around p -----------------------------------------
         while sp > 0:
             sp -= 1
@@ -862,6 +896,11 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop):
                 flip = _incircle(pts, q, v, u, p, work) > 0
             if not flip:
                 continue
+            if log is not None:
+                log[3 * nlog] = u
+                log[3 * nlog + 1] = v
+                log[3 * nlog + 2] = q
+                nlog += 1
             t = k // 3
             t2 = kk // 3
             e_vp = A[kn]
@@ -895,9 +934,13 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop):
             stack[sp] = b0
             stack[sp + 1] = b2
             sp += 2
+        if log is not None:
+            log[3 * nlog : 3 * nlog + 3] = -3
+            nlog += 1
     state[0] = ntri
     state[1] = last
     state[2] = _OK
+    return nlog
 
 
 @njit(cache=True)
@@ -969,64 +1012,45 @@ def _corner(V, t, v):
 
 
 @njit(cache=True)
-def _insert_rings(pts, V, A, stack, vt, hint, state, work, order, start, stop):
-    """Insert points start..stop-1 one by one; after each, record its
-    neighbours counter-clockwise (input indices, -1 the vertex at infinity),
-    consecutive ones joined by an edge. Every edge an insertion removes is a
-    diagonal of its cavity: it joins two neighbours of the inserted point
-    that are not consecutive. Returns ``(ring_start, ring)`` in CSR form."""
+def _insert_rings(pts, V, A, stack, vt, hint, state, work, order, start, stop, log):
+    """Insert points start..stop-1; record each one's neighbours right after
+    it went in (input indices, -1 the vertex at infinity) and the edges its
+    insertion removed (input index pairs; those at infinity left out), from
+    the insertions' log (:func:`_insert_range`). Returns ``(ring_start,
+    ring, gone_start, gone)`` in CSR form (point ``i``'s removed pairs are
+    ``gone[2 * gone_start[i]:2 * gone_start[i + 1]]``)."""
     k = stop - start
     ring_start = np.zeros(k + 1, np.int64)
     ring = np.empty(8 * k + 8, np.int64)
+    gone_start = np.zeros(k + 1, np.int64)
+    gone = np.empty(8 * k + 8, np.int64)
     m = 0
-    for p in range(start, stop):
-        _insert_range(pts, V, A, stack, vt, hint, state, work, p, p + 1)
+    g = 0
+    p = start
+    while p < stop:
+        nlog = _insert_range(pts, V, A, stack, vt, hint, state, work, p, stop, log)
+        if m + nlog > ring.shape[0]:
+            ring = np.concatenate((ring, np.empty(m + nlog, np.int64)))
+        if g + 2 * nlog > gone.shape[0]:
+            gone = np.concatenate((gone, np.empty(g + 2 * nlog, np.int64)))
+        for j in range(nlog):
+            u = log[3 * j]
+            w = log[3 * j + 1]
+            q = log[3 * j + 2]
+            if q == -3:  # the end of point p's log
+                p += 1
+                ring_start[p - start] = m
+                gone_start[p - start] = g // 2
+                continue
+            ring[m] = order[q] if q >= 0 else -1
+            m += 1
+            if u >= 0 and w >= 0:
+                gone[g] = order[u]
+                gone[g + 1] = order[w]
+                g += 2
         if state[2] != _OK:
             break
-        t0 = vt[p]
-        t = t0
-        while True:
-            c = _corner(V, t, p)
-            u = V[_nxt(c)]
-            if m == ring.shape[0]:
-                ring = np.concatenate((ring, np.empty(m, np.int64)))
-            ring[m] = order[u] if u >= 0 else -1
-            m += 1
-            t = A[_prv(c)] // 3
-            if t == t0:
-                break
-        ring_start[p - start + 1] = m
-    return ring_start, ring[:m]
-
-
-@njit(cache=True)
-def _has_edges(V, A, vt, a, b):
-    """Whether each (a[i], b[i]) is an edge: turns around a's and b's
-    triangles in step, so the cost is the smaller of the two degrees."""
-    out = np.zeros(a.shape[0], np.bool_)
-    for i in range(a.shape[0]):
-        u = a[i]
-        w = b[i]
-        s0 = vt[u]
-        r0 = vt[w]
-        s = s0
-        r = r0
-        while True:
-            k = _corner(V, s, u)
-            if V[_nxt(k)] == w:
-                out[i] = True
-                break
-            s = A[_prv(k)] // 3
-            if s == s0:
-                break
-            k = _corner(V, r, w)
-            if V[_nxt(k)] == u:
-                out[i] = True
-                break
-            r = A[_prv(k)] // 3
-            if r == r0:
-                break
-    return out
+    return ring_start, ring[:m], gone_start, gone[:g]
 
 
 @njit(cache=True)
@@ -1064,11 +1088,11 @@ class IncrementalDelaunay:
     :func:`delaunay` gives for the same point set. Points are named by their
     index: the first ones as given, then each inserted batch in order.
 
-    Queries for :mod:`meshcore.delaunay.admissible`: which segments are
-    edges (:meth:`has_edges`), each vertex's nearest other point
-    (:meth:`nearest_distance`), the neighbours each point of the last
-    :meth:`insert` had when it went in (:meth:`rings`: the edges an
-    insertion removes join two of them).
+    Queries for :mod:`meshcore.delaunay.admissible`: each vertex's nearest
+    other point (:meth:`nearest_distance`), the neighbours each point of the
+    last :meth:`insert` had when it went in (:meth:`rings`) and the edges
+    its insertion removed (:meth:`removed`), both recorded by the insertion
+    itself.
 
     Added points must lie in the convex hull of the first ones (split
     points of segments do), so that the power-of-two scale stays valid.
@@ -1087,8 +1111,10 @@ class IncrementalDelaunay:
         self._V, self._A, self._vt = V, A, vt
         self._state, self._work = state, work
         self._stack = np.empty(n + 8, np.int32)
+        self._log = np.empty(3 * (n + _LOG_ROOM), np.int32)
         self._hint = np.full(n, -1, np.int32)
         self._rings = (np.zeros(1, np.int64), np.zeros(0, np.int64))
+        self._gone = (np.zeros(1, np.int64), np.zeros(0, np.int64))
 
     def __len__(self) -> int:
         return self._n
@@ -1113,6 +1139,7 @@ class IncrementalDelaunay:
         self._A = grown(self._A, 6 * cap)
         self._vt = grown(self._vt, cap)
         self._stack = np.empty(cap + 8, np.int32)
+        self._log = np.empty(3 * (cap + _LOG_ROOM), np.int32)
         self._hint = grown(self._hint, cap, -1)
 
     def insert(self, xy: np.ndarray, near: np.ndarray) -> tuple[int, int] | None:
@@ -1129,7 +1156,7 @@ class IncrementalDelaunay:
         self._order[n : n + k] = slots
         self._slot[n : n + k] = slots
         self._hint[n : n + k] = self._slot[near]
-        self._rings = _insert_rings(
+        ring_start, ring, gone_start, gone = _insert_rings(
             self._pts,
             self._V,
             self._A,
@@ -1141,7 +1168,10 @@ class IncrementalDelaunay:
             self._order,
             n,
             n + k,
+            self._log,
         )
+        self._rings = (ring_start, ring)
+        self._gone = (gone_start, gone)
         if self._state[2] == _DUPLICATE:
             return int(self._order[self._state[3]]), int(self._order[self._state[4]])
         self._n = n + k
@@ -1150,14 +1180,16 @@ class IncrementalDelaunay:
     def rings(self) -> tuple[np.ndarray, np.ndarray]:
         """``(start, ring)``: the neighbours of the ``i``-th point of the last
         :meth:`insert` right after it went in are ``ring[start[i]:start[i + 1]]``
-        (point indices counter-clockwise, consecutive ones joined by an edge,
-        cyclically; -1 the vertex at infinity). An edge an insertion removed
-        joins two of its point's neighbours that are not consecutive."""
+        (point indices, in no particular order; -1 the vertex at infinity)."""
         return self._rings
 
-    def has_edges(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """(m,) bool: whether each ``(a[i], b[i])`` is an edge."""
-        return _has_edges(self._V, self._A, self._vt, self._slot[a], self._slot[b])
+    def removed(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(start, pairs)``: the edges the insertion of the ``i``-th point
+        of the last :meth:`insert` removed are the point index pairs
+        ``pairs[2 * start[i]:2 * start[i + 1]]`` (those at infinity left
+        out). An edge once removed comes back only at an insertion of one
+        of its ends."""
+        return self._gone
 
     def nearest_distance(self, verts: np.ndarray) -> np.ndarray:
         """(k,) float64: distance from each vertex to its nearest other point."""
@@ -1323,7 +1355,7 @@ def _build(pts_in: np.ndarray, progress):
     done = 3
     while done < n:
         stop = min(n, done + _CHUNK)
-        _insert_range(pts, V, A, stack, vt, hint, state, work, done, stop)
+        _insert_range(pts, V, A, stack, vt, hint, state, work, done, stop, None)
         if state[2] == _DUPLICATE:
             raise _duplicates_error(pts_in, int(order[state[3]]), int(order[state[4]]))
         done = stop

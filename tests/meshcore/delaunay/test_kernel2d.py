@@ -31,6 +31,11 @@ from meshcore.geometry.ordering import radix_argsort, radix_sort
 from meshcore.geometry.predicates import WORK_SIZE, incircle, incircle_exact, orient2d
 
 
+def edge_set(triangles: np.ndarray) -> set[tuple[int, int]]:
+    e = np.sort(np.vstack([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), 1)
+    return set(map(tuple, e.tolist()))
+
+
 def canonical(triangles: np.ndarray) -> set[tuple[int, ...]]:
     """The triangles as a set of sorted index triples."""
     return set(map(tuple, np.sort(triangles, axis=1).tolist()))
@@ -471,7 +476,8 @@ def test_incremental_insertion_gives_the_triangles_of_the_whole_set():
     # A 6 x 6 grid (co-circular everywhere: the ties decide) and random
     # points, then three batches inside the hull, some on grid lines and
     # circles: after each batch, the triangles are those delaunay() makes of
-    # all points so far, and has_edges / rings say what they should.
+    # all points so far, and rings / removed say what the last point's
+    # insertion did.
     rng = np.random.default_rng(7)
     first = np.vstack([square_grid(6), rng.random((40, 2)) * 5])
     inc = IncrementalDelaunay(first)
@@ -488,17 +494,16 @@ def test_incremental_insertion_gives_the_triangles_of_the_whole_set():
         assert canonical(tri.triangles) == canonical(delaunay(points).triangles)
         t = tri.triangles
         # The last point's ring is its neighbours (-1: the vertex at
-        # infinity, for a point on the hull), consecutive ones joined.
+        # infinity, for a point on the hull); the edges its insertion
+        # removed are those of the triangulation without it that are gone.
         start, ring = inc.rings()
         assert len(start) == len(batch) + 1
         last = ring[start[-2] :]
         fan = t[(t == len(points) - 1).any(axis=1)]
         assert set(last.tolist()) - {-1} == set(fan.ravel().tolist()) - {len(points) - 1}
-        pairs = np.column_stack([last, np.roll(last, 1)])
-        pairs = pairs[(pairs >= 0).all(axis=1)]
-        assert inc.has_edges(pairs[:, 0], pairs[:, 1]).all()
-        edges = np.vstack([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
-        assert inc.has_edges(edges[:, 0], edges[:, 1]).all()
-        assert not inc.has_edges(np.array([0]), np.array([35])).any()  # (0, 0) and (5, 5)
+        gone_start, gone = inc.removed()
+        removed = gone[2 * gone_start[-2] :].reshape(-1, 2)
+        before = edge_set(delaunay(points[:-1]).triangles)
+        assert {tuple(sorted(e)) for e in removed.tolist()} == before - edge_set(t)
     # A point inserted on an existing one is named, not inserted.
     assert inc.insert(np.array([points[3]]), np.array([0])) == (len(points), 3)
