@@ -676,7 +676,7 @@ def quad_medial(
     axes = pruned_axes(domain, h=h, prunes=(prune, *more), progress=progress)
     first = next(axes)
     special = _special(first, size, levels)  # the same samples on every pruned axis
-    res = _meshed(first, domain, method, size, levels, BOUNDARY_SHARE, special)
+    res = _lifted(_meshed(first, domain, method, size, levels, BOUNDARY_SHARE, special), domain)
     if size is None or not _over(res, domain, size):
         return res
     least = min(PRUNE_LEAST, _least_away(res.mesh, domain))
@@ -692,7 +692,10 @@ def quad_medial(
             alt = _meshed(axis_at[angle], domain, method, size, levels, share, special)
         except AlgorithmError:
             continue
-        if not _over(alt, domain, size) and _least_away(alt.mesh, domain) >= least:
+        if _over(alt, domain, size):  # (the lift moves points only: lifted when kept)
+            continue
+        alt = _lifted(alt, domain)
+        if _least_away(alt.mesh, domain) >= least:
             extra = {"prune": angle} if angle != prune else {}
             return QuadMedial(
                 mesh=alt.mesh,
@@ -721,7 +724,8 @@ def _least_away(mesh: Mesh, domain: Domain) -> float:
 def _meshed(axis: MedialAxis, domain, method, size, levels, share, special) -> QuadMedial:
     """:func:`quad_medial` on the axis (of ``domain``; arguments checked), the medial
     partition's regions merged at crowded boundary points as ``share`` says
-    (:func:`_medial_fill`); ``special``: :func:`_special` of the domain's samples."""
+    (:func:`_medial_fill`); ``special``: :func:`_special` of the domain's samples. Its
+    least corners not yet lifted (:func:`_lifted`: only on the mesh kept)."""
     special, mesh, stats = special
     part = None
     if special is not None and not stats["invalid"]:
@@ -738,10 +742,7 @@ def _meshed(axis: MedialAxis, domain, method, size, levels, share, special) -> Q
         if part is None:
             kind = "four-sided" if len(special.regions) == 1 else "butterfly"
             mesh, stats = _optimized(mesh, domain, stats)
-            report = quality.report(mesh)
-            return QuadMedial(
-                mesh=mesh, partition=special, stats={**stats, "partition": kind, "quality": report}
-            )
+            return QuadMedial(mesh=mesh, partition=special, stats={**stats, "partition": kind})
         mesh, stats = mesh2, stats2
     else:
         part, mesh, stats = _medial_fill(axis, method, size, levels, share)
@@ -769,8 +770,21 @@ def _meshed(axis: MedialAxis, domain, method, size, levels, share, special) -> Q
             "method, a smaller h or a smaller size"
         )
     mesh, stats = _optimized(mesh, domain, stats)
-    report = quality.report(mesh)
-    return QuadMedial(mesh=mesh, partition=part, stats={**stats, "quality": report})
+    return QuadMedial(mesh=mesh, partition=part, stats=stats)
+
+
+def _lifted(res: QuadMedial, domain: Domain) -> QuadMedial:
+    """The mesh of :func:`_meshed` with its least corners lifted last
+    (:func:`meshcore.medial.fill.lift_least`, input vertices fixed) when
+    :func:`_optimized` ran on it, and its quality report (8.4)."""
+    mesh, stats = res.mesh, dict(res.stats)
+    if "least_relaxed" in stats:
+        P, Q = mesh.points, mesh.cells_by_type["quad"]
+        fixed = input_index(P, domain.points) >= 0
+        P, stats["least_lifted"] = lift_least(P, Q, fixed, domain.points, LIFT_BELOW)
+        mesh = Mesh(P, (CellBlock("quad", Q),))
+    stats["quality"] = quality.report(mesh)
+    return QuadMedial(mesh=mesh, partition=res.partition, stats=stats)
 
 
 def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
@@ -840,7 +854,6 @@ def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
         if kept:
             P = new
     out["least_relaxed"] = bool(kept)
-    P, out["least_lifted"] = lift_least(P, Q, fixed, domain.points, LIFT_BELOW)
     out["quads"] = int(len(Q))
     out["points"] = int(len(P))
     return Mesh(P, (CellBlock("quad", Q),)), out
