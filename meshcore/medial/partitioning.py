@@ -676,7 +676,9 @@ def quad_medial(
     axes = pruned_axes(domain, h=h, prunes=(prune, *more), progress=progress)
     first = next(axes)
     special = _special(first, size, levels)  # the same samples on every pruned axis
-    res = _meshed(first, domain, method, size, levels, BOUNDARY_SHARE, special)
+    done: dict = {}  # fills and optimized meshes by partition: computed once
+    res = _meshed(first, domain, method, size, levels, BOUNDARY_SHARE, special, done)
+    res = _lifted(res, domain)
     if size is None or not _over(res, domain, size):
         return res
     least = min(PRUNE_LEAST, _least_away(res.mesh, domain))
@@ -685,14 +687,22 @@ def quad_medial(
     # longer boundary side, whose input vertices bind its count: BOUNDARY_SHARE)
     tries = [(BOUNDARY_SHARE, a) for a in more] + [(None, a) for a in (prune, *more)]
     axis_at = {prune: first}
+    tried = [res.mesh.cells_by_type["quad"]]
     for share, angle in tries:  # a loop over at most seven partitions
         if angle not in axis_at:
             axis_at[angle] = next(axes)
         try:
-            alt = _meshed(axis_at[angle], domain, method, size, levels, share, special)
+            alt = _meshed(axis_at[angle], domain, method, size, levels, share, special, done)
         except AlgorithmError:
             continue
-        if not _over(alt, domain, size) and _least_away(alt.mesh, domain) >= least:
+        # a mesh tried before (a merge that changed nothing; the butterfly again) or
+        # over the count is passed (the lift moves points only: lifted when kept)
+        quads = alt.mesh.cells_by_type["quad"]
+        if any(quads is q for q in tried) or _over(alt, domain, size):
+            continue
+        tried.append(quads)
+        alt = _lifted(alt, domain)
+        if _least_away(alt.mesh, domain) >= least:
             extra = {"prune": angle} if angle != prune else {}
             return QuadMedial(
                 mesh=alt.mesh,
@@ -718,10 +728,12 @@ def _least_away(mesh: Mesh, domain: Domain) -> float:
     return float(quality.quad_quality(P, Q)[ok].min(initial=1.0))
 
 
-def _meshed(axis: MedialAxis, domain, method, size, levels, share, special) -> QuadMedial:
+def _meshed(axis: MedialAxis, domain, method, size, levels, share, special, done) -> QuadMedial:
     """:func:`quad_medial` on the axis (of ``domain``; arguments checked), the medial
     partition's regions merged at crowded boundary points as ``share`` says
-    (:func:`_medial_fill`); ``special``: :func:`_special` of the domain's samples."""
+    (:func:`_medial_fill`); ``special``: :func:`_special` of the domain's samples. Its
+    least corners not yet lifted (:func:`_lifted`: only on the mesh kept). ``done``:
+    the fills and optimized meshes so far, reused (the same quads object again)."""
     special, mesh, stats = special
     part = None
     if special is not None and not stats["invalid"]:
@@ -729,7 +741,7 @@ def _meshed(axis: MedialAxis, domain, method, size, levels, share, special) -> Q
             # the butterfly's central quad carries the boundary's count both ways (a gear
             # at size 0.1: 1.88x): the medial partition when it keeps the count
             try:  # (a 2:1 ellipse's medial partition has a 2-sided region: the butterfly)
-                part, mesh2, stats2 = _medial_fill(axis, method, size, levels, share)
+                part, mesh2, stats2 = _medial_fill(axis, method, size, levels, share, done)
             except AlgorithmError:
                 part, stats2 = None, {"invalid": 1}
             bad = stats2["invalid"] or stats2["slits"]
@@ -737,20 +749,17 @@ def _meshed(axis: MedialAxis, domain, method, size, levels, share, special) -> Q
                 part = None
         if part is None:
             kind = "four-sided" if len(special.regions) == 1 else "butterfly"
-            mesh, stats = _optimized(mesh, domain, stats)
-            report = quality.report(mesh)
-            return QuadMedial(
-                mesh=mesh, partition=special, stats={**stats, "partition": kind, "quality": report}
-            )
+            mesh, stats = _optimized(mesh, domain, stats, done)
+            return QuadMedial(mesh=mesh, partition=special, stats={**stats, "partition": kind})
         mesh, stats = mesh2, stats2
     else:
-        part, mesh, stats = _medial_fill(axis, method, size, levels, share)
+        part, mesh, stats = _medial_fill(axis, method, size, levels, share, done)
     if (stats["invalid"] or stats["slits"]) and method == "terminal":
         # regions of 5 or 6 sides around reflex corners can fold; the critical
         # partition's triangles and quads do not on the domains tested. A region
         # around a dead-end cut (a slit: its cycle passes a vertex twice) gave a
         # non-conforming fill, a sliver hole along the slit (a random star at size 0.5)
-        fallback, mesh, stats2 = _medial_fill(part.axis, "critical", size, levels, share)
+        fallback, mesh, stats2 = _medial_fill(part.axis, "critical", size, levels, share, done)
         stats = {
             **stats2,
             "fallback": f"the terminal partition gave {stats['invalid']} "
@@ -768,12 +777,34 @@ def _meshed(axis: MedialAxis, domain, method, size, levels, share, special) -> Q
             f"{stats['invalid']} quads came out inverted on this partition; try another "
             "method, a smaller h or a smaller size"
         )
-    mesh, stats = _optimized(mesh, domain, stats)
-    report = quality.report(mesh)
-    return QuadMedial(mesh=mesh, partition=part, stats={**stats, "quality": report})
+    mesh, stats = _optimized(mesh, domain, stats, done)
+    return QuadMedial(mesh=mesh, partition=part, stats=stats)
 
 
-def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
+def _lifted(res: QuadMedial, domain: Domain) -> QuadMedial:
+    """The mesh of :func:`_meshed` with its least corners lifted last
+    (:func:`meshcore.medial.fill.lift_least`, input vertices fixed) when
+    :func:`_optimized` ran on it, and its quality report (8.4)."""
+    mesh, stats = res.mesh, dict(res.stats)
+    if "least_relaxed" in stats:
+        P, Q = mesh.points, mesh.cells_by_type["quad"]
+        fixed = input_index(P, domain.points) >= 0
+        P, stats["least_lifted"] = lift_least(P, Q, fixed, domain.points, LIFT_BELOW)
+        mesh = Mesh(P, (CellBlock("quad", Q),))
+    stats["quality"] = quality.report(mesh)
+    return QuadMedial(mesh=mesh, partition=res.partition, stats=stats)
+
+
+def _optimized(mesh: Mesh, domain: Domain, stats: dict, done: dict) -> tuple[Mesh, dict]:
+    """:func:`_optimize` of the mesh, or its result from ``done`` for the same mesh and
+    stats objects (the butterfly, a partition tried again)."""
+    key = ("optimized", id(mesh), id(stats))
+    if key not in done:  # (the mesh and stats held: their ids are not reused)
+        done[key] = (mesh, stats, _optimize(mesh, domain, stats))
+    return done[key][2]
+
+
+def _optimize(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
     """The fill improved as an all-quad mesh (§8.4.3): the quad operators and smoothing
     of :func:`meshcore.quads.optimization.optimize_quads` (boundary points fixed), then
     the corner angles relaxed (:func:`~meshcore.quads.optimization.relax_quads` with
@@ -840,7 +871,6 @@ def _optimized(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
         if kept:
             P = new
     out["least_relaxed"] = bool(kept)
-    P, out["least_lifted"] = lift_least(P, Q, fixed, domain.points, LIFT_BELOW)
     out["quads"] = int(len(Q))
     out["points"] = int(len(P))
     return Mesh(P, (CellBlock("quad", Q),)), out
@@ -984,12 +1014,16 @@ def _regions(points: np.ndarray, cycles, corners) -> list[dict]:
     return regions
 
 
-def _medial_fill(axis: MedialAxis, method: str, size, levels, share):
+def _medial_fill(axis: MedialAxis, method: str, size, levels, share, done: dict):
     """The medial partition (:func:`partition`, regions merged at crowded boundary points:
     :func:`_reflex_merged` with ``share``) and its fill
-    (:func:`meshcore.medial.fill.quads_on`): the partition, the mesh and its stats."""
+    (:func:`meshcore.medial.fill.quads_on`): the partition, the mesh and its stats; the
+    fill from ``done`` when the same partition of this axis was filled before."""
     part = _reflex_merged(partition(axis=axis, method=method), share)
-    return part, *quads_on(part, size, levels)
+    key = (id(axis), part.points.tobytes(), *(c.tobytes() for c in part.cycles + part.corners))
+    if key not in done:  # (the axis held: its id is not reused)
+        done[key] = (part, *quads_on(part, size, levels))
+    return done[key]
 
 
 def _reflex_merged(part: Partition, share: float | None) -> Partition:
