@@ -554,6 +554,15 @@ def _corner_quality(P, quads, c, k, v, x, y):
 
 
 @njit(cache=True)
+def _slot(quads, c, v):
+    """The corner of quad ``c`` at vertex ``v``."""
+    k = 0
+    while quads[c, k] != v:
+        k += 1
+    return k
+
+
+@njit(cache=True)
 def _moved_corners(P, quads, start, cells, v, x, y, shortest, aim):
     """The corners that vertex ``v`` moves (its own and its two neighbours' in each of
     its quads) with ``v`` at ``(x, y)``: their least (8.3), and their summed squared
@@ -563,9 +572,7 @@ def _moved_corners(P, quads, start, cells, v, x, y, shortest, aim):
     short = 0.0
     for j in range(start[v], start[v + 1]):
         c = cells[j]
-        k = 0
-        while quads[c, k] != v:
-            k += 1
+        k = _slot(quads, c, v)
         for s in (3, 1):
             w = quads[c, (k + s) % 4]
             if math.hypot(P[w, 0] - x, P[w, 1] - y) < shortest:
@@ -597,9 +604,7 @@ def _lifted(points, quads, mode, slide, sweeps, aim):
         cnt = 0
         for j in range(start[v], start[v + 1]):
             c = cells[j]
-            k = 0
-            while quads[c, k] != v:
-                k += 1
+            k = _slot(quads, c, v)
             for s in (3, 1):
                 w = quads[c, (k + s) % 4]
                 e = math.hypot(P[w, 0] - P[v, 0], P[w, 1] - P[v, 1])
