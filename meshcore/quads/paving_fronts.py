@@ -348,6 +348,9 @@ def _close_all(P: np.ndarray, fronts: list, sizes: SizeMap, strategy: str, aroun
     the quads sharing an edge with it (of ``around``, the quads laid
     already, or of the closure) taken out and the union closed by the
     partition, a ring or a coarse split, one more ring of quads at a time.
+    A polygon closed by a ring is rather closed as a cavity when the
+    partition closes one (a ring's valence-3 corners left the least sines
+    of the plate and the gear at 100k quads, 0.68 and 0.66, after the clean-up).
     ``gone`` (bool, one per row of ``around``) marks the quads taken out.
     """
     loops, ring_polygon = _polygons(P, fronts)
@@ -375,6 +378,22 @@ def _close_all(P: np.ndarray, fronts: list, sizes: SizeMap, strategy: str, aroun
             alive = [live]
             pool = [flat]
             res = _close_one(P, loop, sizes, strategy)
+        if res is not None and res[2] == "rings":
+            # a ring leaves valence-3 corners around its copy (the least sines of the
+            # mesh after the clean-up): rather the polygon grown by the quads around it
+            # (up to _CAVITY_TRIES rings), when the partition closes that
+            flat, live, wide = np.concatenate(pool), np.concatenate(alive), loop
+            for _ in range(_CAVITY_TRIES):
+                cav = _cavity(wide, flat, live, len(P))
+                if cav is None:
+                    break
+                wide, take = cav
+                live = live.copy()
+                live[take] = False
+                alt = _close_one(P, wide, sizes, strategy)
+                if alt is not None and alt[2] == "partition":
+                    alive, pool, res, grown = [live], [flat], alt, 1
+                    break
         if res is None:
             return P, None, {}, gone
         if grown:
