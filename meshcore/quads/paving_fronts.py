@@ -255,7 +255,10 @@ def _cavity(loop: np.ndarray, pool: np.ndarray, alive: np.ndarray, n: int):
     with it: ``(new loop, the pool rows taken)``, or None when the union is not one
     simple even cycle (chain arithmetic, :func:`_trace` on the reversed quads)."""
     key = _edge_keys(loop, np.roll(loop, -1), n)
-    rows = np.flatnonzero(alive)
+    on = np.zeros(n, bool)
+    on[loop] = True
+    at = on[pool[:, 0]] | on[pool[:, 1]] | on[pool[:, 2]] | on[pool[:, 3]]
+    rows = np.flatnonzero(alive & at)  # the quads at its points
     q = pool[rows]
     qk = _edge_keys(q.ravel(), np.roll(q, -1, axis=1).ravel(), n).reshape(-1, 4)
     take = rows[isin_ints(qk, key).any(axis=1)]
