@@ -126,7 +126,9 @@ Algorithm
    ``_MIN_Q``. When both fail it becomes a *cavity*: the quads sharing an
    edge with it (rows, strips, the closure's own) are taken out and the
    union closed again, one ring of quads wider at a time, up to three
-   (``closure.cavities``; :mod:`meshcore.quads.paving_fronts`). When a
+   (``closure.cavities``; :mod:`meshcore.quads.paving_fronts`); a polygon
+   a ring closes is rather a cavity when the partition closes one (the
+   ring's valence-3 corners were the least sines at 100k quads). When a
    piece is still stuck, the strips' last try closes the polygons one by
    one, and a polygon (without holes) still stuck
    gets the guaranteed route locally: its coarse split with the coarse

@@ -255,7 +255,10 @@ def _cavity(loop: np.ndarray, pool: np.ndarray, alive: np.ndarray, n: int):
     with it: ``(new loop, the pool rows taken)``, or None when the union is not one
     simple even cycle (chain arithmetic, :func:`_trace` on the reversed quads)."""
     key = _edge_keys(loop, np.roll(loop, -1), n)
-    rows = np.flatnonzero(alive)
+    on = np.zeros(n, bool)
+    on[loop] = True
+    at = on[pool[:, 0]] | on[pool[:, 1]] | on[pool[:, 2]] | on[pool[:, 3]]
+    rows = np.flatnonzero(alive & at)  # the quads at its points
     q = pool[rows]
     qk = _edge_keys(q.ravel(), np.roll(q, -1, axis=1).ravel(), n).reshape(-1, 4)
     take = rows[isin_ints(qk, key).any(axis=1)]
@@ -348,6 +351,9 @@ def _close_all(P: np.ndarray, fronts: list, sizes: SizeMap, strategy: str, aroun
     the quads sharing an edge with it (of ``around``, the quads laid
     already, or of the closure) taken out and the union closed by the
     partition, a ring or a coarse split, one more ring of quads at a time.
+    A polygon closed by a ring is rather closed as a cavity when the
+    partition closes one (a ring's valence-3 corners left the least sines
+    of the plate and the gear at 100k quads, 0.68 and 0.66, after the clean-up).
     ``gone`` (bool, one per row of ``around``) marks the quads taken out.
     """
     loops, ring_polygon = _polygons(P, fronts)
@@ -375,6 +381,22 @@ def _close_all(P: np.ndarray, fronts: list, sizes: SizeMap, strategy: str, aroun
             alive = [live]
             pool = [flat]
             res = _close_one(P, loop, sizes, strategy)
+        if res is not None and res[2] == "rings":
+            # a ring leaves valence-3 corners around its copy (the least sines of the
+            # mesh after the clean-up): rather the polygon grown by the quads around it
+            # (up to _CAVITY_TRIES rings), when the partition closes that
+            flat, live, wide = np.concatenate(pool), np.concatenate(alive), loop
+            for _ in range(_CAVITY_TRIES):
+                cav = _cavity(wide, flat, live, len(P))
+                if cav is None:
+                    break
+                wide, take = cav
+                live = live.copy()
+                live[take] = False
+                alt = _close_one(P, wide, sizes, strategy)
+                if alt is not None and alt[2] == "partition":
+                    alive, pool, res, grown = [live], [flat], alt, 1
+                    break
         if res is None:
             return P, None, {}, gone
         if grown:

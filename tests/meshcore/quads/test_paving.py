@@ -269,6 +269,18 @@ class TestFrontsMeeting:
         assert len(cells) == 5
         _closes(Q, loop, cells)
 
+    def test_a_ring_gives_way_to_a_cavity_the_partition_closes(self):
+        # the ring test's stuck polygon inside four quads: rather than a ring (valence-3
+        # corners), the polygon grown by those quads, a convex quadrilateral, one quad
+        P = np.array([[0.5, 0], [1, 0], [0.35, 0.8], [0, 0], [0.6, -0.6], [1.6, -0.2]])
+        P = np.concatenate([P, [[0.4, 1.4], [-0.6, -0.4]]])
+        loop = np.arange(4)
+        around = np.array([[4 + i, 4 + (i + 1) % 4, (i + 1) % 4, i] for i in range(4)])
+        sizes = size_map(parse_domain(SQUARE), 0.3, None)
+        Q, cells, stats, gone = paving_fronts._close(P, [loop], sizes, "balanced", around)
+        assert stats["cavities"] == 1 and stats["rings"] == 0 and gone.all()
+        assert np.array_equal(cells, [[7, 4, 5, 6]])
+
     def test_coarse_split_keeps_the_polygon_edges(self, monkeypatch):
         # a hexagon with every side split: every other vertex is the hexagon, its
         # triangles cut in three quads through the skipped vertices
