@@ -120,6 +120,7 @@ from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.constructions import point_segment_distance
 from meshcore.geometry.predicates import orient2d
 from meshcore.grid.band import outline_loops
+from meshcore.limits import MAX_CELLS
 from meshcore.mesh import CellBlock, Mesh
 from meshcore.mesh.quality import quad_quality, triangle_shape
 from meshcore.mesh.topology import isin_ints, unique_ints
@@ -129,8 +130,6 @@ __all__ = ["MAX_CELLS", "GridResult", "grid"]
 
 Progress = Callable[[float, str], None] | None
 
-#: Default bound on the cells of the grid's bounding box.
-MAX_CELLS = 4_000_000
 
 TEMPLATES = ("whole", "quad", "concave", "triangle", "pentagon", "polygon")
 

@@ -100,6 +100,7 @@ from meshcore.delaunay.kernel2d import delaunay
 from meshcore.domain.planar import Domain, as_domain, parse_domain, ray_parity
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.tolerances import MAX_COORDINATE, MIN_DIAMETER
+from meshcore.limits import DEFAULT_PRUNE
 from meshcore.mesh import CellBlock, Mesh
 
 __all__ = [
@@ -115,8 +116,6 @@ __all__ = [
 
 Progress = Callable[[float, str], None]
 
-#: Default pruning angle, degrees (module docstring, step 5).
-DEFAULT_PRUNE = 25.0
 #: The default ``h`` is at most the perimeter over this ...
 DEFAULT_SAMPLES = 4096
 #: ... and at least the perimeter over this.

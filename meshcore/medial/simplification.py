@@ -112,14 +112,13 @@ from scipy.sparse.csgraph import connected_components
 
 from meshcore.domain.planar import Domain, parse_domain
 from meshcore.errors import InputError, MeshcoreError
+from meshcore.limits import DEFAULT_THRESHOLD
 from meshcore.medial.axis import medial_axis
 
 __all__ = ["DEFAULT_THRESHOLD", "Simplification", "TOLERANCES", "Tolerances", "simplify"]
 
 Progress = Callable[[float, str], None] | None
 
-#: Details and holes under this fraction of the local radius are removed.
-DEFAULT_THRESHOLD = 0.5
 
 _KIND_ORDER = {"notch": 0, "protrusion": 0, "fillet": 1, "step": 2}
 

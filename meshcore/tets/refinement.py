@@ -190,6 +190,7 @@ from meshcore.delaunay.recovery3d import (
 from meshcore.domain.surface import as_surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates3d import orient3d
+from meshcore.limits import MIN_RADIUS_EDGE
 from meshcore.mesh import CellBlock, Mesh
 from meshcore.mesh.topology import unique_ints
 from meshcore.tets.angles import (
@@ -204,9 +205,6 @@ from meshcore.tets.sizing import SizeField3d
 
 __all__ = ["TetrahedralizationResult", "tetrahedralize", "tetra_dihedral_angles"]
 
-#: Smallest radius-edge bound accepted (Shewchuk's analysis needs > 2; below ~1.1 no
-#: tetrahedralization exists).
-MIN_RADIUS_EDGE = 1.1
 
 _TET_FACES = TET_FACES.copy()
 _TET_EDGES = TET_EDGES.copy()

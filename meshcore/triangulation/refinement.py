@@ -116,6 +116,7 @@ from meshcore.delaunay.kernel2d import delaunay
 from meshcore.domain.planar import Domain, as_domain, parse_size_field
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import WORK_SIZE
+from meshcore.limits import MAX_MIN_ANGLE
 from meshcore.mesh import CellBlock, Mesh
 from meshcore.triangulation.features import feature_cuts
 
@@ -123,9 +124,6 @@ __all__ = ["MAX_POINTS", "TriangulationResult", "estimated_triangles", "triangul
 
 #: Refinement stops with an AlgorithmError past this many points.
 MAX_POINTS = 1 << 25
-#: Largest ``min_angle`` accepted (degrees); Delaunay refinement is known to
-#: terminate in practice up to about 34 degrees, provably below 20.7.
-MAX_MIN_ANGLE = 34.0
 #: ``min_angle`` used when interior points are added and none is given.
 DEFAULT_MIN_ANGLE = 20.0
 #: Up to this bound every triangle meets ``min_angle`` except in the wedges of

@@ -21,6 +21,7 @@ from typing import Annotated, Literal
 from pydantic import ConfigDict, Field, model_validator
 
 from meshcore.errors import InputError
+from meshcore.limits import MAX_CELLS
 from meshcore.mesh import quality
 from service.methods.domain_schema import (
     ConstraintPolylines,
@@ -32,10 +33,6 @@ from service.methods.triangulation import check_thinness
 from service.schemas import InputModel, MethodParams
 
 Progress = object  # the registry's Progress: callable(fraction, message)
-
-#: The largest grid, in cells of its bounding box: :data:`meshcore.grid.cartesian.MAX_CELLS`
-#: (equal, tests/service/test_imports.py).
-MAX_CELLS = 4_000_000
 
 
 class GridParams(MethodParams):

@@ -20,17 +20,13 @@ import numpy as np
 from pydantic import ConfigDict, Field, model_validator
 
 from meshcore.errors import InputError
+from meshcore.limits import DEFAULT_PRUNE, DEFAULT_THRESHOLD
 from service.methods.domain_schema import DomainIn, Position, check_resolution
 from service.schemas import InputModel, MethodParams
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 
-#: The defaults of :data:`meshcore.medial.axis.DEFAULT_PRUNE` and
-#: :data:`meshcore.medial.simplification.DEFAULT_THRESHOLD` (equal,
-#: tests/service/test_imports.py).
-DEFAULT_PRUNE = 25.0
-DEFAULT_THRESHOLD = 0.5
 
 StepField = Field(
     None,

@@ -18,6 +18,7 @@ import numpy as np
 from pydantic import Field
 
 from meshcore.errors import InputError
+from meshcore.limits import MIN_RADIUS_EDGE
 from meshcore.mesh import quality
 from service.methods.domain_schema import check_resolution
 from service.methods.surface_schema import UNIT_CUBE, Position3, SurfaceIn
@@ -25,10 +26,6 @@ from service.methods.triangulation import SizeField
 from service.schemas import MethodParams
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-
-#: The least ``max_radius_edge``: :data:`meshcore.tets.refinement.MIN_RADIUS_EDGE` (equal,
-#: tests/service/test_imports.py).
-MIN_RADIUS_EDGE = 1.1
 
 
 class SizeField3(SizeField):

@@ -18,6 +18,7 @@ import numpy as np
 from pydantic import ConfigDict, Field, model_validator
 
 from meshcore.errors import InputError
+from meshcore.limits import MAX_MIN_ANGLE
 from meshcore.mesh import quality
 from service.methods.domain_schema import (
     ConstraintPolylines,
@@ -32,9 +33,6 @@ Progress = object  # the registry's Progress: callable(fraction, message)
 
 #: Requests whose sizes would make more triangles than this are refused (422).
 MAX_TRIANGLES = 20_000_000
-#: The largest ``min_angle``, degrees: :data:`meshcore.triangulation.refinement.MAX_MIN_ANGLE`
-#: (equal, tests/service/test_imports.py), whose module this one imports only to run.
-MAX_MIN_ANGLE = 34.0
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 

@@ -3,7 +3,7 @@
 The method modules import meshcore's method packages only in the checks and
 run functions that use them (:mod:`service.methods.registry`); the fork server
 imports them all (:data:`~service.methods.registry.METHOD_CODE`), and the
-limits the params models need at definition are copies of meshcore's.
+limits the params models need at definition come from :mod:`meshcore.limits`.
 """
 
 from __future__ import annotations
