@@ -178,7 +178,7 @@ from meshcore.quads.lattice import triangulated
 from meshcore.quads.optimization import corners_relaxed, lifted_least, optimize_quads
 from meshcore.quads.paths import frontal_kernel, stack_kernel
 from meshcore.quads.valence import fewer_defects
-from meshcore.triangulation import estimated_triangles
+from meshcore.triangulation import check_thinness as check_forced_triangles
 
 __all__ = [
     "ALGORITHMS",
@@ -195,9 +195,8 @@ __all__ = [
 ALGORITHMS = ("stack", "heap", "frontal", "matching")
 MEASURES = ("angle", "simplified", "shape")
 PATTERNS = ("squares", "equilateral")
-#: A domain whose thin parts force more triangles than this whatever the size (a strip
-#: of width w and length L about 2 L / w: :func:`meshcore.triangulation.estimated_triangles`
-#: without sizes) is refused before it is triangulated (:func:`check_thinness`).
+#: A domain whose thin parts force more triangles than this whatever the size is refused
+#: before it is triangulated (:func:`check_thinness`).
 MAX_FORCED_TRIANGLES = 1_000_000
 
 Progress = Callable[[float, str], None]
@@ -928,17 +927,16 @@ def check_thinness(domain) -> None:
     Raises
     ------
     InputError
-        ``too_many_cells`` at ``domain``.
+        ``too_many_cells`` at ``domain``
+        (:func:`meshcore.triangulation.check_thinness`).
     """
-    forced = estimated_triangles(domain)
-    if forced > MAX_FORCED_TRIANGLES:
-        raise InputError(
-            f"the domain is so thin that triangles meeting the angle bound would be about "
-            f"{forced:,} whatever the size, and their quads keep that size; quad_combine "
-            f"makes at most {MAX_FORCED_TRIANGLES:,} of them: mesh it with triangulate",
-            loc=("domain",),
-            code="too_many_cells",
-        )
+    check_forced_triangles(
+        domain,
+        MAX_FORCED_TRIANGLES,
+        code="too_many_cells",
+        advice=f"their quads keep that size, and quad_combine makes at most "
+        f"{MAX_FORCED_TRIANGLES:,} of them: mesh it with triangulate",
+    )
 
 
 def check_metric_2d(metric) -> None:

@@ -7,8 +7,15 @@ is a chain of edges and the angle, area and size bounds hold.
 from meshcore.triangulation.refinement import (
     MAX_POINTS,
     TriangulationResult,
+    check_thinness,
     estimated_triangles,
     triangulate,
 )
 
-__all__ = ["MAX_POINTS", "TriangulationResult", "estimated_triangles", "triangulate"]
+__all__ = [
+    "MAX_POINTS",
+    "TriangulationResult",
+    "check_thinness",
+    "estimated_triangles",
+    "triangulate",
+]

@@ -120,7 +120,13 @@ from meshcore.limits import MAX_MIN_ANGLE
 from meshcore.mesh import CellBlock, Mesh
 from meshcore.triangulation.features import feature_cuts
 
-__all__ = ["MAX_POINTS", "TriangulationResult", "estimated_triangles", "triangulate"]
+__all__ = [
+    "MAX_POINTS",
+    "TriangulationResult",
+    "check_thinness",
+    "estimated_triangles",
+    "triangulate",
+]
 
 #: Refinement stops with an AlgorithmError past this many points.
 MAX_POINTS = 1 << 25
@@ -353,6 +359,29 @@ def estimated_triangles(domain, *, max_area=None, size=None, size_field=None) ->
     # nearest field values: an estimate needs no triangulation of the field
     sizing = _sizing(dom, size, max_area, fp, fv, linear=False)
     return 2 * _expected_points(dom, sizing)
+
+
+def check_thinness(domain, most: int, *, code: str, advice: str) -> None:
+    """Refuse a domain so thin that a mesh meeting the angle bound would be more than
+    ``most`` triangles whatever the size (a strip of width w and length L needs about
+    2 L / w: :func:`estimated_triangles` without sizes), in milliseconds, with the
+    estimate, rather than met by a time or memory limit.
+
+    Raises
+    ------
+    InputError
+        ``code`` at ``domain``, the message ending with ``advice``.
+    """
+    dom = as_domain(domain)
+    forced = estimated_triangles(dom)
+    if forced > most:
+        raise InputError(
+            f"the domain is so thin (area {dom.area:.3g} for its boundary's length) that "
+            f"triangles meeting the angle bound would be about {forced:,} whatever the "
+            f"size; {advice}",
+            loc=("domain",),
+            code=code,
+        )
 
 
 def _interpolate_field(fp: np.ndarray, fv: np.ndarray, q: np.ndarray, linear=True) -> np.ndarray:

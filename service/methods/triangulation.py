@@ -142,19 +142,15 @@ class TriangulateParams(MethodParams):
 
 def check_thinness(dom) -> None:
     """Refuse a domain so thin that a mesh meeting the angle bound, whatever the size, would
-    be more than ``MAX_TRIANGLES`` triangles (a strip of width w and length L needs about
-    2 L / w: :func:`~meshcore.triangulation.estimated_triangles` without sizes)."""
-    from meshcore.triangulation.refinement import estimated_triangles
+    be more than ``MAX_TRIANGLES`` triangles (:func:`meshcore.triangulation.check_thinness`)."""
+    from meshcore.triangulation.refinement import check_thinness as check_forced_triangles
 
-    estimate = estimated_triangles(dom)
-    if estimate > MAX_TRIANGLES:
-        raise InputError(
-            f"the domain is so thin (area {dom.area:.3g} for its boundary's length) that "
-            f"triangles meeting the angle bound would be about {estimate:,} whatever the "
-            f"size; this service makes at most {MAX_TRIANGLES:,}",
-            loc=("domain",),
-            code="too_many_triangles",
-        )
+    check_forced_triangles(
+        dom,
+        MAX_TRIANGLES,
+        code="too_many_triangles",
+        advice=f"this service makes at most {MAX_TRIANGLES:,}",
+    )
 
 
 def run_triangulate(params: TriangulateParams, progress) -> dict:
