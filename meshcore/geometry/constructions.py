@@ -116,7 +116,7 @@ def circumradius(a, b, c) -> np.ndarray:
 
 
 def point_segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray):
-    """Distance from each point ``q`` (n, 2) to the segment ``(a[i], b[i])`` (rows), and
+    """Distance from each point ``q`` (n, 2) or (n, 3) to the segment ``(a[i], b[i])`` (rows), and
     the parameter of the segment's nearest point (0 at ``a``, 1 at ``b``; 0 on a segment of
     length 0).
 
@@ -128,4 +128,5 @@ def point_segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray):
     d = b - a
     dd = np.einsum("ij,ij->i", d, d)
     t = np.clip(np.einsum("ij,ij->i", q - a, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
-    return np.hypot(*(a + t[:, None] * d - q).T), t
+    off = a + t[:, None] * d - q
+    return (np.hypot(*off.T) if off.shape[1] == 2 else np.linalg.norm(off, axis=1)), t

@@ -33,6 +33,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from meshcore.delaunay.recovery3d import SurfaceRecovery, ball_pairs
+from meshcore.geometry.constructions import point_segment_distance
 
 __all__ = ["MARGIN", "SEED_FAR", "SPACING", "far_facets", "seed_facets"]
 
@@ -71,14 +72,6 @@ def _lattice(uv: np.ndarray, h: float) -> np.ndarray:
     return np.stack([u, v], 1)
 
 
-def _segment_distance(X: np.ndarray, A: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """Distance from each point ``X`` to the segment ``A``--``B`` of its row."""
-    d = B - A
-    t = np.einsum("ij,ij->i", X - A, d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
-    Q = A + np.clip(t, 0.0, 1.0)[:, None] * d
-    return np.linalg.norm(X - Q, axis=1)
-
-
 def seed_facets(b: SurfaceRecovery, facets: np.ndarray, size: np.ndarray) -> int:
     """Add a triangular lattice of spacing ``SPACING`` times ``size`` (one per facet) to
     each facet of ``facets``; the number of points added.
@@ -111,7 +104,7 @@ def seed_facets(b: SurfaceRecovery, facets: np.ndarray, size: np.ndarray) -> int
             A, B = b.P[b.seg[segs, 0]], b.P[b.seg[segs, 1]]
             half = 0.5 * np.linalg.norm(B - A, axis=1)
             xi, si = ball_pairs(X, 0.5 * (A + B), half + MARGIN * h)
-            close = _segment_distance(X[xi], A[si], B[si]) < MARGIN * h
+            close = point_segment_distance(X[xi], A[si], B[si])[0] < MARGIN * h
             X = np.delete(X, xi[close], axis=0)
         mine = np.flatnonzero(b.pt_facet == f)
         if len(X) and mine.size:
