@@ -292,6 +292,14 @@ def _around(Q: np.ndarray, start: np.ndarray, cells: np.ndarray, b: int, first: 
         ring.append(nxt[0])
 
 
+def _on_border(points: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """Whether each point is on the border of the quads (an edge of one quad only)."""
+    border = np.zeros(len(points), dtype=bool)
+    mesh = Mesh(points, (CellBlock("quad", quads),))
+    border[topology.boundary(mesh).cells[0].data.ravel()] = True
+    return border
+
+
 def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """A quad more at every border vertex whose quads' corners there average more
     than :data:`OPEN_ANGLE` (a reflex input corner over 250 degrees that the
@@ -305,11 +313,7 @@ def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
     n = len(points)
     P, Q = points.copy(), quads.copy()
     start, cells = _csr(n, Q)
-    e = np.stack([Q, np.roll(Q, -1, axis=1)], axis=-1).reshape(-1, 2)
-    key = np.sort(e, axis=1) @ np.array([n, 1], np.int64)
-    uk, cnt = np.unique(key, return_counts=True)
-    border = np.zeros(n, dtype=bool)
-    border[uk[cnt == 1] // n] = border[uk[cnt == 1] % n] = True
+    border = _on_border(P, Q)
     added: list[np.ndarray] = []
     for v in np.flatnonzero(border):
         fan = [int(q) for q in cells[start[v] : start[v + 1]]]
@@ -362,11 +366,7 @@ def _flowered(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.nda
     n = len(points)
     start, cells = _csr(n, quads)
     val = np.diff(start)
-    e = np.stack([quads, np.roll(quads, -1, axis=1)], axis=-1).reshape(-1, 2)
-    key = np.sort(e, axis=1) @ np.array([n, 1], np.int64)
-    uk, cnt = np.unique(key, return_counts=True)
-    border = np.zeros(n, dtype=bool)
-    border[uk[cnt == 1] // n] = border[uk[cnt == 1] % n] = True
+    border = _on_border(points, quads)
     P, keep, new_quads = [points], np.ones(len(quads), dtype=bool), []
     m = n
     done = 0
@@ -667,9 +667,7 @@ def lift_least(P: np.ndarray, Q: np.ndarray, fixed: np.ndarray, inputs: np.ndarr
         ring = near[Q].any(axis=1)
         near[Q[ring].ravel()] = True
     node, a, b = boundary_slides(P, Q, fixed, inputs)
-    border = np.zeros(len(P), dtype=bool)
-    border[topology.boundary(Mesh(P, (CellBlock("quad", Q),))).cells[0].data.ravel()] = True
-    mode = np.where(near & ~fixed & ~border, 1, 0).astype(np.int64)
+    mode = np.where(near & ~fixed & ~_on_border(P, Q), 1, 0).astype(np.int64)
     slide = np.zeros((len(P), 2))
     d = P[b] - P[a]
     slide[node] = d / np.maximum(np.hypot(*d.T), np.finfo(float).tiny)[:, None]
