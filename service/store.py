@@ -188,6 +188,11 @@ class Store:
         self.jobs_dir.mkdir(parents=True, exist_ok=True)
         path = self.data_dir / "jobs.sqlite3"
         self._db = sqlite3.connect(path, isolation_level=None, check_same_thread=False)
+        #: Held by every write from its statement to its row count: the count is the
+        #: connection's last change, which another thread's write can replace in between
+        #: (submits are admitted in threads: a committed job was taken for refused and its
+        #: files removed, test_max_queued_holds_under_concurrent_submits).
+        self._writing = threading.Lock()
         try:
             self._db.row_factory = sqlite3.Row
             self._db.execute("PRAGMA journal_mode=WAL")
@@ -262,7 +267,7 @@ class Store:
         try:
             path = self.result_path(job_id, fmt)
             write_atomically(path, data, self.durable)
-            self._db.execute(
+            self._changed(
                 "INSERT OR REPLACE INTO files (job_id, name, size, sha256) VALUES (?, ?, ?, ?)",
                 (job_id, path.name, len(data), hashlib.sha256(data).hexdigest()),
             )
@@ -306,7 +311,7 @@ class Store:
         """Remove a derived file (a damaged download cache) and its record."""
         path = self.result_path(job_id, fmt)
         path.unlink(missing_ok=True)
-        self._db.execute("DELETE FROM files WHERE job_id = ? AND name = ?", (job_id, path.name))
+        self._changed("DELETE FROM files WHERE job_id = ? AND name = ?", (job_id, path.name))
 
     def remove_files(self, job_id: str) -> None:
         """Remove the job's folder once the result writes in flight have ended
@@ -320,7 +325,7 @@ class Store:
             self._writers.pop(job_id, None)
         try:
             shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
-            self._db.execute("DELETE FROM files WHERE job_id = ?", (job_id,))
+            self._changed("DELETE FROM files WHERE job_id = ?", (job_id,))
         finally:
             with self._files:
                 self._removing.discard(job_id)
@@ -392,7 +397,7 @@ class Store:
         same ``(client, idempotency_key)`` first, that job is returned instead.
         Either way, this job's files are removed when no row was inserted.
         """
-        inserted = self._db.execute(
+        inserted = self._changed(
             "INSERT INTO jobs (id, client, method, status, created_at, idempotency_key,"
             " body_hash) SELECT ?, ?, ?, 'queued', ?, ?, ?"
             " WHERE (SELECT COUNT(*) FROM jobs WHERE client = ?"
@@ -408,7 +413,7 @@ class Store:
                 client,
                 max_unfinished,
             ),
-        ).rowcount
+        )
         if not inserted:
             shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
             return self.by_idempotency_key(client, idempotency_key) if idempotency_key else None
@@ -465,21 +470,28 @@ class Store:
             fields["error"] = json.dumps(fields["error"])
         assignments = ", ".join(f"{k} = ?" for k in fields)
         marks = ", ".join("?" * len(where_status))
-        cur = self._db.execute(
-            f"UPDATE jobs SET {assignments}, version = version + 1"
-            f" WHERE id = ? AND status IN ({marks})",
-            (*fields.values(), job_id, *where_status),
+        return (
+            self._changed(
+                f"UPDATE jobs SET {assignments}, version = version + 1"
+                f" WHERE id = ? AND status IN ({marks})",
+                (*fields.values(), job_id, *where_status),
+            )
+            == 1
         )
-        return cur.rowcount == 1
+
+    def _changed(self, sql: str, args: tuple) -> int:
+        """Run a write (every write of the store goes through here); the rows it changed."""
+        with self._writing:
+            return self._db.execute(sql, args).rowcount
 
     def mark_running(self, job_id: str) -> bool:
         return (
-            self._db.execute(
+            self._changed(
                 "UPDATE jobs SET status = 'running', attempt = attempt + 1, started_at = ?,"
                 " progress_fraction = 0, progress_message = '', version = version + 1"
                 " WHERE id = ? AND status = 'queued'",
                 (time.time(), job_id),
-            ).rowcount
+            )
             == 1
         )
 
@@ -512,11 +524,11 @@ class Store:
     def bump_attempt(self, job_id: str) -> bool:
         """Count one more run of a running job (the engine re-ran it)."""
         return (
-            self._db.execute(
+            self._changed(
                 "UPDATE jobs SET attempt = attempt + 1, version = version + 1"
                 " WHERE id = ? AND status = 'running'",
                 (job_id,),
-            ).rowcount
+            )
             == 1
         )
 
@@ -541,7 +553,7 @@ class Store:
 
     def delete_row(self, job_id: str) -> None:
         """Remove the job's row (its files stay: see :meth:`remove_files`)."""
-        self._db.execute("DELETE FROM jobs WHERE id = ?", (job_id,))
+        self._changed("DELETE FROM jobs WHERE id = ?", (job_id,))
 
     def delete(self, job_id: str) -> None:
         """Remove the job's row, then its files."""
@@ -559,7 +571,7 @@ class Store:
         ).fetchall()
         for (job_id,) in old:
             self.remove_files(job_id)
-            self._db.execute(
+            self._changed(
                 "UPDATE jobs SET expired = 1, version = version + 1 WHERE id = ?", (job_id,)
             )
         ancient = self._db.execute(
