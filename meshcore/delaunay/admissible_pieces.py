@@ -118,6 +118,9 @@ def _crossed_triangles(pts, V, A, vt, ia, ib, tstamp, stamp, queue):
         x = V[kin]
         if x < 0:
             break
+        # Ask for both possible next triangles while this one's apex loads.
+        _prefetch(V, A[_nxt(kin)])
+        _prefetch(V, A[_prv(kin)])
         t = kin // 3
         if tstamp[t] != stamp:
             tstamp[t] = stamp
