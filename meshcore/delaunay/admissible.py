@@ -180,14 +180,14 @@ only 9 % of them, and splitting one segment per round instead of all saves
 distance from the apex (the two sides of a wedge then split alike) 79,234,
 and Ruppert's power-of-two distances (quarter powers) 121,726. The
 10,000-vertex star takes 146 rounds (each spike's chain of splits is
-sequential) and about 1.9 CPU s (2.7 in the same run before the
-insertions logged the edges they remove; 5.5 before the searches stopped
-at the crossed triangles), per added point: the insertion about 1.1 µs (12 in-circle
-tests, the new points having 9 neighbours), the widest-angle search 0.9
-(7 triangles, one search per added point), the pieces' bookkeeping,
-protection radii and Python 1.6 in all; 126 s when every round
-re-triangulated everything. The case counts of the result are computed
-when first read.
+sequential) and about 1.7 CPU s (2.0 before the compiled searches and
+insertions prefetched; 2.7 before the insertions logged the edges they
+remove; 5.5 before the searches stopped at the crossed triangles), per
+added point: the insertion about 1 µs (5 walk steps, 12 to 18 in-circle
+tests), the widest-angle search 0.75 (6 to 22 triangles), the pieces'
+bookkeeping, protection radii and Python 1.1, mostly waiting on memory;
+126 s when every round re-triangulated everything. The case counts of
+the result are computed when first read.
 
 The restricted triangulation (:func:`restricted_triangles`) keeps the
 triangles reached by a flood fill across non-segment edges from the left

@@ -790,6 +790,11 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
             stack[1] = 3 * t1 + 1
             stack[2] = 3 * t2 + 2
             sp = 3
+            # The three triangles across p's new edges, asked for together
+            # (their apexes are the first in-circle tests).
+            _prefetch(V, A[3 * t0])
+            _prefetch(V, a1)
+            _prefetch(V, a2)
             # The real one among the three (all three when t was real).
             if c < 0:
                 last = t2
@@ -933,6 +938,8 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
                 last = t2
             stack[sp] = b0
             stack[sp + 1] = b2
+            _prefetch(V, e_uq)  # the triangles across the two new edges
+            _prefetch(V, e_qv)
             sp += 2
         if log is not None:
             log[3 * nlog : 3 * nlog + 3] = -3
