@@ -536,11 +536,16 @@ def _good_quads(
     form a set that overlaps no front and no other of them.
     """
     m, N = len(quads), len(Q)
-    ok = pk.strictly_convex_rows(Q, quads)
+    ok = pk.convex_and_good(Q, quads, _MIN_Q)
     ok &= (quads[:, [0, 1, 2, 3]] != quads[:, [1, 2, 3, 0]]).all(axis=1)
     ok &= (quads[:, 0] != quads[:, 2]) & (quads[:, 1] != quads[:, 3])
-    ok[ok] = quad_quality(Q, quads[ok]) >= _MIN_Q
     fa, fb = _chains(fronts)
+    r = float(np.hypot(*(Q[fb] - Q[fa]).T).max()) if len(fa) else 0.0
+    new_nodes = unique_ints(quads[quads >= n_old])
+    cen = Q[quads].mean(axis=1)
+    rad = np.sqrt(((Q[quads] - cen[:, None, :]) ** 2).sum(axis=2)).max(axis=1)
+    reach = max(gap, _CLEARANCE) * float(h[new_nodes].max()) if len(new_nodes) else 0.0
+    fa, fb = _near_box(Q, fa, fb, Q[quads].reshape(-1, 2), max(float(rad.max()) * 1.0001, reach))
     qa, qb = quads.ravel(), np.roll(quads, -1, axis=1).ravel()
     qid = np.repeat(np.arange(m), 4)
     qkey = _edge_keys(qa, qb, N)
@@ -552,7 +557,7 @@ def _good_quads(
     bad_seg = np.zeros(n_new, bool)
     if n_new:
         mid = (Q[seg_a] + Q[seg_b]) / 2
-        r = float(np.hypot(*(Q[seg_b] - Q[seg_a]).T).max())
+        r = max(r, float(np.hypot(*(Q[seg_b[:n_new]] - Q[seg_a[:n_new]]).T).max()))
         pi, pj, _ = pk.near_pairs(mid[:n_new], mid, r)
         pairs = np.column_stack([pi, pj])
         pairs = pairs[pairs[:, 0] != pairs[:, 1]]
@@ -563,10 +568,7 @@ def _good_quads(
     bad_q[qid[fresh][bad_seg[inv]]] = True
     ok &= ~bad_q
     # nodes inside quads, and new nodes too close to a node not of their quads
-    new_nodes = unique_ints(quads[quads >= n_old])
     nodes = np.concatenate([unique_ints(fa), new_nodes])
-    cen = Q[quads].mean(axis=1)
-    rad = np.sqrt(((Q[quads] - cen[:, None, :]) ** 2).sum(axis=2)).max(axis=1)
     ci, cj, cd = pk.near_pairs(cen, Q[nodes], float(rad.max()) * 1.0001)
     cand = np.column_stack([ci, cj])
     cand = cand[cd <= rad[ci] * 1.0001]
@@ -590,6 +592,16 @@ def _good_quads(
         if len(bad):
             ok[isin_ints(quads, bad).any(axis=1)] = False
     return ok
+
+
+def _near_box(Q: np.ndarray, fa: np.ndarray, fb: np.ndarray, X: np.ndarray, margin: float):
+    """The front edges ``(fa, fb)`` whose bounding box meets that of the points ``X``
+    grown by ``margin`` on every side: every edge that can touch a segment between
+    points of ``X``, or have an end within ``margin`` of one of them."""
+    lo, hi = X.min(axis=0) - margin, X.max(axis=0) + margin
+    A, B = Q[fa], Q[fb]
+    near = ((np.minimum(A, B) <= hi) & (np.maximum(A, B) >= lo)).all(axis=1)
+    return fa[near], fb[near]
 
 
 def _snap(Q, f, nf, quads, fronts, which, n_old, h):
