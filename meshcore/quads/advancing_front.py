@@ -47,7 +47,8 @@ Algorithm
    the next one are seamed in pairs (the front stays even), each seam
    kept only when the quads stay strictly convex. A *front of two
    segments* is one edge and its reverse: it cancels, which closes it.
-4. **Checks before commit** (exact :func:`orient2d`): every quad of the row
+4. **Checks before commit** (exact :func:`orient2d`;
+   :mod:`meshcore.quads.paving_checks`): every quad of the row
    strictly convex and of quality (8.4) at least 0.1; no new edge touches a
    front edge or another new edge except at a shared node; no front node
    or new node inside a new quad; every new node at least ``0.5 h`` from
@@ -300,12 +301,11 @@ from meshcore.partition.recursive import FALLBACK_SCALE, stuck_error
 from meshcore.partition.smoothing import SWEEPS
 from meshcore.quads import paving_kernel as pk
 from meshcore.quads.optimization import optimize_quads
+from meshcore.quads.paving_checks import _good_quads
 from meshcore.quads.paving_fronts import (
-    _MIN_Q,
     _angles,
     _chains,
     _close,
-    _edge_keys,
     _polygons,
     _trace,
 )
@@ -316,8 +316,6 @@ _END, _SIDE, _CORNER, _REVERSAL, _WEDGE = 0, 1, 2, 3, 4
 _STRETCH = 1.15  # a new front edge longer than this times h counts toward a wedge
 _SMALL_FRONT = 8  # fronts with this many nodes or fewer go to the closure
 _SEAM = 0.4  # new nodes closer than this times h are seamed
-_CLEARANCE = 0.5  # a row's new nodes stay this far (times h) from other nodes...
-_GAP = 2.0  # ... and this far from the nodes of other fronts, unless joined to one
 _SNAP = 0.6  # a row's new node this close (times h) to a node of a front joins it
 _LADDER_REACH = 6.5  # facing front nodes this far apart (times h) may be joined by a rung
 _LADDER_TURN = 38.0  # ... when each lies within this many degrees of the other's bisector
@@ -518,78 +516,6 @@ def _relax(pts: np.ndarray, seq: np.ndarray, free: np.ndarray) -> None:
         X = pts[seq]
         mid = (np.roll(X, 1, axis=0) + np.roll(X, -1, axis=0)) / 2
         pts[at] += 0.5 * (mid[mov] - X[mov])
-
-
-def _good_quads(
-    Q, quads: np.ndarray, fronts: list, which: int, n_old: int, h: np.ndarray, gap=_GAP
-):
-    """(m,) bool: the quads of a proposed row that pass every check (exact predicates).
-
-    A quad fails when it is not strictly convex or below quality ``_MIN_Q``;
-    when one of its edges that is not a front edge touches a front edge or
-    another new edge except at a shared node (both quads fail then); when a
-    front node or a new node not its corner lies in it; or when a new node of
-    it lies closer than ``_CLEARANCE * h`` to a front node or new node that
-    is not a corner of a quad of that node, or closer than ``gap * h`` to a
-    node of another front when its quad does not join that front (0: no gap
-    check). ``h`` is the size at each point of ``Q``. The quads that pass
-    form a set that overlaps no front and no other of them.
-    """
-    m, N = len(quads), len(Q)
-    ok = pk.strictly_convex_rows(Q, quads)
-    ok &= (quads[:, [0, 1, 2, 3]] != quads[:, [1, 2, 3, 0]]).all(axis=1)
-    ok &= (quads[:, 0] != quads[:, 2]) & (quads[:, 1] != quads[:, 3])
-    ok[ok] = quad_quality(Q, quads[ok]) >= _MIN_Q
-    fa, fb = _chains(fronts)
-    qa, qb = quads.ravel(), np.roll(quads, -1, axis=1).ravel()
-    qid = np.repeat(np.arange(m), 4)
-    qkey = _edge_keys(qa, qb, N)
-    fresh = ~isin_ints(qkey, _edge_keys(fa, fb, N))
-    ukey, first, inv = unique_ints(qkey[fresh], return_index=True, return_inverse=True)
-    n_new = len(ukey)
-    seg_a = np.concatenate([qa[fresh][first], fa])
-    seg_b = np.concatenate([qb[fresh][first], fb])
-    bad_seg = np.zeros(n_new, bool)
-    if n_new:
-        mid = (Q[seg_a] + Q[seg_b]) / 2
-        r = float(np.hypot(*(Q[seg_b] - Q[seg_a]).T).max())
-        pi, pj, _ = pk.near_pairs(mid[:n_new], mid, r)
-        pairs = np.column_stack([pi, pj])
-        pairs = pairs[pairs[:, 0] != pairs[:, 1]]
-        hit = pairs[pk.pairs_touch(Q, seg_a, seg_b, pairs)]
-        bad_seg[hit[:, 0]] = True
-        bad_seg[hit[hit[:, 1] < n_new, 1]] = True
-    bad_q = np.zeros(m, bool)
-    bad_q[qid[fresh][bad_seg[inv]]] = True
-    ok &= ~bad_q
-    # nodes inside quads, and new nodes too close to a node not of their quads
-    new_nodes = unique_ints(quads[quads >= n_old])
-    nodes = np.concatenate([unique_ints(fa), new_nodes])
-    cen = Q[quads].mean(axis=1)
-    rad = np.sqrt(((Q[quads] - cen[:, None, :]) ** 2).sum(axis=2)).max(axis=1)
-    ci, cj, cd = pk.near_pairs(cen, Q[nodes], float(rad.max()) * 1.0001)
-    cand = np.column_stack([ci, cj])
-    cand = cand[cd <= rad[ci] * 1.0001]
-    if len(cand):
-        ok[cand[pk.points_in_quads(Q, quads, nodes, cand), 0]] = False
-    if len(new_nodes):
-        other = np.zeros(len(Q), bool)
-        for k, g in enumerate(fronts):
-            other[g] = k != which
-        # a new node of a quad joined to another front (a merge) keeps the small clearance
-        joined = np.zeros(len(Q), bool)
-        joined[quads[other[quads].any(axis=1)]] = True
-        hx = h[new_nodes]
-        i, t, dist = pk.near_pairs(Q[new_nodes], Q[nodes], max(gap, _CLEARANCE) * float(hx.max()))
-        x, y = new_nodes[i], nodes[t]
-        lim = np.where(joined[x] | ~other[y], _CLEARANCE, gap)
-        close = (dist < lim * hx[i]) & (x != y)
-        # allowed: the corners of the quads at x
-        mine = (quads[:, :, None] * N + quads[:, None, :]).ravel()
-        bad = x[close][~isin_ints(x[close] * N + y[close], mine)]
-        if len(bad):
-            ok[isin_ints(quads, bad).any(axis=1)] = False
-    return ok
 
 
 def _snap(Q, f, nf, quads, fronts, which, n_old, h):

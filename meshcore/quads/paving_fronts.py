@@ -27,11 +27,11 @@ from __future__ import annotations
 import numpy as np
 
 from meshcore.errors import AlgorithmError
-from meshcore.mesh.quality import quad_quality
 from meshcore.mesh.topology import isin_ints, unique_ints
 from meshcore.partition import SizeMap, partition_polygon
 from meshcore.partition.recursive import FALLBACK_SCALE
 from meshcore.quads import paving_kernel as pk
+from meshcore.quads.vertex_moves import _incidence
 
 _MIN_Q = 0.1  # least quality (8.4) of a quad laid in a row or a closure
 _RING_STEPS = (0.5, 0.35, 0.65)  # shares of the way to the centroid tried by _ring
@@ -146,9 +146,7 @@ def _polygons(P: np.ndarray, fronts: list):
 
 def _fit(P: np.ndarray, quads: np.ndarray) -> bool:
     """Every quad strictly convex (exact) and of quality (8.4) at least ``_MIN_Q``."""
-    return bool(pk.strictly_convex_rows(P, quads).all()) and bool(
-        (quad_quality(P, quads) >= _MIN_Q).all()
-    )
+    return bool(pk.convex_and_good(P, quads, _MIN_Q).all())
 
 
 def _ring(P: np.ndarray, loop: np.ndarray, sizes: SizeMap, strategy: str):
@@ -250,24 +248,59 @@ def _close_one(P: np.ndarray, loop: np.ndarray, sizes: SizeMap, strategy: str):
     return np.concatenate([P, Pk[len(used) :]]), glob[ck], kind
 
 
-def _cavity(loop: np.ndarray, pool: np.ndarray, alive: np.ndarray, n: int):
-    """The stuck polygon ``loop`` grown by the live quads of ``pool`` sharing an edge
-    with it: ``(new loop, the pool rows taken)``, or None when the union is not one
-    simple even cycle (chain arithmetic, :func:`_trace` on the reversed quads)."""
-    key = _edge_keys(loop, np.roll(loop, -1), n)
-    on = np.zeros(n, bool)
-    on[loop] = True
-    at = on[pool[:, 0]] | on[pool[:, 1]] | on[pool[:, 2]] | on[pool[:, 3]]
-    rows = np.flatnonzero(alive & at)  # the quads at its points
-    q = pool[rows]
-    qk = _edge_keys(q.ravel(), np.roll(q, -1, axis=1).ravel(), n).reshape(-1, 4)
-    take = rows[isin_ints(qk, key).any(axis=1)]
-    if not len(take):
-        return None
-    grown = _trace([loop], pool[take][:, ::-1], n)
-    if grown is None or len(grown) != 1:
-        return None
-    return grown[0], take
+class _Pool:
+    """The quads a cavity may take (rows, strips, the closure's own), in the order they
+    came, each live or taken, with the rows at each point: a cavity looks only at the
+    quads around its polygon (a search of every quad for each cavity cost the plate
+    with 20 holes at 100k quads about as much as the partition's closures)."""
+
+    _TAIL = 4096  # rows added since the rows at each point were listed, at most
+
+    def __init__(self, quads: np.ndarray, n: int):
+        self.quads = quads
+        self.size = len(quads)
+        self.live = np.ones(len(quads), bool)
+        self._index(n)
+
+    def _index(self, n: int) -> None:
+        self.indexed = self.size
+        self.ptr, self.rows = _incidence(self.quads[: self.size], np.ones(self.size, bool), n)
+
+    def add(self, new: np.ndarray, n: int) -> None:
+        end = self.size + len(new)
+        if end > len(self.quads):  # room doubled
+            grow = max(end, 2 * len(self.quads)) - len(self.quads)
+            self.quads = np.concatenate([self.quads, np.zeros((grow, 4), np.int64)])
+            self.live = np.concatenate([self.live, np.zeros(grow, bool)])
+        self.quads[self.size : end] = new
+        self.live[self.size : end] = True
+        self.size = end
+        if end - self.indexed > self._TAIL:
+            self._index(n)
+
+    def cavity(self, loop: np.ndarray, live: np.ndarray, n: int):
+        """The stuck polygon ``loop`` grown by the ``live`` quads sharing an edge with
+        it: ``(new loop, the rows taken)``, or None when the union is not one simple
+        even cycle (chain arithmetic, :func:`_trace` on the reversed quads)."""
+        v = loop[loop < len(self.ptr) - 1]
+        lo, cnt = self.ptr[v], self.ptr[v + 1] - self.ptr[v]
+        at = np.repeat(lo - np.cumsum(cnt) + cnt, cnt) + np.arange(int(cnt.sum()))
+        on = np.zeros(n, bool)
+        on[loop] = True
+        tail = self.quads[self.indexed : self.size]
+        late = self.indexed + np.flatnonzero(on[tail].any(axis=1))
+        rows = unique_ints(np.concatenate([self.rows[at], late]))
+        rows = rows[live[rows]]  # the live quads at its points
+        q = self.quads[rows]
+        key = _edge_keys(loop, np.roll(loop, -1), n)
+        qk = _edge_keys(q.ravel(), np.roll(q, -1, axis=1).ravel(), n).reshape(-1, 4)
+        take = rows[isin_ints(qk, key).any(axis=1)]
+        if not len(take):
+            return None
+        grown = _trace([loop], self.quads[take][:, ::-1], n)
+        if grown is None or len(grown) != 1:
+            return None
+        return grown[0], take
 
 
 def _close(
@@ -363,39 +396,33 @@ def _close_all(P: np.ndarray, fronts: list, sizes: SizeMap, strategy: str, aroun
     )
     if cells is None:
         return P, None, {}, gone
-    pool = [around, cells]
-    alive = [np.ones(len(around) + len(cells), bool)]
+    pool = _Pool(np.concatenate([around, cells]), len(P))
     count = {"rings": 0, "coarse_splits": 0, "cavities": 0}
     for loop in cstats.pop("stuck"):
         res = _close_one(P, loop, sizes, strategy)
         grown = 0
         while res is None and grown < _CAVITY_TRIES:
             grown += 1
-            flat = np.concatenate(pool)
-            live = np.concatenate(alive)
-            cav = _cavity(loop, flat, live, len(P))
+            cav = pool.cavity(loop, pool.live, len(P))
             if cav is None:
                 break
             loop, take = cav
-            live[take] = False
-            alive = [live]
-            pool = [flat]
+            pool.live[take] = False
             res = _close_one(P, loop, sizes, strategy)
         if res is not None and res[2] == "rings":
             # a ring leaves valence-3 corners around its copy (the least sines of the
             # mesh after the clean-up): rather the polygon grown by the quads around it
             # (up to _CAVITY_TRIES rings), when the partition closes that
-            flat, live, wide = np.concatenate(pool), np.concatenate(alive), loop
+            live, wide = pool.live.copy(), loop
             for _ in range(_CAVITY_TRIES):
-                cav = _cavity(wide, flat, live, len(P))
+                cav = pool.cavity(wide, live, len(P))
                 if cav is None:
                     break
                 wide, take = cav
-                live = live.copy()
                 live[take] = False
                 alt = _close_one(P, wide, sizes, strategy)
                 if alt is not None and alt[2] == "partition":
-                    alive, pool, res, grown = [live], [flat], alt, 1
+                    pool.live, res, grown = live, alt, 1
                     break
         if res is None:
             return P, None, {}, gone
@@ -404,9 +431,7 @@ def _close_all(P: np.ndarray, fronts: list, sizes: SizeMap, strategy: str, aroun
         elif res[2] != "partition":
             count[res[2]] += 1
         P, new, _ = res
-        pool.append(new)
-        alive.append(np.ones(len(new), bool))
-    flat = np.concatenate(pool)
-    live = np.concatenate(alive)
+        pool.add(new, len(P))
+    flat, live = pool.quads[: pool.size], pool.live[: pool.size]
     gone = ~live[: len(around)]
     return P, flat[len(around) :][live[len(around) :]], {**cstats, **count}, gone

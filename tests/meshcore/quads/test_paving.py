@@ -281,6 +281,27 @@ class TestFrontsMeeting:
         assert stats["cavities"] == 1 and stats["rings"] == 0 and gone.all()
         assert np.array_equal(cells, [[7, 4, 5, 6]])
 
+    @pytest.mark.parametrize("tail", [4096, 0])
+    def test_a_cavity_takes_the_live_quads_at_its_polygon_listed_or_added(self, monkeypatch, tail):
+        # a 3 x 3 grid of unit quads, the centre one the stuck polygon: two of its edge
+        # neighbours in the pool from the start (with the corners), two added after
+        # (rows at each point listed again on every addition when tail is 0)
+        monkeypatch.setattr(paving_fronts._Pool, "_TAIL", tail)
+
+        def cell(i, j):
+            return [4 * i + j, 4 * i + j + 1, 4 * i + j + 5, 4 * i + j + 4]
+
+        first = [cell(0, 0), cell(0, 2), cell(2, 0), cell(2, 2), cell(0, 1), cell(1, 0)]
+        pool = paving_fronts._Pool(np.array(first, np.int64), 16)
+        pool.add(np.array([cell(1, 2), cell(2, 1)], np.int64), 16)
+        loop = np.array(cell(1, 1))
+        grown, take = pool.cavity(loop, pool.live, 16)
+        assert take.tolist() == [4, 5, 6, 7] and len(grown) == 12  # the plus shape
+        live = pool.live.copy()
+        live[4] = False
+        grown, take = pool.cavity(loop, live, 16)
+        assert take.tolist() == [5, 6, 7] and len(grown) == 10  # a T
+
     def test_coarse_split_keeps_the_polygon_edges(self, monkeypatch):
         # a hexagon with every side split: every other vertex is the hexagon, its
         # triangles cut in three quads through the skipped vertices
