@@ -88,6 +88,7 @@ from meshcore.medial.axis import MedialAxis, _classes, _csr
 from meshcore.medial.regions import KITE_ANGLE, input_index, turns
 from meshcore.mesh import CellBlock, Mesh, quality, topology
 from meshcore.quads.optimization import relax_quads, sliding_nodes
+from meshcore.quads.vertex_moves import lift_corners
 
 if TYPE_CHECKING:
     from meshcore.medial.partitioning import Partition
@@ -653,31 +654,14 @@ def _lifted(points, quads, mode, slide, sweeps, aim):
 
 
 def lift_least(P: np.ndarray, Q: np.ndarray, fixed: np.ndarray, inputs: np.ndarray, below: float):
-    """The least corner quality (8.3) raised around the quads under ``below`` (their
-    vertices and those of their neighbours move, :func:`_lifted`): the other boundary
-    points slide along their input segment (:func:`boundary_slides`), ``fixed`` ones
-    stay. No corner falls under the least it had before; every quad stays strictly
-    convex (checked exactly: else the points are returned unchanged). Returns the
-    points and the moves made (§8.4.3: optimization-based smoothing of the worst
-    corners)."""
-    q = quality.quad_quality(P, Q)
-    near = np.zeros(len(P), dtype=bool)
-    near[Q[q < below].ravel()] = True
-    for _ in range(2):  # two rings of quads around the bad ones
-        ring = near[Q].any(axis=1)
-        near[Q[ring].ravel()] = True
-    node, a, b = boundary_slides(P, Q, fixed, inputs)
-    mode = np.where(near & ~fixed & ~_on_border(P, Q), 1, 0).astype(np.int64)
-    slide = np.zeros((len(P), 2))
-    d = P[b] - P[a]
-    slide[node] = d / np.maximum(np.hypot(*d.T), np.finfo(float).tiny)[:, None]
-    mode[node[near[node] & ~fixed[node]]] = 2
-    if not mode.any():
-        return P, 0
-    new, moves = _lifted(P, Q.astype(np.int64), mode, slide, LIFT_SWEEPS, below)
-    if (folded(new, Q) > 0).any():
-        return P, 0
-    return new, int(moves)
+    """The least corner quality (8.3) raised around the quads under ``below``
+    (:func:`meshcore.quads.vertex_moves.lift_corners`, every quad judged): the other
+    boundary points slide along their input segment (:func:`boundary_slides`), ``fixed``
+    ones stay. No corner falls under the least it had before; every quad stays
+    strictly convex. Returns the points and the moves made (§8.4.3:
+    optimization-based smoothing of the worst corners)."""
+    slide = boundary_slides(P, Q, fixed, inputs)
+    return lift_corners(P, Q, fixed, slide, np.ones(len(Q), bool), below)
 
 
 def folded(P: np.ndarray, quads: np.ndarray) -> np.ndarray:

@@ -1342,7 +1342,7 @@ def combine(
                 out_mesh, _dom, TOL.relax_below, TOL.relax_power, TOL.relax_most
             )
             out_mesh, ops["lift_off_sharp"] = lifted_least(
-                out_mesh, _dom, off_sharp(out_mesh, _dom), TOL.least_target, TOL.quality_resolution
+                out_mesh, _dom, off_sharp(out_mesh, _dom), TOL.least_target
             )
         if metric is not None and metric.ndim == 3:
             metric = metric[opt.point_map >= 0]

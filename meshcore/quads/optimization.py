@@ -125,6 +125,7 @@ from meshcore.quads.vertex_moves import (
     _split_rows,
     _split_scores,
     _valid_planar,
+    lift_corners,
 )
 
 __all__ = [
@@ -1318,78 +1319,31 @@ def corners_relaxed(mesh: Mesh, dom, below: float, power: float, most: int) -> t
     return Mesh(new, mesh.cells), 1
 
 
-def lifted_least(
-    mesh: Mesh, dom, judged: np.ndarray, below: float, gain: float
-) -> tuple[Mesh, int]:
-    """The all-quad mesh of a domain with the least quality (8.4) of its ``judged`` quads
-    raised where it is under ``below``: each free node of such a quad (not on the
-    boundary, not an input vertex, not on a constraint), one at a time, tries 8
-    directions at a quarter, an eighth and a sixteenth of its mean distance to the
-    nodes of its quads and takes the first position of best least quality of its
-    judged quads when that beats the current one by ``gain``, every quad of the node
-    staying strictly convex (exact :func:`~meshcore.geometry.predicates.orient2d`); up to
-    ``TOL.lift_rounds`` rounds. No judged quad falls under ``below`` nor, when under
-    it already, at all (so the judged least never falls), and no other quad falls (a
-    spike's tip quad keeps its tip's quality, the worst corner it can have). Kept only
-    when the least quality of all the judged quads rises. Returns (mesh, nodes moved).
+def lifted_least(mesh: Mesh, dom, judged: np.ndarray, below: float) -> tuple[Mesh, int]:
+    """The all-quad mesh of a domain with the least corner quality (8.3) of its ``judged``
+    quads raised around those under ``below``
+    (:func:`meshcore.quads.vertex_moves.lift_corners`): the input vertices and the nodes
+    on interior constraints fixed, the other boundary nodes sliding along their input
+    segment (:func:`sliding_nodes`). No judged quad falls under ``below`` nor, when
+    under it already, at all, and no other quad falls (a spike's tip quad keeps its
+    tip's quality, the worst corner it can have); every quad stays strictly convex.
+    Returns (mesh, moves made).
 
     :func:`_op_lift` judges every quad of a node: a quad that no move can raise (one
     with an input corner of 22 degrees at a spike's tip) held the node next to it,
     and the quad beyond kept a 40-degree corner (issue 20's stars 6, 9, 20, 28 and 39
     at size 0.1, least quality away from the sharp corners 0.442-0.489 -> 0.500-0.558).
     """
-    P = mesh.points.copy()
+    P = mesh.points
     Q = mesh.cells_by_type["quad"]
-    q = quality.quad_quality(P, Q)
-    if not (judged & (q < below)).any():
-        return mesh, 0
-    q0 = q[judged].min()
-    n = len(P)
-    key = np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], axis=-1).reshape(-1, 2), axis=1)
-    k = key[:, 0] * n + key[:, 1]
-    uk, cnt = unique_ints(k, counts=True)
-    fixed = np.zeros(n, bool)
-    fixed[uk[cnt == 1] // n] = True
-    fixed[uk[cnt == 1] % n] = True
+    fixed = np.zeros(len(P), bool)
     fixed[: len(dom.points)] = True  # the input vertices come first
     fixed[_on_constraints(P, unique_ints(Q.ravel()), dom)] = True
-    ptr, cells = _incidence(Q, np.ones(len(Q), bool), n)
-    ang = np.arange(8) * (np.pi / 4)
-    trials = np.concatenate(
-        [s * np.column_stack([np.cos(ang), np.sin(ang)]) for s in (0.25, 0.125, 0.0625)]
-    )
-    moved = np.zeros(n, bool)
-    for _ in range(TOL.lift_rounds):
-        q = quality.quad_quality(P, Q)
-        verts = unique_ints(Q[judged & (q < below)].ravel())
-        any_move = False
-        for v in verts[~fixed[verts]].tolist():  # a loop over the nodes of the poor quads
-            rows = Q[cells[ptr[v] : ptr[v + 1]]]
-            mine = judged[cells[ptr[v] : ptr[v + 1]]]
-            here = P[v].copy()
-            h = np.hypot(*(P[rows.ravel()] - here).T).sum() / (3 * len(rows))
-            old = quality.quad_quality(P, rows)
-            best = cur = old[mine].min()
-            floor = np.where(mine, np.minimum(old, below), old)
-            best_p = here
-            for d in trials:
-                P[v] = here + h * d
-                if not _valid(P, rows).all():
-                    continue
-                new = quality.quad_quality(P, rows)
-                if (new < floor).any():
-                    continue
-                least = new[mine].min()
-                if least > best + gain:
-                    best, best_p = least, P[v].copy()
-            P[v] = best_p
-            if best > cur + gain:
-                moved[v] = any_move = True
-        if not any_move:
-            break
-    if not moved.any() or not quality.quad_quality(P, Q[judged]).min() > q0 + gain:
-        return mesh, 0  # kept only where the judged least of the mesh rises
-    return Mesh(P, mesh.cells), int(moved.sum())
+    slide = sliding_nodes(P, Q, fixed)
+    new, moves = lift_corners(P, Q, fixed, slide, judged, below, below)
+    if not moves:
+        return mesh, 0
+    return Mesh(new, mesh.cells), moves
 
 
 def _on_constraints(P: np.ndarray, candidates: np.ndarray, dom) -> np.ndarray:
