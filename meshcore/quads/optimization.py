@@ -1031,13 +1031,18 @@ def _loops(C: np.ndarray, n: int) -> list[np.ndarray]:
     return loops
 
 
-def sliding_nodes(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray):
+def sliding_nodes(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray, on_segments=False):
     """Boundary nodes that may slide along a straight piece of the boundary.
 
     Between two consecutive ``fixed`` nodes of a boundary loop, the nodes are
     free to slide on the segment joining those two when all of them lie on it
     (exact :func:`~meshcore.geometry.predicates.orient2d`); every other
-    boundary node stays where it is.
+    boundary node stays where it is. With ``on_segments`` (the caller knows that
+    every input vertex is a fixed node and the boundary is the input's, so each
+    such run lies on one input segment) every run slides without that test: its
+    points were interpolated along the segment, on it only to rounding, so the
+    exact test let few of them slide, and not the same ones once the input is
+    translated or scaled.
 
     Parameters
     ----------
@@ -1052,8 +1057,6 @@ def sliding_nodes(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray):
     node, a, b : (s,) int64
         Node ``node[i]`` slides on the segment from ``a[i]`` to ``b[i]``.
     """
-    from meshcore.geometry.predicates import orient2d
-
     P = np.asarray(points, np.float64)
     n = len(P)
     node, sa, sb = [], [], []
@@ -1070,12 +1073,14 @@ def sliding_nodes(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray):
             a, b = loop[i], loop[j % len(loop)]
             if a == b:
                 continue
-            on = orient2d(
-                np.broadcast_to(P[a], (len(inner), 2)),
-                np.broadcast_to(P[b], (len(inner), 2)),
-                P[inner],
-            )
-            if np.all(on == 0):
+            if on_segments or np.all(
+                orient2d(
+                    np.broadcast_to(P[a], (len(inner), 2)),
+                    np.broadcast_to(P[b], (len(inner), 2)),
+                    P[inner],
+                )
+                == 0
+            ):
                 node.append(inner)
                 sa.append(np.full(len(inner), a))
                 sb.append(np.full(len(inner), b))
@@ -1293,10 +1298,11 @@ def corners_relaxed(mesh: Mesh, dom, below: float, power: float, most: int) -> t
     (:func:`relax_quads` with ``angle_power`` ``power``) over the quads
     under quality ``below`` and their neighbours (none if more than
     ``most``), the input vertices fixed and the other boundary points
-    sliding along their input segment. Kept
-    (returns 1) when every quad stays strictly convex (exact) and the mean
-    quality (8.4) rises while the least stays at or above the lower of its
-    value and 0.5."""
+    sliding along their input segment (every such node: ``sliding_nodes`` with
+    ``on_segments``). Kept (returns 1) when every quad stays strictly convex (exact)
+    and the mean quality (8.4) rises while the least stays at or above the lower of
+    its value and 0.5, to ``TOL.gain`` (a node sliding next to a sharp input corner
+    changes that corner's quality by rounding)."""
     P = mesh.points
     Q = mesh.cells_by_type["quad"]
     q = quality.quad_quality(P, Q)
@@ -1309,12 +1315,12 @@ def corners_relaxed(mesh: Mesh, dom, below: float, power: float, most: int) -> t
     fixed[: len(dom.points)] = True  # the input vertices come first
     fixed[_on_constraints(P, unique_ints(Q[active]), dom)] = True
     new = relax_quads(
-        P, Q, fixed, slide=sliding_nodes(P, Q, fixed), active=active, angle_power=power
+        P, Q, fixed, slide=sliding_nodes(P, Q, fixed, True), active=active, angle_power=power
     )
     if not _valid(new, Q).all():
         return mesh, 0
     q2 = quality.quad_quality(new, Q)
-    if q2.mean() <= q.mean() or q2.min() < min(q.min(), 0.5):
+    if q2.mean() <= q.mean() or q2.min() < min(q.min(), 0.5) - TOL.gain:
         return mesh, 0
     return Mesh(new, mesh.cells), 1
 
@@ -1339,7 +1345,7 @@ def lifted_least(mesh: Mesh, dom, judged: np.ndarray, below: float) -> tuple[Mes
     fixed = np.zeros(len(P), bool)
     fixed[: len(dom.points)] = True  # the input vertices come first
     fixed[_on_constraints(P, unique_ints(Q.ravel()), dom)] = True
-    slide = sliding_nodes(P, Q, fixed)
+    slide = sliding_nodes(P, Q, fixed, True)
     new, moves = lift_corners(P, Q, fixed, slide, judged, below, below)
     if not moves:
         return mesh, 0

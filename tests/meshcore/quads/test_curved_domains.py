@@ -482,6 +482,33 @@ def test_o_grid_at_a_vertex_of_ten_quads():
     assert area.sum() == pytest.approx(quality.signed_area(P, Q, "quad").sum(), rel=1e-12)
 
 
+def test_lift_keeps_unjudged_quads_and_moves_alike_in_any_frame():
+    # the shared lift (quad_combine judges only the quads away from sharp corners): a
+    # quad not judged never falls, the judged least rises, and the same moves are made
+    # on the grid moved by 1e6 or scaled by 1e-6 (the search runs in a normalized frame)
+    from meshcore.quads.vertex_moves import lift_corners
+
+    x = np.linspace(0, 1, 5)
+    P = np.stack(np.meshgrid(x, x, indexing="ij"), axis=-1).reshape(-1, 2)
+    ids = np.arange(25).reshape(5, 5)
+    Q = np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], -1).reshape(-1, 4)
+    inner = ((P > 0) & (P < 1)).all(axis=1)
+    P[inner] += [0.12, 0.09]
+    judged = np.ones(len(Q), bool)
+    judged[[0, 15]] = False
+    none = (np.zeros(0, np.int64),) * 3
+    q0 = quality.quad_quality(P, Q)
+    new, moves = lift_corners(P, Q, ~inner, none, judged, 0.6, 0.6)
+    q1 = quality.quad_quality(new, Q)
+    assert moves > 0 and q1[judged].min() > q0[judged].min() + 0.02
+    assert (q1[~judged] >= q0[~judged]).all()
+    assert (new[~inner] == P[~inner]).all()
+    for shift, scale in ((1e6, 1.0), (0.0, 1e-6)):
+        got, m = lift_corners(P * scale + shift, Q, ~inner, none, judged, 0.6, 0.6)
+        assert m == moves
+        np.testing.assert_allclose((got - shift) / scale, new, atol=1e-8)
+
+
 def test_lift_raises_the_least_corner_and_keeps_the_boundary():
     # a 4 x 4 grid with its inner points pushed aside (corners of 27-153 degrees): the
     # pattern search lifts the least corner quality, the border stays on the square
