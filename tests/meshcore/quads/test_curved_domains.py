@@ -248,12 +248,14 @@ def test_quad_combine_keeps_a_row_that_beats_the_lattice(seed):
 
 
 def test_quad_combine_lifts_the_quad_next_to_a_spike_tip():
-    # issue 20's random star 28 (22-degree spike tips): the quad beyond a tip's quad kept
-    # a 43-degree corner (least 0.479 away from sharp corners), the tip's quad, capped by
-    # its input corner, holding the node between them; now lifted (least 0.553)
-    dom = parse_domain(issue_star(28)[0])
-    res = combine(domain=dom, size=0.1, all_quad=True, twice_size=True, optimize=True)
-    ang, q, ratio = _check(res.mesh, dom, 0.1)
+    # issue 20's random star 18 at size 0.05 (spike tips): after the corner relaxation the
+    # least quality away from the sharp corners is 0.475, the tips' quads, capped by their
+    # input corners, holding the nodes next to them; the lift, judging only the quads
+    # away from them, takes it to 0.537 (star 28 at 0.1, this test's case before, now
+    # reaches 0.588 in the relaxation, its boundary nodes sliding)
+    dom = parse_domain(issue_star(18)[0])
+    res = combine(domain=dom, size=0.05, all_quad=True, twice_size=True, optimize=True)
+    ang, q, ratio = _check(res.mesh, dom, 0.05)
     assert res.operators["lift_off_sharp"] > 0
     ok = _unforced(res.mesh.points, res.mesh.cells_by_type["quad"], dom)
     assert ang[ok].min() >= 30 and ang[ok].max() <= 150
