@@ -549,6 +549,8 @@ def lift_corners(
     n = len(P)
     near = np.zeros(n, bool)
     near[C[judged & (_angle_quality_rows(P, C) < below)].ravel()] = True
+    if not near.any():
+        return P, 0
     for _ in range(2):  # two rings of quads around the poor ones
         near[C[near[C].any(axis=1)].ravel()] = True
     node, a, b = slide
