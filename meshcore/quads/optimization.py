@@ -1300,11 +1300,14 @@ def relax_quads(
     return out
 
 
-def corners_relaxed(mesh: Mesh, dom, below: float, power: float, most: int) -> tuple[Mesh, int]:
+def corners_relaxed(
+    mesh: Mesh, dom, below: float, power: float, most: int, iterations: int
+) -> tuple[Mesh, int]:
     """The all-quad mesh of a domain with its corner angles optimized
     (:func:`relax_quads` with ``angle_power`` ``power``) over the quads
     under quality ``below`` and their neighbours (none if more than
-    ``most``), the input vertices fixed and the other boundary points
+    ``most``; L-BFGS-B ``iterations`` at most), the input vertices fixed and the other
+    boundary points
     sliding along their input segment (every such node: ``sliding_nodes`` with
     ``on_segments``). Kept (returns 1) when every quad stays strictly convex (exact)
     and the mean quality (8.4) rises while the least stays at or above the lower of
@@ -1322,7 +1325,13 @@ def corners_relaxed(mesh: Mesh, dom, below: float, power: float, most: int) -> t
     fixed[: len(dom.points)] = True  # the input vertices come first
     fixed[_on_constraints(P, unique_ints(Q[active]), dom)] = True
     new = relax_quads(
-        P, Q, fixed, slide=sliding_nodes(P, Q, fixed, True), active=active, angle_power=power
+        P,
+        Q,
+        fixed,
+        slide=sliding_nodes(P, Q, fixed, True),
+        active=active,
+        iterations=iterations,
+        angle_power=power,
     )
     if not _valid(new, Q).all():
         return mesh, 0
