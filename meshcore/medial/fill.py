@@ -88,6 +88,7 @@ from meshcore.medial.axis import MedialAxis, _classes, _csr
 from meshcore.medial.regions import KITE_ANGLE, input_index, turns
 from meshcore.mesh import CellBlock, Mesh, quality, topology
 from meshcore.quads.optimization import relax_quads, sliding_nodes
+from meshcore.quads.vertex_moves import lift_corners
 
 if TYPE_CHECKING:
     from meshcore.medial.partitioning import Partition
@@ -125,11 +126,6 @@ KITE_PAST = (0.05, 0.1, 0.2, 0.35, 0.5, 0.8)
 #: An interior vertex held by more quads than this gets an O-grid (:func:`_flowered`):
 #: each of 8 quads has a corner of 45 degrees there at best, quality 0.5.
 MOST_VALENCE = 7
-#: Sweeps of :func:`_lifted` at most, and moves of one point in a sweep.
-LIFT_SWEEPS = 8
-#: Directions a free point tries in :func:`_lifted`: at a corner where two angles are
-#: the least, the moves raising both lie in a narrow cone that 8 directions missed.
-LIFT_DIRECTIONS = 32
 #: Where the count passes :data:`MOST_COUNT` x area / size**2, the classes' counts are
 #: taken again for ``size`` times each of these in turn (the input vertices' counts
 #: still bind), counting the quads :func:`_opened` adds: rounding each class up and the
@@ -537,147 +533,15 @@ def boundary_slides(P: np.ndarray, Q: np.ndarray, fixed: np.ndarray, inputs: np.
     return tuple(np.array(x, np.int64) for x in (node, sa, sb))
 
 
-@njit(cache=True)
-def _corner_quality(P, quads, c, k, v, x, y):
-    """(8.3) of corner ``k`` of quad ``c`` with vertex ``v`` at ``(x, y)``: -1 when the
-    corner does not turn left (a fold)."""
-    a, b, d = quads[c, (k + 3) % 4], quads[c, k], quads[c, (k + 1) % 4]
-    ax, ay = (x, y) if a == v else (P[a, 0], P[a, 1])
-    bx, by = (x, y) if b == v else (P[b, 0], P[b, 1])
-    dx, dy = (x, y) if d == v else (P[d, 0], P[d, 1])
-    ux, uy, wx, wy = dx - bx, dy - by, ax - bx, ay - by
-    cross = ux * wy - uy * wx
-    if cross <= 0.0:
-        return -1.0
-    t = math.atan2(cross, ux * wx + uy * wy) / (0.5 * math.pi)
-    return t if t <= 1.0 else 2.0 - t
-
-
-@njit(cache=True)
-def _slot(quads, c, v):
-    """The corner of quad ``c`` at vertex ``v``."""
-    k = 0
-    while quads[c, k] != v:
-        k += 1
-    return k
-
-
-@njit(cache=True)
-def _moved_corners(P, quads, start, cells, v, x, y, shortest, aim):
-    """The corners that vertex ``v`` moves (its own and its two neighbours' in each of
-    its quads) with ``v`` at ``(x, y)``: their least (8.3), and their summed squared
-    shortfall under ``aim``; least -1 when an edge at ``v`` would be shorter than
-    ``shortest``."""
-    worst = np.inf
-    short = 0.0
-    for j in range(start[v], start[v + 1]):
-        c = cells[j]
-        k = _slot(quads, c, v)
-        for s in (3, 1):
-            w = quads[c, (k + s) % 4]
-            if math.hypot(P[w, 0] - x, P[w, 1] - y) < shortest:
-                return -1.0, np.inf
-        for s in (3, 0, 1):
-            q = _corner_quality(P, quads, c, (k + s) % 4, v, x, y)
-            worst = min(worst, q)
-            short += max(aim - q, 0.0) ** 2
-    return worst, short
-
-
-@njit(cache=True)
-def _lifted(points, quads, mode, slide, sweeps, aim):
-    """Pattern search of the worst corners, vertex by vertex (Gauss-Seidel): vertex
-    ``v`` moves when that raises the least (8.3) of the corners it moves, or lowers
-    their summed squared shortfall under ``aim`` keeping their least at or above the
-    mesh's least corner at the start of the sweep (so that a neighbour of the worst
-    corner makes room for it). ``mode``: 0 fixed, 1 free (8 directions), 2 sliding along
-    the unit vector ``slide[v]`` (2 directions); steps of 1/4 down to 1/64 of its mean
-    edge length, no edge at ``v`` shorter than half its shortest one at the start. No
-    corner of the mesh falls under the least it had. Returns the points and the moves
-    made."""
-    P = points.copy()
-    n = P.shape[0]
-    start, cells = _csr(n, quads)
-    shortest = np.full(n, np.inf)
-    mean = np.zeros(n)
-    for v in range(n):
-        cnt = 0
-        for j in range(start[v], start[v + 1]):
-            c = cells[j]
-            k = _slot(quads, c, v)
-            for s in (3, 1):
-                w = quads[c, (k + s) % 4]
-                e = math.hypot(P[w, 0] - P[v, 0], P[w, 1] - P[v, 1])
-                shortest[v] = min(shortest[v], 0.5 * e)
-                mean[v] += e
-                cnt += 1
-        mean[v] /= max(cnt, 1)
-    dirs = np.empty((LIFT_DIRECTIONS, 2))
-    for i in range(LIFT_DIRECTIONS):
-        dirs[i, 0] = math.cos(2 * math.pi * i / LIFT_DIRECTIONS)
-        dirs[i, 1] = math.sin(2 * math.pi * i / LIFT_DIRECTIONS)
-    moves = 0
-    for _ in range(sweeps):
-        floor = np.inf
-        for c in range(quads.shape[0]):
-            for k in range(4):
-                floor = min(floor, _corner_quality(P, quads, c, k, -1, 0.0, 0.0))
-        moved = 0
-        for v in range(n):
-            if mode[v] == 0:
-                continue
-            cur, pen = _moved_corners(P, quads, start, cells, v, P[v, 0], P[v, 1], 0.0, aim)
-            if pen == 0.0:
-                continue
-            for _step in range(LIFT_SWEEPS):  # as many moves of one vertex per sweep at most
-                best, bpen, bx, by = cur, pen, P[v, 0], P[v, 1]
-                step = 0.25 * mean[v]
-                while step >= mean[v] / 64 and bx == P[v, 0] and by == P[v, 1]:
-                    for i in range(LIFT_DIRECTIONS if mode[v] == 1 else 2):
-                        u = dirs[i] if mode[v] == 1 else (1.0 - 2.0 * i) * slide[v]
-                        x, y = P[v, 0] + step * u[0], P[v, 1] + step * u[1]
-                        got, gpen = _moved_corners(
-                            P, quads, start, cells, v, x, y, shortest[v], aim
-                        )
-                        if got > best + 1e-9 or (got >= best and gpen < bpen - 1e-12):
-                            best, bpen, bx, by = got, gpen, x, y
-                    step *= 0.5
-                if bx == P[v, 0] and by == P[v, 1]:
-                    break
-                P[v, 0], P[v, 1], cur, pen = bx, by, best, bpen
-                moved += 1
-        moves += moved
-        if moved == 0:
-            break
-    return P, moves
-
-
 def lift_least(P: np.ndarray, Q: np.ndarray, fixed: np.ndarray, inputs: np.ndarray, below: float):
-    """The least corner quality (8.3) raised around the quads under ``below`` (their
-    vertices and those of their neighbours move, :func:`_lifted`): the other boundary
-    points slide along their input segment (:func:`boundary_slides`), ``fixed`` ones
-    stay. No corner falls under the least it had before; every quad stays strictly
-    convex (checked exactly: else the points are returned unchanged). Returns the
-    points and the moves made (§8.4.3: optimization-based smoothing of the worst
-    corners)."""
-    q = quality.quad_quality(P, Q)
-    near = np.zeros(len(P), dtype=bool)
-    near[Q[q < below].ravel()] = True
-    for _ in range(2):  # two rings of quads around the bad ones
-        ring = near[Q].any(axis=1)
-        near[Q[ring].ravel()] = True
-    node, a, b = boundary_slides(P, Q, fixed, inputs)
-    mode = np.where(near & ~fixed & ~_on_border(P, Q), 1, 0).astype(np.int64)
-    slide = np.zeros((len(P), 2))
-    d = P[b] - P[a]
-    slide[node] = d / np.maximum(np.hypot(*d.T), np.finfo(float).tiny)[:, None]
-    mode[node[near[node] & ~fixed[node]]] = 2
-    if not mode.any():
-        return P, 0
-    new, moves = _lifted(P, Q.astype(np.int64), mode, slide, LIFT_SWEEPS, below)
-    if (folded(new, Q) > 0).any():
-        return P, 0
-    return new, int(moves)
+    """The least corner quality (8.3) raised around the quads under ``below``
+    (:func:`meshcore.quads.vertex_moves.lift_corners`, every quad judged): the other
+    boundary points slide along their input segment (:func:`boundary_slides`), ``fixed``
+    ones stay. No corner falls under the least it had before; every quad stays
+    strictly convex. Returns the points and the moves made (§8.4.3:
+    optimization-based smoothing of the worst corners)."""
+    slide = boundary_slides(P, Q, fixed, inputs)
+    return lift_corners(P, Q, fixed, slide, np.ones(len(Q), bool), below)
 
 
 def folded(P: np.ndarray, quads: np.ndarray) -> np.ndarray:

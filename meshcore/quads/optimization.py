@@ -125,6 +125,7 @@ from meshcore.quads.vertex_moves import (
     _split_rows,
     _split_scores,
     _valid_planar,
+    lift_corners,
 )
 
 __all__ = [
@@ -1030,13 +1031,18 @@ def _loops(C: np.ndarray, n: int) -> list[np.ndarray]:
     return loops
 
 
-def sliding_nodes(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray):
+def sliding_nodes(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray, on_segments=False):
     """Boundary nodes that may slide along a straight piece of the boundary.
 
     Between two consecutive ``fixed`` nodes of a boundary loop, the nodes are
     free to slide on the segment joining those two when all of them lie on it
     (exact :func:`~meshcore.geometry.predicates.orient2d`); every other
-    boundary node stays where it is.
+    boundary node stays where it is. With ``on_segments`` (the caller knows that
+    every input vertex is a fixed node and the boundary is the input's, so each
+    such run lies on one input segment) every run slides without that test: its
+    points were interpolated along the segment, on it only to rounding, so the
+    exact test let few of them slide, and not the same ones once the input is
+    translated or scaled.
 
     Parameters
     ----------
@@ -1051,8 +1057,6 @@ def sliding_nodes(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray):
     node, a, b : (s,) int64
         Node ``node[i]`` slides on the segment from ``a[i]`` to ``b[i]``.
     """
-    from meshcore.geometry.predicates import orient2d
-
     P = np.asarray(points, np.float64)
     n = len(P)
     node, sa, sb = [], [], []
@@ -1069,12 +1073,14 @@ def sliding_nodes(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray):
             a, b = loop[i], loop[j % len(loop)]
             if a == b:
                 continue
-            on = orient2d(
-                np.broadcast_to(P[a], (len(inner), 2)),
-                np.broadcast_to(P[b], (len(inner), 2)),
-                P[inner],
-            )
-            if np.all(on == 0):
+            if on_segments or np.all(
+                orient2d(
+                    np.broadcast_to(P[a], (len(inner), 2)),
+                    np.broadcast_to(P[b], (len(inner), 2)),
+                    P[inner],
+                )
+                == 0
+            ):
                 node.append(inner)
                 sa.append(np.full(len(inner), a))
                 sb.append(np.full(len(inner), b))
@@ -1161,6 +1167,11 @@ def relax_quads(
     in ``slide`` move only along their segment, each between the midpoints to
     its neighbours there (so no boundary edge collapses and the boundary order
     is kept), so the boundary and the area of a polygonal domain are kept.
+    A sliding node's variable is its position along its segment in the
+    normalized frame's lengths, as the free nodes' coordinates are (its
+    fraction of the segment made a segment of k edges k**2 times stiffer: the
+    square with a hole at size 0.02 reached in 200 iterations the mean quality
+    it reached in 3,000 before, 0.9621 against 0.9586).
 
     Parameters
     ----------
@@ -1227,12 +1238,13 @@ def relax_quads(
     P = (P0 - centre) / scale
     A, D = P[sa], P[sb] - P[sa]
     t0 = ((P[node] - A) * D).sum(-1) / (D * D).sum(-1)
+    L = np.hypot(D[:, 0], D[:, 1])  # a sliding node's variable: t times its segment's length
     nf = free.size
 
     def unpack(x):
         Q = P.copy()
         Q[free] = x[: 2 * nf].reshape(-1, 2)
-        Q[node] = A + x[2 * nf :, None] * D
+        Q[node] = A + (x[2 * nf :] / L)[:, None] * D
         return Q
 
     def fun(x, delta):
@@ -1241,7 +1253,7 @@ def relax_quads(
             e, g = _relax_energy(unpack(x), Ca, delta, angle_power is not None, angle_power or 1.0)
         if not np.isfinite(e) or not np.isfinite(g).all():
             return np.inf, np.zeros(len(x))
-        return e, np.concatenate([g[free].ravel(), (g[node] * D).sum(-1)])
+        return e, np.concatenate([g[free].ravel(), (g[node] * D).sum(-1) / L])
 
     # each sliding node stays between the midpoints to its neighbours on its segment
     # (to the segment's ends for the first and last): none reaches an end or passes
@@ -1256,7 +1268,8 @@ def relax_quads(
     lo[order] = (ts + np.where(first, 0.0, np.roll(ts, 1))) / 2
     hi[order] = (ts + np.where(last, 1.0, np.roll(ts, -1))) / 2
     lo, hi = np.minimum(lo, t0), np.maximum(hi, t0)
-    x = np.concatenate([P[free].ravel(), t0])
+    x = np.concatenate([P[free].ravel(), t0 * L])
+    lo, hi = lo * L, hi * L
     bounds = [(None, None)] * (2 * nf) + list(zip(lo.tolist(), hi.tolist(), strict=True))
     with threadpool_limits(limits=1, user_api="blas"):
         for r in range(6):
@@ -1283,19 +1296,23 @@ def relax_quads(
                 break
     out = P0.copy()
     out[free] = x[: 2 * nf].reshape(-1, 2) * scale + centre
-    out[node] = P0[sa] + x[2 * nf :, None] * (P0[sb] - P0[sa])
+    out[node] = P0[sa] + (x[2 * nf :] / L)[:, None] * (P0[sb] - P0[sa])
     return out
 
 
-def corners_relaxed(mesh: Mesh, dom, below: float, power: float, most: int) -> tuple[Mesh, int]:
+def corners_relaxed(
+    mesh: Mesh, dom, below: float, power: float, most: int, iterations: int
+) -> tuple[Mesh, int]:
     """The all-quad mesh of a domain with its corner angles optimized
     (:func:`relax_quads` with ``angle_power`` ``power``) over the quads
     under quality ``below`` and their neighbours (none if more than
-    ``most``), the input vertices fixed and the other boundary points
-    sliding along their input segment. Kept
-    (returns 1) when every quad stays strictly convex (exact) and the mean
-    quality (8.4) rises while the least stays at or above the lower of its
-    value and 0.5."""
+    ``most``; L-BFGS-B ``iterations`` at most), the input vertices fixed and the other
+    boundary points
+    sliding along their input segment (every such node: ``sliding_nodes`` with
+    ``on_segments``). Kept (returns 1) when every quad stays strictly convex (exact)
+    and the mean quality (8.4) rises while the least stays at or above the lower of
+    its value and 0.5, to ``TOL.gain`` (a node sliding next to a sharp input corner
+    changes that corner's quality by rounding)."""
     P = mesh.points
     Q = mesh.cells_by_type["quad"]
     q = quality.quad_quality(P, Q)
@@ -1308,88 +1325,47 @@ def corners_relaxed(mesh: Mesh, dom, below: float, power: float, most: int) -> t
     fixed[: len(dom.points)] = True  # the input vertices come first
     fixed[_on_constraints(P, unique_ints(Q[active]), dom)] = True
     new = relax_quads(
-        P, Q, fixed, slide=sliding_nodes(P, Q, fixed), active=active, angle_power=power
+        P,
+        Q,
+        fixed,
+        slide=sliding_nodes(P, Q, fixed, True),
+        active=active,
+        iterations=iterations,
+        angle_power=power,
     )
     if not _valid(new, Q).all():
         return mesh, 0
     q2 = quality.quad_quality(new, Q)
-    if q2.mean() <= q.mean() or q2.min() < min(q.min(), 0.5):
+    if q2.mean() <= q.mean() or q2.min() < min(q.min(), 0.5) - TOL.gain:
         return mesh, 0
     return Mesh(new, mesh.cells), 1
 
 
-def lifted_least(
-    mesh: Mesh, dom, judged: np.ndarray, below: float, gain: float
-) -> tuple[Mesh, int]:
-    """The all-quad mesh of a domain with the least quality (8.4) of its ``judged`` quads
-    raised where it is under ``below``: each free node of such a quad (not on the
-    boundary, not an input vertex, not on a constraint), one at a time, tries 8
-    directions at a quarter, an eighth and a sixteenth of its mean distance to the
-    nodes of its quads and takes the first position of best least quality of its
-    judged quads when that beats the current one by ``gain``, every quad of the node
-    staying strictly convex (exact :func:`~meshcore.geometry.predicates.orient2d`); up to
-    ``TOL.lift_rounds`` rounds. No judged quad falls under ``below`` nor, when under
-    it already, at all (so the judged least never falls), and no other quad falls (a
-    spike's tip quad keeps its tip's quality, the worst corner it can have). Kept only
-    when the least quality of all the judged quads rises. Returns (mesh, nodes moved).
+def lifted_least(mesh: Mesh, dom, judged: np.ndarray, below: float) -> tuple[Mesh, int]:
+    """The all-quad mesh of a domain with the least corner quality (8.3) of its ``judged``
+    quads raised around those under ``below``
+    (:func:`meshcore.quads.vertex_moves.lift_corners`): the input vertices and the nodes
+    on interior constraints fixed, the other boundary nodes sliding along their input
+    segment (:func:`sliding_nodes`). No judged quad falls under ``below`` nor, when
+    under it already, at all, and no other quad falls (a spike's tip quad keeps its
+    tip's quality, the worst corner it can have); every quad stays strictly convex.
+    Returns (mesh, moves made).
 
     :func:`_op_lift` judges every quad of a node: a quad that no move can raise (one
     with an input corner of 22 degrees at a spike's tip) held the node next to it,
     and the quad beyond kept a 40-degree corner (issue 20's stars 6, 9, 20, 28 and 39
     at size 0.1, least quality away from the sharp corners 0.442-0.489 -> 0.500-0.558).
     """
-    P = mesh.points.copy()
+    P = mesh.points
     Q = mesh.cells_by_type["quad"]
-    q = quality.quad_quality(P, Q)
-    if not (judged & (q < below)).any():
-        return mesh, 0
-    q0 = q[judged].min()
-    n = len(P)
-    key = np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], axis=-1).reshape(-1, 2), axis=1)
-    k = key[:, 0] * n + key[:, 1]
-    uk, cnt = unique_ints(k, counts=True)
-    fixed = np.zeros(n, bool)
-    fixed[uk[cnt == 1] // n] = True
-    fixed[uk[cnt == 1] % n] = True
+    fixed = np.zeros(len(P), bool)
     fixed[: len(dom.points)] = True  # the input vertices come first
     fixed[_on_constraints(P, unique_ints(Q.ravel()), dom)] = True
-    ptr, cells = _incidence(Q, np.ones(len(Q), bool), n)
-    ang = np.arange(8) * (np.pi / 4)
-    trials = np.concatenate(
-        [s * np.column_stack([np.cos(ang), np.sin(ang)]) for s in (0.25, 0.125, 0.0625)]
-    )
-    moved = np.zeros(n, bool)
-    for _ in range(TOL.lift_rounds):
-        q = quality.quad_quality(P, Q)
-        verts = unique_ints(Q[judged & (q < below)].ravel())
-        any_move = False
-        for v in verts[~fixed[verts]].tolist():  # a loop over the nodes of the poor quads
-            rows = Q[cells[ptr[v] : ptr[v + 1]]]
-            mine = judged[cells[ptr[v] : ptr[v + 1]]]
-            here = P[v].copy()
-            h = np.hypot(*(P[rows.ravel()] - here).T).sum() / (3 * len(rows))
-            old = quality.quad_quality(P, rows)
-            best = cur = old[mine].min()
-            floor = np.where(mine, np.minimum(old, below), old)
-            best_p = here
-            for d in trials:
-                P[v] = here + h * d
-                if not _valid(P, rows).all():
-                    continue
-                new = quality.quad_quality(P, rows)
-                if (new < floor).any():
-                    continue
-                least = new[mine].min()
-                if least > best + gain:
-                    best, best_p = least, P[v].copy()
-            P[v] = best_p
-            if best > cur + gain:
-                moved[v] = any_move = True
-        if not any_move:
-            break
-    if not moved.any() or not quality.quad_quality(P, Q[judged]).min() > q0 + gain:
-        return mesh, 0  # kept only where the judged least of the mesh rises
-    return Mesh(P, mesh.cells), int(moved.sum())
+    slide = sliding_nodes(P, Q, fixed, True)
+    new, moves = lift_corners(P, Q, fixed, slide, judged, below, below)
+    if not moves:
+        return mesh, 0
+    return Mesh(new, mesh.cells), moves
 
 
 def _on_constraints(P: np.ndarray, candidates: np.ndarray, dom) -> np.ndarray:

@@ -20,6 +20,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered
+from meshcore.mesh import CellBlock, Mesh, topology
 from meshcore.partition.smoothing import quad_q
 
 
@@ -367,3 +368,214 @@ def _split_scores(C, sets, H, q, valid, keys, n, ptr, ideal, cq, floor):
                 best[i] = s
         gain[i] = bs
     return best, gain
+
+
+# ----------------------------------------------------------------------------- the lift
+#: Directions a free node tries in :func:`lift_corners`: at a corner where two angles
+#: are the least, the moves raising both lie in a narrow cone that 8 directions missed.
+LIFT_DIRECTIONS = 32
+#: Sweeps of :func:`lift_corners` at most, and moves of one node in a sweep.
+LIFT_SWEEPS = 8
+#: Least rise of the least corner quality for a move (qualities are <= 1): far above
+#: what a 1e6 translation does to a quality (~1e-9 at size 0.1).
+LIFT_GAIN = 1e-6
+#: Least fall of the summed squared shortfall for a move that keeps the least.
+LIFT_SHORTFALL_GAIN = 1e-9
+
+
+@njit(cache=True)
+def _corner_at(P, C, c, k, v, x, y, work):
+    """(8.3) of corner ``k`` of quad ``c`` with node ``v`` at ``(x, y)``; -1 unless it
+    turns left (exact :func:`~meshcore.geometry.predicates.orient2d_filtered` where its
+    sine is under 1e-6, where the floating-point sign could be wrong)."""
+    a, b, d = C[c, (k + 3) % 4], C[c, k], C[c, (k + 1) % 4]
+    ax, ay = (x, y) if a == v else (P[a, 0], P[a, 1])
+    bx, by = (x, y) if b == v else (P[b, 0], P[b, 1])
+    dx, dy = (x, y) if d == v else (P[d, 0], P[d, 1])
+    ux, uy, wx, wy = dx - bx, dy - by, ax - bx, ay - by
+    cross = ux * wy - uy * wx
+    norm = math.sqrt((ux * ux + uy * uy) * (wx * wx + wy * wy))
+    if not norm > 0.0:
+        return -1.0
+    if cross <= 1e-6 * norm and (
+        cross < -1e-6 * norm or orient2d_filtered(bx, by, dx, dy, ax, ay, work) <= 0
+    ):
+        return -1.0
+    t = math.atan2(max(cross, 0.0), ux * wx + uy * wy) / (0.5 * math.pi)
+    return t if t <= 1.0 else 2.0 - t
+
+
+@njit(cache=True)
+def _quad_at(P, C, c, work):
+    """(8.4) of quad ``c``: its least :func:`_corner_at`."""
+    q = np.inf
+    for k in range(4):
+        q = min(q, _corner_at(P, C, c, k, -1, 0.0, 0.0, work))
+    return q
+
+
+@njit(cache=True)
+def _moved_at(P, C, ptr, cells, v, x, y, judged, floor, shortest, aim, work):
+    """Node ``v`` at ``(x, y)``: the least (8.3) of the corners it moves in its judged
+    quads (its own and its two neighbours' in each) and their summed squared shortfall
+    under ``aim``; least -1 when a quad of ``v`` folds or falls under its ``floor``, or
+    an edge at ``v`` is shorter than ``shortest``. (A quad's corner opposite ``v`` does
+    not move and is at or above its floor, so its three moved corners decide.)"""
+    worst = np.inf
+    short = 0.0
+    for j in range(ptr[v], ptr[v + 1]):
+        c = cells[j]
+        k = 0
+        while C[c, k] != v:
+            k += 1
+        for s in (3, 1):
+            w = C[c, (k + s) % 4]
+            if math.hypot(P[w, 0] - x, P[w, 1] - y) < shortest:
+                return -1.0, np.inf
+        for s in (3, 0, 1):
+            q = _corner_at(P, C, c, (k + s) % 4, v, x, y, work)
+            if q < floor[c] or q < 0.0:
+                return -1.0, np.inf
+            if judged[c]:
+                worst = min(worst, q)
+                short += max(aim - q, 0.0) ** 2
+    return worst, short
+
+
+@njit(cache=True)
+def _lift_corners(P, C, mode, slide, judged, aim, keep):
+    """The pattern search of :func:`lift_corners` on ``P`` in place, node by node
+    (Gauss-Seidel); ``mode`` 0 fixed, 1 free (``LIFT_DIRECTIONS`` directions), 2 sliding
+    along the unit vector ``slide[v]`` (2 directions). Returns the moves made."""
+    n = P.shape[0]
+    work = np.empty(WORK_SIZE)
+    ptr, cells = _incidence(C, np.ones(C.shape[0], np.bool_), n)
+    shortest = np.full(n, np.inf)
+    mean = np.zeros(n)
+    for v in range(n):
+        for j in range(ptr[v], ptr[v + 1]):
+            c = cells[j]
+            k = 0
+            while C[c, k] != v:
+                k += 1
+            for s in (3, 1):
+                w = C[c, (k + s) % 4]
+                e = math.hypot(P[w, 0] - P[v, 0], P[v, 1] - P[w, 1])
+                shortest[v] = min(shortest[v], 0.5 * e)
+                mean[v] += e
+        mean[v] /= max(2 * (ptr[v + 1] - ptr[v]), 1)
+    q = np.empty(C.shape[0])
+    for c in range(C.shape[0]):
+        q[c] = _quad_at(P, C, c, work)
+    floor = np.where(judged, np.minimum(q, keep), q)
+    dirs = np.empty((LIFT_DIRECTIONS, 2))
+    for i in range(LIFT_DIRECTIONS):
+        dirs[i, 0] = math.cos(2 * math.pi * i / LIFT_DIRECTIONS)
+        dirs[i, 1] = math.sin(2 * math.pi * i / LIFT_DIRECTIONS)
+    moves = 0
+    for _ in range(LIFT_SWEEPS):
+        moved = 0
+        for v in range(n):
+            if mode[v] == 0:
+                continue
+            cur, pen = _moved_at(
+                P, C, ptr, cells, v, P[v, 0], P[v, 1], judged, floor, 0.0, aim, work
+            )
+            if pen == 0.0:
+                continue
+            for _step in range(LIFT_SWEEPS):  # as many moves of one node per sweep at most
+                best, bpen, bx, by = cur, pen, P[v, 0], P[v, 1]
+                step = 0.25 * mean[v]
+                while step >= mean[v] / 64 and bx == P[v, 0] and by == P[v, 1]:
+                    for i in range(LIFT_DIRECTIONS if mode[v] == 1 else 2):
+                        ux = dirs[i, 0] if mode[v] == 1 else (1.0 - 2.0 * i) * slide[v, 0]
+                        uy = dirs[i, 1] if mode[v] == 1 else (1.0 - 2.0 * i) * slide[v, 1]
+                        x, y = P[v, 0] + step * ux, P[v, 1] + step * uy
+                        got, gpen = _moved_at(
+                            P, C, ptr, cells, v, x, y, judged, floor, shortest[v], aim, work
+                        )
+                        lower = gpen < bpen - LIFT_SHORTFALL_GAIN
+                        if got > best + LIFT_GAIN or (got >= best and lower):
+                            best, bpen, bx, by = got, gpen, x, y
+                    step *= 0.5
+                if bx == P[v, 0] and by == P[v, 1]:
+                    break
+                P[v, 0], P[v, 1], cur, pen = bx, by, best, bpen
+                for j in range(ptr[v], ptr[v + 1]):
+                    c = cells[j]
+                    qc = _quad_at(P, C, c, work)
+                    floor[c] = min(qc, keep) if judged[c] else qc
+                moved += 1
+        moves += moved
+        if moved == 0:
+            break
+    return moves
+
+
+def lift_corners(
+    points: np.ndarray,
+    quads: np.ndarray,
+    fixed: np.ndarray,
+    slide: tuple[np.ndarray, np.ndarray, np.ndarray],
+    judged: np.ndarray,
+    below: float,
+    keep: float = 0.0,
+) -> tuple[np.ndarray, int]:
+    """The least corner quality (8.3) of the ``judged`` quads raised around those under
+    ``below`` (§8.4.3: optimization-based smoothing of the worst corners).
+
+    A pattern search, node by node: the nodes of the quads within two rings of the
+    judged quads under ``below`` move, except the ``fixed`` ones; those in ``slide``
+    (``node, a, b`` as :func:`meshcore.quads.optimization.sliding_nodes`) only along
+    the line from ``a`` to ``b``, the other border nodes not at all. A node tries
+    steps of 1/4 down to 1/64 of its mean edge length (32 directions, or 2 along its
+    line) and moves where the least quality of the corners it moves in judged quads
+    rises (by :data:`LIFT_GAIN`), or stays and their summed squared shortfall under
+    ``below`` falls (so that a neighbour of the worst corner makes room for it).
+
+    Guarantees: every quad stays strictly convex (exact
+    :func:`~meshcore.geometry.predicates.orient2d_filtered` wherever a corner's sine
+    is under 1e-6); the least quality of the judged quads never falls; no other quad's
+    quality (8.4) falls; no judged quad falls under ``min(its quality, keep)``; no
+    edge at a moved node gets shorter than half its shortest at the start. Run in a
+    frame centred on the moving nodes and scaled by their mean edge length: the
+    points that do not move are returned unchanged.
+
+    Returns the points and the number of moves made.
+    """
+    P = np.asarray(points, np.float64)
+    C = np.ascontiguousarray(quads, np.int64)
+    judged = np.ascontiguousarray(judged, np.bool_)
+    n = len(P)
+    near = np.zeros(n, bool)
+    near[C[judged & (_angle_quality_rows(P, C) < below)].ravel()] = True
+    if not near.any():
+        return P, 0
+    for _ in range(2):  # two rings of quads around the poor ones
+        near[C[near[C].any(axis=1)].ravel()] = True
+    node, a, b = slide
+    border = np.zeros(n, bool)
+    border[topology.boundary(Mesh(P, (CellBlock("quad", C),))).cells[0].data.ravel()] = True
+    mode = np.where(near & ~fixed & ~border, 1, 0).astype(np.int64)
+    on = near[node] & ~fixed[node]
+    node, a, b = node[on], a[on], b[on]
+    mode[node] = 2
+    if not mode.any():
+        return P, 0
+    moving = mode > 0
+    centre = P[moving].mean(axis=0)
+    e = P[np.roll(C, -1, axis=1)] - P[C]
+    scale = float(np.hypot(e[..., 0], e[..., 1])[near[C]].mean()) or 1.0
+    X = (P - centre) / scale
+    unit = np.zeros((n, 2))
+    d = P[b] - P[a]
+    unit[node] = d / np.maximum(np.hypot(d[:, 0], d[:, 1]), np.finfo(float).tiny)[:, None]
+    X0 = X.copy()
+    moves = _lift_corners(X, C, mode, unit, judged, float(below), float(keep))
+    go = (X != X0).any(axis=1)
+    out = P.copy()
+    out[go] = X[go] * scale + centre
+    touched = go[C].any(axis=1)
+    if not _valid_planar(out, C[touched]).all():  # mapped back: rounding may not fold
+        return P, 0
+    return out, int(moves)
