@@ -7,7 +7,7 @@ together with the one growing triangulation the rounds insert into
 functions here search that triangulation: the triangles a segment crosses,
 the vertex of widest angle in a segment's ball (the encroacher of §9.1 whose
 projection splits it), the edges inside a disc; and, on a grid, the pieces
-near each vertex to protect (:func:`_grid_pairs`). Split from
+near each vertex to protect (:func:`_grid_reach`). Split from
 :mod:`meshcore.delaunay.admissible`, which runs the rounds; the names stay
 private to the package but :func:`located_in_domain` (the errors of the
 rounds located in a domain), which that module exports.
@@ -382,15 +382,24 @@ def _disc_edges(pts, V, A, vt, verts, radius, tstamp, counter):
 
 
 @njit(cache=True)
-def _grid_pairs(X, radius, U, V, cell):
-    """(point, segment) pairs, a superset of those where segment ``U[j] V[j]``
-    comes within ``radius[i]`` of point ``X[i]`` (a float test padded by a
-    millionth): each point is filed in the cells of side ``cell`` that its
-    disc's bounding box meets; each segment meets the points filed in the
-    cells it crosses, column by column (its span in each column of cells,
-    padded by a millionth of a cell: the cell of its nearest point to
-    ``X[i]`` is among them). Each pair once."""
-    k = X.shape[0]
+def _grid_reach(xy, a, b, rows, verts, reach, radius, cell):
+    """``reach`` (one per vertex ``verts[i]``) lowered to the distance from
+    the vertex to the nearest piece ``rows[j]`` (ends ``a``, ``b``, points
+    ``xy``) not incident to it, where that is closer; ``radius`` (at least
+    ``reach``) bounds the search. Each vertex is filed in the cells of side
+    ``cell`` that its disc's bounding box meets; each piece meets the
+    vertices filed in the cells it crosses, column by column (its span in
+    each column of cells, padded by a millionth of a cell: the cell of its
+    nearest point to the vertex is among them), so every piece within
+    ``radius`` is measured, each pair once; a farther one would not lower
+    ``reach``. The distance is :func:`point_segment_distance`'s, to the
+    same rounding."""
+    k = verts.shape[0]
+    X = np.empty((k, 2))
+    for i in range(k):
+        X[i, 0] = xy[verts[i], 0]
+        X[i, 1] = xy[verts[i], 1]
+    out = reach.copy()
     x0 = (X[:, 0] - radius).min()
     y0 = (X[:, 1] - radius).min()
     nx = int(((X[:, 0] + radius).max() - x0) / cell) + 1
@@ -414,26 +423,27 @@ def _grid_pairs(X, radius, U, V, cell):
                 members[fill[ix * ny + iy]] = i
                 fill[ix * ny + iy] += 1
     seen = np.full(k, -1, np.int64)
-    qs = np.empty(64, np.int64)
-    ss = np.empty(64, np.int64)
-    m = 0
     pad = 1e-6
-    for j in range(U.shape[0]):
-        ux = U[j, 0]
-        uy = U[j, 1]
-        dx = V[j, 0] - ux
-        dy = V[j, 1] - uy
+    for j in range(rows.shape[0]):
+        pa = a[rows[j]]
+        pb = b[rows[j]]
+        ux = xy[pa, 0]
+        uy = xy[pa, 1]
+        vx = xy[pb, 0]
+        vy = xy[pb, 1]
+        dx = vx - ux
+        dy = vy - uy
         ll = dx * dx + dy * dy
-        xa = min(ux, V[j, 0])
-        xb = max(ux, V[j, 0])
-        ya = min(uy, V[j, 1])
-        yb = max(uy, V[j, 1])
+        xa = min(ux, vx)
+        xb = max(ux, vx)
+        ya = min(uy, vy)
+        yb = max(uy, vy)
         c0 = max(int(np.floor((xa - x0) / cell - pad)), 0)
         c1 = min(int(np.floor((xb - x0) / cell + pad)), nx - 1)
         for ix in range(c0, c1 + 1):
             lo = ya
             hi = yb
-            if dx != 0.0:  # the segment's span of y over this column
+            if dx != 0.0:  # the piece's span of y over this column
                 xl = max(xa, x0 + (ix - pad) * cell)
                 xh = min(xb, x0 + (ix + 1 + pad) * cell)
                 y1 = uy + (xl - ux) * (dy / dx)
@@ -449,13 +459,13 @@ def _grid_pairs(X, radius, U, V, cell):
                     if seen[i] == j:
                         continue
                     seen[i] = j
-                    t = min(1.0, max(0.0, ((X[i, 0] - ux) * dx + (X[i, 1] - uy) * dy) / ll))
-                    d = np.hypot(X[i, 0] - (ux + t * dx), X[i, 1] - (uy + t * dy))
-                    if d > radius[i] * (1.0 + 1e-6):
+                    if verts[i] == pa or verts[i] == pb:
                         continue
-                    qs, _ = _push(qs, m, i)
-                    ss, m = _push(ss, m, j)
-    return qs[:m], ss[:m]
+                    t = min(1.0, max(0.0, ((X[i, 0] - ux) * dx + (X[i, 1] - uy) * dy) / ll))
+                    d = np.hypot(ux + t * dx - X[i, 0], uy + t * dy - X[i, 1])
+                    if d < out[i]:
+                        out[i] = d
+    return out
 
 
 @njit(cache=True, inline="always")
