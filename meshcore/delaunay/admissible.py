@@ -772,7 +772,7 @@ def _protection_on_circle(apex, far, radius, cc) -> np.ndarray:
     return centre + np.column_stack([cos * u[:, 0] - sin * u[:, 1], sin * u[:, 0] + cos * u[:, 1]])
 
 
-def _choose_encroachers(P, missing, st: _Pieces, scale, tol):
+def _choose_encroachers(missing, st: _Pieces, scale, tol):
     """Per missing piece, the point of its closed diametral ball with the
     largest angle APB (ties within ``angle_tie``: smallest index), found by
     :func:`_widest_angle_points` in the rounds' triangulation; and whether
@@ -780,10 +780,10 @@ def _choose_encroachers(P, missing, st: _Pieces, scale, tol):
     (:meth:`_Pieces.along`): consecutive ones then meet the same triangles
     (each choice is independent of the order; 40 % less time on the
     10,000-vertex star than in piece order)."""
-    seq = st.along(missing)
-    a, b = st.a[missing[seq]], st.b[missing[seq]]
-    _, radii = _query_radii(P[a], P[b], scale, tol)
-    pts, V, A, vt, order, slot = st.dt.arrays()
+    seq, sa, sb, radii = st.along(
+        missing, 1.0 + tol.ball_slack, tol.coordinate_slack * scale
+    )  # the radii of _query_radii
+    pts, V, A, vt, order, _ = st.dt.arrays()
     if len(st.tstamp) < len(V) // 3 or len(st.vstamp) < len(pts):
         st.tstamp = np.zeros(len(V) // 3, np.int64)
         st.vstamp = np.zeros(len(pts), np.int64)
@@ -794,9 +794,9 @@ def _choose_encroachers(P, missing, st: _Pieces, scale, tol):
         A,
         vt,
         order,
-        slot[a],
-        slot[b],
-        radii * st.dt.scale,
+        sa,
+        sb,
+        radii,
         tol.angle_tie,
         st.tstamp,
         st.vstamp,
@@ -1073,7 +1073,7 @@ def _split_round(st: _Pieces, missing, scale, circles, tol, round_no) -> None:
     """
     # The missing pieces' own rows: a round costs time in them, not in all.
     P = st.P
-    enc, on_segment = _choose_encroachers(P, missing, st, scale, tol)
+    enc, on_segment = _choose_encroachers(missing, st, scale, tol)
     if on_segment.any():
         _not_planar(st, missing[on_segment][0], enc[on_segment][0])
     M, near, again = _projection_points(

@@ -579,17 +579,34 @@ def _chain_key_order(first, chain, key):
 
 
 @njit(cache=True)
-def _along_order(rows, src, a, b, xy, direction):
-    """An order of pieces ``rows`` by input segment, then by position of
-    their midpoints along it (:func:`_chain_key_order`)."""
-    key = np.empty(rows.shape[0])
-    for i in range(rows.shape[0]):
+def _search_order(rows, src, a, b, xy, direction, slot, grow, pad, scale):
+    """Pieces ``rows`` in the order their searches go (:meth:`_Pieces.along`):
+    by input segment, then by position of their midpoints along it
+    (:func:`_chain_key_order`); and, in that order, the slots of their ends
+    and the radii of their balls, ``(half length * grow + pad) * scale``
+    (the enlarged half-lengths of ``_query_radii`` in the kernel's scale)."""
+    k = rows.shape[0]
+    key = np.empty(k)
+    half = np.empty(k)
+    for i in range(k):
         r = rows[i]
         s = src[r]
-        key[i] = (xy[a[r], 0] + xy[b[r], 0]) * direction[s, 0] + (
-            xy[a[r], 1] + xy[b[r], 1]
-        ) * direction[s, 1]
-    return _chain_key_order(np.arange(rows.shape[0]), src[rows], key)
+        ax = xy[a[r], 0]
+        ay = xy[a[r], 1]
+        bx = xy[b[r], 0]
+        by = xy[b[r], 1]
+        key[i] = (ax + bx) * direction[s, 0] + (ay + by) * direction[s, 1]
+        half[i] = 0.5 * np.hypot(bx - ax, by - ay)
+    seq = _chain_key_order(np.arange(k), src[rows], key)
+    sa = np.empty(k, np.int64)
+    sb = np.empty(k, np.int64)
+    radii = np.empty(k)
+    for i in range(k):
+        r = rows[seq[i]]
+        sa[i] = slot[a[r]]
+        sb[i] = slot[b[r]]
+        radii[i] = (half[seq[i]] * grow + pad) * scale
+    return seq, sa, sb, radii
 
 
 @njit(cache=True)
@@ -952,10 +969,13 @@ class _Pieces:
         match = ((ra == uu) & (rb == ww)) | ((ra == ww) & (rb == uu))
         return qq[match], rows[match]
 
-    def along(self, rows) -> np.ndarray:
-        """An order of pieces ``rows`` by input segment, then by position
-        along it (of their midpoints, :func:`_along_order`)."""
-        return _along_order(rows, self.src, self.a, self.b, self.xy, self.direction)
+    def along(self, rows, grow, pad):
+        """Pieces ``rows`` in search order, the slots of their ends and their
+        balls' radii in the triangulation's scale (:func:`_search_order`)."""
+        slot = self.dt.arrays()[5]
+        return _search_order(
+            rows, self.src, self.a, self.b, self.xy, self.direction, slot, grow, pad, self.dt.scale
+        )
 
     def end_pieces(self, verts):
         """The pieces at input points ``verts`` (the first or last piece of
