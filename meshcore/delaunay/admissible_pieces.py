@@ -801,6 +801,53 @@ def _chain_order(head, nxt, m):
     return out
 
 
+@njit(cache=True)
+def _in_chain_order(base, n, m, head, nxt, piece, point):
+    """The pieces in chain order and the points added (``base, ..., n - 1``)
+    numbered by round, then position of their piece (:meth:`_Pieces.to_state`):
+    ``(xy, radius)`` of the points and ``(ends, src, circ, acute, done, near)``
+    of the pieces, new arrays."""
+    a, b, src, circ, acute, done, near = piece
+    xy, radius, right, born = point
+    order = _chain_order(head, nxt, m)
+    pos = np.empty(m, np.int64)
+    for i in range(m):
+        pos[order[i]] = i
+    k = n - base
+    key = np.empty(k, np.int64)
+    for i in range(k):
+        key[i] = born[base + i] * m + pos[right[base + i]]
+    # by round, then position (one linear-time sort of a unique key)
+    new = radix_sort(key, np.arange(base, n))[1]
+    label = np.arange(n)
+    xy_out = np.empty((n, 2))
+    radius_out = np.empty(n)
+    xy_out[:base] = xy[:base]
+    radius_out[:base] = radius[:base]
+    for i in range(k):
+        label[new[i]] = base + i
+        xy_out[base + i, 0] = xy[new[i], 0]
+        xy_out[base + i, 1] = xy[new[i], 1]
+        radius_out[base + i] = radius[new[i]]
+    ends = np.empty((m, 2), np.int64)
+    src_out = np.empty(m, src.dtype)
+    circ_out = np.empty(m, circ.dtype)
+    acute_out = np.empty((m, 2), acute.dtype)
+    done_out = np.empty((m, 2), done.dtype)
+    near_out = np.empty((m, 2), near.dtype)
+    for i in range(m):
+        r = order[i]
+        ends[i, 0] = label[a[r]]
+        ends[i, 1] = label[b[r]]
+        src_out[i] = src[r]
+        circ_out[i] = circ[r]
+        for s in range(2):
+            acute_out[i, s] = acute[r, s]
+            done_out[i, s] = done[r, s]
+            near_out[i, s] = near[r, s]
+    return (xy_out, radius_out), (ends, src_out, circ_out, acute_out, done_out, near_out)
+
+
 def _grown(arr: np.ndarray, size: int) -> np.ndarray:
     """``arr`` in a longer array (the rows beyond it are written before
     they are read: :func:`_split_pieces` fills every new piece and point)."""
@@ -1007,20 +1054,13 @@ class _Pieces:
     def to_state(self, st: _State) -> None:
         """Back to chain order; the points added here numbered by round, then
         along the chains (as the whole-array rounds numbered them)."""
-        order = _chain_order(self.head, self.nxt, self.m)
-        pos = np.empty(self.m, dtype=np.int64)
-        pos[order] = np.arange(self.m)
-        new = np.arange(self.base, self.n)
-        # by round, then position (one linear-time sort of a unique key)
-        _, new = radix_sort(self.born[new] * np.int64(self.m) + pos[self.right[new]], new)
-        label = np.arange(self.n)
-        label[new] = np.arange(self.base, self.n)
-        st.P = np.concatenate([self.xy[: self.base], self.xy[new]])
-        st.radius = np.concatenate([self.radius[: self.base], self.radius[new]])
-        st.S = label[np.column_stack([self.a[order], self.b[order]])]
-        st.source = self.src[order]
-        st.seg_circle = self.circ[order]
-        st.acute, st.done, st.near = self.acute[order], self.done[order], self.near[order]
+        (st.P, st.radius), (st.S, st.source, st.seg_circle, st.acute, st.done, st.near) = (
+            _in_chain_order(
+                self.base, self.n, self.m, self.head, self.nxt,
+                (self.a, self.b, self.src, self.circ, self.acute, self.done, self.near),
+                (self.xy, self.radius, self.right, self.born),
+            )
+        )  # fmt: skip
 
 
 @njit(cache=True)
