@@ -216,7 +216,7 @@ from scipy.spatial import cKDTree
 
 from meshcore.delaunay.admissible_pieces import (
     _edge_keys,
-    _grid_pairs,
+    _grid_reach,
     _Pieces,
     _projection_points,
     _split_points,
@@ -707,46 +707,22 @@ def _acute_ends(P: np.ndarray, S: np.ndarray) -> np.ndarray:
     return acute.reshape(m, 2)
 
 
-def _segment_reach(P, S, reach, verts, scale, tol) -> np.ndarray:
+def _segment_reach(st: _Pieces, rows, reach, verts, scale, tol) -> np.ndarray:
     """``reach`` lowered to the distance from each vertex to the nearest
-    segment of ``S`` not incident to it, where that is closer.
+    piece of ``rows`` not incident to it, where that is closer.
 
-    Up to :data:`_ALL_PAIRS` (vertex, segment) pairs are all measured.
-    Otherwise the pairs are those :func:`_grid_pairs` finds (cells about
-    as many as the vertices, each vertex filed in those its disc of radius
-    ``reach``, padded, meets; ``scale``: the largest coordinate magnitude):
-    a superset of the pairs closer than ``reach``, and the pairs it leaves
-    out would not lower it, so both ways give the same distances. (A search
-    by length class in k-d trees of midpoints met a million pairs of long
-    pieces and vertices near them on a 10,000-vertex star.)
+    The pieces are those :func:`_grid_reach` meets in cells about as many
+    as the vertices, each vertex filed in those its disc of radius
+    ``reach``, padded, meets (``scale``: the largest coordinate magnitude):
+    every piece closer than ``reach`` is measured. (A search by length
+    class in k-d trees of midpoints met a million pairs of long pieces and
+    vertices near them on a 10,000-vertex star.)
     """
-    X = P[verts]
-    reach = reach.copy()
-    U, V = P[S[:, 0]], P[S[:, 1]]
-    if len(verts) * len(S) <= _ALL_PAIRS:
-        q = np.repeat(np.arange(len(verts)), len(S))
-        _lower_reach(reach, q, np.tile(np.arange(len(S)), len(verts)), X, U, V, S, verts)
-        return reach
+    X = st.xy[verts]
     padded = reach * (1.0 + tol.ball_slack) + tol.coordinate_slack * scale
     ex, ey = (X.max(axis=0) - X.min(axis=0)).tolist()
     cell = max(math.sqrt(ex * ey / len(X)), max(ex, ey) / len(X), float(np.median(padded)))
-    q, seg = _grid_pairs(X, padded, U, V, cell)
-    _lower_reach(reach, q, seg, X, U, V, S, verts)
-    return reach
-
-
-#: :func:`_segment_reach` measures every pair up to this many.
-_ALL_PAIRS = 4096
-
-
-def _lower_reach(reach, q, seg, X, U, V, S, verts) -> None:
-    """``reach[q]`` lowered to the distance from ``X[q]`` to segment ``seg``
-    (pairs of a vertex and a segment incident to it left out)."""
-    keep = (S[seg, 0] != verts[q]) & (S[seg, 1] != verts[q])
-    q, seg = q[keep], seg[keep]
-    if q.size:
-        d = point_segment_distance(X[q], U[seg], V[seg])[0]
-        np.minimum.at(reach, q, d)
+    return _grid_reach(st.xy, st.a, st.b, rows, verts, reach, padded, cell)
 
 
 def _protection_bounds(P, S, acute, reach, verts) -> np.ndarray:
@@ -796,7 +772,7 @@ def _protection_on_circle(apex, far, radius, cc) -> np.ndarray:
     return centre + np.column_stack([cos * u[:, 0] - sin * u[:, 1], sin * u[:, 0] + cos * u[:, 1]])
 
 
-def _choose_encroachers(P, missing, st: _Pieces, scale, tol):
+def _choose_encroachers(missing, st: _Pieces, scale, tol):
     """Per missing piece, the point of its closed diametral ball with the
     largest angle APB (ties within ``angle_tie``: smallest index), found by
     :func:`_widest_angle_points` in the rounds' triangulation; and whether
@@ -804,10 +780,10 @@ def _choose_encroachers(P, missing, st: _Pieces, scale, tol):
     (:meth:`_Pieces.along`): consecutive ones then meet the same triangles
     (each choice is independent of the order; 40 % less time on the
     10,000-vertex star than in piece order)."""
-    seq = st.along(missing)
-    a, b = st.a[missing[seq]], st.b[missing[seq]]
-    _, radii = _query_radii(P[a], P[b], scale, tol)
-    pts, V, A, vt, order, slot = st.dt.arrays()
+    seq, sa, sb, radii = st.along(
+        missing, 1.0 + tol.ball_slack, tol.coordinate_slack * scale
+    )  # the radii of _query_radii
+    pts, V, A, vt, order, _ = st.dt.arrays()
     if len(st.tstamp) < len(V) // 3 or len(st.vstamp) < len(pts):
         st.tstamp = np.zeros(len(V) // 3, np.int64)
         st.vstamp = np.zeros(len(pts), np.int64)
@@ -818,9 +794,9 @@ def _choose_encroachers(P, missing, st: _Pieces, scale, tol):
         A,
         vt,
         order,
-        slot[a],
-        slot[b],
-        radii * st.dt.scale,
+        sa,
+        sb,
+        radii,
         tol.angle_tie,
         st.tstamp,
         st.vstamp,
@@ -1097,7 +1073,7 @@ def _split_round(st: _Pieces, missing, scale, circles, tol, round_no) -> None:
     """
     # The missing pieces' own rows: a round costs time in them, not in all.
     P = st.P
-    enc, on_segment = _choose_encroachers(P, missing, st, scale, tol)
+    enc, on_segment = _choose_encroachers(missing, st, scale, tol)
     if on_segment.any():
         _not_planar(st, missing[on_segment][0], enc[on_segment][0])
     M, near, again = _projection_points(
@@ -1109,16 +1085,15 @@ def _split_round(st: _Pieces, missing, scale, circles, tol, round_no) -> None:
     if again.any():
         # A second projection split near the same acute vertex on the same
         # segment: the chase of Exercise 9.3 may have begun; protect the vertex.
-        S = np.column_stack([st.a[missing], st.b[missing]])
         rows = np.flatnonzero(again.any(axis=1))
-        E = S[rows, near[rows]]
+        E = np.where(near[rows] == 0, st.a[missing[rows]], st.b[missing[rows]])
         x = np.hypot(M[rows, 0] - P[E, 0], M[rows, 1] - P[E, 1])
         verts, inv = np.unique(E, return_inverse=True)
         # Nearest other point (a Delaunay neighbour), nearest missing piece,
         # nearest piece that is an edge (an edge of a triangle meeting the
         # disc of that radius).
         reach = st.dt.nearest_distance(verts)
-        reach = _segment_reach(P, S, reach, verts, scale, tol)
+        reach = _segment_reach(st, missing, reach, verts, scale, tol)
         q, near_rows = st.edge_pieces_near(verts, reach)
         if q.size:
             d = point_segment_distance(P[verts[q]], P[st.a[near_rows]], P[st.b[near_rows]])[0]

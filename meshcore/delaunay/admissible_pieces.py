@@ -7,7 +7,7 @@ together with the one growing triangulation the rounds insert into
 functions here search that triangulation: the triangles a segment crosses,
 the vertex of widest angle in a segment's ball (the encroacher of §9.1 whose
 projection splits it), the edges inside a disc; and, on a grid, the pieces
-near each vertex to protect (:func:`_grid_pairs`). Split from
+near each vertex to protect (:func:`_grid_reach`). Split from
 :mod:`meshcore.delaunay.admissible`, which runs the rounds; the names stay
 private to the package but :func:`located_in_domain` (the errors of the
 rounds located in a domain), which that module exports.
@@ -382,15 +382,24 @@ def _disc_edges(pts, V, A, vt, verts, radius, tstamp, counter):
 
 
 @njit(cache=True)
-def _grid_pairs(X, radius, U, V, cell):
-    """(point, segment) pairs, a superset of those where segment ``U[j] V[j]``
-    comes within ``radius[i]`` of point ``X[i]`` (a float test padded by a
-    millionth): each point is filed in the cells of side ``cell`` that its
-    disc's bounding box meets; each segment meets the points filed in the
-    cells it crosses, column by column (its span in each column of cells,
-    padded by a millionth of a cell: the cell of its nearest point to
-    ``X[i]`` is among them). Each pair once."""
-    k = X.shape[0]
+def _grid_reach(xy, a, b, rows, verts, reach, radius, cell):
+    """``reach`` (one per vertex ``verts[i]``) lowered to the distance from
+    the vertex to the nearest piece ``rows[j]`` (ends ``a``, ``b``, points
+    ``xy``) not incident to it, where that is closer; ``radius`` (at least
+    ``reach``) bounds the search. Each vertex is filed in the cells of side
+    ``cell`` that its disc's bounding box meets; each piece meets the
+    vertices filed in the cells it crosses, column by column (its span in
+    each column of cells, padded by a millionth of a cell: the cell of its
+    nearest point to the vertex is among them), so every piece within
+    ``radius`` is measured, each pair once; a farther one would not lower
+    ``reach``. The distance is :func:`point_segment_distance`'s, to the
+    same rounding."""
+    k = verts.shape[0]
+    X = np.empty((k, 2))
+    for i in range(k):
+        X[i, 0] = xy[verts[i], 0]
+        X[i, 1] = xy[verts[i], 1]
+    out = reach.copy()
     x0 = (X[:, 0] - radius).min()
     y0 = (X[:, 1] - radius).min()
     nx = int(((X[:, 0] + radius).max() - x0) / cell) + 1
@@ -414,26 +423,27 @@ def _grid_pairs(X, radius, U, V, cell):
                 members[fill[ix * ny + iy]] = i
                 fill[ix * ny + iy] += 1
     seen = np.full(k, -1, np.int64)
-    qs = np.empty(64, np.int64)
-    ss = np.empty(64, np.int64)
-    m = 0
     pad = 1e-6
-    for j in range(U.shape[0]):
-        ux = U[j, 0]
-        uy = U[j, 1]
-        dx = V[j, 0] - ux
-        dy = V[j, 1] - uy
+    for j in range(rows.shape[0]):
+        pa = a[rows[j]]
+        pb = b[rows[j]]
+        ux = xy[pa, 0]
+        uy = xy[pa, 1]
+        vx = xy[pb, 0]
+        vy = xy[pb, 1]
+        dx = vx - ux
+        dy = vy - uy
         ll = dx * dx + dy * dy
-        xa = min(ux, V[j, 0])
-        xb = max(ux, V[j, 0])
-        ya = min(uy, V[j, 1])
-        yb = max(uy, V[j, 1])
+        xa = min(ux, vx)
+        xb = max(ux, vx)
+        ya = min(uy, vy)
+        yb = max(uy, vy)
         c0 = max(int(np.floor((xa - x0) / cell - pad)), 0)
         c1 = min(int(np.floor((xb - x0) / cell + pad)), nx - 1)
         for ix in range(c0, c1 + 1):
             lo = ya
             hi = yb
-            if dx != 0.0:  # the segment's span of y over this column
+            if dx != 0.0:  # the piece's span of y over this column
                 xl = max(xa, x0 + (ix - pad) * cell)
                 xh = min(xb, x0 + (ix + 1 + pad) * cell)
                 y1 = uy + (xl - ux) * (dy / dx)
@@ -449,13 +459,13 @@ def _grid_pairs(X, radius, U, V, cell):
                     if seen[i] == j:
                         continue
                     seen[i] = j
-                    t = min(1.0, max(0.0, ((X[i, 0] - ux) * dx + (X[i, 1] - uy) * dy) / ll))
-                    d = np.hypot(X[i, 0] - (ux + t * dx), X[i, 1] - (uy + t * dy))
-                    if d > radius[i] * (1.0 + 1e-6):
+                    if verts[i] == pa or verts[i] == pb:
                         continue
-                    qs, _ = _push(qs, m, i)
-                    ss, m = _push(ss, m, j)
-    return qs[:m], ss[:m]
+                    t = min(1.0, max(0.0, ((X[i, 0] - ux) * dx + (X[i, 1] - uy) * dy) / ll))
+                    d = np.hypot(ux + t * dx - X[i, 0], uy + t * dy - X[i, 1])
+                    if d < out[i]:
+                        out[i] = d
+    return out
 
 
 @njit(cache=True, inline="always")
@@ -569,17 +579,34 @@ def _chain_key_order(first, chain, key):
 
 
 @njit(cache=True)
-def _along_order(rows, src, a, b, xy, direction):
-    """An order of pieces ``rows`` by input segment, then by position of
-    their midpoints along it (:func:`_chain_key_order`)."""
-    key = np.empty(rows.shape[0])
-    for i in range(rows.shape[0]):
+def _search_order(rows, src, a, b, xy, direction, slot, grow, pad, scale):
+    """Pieces ``rows`` in the order their searches go (:meth:`_Pieces.along`):
+    by input segment, then by position of their midpoints along it
+    (:func:`_chain_key_order`); and, in that order, the slots of their ends
+    and the radii of their balls, ``(half length * grow + pad) * scale``
+    (the enlarged half-lengths of ``_query_radii`` in the kernel's scale)."""
+    k = rows.shape[0]
+    key = np.empty(k)
+    half = np.empty(k)
+    for i in range(k):
         r = rows[i]
         s = src[r]
-        key[i] = (xy[a[r], 0] + xy[b[r], 0]) * direction[s, 0] + (
-            xy[a[r], 1] + xy[b[r], 1]
-        ) * direction[s, 1]
-    return _chain_key_order(np.arange(rows.shape[0]), src[rows], key)
+        ax = xy[a[r], 0]
+        ay = xy[a[r], 1]
+        bx = xy[b[r], 0]
+        by = xy[b[r], 1]
+        key[i] = (ax + bx) * direction[s, 0] + (ay + by) * direction[s, 1]
+        half[i] = 0.5 * np.hypot(bx - ax, by - ay)
+    seq = _chain_key_order(np.arange(k), src[rows], key)
+    sa = np.empty(k, np.int64)
+    sb = np.empty(k, np.int64)
+    radii = np.empty(k)
+    for i in range(k):
+        r = rows[seq[i]]
+        sa[i] = slot[a[r]]
+        sb[i] = slot[b[r]]
+        radii[i] = (half[seq[i]] * grow + pad) * scale
+    return seq, sa, sb, radii
 
 
 @njit(cache=True)
@@ -774,6 +801,53 @@ def _chain_order(head, nxt, m):
     return out
 
 
+@njit(cache=True)
+def _in_chain_order(base, n, m, head, nxt, piece, point):
+    """The pieces in chain order and the points added (``base, ..., n - 1``)
+    numbered by round, then position of their piece (:meth:`_Pieces.to_state`):
+    ``(xy, radius)`` of the points and ``(ends, src, circ, acute, done, near)``
+    of the pieces, new arrays."""
+    a, b, src, circ, acute, done, near = piece
+    xy, radius, right, born = point
+    order = _chain_order(head, nxt, m)
+    pos = np.empty(m, np.int64)
+    for i in range(m):
+        pos[order[i]] = i
+    k = n - base
+    key = np.empty(k, np.int64)
+    for i in range(k):
+        key[i] = born[base + i] * m + pos[right[base + i]]
+    # by round, then position (one linear-time sort of a unique key)
+    new = radix_sort(key, np.arange(base, n))[1]
+    label = np.arange(n)
+    xy_out = np.empty((n, 2))
+    radius_out = np.empty(n)
+    xy_out[:base] = xy[:base]
+    radius_out[:base] = radius[:base]
+    for i in range(k):
+        label[new[i]] = base + i
+        xy_out[base + i, 0] = xy[new[i], 0]
+        xy_out[base + i, 1] = xy[new[i], 1]
+        radius_out[base + i] = radius[new[i]]
+    ends = np.empty((m, 2), np.int64)
+    src_out = np.empty(m, src.dtype)
+    circ_out = np.empty(m, circ.dtype)
+    acute_out = np.empty((m, 2), acute.dtype)
+    done_out = np.empty((m, 2), done.dtype)
+    near_out = np.empty((m, 2), near.dtype)
+    for i in range(m):
+        r = order[i]
+        ends[i, 0] = label[a[r]]
+        ends[i, 1] = label[b[r]]
+        src_out[i] = src[r]
+        circ_out[i] = circ[r]
+        for s in range(2):
+            acute_out[i, s] = acute[r, s]
+            done_out[i, s] = done[r, s]
+            near_out[i, s] = near[r, s]
+    return (xy_out, radius_out), (ends, src_out, circ_out, acute_out, done_out, near_out)
+
+
 def _grown(arr: np.ndarray, size: int) -> np.ndarray:
     """``arr`` in a longer array (the rows beyond it are written before
     they are read: :func:`_split_pieces` fills every new piece and point)."""
@@ -942,10 +1016,13 @@ class _Pieces:
         match = ((ra == uu) & (rb == ww)) | ((ra == ww) & (rb == uu))
         return qq[match], rows[match]
 
-    def along(self, rows) -> np.ndarray:
-        """An order of pieces ``rows`` by input segment, then by position
-        along it (of their midpoints, :func:`_along_order`)."""
-        return _along_order(rows, self.src, self.a, self.b, self.xy, self.direction)
+    def along(self, rows, grow, pad):
+        """Pieces ``rows`` in search order, the slots of their ends and their
+        balls' radii in the triangulation's scale (:func:`_search_order`)."""
+        slot = self.dt.arrays()[5]
+        return _search_order(
+            rows, self.src, self.a, self.b, self.xy, self.direction, slot, grow, pad, self.dt.scale
+        )
 
     def end_pieces(self, verts):
         """The pieces at input points ``verts`` (the first or last piece of
@@ -977,20 +1054,13 @@ class _Pieces:
     def to_state(self, st: _State) -> None:
         """Back to chain order; the points added here numbered by round, then
         along the chains (as the whole-array rounds numbered them)."""
-        order = _chain_order(self.head, self.nxt, self.m)
-        pos = np.empty(self.m, dtype=np.int64)
-        pos[order] = np.arange(self.m)
-        new = np.arange(self.base, self.n)
-        # by round, then position (one linear-time sort of a unique key)
-        _, new = radix_sort(self.born[new] * np.int64(self.m) + pos[self.right[new]], new)
-        label = np.arange(self.n)
-        label[new] = np.arange(self.base, self.n)
-        st.P = np.concatenate([self.xy[: self.base], self.xy[new]])
-        st.radius = np.concatenate([self.radius[: self.base], self.radius[new]])
-        st.S = label[np.column_stack([self.a[order], self.b[order]])]
-        st.source = self.src[order]
-        st.seg_circle = self.circ[order]
-        st.acute, st.done, st.near = self.acute[order], self.done[order], self.near[order]
+        (st.P, st.radius), (st.S, st.source, st.seg_circle, st.acute, st.done, st.near) = (
+            _in_chain_order(
+                self.base, self.n, self.m, self.head, self.nxt,
+                (self.a, self.b, self.src, self.circ, self.acute, self.done, self.near),
+                (self.xy, self.radius, self.right, self.born),
+            )
+        )  # fmt: skip
 
 
 @njit(cache=True)

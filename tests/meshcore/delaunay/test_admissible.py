@@ -25,10 +25,11 @@ from meshcore.delaunay.admissible import (
     make_admissible,
     restricted_triangles,
 )
-from meshcore.delaunay.admissible_pieces import _grid_pairs
+from meshcore.delaunay.admissible_pieces import _grid_reach
 from meshcore.delaunay.kernel2d import delaunay
 from meshcore.domain.planar import parse_domain
 from meshcore.errors import AlgorithmError, Cancelled, InputError
+from meshcore.geometry.constructions import point_segment_distance
 from meshcore.geometry.predicates import dot2d, incircle, orient2d
 from meshcore.mesh import CellBlock, Mesh
 from meshcore.triangulation.refinement import triangulate
@@ -641,26 +642,28 @@ def test_random_star_polygons_with_holes_become_admissible(geometry):
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_grid_pairs_find_every_segment_within_each_vertex_radius(seed):
-    # The protection radii's search (_grid_pairs): every (vertex, segment)
-    # pair closer than the vertex's radius is found, each pair once, with
-    # radii from tiny to one larger than the whole set, and segments far
-    # longer than the cells.
+def test_grid_reach_finds_the_nearest_segment_within_each_vertex_radius(seed):
+    # The protection radii's search (_grid_reach): each vertex's reach is
+    # lowered to its distance to the nearest segment not incident to it
+    # wherever that is within its radius, with radii from tiny to one larger
+    # than the whole set, and segments far longer than the cells.
     rng = np.random.default_rng(seed)
-    X = rng.uniform(-1.0, 1.0, (60, 2))
+    xy = rng.uniform(-1.5, 1.5, (660, 2))
+    xy[300:600] = xy[:300] + rng.normal(0.0, 0.05, (300, 2)) * rng.choice([1.0, 30.0], (300, 1))
+    a, b = np.arange(300), np.arange(300, 600)
+    a[:20] = 600 + np.arange(20)  # segments incident to a vertex are left out
+    verts = np.arange(600, 660)
     radius = 10.0 ** rng.uniform(-4.0, -0.5, 60)
     radius[0] = 5.0
-    U = rng.uniform(-1.5, 1.5, (300, 2))
-    V = U + rng.normal(0.0, 0.05, (300, 2)) * rng.choice([1.0, 30.0], (300, 1))
-    q, s = _grid_pairs(X, radius, U, V, 0.2)
-    d = V - U
-    t = np.clip(np.einsum("ijk,jk->ij", X[:, None, :] - U[None], d) / (d * d).sum(axis=1), 0, 1)
-    foot = U[None] + t[..., None] * d[None]
-    near = np.hypot(*(X[:, None, :] - foot).transpose(2, 0, 1)) <= radius[:, None]
-    found = np.zeros_like(near)
-    found[q, s] = True
-    assert len(set(zip(q.tolist(), s.tolist(), strict=True))) == len(q)
-    assert near.sum() > 300 and not (near & ~found).any()
+    reach = radius * rng.uniform(0.5, 1.0, 60)
+    got = _grid_reach(xy, a, b, np.arange(300), verts, reach, radius, 0.2)
+    d = np.array([
+        point_segment_distance(np.repeat(xy[v][None], 300, axis=0), xy[a], xy[b])[0]
+        for v in verts
+    ])  # fmt: skip
+    d[a[None, :] == verts[:, None]] = np.inf
+    want = np.minimum(reach, d.min(axis=1))
+    assert (want < reach).sum() > 10 and np.array_equal(got, want)
 
 
 # ---------------------------------------------------------------------------
