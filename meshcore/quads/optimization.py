@@ -246,6 +246,20 @@ def _valid(P, C) -> np.ndarray:
     return ok
 
 
+def _valid_of(P, C, q, measure: str, metric) -> np.ndarray:
+    """:func:`_valid` of rows of C whose :func:`_cell_quality` ``q`` is known: planar
+    (8.4) without a metric, a quality above 1e-6 proves strict convexity (as in
+    :func:`~meshcore.quads.vertex_moves._checked_quality`), so that the exact signs
+    are taken for the other rows only."""
+    if P.shape[1] != 2 or measure != "angle" or metric is not None:
+        return _valid(P, C)
+    ok = q > 1e-6
+    low = np.flatnonzero(~ok)
+    if len(low):
+        ok[low] = _valid_planar(P, C[low])
+    return ok
+
+
 # ----------------------------------------------------------------------------- kernels
 # Compiled loops over candidate configurations (each a handful of cells).
 
@@ -524,12 +538,13 @@ def _hex_splits(st: _State, sets: np.ndarray, edge_keys: np.ndarray):
         return sets, np.zeros((0, 2, 4), np.int64), np.zeros(0)
     rows = _split_rows(H)
     ptr, _ = st.incidence()
+    q = st.quality_of(rows)
     best, gain = _split_scores(
         st.C,
         sets,
         H,
-        st.quality_of(rows),
-        _valid(st.P, rows),
+        q,
+        _valid_of(st.P, rows, q, st.measure, st.metric),
         edge_keys,
         len(st.P),
         ptr,
@@ -568,8 +583,9 @@ def _op_valence2(st: _State) -> int:
     old, new = old[ok], new[ok]
     if not len(old):
         return 0
-    valid = _valid(st.P, new)
-    gain = np.where(valid, st.quality_of(new) - _old_min(st, old), -np.inf)
+    q = st.quality_of(new)
+    valid = _valid_of(st.P, new, q, st.measure, st.metric)
+    gain = np.where(valid, q - _old_min(st, old), -np.inf)
     good = gain > TOL.gain
     old, new, gain = old[good], new[good], gain[good]
     if not len(old):
@@ -683,8 +699,9 @@ def _op_collapse(st: _State) -> int:
     rows = np.where(rows == -2, tmp[:, None, None], rows)
     Pt = np.concatenate([st.P, mid])
     flat = rows.reshape(-1, 4)
-    q = _cell_quality(Pt, flat, st.measure, _extended(st.metric, pair))
-    valid = _valid(Pt, flat).reshape(-1, 4).all(axis=1)
+    metric = _extended(st.metric, pair)
+    q = _cell_quality(Pt, flat, st.measure, metric)
+    valid = _valid_of(Pt, flat, q, st.measure, metric).reshape(-1, 4).all(axis=1)
     gain = np.where(valid, q.reshape(-1, 4).min(axis=1) - _old_min(st, old), -np.inf)
     good = gain > TOL.gain
     old, new, pair, mid, gain = old[good], new[good], pair[good], mid[good], gain[good]
