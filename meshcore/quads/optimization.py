@@ -246,6 +246,20 @@ def _valid(P, C) -> np.ndarray:
     return ok
 
 
+def _valid_of(P, C, q, measure: str, metric) -> np.ndarray:
+    """:func:`_valid` of rows of C whose :func:`_cell_quality` ``q`` is known: planar
+    (8.4) without a metric, a quality above 1e-6 proves strict convexity (as in
+    :func:`~meshcore.quads.vertex_moves._checked_quality`), so that the exact signs
+    are taken for the other rows only."""
+    if P.shape[1] != 2 or measure != "angle" or metric is not None:
+        return _valid(P, C)
+    ok = q > 1e-6
+    low = np.flatnonzero(~ok)
+    if len(low):
+        ok[low] = _valid_planar(P, C[low])
+    return ok
+
+
 # ----------------------------------------------------------------------------- kernels
 # Compiled loops over candidate configurations (each a handful of cells).
 
@@ -453,7 +467,7 @@ class _State:
         #: pairs they swapped
         self.swapped = None
         self.swaps = 0
-        self._inc = self._edges = None
+        self._inc = self._edges = self._nbrs = None
 
     def incidence(self) -> tuple[np.ndarray, np.ndarray]:
         """:func:`~meshcore.quads.vertex_moves._incidence` of the alive cells, kept until
@@ -475,13 +489,28 @@ class _State:
             self._edges = (key, a, b, cell, order, ks[head], order[head])
         return self._edges
 
+    def neighbours(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """CSR vertex -> edge neighbours of the alive cells ``(nptr, nidx, degree)``,
+        kept until the cells change."""
+        if self._nbrs is None:
+            n = len(self.P)
+            _, a, b, _, _, _, first = self.edges()
+            src = np.concatenate([a[first], b[first]])
+            dst = np.concatenate([b[first], a[first]])
+            nidx = dst[np.argsort(src, kind="stable")]
+            deg = np.bincount(src, minlength=n)
+            nptr = np.zeros(n + 1, np.int64)
+            np.cumsum(deg, out=nptr[1:])
+            self._nbrs = (nptr, nidx, deg)
+        return self._nbrs
+
     def quality_of(self, rows: np.ndarray) -> np.ndarray:
         return _cell_quality(self.P, rows, self.measure, self.metric)
 
     def replace(self, old: np.ndarray, new: np.ndarray, newq: np.ndarray) -> None:
         old = old[old >= 0]
         self.alive[old] = False
-        self._inc = self._edges = None
+        self._inc = self._edges = self._nbrs = None
         self.C = np.concatenate([self.C, new])
         self.alive = np.concatenate([self.alive, np.ones(len(new), bool)])
         self.q = np.concatenate([self.q, newq])
@@ -509,12 +538,13 @@ def _hex_splits(st: _State, sets: np.ndarray, edge_keys: np.ndarray):
         return sets, np.zeros((0, 2, 4), np.int64), np.zeros(0)
     rows = _split_rows(H)
     ptr, _ = st.incidence()
+    q = st.quality_of(rows)
     best, gain = _split_scores(
         st.C,
         sets,
         H,
-        st.quality_of(rows),
-        _valid(st.P, rows),
+        q,
+        _valid_of(st.P, rows, q, st.measure, st.metric),
         edge_keys,
         len(st.P),
         ptr,
@@ -553,8 +583,9 @@ def _op_valence2(st: _State) -> int:
     old, new = old[ok], new[ok]
     if not len(old):
         return 0
-    valid = _valid(st.P, new)
-    gain = np.where(valid, st.quality_of(new) - _old_min(st, old), -np.inf)
+    q = st.quality_of(new)
+    valid = _valid_of(st.P, new, q, st.measure, st.metric)
+    gain = np.where(valid, q - _old_min(st, old), -np.inf)
     good = gain > TOL.gain
     old, new, gain = old[good], new[good], gain[good]
     if not len(old):
@@ -668,8 +699,9 @@ def _op_collapse(st: _State) -> int:
     rows = np.where(rows == -2, tmp[:, None, None], rows)
     Pt = np.concatenate([st.P, mid])
     flat = rows.reshape(-1, 4)
-    q = _cell_quality(Pt, flat, st.measure, _extended(st.metric, pair))
-    valid = _valid(Pt, flat).reshape(-1, 4).all(axis=1)
+    metric = _extended(st.metric, pair)
+    q = _cell_quality(Pt, flat, st.measure, metric)
+    valid = _valid_of(Pt, flat, q, st.measure, metric).reshape(-1, 4).all(axis=1)
     gain = np.where(valid, q.reshape(-1, 4).min(axis=1) - _old_min(st, old), -np.inf)
     good = gain > TOL.gain
     old, new, pair, mid, gain = old[good], new[good], pair[good], mid[good], gain[good]
@@ -816,14 +848,7 @@ def _op_smooth(st: _State, passes: int | None = None, below: float | None = None
     the vertices that moved and their neighbours are tried again.
     """
     n = len(st.P)
-    _, a, b, _, _, _, first = st.edges()
-    src = np.concatenate([a[first], b[first]])
-    dst = np.concatenate([b[first], a[first]])
-    order = np.argsort(src, kind="stable")
-    nidx = dst[order]
-    deg = np.bincount(src, minlength=n)
-    nptr = np.zeros(n + 1, np.int64)
-    np.cumsum(deg, out=nptr[1:])
+    nptr, nidx, deg = st.neighbours()
     ptr, cells = st.incidence()
     live = np.flatnonzero(st.alive)
     vmin = np.full(n, np.inf)
@@ -833,9 +858,9 @@ def _op_smooth(st: _State, passes: int | None = None, below: float | None = None
     if not movable.any():  # nothing to move (an empty mesh: no least quality to keep)
         return 0
     color = _colors(st.C, ptr, cells, movable)
-    ncol = int(color.max()) + 1 if movable.any() else 0
-    by_color = [np.flatnonzero(color == k) for k in range(ncol)]
-    order = np.concatenate(by_color) if by_color else np.zeros(0, np.int64)
+    # the movable vertices by colour, increasing within each colour
+    order = np.flatnonzero(color >= 0)
+    order = order[np.argsort(color[order], kind="stable")]
     moved = np.zeros(n, bool)  # kept moves, however small
     passes = TOL.smooth_passes if passes is None else passes
     if st.P.shape[1] == 2 and st.measure == "angle" and st.metric is None:  # (8.4): compiled
@@ -843,6 +868,7 @@ def _op_smooth(st: _State, passes: int | None = None, below: float | None = None
         csr = (nptr, nidx, ptr, cells)
         _smooth_passes(st.P, st.C, st.q, live, order, movable, csr, passes, tol, moved)
         return int(moved.sum())
+    by_color = np.split(order, np.flatnonzero(np.diff(color[order])) + 1)
     active = movable.copy()
     for _ in range(passes):
         P0, q0, mean0 = st.P.copy(), st.q.copy(), float(st.q[live].mean())
@@ -1131,20 +1157,38 @@ def _relax_corners(P, C, delta, angle, power, w, g):
     return e
 
 
-def _relax_energy(P, C, delta, angle: bool = False, power: float = 1.0):
-    """Summed corner energy and its gradient (n, 2): the regularized condition number
-    ``(|a|^2 + |b|^2) / (2 h)``, or with ``angle`` ``(|a| |b| / h) ** power`` (the
-    regularized ``1 / sin`` of the corner angle: angles only, the power weighting
-    the worst corners) plus ``TOL.relax_condition`` times the condition number (a
-    barrier against collapsing an edge, which leaves the angles' term unchanged).
-    One compiled pass (:func:`_relax_corners`): the vectorized form cost 80 % of
-    ``combine``'s CPU on curved domains (disk at size 0.025: 0.51 of 0.83 s)."""
-    g = np.zeros((len(P), 2))
-    w = TOL.relax_condition if angle else 1.0
-    e = _relax_corners(
-        np.ascontiguousarray(P, np.float64), C, float(delta), bool(angle), float(power), w, g
-    )
-    return float(e), g
+@njit(cache=True, error_model="numpy")
+def _relax_energy(x, P, free, node, A, D, L, C, delta, angle, power, w):
+    """Summed corner energy at the variables ``x`` of :func:`relax_quads` and its
+    gradient in them: ``P`` with the ``free`` nodes at ``x``'s leading pairs and the
+    sliding ``node`` at ``A + x / L * D``, then :func:`_relax_corners` (weight ``w``):
+    the regularized condition number ``(|a|^2 + |b|^2) / (2 h)``, or with ``angle``
+    ``(|a| |b| / h) ** power`` (the regularized ``1 / sin`` of the corner angle: angles
+    only, the power weighting the worst corners) plus ``w`` times the condition number
+    (a barrier against collapsing an edge, which leaves the angles' term unchanged).
+    ``(inf, zeros)`` when a value is not finite (a trial step collapsing an edge).
+    Compiled whole, called once per L-BFGS-B evaluation: the vectorized form cost 80 %
+    of ``combine``'s CPU on curved domains (disk at size 0.025: 0.51 of 0.83 s)."""
+    Q = P.copy()
+    nf = free.shape[0]
+    for k in range(nf):
+        Q[free[k], 0] = x[2 * k]
+        Q[free[k], 1] = x[2 * k + 1]
+    for k in range(node.shape[0]):
+        t = x[2 * nf + k] / L[k]
+        Q[node[k], 0] = A[k, 0] + t * D[k, 0]
+        Q[node[k], 1] = A[k, 1] + t * D[k, 1]
+    g = np.zeros_like(Q)
+    e = _relax_corners(Q, C, delta, angle, power, w, g)
+    out = np.zeros(x.shape[0])
+    if not np.isfinite(e) or not np.isfinite(g).all():
+        return np.inf, out
+    for k in range(nf):
+        out[2 * k] = g[free[k], 0]
+        out[2 * k + 1] = g[free[k], 1]
+    for k in range(node.shape[0]):
+        out[2 * nf + k] = (g[node[k], 0] * D[k, 0] + g[node[k], 1] * D[k, 1]) / L[k]
+    return e, out
 
 
 def relax_quads(
@@ -1228,7 +1272,7 @@ def relax_quads(
     ok[Ca.ravel()] = True
     ok[inactive.ravel()] = False
     keep = ok[node] & ~fixed[node]
-    node, sa, sb = node[keep], sa[keep], sb[keep]
+    node, sa, sb = np.asarray(node[keep], np.int64), sa[keep], sb[keep]
     free = np.flatnonzero(movable)
     if not free.size and not node.size:
         return P0.copy()
@@ -1247,13 +1291,11 @@ def relax_quads(
         Q[node] = A + (x[2 * nf :] / L)[:, None] * D
         return Q
 
+    angle = angle_power is not None
+    power, w = float(angle_power or 1.0), TOL.relax_condition if angle else 1.0
+
     def fun(x, delta):
-        # a trial step of the line search may collapse an edge: inf / nan, rejected
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            e, g = _relax_energy(unpack(x), Ca, delta, angle_power is not None, angle_power or 1.0)
-        if not np.isfinite(e) or not np.isfinite(g).all():
-            return np.inf, np.zeros(len(x))
-        return e, np.concatenate([g[free].ravel(), (g[node] * D).sum(-1) / L])
+        return _relax_energy(x, P, free, node, A, D, L, Ca, delta, angle, power, w)
 
     # each sliding node stays between the midpoints to its neighbours on its segment
     # (to the segment's ends for the first and last): none reaches an end or passes
