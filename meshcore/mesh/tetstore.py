@@ -58,13 +58,15 @@ class CellStore:
     P : (n, d) float64
         Points (copied; ``spare_points`` zero rows follow for insertions).
     cells : (m, 3) or (m, 4) int64
-        The initial cells (rows ``0..m-1``; twice as many rows plus 256 are
-        allocated).
+        The initial cells (rows ``0..m-1``).
     fixed : (n,) bool or uint8
         Points that may not move or vanish.
     spare_points : int
         Rows of points reserved for insertions (``cnt[N_PTS]`` counts the used
         ones).
+    spare_rows : int, optional
+        Rows allocated after the cells (default ``m + 256``: twice as many rows
+        plus 256).
 
     The arrays (``P``, ``fixed``, ``cnt``, ``T``, ``alive``, ``head``,
     ``nxt``, ``prv``, ``free``) are passed to the compiled loops, which edit
@@ -72,7 +74,7 @@ class CellStore:
     loop reports it is out of rows or points, keeping the live cells in order.
     """
 
-    def __init__(self, P, cells, fixed, spare_points: int = 0):
+    def __init__(self, P, cells, fixed, spare_points: int = 0, spare_rows: int | None = None):
         n = len(P)
         self.P = np.zeros((n + spare_points, P.shape[1]))
         self.P[:n] = P
@@ -80,7 +82,7 @@ class CellStore:
         self.fixed[:n] = fixed
         self.cnt = np.array([n, 0, 0, 0], np.int64)
         self.T = None
-        self._rows(cells, 2 * len(cells) + 256)
+        self._rows(cells, len(cells) + (len(cells) + 256 if spare_rows is None else spare_rows))
 
     def _rows(self, cells: np.ndarray, mcap: int) -> None:
         """``cells`` (a copy) in rows ``0..m-1`` of ``mcap`` rows, linked; the row arrays
