@@ -1259,10 +1259,10 @@ def tetrahedralize(
         region = region_of(slots, T)
         keep = region >= 0
         tetra, region = T[keep], region[keep]
-        tetra, region, sub, sub_src, triangle_facet = _drop_flat_folds(b, tetra, region)
-        # The kernel is done with: its memory freed before the sliver pass's store.
+        # The kernel is done with: its memory freed before the last passes.
         del slots, T, keep, region_of, bad_tets
         b.release_kernel()
+        tetra, region, sub, sub_src, triangle_facet = _drop_flat_folds(b, tetra, region)
         if not empty and mdh is not None:
             from meshcore.tets.slivers import remove_slivers  # (imports this module)
 
