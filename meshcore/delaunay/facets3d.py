@@ -22,6 +22,7 @@ import math
 import numpy as np
 from numba import njit
 
+from meshcore.delaunay.hashgrid import _shift, _slot
 from meshcore.delaunay.kernel2d import (
     _CHUNK,
     _COLLINEAR,
@@ -163,18 +164,39 @@ def _facet_subfaces(
                     out[n, 0], out[n, 1], out[n, 2] = ids[a], ids[b], ids[c]
                     owner[n] = f
                     n += 1
-        if sptr[k + 1] > sptr[k]:
-            # The facet's subface edges, sorted: each subsegment found by bisection.
-            ek = np.empty(3 * (n - first), np.int64)
+        ns = sptr[k + 1] - sptr[k]
+        if ns > 0:
+            # The facet's boundary subsegments in a small hash table, marked as its
+            # subface edges are met (the table stays in cache: no sort of the edges).
+            size = 16
+            while size < 2 * ns:
+                size *= 2
+            shift = _shift(size)
+            mask = size - 1
+            tk = np.full(size, -1, np.int64)
+            met = np.zeros(size, np.bool_)
+            for i in range(sptr[k], sptr[k + 1]):
+                key = seg_keys[segs[i]]
+                h = _slot(key, shift)
+                while tk[h] != -1 and tk[h] != key:
+                    h = (h + 1) & mask
+                tk[h] = key
             for t in range(first, n):
                 for j in range(3):
                     u, v = out[t, j], out[t, (j + 1) % 3]
-                    ek[3 * (t - first) + j] = (min(u, v) << 32) | max(u, v)
-            ek.sort()
+                    key = (min(u, v) << 32) | max(u, v)
+                    h = _slot(key, shift)
+                    while tk[h] != -1:
+                        if tk[h] == key:
+                            met[h] = True
+                            break
+                        h = (h + 1) & mask
             for i in range(sptr[k], sptr[k + 1]):
                 key = seg_keys[segs[i]]
-                at = np.searchsorted(ek, key)
-                if at == ek.shape[0] or ek[at] != key:
+                h = _slot(key, shift)
+                while tk[h] != key:
+                    h = (h + 1) & mask
+                if not met[h]:
                     unsettled[nu] = key
                     nu += 1
         uptr[k + 1] = nu

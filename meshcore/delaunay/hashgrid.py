@@ -144,8 +144,24 @@ def _ball_pairs(X, centres, radii):
             hi[j, k] = np.int64(math.floor((centres[j, k] + pad) / h))
             count *= hi[j, k] - lo[j, k] + 1
         n_ent += count
+    # Distinct cells: at most the entries, and at most the cells of each level's box
+    # (far fewer when many balls share cells: a table that stays in cache).
+    cells = 0.0
+    for e in levels:
+        box_lo = np.full(3, np.iinfo(np.int64).max)
+        box_hi = np.full(3, np.iinfo(np.int64).min)
+        for j in range(nb):
+            if ok[j] and expo[j] == e:
+                for k in range(3):
+                    box_lo[k] = min(box_lo[k], lo[j, k])
+                    box_hi[k] = max(box_hi[k], hi[j, k])
+        cells += (
+            float(box_hi[0] - box_lo[0] + 1)
+            * float(box_hi[1] - box_lo[1] + 1)
+            * float(box_hi[2] - box_lo[2] + 1)
+        )
     size = 16
-    while size < 2 * n_ent:
+    while size < 2 * min(float(n_ent), cells):
         size *= 2
     shift = _shift(size)
     tab = np.zeros((size, 6), np.int64)  # e, ix, iy, iz, used, head entry

@@ -677,6 +677,7 @@ class SurfaceRecovery:
         """
         n = self.dt.n_points
         if self._tets_at != n:
+            self._tets = ()  # the old arrays freed before the new are made
             slots = self.dt.alive()
             T = self.dt.tets(slots)
             slots.flags.writeable = False
@@ -684,6 +685,14 @@ class SurfaceRecovery:
             self._tets = (slots, T)
             self._tets_at = n
         return self._tets
+
+    def release_kernel(self) -> None:
+        """Drop the tetrahedralization and the caches built on it (the caller has taken
+        the tetrahedra it needs: no insertion, :meth:`tets` or :meth:`missing` after)."""
+        self.dt = None
+        self._tets_at = -1
+        self._tets = (np.zeros(0, np.int64), np.zeros((0, 4), np.int64))
+        self._witness = []
 
     def on_surface(self) -> np.ndarray:
         """(n,) bool: which points lie on the surface (input vertices, points added on

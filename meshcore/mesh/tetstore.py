@@ -58,13 +58,15 @@ class CellStore:
     P : (n, d) float64
         Points (copied; ``spare_points`` zero rows follow for insertions).
     cells : (m, 3) or (m, 4) int64
-        The initial cells (rows ``0..m-1``; twice as many rows plus 256 are
-        allocated).
+        The initial cells (rows ``0..m-1``).
     fixed : (n,) bool or uint8
         Points that may not move or vanish.
     spare_points : int
         Rows of points reserved for insertions (``cnt[N_PTS]`` counts the used
         ones).
+    spare_rows : int, optional
+        Rows allocated after the cells (default ``m + 256``: twice as many rows
+        plus 256).
 
     The arrays (``P``, ``fixed``, ``cnt``, ``T``, ``alive``, ``head``,
     ``nxt``, ``prv``, ``free``) are passed to the compiled loops, which edit
@@ -72,25 +74,37 @@ class CellStore:
     loop reports it is out of rows or points, keeping the live cells in order.
     """
 
-    def __init__(self, P, cells, fixed, spare_points: int = 0):
+    def __init__(self, P, cells, fixed, spare_points: int = 0, spare_rows: int | None = None):
         n = len(P)
         self.P = np.zeros((n + spare_points, P.shape[1]))
         self.P[:n] = P
         self.fixed = np.zeros(n + spare_points, np.uint8)
         self.fixed[:n] = fixed
         self.cnt = np.array([n, 0, 0, 0], np.int64)
-        self._rows(cells, 2 * len(cells) + 256)
+        self.T = None
+        self._rows(cells, len(cells) + (len(cells) + 256 if spare_rows is None else spare_rows))
 
     def _rows(self, cells: np.ndarray, mcap: int) -> None:
+        """``cells`` (a copy) in rows ``0..m-1`` of ``mcap`` rows, linked; the row arrays
+        reused in place when they already have ``mcap`` rows, else the old ones dropped
+        before the new are made (no two sets alive at once)."""
         m, per = cells.shape
-        self.T = np.zeros((mcap, per), np.int64)
+        if self.T is not None and self.T.shape[0] == mcap:
+            self.T[m:] = 0
+            self.alive[:] = 0
+            self.nxt.fill(-1)
+            self.prv.fill(-1)
+            self.free[:] = 0
+        else:
+            self.T = self.alive = self.nxt = self.prv = self.free = None
+            self.T = np.zeros((mcap, per), np.int64)
+            self.alive = np.zeros(mcap, np.uint8)
+            self.nxt = np.full(per * mcap, -1, np.int64)
+            self.prv = np.full(per * mcap, -1, np.int64)
+            self.free = np.zeros(mcap, np.int64)
         self.T[:m] = cells
-        self.alive = np.zeros(mcap, np.uint8)
         self.alive[:m] = 1
         self.head = np.full(len(self.P), -1, np.int64)
-        self.nxt = np.full(per * mcap, -1, np.int64)
-        self.prv = np.full(per * mcap, -1, np.int64)
-        self.free = np.zeros(mcap, np.int64)
         self.cnt[N_ROWS] = m
         self.cnt[N_FREE] = 0
         build(self.T, m, len(self.P), self.head, self.nxt, self.prv)
@@ -112,7 +126,7 @@ class CellStore:
     def cells(self) -> np.ndarray:
         """The live cells, in row order (a copy)."""
         rows = int(self.cnt[N_ROWS])
-        return self.T[:rows][self.alive[:rows].astype(bool)].copy()
+        return self.T[:rows][self.alive[:rows].astype(bool)]  # a mask: a copy already
 
     def points(self) -> np.ndarray:
         """The used points (a view)."""

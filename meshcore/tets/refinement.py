@@ -1016,6 +1016,7 @@ def _refine(b: SurfaceRecovery, region_of: RegionLabels, bad_tets: _BadTets, pro
         done, skipped = _insert_interior(
             b, slots[inside], region[inside], rows, centres, Ti, sub_bad
         )
+        del slots, T, region, inside, Ti  # freed before the next round's (b.tets())
         if progress is not None:
             progress(0.5, f"refinement round {rounds}: {left} bad tetrahedra")
         if done == 0:
@@ -1258,6 +1259,9 @@ def tetrahedralize(
         region = region_of(slots, T)
         keep = region >= 0
         tetra, region = T[keep], region[keep]
+        # The kernel is done with: its memory freed before the last passes.
+        del slots, T, keep, region_of, bad_tets
+        b.release_kernel()
         tetra, region, sub, sub_src, triangle_facet = _drop_flat_folds(b, tetra, region)
         if not empty and mdh is not None:
             from meshcore.tets.slivers import remove_slivers  # (imports this module)

@@ -132,7 +132,10 @@ def improve(
     subk = np.sort(_face_keys(np.asarray(faces, dtype=np.int64)))
     fixed[rim[~member(rim_k, subk)].ravel()] = True  # not the surface's: it may slide
     T = np.ascontiguousarray(tetra[zone][:, [0, 1, 3, 2]])
-    state = CellStore(points, T, fixed, SPARE)
+    # Spare rows: flips and insertions reuse the rows they free; on the benchmark shapes
+    # at 100k the zone never grew by 1.1 % (twice the rows, as by default, cost ~90 MB
+    # at 1M tetrahedra).
+    state = CellStore(points, T, fixed, SPARE, spare_rows=len(T) // 8 + 256)
     reg = np.full(state.T.shape[0], -1, dtype=np.int64)
     reg[: len(T)] = region[zone]
     N = np.zeros_like(state.P)

@@ -79,3 +79,19 @@ def test_star_cavity_makes_every_new_tet_positive():
     for c in range(ts.STARS):
         if ts.star_point(s.P, s.T, s.head, s.nxt, 0, c, g):
             assert np.isfinite(s.P[g]).all()
+
+
+def test_growing_keeps_the_live_cells_in_order_and_links_them():
+    s = ts.CellStore(P, T2, np.zeros(len(P), np.uint8), spare_points=0, spare_rows=1)
+    assert s.T.shape[0] == 3
+    ts.remove_cell(s.T, s.alive, s.head, s.nxt, s.prv, s.free, s.cnt, 0)
+    T, nxt = s.T, s.nxt
+    s.grow_points(2)  # rows compacted in place: the same arrays, the live cell first
+    assert s.T is T and s.nxt is nxt and len(s.P) == len(P) + 2
+    assert s.cells().tolist() == [[4, 1, 3, 2]] and s.cnt[ts.N_ROWS] == 1
+    assert s.T[1:].tolist() == [[0, 0, 0, 0]] * 2 and (s.nxt[4:] == -1).all()
+    s.grow_rows()
+    assert s.T.shape[0] == 6 and s.cells().tolist() == [[4, 1, 3, 2]]
+    for v in (4, 1, 3, 2):  # each vertex's corner list holds the live cell's corner
+        assert s.head[v] >= 0 and s.T[s.head[v] // 4, s.head[v] % 4] == v
+    assert (s.head[[0]] == -1).all()
