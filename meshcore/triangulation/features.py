@@ -43,6 +43,8 @@ Delaunay refinement algorithm for quality 2-dimensional mesh generation"
 
 from __future__ import annotations
 
+from itertools import chain
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -91,7 +93,7 @@ def _near_pairs(X0, X1, seg_of, seg, beta):
         if cnt.sum() == 0:
             continue
         out_i.append(np.repeat(np.arange(len(mid)), cnt))
-        out_j.append(js[np.concatenate([np.asarray(x, np.int64) for x in hits if x])])
+        out_j.append(js[np.fromiter(chain.from_iterable(hits), np.int64, cnt.sum())])
     if not out_i:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     i = np.concatenate(out_i)
