@@ -512,15 +512,21 @@ def _scan_cells(key, item, pts, scale, nb, start, first, last, box, cseg, short,
                         )
                     ):
                         continue  # the boxes meet only at a common end point (docstring)
-                    i0, i1 = _meeting(pts, scale, u, start, first, last, lxv, lyv, hxv, hyv)
-                    j0, j1 = _meeting(pts, scale, v, start, first, last, lxu, lyu, hxu, hyu)
+                    # Two pieces of one segment each have those segments' boxes, which
+                    # meet (tested above): no search, no second box test.
+                    single = start[u + 1] - start[u] == 1 and start[v + 1] - start[v] == 1
+                    if single:
+                        i0, i1, j0, j1 = start[u], start[u] + 1, start[v], start[v] + 1
+                    else:
+                        i0, i1 = _meeting(pts, scale, u, start, first, last, lxv, lyv, hxv, hyv)
+                        j0, j1 = _meeting(pts, scale, v, start, first, last, lxu, lyu, hxu, hyu)
                     for i in range(i0, i1):
                         a, b = _segment_ends(i, u, nb, start, last, cseg)
                         for j in range(j0, j1):  # i < j: pieces hold increasing segment numbers
                             c, d = _segment_ends(j, v, nb, start, last, cseg)
                             if j < nb and (b == j or d == i):
                                 continue  # consecutive in a ring
-                            if _boxes_apart(pts, scale, a, b, c, d):
+                            if not single and _boxes_apart(pts, scale, a, b, c, d):
                                 continue
                             kind, w = _classify_pair(pts, scale, a, b, c, d)
                             if kind != 0:
