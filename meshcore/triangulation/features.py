@@ -89,7 +89,7 @@ def _near_pairs(X0, X1, seg_of, seg, beta):
         js = np.flatnonzero(level == lv)
         reach = length * (1.0 / beta + 0.5) + 0.5 * 2.0 ** (lv + 1)
         hits = cKDTree(mid[js]).query_ball_point(mid, reach)
-        cnt = np.fromiter((len(x) for x in hits), np.int64, len(hits))
+        cnt = np.fromiter(map(len, hits), np.int64, len(hits))
         if cnt.sum() == 0:
             continue
         out_i.append(np.repeat(np.arange(len(mid)), cnt))
