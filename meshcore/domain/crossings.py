@@ -42,6 +42,10 @@ _ENTRIES_PER_SEGMENT = 8
 _PIECE_SEGMENTS = 32
 # ... and spans at most this many median segment extents.
 _PIECE_EXTENT = 32.0
+# Pieces of more segments than this are searched for the segments meeting a box
+# (:func:`_meeting`); shorter ones have all their segments paired (the box test
+# of each pair rejects the same ones).
+_SEARCH_FROM = 4
 # Segments sampled for the median extent.
 _SAMPLE = 1 << 16
 # The intersection search stops after finding this many bad pairs.
@@ -468,7 +472,9 @@ def _scan_cells(key, item, pts, scale, nb, start, first, last, box, cseg, short,
     each): only the end segments of monotone pieces, which have no zero
     length, reach their end point, so the pieces meet there only, at a
     common vertex. Then the segments of
-    each piece whose boxes meet the other piece's box are paired; a pair
+    each piece whose boxes meet the other piece's box (found by
+    :func:`_meeting` in a piece of more than ``_SEARCH_FROM`` segments, all
+    of a shorter one) are paired; a pair
     is skipped when its boxes are disjoint or the segments are consecutive
     in a ring. Returns ``(out, count, full)``: rows ``(i, j, kind,
     witness)`` with i < j (a pair with a long segment may repeat), and
@@ -512,13 +518,11 @@ def _scan_cells(key, item, pts, scale, nb, start, first, last, box, cseg, short,
                         )
                     ):
                         continue  # the boxes meet only at a common end point (docstring)
-                    # Two pieces of one segment each have those segments' boxes, which
-                    # meet (tested above): no search, no second box test.
-                    single = start[u + 1] - start[u] == 1 and start[v + 1] - start[v] == 1
-                    if single:
-                        i0, i1, j0, j1 = start[u], start[u] + 1, start[v], start[v] + 1
-                    else:
+                    i0, i1 = start[u], start[u + 1]
+                    if i1 - i0 > _SEARCH_FROM:
                         i0, i1 = _meeting(pts, scale, u, start, first, last, lxv, lyv, hxv, hyv)
+                    j0, j1 = start[v], start[v + 1]
+                    if j1 - j0 > _SEARCH_FROM:
                         j0, j1 = _meeting(pts, scale, v, start, first, last, lxu, lyu, hxu, hyu)
                     for i in range(i0, i1):
                         a, b = _segment_ends(i, u, nb, start, last, cseg)
@@ -526,7 +530,7 @@ def _scan_cells(key, item, pts, scale, nb, start, first, last, box, cseg, short,
                             c, d = _segment_ends(j, v, nb, start, last, cseg)
                             if j < nb and (b == j or d == i):
                                 continue  # consecutive in a ring
-                            if not single and _boxes_apart(pts, scale, a, b, c, d):
+                            if _boxes_apart(pts, scale, a, b, c, d):
                                 continue
                             kind, w = _classify_pair(pts, scale, a, b, c, d)
                             if kind != 0:
