@@ -24,12 +24,16 @@ Run with ``.venv/bin/python benchmarks/domain.py``.
 
 from __future__ import annotations
 
+import os
+import sys
 import time
 import tracemalloc
 
 import numpy as np
 
-from meshcore.domain.planar import parse_domain
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+
+from meshcore.domain.planar import parse_domain  # noqa: E402  (this checkout's, not an installed one)
 
 try:
     import shapely

@@ -42,6 +42,10 @@ _ENTRIES_PER_SEGMENT = 8
 _PIECE_SEGMENTS = 32
 # ... and spans at most this many median segment extents.
 _PIECE_EXTENT = 32.0
+# Pieces of more segments than this are searched for the segments meeting a box
+# (:func:`_meeting`); shorter ones have all their segments paired (the box test
+# of each pair rejects the same ones).
+_SEARCH_FROM = 4
 # Segments sampled for the median extent.
 _SAMPLE = 1 << 16
 # The intersection search stops after finding this many bad pairs.
@@ -468,7 +472,9 @@ def _scan_cells(key, item, pts, scale, nb, start, first, last, box, cseg, short,
     each): only the end segments of monotone pieces, which have no zero
     length, reach their end point, so the pieces meet there only, at a
     common vertex. Then the segments of
-    each piece whose boxes meet the other piece's box are paired; a pair
+    each piece whose boxes meet the other piece's box (found by
+    :func:`_meeting` in a piece of more than ``_SEARCH_FROM`` segments, all
+    of a shorter one) are paired; a pair
     is skipped when its boxes are disjoint or the segments are consecutive
     in a ring. Returns ``(out, count, full)``: rows ``(i, j, kind,
     witness)`` with i < j (a pair with a long segment may repeat), and
@@ -512,8 +518,12 @@ def _scan_cells(key, item, pts, scale, nb, start, first, last, box, cseg, short,
                         )
                     ):
                         continue  # the boxes meet only at a common end point (docstring)
-                    i0, i1 = _meeting(pts, scale, u, start, first, last, lxv, lyv, hxv, hyv)
-                    j0, j1 = _meeting(pts, scale, v, start, first, last, lxu, lyu, hxu, hyu)
+                    i0, i1 = start[u], start[u + 1]
+                    if i1 - i0 > _SEARCH_FROM:
+                        i0, i1 = _meeting(pts, scale, u, start, first, last, lxv, lyv, hxv, hyv)
+                    j0, j1 = start[v], start[v + 1]
+                    if j1 - j0 > _SEARCH_FROM:
+                        j0, j1 = _meeting(pts, scale, v, start, first, last, lxu, lyu, hxu, hyu)
                     for i in range(i0, i1):
                         a, b = _segment_ends(i, u, nb, start, last, cseg)
                         for j in range(j0, j1):  # i < j: pieces hold increasing segment numbers

@@ -8,18 +8,27 @@ bring the pieces down to ``w``, each split a cavity and a queue entry. Here
 the pieces are cut *before* the triangulation, to the distance ``d`` from
 each piece to the nearest input segment not sharing a vertex with its own
 (Ruppert's local feature size, the incident segments left to refinement's
-concentric shells): a piece longer than ``beta * d`` is cut.
+concentric shells): only where refinement would need many rounds of splits.
 
 * Where the distance barely varies along the piece (the largest distance at
   its ends is at most twice ``d``: the distance to a segment is convex along
-  a line, so it is largest at an end), it is cut at once into
-  ``ceil(length / (beta d))`` equal pieces: a strip's side in one step.
-* Elsewhere it is halved and both halves looked at again: pieces grade
-  geometrically towards a near feature (a hole ``1e-12`` from the outer
-  ring costs about 40 halvings of a few pieces, not ``h / 1e-12`` pieces).
+  a line, so it is largest at an end) and the piece is longer than
+  ``CUT_FROM * beta * d``, it is cut at once into ``ceil(length / (beta d))``
+  equal pieces: a strip's side in one step.
+* Where the distance varies and the piece is longer than ``HALVE_FROM * beta
+  * d``, it is halved and both halves looked at again: pieces grade
+  geometrically towards a near feature (a hole ``1e-12`` from the outer ring
+  costs about 40 halvings of a few pieces, not ``h / 1e-12`` pieces), and
+  refinement's encroachment splits the last steps only where they are needed.
+
+Cutting every piece down to ``beta * d`` (as this module first did) made 1.5 to
+2 times the triangles the angle bound needs on random stars (the 50-vertex
+star of ``benchmarks/triangulate.py --small``: 771 triangles, 402 without the
+cuts, Triangle 309): near a spike's tip refinement splits only the pieces its
+points encroach upon, not every piece within ``beta`` times its distance.
 
 Each piece is compared with the pieces of the first cut (by the size) that
-lie within ``length / beta`` of it, found once in a k-d tree of their
+lie within ``length / (CUT_FROM * beta)`` of it, found once in a k-d tree of their
 midpoints (one tree per power of two of their lengths, so that a long
 piece does not widen every query); the comparisons are exact distances
 between segments, in floating point.
@@ -33,6 +42,8 @@ Delaunay refinement algorithm for quality 2-dimensional mesh generation"
 """
 
 from __future__ import annotations
+
+from itertools import chain
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -51,6 +62,13 @@ MAX_CUTS = 1 << 24
 #: cut here, and the admissible boundary names the vertex and the segment as
 #: given.
 RESOLUTION = 2.0**-40
+#: A flat piece is cut only when longer than this times ``beta * d`` (shorter
+#: ones are left to refinement, which splits them only where encroached).
+CUT_FROM = 2.0
+#: A piece whose distance varies is halved only while longer than this times
+#: ``beta * d``: the near-touching features refinement would take tens of rounds
+#: (or a runaway of shells) to reach.
+HALVE_FROM = 64.0
 
 
 def _segment_distance(a0, a1, b0, b1) -> np.ndarray:
@@ -71,11 +89,11 @@ def _near_pairs(X0, X1, seg_of, seg, beta):
         js = np.flatnonzero(level == lv)
         reach = length * (1.0 / beta + 0.5) + 0.5 * 2.0 ** (lv + 1)
         hits = cKDTree(mid[js]).query_ball_point(mid, reach)
-        cnt = np.fromiter((len(x) for x in hits), np.int64, len(hits))
+        cnt = np.fromiter(map(len, hits), np.int64, len(hits))
         if cnt.sum() == 0:
             continue
         out_i.append(np.repeat(np.arange(len(mid)), cnt))
-        out_j.append(js[np.concatenate([np.asarray(x, np.int64) for x in hits if x])])
+        out_j.append(js[np.fromiter(chain.from_iterable(hits), np.int64, cnt.sum())])
     if not out_i:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     i = np.concatenate(out_i)
@@ -137,7 +155,7 @@ def feature_cuts(P: np.ndarray, seg: np.ndarray, sid: np.ndarray, t: np.ndarray,
     D = P[seg[:, 1]] - A
     X0 = A[ps] + t0[:, None] * D[ps]
     X1 = A[ps] + t1[:, None] * D[ps]
-    pi, pj = _near_pairs(X0, X1, ps, seg, beta)
+    pi, pj = _near_pairs(X0, X1, ps, seg, CUT_FROM * beta)  # nothing farther is cut
     if len(pi) == 0:
         return sid.astype(np.int64), t
     # candidates of each first piece, as a CSR table
@@ -168,11 +186,11 @@ def feature_cuts(P: np.ndarray, seg: np.ndarray, sid: np.ndarray, t: np.ndarray,
         length = (b - a) * np.hypot(*D[s].T)
         if (dmin <= resolution).any():
             return sid.astype(np.int64), t
-        cut = length > beta * dmin
-        flat = cut & (dmax <= 2.0 * dmin)
+        even = dmax <= 2.0 * dmin
+        flat = even & (length > CUT_FROM * beta * dmin)
         n = np.where(flat, np.ceil(length / (beta * np.where(flat, dmin, 1.0))), 1.0)
         fr = np.flatnonzero(flat)
-        hr = np.flatnonzero(cut & ~flat)
+        hr = np.flatnonzero(~even & (length > HALVE_FROM * beta * dmin))
         made += float((n[fr] - 1).sum()) + len(hr)
         if made > MAX_CUTS:
             break

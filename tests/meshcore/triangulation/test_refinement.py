@@ -447,6 +447,25 @@ class TestQuality:
         angles = triangle_angles(res.mesh.points, res.mesh.cells[0].data)
         assert angles.min() >= 30 - ANGLE_ROUNDING
 
+    def test_feature_cuts_leave_a_star_to_refinement(self):
+        # cutting every boundary piece to 1.5 times its distance to the nearest
+        # non-adjacent segment made 771 triangles here (402 without the cuts,
+        # Triangle 309): only strips and near-touching features are cut now
+        domain = parse_domain(star())
+        res = triangulate(domain, min_angle=30)
+        assert_conforming(domain, res)
+        assert len(res.mesh.cells[0].data) <= 450
+
+    def test_vertex_1e6_from_a_segment_graded_before_refinement(self):
+        # the pieces near the vertex are halved towards it first: a few hundred
+        # triangles (refinement alone made over a million)
+        domain = parse_domain(
+            {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0.5, 1e-6]]]}
+        )
+        res = triangulate(domain, min_angle=30)
+        assert_conforming(domain, res)
+        assert len(res.mesh.cells[0].data) <= 1000
+
     def test_thin_strip_cut_before_refinement(self):
         # the long sides are cut to 1.5 times the width before the triangulation
         # (features.feature_cuts): refinement has nothing to split (it took 10 rounds)
