@@ -115,6 +115,9 @@ MOST_COUNT = 1.5
 #: A border vertex whose quads' corners there average more than this (degrees) gets
 #: one quad more (:func:`_opened`).
 OPEN_ANGLE = 125.0
+#: :func:`_opened` and :func:`_flowered` add no quad at a border point whose quads'
+#: corners would then average under this (degrees).
+OPEN_LEAST = 45.0
 #: The kite at a spike's tip (:data:`meshcore.medial.regions.KITE_ANGLE`): the points of
 #: its two sides this times size from the tip (at most a third of the side), its inner
 #: point tried at :data:`KITE_PAST` times their distance past their middle.
@@ -300,6 +303,17 @@ def _on_border(points: np.ndarray, quads: np.ndarray) -> np.ndarray:
     return border
 
 
+def _fan_angle(P: np.ndarray, Q: np.ndarray, start, cells, v: int) -> float:
+    """The sum of the corner angles (radians) of the quads at vertex ``v``."""
+    total = 0.0
+    for q in cells[start[v] : start[v + 1]]:  # a loop over the vertex's quads
+        c = P[Q[q]]
+        i = int(np.flatnonzero(Q[q] == v)[0])
+        a, b = c[i - 1] - c[i], c[(i + 1) % 4] - c[i]
+        total += math.atan2(abs(a[0] * b[1] - a[1] * b[0]), float(a @ b))
+    return total
+
+
 def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """A quad more at every border vertex whose quads' corners there average more
     than :data:`OPEN_ANGLE` (a reflex input corner over 250 degrees that the
@@ -307,9 +321,10 @@ def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
     interior edge ``v - b`` between its two widest corners is opened into a quad
     ``(v, b, z, b2)``, ``b`` split in two along the path ``v - b - z`` (``z`` the
     neighbour of ``b`` across from ``v``; ``b`` keeps the quads on one side, the new
-    point ``b2`` takes the others). ``b`` and ``b2`` start a third of the way to the
-    centroids of their quads, the smoothing that follows places them. Returns the
-    points, the quads and how many edges were opened."""
+    point ``b2`` takes the others); not where ``z`` is a border point whose corners
+    would then average under :data:`OPEN_LEAST`. ``b`` and ``b2`` start a third of the
+    way to the centroids of their quads, the smoothing that follows places them.
+    Returns the points, the quads and how many edges were opened."""
     n = len(points)
     P, Q = points.copy(), quads.copy()
     start, cells = _csr(n, Q)
@@ -341,6 +356,10 @@ def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
             continue
         side1, side2 = ring[: len(ring) // 2], ring[len(ring) // 2 :]
         z = int(Q[side1[-1], (int(np.flatnonzero(Q[side1[-1]] == b)[0]) + 3) % 4])
+        if border[z] and _fan_angle(P, Q, start, cells, z) / (
+            start[z + 1] - start[z] + 1
+        ) < math.radians(OPEN_LEAST):
+            continue
         b2 = n + len(added)
         c1 = P[Q[side1]].reshape(-1, 2).mean(axis=0)
         c2 = P[Q[side2]].reshape(-1, 2).mean(axis=0)
@@ -361,7 +380,11 @@ def _flowered(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.nda
     corners of 33 degrees around it) replaced by a small structured patch: the ``2k``-gon
     of its ``k`` quads gets a ring of ``2k`` quads around an ``a x b`` grid (``a + b =
     k``) on the polygon shrunk to half about the vertex, so that no vertex there holds
-    more than 3 new quads (an O-grid). The smoothing that follows places the points.
+    more than 3 new quads (an O-grid). The fan's far corners get a quad more each: not
+    done where one is a border point whose corners would then average under
+    :data:`OPEN_LEAST` (a 58 degree input corner of a random star, the far corner of
+    its region's coarse quad, got two quads of 29 degrees). The smoothing that follows
+    places the points.
     Returns the points, the quads and how many vertices were so replaced."""
     n = len(points)
     start, cells = _csr(n, quads)
@@ -375,11 +398,17 @@ def _flowered(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.nda
         fan = _around(quads, start, cells, int(v), int(cells[start[v]]))
         if fan is None or len(fan) != val[v] or taken[quads[fan].ravel()].any():
             continue
-        taken[quads[fan].ravel()] = True
         outer = []
         for q in fan:  # (v, x1, x2, x3) counter-clockwise: x1, x2 on the fan's border
             r = np.roll(quads[q], -int(np.flatnonzero(quads[q] == v)[0]))
             outer += [int(r[1]), int(r[2])]
+        far = [x for x in outer[1::2] if border[x]]  # each gets a quad more
+        if any(
+            _fan_angle(points, quads, start, cells, x) / (val[x] + 1) < math.radians(OPEN_LEAST)
+            for x in far
+        ):
+            continue
+        taken[quads[fan].ravel()] = True
         k = len(fan)
         a, b = k // 2, k - k // 2
         ring = points[v] + 0.5 * (points[outer] - points[v])

@@ -173,6 +173,7 @@ from meshcore.medial.regions import (
     input_fans,
     input_index,
     reflex_merged,
+    small_merged,
     spike_chords,
     turns,
 )
@@ -216,6 +217,10 @@ PRUNE_MORE = (45.0, 60.0, 90.0)
 #: The least quality (away from input spikes) a more pruned mesh must keep (or the
 #: first one's, when lower).
 PRUNE_LEAST = 0.35
+#: Where the first mesh keeps the count but its least quality (away from input spikes)
+#: is under this, the other partitions of :func:`quad_medial` are meshed too and the
+#: one within the count of the highest least quality is kept (the issue's bound, 8.4).
+GOOD_LEAST = 0.5
 
 #: A junction of the ``critical`` partition with more than this many lines (cuts, and
 #: branches to other junctions) is crowded: its cuts within :data:`CROWD_ANGLE` degrees
@@ -235,6 +240,10 @@ LEAST_GIVE = 0.01
 #: Last, the corners of the quads under this quality (8.4) and of two rings of quads
 #: around them are lifted (:func:`meshcore.medial.fill.lift_least`).
 LIFT_BELOW = 0.6
+#: Where every other partition passes :data:`~meshcore.medial.fill.MOST_COUNT` x area /
+#: size**2, small regions are merged until their sides (one coarse quad each) are at
+#: most this x area / size**2 (:func:`meshcore.medial.regions.small_merged`).
+MERGE_COUNT = 1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -679,20 +688,29 @@ def quad_medial(
     done: dict = {}  # fills and optimized meshes by partition: computed once
     res = _meshed(first, domain, method, size, levels, BOUNDARY_SHARE, special, done)
     res = _lifted(res, domain)
-    if size is None or not _over(res, domain, size):
+    if size is None:
         return res
-    least = min(PRUNE_LEAST, _least_away(res.mesh, domain))
+    over, least = _over(res, domain, size), _least_away(res.mesh, domain)
+    if not over and least >= GOOD_LEAST:
+        return res
+    # over the count: the first other mesh within it whose least quality is at least
+    # PRUNE_LEAST (or the first mesh's); within it but under GOOD_LEAST: the other mesh
+    # within it of the highest least quality, the first reaching GOOD_LEAST
+    if over:
+        least = min(PRUNE_LEAST, least)
     # the more pruned axes with the regions merged at crowded boundary points, then
     # every axis without those merges (a region merged at a gear's tooth gap has a
-    # longer boundary side, whose input vertices bind its count: BOUNDARY_SHARE)
-    tries = [(BOUNDARY_SHARE, a) for a in more] + [(None, a) for a in (prune, *more)]
+    # longer boundary side, whose input vertices bind its count: BOUNDARY_SHARE), then
+    # every axis with its small regions merged too (MERGE_COUNT)
+    tries = [(BOUNDARY_SHARE, a, False) for a in more] + [(None, a, False) for a in (prune, *more)]
+    tries += [(BOUNDARY_SHARE, a, True) for a in (prune, *more)]
     axis_at = {prune: first}
     tried = [res.mesh.cells_by_type["quad"]]
-    for share, angle in tries:  # a loop over at most seven partitions
+    for share, angle, merge in tries:  # a loop over at most eleven partitions
         if angle not in axis_at:
             axis_at[angle] = next(axes)
         try:
-            alt = _meshed(axis_at[angle], domain, method, size, levels, share, special, done)
+            alt = _meshed(axis_at[angle], domain, method, size, levels, share, special, done, merge)
         except AlgorithmError:
             continue
         # a mesh tried before (a merge that changed nothing; the butterfly again) or
@@ -702,13 +720,17 @@ def quad_medial(
             continue
         tried.append(quads)
         alt = _lifted(alt, domain)
-        if _least_away(alt.mesh, domain) >= least:
+        got = _least_away(alt.mesh, domain)
+        if got > least or (over and got == least):
             extra = {"prune": angle} if angle != prune else {}
-            return QuadMedial(
+            res = QuadMedial(
                 mesh=alt.mesh,
                 partition=alt.partition,
                 stats={**alt.stats, **extra, "boundary_merged": share is not None},
             )
+            if over or got >= GOOD_LEAST:
+                return res
+            least = got
     return res
 
 
@@ -728,7 +750,9 @@ def _least_away(mesh: Mesh, domain: Domain) -> float:
     return float(quality.quad_quality(P, Q)[ok].min(initial=1.0))
 
 
-def _meshed(axis: MedialAxis, domain, method, size, levels, share, special, done) -> QuadMedial:
+def _meshed(
+    axis: MedialAxis, domain, method, size, levels, share, special, done, merge=False
+) -> QuadMedial:
     """:func:`quad_medial` on the axis (of ``domain``; arguments checked), the medial
     partition's regions merged at crowded boundary points as ``share`` says
     (:func:`_medial_fill`); ``special``: :func:`_special` of the domain's samples. Its
@@ -741,7 +765,7 @@ def _meshed(axis: MedialAxis, domain, method, size, levels, share, special, done
             # the butterfly's central quad carries the boundary's count both ways (a gear
             # at size 0.1: 1.88x): the medial partition when it keeps the count
             try:  # (a 2:1 ellipse's medial partition has a 2-sided region: the butterfly)
-                part, mesh2, stats2 = _medial_fill(axis, method, size, levels, share, done)
+                part, mesh2, stats2 = _medial_fill(axis, method, size, levels, share, done, merge)
             except AlgorithmError:
                 part, stats2 = None, {"invalid": 1}
             bad = stats2["invalid"] or stats2["slits"]
@@ -753,13 +777,15 @@ def _meshed(axis: MedialAxis, domain, method, size, levels, share, special, done
             return QuadMedial(mesh=mesh, partition=special, stats={**stats, "partition": kind})
         mesh, stats = mesh2, stats2
     else:
-        part, mesh, stats = _medial_fill(axis, method, size, levels, share, done)
+        part, mesh, stats = _medial_fill(axis, method, size, levels, share, done, merge)
     if (stats["invalid"] or stats["slits"]) and method == "terminal":
         # regions of 5 or 6 sides around reflex corners can fold; the critical
         # partition's triangles and quads do not on the domains tested. A region
         # around a dead-end cut (a slit: its cycle passes a vertex twice) gave a
         # non-conforming fill, a sliver hole along the slit (a random star at size 0.5)
-        fallback, mesh, stats2 = _medial_fill(part.axis, "critical", size, levels, share, done)
+        fallback, mesh, stats2 = _medial_fill(
+            part.axis, "critical", size, levels, share, done, merge
+        )
         stats = {
             **stats2,
             "fallback": f"the terminal partition gave {stats['invalid']} "
@@ -1014,12 +1040,15 @@ def _regions(points: np.ndarray, cycles, corners) -> list[dict]:
     return regions
 
 
-def _medial_fill(axis: MedialAxis, method: str, size, levels, share, done: dict):
+def _medial_fill(axis: MedialAxis, method: str, size, levels, share, done: dict, merge=False):
     """The medial partition (:func:`partition`, regions merged at crowded boundary points:
-    :func:`_reflex_merged` with ``share``) and its fill
+    :func:`_reflex_merged` with ``share``; with ``merge``, small regions merged until
+    their sides are within the count: :func:`_small_merged`) and its fill
     (:func:`meshcore.medial.fill.quads_on`): the partition, the mesh and its stats; the
     fill from ``done`` when the same partition of this axis was filled before."""
     part = _reflex_merged(partition(axis=axis, method=method), share)
+    if merge:
+        part = _small_merged(part, size)
     key = (id(axis), part.points.tobytes(), *(c.tobytes() for c in part.cycles + part.corners))
     if key not in done:  # (the axis held: its id is not reused)
         done[key] = (part, *quads_on(part, size, levels))
@@ -1030,28 +1059,54 @@ def _reflex_merged(part: Partition, share: float | None) -> Partition:
     """The partition with regions merged at crowded reflex input corners and, with
     ``share``, at other crowded boundary points
     (:func:`meshcore.medial.regions.reflex_merged`)."""
-    pts = part.points
     cycles, corners, kinds, removed = reflex_merged(
-        part.axis, pts, part.cycles, part.corners, part.edge_kind, share
+        part.axis, part.points, part.cycles, part.corners, part.edge_kind, share
     )
     if not removed:
         return part
+    return _remade(part, cycles, corners, kinds, {"merged_at_reflex": len(removed)})
+
+
+def _small_merged(part: Partition, size: float) -> Partition:
+    """The partition with small regions merged in pairs until their sides are within
+    :data:`MERGE_COUNT` x area / size**2
+    (:func:`meshcore.medial.regions.small_merged`)."""
+    cycles, corners, kinds, merges = small_merged(
+        part.points,
+        len(part.axis.samples),
+        part.cycles,
+        part.corners,
+        part.edge_kind,
+        size,
+        part.axis.domain.area,
+        MERGE_COUNT,
+    )
+    if not merges:
+        return part
+    return _remade(part, cycles, corners, kinds, {"merged_small": merges})
+
+
+def _remade(part: Partition, cycles, corners, kinds, extra: dict) -> Partition:
+    """``part`` with other regions (vertex cycles over its points, corner flags, edge
+    kinds): its cuts those of the cycles' cut edges, ``extra`` added to its stats."""
+    pts = part.points
+    cut = np.concatenate(
+        [
+            np.column_stack([c, np.roll(c, -1)])[k == _CUT]
+            for c, k in zip(cycles, kinds, strict=True)
+        ]
+    )
+    cut = np.unique(np.sort(cut, axis=1), axis=0)
     regions = _regions(pts, cycles, corners)
-    gone = np.array([np.concatenate([pts[a], pts[b]]) for a, b in removed])
-    c = part.cuts.reshape(-1, 4)
-    drop = (
-        (c[:, None] == gone[None]).all(-1) | (c[:, None] == gone[None][..., [2, 3, 0, 1]]).all(-1)
-    ).any(1)
-    stats = {**part.stats, "regions": len(regions), "merged_at_reflex": len(removed)}
     return Partition(
         regions=regions,
-        cuts=part.cuts[~drop],
+        cuts=np.stack([pts[cut[:, 0]], pts[cut[:, 1]]], axis=1),
         axis=part.axis,
         points=pts,
         cycles=tuple(cycles),
         corners=tuple(corners),
         edge_kind=tuple(kinds),
-        stats=stats,
+        stats={**part.stats, "regions": len(regions), **extra},
     )
 
 
