@@ -170,6 +170,7 @@ from meshcore.medial.regions import (
     _CUT,
     BOUNDARY_SHARE,
     KITE_ANGLE,
+    _ring_area,
     input_fans,
     input_index,
     reflex_merged,
@@ -209,8 +210,10 @@ INNER_FRACTIONS = (0.5, 0.6)
 LEAST_POWER = 8.0
 #: Where the count passes :data:`~meshcore.medial.fill.MOST_COUNT` x area / size**2 on
 #: the axis pruned as asked, the axis is pruned at each larger of these angles (degrees)
-#: in turn, and the first mesh within the count is kept when its least quality away
-#: from input spikes is at least :data:`PRUNE_LEAST` or the first mesh's: fewer branches
+#: in turn (and where the least quality is under :data:`GOOD_LEAST`), and the first mesh
+#: within the count of least quality :data:`GOOD_LEAST` away from input spikes is kept,
+#: else the one of the highest least quality there when that is at least
+#: :data:`PRUNE_LEAST` or the first mesh's: fewer branches
 #: make fewer regions, whose coarse quads bound the count from below (a 12-tooth gear at
 #: size 0.1: 100 regions, 2.46x area / size**2 on the butterfly; 1.30x pruned at 45).
 PRUNE_MORE = (45.0, 60.0, 90.0)
@@ -482,13 +485,6 @@ def _faces(points: np.ndarray, edges: np.ndarray, kind: np.ndarray, succ: np.nda
     return cycles, corners, kinds
 
 
-def _ring_area(xy: np.ndarray) -> float:
-    """The signed area of a ring, from coordinates relative to its first vertex (the
-    absolute ones lost a spike of area 2e-5 at an offset of 1e6 to cancellation)."""
-    x, y = xy[:, 0] - xy[0, 0], xy[:, 1] - xy[0, 1]
-    return 0.5 * math.fsum(x * np.roll(y, -1) - np.roll(x, -1) * y)
-
-
 def partition(
     domain: Domain | None = None,
     *,
@@ -644,7 +640,9 @@ def quad_medial(
         boundary points on the input boundary (snapped onto its corners
         where the counts allow, which covers a polygonal domain exactly).
         ``stats["prune"]``: the larger pruning angle whose axis was meshed, where the
-        count passed 1.5x area / size**2 on the one asked (:data:`PRUNE_MORE`);
+        count passed 1.5x area / size**2 on the one asked (:data:`PRUNE_MORE`) or its
+        least quality was under :data:`GOOD_LEAST`; ``partition.stats["merged_small"]``:
+        the small regions merged (:data:`MERGE_COUNT`);
         ``stats["fallback"]`` says when a ``terminal`` partition folded and
         the ``critical`` one was meshed instead; ``stats["partition"]`` is
         ``"four-sided"`` or ``"butterfly"`` when one of those was used
@@ -693,11 +691,11 @@ def quad_medial(
     over, least = _over(res, domain, size), _least_away(res.mesh, domain)
     if not over and least >= GOOD_LEAST:
         return res
-    # over the count: the first other mesh within it whose least quality is at least
-    # PRUNE_LEAST (or the first mesh's); within it but under GOOD_LEAST: the other mesh
-    # within it of the highest least quality, the first reaching GOOD_LEAST
+    # the first other mesh within the count of least quality GOOD_LEAST, else the one
+    # within it of the highest least quality; over the count, that one only when its
+    # least is at least PRUNE_LEAST (or the first mesh's)
     if over:
-        least = min(PRUNE_LEAST, least)
+        least = min(PRUNE_LEAST, least) - 1e-12
     # the more pruned axes with the regions merged at crowded boundary points, then
     # every axis without those merges (a region merged at a gear's tooth gap has a
     # longer boundary side, whose input vertices bind its count: BOUNDARY_SHARE), then
@@ -721,14 +719,14 @@ def quad_medial(
         tried.append(quads)
         alt = _lifted(alt, domain)
         got = _least_away(alt.mesh, domain)
-        if got > least or (over and got == least):
+        if got > least:
             extra = {"prune": angle} if angle != prune else {}
             res = QuadMedial(
                 mesh=alt.mesh,
                 partition=alt.partition,
                 stats={**alt.stats, **extra, "boundary_merged": share is not None},
             )
-            if over or got >= GOOD_LEAST:
+            if got >= GOOD_LEAST:
                 return res
             least = got
     return res

@@ -304,15 +304,16 @@ def _angle_at(points, verts, i) -> float:
     return math.degrees(math.atan2(d1[0] * d2[1] - d1[1] * d2[0], float(d1 @ d2)) % (2 * math.pi))
 
 
-def _merged_pair(points, p, cycles, corners, kinds, degree, r, o):
-    """Regions ``r`` and ``o`` merged (:func:`_chain_merged`): the merged cycle, corner
-    flags, kinds and the vertices no longer corners anywhere (fewer than three edges
-    left), or None when the merge is refused (:func:`small_merged`)."""
-    got = _chain_merged(cycles[r], corners[r], kinds[r], cycles[o], corners[o], kinds[o])
+def _merged_pair(points, p, reg, degree, r, o):
+    """Regions ``r`` and ``o`` of ``reg`` (id -> cycle, corner flags, kinds) merged
+    (:func:`_chain_merged`): the merged cycle, corner flags, kinds and the vertices no
+    longer corners anywhere (fewer than three edges left), or None when the merge is
+    refused (:func:`small_merged`)."""
+    got = _chain_merged(*reg[r], *reg[o])
     if got is None:
         return None
     verts, flag, kind = got
-    ends = [i for i, v in enumerate(verts.tolist()) if v in set(cycles[r]) & set(cycles[o])]
+    ends = np.flatnonzero(np.isin(verts, reg[r][0]) & np.isin(verts, reg[o][0])).tolist()
     low = np.array([verts[i] for i in ends if degree[verts[i]] - 1 < 3], np.int64)
     flag = flag & ~np.isin(verts, low)
     if int(flag.sum()) < 3:
@@ -323,11 +324,10 @@ def _merged_pair(points, p, cycles, corners, kinds, degree, r, o):
             return None
         if not flag[i] and verts[i] >= p and abs(angle - 180.0) > MERGE_BEND:
             return None
-    for x, (c, f) in enumerate(zip(cycles, corners, strict=True)):
+    for x, (c, f, _) in reg.items():
         if x in (r, o) or not np.isin(c, low).any():
             continue
-        f = f & ~np.isin(c, low)
-        if int(f.sum()) < 3:
+        if int((f & ~np.isin(c, low)).sum()) < 3:
             return None
         for i in np.flatnonzero(np.isin(c, low) & (c >= p)):
             if abs(_angle_at(points, c, int(i)) - 180.0) > MERGE_BEND:
@@ -349,40 +349,30 @@ def small_merged(points, p: int, cycles, corners, kinds, size: float, area: floa
     count from below: a random star of 60 vertices at size 0.15 had 95 regions and 333
     sides for area / size**2 = 140. Returns the cycles, corner flags, edge kinds and
     how many merges were made."""
-    cycles, corners, kinds = list(cycles), list(corners), list(kinds)
+    reg = dict(enumerate(zip(cycles, corners, kinds, strict=True)))  # id -> region
     budget = most * area / size**2
     degree = np.zeros(len(points), np.int64)
-    und = set()
-    for c in cycles:
-        for a, b in zip(c.tolist(), np.roll(c, -1).tolist(), strict=True):
-            und.add((min(a, b), max(a, b)))
+    und = {(min(a, b), max(a, b)) for c in cycles for a, b in _edges(c)}
     for a, b in und:
         degree[a] += 1
         degree[b] += 1
-    ring_area = [_area(points[c]) for c in cycles]
-    refused: set[frozenset] = set()  # pairs of cycles (as vertex tuples) refused
+    ring_area = {r: _ring_area(points[c]) for r, (c, _, _) in reg.items()}
+    edges = {r: _edges(c) for r, (c, _, _) in reg.items()}
+    edge_region = {e: r for r, es in edges.items() for e in es}  # directed edge -> region
+    sides = sum(int(f.sum()) for _, f, _ in reg.values())
+    refused: set[tuple[int, int]] = set()  # pairs of region ids
     merges = 0
-    while sum(int(f.sum()) for f in corners) > budget:
-        edge_region = {}
-        for r, c in enumerate(cycles):
-            for a, b in zip(c.tolist(), np.roll(c, -1).tolist(), strict=True):
-                edge_region[(a, b)] = r
-        order = sorted(range(len(cycles)), key=lambda r: -int(corners[r].sum()) / ring_area[r])
+    while sides > budget:
         best = None
+        order = sorted(reg, key=lambda r: -int(reg[r][1].sum()) / ring_area[r])
         for r in order:  # a loop over the regions, most sides per area first
-            c = cycles[r]
-            near = {
-                edge_region[(b, a)]
-                for a, b in zip(c.tolist(), np.roll(c, -1).tolist(), strict=True)
-                if (b, a) in edge_region
-            }
-            for o in sorted(near):
-                pair = frozenset((cycles[r].tobytes(), cycles[o].tobytes()))
-                if pair in refused:
+            near = {edge_region[(b, a)] for a, b in edges[r] if (b, a) in edge_region}
+            for o in sorted(near - {r}):
+                if (min(r, o), max(r, o)) in refused:
                     continue
-                got = _merged_pair(points, p, cycles, corners, kinds, degree, r, o)
+                got = _merged_pair(points, p, reg, degree, r, o)
                 if got is None:
-                    refused.add(pair)
+                    refused.add((min(r, o), max(r, o)))
                     continue
                 score = int(got[1].sum()) / (ring_area[r] + ring_area[o])
                 if best is None or score < best[0]:
@@ -392,21 +382,34 @@ def small_merged(points, p: int, cycles, corners, kinds, size: float, area: floa
         if best is None:
             break
         _, r, o, (verts, flag, kind, low) = best
-        shared = set(cycles[r].tolist()) & set(cycles[o].tolist())
-        for v in shared:  # the chain's inner vertices lose both edges, its ends one
-            degree[v] -= 1 if v in set(verts.tolist()) else 2
-        keep = [x for x in range(len(cycles)) if x not in (r, o)]
-        ring_area = [ring_area[x] for x in keep] + [ring_area[r] + ring_area[o]]
-        cycles, corners, kinds = (
-            [cycles[x] for x in keep] + [verts],
-            [corners[x] & ~np.isin(cycles[x], low) for x in keep] + [flag],
-            [kinds[x] for x in keep] + [kind],
-        )
+        shared = np.intersect1d(reg[r][0], reg[o][0])
+        # the chain's inner vertices lose both edges, its ends one
+        degree[shared] -= np.where(np.isin(shared, verts), 1, 2)
+        for x in (r, o):
+            reg.pop(x)
+            for e in edges.pop(x):
+                del edge_region[e]
+        for x, (c, f, k) in reg.items():
+            if np.isin(c, low).any():
+                reg[x] = (c, f & ~np.isin(c, low), k)
+        new = max(ring_area) + 1
+        reg[new] = (verts, flag, kind)
+        ring_area[new] = ring_area.pop(r) + ring_area.pop(o)
+        edges[new] = _edges(verts)
+        edge_region.update(dict.fromkeys(edges[new], new))
+        sides = sum(int(f.sum()) for _, f, _ in reg.values())
         merges += 1
-    return cycles, corners, kinds, merges
+    cycles, corners, kinds = zip(*reg.values(), strict=True) if reg else ((), (), ())
+    return list(cycles), list(corners), list(kinds), merges
 
 
-def _area(xy: np.ndarray) -> float:
-    """Signed area of a ring (shoelace)."""
-    x, y = xy[:, 0], xy[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+def _edges(c: np.ndarray) -> list[tuple[int, int]]:
+    """The directed edges of a vertex cycle."""
+    return list(zip(c.tolist(), np.roll(c, -1).tolist(), strict=True))
+
+
+def _ring_area(xy: np.ndarray) -> float:
+    """The signed area of a ring, from coordinates relative to its first vertex (the
+    absolute ones lost a spike of area 2e-5 at an offset of 1e6 to cancellation)."""
+    x, y = xy[:, 0] - xy[0, 0], xy[:, 1] - xy[0, 1]
+    return 0.5 * math.fsum(x * np.roll(y, -1) - np.roll(x, -1) * y)
