@@ -56,7 +56,8 @@ last, :func:`lift_least`: a pattern search, point by point, of the least corner
 quality (8.3) that the point moves, around the quads under 0.6 (the boundary points
 sliding, the input vertices fixed; no corner falls under the least it had): on the 32
 random stars of :func:`tests.meshcore.quads.stars.issue_star` it took the least quality
-away from input spikes to 0.5 on 24 at size 0.1 (19 before) and 20 at 0.15 (14).
+away from input spikes to 0.5 on 24 at size 0.1 (19 before) and 20 at 0.15 (14)
+(27 and 24 with the other partitions tried: :data:`~meshcore.medial.partitioning.GOOD_LEAST`).
 Where a border vertex's corners average more than :data:`OPEN_ANGLE` (125
 degrees) the fill gets one quad more there (:func:`_opened`, before the
 smoothing); an interior vertex in more than :data:`MOST_VALENCE` quads (a crowded

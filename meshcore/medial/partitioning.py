@@ -95,26 +95,32 @@ meshed without them, :func:`quad_medial`). On 32 random stars of the issue's kin
 (:func:`tests.meshcore.quads.stars.issue_star` 0-31: 5-60 vertices, radial jitter
 10-80 %, every other one with a star-shaped hole) at size 0.1, away from the quads at
 input corners under 45 degrees (forced: such a corner is held by one quad): corners
-in [30, 150] degrees on 31, least quality 0.3 on 31 and 0.5 on 24 (19 before the
-least corners were lifted, :func:`meshcore.medial.fill.lift_least`; 26, 27 and 11
-before the boundary points slid in the relaxations:
+in [30, 150] degrees on 31, least quality 0.3 on 31 and 0.5 on 27 (24 before the
+other partitions were tried where the first one's least is under :data:`GOOD_LEAST`;
+19 before the least corners were lifted, :func:`meshcore.medial.fill.lift_least`; 26,
+27 and 11 before the boundary points slid in the relaxations:
 :func:`meshcore.medial.fill.boundary_slides`), least 0.24-0.61, quads under 0.5
-there 44 (163 before the lift); the count 0.92-1.47x area / size**2 (1.74x before the
+there 38 (163 before the lift); the count 0.92-1.46x area / size**2 (1.74x before the
 larger stretches, :data:`meshcore.medial.fill.STRETCH`); at size 0.15 least 0.5 on
-20 (14), and the regions are about as small as ``size`` and the coarse quads alone
-pass the count: over 1.5x on 8 of the 32 (13 before the axis was pruned more where
-the count passed, :data:`PRUNE_MORE`; up to 2.86x). Gears of 6-12 teeth at size 0.1:
-least 0.5 on 4 of 7 (0 before the O-grid at their hub,
-:func:`meshcore.medial.fill._flowered`, and the merges at their tooth gaps,
-:data:`~meshcore.medial.regions.BOUNDARY_SHARE`), 0.46-0.62, count 1.21-1.49x; at
-0.15 least 0.5 on 5 of 7, count over 1.5x on 4 (1.68-2.47x). What is left under 0.5:
-the strips of spikes whose base chord is oblique and reflex corners (quads of 36-44
-degrees next to them), thin 4-sided regions between the close nodes of a crowded
-junction of the ``critical`` partition (parallelograms of 42-45 degrees: gear 9,
-star 18), the few regions around its Type 0 nodes with a corner of 10-30 degrees at
-the node (the text's midpoint subdivision of a triangle region), and one star of 53
-vertices with 74 % jitter and no hole (star 22: least 0.24, corners 22-157 degrees,
-in thin regions between its spikes).
+24 (20, 14), count over 1.5x on 7 of the 32 (8 before the small regions were merged,
+:data:`MERGE_COUNT`; 13 before the axis was pruned more where the count passed,
+:data:`PRUNE_MORE`; up to 2.86x). What binds the count there is the input vertices,
+not the regions: every input vertex is a mesh point (so that the area is exact), a
+boundary side of ``k`` of them needs ``k + 1`` divisions, and the coarse quads carry
+that count to their opposite sides, across the regions of the partition (star 17,
+70 vertices for area / size**2 = 140: 1.54x with its regions merged if its input
+vertices did not bind, 2.84x as they do). Gears of 6-12 teeth at size 0.1: least 0.5
+on 4 of 7 (0 before the O-grid at their hub, :func:`meshcore.medial.fill._flowered`,
+and the merges at their tooth gaps, :data:`~meshcore.medial.regions.BOUNDARY_SHARE`),
+0.49-0.62 (two at 0.4996 and 0.4997: corners of 45.0 degrees), count 1.21-1.49x; at
+0.15 least 0.5 on 5 of 7, count over 1.5x on 4 (1.68-2.47x, bound by their input
+vertices as above). What is left under 0.5: the strips of spikes whose base chord is
+oblique and reflex corners (quads of 36-44 degrees next to them), thin 4-sided
+regions between the close nodes of a crowded junction of the ``critical`` partition
+(parallelograms of 42-45 degrees: gear 9, star 18), the few regions around its Type
+0 nodes with a corner of 10-30 degrees at the node (the text's midpoint subdivision
+of a triangle region), and one star of 53 vertices with 74 % jitter and no hole
+(star 22: least 0.24, corners 22-157 degrees, in thin regions between its spikes).
 Every job succeeds and every quad is strictly convex (``stats["not_convex"]``
 counts them, exact). On 150 random star polygons the ``critical``
 partition so gives only valid quads; the ``terminal`` one's 5- and 6-sided
