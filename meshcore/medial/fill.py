@@ -64,7 +64,12 @@ smoothing); an interior vertex in more than :data:`MOST_VALENCE` quads (a crowde
 junction of the partition, a gear's hub: each region meeting there puts a coarse
 quad at it, 11 of 33 degrees on an 11-tooth gear) gets an O-grid instead of its fan
 (:func:`_flowered`: an 11-tooth gear at size 0.1 from least quality 0.36 to 0.61,
-1.08x to 1.21x area / size**2). The relaxation's untangling rounds shrink Escobar's
+1.08x to 1.21x area / size**2); neither adds a quad at a border point whose corners
+would then average under :data:`OPEN_LEAST`. After the smoothing, a border vertex whose
+corners average under :data:`CLOSE_ANGLE` (four regions meeting at a straight boundary
+point: 45 degrees each at best) gives one of its quads up, an edge there turned
+(:func:`_closed`: gear 8 at size 0.1 from least quality 0.4996 to 0.543). The
+relaxation's untangling rounds shrink Escobar's
 regularization each round, so that a fold among corners far smaller than
 the median (a reflex input corner next to a short piece) is not lost in
 it, and a sliding point stays between the midpoints to its neighbours (it
@@ -119,6 +124,13 @@ OPEN_ANGLE = 125.0
 #: :func:`_opened` and :func:`_flowered` add no quad at a border point whose quads'
 #: corners would then average under this (degrees).
 OPEN_LEAST = 45.0
+#: :func:`_closed` takes a quad from a border point whose quads' corners average under
+#: this (degrees).
+CLOSE_ANGLE = 50.0
+#: :func:`_closed`'s new quads may have one corner up to this (degrees; the turned
+#: edge's end loses a quad, its two corners one: about 180 degrees), which the
+#: smoothing that follows opens.
+CLOSE_BEND = 200.0
 #: The kite at a spike's tip (:data:`meshcore.medial.regions.KITE_ANGLE`): the points of
 #: its two sides this times size from the tip (at most a third of the side), its inner
 #: point tried at :data:`KITE_PAST` times their distance past their middle.
@@ -373,6 +385,51 @@ def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
         Q = np.vstack([Q, np.array([[v, b, z, b2]], dtype=Q.dtype)])
         start, cells = _csr(len(P), Q)
     return P, Q, len(added)
+
+
+def _closed(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, int]:
+    """A quad less at every border vertex ``v`` whose quads' corners there average under
+    :data:`CLOSE_ANGLE` (four regions of the partition meeting at a straight boundary
+    point: 45 degrees each at best): the two quads ``(v, a, x, b)`` and ``(v, b, y, c)``
+    around an interior edge ``v - b`` become ``(a, x, b, y)`` and ``(v, a, y, c)`` (the
+    edge turned to ``a - y``), for the edge whose new quads have the largest least
+    corner, when both are strictly convex (exact). The quads keep their count; the
+    smoothing that follows places the points. Returns the quads and how many edges were
+    so turned."""
+    Q = quads.copy()
+    start, cells = _csr(len(points), Q)
+    border = _on_border(points, Q)
+    done = 0
+    for v in np.flatnonzero(border):  # a loop over the border vertices
+        fan = [int(q) for q in cells[start[v] : start[v + 1]]]
+        if len(fan) < 3 or _fan_angle(points, Q, start, cells, v) / len(fan) >= math.radians(
+            CLOSE_ANGLE
+        ):
+            continue
+        best = None
+        for q1 in fan:  # q1 = (v, a, x, b), q2 = (v, b, y, c)
+            r1 = np.roll(Q[q1], -int(np.flatnonzero(Q[q1] == v)[0]))
+            b = int(r1[3])
+            q2 = [q for q in fan if q != q1 and b in Q[q]]
+            if border[b] or len(q2) != 1:
+                continue
+            r2 = np.roll(Q[q2[0]], -int(np.flatnonzero(Q[q2[0]] == v)[0]))
+            if r2[1] != b:
+                continue
+            new = np.array([[r1[1], r1[2], b, r2[2]], [v, r1[1], r2[2], r2[3]]], Q.dtype)
+            ang = quality.quad_angles(points, new)
+            if (folded(points, new) > 1).any() or ang.max() > CLOSE_BEND:
+                continue
+            least = ang.min()
+            if best is None or least > best[0]:
+                best = (least, q1, q2[0], new)
+        if best is None:
+            continue
+        _, q1, q2, new = best
+        Q[q1], Q[q2] = new
+        start, cells = _csr(len(points), Q)
+        done += 1
+    return Q, done
 
 
 def _flowered(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
@@ -921,6 +978,9 @@ def quads_on(part: Partition, size: float | None, levels: int | None, whole: boo
     fixed = np.zeros(len(uniq), dtype=bool)
     fixed[boundary.ravel()] = True
     uniq = _smoothed(uniq, quads, fixed, SMOOTHING_SWEEPS)
+    quads, closed = _closed(uniq, quads)
+    if closed:
+        uniq = _smoothed(uniq, quads, fixed, SMOOTHING_SWEEPS)
     corner = np.zeros(len(uniq), dtype=bool)
     corner[np.asarray(corner_ids, np.int64)] = True
     uniq, relaxed = _relaxed(uniq, quads, corner & fixed, ax)
@@ -938,6 +998,7 @@ def quads_on(part: Partition, size: float | None, levels: int | None, whole: boo
         "relaxed": relaxed,
         "opened": opened,
         "o_grids": flowers,
+        "closed": closed,
         "invalid": int((area <= 0).sum()),
         "slits": sum(len(topology.unique_ints(c)) < len(c) for c in part.cycles),
         "not_convex": int((folded(uniq, quads) > 0).sum()),

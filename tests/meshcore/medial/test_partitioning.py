@@ -203,3 +203,21 @@ def test_no_o_grid_where_it_would_split_a_sharp_border_corner():
     for spike, made in ((1.6, 0), (1.0, 1)):
         rim = np.c_[np.cos(t), np.sin(t)] * np.where(np.arange(20) % 2, spike, 0.9)[:, None]
         assert _flowered(np.vstack([[0.0, 0.0], rim]), Q)[2] == made
+
+
+def test_a_straight_border_point_of_four_quads_gives_one_up():
+    # four quads of 45 degrees at a straight border point (four regions met there): the
+    # edge between two of them is turned, three quads stay at the point, same area
+    from meshcore.medial.fill import _closed
+
+    t = np.arange(9) * np.pi / 8
+    rim = np.c_[np.cos(t), np.sin(t)]
+    P = np.vstack([[0.0, 0.0], rim, 2 * rim])  # v = 0, p_i = 1 + i, q_i = 10 + i
+    Q = [[0, 1 + 2 * i, 2 + 2 * i, 3 + 2 * i] for i in range(4)]
+    Q += [[1 + i, 10 + i, 11 + i, 2 + i] for i in range(8)]
+    Q = np.array(Q)
+    Q2, closed = _closed(P, Q)
+    assert closed == 1 and (Q2 == 0).any(axis=1).sum() == 3
+    area = quality.signed_area(P, Q2, "quad")
+    assert (area > 0).all()
+    assert area.sum() == pytest.approx(quality.signed_area(P, Q, "quad").sum(), rel=1e-12)
