@@ -110,17 +110,20 @@ boundary side of ``k`` of them needs ``k + 1`` divisions, and the coarse quads c
 that count to their opposite sides, across the regions of the partition (star 17,
 70 vertices for area / size**2 = 140: 1.54x with its regions merged if its input
 vertices did not bind, 2.84x as they do). Gears of 6-12 teeth at size 0.1: least 0.5
-on 4 of 7 (0 before the O-grid at their hub, :func:`meshcore.medial.fill._flowered`,
-and the merges at their tooth gaps, :data:`~meshcore.medial.regions.BOUNDARY_SHARE`),
-0.49-0.62 (two at 0.4996 and 0.4997: corners of 45.0 degrees), count 1.21-1.49x; at
-0.15 least 0.5 on 5 of 7, count over 1.5x on 4 (1.68-2.47x, bound by their input
-vertices as above). What is left under 0.5: the strips of spikes whose base chord is
-oblique and reflex corners (quads of 36-44 degrees next to them), thin 4-sided
-regions between the close nodes of a crowded junction of the ``critical`` partition
-(parallelograms of 42-45 degrees: gear 9, star 18), the few regions around its Type
-0 nodes with a corner of 10-30 degrees at the node (the text's midpoint subdivision
-of a triangle region), and one star of 53 vertices with 74 % jitter and no hole
-(star 22: least 0.24, corners 22-157 degrees, in thin regions between its spikes).
+on 6 of 7 (0 before the O-grid at their hub, :func:`meshcore.medial.fill._flowered`,
+and the merges at their tooth gaps, :data:`~meshcore.medial.regions.BOUNDARY_SHARE`;
+4 before a border point of four quads gave one up, :func:`meshcore.medial.fill._closed`),
+0.4997-0.62 (gear 7: corners of 45.0 degrees at a straight point of four quads left),
+count 1.21-1.49x; at 0.15 least 0.5 on 5 of 7, count over 1.5x on 4 (1.68-2.47x,
+bound by their input vertices as above). What is left under 0.5: the strips of
+spikes whose base chord is oblique and reflex corners (quads of 36-44 degrees next
+to them), thin 4-sided regions between the close nodes of a crowded junction of the
+``critical`` partition (parallelograms of 42-45 degrees: gear 9 at 0.15, star 18),
+the few regions around its Type 0 nodes with a corner of 10-30 degrees at the node
+(the text's midpoint subdivision of a triangle region), a spike's strips made coarse
+by the count's stretch (star 31 at 0.15: least 0.27), and one star of 53 vertices
+with 74 % jitter and no hole (star 22: least 0.24 at 0.1, corners 22-157 degrees, in
+thin regions between its spikes).
 Every job succeeds and every quad is strictly convex (``stats["not_convex"]``
 counts them, exact). On 150 random star polygons the ``critical``
 partition so gives only valid quads; the ``terminal`` one's 5- and 6-sided
