@@ -56,14 +56,20 @@ last, :func:`lift_least`: a pattern search, point by point, of the least corner
 quality (8.3) that the point moves, around the quads under 0.6 (the boundary points
 sliding, the input vertices fixed; no corner falls under the least it had): on the 32
 random stars of :func:`tests.meshcore.quads.stars.issue_star` it took the least quality
-away from input spikes to 0.5 on 24 at size 0.1 (19 before) and 20 at 0.15 (14).
+away from input spikes to 0.5 on 24 at size 0.1 (19 before) and 20 at 0.15 (14)
+(27 and 24 with the other partitions tried: :data:`~meshcore.medial.partitioning.GOOD_LEAST`).
 Where a border vertex's corners average more than :data:`OPEN_ANGLE` (125
 degrees) the fill gets one quad more there (:func:`_opened`, before the
 smoothing); an interior vertex in more than :data:`MOST_VALENCE` quads (a crowded
 junction of the partition, a gear's hub: each region meeting there puts a coarse
 quad at it, 11 of 33 degrees on an 11-tooth gear) gets an O-grid instead of its fan
 (:func:`_flowered`: an 11-tooth gear at size 0.1 from least quality 0.36 to 0.61,
-1.08x to 1.21x area / size**2). The relaxation's untangling rounds shrink Escobar's
+1.08x to 1.21x area / size**2); neither adds a quad at a border point whose corners
+would then average under :data:`OPEN_LEAST`. After the smoothing, a border vertex whose
+corners average under :data:`CLOSE_ANGLE` (four regions meeting at a straight boundary
+point: 45 degrees each at best) gives one of its quads up, an edge there turned
+(:func:`_closed`: gear 8 at size 0.1 from least quality 0.4996 to 0.543). The
+relaxation's untangling rounds shrink Escobar's
 regularization each round, so that a fold among corners far smaller than
 the median (a reflex input corner next to a short piece) is not lost in
 it, and a sliding point stays between the midpoints to its neighbours (it
@@ -116,6 +122,16 @@ MOST_COUNT = 1.5
 #: A border vertex whose quads' corners there average more than this (degrees) gets
 #: one quad more (:func:`_opened`).
 OPEN_ANGLE = 125.0
+#: :func:`_opened` and :func:`_flowered` add no quad at a border point whose quads'
+#: corners would then average under this (degrees).
+OPEN_LEAST = 45.0
+#: :func:`_closed` takes a quad from a border point whose quads' corners average under
+#: this (degrees).
+CLOSE_ANGLE = 50.0
+#: :func:`_closed`'s new quads may have one corner up to this (degrees; the turned
+#: edge's end loses a quad, its two corners one: about 180 degrees), which the
+#: smoothing that follows opens.
+CLOSE_BEND = 200.0
 #: The kite at a spike's tip (:data:`meshcore.medial.regions.KITE_ANGLE`): the points of
 #: its two sides this times size from the tip (at most a third of the side), its inner
 #: point tried at :data:`KITE_PAST` times their distance past their middle.
@@ -296,6 +312,17 @@ def _on_border(points: np.ndarray, quads: np.ndarray) -> np.ndarray:
     return border
 
 
+def _fan_angle(P: np.ndarray, Q: np.ndarray, start, cells, v: int) -> float:
+    """The sum of the corner angles (radians) of the quads at vertex ``v``."""
+    total = 0.0
+    for q in cells[start[v] : start[v + 1]]:  # a loop over the vertex's quads
+        c = P[Q[q]]
+        i = int(np.flatnonzero(Q[q] == v)[0])
+        a, b = c[i - 1] - c[i], c[(i + 1) % 4] - c[i]
+        total += math.atan2(abs(a[0] * b[1] - a[1] * b[0]), float(a @ b))
+    return total
+
+
 def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """A quad more at every border vertex whose quads' corners there average more
     than :data:`OPEN_ANGLE` (a reflex input corner over 250 degrees that the
@@ -303,9 +330,10 @@ def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
     interior edge ``v - b`` between its two widest corners is opened into a quad
     ``(v, b, z, b2)``, ``b`` split in two along the path ``v - b - z`` (``z`` the
     neighbour of ``b`` across from ``v``; ``b`` keeps the quads on one side, the new
-    point ``b2`` takes the others). ``b`` and ``b2`` start a third of the way to the
-    centroids of their quads, the smoothing that follows places them. Returns the
-    points, the quads and how many edges were opened."""
+    point ``b2`` takes the others); not where ``z`` is a border point whose corners
+    would then average under :data:`OPEN_LEAST`. ``b`` and ``b2`` start a third of the
+    way to the centroids of their quads, the smoothing that follows places them.
+    Returns the points, the quads and how many edges were opened."""
     n = len(points)
     P, Q = points.copy(), quads.copy()
     start, cells = _csr(n, Q)
@@ -337,6 +365,10 @@ def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
             continue
         side1, side2 = ring[: len(ring) // 2], ring[len(ring) // 2 :]
         z = int(Q[side1[-1], (int(np.flatnonzero(Q[side1[-1]] == b)[0]) + 3) % 4])
+        if border[z] and _fan_angle(P, Q, start, cells, z) / (
+            start[z + 1] - start[z] + 1
+        ) < math.radians(OPEN_LEAST):
+            continue
         b2 = n + len(added)
         c1 = P[Q[side1]].reshape(-1, 2).mean(axis=0)
         c2 = P[Q[side2]].reshape(-1, 2).mean(axis=0)
@@ -351,13 +383,62 @@ def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return P, Q, len(added)
 
 
+def _closed(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, int]:
+    """A quad less at every border vertex ``v`` whose quads' corners there average under
+    :data:`CLOSE_ANGLE` (four regions of the partition meeting at a straight boundary
+    point: 45 degrees each at best): the two quads ``(v, a, x, b)`` and ``(v, b, y, c)``
+    around an interior edge ``v - b`` become ``(a, x, b, y)`` and ``(v, a, y, c)`` (the
+    edge turned to ``a - y``), for the edge whose new quads have the largest least
+    corner, when both are strictly convex (exact). The quads keep their count; the
+    smoothing that follows places the points. Returns the quads and how many edges were
+    so turned."""
+    Q = quads.copy()
+    start, cells = _csr(len(points), Q)
+    border = _on_border(points, Q)
+    done = 0
+    for v in np.flatnonzero(border):  # a loop over the border vertices
+        fan = [int(q) for q in cells[start[v] : start[v + 1]]]
+        if len(fan) < 3 or _fan_angle(points, Q, start, cells, v) / len(fan) >= math.radians(
+            CLOSE_ANGLE
+        ):
+            continue
+        best = None
+        for q1 in fan:  # q1 = (v, a, x, b), q2 = (v, b, y, c)
+            r1 = np.roll(Q[q1], -int(np.flatnonzero(Q[q1] == v)[0]))
+            b = int(r1[3])
+            q2 = [q for q in fan if q != q1 and b in Q[q]]
+            if border[b] or len(q2) != 1:
+                continue
+            r2 = np.roll(Q[q2[0]], -int(np.flatnonzero(Q[q2[0]] == v)[0]))
+            if r2[1] != b:
+                continue
+            new = np.array([[r1[1], r1[2], b, r2[2]], [v, r1[1], r2[2], r2[3]]], Q.dtype)
+            ang = quality.quad_angles(points, new)
+            if (folded(points, new) > 1).any() or ang.max() > CLOSE_BEND:
+                continue
+            least = ang.min()
+            if best is None or least > best[0]:
+                best = (least, q1, q2[0], new)
+        if best is None:
+            continue
+        _, q1, q2, new = best
+        Q[q1], Q[q2] = new
+        start, cells = _csr(len(points), Q)
+        done += 1
+    return Q, done
+
+
 def _flowered(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """Every interior vertex held by more than :data:`MOST_VALENCE` quads (a crowded
     junction of the partition: a gear's hub, where each region puts a coarse quad, made
     corners of 33 degrees around it) replaced by a small structured patch: the ``2k``-gon
     of its ``k`` quads gets a ring of ``2k`` quads around an ``a x b`` grid (``a + b =
     k``) on the polygon shrunk to half about the vertex, so that no vertex there holds
-    more than 3 new quads (an O-grid). The smoothing that follows places the points.
+    more than 3 new quads (an O-grid). The fan's far corners get a quad more each: not
+    done where one is a border point whose corners would then average under
+    :data:`OPEN_LEAST` (a 58 degree input corner of a random star, the far corner of
+    its region's coarse quad, got two quads of 29 degrees). The smoothing that follows
+    places the points.
     Returns the points, the quads and how many vertices were so replaced."""
     n = len(points)
     start, cells = _csr(n, quads)
@@ -371,11 +452,17 @@ def _flowered(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.nda
         fan = _around(quads, start, cells, int(v), int(cells[start[v]]))
         if fan is None or len(fan) != val[v] or taken[quads[fan].ravel()].any():
             continue
-        taken[quads[fan].ravel()] = True
         outer = []
         for q in fan:  # (v, x1, x2, x3) counter-clockwise: x1, x2 on the fan's border
             r = np.roll(quads[q], -int(np.flatnonzero(quads[q] == v)[0]))
             outer += [int(r[1]), int(r[2])]
+        far = [x for x in outer[1::2] if border[x]]  # each gets a quad more
+        if any(
+            _fan_angle(points, quads, start, cells, x) / (val[x] + 1) < math.radians(OPEN_LEAST)
+            for x in far
+        ):
+            continue
+        taken[quads[fan].ravel()] = True
         k = len(fan)
         a, b = k // 2, k - k // 2
         ring = points[v] + 0.5 * (points[outer] - points[v])
@@ -755,6 +842,9 @@ def quads_on(part: Partition, size: float | None, levels: int | None, whole: boo
     fixed = np.zeros(len(uniq), dtype=bool)
     fixed[boundary.ravel()] = True
     uniq = _smoothed(uniq, quads, fixed, SMOOTHING_SWEEPS)
+    quads, closed = _closed(uniq, quads)
+    if closed:
+        uniq = _smoothed(uniq, quads, fixed, SMOOTHING_SWEEPS)
     corner = np.zeros(len(uniq), dtype=bool)
     corner[np.asarray(corner_ids, np.int64)] = True
     uniq, relaxed = _relaxed(uniq, quads, corner & fixed, ax)
@@ -772,6 +862,7 @@ def quads_on(part: Partition, size: float | None, levels: int | None, whole: boo
         "relaxed": relaxed,
         "opened": opened,
         "o_grids": flowers,
+        "closed": closed,
         "invalid": int((area <= 0).sum()),
         "slits": sum(len(topology.unique_ints(c)) < len(c) for c in part.cycles),
         "not_convex": int((folded(uniq, quads) > 0).sum()),

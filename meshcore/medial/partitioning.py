@@ -95,26 +95,35 @@ meshed without them, :func:`quad_medial`). On 32 random stars of the issue's kin
 (:func:`tests.meshcore.quads.stars.issue_star` 0-31: 5-60 vertices, radial jitter
 10-80 %, every other one with a star-shaped hole) at size 0.1, away from the quads at
 input corners under 45 degrees (forced: such a corner is held by one quad): corners
-in [30, 150] degrees on 31, least quality 0.3 on 31 and 0.5 on 24 (19 before the
-least corners were lifted, :func:`meshcore.medial.fill.lift_least`; 26, 27 and 11
-before the boundary points slid in the relaxations:
+in [30, 150] degrees on 31, least quality 0.3 on 31 and 0.5 on 27 (24 before the
+other partitions were tried where the first one's least is under :data:`GOOD_LEAST`;
+19 before the least corners were lifted, :func:`meshcore.medial.fill.lift_least`; 26,
+27 and 11 before the boundary points slid in the relaxations:
 :func:`meshcore.medial.fill.boundary_slides`), least 0.24-0.61, quads under 0.5
-there 44 (163 before the lift); the count 0.92-1.47x area / size**2 (1.74x before the
+there 38 (163 before the lift); the count 0.92-1.46x area / size**2 (1.74x before the
 larger stretches, :data:`meshcore.medial.fill.STRETCH`); at size 0.15 least 0.5 on
-20 (14), and the regions are about as small as ``size`` and the coarse quads alone
-pass the count: over 1.5x on 8 of the 32 (13 before the axis was pruned more where
-the count passed, :data:`PRUNE_MORE`; up to 2.86x). Gears of 6-12 teeth at size 0.1:
-least 0.5 on 4 of 7 (0 before the O-grid at their hub,
-:func:`meshcore.medial.fill._flowered`, and the merges at their tooth gaps,
-:data:`~meshcore.medial.regions.BOUNDARY_SHARE`), 0.46-0.62, count 1.21-1.49x; at
-0.15 least 0.5 on 5 of 7, count over 1.5x on 4 (1.68-2.47x). What is left under 0.5:
-the strips of spikes whose base chord is oblique and reflex corners (quads of 36-44
-degrees next to them), thin 4-sided regions between the close nodes of a crowded
-junction of the ``critical`` partition (parallelograms of 42-45 degrees: gear 9,
-star 18), the few regions around its Type 0 nodes with a corner of 10-30 degrees at
-the node (the text's midpoint subdivision of a triangle region), and one star of 53
-vertices with 74 % jitter and no hole (star 22: least 0.24, corners 22-157 degrees,
-in thin regions between its spikes).
+24 (20, 14), count over 1.5x on 7 of the 32 (8 before the small regions were merged,
+:data:`MERGE_COUNT`; 13 before the axis was pruned more where the count passed,
+:data:`PRUNE_MORE`; up to 2.86x). What binds the count there is the input vertices,
+not the regions: every input vertex is a mesh point (so that the area is exact), a
+boundary side of ``k`` of them needs ``k + 1`` divisions, and the coarse quads carry
+that count to their opposite sides, across the regions of the partition (star 17,
+70 vertices for area / size**2 = 140: 1.54x with its regions merged if its input
+vertices did not bind, 2.84x as they do). Gears of 6-12 teeth at size 0.1: least 0.5
+on 6 of 7 (0 before the O-grid at their hub, :func:`meshcore.medial.fill._flowered`,
+and the merges at their tooth gaps, :data:`~meshcore.medial.regions.BOUNDARY_SHARE`;
+4 before a border point of four quads gave one up, :func:`meshcore.medial.fill._closed`),
+0.4997-0.62 (gear 7: corners of 45.0 degrees at a straight point of four quads left),
+count 1.21-1.49x; at 0.15 least 0.5 on 5 of 7, count over 1.5x on 4 (1.68-2.47x,
+bound by their input vertices as above). What is left under 0.5: the strips of
+spikes whose base chord is oblique and reflex corners (quads of 36-44 degrees next
+to them), thin 4-sided regions between the close nodes of a crowded junction of the
+``critical`` partition (parallelograms of 42-45 degrees: gear 9 at 0.15, star 18),
+the few regions around its Type 0 nodes with a corner of 10-30 degrees at the node
+(the text's midpoint subdivision of a triangle region), a spike's strips made coarse
+by the count's stretch (star 31 at 0.15: least 0.27), and one star of 53 vertices
+with 74 % jitter and no hole (star 22: least 0.24 at 0.1, corners 22-157 degrees, in
+thin regions between its spikes).
 Every job succeeds and every quad is strictly convex (``stats["not_convex"]``
 counts them, exact). On 150 random star polygons the ``critical``
 partition so gives only valid quads; the ``terminal`` one's 5- and 6-sided
@@ -170,9 +179,11 @@ from meshcore.medial.regions import (
     _CUT,
     BOUNDARY_SHARE,
     KITE_ANGLE,
+    _ring_area,
     input_fans,
     input_index,
     reflex_merged,
+    small_merged,
     spike_chords,
     turns,
 )
@@ -208,14 +219,20 @@ INNER_FRACTIONS = (0.5, 0.6)
 LEAST_POWER = 8.0
 #: Where the count passes :data:`~meshcore.medial.fill.MOST_COUNT` x area / size**2 on
 #: the axis pruned as asked, the axis is pruned at each larger of these angles (degrees)
-#: in turn, and the first mesh within the count is kept when its least quality away
-#: from input spikes is at least :data:`PRUNE_LEAST` or the first mesh's: fewer branches
+#: in turn (and where the least quality is under :data:`GOOD_LEAST`), and the first mesh
+#: within the count of least quality :data:`GOOD_LEAST` away from input spikes is kept,
+#: else the one of the highest least quality there when that is at least
+#: :data:`PRUNE_LEAST` or the first mesh's: fewer branches
 #: make fewer regions, whose coarse quads bound the count from below (a 12-tooth gear at
 #: size 0.1: 100 regions, 2.46x area / size**2 on the butterfly; 1.30x pruned at 45).
 PRUNE_MORE = (45.0, 60.0, 90.0)
 #: The least quality (away from input spikes) a more pruned mesh must keep (or the
 #: first one's, when lower).
 PRUNE_LEAST = 0.35
+#: Where the first mesh keeps the count but its least quality (away from input spikes)
+#: is under this, the other partitions of :func:`quad_medial` are meshed too and the
+#: one within the count of the highest least quality is kept (the issue's bound, 8.4).
+GOOD_LEAST = 0.5
 
 #: A junction of the ``critical`` partition with more than this many lines (cuts, and
 #: branches to other junctions) is crowded: its cuts within :data:`CROWD_ANGLE` degrees
@@ -235,6 +252,10 @@ LEAST_GIVE = 0.01
 #: Last, the corners of the quads under this quality (8.4) and of two rings of quads
 #: around them are lifted (:func:`meshcore.medial.fill.lift_least`).
 LIFT_BELOW = 0.6
+#: Where every other partition passes :data:`~meshcore.medial.fill.MOST_COUNT` x area /
+#: size**2, small regions are merged until their sides (one coarse quad each) are at
+#: most this x area / size**2 (:func:`meshcore.medial.regions.small_merged`).
+MERGE_COUNT = 1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -473,13 +494,6 @@ def _faces(points: np.ndarray, edges: np.ndarray, kind: np.ndarray, succ: np.nda
     return cycles, corners, kinds
 
 
-def _ring_area(xy: np.ndarray) -> float:
-    """The signed area of a ring, from coordinates relative to its first vertex (the
-    absolute ones lost a spike of area 2e-5 at an offset of 1e6 to cancellation)."""
-    x, y = xy[:, 0] - xy[0, 0], xy[:, 1] - xy[0, 1]
-    return 0.5 * math.fsum(x * np.roll(y, -1) - np.roll(x, -1) * y)
-
-
 def partition(
     domain: Domain | None = None,
     *,
@@ -635,7 +649,9 @@ def quad_medial(
         boundary points on the input boundary (snapped onto its corners
         where the counts allow, which covers a polygonal domain exactly).
         ``stats["prune"]``: the larger pruning angle whose axis was meshed, where the
-        count passed 1.5x area / size**2 on the one asked (:data:`PRUNE_MORE`);
+        count passed 1.5x area / size**2 on the one asked (:data:`PRUNE_MORE`) or its
+        least quality was under :data:`GOOD_LEAST`; ``partition.stats["merged_small"]``:
+        the small regions merged (:data:`MERGE_COUNT`);
         ``stats["fallback"]`` says when a ``terminal`` partition folded and
         the ``critical`` one was meshed instead; ``stats["partition"]`` is
         ``"four-sided"`` or ``"butterfly"`` when one of those was used
@@ -679,20 +695,29 @@ def quad_medial(
     done: dict = {}  # fills and optimized meshes by partition: computed once
     res = _meshed(first, domain, method, size, levels, BOUNDARY_SHARE, special, done)
     res = _lifted(res, domain)
-    if size is None or not _over(res, domain, size):
+    if size is None:
         return res
-    least = min(PRUNE_LEAST, _least_away(res.mesh, domain))
+    over, least = _over(res, domain, size), _least_away(res.mesh, domain)
+    if not over and least >= GOOD_LEAST:
+        return res
+    # the first other mesh within the count of least quality GOOD_LEAST, else the one
+    # within it of the highest least quality; over the count, that one only when its
+    # least is at least PRUNE_LEAST (or the first mesh's)
+    if over:
+        least = min(PRUNE_LEAST, least) - 1e-12
     # the more pruned axes with the regions merged at crowded boundary points, then
     # every axis without those merges (a region merged at a gear's tooth gap has a
-    # longer boundary side, whose input vertices bind its count: BOUNDARY_SHARE)
-    tries = [(BOUNDARY_SHARE, a) for a in more] + [(None, a) for a in (prune, *more)]
+    # longer boundary side, whose input vertices bind its count: BOUNDARY_SHARE), then
+    # every axis with its small regions merged too (MERGE_COUNT)
+    tries = [(BOUNDARY_SHARE, a, False) for a in more] + [(None, a, False) for a in (prune, *more)]
+    tries += [(BOUNDARY_SHARE, a, True) for a in (prune, *more)]
     axis_at = {prune: first}
     tried = [res.mesh.cells_by_type["quad"]]
-    for share, angle in tries:  # a loop over at most seven partitions
+    for share, angle, merge in tries:  # a loop over at most eleven partitions
         if angle not in axis_at:
             axis_at[angle] = next(axes)
         try:
-            alt = _meshed(axis_at[angle], domain, method, size, levels, share, special, done)
+            alt = _meshed(axis_at[angle], domain, method, size, levels, share, special, done, merge)
         except AlgorithmError:
             continue
         # a mesh tried before (a merge that changed nothing; the butterfly again) or
@@ -702,13 +727,17 @@ def quad_medial(
             continue
         tried.append(quads)
         alt = _lifted(alt, domain)
-        if _least_away(alt.mesh, domain) >= least:
+        got = _least_away(alt.mesh, domain)
+        if got > least:
             extra = {"prune": angle} if angle != prune else {}
-            return QuadMedial(
+            res = QuadMedial(
                 mesh=alt.mesh,
                 partition=alt.partition,
                 stats={**alt.stats, **extra, "boundary_merged": share is not None},
             )
+            if got >= GOOD_LEAST:
+                return res
+            least = got
     return res
 
 
@@ -728,7 +757,9 @@ def _least_away(mesh: Mesh, domain: Domain) -> float:
     return float(quality.quad_quality(P, Q)[ok].min(initial=1.0))
 
 
-def _meshed(axis: MedialAxis, domain, method, size, levels, share, special, done) -> QuadMedial:
+def _meshed(
+    axis: MedialAxis, domain, method, size, levels, share, special, done, merge=False
+) -> QuadMedial:
     """:func:`quad_medial` on the axis (of ``domain``; arguments checked), the medial
     partition's regions merged at crowded boundary points as ``share`` says
     (:func:`_medial_fill`); ``special``: :func:`_special` of the domain's samples. Its
@@ -741,7 +772,7 @@ def _meshed(axis: MedialAxis, domain, method, size, levels, share, special, done
             # the butterfly's central quad carries the boundary's count both ways (a gear
             # at size 0.1: 1.88x): the medial partition when it keeps the count
             try:  # (a 2:1 ellipse's medial partition has a 2-sided region: the butterfly)
-                part, mesh2, stats2 = _medial_fill(axis, method, size, levels, share, done)
+                part, mesh2, stats2 = _medial_fill(axis, method, size, levels, share, done, merge)
             except AlgorithmError:
                 part, stats2 = None, {"invalid": 1}
             bad = stats2["invalid"] or stats2["slits"]
@@ -753,13 +784,15 @@ def _meshed(axis: MedialAxis, domain, method, size, levels, share, special, done
             return QuadMedial(mesh=mesh, partition=special, stats={**stats, "partition": kind})
         mesh, stats = mesh2, stats2
     else:
-        part, mesh, stats = _medial_fill(axis, method, size, levels, share, done)
+        part, mesh, stats = _medial_fill(axis, method, size, levels, share, done, merge)
     if (stats["invalid"] or stats["slits"]) and method == "terminal":
         # regions of 5 or 6 sides around reflex corners can fold; the critical
         # partition's triangles and quads do not on the domains tested. A region
         # around a dead-end cut (a slit: its cycle passes a vertex twice) gave a
         # non-conforming fill, a sliver hole along the slit (a random star at size 0.5)
-        fallback, mesh, stats2 = _medial_fill(part.axis, "critical", size, levels, share, done)
+        fallback, mesh, stats2 = _medial_fill(
+            part.axis, "critical", size, levels, share, done, merge
+        )
         stats = {
             **stats2,
             "fallback": f"the terminal partition gave {stats['invalid']} "
@@ -1014,12 +1047,15 @@ def _regions(points: np.ndarray, cycles, corners) -> list[dict]:
     return regions
 
 
-def _medial_fill(axis: MedialAxis, method: str, size, levels, share, done: dict):
+def _medial_fill(axis: MedialAxis, method: str, size, levels, share, done: dict, merge=False):
     """The medial partition (:func:`partition`, regions merged at crowded boundary points:
-    :func:`_reflex_merged` with ``share``) and its fill
+    :func:`_reflex_merged` with ``share``; with ``merge``, small regions merged until
+    their sides are within the count: :func:`_small_merged`) and its fill
     (:func:`meshcore.medial.fill.quads_on`): the partition, the mesh and its stats; the
     fill from ``done`` when the same partition of this axis was filled before."""
     part = _reflex_merged(partition(axis=axis, method=method), share)
+    if merge:
+        part = _small_merged(part, size)
     key = (id(axis), part.points.tobytes(), *(c.tobytes() for c in part.cycles + part.corners))
     if key not in done:  # (the axis held: its id is not reused)
         done[key] = (part, *quads_on(part, size, levels))
@@ -1030,28 +1066,54 @@ def _reflex_merged(part: Partition, share: float | None) -> Partition:
     """The partition with regions merged at crowded reflex input corners and, with
     ``share``, at other crowded boundary points
     (:func:`meshcore.medial.regions.reflex_merged`)."""
-    pts = part.points
     cycles, corners, kinds, removed = reflex_merged(
-        part.axis, pts, part.cycles, part.corners, part.edge_kind, share
+        part.axis, part.points, part.cycles, part.corners, part.edge_kind, share
     )
     if not removed:
         return part
+    return _remade(part, cycles, corners, kinds, {"merged_at_reflex": len(removed)})
+
+
+def _small_merged(part: Partition, size: float) -> Partition:
+    """The partition with small regions merged in pairs until their sides are within
+    :data:`MERGE_COUNT` x area / size**2
+    (:func:`meshcore.medial.regions.small_merged`)."""
+    cycles, corners, kinds, merges = small_merged(
+        part.points,
+        len(part.axis.samples),
+        part.cycles,
+        part.corners,
+        part.edge_kind,
+        size,
+        part.axis.domain.area,
+        MERGE_COUNT,
+    )
+    if not merges:
+        return part
+    return _remade(part, cycles, corners, kinds, {"merged_small": merges})
+
+
+def _remade(part: Partition, cycles, corners, kinds, extra: dict) -> Partition:
+    """``part`` with other regions (vertex cycles over its points, corner flags, edge
+    kinds): its cuts those of the cycles' cut edges, ``extra`` added to its stats."""
+    pts = part.points
+    cut = np.concatenate(
+        [
+            np.column_stack([c, np.roll(c, -1)])[k == _CUT]
+            for c, k in zip(cycles, kinds, strict=True)
+        ]
+    )
+    cut = np.unique(np.sort(cut, axis=1), axis=0)
     regions = _regions(pts, cycles, corners)
-    gone = np.array([np.concatenate([pts[a], pts[b]]) for a, b in removed])
-    c = part.cuts.reshape(-1, 4)
-    drop = (
-        (c[:, None] == gone[None]).all(-1) | (c[:, None] == gone[None][..., [2, 3, 0, 1]]).all(-1)
-    ).any(1)
-    stats = {**part.stats, "regions": len(regions), "merged_at_reflex": len(removed)}
     return Partition(
         regions=regions,
-        cuts=part.cuts[~drop],
+        cuts=np.stack([pts[cut[:, 0]], pts[cut[:, 1]]], axis=1),
         axis=part.axis,
         points=pts,
         cycles=tuple(cycles),
         corners=tuple(corners),
         edge_kind=tuple(kinds),
-        stats=stats,
+        stats={**part.stats, "regions": len(regions), **extra},
     )
 
 

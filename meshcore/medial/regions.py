@@ -36,10 +36,13 @@ from meshcore.medial.axis import MedialAxis
 __all__ = [
     "BOUNDARY_SHARE",
     "KITE_ANGLE",
+    "MERGE_BEND",
+    "MERGE_CORNER",
     "REFLEX_SHARE",
     "input_fans",
     "input_index",
     "reflex_merged",
+    "small_merged",
     "spike_chords",
     "turns",
 ]
@@ -59,6 +62,12 @@ REFLEX_SHARE = 135.0
 #: At any other boundary sample, one region per this many degrees: four regions at a
 #: straight boundary point of a gear's tooth gap gave its quads 45 degrees there.
 BOUNDARY_SHARE = 60.0
+#: :func:`small_merged` keeps a merged region's corners at the merged chain's ends
+#: under this angle (degrees): a reflex region corner folds its coarse quads.
+MERGE_CORNER = 170.0
+#: :func:`small_merged`: an axis node that is no longer a corner lies on a side bent
+#: by at most this (degrees) in every region around it.
+MERGE_BEND = 30.0
 
 
 def turns(ax: MedialAxis) -> np.ndarray:
@@ -257,3 +266,150 @@ def input_fans(P: np.ndarray, Q: np.ndarray, inputs: np.ndarray) -> np.ndarray:
     reflex corner's quads, §9.7.2: an optimization must not take one away)."""
     at = input_index(P, inputs)[Q.ravel()]
     return np.bincount(at[at >= 0], minlength=len(inputs))
+
+
+def _chain_merged(A, fa, ka, B, fb, kb):
+    """The cycle of regions ``A`` and ``B`` (counter-clockwise vertex cycles, corner flags
+    ``fa``, ``fb``, edge kinds ``ka``, ``kb``) joined across the edges they share, when
+    those are one chain: the merged cycle, its corner flags (the chain's ends keep
+    theirs) and kinds, or None (shared edges in several chains, none, or a merged cycle
+    that passes a vertex twice)."""
+    na, nb = len(A), len(B)
+    ea = {(int(A[i]), int(A[(i + 1) % na])): i for i in range(na)}
+    shared = np.array([(int(B[(i + 1) % nb]), int(B[i])) in ea for i in range(nb)])
+    if not shared.any() or shared.all():
+        return None
+    runs = np.flatnonzero(shared & ~np.roll(shared, 1))  # first shared edge of each run in B
+    if len(runs) != 1:
+        return None
+    m = int(shared.sum())
+    s = int(runs[0])  # B's chain: vertices s ... s + m (B's edges s ... s + m - 1)
+    # in A the chain runs from B[s + m] back to B[s]: A from B[s] on to B[s + m] (its
+    # unshared edges), then B from B[s + m] on to B[s]
+    ia = (ea[(int(B[(s + 1) % nb]), int(B[s]))] + 1) % na
+    ra = np.roll(np.arange(na), -ia)[: na - m + 1]
+    rb = np.roll(np.arange(nb), -((s + m) % nb))[: nb - m + 1]
+    verts = np.concatenate([A[ra], B[rb][1:-1]])
+    if len(np.unique(verts)) < len(verts):
+        return None
+    flag = np.concatenate([fa[ra], fb[rb][1:-1]])
+    kind = np.concatenate([ka[ra[:-1]], kb[rb[:-1]]])
+    return verts, flag, kind
+
+
+def _angle_at(points, verts, i) -> float:
+    """Interior angle (degrees) of the counter-clockwise cycle ``verts`` at its vertex ``i``."""
+    a, v, b = points[verts[i - 1]], points[verts[i]], points[verts[(i + 1) % len(verts)]]
+    d1, d2 = b - v, a - v
+    return math.degrees(math.atan2(d1[0] * d2[1] - d1[1] * d2[0], float(d1 @ d2)) % (2 * math.pi))
+
+
+def _merged_pair(points, p, reg, degree, r, o):
+    """Regions ``r`` and ``o`` of ``reg`` (id -> cycle, corner flags, kinds) merged
+    (:func:`_chain_merged`): the merged cycle, corner flags, kinds and the vertices no
+    longer corners anywhere (fewer than three edges left), or None when the merge is
+    refused (:func:`small_merged`)."""
+    got = _chain_merged(*reg[r], *reg[o])
+    if got is None:
+        return None
+    verts, flag, kind = got
+    ends = np.flatnonzero(np.isin(verts, reg[r][0]) & np.isin(verts, reg[o][0])).tolist()
+    low = np.array([verts[i] for i in ends if degree[verts[i]] - 1 < 3], np.int64)
+    flag = flag & ~np.isin(verts, low)
+    if int(flag.sum()) < 3:
+        return None
+    for i in ends:
+        angle = _angle_at(points, verts, i)
+        if flag[i] and angle > MERGE_CORNER:
+            return None
+        if not flag[i] and verts[i] >= p and abs(angle - 180.0) > MERGE_BEND:
+            return None
+    for x, (c, f, _) in reg.items():
+        if x in (r, o) or not np.isin(c, low).any():
+            continue
+        if int((f & ~np.isin(c, low)).sum()) < 3:
+            return None
+        for i in np.flatnonzero(np.isin(c, low) & (c >= p)):
+            if abs(_angle_at(points, c, int(i)) - 180.0) > MERGE_BEND:
+                return None
+    return verts, flag, kind, low
+
+
+def small_merged(points, p: int, cycles, corners, kinds, size: float, area: float, most: float):
+    """Regions merged in pairs across the chain of axis edges and cuts they share until
+    their sides (each one coarse quad of the midpoint subdivision, §8.5.3) are at most
+    ``most`` x ``area`` / ``size**2``: the region of most sides per area first, with
+    the neighbour whose merged region has the fewest sides per area. A merge is made
+    when the merged region is simple and keeps three corners or more, its corners at
+    the chain's ends (where three or more edges still meet) are under
+    :data:`MERGE_CORNER` degrees, and an axis node no longer a corner lies on a side
+    bent by at most :data:`MERGE_BEND` degrees in every region around it. (``p``: the
+    first ``p`` points are boundary samples.) The text's partition is free ("numerous
+    variations can be used", §9.7.1); regions about as small as ``size`` bound the
+    count from below: a random star of 60 vertices at size 0.15 had 95 regions and 333
+    sides for area / size**2 = 140. Returns the cycles, corner flags, edge kinds and
+    how many merges were made."""
+    reg = dict(enumerate(zip(cycles, corners, kinds, strict=True)))  # id -> region
+    budget = most * area / size**2
+    degree = np.zeros(len(points), np.int64)
+    und = {(min(a, b), max(a, b)) for c in cycles for a, b in _edges(c)}
+    for a, b in und:
+        degree[a] += 1
+        degree[b] += 1
+    ring_area = {r: _ring_area(points[c]) for r, (c, _, _) in reg.items()}
+    edges = {r: _edges(c) for r, (c, _, _) in reg.items()}
+    edge_region = {e: r for r, es in edges.items() for e in es}  # directed edge -> region
+    sides = sum(int(f.sum()) for _, f, _ in reg.values())
+    refused: set[tuple[int, int]] = set()  # pairs of region ids
+    merges = 0
+    while sides > budget:
+        best = None
+        order = sorted(reg, key=lambda r: -int(reg[r][1].sum()) / ring_area[r])
+        for r in order:  # a loop over the regions, most sides per area first
+            near = {edge_region[(b, a)] for a, b in edges[r] if (b, a) in edge_region}
+            for o in sorted(near - {r}):
+                if (min(r, o), max(r, o)) in refused:
+                    continue
+                got = _merged_pair(points, p, reg, degree, r, o)
+                if got is None:
+                    refused.add((min(r, o), max(r, o)))
+                    continue
+                score = int(got[1].sum()) / (ring_area[r] + ring_area[o])
+                if best is None or score < best[0]:
+                    best = (score, r, o, got)
+            if best is not None:
+                break
+        if best is None:
+            break
+        _, r, o, (verts, flag, kind, low) = best
+        shared = np.intersect1d(reg[r][0], reg[o][0])
+        # the chain's inner vertices lose both edges, its ends one
+        degree[shared] -= np.where(np.isin(shared, verts), 1, 2)
+        for x in (r, o):
+            reg.pop(x)
+            for e in edges.pop(x):
+                del edge_region[e]
+        for x, (c, f, k) in reg.items():
+            if np.isin(c, low).any():
+                reg[x] = (c, f & ~np.isin(c, low), k)
+        new = max(ring_area) + 1
+        reg[new] = (verts, flag, kind)
+        ring_area[new] = ring_area.pop(r) + ring_area.pop(o)
+        edges[new] = _edges(verts)
+        edge_region.update(dict.fromkeys(edges[new], new))
+        sides = sum(int(f.sum()) for _, f, _ in reg.values())
+        merges += 1
+    cycles, corners, kinds = zip(*reg.values(), strict=True) if reg else ((), (), ())
+    return list(cycles), list(corners), list(kinds), merges
+
+
+def _edges(c: np.ndarray) -> list[tuple[int, int]]:
+    """The directed edges of a vertex cycle."""
+    return list(zip(c.tolist(), np.roll(c, -1).tolist(), strict=True))
+
+
+def _ring_area(xy: np.ndarray) -> float:
+    """The signed area of a ring, from coordinates relative to its first vertex (the
+    absolute ones lost a spike of area 2e-5 at an offset of 1e6 to cancellation)."""
+    x, y = xy[:, 0] - xy[0, 0], xy[:, 1] - xy[0, 1]
+    return 0.5 * math.fsum(x * np.roll(y, -1) - np.roll(x, -1) * y)

@@ -172,3 +172,52 @@ def test_geojson_mapping_is_parsed_as_the_other_methods_do():
     a, b = quad_medial(geo, size=0.1), quad_medial(parse_domain(geo), size=0.1)
     assert np.array_equal(a.mesh.points, b.mesh.points)
     assert np.array_equal(a.mesh.cells_by_type["quad"], b.mesh.cells_by_type["quad"])
+
+
+def test_small_regions_merged_across_their_shared_chain():
+    # a 2 x 1 rectangle cut in two squares: with one coarse quad allowed per unit of
+    # area, the two merge into one region across their cut, whose ends are no longer
+    # corners (two edges left each)
+    from meshcore.medial.regions import small_merged
+
+    P = np.array([[0, 0], [1, 0], [2, 0], [2, 1], [1, 1], [0, 1]], dtype=float)
+    cycles = [np.array([0, 1, 4, 5]), np.array([1, 2, 3, 4])]
+    corners = [np.ones(4, bool), np.ones(4, bool)]
+    kinds = [np.array([0, 2, 0, 0], np.int8), np.array([0, 0, 0, 2], np.int8)]
+    got, flags, kinds2, merges = small_merged(P, 6, cycles, corners, kinds, 1.0, 2.0, 1.0)
+    assert merges == 1 and len(got) == 1
+    assert sorted(got[0].tolist()) == list(range(6))
+    assert sorted(got[0][flags[0]].tolist()) == [0, 2, 3, 5]
+    assert (kinds2[0] == 0).all()  # the cut is gone
+    # the budget met already: nothing merged
+    assert small_merged(P, 6, cycles, corners, kinds, 1.0, 2.0, 4.0)[3] == 0
+
+
+def test_no_o_grid_where_it_would_split_a_sharp_border_corner():
+    # ten quads around a vertex whose far corners are 41 degree spikes of the border: an
+    # O-grid would give each spike two quads of 20 degrees; at 125 degrees it is made
+    from meshcore.medial.fill import _flowered
+
+    t = np.arange(20) * np.pi / 10
+    Q = np.array([[0, 1 + 2 * i, 2 + 2 * i, 1 + (2 * i + 2) % 20] for i in range(10)])
+    for spike, made in ((1.6, 0), (1.0, 1)):
+        rim = np.c_[np.cos(t), np.sin(t)] * np.where(np.arange(20) % 2, spike, 0.9)[:, None]
+        assert _flowered(np.vstack([[0.0, 0.0], rim]), Q)[2] == made
+
+
+def test_a_straight_border_point_of_four_quads_gives_one_up():
+    # four quads of 45 degrees at a straight border point (four regions met there): the
+    # edge between two of them is turned, three quads stay at the point, same area
+    from meshcore.medial.fill import _closed
+
+    t = np.arange(9) * np.pi / 8
+    rim = np.c_[np.cos(t), np.sin(t)]
+    P = np.vstack([[0.0, 0.0], rim, 2 * rim])  # v = 0, p_i = 1 + i, q_i = 10 + i
+    Q = [[0, 1 + 2 * i, 2 + 2 * i, 3 + 2 * i] for i in range(4)]
+    Q += [[1 + i, 10 + i, 11 + i, 2 + i] for i in range(8)]
+    Q = np.array(Q)
+    Q2, closed = _closed(P, Q)
+    assert closed == 1 and (Q2 == 0).any(axis=1).sum() == 3
+    area = quality.signed_area(P, Q2, "quad")
+    assert (area > 0).all()
+    assert area.sum() == pytest.approx(quality.signed_area(P, Q, "quad").sum(), rel=1e-12)
