@@ -415,6 +415,15 @@ def _quad_at(P, C, c, work):
 
 
 @njit(cache=True)
+def _slot(C, c, v):
+    """The corner (0-3) of quad ``c`` at node ``v``."""
+    k = 0
+    while C[c, k] != v:
+        k += 1
+    return k
+
+
+@njit(cache=True)
 def _moved_at(P, C, ptr, cells, v, x, y, judged, floor, shortest, aim, work):
     """Node ``v`` at ``(x, y)``: the least (8.3) of the corners it moves in its judged
     quads (its own and its two neighbours' in each) and their summed squared shortfall
@@ -425,9 +434,7 @@ def _moved_at(P, C, ptr, cells, v, x, y, judged, floor, shortest, aim, work):
     short = 0.0
     for j in range(ptr[v], ptr[v + 1]):
         c = cells[j]
-        k = 0
-        while C[c, k] != v:
-            k += 1
+        k = _slot(C, c, v)
         for s in (3, 1):
             w = C[c, (k + s) % 4]
             if math.hypot(P[w, 0] - x, P[w, 1] - y) < shortest:
@@ -455,9 +462,7 @@ def _lift_corners(P, C, mode, slide, judged, aim, keep):
     for v in range(n):
         for j in range(ptr[v], ptr[v + 1]):
             c = cells[j]
-            k = 0
-            while C[c, k] != v:
-                k += 1
+            k = _slot(C, c, v)
             for s in (3, 1):
                 w = C[c, (k + s) % 4]
                 e = math.hypot(P[w, 0] - P[v, 0], P[v, 1] - P[w, 1])
