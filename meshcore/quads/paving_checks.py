@@ -3,8 +3,8 @@
 A helper of :mod:`meshcore.quads.advancing_front` (its module docstring,
 step 4): which quads of a row may be laid, every sign through the compiled
 exact predicates of :mod:`meshcore.quads.paving_kernel`. Each check looks
-only at the front edges near the row (:func:`_near_box`): the fronts of a
-large domain have thousands of nodes and a row tens of quads.
+only at the front edges near the row (:func:`~meshcore.quads.paving_kernel.front_near`):
+the fronts of a large domain have thousands of nodes and a row tens of quads.
 """
 
 from __future__ import annotations
@@ -39,12 +39,15 @@ def _good_quads(
     ok &= (quads[:, [0, 1, 2, 3]] != quads[:, [1, 2, 3, 0]]).all(axis=1)
     ok &= (quads[:, 0] != quads[:, 2]) & (quads[:, 1] != quads[:, 3])
     fa, fb = _chains(fronts)
-    r = float(np.hypot(*(Q[fb] - Q[fa]).T).max()) if len(fa) else 0.0
     new_nodes = unique_ints(quads[quads >= n_old])
     cen = Q[quads].mean(axis=1)
     rad = np.sqrt(((Q[quads] - cen[:, None, :]) ** 2).sum(axis=2)).max(axis=1)
     reach = max(gap, _CLEARANCE) * float(h[new_nodes].max()) if len(new_nodes) else 0.0
-    fa, fb = _near_box(Q, fa, fb, Q[quads].reshape(-1, 2), max(float(rad.max()) * 1.0001, reach))
+    # only the front edges whose box meets the row's grown by the reach (``r``: the longest
+    # front edge, so that pairs of segments whose midpoints lie within r include every touch)
+    X, margin = Q[quads].reshape(-1, 2), max(float(rad.max()) * 1.0001, reach)
+    r, near = pk.front_near(Q, fa, fb, X.min(axis=0) - margin, X.max(axis=0) + margin)
+    fa, fb = fa[near], fb[near]
     qa, qb = quads.ravel(), np.roll(quads, -1, axis=1).ravel()
     qid = np.repeat(np.arange(m), 4)
     qkey = _edge_keys(qa, qb, N)
@@ -53,16 +56,7 @@ def _good_quads(
     n_new = len(ukey)
     seg_a = np.concatenate([qa[fresh][first], fa])
     seg_b = np.concatenate([qb[fresh][first], fb])
-    bad_seg = np.zeros(n_new, bool)
-    if n_new:
-        mid = (Q[seg_a] + Q[seg_b]) / 2
-        r = max(r, float(np.hypot(*(Q[seg_b[:n_new]] - Q[seg_a[:n_new]]).T).max()))
-        pi, pj, _ = pk.near_pairs(mid[:n_new], mid, r)
-        pairs = np.column_stack([pi, pj])
-        pairs = pairs[pairs[:, 0] != pairs[:, 1]]
-        hit = pairs[pk.pairs_touch(Q, seg_a, seg_b, pairs)]
-        bad_seg[hit[:, 0]] = True
-        bad_seg[hit[hit[:, 1] < n_new, 1]] = True
+    bad_seg = pk.fresh_edges_touch(Q, seg_a, seg_b, n_new, r)
     bad_q = np.zeros(m, bool)
     bad_q[qid[fresh][bad_seg[inv]]] = True
     ok &= ~bad_q
@@ -91,13 +85,3 @@ def _good_quads(
         if len(bad):
             ok[isin_ints(quads, bad).any(axis=1)] = False
     return ok
-
-
-def _near_box(Q: np.ndarray, fa: np.ndarray, fb: np.ndarray, X: np.ndarray, margin: float):
-    """The front edges ``(fa, fb)`` whose bounding box meets that of the points ``X``
-    grown by ``margin`` on every side: every edge that can touch a segment between
-    points of ``X``, or have an end within ``margin`` of one of them."""
-    lo, hi = X.min(axis=0) - margin, X.max(axis=0) + margin
-    A, B = Q[fa], Q[fb]
-    near = ((np.minimum(A, B) <= hi) & (np.maximum(A, B) >= lo)).all(axis=1)
-    return fa[near], fb[near]

@@ -10,13 +10,22 @@ call, so a tree would be rebuilt anyway).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
 from meshcore.partition.kernel import orient, strictly_convex_rows, touch
 from meshcore.partition.smoothing import quad_q
 
-__all__ = ["near_pairs", "pairs_touch", "points_in_quads", "strictly_convex_rows"]
+__all__ = [
+    "fresh_edges_touch",
+    "front_near",
+    "near_pairs",
+    "pairs_touch",
+    "points_in_quads",
+    "strictly_convex_rows",
+]
 
 
 @njit(cache=True)
@@ -157,3 +166,56 @@ def convex_and_good(P, quads, q_min):
         if out[r] and quad_q(P, quads, r) < q_min:
             out[r] = False
     return out
+
+
+@njit(cache=True)
+def front_near(P, fa, fb, lo, hi):
+    """``(r, near)``: the length of the longest front edge (fa[k], fb[k]) (0 if none),
+    and whether each edge's bounding box meets the box ``[lo, hi]`` (closed): every
+    edge that can touch a segment inside that box. One pass over the fronts."""
+    r = 0.0
+    near = np.zeros(len(fa), np.bool_)
+    for k in range(len(fa)):
+        ax = P[fa[k], 0]
+        ay = P[fa[k], 1]
+        bx = P[fb[k], 0]
+        by = P[fb[k], 1]
+        r = max(r, math.hypot(bx - ax, by - ay))
+        near[k] = (
+            min(ax, bx) <= hi[0]
+            and min(ay, by) <= hi[1]
+            and max(ax, bx) >= lo[0]
+            and max(ay, by) >= lo[1]
+        )
+    return r, near
+
+
+@njit(cache=True)
+def fresh_edges_touch(P, seg_a, seg_b, n_new, r):
+    """(n_new,) bool: whether each of the first ``n_new`` segments (seg_a[s], seg_b[s])
+    touches another of the segments (:func:`pairs_touch`).
+
+    Only pairs whose midpoints lie within ``r`` are tested, ``r`` raised to the
+    longest of the first ``n_new`` segments (so ``r`` at least the longest of the
+    others too covers every touching pair).
+    """
+    n = len(seg_a)
+    mid = np.empty((n, 2))
+    for s in range(n):
+        mid[s, 0] = (P[seg_a[s], 0] + P[seg_b[s], 0]) / 2
+        mid[s, 1] = (P[seg_a[s], 1] + P[seg_b[s], 1]) / 2
+    for s in range(n_new):
+        r = max(r, math.hypot(P[seg_b[s], 0] - P[seg_a[s], 0], P[seg_b[s], 1] - P[seg_a[s], 1]))
+    pi, pj, _ = near_pairs(mid[:n_new].copy(), mid, r)
+    keep = pi != pj
+    pairs = np.empty((keep.sum(), 2), np.int64)
+    pairs[:, 0] = pi[keep]
+    pairs[:, 1] = pj[keep]
+    hit = pairs_touch(P, seg_a, seg_b, pairs)
+    bad = np.zeros(n_new, np.bool_)
+    for k in range(len(pairs)):
+        if hit[k]:
+            bad[pairs[k, 0]] = True
+            if pairs[k, 1] < n_new:
+                bad[pairs[k, 1]] = True
+    return bad
