@@ -71,17 +71,5 @@ def _good_quads(
         other = np.zeros(len(Q), bool)
         for k, g in enumerate(fronts):
             other[g] = k != which
-        # a new node of a quad joined to another front (a merge) keeps the small clearance
-        joined = np.zeros(len(Q), bool)
-        joined[quads[other[quads].any(axis=1)]] = True
-        hx = h[new_nodes]
-        i, t, dist = pk.near_pairs(Q[new_nodes], Q[nodes], max(gap, _CLEARANCE) * float(hx.max()))
-        x, y = new_nodes[i], nodes[t]
-        lim = np.where(joined[x] | ~other[y], _CLEARANCE, gap)
-        close = (dist < lim * hx[i]) & (x != y)
-        # allowed: the corners of the quads at x
-        mine = (quads[:, :, None] * N + quads[:, None, :]).ravel()
-        bad = x[close][~isin_ints(x[close] * N + y[close], mine)]
-        if len(bad):
-            ok[isin_ints(quads, bad).any(axis=1)] = False
+        ok &= ~pk.quads_too_close(Q, quads, new_nodes, nodes, h[new_nodes], other, gap, _CLEARANCE)
     return ok

@@ -23,6 +23,7 @@ __all__ = [
     "front_near",
     "near_pairs",
     "pairs_touch",
+    "quads_too_close",
     "points_in_quads",
     "strictly_convex_rows",
 ]
@@ -219,3 +220,46 @@ def fresh_edges_touch(P, seg_a, seg_b, n_new, r):
             if pairs[k, 1] < n_new:
                 bad[pairs[k, 1]] = True
     return bad
+
+
+@njit(cache=True)
+def quads_too_close(P, quads, new_nodes, nodes, hx, other, gap, clearance):
+    """(m,) bool: the quads with a new node x too close to a node y of ``nodes``.
+
+    Too close: ``|x - y| < lim * hx`` (``hx`` the size at x), ``lim`` being
+    ``clearance`` when y is not on another front (``other[y]`` false) or x is a
+    corner of a quad that has a node on one (a merge), ``gap`` otherwise; y may
+    be x or a corner of a quad of x.
+    """
+    m = len(quads)
+    joined = np.zeros(len(P), np.bool_)
+    for q in range(m):
+        if other[quads[q, 0]] or other[quads[q, 1]] or other[quads[q, 2]] or other[quads[q, 3]]:
+            for c in range(4):
+                joined[quads[q, c]] = True
+    i, t, dist = near_pairs(P[new_nodes], P[nodes], max(gap, clearance) * hx.max())
+    bad = np.zeros(len(P), np.bool_)
+    for k in range(len(i)):
+        x = new_nodes[i[k]]
+        y = nodes[t[k]]
+        lim = clearance if joined[x] or not other[y] else gap
+        if not (dist[k] < lim * hx[i[k]]) or x == y:
+            continue
+        mine = False
+        for q in range(m):
+            has_x = False
+            has_y = False
+            for c in range(4):
+                has_x = has_x or quads[q, c] == x
+                has_y = has_y or quads[q, c] == y
+            if has_x and has_y:
+                mine = True
+                break
+        if not mine:
+            bad[x] = True
+    out = np.zeros(m, np.bool_)
+    for q in range(m):
+        for c in range(4):
+            if bad[quads[q, c]]:
+                out[q] = True
+    return out
