@@ -19,6 +19,7 @@ from meshcore.partition.kernel import orient, strictly_convex_rows, touch
 from meshcore.partition.smoothing import quad_q
 
 __all__ = [
+    "cycles",
     "fresh_edges_touch",
     "front_near",
     "near_pairs",
@@ -263,3 +264,28 @@ def quads_too_close(P, quads, new_nodes, nodes, hx, other, gap, clearance):
             if bad[quads[q, c]]:
                 out[q] = True
     return out
+
+
+@njit(cache=True)
+def cycles(succ):
+    """``(order, cuts)``: the cycles of the permutation ``succ`` (i -> succ[i]), each
+    from its largest index along succ, the cycles by their largest index descending;
+    ``np.split(order, cuts)`` lists them."""
+    k = len(succ)
+    order = np.empty(k, np.int64)
+    cuts = np.empty(k, np.int64)
+    seen = np.zeros(k, np.bool_)
+    n = 0
+    c = 0
+    for i in range(k - 1, -1, -1):  # i unseen: the largest index of its cycle
+        if seen[i]:
+            continue
+        cuts[c] = n
+        c += 1
+        j = i
+        while not seen[j]:
+            seen[j] = True
+            order[n] = j
+            n += 1
+            j = succ[j]
+    return order, cuts[1:c].copy()
