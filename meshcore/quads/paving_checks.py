@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from meshcore.mesh.topology import isin_ints, unique_ints
+from meshcore.mesh.topology import unique_ints
 from meshcore.quads import paving_kernel as pk
-from meshcore.quads.paving_fronts import _MIN_Q, _chains, _edge_keys
+from meshcore.quads.paving_fronts import _MIN_Q, _chains
 
 _CLEARANCE = 0.5  # a row's new nodes stay this far (times h) from other nodes...
 _GAP = 2.0  # ... and this far from the nodes of other fronts, unless joined to one
@@ -34,7 +34,6 @@ def _good_quads(
     check). ``h`` is the size at each point of ``Q``. The quads that pass
     form a set that overlaps no front and no other of them.
     """
-    m, N = len(quads), len(Q)
     ok = pk.convex_and_good(Q, quads, _MIN_Q)
     ok &= (quads[:, [0, 1, 2, 3]] != quads[:, [1, 2, 3, 0]]).all(axis=1)
     ok &= (quads[:, 0] != quads[:, 2]) & (quads[:, 1] != quads[:, 3])
@@ -48,18 +47,7 @@ def _good_quads(
     X, margin = Q[quads].reshape(-1, 2), max(float(rad.max()) * 1.0001, reach)
     r, near = pk.front_near(Q, fa, fb, X.min(axis=0) - margin, X.max(axis=0) + margin)
     fa, fb = fa[near], fb[near]
-    qa, qb = quads.ravel(), np.roll(quads, -1, axis=1).ravel()
-    qid = np.repeat(np.arange(m), 4)
-    qkey = _edge_keys(qa, qb, N)
-    fresh = ~isin_ints(qkey, _edge_keys(fa, fb, N))
-    ukey, first, inv = unique_ints(qkey[fresh], return_index=True, return_inverse=True)
-    n_new = len(ukey)
-    seg_a = np.concatenate([qa[fresh][first], fa])
-    seg_b = np.concatenate([qb[fresh][first], fb])
-    bad_seg = pk.fresh_edges_touch(Q, seg_a, seg_b, n_new, r)
-    bad_q = np.zeros(m, bool)
-    bad_q[qid[fresh][bad_seg[inv]]] = True
-    ok &= ~bad_q
+    ok &= ~pk.fresh_touch_quads(Q, quads, fa, fb, r)
     # nodes inside quads, and new nodes too close to a node not of their quads
     nodes = np.concatenate([unique_ints(fa), new_nodes])
     ci, cj, cd = pk.near_pairs(cen, Q[nodes], float(rad.max()) * 1.0001)

@@ -21,6 +21,7 @@ from meshcore.partition.smoothing import quad_q
 __all__ = [
     "cycles",
     "fresh_edges_touch",
+    "fresh_touch_quads",
     "front_near",
     "near_pairs",
     "pairs_touch",
@@ -289,3 +290,46 @@ def cycles(succ):
             n += 1
             j = succ[j]
     return order, cuts[1:c].copy()
+
+
+@njit(cache=True)
+def fresh_touch_quads(P, quads, fa, fb, r):
+    """(m,) bool: the quads with an edge that is not a front edge (fa[k], fb[k]) and
+    touches a front edge or another such edge (:func:`fresh_edges_touch`, each
+    edge once, ``r`` at least the longest front edge)."""
+    m = len(quads)
+    n = len(P)
+    front = np.empty(len(fa), np.int64)
+    for k in range(len(fa)):
+        front[k] = min(fa[k], fb[k]) * n + max(fa[k], fb[k])
+    front.sort()
+    seg = np.full(4 * m, -1, np.int64)  # each quad edge's fresh segment, -1 on a front edge
+    keys = np.empty(4 * m, np.int64)
+    seg_a = np.empty(4 * m + len(fa), np.int64)
+    seg_b = np.empty(4 * m + len(fa), np.int64)
+    n_new = 0
+    for e in range(4 * m):
+        a = quads[e // 4, e % 4]
+        b = quads[e // 4, (e % 4 + 1) % 4]
+        key = min(a, b) * n + max(a, b)
+        at = np.searchsorted(front, key)
+        if at < len(front) and front[at] == key:
+            continue
+        for s in range(n_new):
+            if keys[s] == key:
+                seg[e] = s
+                break
+        if seg[e] < 0:
+            keys[n_new] = key
+            seg_a[n_new] = a
+            seg_b[n_new] = b
+            seg[e] = n_new
+            n_new += 1
+    seg_a[n_new : n_new + len(fa)] = fa
+    seg_b[n_new : n_new + len(fa)] = fb
+    bad = fresh_edges_touch(P, seg_a[: n_new + len(fa)], seg_b[: n_new + len(fa)], n_new, r)
+    out = np.zeros(m, np.bool_)
+    for e in range(4 * m):
+        if seg[e] >= 0 and bad[seg[e]]:
+            out[e // 4] = True
+    return out
