@@ -42,12 +42,11 @@ def _good_quads(
     cen = Q[quads].mean(axis=1)
     rad = np.sqrt(((Q[quads] - cen[:, None, :]) ** 2).sum(axis=2)).max(axis=1)
     reach = max(gap, _CLEARANCE) * float(h[new_nodes].max()) if len(new_nodes) else 0.0
-    # only the front edges whose box meets the row's grown by the reach (``r``: the longest
-    # front edge, so that pairs of segments whose midpoints lie within r include every touch)
+    # only the front edges whose box meets the row's grown by the reach
     X, margin = Q[quads].reshape(-1, 2), max(float(rad.max()) * 1.0001, reach)
-    r, near = pk.front_near(Q, fa, fb, X.min(axis=0) - margin, X.max(axis=0) + margin)
+    near = pk.front_near(Q, fa, fb, X.min(axis=0) - margin, X.max(axis=0) + margin)
     fa, fb = fa[near], fb[near]
-    ok &= ~pk.fresh_touch_quads(Q, quads, fa, fb, r)
+    ok &= ~pk.fresh_touch_quads(Q, quads, fa, fb)
     # nodes inside quads, and new nodes too close to a node not of their quads
     nodes = np.concatenate([unique_ints(fa), new_nodes])
     ci, cj, cd = pk.near_pairs(cen, Q[nodes], float(rad.max()) * 1.0001)

@@ -173,44 +173,43 @@ def convex_and_good(P, quads, q_min):
 
 @njit(cache=True)
 def front_near(P, fa, fb, lo, hi):
-    """``(r, near)``: the length of the longest front edge (fa[k], fb[k]) (0 if none),
-    and whether each edge's bounding box meets the box ``[lo, hi]`` (closed): every
-    edge that can touch a segment inside that box. One pass over the fronts."""
-    r = 0.0
+    """(k,) bool: whether each front edge's (fa[k], fb[k]) bounding box meets the box
+    ``[lo, hi]`` (closed): every edge that can touch a segment inside that box."""
     near = np.zeros(len(fa), np.bool_)
     for k in range(len(fa)):
         ax = P[fa[k], 0]
         ay = P[fa[k], 1]
         bx = P[fb[k], 0]
         by = P[fb[k], 1]
-        r = max(r, math.hypot(bx - ax, by - ay))
         near[k] = (
             min(ax, bx) <= hi[0]
             and min(ay, by) <= hi[1]
             and max(ax, bx) >= lo[0]
             and max(ay, by) >= lo[1]
         )
-    return r, near
+    return near
 
 
 @njit(cache=True)
-def fresh_edges_touch(P, seg_a, seg_b, n_new, r):
+def fresh_edges_touch(P, seg_a, seg_b, n_new):
     """(n_new,) bool: whether each of the first ``n_new`` segments (seg_a[s], seg_b[s])
     touches another of the segments (:func:`pairs_touch`).
 
-    Only pairs whose midpoints lie within ``r`` are tested, ``r`` raised to the
-    longest of the first ``n_new`` segments (so ``r`` at least the longest of the
-    others too covers every touching pair).
+    Segments that share a point have midpoints at most half the sum of their lengths
+    apart: only such pairs (with a margin far above rounding) are tested exactly.
     """
     n = len(seg_a)
     mid = np.empty((n, 2))
+    half = np.empty(n)
+    longest = 0.0
     for s in range(n):
         mid[s, 0] = (P[seg_a[s], 0] + P[seg_b[s], 0]) / 2
         mid[s, 1] = (P[seg_a[s], 1] + P[seg_b[s], 1]) / 2
-    for s in range(n_new):
-        r = max(r, math.hypot(P[seg_b[s], 0] - P[seg_a[s], 0], P[seg_b[s], 1] - P[seg_a[s], 1]))
-    pi, pj, _ = near_pairs(mid[:n_new].copy(), mid, r)
-    keep = pi != pj
+        half[s] = math.hypot(P[seg_b[s], 0] - P[seg_a[s], 0], P[seg_b[s], 1] - P[seg_a[s], 1]) / 2
+        longest = max(longest, 2 * half[s])
+    slack = 1e-9 * longest
+    pi, pj, d = near_pairs(mid[:n_new].copy(), mid, 1.0001 * longest + slack)
+    keep = (pi != pj) & (d <= 1.0001 * (half[pi] + half[pj]) + slack)
     pairs = np.empty((keep.sum(), 2), np.int64)
     pairs[:, 0] = pi[keep]
     pairs[:, 1] = pj[keep]
@@ -293,10 +292,10 @@ def cycles(succ):
 
 
 @njit(cache=True)
-def fresh_touch_quads(P, quads, fa, fb, r):
+def fresh_touch_quads(P, quads, fa, fb):
     """(m,) bool: the quads with an edge that is not a front edge (fa[k], fb[k]) and
     touches a front edge or another such edge (:func:`fresh_edges_touch`, each
-    edge once, ``r`` at least the longest front edge)."""
+    edge once)."""
     m = len(quads)
     n = len(P)
     front = np.empty(len(fa), np.int64)
@@ -304,10 +303,9 @@ def fresh_touch_quads(P, quads, fa, fb, r):
         front[k] = min(fa[k], fb[k]) * n + max(fa[k], fb[k])
     front.sort()
     seg = np.full(4 * m, -1, np.int64)  # each quad edge's fresh segment, -1 on a front edge
+    edge = np.empty(4 * m, np.int64)  # the quad edges not on a front, and their keys
     keys = np.empty(4 * m, np.int64)
-    seg_a = np.empty(4 * m + len(fa), np.int64)
-    seg_b = np.empty(4 * m + len(fa), np.int64)
-    n_new = 0
+    k = 0
     for e in range(4 * m):
         a = quads[e // 4, e % 4]
         b = quads[e // 4, (e % 4 + 1) % 4]
@@ -315,19 +313,23 @@ def fresh_touch_quads(P, quads, fa, fb, r):
         at = np.searchsorted(front, key)
         if at < len(front) and front[at] == key:
             continue
-        for s in range(n_new):
-            if keys[s] == key:
-                seg[e] = s
-                break
-        if seg[e] < 0:
-            keys[n_new] = key
-            seg_a[n_new] = a
-            seg_b[n_new] = b
-            seg[e] = n_new
+        edge[k] = e
+        keys[k] = key
+        k += 1
+    seg_a = np.empty(k + len(fa), np.int64)
+    seg_b = np.empty(k + len(fa), np.int64)
+    n_new = 0
+    order = np.argsort(keys[:k], kind="mergesort")  # stable: each key's first edge first
+    for i in range(k):
+        e = edge[order[i]]
+        if i == 0 or keys[order[i]] != keys[order[i - 1]]:
+            seg_a[n_new] = quads[e // 4, e % 4]
+            seg_b[n_new] = quads[e // 4, (e % 4 + 1) % 4]
             n_new += 1
+        seg[e] = n_new - 1
     seg_a[n_new : n_new + len(fa)] = fa
     seg_b[n_new : n_new + len(fa)] = fb
-    bad = fresh_edges_touch(P, seg_a[: n_new + len(fa)], seg_b[: n_new + len(fa)], n_new, r)
+    bad = fresh_edges_touch(P, seg_a[: n_new + len(fa)], seg_b[: n_new + len(fa)], n_new)
     out = np.zeros(m, np.bool_)
     for e in range(4 * m):
         if seg[e] >= 0 and bad[seg[e]]:
