@@ -3,17 +3,17 @@
 A helper of :mod:`meshcore.quads.advancing_front` (its module docstring,
 step 4): which quads of a row may be laid, every sign through the compiled
 exact predicates of :mod:`meshcore.quads.paving_kernel`. Each check looks
-only at the front edges near the row (:func:`_near_box`): the fronts of a
-large domain have thousands of nodes and a row tens of quads.
+only at the front edges near the row (:func:`~meshcore.quads.paving_kernel.front_near`):
+the fronts of a large domain have thousands of nodes and a row tens of quads.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from meshcore.mesh.topology import isin_ints, unique_ints
+from meshcore.mesh.topology import unique_ints
 from meshcore.quads import paving_kernel as pk
-from meshcore.quads.paving_fronts import _MIN_Q, _chains, _edge_keys
+from meshcore.quads.paving_fronts import _MIN_Q, _chains
 
 _CLEARANCE = 0.5  # a row's new nodes stay this far (times h) from other nodes...
 _GAP = 2.0  # ... and this far from the nodes of other fronts, unless joined to one
@@ -34,38 +34,19 @@ def _good_quads(
     check). ``h`` is the size at each point of ``Q``. The quads that pass
     form a set that overlaps no front and no other of them.
     """
-    m, N = len(quads), len(Q)
     ok = pk.convex_and_good(Q, quads, _MIN_Q)
     ok &= (quads[:, [0, 1, 2, 3]] != quads[:, [1, 2, 3, 0]]).all(axis=1)
     ok &= (quads[:, 0] != quads[:, 2]) & (quads[:, 1] != quads[:, 3])
     fa, fb = _chains(fronts)
-    r = float(np.hypot(*(Q[fb] - Q[fa]).T).max()) if len(fa) else 0.0
     new_nodes = unique_ints(quads[quads >= n_old])
     cen = Q[quads].mean(axis=1)
     rad = np.sqrt(((Q[quads] - cen[:, None, :]) ** 2).sum(axis=2)).max(axis=1)
     reach = max(gap, _CLEARANCE) * float(h[new_nodes].max()) if len(new_nodes) else 0.0
-    fa, fb = _near_box(Q, fa, fb, Q[quads].reshape(-1, 2), max(float(rad.max()) * 1.0001, reach))
-    qa, qb = quads.ravel(), np.roll(quads, -1, axis=1).ravel()
-    qid = np.repeat(np.arange(m), 4)
-    qkey = _edge_keys(qa, qb, N)
-    fresh = ~isin_ints(qkey, _edge_keys(fa, fb, N))
-    ukey, first, inv = unique_ints(qkey[fresh], return_index=True, return_inverse=True)
-    n_new = len(ukey)
-    seg_a = np.concatenate([qa[fresh][first], fa])
-    seg_b = np.concatenate([qb[fresh][first], fb])
-    bad_seg = np.zeros(n_new, bool)
-    if n_new:
-        mid = (Q[seg_a] + Q[seg_b]) / 2
-        r = max(r, float(np.hypot(*(Q[seg_b[:n_new]] - Q[seg_a[:n_new]]).T).max()))
-        pi, pj, _ = pk.near_pairs(mid[:n_new], mid, r)
-        pairs = np.column_stack([pi, pj])
-        pairs = pairs[pairs[:, 0] != pairs[:, 1]]
-        hit = pairs[pk.pairs_touch(Q, seg_a, seg_b, pairs)]
-        bad_seg[hit[:, 0]] = True
-        bad_seg[hit[hit[:, 1] < n_new, 1]] = True
-    bad_q = np.zeros(m, bool)
-    bad_q[qid[fresh][bad_seg[inv]]] = True
-    ok &= ~bad_q
+    # only the front edges whose box meets the row's grown by the reach
+    X, margin = Q[quads].reshape(-1, 2), max(float(rad.max()) * 1.0001, reach)
+    near = pk.front_near(Q, fa, fb, X.min(axis=0) - margin, X.max(axis=0) + margin)
+    fa, fb = fa[near], fb[near]
+    ok &= ~pk.fresh_touch_quads(Q, quads, fa, fb)
     # nodes inside quads, and new nodes too close to a node not of their quads
     nodes = np.concatenate([unique_ints(fa), new_nodes])
     ci, cj, cd = pk.near_pairs(cen, Q[nodes], float(rad.max()) * 1.0001)
@@ -77,27 +58,5 @@ def _good_quads(
         other = np.zeros(len(Q), bool)
         for k, g in enumerate(fronts):
             other[g] = k != which
-        # a new node of a quad joined to another front (a merge) keeps the small clearance
-        joined = np.zeros(len(Q), bool)
-        joined[quads[other[quads].any(axis=1)]] = True
-        hx = h[new_nodes]
-        i, t, dist = pk.near_pairs(Q[new_nodes], Q[nodes], max(gap, _CLEARANCE) * float(hx.max()))
-        x, y = new_nodes[i], nodes[t]
-        lim = np.where(joined[x] | ~other[y], _CLEARANCE, gap)
-        close = (dist < lim * hx[i]) & (x != y)
-        # allowed: the corners of the quads at x
-        mine = (quads[:, :, None] * N + quads[:, None, :]).ravel()
-        bad = x[close][~isin_ints(x[close] * N + y[close], mine)]
-        if len(bad):
-            ok[isin_ints(quads, bad).any(axis=1)] = False
+        ok &= ~pk.quads_too_close(Q, quads, new_nodes, nodes, h[new_nodes], other, gap, _CLEARANCE)
     return ok
-
-
-def _near_box(Q: np.ndarray, fa: np.ndarray, fb: np.ndarray, X: np.ndarray, margin: float):
-    """The front edges ``(fa, fb)`` whose bounding box meets that of the points ``X``
-    grown by ``margin`` on every side: every edge that can touch a segment between
-    points of ``X``, or have an end within ``margin`` of one of them."""
-    lo, hi = X.min(axis=0) - margin, X.max(axis=0) + margin
-    A, B = Q[fa], Q[fb]
-    near = ((np.minimum(A, B) <= hi) & (np.maximum(A, B) >= lo)).all(axis=1)
-    return fa[near], fb[near]

@@ -90,20 +90,8 @@ def _trace(fronts: list, quads: np.ndarray, n: int) -> list | None:
     succ = np.searchsorted(a, b).clip(0, k - 1)
     if (np.diff(a) == 0).any() or (a[succ] != b).any() or len(unique_ints(succ)) != k:
         return None  # a node with two outgoing edges, or a chain that is not closed
-    # each cycle from its largest node, the cycles by their largest node, descending:
-    # pointer doubling for the largest index of each cycle, then list ranking
-    top, jump = np.arange(k), succ.copy()
-    for _ in range(k.bit_length() + 1):
-        top = np.maximum(top, top[jump])
-        jump = jump[jump]
-    last = succ == top  # the cycle's last node before its largest
-    rank = (~last).astype(np.int64)
-    jump = np.where(last, np.arange(k), succ)
-    for _ in range(k.bit_length() + 1):
-        rank = rank + rank[jump]
-        jump = jump[jump]
-    order = np.lexsort((-rank, -top))
-    cuts = np.flatnonzero(np.diff(top[order])) + 1
+    # each cycle from its largest node, the cycles by their largest node, descending
+    order, cuts = pk.cycles(succ)
     loops = np.split(a[order], cuts)
     if any(len(c) < 4 or len(c) % 2 for c in loops):
         return None

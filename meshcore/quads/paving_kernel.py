@@ -10,13 +10,25 @@ call, so a tree would be rebuilt anyway).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
 from meshcore.partition.kernel import orient, strictly_convex_rows, touch
 from meshcore.partition.smoothing import quad_q
 
-__all__ = ["near_pairs", "pairs_touch", "points_in_quads", "strictly_convex_rows"]
+__all__ = [
+    "cycles",
+    "fresh_edges_touch",
+    "fresh_touch_quads",
+    "front_near",
+    "near_pairs",
+    "pairs_touch",
+    "quads_too_close",
+    "points_in_quads",
+    "strictly_convex_rows",
+]
 
 
 @njit(cache=True)
@@ -156,4 +168,170 @@ def convex_and_good(P, quads, q_min):
     for r in range(len(quads)):
         if out[r] and quad_q(P, quads, r) < q_min:
             out[r] = False
+    return out
+
+
+@njit(cache=True)
+def front_near(P, fa, fb, lo, hi):
+    """(k,) bool: whether each front edge's (fa[k], fb[k]) bounding box meets the box
+    ``[lo, hi]`` (closed): every edge that can touch a segment inside that box."""
+    near = np.zeros(len(fa), np.bool_)
+    for k in range(len(fa)):
+        ax = P[fa[k], 0]
+        ay = P[fa[k], 1]
+        bx = P[fb[k], 0]
+        by = P[fb[k], 1]
+        near[k] = (
+            min(ax, bx) <= hi[0]
+            and min(ay, by) <= hi[1]
+            and max(ax, bx) >= lo[0]
+            and max(ay, by) >= lo[1]
+        )
+    return near
+
+
+@njit(cache=True)
+def fresh_edges_touch(P, seg_a, seg_b, n_new):
+    """(n_new,) bool: whether each of the first ``n_new`` segments (seg_a[s], seg_b[s])
+    touches another of the segments (:func:`pairs_touch`).
+
+    Segments that share a point have midpoints at most half the sum of their lengths
+    apart: only such pairs (with a margin far above rounding) are tested exactly.
+    """
+    n = len(seg_a)
+    mid = np.empty((n, 2))
+    half = np.empty(n)
+    longest = 0.0
+    for s in range(n):
+        mid[s, 0] = (P[seg_a[s], 0] + P[seg_b[s], 0]) / 2
+        mid[s, 1] = (P[seg_a[s], 1] + P[seg_b[s], 1]) / 2
+        half[s] = math.hypot(P[seg_b[s], 0] - P[seg_a[s], 0], P[seg_b[s], 1] - P[seg_a[s], 1]) / 2
+        longest = max(longest, 2 * half[s])
+    slack = 1e-9 * longest
+    pi, pj, d = near_pairs(mid[:n_new].copy(), mid, 1.0001 * longest + slack)
+    keep = (pi != pj) & (d <= 1.0001 * (half[pi] + half[pj]) + slack)
+    pairs = np.empty((keep.sum(), 2), np.int64)
+    pairs[:, 0] = pi[keep]
+    pairs[:, 1] = pj[keep]
+    hit = pairs_touch(P, seg_a, seg_b, pairs)
+    bad = np.zeros(n_new, np.bool_)
+    for k in range(len(pairs)):
+        if hit[k]:
+            bad[pairs[k, 0]] = True
+            if pairs[k, 1] < n_new:
+                bad[pairs[k, 1]] = True
+    return bad
+
+
+@njit(cache=True)
+def quads_too_close(P, quads, new_nodes, nodes, hx, other, gap, clearance):
+    """(m,) bool: the quads with a new node x too close to a node y of ``nodes``.
+
+    Too close: ``|x - y| < lim * hx`` (``hx`` the size at x), ``lim`` being
+    ``clearance`` when y is not on another front (``other[y]`` false) or x is a
+    corner of a quad that has a node on one (a merge), ``gap`` otherwise; y may
+    be x or a corner of a quad of x.
+    """
+    m = len(quads)
+    joined = np.zeros(len(P), np.bool_)
+    for q in range(m):
+        if other[quads[q, 0]] or other[quads[q, 1]] or other[quads[q, 2]] or other[quads[q, 3]]:
+            for c in range(4):
+                joined[quads[q, c]] = True
+    i, t, dist = near_pairs(P[new_nodes], P[nodes], max(gap, clearance) * hx.max())
+    bad = np.zeros(len(P), np.bool_)
+    for k in range(len(i)):
+        x = new_nodes[i[k]]
+        y = nodes[t[k]]
+        lim = clearance if joined[x] or not other[y] else gap
+        if not (dist[k] < lim * hx[i[k]]) or x == y:
+            continue
+        mine = False
+        for q in range(m):
+            has_x = False
+            has_y = False
+            for c in range(4):
+                has_x = has_x or quads[q, c] == x
+                has_y = has_y or quads[q, c] == y
+            if has_x and has_y:
+                mine = True
+                break
+        if not mine:
+            bad[x] = True
+    out = np.zeros(m, np.bool_)
+    for q in range(m):
+        for c in range(4):
+            if bad[quads[q, c]]:
+                out[q] = True
+    return out
+
+
+@njit(cache=True)
+def cycles(succ):
+    """``(order, cuts)``: the cycles of the permutation ``succ`` (i -> succ[i]), each
+    from its largest index along succ, the cycles by their largest index descending;
+    ``np.split(order, cuts)`` lists them."""
+    k = len(succ)
+    order = np.empty(k, np.int64)
+    cuts = np.empty(k, np.int64)
+    seen = np.zeros(k, np.bool_)
+    n = 0
+    c = 0
+    for i in range(k - 1, -1, -1):  # i unseen: the largest index of its cycle
+        if seen[i]:
+            continue
+        cuts[c] = n
+        c += 1
+        j = i
+        while not seen[j]:
+            seen[j] = True
+            order[n] = j
+            n += 1
+            j = succ[j]
+    return order, cuts[1:c].copy()
+
+
+@njit(cache=True)
+def fresh_touch_quads(P, quads, fa, fb):
+    """(m,) bool: the quads with an edge that is not a front edge (fa[k], fb[k]) and
+    touches a front edge or another such edge (:func:`fresh_edges_touch`, each
+    edge once)."""
+    m = len(quads)
+    n = len(P)
+    front = np.empty(len(fa), np.int64)
+    for k in range(len(fa)):
+        front[k] = min(fa[k], fb[k]) * n + max(fa[k], fb[k])
+    front.sort()
+    seg = np.full(4 * m, -1, np.int64)  # each quad edge's fresh segment, -1 on a front edge
+    edge = np.empty(4 * m, np.int64)  # the quad edges not on a front, and their keys
+    keys = np.empty(4 * m, np.int64)
+    k = 0
+    for e in range(4 * m):
+        a = quads[e // 4, e % 4]
+        b = quads[e // 4, (e % 4 + 1) % 4]
+        key = min(a, b) * n + max(a, b)
+        at = np.searchsorted(front, key)
+        if at < len(front) and front[at] == key:
+            continue
+        edge[k] = e
+        keys[k] = key
+        k += 1
+    seg_a = np.empty(k + len(fa), np.int64)
+    seg_b = np.empty(k + len(fa), np.int64)
+    n_new = 0
+    order = np.argsort(keys[:k], kind="mergesort")  # stable: each key's first edge first
+    for i in range(k):
+        e = edge[order[i]]
+        if i == 0 or keys[order[i]] != keys[order[i - 1]]:
+            seg_a[n_new] = quads[e // 4, e % 4]
+            seg_b[n_new] = quads[e // 4, (e % 4 + 1) % 4]
+            n_new += 1
+        seg[e] = n_new - 1
+    seg_a[n_new : n_new + len(fa)] = fa
+    seg_b[n_new : n_new + len(fa)] = fb
+    bad = fresh_edges_touch(P, seg_a[: n_new + len(fa)], seg_b[: n_new + len(fa)], n_new)
+    out = np.zeros(m, np.bool_)
+    for e in range(4 * m):
+        if seg[e] >= 0 and bad[seg[e]]:
+            out[e // 4] = True
     return out

@@ -214,6 +214,19 @@ def test_near_pairs_are_the_kd_tree_pairs():
     assert len(i) == 0
 
 
+def test_cycles_start_at_their_largest_index():
+    # the fronts' tracing: each cycle of the permutation from its largest index along
+    # succ, the cycles by their largest index descending
+    order, cuts = paving_kernel.cycles(np.array([2, 0, 1, 4, 3, 5], np.int64))
+    assert [c.tolist() for c in np.split(order, cuts)] == [[5], [4, 3], [2, 1, 0]]
+    succ = np.random.default_rng(3).permutation(200).astype(np.int64)
+    loops = np.split(*paving_kernel.cycles(succ))
+    assert sorted(np.concatenate(loops).tolist()) == list(range(200))
+    assert [c[0] for c in loops] == sorted((c.max() for c in loops), reverse=True)
+    for c in loops:
+        assert np.array_equal(succ[c], np.roll(c, -1))
+
+
 def _area(P, ring):
     """Signed area of the polygon P[ring] (shoelace)."""
     x, y = P[ring, 0], P[ring, 1]
