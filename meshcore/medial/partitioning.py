@@ -776,7 +776,7 @@ def _meshed(
             except AlgorithmError:
                 part, stats2 = None, {"invalid": 1}
             bad = stats2["invalid"] or stats2["slits"]
-            if bad or stats2["quads"] * size**2 > MOST_COUNT * domain.area:
+            if bad or stats2["quads"] * size * size > MOST_COUNT * domain.area:
                 part = None
         if part is None:
             kind = "four-sided" if len(special.regions) == 1 else "butterfly"

@@ -350,7 +350,7 @@ def small_merged(points, p: int, cycles, corners, kinds, size: float, area: floa
     sides for area / size**2 = 140. Returns the cycles, corner flags, edge kinds and
     how many merges were made."""
     reg = dict(enumerate(zip(cycles, corners, kinds, strict=True)))  # id -> region
-    budget = most * area / size**2
+    budget = most * area / size / size  # size**2 overflows past 1e154
     degree = np.zeros(len(points), np.int64)
     und = {(min(a, b), max(a, b)) for c in cycles for a, b in _edges(c)}
     for a, b in und:
