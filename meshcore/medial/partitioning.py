@@ -95,12 +95,14 @@ meshed without them, :func:`quad_medial`). On 32 random stars of the issue's kin
 (:func:`tests.meshcore.quads.stars.issue_star` 0-31: 5-60 vertices, radial jitter
 10-80 %, every other one with a star-shaped hole) at size 0.1, away from the quads at
 input corners under 45 degrees (forced: such a corner is held by one quad): corners
-in [30, 150] degrees on 31, least quality 0.3 on 31 and 0.5 on 27 (24 before the
-other partitions were tried where the first one's least is under :data:`GOOD_LEAST`;
+in [30, 150] degrees on 31, least quality 0.3 on 31 and 0.5 on 30 (27 before the lift
+was :func:`meshcore.quads.vertex_moves.lift_corners` with quad_combine's sliding
+relaxation; 24 before the other partitions were tried where the first one's least is
+under :data:`GOOD_LEAST`;
 19 before the least corners were lifted, :func:`meshcore.medial.fill.lift_least`; 26,
 27 and 11 before the boundary points slid in the relaxations:
 :func:`meshcore.medial.fill.boundary_slides`), least 0.24-0.61, quads under 0.5
-there 38 (163 before the lift); the count 0.92-1.46x area / size**2 (1.74x before the
+there 19 (163 before the lift); the count 0.92-1.46x area / size**2 (1.74x before the
 larger stretches, :data:`meshcore.medial.fill.STRETCH`); at size 0.15 least 0.5 on
 24 (20, 14), count over 1.5x on 7 of the 32 (8 before the small regions were merged,
 :data:`MERGE_COUNT`; 13 before the axis was pruned more where the count passed,
@@ -110,7 +112,8 @@ boundary side of ``k`` of them needs ``k + 1`` divisions, and the coarse quads c
 that count to their opposite sides, across the regions of the partition (star 17,
 70 vertices for area / size**2 = 140: 1.54x with its regions merged if its input
 vertices did not bind, 2.84x as they do). Gears of 6-12 teeth at size 0.1: least 0.5
-on 6 of 7 (0 before the O-grid at their hub, :func:`meshcore.medial.fill._flowered`,
+on 5 of 7 (6 before the shared lift, which leaves gear 9 at 0.487; 0 before the O-grid
+at their hub, :func:`meshcore.medial.fill._flowered`,
 and the merges at their tooth gaps, :data:`~meshcore.medial.regions.BOUNDARY_SHARE`;
 4 before a border point of four quads gave one up, :func:`meshcore.medial.fill._closed`),
 0.4997-0.62 (gear 7: corners of 45.0 degrees at a straight point of four quads left),
