@@ -29,8 +29,9 @@ points encroach upon, not every piece within ``beta`` times its distance.
 
 Each piece is compared with the pieces of the first cut (by the size) that
 lie within ``length / (CUT_FROM * beta)`` of it, found once in a k-d tree of their
-midpoints (one tree per power of four of their lengths, so that a long
-piece does not widen every query); the comparisons are exact distances
+midpoints (one tree per power of eight of their lengths, each query widened
+by half the tree's longest piece, so that a long piece does not widen every
+query); the comparisons are exact distances
 between segments, in floating point.
 
 References
@@ -83,11 +84,11 @@ def _near_pairs(X0, X1, seg_of, seg, beta):
     """Pairs (i, j) of pieces of segments sharing no vertex with ``dist(i, j) < len(i) / beta``."""
     mid = 0.5 * (X0 + X1)
     length = np.hypot(*(X1 - X0).T)
-    level = (np.frexp(length)[1] - 1) // 2  # lengths in [4**level, 4**(level + 1))
+    level = (np.frexp(length)[1] - 1) // 3  # lengths in [8**level, 8**(level + 1))
     out_i, out_j = [], []
     for lv in np.unique(level):
         js = np.flatnonzero(level == lv)
-        reach = length * (1.0 / beta + 0.5) + 0.5 * 4.0 ** (lv + 1)
+        reach = length * (1.0 / beta + 0.5) + 0.5 * length[js].max()
         hits = cKDTree(mid[js]).query_ball_point(mid, reach)
         cnt = np.fromiter(map(len, hits), np.int64, len(hits))
         if cnt.sum() == 0:
