@@ -29,8 +29,9 @@ points encroach upon, not every piece within ``beta`` times its distance.
 
 Each piece is compared with the pieces of the first cut (by the size) that
 lie within ``length / (CUT_FROM * beta)`` of it, found once in a k-d tree of their
-midpoints (one tree per power of two of their lengths, so that a long
-piece does not widen every query); the comparisons are exact distances
+midpoints (one tree per power of eight of their lengths, each query widened
+by half the tree's longest piece, so that a long piece does not widen every
+query); the comparisons are exact distances
 between segments, in floating point.
 
 References
@@ -83,11 +84,11 @@ def _near_pairs(X0, X1, seg_of, seg, beta):
     """Pairs (i, j) of pieces of segments sharing no vertex with ``dist(i, j) < len(i) / beta``."""
     mid = 0.5 * (X0 + X1)
     length = np.hypot(*(X1 - X0).T)
-    level = np.floor(np.log2(np.maximum(length, np.finfo(float).tiny))).astype(np.int64)
+    level = (np.frexp(length)[1] - 1) // 3  # lengths in [8**level, 8**(level + 1))
     out_i, out_j = [], []
     for lv in np.unique(level):
         js = np.flatnonzero(level == lv)
-        reach = length * (1.0 / beta + 0.5) + 0.5 * 2.0 ** (lv + 1)
+        reach = length * (1.0 / beta + 0.5) + 0.5 * length[js].max()
         hits = cKDTree(mid[js]).query_ball_point(mid, reach)
         cnt = np.fromiter(map(len, hits), np.int64, len(hits))
         if cnt.sum() == 0:
@@ -176,13 +177,16 @@ def feature_cuts(P: np.ndarray, seg: np.ndarray, sid: np.ndarray, t: np.ndarray,
         c = np.repeat(cstart[root] - np.cumsum(nc) + nc, nc) + np.arange(nc.sum())
         q0 = A[s][rows] + a[rows, None] * D[s][rows]
         q1 = A[s][rows] + b[rows, None] * D[s][rows]
+        # the distance between the pieces (as _segment_distance) and the largest at the
+        # piece's ends, from the same four point-segment distances
+        y0, y1 = Y0[c], Y1[c]
+        d0 = point_segment_distance(q0, y0, y1)[0]
+        d1 = point_segment_distance(q1, y0, y1)[0]
+        e = np.minimum(point_segment_distance(y0, q0, q1)[0], point_segment_distance(y1, q0, q1)[0])
         dmin = np.full(len(root), np.inf)
-        np.minimum.at(dmin, rows, _segment_distance(q0, q1, Y0[c], Y1[c]))
-        dend = np.maximum(
-            point_segment_distance(q0, Y0[c], Y1[c])[0], point_segment_distance(q1, Y0[c], Y1[c])[0]
-        )
+        np.minimum.at(dmin, rows, np.minimum(np.minimum(d0, d1), e))
         dmax = np.full(len(root), np.inf)
-        np.minimum.at(dmax, rows, dend)
+        np.minimum.at(dmax, rows, np.maximum(d0, d1))
         length = (b - a) * np.hypot(*D[s].T)
         if (dmin <= resolution).any():
             return sid.astype(np.int64), t
