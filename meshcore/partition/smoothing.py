@@ -19,7 +19,8 @@ in turn (Gauss-Seidel: each move sees the moves before it), ``sweeps`` times:
 * **Acceptance.** The move is tried at the full step, then at one half and
   one quarter; it is kept at the first step where every quad around the
   point is strictly convex (exact
-  :func:`~meshcore.geometry.predicates.orient2d_scalar`) and their least
+  :func:`~meshcore.geometry.predicates.orient2d_scalar`, asked only where the
+  quality (8.4) is at most 1e-6: above, it proves it) and their least
   quality (8.4) is at least ``min(its old value, floor)``, where ``floor`` is
   the larger of 0.5 and the least quality of the mesh at the start, and
   either the sum of their qualities does not drop or their least rises, both
@@ -234,6 +235,8 @@ def _accepted(P, quads, cptr, cidx, v, qc, floor, qnew):
         low = min(low, q)
         k += 1
     for r in range(cptr[v], cptr[v + 1]):
+        if qnew[r - cptr[v]] > 1e-6:  # the quality proves it (vertex_moves._checked_quality)
+            continue
         c = cidx[r]
         for j in range(4):
             if orient(P, quads[c, j], quads[c, (j + 1) % 4], quads[c, (j + 2) % 4]) <= 0:
