@@ -386,12 +386,14 @@ _OVER = 1.5  # ... at this many times the least of its parabola (over-relaxed)
 
 
 @njit(cache=True)
-def _skew(P, quads, cptr, cidx, v, grad):
+def _skew(P, quads, cptr, cidx, v, grad, slope):
     """Sum over the quads around v of the 4-norm of their corners' cos^2 (inf when a
-    corner does not turn left), and its gradient with respect to v in grad."""
+    corner does not turn left), and, if ``slope``, its gradient with respect to v in
+    grad (the sum is the same either way)."""
     f = 0.0
-    grad[0] = 0.0
-    grad[1] = 0.0
+    if slope:
+        grad[0] = 0.0
+        grad[1] = 0.0
     for r in range(cptr[v], cptr[v + 1]):
         c = cidx[r]
         s = 0.0
@@ -414,6 +416,8 @@ def _skew(P, quads, cptr, cidx, v, grad):
             c2 = cs * cs
             c6 = c2 * c2 * c2
             s += c6 * c2
+            if not slope:
+                continue
             # d cos / d v
             dx = 0.0
             dy = 0.0
@@ -431,9 +435,10 @@ def _skew(P, quads, cptr, cidx, v, grad):
         if s > 0.0:
             r4 = math.sqrt(math.sqrt(s))
             f += r4
-            t = r4 / (4.0 * s)
-            grad[0] += t * gx
-            grad[1] += t * gy
+            if slope:
+                t = r4 / (4.0 * s)
+                grad[0] += t * gx
+                grad[1] += t * gy
     return f
 
 
@@ -449,7 +454,6 @@ def _descents(P, quads, fixed, nptr, nidx, cptr, cidx, sweeps):
     floor = max(_FLOOR, least)
     qnew = np.empty(64)
     grad = np.empty(2)
-    trial = np.empty(2)
     active = np.ones(n, np.bool_)
     moved = 0
     for _ in range(sweeps):
@@ -471,7 +475,7 @@ def _descents(P, quads, fixed, nptr, nidx, cptr, cidx, sweeps):
                 u = nidx[r]
                 mean += math.sqrt((P[u, 0] - x) ** 2 + (P[u, 1] - y) ** 2)
             mean /= nptr[v + 1] - nptr[v]
-            f = _skew(P, quads, cptr, cidx, v, grad)
+            f = _skew(P, quads, cptr, cidx, v, grad, True)
             g = math.sqrt(grad[0] ** 2 + grad[1] ** 2)
             if not g > 0.0 or not f < math.inf:
                 continue
@@ -487,7 +491,7 @@ def _descents(P, quads, fixed, nptr, nidx, cptr, cidx, sweeps):
             for _half in range(_HALVINGS):
                 P[v, 0] = x - t * grad[0] / g
                 P[v, 1] = y - t * grad[1] / g
-                f1 = _skew(P, quads, cptr, cidx, v, trial)
+                f1 = _skew(P, quads, cptr, cidx, v, grad, False)
                 if f1 <= 2.0 * f:
                     break
                 t *= 0.5
@@ -498,7 +502,7 @@ def _descents(P, quads, fixed, nptr, nidx, cptr, cidx, sweeps):
             for _half in range(_HALVINGS):
                 P[v, 0] = x - t * grad[0] / g
                 P[v, 1] = y - t * grad[1] / g
-                if _skew(P, quads, cptr, cidx, v, trial) < f - _ARMIJO * t * g:
+                if _skew(P, quads, cptr, cidx, v, grad, False) < f - _ARMIJO * t * g:
                     better = True
                     break
                 t *= 0.5
