@@ -19,7 +19,8 @@ in turn (Gauss-Seidel: each move sees the moves before it), ``sweeps`` times:
 * **Acceptance.** The move is tried at the full step, then at one half and
   one quarter; it is kept at the first step where every quad around the
   point is strictly convex (exact
-  :func:`~meshcore.geometry.predicates.orient2d_scalar`) and their least
+  :func:`~meshcore.geometry.predicates.orient2d_scalar`, asked only where the
+  quality (8.4) is at most 1e-6: above, it proves it) and their least
   quality (8.4) is at least ``min(its old value, floor)``, where ``floor`` is
   the larger of 0.5 and the least quality of the mesh at the start, and
   either the sum of their qualities does not drop or their least rises, both
@@ -234,6 +235,8 @@ def _accepted(P, quads, cptr, cidx, v, qc, floor, qnew):
         low = min(low, q)
         k += 1
     for r in range(cptr[v], cptr[v + 1]):
+        if qnew[r - cptr[v]] > 1e-6:  # the quality proves it (vertex_moves._checked_quality)
+            continue
         c = cidx[r]
         for j in range(4):
             if orient(P, quads[c, j], quads[c, (j + 1) % 4], quads[c, (j + 2) % 4]) <= 0:
@@ -383,12 +386,14 @@ _OVER = 1.5  # ... at this many times the least of its parabola (over-relaxed)
 
 
 @njit(cache=True)
-def _skew(P, quads, cptr, cidx, v, grad):
+def _skew(P, quads, cptr, cidx, v, grad, slope):
     """Sum over the quads around v of the 4-norm of their corners' cos^2 (inf when a
-    corner does not turn left), and its gradient with respect to v in grad."""
+    corner does not turn left), and, if ``slope``, its gradient with respect to v in
+    grad (the sum is the same either way)."""
     f = 0.0
-    grad[0] = 0.0
-    grad[1] = 0.0
+    if slope:
+        grad[0] = 0.0
+        grad[1] = 0.0
     for r in range(cptr[v], cptr[v + 1]):
         c = cidx[r]
         s = 0.0
@@ -411,6 +416,8 @@ def _skew(P, quads, cptr, cidx, v, grad):
             c2 = cs * cs
             c6 = c2 * c2 * c2
             s += c6 * c2
+            if not slope:
+                continue
             # d cos / d v
             dx = 0.0
             dy = 0.0
@@ -428,9 +435,10 @@ def _skew(P, quads, cptr, cidx, v, grad):
         if s > 0.0:
             r4 = math.sqrt(math.sqrt(s))
             f += r4
-            t = r4 / (4.0 * s)
-            grad[0] += t * gx
-            grad[1] += t * gy
+            if slope:
+                t = r4 / (4.0 * s)
+                grad[0] += t * gx
+                grad[1] += t * gy
     return f
 
 
@@ -446,7 +454,6 @@ def _descents(P, quads, fixed, nptr, nidx, cptr, cidx, sweeps):
     floor = max(_FLOOR, least)
     qnew = np.empty(64)
     grad = np.empty(2)
-    trial = np.empty(2)
     active = np.ones(n, np.bool_)
     moved = 0
     for _ in range(sweeps):
@@ -468,7 +475,7 @@ def _descents(P, quads, fixed, nptr, nidx, cptr, cidx, sweeps):
                 u = nidx[r]
                 mean += math.sqrt((P[u, 0] - x) ** 2 + (P[u, 1] - y) ** 2)
             mean /= nptr[v + 1] - nptr[v]
-            f = _skew(P, quads, cptr, cidx, v, grad)
+            f = _skew(P, quads, cptr, cidx, v, grad, True)
             g = math.sqrt(grad[0] ** 2 + grad[1] ** 2)
             if not g > 0.0 or not f < math.inf:
                 continue
@@ -484,7 +491,7 @@ def _descents(P, quads, fixed, nptr, nidx, cptr, cidx, sweeps):
             for _half in range(_HALVINGS):
                 P[v, 0] = x - t * grad[0] / g
                 P[v, 1] = y - t * grad[1] / g
-                f1 = _skew(P, quads, cptr, cidx, v, trial)
+                f1 = _skew(P, quads, cptr, cidx, v, grad, False)
                 if f1 <= 2.0 * f:
                     break
                 t *= 0.5
@@ -495,7 +502,7 @@ def _descents(P, quads, fixed, nptr, nidx, cptr, cidx, sweeps):
             for _half in range(_HALVINGS):
                 P[v, 0] = x - t * grad[0] / g
                 P[v, 1] = y - t * grad[1] / g
-                if _skew(P, quads, cptr, cidx, v, trial) < f - _ARMIJO * t * g:
+                if _skew(P, quads, cptr, cidx, v, grad, False) < f - _ARMIJO * t * g:
                     better = True
                     break
                 t *= 0.5
