@@ -22,7 +22,7 @@ import math
 import numpy as np
 from numba import njit
 
-from meshcore.delaunay.hashgrid import _shift, _slot
+from meshcore.delaunay.hashgrid import _find, _shift, _table
 from meshcore.delaunay.kernel2d import (
     _CHUNK,
     _COLLINEAR,
@@ -168,36 +168,19 @@ def _facet_subfaces(
         if ns > 0:
             # The facet's boundary subsegments in a small hash table, marked as its
             # subface edges are met (the table stays in cache: no sort of the edges).
-            size = 16
-            while size < 2 * ns:
-                size *= 2
-            shift = _shift(size)
-            mask = size - 1
-            tk = np.full(size, -1, np.int64)
-            met = np.zeros(size, np.bool_)
-            for i in range(sptr[k], sptr[k + 1]):
-                key = seg_keys[segs[i]]
-                h = _slot(key, shift)
-                while tk[h] != -1 and tk[h] != key:
-                    h = (h + 1) & mask
-                tk[h] = key
+            keys = seg_keys[segs[sptr[k] : sptr[k + 1]]]
+            tk, tv = _table(keys)
+            shift = _shift(tk.shape[0])
+            met = np.zeros(ns, np.bool_)
             for t in range(first, n):
                 for j in range(3):
                     u, v = out[t, j], out[t, (j + 1) % 3]
-                    key = (min(u, v) << 32) | max(u, v)
-                    h = _slot(key, shift)
-                    while tk[h] != -1:
-                        if tk[h] == key:
-                            met[h] = True
-                            break
-                        h = (h + 1) & mask
-            for i in range(sptr[k], sptr[k + 1]):
-                key = seg_keys[segs[i]]
-                h = _slot(key, shift)
-                while tk[h] != key:
-                    h = (h + 1) & mask
-                if not met[h]:
-                    unsettled[nu] = key
+                    i = _find(tk, tv, (min(u, v) << 32) | max(u, v), shift)
+                    if i >= 0:
+                        met[i] = True
+            for i in range(ns):
+                if not met[_find(tk, tv, keys[i], shift)]:
+                    unsettled[nu] = keys[i]
                     nu += 1
         uptr[k + 1] = nu
     return out[:n].copy(), owner[:n].copy(), uptr, unsettled[:nu].copy()
