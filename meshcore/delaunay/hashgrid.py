@@ -12,6 +12,8 @@ import math
 import numpy as np
 from numba import njit
 
+from meshcore.geometry.ordering import radix_argsort
+
 _FIB = np.uint64(0x9E3779B97F4A7C15)
 
 
@@ -94,8 +96,9 @@ def ball_pairs(X: np.ndarray, centres: np.ndarray, radii: np.ndarray):
     cell = np.floor(np.nan_to_num(X / max(span, 1e-300))).astype(np.int64)
     order = np.lexsort((cell[:, 2], cell[:, 1], cell[:, 0]))
     xi, ci = _ball_pairs(X[order], centres, radii)
-    back = np.argsort(order[xi], kind="stable")
-    return order[xi][back], ci[back]
+    xi = order[xi]
+    back = radix_argsort(xi)
+    return xi[back], ci[back]
 
 
 @njit(cache=True)
