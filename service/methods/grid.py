@@ -129,22 +129,14 @@ class QuadGridParams(MethodParams):
     max_cells: int = Field(MAX_CELLS, ge=1, le=MAX_CELLS)
 
     def check(self) -> None:
-        from meshcore.grid import cartesian, superposition
+        from meshcore.grid import superposition
 
         super().check()
         dom = self.domain.to_domain(self.segments)
         check_resolution(dom.points, self.size, ("size",))
         check_thinness(dom)  # the band is triangulated: its thin parts' triangles
-        if self.size is not None:
-            est = cartesian.estimated_cells(dom, size=self.size)
-            if est > self.max_cells:
-                raise InputError(
-                    f"size {self.size:g} makes a grid of about {est} cells, more than "
-                    f"max_cells={self.max_cells}",
-                    loc=("size",),
-                    code="too_many_cells",
-                )
-        # the fallback band's refusal, where the grid alone decides it (else in the job)
+        # the grid's size (too_many_cells at size) and the fallback band's refusal where
+        # the grid alone decides it (else in the job)
         superposition.check_band(dom, size=self.size, layers=self.layers, max_cells=self.max_cells)
 
 
