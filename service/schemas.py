@@ -9,6 +9,7 @@ numpy (indices in range, degenerate cells) run in :meth:`MethodParams.check`, wh
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from datetime import UTC, datetime
 from typing import Annotated, Any, Literal
 
@@ -17,6 +18,9 @@ from pydantic_core import PydanticCustomError, core_schema
 
 from meshcore.errors import InputError
 from meshcore.mesh import CELL_TYPES, Mesh, io
+
+#: A method's progress callback: ``progress(fraction, message)``.
+Progress = Callable[[float, str], None]
 
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
 Index = Annotated[int, Field(ge=0)]

@@ -22,9 +22,7 @@ from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh
-from service.schemas import Coordinates, MethodParams
-
-Progress = object  # the registry's Progress: callable(fraction, message)
+from service.schemas import Coordinates, MethodParams, Progress
 
 
 class DelaunayParams(MethodParams):

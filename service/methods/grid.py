@@ -30,9 +30,7 @@ from service.methods.domain_schema import (
     check_resolution,
 )
 from service.methods.triangulation import check_thinness
-from service.schemas import InputModel, MethodParams
-
-Progress = object  # the registry's Progress: callable(fraction, message)
+from service.schemas import InputModel, MethodParams, Progress
 
 
 class GridParams(MethodParams):

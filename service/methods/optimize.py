@@ -22,9 +22,7 @@ from pydantic import Field, model_validator
 from meshcore.errors import InputError
 from service.methods.domain_schema import DomainIn, check_resolution
 from service.methods.surface_schema import SurfaceIn
-from service.schemas import MeshIn, MethodParams
-
-Progress = object  # the registry's Progress: callable(fraction, message)
+from service.schemas import MeshIn, MethodParams, Progress
 
 #: Domain requests whose size would make more triangles than this are refused (422).
 MAX_TRIANGLES = 2_000_000

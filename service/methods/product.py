@@ -24,12 +24,11 @@ from meshcore.errors import InputError
 from meshcore.mesh import Mesh, quality
 from service.methods.domain_schema import DomainIn
 from service.methods.triangulation import TriangulateParams, run_triangulate
-from service.schemas import FiniteFloat, InputModel, MeshIn, MethodParams
+from service.schemas import FiniteFloat, InputModel, MeshIn, MethodParams, Progress
 
 if TYPE_CHECKING:
     from meshcore.product import extrusion
 
-Progress = object  # the registry's Progress: callable(fraction, message)
 
 Vec3 = Annotated[list[FiniteFloat], Field(min_length=3, max_length=3)]
 Vec2 = Annotated[list[FiniteFloat], Field(min_length=2, max_length=2)]

@@ -27,9 +27,7 @@ from service.methods.triangulation import (
     SizeField,
     TriangulateParams,
 )
-from service.schemas import FiniteFloat, MeshIn, MethodParams
-
-Progress = object  # the registry's Progress: callable(fraction, message)
+from service.schemas import FiniteFloat, MeshIn, MethodParams, Progress
 
 MetricRow = Annotated[list[FiniteFloat], Field(min_length=2, max_length=3)]
 Metric = Annotated[list[MetricRow], Field(min_length=2, max_length=3)]

@@ -38,9 +38,7 @@ from service.methods import (
     tets,
     triangulation,
 )
-from service.schemas import MeshIn, MethodParams
-
-Progress = Callable[[float, str], None]
+from service.schemas import MeshIn, MethodParams, Progress
 
 #: The meshcore modules that the method modules import only in their checks and run
 #: functions (tests/service/test_imports.py keeps this list whole): the job fork server

@@ -29,8 +29,6 @@ from service.methods.domain_schema import (
 from service.methods.surface_schema import SurfaceIn
 from service.schemas import InputModel, MethodParams
 
-Progress = object  # the registry's Progress: callable(fraction, message)
-
 #: Requests whose sizes would make more triangles than this are refused (422).
 MAX_TRIANGLES = 20_000_000
 
