@@ -13,6 +13,8 @@ MAX_MIN_ANGLE = 34.0
 MIN_RADIUS_EDGE = 1.1
 #: Default bound on the cells of a grid's bounding box (``grid``, ``quad_grid``).
 MAX_CELLS = 4_000_000
+#: Most quads a ``quad_medial`` job may make.
+MAX_QUADS = 4_000_000
 #: ``simplify``: details and holes under this fraction of the local radius are removed.
 DEFAULT_THRESHOLD = 0.5
 #: ``medial_axis``: default pruning angle, degrees (:mod:`meshcore.medial.axis`, step 5).

@@ -90,6 +90,7 @@ from numba import njit
 
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d
+from meshcore.limits import MAX_QUADS
 from meshcore.medial.axis import MedialAxis, _classes, _csr
 from meshcore.medial.regions import KITE_ANGLE, input_index, turns
 from meshcore.mesh import CellBlock, Mesh, quality, topology
@@ -109,8 +110,6 @@ __all__ = [
     "quads_on",
 ]
 
-#: Most quads a ``quad_medial`` job may make.
-MAX_QUADS = 4_000_000
 #: Gauss-Seidel smoothing sweeps after the transfinite fill (at most).
 SMOOTHING_SWEEPS = 50
 #: A convex input corner turning by more than this (radians; an interior angle under

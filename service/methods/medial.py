@@ -20,7 +20,7 @@ import numpy as np
 from pydantic import ConfigDict, Field, model_validator
 
 from meshcore.errors import InputError
-from meshcore.limits import DEFAULT_PRUNE, DEFAULT_THRESHOLD
+from meshcore.limits import DEFAULT_PRUNE, DEFAULT_THRESHOLD, MAX_QUADS
 from service.methods.domain_schema import DomainIn, Position, check_resolution
 from service.schemas import InputModel, MethodParams
 
@@ -270,10 +270,10 @@ class QuadMedialParams(PartitionParams):
         check_resolution(dom.points, self.size, ("size",))
         if self.size is not None:
             estimate = dom.area / self.size / self.size  # not size**2: it overflows
-            if estimate > 4_000_000:
+            if estimate > MAX_QUADS:
                 raise InputError(
                     f"size {self.size:g} would make about {estimate:,.0f} quads on a domain of "
-                    f"area {dom.area:.6g}; at most 4,000,000",
+                    f"area {dom.area:.6g}; at most {MAX_QUADS:,}",
                     loc=("size",),
                     code="too_many_quads",
                 )
