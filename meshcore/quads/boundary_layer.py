@@ -258,7 +258,7 @@ def meets_targets(mesh: Mesh, dom: Domain, size: float) -> bool:
     every corner in [30, 150] degrees and quality (8.4) at least 0.5."""
     P, Q = mesh.points, mesh.cells_by_type["quad"]
     n0 = len(dom.points)
-    ratio = len(Q) * size**2 / dom.area
+    ratio = len(Q) * size * size / dom.area  # size**2 overflows past 1e154
     if not 1 / 1.5 <= ratio <= 1.5 or not np.array_equal(P[:n0], dom.points):
         return False
     ok = off_sharp(mesh, dom)
@@ -321,7 +321,7 @@ def _layer(dom, size, mesh_inner, max_turn, least_quality, rows):
 
 def _too_many(quads: int, dom: Domain, size: float) -> bool:
     """Whether ``quads`` pass ``MOST_QUADS`` times area / size²."""
-    return quads * size**2 > MOST_QUADS * dom.area
+    return quads * size * size > MOST_QUADS * dom.area
 
 
 def _assembled(dom, mesh_inner, parts, least_quality):
