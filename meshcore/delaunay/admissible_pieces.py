@@ -631,16 +631,8 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
         key[i] = (xy_new[i, 0] - origin[s, 0]) * direction[s, 0] + (
             xy_new[i, 1] - origin[s, 1]
         ) * direction[s, 1]
-    # np.lexsort((t, key, src[rows])): by t (0, 0.5 or 1) in index order,
-    # then by chain and key, stably.
-    by_t = np.empty(rows.shape[0], np.int64)
-    j = 0
-    for side in (0.0, 0.5, 1.0):
-        for i in range(rows.shape[0]):
-            if t[i] == side:
-                by_t[j] = i
-                j += 1
-    order = _chain_key_order(by_t, src[rows], key)
+    # np.lexsort((t, key, src[rows])): by t (0, 0.5 or 1) stably, then by chain and key
+    order = _chain_key_order(np.argsort(t, kind="mergesort"), src[rows], key)
     rows = rows[order]
     protect_side = protect_side[order]
     near_side = near_side[order]
