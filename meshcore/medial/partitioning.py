@@ -695,7 +695,7 @@ def quad_medial(
     axes = pruned_axes(domain, h=h, prunes=(prune, *more), progress=progress)
     first = next(axes)
     special = _special(first, size, levels)  # the same samples on every pruned axis
-    done: dict = {}  # fills and optimized meshes by partition: computed once
+    done: dict = {}  # partitions, fills and optimized meshes: each computed once
     res = _meshed(first, domain, method, size, levels, BOUNDARY_SHARE, special, done)
     res = _lifted(res, domain)
     if size is None:
@@ -1055,10 +1055,18 @@ def _medial_fill(axis: MedialAxis, method: str, size, levels, share, done: dict,
     :func:`_reflex_merged` with ``share``; with ``merge``, small regions merged until
     their sides are within the count: :func:`_small_merged`) and its fill
     (:func:`meshcore.medial.fill.quads_on`): the partition, the mesh and its stats; the
-    fill from ``done`` when the same partition of this axis was filled before."""
-    part = _reflex_merged(partition(axis=axis, method=method), share)
-    if merge:
-        part = _small_merged(part, size)
+    partitions and the fill from ``done`` when made before for this axis."""
+    base = (id(axis), method)  # (the axis held: its id is not reused)
+    if base not in done:
+        done[base] = partition(axis=axis, method=method)
+    shared = (*base, share)
+    if shared not in done:
+        done[shared] = _reflex_merged(done[base], share)
+    part = done[shared]
+    small = (*shared, "small")
+    if merge and small not in done:
+        done[small] = _small_merged(part, size)
+    part = done[small] if merge else part
     key = (id(axis), part.points.tobytes(), *(c.tobytes() for c in part.cycles + part.corners))
     if key not in done:  # (the axis held: its id is not reused)
         done[key] = (part, *quads_on(part, size, levels))
