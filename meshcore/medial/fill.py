@@ -94,6 +94,7 @@ from meshcore.limits import MAX_QUADS
 from meshcore.medial.axis import MedialAxis, _classes, _csr
 from meshcore.medial.regions import KITE_ANGLE, input_index, turns
 from meshcore.mesh import CellBlock, Mesh, quality, topology
+from meshcore.partition.smoothing import boundary_points
 from meshcore.quads.optimization import relax_quads, sliding_nodes
 from meshcore.quads.vertex_moves import lift_corners
 
@@ -303,14 +304,6 @@ def _around(Q: np.ndarray, start: np.ndarray, cells: np.ndarray, b: int, first: 
         ring.append(nxt[0])
 
 
-def _on_border(points: np.ndarray, quads: np.ndarray) -> np.ndarray:
-    """Whether each point is on the border of the quads (an edge of one quad only)."""
-    border = np.zeros(len(points), dtype=bool)
-    mesh = Mesh(points, (CellBlock("quad", quads),))
-    border[topology.boundary(mesh).cells[0].data.ravel()] = True
-    return border
-
-
 def _fan_angle(P: np.ndarray, Q: np.ndarray, start, cells, v: int) -> float:
     """The sum of the corner angles (radians) of the quads at vertex ``v``."""
     total = 0.0
@@ -336,7 +329,7 @@ def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
     n = len(points)
     P, Q = points.copy(), quads.copy()
     start, cells = _csr(n, Q)
-    border = _on_border(P, Q)
+    border = boundary_points(P, Q)
     added: list[np.ndarray] = []
     for v in np.flatnonzero(border):
         fan = [int(q) for q in cells[start[v] : start[v + 1]]]
@@ -393,7 +386,7 @@ def _closed(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, int]:
     so turned."""
     Q = quads.copy()
     start, cells = _csr(len(points), Q)
-    border = _on_border(points, Q)
+    border = boundary_points(points, Q)
     done = 0
     for v in np.flatnonzero(border):  # a loop over the border vertices
         fan = [int(q) for q in cells[start[v] : start[v + 1]]]
@@ -442,7 +435,7 @@ def _flowered(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.nda
     n = len(points)
     start, cells = _csr(n, quads)
     val = np.diff(start)
-    border = _on_border(points, quads)
+    border = boundary_points(points, quads)
     P, keep, new_quads = [points], np.ones(len(quads), dtype=bool), []
     m = n
     done = 0

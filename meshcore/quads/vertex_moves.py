@@ -20,8 +20,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered
-from meshcore.mesh import CellBlock, Mesh, topology
-from meshcore.partition.smoothing import quad_q
+from meshcore.partition.smoothing import boundary_points, quad_q
 
 
 @njit(cache=True)
@@ -559,8 +558,7 @@ def lift_corners(
     for _ in range(2):  # two rings of quads around the poor ones
         near[C[near[C].any(axis=1)].ravel()] = True
     node, a, b = slide
-    border = np.zeros(n, bool)
-    border[topology.boundary(Mesh(P, (CellBlock("quad", C),))).cells[0].data.ravel()] = True
+    border = boundary_points(P, C)
     mode = np.where(near & ~fixed & ~border, 1, 0).astype(np.int64)
     on = near[node] & ~fixed[node]
     node, a, b = node[on], a[on], b[on]
