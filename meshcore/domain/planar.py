@@ -823,7 +823,11 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
     ring_polygon = np.array([p for p, _ in ring_pos], dtype=np.int64)
     ring_is_hole = np.array([r > 0 for _, r in ring_pos], dtype=bool)
     reversed_ = ccw == ring_is_hole
-    segs = _oriented_segments(offsets, reversed_)
+    # Allocated by numpy, which asks the kernel for huge pages on large arrays
+    # (numba's allocator does not): a fresh 16 MB at 1M vertices, faulted in
+    # 4 KB pages, cost more than the loop that fills it.
+    segs = np.empty((nb, 2), dtype=np.int64)
+    _oriented_segments(offsets, reversed_, segs)
 
     # -- containment -----------------------------------------------------
     if n_rings > 1 or len(cseg):
@@ -996,9 +1000,9 @@ def _ring_scan(pts, scale, offsets):
 
 
 @njit(cache=True)
-def _oriented_segments(offsets, reversed_):
-    """(m, 2) int64: ring edge v -> v + 1 (cyclically), flipped in the reversed rings."""
-    segs = np.empty((offsets[-1], 2), dtype=np.int64)
+def _oriented_segments(offsets, reversed_, segs):
+    """Write ring edge v -> v + 1 (cyclically), flipped in the reversed rings, to row v
+    of ``segs`` ((m, 2) int64)."""
     for k in range(len(offsets) - 1):
         lo, hi = offsets[k], offsets[k + 1]
         for i in range(lo, hi):
@@ -1009,7 +1013,6 @@ def _oriented_segments(offsets, reversed_):
             else:
                 segs[i, 0] = i
                 segs[i, 1] = j
-    return segs
 
 
 def _read_only(arr: np.ndarray) -> np.ndarray:
