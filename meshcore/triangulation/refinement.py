@@ -955,22 +955,32 @@ def triangulate(
             P, pseg, ppar, sub, adm = _admissible(P, pseg, ppar, sub, seg_in, seg_circle, circles)
         except InputError as exc:  # indices of the subsegments: the domain's vertices
             raise located_in_domain(exc, dom, seg_in, sub[1], pseg) from None
-    pseg = pseg.astype(np.int32)
     lap("boundary")
 
     # -- interior pattern ---------------------------------------------------
     report(0.1, "interior pattern")
-    n_lattice = 0
+    lat = np.zeros((0, 2))
     if sizing is not None:
         bsub = sub[0][sub[1] < nbs]
         if sizing.uniform:
             lat = _lattice(P, bsub, sub[0], float(sizing.H[0, 0]), keep_boundary)
         else:
             lat = _graded_pattern(P, bsub, sub[0], sizing, keep_boundary)
-        n_lattice = len(lat)
-        P = np.concatenate([P, lat])
-        pseg = np.concatenate([pseg, np.full(n_lattice, -1, np.int32)])
-        ppar = np.concatenate([ppar, np.zeros(n_lattice)])
+    # The points, their segments and parameters go straight into the refinement's
+    # arrays (with room for the points it adds): no joined copies in between.
+    n_lattice = len(lat)
+    n_outline = len(P)
+    npts = n_outline + n_lattice
+    pcap = npts + npts // 8 + 4096
+    Pc = np.empty((pcap, 2))
+    Pc[:n_outline] = P
+    Pc[n_outline:npts] = lat
+    P = Pc[:npts]
+    pseg_c = np.full(pcap, -1, np.int32)
+    pseg_c[:n_outline] = pseg
+    ppar_c = np.zeros(pcap)
+    ppar_c[:n_outline] = ppar
+    del lat, pseg, ppar
     lap("interior")
 
     # -- one Delaunay triangulation -----------------------------------------
@@ -981,18 +991,14 @@ def triangulate(
 
     # -- segments and regions -----------------------------------------------
     report(0.5, "segments and regions")
-    npts = len(P)
     m0 = len(tri.triangles)
     tcap = m0 + m0 // 8 + 4096
-    pcap = npts + npts // 8 + 4096
     V = np.empty(3 * tcap, np.int32)
     A = np.empty(3 * tcap, np.int32)
     S = np.empty(3 * tcap, np.int32)
     vt = np.zeros(pcap, np.int32)
     cdt.build(tri.triangles, tri.neighbors, V, A, S, vt)
-    Pc = np.empty((pcap, 2))
-    Pc[:npts] = P
-    del tri
+    del tri, P
     work = np.empty(WORK_SIZE)
     info = np.zeros(4, np.int64)
     status = cdt.recover_segments(Pc, V, A, S, vt, sub[0], sub[1], work, info)
@@ -1012,10 +1018,6 @@ def triangulate(
     lap("constraints")
 
     # -- refinement -----------------------------------------------------------
-    pseg_c = np.full(pcap, -1, np.int32)
-    pseg_c[:npts] = pseg
-    ppar_c = np.zeros(pcap)
-    ppar_c[:npts] = ppar
     w = _Work(Pc, V2, A2, S2, ntri, npts, pseg_c, ppar_c, vt, n_input)
     rounds = given_up = 0
     if not empty:
