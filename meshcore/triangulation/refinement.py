@@ -647,8 +647,10 @@ def _lattice_points(rows, i0, i1, dropped, nx, x0, y0, h, dy, amp, out):
     """The lattice points of the row intervals (row ``rows[t]``, columns ``i0[t]`` to
     ``i1[t]``) whose index ``row * nx + column`` is not in the sorted ``dropped``,
     jittered by a hash of that index; written to ``out`` in interval order when it
-    has rows. Returns their number. One compiled pass: no per-point temporaries
-    (the intervals come row by row, so the search in ``dropped`` walks forward)."""
+    has rows. Returns their number. One compiled pass: no per-point temporaries.
+    The intervals come as the scan lines make them, row after row and left to right
+    in a row, so the indices never decrease and the search in ``dropped`` walks
+    forward."""
     write = out.shape[0] > 0
     nd = len(dropped)
     n = 0
@@ -657,8 +659,6 @@ def _lattice_points(rows, i0, i1, dropped, nx, x0, y0, h, dy, amp, out):
         r = rows[t]
         for i in range(i0[t], i1[t] + 1):
             key = r * nx + i
-            if p > 0 and dropped[p - 1] >= key:  # out of order: search afresh
-                p = np.searchsorted(dropped, key)
             while p < nd and dropped[p] < key:
                 p += 1
             if p < nd and dropped[p] == key:
