@@ -108,6 +108,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 from scipy.spatial import cKDTree
 
 from meshcore.delaunay import cdt
@@ -147,9 +148,6 @@ _ESTIMATE_CAP = 10**18
 #: w (and length 1, size 0.1) gets edges about w long, 0.9 / w points at the default 20
 #: degrees (measured at w = 1e-3 to 1e-5), 0.25 * (2 / w)**2 * w = 1 / w here.
 _THIN = 0.25
-# Lattices with fewer (row, column) slots than this mark dropped points in a
-# dense mask; finer (windowed) ones in a sorted search.
-_DENSE_MASK_LIMIT = 1 << 26
 
 
 @dataclass(frozen=True)
@@ -608,7 +606,7 @@ def _lattice(P, bseg, allseg, h: float, keep_boundary: bool, window=None):
     j, xc = j[order], xc[order]
     if len(j) % 2:
         raise AlgorithmError("scan line crossing count is odd; the boundary is not closed")
-    rows, xs, xe = j[0::2], xc[0::2], xc[1::2]
+    rows, xs, xe = np.ascontiguousarray(j[0::2]), xc[0::2], xc[1::2]
     if window is not None:
         gy0, gstep, wlo, whi = window
         g = np.clip(np.floor((y0 + rows * dy - gy0) / gstep).astype(np.int64), 0, len(wlo) - 1)
@@ -617,10 +615,6 @@ def _lattice(P, bseg, allseg, h: float, keep_boundary: bool, window=None):
     off = x0 + 0.5 * h * (rows % 2)
     i0 = np.maximum(np.ceil((xs - off) / h).astype(np.int64), 0)
     i1 = np.minimum(np.floor((xe - off) / h).astype(np.int64), nx - 1)
-    cnt = np.maximum(i1 - i0 + 1, 0)
-    r = np.repeat(rows, cnt)
-    i = np.repeat(i0, cnt) + np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    keep_idx = r * nx + i
     # Drop points near the segments (capsules of radius delta).
     sa = P[allseg[:, 0]]
     sb = P[allseg[:, 1]]
@@ -637,24 +631,50 @@ def _lattice(P, bseg, allseg, h: float, keep_boundary: bool, window=None):
     ccnt = np.maximum(ci1 - ci0 + 1, 0)
     cr = np.repeat(cj, ccnt)
     ci = np.repeat(ci0, ccnt) + np.arange(ccnt.sum()) - np.repeat(np.cumsum(ccnt) - ccnt, ccnt)
-    if ny * nx <= _DENSE_MASK_LIMIT:
-        keep = np.ones(ny * nx, bool)
-        keep[cr * nx + ci] = False
-        sel = keep[keep_idx]
-    else:  # a sparse window of a very fine lattice
-        sel = ~np.isin(keep_idx, cr * nx + ci)
-    r, i = r[sel], i[sel]
-    x = x0 + h * (i + 0.5 * (r % 2))
-    y = y0 + dy * r
-    # deterministic jitter (a hash of the lattice index)
-    z = (r * nx + i).astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
-    z ^= z >> np.uint64(29)
-    z *= np.uint64(0xBF58476D1CE4E5B9)
-    z ^= z >> np.uint64(32)
-    u = (z & np.uint64(0xFFFF)).astype(np.float64) / 65535.0 - 0.5
-    v = ((z >> np.uint64(16)) & np.uint64(0xFFFF)).astype(np.float64) / 65535.0 - 0.5
-    amp = TOL.jitter * h
-    return np.column_stack([x + amp * u, y + amp * v])
+    dropped = np.sort(cr * nx + ci)
+    grid = (nx, x0, y0, h, dy, TOL.jitter * h)
+    out = np.empty((_lattice_points(rows, i0, i1, dropped, *grid, _NO_POINTS), 2))
+    _lattice_points(rows, i0, i1, dropped, *grid, out)
+    return out
+
+
+#: The ``out`` of :func:`_lattice_points` that asks for the count only.
+_NO_POINTS = np.empty((0, 2))
+
+
+@njit(cache=True)
+def _lattice_points(rows, i0, i1, dropped, nx, x0, y0, h, dy, amp, out):
+    """The lattice points of the row intervals (row ``rows[t]``, columns ``i0[t]`` to
+    ``i1[t]``) whose index ``row * nx + column`` is not in the sorted ``dropped``,
+    jittered by a hash of that index; written to ``out`` in interval order when it
+    has rows. Returns their number. One compiled pass: no per-point temporaries.
+    The intervals come as the scan lines make them, row after row and left to right
+    in a row, so the indices never decrease and the search in ``dropped`` walks
+    forward."""
+    write = out.shape[0] > 0
+    nd = len(dropped)
+    n = 0
+    p = 0
+    for t in range(len(rows)):
+        r = rows[t]
+        for i in range(i0[t], i1[t] + 1):
+            key = r * nx + i
+            while p < nd and dropped[p] < key:
+                p += 1
+            if p < nd and dropped[p] == key:
+                continue
+            if write:
+                # deterministic jitter (a hash of the lattice index)
+                z = np.uint64(key) * np.uint64(0x9E3779B97F4A7C15)
+                z ^= z >> np.uint64(29)
+                z *= np.uint64(0xBF58476D1CE4E5B9)
+                z ^= z >> np.uint64(32)
+                u = np.float64(z & np.uint64(0xFFFF)) / 65535.0 - 0.5
+                v = np.float64((z >> np.uint64(16)) & np.uint64(0xFFFF)) / 65535.0 - 0.5
+                out[n, 0] = (x0 + h * (np.float64(i) + 0.5 * np.float64(r % 2))) + amp * u
+                out[n, 1] = (y0 + dy * np.float64(r)) + amp * v
+            n += 1
+    return n
 
 
 def _graded_pattern(P, bseg, allseg, sizing: _Sizing, keep_boundary: bool):
@@ -935,22 +955,32 @@ def triangulate(
             P, pseg, ppar, sub, adm = _admissible(P, pseg, ppar, sub, seg_in, seg_circle, circles)
         except InputError as exc:  # indices of the subsegments: the domain's vertices
             raise located_in_domain(exc, dom, seg_in, sub[1], pseg) from None
-    pseg = pseg.astype(np.int32)
     lap("boundary")
 
     # -- interior pattern ---------------------------------------------------
     report(0.1, "interior pattern")
-    n_lattice = 0
+    lat = np.zeros((0, 2))
     if sizing is not None:
         bsub = sub[0][sub[1] < nbs]
         if sizing.uniform:
             lat = _lattice(P, bsub, sub[0], float(sizing.H[0, 0]), keep_boundary)
         else:
             lat = _graded_pattern(P, bsub, sub[0], sizing, keep_boundary)
-        n_lattice = len(lat)
-        P = np.concatenate([P, lat])
-        pseg = np.concatenate([pseg, np.full(n_lattice, -1, np.int32)])
-        ppar = np.concatenate([ppar, np.zeros(n_lattice)])
+    # The points, their segments and parameters go straight into the refinement's
+    # arrays (with room for the points it adds): no joined copies in between.
+    n_lattice = len(lat)
+    n_outline = len(P)
+    npts = n_outline + n_lattice
+    pcap = npts + npts // 8 + 4096
+    Pc = np.empty((pcap, 2))
+    Pc[:n_outline] = P
+    Pc[n_outline:npts] = lat
+    P = Pc[:npts]
+    pseg_c = np.full(pcap, -1, np.int32)
+    pseg_c[:n_outline] = pseg
+    ppar_c = np.zeros(pcap)
+    ppar_c[:n_outline] = ppar
+    del lat, pseg, ppar
     lap("interior")
 
     # -- one Delaunay triangulation -----------------------------------------
@@ -961,18 +991,14 @@ def triangulate(
 
     # -- segments and regions -----------------------------------------------
     report(0.5, "segments and regions")
-    npts = len(P)
     m0 = len(tri.triangles)
     tcap = m0 + m0 // 8 + 4096
-    pcap = npts + npts // 8 + 4096
     V = np.empty(3 * tcap, np.int32)
     A = np.empty(3 * tcap, np.int32)
     S = np.empty(3 * tcap, np.int32)
     vt = np.zeros(pcap, np.int32)
     cdt.build(tri.triangles, tri.neighbors, V, A, S, vt)
-    Pc = np.empty((pcap, 2))
-    Pc[:npts] = P
-    del tri
+    del tri, P
     work = np.empty(WORK_SIZE)
     info = np.zeros(4, np.int64)
     status = cdt.recover_segments(Pc, V, A, S, vt, sub[0], sub[1], work, info)
@@ -992,10 +1018,6 @@ def triangulate(
     lap("constraints")
 
     # -- refinement -----------------------------------------------------------
-    pseg_c = np.full(pcap, -1, np.int32)
-    pseg_c[:npts] = pseg
-    ppar_c = np.zeros(pcap)
-    ppar_c[:npts] = ppar
     w = _Work(Pc, V2, A2, S2, ntri, npts, pseg_c, ppar_c, vt, n_input)
     rounds = given_up = 0
     if not empty:
