@@ -48,6 +48,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from meshcore.errors import InputError
+from meshcore.geometry.ordering import radix_argsort
 from meshcore.mesh.mesh import CELL_TYPES, CellBlock, Mesh
 
 __all__ = [
@@ -275,7 +276,9 @@ def _group(key: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     if len(key) == 0:
         empty = np.zeros(0, dtype=np.int64)
         return empty, empty, empty
-    order = np.argsort(key)
+    # any sorting permutation gives the same result (``first`` is the least slot of
+    # each group): the radix sort's, linear in the slots
+    order = radix_argsort(np.ascontiguousarray(key, np.int64))
     sk = key[order]
     new = np.empty(len(sk), dtype=bool)
     new[0] = True

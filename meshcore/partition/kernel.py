@@ -220,10 +220,10 @@ def _positions(n):
 
 
 @njit(cache=True)
-def _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch, relaxed):
+def _score(nfix, P, poly, n, i, j, hv, quad, strategy, reflex_angle, scratch, relaxed):
     """(score, pieces) of the separator (i, j), i < j; score inf when not allowed (quads:
     separators down to _QUAD_SPLIT_ANGLE from an edge; triangles, relaxed: down to
-    _TINY_ANGLE, else _MIN_SPLIT_ANGLE)."""
+    _TINY_ANGLE, else _MIN_SPLIT_ANGLE). ``hv``: the size at each vertex of ``poly``."""
     m1 = j - i
     m2 = n - m1
     if quad:
@@ -236,8 +236,8 @@ def _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratc
     dx = P[b, 0] - P[a, 0]
     dy = P[b, 1] - P[a, 1]
     L = math.sqrt(dx * dx + dy * dy)
-    ha = size_at(H, grid, P[a, 0], P[a, 1])
-    hb = size_at(H, grid, P[b, 0], P[b, 1])
+    ha = hv[i]
+    hb = hv[j]
     # rounded: equal up to rounding means equal (the same mesh after scaling)
     t = _rounded(_integral(L, ha, hb))
     k = _pieces(t, quad)
@@ -297,8 +297,12 @@ def _score(nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratc
 @njit(cache=True)
 def _best_split(nfix, P, poly, n, H, grid, quad, strategy, full, relaxed, scratch):
     """Best valid separator (i, j, k) of the polygon, or (-1, -1, 0): among all pairs
-    (``full``) or those of the sampled positions, angles as :func:`_score` ``relaxed``."""
+    (``full``) or those of the sampled positions, angles as :func:`_score` ``relaxed``;
+    the size map read once per vertex, not at both ends of every pair scored."""
     pos = np.arange(n) if full else _positions(n)
+    hv = np.empty(n)
+    for i in range(n):
+        hv[i] = size_at(H, grid, P[poly[i], 0], P[poly[i], 1])
     reflex_at = -1
     reflex_angle = 0.0
     if strategy == ANGLE:
@@ -324,7 +328,7 @@ def _best_split(nfix, P, poly, n, H, grid, quad, strategy, full, relaxed, scratc
             if i == j:
                 continue
             s, k = _score(
-                nfix, P, poly, n, i, j, H, grid, quad, strategy, reflex_angle, scratch, relaxed
+                nfix, P, poly, n, i, j, hv, quad, strategy, reflex_angle, scratch, relaxed
             )
             if s < np.inf:
                 sc[c] = s
@@ -337,9 +341,7 @@ def _best_split(nfix, P, poly, n, H, grid, quad, strategy, full, relaxed, scratc
             for w in range(u + 1, m):
                 i = pos[u]
                 j = pos[w]
-                s, k = _score(
-                    nfix, P, poly, n, i, j, H, grid, quad, strategy, 0.0, scratch, relaxed
-                )
+                s, k = _score(nfix, P, poly, n, i, j, hv, quad, strategy, 0.0, scratch, relaxed)
                 if s < np.inf:
                     sc[c] = s
                     ci[c] = i

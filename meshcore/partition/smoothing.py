@@ -48,6 +48,7 @@ import math
 import numpy as np
 from numba import njit
 
+from meshcore.geometry.ordering import radix_argsort
 from meshcore.mesh.topology import unique_edges
 from meshcore.partition.kernel import orient
 
@@ -81,7 +82,7 @@ def boundary_points(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
 
 
 def _csr(src: np.ndarray, dst: np.ndarray, n: int):
-    order = np.argsort(src, kind="stable")
+    order = radix_argsort(np.ascontiguousarray(src, np.int64))
     ptr = np.zeros(n + 1, np.int64)
     np.cumsum(np.bincount(src, minlength=n), out=ptr[1:])
     return ptr, dst[order]

@@ -113,6 +113,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
+from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.mesh.topology import isin_ints, unique_ints
@@ -482,7 +483,7 @@ class _State:
         :func:`~meshcore.mesh.topology.unique_ints`), kept until the cells change."""
         if self._edges is None:
             key, a, b, cell = _edge_keys(self.C, self.alive, len(self.P))
-            order = np.argsort(key, kind="stable")
+            order = radix_argsort(key)
             ks = key[order]
             head = np.ones(len(ks), bool)
             head[1:] = ks[1:] != ks[:-1]
@@ -497,7 +498,7 @@ class _State:
             _, a, b, _, _, _, first = self.edges()
             src = np.concatenate([a[first], b[first]])
             dst = np.concatenate([b[first], a[first]])
-            nidx = dst[np.argsort(src, kind="stable")]
+            nidx = dst[radix_argsort(src)]
             deg = np.bincount(src, minlength=n)
             nptr = np.zeros(n + 1, np.int64)
             np.cumsum(deg, out=nptr[1:])

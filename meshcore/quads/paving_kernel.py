@@ -230,7 +230,8 @@ def quads_too_close(P, quads, new_nodes, nodes, hx, other, gap, clearance):
     Too close: ``|x - y| < lim * hx`` (``hx`` the size at x), ``lim`` being
     ``clearance`` when y is not on another front (``other[y]`` false) or x is a
     corner of a quad that has a node on one (a merge), ``gap`` otherwise; y may
-    be x or a corner of a quad of x.
+    be x or a corner of a quad of x (the quads of x found by a binary search in the
+    corners sorted by node: linear in the row, not in the row times the close pairs).
     """
     m = len(quads)
     joined = np.zeros(len(P), np.bool_)
@@ -239,6 +240,10 @@ def quads_too_close(P, quads, new_nodes, nodes, hx, other, gap, clearance):
             for c in range(4):
                 joined[quads[q, c]] = True
     i, t, dist = near_pairs(P[new_nodes], P[nodes], max(gap, clearance) * hx.max())
+    # the quads' corners sorted by node: a node's quads are a run of ``by_node``
+    corner = quads.ravel()
+    by_node = np.argsort(corner, kind="mergesort")
+    sorted_corner = corner[by_node]
     bad = np.zeros(len(P), np.bool_)
     for k in range(len(i)):
         x = new_nodes[i[k]]
@@ -247,15 +252,12 @@ def quads_too_close(P, quads, new_nodes, nodes, hx, other, gap, clearance):
         if not (dist[k] < lim * hx[i[k]]) or x == y:
             continue
         mine = False
-        for q in range(m):
-            has_x = False
-            has_y = False
+        lo = np.searchsorted(sorted_corner, x, side="left")
+        hi = np.searchsorted(sorted_corner, x, side="right")
+        for r in range(lo, hi):
+            q = by_node[r] // 4
             for c in range(4):
-                has_x = has_x or quads[q, c] == x
-                has_y = has_y or quads[q, c] == y
-            if has_x and has_y:
-                mine = True
-                break
+                mine = mine or quads[q, c] == y
         if not mine:
             bad[x] = True
     out = np.zeros(m, np.bool_)
