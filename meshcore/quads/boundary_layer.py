@@ -270,10 +270,12 @@ def meets_targets(mesh: Mesh, dom: Domain, size: float) -> bool:
     )
 
 
-def least_off_sharp(mesh: Mesh, dom: Domain) -> float:
+def least_off_sharp(mesh: Mesh, dom: Domain, ok: np.ndarray | None = None) -> float:
     """The least quality (8.4) of the quads of ``mesh`` away from the sharp input
-    corners of ``dom`` (as :func:`meets_targets`; 1.0 if none)."""
-    ok = off_sharp(mesh, dom)
+    corners of ``dom`` (as :func:`meets_targets`; 1.0 if none); ``ok``: those quads, when
+    the caller has them (:func:`off_sharp`)."""
+    if ok is None:
+        ok = off_sharp(mesh, dom)
     if not ok.any():
         return 1.0
     return float(quality.quad_quality(mesh.points, mesh.cells_by_type["quad"][ok]).min())

@@ -155,6 +155,7 @@ algorithm" (2012).
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -175,7 +176,12 @@ from meshcore.quads.boundary_layer import (
     off_sharp,
 )
 from meshcore.quads.lattice import triangulated
-from meshcore.quads.optimization import corners_relaxed, lifted_least, optimize_quads
+from meshcore.quads.optimization import (
+    corners_relaxed,
+    domain_moves,
+    lifted_least,
+    optimize_quads,
+)
 from meshcore.quads.paths import frontal_kernel, stack_kernel
 from meshcore.quads.valence import fewer_defects
 from meshcore.triangulation import check_thinness as check_forced_triangles
@@ -198,6 +204,9 @@ PATTERNS = ("squares", "equilateral")
 #: A domain whose thin parts force more triangles than this whatever the size is refused
 #: before it is triangulated (:func:`check_thinness`).
 MAX_FORCED_TRIANGLES = 1_000_000
+#: A ``size`` giving more than this many quads (area / size², past float64's exact
+#: integers) is refused: no mesh can have them.
+MOST_QUADS = 2.0**53
 
 Progress = Callable[[float, str], None]
 
@@ -1245,6 +1254,12 @@ def combine(
         raise InputError("give either mesh or domain", loc=("mesh",), code="conflicting_parameters")
     if not (0.0 <= min_quality <= 1.0):
         raise InputError("min_quality must be in [0, 1]", loc=("min_quality",), code="bad_value")
+    if size is not None and not (math.isfinite(size) and size > 0):
+        raise InputError(
+            f"size must be a finite number above 0, got {size!r}",
+            loc=("size",),
+            code="bad_parameter",
+        )
     if twice_size and (domain is None or not all_quad):
         raise InputError(
             "twice_size meshes a domain at twice the size for all_quad: it needs domain input "
@@ -1271,6 +1286,13 @@ def combine(
 
         _dom = domain_in = domain if isinstance(domain, Domain) else parse_domain(domain)
         check_thinness(_dom)
+        if size is not None and not _dom.area / size / size <= MOST_QUADS:
+            raise InputError(
+                f"size {size!r} would make about {_dom.area / size / size:.3g} quads on a "
+                f"domain of area {_dom.area:.6g}: give a larger size",
+                loc=("size",),
+                code="too_many_cells",
+            )
         if layer_fits and all_quad and twice_size and pattern == "squares" and not keep_boundary:
             layered = boundary_layer(
                 _dom,
@@ -1344,16 +1366,18 @@ def combine(
         if boundary is not None:  # boundary vertices are never removed
             boundary = opt.point_map[boundary]
         if domain is not None and all_quad and metric is None and measure == "angle":
+            moves = domain_moves(out_mesh, _dom)
             out_mesh, ops["relax"] = corners_relaxed(
                 out_mesh,
-                _dom,
+                moves,
                 TOL.relax_below,
                 TOL.relax_power,
                 TOL.relax_most,
                 TOL.relax_iterations,
             )
+            judged = off_sharp(out_mesh, _dom)
             out_mesh, ops["lift_off_sharp"] = lifted_least(
-                out_mesh, _dom, off_sharp(out_mesh, _dom), TOL.least_target
+                out_mesh, moves, judged, TOL.least_target
             )
         if metric is not None and metric.ndim == 3:
             metric = metric[opt.point_map >= 0]
@@ -1369,8 +1393,8 @@ def combine(
                 "max": float(wp.max()),
             }
     stats["seconds"] = timings
-    if retried is not None:
-        lattice_least = least_off_sharp(out_mesh, domain_in)
+    if retried is not None:  # the lattice's mesh, optimized above: judged is its off_sharp
+        lattice_least = least_off_sharp(out_mesh, domain_in, judged)
         if beats_lattice(retried.mesh, out_mesh, lattice_least, domain_in):
             retried.stats["lattice_least"] = lattice_least
             report(1.0, "done")
