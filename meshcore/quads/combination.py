@@ -1216,7 +1216,7 @@ def combine(
         ``CORNER_LEAST_QUALITY``). Where that refuses the row, ``optimize`` with
         ``angle`` tries it once more at 0 and keeps it when the optimized mesh
         meets :func:`~meshcore.quads.boundary_layer.meets_targets`, or else when
-        it beats the lattice's mesh
+        the lattice's mesh misses them and the row beats it
         (:func:`~meshcore.quads.boundary_layer.beats_lattice`; ``stats``
         ``lattice_least``: the lattice's least quality away from sharp corners).
     progress : callable(fraction, message), optional
@@ -1395,7 +1395,9 @@ def combine(
     stats["seconds"] = timings
     if retried is not None:  # the lattice's mesh, optimized above: judged is its off_sharp
         lattice_least = least_off_sharp(out_mesh, domain_in, judged)
-        if beats_lattice(retried.mesh, out_mesh, lattice_least, domain_in):
+        if not meets_targets(out_mesh, domain_in, size, judged) and beats_lattice(
+            retried.mesh, out_mesh, lattice_least, domain_in
+        ):
             retried.stats["lattice_least"] = lattice_least
             report(1.0, "done")
             return retried
