@@ -247,8 +247,10 @@ class _Tolerances:
     #: times ``size``, and the first that meets them at ``size`` is returned: the row
     #: and the lattice change much with the size on spiky polygons (issue 20's star 15
     #: at 0.1: 1.514x area / size² quads at 1.0, 1.489x at 1.02; star 8 1.70x at 1.0,
-    #: 1.48x at 1.06; star 29 least 0.523 / 1.90x at 1.0, 0.502 / 1.45x at 1.1).
-    size_tries: tuple[float, ...] = (1.02, 1.04, 1.06, 1.1)
+    #: 1.48x at 1.06; star 29 least 0.523 / 1.90x at 1.0, 0.502 / 1.45x at 1.1; star 26
+    #: least 0.497 at 1.0-1.15, 0.522 at 1.2). A domain that no size meets pays
+    #: 1 + len(size_tries) meshes.
+    size_tries: tuple[float, ...] = (1.02, 1.04, 1.06, 1.1, 1.2)
     #: Then the nodes of the quads under this quality away from sharp input corners
     #: (the issue's least quality) are moved to raise it
     #: (:func:`~meshcore.quads.optimization.lifted_least`).
@@ -1135,7 +1137,7 @@ def combine(
         ``lattice_least``: the lattice's least quality away from sharp corners).
         Where the mesh still misses those targets (``size`` given, no size field
         nor metric, the boundary not kept, ``squares``), the domain is meshed
-        again at 1.02, 1.04, 1.06 and 1.1 times ``size`` and the first mesh that
+        again at 1.02, 1.04, 1.06, 1.1 and 1.2 times ``size`` and the first mesh that
         meets the targets at ``size`` is returned (``stats`` ``size_factor``);
         none does: the first mesh.
     progress : callable(fraction, message), optional
