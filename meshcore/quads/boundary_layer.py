@@ -92,14 +92,15 @@ Choices the text leaves open
   vertices, every other one with a star-shaped hole, ``size`` 0.1): under the
   targets on 18 before, 12 after; the 7 changed went from least quality
   0.33-0.53 / mean 0.74-0.82 (lattice) to 0.50-0.64 / 0.82-0.85, counts
-  1.01-1.43x. A retried row that misses the targets is still kept when it beats
-  the lattice's mesh (:func:`beats_lattice`: a higher least quality away from the
-  sharp input corners, with at most ``ROW_MOST_QUADS`` = 1.2 times its quads; the
-  lattice is meshed too to compare): on issue 20's 40 random stars at size 0.1
-  (5-60 vertices, jitter 10-80 %, a hole on every other one) 9 of the 19 under the
-  targets changed, least 0.155-0.367 -> 0.278-0.505, worst corners 14-166 -> 25-145
-  degrees, mean 0.713-0.807 -> 0.801-0.858, with 1.05-1.16 times the lattice's
-  quads (counts 1.29-1.90x area / size², the lattice's 1.15-1.64x). The other 10
+  1.01-1.43x. A retried row that misses the targets is still kept when the
+  lattice's mesh misses them too and the row beats it (:func:`beats_lattice`: a
+  higher least quality away from the sharp input corners, with at most
+  ``ROW_MOST_QUADS`` = 1.2 times its quads; the lattice is meshed too to compare):
+  on issue 20's 40 random stars at size 0.1 (5-60 vertices, jitter 10-80 %, a hole
+  on every other one) 9 of the 19 under the targets changed, least 0.155-0.367 ->
+  0.278-0.505, worst corners 14-166 -> 25-145 degrees, mean 0.713-0.807 ->
+  0.801-0.858, with 1.05-1.16 times the lattice's quads (counts 1.29-1.90x area /
+  size², the lattice's 1.15-1.64x). The other 10
   keep the lattice: their offset ring crosses itself even at ``WIDTH_SHARE`` (a
   third try at 0.3 and 0.2 of the width gained 2 of them, not kept).
 """
@@ -251,17 +252,19 @@ def off_sharp(mesh: Mesh, dom: Domain) -> np.ndarray:
     return ~at[Q].any(axis=1)
 
 
-def meets_targets(mesh: Mesh, dom: Domain, size: float) -> bool:
+def meets_targets(mesh: Mesh, dom: Domain, size: float, ok: np.ndarray | None = None) -> bool:
     """Whether an all-quad mesh of ``dom`` (the input vertices first) has within 1.5
     times area / size² quads and, away from the input's sharp corners (under 45 or
-    over 270 degrees inside: a quad there is forced to a small or a large corner),
-    every corner in [30, 150] degrees and quality (8.4) at least 0.5."""
+    over 270 degrees inside: a quad there is forced to a small or a large corner;
+    ``ok``: the other quads, when the caller has them, as :func:`off_sharp`), every
+    corner in [30, 150] degrees and quality (8.4) at least 0.5."""
     P, Q = mesh.points, mesh.cells_by_type["quad"]
     n0 = len(dom.points)
     ratio = len(Q) * size * size / dom.area  # size**2 overflows past 1e154
     if not 1 / 1.5 <= ratio <= 1.5 or not np.array_equal(P[:n0], dom.points):
         return False
-    ok = off_sharp(mesh, dom)
+    if ok is None:
+        ok = off_sharp(mesh, dom)
     if not ok.any():
         return True
     ang = quality.quad_angles(P, Q[ok])
@@ -270,10 +273,12 @@ def meets_targets(mesh: Mesh, dom: Domain, size: float) -> bool:
     )
 
 
-def least_off_sharp(mesh: Mesh, dom: Domain) -> float:
+def least_off_sharp(mesh: Mesh, dom: Domain, ok: np.ndarray | None = None) -> float:
     """The least quality (8.4) of the quads of ``mesh`` away from the sharp input
-    corners of ``dom`` (as :func:`meets_targets`; 1.0 if none)."""
-    ok = off_sharp(mesh, dom)
+    corners of ``dom`` (as :func:`meets_targets`; 1.0 if none); ``ok``: those quads, when
+    the caller has them (:func:`off_sharp`)."""
+    if ok is None:
+        ok = off_sharp(mesh, dom)
     if not ok.any():
         return 1.0
     return float(quality.quad_quality(mesh.points, mesh.cells_by_type["quad"][ok]).min())

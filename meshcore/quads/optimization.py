@@ -109,6 +109,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -117,6 +118,7 @@ from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.mesh.topology import isin_ints, unique_ints
+from meshcore.partition.smoothing import boundary_points
 from meshcore.quads.vertex_moves import (
     _angle_quality_rows,
     _colors,
@@ -131,8 +133,10 @@ from meshcore.quads.vertex_moves import (
 
 __all__ = [
     "OPERATORS",
+    "DomainMoves",
     "OptimizeResult",
     "corners_relaxed",
+    "domain_moves",
     "lifted_least",
     "optimize_quads",
     "relax_quads",
@@ -1201,6 +1205,7 @@ def relax_quads(
     active: np.ndarray | None = None,
     iterations: int = 200,
     angle_power: float | None = None,
+    border: np.ndarray | None = None,
 ) -> np.ndarray:
     """Untangle and smooth a planar quad mesh (quads of §8.4.3, §8.5.3).
 
@@ -1237,6 +1242,10 @@ def relax_quads(
         Minimize ``(1 / sin(corner angle)) ** angle_power`` (regularized the
         same way) instead: angles only, closer to (8.4) than the condition
         number, which also evens the edge lengths.
+    border : (n,) bool, optional
+        The mesh's boundary nodes, when the caller has them
+        (:func:`meshcore.partition.smoothing.boundary_points`): they move only in
+        ``slide``.
 
     Returns
     -------
@@ -1266,8 +1275,8 @@ def relax_quads(
     inactive = C[~active]
     movable[inactive.ravel()] = False
     movable &= ~fixed
-    for loop in _loops(C, n):  # boundary nodes move only along their segment
-        movable[loop] = False
+    # boundary nodes move only along their segment
+    movable &= ~(boundary_points(P0, C) if border is None else border)
     node, sa, sb = slide if slide is not None else (np.zeros(0, np.int64),) * 3
     ok = np.zeros(n, bool)
     ok[Ca.ravel()] = True
@@ -1343,16 +1352,39 @@ def relax_quads(
     return out
 
 
+class DomainMoves(NamedTuple):
+    """How the nodes of a domain's all-quad mesh may move (:func:`domain_moves`)."""
+
+    #: (n,) bool: the input vertices and the nodes on interior constraints.
+    fixed: np.ndarray
+    #: (node, a, b): the other boundary nodes, sliding on their input segment.
+    slide: tuple[np.ndarray, np.ndarray, np.ndarray]
+    #: (n,) bool: the mesh's boundary nodes.
+    border: np.ndarray
+
+
+def domain_moves(mesh: Mesh, dom) -> DomainMoves:
+    """The fixed, sliding and boundary nodes of an all-quad mesh of ``dom`` (the input
+    vertices first): the input vertices and the nodes on interior constraints fixed, the
+    other boundary nodes sliding along their input segment (:func:`sliding_nodes` with
+    ``on_segments``). Made once for :func:`corners_relaxed` and :func:`lifted_least`,
+    which move no node off its segment nor change the cells."""
+    P = mesh.points
+    Q = mesh.cells_by_type["quad"]
+    fixed = np.zeros(len(P), bool)
+    fixed[: len(dom.points)] = True  # the input vertices come first
+    fixed[_on_constraints(P, unique_ints(Q.ravel()), dom)] = True
+    return DomainMoves(fixed, sliding_nodes(P, Q, fixed, True), boundary_points(P, Q))
+
+
 def corners_relaxed(
-    mesh: Mesh, dom, below: float, power: float, most: int, iterations: int
+    mesh: Mesh, moves: DomainMoves, below: float, power: float, most: int, iterations: int
 ) -> tuple[Mesh, int]:
     """The all-quad mesh of a domain with its corner angles optimized
     (:func:`relax_quads` with ``angle_power`` ``power``) over the quads
     under quality ``below`` and their neighbours (none if more than
-    ``most``; L-BFGS-B ``iterations`` at most), the input vertices fixed and the other
-    boundary points
-    sliding along their input segment (every such node: ``sliding_nodes`` with
-    ``on_segments``). Kept (returns 1) when every quad stays strictly convex (exact)
+    ``most``; L-BFGS-B ``iterations`` at most), the nodes moving as ``moves``
+    (:func:`domain_moves`). Kept (returns 1) when every quad stays strictly convex (exact)
     and the mean quality (8.4) rises while the least stays at or above the lower of
     its value and 0.5, to ``TOL.gain`` (a node sliding next to a sharp input corner
     changes that corner's quality by rounding)."""
@@ -1364,17 +1396,15 @@ def corners_relaxed(
     active = bad[Q].any(axis=1)
     if not active.any() or active.sum() > most:
         return mesh, 0
-    fixed = np.zeros(len(P), bool)
-    fixed[: len(dom.points)] = True  # the input vertices come first
-    fixed[_on_constraints(P, unique_ints(Q[active]), dom)] = True
     new = relax_quads(
         P,
         Q,
-        fixed,
-        slide=sliding_nodes(P, Q, fixed, True),
+        moves.fixed,
+        slide=moves.slide,
         active=active,
         iterations=iterations,
         angle_power=power,
+        border=moves.border,
     )
     if not _valid(new, Q).all():
         return mesh, 0
@@ -1384,12 +1414,13 @@ def corners_relaxed(
     return Mesh(new, mesh.cells), 1
 
 
-def lifted_least(mesh: Mesh, dom, judged: np.ndarray, below: float) -> tuple[Mesh, int]:
+def lifted_least(
+    mesh: Mesh, moves: DomainMoves, judged: np.ndarray, below: float
+) -> tuple[Mesh, int]:
     """The all-quad mesh of a domain with the least corner quality (8.3) of its ``judged``
     quads raised around those under ``below``
-    (:func:`meshcore.quads.vertex_moves.lift_corners`): the input vertices and the nodes
-    on interior constraints fixed, the other boundary nodes sliding along their input
-    segment (:func:`sliding_nodes`). No judged quad falls under ``below`` nor, when
+    (:func:`meshcore.quads.vertex_moves.lift_corners`), the nodes moving as ``moves``
+    (:func:`domain_moves`). No judged quad falls under ``below`` nor, when
     under it already, at all, and no other quad falls (a spike's tip quad keeps its
     tip's quality, the worst corner it can have); every quad stays strictly convex.
     Returns (mesh, moves made).
@@ -1401,14 +1432,12 @@ def lifted_least(mesh: Mesh, dom, judged: np.ndarray, below: float) -> tuple[Mes
     """
     P = mesh.points
     Q = mesh.cells_by_type["quad"]
-    fixed = np.zeros(len(P), bool)
-    fixed[: len(dom.points)] = True  # the input vertices come first
-    fixed[_on_constraints(P, unique_ints(Q.ravel()), dom)] = True
-    slide = sliding_nodes(P, Q, fixed, True)
-    new, moves = lift_corners(P, Q, fixed, slide, judged, below, below)
-    if not moves:
+    new, made = lift_corners(
+        P, Q, moves.fixed, moves.slide, judged, below, below, border=moves.border
+    )
+    if not made:
         return mesh, 0
-    return Mesh(new, mesh.cells), moves
+    return Mesh(new, mesh.cells), made
 
 
 def _on_constraints(P: np.ndarray, candidates: np.ndarray, dom) -> np.ndarray:

@@ -1,9 +1,10 @@
-"""The two traversal selections of ``combine`` (:mod:`meshcore.quads.combination`,
-step 2): the stack path of §8.4.2 and the frontal order of Remark 8.8, each one
-compiled sequential kernel (numba) over the dual graph.
+"""The traversal selections of ``combine`` (:mod:`meshcore.quads.combination`,
+step 2): the best-first heap of §8.4.4 (with its binary heap, shared by the
+matching's augmenting search), the stack path of §8.4.2 and the frontal order of
+Remark 8.8, each one compiled sequential kernel (numba) over the dual graph.
 
-Both take the triangles' neighbours ``nb`` (m, 3) (-1 on the boundary) and the
-candidates' weights ``w`` (m, 3) (negative: not allowed), and fill ``mate`` (m,)
+Each takes the triangles' neighbours ``nb`` (m, 3) (-1 on the boundary) and the
+candidates' weights ``w`` (m, 3) (negative: not allowed), and fills ``mate`` (m,)
 with each combined triangle's partner; the order, the tie-breaking and the
 three-quad pattern are described in :mod:`meshcore.quads.combination`.
 
@@ -17,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["frontal_kernel", "stack_kernel"]
+__all__ = ["frontal_kernel", "heap_kernel", "stack_kernel"]
 
 
 @njit(cache=True)
@@ -158,4 +159,97 @@ def frontal_kernel(nb, w, seeds, mate):
                 pairs += 1
                 qt = _enqueue_neighbours(nb, s, queued, queue, qt)
         qt = _enqueue_neighbours(nb, t, queued, queue, qt)
+    return pairs
+
+
+@njit(cache=True)
+def _push(hk, hv, n, key, val):
+    i = n
+    hk[i] = key
+    hv[i] = val
+    while i > 0:
+        p = (i - 1) // 2
+        if hk[p] > hk[i] or (hk[p] == hk[i] and hv[p] < hv[i]):
+            break
+        hk[p], hk[i] = hk[i], hk[p]
+        hv[p], hv[i] = hv[i], hv[p]
+        i = p
+    return n + 1
+
+
+@njit(cache=True)
+def _pop(hk, hv, n):
+    n -= 1
+    hk[0] = hk[n]
+    hv[0] = hv[n]
+    i = 0
+    while True:
+        a = 2 * i + 1
+        if a >= n:
+            break
+        b = a + 1
+        c = a
+        if b < n and (hk[b] > hk[a] or (hk[b] == hk[a] and hv[b] < hv[a])):
+            c = b
+        if hk[i] > hk[c] or (hk[i] == hk[c] and hv[i] < hv[c]):
+            break
+        hk[c], hk[i] = hk[i], hk[c]
+        hv[c], hv[i] = hv[i], hv[c]
+        i = c
+    return n
+
+
+@njit(cache=True)
+def _last_option(nb, w, mate, r):
+    for i in range(3):
+        u = nb[r, i]
+        if u >= 0 and mate[u] < 0 and w[r, i] >= 0:
+            return i
+    return -1
+
+
+@njit(cache=True)
+def heap_kernel(nb, w, order, mate, urgent):
+    """Best-first pairs (§8.4.4); with ``urgent``, a triangle's last option jumps the queue."""
+    m = nb.shape[0]
+    cnt = np.zeros(m, np.int64)
+    for t in range(m):
+        for k in range(3):
+            if nb[t, k] >= 0 and w[t, k] >= 0:
+                cnt[t] += 1
+    hk = np.empty(m + 1)
+    hv = np.empty(m + 1, np.int64)
+    hn = np.int64(0)  # not a literal: one compiled _push / _pop
+    for t in range(m):
+        if urgent and cnt[t] == 1:
+            i = _last_option(nb, w, mate, t)
+            hn = _push(hk, hv, hn, w[t, i], 3 * t + i)
+    pos = 0
+    pairs = 0
+    while True:
+        if hn > 0:
+            h = hv[0]
+            hn = _pop(hk, hv, hn)
+        elif pos < order.shape[0]:
+            h = order[pos]
+            pos += 1
+        else:
+            break
+        t = h // 3
+        s = nb[t, h % 3]
+        if mate[t] >= 0 or mate[s] >= 0:
+            continue
+        mate[t] = s
+        mate[s] = t
+        pairs += 1
+        for x in (t, s):
+            for j in range(3):
+                r = nb[x, j]
+                if r < 0 or mate[r] >= 0 or w[x, j] < 0:
+                    continue
+                cnt[r] -= 1
+                if urgent and cnt[r] == 1 and hn < m:
+                    i = _last_option(nb, w, mate, r)
+                    if i >= 0:
+                        hn = _push(hk, hv, hn, w[r, i], 3 * r + i)
     return pairs

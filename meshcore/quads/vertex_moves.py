@@ -524,6 +524,7 @@ def lift_corners(
     judged: np.ndarray,
     below: float,
     keep: float = 0.0,
+    border: np.ndarray | None = None,
 ) -> tuple[np.ndarray, int]:
     """The least corner quality (8.3) of the ``judged`` quads raised around those under
     ``below`` (§8.4.3: optimization-based smoothing of the worst corners).
@@ -531,7 +532,8 @@ def lift_corners(
     A pattern search, node by node: the nodes of the quads within two rings of the
     judged quads under ``below`` move, except the ``fixed`` ones; those in ``slide``
     (``node, a, b`` as :func:`meshcore.quads.optimization.sliding_nodes`) only along
-    the line from ``a`` to ``b``, the other border nodes not at all. A node tries
+    the line from ``a`` to ``b``, the other border nodes (``border``, the mesh's
+    boundary nodes when the caller has them) not at all. A node tries
     steps of 1/4 down to 1/64 of its mean edge length (32 directions, or 2 along its
     line) and moves where the least quality of the corners it moves in judged quads
     rises (by :data:`LIFT_GAIN`), or stays and their summed squared shortfall under
@@ -558,7 +560,8 @@ def lift_corners(
     for _ in range(2):  # two rings of quads around the poor ones
         near[C[near[C].any(axis=1)].ravel()] = True
     node, a, b = slide
-    border = boundary_points(P, C)
+    if border is None:
+        border = boundary_points(P, C)
     mode = np.where(near & ~fixed & ~border, 1, 0).astype(np.int64)
     on = near[node] & ~fixed[node]
     node, a, b = node[on], a[on], b[on]

@@ -312,6 +312,13 @@ class TestDomainInput:
         with pytest.raises(InputError):
             combine(tri_mesh(SQUARE_PTS, SQUARE_TRI), twice_size=True, all_quad=True)
 
+    @pytest.mark.parametrize("size", [math.nan, 0.0, 1e-300])
+    def test_a_bad_size_is_refused_at_the_top(self, size):
+        # NaN and 1e-300 with twice_size were a ValueError from boundary_layer's ring points
+        with pytest.raises(InputError) as err:
+            combine(domain=self.HOLE, size=size, all_quad=True, twice_size=True)
+        assert err.value.errors[0]["loc"] == ["size"]
+
     def test_a_domain_too_thin_for_its_size_is_refused_up_front(self):
         # a 1 x 1e-6 strip forces about 2M triangles whatever the size (1.54M made, 3.08M
         # quads in 52 CPU s): refused before triangulating, naming triangulate

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 from meshcore.domain.planar import parse_domain
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.quads import combination, combine
+from meshcore.quads.paths import heap_kernel
 from meshcore.quads.valence import fewer_defects
 from meshcore.triangulation.refinement import triangulate
 from tests.meshcore.quads.test_combination import star_domain
@@ -73,7 +74,7 @@ def test_random_pairings_lose_defect_and_stay_valid(seed):
     valid = np.flatnonzero((w.ravel() >= 0) & (np.arange(w.size) // 3 < nb.ravel()))
     order = valid[np.argsort(-w.ravel()[valid], kind="stable")]
     mate = np.full(len(tri), -1, np.int64)
-    combination._heap_kernel(nb, w, order, mate, True)
+    heap_kernel(nb, w, order, mate, True)
     before = _defect(P, tri, nb, mate)
     pairs_before = {(t, int(s)) for t, s in enumerate(mate) if s >= 0}
     out = fewer_defects(P, tri, nb, w, w_merge, mate)
