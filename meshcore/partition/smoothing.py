@@ -20,7 +20,7 @@ in turn (Gauss-Seidel: each move sees the moves before it), ``sweeps`` times:
   one quarter; it is kept at the first step where every quad around the
   point is strictly convex (exact
   :func:`~meshcore.geometry.predicates.orient2d_scalar`, asked only where the
-  quality (8.4) is at most 1e-6: above, it proves it) and their least
+  quality (8.4) is at most ``CONVEX_PROOF``: above, it proves it) and their least
   quality (8.4) is at least ``min(its old value, floor)``, where ``floor`` is
   the larger of 0.5 and the least quality of the mesh at the start, and
   either the sum of their qualities does not drop or their least rises, both
@@ -188,6 +188,13 @@ def smooth_quads(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray, sweep
     return P, int(undone)
 
 
+#: A quad whose quality (8.4) is above this is strictly convex, no exact sign needed:
+#: every corner's sine is then above it, so each corner's floating-point determinant
+#: exceeds the error bound of ``orient2d_filtered`` many times over and the predicate
+#: would return its sign unchanged; at or below it the predicate decides.
+CONVEX_PROOF = 1e-6
+
+
 @njit(cache=True)
 def quad_q(P, quads, c):
     """Quality (8.4) of quad row c (0 when a corner does not turn left in floating point).
@@ -236,7 +243,7 @@ def _accepted(P, quads, cptr, cidx, v, qc, floor, qnew):
         low = min(low, q)
         k += 1
     for r in range(cptr[v], cptr[v + 1]):
-        if qnew[r - cptr[v]] > 1e-6:  # the quality proves it (vertex_moves._checked_quality)
+        if qnew[r - cptr[v]] > CONVEX_PROOF:  # the quality proves it
             continue
         c = cidx[r]
         for j in range(4):

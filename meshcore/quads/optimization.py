@@ -74,7 +74,7 @@ all the passes of one smoothing, one call per round of the lift) move the
 vertices colour by colour and evaluate their cells with the same operations as
 :func:`meshcore.mesh.quality.quad_quality` (a few cells per move, where a
 vectorized call costs more than the cells), the exact convexity test only
-where the quality is under 1e-6. Configurations whose cells are
+where the quality is at most ``CONVEX_PROOF``. Configurations whose cells are
 all above ``active_below`` are not smoothed.
 
 Cost (``benchmarks/quads.py``, matching + optimize on Gmsh's 10k-triangle
@@ -118,7 +118,7 @@ from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.mesh.topology import isin_ints, unique_ints
-from meshcore.partition.smoothing import boundary_points
+from meshcore.partition.smoothing import CONVEX_PROOF, boundary_points
 from meshcore.quads.vertex_moves import (
     _angle_quality_rows,
     _colors,
@@ -253,12 +253,11 @@ def _valid(P, C) -> np.ndarray:
 
 def _valid_of(P, C, q, measure: str, metric) -> np.ndarray:
     """:func:`_valid` of rows of C whose :func:`_cell_quality` ``q`` is known: planar
-    (8.4) without a metric, a quality above 1e-6 proves strict convexity (as in
-    :func:`~meshcore.quads.vertex_moves._checked_quality`), so that the exact signs
-    are taken for the other rows only."""
+    (8.4) without a metric, a quality above ``CONVEX_PROOF`` proves strict convexity,
+    so that the exact signs are taken for the other rows only."""
     if P.shape[1] != 2 or measure != "angle" or metric is not None:
         return _valid(P, C)
-    ok = q > 1e-6
+    ok = q > CONVEX_PROOF
     low = np.flatnonzero(~ok)
     if len(low):
         ok[low] = _valid_planar(P, C[low])

@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered
-from meshcore.partition.smoothing import boundary_points, quad_q
+from meshcore.partition.smoothing import CONVEX_PROOF, boundary_points, quad_q
 
 
 @njit(cache=True)
@@ -262,13 +262,10 @@ def _smooth_passes(P, C, q, live, order, movable, csr, passes, tol, moved):
 def _checked_quality(P, C, c, work):
     """:func:`_angle_quality` of row c, -inf unless it is strictly convex (exact).
 
-    Above 1e-6 the quality proves it: every corner's sine is then above 1e-6,
-    so each corner's floating-point determinant exceeds the error bound of
-    ``orient2d_filtered`` many times over, and the predicate would return its
-    sign unchanged; below, the predicate decides.
+    Above ``CONVEX_PROOF`` the quality proves it; below, the predicate decides.
     """
     q = _angle_quality(P, C, c)
-    if q > 1e-6 or _row_valid(P, C, c, work):
+    if q > CONVEX_PROOF or _row_valid(P, C, c, work):
         return q
     return -np.inf
 
@@ -386,7 +383,7 @@ LIFT_SHORTFALL_GAIN = 1e-9
 def _corner_at(P, C, c, k, v, x, y, work):
     """(8.3) of corner ``k`` of quad ``c`` with node ``v`` at ``(x, y)``; -1 unless it
     turns left (exact :func:`~meshcore.geometry.predicates.orient2d_filtered` where its
-    sine is under 1e-6, where the floating-point sign could be wrong)."""
+    sine is at most ``CONVEX_PROOF``, where the floating-point sign could be wrong)."""
     a, b, d = C[c, (k + 3) % 4], C[c, k], C[c, (k + 1) % 4]
     ax, ay = (x, y) if a == v else (P[a, 0], P[a, 1])
     bx, by = (x, y) if b == v else (P[b, 0], P[b, 1])
@@ -396,8 +393,8 @@ def _corner_at(P, C, c, k, v, x, y, work):
     norm = math.sqrt((ux * ux + uy * uy) * (wx * wx + wy * wy))
     if not norm > 0.0:
         return -1.0
-    if cross <= 1e-6 * norm and (
-        cross < -1e-6 * norm or orient2d_filtered(bx, by, dx, dy, ax, ay, work) <= 0
+    if cross <= CONVEX_PROOF * norm and (
+        cross < -CONVEX_PROOF * norm or orient2d_filtered(bx, by, dx, dy, ax, ay, work) <= 0
     ):
         return -1.0
     t = math.atan2(max(cross, 0.0), ux * wx + uy * wy) / (0.5 * math.pi)
