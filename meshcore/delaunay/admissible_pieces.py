@@ -578,25 +578,37 @@ def _chain_key_order(first, chain, key):
     return order
 
 
+@njit(cache=True, inline="always")
+def _ball_radius(xy, u, v, grow, pad):
+    """The radius a ball query of segment ``uv`` searches: its half-length
+    enlarged, ``half * grow + pad`` (``admissible._enlargement``)."""
+    return 0.5 * np.hypot(xy[v, 0] - xy[u, 0], xy[v, 1] - xy[u, 1]) * grow + pad
+
+
+@njit(cache=True)
+def _ball_radii(xy, a, b, grow, pad):
+    """:func:`_ball_radius` of each segment ``(a[i], b[i])``."""
+    out = np.empty(a.shape[0])
+    for i in range(a.shape[0]):
+        out[i] = _ball_radius(xy, a[i], b[i], grow, pad)
+    return out
+
+
 @njit(cache=True)
 def _search_order(rows, src, a, b, xy, direction, slot, grow, pad, scale):
     """Pieces ``rows`` in the order their searches go (:meth:`_Pieces.along`):
     by input segment, then by position of their midpoints along it
     (:func:`_chain_key_order`); and, in that order, the slots of their ends
-    and the radii of their balls, ``(half length * grow + pad) * scale``
-    (the enlarged half-lengths of ``_query_radii`` in the kernel's scale)."""
+    and the radii of their ball queries (:func:`_ball_radius`) in the
+    kernel's scale."""
     k = rows.shape[0]
     key = np.empty(k)
-    half = np.empty(k)
     for i in range(k):
         r = rows[i]
         s = src[r]
-        ax = xy[a[r], 0]
-        ay = xy[a[r], 1]
-        bx = xy[b[r], 0]
-        by = xy[b[r], 1]
-        key[i] = (ax + bx) * direction[s, 0] + (ay + by) * direction[s, 1]
-        half[i] = 0.5 * np.hypot(bx - ax, by - ay)
+        key[i] = (xy[a[r], 0] + xy[b[r], 0]) * direction[s, 0] + (
+            xy[a[r], 1] + xy[b[r], 1]
+        ) * direction[s, 1]
     seq = _chain_key_order(np.arange(k), src[rows], key)
     sa = np.empty(k, np.int64)
     sb = np.empty(k, np.int64)
@@ -605,7 +617,7 @@ def _search_order(rows, src, a, b, xy, direction, slot, grow, pad, scale):
         r = rows[seq[i]]
         sa[i] = slot[a[r]]
         sb[i] = slot[b[r]]
-        radii[i] = (half[seq[i]] * grow + pad) * scale
+        radii[i] = _ball_radius(xy, a[r], b[r], grow, pad) * scale
     return seq, sa, sb, radii
 
 
