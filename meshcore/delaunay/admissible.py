@@ -215,6 +215,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from meshcore.delaunay.admissible_pieces import (
+    _ball_radii,
     _edge_keys,
     _grid_reach,
     _Pieces,
@@ -484,11 +485,11 @@ def _ball_pairs(tree: cKDTree, centers: np.ndarray, radii: np.ndarray):
     return np.repeat(np.arange(len(centers), dtype=np.int64), counts), flat
 
 
-def _query_radii(A: np.ndarray, B: np.ndarray, scale: float, tol: Tolerances):
-    """Midpoints and enlarged half-lengths of segments AB, for ball queries."""
-    mid = 0.5 * (A + B)
-    half = 0.5 * np.hypot(B[:, 0] - A[:, 0], B[:, 1] - A[:, 1])
-    return mid, half * (1.0 + tol.ball_slack) + tol.coordinate_slack * scale
+def _enlargement(scale: float, tol: Tolerances) -> tuple[float, float]:
+    """``(grow, pad)``: a query of radius ``r`` searches ``r * grow + pad``
+    (:attr:`Tolerances.ball_slack` relative, :attr:`Tolerances.coordinate_slack`
+    times the largest coordinate magnitude ``scale``)."""
+    return 1.0 + tol.ball_slack, tol.coordinate_slack * scale
 
 
 def _closed_ball_members(P, tree, a, b, scale, tol):
@@ -498,8 +499,8 @@ def _closed_ball_members(P, tree, a, b, scale, tol):
     strictly inside, 0 on the circle); the endpoints themselves excluded.
     """
     A, B = P[a], P[b]
-    mid, radii = _query_radii(A, B, scale, tol)
-    q, p = _ball_pairs(tree, mid, radii)
+    radii = _ball_radii(P, a, b, *_enlargement(scale, tol))
+    q, p = _ball_pairs(tree, 0.5 * (A + B), radii)
     keep = (p != a[q]) & (p != b[q])
     q, p = q[keep], p[keep]
     d = dot2d(A[q], B[q], P[p]) if len(q) else np.zeros(0, dtype=np.int8)
@@ -719,7 +720,8 @@ def _segment_reach(st: _Pieces, rows, reach, verts, scale, tol) -> np.ndarray:
     vertices near them on a 10,000-vertex star.)
     """
     X = st.xy[verts]
-    padded = reach * (1.0 + tol.ball_slack) + tol.coordinate_slack * scale
+    grow, pad = _enlargement(scale, tol)
+    padded = reach * grow + pad
     ex, ey = (X.max(axis=0) - X.min(axis=0)).tolist()
     cell = max(math.sqrt(ex * ey / len(X)), max(ex, ey) / len(X), float(np.median(padded)))
     return _grid_reach(st.xy, st.a, st.b, rows, verts, reach, padded, cell)
@@ -780,9 +782,7 @@ def _choose_encroachers(missing, st: _Pieces, scale, tol):
     (:meth:`_Pieces.along`): consecutive ones then meet the same triangles
     (each choice is independent of the order; 40 % less time on the
     10,000-vertex star than in piece order)."""
-    seq, sa, sb, radii = st.along(
-        missing, 1.0 + tol.ball_slack, tol.coordinate_slack * scale
-    )  # the radii of _query_radii
+    seq, sa, sb, radii = st.along(missing, *_enlargement(scale, tol))
     pts, V, A, vt, order, _ = st.dt.arrays()
     if len(st.tstamp) < len(V) // 3 or len(st.vstamp) < len(pts):
         st.tstamp = np.zeros(len(V) // 3, np.int64)

@@ -502,7 +502,7 @@ def _missing_pieces(first, n0, rows, ends, rings, gone):
     previous point of its chain, or two input points that end one chain.
     Returns the ids, increasing.
     """
-    a, b, left, right, head, tail = rows
+    a, b, left, right, beside, head, tail = rows
     end_start, end_chain, end_side = ends
     ring_start, ring = rings
     gone_start, gone = gone
@@ -512,9 +512,9 @@ def _missing_pieces(first, n0, rows, ends, rings, gone):
         lo = ring_start[i]
         hi = ring_start[i + 1]
         p = first + i
-        if _position(ring, lo, hi, a[left[p]]) < 0:
+        if _position(ring, lo, hi, beside[p, 0]) < 0:
             out, no = _push(out, no, left[p])
-        w = b[right[p]]
+        w = beside[p, 1]
         if w < first and _position(ring, lo, hi, w) < 0:
             out, no = _push(out, no, right[p])
     for j in range(gone_start[-1]):
@@ -522,10 +522,10 @@ def _missing_pieces(first, n0, rows, ends, rings, gone):
         w = gone[2 * j + 1]
         if u < n0:
             u, w = w, u
-        if u >= n0:
-            if a[left[u]] == w:
+        if u >= n0:  # (one load at a random place: the pieces' ends are two more)
+            if beside[u, 0] == w:
                 out, no = _push(out, no, left[u])
-            elif b[right[u]] == w:
+            elif beside[u, 1] == w:
                 out, no = _push(out, no, right[u])
             continue
         for e in range(end_start[u], end_start[u + 1]):
@@ -578,25 +578,37 @@ def _chain_key_order(first, chain, key):
     return order
 
 
+@njit(cache=True, inline="always")
+def _ball_radius(xy, u, v, grow, pad):
+    """The radius a ball query of segment ``uv`` searches: its half-length
+    enlarged, ``half * grow + pad`` (``admissible._enlargement``)."""
+    return 0.5 * np.hypot(xy[v, 0] - xy[u, 0], xy[v, 1] - xy[u, 1]) * grow + pad
+
+
+@njit(cache=True)
+def _ball_radii(xy, a, b, grow, pad):
+    """:func:`_ball_radius` of each segment ``(a[i], b[i])``."""
+    out = np.empty(a.shape[0])
+    for i in range(a.shape[0]):
+        out[i] = _ball_radius(xy, a[i], b[i], grow, pad)
+    return out
+
+
 @njit(cache=True)
 def _search_order(rows, src, a, b, xy, direction, slot, grow, pad, scale):
     """Pieces ``rows`` in the order their searches go (:meth:`_Pieces.along`):
     by input segment, then by position of their midpoints along it
     (:func:`_chain_key_order`); and, in that order, the slots of their ends
-    and the radii of their balls, ``(half length * grow + pad) * scale``
-    (the enlarged half-lengths of ``_query_radii`` in the kernel's scale)."""
+    and the radii of their ball queries (:func:`_ball_radius`) in the
+    kernel's scale."""
     k = rows.shape[0]
     key = np.empty(k)
-    half = np.empty(k)
     for i in range(k):
         r = rows[i]
         s = src[r]
-        ax = xy[a[r], 0]
-        ay = xy[a[r], 1]
-        bx = xy[b[r], 0]
-        by = xy[b[r], 1]
-        key[i] = (ax + bx) * direction[s, 0] + (ay + by) * direction[s, 1]
-        half[i] = 0.5 * np.hypot(bx - ax, by - ay)
+        key[i] = (xy[a[r], 0] + xy[b[r], 0]) * direction[s, 0] + (
+            xy[a[r], 1] + xy[b[r], 1]
+        ) * direction[s, 1]
     seq = _chain_key_order(np.arange(k), src[rows], key)
     sa = np.empty(k, np.int64)
     sb = np.empty(k, np.int64)
@@ -605,7 +617,7 @@ def _search_order(rows, src, a, b, xy, direction, slot, grow, pad, scale):
         r = rows[seq[i]]
         sa[i] = slot[a[r]]
         sb[i] = slot[b[r]]
-        radii[i] = (half[seq[i]] * grow + pad) * scale
+        radii[i] = _ball_radius(xy, a[r], b[r], grow, pad) * scale
     return seq, sa, sb, radii
 
 
@@ -624,7 +636,7 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
     """
     rows, t, xy_new, protect_side, near_side, near_vertex = split
     a, b, nxt, src, circ, acute, done, near, tail = piece
-    xy, radius, left, right, born = point
+    xy, radius, left, right, beside, born = point
     key = np.empty(rows.shape[0])
     for i in range(rows.shape[0]):
         s = src[rows[i]]
@@ -664,6 +676,8 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
                 near[q, s] = 0
             left[n + i] = r if i == i0 else q - 1
             right[n + i] = q
+            beside[n + i, 0] = a[r] if i == i0 else n + i - 1
+            beside[n + i, 1] = b[q]
             born[n + i] = round_no
         last = m + i1
         acute[last, 1] = acute[r, 1]
@@ -676,6 +690,9 @@ def _split_pieces(split, round_no, m, n, n0, origin, direction, piece, point):
             tail[src[r]] = last
         if old_b >= n0:
             left[old_b] = last
+            beside[old_b, 0] = n + i1
+        if a[r] >= n0:
+            beside[a[r], 1] = n + i0
         if protect_side[i0] == 0:
             done[r, 0] = True
         if protect_side[i1] == 1:
@@ -860,7 +877,7 @@ class _Pieces:
     """
 
     _ROW = ("a", "b", "nxt", "src", "circ", "acute", "done", "near")
-    _POINT = ("xy", "radius", "left", "right", "born")
+    _POINT = ("xy", "radius", "left", "right", "beside", "born")
 
     def __init__(self, st: _State, dt: IncrementalDelaunay) -> None:
         S, m, n = st.S, len(st.S), len(st.P)
@@ -882,6 +899,11 @@ class _Pieces:
         self.right = np.full(n, -1, dtype=np.int64)
         self.left[S[:, 1]] = np.arange(m)
         self.right[S[:, 0]] = np.arange(m)
+        # The points before and after each added point along its chain
+        # (those of input points are not read).
+        self.beside = np.full((n, 2), -1, dtype=np.int64)
+        self.beside[S[:, 1], 0] = S[:, 0]
+        self.beside[S[:, 0], 1] = S[:, 1]
         self.born = np.zeros(n, dtype=np.int64)
         # Chain ends at the input points: (chain, side) per point, CSR.
         ends = np.concatenate([S[self.head, 0], S[self.tail, 1]])
@@ -942,7 +964,7 @@ class _Pieces:
             round_no, m, n, self.n0, self.origin, self.direction,
             (self.a, self.b, self.nxt, self.src, self.circ, self.acute, self.done, self.near,
              self.tail),
-            (self.xy, self.radius, self.left, self.right, self.born),
+            (self.xy, self.radius, self.left, self.right, self.beside, self.born),
         )  # fmt: skip
         self.m, self.n, self.first = m + k, n + k, n
         xy = self.xy[n : n + k]
@@ -1037,7 +1059,7 @@ class _Pieces:
         shortened pieces, and those its insertions removed)."""
         return _missing_pieces(
             self.first, self.n0,
-            (self.a, self.b, self.left, self.right, self.head, self.tail),
+            (self.a, self.b, self.left, self.right, self.beside, self.head, self.tail),
             (self.end_start, self.end_chain, self.end_side),
             self.dt.rings(),
             self.dt.removed(),

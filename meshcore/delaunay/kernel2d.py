@@ -1019,27 +1019,34 @@ def _corner(V, t, v):
 
 
 @njit(cache=True)
-def _insert_rings(pts, V, A, stack, vt, hint, state, work, order, start, stop, log):
+def _insert_rings(pts, V, A, stack, vt, hint, state, work, order, base, start, stop, log, buf):
     """Insert points start..stop-1; record each one's neighbours right after
     it went in (input indices, -1 the vertex at infinity) and the edges its
     insertion removed (input index pairs; those at infinity left out), from
     the insertions' log (:func:`_insert_range`). Returns ``(ring_start,
-    ring, gone_start, gone)`` in CSR form (point ``i``'s removed pairs are
-    ``gone[2 * gone_start[i]:2 * gone_start[i + 1]]``)."""
+    gone_start, buf, m, g)``: in CSR form, point ``i``'s neighbours are
+    ``buf[0, ring_start[i]:ring_start[i + 1]]`` and its removed pairs
+    ``buf[1, 2 * gone_start[i]:2 * gone_start[i + 1]]``, of ``m`` and ``g``
+    entries in all; ``buf`` (2, size) is the caller's, kept from call to
+    call (grown here when too short: made anew each call, its fresh pages
+    were a third of the rounds' page faults). The slots from ``base``
+    on are their own indices (inserted points): ``order`` is read only
+    below it (a load at a random place per entry saved)."""
     k = stop - start
     ring_start = np.zeros(k + 1, np.int64)
-    ring = np.empty(8 * k + 8, np.int64)
     gone_start = np.zeros(k + 1, np.int64)
-    gone = np.empty(8 * k + 8, np.int64)
     m = 0
     g = 0
     p = start
     while p < stop:
         nlog = _insert_range(pts, V, A, stack, vt, hint, state, work, p, stop, log)
-        if m + nlog > ring.shape[0]:
-            ring = np.concatenate((ring, np.empty(m + nlog, np.int64)))
-        if g + 2 * nlog > gone.shape[0]:
-            gone = np.concatenate((gone, np.empty(g + 2 * nlog, np.int64)))
+        if max(m, g) + 2 * nlog > buf.shape[1]:
+            grown = np.empty((2, max(max(m, g) + 2 * nlog, 2 * buf.shape[1])), np.int64)
+            grown[0, :m] = buf[0, :m]
+            grown[1, :g] = buf[1, :g]
+            buf = grown
+        ring = buf[0]
+        gone = buf[1]
         for j in range(nlog):
             u = log[3 * j]
             w = log[3 * j + 1]
@@ -1049,15 +1056,15 @@ def _insert_rings(pts, V, A, stack, vt, hint, state, work, order, start, stop, l
                 ring_start[p - start] = m
                 gone_start[p - start] = g // 2
                 continue
-            ring[m] = order[q] if q >= 0 else -1
+            ring[m] = q if q >= base else (order[q] if q >= 0 else -1)
             m += 1
             if u >= 0 and w >= 0:
-                gone[g] = order[u]
-                gone[g + 1] = order[w]
+                gone[g] = u if u >= base else order[u]
+                gone[g + 1] = w if w >= base else order[w]
                 g += 2
         if state[2] != _OK:
             break
-    return ring_start, ring[:m], gone_start, gone[:g]
+    return ring_start, gone_start, buf, m, g
 
 
 @njit(cache=True)
@@ -1110,7 +1117,7 @@ class IncrementalDelaunay:
         pts, order, V, A, vt, state, work, factor = _build(pts_in, None)
         n = len(pts_in)
         self._factor = factor
-        self._n = n
+        self._n = self._base = n
         self._pts = pts
         self._slot = np.empty(n, np.int64)  # index -> slot
         self._slot[order] = np.arange(n)
@@ -1120,6 +1127,7 @@ class IncrementalDelaunay:
         self._stack = np.empty(n + 8, np.int32)
         self._log = np.empty(3 * (n + _LOG_ROOM), np.int32)
         self._hint = np.full(n, -1, np.int32)
+        self._buf = np.empty((2, 0), np.int64)  # the rings' and removed edges' room
         self._rings = (np.zeros(1, np.int64), np.zeros(0, np.int64))
         self._gone = (np.zeros(1, np.int64), np.zeros(0, np.int64))
 
@@ -1163,7 +1171,7 @@ class IncrementalDelaunay:
         self._order[n : n + k] = slots
         self._slot[n : n + k] = slots
         self._hint[n : n + k] = self._slot[near]
-        ring_start, ring, gone_start, gone = _insert_rings(
+        ring_start, gone_start, self._buf, m, g = _insert_rings(
             self._pts,
             self._V,
             self._A,
@@ -1173,12 +1181,14 @@ class IncrementalDelaunay:
             self._state,
             self._work,
             self._order,
+            self._base,
             n,
             n + k,
             self._log,
+            self._buf,
         )
-        self._rings = (ring_start, ring)
-        self._gone = (gone_start, gone)
+        self._rings = (ring_start, self._buf[0, :m])
+        self._gone = (gone_start, self._buf[1, :g])
         if self._state[2] == _DUPLICATE:
             return int(self._order[self._state[3]]), int(self._order[self._state[4]])
         self._n = n + k
@@ -1187,7 +1197,9 @@ class IncrementalDelaunay:
     def rings(self) -> tuple[np.ndarray, np.ndarray]:
         """``(start, ring)``: the neighbours of the ``i``-th point of the last
         :meth:`insert` right after it went in are ``ring[start[i]:start[i + 1]]``
-        (point indices, in no particular order; -1 the vertex at infinity)."""
+        (point indices, in no particular order; -1 the vertex at infinity).
+        Both this and :meth:`removed` are views of room the next
+        :meth:`insert` writes over."""
         return self._rings
 
     def removed(self) -> tuple[np.ndarray, np.ndarray]:
