@@ -304,15 +304,16 @@ def _around(Q: np.ndarray, start: np.ndarray, cells: np.ndarray, b: int, first: 
         ring.append(nxt[0])
 
 
-def _fan_angle(P: np.ndarray, Q: np.ndarray, start, cells, v: int) -> float:
-    """The sum of the corner angles (radians) of the quads at vertex ``v``."""
-    total = 0.0
-    for q in cells[start[v] : start[v + 1]]:  # a loop over the vertex's quads
+def _fan_angles(P: np.ndarray, Q: np.ndarray, start, cells, v: int) -> dict[int, float]:
+    """The corner angle (radians, in [0, pi]) at vertex ``v`` of each of its quads, in
+    the order of ``cells``."""
+    ang = {}
+    for q in cells[start[v] : start[v + 1]].tolist():  # a loop over the vertex's quads
         c = P[Q[q]]
         i = int(np.flatnonzero(Q[q] == v)[0])
         a, b = c[i - 1] - c[i], c[(i + 1) % 4] - c[i]
-        total += math.atan2(abs(a[0] * b[1] - a[1] * b[0]), float(a @ b))
-    return total
+        ang[q] = math.atan2(abs(a[0] * b[1] - a[1] * b[0]), float(a @ b))
+    return ang
 
 
 def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
@@ -332,17 +333,11 @@ def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
     border = boundary_points(P, Q)
     added: list[np.ndarray] = []
     for v in np.flatnonzero(border):
-        fan = [int(q) for q in cells[start[v] : start[v + 1]]]
-        if len(fan) < 2:
+        ang = _fan_angles(P, Q, start, cells, v)
+        fan = list(ang)
+        if len(fan) < 2 or math.degrees(sum(ang.values())) / len(fan) <= OPEN_ANGLE:
             continue
         at = {q: int(np.flatnonzero(Q[q] == v)[0]) for q in fan}
-        ang = {}
-        for q in fan:
-            c = P[Q[q]]
-            a, b = c[at[q] - 1] - c[at[q]], c[(at[q] + 1) % 4] - c[at[q]]
-            ang[q] = math.atan2(abs(a[0] * b[1] - a[1] * b[0]), float(a @ b))
-        if math.degrees(sum(ang.values())) / len(fan) <= OPEN_ANGLE:
-            continue
         best = None
         for q1 in fan:  # q1 = (v, a, x, b) and q2 = (v, b, y, c) around the edge v - b
             b = int(Q[q1, (at[q1] + 3) % 4])
@@ -357,7 +352,7 @@ def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
             continue
         side1, side2 = ring[: len(ring) // 2], ring[len(ring) // 2 :]
         z = int(Q[side1[-1], (int(np.flatnonzero(Q[side1[-1]] == b)[0]) + 3) % 4])
-        if border[z] and _fan_angle(P, Q, start, cells, z) / (
+        if border[z] and sum(_fan_angles(P, Q, start, cells, z).values()) / (
             start[z + 1] - start[z] + 1
         ) < math.radians(OPEN_LEAST):
             continue
@@ -389,10 +384,9 @@ def _closed(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, int]:
     border = boundary_points(points, Q)
     done = 0
     for v in np.flatnonzero(border):  # a loop over the border vertices
-        fan = [int(q) for q in cells[start[v] : start[v + 1]]]
-        if len(fan) < 3 or _fan_angle(points, Q, start, cells, v) / len(fan) >= math.radians(
-            CLOSE_ANGLE
-        ):
+        ang = _fan_angles(points, Q, start, cells, v)
+        fan = list(ang)
+        if len(fan) < 3 or sum(ang.values()) / len(fan) >= math.radians(CLOSE_ANGLE):
             continue
         best = None
         for q1 in fan:  # q1 = (v, a, x, b), q2 = (v, b, y, c)
@@ -450,7 +444,8 @@ def _flowered(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.nda
             outer += [int(r[1]), int(r[2])]
         far = [x for x in outer[1::2] if border[x]]  # each gets a quad more
         if any(
-            _fan_angle(points, quads, start, cells, x) / (val[x] + 1) < math.radians(OPEN_LEAST)
+            sum(_fan_angles(points, quads, start, cells, x).values()) / (val[x] + 1)
+            < math.radians(OPEN_LEAST)
             for x in far
         ):
             continue
