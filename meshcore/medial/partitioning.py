@@ -698,14 +698,26 @@ def quad_medial(
     done: dict = {}  # partitions, fills and optimized meshes: each computed once
     res = _meshed(first, domain, method, size, levels, BOUNDARY_SHARE, special, done)
     res = _lifted(res, domain)
-    if size is None:
-        return res
+    if size is not None:
+        axis_at = {prune: first}  # the axes pruned at each angle, as they are needed
+        res = _other_tried(res, axes, axis_at, more, domain, method, size, levels, special, done)
+    stats = {**res.stats, "quality": quality.report(res.mesh)}
+    return QuadMedial(mesh=res.mesh, partition=res.partition, stats=stats)
+
+
+def _other_tried(res: QuadMedial, axes, axis_at, more, domain, method, size, levels, special, done):
+    """``res`` (the first mesh of :func:`quad_medial`, lifted), or where it passes the
+    count or its least quality away from input spikes is under :data:`GOOD_LEAST`, the
+    first other mesh within the count of least quality :data:`GOOD_LEAST`, else the one
+    within it of the highest least quality; over the count, that one only when its least
+    is at least :data:`PRUNE_LEAST` (or the first mesh's). ``axis_at``: pruning angle ->
+    axis, ``res``'s only; ``axes``: the iterator of
+    :func:`~meshcore.medial.axis.pruned_axes` giving the axes pruned at each of ``more``
+    in turn."""
+    (prune,) = axis_at
     over, least = _over(res, domain, size), _least_away(res.mesh, domain)
     if not over and least >= GOOD_LEAST:
         return res
-    # the first other mesh within the count of least quality GOOD_LEAST, else the one
-    # within it of the highest least quality; over the count, that one only when its
-    # least is at least PRUNE_LEAST (or the first mesh's)
     if over:
         least = min(PRUNE_LEAST, least) - 1e-12
     # the more pruned axes with the regions merged at crowded boundary points, then
@@ -714,7 +726,6 @@ def quad_medial(
     # every axis with its small regions merged too (MERGE_COUNT)
     tries = [(BOUNDARY_SHARE, a, False) for a in more] + [(None, a, False) for a in (prune, *more)]
     tries += [(BOUNDARY_SHARE, a, True) for a in (prune, *more)]
-    axis_at = {prune: first}
     tried = [res.mesh.cells_by_type["quad"]]
     for share, angle, merge in tries:  # a loop over at most eleven partitions
         if angle not in axis_at:
@@ -820,14 +831,14 @@ def _meshed(
 def _lifted(res: QuadMedial, domain: Domain) -> QuadMedial:
     """The mesh of :func:`_meshed` with its least corners lifted last
     (:func:`meshcore.medial.fill.lift_least`, input vertices fixed) when
-    :func:`_optimized` ran on it, and its quality report (8.4)."""
-    mesh, stats = res.mesh, dict(res.stats)
-    if "least_relaxed" in stats:
-        P, Q = mesh.points, mesh.cells_by_type["quad"]
-        fixed = input_index(P, domain.points) >= 0
-        P, stats["least_lifted"] = lift_least(P, Q, fixed, domain.points, LIFT_BELOW)
-        mesh = Mesh(P, (CellBlock("quad", Q),))
-    stats["quality"] = quality.report(mesh)
+    :func:`_optimized` ran on it."""
+    if "least_relaxed" not in res.stats:
+        return res
+    P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
+    fixed = input_index(P, domain.points) >= 0
+    P, lifted = lift_least(P, Q, fixed, domain.points, LIFT_BELOW)
+    mesh = Mesh(P, (CellBlock("quad", Q),))
+    stats = {**res.stats, "least_lifted": lifted}
     return QuadMedial(mesh=mesh, partition=res.partition, stats=stats)
 
 

@@ -249,15 +249,15 @@ def _merged_at(cycles, corners, kinds, degree, v: int, w: int):
 def input_index(P: np.ndarray, inputs: np.ndarray) -> np.ndarray:
     """(n,) int: the input vertex each point ``P`` is (exact coordinate match), -1 for
     the others: the input corners of a quad mesh, fixed in its optimization (§9.7.2)."""
-    at = np.full(len(P), -1, np.int64)
-    order = np.lexsort(P.T[::-1])
-    key = P[order]
-    for k, v in enumerate(inputs):  # the input vertices (exact matches)
-        i = int(np.searchsorted(key[:, 0], v[0]))
-        while i < len(key) and key[i, 0] == v[0]:
-            if key[i, 1] == v[1]:
-                at[order[i]] = k
-            i += 1
+    m = len(inputs)
+    both = np.concatenate([np.asarray(inputs, np.float64).reshape(-1, 2), P])
+    order = np.lexsort(both.T[::-1])  # x, then y: equal points next to each other
+    key = both[order]
+    group = np.concatenate([[0], np.cumsum((key[1:] != key[:-1]).any(axis=1))])
+    k = np.full(group[-1] + 1 if len(group) else 0, -1, np.int64)
+    np.maximum.at(k, group[order < m], order[order < m])  # (equal inputs: the last)
+    at = np.empty(len(P), np.int64)
+    at[order[order >= m] - m] = k[group[order >= m]]
     return at
 
 
