@@ -112,12 +112,12 @@ boundary side of ``k`` of them needs ``k + 1`` divisions, and the coarse quads c
 that count to their opposite sides, across the regions of the partition (star 17,
 70 vertices for area / size**2 = 140: 1.54x with its regions merged if its input
 vertices did not bind, 2.84x as they do). Gears of 6-12 teeth at size 0.1: least 0.5
-on 5 of 7 (6 before the shared lift, which leaves gear 9 at 0.487; 0 before the O-grid
+on 6 of 7 (all but gear 9, 0.487; 0 before the O-grid
 at their hub, :func:`meshcore.medial.fill._flowered`,
 and the merges at their tooth gaps, :data:`~meshcore.medial.regions.BOUNDARY_SHARE`;
-4 before a border point of four quads gave one up, :func:`meshcore.medial.fill._closed`),
-0.4997-0.62 (gear 7: corners of 45.0 degrees at a straight point of four quads left),
-count 1.21-1.49x; at 0.15 least 0.5 on 5 of 7, count over 1.5x on 4 (1.68-2.47x,
+4 before a border point of four quads gave one up, :func:`meshcore.medial.fill._closed`,
+5 before it could bend a corner to :data:`~meshcore.medial.fill.CLOSE_BEND`),
+0.487-0.62, count 1.21-1.49x; at 0.15 least 0.5 on 5 of 7, count over 1.5x on 4 (1.68-2.47x,
 bound by their input vertices as above). What is left under 0.5: the strips of
 spikes whose base chord is oblique and reflex corners (quads of 36-44 degrees next
 to them), thin 4-sided regions between the close nodes of a crowded junction of the
