@@ -67,8 +67,9 @@ quad at it, 11 of 33 degrees on an 11-tooth gear) gets an O-grid instead of its 
 1.08x to 1.21x area / size**2); neither adds a quad at a border point whose corners
 would then average under :data:`OPEN_LEAST`. After the smoothing, a border vertex whose
 corners average under :data:`CLOSE_ANGLE` (four regions meeting at a straight boundary
-point: 45 degrees each at best) gives one of its quads up, an edge there turned
-(:func:`_closed`: gear 8 at size 0.1 from least quality 0.4996 to 0.543). The
+point: 45 degrees each at best; five quads at a reflex corner) gives one of its quads
+up, an edge there turned (:func:`_closed`: gear 8 at size 0.1 from least quality
+0.4996 to 0.543). The
 relaxation's untangling rounds shrink Escobar's
 regularization each round, so that a fold among corners far smaller than
 the median (a reflex input corner next to a short piece) is not lost in
@@ -126,12 +127,19 @@ OPEN_ANGLE = 125.0
 #: corners would then average under this (degrees).
 OPEN_LEAST = 45.0
 #: :func:`_closed` takes a quad from a border point whose quads' corners average under
-#: this (degrees).
-CLOSE_ANGLE = 50.0
+#: this (degrees): four quads at a straight point (45), five at a reflex input corner
+#: under 280 degrees (star 26 at size 0.1: 274.4 degrees, least quality 0.472 -> 0.494;
+#: at 50 it was left). From 50 to 56: least quality away from spikes up on stars 25
+#: and 26 at 0.1 and 1 and 25 at 0.15, no other of the 32 stars nor 7 gears changed.
+CLOSE_ANGLE = 56.0
 #: :func:`_closed`'s new quads may have one corner up to this (degrees; the turned
 #: edge's end loses a quad, its two corners one: about 180 degrees), which the
-#: smoothing that follows opens.
-CLOSE_BEND = 200.0
+#: smoothing that follows opens (the turns are undone where it leaves more quads
+#: folded). 200 refused gear 7's straight point of four quads at size 0.1 (the fill's
+#: corners there 18-82 degrees: 202-251 after the turn): least quality 0.4997 ->
+#: 0.561 at 260; no other gear of 6-12 teeth nor any of the 32 issue stars changed at
+#: 0.1 or 0.15.
+CLOSE_BEND = 260.0
 #: The kite at a spike's tip (:data:`meshcore.medial.regions.KITE_ANGLE`): the points of
 #: its two sides this times size from the tip (at most a third of the side), its inner
 #: point tried at :data:`KITE_PAST` times their distance past their middle.
@@ -304,15 +312,16 @@ def _around(Q: np.ndarray, start: np.ndarray, cells: np.ndarray, b: int, first: 
         ring.append(nxt[0])
 
 
-def _fan_angle(P: np.ndarray, Q: np.ndarray, start, cells, v: int) -> float:
-    """The sum of the corner angles (radians) of the quads at vertex ``v``."""
-    total = 0.0
-    for q in cells[start[v] : start[v + 1]]:  # a loop over the vertex's quads
+def _fan_angles(P: np.ndarray, Q: np.ndarray, start, cells, v: int) -> dict[int, float]:
+    """The corner angle (radians, in [0, pi]) at vertex ``v`` of each of its quads, in
+    the order of ``cells``."""
+    ang = {}
+    for q in cells[start[v] : start[v + 1]].tolist():  # a loop over the vertex's quads
         c = P[Q[q]]
         i = int(np.flatnonzero(Q[q] == v)[0])
         a, b = c[i - 1] - c[i], c[(i + 1) % 4] - c[i]
-        total += math.atan2(abs(a[0] * b[1] - a[1] * b[0]), float(a @ b))
-    return total
+        ang[q] = math.atan2(abs(a[0] * b[1] - a[1] * b[0]), float(a @ b))
+    return ang
 
 
 def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
@@ -332,17 +341,11 @@ def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
     border = boundary_points(P, Q)
     added: list[np.ndarray] = []
     for v in np.flatnonzero(border):
-        fan = [int(q) for q in cells[start[v] : start[v + 1]]]
-        if len(fan) < 2:
+        ang = _fan_angles(P, Q, start, cells, v)
+        fan = list(ang)
+        if len(fan) < 2 or math.degrees(sum(ang.values())) / len(fan) <= OPEN_ANGLE:
             continue
         at = {q: int(np.flatnonzero(Q[q] == v)[0]) for q in fan}
-        ang = {}
-        for q in fan:
-            c = P[Q[q]]
-            a, b = c[at[q] - 1] - c[at[q]], c[(at[q] + 1) % 4] - c[at[q]]
-            ang[q] = math.atan2(abs(a[0] * b[1] - a[1] * b[0]), float(a @ b))
-        if math.degrees(sum(ang.values())) / len(fan) <= OPEN_ANGLE:
-            continue
         best = None
         for q1 in fan:  # q1 = (v, a, x, b) and q2 = (v, b, y, c) around the edge v - b
             b = int(Q[q1, (at[q1] + 3) % 4])
@@ -357,7 +360,7 @@ def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
             continue
         side1, side2 = ring[: len(ring) // 2], ring[len(ring) // 2 :]
         z = int(Q[side1[-1], (int(np.flatnonzero(Q[side1[-1]] == b)[0]) + 3) % 4])
-        if border[z] and _fan_angle(P, Q, start, cells, z) / (
+        if border[z] and sum(_fan_angles(P, Q, start, cells, z).values()) / (
             start[z + 1] - start[z] + 1
         ) < math.radians(OPEN_LEAST):
             continue
@@ -389,10 +392,9 @@ def _closed(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, int]:
     border = boundary_points(points, Q)
     done = 0
     for v in np.flatnonzero(border):  # a loop over the border vertices
-        fan = [int(q) for q in cells[start[v] : start[v + 1]]]
-        if len(fan) < 3 or _fan_angle(points, Q, start, cells, v) / len(fan) >= math.radians(
-            CLOSE_ANGLE
-        ):
+        ang = _fan_angles(points, Q, start, cells, v)
+        fan = list(ang)
+        if len(fan) < 3 or sum(ang.values()) / len(fan) >= math.radians(CLOSE_ANGLE):
             continue
         best = None
         for q1 in fan:  # q1 = (v, a, x, b), q2 = (v, b, y, c)
@@ -450,7 +452,8 @@ def _flowered(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.nda
             outer += [int(r[1]), int(r[2])]
         far = [x for x in outer[1::2] if border[x]]  # each gets a quad more
         if any(
-            _fan_angle(points, quads, start, cells, x) / (val[x] + 1) < math.radians(OPEN_LEAST)
+            sum(_fan_angles(points, quads, start, cells, x).values()) / (val[x] + 1)
+            < math.radians(OPEN_LEAST)
             for x in far
         ):
             continue
@@ -834,9 +837,13 @@ def quads_on(part: Partition, size: float | None, levels: int | None, whole: boo
     fixed = np.zeros(len(uniq), dtype=bool)
     fixed[boundary.ravel()] = True
     uniq = _smoothed(uniq, quads, fixed, SMOOTHING_SWEEPS)
-    quads, closed = _closed(uniq, quads)
-    if closed:
-        uniq = _smoothed(uniq, quads, fixed, SMOOTHING_SWEEPS)
+    turned, closed = _closed(uniq, quads)
+    if closed:  # kept when the smoothing opens what the turned edges bent
+        again = _smoothed(uniq, turned, fixed, SMOOTHING_SWEEPS)
+        if (folded(again, turned) > 0).sum() <= (folded(uniq, quads) > 0).sum():
+            uniq, quads = again, turned
+        else:
+            closed = 0
     corner = np.zeros(len(uniq), dtype=bool)
     corner[np.asarray(corner_ids, np.int64)] = True
     uniq, relaxed = _relaxed(uniq, quads, corner & fixed, ax)

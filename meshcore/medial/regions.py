@@ -249,15 +249,15 @@ def _merged_at(cycles, corners, kinds, degree, v: int, w: int):
 def input_index(P: np.ndarray, inputs: np.ndarray) -> np.ndarray:
     """(n,) int: the input vertex each point ``P`` is (exact coordinate match), -1 for
     the others: the input corners of a quad mesh, fixed in its optimization (§9.7.2)."""
-    at = np.full(len(P), -1, np.int64)
-    order = np.lexsort(P.T[::-1])
-    key = P[order]
-    for k, v in enumerate(inputs):  # the input vertices (exact matches)
-        i = int(np.searchsorted(key[:, 0], v[0]))
-        while i < len(key) and key[i, 0] == v[0]:
-            if key[i, 1] == v[1]:
-                at[order[i]] = k
-            i += 1
+    m = len(inputs)
+    both = np.concatenate([np.asarray(inputs, np.float64).reshape(-1, 2), P])
+    order = np.lexsort(both.T[::-1])  # x, then y: equal points next to each other
+    key = both[order]
+    group = np.concatenate([[0], np.cumsum((key[1:] != key[:-1]).any(axis=1))])
+    k = np.full(group[-1] + 1 if len(group) else 0, -1, np.int64)
+    np.maximum.at(k, group[order < m], order[order < m])  # (equal inputs: the last)
+    at = np.empty(len(P), np.int64)
+    at[order[order >= m] - m] = k[group[order >= m]]
     return at
 
 
@@ -306,16 +306,17 @@ def _angle_at(points, verts, i) -> float:
 
 def _merged_pair(points, p, reg, degree, r, o):
     """Regions ``r`` and ``o`` of ``reg`` (id -> cycle, corner flags, kinds) merged
-    (:func:`_chain_merged`): the merged cycle, corner flags, kinds and the vertices no
-    longer corners anywhere (fewer than three edges left), or None when the merge is
+    (:func:`_chain_merged`): the merged cycle, corner flags, kinds and a mask of the
+    points no longer corners anywhere (fewer than three edges left), or None when the merge is
     refused (:func:`small_merged`)."""
     got = _chain_merged(*reg[r], *reg[o])
     if got is None:
         return None
     verts, flag, kind = got
     ends = np.flatnonzero(np.isin(verts, reg[r][0]) & np.isin(verts, reg[o][0])).tolist()
-    low = np.array([verts[i] for i in ends if degree[verts[i]] - 1 < 3], np.int64)
-    flag = flag & ~np.isin(verts, low)
+    low = np.zeros(len(points), bool)  # the vertices no longer corners anywhere
+    low[[verts[i] for i in ends if degree[verts[i]] - 1 < 3]] = True
+    flag = flag & ~low[verts]
     if int(flag.sum()) < 3:
         return None
     for i in ends:
@@ -324,12 +325,13 @@ def _merged_pair(points, p, reg, degree, r, o):
             return None
         if not flag[i] and verts[i] >= p and abs(angle - 180.0) > MERGE_BEND:
             return None
-    for x, (c, f, _) in reg.items():
-        if x in (r, o) or not np.isin(c, low).any():
+    for x, (c, f, _) in reg.items() if low.any() else ():
+        gone = low[c]
+        if x in (r, o) or not gone.any():
             continue
-        if int((f & ~np.isin(c, low)).sum()) < 3:
+        if int((f & ~gone).sum()) < 3:
             return None
-        for i in np.flatnonzero(np.isin(c, low) & (c >= p)):
+        for i in np.flatnonzero(gone & (c >= p)):
             if abs(_angle_at(points, c, int(i)) - 180.0) > MERGE_BEND:
                 return None
     return verts, flag, kind, low
@@ -359,13 +361,14 @@ def small_merged(points, p: int, cycles, corners, kinds, size: float, area: floa
     ring_area = {r: _ring_area(points[c]) for r, (c, _, _) in reg.items()}
     edges = {r: _edges(c) for r, (c, _, _) in reg.items()}
     edge_region = {e: r for r, es in edges.items() for e in es}  # directed edge -> region
-    sides = sum(int(f.sum()) for _, f, _ in reg.values())
+    count = {r: int(f.sum()) for r, (_, f, _) in reg.items()}  # each region's sides
+    key = {r: -count[r] / ring_area[r] for r in reg}  # most sides per area first
+    sides = sum(count.values())
     refused: set[tuple[int, int]] = set()  # pairs of region ids
     merges = 0
     while sides > budget:
         best = None
-        order = sorted(reg, key=lambda r: -int(reg[r][1].sum()) / ring_area[r])
-        for r in order:  # a loop over the regions, most sides per area first
+        for r in sorted(reg, key=key.__getitem__):  # a loop over the regions
             near = {edge_region[(b, a)] for a, b in edges[r] if (b, a) in edge_region}
             for o in sorted(near - {r}):
                 if (min(r, o), max(r, o)) in refused:
@@ -387,17 +390,25 @@ def small_merged(points, p: int, cycles, corners, kinds, size: float, area: floa
         degree[shared] -= np.where(np.isin(shared, verts), 1, 2)
         for x in (r, o):
             reg.pop(x)
+            sides -= count.pop(x)
+            del key[x]
             for e in edges.pop(x):
                 del edge_region[e]
-        for x, (c, f, k) in reg.items():
-            if np.isin(c, low).any():
-                reg[x] = (c, f & ~np.isin(c, low), k)
+        for x, (c, f, k) in reg.items() if low.any() else ():
+            if low[c].any():
+                reg[x] = (c, f & ~low[c], k)
+                sides -= count[x]
+                count[x] = int(reg[x][1].sum())
+                key[x] = -count[x] / ring_area[x]
+                sides += count[x]
         new = max(ring_area) + 1
         reg[new] = (verts, flag, kind)
         ring_area[new] = ring_area.pop(r) + ring_area.pop(o)
+        count[new] = int(flag.sum())
+        key[new] = -count[new] / ring_area[new]
+        sides += count[new]
         edges[new] = _edges(verts)
         edge_region.update(dict.fromkeys(edges[new], new))
-        sides = sum(int(f.sum()) for _, f, _ in reg.values())
         merges += 1
     cycles, corners, kinds = zip(*reg.values(), strict=True) if reg else ((), (), ())
     return list(cycles), list(corners), list(kinds), merges

@@ -221,3 +221,28 @@ def test_a_straight_border_point_of_four_quads_gives_one_up():
     area = quality.signed_area(P, Q2, "quad")
     assert (area > 0).all()
     assert area.sum() == pytest.approx(quality.signed_area(P, Q, "quad").sum(), rel=1e-12)
+
+
+def test_a_turn_that_bends_a_corner_past_180_is_opened_by_the_smoothing():
+    # four quads of 18, 25, 55 and 82 degrees at a straight border point, their far
+    # corners pushed out: the best turn bends a corner to 221 degrees (gear 7 at size
+    # 0.1 kept such a point, least quality 0.4997); the smoothing then opens it
+    from meshcore.medial.fill import _closed, _smoothed, folded
+    from meshcore.partition.smoothing import boundary_points
+
+    stops = np.radians([0.0, 18.0, 43.0, 98.0, 180.0])
+    t = np.sort(np.r_[stops, (stops[:-1] + stops[1:]) / 2])
+    rim = np.c_[np.cos(t), np.sin(t)]
+    rim[[1, 3, 5, 7]] *= 1.6
+    P = np.vstack([[0.0, 0.0], rim, 2 * rim])
+    Q = [[0, 1 + 2 * i, 2 + 2 * i, 3 + 2 * i] for i in range(4)]
+    Q = np.array(Q + [[1 + i, 10 + i, 11 + i, 2 + i] for i in range(8)])
+    assert not folded(P, Q).any()
+    Q2, closed = _closed(P, Q)
+    assert closed == 1 and 200 < quality.quad_angles(P, Q2).max() < 260
+    P2 = _smoothed(P, Q2, boundary_points(P, Q2), 50)
+    assert (
+        not folded(P2, Q2).any() and (P2[boundary_points(P, Q2)] == P[boundary_points(P, Q2)]).all()
+    )
+    area = quality.signed_area(P2, Q2, "quad").sum()
+    assert area == pytest.approx(quality.signed_area(P, Q, "quad").sum(), rel=1e-12)
