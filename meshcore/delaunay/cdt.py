@@ -565,7 +565,7 @@ def _small_angle(P, segends, sp, sq, j, cos_bound):
     return dot > cos_bound * math.sqrt((ux * ux + uy * uy) * (vx * vx + vy * vy))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _is_bad(P, V, t, D, pseg):
     """(code, squared shortest edge): code 0 fine, 1 smallest angle under the
     bound, 2 too large (area over the maximum or circumradius over the size)."""
