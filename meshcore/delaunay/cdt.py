@@ -467,8 +467,16 @@ def domain_triangles(V, A, S, vt, ntri, bseg, n_boundary_ids):
 
 
 @njit(cache=True)
-def compact(V, A, S, keep, V2, A2, S2, vt):
-    """Copy the kept triangles into V2, A2, S2 (new numbering); returns their count."""
+def compact(V, A, S, keep, vt):
+    """Keep only the triangles of ``keep``, renumbered in order, in place in V, A, S;
+    returns their count.
+
+    In place because the new row of triangle ``t`` is ``ids[t] <= t``: when row
+    ``ids[t]`` is written, every triangle numbered below ``t`` (the only ones whose
+    rows it may hold) has been read already, and triangle ``t`` itself is read
+    corner by corner before its corner is written. A neighbour is renumbered
+    through ``ids`` only, never read from its rows.
+    """
     ntri = keep.shape[0]
     ids = np.empty(ntri, np.int64)
     m = 0
@@ -484,14 +492,16 @@ def compact(V, A, S, keep, V2, A2, S2, vt):
             continue
         for i in range(3):
             k = 3 * t + i
-            V2[3 * r + i] = V[k]
-            S2[3 * r + i] = S[k]
+            v = V[k]
+            s = S[k]
             kk = A[k]
             if kk >= 0 and ids[kk // 3] >= 0:
-                A2[3 * r + i] = 3 * ids[kk // 3] + kk % 3
+                A[3 * r + i] = 3 * ids[kk // 3] + kk % 3
             else:
-                A2[3 * r + i] = -1
-            vt[V[k]] = r
+                A[3 * r + i] = -1
+            V[3 * r + i] = v
+            S[3 * r + i] = s
+            vt[v] = r
     return m
 
 
@@ -525,11 +535,9 @@ _SQRT_HALF = math.sqrt(0.5)
 
 @njit(cache=True)
 def _size_at(H, hg, x, y):
-    """Bilinear interpolation of the size grid (clamped to it)."""
+    """Bilinear interpolation of the size grid (at least 2 x 2; clamped to it)."""
     nx = H.shape[1]
     ny = H.shape[0]
-    if nx == 1 and ny == 1:
-        return H[0, 0]
     fx = (x - hg[0]) / hg[2]
     fy = (y - hg[1]) / hg[3]
     fx = min(max(fx, 0.0), nx - 1.0)
@@ -598,7 +606,11 @@ def _is_bad(P, V, t, D, pseg):
     if 0.5 * cross > prm[PR_AREA]:
         return 2, lmin
     if prm[PR_SIZE2] > 0.0:
-        h = _size_at(H, hg, ax + (bx + cx) / 3.0, ay + (by + cy) / 3.0)
+        # a uniform size is a 1 x 1 grid, read here: no call and no centroid per triangle
+        if H.size == 1:
+            h = H[0, 0]
+        else:
+            h = _size_at(H, hg, ax + (bx + cx) / 3.0, ay + (by + cy) / 3.0)
         # circumradius**2 = lab * lbc * lca / (4 cross**2)
         if lab * lbc * lca > 4.0 * cross * cross * prm[PR_SIZE2] * h * h:
             return 2, lmin

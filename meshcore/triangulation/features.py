@@ -31,8 +31,9 @@ Each piece is compared with the pieces of the first cut (by the size) that
 lie within ``length / (CUT_FROM * beta)`` of it, found once in a k-d tree of their
 midpoints (one tree per power of eight of their lengths, each query widened
 by half the tree's longest piece, so that a long piece does not widen every
-query); the comparisons are exact distances
-between segments, in floating point.
+query); the comparisons are distances between segments in floating point, and
+they and the rounds of cuts run in compiled loops (a small polygon's cuts cost
+no numpy call per round).
 
 References
 ----------
@@ -44,12 +45,12 @@ Delaunay refinement algorithm for quality 2-dimensional mesh generation"
 
 from __future__ import annotations
 
+import math
 from itertools import chain
 
 import numpy as np
+from numba import njit
 from scipy.spatial import cKDTree
-
-from meshcore.geometry.constructions import point_segment_distance
 
 __all__ = ["feature_cuts"]
 
@@ -72,12 +73,46 @@ CUT_FROM = 2.0
 HALVE_FROM = 64.0
 
 
-def _segment_distance(a0, a1, b0, b1) -> np.ndarray:
-    """Distance between segments ``(a0, a1)`` and ``(b0, b1)`` (rows) that do not cross."""
-    return np.minimum(
-        np.minimum(point_segment_distance(a0, b0, b1)[0], point_segment_distance(a1, b0, b1)[0]),
-        np.minimum(point_segment_distance(b0, a0, a1)[0], point_segment_distance(b1, a0, a1)[0]),
-    )
+@njit(cache=True, inline="always")
+def _point_segment(qx, qy, ax, ay, bx, by):
+    """Distance from q to the segment ab, rounded as
+    :func:`meshcore.geometry.constructions.point_segment_distance` rounds it."""
+    dx = bx - ax
+    dy = by - ay
+    dd = dx * dx + dy * dy
+    t = ((qx - ax) * dx + (qy - ay) * dy) / (dd if dd > 0 else 1.0)
+    t = min(max(t, 0.0), 1.0)
+    return math.hypot(ax + t * dx - qx, ay + t * dy - qy)
+
+
+@njit(cache=True)
+def _near(X0, X1, length, seg_of, seg, i, j, beta):
+    """Which pairs (i, j) of pieces lie on segments sharing no vertex, at a distance
+    under ``length[i] / beta`` (the four end-to-piece distances, as they round)."""
+    keep = np.zeros(i.shape[0], np.bool_)
+    for r in range(i.shape[0]):
+        p = i[r]
+        q = j[r]
+        u0 = seg[seg_of[p], 0]
+        u1 = seg[seg_of[p], 1]
+        v0 = seg[seg_of[q], 0]
+        v1 = seg[seg_of[q], 1]
+        if u0 == v0 or u0 == v1 or u1 == v0 or u1 == v1:
+            continue
+        a0x, a0y, a1x, a1y = X0[p, 0], X0[p, 1], X1[p, 0], X1[p, 1]
+        b0x, b0y, b1x, b1y = X0[q, 0], X0[q, 1], X1[q, 0], X1[q, 1]
+        d = min(
+            min(
+                _point_segment(a0x, a0y, b0x, b0y, b1x, b1y),
+                _point_segment(a1x, a1y, b0x, b0y, b1x, b1y),
+            ),
+            min(
+                _point_segment(b0x, b0y, a0x, a0y, a1x, a1y),
+                _point_segment(b1x, b1y, a0x, a0y, a1x, a1y),
+            ),
+        )
+        keep[r] = d * beta < length[p]
+    return keep
 
 
 def _near_pairs(X0, X1, seg_of, seg, beta):
@@ -99,18 +134,125 @@ def _near_pairs(X0, X1, seg_of, seg, beta):
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     i = np.concatenate(out_i)
     j = np.concatenate(out_j)
-    si, sj = seg[seg_of[i]], seg[seg_of[j]]
-    apart = (
-        (si[:, 0] != sj[:, 0])
-        & (si[:, 0] != sj[:, 1])
-        & (si[:, 1] != sj[:, 0])
-        & (si[:, 1] != sj[:, 1])
-    )
-    i, j = i[apart], j[apart]
-    near = _segment_distance(X0[i], X1[i], X0[j], X1[j]) * beta < length[i]
-    i, j = i[near], j[near]
+    keep = _near(X0, X1, length, seg_of, seg, i, j, beta)
+    i, j = i[keep], j[keep]
     order = np.argsort(i, kind="stable")
     return i[order], j[order]
+
+
+@njit(cache=True)
+def _grow(a, n):
+    """``a`` with room for at least ``n`` items (its first items kept)."""
+    if n <= a.shape[0]:
+        return a
+    out = np.empty(max(n, 2 * a.shape[0]), a.dtype)
+    out[: a.shape[0]] = a
+    return out
+
+
+@njit(cache=True)
+def _halvings(A, D, ps, t0, t1, cstart, ncand, pj, X0, X1, beta, resolution):
+    """The cuts of the pieces with candidates (``ncand > 0``), round by round (see the
+    module docstring): (segments, parameters, whether a feature lies within
+    ``resolution``, in which case no cut is kept)."""
+    nroot = 0
+    for p in range(ncand.shape[0]):
+        if ncand[p] > 0:
+            nroot += 1
+    root = np.empty(nroot, np.int64)
+    a = np.empty(nroot)
+    b = np.empty(nroot)
+    r = 0
+    for p in range(ncand.shape[0]):
+        if ncand[p] > 0:
+            root[r] = p
+            a[r] = t0[p]
+            b[r] = t1[p]
+            r += 1
+    out_s = np.empty(16, np.int64)
+    out_t = np.empty(16)
+    no = 0
+    made = 0.0
+    for _ in range(MAX_HALVINGS):
+        if nroot == 0:
+            break
+        dmin = np.empty(nroot)
+        n = np.ones(nroot)
+        flat = np.zeros(nroot, np.bool_)
+        halve = np.zeros(nroot, np.bool_)
+        cuts = 0.0
+        nh = 0
+        for r in range(nroot):
+            p = root[r]
+            s = ps[p]
+            ax, ay, dx, dy = A[s, 0], A[s, 1], D[s, 0], D[s, 1]
+            q0x = ax + a[r] * dx
+            q0y = ay + a[r] * dy
+            q1x = ax + b[r] * dx
+            q1y = ay + b[r] * dy
+            lo = np.inf
+            hi = np.inf
+            for c in range(cstart[p], cstart[p] + ncand[p]):
+                y0x, y0y, y1x, y1y = X0[pj[c], 0], X0[pj[c], 1], X1[pj[c], 0], X1[pj[c], 1]
+                d0 = _point_segment(q0x, q0y, y0x, y0y, y1x, y1y)
+                d1 = _point_segment(q1x, q1y, y0x, y0y, y1x, y1y)
+                e = min(
+                    _point_segment(y0x, y0y, q0x, q0y, q1x, q1y),
+                    _point_segment(y1x, y1y, q0x, q0y, q1x, q1y),
+                )
+                lo = min(lo, min(min(d0, d1), e))
+                hi = min(hi, max(d0, d1))
+            if lo <= resolution:
+                return out_s[:0], out_t[:0], True
+            dmin[r] = lo
+            length = (b[r] - a[r]) * math.hypot(dx, dy)
+            if hi <= 2.0 * lo:
+                if length > CUT_FROM * beta * lo:
+                    flat[r] = True
+                    n[r] = np.ceil(length / (beta * lo))
+                    cuts += n[r] - 1.0
+            elif length > HALVE_FROM * beta * lo:
+                halve[r] = True
+                nh += 1
+        made += cuts + nh
+        if made > MAX_CUTS:
+            break
+        # flat pieces: n equal pieces at once; the others halved, both halves again
+        # (first halves, then second halves)
+        root2 = np.empty(2 * nh, np.int64)
+        a2 = np.empty(2 * nh)
+        b2 = np.empty(2 * nh)
+        m2 = 0
+        for r in range(nroot):
+            s = ps[root[r]]
+            if flat[r]:
+                m = np.int64(n[r]) - 1
+                out_s = _grow(out_s, no + m)
+                out_t = _grow(out_t, no + m)
+                for j in range(1, m + 1):
+                    out_s[no] = s
+                    out_t[no] = a[r] + j / n[r] * (b[r] - a[r])
+                    no += 1
+            elif halve[r]:
+                mid = 0.5 * (a[r] + b[r])
+                if mid > a[r] and mid < b[r]:
+                    out_s = _grow(out_s, no + 1)
+                    out_t = _grow(out_t, no + 1)
+                    out_s[no] = s
+                    out_t[no] = mid
+                    no += 1
+                    root2[m2] = root[r]
+                    a2[m2] = a[r]
+                    b2[m2] = mid
+                    a2[nh + m2] = mid
+                    b2[nh + m2] = b[r]
+                    m2 += 1
+        root2[m2 : 2 * m2] = root2[:m2]
+        a2[m2 : 2 * m2] = a2[nh : nh + m2]
+        b2[m2 : 2 * m2] = b2[nh : nh + m2]
+        nroot = 2 * m2
+        root, a, b = root2[:nroot], a2[:nroot], b2[:nroot]
+    return out_s[:no], out_t[:no], False
 
 
 def feature_cuts(P: np.ndarray, seg: np.ndarray, sid: np.ndarray, t: np.ndarray, beta: float):
@@ -162,60 +304,12 @@ def feature_cuts(P: np.ndarray, seg: np.ndarray, sid: np.ndarray, t: np.ndarray,
     # candidates of each first piece, as a CSR table
     ncand = np.bincount(pi, minlength=len(ps))
     cstart = np.cumsum(ncand) - ncand
-    Y0, Y1 = X0[pj], X1[pj]
-    out_s, out_t = [np.zeros(0, np.int64)], [np.zeros(0)]  # the cuts made
-    made = 0
     resolution = RESOLUTION * float(np.abs(P).max())
-    root = np.flatnonzero(ncand > 0)
-    a, b = t0[root], t1[root]
-    for _ in range(MAX_HALVINGS):
-        if len(root) == 0:
-            break
-        s = ps[root]
-        nc = ncand[root]
-        rows = np.repeat(np.arange(len(root)), nc)
-        c = np.repeat(cstart[root] - np.cumsum(nc) + nc, nc) + np.arange(nc.sum())
-        q0 = A[s][rows] + a[rows, None] * D[s][rows]
-        q1 = A[s][rows] + b[rows, None] * D[s][rows]
-        # the distance between the pieces (as _segment_distance) and the largest at the
-        # piece's ends, from the same four point-segment distances
-        y0, y1 = Y0[c], Y1[c]
-        d0 = point_segment_distance(q0, y0, y1)[0]
-        d1 = point_segment_distance(q1, y0, y1)[0]
-        e = np.minimum(point_segment_distance(y0, q0, q1)[0], point_segment_distance(y1, q0, q1)[0])
-        dmin = np.full(len(root), np.inf)
-        np.minimum.at(dmin, rows, np.minimum(np.minimum(d0, d1), e))
-        dmax = np.full(len(root), np.inf)
-        np.minimum.at(dmax, rows, np.maximum(d0, d1))
-        length = (b - a) * np.hypot(*D[s].T)
-        if (dmin <= resolution).any():
-            return sid.astype(np.int64), t
-        even = dmax <= 2.0 * dmin
-        flat = even & (length > CUT_FROM * beta * dmin)
-        n = np.where(flat, np.ceil(length / (beta * np.where(flat, dmin, 1.0))), 1.0)
-        fr = np.flatnonzero(flat)
-        hr = np.flatnonzero(~even & (length > HALVE_FROM * beta * dmin))
-        made += float((n[fr] - 1).sum()) + len(hr)
-        if made > MAX_CUTS:
-            break
-        # flat pieces: n equal pieces at once
-        m = n[fr].astype(np.int64) - 1
-        j = np.arange(m.sum()) - np.repeat(np.cumsum(m) - m, m) + 1
-        u = np.repeat(a[fr], m) + j / np.repeat(n[fr], m) * np.repeat(b[fr] - a[fr], m)
-        out_s.append(np.repeat(s[fr], m))
-        out_t.append(u)
-        # the others: halved, both halves again
-        mid = 0.5 * (a[hr] + b[hr])
-        keep = (mid > a[hr]) & (mid < b[hr])
-        hr, mid = hr[keep], mid[keep]
-        out_s.append(s[hr])
-        out_t.append(mid)
-        root = np.concatenate([root[hr], root[hr]])
-        a, b = np.concatenate([a[hr], mid]), np.concatenate([mid, b[hr]])
-    new_s = np.concatenate(out_s)
-    if len(new_s) == 0:
+    cut = _halvings(A, D, ps, t0, t1, cstart, ncand, pj, X0, X1, beta, resolution)
+    new_s, new_t, touching = cut
+    if touching or len(new_s) == 0:
         return sid.astype(np.int64), t
     all_s = np.concatenate([sid.astype(np.int64), new_s])
-    all_t = np.concatenate([t, np.concatenate(out_t)])
+    all_t = np.concatenate([t, new_t])
     order = np.lexsort((all_t, all_s))
     return all_s[order], all_t[order]

@@ -1010,15 +1010,13 @@ def triangulate(
         )
     bmask = sub[1] < nbs
     inside = cdt.domain_triangles(V, A, S, vt, m0, sub[0][bmask], nbs)
-    V2 = np.empty_like(V)
-    A2 = np.empty_like(A)
-    S2 = np.empty_like(S)
-    ntri = cdt.compact(V, A, S, inside, V2, A2, S2, vt)
-    del V, A, S, inside
+    ntri = cdt.compact(V, A, S, inside, vt)
+    del inside
     lap("constraints")
 
     # -- refinement -----------------------------------------------------------
-    w = _Work(Pc, V2, A2, S2, ntri, npts, pseg_c, ppar_c, vt, n_input)
+    w = _Work(Pc, V, A, S, ntri, npts, pseg_c, ppar_c, vt, n_input)
+    del Pc, V, A, S, pseg_c, ppar_c, vt  # w holds them (and their grown copies)
     rounds = given_up = 0
     if not empty:
         report(0.6, "refinement")
