@@ -1139,7 +1139,7 @@ def combine(
         (:func:`~meshcore.quads.boundary_layer.beats_lattice`; ``stats``
         ``lattice_least``: the lattice's least quality away from sharp corners).
         Where the mesh still misses those targets (``size`` given, no size field
-        nor metric, the boundary not kept, ``squares``), the domain is meshed
+        nor metric, the boundary not kept, not ``inner``, ``squares``), the domain is meshed
         again at 1.02, 1.04, 1.06, 1.1 and 1.2 times ``size`` and the first mesh that
         meets the targets at ``size`` is returned (``stats`` ``size_factor``);
         none does: the first mesh (so too when it has more than 50,000 quads).
@@ -1172,6 +1172,7 @@ def combine(
         and measure == "angle"
         and pattern == "squares"
         and not keep_boundary
+        and not inner
         and corner_least is None
     )
     if retry and not isinstance(domain, Domain):
