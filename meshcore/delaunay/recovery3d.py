@@ -34,7 +34,7 @@ from numba import njit
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from meshcore.delaunay.facets3d import _facet_points, _facet_subfaces, triangulate_facets
+from meshcore.delaunay.facets3d import KeptTriangulations, _facet_points, _facet_subfaces
 from meshcore.delaunay.hashgrid import _find, _find_all, _shift, _table, ball_pairs
 from meshcore.delaunay.kernel2d import delaunay as delaunay2d
 from meshcore.delaunay.kernel3d import _NTET, IncrementalDelaunay3d
@@ -595,6 +595,7 @@ class SurfaceRecovery:
         self.cyl_edge = np.zeros(0, dtype=np.int64)
         self.cyl_radius = np.zeros(0)
         self.unsettled: dict[int, np.ndarray] = {}  # subsegments missing from a facet's 2D mesh
+        self._kept = KeptTriangulations()  # the large facets' 2D triangulations
         self.dt = IncrementalDelaunay3d(self.P)
         self._tets_at = -1
         self._tets: tuple[np.ndarray, np.ndarray] = (
@@ -693,6 +694,7 @@ class SurfaceRecovery:
         self._tets_at = -1
         self._tets = (np.zeros(0, np.int64), np.zeros((0, 4), np.int64))
         self._witness = []
+        self._kept.clear()
 
     def on_surface(self) -> np.ndarray:
         """(n,) bool: which points lie on the surface (input vertices, points added on
@@ -831,7 +833,9 @@ class SurfaceRecovery:
         (its diametral circle holds a facet point) is *unsettled*:
         :meth:`missing` reports it, and recovery splits it. One compiled call
         triangulates every facet whose point set changed
-        (:func:`~meshcore.delaunay.facets3d.triangulate_facets`); the points
+        (:func:`~meshcore.delaunay.facets3d.triangulate_facets`), a large one's
+        kept triangulation gets only its new points
+        (:class:`~meshcore.delaunay.facets3d.KeptTriangulations`); the points
         are projected in each facet's frame in a loop over those facets.
         """
         if facets.size == 0:
@@ -868,7 +872,7 @@ class SurfaceRecovery:
             uv[ptr[k] : ptr[k + 1], 1] = d @ e2[f]
         ro = uv.view()
         ro.flags.writeable = False
-        tri, tptr, status = triangulate_facets(ro, ptr, plain)
+        tri, tptr, status = self._kept.triangulate(facets, ptr, ids, ro, plain, self.n)
         for k in np.flatnonzero(status).tolist():  # the kernel's own error, to name it
             f = int(facets[k])
             try:

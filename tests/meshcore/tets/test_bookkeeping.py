@@ -45,7 +45,7 @@ def test_region_labels_kept_between_rounds_equal_the_flood_fill(monkeypatch):
     computed afresh."""
     call = recovery3d.RegionLabels.__call__
     missing = recovery3d.SurfaceRecovery.missing
-    triangulate = recovery3d.triangulate_facets
+    triangulate = facets3d.triangulate_facets
     circles = recovery3d.SurfaceRecovery.sub_circles
     checked, pieces, facets = [], [], []
 
@@ -83,7 +83,7 @@ def test_region_labels_kept_between_rounds_equal_the_flood_fill(monkeypatch):
 
     monkeypatch.setattr(recovery3d.RegionLabels, "__call__", checked_call)
     monkeypatch.setattr(recovery3d.SurfaceRecovery, "missing", checked_missing)
-    monkeypatch.setattr(recovery3d, "triangulate_facets", checked_triangulate)
+    monkeypatch.setattr(facets3d, "triangulate_facets", checked_triangulate)
     monkeypatch.setattr(recovery3d.SurfaceRecovery, "sub_circles", checked_circles)
     surface = parse_surface(*shapes.torus(nu=10, nv=5))
     tetrahedralize(surface, size=0.4)
@@ -95,3 +95,36 @@ def test_region_labels_kept_between_rounds_equal_the_flood_fill(monkeypatch):
     uv.flags.writeable = False
     _, tptr, status = triangulate(uv, np.array([0, 3, 6]), np.zeros(2, dtype=bool))
     assert status.tolist() == [0, facets3d.FAILED] and tptr.tolist() == [0, 1, 1]
+
+
+def _rows_rotated(tri: np.ndarray) -> np.ndarray:
+    """The triangles as a set: each row rotated to start at its least corner, rows sorted."""
+    r = np.argmin(tri, axis=1)[:, None]
+    t = np.take_along_axis(tri, (r + np.arange(3)) % 3, axis=1)
+    return t[np.lexsort(t.T[::-1])]
+
+
+def test_kept_facet_triangulations_grow_to_the_triangles_of_delaunay():
+    """A large facet's kept 2D triangulation, given its new points only, has the triangles
+    ``delaunay`` gives its whole point set (co-circular lattice points included), the
+    rows in the call's point order; a coinciding new point marks the facet failed."""
+    rng = np.random.default_rng(5)
+    g = np.stack(np.meshgrid(np.arange(48.0), np.arange(48.0)), -1).reshape(-1, 2)
+    pts = np.concatenate([g, rng.random((1200, 2)) * 47])  # 2,304 lattice points first
+    kept = facets3d.KeptTriangulations()
+    for n in (facets3d.KEEP_FROM + 300, 3000, len(pts)):
+        ids = np.arange(n)[::-1].copy()  # the call's point order is not the ids' order
+        uv = pts[ids]
+        uv.flags.writeable = False
+        ptr = np.array([0, n])
+        tri, tptr, status = kept.triangulate(np.array([0]), ptr, ids, uv, np.zeros(1, bool), n)
+        assert status.tolist() == [0] and tptr.tolist() == [0, len(tri)]
+        want = delaunay(uv).triangles
+        assert np.array_equal(_rows_rotated(tri), _rows_rotated(want))
+    ids = np.arange(len(pts) + 1)
+    uv = np.concatenate([pts, pts[:1]])
+    uv.flags.writeable = False
+    _, _, status = kept.triangulate(
+        np.array([0]), np.array([0, len(ids)]), ids, uv, np.zeros(1, bool), len(ids)
+    )
+    assert status.tolist() == [facets3d.FAILED]
