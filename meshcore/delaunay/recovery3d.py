@@ -604,9 +604,8 @@ class SurfaceRecovery:
         )
         self.surface_added = 0
         self.interior_added = 0
-        #: Per kind (subsegments, subfaces): the keys and witness slots of :meth:`missing`.
-        empty = (*_table(np.zeros(0, np.int64)), np.zeros(0, np.int64))
-        self._witness = [empty, empty]
+        #: Per row of ``seg`` and of ``sub``: the witness slot of :meth:`missing` (-1 none).
+        self._witness = [np.zeros(0, np.int64), np.zeros(0, np.int64)]
 
     def loops(self, g: int) -> list:
         """Boundary loops of facet ``g``: (directed input edges, edge ids), chained."""
@@ -893,31 +892,36 @@ class SurfaceRecovery:
         for k, f in enumerate(facets.tolist()):
             self.unsettled[f] = unsettled[uptr[k] : uptr[k + 1]]
         keep = ~isin_ints(self.sub_facet, facets)
-        self._carry_circles(keep, sub)
+        self._carry_rows(keep, sub)
         self.sub = np.concatenate([self.sub[keep], sub])
         self.sub_facet = np.concatenate([self.sub_facet[keep], owner])
 
-    def _carry_circles(self, keep: np.ndarray, sub: np.ndarray) -> None:
-        """The circles of :meth:`sub_circles` for the subfaces ``sub[keep]`` followed by
-        ``sub`` (the new ones of a retriangulation): those kept, and those of the new
-        rows that were rows before, corners in the same order (a facet triangulated
-        again mostly gives its triangles again; the circle's rounding depends on the
-        order, so only the same row reuses it)."""
-        o, r, known = self._circles
-        if len(known) != len(keep):
-            return
-        no, nr = np.zeros((len(sub), 3)), np.zeros(len(sub))
-        nk = np.zeros(len(sub), dtype=bool)
-        old = np.flatnonzero(~keep & known)
+    def _carry_rows(self, keep: np.ndarray, sub: np.ndarray) -> None:
+        """The circles of :meth:`sub_circles` and the witnesses of :meth:`missing` for the
+        subfaces ``sub[keep]`` followed by ``sub`` (the new ones of a retriangulation):
+        those kept, and those of the new rows that were rows before, corners in the same
+        order (a facet triangulated again mostly gives its triangles again; the circle's
+        rounding depends on the order, so only the same row reuses it)."""
+        old = np.flatnonzero(~keep)
+        src = np.full(len(sub), -1, dtype=np.int64)  # the old row of each new one
         if old.size and sub.size and len(self.P) < 1 << 21:
 
             def row_keys(F):
                 return (F[:, 0] << 42) | (F[:, 1] << 21) | F[:, 2]
 
             at = _find_all(*_table(row_keys(self.sub[old])), row_keys(sub))
-            hit = at >= 0
-            no[hit], nr[hit] = o[old[at[hit]]], r[old[at[hit]]]
-            nk[hit] = True
+            src[at >= 0] = old[at[at >= 0]]
+        hit = src >= 0
+        if self._witness and len(self._witness[1]) == len(keep):
+            wit = self._witness[1]
+            self._witness[1] = np.concatenate([wit[keep], np.where(hit, wit[src], -1)])
+        o, r, known = self._circles
+        if len(known) != len(keep):
+            return
+        no, nr = np.zeros((len(sub), 3)), np.zeros(len(sub))
+        nk = np.zeros(len(sub), dtype=bool)
+        hit[hit] = known[src[hit]]
+        no[hit], nr[hit], nk[hit] = o[src[hit]], r[src[hit]], True
         self._circles = (
             np.concatenate([o[keep], no]),
             np.concatenate([r[keep], nr]),
@@ -1311,26 +1315,26 @@ class SurfaceRecovery:
         """Subsegments that are not edges, subfaces that are not faces of the tetrahedralization.
 
         Each piece is looked for in the tetrahedron that held it at the last
-        call (its *witness*, found by key), else in the star of its first
+        call (its *witness*, kept by row), else in the star of its first
         corner (:func:`_held_in_kernel`): one tetrahedron for most pieces, not a pass
         over the whole mesh.
         """
+        seg_hit, sub_hit = self._held(0, self.seg), self._held(1, self.sub)
         keys = edge_keys(self.seg)
-        sub_keys = face_keys(self.sub)
-        seg_hit, sub_hit = self._held(0, self.seg, keys), self._held(1, self.sub, sub_keys)
         if seg_hit is None or sub_hit is None:
-            seg_hit, sub_hit = self._present(keys, sub_keys)
+            seg_hit, sub_hit = self._present(keys, face_keys(self.sub))
         seg_missing = ~seg_hit
         if self.unsettled:
             seg_missing |= isin_ints(keys, np.concatenate(list(self.unsettled.values())))
         return np.flatnonzero(seg_missing), np.flatnonzero(~sub_hit)
 
-    def _held(self, kind: int, pieces: np.ndarray, keys: np.ndarray) -> np.ndarray | None:
+    def _held(self, kind: int, pieces: np.ndarray) -> np.ndarray | None:
         """:func:`_held_in_kernel` on subsegments (``kind`` 0) or subfaces (1), their witnesses kept
-        by key; None when the kernel's vertex tetrahedra cannot start the walk."""
-        tk, tv, slots = self._witness[kind]
-        at = _find_all(tk, tv, keys)
-        wit = np.where(at >= 0, slots[np.maximum(at, 0)], -1) if len(slots) else at
+        by row (rows added since: none); None when the kernel's vertex tetrahedra cannot
+        start the walk."""
+        old = self._witness[kind]
+        wit = np.full(len(pieces), -1, dtype=np.int64)
+        wit[: min(len(old), len(wit))] = old[: len(wit)]
         dt = self.dt
         hit, ok = _held_in_kernel(
             dt._V, dt._A, dt._vt, dt._inv, int(dt._state[_NTET]),
@@ -1338,7 +1342,7 @@ class SurfaceRecovery:
         )  # fmt: skip
         if not ok:
             return None
-        self._witness[kind] = (*_table(keys), wit)
+        self._witness[kind] = wit
         return hit
 
     def _present(self, keys: np.ndarray, sub_keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
