@@ -7,6 +7,7 @@ import numpy as np
 
 import meshcore.delaunay.facets3d as facets3d
 import meshcore.delaunay.recovery3d as recovery3d
+import meshcore.delaunay.regions3d as regions3d
 from meshcore.delaunay import delaunay
 from meshcore.delaunay.kernel3d import delaunay3d
 from meshcore.domain import parse_surface
@@ -43,7 +44,7 @@ def test_region_labels_kept_between_rounds_equal_the_flood_fill(monkeypatch):
     those a pass over every tetrahedron finds; the facets triangulated in one compiled
     call get the rows ``delaunay`` gives each; the kept subface circles are those
     computed afresh."""
-    call = recovery3d.RegionLabels.__call__
+    call = regions3d.RegionLabels.__call__
     missing = recovery3d.SurfaceRecovery.missing
     triangulate = facets3d.triangulate_facets
     circles = recovery3d.SurfaceRecovery.sub_circles
@@ -65,7 +66,7 @@ def test_region_labels_kept_between_rounds_equal_the_flood_fill(monkeypatch):
 
     def checked_call(self, slots, T):
         labels = call(self, slots, T)
-        assert np.array_equal(labels, recovery3d.regions(self.b, slots, T))
+        assert np.array_equal(labels, regions3d.regions(self.b, slots, T))
         checked.append(len(T))
         return labels
 
@@ -81,7 +82,7 @@ def test_region_labels_kept_between_rounds_equal_the_flood_fill(monkeypatch):
         pieces.append(len(seg) + len(sub))
         return seg, sub
 
-    monkeypatch.setattr(recovery3d.RegionLabels, "__call__", checked_call)
+    monkeypatch.setattr(regions3d.RegionLabels, "__call__", checked_call)
     monkeypatch.setattr(recovery3d.SurfaceRecovery, "missing", checked_missing)
     monkeypatch.setattr(facets3d, "triangulate_facets", checked_triangulate)
     monkeypatch.setattr(recovery3d.SurfaceRecovery, "sub_circles", checked_circles)
