@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 import meshcore.delaunay.facets3d as facets3d
+import meshcore.delaunay.hashgrid as hashgrid
 import meshcore.delaunay.recovery3d as recovery3d
 import meshcore.delaunay.regions3d as regions3d
 from meshcore.delaunay import delaunay
@@ -29,6 +30,23 @@ def test_ball_pairs_are_the_brute_force_pairs():
     got = set(zip(xi.tolist(), ji.tolist(), strict=True))
     assert got == {(int(i), int(j)) for i, j in want}
     assert len(xi) == len(got)
+
+
+def test_ball_pairs_of_a_few_points_come_as_the_grid_gives_them(monkeypatch):
+    """Up to ``FEW_POINTS`` points every ball is tested: the same pairs in the same order
+    (point, power of two of the radius, ball decreasing) as through the grid."""
+    rng = np.random.default_rng(8)
+    C = rng.random((2000, 3))
+    r = 0.05 * 2.0 ** rng.integers(-3, 3, 2000) * (0.5 + rng.random(2000))
+    r[:3] = [np.nan, 0.0, np.inf]
+    X = rng.random((hashgrid.FEW_POINTS, 3))
+    X[1] = np.nan
+    X[2] = C[5]
+    few = recovery3d.ball_pairs(X, C, r)
+    monkeypatch.setattr(hashgrid, "FEW_POINTS", 0)
+    grid = recovery3d.ball_pairs(X, C, r)
+    assert len(few[0]) > 50
+    assert np.array_equal(few[0], grid[0]) and np.array_equal(few[1], grid[1])
 
 
 def test_least_dihedral_is_the_least_of_the_six():
