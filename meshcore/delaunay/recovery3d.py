@@ -266,8 +266,8 @@ def _held_in_kernel(V, A, vt, inv, ntet, pieces, wit):
     """
     k, w = pieces.shape
     hit = np.zeros(k, np.bool_)
-    mark = np.zeros(ntet, np.int64)
-    stack = np.empty(ntet, np.int64)
+    mark = np.zeros(0, np.int64)  # made at the first walk (most pieces have a witness)
+    stack = np.empty(0, np.int64)
     stamp = 0
     for i in range(k):
         if i + 16 < k:  # the witness and corners 16 pieces ahead (misses at 10^6 tets)
@@ -288,6 +288,9 @@ def _held_in_kernel(V, A, vt, inv, ntet, pieces, wit):
             V[4 * s] == a or V[4 * s + 1] == a or V[4 * s + 2] == a or V[4 * s + 3] == a
         ):
             return hit, False
+        if mark.shape[0] == 0:
+            mark = np.zeros(ntet, np.int64)
+            stack = np.empty(ntet, np.int64)
         stamp += 1
         mark[s] = stamp
         stack[0] = s
