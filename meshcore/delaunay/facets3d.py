@@ -276,7 +276,7 @@ class KeptTriangulations:
     facet of at least :data:`KEEP_FROM` points keeps its
     :class:`~meshcore.delaunay.kernel2d.IncrementalDelaunay` and only the
     points added since its last call are inserted (in Hilbert order, each
-    walk starting at the point inserted before it). A facet's points are
+    walk starting at the point inserted two before it). A facet's points are
     named by their global ids; points are only appended and a point's facet
     never changes, so the new points of a facet are those of its ids not
     below the point count at its last call. The triangles of a kept facet
@@ -334,7 +334,10 @@ class KeptTriangulations:
                     view.flags.writeable = False
                     curve = _brio_hilbert_keys(view, 1.0, _HILBERT_BITS)[1]
                     order = np.argsort(curve, kind="stable")
-                    near = len(gid) - 1 + np.arange(len(new))
+                    # Each walk starts at the point inserted two before it (the
+                    # kernel reads the next point's start ahead, before the point
+                    # just before it is in), the first two at the last one in.
+                    near = len(gid) - 1 + np.maximum(np.arange(len(new)) - 1, 0)
                     if dt.insert(xy[order], near) is not None:
                         return None
                     gid = np.concatenate([gid, ids[new[order]]])
