@@ -155,8 +155,8 @@ from meshcore.delaunay.recovery3d import (
     edge_keys,
     face_keys,
     member,
-    regions,
 )
+from meshcore.delaunay.regions3d import regions
 from meshcore.domain.surface import Surface, as_surface
 from meshcore.errors import AlgorithmError
 from meshcore.geometry.predicates3d import dot3d, insphere_scalar, orient3d, orient3d_scalar

@@ -29,6 +29,7 @@ from meshcore.delaunay.kernel2d import (
     _DUPLICATE,
     _HILBERT_BITS,
     _MIN_SCALED,
+    IncrementalDelaunay,
     _brio_hilbert_keys,
     _gather,
     _insert_range,
@@ -38,11 +39,15 @@ from meshcore.delaunay.kernel2d import (
     _start,
     _walk_hints,
 )
+from meshcore.errors import InputError
 from meshcore.geometry.predicates import WORK_SIZE
 
 #: Status of a facet in :func:`triangulate_facets` (0: triangulated): the 2D kernel's
 #: error (raised again by :func:`meshcore.delaunay.kernel2d.delaunay` on that facet).
 FAILED = 1
+#: A facet of at least this many points keeps its 2D triangulation between calls
+#: (:class:`KeptTriangulations`); smaller ones are triangulated anew.
+KEEP_FROM = 2048
 
 
 @njit(cache=True)
@@ -261,3 +266,86 @@ def triangulate_facets(uv, ptr, plain):
             nt += 1
         tptr[k + 1] = nt
     return tri[:nt].copy(), tptr, status
+
+
+class KeptTriangulations:
+    """The 2D Delaunay triangulations of the large facets, kept and grown.
+
+    :meth:`triangulate` gives what :func:`triangulate_facets` gives (the same
+    triangles: the 2D kernel's ties depend only on the point set, §9.1), but a
+    facet of at least :data:`KEEP_FROM` points keeps its
+    :class:`~meshcore.delaunay.kernel2d.IncrementalDelaunay` and only the
+    points added since its last call are inserted (in Hilbert order, each
+    walk starting at the point inserted two before it). A facet's points are
+    named by their global ids; points are only appended and a point's facet
+    never changes, so the new points of a facet are those of its ids not
+    below the point count at its last call. The triangles of a kept facet
+    come in the kernel's slot order (a triangle no insertion touched keeps
+    its row, corners in the same order), not in a fresh build's.
+    """
+
+    def __init__(self) -> None:
+        #: facet -> (triangulation, global id of each of its points, point count then)
+        self._kept: dict[int, tuple] = {}
+
+    def clear(self) -> None:
+        """Forget every kept triangulation."""
+        self._kept = {}
+
+    def triangulate(self, facets, ptr, ids, uv, plain, n_points):
+        """:func:`triangulate_facets` of ``uv`` (rows ``ptr[k]:ptr[k + 1]`` the
+        projected points ``ids`` of facet ``facets[k]``), ``n_points`` the global
+        point count; the large facets' triangles from their kept triangulations."""
+        big = ~plain & (np.diff(ptr) >= KEEP_FROM)
+        tri, tptr, status = triangulate_facets(uv, ptr, plain | big)
+        if not big.any():
+            return tri, tptr, status
+        counts = np.diff(tptr)
+        parts = {}
+        for k in np.flatnonzero(big).tolist():
+            lo, hi = int(ptr[k]), int(ptr[k + 1])
+            local = self._grown(int(facets[k]), ids[lo:hi], uv[lo:hi], n_points)
+            if local is None:
+                status[k] = FAILED
+            else:
+                parts[k] = local
+                counts[k] = len(local)
+        out_ptr = np.concatenate([[0], np.cumsum(counts)])
+        out = np.empty((out_ptr[-1], 3), np.int64)
+        rows = np.arange(len(tri))
+        owner = np.repeat(np.arange(len(counts)), np.diff(tptr))
+        out[out_ptr[owner] + rows - tptr[owner]] = tri
+        for k, local in parts.items():
+            out[out_ptr[k] : out_ptr[k + 1]] = local
+        return out, out_ptr, status
+
+    def _grown(self, f, ids, uv, n_points):
+        """Facet ``f``'s triangles as rows of ``ids`` (its points now, projected
+        ``uv``), after inserting its new points; None when the kernel refuses
+        them (coinciding projections)."""
+        kept = self._kept.pop(f, None)
+        try:
+            if kept is not None and len(kept[1]) + int((ids >= kept[2]).sum()) == len(ids):
+                dt, gid, _ = kept
+                new = np.flatnonzero(ids >= kept[2])
+                if new.size:
+                    xy = uv[new]
+                    view = xy.view()
+                    view.flags.writeable = False
+                    curve = _brio_hilbert_keys(view, 1.0, _HILBERT_BITS)[1]
+                    order = np.argsort(curve, kind="stable")
+                    # Each walk starts at the point inserted two before it (the
+                    # kernel reads the next point's start ahead, before the point
+                    # just before it is in), the first two at the last one in.
+                    near = len(gid) - 1 + np.maximum(np.arange(len(new)) - 1, 0)
+                    if dt.insert(xy[order], near) is not None:
+                        return None
+                    gid = np.concatenate([gid, ids[new[order]]])
+            else:
+                dt, gid = IncrementalDelaunay(uv), ids.copy()
+        except InputError:
+            return None
+        self._kept[f] = (dt, gid, n_points)
+        at = np.empty(n_points, np.int64)
+        at[ids] = np.arange(len(ids))
+        return at[gid[dt.triangulation(None).triangles]]

@@ -12,9 +12,12 @@ import math
 import numpy as np
 from numba import njit
 
+from meshcore.delaunay.kernel2d import _prefetch
 from meshcore.geometry.ordering import radix_argsort
 
 _FIB = np.uint64(0x9E3779B97F4A7C15)
+#: :func:`ball_pairs` tests every ball for this many points or fewer.
+FEW_POINTS = 32
 
 
 @njit(cache=True)
@@ -41,6 +44,10 @@ def _table(keys):
     mask = size - 1
     shift = _shift(size)
     for i in range(keys.shape[0]):
+        if i + 16 < keys.shape[0]:  # the slot 16 keys ahead (a miss in a large table)
+            h = _slot(keys[i + 16], shift)
+            _prefetch(tk, h)
+            _prefetch(tv, h)
         key = keys[i]
         h = _slot(key, shift)
         while tk[h] != -1 and tk[h] != key:
@@ -68,6 +75,8 @@ def _find_all(tk, tv, keys):
     shift = _shift(tk.shape[0])
     out = np.empty(keys.shape[0], np.int64)
     for i in range(keys.shape[0]):
+        if i + 16 < keys.shape[0]:
+            _prefetch(tk, _slot(keys[i + 16], shift))
         out[i] = _find(tk, tv, keys[i], shift)
     return out
 
@@ -80,7 +89,8 @@ def ball_pairs(X: np.ndarray, centres: np.ndarray, radii: np.ndarray):
     ``2**e`` is registered in the cells of side ``2**(e + 1)`` its bounding
     box meets (at most 8 but for rounding), so each point looks in one cell
     per radius scale. One compiled pass; the distance is numpy's
-    ``norm(X[i] - centres[j])``. From 32,768 points on, the points are looked
+    ``norm(X[i] - centres[j])``. Up to ``FEW_POINTS`` points every ball is tested
+    instead (no grid built). From 32,768 points and balls on, the points are looked
     up in the order of coarse cells (neighbours walk the same cells while
     they are in cache) and their pairs put back in point order: on the thin
     plate at 1M tetrahedra (156k subfaces, about 150 balls a cell) the
@@ -89,7 +99,9 @@ def ball_pairs(X: np.ndarray, centres: np.ndarray, radii: np.ndarray):
     X = np.ascontiguousarray(X, dtype=np.float64).reshape(-1, 3)
     centres = np.ascontiguousarray(centres, dtype=np.float64).reshape(-1, 3)
     radii = np.ascontiguousarray(radii, dtype=np.float64)
-    if len(X) < 32768 or not np.isfinite(radii).any():
+    if len(X) <= FEW_POINTS:
+        return _ball_pairs_few(X, centres, radii)
+    if len(X) < 32768 or len(radii) < 32768 or not np.isfinite(radii).any():
         return _ball_pairs(X, centres, radii)
     # Coarse cells of the largest finite radius; the stable sort keeps each point's order.
     span = float(np.nanmax(np.where(np.isfinite(radii), radii, np.nan)))
@@ -115,7 +127,9 @@ def _cell_slot(tab, e, ix, iy, iz, shift):
 
 
 @njit(cache=True)
-def _ball_pairs(X, centres, radii):
+def _usable(centres, radii):
+    """Which balls count (finite centre, finite positive radius), each one's power of
+    two (``radius < 2**expo``) and their number."""
     nb = radii.shape[0]
     ok = np.zeros(nb, np.bool_)
     expo = np.zeros(nb, np.int64)
@@ -128,6 +142,43 @@ def _ball_pairs(X, centres, radii):
                 ok[j] = True
                 expo[j] = math.frexp(r)[1]  # r < 2**expo
                 n_ok += 1
+    return ok, expo, n_ok
+
+
+@njit(cache=True)
+def _ball_pairs_few(X, centres, radii):
+    """:func:`_ball_pairs` for a few points: every ball tested, no grid built (the
+    grid of 292k subface balls costs 0.1 s), the pairs in the same order."""
+    ok, expo, _ = _usable(centres, radii)
+    nb = radii.shape[0]
+    xs = np.empty(0, np.int64)
+    js = np.empty(0, np.int64)
+    for i in range(X.shape[0]):
+        x0, x1, x2 = X[i, 0], X[i, 1], X[i, 2]
+        if not (math.isfinite(x0) and math.isfinite(x1) and math.isfinite(x2)):
+            continue
+        hit = []
+        for j in range(nb - 1, -1, -1):
+            if ok[j]:
+                d0 = x0 - centres[j, 0]
+                d1 = x1 - centres[j, 1]
+                d2 = x2 - centres[j, 2]
+                if math.sqrt((d0 * d0 + d1 * d1) + d2 * d2) < radii[j]:
+                    hit.append(j)
+        if len(hit) == 0:
+            continue
+        # by power of two of the radius, then j decreasing (a stable sort)
+        h = np.array(hit)
+        h = h[np.argsort(expo[h], kind="mergesort")]
+        xs = np.concatenate((xs, np.full(h.shape[0], i, np.int64)))
+        js = np.concatenate((js, h))
+    return xs, js
+
+
+@njit(cache=True)
+def _ball_pairs(X, centres, radii):
+    nb = radii.shape[0]
+    ok, expo, n_ok = _usable(centres, radii)
     z = np.zeros(0, np.int64)
     if X.shape[0] == 0 or n_ok == 0:
         return z, z

@@ -5,8 +5,8 @@ surface's *subsegments* (pieces of input edges between two facets) and
 *subfaces* (pieces of facets, re-triangulated in their plane after every
 split); :func:`recover` splits every missing piece until the tetrahedralization
 holds them all (edges first, then faces, §9.3.4), with every new point on the
-input surface (§9.3.5); :func:`regions` labels the tetrahedra by the shell
-region they lie in. Both ``tetrahedralize`` (Delaunay refinement,
+input surface (§9.3.5); :func:`~meshcore.delaunay.regions3d.regions` labels the
+tetrahedra by the shell region they lie in. Both ``tetrahedralize`` (Delaunay refinement,
 ``meshcore.tets``) and the Delaunay-admissible surface
 (:mod:`meshcore.delaunay.admissible3d`) are built on it, which is why it lives
 in the kernel package.
@@ -34,8 +34,9 @@ from numba import njit
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from meshcore.delaunay.facets3d import _facet_points, _facet_subfaces, triangulate_facets
+from meshcore.delaunay.facets3d import KeptTriangulations, _facet_points, _facet_subfaces
 from meshcore.delaunay.hashgrid import _find, _find_all, _shift, _table, ball_pairs
+from meshcore.delaunay.kernel2d import _prefetch
 from meshcore.delaunay.kernel2d import delaunay as delaunay2d
 from meshcore.delaunay.kernel3d import _NTET, IncrementalDelaunay3d
 from meshcore.domain.surface import Surface
@@ -49,16 +50,13 @@ __all__ = [
     "TET_EDGES",
     "TET_FACES",
     "Knobs",
-    "RegionLabels",
     "SurfaceRecovery",
     "ball_pairs",
     "edge_keys",
     "face_keys",
     "face_rows",
-    "fresh_rows",
     "member",
     "recover",
-    "regions",
     "tri_circumcenters",
 ]
 
@@ -268,10 +266,15 @@ def _held_in_kernel(V, A, vt, inv, ntet, pieces, wit):
     """
     k, w = pieces.shape
     hit = np.zeros(k, np.bool_)
-    mark = np.zeros(ntet, np.int64)
-    stack = np.empty(ntet, np.int64)
+    mark = np.zeros(0, np.int64)  # made at the first walk (most pieces have a witness)
+    stack = np.empty(0, np.int64)
     stamp = 0
     for i in range(k):
+        if i + 16 < k:  # the witness and corners 16 pieces ahead (misses at 10^6 tets)
+            if wit[i + 16] >= 0:
+                _prefetch(V, 4 * wit[i + 16])
+            for j in (0, 1, w - 1):
+                _prefetch(inv, pieces[i + 16, j])
         a = inv[pieces[i, 0]]
         b = inv[pieces[i, 1]]
         c = inv[pieces[i, w - 1]]
@@ -285,6 +288,9 @@ def _held_in_kernel(V, A, vt, inv, ntet, pieces, wit):
             V[4 * s] == a or V[4 * s + 1] == a or V[4 * s + 2] == a or V[4 * s + 3] == a
         ):
             return hit, False
+        if mark.shape[0] == 0:
+            mark = np.zeros(ntet, np.int64)
+            stack = np.empty(ntet, np.int64)
         stamp += 1
         mark[s] = stamp
         stack[0] = s
@@ -318,159 +324,6 @@ def _holds3(V, s, a, b, c):
         and (x0 == b or x1 == b or x2 == b or x3 == b)
         and (x0 == c or x1 == c or x2 == c or x3 == c)
     )
-
-
-@njit(cache=True)
-def _row_of(slots):
-    """(top,) int64: the row of each slot in ``slots`` (-1 for slots not listed)."""
-    top = 0
-    for s in slots:
-        top = max(top, s + 1)
-    row_of = np.full(top, -1, np.int64)
-    for r in range(slots.shape[0]):
-        row_of[slots[r]] = r
-    return row_of
-
-
-@njit(cache=True)
-def _flood(nb, sub_of):
-    """Connected components of rows joined across their faces: row ``t``'s face ``j``
-    joins it to row ``nb[t, j]`` when that is >= 0 and the face is no subface
-    (``sub_of[t, j] < 0``). Returns (component of each row, their number), components
-    numbered in the order of their first row."""
-    k = nb.shape[0]
-    comp = np.full(k, -1, np.int64)
-    stack = np.empty(k, np.int64)
-    n = 0
-    for s in range(k):
-        if comp[s] >= 0:
-            continue
-        comp[s] = n
-        stack[0] = s
-        size = 1
-        while size > 0:
-            size -= 1
-            t = stack[size]
-            for j in range(4):
-                u = nb[t, j]
-                if u >= 0 and sub_of[t, j] < 0 and comp[u] < 0:
-                    comp[u] = n
-                    stack[size] = u
-                    size += 1
-        n += 1
-    return comp, n
-
-
-@njit(cache=True)
-def _regions_pass(T, slots, adj, on, tk, tv, faces):
-    """The flood fill of :func:`regions` in one pass.
-
-    Returns the component of each tetrahedron (across faces that are not
-    subfaces, between real tetrahedra), their number, whether each meets the
-    outside (a non-subface with no real tetrahedron behind it), and every
-    (tetrahedron, face, subface) incidence in row-major order.
-    """
-    m = T.shape[0]
-    row_of = _row_of(slots)
-    top = row_of.shape[0]
-    shift = _shift(tk.shape[0])
-    nb = np.empty((m, 4), np.int64)
-    sub_of = np.full((m, 4), -1, np.int64)
-    n_inc = 0
-    for t in range(m):
-        for j in range(4):
-            u = adj[t, j]
-            nb[t, j] = row_of[u] if 0 <= u < top else -1
-            sub_of[t, j] = _subface_at(T, t, j, faces, on, tk, tv, shift)
-            if sub_of[t, j] >= 0:
-                n_inc += 1
-    comp, n = _flood(nb, sub_of)
-    outside = np.zeros(n, np.bool_)
-    inc_t = np.empty(n_inc, np.int64)
-    inc_f = np.empty(n_inc, np.int64)
-    inc_s = np.empty(n_inc, np.int64)
-    k = 0
-    for t in range(m):
-        for j in range(4):
-            if sub_of[t, j] >= 0:
-                inc_t[k] = t
-                inc_f[k] = j
-                inc_s[k] = sub_of[t, j]
-                k += 1
-            elif nb[t, j] < 0:
-                outside[comp[t]] = True
-    return comp, n, outside, inc_t, inc_f, inc_s
-
-
-@njit(cache=True)
-def fresh_rows(T, n0):
-    """(k,) int64: the rows of ``T`` (m, 4) with a vertex numbered ``n0`` or above (the
-    tetrahedra created since the structure had ``n0`` points)."""
-    out = np.empty(T.shape[0], np.int64)
-    k = 0
-    for t in range(T.shape[0]):
-        if max(max(T[t, 0], T[t, 1]), max(T[t, 2], T[t, 3])) >= n0:
-            out[k] = t
-            k += 1
-    return out[:k].copy()
-
-
-@njit(cache=True)
-def _regions_update(T, slots, fresh, adj, old, on, tk, tv, faces):
-    """The flood fill of :func:`regions` over the ``fresh`` rows only.
-
-    ``old[s]``: the label of the tetrahedron at slot ``s`` at the last call
-    (the others kept theirs); ``adj``: the fresh rows' neighbour slots.
-    Returns the component of each fresh row, their number, per component the
-    label met across ordinary faces (-2 none), whether it meets the outside
-    and whether two labels met disagree, and the subface incidences.
-    """
-    m = T.shape[0]
-    row_of = _row_of(slots)
-    top = row_of.shape[0]
-    k = fresh.shape[0]
-    local = np.full(m, -1, np.int64)
-    for i in range(k):
-        local[fresh[i]] = i
-    shift = _shift(tk.shape[0])
-    nb = np.full((k, 4), -1, np.int64)  # fresh neighbour (local), -2 old, -3 outside
-    sub_of = np.full((k, 4), -1, np.int64)
-    n_inc = 0
-    for i in range(k):
-        t = fresh[i]
-        for j in range(4):
-            sub_of[i, j] = _subface_at(T, t, j, faces, on, tk, tv, shift)
-            if sub_of[i, j] >= 0:
-                n_inc += 1
-                continue
-            u = adj[i, j]
-            r = row_of[u] if 0 <= u < top else -1
-            nb[i, j] = -3 if r < 0 else (local[r] if local[r] >= 0 else -2)
-    comp, n = _flood(nb, sub_of)
-    met = np.full(n, -2, np.int64)
-    outside = np.zeros(n, np.bool_)
-    clash = np.zeros(n, np.bool_)
-    inc_t = np.empty(n_inc, np.int64)
-    inc_f = np.empty(n_inc, np.int64)
-    inc_s = np.empty(n_inc, np.int64)
-    q = 0
-    for i in range(k):
-        c = comp[i]
-        for j in range(4):
-            if sub_of[i, j] >= 0:
-                inc_t[q] = fresh[i]
-                inc_f[q] = j
-                inc_s[q] = sub_of[i, j]
-                q += 1
-            elif nb[i, j] == -3:
-                outside[c] = True
-            elif nb[i, j] == -2:
-                lab = old[slots[row_of[adj[i, j]]]]
-                if met[c] == -2:
-                    met[c] = lab
-                elif met[c] != lab:
-                    clash[c] = True
-    return comp, n, met, outside, clash, inc_t, inc_f, inc_s
 
 
 def face_rows(T: np.ndarray, F: np.ndarray) -> np.ndarray:
@@ -595,6 +448,7 @@ class SurfaceRecovery:
         self.cyl_edge = np.zeros(0, dtype=np.int64)
         self.cyl_radius = np.zeros(0)
         self.unsettled: dict[int, np.ndarray] = {}  # subsegments missing from a facet's 2D mesh
+        self._kept = KeptTriangulations()  # the large facets' 2D triangulations
         self.dt = IncrementalDelaunay3d(self.P)
         self._tets_at = -1
         self._tets: tuple[np.ndarray, np.ndarray] = (
@@ -603,9 +457,8 @@ class SurfaceRecovery:
         )
         self.surface_added = 0
         self.interior_added = 0
-        #: Per kind (subsegments, subfaces): the keys and witness slots of :meth:`missing`.
-        empty = (*_table(np.zeros(0, np.int64)), np.zeros(0, np.int64))
-        self._witness = [empty, empty]
+        #: Per row of ``seg`` and of ``sub``: the witness slot of :meth:`missing` (-1 none).
+        self._witness = [np.zeros(0, np.int64), np.zeros(0, np.int64)]
 
     def loops(self, g: int) -> list:
         """Boundary loops of facet ``g``: (directed input edges, edge ids), chained."""
@@ -693,6 +546,7 @@ class SurfaceRecovery:
         self._tets_at = -1
         self._tets = (np.zeros(0, np.int64), np.zeros((0, 4), np.int64))
         self._witness = []
+        self._kept.clear()
 
     def on_surface(self) -> np.ndarray:
         """(n,) bool: which points lie on the surface (input vertices, points added on
@@ -831,7 +685,9 @@ class SurfaceRecovery:
         (its diametral circle holds a facet point) is *unsettled*:
         :meth:`missing` reports it, and recovery splits it. One compiled call
         triangulates every facet whose point set changed
-        (:func:`~meshcore.delaunay.facets3d.triangulate_facets`); the points
+        (:func:`~meshcore.delaunay.facets3d.triangulate_facets`), a large one's
+        kept triangulation gets only its new points
+        (:class:`~meshcore.delaunay.facets3d.KeptTriangulations`); the points
         are projected in each facet's frame in a loop over those facets.
         """
         if facets.size == 0:
@@ -868,7 +724,7 @@ class SurfaceRecovery:
             uv[ptr[k] : ptr[k + 1], 1] = d @ e2[f]
         ro = uv.view()
         ro.flags.writeable = False
-        tri, tptr, status = triangulate_facets(ro, ptr, plain)
+        tri, tptr, status = self._kept.triangulate(facets, ptr, ids, ro, plain, self.n)
         for k in np.flatnonzero(status).tolist():  # the kernel's own error, to name it
             f = int(facets[k])
             try:
@@ -889,31 +745,36 @@ class SurfaceRecovery:
         for k, f in enumerate(facets.tolist()):
             self.unsettled[f] = unsettled[uptr[k] : uptr[k + 1]]
         keep = ~isin_ints(self.sub_facet, facets)
-        self._carry_circles(keep, sub)
+        self._carry_rows(keep, sub)
         self.sub = np.concatenate([self.sub[keep], sub])
         self.sub_facet = np.concatenate([self.sub_facet[keep], owner])
 
-    def _carry_circles(self, keep: np.ndarray, sub: np.ndarray) -> None:
-        """The circles of :meth:`sub_circles` for the subfaces ``sub[keep]`` followed by
-        ``sub`` (the new ones of a retriangulation): those kept, and those of the new
-        rows that were rows before, corners in the same order (a facet triangulated
-        again mostly gives its triangles again; the circle's rounding depends on the
-        order, so only the same row reuses it)."""
-        o, r, known = self._circles
-        if len(known) != len(keep):
-            return
-        no, nr = np.zeros((len(sub), 3)), np.zeros(len(sub))
-        nk = np.zeros(len(sub), dtype=bool)
-        old = np.flatnonzero(~keep & known)
+    def _carry_rows(self, keep: np.ndarray, sub: np.ndarray) -> None:
+        """The circles of :meth:`sub_circles` and the witnesses of :meth:`missing` for the
+        subfaces ``sub[keep]`` followed by ``sub`` (the new ones of a retriangulation):
+        those kept, and those of the new rows that were rows before, corners in the same
+        order (a facet triangulated again mostly gives its triangles again; the circle's
+        rounding depends on the order, so only the same row reuses it)."""
+        old = np.flatnonzero(~keep)
+        src = np.full(len(sub), -1, dtype=np.int64)  # the old row of each new one
         if old.size and sub.size and len(self.P) < 1 << 21:
 
             def row_keys(F):
                 return (F[:, 0] << 42) | (F[:, 1] << 21) | F[:, 2]
 
             at = _find_all(*_table(row_keys(self.sub[old])), row_keys(sub))
-            hit = at >= 0
-            no[hit], nr[hit] = o[old[at[hit]]], r[old[at[hit]]]
-            nk[hit] = True
+            src[at >= 0] = old[at[at >= 0]]
+        hit = src >= 0
+        if self._witness and len(self._witness[1]) == len(keep):
+            wit = self._witness[1]
+            self._witness[1] = np.concatenate([wit[keep], np.where(hit, wit[src], -1)])
+        o, r, known = self._circles
+        if len(known) != len(keep):
+            return
+        no, nr = np.zeros((len(sub), 3)), np.zeros(len(sub))
+        nk = np.zeros(len(sub), dtype=bool)
+        hit[hit] = known[src[hit]]
+        no[hit], nr[hit], nk[hit] = o[src[hit]], r[src[hit]], True
         self._circles = (
             np.concatenate([o[keep], no]),
             np.concatenate([r[keep], nr]),
@@ -1307,26 +1168,26 @@ class SurfaceRecovery:
         """Subsegments that are not edges, subfaces that are not faces of the tetrahedralization.
 
         Each piece is looked for in the tetrahedron that held it at the last
-        call (its *witness*, found by key), else in the star of its first
+        call (its *witness*, kept by row), else in the star of its first
         corner (:func:`_held_in_kernel`): one tetrahedron for most pieces, not a pass
         over the whole mesh.
         """
+        seg_hit, sub_hit = self._held(0, self.seg), self._held(1, self.sub)
         keys = edge_keys(self.seg)
-        sub_keys = face_keys(self.sub)
-        seg_hit, sub_hit = self._held(0, self.seg, keys), self._held(1, self.sub, sub_keys)
         if seg_hit is None or sub_hit is None:
-            seg_hit, sub_hit = self._present(keys, sub_keys)
+            seg_hit, sub_hit = self._present(keys, face_keys(self.sub))
         seg_missing = ~seg_hit
         if self.unsettled:
             seg_missing |= isin_ints(keys, np.concatenate(list(self.unsettled.values())))
         return np.flatnonzero(seg_missing), np.flatnonzero(~sub_hit)
 
-    def _held(self, kind: int, pieces: np.ndarray, keys: np.ndarray) -> np.ndarray | None:
+    def _held(self, kind: int, pieces: np.ndarray) -> np.ndarray | None:
         """:func:`_held_in_kernel` on subsegments (``kind`` 0) or subfaces (1), their witnesses kept
-        by key; None when the kernel's vertex tetrahedra cannot start the walk."""
-        tk, tv, slots = self._witness[kind]
-        at = _find_all(tk, tv, keys)
-        wit = np.where(at >= 0, slots[np.maximum(at, 0)], -1) if len(slots) else at
+        by row (rows added since: none); None when the kernel's vertex tetrahedra cannot
+        start the walk."""
+        old = self._witness[kind]
+        wit = np.full(len(pieces), -1, dtype=np.int64)
+        wit[: min(len(old), len(wit))] = old[: len(wit)]
         dt = self.dt
         hit, ok = _held_in_kernel(
             dt._V, dt._A, dt._vt, dt._inv, int(dt._state[_NTET]),
@@ -1334,7 +1195,7 @@ class SurfaceRecovery:
         )  # fmt: skip
         if not ok:
             return None
-        self._witness[kind] = (*_table(keys), wit)
+        self._witness[kind] = wit
         return hit
 
     def _present(self, keys: np.ndarray, sub_keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -1367,105 +1228,3 @@ def recover(b: SurfaceRecovery, progress) -> int:
         f"({len(seg_missing)} subsegments and {len(sub_missing)} subfaces missing)",
         code="recovery_failed",
     )
-
-
-def _read_only(a: np.ndarray) -> np.ndarray:
-    """A read-only contiguous int64 view: ``b.tets()``'s arrays are read-only, and numba
-    compiles a separate copy for a writeable argument."""
-    v = np.ascontiguousarray(a, dtype=np.int64).view()
-    v.flags.writeable = False
-    return v
-
-
-def regions(b: SurfaceRecovery, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """Region of each tetrahedron of ``T`` (-1 outside), by flood fill across non-subfaces."""
-    slots = np.ascontiguousarray(slots, dtype=np.int64)
-    comp, n_comp, out_comp, t_i, f_j, s_rows = _regions_pass(
-        _read_only(T), _read_only(slots), b.dt.adjacent(slots), b.on_surface(),
-        *_table(face_keys(b.sub)), TET_FACES,
-    )  # fmt: skip
-    met = np.full(n_comp, -2, dtype=np.int64)
-    clash = np.zeros(n_comp, dtype=bool)
-    return _labels(b, T, comp, met, out_comp, clash, t_i, f_j, s_rows)
-
-
-def _labels(b, T, comp, met, out_comp, clash, t_i, f_j, s_rows) -> np.ndarray:
-    """The label of each component of :func:`regions` (of the rows ``comp`` covers).
-
-    ``met``: the label each component already has (-2 unknown), ``out_comp``:
-    whether it meets the outside, ``clash``: whether labels met disagree;
-    ``(t_i, f_j, s_rows)`` the subface incidences (row of ``T``, face,
-    subface). Raises if the surface does not separate the regions.
-    """
-    label = met.copy()
-    # A tetrahedron on a hull face (neighbour a ghost) across a non-subface is outside.
-    outside = np.flatnonzero(out_comp)
-    # Subfaces: the tetrahedron on the inner side takes the facet's region.
-    sf = b.sub[s_rows]
-    d = T[t_i, f_j]
-    side = orient3d(b.P[sf[:, 0]], b.P[sf[:, 1]], b.P[sf[:, 2]], b.P[d])
-    inner = side > 0
-    reg = b.group_region[b.sub_facet[s_rows]]
-    ci = comp[t_i[inner]]
-    ri = reg[inner]
-    label[ci] = ri
-    conflict = clash.copy()
-    chk = (label[ci] != ri) | ((met[ci] != -2) & (met[ci] != ri))
-    conflict[ci[chk]] = True
-    co = comp[t_i[~inner]]
-    outer_reg = reg[~inner]
-    # A tetrahedron on the outer side of a facet is in another region or outside:
-    # never in the facet's own region.
-    same = label[co] == outer_reg
-    conflict[co[same]] = True
-    conflict[outside[isin_ints(outside, ci)]] = True
-    conflict[outside[met[outside] >= 0]] = True
-    if conflict.any():
-        raise AlgorithmError(
-            "the recovered surface does not separate the regions (a subface is "
-            "missing or doubled): the tetrahedra could not be classified",
-            code="recovery_failed",
-        )
-    label[label == -2] = -1
-    label[outside] = -1
-    return label[comp]
-
-
-class RegionLabels:
-    """:func:`regions` kept between calls, for a tetrahedralization that only grows.
-
-    Each call classifies only the tetrahedra with a vertex added since the
-    last one (every tetrahedron an insertion creates holds the new point):
-    the others keep their region, and a new one takes the region of the old
-    tetrahedra it meets across faces that are not subfaces, or of the
-    subfaces it holds, as :func:`regions` would; with every subface present
-    (as after :func:`recover`) the labels are those of :func:`regions`.
-    """
-
-    def __init__(self, b: SurfaceRecovery) -> None:
-        self.b = b
-        self.n = -1
-        self.by_slot = np.zeros(0, dtype=np.int64)
-
-    def __call__(self, slots: np.ndarray, T: np.ndarray) -> np.ndarray:
-        """(m,) int64: the region of each tetrahedron ``T`` at ``slots`` (-1 outside)."""
-        b = self.b
-        slots = np.ascontiguousarray(slots, dtype=np.int64)
-        T = np.ascontiguousarray(T, dtype=np.int64)
-        if self.n < 0:
-            label = regions(b, slots, T)
-        else:
-            fresh = fresh_rows(T, self.n)
-            comp, n_comp, met, out_comp, clash, t_i, f_j, s_rows = _regions_update(
-                T, slots, fresh, b.dt.adjacent(slots[fresh]), self.by_slot, b.on_surface(),
-                *_table(face_keys(b.sub)), TET_FACES,
-            )  # fmt: skip
-            label = self.by_slot[np.minimum(slots, len(self.by_slot) - 1)]
-            if fresh.size:
-                whole = np.zeros(len(T), dtype=np.int64)
-                whole[fresh] = comp
-                label[fresh] = _labels(b, T, whole, met, out_comp, clash, t_i, f_j, s_rows)[fresh]
-        self.by_slot = np.full(int(slots.max()) + 1 if len(slots) else 0, -3, dtype=np.int64)
-        self.by_slot[slots] = label
-        self.n = b.n
-        return label

@@ -177,16 +177,14 @@ from meshcore.delaunay.recovery3d import (
     KNOBS,
     TET_EDGES,
     TET_FACES,
-    RegionLabels,
     SurfaceRecovery,
     ball_pairs,
     face_keys,
     face_rows,
-    fresh_rows,
     member,
     recover,
-    regions,
 )
+from meshcore.delaunay.regions3d import RegionLabels, fresh_rows, regions
 from meshcore.domain.surface import as_surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates3d import orient3d

@@ -34,6 +34,7 @@ from scipy.spatial import cKDTree
 
 from meshcore.delaunay.recovery3d import SurfaceRecovery, ball_pairs
 from meshcore.geometry.constructions import point_segment_distance
+from meshcore.mesh.topology import unique_ints
 
 __all__ = ["MARGIN", "SEED_FAR", "SPACING", "far_facets", "seed_facets"]
 
@@ -60,12 +61,13 @@ def _lattice_shape(uv: np.ndarray, h: float) -> tuple[int, int]:
     return nu, nv
 
 
-def _lattice(uv: np.ndarray, h: float) -> np.ndarray:
+def _lattice(uv: np.ndarray, h: float, shape: tuple[int, int]) -> np.ndarray:
     """The points of the triangular lattice of spacing ``h`` (rows along u, every other
-    row shifted by ``h / 2``) in the bounding box of ``uv``."""
+    row shifted by ``h / 2``) in the bounding box of ``uv``; ``shape`` its
+    :func:`_lattice_shape`."""
     lo = uv.min(axis=0)
     dv = h * math.sqrt(3.0) / 2.0
-    nu, nv = _lattice_shape(uv, h)
+    nu, nv = shape
     j, i = np.divmod(np.arange(nu * nv), nu)
     u = lo[0] + h * (i + 0.5 * (j % 2))
     v = lo[1] + dv * j
@@ -90,23 +92,28 @@ def seed_facets(b: SurfaceRecovery, facets: np.ndarray, size: np.ndarray) -> int
         d = b.P[np.unique(b.facets[b.group_tris[f]])] - origin[f]
         corners_uv.append(np.stack([d @ e1[f], d @ e2[f]], 1))
     h_all = (SPACING * size).tolist()
-    count = sum(math.prod(_lattice_shape(uv, h)) for uv, h in zip(corners_uv, h_all, strict=True))
-    if count > b.knobs.max_points - b.n:
+    shapes = [_lattice_shape(uv, h) for uv, h in zip(corners_uv, h_all, strict=True)]
+    if sum(nu * nv for nu, nv in shapes) > b.knobs.max_points - b.n:
         return 0
     X_all, f_all = [], []
-    on = b.edge_groups[b.seg_edge]
-    for f, h, cuv in zip(facets.tolist(), h_all, corners_uv, strict=True):
-        uv = _lattice(cuv, h)
+    # The boundary subsegments and the points of each facet, grouped in one pass each.
+    on = b.edge_groups[b.seg_edge].T.reshape(-1)
+    by_seg = np.argsort(on, kind="stable")
+    seg_at = np.searchsorted(on[by_seg], [facets, facets + 1])
+    by_pt = np.argsort(b.pt_facet, kind="stable")
+    pt_at = np.searchsorted(b.pt_facet[by_pt], [facets, facets + 1])
+    for k, (f, h, cuv) in enumerate(zip(facets.tolist(), h_all, corners_uv, strict=True)):
+        uv = _lattice(cuv, h, shapes[k])
         X = origin[f] + uv[:, :1] * e1[f] + uv[:, 1:] * e2[f]
         X = X[b.in_facet(X, np.full(len(X), f))]
-        segs = np.flatnonzero((on[:, 0] == f) | (on[:, 1] == f))
+        segs = unique_ints(by_seg[seg_at[0, k] : seg_at[1, k]] % len(b.seg))
         if len(X) and segs.size:
             A, B = b.P[b.seg[segs, 0]], b.P[b.seg[segs, 1]]
             half = 0.5 * np.linalg.norm(B - A, axis=1)
             xi, si = ball_pairs(X, 0.5 * (A + B), half + MARGIN * h)
             close = point_segment_distance(X[xi], A[si], B[si])[0] < MARGIN * h
             X = np.delete(X, xi[close], axis=0)
-        mine = np.flatnonzero(b.pt_facet == f)
+        mine = by_pt[pt_at[0, k] : pt_at[1, k]]
         if len(X) and mine.size:
             d, _ = cKDTree(b.P[mine]).query(X)
             X = X[d >= 0.5 * h]
@@ -125,6 +132,8 @@ def seed_facets(b: SurfaceRecovery, facets: np.ndarray, size: np.ndarray) -> int
 def far_facets(b: SurfaceRecovery, bound: np.ndarray, seeded: np.ndarray) -> np.ndarray:
     """The facets not yet ``seeded`` (bool per facet) whose largest subface circumradius
     exceeds ``SEED_FAR`` times their ``bound`` (per facet, inf where none)."""
+    if not (~seeded & np.isfinite(bound)).any():
+        return np.zeros(0, dtype=np.int64)
     _, r = b.sub_circles()
     largest = np.zeros(len(bound))
     np.maximum.at(largest, b.sub_facet, r)
