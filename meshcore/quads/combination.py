@@ -164,7 +164,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.domain.planar import Domain, parse_domain
-from meshcore.errors import InputError
+from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.quads.boundary_layer import (
@@ -1177,6 +1177,8 @@ def combine(
     )
     if retry and not isinstance(domain, Domain):
         domain = parse_domain(domain)
+    if progress is not None:
+        progress = _forward(progress)
     res = _combine(
         mesh,
         domain=domain,
@@ -1194,7 +1196,7 @@ def combine(
         optimize=optimize,
         inner=inner,
         corner_least=corner_least,
-        progress=progress,
+        progress=_share(progress, 0, 1) if retry else progress,
     )
     if (
         not retry
@@ -1202,23 +1204,52 @@ def combine(
         or meets_targets(res.mesh, domain, size)
     ):
         return res
-    for f in TOL.size_tries:  # a loop of at most len(TOL.size_tries) meshes
-        again = _combine(
-            domain=domain,
-            size=size * f,
-            min_angle=min_angle,
-            algorithm=algorithm,
-            measure=measure,
-            min_quality=min_quality,
-            all_quad=all_quad,
-            twice_size=twice_size,
-            optimize=optimize,
-            progress=progress,
-        )
+    for k, f in enumerate(TOL.size_tries, 1):  # at most len(TOL.size_tries) meshes
+        try:
+            again = _combine(
+                domain=domain,
+                size=size * f,
+                min_angle=min_angle,
+                algorithm=algorithm,
+                measure=measure,
+                min_quality=min_quality,
+                all_quad=all_quad,
+                twice_size=twice_size,
+                optimize=optimize,
+                progress=_share(progress, k, f),
+            )
+        except AlgorithmError:  # a try that fails leaves the first mesh standing
+            continue
         if meets_targets(again.mesh, domain, size):
             again.stats["size_factor"] = f
             return again
     return res
+
+
+def _forward(progress: Progress) -> Progress:
+    """``progress`` that never goes back: each fraction at least the highest before (a
+    mesh made again, for a retried row or a size try, starts its phases anew)."""
+    high = 0.0
+
+    def report(f: float, msg: str) -> None:
+        nonlocal high
+        high = max(high, f)
+        progress(high, msg)
+
+    return report
+
+
+def _share(progress: Progress | None, k: int, factor: float) -> Progress | None:
+    """``progress`` for mesh ``k`` of those :func:`combine` may make: the first mesh
+    reports into [0, 0.9], size try ``k`` into its share of the last tenth."""
+    if progress is None:
+        return None
+    if k == 0:
+        return lambda f, msg: progress(0.9 * f, msg)
+    tries = len(TOL.size_tries)
+    return lambda f, msg: progress(
+        0.9 + 0.1 * (k - 1 + f) / tries, f"{msg} (again at {factor:g} x size)"
+    )
 
 
 def _combine(
@@ -1292,8 +1323,10 @@ def _combine(
         _dom = domain_in = domain if isinstance(domain, Domain) else parse_domain(domain)
         check_thinness(_dom)
         if size is not None and not _dom.area / size / size <= MOST_QUADS:
+            quads = _dom.area / size / size
+            about = f"about {quads:.3g}" if math.isfinite(quads) else f"more than {MOST_QUADS:.3g}"
             raise InputError(
-                f"size {size!r} would make about {_dom.area / size / size:.3g} quads on a "
+                f"size {size!r} would make {about} quads on a "
                 f"domain of area {_dom.area:.6g}: give a larger size",
                 loc=("size",),
                 code="too_many_cells",
@@ -1326,6 +1359,7 @@ def _combine(
                     all_quad=True,
                     twice_size=True,
                     optimize=True,
+                    inner=inner,
                     corner_least=0.0,
                     progress=progress,
                 )

@@ -250,10 +250,22 @@ def test_quad_combine_keeps_a_row_that_beats_the_lattice():
 def test_quad_combine_meets_the_targets_at_a_slightly_larger_size():
     # issue 20's random star 15 at size 0.1: the corner row meets every target but the
     # count (1.514 times area / size² quads), the lattice's mesh misses the least
-    # quality (0.435); meshed again at 1.02 times the size the row meets them all (1.489x)
+    # quality (0.435); meshed again at 1.02 times the size the row meets them all (1.489x);
+    # the progress of the two meshes never goes back
     dom = parse_domain(issue_star(15)[0])
-    res = combine(domain=dom, size=0.1, all_quad=True, twice_size=True, optimize=True)
+    seen = []
+    res = combine(
+        domain=dom,
+        size=0.1,
+        all_quad=True,
+        twice_size=True,
+        optimize=True,
+        progress=lambda f, msg: seen.append((f, msg)),
+    )
     assert res.stats["size_factor"] == 1.02 and "boundary_layer" in res.stats
+    fractions = [f for f, _ in seen]
+    assert fractions == sorted(fractions) and 0 <= fractions[0] and fractions[-1] <= 1
+    assert any("again at 1.02 x size" in msg for _, msg in seen)
     ang, q, ratio = _check(res.mesh, dom, 0.1)
     ok = _unforced(res.mesh.points, res.mesh.cells_by_type["quad"], dom)
     assert ang[ok].min() >= 30 and ang[ok].max() <= 150
