@@ -73,6 +73,7 @@ from meshcore.geometry.expansions import (
 )
 
 __all__ = [
+    "CONVEX_PROOF",
     "WORK_SIZE",
     "dot2d",
     "dot2d_exact",
@@ -93,6 +94,12 @@ _CCW_ERRBOUND_A = (3.0 + 16.0 * _EPS) * _EPS
 
 
 _ICC_ERRBOUND_A = (10.0 + 96.0 * _EPS) * _EPS
+
+CONVEX_PROOF = 1e-6
+"""A quad whose corner quality (8.4) is above this is strictly convex without an exact
+sign: every corner's sine is then above it, so each corner's floating-point
+determinant exceeds :func:`orient2d_filtered`'s error bound many times over and the
+predicate would return its sign unchanged; at or below it the predicate decides."""
 
 
 @njit(cache=True)

@@ -134,11 +134,11 @@ OPEN_LEAST = 45.0
 CLOSE_ANGLE = 56.0
 #: :func:`_closed`'s new quads may have one corner up to this (degrees; the turned
 #: edge's end loses a quad, its two corners one: about 180 degrees), which the
-#: smoothing that follows opens (the turns are undone where it leaves more quads
-#: folded). 200 refused gear 7's straight point of four quads at size 0.1 (the fill's
-#: corners there 18-82 degrees: 202-251 after the turn): least quality 0.4997 ->
-#: 0.561 at 260; no other gear of 6-12 teeth nor any of the 32 issue stars changed at
-#: 0.1 or 0.15.
+#: smoothing that follows opens (all the turns are undone when it leaves more quads
+#: folded than before them). 200 refused gear 7's straight point of four quads at
+#: size 0.1 (the fill's corners there 18-82 degrees: 202-251 after the turn): least
+#: quality 0.4997 -> 0.561 at 260; no other gear of 6-12 teeth nor any of the 32 issue
+#: stars changed at 0.1 or 0.15.
 CLOSE_BEND = 260.0
 #: The kite at a spike's tip (:data:`meshcore.medial.regions.KITE_ANGLE`): the points of
 #: its two sides this times size from the tip (at most a third of the side), its inner
@@ -384,9 +384,11 @@ def _closed(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, int]:
     point: 45 degrees each at best): the two quads ``(v, a, x, b)`` and ``(v, b, y, c)``
     around an interior edge ``v - b`` become ``(a, x, b, y)`` and ``(v, a, y, c)`` (the
     edge turned to ``a - y``), for the edge whose new quads have the largest least
-    corner, when both are strictly convex (exact). The quads keep their count; the
-    smoothing that follows places the points. Returns the quads and how many edges were
-    so turned."""
+    corner, when each has at most one corner that is not strictly convex (exact), that
+    one under :data:`CLOSE_BEND`. The quads keep their count; the smoothing that
+    follows places the points (``quads_on`` keeps the turns only when it leaves no
+    more quads folded than before them). Returns the quads and how many edges were so
+    turned."""
     Q = quads.copy()
     start, cells = _csr(len(points), Q)
     border = boundary_points(points, Q)
@@ -407,10 +409,10 @@ def _closed(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, int]:
             if r2[1] != b:
                 continue
             new = np.array([[r1[1], r1[2], b, r2[2]], [v, r1[1], r2[2], r2[3]]], Q.dtype)
-            ang = quality.quad_angles(points, new)
-            if (folded(points, new) > 1).any() or ang.max() > CLOSE_BEND:
+            corners = quality.quad_angles(points, new)
+            if (folded(points, new) > 1).any() or corners.max() > CLOSE_BEND:
                 continue
-            least = ang.min()
+            least = corners.min()
             if best is None or least > best[0]:
                 best = (least, q1, q2[0], new)
         if best is None:

@@ -49,6 +49,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.geometry.ordering import radix_argsort
+from meshcore.geometry.predicates import CONVEX_PROOF
 from meshcore.mesh.topology import unique_edges
 from meshcore.partition.kernel import orient
 
@@ -186,13 +187,6 @@ def smooth_quads(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray, sweep
     direc = _angle_targets(P, quads, fixed, nptr, nidx)
     undone = _sweeps(P, quads, fixed, nptr, nidx, cptr, cidx, direc, sweeps, np.array(_STEPS))
     return P, int(undone)
-
-
-#: A quad whose quality (8.4) is above this is strictly convex, no exact sign needed:
-#: every corner's sine is then above it, so each corner's floating-point determinant
-#: exceeds the error bound of ``orient2d_filtered`` many times over and the predicate
-#: would return its sign unchanged; at or below it the predicate decides.
-CONVEX_PROOF = 1e-6
 
 
 @njit(cache=True)

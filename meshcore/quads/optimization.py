@@ -115,10 +115,10 @@ import numpy as np
 from numba import njit
 
 from meshcore.geometry.ordering import radix_argsort
-from meshcore.geometry.predicates import orient2d
+from meshcore.geometry.predicates import CONVEX_PROOF, orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.mesh.topology import isin_ints, unique_ints
-from meshcore.partition.smoothing import CONVEX_PROOF, boundary_points
+from meshcore.partition.smoothing import boundary_points
 from meshcore.quads.vertex_moves import (
     _angle_quality_rows,
     _colors,
@@ -1367,7 +1367,12 @@ def domain_moves(mesh: Mesh, dom) -> DomainMoves:
     vertices first): the input vertices and the nodes on interior constraints fixed, the
     other boundary nodes sliding along their input segment (:func:`sliding_nodes` with
     ``on_segments``). Made once for :func:`corners_relaxed` and :func:`lifted_least`,
-    which move no node off its segment nor change the cells."""
+    which move no node off its segment nor change the cells.
+
+    References
+    ----------
+    §8.4.3 (the smoothing of the optimization, boundary nodes kept on the boundary).
+    """
     P = mesh.points
     Q = mesh.cells_by_type["quad"]
     fixed = np.zeros(len(P), bool)

@@ -210,7 +210,12 @@ def _last_option(nb, w, mate, r):
 
 @njit(cache=True)
 def heap_kernel(nb, w, order, mate, urgent):
-    """Best-first pairs (§8.4.4); with ``urgent``, a triangle's last option jumps the queue."""
+    """Best-first pairs (§8.4.4): candidate ``h = 3 t + k`` (triangle ``t`` with its
+    neighbour ``nb[t, k]``) taken in ``order`` (int64 candidate ids, best first), each
+    pair made when both triangles are still unpaired; with ``urgent``, a triangle left
+    with one allowed candidate (``w`` >= 0) is paired first, by that candidate's
+    weight. Fills ``mate`` (m,) int64 (-1 where unpaired) so that ``mate[mate[t]] ==
+    t`` and every pair is an allowed candidate; returns the number of pairs."""
     m = nb.shape[0]
     cnt = np.zeros(m, np.int64)
     for t in range(m):

@@ -19,8 +19,8 @@ import math
 import numpy as np
 from numba import njit
 
-from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered
-from meshcore.partition.smoothing import CONVEX_PROOF, boundary_points, quad_q
+from meshcore.geometry.predicates import CONVEX_PROOF, WORK_SIZE, orient2d_filtered
+from meshcore.partition.smoothing import boundary_points, quad_q
 
 
 @njit(cache=True)

@@ -176,7 +176,6 @@ def _halvings(A, D, ps, t0, t1, cstart, ncand, pj, X0, X1, beta, resolution):
     for _ in range(MAX_HALVINGS):
         if nroot == 0:
             break
-        dmin = np.empty(nroot)
         n = np.ones(nroot)
         flat = np.zeros(nroot, np.bool_)
         halve = np.zeros(nroot, np.bool_)
@@ -204,7 +203,6 @@ def _halvings(A, D, ps, t0, t1, cstart, ncand, pj, X0, X1, beta, resolution):
                 hi = min(hi, max(d0, d1))
             if lo <= resolution:
                 return out_s[:0], out_t[:0], True
-            dmin[r] = lo
             length = (b[r] - a[r]) * math.hypot(dx, dy)
             if hi <= 2.0 * lo:
                 if length > CUT_FROM * beta * lo:
