@@ -26,10 +26,13 @@ def radix_sort(keys, values):
     counts every digit, passes whose digit is the same for every key are
     skipped, and the first pass reads the inputs in place of copies of them.
     Linear time; numpy's argsort took two to three times as long on a
-    million Hilbert keys."""
+    million Hilbert keys. A negative key raises ``ValueError`` (its digits would
+    sort it wrongly)."""
     n = keys.shape[0]
     top = 0
     for i in range(n):
+        if keys[i] < 0:
+            raise ValueError("radix_sort takes non-negative keys")
         top = max(top, keys[i])
     ndigits = 0
     while (top >> (11 * ndigits)) > 0:

@@ -167,6 +167,11 @@ def test_radix_argsort_is_the_stable_argsort(top):
         assert np.array_equal(keys, keys_in) and np.array_equal(values, values_in)
 
 
+def test_radix_sort_refuses_a_negative_key():
+    with pytest.raises(ValueError, match="non-negative"):
+        radix_argsort(np.array([3, -1, 2], dtype=np.int64))
+
+
 def test_two_lines_incircle_is_the_exact_sign():
     # Two points on each of two horizontal (or vertical) lines, in every order: symmetric
     # trapezoids (exact ties on linspace samples), rectangles and random ones.
