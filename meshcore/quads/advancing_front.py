@@ -59,9 +59,11 @@ Algorithm
    ``_RETRY_BAD`` quads is laid again (up to ``_RETRIES`` times) with the
    front nodes of the failed quads made sides (their corner, reversal,
    wedge or row end given up), and without its snaps when a failed quad has
-   a snapped node. A row whose failed quads (still failing then) fail only
-   the ``2 h`` gap to other fronts, and are at most ``_PARTIAL`` of its
-   quads, is committed without them (a *partial row*: the front stops
+   a snapped node; so is a row failing on at most ``_RETRY_SHARE`` of its
+   quads. A row whose failed quads (still failing after the retries, or with
+   nothing left to give up while at most ``_STUCK_SHARE`` of its quads)
+   fail only the ``2 h`` gap to other fronts, and are at most ``_PARTIAL``
+   of its quads, is committed without them (a *partial row*: the front stops
    short of the other fronts there and goes on elsewhere; a set of quads
    passing the checks overlaps nothing, and the trace below checks the
    fronts left). Measured side by side at 10k quads: the square with a
@@ -330,7 +332,9 @@ _CLEAN_RINGS = 2  # rings of quads around the seeds in the clean-up region
 _SQUARE_SWEEPS = 10  # sweeps of square_corners after the clean-up
 _RELAX = 3  # sweeps evening out a new front (wedges) before its checks
 _RETRIES = 2  # a failed row tried again this many times with its failed nodes made sides...
-_RETRY_BAD = 12  # ... when at most this many of its quads failed
+_RETRY_BAD = 12  # ... when at most this many of its quads failed...
+_RETRY_SHARE = 0.04  # ... or this share of them
+_STUCK_SHARE = 0.06  # a row with nothing left to give up is laid partially up to this share
 _PARTIAL = 0.25  # a row failing only on the gap, on at most this share of its quads, stops there
 _LEFT_SHARE = 0.5  # rows leaving more than this share of the area to the closure...
 _LEFT_CELLS = 20000  # ... and more than this many cells of the least size: guaranteed route
@@ -652,14 +656,8 @@ def _try_row(P, fronts, which, sizes, even):
         if ok.all():
             break
         bad = quads[~ok]
-        if attempt == _RETRIES or (~ok).sum() > _RETRY_BAD:
-            if (~ok).sum() > _PARTIAL * len(ok) or not _good_quads(
-                Q, quads, fronts, which, n_old, h, 0.0
-            ).all():
-                return None
-            quads = quads[ok]  # only gap failures: the row stops short of the other fronts
-            partial = True
-            break
+        nbad = int((~ok).sum())
+        last = attempt == _RETRIES or nbad > max(_RETRY_BAD, _RETRY_SHARE * len(ok))
         pos = np.full(len(Q), -1, np.int64)
         pos[f] = np.arange(len(f))
         at = pos[bad[bad < n_old]]
@@ -668,8 +666,18 @@ def _try_row(P, fronts, which, sizes, even):
         again[at] = True
         again &= cls != _SIDE
         drop_snaps = snap and bool(isin_ints(bad, moved).any())
-        if not again.any() and not drop_snaps:
+        stuck = not again.any() and not drop_snaps  # nothing left to give up
+        if stuck and not last and nbad > _STUCK_SHARE * len(ok):
             return None
+        if last or stuck:
+            if (
+                nbad > _PARTIAL * len(ok)
+                or not _good_quads(Q, quads, fronts, which, n_old, h, 0.0).all()
+            ):
+                return None
+            quads = quads[ok]  # only gap failures: the row stops short of the other fronts
+            partial = True
+            break
         sides |= again
         snap = snap and not drop_snaps
     owner = np.full(len(Q), -1, np.int64)
