@@ -636,9 +636,54 @@ def folded(P: np.ndarray, quads: np.ndarray) -> np.ndarray:
     return sum((orient2d(prv[:, k], c[:, k], nxt[:, k]) <= 0).astype(np.int64) for k in range(4))
 
 
-def _filled(seg_xy, seg_fixed, n_of, patches):
+def _transition(bottom, right, top, left):
+    """A coarse quad whose ``bottom`` has ``2 k`` more edges than its ``top`` (``k`` at
+    most the top's edges): the transfinite grid of :func:`_coons` on the top's count,
+    its first row along the bottom made of ``k`` 3-to-1 templates (four quads: two
+    points inside, halfway up the row) spread evenly among plain quads, so that a
+    boundary side crowded with input vertices does not carry its count across the
+    region (§8.5.3's consistency constraints, relaxed to a conforming transition). The
+    points (the grid's, then the templates' bottom and inner points), the quads,
+    counterclockwise like the grid's (with ``k = 0`` exactly :func:`_coons`' grid, in
+    its order), and the ids of the four corners."""
+    nb, nt = len(bottom) - 1, len(top) - 1
+    k = (nb - nt) // 2
+    plus = np.diff(np.floor(np.arange(nt + 1) * k / max(nt, 1)).astype(np.int64)) > 0
+    f = np.concatenate([[0], np.cumsum(1 + 2 * plus)])  # coarse vertex -> bottom index
+    grid = _coons(bottom[f], right, top, left)
+    n2 = grid.shape[1] - 1
+    ids = np.arange(grid.shape[0] * grid.shape[1]).reshape(grid.shape[:2])
+    quads = np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], axis=-1)
+    extra = np.setdiff1d(np.arange(nb + 1), f)  # the templates' bottom points
+    at = np.empty(nb + 1, dtype=np.int64)  # bottom index -> point id
+    at[f], at[extra] = ids[:, 0], ids.size + np.arange(len(extra))
+    i = np.flatnonzero(plus)
+    b, t0, t1 = f[i], ids[i, 1], ids[i + 1, 1]
+    p1 = ids.size + len(extra) + 2 * np.arange(len(i))
+    p2 = p1 + 1
+    quads[i, 0] = np.column_stack([at[b], at[b + 1], p1, t0])
+    added = [
+        np.column_stack(q)
+        for q in (
+            (at[b + 1], at[b + 2], p2, p1),
+            (at[b + 2], at[b + 3], t1, p2),
+            (p1, p2, t1, t0),
+        )
+    ]
+    top0, top1 = grid[i, 1], grid[i + 1, 1]
+    inner = np.stack(
+        [(bottom[b + 1] + (2 * top0 + top1) / 3) / 2, (bottom[b + 2] + (top0 + 2 * top1) / 3) / 2],
+        axis=1,
+    ).reshape(-1, 2)
+    pts = np.concatenate([grid.reshape(-1, 2), bottom[extra], inner])
+    quads = np.concatenate([quads.reshape(nt * n2, 4), *added])
+    return pts, quads, [ids[0, 0], ids[-1, 0], ids[0, -1], ids[-1, -1]]
+
+
+def _filled(seg_xy, seg_fixed, n_of, patches, fine):
     """The transfinite fill of the coarse quads (:func:`_coons`), the segments divided
-    into ``n_of`` pieces each: the points (coincident copies merged), the quads and the
+    into ``n_of`` pieces each, a patch with ``fine`` 1 (2) filled by :func:`_transition`
+    from its first (last) side: the points (coincident copies merged), the quads and the
     ids of the coarse quads' corners."""
     seg_pts = [
         _polyline_points(xy, int(n_of[i]), fx)
@@ -649,11 +694,13 @@ def _filled(seg_xy, seg_fixed, n_of, patches):
         sid, rev = ref
         return seg_pts[sid][::-1] if rev else seg_pts[sid]
 
-    grids = []
-    corner_ids = []
-    for s0, s1, s2, s3 in patches:
-        grids.append(_coons(along(s0), along(s1), along(s2), along(s3)))
-    allpts = np.concatenate([g.reshape(-1, 2) for g in grids])
+    blocks = []
+    for (s0, s1, s2, s3), side in zip(patches, fine, strict=True):
+        b, r, t, lft = along(s0), along(s1), along(s2), along(s3)
+        if side == 2:  # the left side fine: turned a quarter so that it is the bottom
+            b, r, t, lft = lft[::-1], b, r[::-1], t
+        blocks.append(_transition(b, r, t, lft))
+    allpts = np.concatenate([pts for pts, _, _ in blocks])
     # coincident points (the shared sides' copies) are one, numbered in order of first
     # occurrence: a lexicographic numbering followed the coordinates' rounding (a
     # translated input renumbered, and the smoothing's sweeps then moved differently)
@@ -663,21 +710,61 @@ def _filled(seg_xy, seg_fixed, n_of, patches):
     rank[order] = np.arange(len(order))
     uniq, inverse = uniq[order], rank[inverse.ravel()]
     quads = []
+    corner_ids = []
     offset = 0
-    for g in grids:
-        n1, n2 = g.shape[0] - 1, g.shape[1] - 1
-        ids = inverse[offset : offset + g.shape[0] * g.shape[1]].reshape(g.shape[0], g.shape[1])
-        offset += g.shape[0] * g.shape[1]
-        corner_ids += [ids[0, 0], ids[-1, 0], ids[0, -1], ids[-1, -1]]
-        quads.append(
-            np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], axis=-1).reshape(
-                n1 * n2, 4
-            )
-        )
+    for pts, q, corners in blocks:
+        quads.append(inverse[offset + q])
+        corner_ids += [int(inverse[offset + c]) for c in corners]
+        offset += len(pts)
     return uniq, np.concatenate(quads), corner_ids
 
 
-def quads_on(part: Partition, size: float | None, levels: int | None, whole: bool | None = None):
+def _tied(n_seg: int, patches, fine: np.ndarray):
+    """The conformity classes of the segments (a label each, their number): a patch's
+    opposite sides tied, but for its ``fine`` side (1: the first, 2: the last; see
+    :func:`_transition`); and each patch's (fine, opposite, other) side, the first and
+    second sides where ``fine`` is 0."""
+    pairs = np.array(
+        [[s0[0], s2[0]] for (s0, _, s2, _), f in zip(patches, fine, strict=True) if f != 1]
+        + [[s1[0], s3[0]] for (_, s1, _, s3), f in zip(patches, fine, strict=True) if f != 2],
+        dtype=np.int64,
+    ).reshape(-1, 2)
+    label, n_classes = _classes(n_seg, pairs)
+    sides = np.array(
+        [
+            (s3[0], s1[0], s0[0]) if f == 2 else (s0[0], s2[0], s1[0])
+            for (s0, s1, s2, s3), f in zip(patches, fine, strict=True)
+        ],
+        dtype=np.int64,
+    ).reshape(-1, 3)
+    return label, n_classes, sides
+
+
+def _transition_counts(count: np.ndarray, cls: np.ndarray, need: np.ndarray) -> None:
+    """Counts (per class, in place) that :func:`_transition` can fill: each fine side
+    (class ``cls[:, 0]``, a class of its own, at least ``need``) at least its opposite
+    side's count (``cls[:, 1]``), of the same parity and at most three times it (the
+    opposite class raised where not; repeated until nothing changes)."""
+    changed = True
+    while changed:
+        changed = False
+        for (f, o), least in zip(cls[:, :2], need, strict=True):
+            nf = max(count[f], count[o])
+            if (nf - count[o]) % 2:
+                nf += -1 if nf - 1 >= max(least, count[o]) else 1
+            count[f] = nf
+            if nf > 3 * count[o]:
+                count[o] = -(-nf // 3)
+                changed = True
+
+
+def quads_on(
+    part: Partition,
+    size: float | None,
+    levels: int | None,
+    whole: bool | None = None,
+    transitions: bool = False,
+):
     """Midpoint subdivision and transfinite fill of a partition's regions, then
     smoothing; the mesh and its counts (``invalid``: quads of area <= 0).
     ``whole``: every region has four sides and is one patch (no subdivision); None:
@@ -687,7 +774,9 @@ def quads_on(part: Partition, size: float | None, levels: int | None, whole: boo
     least two, 1.76x area / size**2 at size 0.15). Every quad lies in the domain, its
     boundary points on the input boundary and the input vertices mesh points where the
     counts allow (module docstring); folded quads are counted, not refused (§9.7.2,
-    §8.5.3)."""
+    §8.5.3). ``transitions`` (with ``size``, not ``whole``): where the sides tied pass
+    :data:`MOST_COUNT` x area / size**2 at every stretch, a boundary side with input
+    vertices inside is not tied to its opposite side (:func:`_transition`)."""
     ax = part.axis
     points = part.points
     p = len(ax.samples)
@@ -792,34 +881,42 @@ def quads_on(part: Partition, size: float | None, levels: int | None, whole: boo
             )
     # conformity classes: opposite patch sides, shared sides
     n_seg = len(seg_xy)
-    pairs = np.array(
-        [[s0[0], s2[0]] for s0, s1, s2, s3 in patches]
-        + [[s1[0], s3[0]] for s0, s1, s2, s3 in patches],
-        dtype=np.int64,
-    )
-    label, n_classes = _classes(n_seg, pairs)
-    if levels is not None:
-        stretches, mean, need = (None,), None, None
-    else:
-        length = np.array([np.hypot(*np.diff(xy, axis=0).T).sum() for xy in seg_xy])
-        # the mean length of a class: its sides' points come out about `size` apart on
-        # average (the largest would multiply the count along chains of classes)
-        mean = np.bincount(label, length, n_classes) / np.bincount(label, None, n_classes)
-        # enough points for every input vertex of a side (a polygon covered exactly)
-        need = np.array([int(f[1:-1].sum()) + 1 for f in seg_fixed], dtype=np.int64)
-        stretches = STRETCH
-    for stretch in stretches:  # the first whose count is within MOST_COUNT, else the last
+    # a boundary side (in one patch only) with input vertices inside is its patch's
+    # fine side (:func:`_transition`): not tied to its opposite side's count
+    length = np.array([np.hypot(*np.diff(xy, axis=0).T).sum() for xy in seg_xy])
+    need = np.array([int(f[1:-1].sum()) + 1 for f in seg_fixed], dtype=np.int64)
+    uses = np.bincount([r[0] for patch in patches for r in patch], minlength=n_seg)
+    fine = np.zeros(len(patches), dtype=np.int64)
+    if transitions and size is not None and not whole:
+        for i, (s0, _, _, s3) in enumerate(patches):
+            free = [uses[s[0]] == 1 and need[s[0]] > 1 for s in (s0, s3)]
+            if free[0] and (not free[1] or need[s0[0]] >= need[s3[0]]):
+                fine[i] = 1
+            elif free[1]:
+                fine[i] = 2
+    tries = [np.zeros(len(patches), dtype=np.int64)] + ([fine] if fine.any() else [])
+    stretches = (None,) if levels is not None else STRETCH
+    # the first within MOST_COUNT, else the last: the sides tied at every stretch, then
+    # (where that is over) the transitions
+    for fine, stretch in ((f, st) for f in tries for st in stretches):
+        label, n_classes, sides = _tied(n_seg, patches, fine)
         if stretch is None:
             count = np.full(n_classes, 2 ** int(levels), dtype=np.int64)
         else:
+            # the mean length of a class: its sides' points come out about `size` apart on
+            # average (the largest would multiply the count along chains of classes)
+            mean = np.bincount(label, length, n_classes) / np.bincount(label, None, n_classes)
             with np.errstate(over="ignore"):  # tiny sizes: inf, clipped (no int overflow)
                 count = np.clip(np.round(mean / (stretch * size)), 1, MAX_QUADS + 1)
             count = count.astype(np.int64)
+            # enough points for every input vertex of a side (a polygon covered exactly)
             np.maximum.at(count, label, need)
+            _transition_counts(count, label[sides[fine > 0]], need[sides[fine > 0, 0]])
         n_of = count[label]
-        total = sum(int(n_of[s0[0]] * n_of[s1[0]]) for s0, s1, _, _ in patches)
+        n_f, n_o, n_x = n_of[sides[:, 0]], n_of[sides[:, 1]], n_of[sides[:, 2]]
+        total = int((n_o * n_x + 3 * (n_f - n_o) // 2).sum())
         within = stretch is None or total * size * size <= MOST_COUNT * ax.domain.area
-        if not within and stretch != stretches[-1]:
+        if not within and not (fine is tries[-1] and stretch == stretches[-1]):
             continue
         if total > MAX_QUADS:
             raise InputError(
@@ -828,7 +925,7 @@ def quads_on(part: Partition, size: float | None, levels: int | None, whole: boo
                 loc=("size" if size is not None else "levels",),
                 code="too_many_quads",
             )
-        uniq, quads, corner_ids = _filled(seg_xy, seg_fixed, n_of, patches)
+        uniq, quads, corner_ids = _filled(seg_xy, seg_fixed, n_of, patches, fine)
         uniq, quads, opened = _opened(uniq, quads)
         uniq, quads, flowers = _flowered(uniq, quads)
         # the quads opened at wide reflex corners count too (a star: 1.49x -> 1.51x)
@@ -856,6 +953,7 @@ def quads_on(part: Partition, size: float | None, levels: int | None, whole: boo
         "points": int(len(uniq)),
         "coarse_quads": len(patches),
         "stretch": stretch,
+        "transitions": int((n_f - n_o).sum() // 2),
         "regions": len(part.regions),
         "side_classes": int(n_classes),
         "area": float(area.sum()),

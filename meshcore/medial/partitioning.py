@@ -269,6 +269,12 @@ LAST_LIFT_BELOW = 0.75
 #: size**2, small regions are merged until their sides (one coarse quad each) are at
 #: most this x area / size**2 (:func:`meshcore.medial.regions.small_merged`).
 MERGE_COUNT = 1.0
+#: The key of ``done`` (:func:`_medial_fill`) saying that the fills may use transitions
+#: (:func:`meshcore.medial.fill.quads_on`): set where every partition tried passes
+#: :data:`~meshcore.medial.fill.MOST_COUNT` x area / size**2 with the sides tied, and
+#: all are tried again so (the mesh kept when within the count and of least quality at
+#: least :data:`PRUNE_LEAST` or the first mesh's).
+TRANSITIONS = "transitions"
 
 
 @dataclass(frozen=True, eq=False)
@@ -711,6 +717,16 @@ def quad_medial(
     if size is not None:
         axis_at = {prune: first}  # the axes pruned at each angle, as they are needed
         res = _other_tried(res, axes, axis_at, more, domain, method, size, levels, special, done)
+        if _over(res, domain, size):  # the same tries, the fills with transitions
+            done[TRANSITIONS] = True
+            alt = _meshed(first, domain, method, size, levels, BOUNDARY_SHARE, special, done)
+            alt = _lifted(alt, domain, LIFT_BELOW)
+            alt = _other_tried(
+                alt, axes, axis_at, more, domain, method, size, levels, special, done
+            )
+            least = min(PRUNE_LEAST, _least_away(res.mesh, domain))
+            if not _over(alt, domain, size) and _least_away(alt.mesh, domain) >= least:
+                res = alt
     if _least_away(res.mesh, domain) < GOOD_LEAST:  # the mesh kept, lifted further
         res = _lifted(res, domain, LAST_LIFT_BELOW)
     stats = {**res.stats, "quality": quality.report(res.mesh)}
@@ -723,10 +739,10 @@ def _other_tried(res: QuadMedial, axes, axis_at, more, domain, method, size, lev
     first other mesh within the count of least quality :data:`GOOD_LEAST`, else the one
     within it of the highest least quality; over the count, that one only when its least
     is at least :data:`PRUNE_LEAST` (or the first mesh's). ``axis_at``: pruning angle ->
-    axis, ``res``'s only; ``axes``: the iterator of
+    axis, ``res``'s first (others kept as made); ``axes``: the iterator of
     :func:`~meshcore.medial.axis.pruned_axes` giving the axes pruned at each of ``more``
     in turn."""
-    (prune,) = axis_at
+    prune = next(iter(axis_at))  # the angle asked
     over, least = _over(res, domain, size), _least_away(res.mesh, domain)
     if not over and least >= GOOD_LEAST:
         return res
@@ -1090,9 +1106,11 @@ def _medial_fill(axis: MedialAxis, method: str, size, levels, share, done: dict,
     if merge and small not in done:
         done[small] = _small_merged(part, size)
     part = done[small] if merge else part
-    key = (id(axis), part.points.tobytes(), *(c.tobytes() for c in part.cycles + part.corners))
+    fine = done.get(TRANSITIONS, False)
+    key = (id(axis), fine, part.points.tobytes())
+    key += tuple(c.tobytes() for c in part.cycles + part.corners)
     if key not in done:  # (the axis held: its id is not reused)
-        done[key] = (part, *quads_on(part, size, levels))
+        done[key] = (part, *quads_on(part, size, levels, transitions=fine))
     return done[key]
 
 
