@@ -105,21 +105,25 @@ under :data:`GOOD_LEAST`;
 :func:`meshcore.medial.fill.boundary_slides`), least 0.31-0.61, quads under 0.5
 there 11 (163 before the lift); the count 0.92-1.46x area / size**2 (1.74x before the
 larger stretches, :data:`meshcore.medial.fill.STRETCH`); at size 0.15 least 0.5 on
-25 (20, 14), count over 1.5x on 7 of the 32 (8 before the small regions were merged,
+25 (20, 14), count over 1.5x on 6 of the 32 (7 before the transitions,
+:data:`TRANSITIONS`; 8 before the small regions were merged,
 :data:`MERGE_COUNT`; 13 before the axis was pruned more where the count passed,
 :data:`PRUNE_MORE`; up to 2.86x). What binds the count there is the input vertices,
 not the regions: every input vertex is a mesh point (so that the area is exact), a
 boundary side of ``k`` of them needs ``k + 1`` divisions, and the coarse quads carry
 that count to their opposite sides, across the regions of the partition (star 17,
 70 vertices for area / size**2 = 140: 1.54x with its regions merged if its input
-vertices did not bind, 2.84x as they do). Gears of 6-12 teeth at size 0.1: least 0.5
+vertices did not bind, 2.84x as they do; the transitions, which lift the bind only
+between a boundary side and its opposite side, at most 3 to 1, leave it over). Gears
+of 6-12 teeth at size 0.1: least 0.5
 on 7 of 7 (6 before :data:`LAST_LIFT_BELOW`, gear 9 at 0.487; 0 before the O-grid
 at their hub, :func:`meshcore.medial.fill._flowered`,
 and the merges at their tooth gaps, :data:`~meshcore.medial.regions.BOUNDARY_SHARE`;
 4 before a border point of four quads gave one up, :func:`meshcore.medial.fill._closed`,
 5 before it could bend a corner to :data:`~meshcore.medial.fill.CLOSE_BEND`),
-0.502-0.62, count 1.21-1.49x; at 0.15 least 0.5 on 5 of 7, count over 1.5x on 4 (1.68-2.47x,
-bound by their input vertices as above). What is left under 0.5: the strips of
+0.502-0.62, count 1.21-1.49x; at 0.15 least 0.5 on 5 of 7, count 1.40-1.46x (over 1.5x
+on 4, 1.68-2.47x, bound by their input vertices as above, before :data:`TRANSITIONS`;
+the CPU time of the domains tried again about doubles). What is left under 0.5: the strips of
 spikes whose base chord is oblique and reflex corners (quads of 36-44 degrees next
 to them), thin 4-sided regions between the close nodes of a crowded junction of the
 ``critical`` partition (parallelograms of 42-45 degrees: gear 9 at 0.15, star 18),
