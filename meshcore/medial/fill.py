@@ -26,7 +26,11 @@ before, multiplied the count along chains of classes: 24,600 quads for
 1,300 asked on a 128-gon disk), but at least one more than the input
 vertices inside each member side, so that every input vertex is a mesh
 point (polygons covered exactly; a boundary sampled more finely than
-``size`` then raises the count)
+``size`` then raises the count; where that passes :data:`MOST_COUNT` x area /
+size**2 on every partition tried, ``quads_on``'s ``transitions``: a boundary side
+with input vertices inside is not tied to its opposite side, its count that one's
+plus an even number up to three times it, the extra pieces taken by 3-to-1
+templates in the coarse quad's row along it, :func:`_transition`)
 (``levels`` instead gives ``2**levels`` everywhere: repeated midpoint
 subdivision). Boundary points are placed by arclength along the boundary
 pieces (so they lie on the input boundary) and the input vertices of a
@@ -636,9 +640,85 @@ def folded(P: np.ndarray, quads: np.ndarray) -> np.ndarray:
     return sum((orient2d(prv[:, k], c[:, k], nxt[:, k]) <= 0).astype(np.int64) for k in range(4))
 
 
+def _spread(n: int, k: int, skip_first: bool) -> np.ndarray:
+    """Which of ``n`` cells get the ``k`` templates of :func:`_transition`: spread evenly
+    (past the first with ``skip_first``)."""
+    lo = int(skip_first)
+    plus = np.zeros(n, dtype=bool)
+    plus[lo:] = np.diff(np.floor(np.arange(n - lo + 1) * k / max(n - lo, 1))) > 0
+    return plus
+
+
+def _transition(bottom, right, top, left):
+    """A coarse quad whose ``bottom`` has ``2 k`` more edges than its ``top`` (``k`` at
+    most the top's edges), and its ``left`` ``2 m`` more than its ``right``: the
+    transfinite grid of :func:`_coons` on the top's and right's counts, its first row
+    along the bottom made of ``k`` 3-to-1 templates (four quads: two points inside,
+    halfway across the row) spread evenly among plain quads, its first column along the
+    left of ``m`` (both: none in the corner cell, so ``k`` and ``m`` at most one less),
+    so that a boundary side crowded with input vertices does not carry its count across
+    the region (§8.5.3's consistency constraints, relaxed to a conforming transition).
+    The points (the grid's, then the templates' side and inner points), the quads,
+    counterclockwise like the grid's (with ``k = m = 0`` exactly :func:`_coons`' grid,
+    in its order), and the ids of the four corners."""
+    nb, nt, nl, nr = len(bottom) - 1, len(top) - 1, len(left) - 1, len(right) - 1
+    k, m = (nb - nt) // 2, (nl - nr) // 2
+    plus_b, plus_l = _spread(nt, k, m > 0), _spread(nr, m, k > 0)
+    fb = np.concatenate([[0], np.cumsum(1 + 2 * plus_b)])  # coarse vertex -> side index
+    fl = np.concatenate([[0], np.cumsum(1 + 2 * plus_l)])
+    grid = _coons(bottom[fb], right, top, left[fl])
+    n2 = grid.shape[1] - 1
+    ids = np.arange(grid.shape[0] * grid.shape[1]).reshape(grid.shape[:2])
+    quads = np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], axis=-1)
+    pts = [grid.reshape(-1, 2)]
+    added = []
+    n = ids.size
+    for side, f, plus, on, line, transposed in (
+        (bottom, fb, plus_b, ids[:, 0], ids[:, 1], False),
+        (left, fl, plus_l, ids[0, :], ids[1, :], True),
+    ):
+        extra = np.setdiff1d(np.arange(len(side)), f)  # the templates' side points
+        at = np.empty(len(side), dtype=np.int64)  # side index -> point id
+        at[f], at[extra] = on, n + np.arange(len(extra))
+        n += len(extra)
+        pts.append(side[extra])
+        i = np.flatnonzero(plus)
+        b, t0, t1 = f[i], line[i], line[i + 1]
+        p1 = n + 2 * np.arange(len(i))
+        p2 = p1 + 1
+        n += 2 * len(i)
+        inner0, inner1 = grid.reshape(-1, 2)[t0], grid.reshape(-1, 2)[t1]
+        pts.append(
+            np.stack(
+                [
+                    inner0 + (side[b + 1] - inner0 + (inner1 - inner0) / 3) / 2,
+                    inner1 + (side[b + 2] - inner1 + (inner0 - inner1) / 3) / 2,
+                ],
+                axis=1,
+            ).reshape(-1, 2)
+        )
+        rows = [
+            (at[b], at[b + 1], p1, t0),
+            (at[b + 1], at[b + 2], p2, p1),
+            (at[b + 2], at[b + 3], t1, p2),
+            (p1, p2, t1, t0),
+        ]
+        if transposed:  # the left's templates: reversed to stay counterclockwise
+            rows = [(a, d, c, bb) for a, bb, c, d in rows]
+        first = np.column_stack(rows[0]).reshape(-1, 4)
+        if transposed:
+            quads[0, i] = first
+        else:
+            quads[i, 0] = first
+        added += [np.column_stack(r) for r in rows[1:]]
+    quads = np.concatenate([quads.reshape(nt * n2, 4), *added])
+    return np.concatenate(pts), quads, [ids[0, 0], ids[-1, 0], ids[0, -1], ids[-1, -1]]
+
+
 def _filled(seg_xy, seg_fixed, n_of, patches):
     """The transfinite fill of the coarse quads (:func:`_coons`), the segments divided
-    into ``n_of`` pieces each: the points (coincident copies merged), the quads and the
+    into ``n_of`` pieces each, a patch whose first (last) side has more pieces than its
+    opposite filled by :func:`_transition`: the points (coincident copies merged), the quads and the
     ids of the coarse quads' corners."""
     seg_pts = [
         _polyline_points(xy, int(n_of[i]), fx)
@@ -649,11 +729,8 @@ def _filled(seg_xy, seg_fixed, n_of, patches):
         sid, rev = ref
         return seg_pts[sid][::-1] if rev else seg_pts[sid]
 
-    grids = []
-    corner_ids = []
-    for s0, s1, s2, s3 in patches:
-        grids.append(_coons(along(s0), along(s1), along(s2), along(s3)))
-    allpts = np.concatenate([g.reshape(-1, 2) for g in grids])
+    blocks = [_transition(*(along(r) for r in patch)) for patch in patches]
+    allpts = np.concatenate([pts for pts, _, _ in blocks])
     # coincident points (the shared sides' copies) are one, numbered in order of first
     # occurrence: a lexicographic numbering followed the coordinates' rounding (a
     # translated input renumbered, and the smoothing's sweeps then moved differently)
@@ -663,21 +740,58 @@ def _filled(seg_xy, seg_fixed, n_of, patches):
     rank[order] = np.arange(len(order))
     uniq, inverse = uniq[order], rank[inverse.ravel()]
     quads = []
+    corner_ids = []
     offset = 0
-    for g in grids:
-        n1, n2 = g.shape[0] - 1, g.shape[1] - 1
-        ids = inverse[offset : offset + g.shape[0] * g.shape[1]].reshape(g.shape[0], g.shape[1])
-        offset += g.shape[0] * g.shape[1]
-        corner_ids += [ids[0, 0], ids[-1, 0], ids[0, -1], ids[-1, -1]]
-        quads.append(
-            np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], axis=-1).reshape(
-                n1 * n2, 4
-            )
-        )
+    for pts, q, corners in blocks:
+        quads.append(inverse[offset + q])
+        corner_ids += [int(inverse[offset + c]) for c in corners]
+        offset += len(pts)
     return uniq, np.concatenate(quads), corner_ids
 
 
-def quads_on(part: Partition, size: float | None, levels: int | None, whole: bool | None = None):
+def _tied(n_seg: int, patches, fine: np.ndarray):
+    """The conformity classes of the segments (a label each, their number): a patch's
+    opposite sides tied, but for its fine sides (``fine``: 1 its first, 2 its last, 3
+    both; see :func:`_transition`); and a row (fine side, opposite side, both fine?) per
+    fine side."""
+    pairs = [(s0[0], s2[0]) for (s0, _, s2, _), f in zip(patches, fine, strict=True) if not f & 1]
+    pairs += [(s1[0], s3[0]) for (_, s1, _, s3), f in zip(patches, fine, strict=True) if not f & 2]
+    label, n_classes = _classes(n_seg, np.array(pairs, dtype=np.int64).reshape(-1, 2))
+    rows = [
+        (s0[0], s2[0], f == 3) for (s0, _, s2, _), f in zip(patches, fine, strict=True) if f & 1
+    ]
+    rows += [
+        (s3[0], s1[0], f == 3) for (_, s1, _, s3), f in zip(patches, fine, strict=True) if f & 2
+    ]
+    return label, n_classes, np.array(rows, dtype=np.int64).reshape(-1, 3)
+
+
+def _transition_counts(count: np.ndarray, cls: np.ndarray, need: np.ndarray) -> None:
+    """Counts (per class, in place) that :func:`_transition` can fill: each fine side
+    (class ``cls[:, 0]``, a class of its own, at least ``need``) at least its opposite
+    side's count (``cls[:, 1]``), of the same parity and at most three times it (two less
+    where both of the patch's sides are fine, ``cls[:, 2]``; the opposite class raised
+    where not; repeated until nothing changes)."""
+    changed = True
+    while changed:
+        changed = False
+        for (f, o, both), least in zip(cls, need, strict=True):
+            nf = max(count[f], count[o])
+            if (nf - count[o]) % 2:
+                nf += -1 if nf - 1 >= max(least, count[o]) else 1
+            count[f] = nf
+            if nf > 3 * count[o] - 2 * both:
+                count[o] = -(-(nf + 2 * both) // 3)
+                changed = True
+
+
+def quads_on(
+    part: Partition,
+    size: float | None,
+    levels: int | None,
+    whole: bool | None = None,
+    transitions: bool = False,
+):
     """Midpoint subdivision and transfinite fill of a partition's regions, then
     smoothing; the mesh and its counts (``invalid``: quads of area <= 0).
     ``whole``: every region has four sides and is one patch (no subdivision); None:
@@ -687,7 +801,9 @@ def quads_on(part: Partition, size: float | None, levels: int | None, whole: boo
     least two, 1.76x area / size**2 at size 0.15). Every quad lies in the domain, its
     boundary points on the input boundary and the input vertices mesh points where the
     counts allow (module docstring); folded quads are counted, not refused (§9.7.2,
-    §8.5.3)."""
+    §8.5.3). ``transitions`` (with ``size``, not ``whole``): where the sides tied pass
+    :data:`MOST_COUNT` x area / size**2 at every stretch, a boundary side with input
+    vertices inside is not tied to its opposite side (:func:`_transition`)."""
     ax = part.axis
     points = part.points
     p = len(ax.samples)
@@ -792,34 +908,42 @@ def quads_on(part: Partition, size: float | None, levels: int | None, whole: boo
             )
     # conformity classes: opposite patch sides, shared sides
     n_seg = len(seg_xy)
-    pairs = np.array(
-        [[s0[0], s2[0]] for s0, s1, s2, s3 in patches]
-        + [[s1[0], s3[0]] for s0, s1, s2, s3 in patches],
-        dtype=np.int64,
-    )
-    label, n_classes = _classes(n_seg, pairs)
-    if levels is not None:
-        stretches, mean, need = (None,), None, None
-    else:
-        length = np.array([np.hypot(*np.diff(xy, axis=0).T).sum() for xy in seg_xy])
-        # the mean length of a class: its sides' points come out about `size` apart on
-        # average (the largest would multiply the count along chains of classes)
-        mean = np.bincount(label, length, n_classes) / np.bincount(label, None, n_classes)
-        # enough points for every input vertex of a side (a polygon covered exactly)
-        need = np.array([int(f[1:-1].sum()) + 1 for f in seg_fixed], dtype=np.int64)
-        stretches = STRETCH
-    for stretch in stretches:  # the first whose count is within MOST_COUNT, else the last
+    # a boundary side (in one patch only) with input vertices inside is its patch's
+    # fine side (:func:`_transition`): not tied to its opposite side's count
+    length = np.array([np.hypot(*np.diff(xy, axis=0).T).sum() for xy in seg_xy])
+    need = np.array([int(f[1:-1].sum()) + 1 for f in seg_fixed], dtype=np.int64)
+    uses = np.bincount([r[0] for patch in patches for r in patch], minlength=n_seg)
+    fine = np.zeros(len(patches), dtype=np.int64)
+    if transitions and size is not None and not whole:
+        for i, (s0, _, _, s3) in enumerate(patches):
+            for bit, side in ((1, s0), (2, s3)):
+                if uses[side[0]] == 1 and need[side[0]] > 1:
+                    fine[i] |= bit
+    sides = np.array([[r[0] for r in patch] for patch in patches], dtype=np.int64)
+    tries = [np.zeros(len(patches), dtype=np.int64)] + ([fine] if fine.any() else [])
+    stretches = (None,) if levels is not None else STRETCH
+    # the first within MOST_COUNT, else the last: the sides tied at every stretch, then
+    # (where that is over) the transitions
+    for fine, stretch in ((f, st) for f in tries for st in stretches):
+        label, n_classes, rows = _tied(n_seg, patches, fine)
         if stretch is None:
             count = np.full(n_classes, 2 ** int(levels), dtype=np.int64)
         else:
+            # the mean length of a class: its sides' points come out about `size` apart on
+            # average (the largest would multiply the count along chains of classes)
+            mean = np.bincount(label, length, n_classes) / np.bincount(label, None, n_classes)
             with np.errstate(over="ignore"):  # tiny sizes: inf, clipped (no int overflow)
                 count = np.clip(np.round(mean / (stretch * size)), 1, MAX_QUADS + 1)
             count = count.astype(np.int64)
+            # enough points for every input vertex of a side (a polygon covered exactly)
             np.maximum.at(count, label, need)
+            rows_cls = np.column_stack([label[rows[:, :2]], rows[:, 2]])
+            _transition_counts(count, rows_cls, need[rows[:, 0]])
         n_of = count[label]
-        total = sum(int(n_of[s0[0]] * n_of[s1[0]]) for s0, s1, _, _ in patches)
+        n_f, n_o = n_of[rows[:, 0]], n_of[rows[:, 1]]  # a template: 4 quads for 1
+        total = int((n_of[sides[:, 2]] * n_of[sides[:, 1]]).sum() + 3 * (n_f - n_o).sum() // 2)
         within = stretch is None or total * size * size <= MOST_COUNT * ax.domain.area
-        if not within and stretch != stretches[-1]:
+        if not within and not (fine is tries[-1] and stretch == stretches[-1]):
             continue
         if total > MAX_QUADS:
             raise InputError(
@@ -856,6 +980,7 @@ def quads_on(part: Partition, size: float | None, levels: int | None, whole: boo
         "points": int(len(uniq)),
         "coarse_quads": len(patches),
         "stretch": stretch,
+        "transitions": int((n_f - n_o).sum() // 2),
         "regions": len(part.regions),
         "side_classes": int(n_classes),
         "area": float(area.sum()),

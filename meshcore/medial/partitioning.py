@@ -105,21 +105,25 @@ under :data:`GOOD_LEAST`;
 :func:`meshcore.medial.fill.boundary_slides`), least 0.31-0.61, quads under 0.5
 there 11 (163 before the lift); the count 0.92-1.46x area / size**2 (1.74x before the
 larger stretches, :data:`meshcore.medial.fill.STRETCH`); at size 0.15 least 0.5 on
-25 (20, 14), count over 1.5x on 7 of the 32 (8 before the small regions were merged,
+25 (20, 14), count over 1.5x on 6 of the 32 (7 before the transitions,
+:data:`TRANSITIONS`; 8 before the small regions were merged,
 :data:`MERGE_COUNT`; 13 before the axis was pruned more where the count passed,
 :data:`PRUNE_MORE`; up to 2.86x). What binds the count there is the input vertices,
 not the regions: every input vertex is a mesh point (so that the area is exact), a
 boundary side of ``k`` of them needs ``k + 1`` divisions, and the coarse quads carry
 that count to their opposite sides, across the regions of the partition (star 17,
 70 vertices for area / size**2 = 140: 1.54x with its regions merged if its input
-vertices did not bind, 2.84x as they do). Gears of 6-12 teeth at size 0.1: least 0.5
+vertices did not bind, 2.84x as they do; the transitions, which lift the bind only
+between a boundary side and its opposite side, at most 3 to 1, leave it over). Gears
+of 6-12 teeth at size 0.1: least 0.5
 on 7 of 7 (6 before :data:`LAST_LIFT_BELOW`, gear 9 at 0.487; 0 before the O-grid
 at their hub, :func:`meshcore.medial.fill._flowered`,
 and the merges at their tooth gaps, :data:`~meshcore.medial.regions.BOUNDARY_SHARE`;
 4 before a border point of four quads gave one up, :func:`meshcore.medial.fill._closed`,
 5 before it could bend a corner to :data:`~meshcore.medial.fill.CLOSE_BEND`),
-0.502-0.62, count 1.21-1.49x; at 0.15 least 0.5 on 5 of 7, count over 1.5x on 4 (1.68-2.47x,
-bound by their input vertices as above). What is left under 0.5: the strips of
+0.502-0.62, count 1.21-1.49x; at 0.15 least 0.5 on 5 of 7, count 1.40-1.46x (over 1.5x
+on 4, 1.68-2.47x, bound by their input vertices as above, before :data:`TRANSITIONS`;
+the CPU time of the domains tried again about doubles). What is left under 0.5: the strips of
 spikes whose base chord is oblique and reflex corners (quads of 36-44 degrees next
 to them), thin 4-sided regions between the close nodes of a crowded junction of the
 ``critical`` partition (parallelograms of 42-45 degrees: gear 9 at 0.15, star 18),
@@ -269,6 +273,12 @@ LAST_LIFT_BELOW = 0.75
 #: size**2, small regions are merged until their sides (one coarse quad each) are at
 #: most this x area / size**2 (:func:`meshcore.medial.regions.small_merged`).
 MERGE_COUNT = 1.0
+#: The key of ``done`` (:func:`_medial_fill`) saying that the fills may use transitions
+#: (:func:`meshcore.medial.fill.quads_on`): set where every partition tried passes
+#: :data:`~meshcore.medial.fill.MOST_COUNT` x area / size**2 with the sides tied, and
+#: all are tried again so (the mesh kept when within the count and of least quality at
+#: least :data:`PRUNE_LEAST` or the first mesh's).
+TRANSITIONS = "transitions"
 
 
 @dataclass(frozen=True, eq=False)
@@ -711,6 +721,16 @@ def quad_medial(
     if size is not None:
         axis_at = {prune: first}  # the axes pruned at each angle, as they are needed
         res = _other_tried(res, axes, axis_at, more, domain, method, size, levels, special, done)
+        if _over(res, domain, size):  # the same tries, the fills with transitions
+            done[TRANSITIONS] = True
+            alt = _meshed(first, domain, method, size, levels, BOUNDARY_SHARE, special, done)
+            alt = _lifted(alt, domain, LIFT_BELOW)
+            alt = _other_tried(
+                alt, axes, axis_at, more, domain, method, size, levels, special, done
+            )
+            least = min(PRUNE_LEAST, _least_away(res.mesh, domain))
+            if not _over(alt, domain, size) and _least_away(alt.mesh, domain) >= least:
+                res = alt
     if _least_away(res.mesh, domain) < GOOD_LEAST:  # the mesh kept, lifted further
         res = _lifted(res, domain, LAST_LIFT_BELOW)
     stats = {**res.stats, "quality": quality.report(res.mesh)}
@@ -723,10 +743,10 @@ def _other_tried(res: QuadMedial, axes, axis_at, more, domain, method, size, lev
     first other mesh within the count of least quality :data:`GOOD_LEAST`, else the one
     within it of the highest least quality; over the count, that one only when its least
     is at least :data:`PRUNE_LEAST` (or the first mesh's). ``axis_at``: pruning angle ->
-    axis, ``res``'s only; ``axes``: the iterator of
+    axis, ``res``'s first (others kept as made); ``axes``: the iterator of
     :func:`~meshcore.medial.axis.pruned_axes` giving the axes pruned at each of ``more``
     in turn."""
-    (prune,) = axis_at
+    prune = next(iter(axis_at))  # the angle asked
     over, least = _over(res, domain, size), _least_away(res.mesh, domain)
     if not over and least >= GOOD_LEAST:
         return res
@@ -1090,9 +1110,11 @@ def _medial_fill(axis: MedialAxis, method: str, size, levels, share, done: dict,
     if merge and small not in done:
         done[small] = _small_merged(part, size)
     part = done[small] if merge else part
-    key = (id(axis), part.points.tobytes(), *(c.tobytes() for c in part.cycles + part.corners))
+    fine = done.get(TRANSITIONS, False)
+    key = (id(axis), fine, part.points.tobytes())
+    key += tuple(c.tobytes() for c in part.cycles + part.corners)
     if key not in done:  # (the axis held: its id is not reused)
-        done[key] = (part, *quads_on(part, size, levels))
+        done[key] = (part, *quads_on(part, size, levels, transitions=fine))
     return done[key]
 
 

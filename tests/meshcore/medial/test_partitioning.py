@@ -205,6 +205,30 @@ def test_no_o_grid_where_it_would_split_a_sharp_border_corner():
         assert _flowered(np.vstack([[0.0, 0.0], rim]), Q)[2] == made
 
 
+@pytest.mark.parametrize(("nb", "nl"), [(5, 2), (3, 4), (5, 4), (9, 2)])
+def test_a_transition_conforms_with_convex_quads(nb, nl):
+    # a coarse quad of the unit square, top 3 and right 2 pieces, its bottom (and left)
+    # finer by 3-to-1 templates: conforming strictly convex quads covering it exactly
+    from meshcore.medial.fill import _transition, folded
+
+    def line(a, b, n):
+        return np.linspace(a, b, n + 1)
+
+    bottom, top = line([0.0, 0.0], [1.0, 0.0], nb), line([0.0, 1.0], [1.0, 1.0], 3)
+    left, right = line([0.0, 0.0], [0.0, 1.0], nl), line([1.0, 0.0], [1.0, 1.0], 2)
+    P, Q, corners = _transition(bottom, right, top, left)
+    # points are merged by coordinates in the fill: check the copies the same way
+    P, ids = np.unique(P, axis=0, return_inverse=True)
+    Q, corners = ids.ravel()[Q], ids.ravel()[corners]
+    assert len(Q) == 3 * 2 + 3 * (nb - 3) // 2 + 3 * (nl - 2) // 2
+    assert np.isclose(quality.signed_area(P, Q, "quad").sum(), 1.0)
+    assert not folded(P, Q).any()  # every corner strictly convex (exact)
+    edges = np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], axis=-1).reshape(-1, 2), axis=1)
+    _, uses = np.unique(edges, axis=0, return_counts=True)
+    assert uses.max() == 2 and (uses == 1).sum() == nb + nl + 3 + 2  # conforming
+    assert sorted(P[corners].tolist()) == [[0, 0], [0, 1], [1, 0], [1, 1]]
+
+
 def test_a_straight_border_point_of_four_quads_gives_one_up():
     # four quads of 45 degrees at a straight border point (four regions met there): the
     # edge between two of them is turned, three quads stay at the point, same area
