@@ -311,6 +311,14 @@ def _smooth(P, T, head, nxt, cnt, v, st, tmark, G, N, mre):
         if m == 0:
             break
         g = _min_norm(G, m)
+        # In the plane again: the gradients are, but only to rounding, and where their hull
+        # holds 0 (no ascent) the least-norm point is that rounding alone, along N[v]: the
+        # step then left the facet by up to half an edge. Twice, as in Gram-Schmidt: what
+        # one projection leaves of such a g is rounding of any direction.
+        for _ in range(2):
+            gn = g[0] * N[v, 0] + g[1] * N[v, 1] + g[2] * N[v, 2]
+            for x in range(3):
+                g[x] -= gn * N[v, x]
         gn = math.sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
         if not gn > 0.0:
             break
