@@ -85,6 +85,16 @@ def _point_segment(qx, qy, ax, ay, bx, by):
     return math.hypot(ax + t * dx - qx, ay + t * dy - qy)
 
 
+@njit(cache=True, inline="always")
+def _end_distances(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y):
+    """Distances from the two ends of segment a to segment b: with those from b's ends
+    to a, the four whose least is the distance between two segments that do not cross."""
+    return (
+        _point_segment(a0x, a0y, b0x, b0y, b1x, b1y),
+        _point_segment(a1x, a1y, b0x, b0y, b1x, b1y),
+    )
+
+
 @njit(cache=True)
 def _near(X0, X1, length, seg_of, seg, i, j, beta):
     """Which pairs (i, j) of pieces lie on segments sharing no vertex, at a distance
@@ -101,17 +111,9 @@ def _near(X0, X1, length, seg_of, seg, i, j, beta):
             continue
         a0x, a0y, a1x, a1y = X0[p, 0], X0[p, 1], X1[p, 0], X1[p, 1]
         b0x, b0y, b1x, b1y = X0[q, 0], X0[q, 1], X1[q, 0], X1[q, 1]
-        d = min(
-            min(
-                _point_segment(a0x, a0y, b0x, b0y, b1x, b1y),
-                _point_segment(a1x, a1y, b0x, b0y, b1x, b1y),
-            ),
-            min(
-                _point_segment(b0x, b0y, a0x, a0y, a1x, a1y),
-                _point_segment(b1x, b1y, a0x, a0y, a1x, a1y),
-            ),
-        )
-        keep[r] = d * beta < length[p]
+        d0, d1 = _end_distances(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y)
+        e0, e1 = _end_distances(b0x, b0y, b1x, b1y, a0x, a0y, a1x, a1y)
+        keep[r] = min(min(d0, d1), min(e0, e1)) * beta < length[p]
     return keep
 
 
@@ -193,13 +195,9 @@ def _halvings(A, D, ps, t0, t1, cstart, ncand, pj, X0, X1, beta, resolution):
             hi = np.inf
             for c in range(cstart[p], cstart[p] + ncand[p]):
                 y0x, y0y, y1x, y1y = X0[pj[c], 0], X0[pj[c], 1], X1[pj[c], 0], X1[pj[c], 1]
-                d0 = _point_segment(q0x, q0y, y0x, y0y, y1x, y1y)
-                d1 = _point_segment(q1x, q1y, y0x, y0y, y1x, y1y)
-                e = min(
-                    _point_segment(y0x, y0y, q0x, q0y, q1x, q1y),
-                    _point_segment(y1x, y1y, q0x, q0y, q1x, q1y),
-                )
-                lo = min(lo, min(min(d0, d1), e))
+                d0, d1 = _end_distances(q0x, q0y, q1x, q1y, y0x, y0y, y1x, y1y)
+                e0, e1 = _end_distances(y0x, y0y, y1x, y1y, q0x, q0y, q1x, q1y)
+                lo = min(lo, min(min(d0, d1), min(e0, e1)))
                 hi = min(hi, max(d0, d1))
             if lo <= resolution:
                 return out_s[:0], out_t[:0], True
