@@ -157,20 +157,10 @@ def _halvings(A, D, ps, t0, t1, cstart, ncand, pj, X0, X1, beta, resolution):
     """The cuts of the pieces with candidates (``ncand > 0``), round by round (see the
     module docstring): (segments, parameters, whether a feature lies within
     ``resolution``, in which case no cut is kept)."""
-    nroot = 0
-    for p in range(ncand.shape[0]):
-        if ncand[p] > 0:
-            nroot += 1
-    root = np.empty(nroot, np.int64)
-    a = np.empty(nroot)
-    b = np.empty(nroot)
-    r = 0
-    for p in range(ncand.shape[0]):
-        if ncand[p] > 0:
-            root[r] = p
-            a[r] = t0[p]
-            b[r] = t1[p]
-            r += 1
+    root = np.flatnonzero(ncand > 0)
+    nroot = root.shape[0]
+    a = t0[root]
+    b = t1[root]
     out_s = np.empty(16, np.int64)
     out_t = np.empty(16)
     no = 0
