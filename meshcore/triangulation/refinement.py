@@ -305,22 +305,26 @@ class _Sizing:
         )
 
 
-def _expected_points(domain: Domain, sizing: _Sizing | None) -> int:
-    """Points of an equilateral mesh following the sizes, area / (0.866 h**2), plus those
-    the angle bound forces where the boundary runs close to itself: ``_THIN * perimeter**2
-    / area`` (constraints counted on both sides)."""
+def _sized_points(domain: Domain, sizing: _Sizing | None) -> float:
+    """Points of an equilateral mesh following the sizes, area / (0.866 h**2) (0 without
+    sizes; may be inf or nan)."""
     if sizing is None:
         inv = 0.0
     elif sizing.uniform:
         inv = 1.0 / float(sizing.H[0, 0]) / float(sizing.H[0, 0])  # h**2 overflows at 1e300
     else:
         inv = float(np.mean(1.0 / sizing.H / sizing.H))
+    return domain.area * inv / (math.sqrt(3.0) / 2.0)
+
+
+def _expected_points(domain: Domain, sizing: _Sizing | None) -> int:
+    """Points of an equilateral mesh following the sizes (:func:`_sized_points`), plus those
+    the angle bound forces where the boundary runs close to itself: ``_THIN * perimeter**2
+    / area`` (constraints counted on both sides)."""
     P = domain.points
     edges = np.concatenate([domain.segments, domain.constraints, domain.constraints])
     perimeter = float(np.hypot(*(P[edges[:, 1]] - P[edges[:, 0]]).T).sum())
-    points = (
-        domain.area * inv / (math.sqrt(3.0) / 2.0) + _THIN * (perimeter / domain.area) * perimeter
-    )
+    points = _sized_points(domain, sizing) + _THIN * (perimeter / domain.area) * perimeter
     return _ESTIMATE_CAP if math.isnan(points) else int(min(points, _ESTIMATE_CAP))  # 0 * inf
 
 
@@ -934,6 +938,18 @@ def triangulate(
     circle_arr = circles if len(circles) else np.zeros((1, 3))
 
     sizing = None if empty else _sizing(dom, size, max_area, field_pts, field_vals)
+    wanted = _sized_points(dom, sizing)
+    if not wanted < _ESTIMATE_CAP:
+        # more points than any machine holds: refused here, not met by an integer
+        # overflow in the boundary's cuts or the lattice
+        given = (("size", size), ("max_area", max_area), ("size_field", size_field))
+        name = next((n for n, v in given if v is not None), "domain")
+        raise InputError(
+            f"these sizes would make about {wanted:.3g} points on a domain of area "
+            f"{dom.area:.6g}: ask for larger sizes",
+            loc=(name,),
+            code="too_many_triangles",
+        )
     if not empty and min_angle is None:
         min_angle = DEFAULT_MIN_ANGLE
     lap("sizing")
