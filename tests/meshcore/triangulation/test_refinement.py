@@ -579,6 +579,8 @@ class TestErrors:
             ({"max_area": -1}, ["max_area"]),
             ({"size": 0}, ["size"]),
             ({"size": "big"}, ["size"]),
+            ({"size": 1e-300}, ["size"]),  # more points than the estimates count
+            ({"max_area": 1e-300}, ["max_area"]),
             ({"empty": True, "size": 0.1}, ["size"]),
             ({"empty": True, "min_angle": 20}, ["min_angle"]),
             ({"size_field": {"points": [[0, 0]], "values": [1, 2]}}, ["size_field", "values"]),
