@@ -1293,6 +1293,13 @@ def _combine(
             loc=("twice_size",),
             code="conflicting_parameters",
         )
+    if twice_size and size is not None and not math.isfinite(2.0 * size):
+        raise InputError(
+            f"size {size!r} is meshed at twice the size with twice_size, past the largest "
+            "float: give a smaller size",
+            loc=("size",),
+            code="bad_parameter",
+        )
     layered = retried = None
     layer_fits = size is not None and size_field is None and metric is None
     if domain is not None:
