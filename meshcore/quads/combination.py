@@ -159,6 +159,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 from numba import njit
@@ -1179,10 +1180,10 @@ def combine(
         domain = parse_domain(domain)
     if progress is not None:
         progress = _forward(progress)
-    res = _combine(
+    one = partial(  # one size: the first mesh, then each size try
+        _combine,
         mesh,
         domain=domain,
-        size=size,
         size_field=size_field,
         min_angle=min_angle,
         keep_boundary=keep_boundary,
@@ -1196,8 +1197,8 @@ def combine(
         optimize=optimize,
         inner=inner,
         corner_least=corner_least,
-        progress=_share(progress, 0, 1) if retry else progress,
     )
+    res = one(size=size, progress=_share(progress, 0, 1) if retry else progress)
     if (
         not retry
         or len(res.mesh.cells_by_type["quad"]) > TOL.size_tries_most
@@ -1206,18 +1207,7 @@ def combine(
         return res
     for k, f in enumerate(TOL.size_tries, 1):  # at most len(TOL.size_tries) meshes
         try:
-            again = _combine(
-                domain=domain,
-                size=size * f,
-                min_angle=min_angle,
-                algorithm=algorithm,
-                measure=measure,
-                min_quality=min_quality,
-                all_quad=all_quad,
-                twice_size=twice_size,
-                optimize=optimize,
-                progress=_share(progress, k, f),
-            )
+            again = one(size=size * f, progress=_share(progress, k, f))
         except AlgorithmError:  # a try that fails leaves the first mesh standing
             continue
         if meets_targets(again.mesh, domain, size):
@@ -1302,6 +1292,13 @@ def _combine(
             "and all_quad=true",
             loc=("twice_size",),
             code="conflicting_parameters",
+        )
+    if twice_size and size is not None and not math.isfinite(2.0 * size):
+        raise InputError(
+            f"size {size!r} is meshed at twice the size with twice_size, past the largest "
+            "float: give a smaller size",
+            loc=("size",),
+            code="bad_parameter",
         )
     layered = retried = None
     layer_fits = size is not None and size_field is None and metric is None

@@ -319,6 +319,12 @@ class TestDomainInput:
             combine(domain=self.HOLE, size=size, all_quad=True, twice_size=True)
         assert err.value.errors[0]["loc"] == ["size"]
 
+    def test_a_size_that_doubles_past_the_largest_float_is_named(self):
+        # 1e308 with twice_size was refused by the triangulator as "got inf"
+        with pytest.raises(InputError, match="twice_size") as err:
+            combine(domain=self.HOLE, size=1e308, all_quad=True, twice_size=True)
+        assert err.value.errors[0]["loc"] == ["size"]
+
     def test_a_domain_too_thin_for_its_size_is_refused_up_front(self):
         # a 1 x 1e-6 strip forces about 2M triangles whatever the size (1.54M made, 3.08M
         # quads in 52 CPU s): refused before triangulating, naming triangulate
