@@ -324,10 +324,10 @@ class KeptTriangulations:
         ``uv``), after inserting its new points; None when the kernel refuses
         them (coinciding projections)."""
         kept = self._kept.pop(f, None)
+        new = np.flatnonzero(ids >= kept[2]) if kept is not None else None
         try:
-            if kept is not None and len(kept[1]) + int((ids >= kept[2]).sum()) == len(ids):
+            if kept is not None and len(kept[1]) + len(new) == len(ids):
                 dt, gid, _ = kept
-                new = np.flatnonzero(ids >= kept[2])
                 if new.size:
                     xy = uv[new]
                     view = xy.view()

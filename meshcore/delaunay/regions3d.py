@@ -74,6 +74,30 @@ def _flood(nb, sub_of):
 
 
 @njit(cache=True)
+def _incidences(sub_of):
+    """(row, face, subface) of each entry ``sub_of[i, j] >= 0`` of ``sub_of`` (k, 4), in
+    row-major order: the subface incidences of :func:`_regions_pass` and
+    :func:`_regions_update`."""
+    n = 0
+    for i in range(sub_of.shape[0]):
+        for j in range(4):
+            if sub_of[i, j] >= 0:
+                n += 1
+    inc_i = np.empty(n, np.int64)
+    inc_f = np.empty(n, np.int64)
+    inc_s = np.empty(n, np.int64)
+    q = 0
+    for i in range(sub_of.shape[0]):
+        for j in range(4):
+            if sub_of[i, j] >= 0:
+                inc_i[q] = i
+                inc_f[q] = j
+                inc_s[q] = sub_of[i, j]
+                q += 1
+    return inc_i, inc_f, inc_s
+
+
+@njit(cache=True)
 def _regions_pass(T, slots, adj, on, tk, tv, faces):
     """The flood fill of :func:`regions` in one pass.
 
@@ -88,29 +112,18 @@ def _regions_pass(T, slots, adj, on, tk, tv, faces):
     shift = _shift(tk.shape[0])
     nb = np.empty((m, 4), np.int64)
     sub_of = np.full((m, 4), -1, np.int64)
-    n_inc = 0
     for t in range(m):
         for j in range(4):
             u = adj[t, j]
             nb[t, j] = row_of[u] if 0 <= u < top else -1
             sub_of[t, j] = _subface_at(T, t, j, faces, on, tk, tv, shift)
-            if sub_of[t, j] >= 0:
-                n_inc += 1
     comp, n = _flood(nb, sub_of)
     outside = np.zeros(n, np.bool_)
-    inc_t = np.empty(n_inc, np.int64)
-    inc_f = np.empty(n_inc, np.int64)
-    inc_s = np.empty(n_inc, np.int64)
-    k = 0
     for t in range(m):
         for j in range(4):
-            if sub_of[t, j] >= 0:
-                inc_t[k] = t
-                inc_f[k] = j
-                inc_s[k] = sub_of[t, j]
-                k += 1
-            elif nb[t, j] < 0:
+            if sub_of[t, j] < 0 and nb[t, j] < 0:
                 outside[comp[t]] = True
+    inc_t, inc_f, inc_s = _incidences(sub_of)
     return comp, n, outside, inc_t, inc_f, inc_s
 
 
@@ -147,7 +160,6 @@ def _regions_update(T, slots, fresh, adj, old, on, tk, tv, faces):
     shift = _shift(tk.shape[0])
     nb = np.full((k, 4), -1, np.int64)  # fresh neighbour (local), -2 old, -3 outside
     sub_of = np.full((k, 4), -1, np.int64)
-    n_inc = 0
     for i in range(k):
         # Ahead (misses at 10^6 tetrahedra): the corners' surface flags and the
         # neighbours' rows 16 rows on, the face keys' table slots and the
@@ -171,7 +183,6 @@ def _regions_update(T, slots, fresh, adj, old, on, tk, tv, faces):
         for j in range(4):
             sub_of[i, j] = _subface_at(T, t, j, faces, on, tk, tv, shift)
             if sub_of[i, j] >= 0:
-                n_inc += 1
                 continue
             u = adj[i, j]
             r = row_of[u] if 0 <= u < top else -1
@@ -180,19 +191,12 @@ def _regions_update(T, slots, fresh, adj, old, on, tk, tv, faces):
     met = np.full(n, -2, np.int64)
     outside = np.zeros(n, np.bool_)
     clash = np.zeros(n, np.bool_)
-    inc_t = np.empty(n_inc, np.int64)
-    inc_f = np.empty(n_inc, np.int64)
-    inc_s = np.empty(n_inc, np.int64)
-    q = 0
     for i in range(k):
         c = comp[i]
         for j in range(4):
             if sub_of[i, j] >= 0:
-                inc_t[q] = fresh[i]
-                inc_f[q] = j
-                inc_s[q] = sub_of[i, j]
-                q += 1
-            elif nb[i, j] == -3:
+                continue
+            if nb[i, j] == -3:
                 outside[c] = True
             elif nb[i, j] == -2:
                 lab = old[slots[row_of[adj[i, j]]]]
@@ -200,7 +204,8 @@ def _regions_update(T, slots, fresh, adj, old, on, tk, tv, faces):
                     met[c] = lab
                 elif met[c] != lab:
                     clash[c] = True
-    return comp, n, met, outside, clash, inc_t, inc_f, inc_s
+    inc_i, inc_f, inc_s = _incidences(sub_of)
+    return comp, n, met, outside, clash, fresh[inc_i], inc_f, inc_s
 
 
 def _read_only(a: np.ndarray) -> np.ndarray:

@@ -132,9 +132,10 @@ def seed_facets(b: SurfaceRecovery, facets: np.ndarray, size: np.ndarray) -> int
 def far_facets(b: SurfaceRecovery, bound: np.ndarray, seeded: np.ndarray) -> np.ndarray:
     """The facets not yet ``seeded`` (bool per facet) whose largest subface circumradius
     exceeds ``SEED_FAR`` times their ``bound`` (per facet, inf where none)."""
-    if not (~seeded & np.isfinite(bound)).any():
+    candidate = ~seeded & np.isfinite(bound)
+    if not candidate.any():
         return np.zeros(0, dtype=np.int64)
     _, r = b.sub_circles()
     largest = np.zeros(len(bound))
     np.maximum.at(largest, b.sub_facet, r)
-    return np.flatnonzero(~seeded & np.isfinite(bound) & (largest > SEED_FAR * bound))
+    return np.flatnonzero(candidate & (largest > SEED_FAR * bound))
