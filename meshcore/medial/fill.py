@@ -911,14 +911,11 @@ def quads_on(
     # fine side (:func:`_transition`): not tied to its opposite side's count
     length = np.array([np.hypot(*np.diff(xy, axis=0).T).sum() for xy in seg_xy])
     need = np.array([int(f[1:-1].sum()) + 1 for f in seg_fixed], dtype=np.int64)
-    uses = np.bincount([r[0] for patch in patches for r in patch], minlength=n_seg)
-    fine = np.zeros(len(patches), dtype=np.int64)
+    sides = np.array([[r[0] for r in patch] for patch in patches], np.int64).reshape(-1, 4)
+    fine = np.zeros(len(patches), dtype=np.int64)  # 1: the first side fine, 2: the last
     if transitions and size is not None and not whole:
-        for i, (s0, _, _, s3) in enumerate(patches):
-            for bit, side in ((1, s0), (2, s3)):
-                if uses[side[0]] == 1 and need[side[0]] > 1:
-                    fine[i] |= bit
-    sides = np.array([[r[0] for r in patch] for patch in patches], dtype=np.int64)
+        own = (np.bincount(sides.ravel(), minlength=n_seg)[sides] == 1) & (need[sides] > 1)
+        fine = own[:, 0] + 2 * own[:, 3]
     tries = [np.zeros(len(patches), dtype=np.int64)] + ([fine] if fine.any() else [])
     stretches = (None,) if levels is not None else STRETCH
     # the first within MOST_COUNT, else the last: the sides tied at every stretch, then
