@@ -316,16 +316,16 @@ def _around(Q: np.ndarray, start: np.ndarray, cells: np.ndarray, b: int, first: 
         ring.append(nxt[0])
 
 
-def _fan_angles(P: np.ndarray, Q: np.ndarray, start, cells, v: int) -> dict[int, float]:
+def _fan_angles(P: np.ndarray, Q: np.ndarray, start, cells, v: int):
     """The corner angle (radians, in [0, pi]) at vertex ``v`` of each of its quads, in
-    the order of ``cells``."""
-    ang = {}
+    the order of ``cells``, and ``v``'s slot (0-3) in each: two dicts quad -> value."""
+    ang, at = {}, {}
     for q in cells[start[v] : start[v + 1]].tolist():  # a loop over the vertex's quads
         c = P[Q[q]]
-        i = int(np.flatnonzero(Q[q] == v)[0])
+        at[q] = i = int(np.flatnonzero(Q[q] == v)[0])
         a, b = c[i - 1] - c[i], c[(i + 1) % 4] - c[i]
         ang[q] = math.atan2(abs(a[0] * b[1] - a[1] * b[0]), float(a @ b))
-    return ang
+    return ang, at
 
 
 def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
@@ -345,11 +345,10 @@ def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
     border = boundary_points(P, Q)
     added: list[np.ndarray] = []
     for v in np.flatnonzero(border):
-        ang = _fan_angles(P, Q, start, cells, v)
+        ang, at = _fan_angles(P, Q, start, cells, v)
         fan = list(ang)
         if len(fan) < 2 or math.degrees(sum(ang.values())) / len(fan) <= OPEN_ANGLE:
             continue
-        at = {q: int(np.flatnonzero(Q[q] == v)[0]) for q in fan}
         best = None
         for q1 in fan:  # q1 = (v, a, x, b) and q2 = (v, b, y, c) around the edge v - b
             b = int(Q[q1, (at[q1] + 3) % 4])
@@ -364,7 +363,7 @@ def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
             continue
         side1, side2 = ring[: len(ring) // 2], ring[len(ring) // 2 :]
         z = int(Q[side1[-1], (int(np.flatnonzero(Q[side1[-1]] == b)[0]) + 3) % 4])
-        if border[z] and sum(_fan_angles(P, Q, start, cells, z).values()) / (
+        if border[z] and sum(_fan_angles(P, Q, start, cells, z)[0].values()) / (
             start[z + 1] - start[z] + 1
         ) < math.radians(OPEN_LEAST):
             continue
@@ -398,18 +397,18 @@ def _closed(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, int]:
     border = boundary_points(points, Q)
     done = 0
     for v in np.flatnonzero(border):  # a loop over the border vertices
-        ang = _fan_angles(points, Q, start, cells, v)
+        ang, at = _fan_angles(points, Q, start, cells, v)
         fan = list(ang)
         if len(fan) < 3 or sum(ang.values()) / len(fan) >= math.radians(CLOSE_ANGLE):
             continue
         best = None
         for q1 in fan:  # q1 = (v, a, x, b), q2 = (v, b, y, c)
-            r1 = np.roll(Q[q1], -int(np.flatnonzero(Q[q1] == v)[0]))
+            r1 = np.roll(Q[q1], -at[q1])
             b = int(r1[3])
             q2 = [q for q in fan if q != q1 and b in Q[q]]
             if border[b] or len(q2) != 1:
                 continue
-            r2 = np.roll(Q[q2[0]], -int(np.flatnonzero(Q[q2[0]] == v)[0]))
+            r2 = np.roll(Q[q2[0]], -at[q2[0]])
             if r2[1] != b:
                 continue
             new = np.array([[r1[1], r1[2], b, r2[2]], [v, r1[1], r2[2], r2[3]]], Q.dtype)
@@ -458,7 +457,7 @@ def _flowered(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.nda
             outer += [int(r[1]), int(r[2])]
         far = [x for x in outer[1::2] if border[x]]  # each gets a quad more
         if any(
-            sum(_fan_angles(points, quads, start, cells, x).values()) / (val[x] + 1)
+            sum(_fan_angles(points, quads, start, cells, x)[0].values()) / (val[x] + 1)
             < math.radians(OPEN_LEAST)
             for x in far
         ):
@@ -912,14 +911,11 @@ def quads_on(
     # fine side (:func:`_transition`): not tied to its opposite side's count
     length = np.array([np.hypot(*np.diff(xy, axis=0).T).sum() for xy in seg_xy])
     need = np.array([int(f[1:-1].sum()) + 1 for f in seg_fixed], dtype=np.int64)
-    uses = np.bincount([r[0] for patch in patches for r in patch], minlength=n_seg)
-    fine = np.zeros(len(patches), dtype=np.int64)
+    sides = np.array([[r[0] for r in patch] for patch in patches], np.int64).reshape(-1, 4)
+    fine = np.zeros(len(patches), dtype=np.int64)  # 1: the first side fine, 2: the last
     if transitions and size is not None and not whole:
-        for i, (s0, _, _, s3) in enumerate(patches):
-            for bit, side in ((1, s0), (2, s3)):
-                if uses[side[0]] == 1 and need[side[0]] > 1:
-                    fine[i] |= bit
-    sides = np.array([[r[0] for r in patch] for patch in patches], dtype=np.int64)
+        own = (np.bincount(sides.ravel(), minlength=n_seg)[sides] == 1) & (need[sides] > 1)
+        fine = own[:, 0] + 2 * own[:, 3]
     tries = [np.zeros(len(patches), dtype=np.int64)] + ([fine] if fine.any() else [])
     stretches = (None,) if levels is not None else STRETCH
     # the first within MOST_COUNT, else the last: the sides tied at every stretch, then

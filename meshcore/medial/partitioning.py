@@ -720,18 +720,21 @@ def quad_medial(
     res = _lifted(res, domain, LIFT_BELOW)
     if size is not None:
         axis_at = {prune: first}  # the axes pruned at each angle, as they are needed
-        res = _other_tried(res, axes, axis_at, more, domain, method, size, levels, special, done)
+        res, least = _other_tried(
+            res, axes, axis_at, more, domain, method, size, levels, special, done
+        )
         if _over(res, domain, size):  # the same tries, the fills with transitions
             done[TRANSITIONS] = True
             alt = _meshed(first, domain, method, size, levels, BOUNDARY_SHARE, special, done)
             alt = _lifted(alt, domain, LIFT_BELOW)
-            alt = _other_tried(
+            alt, alt_least = _other_tried(
                 alt, axes, axis_at, more, domain, method, size, levels, special, done
             )
-            least = min(PRUNE_LEAST, _least_away(res.mesh, domain))
-            if not _over(alt, domain, size) and _least_away(alt.mesh, domain) >= least:
-                res = alt
-    if _least_away(res.mesh, domain) < GOOD_LEAST:  # the mesh kept, lifted further
+            if not _over(alt, domain, size) and alt_least >= min(PRUNE_LEAST, least):
+                res, least = alt, alt_least
+    else:
+        least = _least_away(res.mesh, domain)
+    if least < GOOD_LEAST:  # the mesh kept, lifted further
         res = _lifted(res, domain, LAST_LIFT_BELOW)
     stats = {**res.stats, "quality": quality.report(res.mesh)}
     return QuadMedial(mesh=res.mesh, partition=res.partition, stats=stats)
@@ -745,13 +748,13 @@ def _other_tried(res: QuadMedial, axes, axis_at, more, domain, method, size, lev
     is at least :data:`PRUNE_LEAST` (or the first mesh's). ``axis_at``: pruning angle ->
     axis, ``res``'s first (others kept as made); ``axes``: the iterator of
     :func:`~meshcore.medial.axis.pruned_axes` giving the axes pruned at each of ``more``
-    in turn."""
+    in turn. Returns the mesh kept and its least quality away from input spikes
+    (:func:`_least_away`)."""
     prune = next(iter(axis_at))  # the angle asked
-    over, least = _over(res, domain, size), _least_away(res.mesh, domain)
-    if not over and least >= GOOD_LEAST:
-        return res
-    if over:
-        least = min(PRUNE_LEAST, least) - 1e-12
+    over, kept = _over(res, domain, size), _least_away(res.mesh, domain)
+    if not over and kept >= GOOD_LEAST:
+        return res, kept
+    least = min(PRUNE_LEAST, kept) - 1e-12 if over else kept  # the bar an other must pass
     # the more pruned axes with the regions merged at crowded boundary points, then
     # every axis without those merges (a region merged at a gear's tooth gap has a
     # longer boundary side, whose input vertices bind its count: BOUNDARY_SHARE), then
@@ -781,10 +784,10 @@ def _other_tried(res: QuadMedial, axes, axis_at, more, domain, method, size, lev
                 partition=alt.partition,
                 stats={**alt.stats, **extra, "boundary_merged": share is not None},
             )
+            kept = least = got
             if got >= GOOD_LEAST:
-                return res
-            least = got
-    return res
+                return res, kept
+    return res, kept
 
 
 def _over(res: QuadMedial, domain: Domain, size: float) -> bool:

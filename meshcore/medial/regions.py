@@ -306,7 +306,7 @@ def _angle_at(points, verts, i) -> float:
 
 def _merged_pair(points, p, reg, degree, r, o):
     """Regions ``r`` and ``o`` of ``reg`` (id -> cycle, corner flags, kinds) merged
-    (:func:`_chain_merged`): the merged cycle, corner flags, kinds and a mask of the
+    (:func:`_chain_merged`): the merged cycle, corner flags, kinds and the ids of the
     points no longer corners anywhere (fewer than three edges left), or None when the merge is
     refused (:func:`small_merged`)."""
     got = _chain_merged(*reg[r], *reg[o])
@@ -314,9 +314,8 @@ def _merged_pair(points, p, reg, degree, r, o):
         return None
     verts, flag, kind = got
     ends = np.flatnonzero(np.isin(verts, reg[r][0]) & np.isin(verts, reg[o][0])).tolist()
-    low = np.zeros(len(points), bool)  # the vertices no longer corners anywhere
-    low[[verts[i] for i in ends if degree[verts[i]] - 1 < 3]] = True
-    flag = flag & ~low[verts]
+    low = np.array([verts[i] for i in ends if degree[verts[i]] - 1 < 3], np.int64)
+    flag = flag & ~np.isin(verts, low)  # (low: the vertices no longer corners anywhere)
     if int(flag.sum()) < 3:
         return None
     for i in ends:
@@ -325,8 +324,8 @@ def _merged_pair(points, p, reg, degree, r, o):
             return None
         if not flag[i] and verts[i] >= p and abs(angle - 180.0) > MERGE_BEND:
             return None
-    for x, (c, f, _) in reg.items() if low.any() else ():
-        gone = low[c]
+    for x, (c, f, _) in reg.items() if len(low) else ():
+        gone = np.isin(c, low)
         if x in (r, o) or not gone.any():
             continue
         if int((f & ~gone).sum()) < 3:
@@ -394,9 +393,10 @@ def small_merged(points, p: int, cycles, corners, kinds, size: float, area: floa
             del key[x]
             for e in edges.pop(x):
                 del edge_region[e]
-        for x, (c, f, k) in reg.items() if low.any() else ():
-            if low[c].any():
-                reg[x] = (c, f & ~low[c], k)
+        for x, (c, f, k) in reg.items() if len(low) else ():
+            gone = np.isin(c, low)
+            if gone.any():
+                reg[x] = (c, f & ~gone, k)
                 sides -= count[x]
                 count[x] = int(reg[x][1].sum())
                 key[x] = -count[x] / ring_area[x]
