@@ -28,6 +28,7 @@ from numba import njit
 from meshcore.delaunay.kernel2d import IncrementalDelaunay, _corner, _nxt, _prefetch, _prv
 from meshcore.domain.planar import Domain
 from meshcore.errors import AlgorithmError, InputError
+from meshcore.geometry.constructions import point_segment_distance_2d
 from meshcore.geometry.ordering import radix_argsort, radix_sort
 from meshcore.geometry.predicates import WORK_SIZE, dot2d_filtered, orient2d_filtered
 
@@ -433,7 +434,6 @@ def _grid_reach(xy, a, b, rows, verts, reach, radius, cell):
         vy = xy[pb, 1]
         dx = vx - ux
         dy = vy - uy
-        ll = dx * dx + dy * dy
         xa = min(ux, vx)
         xb = max(ux, vx)
         ya = min(uy, vy)
@@ -461,8 +461,7 @@ def _grid_reach(xy, a, b, rows, verts, reach, radius, cell):
                     seen[i] = j
                     if verts[i] == pa or verts[i] == pb:
                         continue
-                    t = min(1.0, max(0.0, ((X[i, 0] - ux) * dx + (X[i, 1] - uy) * dy) / ll))
-                    d = np.hypot(ux + t * dx - X[i, 0], uy + t * dy - X[i, 1])
+                    d = point_segment_distance_2d(X[i, 0], X[i, 1], ux, uy, vx, vy)
                     if d < out[i]:
                         out[i] = d
     return out

@@ -9,11 +9,14 @@ robustness").
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
 
 from meshcore.errors import InputError
 
-__all__ = ["circumcenter", "circumradius", "point_segment_distance"]
+__all__ = ["circumcenter", "circumradius", "point_segment_distance", "point_segment_distance_2d"]
 
 
 def _triple(a, b, c) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -130,3 +133,16 @@ def point_segment_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray):
     t = np.clip(np.einsum("ij,ij->i", q - a, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
     off = a + t[:, None] * d - q
     return (np.hypot(*off.T) if off.shape[1] == 2 else np.linalg.norm(off, axis=1)), t
+
+
+@njit(cache=True, inline="always")
+def point_segment_distance_2d(qx, qy, ax, ay, bx, by):
+    """Distance from the point ``(qx, qy)`` to the segment ``(ax, ay)-(bx, by)``, for
+    compiled loops: the same operations as :func:`point_segment_distance`, so rounded
+    as it rounds (the foot ``a + t (b - a)``, ``t`` clipped to [0, 1])."""
+    dx = bx - ax
+    dy = by - ay
+    dd = dx * dx + dy * dy
+    t = ((qx - ax) * dx + (qy - ay) * dy) / (dd if dd > 0 else 1.0)
+    t = min(max(t, 0.0), 1.0)
+    return math.hypot(ax + t * dx - qx, ay + t * dy - qy)

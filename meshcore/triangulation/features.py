@@ -52,6 +52,8 @@ import numpy as np
 from numba import njit
 from scipy.spatial import cKDTree
 
+from meshcore.geometry.constructions import point_segment_distance_2d
+
 __all__ = ["feature_cuts"]
 
 #: Rounds of halving at most (a piece is halved at most this many times).
@@ -74,24 +76,12 @@ HALVE_FROM = 64.0
 
 
 @njit(cache=True, inline="always")
-def _point_segment(qx, qy, ax, ay, bx, by):
-    """Distance from q to the segment ab, rounded as
-    :func:`meshcore.geometry.constructions.point_segment_distance` rounds it."""
-    dx = bx - ax
-    dy = by - ay
-    dd = dx * dx + dy * dy
-    t = ((qx - ax) * dx + (qy - ay) * dy) / (dd if dd > 0 else 1.0)
-    t = min(max(t, 0.0), 1.0)
-    return math.hypot(ax + t * dx - qx, ay + t * dy - qy)
-
-
-@njit(cache=True, inline="always")
 def _end_distances(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y):
     """Distances from the two ends of segment a to segment b: with those from b's ends
     to a, the four whose least is the distance between two segments that do not cross."""
     return (
-        _point_segment(a0x, a0y, b0x, b0y, b1x, b1y),
-        _point_segment(a1x, a1y, b0x, b0y, b1x, b1y),
+        point_segment_distance_2d(a0x, a0y, b0x, b0y, b1x, b1y),
+        point_segment_distance_2d(a1x, a1y, b0x, b0y, b1x, b1y),
     )
 
 
