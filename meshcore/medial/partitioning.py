@@ -106,7 +106,7 @@ under :data:`GOOD_LEAST`;
 there 11 (163 before the lift); the count 0.92-1.46x area / size**2 (1.74x before the
 larger stretches, :data:`meshcore.medial.fill.STRETCH`); at size 0.15 least 0.5 on
 25 (20, 14), count over 1.5x on 6 of the 32 (7 before the transitions,
-:data:`TRANSITIONS`; 8 before the small regions were merged,
+the fills with ``fine`` of :func:`_medial_fill`; 8 before the small regions were merged,
 :data:`MERGE_COUNT`; 13 before the axis was pruned more where the count passed,
 :data:`PRUNE_MORE`; up to 2.86x). What binds the count there is the input vertices,
 not the regions: every input vertex is a mesh point (so that the area is exact), a
@@ -122,7 +122,7 @@ and the merges at their tooth gaps, :data:`~meshcore.medial.regions.BOUNDARY_SHA
 4 before a border point of four quads gave one up, :func:`meshcore.medial.fill._closed`,
 5 before it could bend a corner to :data:`~meshcore.medial.fill.CLOSE_BEND`),
 0.502-0.62, count 1.21-1.49x; at 0.15 least 0.5 on 5 of 7, count 1.40-1.46x (over 1.5x
-on 4, 1.68-2.47x, bound by their input vertices as above, before :data:`TRANSITIONS`;
+on 4, 1.68-2.47x, bound by their input vertices as above, before the transitions;
 the CPU time of the domains tried again about doubles). What is left under 0.5: the strips of
 spikes whose base chord is oblique and reflex corners (quads of 36-44 degrees next
 to them), thin 4-sided regions between the close nodes of a crowded junction of the
@@ -273,12 +273,6 @@ LAST_LIFT_BELOW = 0.75
 #: size**2, small regions are merged until their sides (one coarse quad each) are at
 #: most this x area / size**2 (:func:`meshcore.medial.regions.small_merged`).
 MERGE_COUNT = 1.0
-#: The key of ``done`` (:func:`_medial_fill`) saying that the fills may use transitions
-#: (:func:`meshcore.medial.fill.quads_on`): set where every partition tried passes
-#: :data:`~meshcore.medial.fill.MOST_COUNT` x area / size**2 with the sides tied, and
-#: all are tried again so (the mesh kept when within the count and of least quality at
-#: least :data:`PRUNE_LEAST` or the first mesh's).
-TRANSITIONS = "transitions"
 
 
 @dataclass(frozen=True, eq=False)
@@ -724,11 +718,12 @@ def quad_medial(
             res, axes, axis_at, more, domain, method, size, levels, special, done
         )
         if _over(res, domain, size):  # the same tries, the fills with transitions
-            done[TRANSITIONS] = True
-            alt = _meshed(first, domain, method, size, levels, BOUNDARY_SHARE, special, done)
+            alt = _meshed(
+                first, domain, method, size, levels, BOUNDARY_SHARE, special, done, fine=True
+            )
             alt = _lifted(alt, domain, LIFT_BELOW)
             alt, alt_least = _other_tried(
-                alt, axes, axis_at, more, domain, method, size, levels, special, done
+                alt, axes, axis_at, more, domain, method, size, levels, special, done, fine=True
             )
             if not _over(alt, domain, size) and alt_least >= min(PRUNE_LEAST, least):
                 res, least = alt, alt_least
@@ -740,7 +735,9 @@ def quad_medial(
     return QuadMedial(mesh=res.mesh, partition=res.partition, stats=stats)
 
 
-def _other_tried(res: QuadMedial, axes, axis_at, more, domain, method, size, levels, special, done):
+def _other_tried(
+    res: QuadMedial, axes, axis_at, more, domain, method, size, levels, special, done, fine=False
+):
     """``res`` (the first mesh of :func:`quad_medial`, lifted), or where it passes the
     count or its least quality away from input spikes is under :data:`GOOD_LEAST`, the
     first other mesh within the count of least quality :data:`GOOD_LEAST`, else the one
@@ -766,7 +763,9 @@ def _other_tried(res: QuadMedial, axes, axis_at, more, domain, method, size, lev
         if angle not in axis_at:
             axis_at[angle] = next(axes)
         try:
-            alt = _meshed(axis_at[angle], domain, method, size, levels, share, special, done, merge)
+            alt = _meshed(
+                axis_at[angle], domain, method, size, levels, share, special, done, merge, fine
+            )
         except AlgorithmError:
             continue
         # a mesh tried before (a merge that changed nothing; the butterfly again) or
@@ -807,7 +806,7 @@ def _least_away(mesh: Mesh, domain: Domain) -> float:
 
 
 def _meshed(
-    axis: MedialAxis, domain, method, size, levels, share, special, done, merge=False
+    axis: MedialAxis, domain, method, size, levels, share, special, done, merge=False, fine=False
 ) -> QuadMedial:
     """:func:`quad_medial` on the axis (of ``domain``; arguments checked), the medial
     partition's regions merged at crowded boundary points as ``share`` says
@@ -821,7 +820,9 @@ def _meshed(
             # the butterfly's central quad carries the boundary's count both ways (a gear
             # at size 0.1: 1.88x): the medial partition when it keeps the count
             try:  # (a 2:1 ellipse's medial partition has a 2-sided region: the butterfly)
-                part, mesh2, stats2 = _medial_fill(axis, method, size, levels, share, done, merge)
+                part, mesh2, stats2 = _medial_fill(
+                    axis, method, size, levels, share, done, merge, fine
+                )
             except AlgorithmError:
                 part, stats2 = None, {"invalid": 1}
             bad = stats2["invalid"] or stats2["slits"]
@@ -833,14 +834,14 @@ def _meshed(
             return QuadMedial(mesh=mesh, partition=special, stats={**stats, "partition": kind})
         mesh, stats = mesh2, stats2
     else:
-        part, mesh, stats = _medial_fill(axis, method, size, levels, share, done, merge)
+        part, mesh, stats = _medial_fill(axis, method, size, levels, share, done, merge, fine)
     if (stats["invalid"] or stats["slits"]) and method == "terminal":
         # regions of 5 or 6 sides around reflex corners can fold; the critical
         # partition's triangles and quads do not on the domains tested. A region
         # around a dead-end cut (a slit: its cycle passes a vertex twice) gave a
         # non-conforming fill, a sliver hole along the slit (a random star at size 0.5)
         fallback, mesh, stats2 = _medial_fill(
-            part.axis, "critical", size, levels, share, done, merge
+            part.axis, "critical", size, levels, share, done, merge, fine
         )
         stats = {
             **stats2,
@@ -1096,12 +1097,16 @@ def _regions(points: np.ndarray, cycles, corners) -> list[dict]:
     return regions
 
 
-def _medial_fill(axis: MedialAxis, method: str, size, levels, share, done: dict, merge=False):
+def _medial_fill(
+    axis: MedialAxis, method: str, size, levels, share, done: dict, merge=False, fine=False
+):
     """The medial partition (:func:`partition`, regions merged at crowded boundary points:
     :func:`_reflex_merged` with ``share``; with ``merge``, small regions merged until
     their sides are within the count: :func:`_small_merged`) and its fill
-    (:func:`meshcore.medial.fill.quads_on`): the partition, the mesh and its stats; the
-    partitions and the fill from ``done`` when made before for this axis."""
+    (:func:`meshcore.medial.fill.quads_on`, with transitions where ``fine``: tried where
+    every partition passes :data:`~meshcore.medial.fill.MOST_COUNT` x area / size**2
+    with the sides tied): the partition, the mesh and its stats; the partitions and the
+    fill from ``done`` when made before for this axis."""
     base = (id(axis), method)  # (the axis held: its id is not reused)
     if base not in done:
         done[base] = partition(axis=axis, method=method)
@@ -1113,7 +1118,6 @@ def _medial_fill(axis: MedialAxis, method: str, size, levels, share, done: dict,
     if merge and small not in done:
         done[small] = _small_merged(part, size)
     part = done[small] if merge else part
-    fine = done.get(TRANSITIONS, False)
     key = (id(axis), fine, part.points.tobytes())
     key += tuple(c.tobytes() for c in part.cycles + part.corners)
     if key not in done:  # (the axis held: its id is not reused)
