@@ -1296,6 +1296,12 @@ def circles_of(
     seg_circle = np.full(m, -1, dtype=np.int64)
     if not curves:
         return np.zeros((0, 3)), seg_circle
+    if not isinstance(curves, Sequence) or isinstance(curves, str):
+        raise InputError(
+            f"curves must be a list of curve objects, got {type(curves).__name__}",
+            loc=("curves",),
+            code="bad_curve",
+        )
     n_rings = len(domain.ring_offsets) - 1
     rows = []
     seen: dict[int, int] = {}

@@ -535,7 +535,8 @@ _SQRT_HALF = math.sqrt(0.5)
 
 @njit(cache=True)
 def _size_at(H, hg, x, y):
-    """Bilinear interpolation of the size grid (at least 2 x 2; clamped to it)."""
+    """Bilinear interpolation of the size grid, clamped to it (a grid one node
+    wide in x or y reads that node: the index -1 wraps to it, with weight 0)."""
     nx = H.shape[1]
     ny = H.shape[0]
     fx = (x - hg[0]) / hg[2]

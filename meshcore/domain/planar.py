@@ -1317,7 +1317,15 @@ def parse_size_field(size_field, dim: int = 2) -> tuple[np.ndarray, np.ndarray]:
     elif hasattr(size_field, "points") and hasattr(size_field, "values"):
         pts, vals = size_field.points, size_field.values
     else:
-        pts, vals = size_field
+        try:
+            pts, vals = size_field
+        except (TypeError, ValueError):
+            raise InputError(
+                "size_field must be {points, values} or the pair (points, values), "
+                f"got {type(size_field).__name__}",
+                loc=("size_field",),
+                code="bad_parameter",
+            ) from None
     try:
         pts = np.asarray(pts, dtype=np.float64)
         vals = np.asarray(vals, dtype=np.float64)

@@ -164,7 +164,7 @@ from functools import partial
 import numpy as np
 from numba import njit
 
-from meshcore.domain.planar import Domain, parse_domain
+from meshcore.domain.planar import Domain, parse_domain, parse_size_field
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
@@ -1309,10 +1309,8 @@ def _combine(
         tsize = None if size is None else (2.0 * size if twice_size else size)
         field_ = size_field
         if twice_size and size_field is not None:
-            field_ = {
-                "points": size_field["points"],
-                "values": [2.0 * v for v in size_field["values"]],
-            }
+            field_points, field_values = parse_size_field(size_field)
+            field_ = {"points": field_points, "values": 2.0 * field_values}
 
         def sub(f: float, msg: str) -> None:
             report(0.4 * f, msg)

@@ -325,6 +325,17 @@ class TestDomainInput:
             combine(domain=self.HOLE, size=1e308, all_quad=True, twice_size=True)
         assert err.value.errors[0]["loc"] == ["size"]
 
+    def test_a_size_field_without_values_is_named_under_twice_size(self):
+        # the doubled field read size_field["values"] before any check: a KeyError
+        with pytest.raises(InputError) as err:
+            combine(
+                domain=self.HOLE,
+                size_field={"points": [[0, 0]]},
+                all_quad=True,
+                twice_size=True,
+            )
+        assert err.value.errors[0]["loc"][0] == "size_field"
+
     def test_a_domain_too_thin_for_its_size_is_refused_up_front(self):
         # a 1 x 1e-6 strip forces about 2M triangles whatever the size (1.54M made, 3.08M
         # quads in 52 CPU s): refused before triangulating, naming triangulate

@@ -593,6 +593,9 @@ class TestErrors:
                 {"curves": [{"ring": 3, "type": "circle", "center": [0, 0], "radius": 1}]},
                 ["curves", 0, "ring"],
             ),
+            # not containers at all: were a TypeError from unpacking or iterating them
+            ({"size_field": 5}, ["size_field"]),
+            ({"curves": 5}, ["curves"]),
         ],
     )
     def test_bad_parameters_name_the_argument(self, kw, loc):
