@@ -841,7 +841,7 @@ def _op_lift(st: _State) -> int:
     return int(moved.sum())
 
 
-def _op_smooth(st: _State, passes: int | None = None, below: float | None = None) -> int:
+def _op_smooth(st: _State, passes: int, below: float | None = None) -> int:
     """Smoothing passes by colours, each pass kept only when the mean quality rises.
 
     Vertices of one colour share no cell, so each move is judged on its own
@@ -866,7 +866,6 @@ def _op_smooth(st: _State, passes: int | None = None, below: float | None = None
     order = np.flatnonzero(color >= 0)
     order = order[np.argsort(color[order], kind="stable")]
     moved = np.zeros(n, bool)  # kept moves, however small
-    passes = TOL.smooth_passes if passes is None else passes
     if st.P.shape[1] == 2 and st.measure == "angle" and st.metric is None:  # (8.4): compiled
         tol = (TOL.smooth_floor, TOL.smooth_still, TOL.smooth_gain)
         csr = (nptr, nidx, ptr, cells)
@@ -930,6 +929,7 @@ def optimize_quads(
     measure: str = "angle",
     metric=None,
     sweeps: int = 4,
+    passes: tuple[int, int] | None = None,
     progress: Callable[[float, str], None] | None = None,
 ) -> OptimizeResult:
     """Improve a quad or mixed mesh by the operators of §8.4.3 and smoothing.
@@ -944,6 +944,9 @@ def optimize_quads(
     metric : (d, d) or (n, d, d) float64, optional
     sweeps : int
         Rounds of all operators at most.
+    passes : (int, int), optional
+        Smoothing passes per sweep and after the last sweep (None:
+        ``smooth_passes`` and ``final_smooth_passes`` of the module's tolerances).
     progress : callable(fraction, message), optional
 
     Returns
@@ -977,6 +980,7 @@ def optimize_quads(
     interior &= used
     st = _State(P, C, "shape" if measure == "shape" else "angle", metric, interior)
     planar = P.shape[1] == 2
+    per_sweep, final = (TOL.smooth_passes, TOL.final_smooth_passes) if passes is None else passes
     ops = dict.fromkeys(OPERATORS, 0)
     steps = [
         ("valence2", _op_valence2),
@@ -993,7 +997,7 @@ def optimize_quads(
                 progress((sweep + i / len(steps)) / sweeps, f"optimization: {name}")
             if not planar and name in ("collapse", "smooth", "lift"):
                 continue
-            k = op(st)
+            k = op(st, per_sweep) if name == "smooth" else op(st)
             ops[name] += k
             if name not in ("smooth", "lift"):
                 changed += k
@@ -1009,8 +1013,8 @@ def optimize_quads(
     if planar:
         if progress is not None:
             progress(0.96, "optimization: smooth")
-        if TOL.final_smooth_passes:
-            ops["smooth"] += _op_smooth(st, TOL.final_smooth_passes, TOL.final_active_below)
+        if final:
+            ops["smooth"] += _op_smooth(st, final, TOL.final_active_below)
         if progress is not None:
             progress(0.98, "optimization: lift")
         ops["lift"] += _op_lift(st)
