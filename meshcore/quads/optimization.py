@@ -444,6 +444,7 @@ def _ideal_valence(P, C, interior) -> np.ndarray:
     """4 inside; on the boundary, the vertex's angle in right angles (at least 1)."""
     n = len(P)
     total = np.zeros(n)
+    C = C[(~interior[C] & (C >= 0)).any(axis=1)]  # the angles of the boundary's cells only
     tri = C[:, 3] < 0
     for rows, k, cols in ((C[~tri], 4, 4), (C[tri, :3], 3, 3)):
         if not len(rows):
