@@ -289,11 +289,8 @@ class _Tolerances:
     #: Sweeps of 4-cycle swaps at most.
     swap_sweeps: int = 8
     #: ``optimize`` without ``all_quad``: smoothing passes per sweep of the optimizer and
-    #: after its last sweep (its defaults, 12 and 30, elsewhere). Gmsh's meshes of
-    #: benchmarks/quads.py, mean / least quality: 1k triangles 0.7920 / 0.601 -> 0.7924 /
-    #: 0.607, 10k 0.8542 / 0.594 -> 0.8559 / 0.599, CPU 17 -> 15 ms and 203 -> 155 ms
-    #: (2 and 40: 0.7925 / 0.8551; 1 and 30: 0.8539 at 10k). Kept for ``all_quad``: issue
-    #: 20's 40 stars at size 0.1 averaged 0.8265 with 12 and 30, 0.8233 with 1 and 40.
+    #: after its last sweep, for a higher mean in less time than its defaults (12 and 30,
+    #: kept for ``all_quad``): measured in :mod:`meshcore.quads.optimization`, *Cost*.
     mixed_passes: tuple[int, int] = (1, 40)
     #: The valence clean-up of all-quad domain meshes (:mod:`meshcore.quads.valence`):
     #: alternating flips per path and passes at most (depth 8 found the same

@@ -78,13 +78,21 @@ where the quality is at most ``CONVEX_PROOF``. Configurations whose cells are
 all above ``active_below`` are not smoothed.
 
 Cost (``benchmarks/quads.py``, matching + optimize on Gmsh's 10k-triangle
-mesh, CPU): 78 smoothing passes over about 4,400 vertices are 55-60 % of it.
+mesh, CPU): 78 smoothing passes over about 4,400 vertices are 55-60 % of it
+with the default 12 per sweep and 30 after. ``passes`` sets them:
+:func:`~meshcore.quads.combination.combine` without ``all_quad`` asks 1 and 40
+(mean / least 0.8559 / 0.599 against 0.8542 / 0.594 there, 0.7924 / 0.607
+against 0.7920 / 0.601 at 1k triangles, the whole call 203 -> 155 ms; 2 and
+40: 0.8551, 3 and 40: 0.8544, 1 and 30: 0.8539), the others keep the defaults
+(issue 20's 40 stars, all-quad at size 0.1: mean 0.8265 with them, 0.8233
+with 1 and 40; ``quad_medial``'s star 1 at 0.1: least 0.607 -> 0.606).
 Measured and dropped, each lowering the mean quality: a looser stop for
 the active set (``smooth_still`` 1e-2 / 3e-2: mean 0.848 / 0.842 against
 0.854), fewer passes per sweep (6: 0.853; none and 40 final passes: 0.854,
 but 0.787 against 0.792 at 1k triangles), over-relaxation (1.3 / 1.6: 0.853 / 0.846), and a jump
 to the converged Laplacian positions (one sparse solve; most jumps were
-refused by the quality floor: 0.853).
+refused by the quality floor: 0.853); a pass kept only when it raises the
+mean by 1e-5 or 3e-5 (``smooth_gain``) stopped no pass earlier at 1k or 10k.
 
 Choices the text leaves open
 ----------------------------
