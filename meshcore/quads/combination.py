@@ -288,10 +288,11 @@ class _Tolerances:
     path_step: float = 0.05
     #: Sweeps of 4-cycle swaps at most.
     swap_sweeps: int = 8
-    #: ``optimize`` without ``all_quad``: smoothing passes per sweep of the optimizer and
-    #: after its last sweep, for a higher mean in less time than its defaults (12 and 30,
-    #: kept for ``all_quad``): measured in :mod:`meshcore.quads.optimization`, *Cost*.
-    mixed_passes: tuple[int, int] = (1, 40)
+    #: ``optimize`` without ``all_quad``: smoothing passes per sweep of the optimizer, and
+    #: after its last sweep 0.4 sqrt(cells) within these bounds (a larger mesh converges
+    #: slower), for a higher mean in less time than its defaults (12 and 30, kept for
+    #: ``all_quad``): measured in :mod:`meshcore.quads.optimization`, *Cost*.
+    mixed_passes: tuple[int, int, int] = (1, 40, 80)
     #: The valence clean-up of all-quad domain meshes (:mod:`meshcore.quads.valence`):
     #: alternating flips per path and passes at most (depth 8 found the same
     #: pairs as 4 on the disk at size 0.1).
@@ -1357,7 +1358,7 @@ def _combine(
             out_mesh,
             measure=measure,
             metric=metric,
-            passes=None if all_quad else TOL.mixed_passes,
+            passes=None if all_quad else _mixed_passes(out_mesh),
             progress=lambda f, msg: report(0.7 + 0.25 * f, msg),
         )
         out_mesh = opt.mesh
@@ -1411,6 +1412,13 @@ def _combine(
         operators=ops,
         stats=stats,
     )
+
+
+def _mixed_passes(mesh: Mesh) -> tuple[int, int]:
+    """The smoothing passes of ``optimize`` without ``all_quad`` (``TOL.mixed_passes``)."""
+    per_sweep, least, most = TOL.mixed_passes
+    cells = sum(len(b.data) for b in mesh.cells)
+    return per_sweep, min(most, max(least, round(0.4 * math.sqrt(cells))))
 
 
 def _valence_cleanup(P, tri, nb, w, mate, measure, metric, min_quality, inner) -> dict:

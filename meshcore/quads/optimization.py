@@ -80,10 +80,12 @@ all above ``active_below`` are not smoothed.
 Cost (``benchmarks/quads.py``, matching + optimize on Gmsh's 10k-triangle
 mesh, CPU): 78 smoothing passes over about 4,400 vertices are 55-60 % of it
 with the default 12 per sweep and 30 after. ``passes`` sets them:
-:func:`~meshcore.quads.combination.combine` without ``all_quad`` asks 1 and 40
-(mean / least 0.8559 / 0.599 against 0.8542 / 0.594 there, 0.7924 / 0.607
-against 0.7920 / 0.601 at 1k triangles, the whole call 203 -> 155 ms; 2 and
-40: 0.8551, 3 and 40: 0.8544, 1 and 30: 0.8539), the others keep the defaults
+:func:`~meshcore.quads.combination.combine` without ``all_quad`` asks 1, and 40
+to 80 after as the mesh grows (mean / least 0.8559 / 0.599 against 0.8542 /
+0.594 there, 0.7924 / 0.607 against 0.7920 / 0.601 at 1k triangles, the whole
+call 203 -> 155 ms; 2 and 40: 0.8551, 3 and 40: 0.8544, 1 and 30: 0.8539; at
+97k triangles 1 and 40 gave 0.8554 / 0.552 against 0.8602 / 0.526, 1 and 60
+0.8596, 1 and 80 0.8623 / 0.552 in 4.0 against 4.7 s), the others keep the defaults
 (issue 20's 40 stars, all-quad at size 0.1: mean 0.8265 with them, 0.8233
 with 1 and 40; ``quad_medial``'s star 1 at 0.1: least 0.607 -> 0.606).
 Measured and dropped, each lowering the mean quality: a looser stop for
