@@ -120,10 +120,11 @@ Cost (``benchmarks/quads.py``, one Gmsh mesh of a square with a hole)
 ----------------------------------------------------------------------
 97k triangles: ``heap`` 0.17 s, ``frontal`` 0.18 s, ``stack`` 0.32 s,
 ``matching`` 0.38 s with no triangle left (Gmsh's Blossom 18.2 s); with
-``optimize`` 4.6 s, mean quality (8.4) 0.861, least 0.53 (Blossom 0.822,
+``optimize`` 4.0-4.5 s, mean quality (8.4) 0.862, least 0.55 (Blossom 0.822,
 0.476). ``matching`` with ``optimize`` against Blossom (with its own
-optimization), CPU: 1.9-7.7x at 1k triangles, 0.86-1.05x at 10k, 0.11x at 100k
-(README). 964k triangles: ``heap`` 3.0 s, ``matching`` 7.3 s (17.8 s
+optimization), CPU: 1.9x at 1k triangles (15 against 16 ms before the optimizer's
+passes for mixed meshes, ``TOL.mixed_passes``), 0.70x at 10k (150 against 198 ms),
+0.11x at 100k (README). 964k triangles: ``heap`` 3.0 s, ``matching`` 7.3 s (17.8 s
 before the forest search). The tail of the matching dominated there: the last
 ~900 leftovers sit deep inside the domain (median 92 triangle sizes from
 the boundary, measured) and one search per leftover grew trees of
