@@ -120,10 +120,11 @@ Cost (``benchmarks/quads.py``, one Gmsh mesh of a square with a hole)
 ----------------------------------------------------------------------
 97k triangles: ``heap`` 0.17 s, ``frontal`` 0.18 s, ``stack`` 0.32 s,
 ``matching`` 0.38 s with no triangle left (Gmsh's Blossom 18.2 s); with
-``optimize`` 4.6 s, mean quality (8.4) 0.861, least 0.53 (Blossom 0.822,
+``optimize`` 4.0-4.5 s, mean quality (8.4) 0.862, least 0.55 (Blossom 0.822,
 0.476). ``matching`` with ``optimize`` against Blossom (with its own
-optimization), CPU: 1.9-7.7x at 1k triangles, 0.86-1.05x at 10k, 0.11x at 100k
-(README). 964k triangles: ``heap`` 3.0 s, ``matching`` 7.3 s (17.8 s
+optimization), CPU: 1.9x at 1k triangles (15 against 16 ms before the optimizer's
+passes for mixed meshes, ``TOL.mixed_passes``), 0.70x at 10k (150 against 198 ms),
+0.11x at 100k (README). 964k triangles: ``heap`` 3.0 s, ``matching`` 7.3 s (17.8 s
 before the forest search). The tail of the matching dominated there: the last
 ~900 leftovers sit deep inside the domain (median 92 triangle sizes from
 the boundary, measured) and one search per leftover grew trees of
@@ -183,7 +184,15 @@ from meshcore.quads.optimization import (
     lifted_least,
     optimize_quads,
 )
-from meshcore.quads.paths import _pop, _push, frontal_kernel, heap_kernel, stack_kernel
+from meshcore.quads.paths import (
+    _pop,
+    _push,
+    _weight,
+    frontal_kernel,
+    heap_kernel,
+    stack_kernel,
+    swap_kernel,
+)
 from meshcore.quads.valence import fewer_defects
 from meshcore.triangulation import check_thinness as check_forced_triangles
 
@@ -280,6 +289,11 @@ class _Tolerances:
     path_step: float = 0.05
     #: Sweeps of 4-cycle swaps at most.
     swap_sweeps: int = 8
+    #: ``optimize`` without ``all_quad``: smoothing passes per sweep of the optimizer, and
+    #: after its last sweep 0.4 sqrt(cells) within these bounds (a larger mesh converges
+    #: slower), for a higher mean in less time than its defaults (12 and 30, kept for
+    #: ``all_quad``): measured in :mod:`meshcore.quads.optimization`, *Cost*.
+    mixed_passes: tuple[int, int, int] = (1, 40, 80)
     #: The valence clean-up of all-quad domain meshes (:mod:`meshcore.quads.valence`):
     #: alternating flips per path and passes at most (depth 8 found the same
     #: pairs as 4 on the disk at size 0.1).
@@ -365,14 +379,6 @@ def _lca(a, b, base, p, mate, mark):
             break
         x = p[mate[x]]
     return y
-
-
-@njit(cache=True)
-def _weight(nb, w, a, b):
-    for k in range(3):
-        if nb[a, k] == b:
-            return w[a, k]
-    return -1.0
 
 
 @njit(cache=True)
@@ -639,48 +645,6 @@ def _forest_kernel(nb, w, thr, mate):
                     x = n2
             break
     return gained
-
-
-@njit(cache=True)
-def _swap_kernel(nb, w, mate, gain, sweeps):
-    """Swap pairs (a, b), (c, d) for (a, c), (b, d) when the summed quality rises."""
-    m = nb.shape[0]
-    swaps = 0
-    for _ in range(sweeps):
-        changed = 0
-        for a in range(m):
-            b = mate[a]
-            if b < 0:
-                continue
-            wab = _weight(nb, w, a, b)
-            best = gain
-            bc = -1
-            bd = -1
-            for k in range(3):
-                c = nb[a, k]
-                if c < 0 or c == b or w[a, k] < 0:
-                    continue
-                d = mate[c]
-                if d < 0 or d == a or d == b:
-                    continue
-                wbd = _weight(nb, w, b, d)
-                if wbd < 0:
-                    continue
-                g = w[a, k] + wbd - wab - _weight(nb, w, c, d)
-                if g > best:
-                    best = g
-                    bc = c
-                    bd = d
-            if bc >= 0:
-                mate[a] = bc
-                mate[bc] = a
-                mate[b] = bd
-                mate[bd] = b
-                changed += 1
-        swaps += changed
-        if changed == 0:
-            break
-    return swaps
 
 
 # ----------------------------------------------------------------------------- input
@@ -1023,7 +987,7 @@ def _combined(
                 gained += _augment_kernel(nb, w, good, mate, TOL.search_cap, TOL.path_step)
             gained += _forest_kernel(nb, w, min_quality, mate)
             stats["augmentations"] = int(gained)
-            stats["swaps"] = int(_swap_kernel(nb, w, mate, TOL.gain, TOL.swap_sweeps))
+            stats["swaps"] = int(swap_kernel(nb, w, mate, TOL.gain, TOL.swap_sweeps))
             if all_quad and domain_input:
                 stats["valence"] = _valence_cleanup(
                     P, tri, nb, w, mate, measure, metric, min_quality, inner
@@ -1393,6 +1357,7 @@ def _combine(
             out_mesh,
             measure=measure,
             metric=metric,
+            passes=None if all_quad else _mixed_passes(out_mesh),
             progress=lambda f, msg: report(0.7 + 0.25 * f, msg),
         )
         out_mesh = opt.mesh
@@ -1446,6 +1411,13 @@ def _combine(
         operators=ops,
         stats=stats,
     )
+
+
+def _mixed_passes(mesh: Mesh) -> tuple[int, int]:
+    """The smoothing passes of ``optimize`` without ``all_quad`` (``TOL.mixed_passes``)."""
+    per_sweep, least, most = TOL.mixed_passes
+    cells = sum(len(b.data) for b in mesh.cells)
+    return per_sweep, min(most, max(least, round(0.4 * math.sqrt(cells))))
 
 
 def _valence_cleanup(P, tri, nb, w, mate, measure, metric, min_quality, inner) -> dict:

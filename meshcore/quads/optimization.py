@@ -78,13 +78,24 @@ where the quality is at most ``CONVEX_PROOF``. Configurations whose cells are
 all above ``active_below`` are not smoothed.
 
 Cost (``benchmarks/quads.py``, matching + optimize on Gmsh's 10k-triangle
-mesh, CPU): 78 smoothing passes over about 4,400 vertices are 55-60 % of it.
+mesh, CPU): 78 smoothing passes over about 4,400 vertices are 55-60 % of it
+with the default 12 per sweep and 30 after. ``passes`` sets them:
+:func:`~meshcore.quads.combination.combine` without ``all_quad`` asks 1, and 40
+to 80 after as the mesh grows (mean / least 0.8559 / 0.599 against 0.8542 /
+0.594 there, 0.7924 / 0.607 against 0.7920 / 0.601 at 1k triangles, the whole
+call 203 -> 155 ms; 2 and 40: 0.8551, 3 and 40: 0.8544, 1 and 30: 0.8539; at
+97k triangles 1 and 40 gave 0.8554 / 0.552 against 0.8602 / 0.526, 1 and 60
+0.8596, 1 and 80 0.8623 / 0.552 in 4.0 against 4.7 s), the others keep the defaults
+(issue 20's 40 stars, all-quad at size 0.1: mean 0.8265 with them, 0.8233
+with 1 and 40; ``quad_medial``'s star 1 at 0.1: least 0.607 -> 0.606).
 Measured and dropped, each lowering the mean quality: a looser stop for
 the active set (``smooth_still`` 1e-2 / 3e-2: mean 0.848 / 0.842 against
 0.854), fewer passes per sweep (6: 0.853; none and 40 final passes: 0.854,
 but 0.787 against 0.792 at 1k triangles), over-relaxation (1.3 / 1.6: 0.853 / 0.846), and a jump
 to the converged Laplacian positions (one sparse solve; most jumps were
-refused by the quality floor: 0.853).
+refused by the quality floor: 0.853); a pass kept only when it raises the
+mean by 1e-5 or 3e-5 (``smooth_gain``) stopped no pass earlier at 1k or 10k;
+3 or 2 sweeps with those passes (1k: 0.7923 / 0.605, 0.7855; 10k: 0.8554, 0.8536).
 
 Choices the text leaves open
 ----------------------------
@@ -444,6 +455,7 @@ def _ideal_valence(P, C, interior) -> np.ndarray:
     """4 inside; on the boundary, the vertex's angle in right angles (at least 1)."""
     n = len(P)
     total = np.zeros(n)
+    C = C[(~interior[C] & (C >= 0)).any(axis=1)]  # the angles of the boundary's cells only
     tri = C[:, 3] < 0
     for rows, k, cols in ((C[~tri], 4, 4), (C[tri, :3], 3, 3)):
         if not len(rows):
@@ -841,7 +853,7 @@ def _op_lift(st: _State) -> int:
     return int(moved.sum())
 
 
-def _op_smooth(st: _State, passes: int | None = None, below: float | None = None) -> int:
+def _op_smooth(st: _State, passes: int, below: float | None = None) -> int:
     """Smoothing passes by colours, each pass kept only when the mean quality rises.
 
     Vertices of one colour share no cell, so each move is judged on its own
@@ -866,7 +878,6 @@ def _op_smooth(st: _State, passes: int | None = None, below: float | None = None
     order = np.flatnonzero(color >= 0)
     order = order[np.argsort(color[order], kind="stable")]
     moved = np.zeros(n, bool)  # kept moves, however small
-    passes = TOL.smooth_passes if passes is None else passes
     if st.P.shape[1] == 2 and st.measure == "angle" and st.metric is None:  # (8.4): compiled
         tol = (TOL.smooth_floor, TOL.smooth_still, TOL.smooth_gain)
         csr = (nptr, nidx, ptr, cells)
@@ -930,6 +941,7 @@ def optimize_quads(
     measure: str = "angle",
     metric=None,
     sweeps: int = 4,
+    passes: tuple[int, int] | None = None,
     progress: Callable[[float, str], None] | None = None,
 ) -> OptimizeResult:
     """Improve a quad or mixed mesh by the operators of §8.4.3 and smoothing.
@@ -944,6 +956,9 @@ def optimize_quads(
     metric : (d, d) or (n, d, d) float64, optional
     sweeps : int
         Rounds of all operators at most.
+    passes : (int, int), optional
+        Smoothing passes per sweep and after the last sweep (None:
+        ``smooth_passes`` and ``final_smooth_passes`` of the module's tolerances).
     progress : callable(fraction, message), optional
 
     Returns
@@ -977,6 +992,7 @@ def optimize_quads(
     interior &= used
     st = _State(P, C, "shape" if measure == "shape" else "angle", metric, interior)
     planar = P.shape[1] == 2
+    per_sweep, final = (TOL.smooth_passes, TOL.final_smooth_passes) if passes is None else passes
     ops = dict.fromkeys(OPERATORS, 0)
     steps = [
         ("valence2", _op_valence2),
@@ -993,7 +1009,7 @@ def optimize_quads(
                 progress((sweep + i / len(steps)) / sweeps, f"optimization: {name}")
             if not planar and name in ("collapse", "smooth", "lift"):
                 continue
-            k = op(st)
+            k = op(st, per_sweep) if name == "smooth" else op(st)
             ops[name] += k
             if name not in ("smooth", "lift"):
                 changed += k
@@ -1009,8 +1025,8 @@ def optimize_quads(
     if planar:
         if progress is not None:
             progress(0.96, "optimization: smooth")
-        if TOL.final_smooth_passes:
-            ops["smooth"] += _op_smooth(st, TOL.final_smooth_passes, TOL.final_active_below)
+        if final:
+            ops["smooth"] += _op_smooth(st, final, TOL.final_active_below)
         if progress is not None:
             progress(0.98, "optimization: lift")
         ops["lift"] += _op_lift(st)

@@ -1,7 +1,8 @@
 """The traversal selections of ``combine`` (:mod:`meshcore.quads.combination`,
 step 2): the best-first heap of §8.4.4 (with its binary heap, shared by the
 matching's augmenting search), the stack path of §8.4.2 and the frontal order of
-Remark 8.8, each one compiled sequential kernel (numba) over the dual graph.
+Remark 8.8, each one compiled sequential kernel (numba) over the dual graph, and
+the 4-cycle swaps that end the matching (``swap_kernel``).
 
 Each takes the triangles' neighbours ``nb`` (m, 3) (-1 on the boundary) and the
 candidates' weights ``w`` (m, 3) (negative: not allowed), and fills ``mate`` (m,)
@@ -18,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["frontal_kernel", "heap_kernel", "stack_kernel"]
+__all__ = ["frontal_kernel", "heap_kernel", "stack_kernel", "swap_kernel"]
 
 
 @njit(cache=True)
@@ -258,3 +259,53 @@ def heap_kernel(nb, w, order, mate, urgent):
                     if i >= 0:
                         hn = _push(hk, hv, hn, w[r, i], 3 * r + i)
     return pairs
+
+
+@njit(cache=True)
+def _weight(nb, w, a, b):
+    for k in range(3):
+        if nb[a, k] == b:
+            return w[a, k]
+    return -1.0
+
+
+@njit(cache=True)
+def swap_kernel(nb, w, mate, gain, sweeps):
+    """Swap pairs (a, b), (c, d) for (a, c), (b, d) when the summed quality rises."""
+    m = nb.shape[0]
+    swaps = 0
+    for _ in range(sweeps):
+        changed = 0
+        for a in range(m):
+            b = mate[a]
+            if b < 0:
+                continue
+            wab = _weight(nb, w, a, b)
+            best = gain
+            bc = -1
+            bd = -1
+            for k in range(3):
+                c = nb[a, k]
+                if c < 0 or c == b or w[a, k] < 0:
+                    continue
+                d = mate[c]
+                if d < 0 or d == a or d == b:
+                    continue
+                wbd = _weight(nb, w, b, d)
+                if wbd < 0:
+                    continue
+                g = w[a, k] + wbd - wab - _weight(nb, w, c, d)
+                if g > best:
+                    best = g
+                    bc = c
+                    bd = d
+            if bc >= 0:
+                mate[a] = bc
+                mate[bc] = a
+                mate[b] = bd
+                mate[bd] = b
+                changed += 1
+        swaps += changed
+        if changed == 0:
+            break
+    return swaps

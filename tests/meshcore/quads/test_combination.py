@@ -374,6 +374,19 @@ class TestOptimize:
         assert np.array_equal(fast.mesh.cells[0].data, slow.mesh.cells[0].data)
         np.testing.assert_allclose(fast.mesh.points, slow.mesh.points, rtol=0, atol=1e-12)
 
+    def test_smoothing_passes_as_given(self):
+        # combine without all_quad smooths 1 pass per sweep and 40 after the last on a
+        # small mesh (combination.TOL.mixed_passes); no pass moves no vertex by smoothing
+        mesh = perturbed_grid(10, 0.3, seed=5)
+        pairs = combine(mesh, algorithm="matching").mesh
+        res = combine(mesh, algorithm="matching", optimize=True)
+        same = optimize_quads(pairs, passes=(1, 40))
+        assert np.array_equal(res.mesh.points, same.mesh.points)
+        assert res.operators == same.operators and res.operators["smooth"] > 0
+        none = optimize_quads(pairs, passes=(0, 0))
+        assert none.operators["smooth"] == 0
+        assert_strictly_convex(none.mesh)
+
     def test_all_quad_optimized(self):
         mesh = perturbed_grid(10, 0.3, seed=5)
         res = combine(mesh, algorithm="heap", all_quad=True, optimize=True)
