@@ -7,7 +7,8 @@ Delaunay: its vertices' Voronoï cells meet, §9.2).
 :func:`make_admissible_surface` takes a closed surface
 (:func:`meshcore.domain.surface.parse_surface`), refines it with points ON
 the surface until it is, and returns the refined surface (each output
-triangle lies in one input triangle) and the *empty* Delaunay
+triangle lies in one *facet*: an input triangle, or a maximal set of
+exactly coplanar input triangles joined across edges) and the *empty* Delaunay
 tetrahedralization of the inside (only surface points: the starting point
 of §9.5).
 
@@ -17,17 +18,23 @@ The state is our kernel's tetrahedralization
 (:class:`meshcore.delaunay.kernel3d.IncrementalDelaunay3d`), only ever grown
 by point insertion (never rebuilt), and the subsegments and subfaces of
 :mod:`meshcore.tets.refinement`'s builder: each input edge cut into
-subsegments, each input triangle (*facet*) triangulated in its plane by the
-2D Delaunay triangulation (kernel2d) of its corners and of the points added
-on its edges and inside it. That 2D Delaunay triangulation is what makes the
-great circles ``gc_f`` empty (the reduced classification of §9.3.2: the
-in-plane swaps). Rounds, each vectorized over all missing pieces:
+subsegments, each facet (the input triangles joined across edges whose
+four corners are exactly coplanar, ``orient3d == 0``, form one, whose
+inner input edges are no constraints: "it is possible to achieve a
+Delaunay triangulation by means of edge swapping", §9.3.2) triangulated
+in its plane by the 2D Delaunay triangulation (kernel2d) of its corners
+and of the points added on its boundary edges and inside it (the input
+triangles while none is added). That 2D Delaunay triangulation is what
+makes the great circles ``gc_f`` empty (the reduced classification of
+§9.3.2: the in-plane swaps). Rounds, each vectorized over all missing pieces:
 
 1. **Coplanar swaps** (Pébay's second heuristic, §9.3.4): a subface that is
    not a face of the tetrahedralization, whose neighbour in the same facet
    forms with it a convex quadrilateral whose other diagonal gives two
-   faces of the tetrahedralization, is swapped (nearly co-circular points,
-   whose diagonal the 3D kernel decides differently from the 2D one).
+   faces of the tetrahedralization, is swapped (a facet's input triangles
+   on a diagonal the 3D kernel does not hold, co-circular squares, nearly
+   co-circular points whose diagonal the 3D kernel decides differently
+   from the 2D one).
 2. **Edges first** (§9.3.4 (A), §9.2): every subface edge that is not an
    edge of the tetrahedralization is split at the projection onto it of
    the point ``P`` of its closed diametral ball ``B_AB`` with the largest
@@ -60,13 +67,16 @@ splitting, every missing subface edge that is the diagonal of such a
 quadrilateral (its two subfaces) is given its cells' other Delaunay
 tetrahedralization when one holds it (:class:`_TieFlips`, on a copy of the
 kernel's tetrahedra: the kernel keeps its own, and the flips are made anew
-from it each round). The output's ``tetrahedra`` are the flipped ones. On
-the unit cube 6 points -> 0, boxes of n x n squares a face (n = 2 to 8)
-0 (36 and 120 before for n = 2, 3), boxes of 3 x 1 x 1 with n = 3 to 5
-0, a box with a box-shaped cavity 42 -> 0, the L-block 10 -> 7 (TetGen
-``-pDM`` 6), the benchmark's slab (1 x 1 x 0.01, 4 x 4 squares a face)
-168 -> 0; a 4 x 2 x 1 box with n = 6 and the slab with n = 8 keep 24
-points each (cells the search does not turn; TetGen 0).
+from it each round). The output's ``tetrahedra`` are the flipped ones.
+With every input triangle a facet of its own, the flips took the unit
+cube from 6 points to 0, boxes of n x n squares a face (n = 2 to 8) to 0
+(36 and 120 before for n = 2, 3), a box with a box-shaped cavity 42 -> 0,
+the L-block 10 -> 7, the benchmark's slab 168 -> 0, but a 4 x 2 x 1 box
+with n = 6 and the slab with n = 8 kept 24 points each. With the facets
+of coplanar triangles, the coplanar swaps of step 1 give each of these
+surfaces the diagonals the kernel holds: all of them, the L-block too,
+need no point and no flip; the flips remain for co-spherical points whose
+quadrilateral is not planar.
 
 Choices that save points (measured on the benchmark's 4,000-vertex bumpy
 sphere: 641 points when every missing edge of a round is split at the plain
@@ -111,9 +121,9 @@ Choices where the text leaves freedom
   so, none of them after.
 * **New points on the surface (§9.3.5)** are constructed from the *input*
   coordinates: a point on input edge ``E0 E1`` is ``E0 + s (E1 - E0)``
-  (``s`` its parameter along the edge, kept), a point inside input
-  triangle ``ABC`` is ``A + u (B - A) + v (C - A)``. They lie on the input
-  edge / triangle up to the rounding of those few operations, not exactly:
+  (``s`` its parameter along the edge, kept), a point inside a facet is
+  ``A + u (B - A) + v (C - A)`` (``ABC`` its first input triangle). They
+  lie on the input edge / facet up to the rounding of those few operations, not exactly:
   a float point exactly on a general plane (``orient3d == 0``) does not
   exist in general. Their distance to the input plane is checked in the
   tests (a few ulps of the coordinates).
@@ -219,11 +229,14 @@ class AdmissibleSurface:
         face of :attr:`tetrahedra`, a Delaunay tetrahedralization of
         :attr:`points`' used points.
     source : (m,) int64
-        The input triangle each output triangle lies in.
+        The input triangle holding each output triangle's centroid: the
+        output triangle lies in its facet (the input triangle, or the
+        exactly coplanar input triangles joined to it across edges, whose
+        triangulation the in-plane swaps of §9.3.2 may change).
     cases_before, cases_after : dict
         :func:`classify_faces` counts of the input and of the output.
     added_on_edges, added_on_faces : int
-        Points added on input edges and inside input triangles.
+        Points added on input edges between facets and inside facets.
     rounds : int
         Rounds run (the last one finds nothing missing).
     swaps : int
@@ -463,8 +476,10 @@ class _State:
     coordinates in its input triangle (points inside)."""
 
     def __init__(self, surface: Surface) -> None:
-        self.b = SurfaceRecovery(surface, KNOBS, merge=False)
+        self.b = SurfaceRecovery(surface, KNOBS)
         self.P0 = self.b.P.copy()  # the surface's vertices (input coordinates)
+        #: Per facet, its first input triangle: the plane new points are put in.
+        self.plane = self.b.facets[[int(t[0]) for t in self.b.group_tris]]
         self.s = np.full(self.b.n, np.nan)  # parameter along the input edge
         self.added_on_edges = 0
         self.added_on_faces = 0
@@ -485,9 +500,9 @@ class _State:
         return a + s[:, None] * (c - a)
 
     def in_facet(self, f: np.ndarray, X: np.ndarray) -> np.ndarray:
-        """``X`` moved onto input triangle ``f``'s plane: ``A + u (B - A) + v (C - A)``
-        with ``(u, v)`` from the orthogonal projection."""
-        T = self.b.facets[f]
+        """``X`` moved onto facet ``f``'s plane: ``A + u (B - A) + v (C - A)`` (its
+        first input triangle ``ABC``) with ``(u, v)`` from the orthogonal projection."""
+        T = self.plane[f]
         a = self.P0[T[:, 0]]
         u = self.P0[T[:, 1]] - a
         w = self.P0[T[:, 2]] - a
@@ -577,14 +592,14 @@ def _coplanar_swaps(st: _State, present: _Present) -> int:
     b = st.b
     swaps = 0
     by_facet = np.argsort(b.sub_facet, kind="stable")  # each facet's rows, ascending
-    bounds = np.searchsorted(b.sub_facet[by_facet], np.arange(len(b.facets) + 1))
+    bounds = np.searchsorted(b.sub_facet[by_facet], np.arange(len(b.group_tris) + 1))
     for _ in range(4):
         missing = np.flatnonzero(~present.faces(b.sub))
         if missing.size == 0:
             break
         done = False
         origin, e1, e2 = b.frame
-        pieces = np.bincount(b.sub_facet, minlength=len(b.facets))
+        pieces = np.bincount(b.sub_facet, minlength=len(b.group_tris))
         for r in missing[pieces[b.sub_facet[missing]] > 1].tolist():  # missing subfaces
             f = int(b.sub_facet[r])
             same = by_facet[bounds[f] : bounds[f + 1]]
@@ -1247,11 +1262,12 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
         Delaunay tetrahedralization of the output's surface points (exact:
         no point strictly inside any circumsphere): our kernel's (symbolic
         perturbation), changed only where points are exactly co-spherical
-        (``tie_flips``); the output triangles of each input triangle tile it
+        (``tie_flips``); the output triangles of each facet (an input
+        triangle, or exactly coplanar ones joined across edges) tile it
         (their areas add up to its area, up to rounding); every added point
-        lies on an input edge or inside an input triangle (up to rounding,
-        see the module docstring); input faces whose other points all lie
-        strictly on one side of their plane are never split.
+        lies on an input edge or inside a facet (up to rounding, see the
+        module docstring); input faces whose other points all lie strictly
+        on one side of their plane get no point.
 
     Raises
     ------
@@ -1345,7 +1361,7 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     return AdmissibleSurface(
         points=points,
         triangles=out_index[b.sub],
-        source=b.sub_facet.copy(),
+        source=b.sources(),
         cases_before=cases_before,
         cases_after=cases_after,
         added_on_edges=st.added_on_edges,
