@@ -82,7 +82,7 @@ Choices that save points (measured on the benchmark's 4,000-vertex bumpy
 sphere: 641 points when every missing edge of a round is split at the plain
 projection, 578 with the first two, 539 with the look-ahead; on the random
 star polyhedra of seeds 1-40 / 41-240, 134 / 501 points without the
-look-ahead, 99 / 447 with it):
+look-ahead, 97 / 441 with it):
 
 * **Common interval.** Every encroaching point ``Q`` of a missing edge
   ``AB`` is outside both halves' balls when the split parameter lies in an
@@ -95,13 +95,16 @@ look-ahead, 99 / 447 with it):
   whose tetrahedra go is no longer a face or edge, and must be made again.
   :class:`_Cavities` counts them for candidate points (float circumspheres:
   a choice). An edge's split tries :data:`LOOK_AHEAD` points spread over
-  its common interval (kept :data:`LOOK_END` of the edge away from its
-  ends: a split near an end leaves a long piece whose ball catches more
-  points) besides the point above, and takes the one removing the fewest
-  (ties: the nearest to it); a face's split takes, among the candidates of
-  step 3, the one removing the fewest, then Pébay's. Each candidate still
-  clears what the text's point clears (the common interval's points clear
-  every encroacher of the edge; a face's candidates are the text's).
+  its common interval, or where its encroachers' intervals do not meet,
+  over the interval of the one of widest angle (kept :data:`LOOK_END` of
+  the edge away from its ends: a split near an end leaves a long piece
+  whose ball catches more points) besides the point above, and takes the
+  one removing the fewest (ties: the nearest to it); a face's split takes,
+  among the candidates of step 3, the one removing the fewest, then
+  Pébay's. Each candidate still clears what the text's point clears (the
+  common interval's points clear every encroacher of the edge, the widest
+  one's interval clears it from both halves' balls, as its projection
+  does, §9.2; a face's candidates are the text's).
 * **Postponed splits.** The round's edge splits are taken longest first
   (lengths equal to 1e-6 tie, then the widest encroaching angle first), and
   a split is postponed to the next round when a split point already taken
@@ -993,8 +996,15 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray) -> int:
     common = (best >= 0) & (room > 0)
     margin = COMMON_MARGIN * room
     t = np.where(common, np.clip(t, lo + margin, hi - margin), t)
+    # Without a common interval, the look-ahead tries the widest encroacher's own.
+    w = order[first]
+    alone = np.zeros(len(E), dtype=bool)
+    alone[ei[w]] = ~common[ei[w]]
+    lo[ei[w]] = np.where(alone[ei[w]], np.nan_to_num(t1[w], nan=1.0), lo[ei[w]])
+    hi[ei[w]] = np.where(alone[ei[w]], np.nan_to_num(t2[w], nan=0.0), hi[ei[w]])
+    margin = COMMON_MARGIN * (hi - lo)
     lo, hi = np.maximum(lo + margin, LOOK_END), np.minimum(hi - margin, 1.0 - LOOK_END)
-    t = _look_ahead(_Cavities(b), A, B, t, lo, hi, common)
+    t = _look_ahead(_Cavities(b), A, B, t, lo, hi, common | alone)
     # Longest first (lengths equal to 1e-6 relative tie), then widest angle.
     length = np.round(np.log2(half) * 2.0**20)
     keep = _independent(A + t[:, None] * (B - A), mid, half, (-widest, -length))
@@ -1058,9 +1068,10 @@ class _Cavities:
 
 
 def _look_ahead(cav: _Cavities, A, B, t, lo, hi, common) -> np.ndarray:
-    """Per edge ``AB`` with a common interval: among ``t`` and :data:`LOOK_AHEAD` points
-    spread over ``[lo, hi]``, the split removing the fewest subfaces and subface edges
-    from the tetrahedralization (ties: the nearest to ``t``)."""
+    """Per edge ``AB`` where ``common`` (an interval of its encroachers is known): among
+    ``t`` and :data:`LOOK_AHEAD` points spread over ``[lo, hi]``, the split removing the
+    fewest subfaces and subface edges from the tetrahedralization (ties: the nearest
+    to ``t``)."""
     common = common & (hi - lo > LOOK_ROOM)
     cand = np.repeat(t[:, None], LOOK_AHEAD + 1, axis=1)
     spread = np.linspace(0.0, 1.0, LOOK_AHEAD)
