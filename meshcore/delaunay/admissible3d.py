@@ -7,7 +7,8 @@ Delaunay: its vertices' Voronoï cells meet, §9.2).
 :func:`make_admissible_surface` takes a closed surface
 (:func:`meshcore.domain.surface.parse_surface`), refines it with points ON
 the surface until it is, and returns the refined surface (each output
-triangle lies in one input triangle) and the *empty* Delaunay
+triangle lies in one *facet*: an input triangle, or a maximal set of
+exactly coplanar input triangles joined across edges) and the *empty* Delaunay
 tetrahedralization of the inside (only surface points: the starting point
 of §9.5).
 
@@ -17,17 +18,23 @@ The state is our kernel's tetrahedralization
 (:class:`meshcore.delaunay.kernel3d.IncrementalDelaunay3d`), only ever grown
 by point insertion (never rebuilt), and the subsegments and subfaces of
 :mod:`meshcore.tets.refinement`'s builder: each input edge cut into
-subsegments, each input triangle (*facet*) triangulated in its plane by the
-2D Delaunay triangulation (kernel2d) of its corners and of the points added
-on its edges and inside it. That 2D Delaunay triangulation is what makes the
-great circles ``gc_f`` empty (the reduced classification of §9.3.2: the
-in-plane swaps). Rounds, each vectorized over all missing pieces:
+subsegments, each facet (the input triangles joined across edges whose
+four corners are exactly coplanar, ``orient3d == 0``, form one, whose
+inner input edges are no constraints: "it is possible to achieve a
+Delaunay triangulation by means of edge swapping", §9.3.2) triangulated
+in its plane by the 2D Delaunay triangulation (kernel2d) of its corners
+and of the points added on its boundary edges and inside it (the input
+triangles while none is added). That 2D Delaunay triangulation is what
+makes the great circles ``gc_f`` empty (the reduced classification of
+§9.3.2: the in-plane swaps). Rounds, each vectorized over all missing pieces:
 
 1. **Coplanar swaps** (Pébay's second heuristic, §9.3.4): a subface that is
    not a face of the tetrahedralization, whose neighbour in the same facet
    forms with it a convex quadrilateral whose other diagonal gives two
-   faces of the tetrahedralization, is swapped (nearly co-circular points,
-   whose diagonal the 3D kernel decides differently from the 2D one).
+   faces of the tetrahedralization, is swapped (a facet's input triangles
+   on a diagonal the 3D kernel does not hold, co-circular squares, nearly
+   co-circular points whose diagonal the 3D kernel decides differently
+   from the 2D one).
 2. **Edges first** (§9.3.4 (A), §9.2): every subface edge that is not an
    edge of the tetrahedralization is split at the projection onto it of
    the point ``P`` of its closed diametral ball ``B_AB`` with the largest
@@ -40,8 +47,10 @@ in-plane swaps). Rounds, each vectorized over all missing pieces:
    (its edges all present) gets the point ``P`` of its closed ball
    ``B_f^min`` with the largest solid angle over ``f``; ``P``'s projection
    ``M`` onto the facet's plane is a candidate when it lies inside ``f``,
-   and so are the projections of ``P`` onto the three edges of ``f``; the
-   candidate whose split of ``f`` has the largest least angle wins
+   and so are the projections of ``P`` onto the edges of ``f``; the
+   candidate whose insertion removes the fewest subfaces and subface edges
+   from the tetrahedralization (the look-ahead below) wins, and among
+   those the one whose split of ``f`` has the largest least angle
    (Pébay's first heuristic).
 
 Each round looks every subsegment, subface edge and subface up in the grown
@@ -58,17 +67,22 @@ splitting, every missing subface edge that is the diagonal of such a
 quadrilateral (its two subfaces) is given its cells' other Delaunay
 tetrahedralization when one holds it (:class:`_TieFlips`, on a copy of the
 kernel's tetrahedra: the kernel keeps its own, and the flips are made anew
-from it each round). The output's ``tetrahedra`` are the flipped ones. On
-the unit cube 6 points -> 0, boxes of n x n squares a face (n = 2 to 8)
-0 (36 and 120 before for n = 2, 3), boxes of 3 x 1 x 1 with n = 3 to 5
-0, a box with a box-shaped cavity 42 -> 0, the L-block 10 -> 7 (TetGen
-``-pDM`` 6), the benchmark's slab (1 x 1 x 0.01, 4 x 4 squares a face)
-168 -> 0; a 4 x 2 x 1 box with n = 6 and the slab with n = 8 keep 24
-points each (cells the search does not turn; TetGen 0).
+from it each round). The output's ``tetrahedra`` are the flipped ones.
+With every input triangle a facet of its own, the flips took the unit
+cube from 6 points to 0, boxes of n x n squares a face (n = 2 to 8) to 0
+(36 and 120 before for n = 2, 3), a box with a box-shaped cavity 42 -> 0,
+the L-block 10 -> 7, the benchmark's slab 168 -> 0, but a 4 x 2 x 1 box
+with n = 6 and the slab with n = 8 kept 24 points each. With the facets
+of coplanar triangles, the coplanar swaps of step 1 give each of these
+surfaces the diagonals the kernel holds: all of them, the L-block too,
+need no point and no flip; the flips remain for co-spherical points whose
+quadrilateral is not planar.
 
 Choices that save points (measured on the benchmark's 4,000-vertex bumpy
 sphere: 641 points when every missing edge of a round is split at the plain
-projection, 578 with both):
+projection, 578 with the first two, 539 with the look-ahead; on the random
+star polyhedra of seeds 1-40 / 41-240, 134 / 501 points without the
+look-ahead, 97 / 441 with it):
 
 * **Common interval.** Every encroaching point ``Q`` of a missing edge
   ``AB`` is outside both halves' balls when the split parameter lies in an
@@ -76,6 +90,21 @@ projection, 578 with both):
   encroachers meet, the split moves into their common part
   (:data:`COMMON_MARGIN` of its length away from its ends), so that one
   split clears them all.
+* **Look-ahead on the cavity.** Inserting a point removes the
+  tetrahedra whose circumsphere holds it; a subface or subface edge all of
+  whose tetrahedra go is no longer a face or edge, and must be made again.
+  :class:`_Cavities` counts them for candidate points (float circumspheres:
+  a choice). An edge's split tries :data:`LOOK_AHEAD` points spread over
+  its common interval, or where its encroachers' intervals do not meet,
+  over the interval of the one of widest angle (kept :data:`LOOK_END` of
+  the edge away from its ends: a split near an end leaves a long piece
+  whose ball catches more points) besides the point above, and takes the
+  one removing the fewest (ties: the nearest to it); a face's split takes,
+  among the candidates of step 3, the one removing the fewest, then
+  Pébay's. Each candidate still clears what the text's point clears (the
+  common interval's points clear every encroacher of the edge, the widest
+  one's interval clears it from both halves' balls, as its projection
+  does, §9.2; a face's candidates are the text's).
 * **Postponed splits.** The round's edge splits are taken longest first
   (lengths equal to 1e-6 tie, then the widest encroaching angle first), and
   a split is postponed to the next round when a split point already taken
@@ -95,9 +124,9 @@ Choices where the text leaves freedom
   so, none of them after.
 * **New points on the surface (§9.3.5)** are constructed from the *input*
   coordinates: a point on input edge ``E0 E1`` is ``E0 + s (E1 - E0)``
-  (``s`` its parameter along the edge, kept), a point inside input
-  triangle ``ABC`` is ``A + u (B - A) + v (C - A)``. They lie on the input
-  edge / triangle up to the rounding of those few operations, not exactly:
+  (``s`` its parameter along the edge, kept), a point inside a facet is
+  ``A + u (B - A) + v (C - A)`` (``ABC`` its first input triangle). They
+  lie on the input edge / facet up to the rounding of those few operations, not exactly:
   a float point exactly on a general plane (``orient3d == 0``) does not
   exist in general. Their distance to the input plane is checked in the
   tests (a few ulps of the coordinates).
@@ -137,6 +166,7 @@ measures" and "A priori Delaunay-conformity" (1998).
 
 from __future__ import annotations
 
+import itertools
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -180,10 +210,12 @@ INSIDE_MARGIN = 1e-3
 #: An edge split moved into the common interval of its encroachers stays this
 #: fraction of the interval's length away from its ends.
 COMMON_MARGIN = 0.05
-#: An edge of a missing face is a split candidate when the projection of the
-#: encroaching point has a barycentric coordinate below this for the
-#: opposite vertex (it lies near or beyond that edge).
-EDGE_NEAR = 0.25
+#: Split points of a missing edge tried along its common interval (look-ahead).
+LOOK_AHEAD = 9
+#: The look-ahead's points stay this fraction of the edge's length away from its ends.
+LOOK_END = 0.2
+#: ... and are tried where that interval is longer than this fraction of the edge.
+LOOK_ROOM = 0.05
 
 
 @dataclass(frozen=True, eq=False)
@@ -200,11 +232,14 @@ class AdmissibleSurface:
         face of :attr:`tetrahedra`, a Delaunay tetrahedralization of
         :attr:`points`' used points.
     source : (m,) int64
-        The input triangle each output triangle lies in.
+        The input triangle holding each output triangle's centroid: the
+        output triangle lies in its facet (the input triangle, or the
+        exactly coplanar input triangles joined to it across edges, whose
+        triangulation the in-plane swaps of §9.3.2 may change).
     cases_before, cases_after : dict
         :func:`classify_faces` counts of the input and of the output.
     added_on_edges, added_on_faces : int
-        Points added on input edges and inside input triangles.
+        Points added on input edges between facets and inside facets.
     rounds : int
         Rounds run (the last one finds nothing missing).
     swaps : int
@@ -444,8 +479,10 @@ class _State:
     coordinates in its input triangle (points inside)."""
 
     def __init__(self, surface: Surface) -> None:
-        self.b = SurfaceRecovery(surface, KNOBS, merge=False)
+        self.b = SurfaceRecovery(surface, KNOBS)
         self.P0 = self.b.P.copy()  # the surface's vertices (input coordinates)
+        #: Per facet, its first input triangle: the plane new points are put in.
+        self.plane = self.b.facets[[int(t[0]) for t in self.b.group_tris]]
         self.s = np.full(self.b.n, np.nan)  # parameter along the input edge
         self.added_on_edges = 0
         self.added_on_faces = 0
@@ -466,9 +503,9 @@ class _State:
         return a + s[:, None] * (c - a)
 
     def in_facet(self, f: np.ndarray, X: np.ndarray) -> np.ndarray:
-        """``X`` moved onto input triangle ``f``'s plane: ``A + u (B - A) + v (C - A)``
-        with ``(u, v)`` from the orthogonal projection."""
-        T = self.b.facets[f]
+        """``X`` moved onto facet ``f``'s plane: ``A + u (B - A) + v (C - A)`` (its
+        first input triangle ``ABC``) with ``(u, v)`` from the orthogonal projection."""
+        T = self.plane[f]
         a = self.P0[T[:, 0]]
         u = self.P0[T[:, 1]] - a
         w = self.P0[T[:, 2]] - a
@@ -558,14 +595,14 @@ def _coplanar_swaps(st: _State, present: _Present) -> int:
     b = st.b
     swaps = 0
     by_facet = np.argsort(b.sub_facet, kind="stable")  # each facet's rows, ascending
-    bounds = np.searchsorted(b.sub_facet[by_facet], np.arange(len(b.facets) + 1))
+    bounds = np.searchsorted(b.sub_facet[by_facet], np.arange(len(b.group_tris) + 1))
     for _ in range(4):
         missing = np.flatnonzero(~present.faces(b.sub))
         if missing.size == 0:
             break
         done = False
         origin, e1, e2 = b.frame
-        pieces = np.bincount(b.sub_facet, minlength=len(b.facets))
+        pieces = np.bincount(b.sub_facet, minlength=len(b.group_tris))
         for r in missing[pieces[b.sub_facet[missing]] > 1].tolist():  # missing subfaces
             f = int(b.sub_facet[r])
             same = by_facet[bounds[f] : bounds[f + 1]]
@@ -959,6 +996,15 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray) -> int:
     common = (best >= 0) & (room > 0)
     margin = COMMON_MARGIN * room
     t = np.where(common, np.clip(t, lo + margin, hi - margin), t)
+    # Without a common interval, the look-ahead tries the widest encroacher's own.
+    w = order[first]
+    alone = np.zeros(len(E), dtype=bool)
+    alone[ei[w]] = ~common[ei[w]]
+    lo[ei[w]] = np.where(alone[ei[w]], np.nan_to_num(t1[w], nan=1.0), lo[ei[w]])
+    hi[ei[w]] = np.where(alone[ei[w]], np.nan_to_num(t2[w], nan=0.0), hi[ei[w]])
+    margin = COMMON_MARGIN * (hi - lo)
+    lo, hi = np.maximum(lo + margin, LOOK_END), np.minimum(hi - margin, 1.0 - LOOK_END)
+    t = _look_ahead(_Cavities(b), A, B, t, lo, hi, common | alone)
     # Longest first (lengths equal to 1e-6 relative tie), then widest angle.
     length = np.round(np.log2(half) * 2.0**20)
     keep = _independent(A + t[:, None] * (B - A), mid, half, (-widest, -length))
@@ -972,6 +1018,74 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray) -> int:
             E[r], t[r] = seg, 0.5
     _, first = np.unique(edge_keys(E), return_index=True)
     return _insert_on_edges(st, E[first], b.sub_facet[holder[first]], t[first])
+
+
+class _Cavities:
+    """What inserting a point would remove from the round's tetrahedralization:
+    the subfaces and subface edges all of whose tetrahedra have the point in
+    their circumsphere (the insertion's cavity; float: a choice, not a sign)."""
+
+    def __init__(self, b: SurfaceRecovery) -> None:
+        _, T = b.tets()
+        P = b.P
+        a = P[T[:, 0]]
+        u, v, w = (P[T[:, k]] - a for k in (1, 2, 3))
+        num = (
+            np.einsum("ij,ij->i", u, u)[:, None] * np.cross(v, w)
+            + np.einsum("ij,ij->i", v, v)[:, None] * np.cross(w, u)
+            + np.einsum("ij,ij->i", w, w)[:, None] * np.cross(u, v)
+        )
+        with np.errstate(divide="ignore", invalid="ignore"):  # flat tetrahedra: never
+            off = num / (2.0 * np.einsum("ij,ij->i", u, np.cross(v, w)))[:, None]
+        self.centres, self.radii = a + off, np.linalg.norm(off, axis=1)
+        edges, _ = _subface_edges(b.sub)
+        # Per tetrahedron, the subface (edge) row of each of its faces (edges), -1 if none.
+        self.pieces = []
+        for slots, keys, rows in ((TET_FACES, face_keys, b.sub), (TET_EDGES, edge_keys, edges)):
+            table = _table(keys(rows))
+            at = _find_all(*table, keys(T[:, slots].reshape(-1, slots.shape[1])))
+            self.pieces.append(
+                (at.reshape(len(T), -1), np.bincount(at[at >= 0], minlength=len(rows)))
+            )
+        # Only the tetrahedra holding a piece count (the others hold none to remove).
+        held = (self.pieces[0][0] >= 0).any(1) | (self.pieces[1][0] >= 0).any(1)
+        self.rows = np.flatnonzero(held & np.isfinite(self.radii))
+
+    def removed(self, X: np.ndarray) -> np.ndarray:
+        """Per point of ``X``: how many subfaces and subface edges its insertion removes."""
+        hits = cKDTree(X).query_ball_point(self.centres[self.rows], self.radii[self.rows])
+        n = np.fromiter(map(len, hits), np.int64, len(hits))
+        xi = np.fromiter(itertools.chain.from_iterable(hits), np.int64, int(n.sum()))
+        ti = np.repeat(self.rows, n)
+        out = np.zeros(len(X), dtype=np.int64)
+        for at, around in self.pieces:
+            piece = at[ti].reshape(-1)
+            ok = piece >= 0
+            key = np.repeat(xi, at.shape[1])[ok] * len(around) + piece[ok]
+            uk, count = np.unique(key, return_counts=True)
+            np.add.at(out, uk[count == around[uk % len(around)]] // len(around), 1)
+        return out
+
+
+def _look_ahead(cav: _Cavities, A, B, t, lo, hi, common) -> np.ndarray:
+    """Per edge ``AB`` where ``common`` (an interval of its encroachers is known): among
+    ``t`` and :data:`LOOK_AHEAD` points spread over ``[lo, hi]``, the split removing the
+    fewest subfaces and subface edges from the tetrahedralization (ties: the nearest
+    to ``t``)."""
+    common = common & (hi - lo > LOOK_ROOM)
+    cand = np.repeat(t[:, None], LOOK_AHEAD + 1, axis=1)
+    spread = np.linspace(0.0, 1.0, LOOK_AHEAD)
+    cand[common, 1:] = lo[common, None] + spread * (hi - lo)[common, None]
+    rows = np.flatnonzero(common)
+    if rows.size == 0:
+        return t
+    X = A[rows, None, :] + cand[rows, :, None] * (B - A)[rows, None, :]
+    count = cav.removed(X.reshape(-1, 3)).reshape(len(rows), -1)
+    dist = np.abs(cand[rows] - t[rows, None])
+    pick = np.argmin(count + dist / 2.0, axis=1)  # dist < 1: the count first
+    out = t.copy()
+    out[rows] = cand[rows, pick]
+    return out
 
 
 def _independent(X: np.ndarray, centres: np.ndarray, radii: np.ndarray, key) -> np.ndarray:
@@ -1027,9 +1141,8 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree) -> int:
     centres, R = _circumcentres(b.P, F)
     hits = tree.query_ball_point(centres, R * (1 + BALL_SLACK))
     origin, e1, e2 = b.frame
-    pts_edge: list[tuple[np.ndarray, int, float]] = []
-    pts_face: list[tuple[int, np.ndarray, float]] = []
-    seen_edges: set[tuple[int, int]] = set()
+    # Per missing subface, its candidate splits: (least angle, 3D point, kind, data).
+    options: list[list[tuple[float, np.ndarray, str, object]]] = []
     for j, h in enumerate(hits):  # a loop over the missing subfaces (few per round)
         cand = np.array([x for x in h if x not in F[j]], dtype=np.int64)
         fj = int(f[j])
@@ -1053,29 +1166,37 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree) -> int:
         uv = (b.P[tri] - origin[fj]) @ frame
         m = (X - origin[fj]) @ frame
         # Candidates: the projection M inside f, and the projections on the edges.
-        options: list[tuple[float, str, object]] = []
+        mine: list[tuple[float, np.ndarray, str, object]] = []
         T = np.array([uv[[1, 2]], uv[[2, 0]], uv[[0, 1]]])  # sub-triangles with M
         lam = _angles_min(np.concatenate([T, np.broadcast_to(m, (3, 1, 2))], axis=1))
         bary = _barycentric(uv, m)
         if bary.min() > INSIDE_MARGIN:
-            options.append((float(lam.min()), "face", None))
-        # Edges: those M lies near or beyond (the walls between P and f), never
-        # an edge of a whole strict Case 0 input face; all free edges if none.
+            mine.append((float(lam.min()), origin[fj] + frame @ m, "face", None))
+        # Edges: every edge but those of a whole strict Case 0 input face.
         own_keys = edge_keys(np.stack([tri, np.roll(tri, -1)], axis=1))
-        free = ~np.isin(own_keys, st.protected)
-        near = free & (np.roll(bary, -2) < EDGE_NEAR)  # bary of the vertex opposite edge k
-        for k in np.flatnonzero(near if near.any() or options else free).tolist():
+        for k in np.flatnonzero(~np.isin(own_keys, st.protected)).tolist():
             i, jj = tri[k], tri[(k + 1) % 3]
             t = float(_project_on_segment(X[None], b.P[i][None], b.P[jj][None])[0])
             x = uv[k] + t * (uv[(k + 1) % 3] - uv[k])
             two = np.array([[uv[k], x, uv[(k + 2) % 3]], [x, uv[(k + 1) % 3], uv[(k + 2) % 3]]])
-            options.append((float(_angles_min(two).min()), "edge", (i, jj, t)))
-        if not options:  # every edge protected and M outside f: its centroid
-            m = uv.mean(axis=0)
-            options.append((0.0, "face", None))
-        _, kind, data = max(options, key=lambda z: z[0])
+            x3 = b.P[i] + t * (b.P[jj] - b.P[i])
+            mine.append((float(_angles_min(two).min()), x3, "edge", (i, jj, t)))
+        if not mine:  # every edge protected and M outside f: its centroid
+            mine.append((0.0, origin[fj] + frame @ uv.mean(axis=0), "face", None))
+        options.append(mine)
+    # Look-ahead: the split removing the fewest subfaces and subface edges from the
+    # tetrahedralization, then the largest least angle (Pébay's heuristic).
+    removed = _Cavities(b).removed(np.array([o[1] for mine in options for o in mine]))
+    pts_edge: list[tuple[np.ndarray, int, float]] = []
+    pts_face: list[tuple[int, np.ndarray, float]] = []
+    seen_edges: set[tuple[int, int]] = set()
+    at = 0
+    for j, mine in enumerate(options):  # a loop over the missing subfaces
+        score = [(-int(removed[at + k]), o[0]) for k, o in enumerate(mine)]
+        at += len(mine)
+        _, M, kind, data = mine[max(range(len(mine)), key=score.__getitem__)]
+        fj = int(f[j])
         if kind == "face":
-            M = origin[fj] + frame @ m
             seg = _encroached_subsegment(st, fj, M)
             if seg is None:
                 pts_face.append((fj, M, float(R[j])))
@@ -1084,13 +1205,12 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree) -> int:
             # its midpoint instead (Ruppert's rule). Else two facets meeting at a
             # sharp edge hand split points back and forth ever nearer their edge.
             kind, data = "edge", (int(seg[0]), int(seg[1]), 0.5)
-        if kind == "edge":
-            i, jj, t = data
-            key = (min(i, jj), max(i, jj))
-            if key in seen_edges:
-                continue
-            seen_edges.add(key)
-            pts_edge.append((np.array([i, jj]), fj, t))
+        i, jj, t = data
+        key = (min(i, jj), max(i, jj))
+        if key in seen_edges:
+            continue
+        seen_edges.add(key)
+        pts_edge.append((np.array([i, jj]), fj, t))
     added = 0
     if pts_face:
         ff = np.array([x[0] for x in pts_face], dtype=np.int64)
@@ -1153,11 +1273,12 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
         Delaunay tetrahedralization of the output's surface points (exact:
         no point strictly inside any circumsphere): our kernel's (symbolic
         perturbation), changed only where points are exactly co-spherical
-        (``tie_flips``); the output triangles of each input triangle tile it
+        (``tie_flips``); the output triangles of each facet (an input
+        triangle, or exactly coplanar ones joined across edges) tile it
         (their areas add up to its area, up to rounding); every added point
-        lies on an input edge or inside an input triangle (up to rounding,
-        see the module docstring); input faces whose other points all lie
-        strictly on one side of their plane are never split.
+        lies on an input edge or inside a facet (up to rounding, see the
+        module docstring); input faces whose other points all lie strictly
+        on one side of their plane get no point.
 
     Raises
     ------
@@ -1251,7 +1372,7 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     return AdmissibleSurface(
         points=points,
         triangles=out_index[b.sub],
-        source=b.sub_facet.copy(),
+        source=b.sources(),
         cases_before=cases_before,
         cases_after=cases_after,
         added_on_edges=st.added_on_edges,

@@ -6,14 +6,15 @@ tetrahedron positive, they tile the convex hull, no point strictly inside
 the circumsphere of a neighbour, by exact ``insphere``: locally Delaunay
 everywhere, hence Delaunay), and, when no tie flip was made, of our kernel's
 rebuilt from scratch (exact predicates with symbolic perturbation); the
-output triangles of each input triangle must tile it (areas add up,
-orientation kept); every added point must lie on its
-input triangle: within rounding (a few ulps of the coordinates), not
+output triangles of each facet (an input triangle, or the exactly coplanar
+input triangles joined across edges: their triangulation may be swapped,
+§9.3.2) must tile it (areas add up, orientation kept); every added point
+must lie in its facet: within rounding (a few ulps of the coordinates), not
 exactly, since a float point exactly on a general plane does not exist in
 general (the module docstring says how the points are constructed); input
 faces whose other points lie strictly on one side of their plane (strict
-Case 0) or strictly outside their ball ``B_f^min`` (strict Case 1) are
-never split; the empty tetrahedralization fills exactly the enclosed volume.
+Case 0) or strictly outside their ball ``B_f^min`` (strict Case 1) get no
+point; the empty tetrahedralization fills exactly the enclosed volume.
 """
 
 from __future__ import annotations
@@ -24,6 +25,8 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import ConvexHull
 
 from meshcore.delaunay.admissible3d import classify_faces, make_admissible_surface
@@ -47,6 +50,19 @@ def bumpy(n: int = 300, amplitude: float = 0.15):
 
 def area_vectors(P, T):
     return 0.5 * np.cross(P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]])
+
+
+def coplanar_facets(P, T):
+    """The facet of each input triangle: triangles joined across an edge whose four
+    corners are exactly coplanar share one."""
+    e = np.sort(np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), axis=1)
+    _, inv = np.unique(e, axis=0, return_inverse=True)
+    pair = (np.argsort(inv.reshape(-1), kind="stable") % len(T)).reshape(-1, 2)
+    t1, t2 = pair[:, 0], pair[:, 1]
+    far = np.array([np.setdiff1d(T[b], T[a])[0] for a, b in pair.tolist()])
+    flat = orient3d(P[T[t1, 0]], P[T[t1, 1]], P[T[t1, 2]], P[far]) == 0
+    graph = coo_matrix((np.ones(flat.sum()), (t1[flat], t2[flat])), shape=(len(T), len(T)))
+    return connected_components(graph, directed=False)[1]
 
 
 def strict_cases(P, T, case1=True):
@@ -127,29 +143,34 @@ def assert_admissible(res, surface, case1=True):
         assert not all(tuple(rows[r]) in kernel for r in ties)
     # Every added point is used; only surface points are in the mesh.
     assert set(range(n_in, len(P))) <= set(used.tolist())
-    # 2. Tiling: per input triangle, the output area vectors add up to its own,
-    #    and each output triangle keeps its orientation.
+    # 2. Tiling: per facet, the output area vectors add up to its own, and each
+    #    output triangle keeps its orientation.
+    facet = coplanar_facets(surface.points, surface.triangles)
     A_in = area_vectors(surface.points, surface.triangles)
     A_out = area_vectors(P, T)
-    summed = np.zeros_like(A_in)
-    np.add.at(summed, res.source, A_out)
-    scale = np.linalg.norm(A_in, axis=1)[:, None]
-    np.testing.assert_allclose(summed / scale, A_in / scale, atol=1e-9)
+    summed, whole = np.zeros((2, facet.max() + 1, 3))
+    np.add.at(summed, facet[res.source], A_out)
+    np.add.at(whole, facet, A_in)
+    scale = np.linalg.norm(whole, axis=1)[:, None]
+    np.testing.assert_allclose(summed / scale, whole / scale, atol=1e-9)
     assert (np.einsum("ij,ij->i", A_out, A_in[res.source]) > 0).all()
-    # 3. Added points lie on their input triangle, within rounding.
+    # 3. Added points lie in their facet, within rounding: on its plane, and inside
+    #    one of its input triangles (barycentric coordinates within [0, 1]).
     rows, cols = np.nonzero(T >= n_in)
-    X = P[T[rows, cols]]
-    F = surface.triangles[res.source[rows]]
-    a, b, c = (surface.points[F[:, k]] for k in range(3))
-    nrm = np.cross(b - a, c - a)
-    nrm /= np.linalg.norm(nrm, axis=1)[:, None]
-    dist = np.abs(np.einsum("ij,ij->i", X - a, nrm))
     mag = np.abs(surface.points).max()
-    assert (dist <= 16 * np.finfo(float).eps * mag).all(), dist.max() / mag
-    # barycentric coordinates within [0, 1] up to rounding
-    for k, (p, q) in enumerate(((b, c), (c, a), (a, b))):
-        w = np.einsum("ij,ij->i", np.cross(q - p, X - p), nrm)
-        assert (w >= -1e-9 * np.linalg.norm(q - p, axis=1) * mag).all(), k
+    for r, k in zip(rows.tolist(), cols.tolist(), strict=True):  # a loop over few points
+        X = P[T[r, k]]
+        F = surface.triangles[facet == facet[res.source[r]]]
+        a, b, c = (surface.points[F[:, k]] for k in range(3))
+        nrm = np.cross(b - a, c - a)
+        nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+        dist = np.abs((X - a[0]) @ nrm[0])
+        assert dist <= 16 * np.finfo(float).eps * mag, dist / mag
+        inside = np.ones(len(F), dtype=bool)
+        for p, q in ((b, c), (c, a), (a, b)):
+            w = np.einsum("ij,ij->i", np.cross(q - p, X - p), nrm)
+            inside &= w >= -1e-9 * np.linalg.norm(q - p, axis=1) * mag
+        assert inside.any()
     # 4. The empty tetrahedralization: positive, only surface points, the volume.
     (block,) = res.mesh.cells
     K = block.data
@@ -164,11 +185,16 @@ def assert_admissible(res, surface, case1=True):
         / 6
     )
     assert math.isclose(vol, surface.volume, rel_tol=1e-9)
-    # 5. Strict Case 0 input faces are never split (a guarantee), nor strict
-    #    Case 1 ones on the fixed surfaces (not a guarantee: see the module).
+    # 5. Strict Case 0 input faces get no point (a guarantee), nor strict Case 1
+    #    ones on the fixed surfaces (not a guarantee: see the module): an input
+    #    triangle alone in its facet stays one output triangle, a facet of several
+    #    holding one gets no point.
     keep = strict_cases(surface.points, surface.triangles, case1)
+    alone = np.bincount(facet)[facet] == 1
     pieces = np.bincount(res.source, minlength=len(surface.triangles))
-    assert (pieces[keep] == 1).all()
+    assert (pieces[keep & alone] == 1).all()
+    added = facet[res.source[(T >= n_in).any(axis=1)]]
+    assert not np.isin(facet[keep & ~alone], added).any()
     # Counts are consistent.
     assert sum(res.cases_before[k] for k in ("case0", "case1", "case2")) == len(surface.triangles)
     assert sum(res.cases_after[k] for k in ("case0", "case1", "case2")) == len(T)
@@ -191,37 +217,36 @@ def test_schonhardt_prism():
 
 def test_cube_needs_no_point():
     # The 8 corners are co-spherical: the kernel's symbolic perturbation picks one
-    # diagonal per face; a face on the other diagonal is a face of another Delaunay
-    # tetrahedralization (Remark 9.6), reached by re-tetrahedralizing the cell.
+    # diagonal per face; a square (one facet: two exactly coplanar triangles) given
+    # the other diagonal is swapped in its plane (§9.3.2).
     res = run(*shapes.box())
     assert res.cases_before == {"case0": 12, "case1": 0, "case2": 0, "great_circle": 0}
     assert res.added_on_edges + res.added_on_faces == 0
-    assert res.tie_flips >= 1
+    assert res.swaps >= 1
 
 
 @pytest.mark.parametrize("how", ["as is", "translate", "scale"])
 def test_boxes_of_squares_need_no_point(how):
-    # Every face a 2 x 2 grid of squares (36 points added before the tie cones), and a
-    # box shape kept exact by the shift and the scaling (coordinates 0, 0.5, 1).
+    # Every face a 2 x 2 grid of squares (36 points added before the tie cones, 0 with
+    # them, and with the in-plane swaps of the facets of coplanar triangles, §9.3.2),
+    # and a box shape kept exact by the shift and the scaling (coordinates 0, 0.5, 1).
     P, T = shapes.box(n=2)
     P = {"as is": P, "translate": P + 1e6, "scale": P * 1e-6}[how]
     res = run(P, T)
-    assert res.added_on_edges + res.added_on_faces == 0 and res.tie_flips > 0
-
-
-def test_box_of_3x3_squares_turns_prism_cells_in_pairs():
-    # Cells that are triangular prisms along the box's edges: two of their sides are
-    # surface squares, the third is shared with a neighbour cell; no cone of the
-    # prism alone gives both squares' diagonals (6 points were added), a cone of it
-    # and of its neighbour with the shared side turned does.
-    res = run(*shapes.box(n=3))
     assert res.added_on_edges + res.added_on_faces == 0
 
 
-def test_thin_slab_of_squares_turns_chains_of_cells():
-    # A 1 x 1 x 0.01 slab, 3 x 3 squares a face: cells along its thin sides need
-    # chains of neighbour cells turned with them (4 points were added with one level).
-    res = run(*shapes.box((0.0, 0.0, 0.0), (1.0, 1.0, 0.01), n=3))
+@pytest.mark.parametrize(
+    ("low", "high", "n"),
+    [((0, 0, 0), (1, 1, 1), 3), ((0, 0, 0), (1, 1, 0.01), 3), ((0, 0, 0), (4, 2, 1), 6)],
+)
+def test_boxes_and_slabs_of_squares_need_no_point(low, high, n):
+    # Co-spherical squares on every face. With each input triangle a facet of its own
+    # the kernel's missing diagonals needed cells of co-spherical points
+    # re-tetrahedralized, in pairs (the 3 x 3 box: 6 points without) or in chains
+    # (the thin slab: 4 points with one level), and the 4 x 2 x 1 box with n = 6 kept
+    # 24 points; each face one facet, its squares are swapped in its plane (§9.3.2).
+    res = run(*shapes.box(low, high, n=n))
     assert res.added_on_edges + res.added_on_faces == 0
 
 
@@ -239,11 +264,14 @@ def test_bumpy_sphere_and_torus():
 
 
 def test_l_block_great_circles():
-    # The L-shaped caps hold triangles whose circumcircle holds a cap vertex.
+    # The L-shaped caps hold triangles whose circumcircle holds a cap vertex: the
+    # in-plane swaps of each cap (one facet) leave no point to add (7 were added
+    # when every input triangle was a facet of its own).
     P, T = shapes.l_block()
     counts = classify_faces(P, T)
     assert counts["great_circle"] > 0
-    run(P, T)
+    res = run(P, T)
+    assert res.added_on_edges + res.added_on_faces == 0
 
 
 @pytest.mark.parametrize("how", ["translate", "scale"])
