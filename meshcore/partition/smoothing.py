@@ -236,7 +236,7 @@ def quad_q(P, quads, c):
     return 1.0 - (2.0 / math.pi) * math.asin(min(big, 1.0))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _accepted(P, quads, cptr, cidx, v, qc, floor, qnew):
     """Whether point v where it stands now is kept (module docstring, *Acceptance*):
     every quad around it strictly convex (exact), their least quality (8.4) at least
