@@ -189,31 +189,54 @@ def smooth_quads(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray, sweep
     return P, int(undone)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def _corner_cos(ax, ay, bx, by, la, lb):
+    """|cos| of the corner between a and b (squared lengths la, lb); -1 when it does
+    not turn left (the operations of :func:`quad_q`'s corner)."""
+    if ax * by - ay * bx <= 0:
+        return -1.0
+    den = math.sqrt(la * lb)
+    return abs((ax * bx + ay * by) / den) if den > 0 else 1.0
+
+
+@njit(cache=True, inline="always")
 def quad_q(P, quads, c):
     """Quality (8.4) of quad row c (0 when a corner does not turn left in floating point).
 
     The same operations as :func:`meshcore.mesh.quality.quad_quality`, for one
-    quad: the compiled loops ask for a few quads at a time.
+    quad: the compiled loops ask for a few quads at a time. Each edge ``e_j``
+    (corner j to j + 1) and its squared length is formed once, corner j taking
+    ``e_j`` and ``-e_{j-1}``: a negated difference is the reversed difference,
+    exactly, so every sign and cosine is the one of the corner's own differences.
+    Inlined: as a call it cost the smoothing loops as much as its arithmetic.
     """
-    big = 0.0
-    for j in range(4):
-        u = quads[c, j]
-        v = quads[c, (j + 1) % 4]
-        w = quads[c, (j + 3) % 4]
-        ax = P[v, 0] - P[u, 0]
-        ay = P[v, 1] - P[u, 1]
-        bx = P[w, 0] - P[u, 0]
-        by = P[w, 1] - P[u, 1]
-        if ax * by - ay * bx <= 0:
-            return 0.0
-        den = math.sqrt((ax * ax + ay * ay) * (bx * bx + by * by))
-        cs = (ax * bx + ay * by) / den if den > 0 else 1.0
-        big = max(big, abs(cs))
+    a = quads[c, 0]
+    b = quads[c, 1]
+    d = quads[c, 2]
+    e = quads[c, 3]
+    x0 = P[b, 0] - P[a, 0]
+    y0 = P[b, 1] - P[a, 1]
+    x1 = P[d, 0] - P[b, 0]
+    y1 = P[d, 1] - P[b, 1]
+    x2 = P[e, 0] - P[d, 0]
+    y2 = P[e, 1] - P[d, 1]
+    x3 = P[a, 0] - P[e, 0]
+    y3 = P[a, 1] - P[e, 1]
+    l0 = x0 * x0 + y0 * y0
+    l1 = x1 * x1 + y1 * y1
+    l2 = x2 * x2 + y2 * y2
+    l3 = x3 * x3 + y3 * y3
+    c0 = _corner_cos(x0, y0, -x3, -y3, l0, l3)
+    c1 = _corner_cos(x1, y1, -x0, -y0, l1, l0)
+    c2 = _corner_cos(x2, y2, -x1, -y1, l2, l1)
+    c3 = _corner_cos(x3, y3, -x2, -y2, l3, l2)
+    if c0 < 0 or c1 < 0 or c2 < 0 or c3 < 0:
+        return 0.0
+    big = max(max(c0, c1), max(c2, c3))
     return 1.0 - (2.0 / math.pi) * math.asin(min(big, 1.0))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _accepted(P, quads, cptr, cidx, v, qc, floor, qnew):
     """Whether point v where it stands now is kept (module docstring, *Acceptance*):
     every quad around it strictly convex (exact), their least quality (8.4) at least
@@ -385,62 +408,87 @@ _HALVINGS = 6  # square_corners' step halved at most this many times
 _SLOPE = 1e-6  # ... tried only when the linear model gains this share of the skew
 _ARMIJO = 0.01  # ... and kept when the skew drops by this share of the model's gain
 _OVER = 1.5  # ... at this many times the least of its parabola (over-relaxed)
+#: The role of v at corner j of a quad (:func:`_skew_corner`, column j) when v is its
+#: corner ``at`` (row): the corner itself (0), the corner's next (1), its previous (2),
+#: the opposite corner (3).
+_ROLE = np.array([[0, 2, 3, 1], [1, 0, 2, 3], [3, 1, 0, 2], [2, 3, 1, 0]], np.int64)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def _skew_corner(ax, ay, bx, by, la, lb, role, slope):
+    """One corner of :func:`_skew`: edges a and b from it (squared lengths la, lb),
+    the moving point v being the corner (``role`` 0), a's end (1), b's end (2) or
+    none (3). Returns (cos^8, the gradient's x and y terms, whether it turns left)."""
+    if ax * by - ay * bx <= 0:
+        return 0.0, 0.0, 0.0, False
+    w = 1.0 / math.sqrt(la * lb)
+    cs = (ax * bx + ay * by) * w
+    c2 = cs * cs
+    c6 = c2 * c2 * c2
+    if not slope or role == 3:
+        return c6 * c2, 0.0, 0.0, True
+    # d cos / d v
+    if role == 1:
+        dx = bx * w - cs * ax / la
+        dy = by * w - cs * ay / la
+    elif role == 2:
+        dx = ax * w - cs * bx / lb
+        dy = ay * w - cs * by / lb
+    else:
+        dx = -(bx * w - cs * ax / la) - (ax * w - cs * bx / lb)
+        dy = -(by * w - cs * ay / la) - (ay * w - cs * by / lb)
+    return c6 * c2, 8.0 * c6 * cs * dx, 8.0 * c6 * cs * dy, True
+
+
+@njit(cache=True, inline="always")
 def _skew(P, quads, cptr, cidx, v, grad, slope):
     """Sum over the quads around v of the 4-norm of their corners' cos^2 (inf when a
     corner does not turn left), and, if ``slope``, its gradient with respect to v in
-    grad (the sum is the same either way)."""
+    grad (the sum is the same either way).
+
+    Each edge ``e_j`` of a quad and its squared length is formed once, corner j
+    taking ``e_j`` and ``-e_{j-1}`` (exactly its own differences, as in
+    :func:`quad_q`). Inlined, as :func:`quad_q`.
+    """
     f = 0.0
     if slope:
         grad[0] = 0.0
         grad[1] = 0.0
     for r in range(cptr[v], cptr[v + 1]):
         c = cidx[r]
-        s = 0.0
-        gx = 0.0
-        gy = 0.0
-        for j in range(4):
-            u = quads[c, j]
-            a = quads[c, (j + 1) % 4]
-            b = quads[c, (j + 3) % 4]
-            ax = P[a, 0] - P[u, 0]
-            ay = P[a, 1] - P[u, 1]
-            bx = P[b, 0] - P[u, 0]
-            by = P[b, 1] - P[u, 1]
-            if ax * by - ay * bx <= 0:
-                return math.inf
-            la = ax * ax + ay * ay
-            lb = bx * bx + by * by
-            w = 1.0 / math.sqrt(la * lb)
-            cs = (ax * bx + ay * by) * w
-            c2 = cs * cs
-            c6 = c2 * c2 * c2
-            s += c6 * c2
-            if not slope:
-                continue
-            # d cos / d v
-            dx = 0.0
-            dy = 0.0
-            if v == a:
-                dx = bx * w - cs * ax / la
-                dy = by * w - cs * ay / la
-            elif v == b:
-                dx = ax * w - cs * bx / lb
-                dy = ay * w - cs * by / lb
-            elif v == u:
-                dx = -(bx * w - cs * ax / la) - (ax * w - cs * bx / lb)
-                dy = -(by * w - cs * ay / la) - (ay * w - cs * by / lb)
-            gx += 8.0 * c6 * cs * dx
-            gy += 8.0 * c6 * cs * dy
+        k0 = quads[c, 0]
+        k1 = quads[c, 1]
+        k2 = quads[c, 2]
+        k3 = quads[c, 3]
+        x0 = P[k1, 0] - P[k0, 0]
+        y0 = P[k1, 1] - P[k0, 1]
+        x1 = P[k2, 0] - P[k1, 0]
+        y1 = P[k2, 1] - P[k1, 1]
+        x2 = P[k3, 0] - P[k2, 0]
+        y2 = P[k3, 1] - P[k2, 1]
+        x3 = P[k0, 0] - P[k3, 0]
+        y3 = P[k0, 1] - P[k3, 1]
+        l0 = x0 * x0 + y0 * y0
+        l1 = x1 * x1 + y1 * y1
+        l2 = x2 * x2 + y2 * y2
+        l3 = x3 * x3 + y3 * y3
+        # v's place in the quad: corner j sees it as the corner (0), its next (1),
+        # its previous (2) or not at all (3)
+        at = 0 if v == k0 else 1 if v == k1 else 2 if v == k2 else 3
+        t0, gx0, gy0, ok0 = _skew_corner(x0, y0, -x3, -y3, l0, l3, _ROLE[at, 0], slope)
+        t1, gx1, gy1, ok1 = _skew_corner(x1, y1, -x0, -y0, l1, l0, _ROLE[at, 1], slope)
+        t2, gx2, gy2, ok2 = _skew_corner(x2, y2, -x1, -y1, l2, l1, _ROLE[at, 2], slope)
+        t3, gx3, gy3, ok3 = _skew_corner(x3, y3, -x2, -y2, l3, l2, _ROLE[at, 3], slope)
+        if not (ok0 and ok1 and ok2 and ok3):
+            return math.inf
+        s = t0 + t1 + t2 + t3
         if s > 0.0:
             r4 = math.sqrt(math.sqrt(s))
             f += r4
             if slope:
                 t = r4 / (4.0 * s)
-                grad[0] += t * gx
-                grad[1] += t * gy
+                grad[0] += t * (gx0 + gx1 + gx2 + gx3)
+                grad[1] += t * (gy0 + gy1 + gy2 + gy3)
     return f
 
 

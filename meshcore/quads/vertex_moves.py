@@ -154,7 +154,7 @@ def _lift_round(P, C, q, order, ptr, cells, dirs, steps, gain, moved, dirty):
     return any_move
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _angle_quality(P, C, c):
     """(8.4) of a quad row, or the shape ratio of a triangle row, as :mod:`meshcore.mesh.quality`.
 
@@ -258,7 +258,7 @@ def _smooth_passes(P, C, q, live, order, movable, csr, passes, tol, moved):
         active &= movable
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _checked_quality(P, C, c, work):
     """:func:`_angle_quality` of row c, -inf unless it is strictly convex (exact).
 
