@@ -29,7 +29,8 @@ exit (together about 13 ms of CPU for the fork server's 280 MB, twice a
 small job's own cost, on the cores the next jobs need). Any other job's
 process (failed, killed, past :data:`NICE_AFTER`, a spawned one) is used
 once; a new spare is started in the background when a job's process will
-not come back (at :data:`NICE_AFTER`, or at its end).
+not come back (at :data:`NICE_AFTER`, at its end, or at the start of its
+last job).
 """
 
 from __future__ import annotations
@@ -385,6 +386,8 @@ def run_in_child(
     proc, receiver = child.proc, child.answers
     answered = reuse = False
     small = spares is not None and child.jobs < JOBS_PER_PROCESS  # it may take another job
+    if spares is not None and not small:  # its last job: a spare in its place now
+        spares.fill()
     try:
         child.tasks.send((task, memory_limit))
     except OSError:
