@@ -4,12 +4,13 @@ Prints one row per input: the number of boundary vertices, the median of
 three CPU times of the whole validation (structure, duplicates, exact
 intersection test of every segment pair the grid proposes, hole containment,
 orientation, exact area), the peak memory one validation allocates
-(tracemalloc: the returned domain included, 32 MB for 1M vertices, plus a
-16 MB copy of a writable input array); and, when shapely is installed
+(tracemalloc: the returned domain included, its 16 MB of points for 1M
+vertices, the segments being derived on first use; plus a 16 MB copy of a
+writable input array); and, when shapely is installed
 (``pip install shapely``), the median of three CPU times of GEOS's validity
 check ``shapely.is_valid`` on the same polygon (construction excluded) and
 the ratio ours / GEOS. GEOS answers a yes/no with a reason; we also
-normalize orientation, compute the area and build the segment arrays.
+normalize orientation and compute the area.
 
 Inputs: a circle and a 2 x 1 rectangle (250k points per side: long collinear
 runs) with 1M vertices each, given as numpy arrays (the circle also as a

@@ -90,12 +90,13 @@ conservative (it may only add candidates). The pieces sharing a cell are
 compared in a compiled loop (bounding boxes compared exactly, then the
 segments near the other piece with
 :func:`~meshcore.geometry.predicates.orient2d_scalar`), without building
-pair arrays. The ring checks, orientation, segments and exact area are
-compiled passes too, and nothing is allocated per vertex beyond the
-returned arrays: a ring given as a read-only float64 array (as the service
-hands it over) is not even copied. The cost is linear in the number of
+pair arrays. The ring checks, orientation and exact area are compiled
+passes too, and nothing is allocated per vertex beyond the returned arrays:
+a ring given as a read-only float64 array (as the service hands it over) is
+not even copied, and the oriented segments are derived from the rings on
+first use (:attr:`Domain.segments`). The cost is linear in the number of
 pieces, (piece, cell) entries and nearby pairs: near linear for boundary
-samples (1M vertices in about 0.03 s, 4.5-5 times GEOS), quadratic in the
+samples (1M vertices in about 0.02 s, 4-5 times GEOS), quadratic in the
 worst case where very many long segments run close together (dense spike
 fans), as GEOS's validity check is (``benchmarks/domain.py``).
 
@@ -110,6 +111,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from numbers import Real
 
 import numpy as np
@@ -168,7 +170,9 @@ class Domain:
     segments : (m, 2) int64
         Boundary segments, ``m = ring_offsets[-1]``, one per input edge,
         oriented with the domain on the left: outer rings counter-clockwise,
-        holes clockwise.
+        holes clockwise. Derived from ``ring_offsets`` and ``ring_reversed``
+        on first use (16 MB at 1M vertices that a validation alone does not
+        need), then kept.
     constraints : (c, 2) int64
         Interior constraint segments, in input order (polyline after
         polyline, vertex after vertex), as point indices.
@@ -198,7 +202,6 @@ class Domain:
     ring_polygon: np.ndarray
     ring_is_hole: np.ndarray
     ring_reversed: np.ndarray
-    segments: np.ndarray
     constraints: np.ndarray
     constraint_source: np.ndarray
     area: float
@@ -212,7 +215,6 @@ class Domain:
             "ring_polygon": np.int64,
             "ring_is_hole": np.bool_,
             "ring_reversed": np.bool_,
-            "segments": np.int64,
             "constraints": np.int64,
             "constraint_source": np.int64,
         }
@@ -220,7 +222,7 @@ class Domain:
             arr = np.asarray(getattr(self, name), dtype=dtype)
             if arr.flags.writeable:  # perhaps the caller's: a copy of our own, frozen
                 arr = arr.copy()
-            if name in ("points", "segments", "constraints", "constraint_source"):
+            if name in ("points", "constraints", "constraint_source"):
                 arr = arr.reshape(-1, 2)
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
@@ -242,7 +244,6 @@ class Domain:
                     "ring_polygon",
                     "ring_is_hole",
                     "ring_reversed",
-                    "segments",
                     "constraints",
                     "constraint_source",
                 )
@@ -250,6 +251,17 @@ class Domain:
         )
 
     __hash__ = None  # type: ignore[assignment]
+
+    @cached_property
+    def segments(self) -> np.ndarray:
+        """(m, 2) int64, read-only: the boundary segments (see the class documentation)."""
+        # Allocated by numpy, which asks the kernel for huge pages on large arrays
+        # (numba's allocator does not): a fresh 16 MB at 1M vertices, faulted in
+        # 4 KB pages, cost more than the loop that fills it.
+        segs = np.empty((self.boundary_point_count, 2), dtype=np.int64)
+        _oriented_segments(self.ring_offsets, self.ring_reversed, segs)
+        segs.setflags(write=False)
+        return segs
 
     @property
     def ring_count(self) -> int:
@@ -823,18 +835,33 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
     ring_polygon = np.array([p for p, _ in ring_pos], dtype=np.int64)
     ring_is_hole = np.array([r > 0 for _, r in ring_pos], dtype=bool)
     reversed_ = ccw == ring_is_hole
-    # Allocated by numpy, which asks the kernel for huge pages on large arrays
-    # (numba's allocator does not): a fresh 16 MB at 1M vertices, faulted in
-    # 4 KB pages, cost more than the loop that fills it.
-    segs = np.empty((nb, 2), dtype=np.int64)
-    _oriented_segments(offsets, reversed_, segs)
+    # Undo the scaling exactly: area * 2**(2 e) for scale = 2**-e.
+    area = math.ldexp(_area(pts, scale, offsets, reversed_), -2 * math.frexp(scale)[1] + 2)
+    diameter = math.hypot(hi_x - lo_x, hi_y - lo_y)
+    # Frozen here so that Domain does not copy them: the index arrays are ours
+    # (compiled ones too, whose base is numba's memory record, not None); the
+    # points are read-only since the rings were joined.
+    for arr in (cseg, csrc):
+        arr.setflags(write=False)
+    domain = Domain(
+        points=points,
+        ring_offsets=offsets,
+        ring_polygon=ring_polygon,
+        ring_is_hole=ring_is_hole,
+        ring_reversed=reversed_,
+        constraints=cseg,
+        constraint_source=csrc,
+        area=area,
+        diameter=diameter,
+        multi=multi,
+    )
 
     # -- containment -----------------------------------------------------
     if n_rings > 1 or len(cseg):
         P = pts * scale
         _check_containment(
             P,
-            segs,
+            domain.segments,
             np.repeat(np.arange(n_rings), lengths),
             offsets,
             ring_polygon,
@@ -847,10 +874,7 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
         )
         del P
 
-    # -- area and size ---------------------------------------------------
-    # Undo the scaling exactly: area * 2**(2 e) for scale = 2**-e.
-    area = math.ldexp(_area(pts, scale, offsets, reversed_), -2 * math.frexp(scale)[1] + 2)
-    diameter = math.hypot(hi_x - lo_x, hi_y - lo_y)
+    # -- size ------------------------------------------------------------
     if diameter < MIN_DIAMETER:
         raise InputError(
             f"the domain spans only {diameter:.3g}, below {MIN_DIAMETER:g}: its area and the "
@@ -858,24 +882,7 @@ def parse_domain(geometry: Mapping, segments: Sequence | None = None) -> Domain:
             loc=("coordinates",),
             code="out_of_range",
         )
-    # Frozen here so that Domain does not copy them: the index arrays are ours
-    # (compiled ones too, whose base is numba's memory record, not None); the
-    # points are read-only since the rings were joined.
-    for arr in (segs, cseg, csrc):
-        arr.setflags(write=False)
-    return Domain(
-        points=points,
-        ring_offsets=offsets,
-        ring_polygon=ring_polygon,
-        ring_is_hole=ring_is_hole,
-        ring_reversed=reversed_,
-        segments=segs,
-        constraints=cseg,
-        constraint_source=csrc,
-        area=area,
-        diameter=diameter,
-        multi=multi,
-    )
+    return domain
 
 
 def _distinct_small(arr: np.ndarray) -> int:

@@ -1,7 +1,8 @@
-"""The ``local`` executor: one killable child process per job on this machine.
+"""The ``local`` executor: jobs in killable child processes on this machine.
 
 Each job runs through :func:`service.executors.child.run_in_child` on a
-thread of a pool sized to the executor's capacity; cancelling
+thread of a pool sized to the executor's capacity, in a process of its own
+(a small job's process, done within 0.1 s, takes the next job); cancelling
 :meth:`LocalExecutor.run` (a user's cancel, the time limit, shutdown) tells
 that thread to kill the child, which it does within one poll interval.
 

@@ -81,7 +81,6 @@ _DOMAIN_ARRAYS = (
     "ring_polygon",
     "ring_is_hole",
     "ring_reversed",
-    "segments",
     "constraints",
     "constraint_source",
 )

@@ -10,11 +10,13 @@ import os
 import time
 import xml.etree.ElementTree as ET
 from concurrent.futures import ThreadPoolExecutor
+from datetime import datetime
 
 import httpx
 import pytest
 
 from meshcore.mesh import io
+from service.executors.child import NICE_AFTER
 from tests.service.conftest import LiveServer, wait_status
 from tests.service.testing_methods import SQUARE
 
@@ -58,6 +60,10 @@ def pid_alive(pid: int) -> bool:
             return f.read().split()[2] != "Z"
     except FileNotFoundError:
         return False
+
+
+def _seconds(stamp: str) -> float:
+    return datetime.fromisoformat(stamp).timestamp()
 
 
 def wait_file(path, timeout: float = 20) -> str:
@@ -488,6 +494,26 @@ class TestCrashes:
             env = dict(v.split(b"=", 1) for v in f.read().split(b"\0") if b"=" in v)
         client.post(f"/v1/jobs/{job['id']}/cancel")
         assert env[b"OPENBLAS_NUM_THREADS"] == env[b"OMP_NUM_THREADS"] == b"1"
+
+    def test_a_small_jobs_process_takes_the_next_job_a_longer_ones_ends(self, client):
+        def run(seconds: float) -> tuple[int, float]:
+            job = submit(client, "sleep", {"seconds": seconds}, wait=10).json()
+            assert job["status"] == "succeeded"
+            stats = client.get(f"/v1/jobs/{job['id']}/result").json()["stats"]
+            return stats["pid"], _seconds(job["finished_at"]) - _seconds(job["started_at"])
+
+        run(0)  # a test server starts without the warm-up: its first job may wait for it
+        first, took = run(0)
+        second, _ = run(0)
+        if took < NICE_AFTER:  # (a machine too busy may take longer for an empty job)
+            assert second == first
+        longer, _ = run(NICE_AFTER + 0.1)
+        after, _ = run(0)
+        assert after != longer
+        deadline = time.monotonic() + 10
+        while pid_alive(longer) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not pid_alive(longer)
 
     @pytest.mark.parametrize("how, words", [("exit", "status 3"), ("segfault", "SIGSEGV")])
     def test_crash_fails_only_that_job(self, client, how, words):
