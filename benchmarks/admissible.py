@@ -36,8 +36,12 @@ millions (see the README for this machine's figures).
 
 ``--phases N`` then runs the ``N``-vertex star once more with a CPU timer
 around each phase of the rounds (the compiled searches, the insertions, the
-pieces they removed, read off the insertions' log, the bookkeeping) and
-prints seconds, calls and microseconds per added point: where the time goes.
+pieces they removed, read off the insertions' log, the bookkeeping, the
+growth of the arrays) and prints seconds, calls and microseconds per added
+point: where the time goes; then the rounds by size (pieces split), with
+their CPU time and microseconds per piece: whether the many small rounds'
+fixed costs (Python between the compiled calls) or the few large rounds'
+work per piece dominate.
 
 Times are CPU seconds (``time.process_time``: this process alone, so a
 loaded machine slows both sides alike), medians of three runs (one run
@@ -163,8 +167,14 @@ PHASES = (
     ("pieces", "_split_pieces"),
     ("pieces", "_missing_pieces"),
     ("pieces", "_disc_edges"),
+    ("pieces", "_search_order"),
+    ("pieces", "_in_chain_order"),
+    ("pieces", "_grown"),
+    ("incremental", "_reserve"),
     ("kernel", "_insert_rings"),
 )
+#: Rounds by the number of pieces they split (``--phases``): at least the bound.
+ROUND_SIZES = (10_000, 1_000, 100, 1)
 
 
 def phases(n: int) -> None:
@@ -175,10 +185,30 @@ def phases(n: int) -> None:
     import meshcore.delaunay.admissible_pieces as pieces
     import meshcore.delaunay.kernel2d as kernel
 
-    modules = {"admissible": adm, "pieces": pieces, "kernel": kernel}
+    modules = {
+        "admissible": adm,
+        "pieces": pieces,
+        "kernel": kernel,
+        "incremental": kernel.IncrementalDelaunay,
+    }
     spent: Counter = Counter()
     calls: Counter = Counter()
     saved = []
+    starts = []  # (pieces split, CPU time at its start) per round
+
+    def split_round(fn):
+        def wrapper(st, missing, *args):
+            starts.append((len(missing), time.process_time()))
+            return fn(st, missing, *args)
+
+        return wrapper
+
+    def to_state(fn):
+        def wrapper(*args):
+            starts.append((0, time.process_time()))  # the rounds end here
+            return fn(*args)
+
+        return wrapper
 
     def timed(name, fn):
         def wrapper(*args):
@@ -194,7 +224,11 @@ def phases(n: int) -> None:
     for mod, name in PHASES:
         fn = getattr(modules[mod], name)
         saved.append((modules[mod], name, fn))
-        setattr(modules[mod], name, timed(name, fn))
+        setattr(modules[mod], name, timed(f"{name} ({mod})" if name == "_reserve" else name, fn))
+    saved.append((adm, "_split_round", adm._split_round))
+    saved.append((pieces._Pieces, "to_state", pieces._Pieces.to_state))
+    adm._split_round = split_round(adm._split_round)
+    pieces._Pieces.to_state = to_state(pieces._Pieces.to_state)
     try:
         points, segments, _ = star(n)
         t = time.process_time()
@@ -204,9 +238,24 @@ def phases(n: int) -> None:
         for mod, name, fn in saved:
             setattr(mod, name, fn)
     print(f"\nphases of star-{n}: {res.added} points added, {res.rounds} rounds, {total:.3f} CPU s")
-    print(f"{'phase':<22}{'CPU s':>8}{'calls':>7}{'us/point':>10}")
+    print(f"{'phase':<27}{'CPU s':>8}{'calls':>7}{'us/point':>10}")
     for name, sec in [*spent.most_common(), ("(rest: Python)", total - sum(spent.values()))]:
-        print(f"{name:<22}{sec:>8.3f}{calls.get(name, 0):>7}{1e6 * sec / res.added:>10.2f}")
+        print(f"{name:<27}{sec:>8.3f}{calls.get(name, 0):>7}{1e6 * sec / res.added:>10.2f}")
+    print("\n(_grown and _reserve are the growth of the arrays, numpy copies: Python)")
+    # A round from its split to the next one's (the search for what is
+    # missing included); the last one to the renumbering of the output.
+    times = [b[1] - a[1] for a, b in zip(starts[:-1], starts[1:], strict=True)]
+    starts = starts[:-1]
+    print(f"\n{'pieces split':<16}{'rounds':>7}{'pieces':>9}{'CPU s':>8}{'us/piece':>10}")
+    top = None
+    for bound in ROUND_SIZES:
+        sel = [i for i, (k, _) in enumerate(starts) if k >= bound and (top is None or k < top)]
+        label = f"{bound:,}+" if top is None else f"{bound:,}-{top - 1:,}"
+        top = bound
+        k = sum(starts[i][0] for i in sel)
+        sec = sum(times[i] for i in sel)
+        per = f"{1e6 * sec / k:>10.2f}" if k else f"{'-':>10}"
+        print(f"{label:<16}{len(sel):>7}{k:>9}{sec:>8.3f}{per}")
 
 
 def main() -> None:
