@@ -815,19 +815,38 @@ def _swap_rows(pts, order, i, j):
 
 
 @njit(cache=True)
-def _output_rows(X, ids, m, shift, lookup):
-    """``out[ids[t], i] = lookup[X[4t + i] >> shift]`` for the slots t with ``ids[t] >= 0``.
+def _tetra_ids(V, ntet, order):
+    """The real tetrahedra (rows in slot order) as external point indices, and each slot's row.
 
-    With V, shift 0 and the insertion order: the real tetrahedra as external
-    point indices; with A, shift 2 and ``ids``: their neighbour table (-1
-    across the hull, where the neighbour is a ghost).
+    ``ids[t]`` is the row of slot ``t``, -1 for ghosts and free slots.
     """
+    ids = np.empty(ntet, np.int64)
+    m = 0
+    for t in range(ntet):
+        b = 4 * t
+        if V[b] >= 0 and V[b + 1] >= 0 and V[b + 2] >= 0 and V[b + 3] >= 0:
+            ids[t] = m
+            m += 1
+        else:
+            ids[t] = -1
+    tetra = np.empty((m, 4), np.int64)
+    for t in range(ntet):
+        r = ids[t]
+        if r >= 0:
+            for i in range(4):
+                tetra[r, i] = order[V[4 * t + i]]
+    return tetra, ids
+
+
+@njit(cache=True)
+def _neighbor_rows(A, ids, m):
+    """The neighbour table of the rows ``ids`` numbers: -1 across the hull (a ghost)."""
     out = np.empty((m, 4), np.int64)
     for t in range(ids.shape[0]):
         r = ids[t]
         if r >= 0:
             for i in range(4):
-                out[r, i] = lookup[X[4 * t + i] >> shift]
+                out[r, i] = ids[A[4 * t + i] >> 2]
     return out
 
 
@@ -843,15 +862,9 @@ def _output(builder: IncrementalDelaunay3d, release: bool = False):
     ntet = int(builder._state[_NTET])
     if release:
         vars(builder).clear()
-    live = V[: 4 * ntet].reshape(-1, 4).min(axis=1) >= 0
-    ids = np.cumsum(live)
-    m = int(ids[-1])
-    ids -= 1
-    ids[~live] = -1
-    del live
-    tetra = _output_rows(V, ids, m, 0, order)
+    tetra, ids = _tetra_ids(V, ntet, order)
     del V
-    return tetra, _output_rows(A, ids, m, 2, ids)
+    return tetra, _neighbor_rows(A, ids, len(tetra))
 
 
 @njit(cache=True)
