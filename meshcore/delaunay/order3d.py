@@ -120,7 +120,10 @@ def insertion_order(pts: np.ndarray, salt: int) -> tuple[np.ndarray, np.ndarray]
     inserted later gets other rounds than the initial points). The grid has
     about 16 cells per point, at most ``2**16`` a side.
     """
-    n = len(pts)
-    nbits = min(_HILBERT_BITS, max(6, (n.bit_length() + 4) // 3 + 2))
-    keys, curve = _brio_hilbert_keys(pts, nbits, salt)
+    keys, curve = _brio_hilbert_keys(pts, _grid_bits(len(pts)), salt)
     return radix_argsort(keys), curve
+
+
+def _grid_bits(n: int) -> int:
+    """Bits per axis of the Hilbert grid for n points: about 16 cells a point."""
+    return min(_HILBERT_BITS, max(6, (n.bit_length() + 4) // 3 + 2))
