@@ -10,10 +10,11 @@ Algorithm (a compiled sequential loop, numba ``@njit(cache=True)``):
 
 1. Validate; rescale by a power of two (exact, changes no predicate sign) so
    that the coordinates sit in ``[-1, 1]``.
-2. Order the points for insertion: biased randomized insertion order (BRIO,
-   rounds of doubling size, the "random" draw a hash of the point index so
-   that a run is reproducible), each round sorted along a 3D Hilbert curve
-   (Skilling's transform), alternately forwards and backwards.
+2. Order the points for insertion (:mod:`meshcore.delaunay.order3d`):
+   biased randomized insertion order (BRIO, rounds of doubling size, the
+   "random" draw a hash of the point index so that a run is reproducible),
+   each round sorted along a 3D Hilbert curve (Skilling's transform),
+   alternately forwards and backwards.
 3. Incremental Bowyer-Watson insertion with *ghost tetrahedra*: each convex
    hull facet is closed by a tetrahedron on a vertex at infinity, so there is
    no enclosing tetrahedron to remove afterwards and the result is exactly
@@ -1421,8 +1422,11 @@ def delaunay3d(points, progress: Callable[[float, str], None] | None = None) -> 
     the starting vertex of each row are deterministic for a given input
     array but otherwise unspecified.
 
-    Cost: expected O(n log n) (sorting) plus O(n) insertions of expected
-    constant work, in compiled code.
+    Cost: a radix sort of the insertion keys plus O(n) insertions of expected
+    constant work, in compiled code. Memory: 36 bytes a tetrahedron slot
+    while inserting (vertices, adjacency, mark, free list: int32), then the
+    two int64 outputs (64 bytes a tetrahedron) made beside the adjacency
+    alone: at 1M random points (6.75M tetrahedra) about 620 MB at the peak.
 
     References
     ----------
