@@ -1,4 +1,4 @@
-"""Side by side: our 3D Delaunay kernel, TetGen, Gmsh (Delaunay, HXT) and scipy's Qhull.
+"""Side by side: our 3D Delaunay kernel, TetGen, CGAL, Gmsh (Delaunay, HXT) and scipy's Qhull.
 
 Run from the repository root::
 
@@ -18,9 +18,17 @@ own as sets (sorted rows). Peers: ``tetgen`` (its low-level
 ``PyTetgen.tetrahedralize(plc=0)``: the high-level wrapper refuses a bare
 point set and its ``switches="Q"`` path segfaults) and ``gmsh``
 (``gmsh.algorithm.tetrahedralize`` with ``Mesh.Algorithm3D`` 1, Delaunay,
-and 10, HXT); a missing peer is reported as n/a. ``--baseline FILE`` adds a
+and 10, HXT) and ``cgal`` (the CGAL SWIG bindings, ``pip install cgal``:
+``Delaunay_triangulation_3`` on the exact-predicates kernel, one thread; the
+list of ``Point_3`` is built before the timer and inserted by CGAL's range
+``insert``, which sorts the points spatially (Hilbert/BRIO) before inserting
+them; the bindings do not give vertex indices back cheaply, so CGAL is checked
+by its number of finite cells against Qhull's, and its peak memory includes
+that Python list, ``input MB`` below); a missing peer is reported as n/a. ``--baseline FILE`` adds a
 copy of an earlier ``kernel3d.py`` as peer ``baseline`` (before/after in one
-run), ``--rounds N`` repeats each input so that the rounds alternate.
+run), ``--rounds N`` repeats each input so that the rounds alternate and
+ends with the medians of the rounds (ratios of ours' medians to each peer's,
+wall and CPU).
 """
 
 from __future__ import annotations
@@ -43,6 +51,7 @@ sys.path.insert(0, sys.argv[3])
 peer, path = sys.argv[1], sys.argv[2]
 p = np.load(path)
 out = None
+extra = {}
 if peer in ("ours", "baseline"):
     from meshcore.delaunay import delaunay3d
     if peer == "baseline":
@@ -64,6 +73,17 @@ elif peer == "tetgen":
     g.tetrahedralize(plc=0, quality=0, quiet=1)
     out = g.return_tets()
     dt = time.perf_counter() - t; cpu = time.process_time() - c
+elif peer == "cgal":
+    import resource
+    from CGAL.CGAL_Kernel import Point_3
+    from CGAL.CGAL_Triangulation_3 import Delaunay_triangulation_3
+    pts = [Point_3(x, y, z) for x, y, z in p.tolist()]
+    extra["input_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    dt3 = Delaunay_triangulation_3()
+    t = time.perf_counter(); c = time.process_time()
+    dt3.insert(pts)
+    dt = time.perf_counter() - t; cpu = time.process_time() - c
+    extra["cells"] = dt3.number_of_finite_cells()
 elif peer.startswith("gmsh"):
     import gmsh
     gmsh.initialize()
@@ -80,13 +100,14 @@ elif peer == "qhull":
     t = time.perf_counter(); c = time.process_time()
     out = Delaunay(p).simplices
     dt = time.perf_counter() - t; cpu = time.process_time() - c
-if len(sys.argv) > 4:
+if len(sys.argv) > 4 and out is not None:
     np.save(sys.argv[4], np.asarray(out))
 rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-print(json.dumps({"seconds": dt, "cpu": cpu, "tetra": int(len(out)), "peak_mb": rss}))
+tetra = extra.pop("cells") if out is None else int(len(out))
+print(json.dumps({"seconds": dt, "cpu": cpu, "tetra": tetra, "peak_mb": rss, **extra}))
 """
 
-PEERS = ["ours", "tetgen", "gmsh-hxt", "gmsh-delaunay", "qhull"]
+PEERS = ["ours", "tetgen", "cgal", "gmsh-hxt", "gmsh-delaunay", "qhull"]
 
 
 def random_cube(n: int) -> np.ndarray:
@@ -102,7 +123,9 @@ MAKERS = {"random": random_cube, "sphere": sphere}
 
 
 def available(peer: str) -> bool:
-    mod = {"tetgen": "tetgen", "gmsh-hxt": "gmsh", "gmsh-delaunay": "gmsh"}.get(peer)
+    mod = {"tetgen": "tetgen", "cgal": "CGAL", "gmsh-hxt": "gmsh", "gmsh-delaunay": "gmsh"}.get(
+        peer
+    )
     if mod is None:
         return True
     try:
@@ -163,6 +186,7 @@ def main() -> None:
     )
     print(header)
     print("-" * len(header))
+    runs: dict[tuple[str, int, str], list[dict]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         for spec in [s for s in args.inputs for _ in range(args.rounds)]:
             name, n, *flags = spec.split(":")
@@ -178,7 +202,7 @@ def main() -> None:
                     continue
                 save = os.path.join(tmp, f"{peer}.npy") if "qhull" in peers else None
                 results[peer] = run(peer, path, args.timeout, save, args.baseline)
-                if save and isinstance(results[peer], dict):
+                if save and isinstance(results[peer], dict) and os.path.exists(save):
                     saved[peer] = save
             ref = canon(np.load(saved["qhull"])) if "qhull" in saved else None
             ours = results.get("ours")
@@ -195,13 +219,40 @@ def main() -> None:
                 same = ""
                 if ref is not None and peer in saved:
                     same = "yes" if np.array_equal(canon(np.load(saved[peer])), ref) else "no"
+                elif ref is not None and peer == "cgal":  # cells counted, not listed
+                    same = "count" if r["tetra"] == len(ref) else "no"
+                runs.setdefault((name, len(p), peer), []).append(r)
                 load = open("/proc/loadavg").read().split()[0]
                 print(
                     f"{name:<8} {len(p):>8} {peer:<14} {r['seconds']:>8.2f} {r['cpu']:>7.2f} "
                     f"{r['tetra']:>10} "
-                    f"{r['peak_mb']:>8.0f} {ratio:>9} {same:>8} {load:>5}",
+                    f"{r['peak_mb']:>8.0f} {ratio:>9} {same:>8} {load:>5}"
+                    + (f"  input MB {r['input_mb']:.0f}" if "input_mb" in r else ""),
                     flush=True,
                 )
+    if args.rounds > 1:
+        medians(runs)
+
+
+def medians(runs: dict[tuple[str, int, str], list[dict]]) -> None:
+    """Per input and peer: medians over the rounds, ratios of ours' medians to the peer's."""
+    print("\nmedians of the rounds")
+    print(
+        f"{'input':<8} {'n':>8} {'peer':<14} {'seconds':>8} {'cpu s':>7} {'peak MB':>8} "
+        f"{'ours/peer wall':>14} {'cpu':>5}"
+    )
+    fields = ("seconds", "cpu", "peak_mb")
+    med = {k: {f: float(np.median([r[f] for r in v])) for f in fields} for k, v in runs.items()}
+    for (name, n, peer), m in med.items():
+        ours = med.get((name, n, "ours"))
+        wall = cpu = ""
+        if ours and peer != "ours":
+            wall = f"{ours['seconds'] / m['seconds']:.2f}"
+            cpu = f"{ours['cpu'] / m['cpu']:.2f}"
+        print(
+            f"{name:<8} {n:>8} {peer:<14} {m['seconds']:>8.2f} {m['cpu']:>7.2f} "
+            f"{m['peak_mb']:>8.0f} {wall:>14} {cpu:>5}  ({len(runs[(name, n, peer)])} runs)"
+        )
 
 
 if __name__ == "__main__":

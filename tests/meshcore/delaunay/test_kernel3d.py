@@ -18,6 +18,7 @@ from scipy.spatial import Delaunay as QhullDelaunay
 
 from meshcore.delaunay import IncrementalDelaunay3d, delaunay3d
 from meshcore.delaunay.kernel3d import SKIP_CHANGED, SKIP_DUPLICATE, SKIP_OUTSIDE, SKIP_STALE
+from meshcore.delaunay.order3d import _brio_hilbert_keys, _grid_bits, insertion_order
 from meshcore.errors import InputError
 from meshcore.geometry import insphere, orient3d
 
@@ -145,6 +146,13 @@ class TestGeneralPosition:
         calls = []
         delaunay3d(np.random.default_rng(0).random((100, 3)), progress=lambda f, m: calls.append(f))
         assert calls and calls[-1] == 1.0
+
+    def test_insertion_order_is_the_stable_sort_of_the_brio_hilbert_keys(self):
+        p = np.random.default_rng(6).random((3000, 3))
+        order, curve = insertion_order(p, 7)
+        keys, curve_ref = _brio_hilbert_keys(p, _grid_bits(len(p)), 7)
+        assert np.array_equal(order, np.argsort(keys, kind="stable"))
+        assert np.array_equal(curve, curve_ref)
 
 
 class TestCoSpherical:
