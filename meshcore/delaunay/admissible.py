@@ -145,8 +145,10 @@ Choices where the text leaves freedom
 * **Termination guard.** Rounds stop with
   :class:`~meshcore.errors.AlgorithmError` after :data:`MAX_ROUNDS` rounds
   or when the points added exceed :data:`MAX_ADDED_FACTOR` times the input
-  size plus :data:`MAX_ADDED_BASE`: only inputs that are not planar
-  straight-line graphs (crossing segments) get there.
+  size plus :data:`MAX_ADDED_BASE`, each with its own message: crossing
+  segments (not a planar straight-line graph) get there, and so do valid
+  inputs whose close features need more points than the limit (a random
+  star of 30,000 vertices needs 4.6M).
 
 Frames and ties. The rounds run in a frame centred on the first input
 point when that shift is exact (:func:`_local_origin`): an input moved by an
@@ -1028,7 +1030,14 @@ def _report(budget, st, missing, progress) -> bool:
         )
     if missing.size == 0:
         return True
-    if budget.rounds >= MAX_ROUNDS or added > budget.max_added:
+    if added > budget.max_added:
+        raise AlgorithmError(
+            f"no Delaunay-admissible discretization within {budget.max_added} added points "
+            f"(the limit, {MAX_ADDED_FACTOR} x (points + segments) + {MAX_ADDED_BASE}): "
+            f"{added} added in {budget.rounds} rounds, {missing.size} segments still missing; "
+            "the boundary's close features need more points than that"
+        )
+    if budget.rounds >= MAX_ROUNDS:
         raise AlgorithmError(
             f"no Delaunay-admissible discretization after {budget.rounds} rounds and "
             f"{added} added points ({missing.size} segments still missing): "

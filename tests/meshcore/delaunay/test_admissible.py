@@ -18,6 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial import Delaunay as Qhull
 
+import meshcore.delaunay.admissible as admissible_mod
 from meshcore.delaunay.admissible import (
     admissible_segments,
     circles_of,
@@ -549,6 +550,15 @@ def test_crossing_segments_fail_with_an_algorithm_error(other):
     points = np.array([[0, 0], [1, 1], *other, [2, 2], [-1, 2]], dtype=float)
     with pytest.raises(AlgorithmError, match="cross"):
         admissible_segments(points, [[0, 1], [2, 3]])
+
+
+def test_the_limit_on_added_points_is_named_when_reached(monkeypatch):
+    # a valid star past the limit was told "do segments cross?"
+    monkeypatch.setattr(admissible_mod, "MAX_ADDED_FACTOR", 0)
+    monkeypatch.setattr(admissible_mod, "MAX_ADDED_BASE", 10)
+    with pytest.raises(AlgorithmError, match="within 10 added points") as info:
+        admissible_segments(star_ring(), ring_segments(50))
+    assert "cross" not in str(info.value)
 
 
 def test_a_point_inside_a_segment_is_refused():
