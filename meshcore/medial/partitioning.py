@@ -711,7 +711,7 @@ def quad_medial(
     special = _special(first, size, levels)  # the same samples on every pruned axis
     done: dict = {}  # partitions, fills and optimized meshes: each computed once
     res = _meshed(first, domain, method, size, levels, BOUNDARY_SHARE, special, done)
-    res = _lifted(res, domain, LIFT_BELOW)
+    res = _lifted(res, domain, LIFT_BELOW, done)
     if size is not None:
         axis_at = {prune: first}  # the axes pruned at each angle, as they are needed
         res, least = _other_tried(
@@ -721,7 +721,7 @@ def quad_medial(
             alt = _meshed(
                 first, domain, method, size, levels, BOUNDARY_SHARE, special, done, fine=True
             )
-            alt = _lifted(alt, domain, LIFT_BELOW)
+            alt = _lifted(alt, domain, LIFT_BELOW, done)
             alt, alt_least = _other_tried(
                 alt, axes, axis_at, more, domain, method, size, levels, special, done, fine=True
             )
@@ -730,7 +730,7 @@ def quad_medial(
     else:
         least = _least_away(res.mesh, domain)
     if least < GOOD_LEAST:  # the mesh kept, lifted further
-        res = _lifted(res, domain, LAST_LIFT_BELOW)
+        res = _lifted(res, domain, LAST_LIFT_BELOW, done)
     stats = {**res.stats, "quality": quality.report(res.mesh)}
     return QuadMedial(mesh=res.mesh, partition=res.partition, stats=stats)
 
@@ -774,7 +774,7 @@ def _other_tried(
         if any(quads is q for q in tried) or _over(alt, domain, size):
             continue
         tried.append(quads)
-        alt = _lifted(alt, domain, LIFT_BELOW)
+        alt = _lifted(alt, domain, LIFT_BELOW, done)
         got = _least_away(alt.mesh, domain)
         if got > least:
             extra = {"prune": angle} if angle != prune else {}
@@ -864,15 +864,19 @@ def _meshed(
     return QuadMedial(mesh=mesh, partition=part, stats=stats)
 
 
-def _lifted(res: QuadMedial, domain: Domain, below: float) -> QuadMedial:
+def _lifted(res: QuadMedial, domain: Domain, below: float, done: dict) -> QuadMedial:
     """The mesh of :func:`_meshed` with its least corners lifted last around the quads
     under ``below`` (:func:`meshcore.medial.fill.lift_least`, input vertices fixed) when
-    :func:`_optimized` ran on it; ``stats["least_lifted"]`` counts the moves."""
+    :func:`_optimized` ran on it; ``stats["least_lifted"]`` counts the moves. The lift
+    from ``done`` when made before for the same mesh object (a fill tried again)."""
     if "least_relaxed" not in res.stats:
         return res
     P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
-    fixed = input_index(P, domain.points) >= 0
-    P, lifted = lift_least(P, Q, fixed, domain.points, below)
+    key = ("lifted", id(res.mesh), below)
+    if key not in done:  # (the mesh held: its id is not reused)
+        fixed = input_index(P, domain.points) >= 0
+        done[key] = (res.mesh, *lift_least(P, Q, fixed, domain.points, below))
+    _, P, lifted = done[key]
     mesh = Mesh(P, (CellBlock("quad", Q),))
     stats = {**res.stats, "least_lifted": res.stats.get("least_lifted", 0) + lifted}
     return QuadMedial(mesh=mesh, partition=res.partition, stats=stats)
@@ -1103,10 +1107,11 @@ def _medial_fill(
     """The medial partition (:func:`partition`, regions merged at crowded boundary points:
     :func:`_reflex_merged` with ``share``; with ``merge``, small regions merged until
     their sides are within the count: :func:`_small_merged`) and its fill
-    (:func:`meshcore.medial.fill.quads_on`, with transitions where ``fine``: tried where
-    every partition passes :data:`~meshcore.medial.fill.MOST_COUNT` x area / size**2
-    with the sides tied): the partition, the mesh and its stats; the partitions and the
-    fill from ``done`` when made before for this axis."""
+    (:func:`meshcore.medial.fill.quads_on`; with ``fine``, tried where every partition
+    passes :data:`~meshcore.medial.fill.MOST_COUNT` x area / size**2 with the sides tied:
+    its fill with transitions where this one passes and they bring it within, else the
+    same tied fill): the partition, the mesh and its stats; the partitions and the
+    fills from ``done`` when made before for this axis."""
     base = (id(axis), method)  # (the axis held: its id is not reused)
     if base not in done:
         done[base] = partition(axis=axis, method=method)
@@ -1118,11 +1123,16 @@ def _medial_fill(
     if merge and small not in done:
         done[small] = _small_merged(part, size)
     part = done[small] if merge else part
-    key = (id(axis), fine, part.points.tobytes())
-    key += tuple(c.tobytes() for c in part.cycles + part.corners)
+    key = (id(axis), part.points.tobytes(), *(c.tobytes() for c in part.cycles + part.corners))
     if key not in done:  # (the axis held: its id is not reused)
-        done[key] = (part, *quads_on(part, size, levels, transitions=fine))
-    return done[key]
+        done[key] = (part, *quads_on(part, size, levels))
+    tied = done[key]
+    if not fine or tied[2]["quads"] * size * size <= MOST_COUNT * axis.domain.area:
+        return tied
+    if (*key, "fine") not in done:  # None: the transitions do not bring it within
+        done[(*key, "fine")] = quads_on(part, size, levels, transitions=True)
+    fill = done[(*key, "fine")]
+    return tied if fill is None else (part, *fill)
 
 
 def _reflex_merged(part: Partition, share: float | None) -> Partition:
