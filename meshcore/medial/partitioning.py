@@ -108,13 +108,18 @@ larger stretches, :data:`meshcore.medial.fill.STRETCH`); at size 0.15 least 0.5 
 25 (20, 14), count over 1.5x on 6 of the 32 (7 before the transitions,
 the fills with ``fine`` of :func:`_medial_fill`; 8 before the small regions were merged,
 :data:`MERGE_COUNT`; 13 before the axis was pruned more where the count passed,
-:data:`PRUNE_MORE`; up to 2.86x). What binds the count there is the input vertices,
-not the regions: every input vertex is a mesh point (so that the area is exact), a
-boundary side of ``k`` of them needs ``k + 1`` divisions, and the coarse quads carry
-that count to their opposite sides, across the regions of the partition (star 17,
-70 vertices for area / size**2 = 140: 1.54x with its regions merged if its input
-vertices did not bind, 2.84x as they do; the transitions, which lift the bind only
-between a boundary side and its opposite side, at most 3 to 1, leave it over). Gears
+:data:`PRUNE_MORE`; up to 2.86x). What binds the count there is, on the partition
+meshed first, its regions: their coarse quads alone (one per side) are 1.54-2.45x area /
+size**2 on those six (star 17: 95 regions, 2.45x), so that no count of the sides, with
+or without transitions, brings it within; and on the partitions of fewer regions (the
+axis pruned more, regions merged) the input vertices: every input vertex is a mesh
+point (so that the area is exact), a boundary side of ``k`` of them needs ``k + 1``
+divisions, and the coarse quads carry that count to their opposite sides, across the
+regions of the partition (star 17, 70 vertices for area / size**2 = 140: 1.54x with
+its regions merged if its input vertices did not bind, 2.84x as they do; the
+transitions, which lift the bind only between a boundary side and its opposite side,
+at most 3 to 1, leave it over). The meshes within the count (on five of the six) have
+a least quality of 0.05-0.29 there: the one over it is kept (:data:`PRUNE_LEAST`). Gears
 of 6-12 teeth at size 0.1: least 0.5
 on 7 of 7 (6 before :data:`LAST_LIFT_BELOW`, gear 9 at 0.487; 0 before the O-grid
 at their hub, :func:`meshcore.medial.fill._flowered`,
@@ -122,8 +127,10 @@ and the merges at their tooth gaps, :data:`~meshcore.medial.regions.BOUNDARY_SHA
 4 before a border point of four quads gave one up, :func:`meshcore.medial.fill._closed`,
 5 before it could bend a corner to :data:`~meshcore.medial.fill.CLOSE_BEND`),
 0.502-0.62, count 1.21-1.49x; at 0.15 least 0.5 on 5 of 7, count 1.40-1.46x (over 1.5x
-on 4, 1.68-2.47x, bound by their input vertices as above, before the transitions;
-the CPU time of the domains tried again about doubles). What is left under 0.5: the strips of
+on 4, 1.68-2.47x, bound by their input vertices as above, before the transitions,
+which fill only the partitions whose tied fill passes the count and that they bring
+within, :func:`_medial_fill`: the 32 stars at 0.15 in 31.7 CPU s, 43.9 when every
+partition was filled again, star 12 3.5 s, 6.0). What is left under 0.5: the strips of
 spikes whose base chord is oblique and reflex corners (quads of 36-44 degrees next
 to them), thin 4-sided regions between the close nodes of a crowded junction of the
 ``critical`` partition (parallelograms of 42-45 degrees: gear 9 at 0.15, star 18),
