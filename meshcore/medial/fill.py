@@ -669,6 +669,9 @@ def _transition(bottom, right, top, left):
     n2 = grid.shape[1] - 1
     ids = np.arange(grid.shape[0] * grid.shape[1]).reshape(grid.shape[:2])
     quads = np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], axis=-1)
+    corners = [ids[0, 0], ids[-1, 0], ids[0, -1], ids[-1, -1]]
+    if k == m == 0:  # no template: the grid
+        return grid.reshape(-1, 2), quads.reshape(-1, 4), corners
     pts = [grid.reshape(-1, 2)]
     added = []
     n = ids.size
@@ -711,7 +714,7 @@ def _transition(bottom, right, top, left):
             quads[i, 0] = first
         added += [np.column_stack(r) for r in rows[1:]]
     quads = np.concatenate([quads.reshape(nt * n2, 4), *added])
-    return np.concatenate(pts), quads, [ids[0, 0], ids[-1, 0], ids[0, -1], ids[-1, -1]]
+    return np.concatenate(pts), quads, corners
 
 
 def _filled(seg_xy, seg_fixed, n_of, patches):
@@ -800,9 +803,11 @@ def quads_on(
     least two, 1.76x area / size**2 at size 0.15). Every quad lies in the domain, its
     boundary points on the input boundary and the input vertices mesh points where the
     counts allow (module docstring); folded quads are counted, not refused (§9.7.2,
-    §8.5.3). ``transitions`` (with ``size``, not ``whole``): where the sides tied pass
-    :data:`MOST_COUNT` x area / size**2 at every stretch, a boundary side with input
-    vertices inside is not tied to its opposite side (:func:`_transition`)."""
+    §8.5.3). ``transitions`` (with ``size``, not ``whole``; for a partition whose sides
+    tied pass :data:`MOST_COUNT` x area / size**2 at every stretch): a boundary side
+    with input vertices inside is not tied to its opposite side (:func:`_transition`);
+    None where no side is so (the tied fill is the fill) or the count still passes at
+    every stretch (the fill would only add quads: it is not made)."""
     ax = part.axis
     points = part.points
     p = len(ax.samples)
@@ -916,12 +921,12 @@ def quads_on(
     if transitions and size is not None and not whole:
         own = (np.bincount(sides.ravel(), minlength=n_seg)[sides] == 1) & (need[sides] > 1)
         fine = own[:, 0] + 2 * own[:, 3]
-    tries = [np.zeros(len(patches), dtype=np.int64)] + ([fine] if fine.any() else [])
+    if transitions and not fine.any():
+        return None
+    label, n_classes, rows = _tied(n_seg, patches, fine)
     stretches = (None,) if levels is not None else STRETCH
-    # the first within MOST_COUNT, else the last: the sides tied at every stretch, then
-    # (where that is over) the transitions
-    for fine, stretch in ((f, st) for f in tries for st in stretches):
-        label, n_classes, rows = _tied(n_seg, patches, fine)
+    # the first within MOST_COUNT, else the last (with transitions: else none)
+    for stretch in stretches:
         if stretch is None:
             count = np.full(n_classes, 2 ** int(levels), dtype=np.int64)
         else:
@@ -939,8 +944,10 @@ def quads_on(
         n_f, n_o = n_of[rows[:, 0]], n_of[rows[:, 1]]  # a template: 4 quads for 1
         total = int((n_of[sides[:, 2]] * n_of[sides[:, 1]]).sum() + 3 * (n_f - n_o).sum() // 2)
         within = stretch is None or total * size * size <= MOST_COUNT * ax.domain.area
-        if not within and not (fine is tries[-1] and stretch == stretches[-1]):
+        if not within and stretch != stretches[-1]:
             continue
+        if not within and transitions:  # the fill would only add quads (_opened)
+            return None
         if total > MAX_QUADS:
             raise InputError(
                 f"this would make {total:,} quads; at most {MAX_QUADS:,}: ask for a larger "

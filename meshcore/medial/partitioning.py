@@ -108,13 +108,18 @@ larger stretches, :data:`meshcore.medial.fill.STRETCH`); at size 0.15 least 0.5 
 25 (20, 14), count over 1.5x on 6 of the 32 (7 before the transitions,
 the fills with ``fine`` of :func:`_medial_fill`; 8 before the small regions were merged,
 :data:`MERGE_COUNT`; 13 before the axis was pruned more where the count passed,
-:data:`PRUNE_MORE`; up to 2.86x). What binds the count there is the input vertices,
-not the regions: every input vertex is a mesh point (so that the area is exact), a
-boundary side of ``k`` of them needs ``k + 1`` divisions, and the coarse quads carry
-that count to their opposite sides, across the regions of the partition (star 17,
-70 vertices for area / size**2 = 140: 1.54x with its regions merged if its input
-vertices did not bind, 2.84x as they do; the transitions, which lift the bind only
-between a boundary side and its opposite side, at most 3 to 1, leave it over). Gears
+:data:`PRUNE_MORE`; up to 2.86x). What binds the count there is, on the partition
+meshed first, its regions: their coarse quads alone (one per side) are 1.54-2.45x area /
+size**2 on those six (star 17: 95 regions, 2.45x), so that no count of the sides, with
+or without transitions, brings it within; and on the partitions of fewer regions (the
+axis pruned more, regions merged) the input vertices: every input vertex is a mesh
+point (so that the area is exact), a boundary side of ``k`` of them needs ``k + 1``
+divisions, and the coarse quads carry that count to their opposite sides, across the
+regions of the partition (star 17, 70 vertices for area / size**2 = 140: 1.54x with
+its regions merged if its input vertices did not bind, 2.84x as they do; the
+transitions, which lift the bind only between a boundary side and its opposite side,
+at most 3 to 1, leave it over). The meshes within the count (on five of the six) have
+a least quality of 0.05-0.29 there: the one over it is kept (:data:`PRUNE_LEAST`). Gears
 of 6-12 teeth at size 0.1: least 0.5
 on 7 of 7 (6 before :data:`LAST_LIFT_BELOW`, gear 9 at 0.487; 0 before the O-grid
 at their hub, :func:`meshcore.medial.fill._flowered`,
@@ -122,8 +127,10 @@ and the merges at their tooth gaps, :data:`~meshcore.medial.regions.BOUNDARY_SHA
 4 before a border point of four quads gave one up, :func:`meshcore.medial.fill._closed`,
 5 before it could bend a corner to :data:`~meshcore.medial.fill.CLOSE_BEND`),
 0.502-0.62, count 1.21-1.49x; at 0.15 least 0.5 on 5 of 7, count 1.40-1.46x (over 1.5x
-on 4, 1.68-2.47x, bound by their input vertices as above, before the transitions;
-the CPU time of the domains tried again about doubles). What is left under 0.5: the strips of
+on 4, 1.68-2.47x, bound by their input vertices as above, before the transitions,
+which fill only the partitions whose tied fill passes the count and that they bring
+within, :func:`_medial_fill`: the 32 stars at 0.15 in 31.7 CPU s, 43.9 when every
+partition was filled again, star 12 3.5 s, 6.0). What is left under 0.5: the strips of
 spikes whose base chord is oblique and reflex corners (quads of 36-44 degrees next
 to them), thin 4-sided regions between the close nodes of a crowded junction of the
 ``critical`` partition (parallelograms of 42-45 degrees: gear 9 at 0.15, star 18),
@@ -711,7 +718,7 @@ def quad_medial(
     special = _special(first, size, levels)  # the same samples on every pruned axis
     done: dict = {}  # partitions, fills and optimized meshes: each computed once
     res = _meshed(first, domain, method, size, levels, BOUNDARY_SHARE, special, done)
-    res = _lifted(res, domain, LIFT_BELOW)
+    res = _lifted(res, domain, LIFT_BELOW, done)
     if size is not None:
         axis_at = {prune: first}  # the axes pruned at each angle, as they are needed
         res, least = _other_tried(
@@ -721,7 +728,7 @@ def quad_medial(
             alt = _meshed(
                 first, domain, method, size, levels, BOUNDARY_SHARE, special, done, fine=True
             )
-            alt = _lifted(alt, domain, LIFT_BELOW)
+            alt = _lifted(alt, domain, LIFT_BELOW, done)
             alt, alt_least = _other_tried(
                 alt, axes, axis_at, more, domain, method, size, levels, special, done, fine=True
             )
@@ -730,7 +737,7 @@ def quad_medial(
     else:
         least = _least_away(res.mesh, domain)
     if least < GOOD_LEAST:  # the mesh kept, lifted further
-        res = _lifted(res, domain, LAST_LIFT_BELOW)
+        res = _lifted(res, domain, LAST_LIFT_BELOW, done)
     stats = {**res.stats, "quality": quality.report(res.mesh)}
     return QuadMedial(mesh=res.mesh, partition=res.partition, stats=stats)
 
@@ -774,7 +781,7 @@ def _other_tried(
         if any(quads is q for q in tried) or _over(alt, domain, size):
             continue
         tried.append(quads)
-        alt = _lifted(alt, domain, LIFT_BELOW)
+        alt = _lifted(alt, domain, LIFT_BELOW, done)
         got = _least_away(alt.mesh, domain)
         if got > least:
             extra = {"prune": angle} if angle != prune else {}
@@ -864,15 +871,19 @@ def _meshed(
     return QuadMedial(mesh=mesh, partition=part, stats=stats)
 
 
-def _lifted(res: QuadMedial, domain: Domain, below: float) -> QuadMedial:
+def _lifted(res: QuadMedial, domain: Domain, below: float, done: dict) -> QuadMedial:
     """The mesh of :func:`_meshed` with its least corners lifted last around the quads
     under ``below`` (:func:`meshcore.medial.fill.lift_least`, input vertices fixed) when
-    :func:`_optimized` ran on it; ``stats["least_lifted"]`` counts the moves."""
+    :func:`_optimized` ran on it; ``stats["least_lifted"]`` counts the moves. The lift
+    from ``done`` when made before for the same mesh object (a fill tried again)."""
     if "least_relaxed" not in res.stats:
         return res
     P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
-    fixed = input_index(P, domain.points) >= 0
-    P, lifted = lift_least(P, Q, fixed, domain.points, below)
+    key = ("lifted", id(res.mesh), below)
+    if key not in done:  # (the mesh held: its id is not reused)
+        fixed = input_index(P, domain.points) >= 0
+        done[key] = (res.mesh, *lift_least(P, Q, fixed, domain.points, below))
+    _, P, lifted = done[key]
     mesh = Mesh(P, (CellBlock("quad", Q),))
     stats = {**res.stats, "least_lifted": res.stats.get("least_lifted", 0) + lifted}
     return QuadMedial(mesh=mesh, partition=res.partition, stats=stats)
@@ -1103,10 +1114,11 @@ def _medial_fill(
     """The medial partition (:func:`partition`, regions merged at crowded boundary points:
     :func:`_reflex_merged` with ``share``; with ``merge``, small regions merged until
     their sides are within the count: :func:`_small_merged`) and its fill
-    (:func:`meshcore.medial.fill.quads_on`, with transitions where ``fine``: tried where
-    every partition passes :data:`~meshcore.medial.fill.MOST_COUNT` x area / size**2
-    with the sides tied): the partition, the mesh and its stats; the partitions and the
-    fill from ``done`` when made before for this axis."""
+    (:func:`meshcore.medial.fill.quads_on`; with ``fine``, tried where every partition
+    passes :data:`~meshcore.medial.fill.MOST_COUNT` x area / size**2 with the sides tied:
+    its fill with transitions where this one passes and they bring it within, else the
+    same tied fill): the partition, the mesh and its stats; the partitions and the
+    fills from ``done`` when made before for this axis."""
     base = (id(axis), method)  # (the axis held: its id is not reused)
     if base not in done:
         done[base] = partition(axis=axis, method=method)
@@ -1118,11 +1130,16 @@ def _medial_fill(
     if merge and small not in done:
         done[small] = _small_merged(part, size)
     part = done[small] if merge else part
-    key = (id(axis), fine, part.points.tobytes())
-    key += tuple(c.tobytes() for c in part.cycles + part.corners)
+    key = (id(axis), part.points.tobytes(), *(c.tobytes() for c in part.cycles + part.corners))
     if key not in done:  # (the axis held: its id is not reused)
-        done[key] = (part, *quads_on(part, size, levels, transitions=fine))
-    return done[key]
+        done[key] = (part, *quads_on(part, size, levels))
+    tied = done[key]
+    if not fine or tied[2]["quads"] * size * size <= MOST_COUNT * axis.domain.area:
+        return tied
+    if (*key, "fine") not in done:  # None: the transitions do not bring it within
+        done[(*key, "fine")] = quads_on(part, size, levels, transitions=True)
+    fill = done[(*key, "fine")]
+    return tied if fill is None else (part, *fill)
 
 
 def _reflex_merged(part: Partition, share: float | None) -> Partition:

@@ -205,7 +205,7 @@ def test_no_o_grid_where_it_would_split_a_sharp_border_corner():
         assert _flowered(np.vstack([[0.0, 0.0], rim]), Q)[2] == made
 
 
-@pytest.mark.parametrize(("nb", "nl"), [(5, 2), (3, 4), (5, 4), (9, 2)])
+@pytest.mark.parametrize(("nb", "nl"), [(3, 2), (5, 2), (3, 4), (5, 4), (9, 2)])
 def test_a_transition_conforms_with_convex_quads(nb, nl):
     # a coarse quad of the unit square, top 3 and right 2 pieces, its bottom (and left)
     # finer by 3-to-1 templates: conforming strictly convex quads covering it exactly
@@ -227,6 +227,17 @@ def test_a_transition_conforms_with_convex_quads(nb, nl):
     _, uses = np.unique(edges, axis=0, return_counts=True)
     assert uses.max() == 2 and (uses == 1).sum() == nb + nl + 3 + 2  # conforming
     assert sorted(P[corners].tolist()) == [[0, 0], [0, 1], [1, 0], [1, 1]]
+
+
+def test_no_fill_with_transitions_where_the_coarse_quads_pass_the_count():
+    # issue star 17 at size 0.15: the regions' coarse quads (one per side) alone are over
+    # 1.5x area / size**2, so no count of the sides brings the fill within: none is made
+    from meshcore.medial.fill import MOST_COUNT, quads_on
+
+    dom = parse_domain(issue_star(17)[0])
+    part = partition(dom)
+    assert sum(r["sides"] for r in part.regions) * 0.15**2 > MOST_COUNT * dom.area
+    assert quads_on(part, 0.15, None, transitions=True) is None
 
 
 def test_a_straight_border_point_of_four_quads_gives_one_up():
