@@ -62,3 +62,17 @@ def test_counts_no_template_fits_are_left_to_the_partition():
     P = polyline([[0, 0], [3, 0], [3, 1], [0, 1]], [16, 2, 4, 2])
     loop = np.arange(len(P))
     assert template(P, loop, np.degrees(_angles(P, loop))) is None
+
+
+def test_the_closure_takes_the_template_before_the_partition():
+    # a front of 36 nodes with 3 corners: closed by the template, the partition not called
+    from meshcore import parse_domain
+    from meshcore.partition import size_map
+    from meshcore.quads import paving_fronts
+
+    P = polyline([[0, 0], [1, 0], [0.5, 0.8]], [10, 12, 14])
+    sizes = size_map(parse_domain({"type": "Polygon", "coordinates": [P.tolist()]}), 0.1, None)
+    none = np.zeros((0, 4), np.int64)
+    Q, cells, stats, gone = paving_fronts._close(P, [np.arange(len(P))], sizes, "balanced", none)
+    assert stats["templates"] == 1 and len(cells) == 104 and len(gone) == 0
+    assert np.array_equal(Q[: len(P)], P)
