@@ -18,10 +18,15 @@ distances to them come nearest (least squares, ``_FIT_STEPS``
 Gauss-Newton steps) to ``s_i`` times the polygon's mean segment, and the
 template of the higher least quality is kept (only the fitted centre
 passes on the plate with 20 holes at 10k quads: valence-4 share 89.17 ->
-89.75 %, least quality and scaled Jacobian unchanged). When no set of corners fits (the
-flattest corner dropped, one at a time, down to 3), or a quad is not
-strictly convex (exact) or below quality ``_LEAST_Q``, the polygon is left
-to the recursive partition.
+89.75 %, least quality and scaled Jacobian unchanged). Every set of at
+least 3 of the corners is tried (a corner left out is a node of a side),
+and of the templates whose quads are all strictly convex (exact) and of
+quality at least ``_LEAST_Q`` the one of the highest least quality is
+kept (measured against dropping the flattest corner one at a time: the
+plate at 10k quads 89.75 -> 90.42 %, at 100k 92.56 -> 92.71 %, the gear
+at 100k 98.50 -> 98.57 %, least quality and scaled Jacobian as before the
+templates). When none passes, the polygon is left to the recursive
+partition.
 
 Only the centre is irregular (valence ``k``; none for one grid): the
 partition of the same polygon leaves irregular vertices all over it (the
@@ -37,6 +42,8 @@ argument of :mod:`meshcore.quads.paving_fronts`).
 """
 
 from __future__ import annotations
+
+from itertools import combinations
 
 import numpy as np
 
@@ -181,15 +188,13 @@ def template(P: np.ndarray, loop: np.ndarray, theta: np.ndarray):
     at = np.flatnonzero(theta < _CORNER)
     if not 3 <= len(at) <= _MOST_CORNERS:
         return None
-    while len(at) >= 3:
-        best, least = None, _LEAST_Q
-        for pts, quads in _subdivided(P, loop, at):
-            Q = np.concatenate([P, pts])
-            if pk.convex_and_good(Q, quads, _LEAST_Q).all():
-                q = float(quad_quality(Q, quads).min())
-                if best is None or q > least:
-                    best, least = (pts, quads), q
-        if best is not None:
-            return best
-        at = np.delete(at, np.argmax(theta[at]))
-    return None
+    best, least = None, _LEAST_Q
+    for k in range(len(at), 2, -1):
+        for corners in combinations(at.tolist(), k):
+            for pts, quads in _subdivided(P, loop, np.asarray(corners, np.int64)):
+                Q = np.concatenate([P, pts])
+                if pk.convex_and_good(Q, quads, _LEAST_Q).all():
+                    q = float(quad_quality(Q, quads).min())
+                    if best is None or q > least:
+                        best, least = (pts, quads), q
+    return best
