@@ -113,7 +113,19 @@ Algorithm
    15.2 s with 2, the same mesh).
 6. **Closure.** Each counter-clockwise front left is an outer ring, each
    clockwise one a hole of the smallest outer ring around it; the
-   polygons are closed by the recursive partition in its quad mode
+   polygons without holes of at least 12 nodes whose corners (below 135
+   degrees) allow it are closed by a midpoint subdivision into grids
+   (:mod:`meshcore.quads.paving_templates`: 3 or 5 structured patches
+   around one centre, or one grid for 4 sides with equal opposite counts;
+   ``closure.templates``): the corner pockets left between the rows of a
+   square and of a round hole in it, which the partition filled with
+   irregular vertices (measured side by side, valence-4 share of the
+   interior vertices: the square with a hole at 100k quads 98.93 -> 98.99
+   %, the plate with 20 holes 92.22 -> 92.71 %, the gear 98.27 -> 98.57 %;
+   at 10k quads the plate 89.17 -> 90.42 %, mean quality 0.890 -> 0.894,
+   the hole 98.08 -> 98.10 % with its least scaled Jacobian 0.813 ->
+   0.811, the gear unchanged: no polygon fitted).
+   The others are closed by the recursive partition in its quad mode
    (:func:`meshcore.partition.partition_polygon`, which keeps the front
    nodes): fronts of 4 and 6 segments are its standard patterns (one quad;
    two quads or three around a centre), larger ones are cut by separators
@@ -361,7 +373,7 @@ class PavingResult:
         quads failing only the gap), ``strips`` and ``strip_quads`` (laid between
         rows), ``ladders`` and ``ladder_quads`` (strips laid at the closure),
         ``rows_taken_back``, ``closure`` (the partition's stats: patterns,
-        separators; ``rings``, ``coarse_splits``, ``cavities``,
+        separators; ``templates``, ``rings``, ``coarse_splits``, ``cavities``,
         ``polygon_splits``), ``evened`` (1 when the
         rows were laid again with every new front evened out, module
         docstring step 6), ``fallback``,

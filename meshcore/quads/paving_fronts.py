@@ -3,8 +3,10 @@
 Helpers of :mod:`meshcore.quads.advancing_front` (its module docstring,
 steps 3 and 6, says what they are for): the fronts left when quads are cut
 out of a region (:func:`_trace`, chain arithmetic), the polygons the fronts
-make (:func:`_polygons`), and the closure of those polygons by the
-recursive partition in its quad mode (:func:`_close`), with the local
+make (:func:`_polygons`), and the closure of those polygons: the large
+ones without holes whose corners allow it by a midpoint subdivision into
+grids (:mod:`meshcore.quads.paving_templates`, one irregular vertex each),
+the others by the recursive partition in its quad mode (:func:`_close`), with the local
 rescues of the sub-polygons the partition hands back stuck: a ring of quads
 around a shrunk copy (:func:`_ring`), the guaranteed route locally
 (:func:`_coarse_split`), and, when both fail, a *cavity*: the stuck polygon
@@ -31,6 +33,7 @@ from meshcore.mesh.topology import isin_ints, unique_ints
 from meshcore.partition import SizeMap, partition_polygon
 from meshcore.partition.recursive import FALLBACK_SCALE
 from meshcore.quads import paving_kernel as pk
+from meshcore.quads.paving_templates import template
 from meshcore.quads.vertex_moves import _incidence
 
 _MIN_Q = 0.1  # least quality (8.4) of a quad laid in a row or a closure
@@ -291,6 +294,25 @@ class _Pool:
         return grown[0], take
 
 
+def _templates(P: np.ndarray, loops: list, ring_polygon: np.ndarray):
+    """The polygons without holes that :func:`~meshcore.quads.paving_templates.template`
+    meshes: ``(points, [their quads], the loops left, their polygons renumbered)``."""
+    rings = np.bincount(ring_polygon)
+    made, left = [], []
+    for k, g in enumerate(loops):
+        res = None
+        if rings[ring_polygon[k]] == 1:
+            res = template(P, g, np.degrees(_angles(P, g)))
+        if res is None:
+            left.append(k)
+            continue
+        pts, quads = res
+        P = np.concatenate([P, pts])
+        made.append(quads)
+    _, polygon = np.unique(ring_polygon[left], return_inverse=True)
+    return P, made, [loops[k] for k in left], polygon.astype(np.int64)
+
+
 def _close(
     P: np.ndarray,
     fronts: list,
@@ -364,7 +386,9 @@ def _close_each(P: np.ndarray, fronts: list, sizes: SizeMap, strategy: str, arou
 def _close_all(P: np.ndarray, fronts: list, sizes: SizeMap, strategy: str, around: np.ndarray):
     """The quad closure of the fronts: ``(points, cells, stats, gone)``, cells None if stuck.
 
-    The partition (:func:`meshcore.partition.partition_polygon`) on every
+    The polygons without holes that a template fits are meshed by it
+    (:func:`_templates`, ``stats["templates"]``); the partition
+    (:func:`meshcore.partition.partition_polygon`) on every other
     polygon at once; it hands back the sub-polygons it is stuck on (cut out
     of a polygon with holes too), each closed by :func:`_ring`
     (``stats["rings"]``), or else by :func:`_coarse_split`
@@ -379,13 +403,16 @@ def _close_all(P: np.ndarray, fronts: list, sizes: SizeMap, strategy: str, aroun
     """
     loops, ring_polygon = _polygons(P, fronts)
     gone = np.zeros(len(around), bool)
-    P, cells, cstats = partition_polygon(
-        P, loops, ring_polygon, sizes, quad=True, strategy=strategy, leave_stuck=True
-    )
-    if cells is None:
-        return P, None, {}, gone
-    pool = _Pool(np.concatenate([around, cells]), len(P))
-    count = {"rings": 0, "coarse_splits": 0, "cavities": 0}
+    P, made, loops, ring_polygon = _templates(P, loops, ring_polygon)
+    cells, cstats = np.zeros((0, 4), np.int64), {"stuck": []}
+    if loops:
+        P, cells, cstats = partition_polygon(
+            P, loops, ring_polygon, sizes, quad=True, strategy=strategy, leave_stuck=True
+        )
+        if cells is None:
+            return P, None, {}, gone
+    pool = _Pool(np.concatenate([around, *made, cells]), len(P))
+    count = {"templates": len(made), "rings": 0, "coarse_splits": 0, "cavities": 0}
     for loop in cstats.pop("stuck"):
         res = _close_one(P, loop, sizes, strategy)
         grown = 0

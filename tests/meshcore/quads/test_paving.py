@@ -189,7 +189,8 @@ def test_guaranteed_route_when_the_closure_is_stuck(monkeypatch):
     stuck = quad_partition_stuck(advancing_front.partition_polygon)
     monkeypatch.setattr(advancing_front, "partition_polygon", stuck)
     monkeypatch.setattr(paving_fronts, "partition_polygon", stuck)
-    # the closure's local rescues of stuck polygons are stuck too
+    # the closure's templates and local rescues of stuck polygons are stuck too
+    monkeypatch.setattr(paving_fronts, "template", lambda *args: None)
     monkeypatch.setattr(paving_fronts, "_ring", lambda *args: None)
     monkeypatch.setattr(paving_fronts, "_coarse_split", lambda *args: None)
     res = paving(SQUARE_HOLE, size=0.05)
@@ -331,6 +332,7 @@ class TestFrontsMeeting:
         # whole, then the polygon's own coarse split (the local guaranteed route)
         stuck = quad_partition_stuck(paving_fronts.partition_polygon)
         monkeypatch.setattr(paving_fronts, "partition_polygon", stuck)
+        monkeypatch.setattr(paving_fronts, "template", lambda *args: None)
         monkeypatch.setattr(paving_fronts, "_ring", lambda *args: None)
         none = np.zeros((0, 4), np.int64)
         assert paving_fronts._close(P, [loop], sizes, "balanced", none)[1] is None
