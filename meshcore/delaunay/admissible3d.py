@@ -75,8 +75,12 @@ the L-block 10 -> 7, the benchmark's slab 168 -> 0, but a 4 x 2 x 1 box
 with n = 6 and the slab with n = 8 kept 24 points each. With the facets
 of coplanar triangles, the coplanar swaps of step 1 give each of these
 surfaces the diagonals the kernel holds: all of them, the L-block too,
-need no point and no flip; the flips remain for co-spherical points whose
-quadrilateral is not planar.
+need no point and no flip. The flips remain for a planar quadrilateral
+(only those are noted: exact ``orient3d == 0``) that cuts a cell of
+co-spherical points, when the kernel holds one triangle of its other
+diagonal but not both, so that no swap applies (two shells with all their
+corners on one sphere, the pyramid's base cutting the cell: the tests);
+a quadrilateral that is not planar is never flipped.
 
 Choices that save points (measured on the benchmark's 4,000-vertex bumpy
 sphere: 641 points when every missing edge of a round is split at the plain
