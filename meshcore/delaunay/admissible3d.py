@@ -1205,7 +1205,7 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: _Cavities) ->
             # M would encroach a subsegment of its facet: that subsegment is split at
             # its midpoint instead (Ruppert's rule). Else two facets meeting at a
             # sharp edge hand split points back and forth ever nearer their edge.
-            kind, data = "edge", (int(seg[0]), int(seg[1]), 0.5)
+            data = (int(seg[0]), int(seg[1]), 0.5)
         i, jj, t = data
         key = (min(i, jj), max(i, jj))
         if key in seen_edges:
@@ -1228,7 +1228,7 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: _Cavities) ->
 
 
 def _encroached_subsegment(st: _State, facet: int, X: np.ndarray) -> np.ndarray | None:
-    """The longest subsegment on the boundary of input triangle ``facet``, not an
+    """The longest subsegment on the boundary of facet ``facet``, not an
     edge of a strict Case 0 face, whose closed diametral ball holds ``X`` (exact
     :func:`~meshcore.geometry.predicates3d.dot3d`), as its two vertices; None if
     there is none."""
