@@ -1056,10 +1056,15 @@ class _Cavities:
 
     def removed(self, X: np.ndarray) -> np.ndarray:
         """Per point of ``X``: how many subfaces and subface edges its insertion removes."""
-        hits = cKDTree(X).query_ball_point(self.centres[self.rows], self.radii[self.rows])
+        tree = cKDTree(X)
+        centres, radii = self.centres[self.rows], self.radii[self.rows]
+        # The counts first (no list per tetrahedron), then the lists of those hit: the
+        # same query twice, so the same hits (most tetrahedra hold no candidate).
+        some = np.flatnonzero(tree.query_ball_point(centres, radii, return_length=True))
+        hits = tree.query_ball_point(centres[some], radii[some])
         n = np.fromiter(map(len, hits), np.int64, len(hits))
         xi = np.fromiter(itertools.chain.from_iterable(hits), np.int64, int(n.sum()))
-        ti = np.repeat(self.rows, n)
+        ti = np.repeat(self.rows[some], n)
         out = np.zeros(len(X), dtype=np.int64)
         for at, around in self.pieces:
             piece = at[ti].reshape(-1)
