@@ -75,8 +75,12 @@ the L-block 10 -> 7, the benchmark's slab 168 -> 0, but a 4 x 2 x 1 box
 with n = 6 and the slab with n = 8 kept 24 points each. With the facets
 of coplanar triangles, the coplanar swaps of step 1 give each of these
 surfaces the diagonals the kernel holds: all of them, the L-block too,
-need no point and no flip; the flips remain for co-spherical points whose
-quadrilateral is not planar.
+need no point and no flip. The flips remain for a planar quadrilateral
+(only those are noted: exact ``orient3d == 0``) that cuts a cell of
+co-spherical points, when the kernel holds one triangle of its other
+diagonal but not both, so that no swap applies (two shells with all their
+corners on one sphere, the pyramid's base cutting the cell: the tests);
+a quadrilateral that is not planar is never flipped.
 
 Choices that save points (measured on the benchmark's 4,000-vertex bumpy
 sphere: 641 points when every missing edge of a round is split at the plain
@@ -955,9 +959,10 @@ def _project_on_segment(P, A, B):
     return np.where(near_a, te, 1.0 - te)
 
 
-def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray) -> int:
+def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, cav: _Cavities) -> int:
     """Split the missing subface edges ``E`` at the projection of their point
-    of largest angle in the closed diametral ball (§9.2)."""
+    of largest angle in the closed diametral ball (§9.2), or where the
+    look-ahead on the round's cavities ``cav`` finds better."""
     b = st.b
     A, B = b.P[E[:, 0]], b.P[E[:, 1]]
     mid = 0.5 * (A + B)
@@ -997,14 +1002,13 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray) -> int:
     margin = COMMON_MARGIN * room
     t = np.where(common, np.clip(t, lo + margin, hi - margin), t)
     # Without a common interval, the look-ahead tries the widest encroacher's own.
-    w = order[first]
-    alone = np.zeros(len(E), dtype=bool)
-    alone[ei[w]] = ~common[ei[w]]
-    lo[ei[w]] = np.where(alone[ei[w]], np.nan_to_num(t1[w], nan=1.0), lo[ei[w]])
-    hi[ei[w]] = np.where(alone[ei[w]], np.nan_to_num(t2[w], nan=0.0), hi[ei[w]])
+    w = order[first]  # per edge with an encroacher (best >= 0), its widest one
+    alone = ~common[ei[w]]
+    lo[ei[w][alone]] = np.nan_to_num(t1[w][alone], nan=1.0)
+    hi[ei[w][alone]] = np.nan_to_num(t2[w][alone], nan=0.0)
     margin = COMMON_MARGIN * (hi - lo)
     lo, hi = np.maximum(lo + margin, LOOK_END), np.minimum(hi - margin, 1.0 - LOOK_END)
-    t = _look_ahead(_Cavities(b), A, B, t, lo, hi, common | alone)
+    t = _look_ahead(cav, A, B, t, lo, hi, best >= 0)
     # Longest first (lengths equal to 1e-6 relative tie), then widest angle.
     length = np.round(np.log2(half) * 2.0**20)
     keep = _independent(A + t[:, None] * (B - A), mid, half, (-widest, -length))
@@ -1021,12 +1025,12 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray) -> int:
 
 
 class _Cavities:
-    """What inserting a point would remove from the round's tetrahedralization:
-    the subfaces and subface edges all of whose tetrahedra have the point in
-    their circumsphere (the insertion's cavity; float: a choice, not a sign)."""
+    """What inserting a point would remove from the round's tetrahedralization
+    ``T`` (the kernel's): the subfaces and subface ``edges`` all of whose
+    tetrahedra have the point in their circumsphere (the insertion's cavity;
+    float: a choice, not a sign)."""
 
-    def __init__(self, b: SurfaceRecovery) -> None:
-        _, T = b.tets()
+    def __init__(self, b: SurfaceRecovery, T: np.ndarray, edges: np.ndarray) -> None:
         P = b.P
         a = P[T[:, 0]]
         u, v, w = (P[T[:, k]] - a for k in (1, 2, 3))
@@ -1038,7 +1042,6 @@ class _Cavities:
         with np.errstate(divide="ignore", invalid="ignore"):  # flat tetrahedra: never
             off = num / (2.0 * np.einsum("ij,ij->i", u, np.cross(v, w)))[:, None]
         self.centres, self.radii = a + off, np.linalg.norm(off, axis=1)
-        edges, _ = _subface_edges(b.sub)
         # Per tetrahedron, the subface (edge) row of each of its faces (edges), -1 if none.
         self.pieces = []
         for slots, keys, rows in ((TET_FACES, face_keys, b.sub), (TET_EDGES, edge_keys, edges)):
@@ -1053,10 +1056,15 @@ class _Cavities:
 
     def removed(self, X: np.ndarray) -> np.ndarray:
         """Per point of ``X``: how many subfaces and subface edges its insertion removes."""
-        hits = cKDTree(X).query_ball_point(self.centres[self.rows], self.radii[self.rows])
+        tree = cKDTree(X)
+        centres, radii = self.centres[self.rows], self.radii[self.rows]
+        # The counts first (no list per tetrahedron), then the lists of those hit: the
+        # same query twice, so the same hits (most tetrahedra hold no candidate).
+        some = np.flatnonzero(tree.query_ball_point(centres, radii, return_length=True))
+        hits = tree.query_ball_point(centres[some], radii[some])
         n = np.fromiter(map(len, hits), np.int64, len(hits))
         xi = np.fromiter(itertools.chain.from_iterable(hits), np.int64, int(n.sum()))
-        ti = np.repeat(self.rows, n)
+        ti = np.repeat(self.rows[some], n)
         out = np.zeros(len(X), dtype=np.int64)
         for at, around in self.pieces:
             piece = at[ti].reshape(-1)
@@ -1067,24 +1075,22 @@ class _Cavities:
         return out
 
 
-def _look_ahead(cav: _Cavities, A, B, t, lo, hi, common) -> np.ndarray:
-    """Per edge ``AB`` where ``common`` (an interval of its encroachers is known): among
+def _look_ahead(cav: _Cavities, A, B, t, lo, hi, known) -> np.ndarray:
+    """Per edge ``AB`` where ``known`` (an interval of its encroachers is known): among
     ``t`` and :data:`LOOK_AHEAD` points spread over ``[lo, hi]``, the split removing the
     fewest subfaces and subface edges from the tetrahedralization (ties: the nearest
     to ``t``)."""
-    common = common & (hi - lo > LOOK_ROOM)
-    cand = np.repeat(t[:, None], LOOK_AHEAD + 1, axis=1)
-    spread = np.linspace(0.0, 1.0, LOOK_AHEAD)
-    cand[common, 1:] = lo[common, None] + spread * (hi - lo)[common, None]
-    rows = np.flatnonzero(common)
+    rows = np.flatnonzero(known & (hi - lo > LOOK_ROOM))
     if rows.size == 0:
         return t
-    X = A[rows, None, :] + cand[rows, :, None] * (B - A)[rows, None, :]
+    cand = np.repeat(t[rows, None], LOOK_AHEAD + 1, axis=1)
+    cand[:, 1:] = lo[rows, None] + np.linspace(0.0, 1.0, LOOK_AHEAD) * (hi - lo)[rows, None]
+    X = A[rows, None, :] + cand[:, :, None] * (B - A)[rows, None, :]
     count = cav.removed(X.reshape(-1, 3)).reshape(len(rows), -1)
-    dist = np.abs(cand[rows] - t[rows, None])
+    dist = np.abs(cand - t[rows, None])
     pick = np.argmin(count + dist / 2.0, axis=1)  # dist < 1: the count first
     out = t.copy()
-    out[rows] = cand[rows, pick]
+    out[rows] = cand[np.arange(len(rows)), pick]
     return out
 
 
@@ -1133,7 +1139,7 @@ def _match_rows(keys: np.ndarray, table: np.ndarray) -> np.ndarray:
     return np.where(st[pos] == keys, order[pos], -1)
 
 
-def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree) -> int:
+def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: _Cavities) -> int:
     """Split the missing subfaces ``rows`` (§9.3.4 face enforcement, Pébay)."""
     b = st.b
     F = b.sub[rows]
@@ -1186,7 +1192,7 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree) -> int:
         options.append(mine)
     # Look-ahead: the split removing the fewest subfaces and subface edges from the
     # tetrahedralization, then the largest least angle (Pébay's heuristic).
-    removed = _Cavities(b).removed(np.array([o[1] for mine in options for o in mine]))
+    removed = cav.removed(np.array([o[1] for mine in options for o in mine]))
     pts_edge: list[tuple[np.ndarray, int, float]] = []
     pts_face: list[tuple[int, np.ndarray, float]] = []
     seen_edges: set[tuple[int, int]] = set()
@@ -1204,7 +1210,7 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree) -> int:
             # M would encroach a subsegment of its facet: that subsegment is split at
             # its midpoint instead (Ruppert's rule). Else two facets meeting at a
             # sharp edge hand split points back and forth ever nearer their edge.
-            kind, data = "edge", (int(seg[0]), int(seg[1]), 0.5)
+            data = (int(seg[0]), int(seg[1]), 0.5)
         i, jj, t = data
         key = (min(i, jj), max(i, jj))
         if key in seen_edges:
@@ -1227,7 +1233,7 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree) -> int:
 
 
 def _encroached_subsegment(st: _State, facet: int, X: np.ndarray) -> np.ndarray | None:
-    """The longest subsegment on the boundary of input triangle ``facet``, not an
+    """The longest subsegment on the boundary of facet ``facet``, not an
     edge of a strict Case 0 face, whose closed diametral ball holds ``X`` (exact
     :func:`~meshcore.geometry.predicates3d.dot3d`), as its two vertices; None if
     there is none."""
@@ -1324,10 +1330,11 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
             break
         if b.n - b.n_surface > cap:
             break
+        cav = _Cavities(b, T, edges)  # the look-ahead's
         if missing_e.size:
-            added = _split_edges(st, edges[missing_e], holder[missing_e])
+            added = _split_edges(st, edges[missing_e], holder[missing_e], cav)
         else:
-            added = _split_faces(st, missing_f, cKDTree(b.P))
+            added = _split_faces(st, missing_f, cKDTree(b.P), cav)
         if added == 0:
             raise AlgorithmError(
                 f"the surface could not be made Delaunay-admissible: {missing_e.size} edges "

@@ -120,6 +120,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from typing import NamedTuple
 
 import numpy as np
@@ -1000,7 +1001,7 @@ def optimize_quads(
         ("collapse", _op_collapse),
         ("hexagon", _op_hexagon),
         ("swap", _op_swap),
-        ("smooth", _op_smooth),
+        ("smooth", partial(_op_smooth, passes=per_sweep)),
     ]
     for sweep in range(sweeps):
         changed = 0
@@ -1009,7 +1010,7 @@ def optimize_quads(
                 progress((sweep + i / len(steps)) / sweeps, f"optimization: {name}")
             if not planar and name in ("collapse", "smooth", "lift"):
                 continue
-            k = op(st, per_sweep) if name == "smooth" else op(st)
+            k = op(st)
             ops[name] += k
             if name not in ("smooth", "lift"):
                 changed += k

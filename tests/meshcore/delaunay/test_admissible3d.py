@@ -333,5 +333,34 @@ def test_box_with_a_cavity():
     P2, T2 = shapes.box((1, 1, 1), (2, 2, 2))
     res = run(np.concatenate([P1, P2]), np.concatenate([T1, T2 + len(P1)]))
     assert set(res.mesh.cell_sets) == {"region_0"}
-    # Its squares' diagonals all come from tie cones (42 points were added before).
+    # Its squares' diagonals all come from the in-plane swaps (42 points were added
+    # before the tie cones, 0 with them).
     assert res.added_on_edges + res.added_on_faces == 0
+
+
+def test_co_spherical_cell_re_tetrahedralized(monkeypatch):
+    # Two shells, all 11 corners on the sphere of radius 25 (integer points: exactly
+    # co-spherical): a pyramid whose base (points 1-4, z = 0, two input triangles on
+    # the diagonal 2-4, one facet) cuts the cell of the co-spherical points, and a
+    # shell below. In the first round the kernel holds the triangle 1-3-4 of the
+    # other diagonal but not 1-2-3: no in-plane swap applies, and the cell is
+    # re-tetrahedralized as a cone holding 2-4 (_TieFlips, Remark 9.6) instead of
+    # splitting 2-4 (the output differs without it). Later rounds make no flip.
+    from meshcore.delaunay import admissible3d
+
+    P = [[-9, 12, -20], [24, 7, 0], [0, 25, 0], [15, -20, 0], [24, -7, 0], [9, 20, 12],
+         [-16, -15, -12], [-15, 16, -12], [20, 9, -12], [12, -9, -20], [16, 15, -12]]  # fmt: skip
+    T = [[2, 3, 5], [5, 3, 4], [2, 5, 1], [1, 5, 4], [4, 2, 1], [4, 3, 2], [6, 7, 0], [9, 8, 6],
+         [6, 0, 9], [10, 0, 7], [8, 9, 10], [10, 9, 0], [10, 7, 6], [6, 8, 10]]  # fmt: skip
+    cones = []
+    flip = admissible3d._TieFlips.flip
+
+    def spy(self, *quad):
+        made = self.cones
+        out = flip(self, *quad)
+        cones.append(self.cones - made)
+        return out
+
+    monkeypatch.setattr(admissible3d._TieFlips, "flip", spy)
+    run(np.array(P, dtype=float), np.array(T))
+    assert sum(cones) >= 1
