@@ -193,6 +193,7 @@ from meshcore.quads.paths import (
     stack_kernel,
     swap_kernel,
 )
+from meshcore.quads.splitting import ladders, split_all
 from meshcore.quads.valence import fewer_defects
 from meshcore.triangulation import check_thinness as check_forced_triangles
 
@@ -852,79 +853,6 @@ def check_metric_2d(metric) -> None:
 # ----------------------------------------------------------------------------- splitting
 
 
-def split_all(
-    points: np.ndarray, quads: np.ndarray, triangles: np.ndarray, metric=None, segments=None
-):
-    """Every quad into four quads and every triangle into three (Figure 8.13).
-
-    Parameters
-    ----------
-    points : (n, d) float64
-    quads : (q, 4) int
-    triangles : (t, 3) int
-    metric : (n, d, d) float64, optional
-        Extended to the new points (the mean of the points they are made from).
-    segments : (s, 2) int, optional
-        Edges of the cells (a boundary) to follow through the split.
-
-    Returns
-    -------
-    points : (n + e + q + t, d) float64
-        The input points, then one midpoint per edge, then one centroid per cell.
-    quads : (4 q + 3 t, 4) int64
-        Counter-clockwise when the input cells are; conforming.
-    metric : (n + e + q + t, d, d) float64 or None
-    segments : (2 s, 2) int64 or None
-        Each given edge ``(a, b)`` as ``(a, m)`` and ``(m, b)``, ``m`` its midpoint.
-
-    References
-    ----------
-    §8.4.2 (twice size), §8.4.4 and Figure 8.13.
-    """
-    n = len(points)
-    cells = [
-        np.asarray(quads, np.int64).reshape(-1, 4),
-        np.asarray(triangles, np.int64).reshape(-1, 3),
-    ]
-    heads = np.concatenate([c.ravel() for c in cells])
-    tails = np.concatenate([np.roll(c, -1, axis=1).ravel() for c in cells])
-    key = np.minimum(heads, tails) * n + np.maximum(heads, tails)
-    uniq, inv = np.unique(key, return_inverse=True)
-    e0, e1 = uniq // n, uniq % n
-    ne = len(uniq)
-    nq, nt = len(cells[0]), len(cells[1])
-    mids = 0.5 * (points[e0] + points[e1])
-    cq = points[cells[0]].mean(axis=1) if nq else np.zeros((0, points.shape[1]))
-    ct = points[cells[1]].mean(axis=1) if nt else np.zeros((0, points.shape[1]))
-    newp = np.concatenate([points, mids, cq, ct])
-    out = []
-    off = 0
-    for c, kk, cbase in ((cells[0], 4, n + ne), (cells[1], 3, n + ne + nq)):
-        mc = len(c)
-        if not mc:
-            continue
-        em = n + inv[off : off + kk * mc].reshape(mc, kk)
-        off += kk * mc
-        centre = cbase + np.arange(mc)
-        for i in range(kk):
-            out.append(np.column_stack([c[:, i], em[:, i], centre, em[:, i - 1]]))
-    newq = np.concatenate(out) if out else np.zeros((0, 4), np.int64)
-    newm = None
-    if metric is not None and np.ndim(metric) == 3:
-        metric = np.asarray(metric)
-        mm = 0.5 * (metric[e0] + metric[e1])
-        mq = metric[cells[0]].mean(axis=1) if nq else np.zeros((0,) + metric.shape[1:])
-        mt = metric[cells[1]].mean(axis=1) if nt else np.zeros((0,) + metric.shape[1:])
-        newm = np.concatenate([metric, mm, mq, mt])
-    if segments is None:
-        return newp, newq, newm
-    seg = np.asarray(segments, np.int64).reshape(-1, 2)
-    skey = np.minimum(seg[:, 0], seg[:, 1]) * n + np.maximum(seg[:, 0], seg[:, 1])
-    mid = n + np.searchsorted(uniq, skey)
-    newseg = np.concatenate([np.column_stack([seg[:, 0], mid]), np.column_stack([mid, seg[:, 1]])])
-    return newp, newq, newm, newseg
-
-
 # ----------------------------------------------------------------------------- entry point
 
 
@@ -951,12 +879,13 @@ def _mesh_of(P, quads, tris) -> Mesh:
 
 
 def _combined(
-    mesh, metric, domain_input, algorithm, measure, min_quality, all_quad, report, lap, inner
+    mesh, metric, domain_input, algorithm, measure, min_quality, all_quad, report, lap, inner, thin
 ):
     """Steps 1, 2 and 4 of the module docstring: the selected pairs (and triples) of a
     triangle mesh as a mixed mesh, or split into quads with ``all_quad`` (after the
     valence clean-up of :mod:`meshcore.quads.valence` on domain input with ``matching``;
-    ``inner``: the domain is the inside of a boundary layer).
+    ``inner``: the domain is the inside of a boundary layer; ``thin``: ladder quads kept
+    whole where they can, :mod:`meshcore.quads.splitting`).
 
     Returns (mesh, metric, boundary edges, stats, (pairs, triples, triangles left)).
     """
@@ -1028,7 +957,8 @@ def _combined(
     out_mesh = _mesh_of(P, quads, left)
     if all_quad:
         report(0.6, "splitting into quads")
-        P2, q2, m2, boundary = split_all(P, quads, left, metric, boundary)
+        whole = ladders(quads, boundary, len(P)) if thin else None
+        P2, q2, m2, boundary = split_all(P, quads, left, metric, boundary, whole)
         if metric is not None and metric.ndim == 3:
             metric = m2
         out_mesh = Mesh(P2, (CellBlock("quad", q2),))
@@ -1341,6 +1271,7 @@ def _combine(
             report,
             lap,
             inner,
+            domain is not None and not keep_boundary,
         )
     else:
         out_mesh, boundary, inside = layered
