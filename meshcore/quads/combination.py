@@ -193,7 +193,7 @@ from meshcore.quads.paths import (
     stack_kernel,
     swap_kernel,
 )
-from meshcore.quads.splitting import ladders, split_all
+from meshcore.quads.splitting import ladders, merged_ladders, split_all
 from meshcore.quads.valence import fewer_defects
 from meshcore.triangulation import check_thinness as check_forced_triangles
 
@@ -265,6 +265,11 @@ class _Tolerances:
     #: ... when the first mesh has at most this many quads (each try costs a whole
     #: mesh: the disk at size 0.01, 31.5k quads, 0.79 CPU s; at 0.005, 126k, 7.0 s).
     size_tries_most: int = 50_000
+    #: A first mesh with more than this times area / size² quads is made again with its
+    #: ladder quads merged and kept whole (:mod:`meshcore.quads.splitting`), kept where
+    #: it meets the targets, or has fewer quads and no lower least quality away from
+    #: sharp corners (:func:`~meshcore.quads.boundary_layer.least_off_sharp`).
+    size_tries_over: float = 1.5
     #: Then the nodes of the quads under this quality away from sharp input corners
     #: (the issue's least quality) are moved to raise it
     #: (:func:`~meshcore.quads.optimization.lifted_least`).
@@ -884,8 +889,9 @@ def _combined(
     """Steps 1, 2 and 4 of the module docstring: the selected pairs (and triples) of a
     triangle mesh as a mixed mesh, or split into quads with ``all_quad`` (after the
     valence clean-up of :mod:`meshcore.quads.valence` on domain input with ``matching``;
-    ``inner``: the domain is the inside of a boundary layer; ``thin``: ladder quads kept
-    whole where they can, :mod:`meshcore.quads.splitting`).
+    ``inner``: the domain is the inside of a boundary layer; ``thin``: the domain's input
+    vertex count and triangulation size, to merge ladder quads and keep them whole where
+    they can, :mod:`meshcore.quads.splitting`).
 
     Returns (mesh, metric, boundary edges, stats, (pairs, triples, triangles left)).
     """
@@ -957,7 +963,12 @@ def _combined(
     out_mesh = _mesh_of(P, quads, left)
     if all_quad:
         report(0.6, "splitting into quads")
-        whole = ladders(quads, boundary, len(P)) if thin else None
+        whole = None
+        if thin is not None:  # (input vertices, the triangulation's size)
+            P, quads, left, boundary, metric = merged_ladders(
+                P, quads, left, boundary, *thin, metric
+            )
+            whole = ladders(quads, boundary, len(P))
         P2, q2, m2, boundary = split_all(P, quads, left, metric, boundary, whole)
         if metric is not None and metric.ndim == 3:
             metric = m2
@@ -1034,7 +1045,12 @@ def combine(
         (:func:`~meshcore.quads.boundary_layer.beats_lattice`; ``stats``
         ``lattice_least``: the lattice's least quality away from sharp corners).
         Where the mesh still misses those targets (``size`` given, no size field
-        nor metric, the boundary not kept, not ``inner``, ``squares``), the domain is meshed
+        nor metric, the boundary not kept, not ``inner``, ``squares``) with more than 1.5
+        times area / size² quads, it is made again with the ladder quads of the domain's
+        thin parts merged and kept whole (:mod:`meshcore.quads.splitting`): returned
+        where it meets the targets, and standing for the first mesh where it has fewer
+        quads and no lower least quality away from the sharp input corners. Where the
+        mesh still misses the targets, the domain is meshed
         again at 1.02, 1.04, 1.06, 1.1 and 1.2 times ``size`` and the first mesh that
         meets the targets at ``size`` is returned (``stats`` ``size_factor``);
         none does: the first mesh (so too when it has more than 50,000 quads).
@@ -1099,6 +1115,14 @@ def combine(
         or meets_targets(res.mesh, domain, size)
     ):
         return res
+    if len(res.mesh.cells_by_type["quad"]) * size * size > TOL.size_tries_over * domain.area:
+        thin = one(size=size, ladders=True, progress=_share(progress, 0, 1))
+        if meets_targets(thin.mesh, domain, size):
+            return thin
+        if len(thin.mesh.cells_by_type["quad"]) < len(res.mesh.cells_by_type["quad"]) and (
+            least_off_sharp(thin.mesh, domain) >= least_off_sharp(res.mesh, domain)
+        ):
+            res = thin
     for k, f in enumerate(TOL.size_tries, 1):  # at most len(TOL.size_tries) meshes
         try:
             again = one(size=size * f, progress=_share(progress, k, f))
@@ -1155,8 +1179,10 @@ def _combine(
     inner: bool = False,
     corner_least: float | None = None,
     progress: Progress | None = None,
+    ladders: bool = False,
 ) -> QuadResult:
-    """:func:`combine` for one ``size``."""
+    """:func:`combine` for one ``size``; ``ladders``: merge the ladder quads of the
+    domain's thin parts and keep them whole (:mod:`meshcore.quads.splitting`)."""
     report = progress if progress is not None else (lambda f, msg: None)
     timings: dict[str, float] = {}
     clock = time.perf_counter()
@@ -1251,6 +1277,7 @@ def _combine(
                     inner=inner,
                     corner_least=0.0,
                     progress=progress,
+                    ladders=ladders,
                 )
                 # without a row it is the lattice's mesh, as below
                 if "boundary_layer" not in res.stats or meets_targets(res.mesh, _dom, size):
@@ -1271,7 +1298,7 @@ def _combine(
             report,
             lap,
             inner,
-            domain is not None and not keep_boundary,
+            (len(_dom.points), tsize or 0.0) if ladders and not keep_boundary else None,
         )
     else:
         out_mesh, boundary, inside = layered

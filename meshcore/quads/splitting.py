@@ -24,7 +24,14 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ladders", "split_all"]
+from meshcore.geometry.predicates import orient2d
+from meshcore.mesh import quality
+
+__all__ = ["ladders", "merged_ladders", "split_all"]
+
+#: A merged ladder quad keeps at least this quality (8.4), or that of the worse of the
+#: two quads it replaces.
+MERGE_QUALITY = 0.5
 
 
 def ladders(quads: np.ndarray, boundary: np.ndarray, n: int) -> np.ndarray:
@@ -37,6 +44,91 @@ def ladders(quads: np.ndarray, boundary: np.ndarray, n: int) -> np.ndarray:
     on = np.isin(keys, np.minimum(b[:, 0], b[:, 1]) * n + np.maximum(b[:, 0], b[:, 1]))
     even, odd = on[:, 0] & on[:, 2], on[:, 1] & on[:, 3]
     return (even & ~on[:, 1] & ~on[:, 3]) | (odd & ~on[:, 0] & ~on[:, 2])
+
+
+def merged_ladders(points, quads, triangles, boundary, n_input: int, longest: float, metric=None):
+    """Consecutive ladder quads (:func:`ladders`) of a mixed mesh merged two by two by
+    removing their common rung: its two ends (boundary points, not input vertices: on
+    one input segment, held by those two quads only) go, the sides become one edge each.
+    A merge is made where the merged quad is strictly convex (exact
+    :func:`~meshcore.geometry.predicates.orient2d` at its four corners), its sides are
+    at most ``longest`` (the triangulation's size) and its quality (8.4) at least
+    ``MERGE_QUALITY`` or that of the worse of the two; the shortest merged quads first.
+    Along a spike the triangulation's pieces shrink with its width towards the tip; the
+    merges lay one quad per ``longest`` of its length instead.
+
+    Returns
+    -------
+    (points, quads, triangles, boundary, metric)
+        The points left (the input vertices first, in order; ``metric`` likewise, or
+        None) and the cells and boundary edges renumbered.
+    """
+    P = np.asarray(points)
+    Q = np.asarray(quads, np.int64).reshape(-1, 4).copy()
+    n = len(P)
+    whole = ladders(Q, boundary, n)
+    nxt = np.roll(Q, -1, axis=1)
+    keys = np.minimum(Q, nxt) * n + np.maximum(Q, nxt)
+    w = np.flatnonzero(whole)
+    k = keys[w].ravel()
+    order = np.argsort(k, kind="stable")
+    k = k[order]
+    pair = np.flatnonzero(k[1:] == k[:-1])  # a rung of two ladder quads
+    if not len(pair):
+        return points, quads, triangles, boundary, metric
+    a_slot, b_slot = order[pair], order[pair + 1]
+    qa, ia = w[a_slot // 4], a_slot % 4
+    qb, ib = w[b_slot // 4], b_slot % 4
+    ends = np.column_stack([Q[qa, ia], Q[qa, (ia + 1) % 4]])
+    ok = (ends >= n_input).all(axis=1)
+    qa, ia, qb, ib = qa[ok], ia[ok], qb[ok], ib[ok]
+    span = np.linalg.norm(P[Q[qa]] - P[np.roll(Q[qa], -1, axis=1)], axis=-1).sum(axis=1)
+    span += np.linalg.norm(P[Q[qb]] - P[np.roll(Q[qb], -1, axis=1)], axis=-1).sum(axis=1)
+    owner = np.arange(len(Q))  # a merged quad's row: the first of its quads
+    gone = np.zeros(len(Q), bool)
+    removed = []
+    base = quality.quad_quality(P, Q)
+    for r in np.argsort(span, kind="stable"):
+        a, b = owner[qa[r]], owner[qb[r]]
+        x, y = Q[qa[r], ia[r]], Q[qa[r], (ia[r] + 1) % 4]
+        i = np.flatnonzero((Q[a] == x) & (np.roll(Q[a], -1) == y))
+        j = np.flatnonzero((Q[b] == y) & (np.roll(Q[b], -1) == x))
+        if a == b or not len(i) or not len(j):
+            continue
+        i, j = int(i[0]), int(j[0])
+        new = np.array([Q[a][(i + 2) % 4], Q[a][(i + 3) % 4], Q[b][(j + 2) % 4], Q[b][(j + 3) % 4]])
+        c = P[new]
+        if not (orient2d(np.roll(c, 1, axis=0), c, np.roll(c, -1, axis=0)) > 0).all():
+            continue
+        if np.linalg.norm(c - np.roll(c, -1, axis=0), axis=1).max() > longest:
+            continue
+        q = float(quality.quad_quality(P, new[None])[0])
+        if q < min(MERGE_QUALITY, base[a], base[b]):
+            continue
+        Q[a], base[a] = new, q
+        gone[b] = True
+        owner[owner == b] = a
+        removed += [x, y]
+    if not removed:
+        return points, quads, triangles, boundary, metric
+    keep = np.ones(n, bool)
+    keep[removed] = False
+    new_id = np.cumsum(keep) - 1
+    Q = Q[~gone]
+    nxt = np.roll(Q, -1, axis=1)
+    # the boundary edges again: the edges of one cell, each as its cell runs it
+    tri = np.asarray(triangles, np.int64).reshape(-1, 3)
+    heads = np.concatenate([Q.ravel(), tri.ravel()])
+    tails = np.concatenate([nxt.ravel(), np.roll(tri, -1, axis=1).ravel()])
+    ek = np.minimum(heads, tails) * n + np.maximum(heads, tails)
+    u, inv, cnt = np.unique(ek, return_inverse=True, return_counts=True)
+    single = cnt[inv] == 1
+    on = single[: Q.size].reshape(Q.shape)
+    b = np.column_stack([Q[on], nxt[on]])
+    bt = np.column_stack([tri.ravel(), np.roll(tri, -1, axis=1).ravel()])[single[Q.size :]]
+    b = np.concatenate([b, bt])
+    out_metric = None if metric is None or np.ndim(metric) != 3 else np.asarray(metric)[keep]
+    return P[keep], new_id[Q], new_id[tri], new_id[b], out_metric
 
 
 def split_all(
