@@ -206,7 +206,6 @@ __all__ = [
     "check_metric_2d",
     "check_thinness",
     "combine",
-    "split_all",
 ]
 
 ALGORITHMS = ("stack", "heap", "frontal", "matching")

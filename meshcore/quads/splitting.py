@@ -36,7 +36,8 @@ MERGE_QUALITY = 0.5
 
 def ladders(quads: np.ndarray, boundary: np.ndarray, n: int) -> np.ndarray:
     """(q,) bool: the quads whose edges 0 and 2, or 1 and 3, are ``boundary`` edges
-    (``(s, 2)`` point pairs, either order; ``n`` points) and whose other two are not."""
+    (``(s, 2)`` point pairs, either order; ``n`` points) and whose other two are not:
+    quads spanning a strip one quad wide (§8.4.2, §8.4.4)."""
     q = np.asarray(quads, np.int64).reshape(-1, 4)
     b = np.asarray(boundary, np.int64).reshape(-1, 2)
     nxt = np.roll(q, -1, axis=1)
@@ -61,7 +62,12 @@ def merged_ladders(points, quads, triangles, boundary, n_input: int, longest: fl
     -------
     (points, quads, triangles, boundary, metric)
         The points left (the input vertices first, in order; ``metric`` likewise, or
-        None) and the cells and boundary edges renumbered.
+        None) and the cells and boundary edges renumbered. The domain is the same: the
+        points removed lie on input segments and every merged quad is strictly convex.
+
+    References
+    ----------
+    §8.4.2 (twice size), §8.4.3 (the operators that remove a node).
     """
     P = np.asarray(points)
     Q = np.asarray(quads, np.int64).reshape(-1, 4).copy()
