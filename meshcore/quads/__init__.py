@@ -7,8 +7,9 @@ inward, without a triangle mesh (§8.5.1).
 """
 
 from meshcore.quads.advancing_front import PavingResult, paving
-from meshcore.quads.combination import QuadResult, check_input, check_metric_2d, combine, split_all
+from meshcore.quads.combination import QuadResult, check_input, check_metric_2d, combine
 from meshcore.quads.optimization import OptimizeResult, optimize_quads
+from meshcore.quads.splitting import split_all
 
 __all__ = [
     "OptimizeResult",

@@ -193,6 +193,7 @@ from meshcore.quads.paths import (
     stack_kernel,
     swap_kernel,
 )
+from meshcore.quads.splitting import ladders, merged_ladders, split_all
 from meshcore.quads.valence import fewer_defects
 from meshcore.triangulation import check_thinness as check_forced_triangles
 
@@ -205,7 +206,6 @@ __all__ = [
     "check_metric_2d",
     "check_thinness",
     "combine",
-    "split_all",
 ]
 
 ALGORITHMS = ("stack", "heap", "frontal", "matching")
@@ -264,6 +264,11 @@ class _Tolerances:
     #: ... when the first mesh has at most this many quads (each try costs a whole
     #: mesh: the disk at size 0.01, 31.5k quads, 0.79 CPU s; at 0.005, 126k, 7.0 s).
     size_tries_most: int = 50_000
+    #: A first mesh with more than this times area / size² quads is made again with its
+    #: ladder quads merged and kept whole (:mod:`meshcore.quads.splitting`), kept where
+    #: it meets the targets, or has fewer quads and no lower least quality away from
+    #: sharp corners (:func:`~meshcore.quads.boundary_layer.least_off_sharp`).
+    size_tries_over: float = 1.5
     #: Then the nodes of the quads under this quality away from sharp input corners
     #: (the issue's least quality) are moved to raise it
     #: (:func:`~meshcore.quads.optimization.lifted_least`).
@@ -852,79 +857,6 @@ def check_metric_2d(metric) -> None:
 # ----------------------------------------------------------------------------- splitting
 
 
-def split_all(
-    points: np.ndarray, quads: np.ndarray, triangles: np.ndarray, metric=None, segments=None
-):
-    """Every quad into four quads and every triangle into three (Figure 8.13).
-
-    Parameters
-    ----------
-    points : (n, d) float64
-    quads : (q, 4) int
-    triangles : (t, 3) int
-    metric : (n, d, d) float64, optional
-        Extended to the new points (the mean of the points they are made from).
-    segments : (s, 2) int, optional
-        Edges of the cells (a boundary) to follow through the split.
-
-    Returns
-    -------
-    points : (n + e + q + t, d) float64
-        The input points, then one midpoint per edge, then one centroid per cell.
-    quads : (4 q + 3 t, 4) int64
-        Counter-clockwise when the input cells are; conforming.
-    metric : (n + e + q + t, d, d) float64 or None
-    segments : (2 s, 2) int64 or None
-        Each given edge ``(a, b)`` as ``(a, m)`` and ``(m, b)``, ``m`` its midpoint.
-
-    References
-    ----------
-    §8.4.2 (twice size), §8.4.4 and Figure 8.13.
-    """
-    n = len(points)
-    cells = [
-        np.asarray(quads, np.int64).reshape(-1, 4),
-        np.asarray(triangles, np.int64).reshape(-1, 3),
-    ]
-    heads = np.concatenate([c.ravel() for c in cells])
-    tails = np.concatenate([np.roll(c, -1, axis=1).ravel() for c in cells])
-    key = np.minimum(heads, tails) * n + np.maximum(heads, tails)
-    uniq, inv = np.unique(key, return_inverse=True)
-    e0, e1 = uniq // n, uniq % n
-    ne = len(uniq)
-    nq, nt = len(cells[0]), len(cells[1])
-    mids = 0.5 * (points[e0] + points[e1])
-    cq = points[cells[0]].mean(axis=1) if nq else np.zeros((0, points.shape[1]))
-    ct = points[cells[1]].mean(axis=1) if nt else np.zeros((0, points.shape[1]))
-    newp = np.concatenate([points, mids, cq, ct])
-    out = []
-    off = 0
-    for c, kk, cbase in ((cells[0], 4, n + ne), (cells[1], 3, n + ne + nq)):
-        mc = len(c)
-        if not mc:
-            continue
-        em = n + inv[off : off + kk * mc].reshape(mc, kk)
-        off += kk * mc
-        centre = cbase + np.arange(mc)
-        for i in range(kk):
-            out.append(np.column_stack([c[:, i], em[:, i], centre, em[:, i - 1]]))
-    newq = np.concatenate(out) if out else np.zeros((0, 4), np.int64)
-    newm = None
-    if metric is not None and np.ndim(metric) == 3:
-        metric = np.asarray(metric)
-        mm = 0.5 * (metric[e0] + metric[e1])
-        mq = metric[cells[0]].mean(axis=1) if nq else np.zeros((0,) + metric.shape[1:])
-        mt = metric[cells[1]].mean(axis=1) if nt else np.zeros((0,) + metric.shape[1:])
-        newm = np.concatenate([metric, mm, mq, mt])
-    if segments is None:
-        return newp, newq, newm
-    seg = np.asarray(segments, np.int64).reshape(-1, 2)
-    skey = np.minimum(seg[:, 0], seg[:, 1]) * n + np.maximum(seg[:, 0], seg[:, 1])
-    mid = n + np.searchsorted(uniq, skey)
-    newseg = np.concatenate([np.column_stack([seg[:, 0], mid]), np.column_stack([mid, seg[:, 1]])])
-    return newp, newq, newm, newseg
-
-
 # ----------------------------------------------------------------------------- entry point
 
 
@@ -951,12 +883,14 @@ def _mesh_of(P, quads, tris) -> Mesh:
 
 
 def _combined(
-    mesh, metric, domain_input, algorithm, measure, min_quality, all_quad, report, lap, inner
+    mesh, metric, domain_input, algorithm, measure, min_quality, all_quad, report, lap, inner, thin
 ):
     """Steps 1, 2 and 4 of the module docstring: the selected pairs (and triples) of a
     triangle mesh as a mixed mesh, or split into quads with ``all_quad`` (after the
     valence clean-up of :mod:`meshcore.quads.valence` on domain input with ``matching``;
-    ``inner``: the domain is the inside of a boundary layer).
+    ``inner``: the domain is the inside of a boundary layer; ``thin``: the domain's input
+    vertex count and triangulation size, to merge ladder quads and keep them whole where
+    they can, :mod:`meshcore.quads.splitting`).
 
     Returns (mesh, metric, boundary edges, stats, (pairs, triples, triangles left)).
     """
@@ -1028,7 +962,13 @@ def _combined(
     out_mesh = _mesh_of(P, quads, left)
     if all_quad:
         report(0.6, "splitting into quads")
-        P2, q2, m2, boundary = split_all(P, quads, left, metric, boundary)
+        whole = None
+        if thin is not None:  # (input vertices, the triangulation's size)
+            P, quads, left, boundary, metric = merged_ladders(
+                P, quads, left, boundary, *thin, metric
+            )
+            whole = ladders(quads, boundary, len(P))
+        P2, q2, m2, boundary = split_all(P, quads, left, metric, boundary, whole)
         if metric is not None and metric.ndim == 3:
             metric = m2
         out_mesh = Mesh(P2, (CellBlock("quad", q2),))
@@ -1104,7 +1044,12 @@ def combine(
         (:func:`~meshcore.quads.boundary_layer.beats_lattice`; ``stats``
         ``lattice_least``: the lattice's least quality away from sharp corners).
         Where the mesh still misses those targets (``size`` given, no size field
-        nor metric, the boundary not kept, not ``inner``, ``squares``), the domain is meshed
+        nor metric, the boundary not kept, not ``inner``, ``squares``) with more than 1.5
+        times area / size² quads, it is made again with the ladder quads of the domain's
+        thin parts merged and kept whole (:mod:`meshcore.quads.splitting`): returned
+        where it meets the targets, and standing for the first mesh where it has fewer
+        quads and no lower least quality away from the sharp input corners. Where the
+        mesh still misses the targets, the domain is meshed
         again at 1.02, 1.04, 1.06, 1.1 and 1.2 times ``size`` and the first mesh that
         meets the targets at ``size`` is returned (``stats`` ``size_factor``);
         none does: the first mesh (so too when it has more than 50,000 quads).
@@ -1169,6 +1114,14 @@ def combine(
         or meets_targets(res.mesh, domain, size)
     ):
         return res
+    if len(res.mesh.cells_by_type["quad"]) * size * size > TOL.size_tries_over * domain.area:
+        thin = one(size=size, ladders=True, progress=_share(progress, 0, 1))
+        if meets_targets(thin.mesh, domain, size):
+            return thin
+        if len(thin.mesh.cells_by_type["quad"]) < len(res.mesh.cells_by_type["quad"]) and (
+            least_off_sharp(thin.mesh, domain) >= least_off_sharp(res.mesh, domain)
+        ):
+            res = thin
     for k, f in enumerate(TOL.size_tries, 1):  # at most len(TOL.size_tries) meshes
         try:
             again = one(size=size * f, progress=_share(progress, k, f))
@@ -1225,8 +1178,10 @@ def _combine(
     inner: bool = False,
     corner_least: float | None = None,
     progress: Progress | None = None,
+    ladders: bool = False,
 ) -> QuadResult:
-    """:func:`combine` for one ``size``."""
+    """:func:`combine` for one ``size``; ``ladders``: merge the ladder quads of the
+    domain's thin parts and keep them whole (:mod:`meshcore.quads.splitting`)."""
     report = progress if progress is not None else (lambda f, msg: None)
     timings: dict[str, float] = {}
     clock = time.perf_counter()
@@ -1321,6 +1276,7 @@ def _combine(
                     inner=inner,
                     corner_least=0.0,
                     progress=progress,
+                    ladders=ladders,
                 )
                 # without a row it is the lattice's mesh, as below
                 if "boundary_layer" not in res.stats or meets_targets(res.mesh, _dom, size):
@@ -1341,6 +1297,7 @@ def _combine(
             report,
             lap,
             inner,
+            (len(_dom.points), tsize or 0.0) if ladders and not keep_boundary else None,
         )
     else:
         out_mesh, boundary, inside = layered

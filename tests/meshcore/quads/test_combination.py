@@ -21,8 +21,9 @@ from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.quads import combination
 from meshcore.quads.boundary_layer import meets_targets
-from meshcore.quads.combination import ALGORITHMS, combine, split_all
+from meshcore.quads.combination import ALGORITHMS, combine
 from meshcore.quads.optimization import optimize_quads
+from meshcore.quads.splitting import split_all
 from meshcore.triangulation.refinement import triangulate
 from tests.meshcore.quads.stars import star
 
