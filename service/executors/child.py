@@ -151,15 +151,12 @@ def run_task(task: Task, memory_limit: int, send: Callable[[tuple], None]) -> No
     The address space is limited to ``memory_limit``; the CPU time to the
     task's time limit and 5 s beyond what the process has used so far (the
     kernel then kills it with SIGXCPU), so a process that ran earlier jobs
-    gives each the same allowance.
+    gives each the same allowance. Both are soft limits (:func:`_soft_limit`):
+    a lowered hard limit could not be raised again for a later job.
     """
-    resource.setrlimit(resource.RLIMIT_AS, (memory_limit, memory_limit))
+    _soft_limit(resource.RLIMIT_AS, memory_limit)
     used = resource.getrusage(resource.RUSAGE_SELF)
-    cpu = int(used.ru_utime + used.ru_stime + task.time_limit) + 5
-    hard = resource.getrlimit(resource.RLIMIT_CPU)[1]
-    if hard != resource.RLIM_INFINITY:
-        cpu = min(cpu, hard)
-    resource.setrlimit(resource.RLIMIT_CPU, (cpu, hard))
+    _soft_limit(resource.RLIMIT_CPU, int(used.ru_utime + used.ru_stime + task.time_limit) + 5)
     last = time.monotonic()
 
     def progress(fraction: float, message: str) -> None:
@@ -173,6 +170,14 @@ def run_task(task: Task, memory_limit: int, send: Callable[[tuple], None]) -> No
         send(("ok", run_job(task.spec, task.params, progress, task.formats, task.arrays)))
     except JobFailed as exc:
         send(("error", exc.problem))
+
+
+def _soft_limit(which: int, value: int) -> None:
+    """Set the soft limit ``which`` to ``value`` (at most the hard limit, left as it is)."""
+    hard = resource.getrlimit(which)[1]
+    if hard != resource.RLIM_INFINITY:
+        value = min(value, hard)
+    resource.setrlimit(which, (value, hard))
 
 
 def demotion(pid: int) -> Callable[[], bool]:
