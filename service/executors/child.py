@@ -435,8 +435,9 @@ def run_in_child(
             receiver.close()
             if answered:  # it exits by itself: its teardown (about 10 ms) is not the job's time
                 threading.Thread(target=_reap, args=(proc,), name="reap", daemon=True).start()
-            else:
-                _reap(proc)
+            else:  # stopped, died, or this side failed: it may be deep in a kernel, no waiting
+                proc.kill()
+                proc.join(5)
 
 
 def _frames(
