@@ -243,14 +243,21 @@ class Spares:
         self._wanted.set()
 
     def take(self) -> Any | None:
-        """A waiting process, or None when none is ready (the caller starts its own)."""
+        """A waiting process, or None when none is ready (the caller starts its own).
+        One found dead meanwhile is ended and replaced."""
+        spare = None
+        dead = False
         with self._lock:
             while self._ready:
                 candidate = self._ready.popleft()
                 if self._alive(candidate):
-                    return candidate
+                    spare = candidate
+                    break
                 self._discard(candidate)
-        return None
+                dead = True
+        if dead:
+            self.fill()
+        return spare
 
     def give_back(self, spare: Any) -> None:
         """A process that ran a job and waits for another: first in line (its pages are
