@@ -119,6 +119,7 @@ _ISP_SEMI = 24.0 * _ISP_ERRBOUND_A * (1.0 + 2.0**-40)
 _FIB64 = np.int64(-7046029254386353131)  # 0x9E3779B97F4A7C15 as int64
 _CHUNK = 1 << 16
 _MAX_POINTS = 1 << 26  # 4 * tetrahedra slots must fit int32
+_MAX_SLOTS = 1 << 29  # tetrahedron slots: the adjacency's 4 * slot + 3 must fit int32
 # Smallest magnitude a nonzero coordinate may have after rescaling the largest
 # to [0.5, 1), and largest for points inserted later: keeps every product of
 # the exact predicates a normal number.
@@ -1080,7 +1081,14 @@ class IncrementalDelaunay3d:
 
     def _grow_tets(self) -> None:
         cap = self._mark.shape[0]
-        new = 2 * cap
+        if cap >= _MAX_SLOTS:  # int32 slot numbers would wrap around
+            raise InputError(
+                f"the tetrahedralization needs more than {_MAX_SLOTS} tetrahedra, the most "
+                f"the kernel's tables hold ({self._n} points; a random set needs about 7 a point)",
+                loc=("points",),
+                code="too_many_points",
+            )
+        new = min(2 * cap, _MAX_SLOTS)
         for name, width, dtype in (("_V", 4, np.int32), ("_A", 4, np.int32)):
             old = getattr(self, name)
             arr = np.empty(width * new, dtype)
@@ -1412,7 +1420,9 @@ def delaunay3d(points, progress: Callable[[float, str], None] | None = None) -> 
         points), ``duplicate_points`` (naming the coinciding indices),
         ``coplanar_points`` (all points on one plane),
         ``coordinates_out_of_range`` (nonzero coordinates more than 2**100
-        times smaller than the largest), ``too_many_points`` (2**26 or more).
+        times smaller than the largest), ``too_many_points`` (2**26 or more,
+        or a placement needing more than 2**29 tetrahedra, such as tens of
+        thousands of points on a moment curve).
 
     Notes
     -----

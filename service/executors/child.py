@@ -151,15 +151,12 @@ def run_task(task: Task, memory_limit: int, send: Callable[[tuple], None]) -> No
     The address space is limited to ``memory_limit``; the CPU time to the
     task's time limit and 5 s beyond what the process has used so far (the
     kernel then kills it with SIGXCPU), so a process that ran earlier jobs
-    gives each the same allowance.
+    gives each the same allowance. Both are soft limits (:func:`_soft_limit`):
+    a lowered hard limit could not be raised again for a later job.
     """
-    resource.setrlimit(resource.RLIMIT_AS, (memory_limit, memory_limit))
+    _soft_limit(resource.RLIMIT_AS, memory_limit)
     used = resource.getrusage(resource.RUSAGE_SELF)
-    cpu = int(used.ru_utime + used.ru_stime + task.time_limit) + 5
-    hard = resource.getrlimit(resource.RLIMIT_CPU)[1]
-    if hard != resource.RLIM_INFINITY:
-        cpu = min(cpu, hard)
-    resource.setrlimit(resource.RLIMIT_CPU, (cpu, hard))
+    _soft_limit(resource.RLIMIT_CPU, int(used.ru_utime + used.ru_stime + task.time_limit) + 5)
     last = time.monotonic()
 
     def progress(fraction: float, message: str) -> None:
@@ -173,6 +170,14 @@ def run_task(task: Task, memory_limit: int, send: Callable[[tuple], None]) -> No
         send(("ok", run_job(task.spec, task.params, progress, task.formats, task.arrays)))
     except JobFailed as exc:
         send(("error", exc.problem))
+
+
+def _soft_limit(which: int, value: int) -> None:
+    """Set the soft limit ``which`` to ``value`` (at most the hard limit, left as it is)."""
+    hard = resource.getrlimit(which)[1]
+    if hard != resource.RLIM_INFINITY:
+        value = min(value, hard)
+    resource.setrlimit(which, (value, hard))
 
 
 def demotion(pid: int) -> Callable[[], bool]:
@@ -238,14 +243,21 @@ class Spares:
         self._wanted.set()
 
     def take(self) -> Any | None:
-        """A waiting process, or None when none is ready (the caller starts its own)."""
+        """A waiting process, or None when none is ready (the caller starts its own).
+        One found dead meanwhile is ended and replaced."""
+        spare = None
+        dead = False
         with self._lock:
             while self._ready:
                 candidate = self._ready.popleft()
                 if self._alive(candidate):
-                    return candidate
+                    spare = candidate
+                    break
                 self._discard(candidate)
-        return None
+                dead = True
+        if dead:
+            self.fill()
+        return spare
 
     def give_back(self, spare: Any) -> None:
         """A process that ran a job and waits for another: first in line (its pages are
@@ -430,8 +442,9 @@ def run_in_child(
             receiver.close()
             if answered:  # it exits by itself: its teardown (about 10 ms) is not the job's time
                 threading.Thread(target=_reap, args=(proc,), name="reap", daemon=True).start()
-            else:
-                _reap(proc)
+            else:  # stopped, died, or this side failed: it may be deep in a kernel, no waiting
+                proc.kill()
+                proc.join(5)
 
 
 def _frames(

@@ -297,3 +297,15 @@ def test_hypothesis_integer_points(pts):
     check_delaunay(tz)
     perm = np.random.default_rng(len(p)).permutation(len(p))
     assert np.array_equal(canon(perm[delaunay3d(p[perm]).tetra]), canon(tz.tetra))
+
+
+def test_more_tetrahedra_than_the_slot_tables_hold_is_an_input_error(monkeypatch):
+    # Points on the moment curve have a quadratic number of tetrahedra: 60 of them
+    # outgrow their first 7 n + 64 slots, here also the most allowed.
+    t = np.linspace(1.0, 2.0, 60)
+    pts = np.column_stack([t, t * t, t * t * t])
+    assert len(delaunay3d(pts).tetra) > 7 * 60 + 64
+    monkeypatch.setattr("meshcore.delaunay.kernel3d._MAX_SLOTS", 7 * 60 + 64)
+    with pytest.raises(InputError) as err:
+        delaunay3d(pts)
+    assert err.value.code == "too_many_points"
