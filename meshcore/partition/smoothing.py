@@ -472,8 +472,8 @@ def _skew(P, quads, cptr, cidx, v, grad, slope):
         l1 = x1 * x1 + y1 * y1
         l2 = x2 * x2 + y2 * y2
         l3 = x3 * x3 + y3 * y3
-        # v's place in the quad: corner j sees it as the corner (0), its next (1),
-        # its previous (2) or not at all (3)
+        # v is corner `at` of the quad (v is one of its corners); corner j sees it in the
+        # role _ROLE[at, j]
         at = 0 if v == k0 else 1 if v == k1 else 2 if v == k2 else 3
         t0, gx0, gy0, ok0 = _skew_corner(x0, y0, -x3, -y3, l0, l3, _ROLE[at, 0], slope)
         t1, gx1, gy1, ok1 = _skew_corner(x1, y1, -x0, -y0, l1, l0, _ROLE[at, 1], slope)
