@@ -1115,11 +1115,16 @@ def combine(
     ):
         return res
     if len(res.mesh.cells_by_type["quad"]) * size * size > TOL.size_tries_over * domain.area:
-        thin = one(size=size, ladders=True, progress=_share(progress, 0, 1))
-        if meets_targets(thin.mesh, domain, size):
+        try:
+            thin = one(size=size, ladders=True, progress=_share(progress, 0, 1))
+        except AlgorithmError:  # as a size try: a try that fails leaves the first mesh
+            thin = None
+        if thin is not None and meets_targets(thin.mesh, domain, size):
             return thin
-        if len(thin.mesh.cells_by_type["quad"]) < len(res.mesh.cells_by_type["quad"]) and (
-            least_off_sharp(thin.mesh, domain) >= least_off_sharp(res.mesh, domain)
+        if (
+            thin is not None
+            and len(thin.mesh.cells_by_type["quad"]) < len(res.mesh.cells_by_type["quad"])
+            and least_off_sharp(thin.mesh, domain) >= least_off_sharp(res.mesh, domain)
         ):
             res = thin
     for k, f in enumerate(TOL.size_tries, 1):  # at most len(TOL.size_tries) meshes

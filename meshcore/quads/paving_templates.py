@@ -114,9 +114,8 @@ class _Grids:
         g[:, 0], g[:, b], g[0, :], g[a, :] = bot, top, left, right
         if a > 1 and b > 1:
             g[1:a, 1:b] = self.new(xy[1:a, 1:b].reshape(-1, 2)).reshape(a - 1, b - 1)
-        u, v = np.meshgrid(np.arange(a), np.arange(b), indexing="ij")
-        u, v = u.ravel(), v.ravel()
-        self.quads.append(np.column_stack([g[u, v], g[u + 1, v], g[u + 1, v + 1], g[u, v + 1]]))
+        quads = np.stack([g[:-1, :-1], g[1:, :-1], g[1:, 1:], g[:-1, 1:]], axis=-1)
+        self.quads.append(quads.reshape(-1, 4))
 
     def done(self):
         pts = np.concatenate(self.pts) if self.pts else np.zeros((0, 2))

@@ -40,9 +40,7 @@ def ladders(quads: np.ndarray, boundary: np.ndarray, n: int) -> np.ndarray:
     quads spanning a strip one quad wide (§8.4.2, §8.4.4)."""
     q = np.asarray(quads, np.int64).reshape(-1, 4)
     b = np.asarray(boundary, np.int64).reshape(-1, 2)
-    nxt = np.roll(q, -1, axis=1)
-    keys = np.minimum(q, nxt) * n + np.maximum(q, nxt)
-    on = np.isin(keys, np.minimum(b[:, 0], b[:, 1]) * n + np.maximum(b[:, 0], b[:, 1]))
+    on = np.isin(_edge_keys(q, n), _edge_keys(b, n)[:, 0])
     even, odd = on[:, 0] & on[:, 2], on[:, 1] & on[:, 3]
     return (even & ~on[:, 1] & ~on[:, 3]) | (odd & ~on[:, 0] & ~on[:, 2])
 
@@ -72,11 +70,8 @@ def merged_ladders(points, quads, triangles, boundary, n_input: int, longest: fl
     P = np.asarray(points)
     Q = np.asarray(quads, np.int64).reshape(-1, 4).copy()
     n = len(P)
-    whole = ladders(Q, boundary, n)
-    nxt = np.roll(Q, -1, axis=1)
-    keys = np.minimum(Q, nxt) * n + np.maximum(Q, nxt)
-    w = np.flatnonzero(whole)
-    k = keys[w].ravel()
+    w = np.flatnonzero(ladders(Q, boundary, n))
+    k = _edge_keys(Q[w], n).ravel()
     order = np.argsort(k, kind="stable")
     k = k[order]
     pair = np.flatnonzero(k[1:] == k[:-1])  # a rung of two ladder quads
@@ -124,9 +119,7 @@ def merged_ladders(points, quads, triangles, boundary, n_input: int, longest: fl
     nxt = np.roll(Q, -1, axis=1)
     # the boundary edges again: the edges of one cell, each as its cell runs it
     tri = np.asarray(triangles, np.int64).reshape(-1, 3)
-    heads = np.concatenate([Q.ravel(), tri.ravel()])
-    tails = np.concatenate([nxt.ravel(), np.roll(tri, -1, axis=1).ravel()])
-    ek = np.minimum(heads, tails) * n + np.maximum(heads, tails)
+    ek = np.concatenate([_edge_keys(Q, n).ravel(), _edge_keys(tri, n).ravel()])
     u, inv, cnt = np.unique(ek, return_inverse=True, return_counts=True)
     single = cnt[inv] == 1
     on = single[: Q.size].reshape(Q.shape)
@@ -183,9 +176,7 @@ def split_all(
         np.asarray(quads, np.int64).reshape(-1, 4),
         np.asarray(triangles, np.int64).reshape(-1, 3),
     ]
-    heads = np.concatenate([c.ravel() for c in cells])
-    tails = np.concatenate([np.roll(c, -1, axis=1).ravel() for c in cells])
-    key = np.minimum(heads, tails) * n + np.maximum(heads, tails)
+    key = np.concatenate([_edge_keys(c, n).ravel() for c in cells])
     uniq, inv = np.unique(key, return_inverse=True)
     e0, e1 = uniq // n, uniq % n
     nq, nt = len(cells[0]), len(cells[1])
@@ -234,8 +225,7 @@ def split_all(
     if segments is None:
         return newp, newq, newm
     seg = np.asarray(segments, np.int64).reshape(-1, 2)
-    skey = np.minimum(seg[:, 0], seg[:, 1]) * n + np.maximum(seg[:, 0], seg[:, 1])
-    mid = mid_of[np.searchsorted(uniq, skey)]
+    mid = mid_of[np.searchsorted(uniq, _edge_keys(seg, n)[:, 0])]
     cut = mid >= 0
     newseg = np.concatenate(
         [
@@ -245,6 +235,13 @@ def split_all(
         ]
     )
     return newp, newq, newm, newseg
+
+
+def _edge_keys(cells: np.ndarray, n: int) -> np.ndarray:
+    """(c, k) int64: the key ``min * n + max`` of each edge ``(i, i + 1)`` of ``(c, k)``
+    cells of ``n`` points (an edge's key whichever way a cell runs it)."""
+    nxt = np.roll(cells, -1, axis=1)
+    return np.minimum(cells, nxt) * n + np.maximum(cells, nxt)
 
 
 def _ladder_split(points, quads, qe, whole, per_edge):
