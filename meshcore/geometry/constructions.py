@@ -146,3 +146,42 @@ def point_segment_distance_2d(qx, qy, ax, ay, bx, by):
     t = ((qx - ax) * dx + (qy - ay) * dy) / (dd if dd > 0 else 1.0)
     t = min(max(t, 0.0), 1.0)
     return math.hypot(ax + t * dx - qx, ay + t * dy - qy)
+
+
+def coons_grid(bottom, right, top, left) -> np.ndarray:
+    """The points of a structured grid by transfinite (Coons) interpolation of its sides.
+
+    Parameters
+    ----------
+    bottom, top : (n1 + 1, 2) float64
+        Sides running in ``u``, left to right.
+    left, right : (n2 + 1, 2) float64
+        Sides running in ``v``, bottom to top; the corners are shared::
+
+            left[-1] = top[0]  ----  top[-1] = right[-1]
+               |                        |
+            left[0] = bottom[0] ---- bottom[-1] = right[0]
+
+    Returns
+    -------
+    (n1 + 1, n2 + 1, 2) float64
+        ``grid[i, j]`` at ``u = i / n1``, ``v = j / n2``; the boundary rows
+        and columns are the given sides exactly, the inside the bilinearly
+        blended interpolation of the four sides (it reproduces any affine
+        image of a square grid, and may fold where a side turns back).
+    """
+    n1, n2 = len(bottom) - 1, len(left) - 1
+    u = np.linspace(0.0, 1.0, n1 + 1)[:, None, None]
+    v = np.linspace(0.0, 1.0, n2 + 1)[None, :, None]
+    B, T = bottom[:, None, :], top[:, None, :]
+    L, R = left[None, :, :], right[None, :, :]
+    grid = (
+        (1 - v) * B
+        + v * T
+        + (1 - u) * L
+        + u * R
+        - ((1 - u) * (1 - v) * bottom[0] + u * (1 - v) * bottom[-1])
+        - ((1 - u) * v * top[0] + u * v * top[-1])
+    )
+    grid[:, 0], grid[:, -1], grid[0, :], grid[-1, :] = bottom, top, left, right
+    return grid

@@ -94,6 +94,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.errors import InputError
+from meshcore.geometry.constructions import coons_grid
 from meshcore.geometry.predicates import orient2d
 from meshcore.limits import MAX_QUADS
 from meshcore.medial.axis import MedialAxis, _classes, _csr
@@ -467,7 +468,7 @@ def _flowered(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.nda
         a, b = k // 2, k - k // 2
         ring = points[v] + 0.5 * (points[outer] - points[v])
         idx = np.arange(2 * k + 1) % (2 * k)
-        grid = _coons(
+        grid = coons_grid(
             ring[idx[: a + 1]],
             ring[idx[a : a + b + 1]],
             ring[idx[a + b : 2 * a + b + 1]][::-1],
@@ -493,33 +494,6 @@ def _flowered(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.nda
     if not done:
         return points, quads, 0
     return np.concatenate(P), np.concatenate([quads[keep], *new_quads]), done
-
-
-def _coons(bottom, right, top, left) -> np.ndarray:
-    """Transfinite interpolation on an ``(n1 + 1) x (n2 + 1)`` grid.
-
-    ``bottom`` and ``top`` run in ``u`` (n1 + 1 points), ``left`` and
-    ``right`` in ``v`` (n2 + 1); the corners are shared::
-
-        left[-1] = top[0]  ----  top[-1] = right[-1]
-           |                        |
-        left[0] = bottom[0] ---- bottom[-1] = right[0]
-    """
-    n1, n2 = len(bottom) - 1, len(left) - 1
-    u = np.linspace(0.0, 1.0, n1 + 1)[:, None, None]
-    v = np.linspace(0.0, 1.0, n2 + 1)[None, :, None]
-    B, T = bottom[:, None, :], top[:, None, :]
-    L, R = left[None, :, :], right[None, :, :]
-    grid = (
-        (1 - v) * B
-        + v * T
-        + (1 - u) * L
-        + u * R
-        - ((1 - u) * (1 - v) * bottom[0] + u * (1 - v) * bottom[-1])
-        - ((1 - u) * v * top[0] + u * v * top[-1])
-    )
-    grid[:, 0], grid[:, -1], grid[0, :], grid[-1, :] = bottom, top, left, right
-    return grid
 
 
 def _inner_point(
@@ -651,21 +625,21 @@ def _spread(n: int, k: int, skip_first: bool) -> np.ndarray:
 def _transition(bottom, right, top, left):
     """A coarse quad whose ``bottom`` has ``2 k`` more edges than its ``top`` (``k`` at
     most the top's edges), and its ``left`` ``2 m`` more than its ``right``: the
-    transfinite grid of :func:`_coons` on the top's and right's counts, its first row
+    transfinite grid of :func:`coons_grid` on the top's and right's counts, its first row
     along the bottom made of ``k`` 3-to-1 templates (four quads: two points inside,
     halfway across the row) spread evenly among plain quads, its first column along the
     left of ``m`` (both: none in the corner cell, so ``k`` and ``m`` at most one less),
     so that a boundary side crowded with input vertices does not carry its count across
     the region (§8.5.3's consistency constraints, relaxed to a conforming transition).
     The points (the grid's, then the templates' side and inner points), the quads,
-    counterclockwise like the grid's (with ``k = m = 0`` exactly :func:`_coons`' grid,
+    counterclockwise like the grid's (with ``k = m = 0`` exactly the :func:`coons_grid` grid,
     in its order), and the ids of the four corners."""
     nb, nt, nl, nr = len(bottom) - 1, len(top) - 1, len(left) - 1, len(right) - 1
     k, m = (nb - nt) // 2, (nl - nr) // 2
     plus_b, plus_l = _spread(nt, k, m > 0), _spread(nr, m, k > 0)
     fb = np.concatenate([[0], np.cumsum(1 + 2 * plus_b)])  # coarse vertex -> side index
     fl = np.concatenate([[0], np.cumsum(1 + 2 * plus_l)])
-    grid = _coons(bottom[fb], right, top, left[fl])
+    grid = coons_grid(bottom[fb], right, top, left[fl])
     n2 = grid.shape[1] - 1
     ids = np.arange(grid.shape[0] * grid.shape[1]).reshape(grid.shape[:2])
     quads = np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], axis=-1)
@@ -718,7 +692,7 @@ def _transition(bottom, right, top, left):
 
 
 def _filled(seg_xy, seg_fixed, n_of, patches):
-    """The transfinite fill of the coarse quads (:func:`_coons`), the segments divided
+    """The transfinite fill of the coarse quads (:func:`coons_grid`), the segments divided
     into ``n_of`` pieces each, a patch whose first (last) side has more pieces than its
     opposite filled by :func:`_transition`: the points (coincident copies merged), the quads and the
     ids of the coarse quads' corners."""

@@ -47,6 +47,7 @@ from itertools import combinations
 
 import numpy as np
 
+from meshcore.geometry.constructions import coons_grid
 from meshcore.mesh.quality import quad_quality
 from meshcore.quads import paving_kernel as pk
 
@@ -72,24 +73,6 @@ def _spokes(n: np.ndarray) -> np.ndarray | None:
     return r.astype(np.int64)
 
 
-def _coons(bot, right, top, left) -> np.ndarray:
-    """(a + 1, b + 1, 2) points of the grid with those sides (bot, top: a + 1 points
-    left to right; left, right: b + 1 points bottom to top)."""
-    a, b = len(bot) - 1, len(left) - 1
-    t = (np.arange(a + 1) / a)[:, None, None]
-    w = (np.arange(b + 1) / b)[None, :, None]
-    L, R = left[None, :, :], right[None, :, :]
-    B, T = bot[:, None, :], top[:, None, :]
-    p00, p10, p01, p11 = bot[0], bot[-1], top[0], top[-1]
-    return (
-        (1 - t) * L
-        + t * R
-        + (1 - w) * B
-        + w * T
-        - ((1 - t) * (1 - w) * p00 + t * (1 - w) * p10 + (1 - t) * w * p01 + t * w * p11)
-    )
-
-
 class _Grids:
     """The points and quads of a template, new points numbered from ``n``."""
 
@@ -106,9 +89,9 @@ class _Grids:
         return ids
 
     def grid(self, bot, right, top, left) -> None:
-        """A grid on four id chains (as :func:`_coons`), corners shared."""
+        """A grid on four id chains (as :func:`coons_grid`), corners shared."""
         Q = np.concatenate([self.P, *self.pts]) if self.pts else self.P
-        xy = _coons(Q[bot], Q[right], Q[top], Q[left])
+        xy = coons_grid(Q[bot], Q[right], Q[top], Q[left])
         a, b = len(bot) - 1, len(left) - 1
         g = np.empty((a + 1, b + 1), np.int64)
         g[:, 0], g[:, b], g[0, :], g[a, :] = bot, top, left, right
