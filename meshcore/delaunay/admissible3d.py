@@ -195,6 +195,7 @@ from meshcore.domain.surface import Surface, as_surface
 from meshcore.errors import AlgorithmError
 from meshcore.geometry.predicates3d import dot3d, insphere_scalar, orient3d, orient3d_scalar
 from meshcore.mesh import CellBlock, Mesh
+from meshcore.mesh.topology import group_slots
 
 __all__ = ["AdmissibleSurface", "classify_faces", "make_admissible_surface"]
 
@@ -598,8 +599,7 @@ def _coplanar_swaps(st: _State, present: _Present) -> int:
     """
     b = st.b
     swaps = 0
-    by_facet = np.argsort(b.sub_facet, kind="stable")  # each facet's rows, ascending
-    bounds = np.searchsorted(b.sub_facet[by_facet], np.arange(len(b.group_tris) + 1))
+    by_facet, bounds = group_slots(b.sub_facet, len(b.group_tris))  # each facet's rows
     for _ in range(4):
         missing = np.flatnonzero(~present.faces(b.sub))
         if missing.size == 0:

@@ -31,6 +31,7 @@ from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.constructions import point_segment_distance_2d
 from meshcore.geometry.ordering import radix_argsort, radix_sort
 from meshcore.geometry.predicates import WORK_SIZE, dot2d_filtered, orient2d_filtered
+from meshcore.mesh.topology import group_slots
 
 #: A projection closer than this fraction of ``|EP|`` to the nearer endpoint
 #: ``E`` (``P`` the encroaching point) is too close ...
@@ -908,9 +909,8 @@ class _Pieces:
         ends = np.concatenate([S[self.head, 0], S[self.tail, 1]])
         chain = np.concatenate([np.arange(m0), np.arange(m0)])
         side = np.repeat([0, 1], m0)
-        order = np.argsort(ends, kind="stable")
+        order, self.end_start = group_slots(ends, n)
         self.end_chain, self.end_side = chain[order], side[order]
-        self.end_start = np.searchsorted(ends[order], np.arange(n + 1))
         # Position of a point along its input segment (ordering key only).
         self.origin = st.P[S[self.head, 0]]
         self.direction = st.P[S[self.tail, 1]] - self.origin

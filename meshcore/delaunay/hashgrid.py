@@ -147,8 +147,12 @@ def _usable(centres, radii):
 
 @njit(cache=True)
 def _ball_pairs_few(X, centres, radii):
-    """:func:`_ball_pairs` for a few points: every ball tested, no grid built (the
-    grid of 292k subface balls costs 0.1 s), the pairs in the same order."""
+    """:func:`_ball_pairs` for a few points: every ball tested, no grid built, the
+    pairs in the same order. The grid does not absorb it: 32 points spread over the
+    balls' box among 292k balls took 26.5 ms here against 246-264 ms through the grid,
+    and still 246 ms with the balls missing the points' bounding box left out of the
+    grid (2.6 ms against 25 ms only when the points cluster); CPU ms, medians of 15,
+    load 5 (2026-12-05)."""
     ok, expo, _ = _usable(centres, radii)
     nb = radii.shape[0]
     xs = np.empty(0, np.int64)

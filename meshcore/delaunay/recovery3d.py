@@ -43,7 +43,7 @@ from meshcore.domain.surface import Surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import orient2d
 from meshcore.geometry.predicates3d import dot3d, orient3d
-from meshcore.mesh.topology import isin_ints, unique_ints
+from meshcore.mesh.topology import group_slots, isin_ints, unique_ints
 
 __all__ = [
     "KNOBS",
@@ -402,8 +402,7 @@ class SurfaceRecovery:
         self.pt_facet = np.full(self.n, -1, dtype=np.int64)  # facet (group) of inner points
         # Per facet: its triangles, its vertices and its boundary loops (directed
         # input edges, the facet on their left seen from outside).
-        by_group = np.argsort(group, kind="stable")
-        bounds = np.searchsorted(group[by_group], np.arange(n_groups + 1))
+        by_group, bounds = group_slots(group, n_groups)
         self.group_tris = [by_group[bounds[g] : bounds[g + 1]] for g in range(n_groups)]
         self._by_group, self._group_start = by_group, bounds
         self._directed = np.stack([facets[:, [0, 1]], facets[:, [1, 2]], facets[:, [2, 0]]], 1)
@@ -700,11 +699,9 @@ class SurfaceRecovery:
         along = np.einsum("ij,ij->i", self.P[on_edge] - a, self.P[self.edges[pe, 1]] - a)
         by_edge = on_edge[np.lexsort((along, pe))]
         edge_bounds = np.searchsorted(self.pt_edge[by_edge], np.arange(len(self.edges) + 1))
-        inner = np.flatnonzero(self.pt_facet >= 0)
-        by_facet = inner[np.argsort(self.pt_facet[inner], kind="stable")]
-        facet_bounds = np.searchsorted(self.pt_facet[by_facet], np.arange(len(self.group_tris) + 1))
-        seg_order = np.argsort(self.seg_edge, kind="stable")
-        seg_bounds = np.searchsorted(self.seg_edge[seg_order], np.arange(len(self.edges) + 1))
+        by_facet, facet_bounds = group_slots(self.pt_facet, len(self.group_tris))
+        by_facet, facet_bounds = by_facet[facet_bounds[0] :], facet_bounds - facet_bounds[0]
+        seg_order, seg_bounds = group_slots(self.seg_edge, len(self.edges))
         bptr, bu, be, bl, bfwd, lptr, lonely, ncorner, in_ptr, in_tri, tu, tol = (
             self._facet_tables()
         )

@@ -722,7 +722,7 @@ def quad_medial(
     if size is not None:
         axis_at = {prune: first}  # the axes pruned at each angle, as they are needed
         res, least = _other_tried(
-            res, axes, axis_at, more, domain, method, size, levels, special, done
+            res, axes, axis_at, prune, more, domain, method, size, levels, special, done
         )
         if _over(res, domain, size):  # the same tries, the fills with transitions
             alt = _meshed(
@@ -730,7 +730,18 @@ def quad_medial(
             )
             alt = _lifted(alt, domain, LIFT_BELOW, done)
             alt, alt_least = _other_tried(
-                alt, axes, axis_at, more, domain, method, size, levels, special, done, fine=True
+                alt,
+                axes,
+                axis_at,
+                prune,
+                more,
+                domain,
+                method,
+                size,
+                levels,
+                special,
+                done,
+                fine=True,
             )
             if not _over(alt, domain, size) and alt_least >= min(PRUNE_LEAST, least):
                 res, least = alt, alt_least
@@ -743,18 +754,28 @@ def quad_medial(
 
 
 def _other_tried(
-    res: QuadMedial, axes, axis_at, more, domain, method, size, levels, special, done, fine=False
+    res: QuadMedial,
+    axes,
+    axis_at,
+    prune,
+    more,
+    domain,
+    method,
+    size,
+    levels,
+    special,
+    done,
+    fine=False,
 ):
     """``res`` (the first mesh of :func:`quad_medial`, lifted), or where it passes the
     count or its least quality away from input spikes is under :data:`GOOD_LEAST`, the
     first other mesh within the count of least quality :data:`GOOD_LEAST`, else the one
     within it of the highest least quality; over the count, that one only when its least
-    is at least :data:`PRUNE_LEAST` (or the first mesh's). ``axis_at``: pruning angle ->
-    axis, ``res``'s first (others kept as made); ``axes``: the iterator of
-    :func:`~meshcore.medial.axis.pruned_axes` giving the axes pruned at each of ``more``
-    in turn. Returns the mesh kept and its least quality away from input spikes
-    (:func:`_least_away`)."""
-    prune = next(iter(axis_at))  # the angle asked
+    is at least :data:`PRUNE_LEAST` (or the first mesh's). ``prune``: the pruning angle
+    asked (``res``'s); ``axis_at``: pruning angle -> axis, ``prune``'s given (others kept
+    as made); ``axes``: the iterator of :func:`~meshcore.medial.axis.pruned_axes` giving
+    the axes pruned at each of ``more`` in turn. Returns the mesh kept and its least
+    quality away from input spikes (:func:`_least_away`)."""
     over, kept = _over(res, domain, size), _least_away(res.mesh, domain)
     if not over and kept >= GOOD_LEAST:
         return res, kept

@@ -48,7 +48,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from meshcore.errors import InputError
-from meshcore.geometry.ordering import radix_argsort
+from meshcore.geometry.ordering import radix_sort
 from meshcore.mesh.mesh import CELL_TYPES, CellBlock, Mesh
 
 __all__ = [
@@ -61,6 +61,7 @@ __all__ = [
     "conformity",
     "edges",
     "facets",
+    "group_slots",
     "isin_ints",
     "nonmanifold",
     "top_dimension",
@@ -271,24 +272,32 @@ def _facet_keys(nodes: np.ndarray, n: int) -> np.ndarray:
     return _column_keys([nodes[:, j] for j in range(nodes.shape[1])], n)
 
 
-def _group(key: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Group equal keys: (facet index per slot, first slot per facet, count per facet)."""
-    if len(key) == 0:
-        empty = np.zeros(0, dtype=np.int64)
-        return empty, empty, empty
-    # any sorting permutation gives the same result (``first`` is the least slot of
-    # each group): the radix sort's, linear in the slots
-    order = radix_argsort(np.ascontiguousarray(key, np.int64))
-    sk = key[order]
-    new = np.empty(len(sk), dtype=bool)
-    new[0] = True
+def group_slots(key, n: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The slots of the integer array ``key`` grouped by their key: ``(order, start)``.
+
+    ``order`` is the stable sorting permutation of ``key`` (``np.argsort(key,
+    kind="stable")``, by a radix sort: linear in the slots), and the slots of group ``g``
+    are ``order[start[g] : start[g + 1]]``, in increasing slot order (so
+    ``order[start[g]]`` is the group's first slot). Without ``n``, the groups are the
+    distinct keys in increasing order, none empty; with ``n``, group ``g`` holds the slots
+    of key ``g`` for ``g`` in ``0 .. n-1`` (empty where there are none) and the slots of a
+    key outside ``[0, n)`` are in no group. ``start`` has one entry more than there are
+    groups. The facets of cells are grouped by it (§8.3.1, Definition 8.1), and so are
+    the lists of triangles, points and segments of each facet or edge of a surface.
+    """
+    key = np.ascontiguousarray(np.asarray(key).ravel(), np.int64)
+    order = np.arange(len(key), dtype=np.int64)
+    sk = key
+    if len(key):
+        lo = int(key.min())
+        sk, order = radix_sort(key - lo if lo < 0 else key, order)  # radix keys are >= 0
+        if lo < 0:
+            sk = sk + lo
+    if n is not None:
+        return order, np.searchsorted(sk, np.arange(n + 1))
+    new = np.ones(len(sk), dtype=bool)
     np.not_equal(sk[1:], sk[:-1], out=new[1:])
-    starts = np.flatnonzero(new)
-    inverse = np.empty(len(key), dtype=np.int64)
-    inverse[order] = np.cumsum(new) - 1
-    first = np.minimum.reduceat(order, starts)
-    counts = np.diff(starts, append=len(sk))
-    return inverse, first, counts
+    return order, np.append(np.flatnonzero(new), len(sk))
 
 
 def _count(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -405,7 +414,10 @@ def _facets_of(blocks: list[CellBlock], table: Mapping[str, Mapping[str, np.ndar
     for ftype, parts in slots.items():
         nodes = np.concatenate([p[0] for p in parts]) if len(parts) > 1 else parts[0][0]
         cell = np.concatenate([p[1] for p in parts]) if len(parts) > 1 else parts[0][1]
-        facet, first, counts = _group(_facet_keys(nodes, n))
+        order, start = group_slots(_facet_keys(nodes, n))
+        first, counts = order[start[:-1]], np.diff(start)
+        facet = np.empty(len(order), dtype=np.int64)
+        facet[order] = np.repeat(np.arange(len(counts)), counts)
         out[ftype] = Facets(ftype, nodes[first], counts, facet, cell, first, offset)
     return out
 

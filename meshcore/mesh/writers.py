@@ -47,6 +47,7 @@ import numba
 import numpy as np
 
 from meshcore.mesh.mesh import CELL_TYPES, Mesh
+from meshcore.mesh.topology import group_slots
 
 _VTK_TYPE = {
     "vertex": 1,
@@ -294,9 +295,9 @@ def write_gmsh41(mesh: Mesh, out: BinaryIO) -> None:
     n = len(points)
     entities = []  # (dim, type, cells, physical tag), entity tags 1, 2, ... in this order
     for block, t in zip(mesh.cells, tags, strict=True):
-        order = np.argsort(t, kind="stable")
-        bounds = np.flatnonzero(np.diff(t[order])) + 1
-        for part in np.split(order, bounds) if len(order) else []:
+        order, start = group_slots(t)
+        for a, b in zip(start[:-1].tolist(), start[1:].tolist(), strict=True):
+            part = order[a:b]
             entities.append((CELL_TYPES[block.type][1], block.type, block.data[part], t[part[0]]))
     node_dim = np.full(n, 4, dtype=np.int64)
     node_entity = np.zeros(n, dtype=np.int64)
@@ -346,11 +347,10 @@ def write_gmsh41(mesh: Mesh, out: BinaryIO) -> None:
 
     # nodes grouped by entity and tagged in that order, so tags rise block after block
     # (meshio then reads the points in tag order, their data aligned)
-    order = np.argsort(node_entity, kind="stable")
+    order, start = group_slots(node_entity)
     tag_of = np.empty(n, dtype=np.uint64)
     tag_of[order] = np.arange(1, n + 1, dtype=np.uint64)
-    starts = np.flatnonzero(np.r_[True, np.diff(node_entity[order]) != 0]) if n else []
-    ends = np.r_[starts[1:], n]
+    starts, ends = start[:-1], start[1:]
     out.write(b"$Nodes\n" + np.array([len(starts), n, 1, n], np.uint64).tobytes())
     for s, t in zip(starts, ends, strict=True):
         v = order[s]

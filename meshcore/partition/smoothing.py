@@ -48,9 +48,8 @@ import math
 import numpy as np
 from numba import njit
 
-from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import CONVEX_PROOF
-from meshcore.mesh.topology import unique_edges
+from meshcore.mesh.topology import group_slots, unique_edges
 from meshcore.partition.kernel import orient
 
 __all__ = [
@@ -82,19 +81,14 @@ def boundary_points(points: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return out
 
 
-def _csr(src: np.ndarray, dst: np.ndarray, n: int):
-    order = radix_argsort(np.ascontiguousarray(src, np.int64))
-    ptr = np.zeros(n + 1, np.int64)
-    np.cumsum(np.bincount(src, minlength=n), out=ptr[1:])
-    return ptr, dst[order]
-
-
 def _incidence(quads: np.ndarray, n: int):
     """The points around each of the ``n`` points (``nptr``, ``nidx``: along quad
     edges) and the quads around it (``cptr``, ``cidx``), in CSR form."""
     e, _ = unique_edges(quads, "quad")
-    nptr, nidx = _csr(np.concatenate([e[:, 0], e[:, 1]]), np.concatenate([e[:, 1], e[:, 0]]), n)
-    cptr, cidx = _csr(quads.ravel(), np.repeat(np.arange(len(quads)), 4), n)
+    order, nptr = group_slots(np.concatenate([e[:, 0], e[:, 1]]), n)
+    nidx = np.concatenate([e[:, 1], e[:, 0]])[order]
+    order, cptr = group_slots(quads, n)
+    cidx = order // 4  # slot 4 q + k is quad q's corner k
     return nptr, nidx, cptr, cidx
 
 
@@ -117,11 +111,11 @@ def _angle_targets(P, quads, fixed, nptr, nidx):
     key_next = bv * n + bn
     key_prev = bv * n + bp
     start = ~np.isin(key_next, key_prev)
-    order = np.argsort(bv, kind="stable")
+    order, cut = group_slots(bv)
     bv, bn, bp, start = bv[order], bn[order], bp[order], start[order]
-    cuts = np.flatnonzero(np.diff(bv)) + 1
     lookup = {}
-    for grp in np.split(np.arange(len(bv)), cuts):  # per boundary point: a few corners
+    for lo, hi in zip(cut[:-1].tolist(), cut[1:].tolist(), strict=True):
+        grp = np.arange(lo, hi)  # per boundary point: a few corners
         b = int(bv[grp[0]])
         first = grp[start[grp]]
         if len(first) != 1:

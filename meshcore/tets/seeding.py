@@ -34,7 +34,7 @@ from scipy.spatial import cKDTree
 
 from meshcore.delaunay.recovery3d import SurfaceRecovery, ball_pairs
 from meshcore.geometry.constructions import point_segment_distance
-from meshcore.mesh.topology import unique_ints
+from meshcore.mesh.topology import group_slots, unique_ints
 
 __all__ = ["MARGIN", "SEED_FAR", "SPACING", "far_facets", "seed_facets"]
 
@@ -97,23 +97,21 @@ def seed_facets(b: SurfaceRecovery, facets: np.ndarray, size: np.ndarray) -> int
         return 0
     X_all, f_all = [], []
     # The boundary subsegments and the points of each facet, grouped in one pass each.
-    on = b.edge_groups[b.seg_edge].T.reshape(-1)
-    by_seg = np.argsort(on, kind="stable")
-    seg_at = np.searchsorted(on[by_seg], [facets, facets + 1])
-    by_pt = np.argsort(b.pt_facet, kind="stable")
-    pt_at = np.searchsorted(b.pt_facet[by_pt], [facets, facets + 1])
+    n_facets = len(b.group_tris)
+    by_seg, seg_at = group_slots(b.edge_groups[b.seg_edge].T.reshape(-1), n_facets)
+    by_pt, pt_at = group_slots(b.pt_facet, n_facets)
     for k, (f, h, cuv) in enumerate(zip(facets.tolist(), h_all, corners_uv, strict=True)):
         uv = _lattice(cuv, h, shapes[k])
         X = origin[f] + uv[:, :1] * e1[f] + uv[:, 1:] * e2[f]
         X = X[b.in_facet(X, np.full(len(X), f))]
-        segs = unique_ints(by_seg[seg_at[0, k] : seg_at[1, k]] % len(b.seg))
+        segs = unique_ints(by_seg[seg_at[f] : seg_at[f + 1]] % len(b.seg))
         if len(X) and segs.size:
             A, B = b.P[b.seg[segs, 0]], b.P[b.seg[segs, 1]]
             half = 0.5 * np.linalg.norm(B - A, axis=1)
             xi, si = ball_pairs(X, 0.5 * (A + B), half + MARGIN * h)
             close = point_segment_distance(X[xi], A[si], B[si])[0] < MARGIN * h
             X = np.delete(X, xi[close], axis=0)
-        mine = by_pt[pt_at[0, k] : pt_at[1, k]]
+        mine = by_pt[pt_at[f] : pt_at[f + 1]]
         if len(X) and mine.size:
             d, _ = cKDTree(b.P[mine]).query(X)
             X = X[d >= 0.5 * h]

@@ -39,6 +39,7 @@ from meshcore.delaunay.recovery3d import (
     member,
 )
 from meshcore.mesh.tetstore import N_ROWS, CellStore
+from meshcore.mesh.topology import group_slots
 from meshcore.tets.improve import NK, OUT_OF_POINTS, OUT_OF_ROWS, improve_passes
 from meshcore.tets.refinement import (
     _least_dihedral,
@@ -207,9 +208,9 @@ def remove_slivers(
     free[b.n_surface :] = b.pt_edge[b.n_surface :] < 0
     # Points inside a facet slide in its plane.
     on_facet = np.flatnonzero(free & (b.pt_facet >= 0))
-    tri = b.facets[np.argsort(b.group, kind="stable")]
-    first = np.searchsorted(np.sort(b.group), np.arange(b.group.max() + 1))
-    a, c, d = (b.P[tri[first, k]] for k in range(3))
+    order, start = group_slots(b.group, b.group.max() + 1)
+    tri = b.facets[order[start[:-1]]]  # the first triangle of each facet
+    a, c, d = (b.P[tri[:, k]] for k in range(3))
     nrm = np.cross(c - a, d - a)
     nrm /= np.linalg.norm(nrm, axis=1)[:, None]
     normals = np.zeros((b.n, 3))
