@@ -54,7 +54,13 @@ runs of each row (alternating rows). ``--json FILE`` writes every run.
 TetGen, Gmsh and pytetwild are bench-only dependencies, skipped with a note
 when absent. ``--baseline DIR`` adds a row ``baseline + dihedral 15``: the
 same run of the checkout at ``DIR`` (its own copy of this script, its
-``meshcore``), for before/after figures measured in one run.
+``meshcore``), for before/after figures measured in one run. ``--check``
+runs the tests' ``assert_valid`` (positive tetrahedra by the exact
+``orient3d``, the volume to 1e-12, the boundary tiling the input
+triangles, the cell sets) on every row of ours after its timed call (a
+failure is that row's error) and adds a column of every row's volume
+error (relative, the sum of the tetrahedra's volumes against the
+surface's).
 """
 
 from __future__ import annotations
@@ -153,7 +159,7 @@ def _maxrss() -> float:
 # --- the tools (each run in a child process: see ``_child``) --------------------------------
 
 
-def run_ours(P, T, holes, size, opts):
+def run_ours(P, T, holes, size, opts, check=False):
     from meshcore.domain import parse_surface
     from meshcore.tets import tetrahedralize
 
@@ -168,6 +174,11 @@ def run_ours(P, T, holes, size, opts):
         note += f", r/e traded {r.left['improvement'].get('radius_edge_traded', 0)}"
     phases = ", ".join(f"{k} {v:.1f}" for k, v in r.timings.items() if k != "total")
     added = r.surface_points_added + r.interior_points_added
+    if check:
+        from tests.meshcore.tets.test_tetrahedralize import assert_valid
+
+        assert_valid(r, s)
+        note += ", assert_valid passed"
     return dt, r.mesh.points, r.mesh.cells[0].data, added, f"{note}; wall s: {phases}"
 
 
@@ -259,7 +270,9 @@ def _child(spec: dict) -> None:
         resource.setrlimit(resource.RLIMIT_CPU, (lim, lim + 5))
     P, T, holes = SHAPES[spec["shape"]]()
     base = _maxrss()
-    dt, X, K, added, note = RUNNERS[spec["runner"]](P, T, holes, spec["size"], spec["opts"])
+    check = {"check": True} if spec.get("check") and spec["runner"] == "ours" else {}
+    run = RUNNERS[spec["runner"]]
+    dt, X, K, added, note = run(P, T, holes, spec["size"], spec["opts"], **check)
     out = {"cpu": dt, "tets": int(len(K)), "added": int(added), "mb": _maxrss(), "base": base}
     out["volume_error"] = abs(_tet_volume(X, K) - _volume(P, T)) / _volume(P, T)
     out.update(_figures(X, K))
@@ -375,6 +388,9 @@ def main() -> None:
     ap.add_argument(
         "--baseline", default=None, help="also a row of this checkout's ours (before/after)"
     )
+    ap.add_argument(
+        "--check", action="store_true", help="assert_valid on ours' rows; the volume error"
+    )
     ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child is not None:
@@ -384,6 +400,8 @@ def main() -> None:
     runs = []
     head = f"{'shape':<9} {'size':>5} {'tool':<25} {'cpu s':>8} {'tets':>9} {'tets/s':>8} "
     head += f"{'dih min':>7} {'%<10':>6} {'r/e max':>7} {'added':>8} {'MB':>6} {'x q1.414':>8}"
+    if args.check:
+        head += f" {'vol err':>8}"
     print(f"load at start: {open('/proc/loadavg').read().strip()}; CPU seconds", flush=True)
     print(head, flush=True)
     targets = [None] if args.size is not None else args.sizes
@@ -403,6 +421,7 @@ def main() -> None:
                 for row, runner, opts, match in rows:
                     spec = {"shape": name, "runner": runner, "opts": opts, "size": size}
                     spec["cpu_limit"] = args.cpu_limit
+                    spec["check"] = args.check
                     if row.startswith("baseline"):
                         spec["root"] = os.path.abspath(args.baseline)
                     if match and n_ours is not None and row not in matched:
@@ -436,6 +455,8 @@ def main() -> None:
                     continue
                 r = sorted(ok, key=lambda r: r["cpu"])[len(ok) // 2]
                 x = f"{r['per_tet'] / ref:8.2f}" if ref else "       -"
+                if args.check:
+                    x += f" {r['volume_error']:8.1e}"
                 print(
                     f"{name:<9} {label:>5} {row:<25} {r['cpu']:8.2f} {r['tets']:9,d} "
                     f"{r['tets'] / r['cpu']:8,.0f} {r['dih_min']:7.2f} {r['under10']:6.2f} "

@@ -45,6 +45,9 @@ ACTIVE = 0.5
 #: Ascent steps per smoothed vertex, and halvings per line search.
 SMOOTH_STEPS = 8
 HALVINGS = 12
+#: A smoothing step's ascent direction shorter than this times its longest gradient is
+#: rounding (the gradients' hull holds 0: a stationary point), and smoothing stops there.
+STATIONARY = 1e-6
 #: Most active gradients kept per smoothing step.
 GMAX = 16
 #: Status of :func:`improve_passes` when the rows or the spare points run out (grow them and
@@ -313,15 +316,17 @@ def _smooth(P, T, head, nxt, cnt, v, st, tmark, G, N, mre):
         g = _min_norm(G, m)
         # In the plane again: the gradients are, but only to rounding, and where their hull
         # holds 0 (no ascent) the least-norm point is that rounding alone, along N[v]: the
-        # step then left the facet by up to half an edge. Twice, as in Gram-Schmidt: what
-        # one projection leaves of such a g is rounding of any direction.
+        # step then left the facet by up to half an edge. Twice, as in Gram-Schmidt.
         for _ in range(2):
             gn = g[0] * N[v, 0] + g[1] * N[v, 1] + g[2] * N[v, 2]
             for x in range(3):
                 g[x] -= gn * N[v, x]
         gn = math.sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
-        if not gn > 0.0:
-            break
+        gmax = 0.0
+        for i in range(m):
+            gmax = max(gmax, math.sqrt(G[i, 0] ** 2 + G[i, 1] ** 2 + G[i, 2] ** 2))
+        if not gn > STATIONARY * gmax:
+            break  # a stationary point: what is left of g is rounding, of no direction
         s = min(0.5 * L, 10.0 / gn)
         ok = False
         for _ in range(HALVINGS):
