@@ -138,6 +138,19 @@ _PAIR_CHUNK = 1 << 22
 _MAX_LISTED = 10
 
 
+#: The arrays of a :class:`Domain` and their dtypes: each is made read-only (a copy of
+#: its own where the caller's was writable) and compared by ``==``.
+_DOMAIN_ARRAYS = {
+    "points": np.float64,
+    "ring_offsets": np.int64,
+    "ring_polygon": np.int64,
+    "ring_is_hole": np.bool_,
+    "ring_reversed": np.bool_,
+    "constraints": np.int64,
+    "constraint_source": np.int64,
+}
+
+
 @dataclass(frozen=True, eq=False)
 class Domain:
     """A validated planar domain: rings, oriented boundary segments, constraints.
@@ -209,16 +222,7 @@ class Domain:
     multi: bool = False
 
     def __post_init__(self) -> None:
-        dtypes = {
-            "points": np.float64,
-            "ring_offsets": np.int64,
-            "ring_polygon": np.int64,
-            "ring_is_hole": np.bool_,
-            "ring_reversed": np.bool_,
-            "constraints": np.int64,
-            "constraint_source": np.int64,
-        }
-        for name, dtype in dtypes.items():
+        for name, dtype in _DOMAIN_ARRAYS.items():
             arr = np.asarray(getattr(self, name), dtype=dtype)
             if arr.flags.writeable:  # perhaps the caller's: a copy of our own, frozen
                 arr = arr.copy()
@@ -236,18 +240,7 @@ class Domain:
             self.area == other.area
             and self.diameter == other.diameter
             and self.multi == other.multi
-            and all(
-                np.array_equal(getattr(self, k), getattr(other, k))
-                for k in (
-                    "points",
-                    "ring_offsets",
-                    "ring_polygon",
-                    "ring_is_hole",
-                    "ring_reversed",
-                    "constraints",
-                    "constraint_source",
-                )
-            )
+            and all(np.array_equal(getattr(self, k), getattr(other, k)) for k in _DOMAIN_ARRAYS)
         )
 
     __hash__ = None  # type: ignore[assignment]
