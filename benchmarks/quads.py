@@ -50,7 +50,10 @@ quality (8.4), corner range, wall and CPU seconds. ``--poisson``: scikit-fem's Q
 solution of a Poisson problem on the disk meshed by both methods at sizes
 0.2 to 0.025, its L2 and H1 errors and their rates per halving (2 and 1
 expected). ``quad_medial`` on the issue's random stars and on gears:
-``benchmarks/medial.py --quad-medial SIZE...``.
+``benchmarks/medial.py --quad-medial SIZE...``. ``--bands [N...]``: ours from the
+domain (``all_quad``, ``twice_size``, ``optimize``) at about N triangles, its quads
+and irregular inner vertices by distance to the hole in sizes: where the mean's
+shortfall from 0.95 sits.
 """
 
 from __future__ import annotations
@@ -603,6 +606,52 @@ def poisson_main(timeout: float) -> None:
             last = r
 
 
+#: ``--bands``: the bands of distance to the hole, in sizes.
+BANDS = (0, 1, 2, 3, 4, 6, math.inf)
+
+
+def bands_main(sizes) -> None:
+    """``--bands``: ours from the domain at about each N triangles (as the
+    ``ours-domain-matching`` row), its quads (centroids) and its inner vertices of
+    valence other than 4 by distance to the hole, in sizes; then the quads with a
+    corner at such a vertex and the others. The corners at an inner vertex of
+    valence 3 sum to 360 degrees, so its three quads' qualities (8.4) sum to at most
+    2 (at least 0.85 short of 0.95 together); at valence 5 at least 0.75, at 6 1.7."""
+    from meshcore.mesh import quality
+    from meshcore.quads.combination import combine
+
+    print(f"{_load()}\n")
+    print(
+        "| N | distance / size | quads | mean Q | min Q | shortfall from 0.95 | "
+        "inner valence 3 / 5 / 6 |"
+    )
+    print("|---|---|---:|---:|---:|---:|---|")
+    for n in sizes:
+        s = math.sqrt(2 * area() / n)
+        res = combine(domain=geometry(s), size=s, all_quad=True, twice_size=True, optimize=True)
+        P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
+        q = quality.quad_quality(P, Q)
+        dq = (np.hypot(*(P[Q].mean(axis=1) - 0.5).T) - 0.25) / s
+        val = np.bincount(Q.ravel(), minlength=len(P))
+        dv = (np.hypot(*(P - 0.5).T) - 0.25) / s
+        inner = (dv > 1e-6) & (P.min(axis=1) > 1e-9) & (P.max(axis=1) < 1 - 1e-9)
+        irregular = inner & (val != 4)
+        near = irregular[Q].any(axis=1)
+        rows = [("all", np.ones(len(Q), bool), irregular)]
+        rows += [
+            (f"[{lo}, {hi})", (dq >= lo) & (dq < hi), irregular & (dv >= lo) & (dv < hi))
+            for lo, hi in zip(BANDS[:-1], BANDS[1:], strict=True)
+        ]
+        rows += [("at an irregular inner vertex", near, irregular), ("the others", ~near, None)]
+        for label, m, at in rows:
+            c = np.bincount(val[at], minlength=7) if at is not None else None
+            print(
+                f"| {n:,} | {label} | {m.sum():,} | {q[m].mean():.3f} | {q[m].min():.3f} | "
+                f"{(0.95 - q[m]).sum():.1f} | {'' if c is None else f'{c[3]} / {c[5]} / {c[6]}'} |",
+                flush=True,
+            )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", type=int, nargs="*", default=[10_000, 100_000, 1_000_000])
@@ -620,6 +669,13 @@ def main() -> None:
     ap.add_argument("--domains", nargs="*", default=None, help="--curved: only these domains")
     ap.add_argument("--curved-child", nargs=3, metavar=("TOOL", "DOMAIN", "SIZE"))
     ap.add_argument("--poisson", action="store_true", help="Q1 Poisson convergence on the disk")
+    ap.add_argument(
+        "--bands",
+        type=int,
+        nargs="*",
+        default=None,
+        help="sizes (triangles): ours from the domain, quality by distance to the hole",
+    )
     ap.add_argument("--poisson-child", nargs=2, metavar=("TOOL", "SIZE"))
     args = ap.parse_args()
     if args.poisson_child:
@@ -627,6 +683,9 @@ def main() -> None:
         return
     if args.poisson:
         poisson_main(args.timeout)
+        return
+    if args.bands is not None:
+        bands_main(args.bands or [1_000, 3_000, 10_000])
         return
     if args.curved_child:
         tool, name, size = args.curved_child
