@@ -222,7 +222,7 @@ LOOK_END = 0.2
 #: ... and are tried where that interval is longer than this fraction of the edge.
 LOOK_ROOM = 0.05
 #: A split within this fraction of an edge's length from an input vertex is tried
-#: on one of the vertex's concentric shells (:func:`_shell`).
+#: on the vertex's next concentric shell (:func:`_shell`).
 SHELL_END = 0.1
 
 
@@ -1034,32 +1034,24 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, cav: _Cavities) 
 
 
 def _shell(st: _State, E: np.ndarray, t: np.ndarray, lo: np.ndarray, hi: np.ndarray):
-    """``t`` moved to a concentric shell of the input vertex at the nearer end of
-    edge ``E`` where ``t`` lies within :data:`SHELL_END` of that end and a shell
-    lies in ``[lo, hi]`` (a distance from the vertex of its shortest input edge
-    times a power of two, the nearest to ``t``'s in ratio; else ``t``): near-end
-    splits of the edges at a sharp vertex then meet on common spheres and
-    protect each other, as Ruppert's and Shewchuk's concentric shells do for
-    small input angles (§9.1.5's protection of sharp vertices, in 3D)."""
+    """``t`` moved out to the next concentric shell of the input vertex at the nearer
+    end of edge ``E`` (a distance from the vertex of its shortest input edge times a
+    power of two) where ``t`` lies within :data:`SHELL_END` of that end and the shell
+    lies in ``[lo, hi]`` (else ``t``): near-end splits of the edges at a sharp vertex
+    then meet on common spheres and protect each other, as Ruppert's and Shewchuk's
+    concentric shells do for small input angles (§9.1.5's protection of sharp
+    vertices, in 3D)."""
     b = st.b
     near_a = t <= 0.5
     end = np.where(near_a, E[:, 0], E[:, 1])
     vertex = (end < b.n_surface) & (np.minimum(t, 1.0 - t) < SHELL_END)
     L = np.linalg.norm(b.P[E[:, 1]] - b.P[E[:, 0]], axis=1)
-    unit = np.where(vertex, st.unit[np.where(vertex, end, 0)], 1.0)
-    d = np.where(near_a, t, 1.0 - t) * L
+    unit = st.unit[np.where(vertex, end, 0)]
     with np.errstate(divide="ignore", invalid="ignore"):
-        k = np.log2(d / unit)
-    out = t
-    gap = np.full(len(t), np.inf)
-    for r in (np.floor(k), np.ceil(k)):
-        ts = unit * 2.0**r / L
-        ts = np.where(near_a, ts, 1.0 - ts)
-        ok = vertex & np.isfinite(k) & (ts >= lo) & (ts <= hi) & (np.abs(r - k) < gap)
-        ok &= np.where(near_a, ts <= 0.5, ts >= 0.5)
-        out = np.where(ok, ts, out)
-        gap = np.where(ok, np.abs(r - k), gap)
-    return out
+        d = unit * 2.0 ** np.ceil(np.log2(np.minimum(t, 1.0 - t) * L / unit)) / L
+    shell = np.where(near_a, d, 1.0 - d)
+    ok = vertex & (d > 0) & (d <= 0.5) & (shell >= lo) & (shell <= hi)
+    return np.where(ok, shell, t)
 
 
 class _Cavities:
