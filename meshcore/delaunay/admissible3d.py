@@ -109,6 +109,14 @@ look-ahead, 97 / 441 with it):
   common interval's points clear every encroacher of the edge, the widest
   one's interval clears it from both halves' balls, as its projection
   does, §9.2; a face's candidates are the text's).
+* **Concentric shells** (Ruppert's and Shewchuk's protection of small input
+  angles, §9.1.5 in 3D). An edge's split within :data:`SHELL_END` of its
+  length from an input vertex is moved out to the vertex's next shell (its
+  shortest input edge times a power of two) where the shell still clears
+  the encroachers, and the look-ahead takes it on ties: the near-end splits
+  of the edges around a sharp vertex then meet on common spheres instead
+  of cascading (star seeds 1-3,000: 6,887 -> 6,816 points, 24 seeds fewer,
+  6 one or two more; the table's other inputs unchanged).
 * **Postponed splits.** The round's edge splits are taken longest first
   (lengths equal to 1e-6 tie, then the widest encroaching angle first), and
   a split is postponed to the next round when a split point already taken
@@ -221,6 +229,9 @@ LOOK_AHEAD = 9
 LOOK_END = 0.2
 #: ... and are tried where that interval is longer than this fraction of the edge.
 LOOK_ROOM = 0.05
+#: A split within this fraction of an edge's length from an input vertex is tried
+#: on the vertex's next concentric shell (:func:`_shell`).
+SHELL_END = 0.1
 
 
 @dataclass(frozen=True, eq=False)
@@ -486,6 +497,11 @@ class _State:
     def __init__(self, surface: Surface) -> None:
         self.b = SurfaceRecovery(surface, KNOBS)
         self.P0 = self.b.P.copy()  # the surface's vertices (input coordinates)
+        #: Per surface vertex, its shortest input edge: the unit of its shells.
+        E = self.b.edges
+        length = np.linalg.norm(self.P0[E[:, 1]] - self.P0[E[:, 0]], axis=1)
+        self.unit = np.full(self.b.n_surface, np.inf)
+        np.minimum.at(self.unit, E.reshape(-1), np.repeat(length, 2))
         #: Per facet, its first input triangle: the plane new points are put in.
         self.plane = self.b.facets[[int(t[0]) for t in self.b.group_tris]]
         self.s = np.full(self.b.n, np.nan)  # parameter along the input edge
@@ -1007,8 +1023,9 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, cav: _Cavities) 
     lo[ei[w][alone]] = np.nan_to_num(t1[w][alone], nan=1.0)
     hi[ei[w][alone]] = np.nan_to_num(t2[w][alone], nan=0.0)
     margin = COMMON_MARGIN * (hi - lo)
+    shell = _shell(st, E, t, lo + margin, hi - margin)
     lo, hi = np.maximum(lo + margin, LOOK_END), np.minimum(hi - margin, 1.0 - LOOK_END)
-    t = _look_ahead(cav, A, B, t, lo, hi, best >= 0)
+    t = _look_ahead(cav, A, B, shell, t, lo, hi, best >= 0)
     # Longest first (lengths equal to 1e-6 relative tie), then widest angle.
     length = np.round(np.log2(half) * 2.0**20)
     keep = _independent(A + t[:, None] * (B - A), mid, half, (-widest, -length))
@@ -1022,6 +1039,27 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, cav: _Cavities) 
             E[r], t[r] = seg, 0.5
     _, first = np.unique(edge_keys(E), return_index=True)
     return _insert_on_edges(st, E[first], b.sub_facet[holder[first]], t[first])
+
+
+def _shell(st: _State, E: np.ndarray, t: np.ndarray, lo: np.ndarray, hi: np.ndarray):
+    """``t`` moved out to the next concentric shell of the input vertex at the nearer
+    end of edge ``E`` (a distance from the vertex of its shortest input edge times a
+    power of two) where ``t`` lies within :data:`SHELL_END` of that end and the shell
+    lies in ``[lo, hi]`` (else ``t``): near-end splits of the edges at a sharp vertex
+    then meet on common spheres and protect each other, as Ruppert's and Shewchuk's
+    concentric shells do for small input angles (§9.1.5's protection of sharp
+    vertices, in 3D)."""
+    b = st.b
+    near_a = t <= 0.5
+    end = np.where(near_a, E[:, 0], E[:, 1])
+    vertex = (end < b.n_surface) & (np.minimum(t, 1.0 - t) < SHELL_END)
+    L = np.linalg.norm(b.P[E[:, 1]] - b.P[E[:, 0]], axis=1)
+    unit = st.unit[np.where(vertex, end, 0)]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d = unit * 2.0 ** np.ceil(np.log2(np.minimum(t, 1.0 - t) * L / unit)) / L
+    shell = np.where(near_a, d, 1.0 - d)
+    ok = vertex & (d > 0) & (d <= 0.5) & (shell >= lo) & (shell <= hi)
+    return np.where(ok, shell, t)
 
 
 class _Cavities:
@@ -1075,16 +1113,19 @@ class _Cavities:
         return out
 
 
-def _look_ahead(cav: _Cavities, A, B, t, lo, hi, known) -> np.ndarray:
+def _look_ahead(cav: _Cavities, A, B, t, t0, lo, hi, known) -> np.ndarray:
     """Per edge ``AB`` where ``known`` (an interval of its encroachers is known): among
-    ``t`` and :data:`LOOK_AHEAD` points spread over ``[lo, hi]``, the split removing the
-    fewest subfaces and subface edges from the tetrahedralization (ties: the nearest
-    to ``t``)."""
-    rows = np.flatnonzero(known & (hi - lo > LOOK_ROOM))
+    ``t`` (its shell point, :func:`_shell`), ``t0`` (the point before it) and, where
+    ``[lo, hi]`` is longer than :data:`LOOK_ROOM`, :data:`LOOK_AHEAD` points spread over
+    it, the split removing the fewest subfaces and subface edges from the
+    tetrahedralization (ties: the nearest to ``t``)."""
+    rows = np.flatnonzero(known & ((hi - lo > LOOK_ROOM) | (t != t0)))
     if rows.size == 0:
         return t
-    cand = np.repeat(t[rows, None], LOOK_AHEAD + 1, axis=1)
-    cand[:, 1:] = lo[rows, None] + np.linspace(0.0, 1.0, LOOK_AHEAD) * (hi - lo)[rows, None]
+    cand = np.repeat(t[rows, None], LOOK_AHEAD + 2, axis=1)
+    cand[:, 1] = t0[rows]
+    spread = lo[rows, None] + np.linspace(0.0, 1.0, LOOK_AHEAD) * (hi - lo)[rows, None]
+    cand[:, 2:] = np.where((hi - lo > LOOK_ROOM)[rows, None], spread, t[rows, None])
     X = A[rows, None, :] + cand[:, :, None] * (B - A)[rows, None, :]
     count = cav.removed(X.reshape(-1, 3)).reshape(len(rows), -1)
     dist = np.abs(cand - t[rows, None])

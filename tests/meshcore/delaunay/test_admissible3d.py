@@ -288,6 +288,29 @@ def test_translation_and_scale(how):
     assert len(res.triangles) == len(ref.triangles)
 
 
+def test_near_end_splits_on_concentric_shells():
+    # A star polyhedron (benchmarks/robustness3d.py's seed 35) whose sharp vertices took 3
+    # points before the shells: 2 now, each at its vertex's shortest input edge times a
+    # power of two from an input vertex; the same under a 1e6 translation or 1e-6 scaling.
+    first = np.random.default_rng(35)
+    n, inner = int(first.integers(6, 31)), int(first.integers(0, 2**31 - 1))
+    rng = np.random.default_rng(inner)
+    d = np.concatenate([np.eye(3), -np.eye(3), rng.normal(size=(n, 3))])
+    P, T = shapes.star(rng.uniform(0.5, 1.5, size=len(d)), d)
+    res = run(P, T)
+    X = res.points[len(P) :]
+    assert len(X) == 2
+    E = np.unique(np.sort(np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), 1), axis=0)
+    unit = np.full(len(P), np.inf)
+    np.minimum.at(
+        unit, E.reshape(-1), np.repeat(np.linalg.norm(P[E[:, 1]] - P[E[:, 0]], axis=1), 2)
+    )
+    k = np.log2(np.linalg.norm(X[:, None] - P[None], axis=2) / unit)
+    assert (np.abs(k - np.round(k)) < 1e-9).any(axis=1).all()
+    np.testing.assert_allclose(run(P + 1e6, T).points - 1e6, res.points, atol=1e-9)
+    np.testing.assert_allclose(run(P * 1e-6, T).points * 1e6, res.points, atol=1e-12)
+
+
 def test_bad_surfaces_are_input_errors():
     P, T = shapes.box()
     with pytest.raises(InputError) as err:
