@@ -982,7 +982,8 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, cav: _Cavities) 
     b = st.b
     A, B = b.P[E[:, 0]], b.P[E[:, 1]]
     mid = 0.5 * (A + B)
-    half = 0.5 * np.linalg.norm(B - A, axis=1)
+    L = np.linalg.norm(B - A, axis=1)
+    half = 0.5 * L
     pi, ei = ball_pairs(b.P, mid, half * (1 + BALL_SLACK))
     keep = (pi != E[ei, 0]) & (pi != E[ei, 1])
     ei, pi = ei[keep], pi[keep]
@@ -994,9 +995,9 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, cav: _Cavities) 
     best = np.full(len(E), -1, dtype=np.int64)
     widest = np.zeros(len(E))
     order = np.lexsort((pi, -ang, ei))  # per edge: largest angle, then smallest index
-    first = np.unique(ei[order], return_index=True)[1]
-    best[ei[order][first]] = pi[order][first]
-    widest[ei[order][first]] = ang[order][first]
+    w = order[np.unique(ei[order], return_index=True)[1]]  # per edge, its widest encroacher
+    best[ei[w]] = pi[w]
+    widest[ei[w]] = ang[w]
     X = np.where(best[:, None] >= 0, b.P[np.maximum(best, 0)], mid)
     t = np.where(best >= 0, _project_on_segment(X, A, B), 0.5)
     # Every encroacher Q leaves both halves' balls for t in [t1, t2] (Thales:
@@ -1018,13 +1019,13 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, cav: _Cavities) 
     margin = COMMON_MARGIN * room
     t = np.where(common, np.clip(t, lo + margin, hi - margin), t)
     # Without a common interval, the look-ahead tries the widest encroacher's own.
-    w = order[first]  # per edge with an encroacher (best >= 0), its widest one
     alone = ~common[ei[w]]
     lo[ei[w][alone]] = np.nan_to_num(t1[w][alone], nan=1.0)
     hi[ei[w][alone]] = np.nan_to_num(t2[w][alone], nan=0.0)
     margin = COMMON_MARGIN * (hi - lo)
-    shell = _shell(st, E, t, lo + margin, hi - margin)
-    lo, hi = np.maximum(lo + margin, LOOK_END), np.minimum(hi - margin, 1.0 - LOOK_END)
+    lo, hi = lo + margin, hi - margin
+    shell = _shell(st, E, L, t, lo, hi)
+    lo, hi = np.maximum(lo, LOOK_END), np.minimum(hi, 1.0 - LOOK_END)
     t = _look_ahead(cav, A, B, shell, t, lo, hi, best >= 0)
     # Longest first (lengths equal to 1e-6 relative tie), then widest angle.
     length = np.round(np.log2(half) * 2.0**20)
@@ -1041,11 +1042,11 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, cav: _Cavities) 
     return _insert_on_edges(st, E[first], b.sub_facet[holder[first]], t[first])
 
 
-def _shell(st: _State, E: np.ndarray, t: np.ndarray, lo: np.ndarray, hi: np.ndarray):
+def _shell(st: _State, E: np.ndarray, L: np.ndarray, t, lo, hi) -> np.ndarray:
     """``t`` moved out to the next concentric shell of the input vertex at the nearer
-    end of edge ``E`` (a distance from the vertex of its shortest input edge times a
-    power of two) where ``t`` lies within :data:`SHELL_END` of that end and the shell
-    lies in ``[lo, hi]`` (else ``t``): near-end splits of the edges at a sharp vertex
+    end of edge ``E`` of length ``L`` (a distance from the vertex of its shortest input
+    edge times a power of two) where ``t`` lies within :data:`SHELL_END` of that end and
+    the shell lies in ``[lo, hi]`` (else ``t``): near-end splits of the edges at a sharp vertex
     then meet on common spheres and protect each other, as Ruppert's and Shewchuk's
     concentric shells do for small input angles (§9.1.5's protection of sharp
     vertices, in 3D)."""
@@ -1053,7 +1054,6 @@ def _shell(st: _State, E: np.ndarray, t: np.ndarray, lo: np.ndarray, hi: np.ndar
     near_a = t <= 0.5
     end = np.where(near_a, E[:, 0], E[:, 1])
     vertex = (end < b.n_surface) & (np.minimum(t, 1.0 - t) < SHELL_END)
-    L = np.linalg.norm(b.P[E[:, 1]] - b.P[E[:, 0]], axis=1)
     unit = st.unit[np.where(vertex, end, 0)]
     with np.errstate(divide="ignore", invalid="ignore"):
         d = unit * 2.0 ** np.ceil(np.log2(np.minimum(t, 1.0 - t) * L / unit)) / L

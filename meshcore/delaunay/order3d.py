@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from numba.cpython.unsafe.numbers import trailing_zeros
 
 from meshcore.geometry.ordering import radix_argsort
 
@@ -98,11 +99,8 @@ def _brio_hilbert_keys(pts, nbits, salt):
         z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
         z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
         z = z ^ (z >> np.uint64(31))
-        level = 0
-        while level < rounds and (z & np.uint64(1)) == np.uint64(0):
-            z >>= np.uint64(1)
-            level += 1
-        r = rounds - level
+        # The number of trailing zero bits (64 for z = 0), at most ``rounds``.
+        r = rounds - min(np.int64(trailing_zeros(z)), rounds)
         curve[i] = d
         if r % 2 == 1:
             d = (1 << (3 * nbits)) - 1 - d
