@@ -128,7 +128,7 @@ from meshcore.domain.crossings import (
 )
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d, orient2d_scalar
-from meshcore.geometry.tolerances import MAX_COORDINATE, MIN_DIAMETER
+from meshcore.geometry.tolerances import MAX_COORDINATE, MAX_COORDINATE_3D, MIN_DIAMETER
 
 __all__ = ["Domain", "as_domain", "parse_domain", "parse_size_field"]
 
@@ -1310,7 +1310,7 @@ def parse_size_field(size_field, dim: int = 2) -> tuple[np.ndarray, np.ndarray]:
     ------
     InputError
         Located at the bad point or value (``bad_parameter``, ``non_finite``,
-        ``duplicate_points``).
+        ``out_of_range``, ``duplicate_points``).
     """
     if isinstance(size_field, Mapping):
         pts, vals = size_field.get("points"), size_field.get("values")
@@ -1329,7 +1329,7 @@ def parse_size_field(size_field, dim: int = 2) -> tuple[np.ndarray, np.ndarray]:
     try:
         pts = np.asarray(pts, dtype=np.float64)
         vals = np.asarray(vals, dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int beyond float64
         raise InputError(
             "size_field needs numeric points and values", loc=("size_field",), code="bad_parameter"
         ) from None
@@ -1352,6 +1352,16 @@ def parse_size_field(size_field, dim: int = 2) -> tuple[np.ndarray, np.ndarray]:
             f"size_field point {bad[0]} is not finite",
             loc=("size_field", "points", int(bad[0])),
             code="non_finite",
+        )
+    # The domains' bound: beyond it distances overflow (a point at 1e308 has none to any
+    # other, and the interpolation found no nearest point for it).
+    bound = MAX_COORDINATE if dim == 2 else MAX_COORDINATE_3D
+    bad = np.flatnonzero((np.abs(pts) > bound).any(axis=1))
+    if bad.size:
+        raise InputError(
+            f"size_field point {bad[0]} has a coordinate of magnitude above {bound:g}",
+            loc=("size_field", "points", int(bad[0])),
+            code="out_of_range",
         )
     bad = np.flatnonzero(~(np.isfinite(vals) & (vals > 0)))
     if bad.size:
