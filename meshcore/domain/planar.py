@@ -130,7 +130,7 @@ from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d, orient2d_scalar
 from meshcore.geometry.tolerances import MAX_COORDINATE, MAX_COORDINATE_3D, MIN_DIAMETER
 
-__all__ = ["Domain", "as_domain", "parse_domain", "parse_size_field"]
+__all__ = ["DOMAIN_ARRAYS", "Domain", "as_domain", "parse_domain", "parse_size_field"]
 
 # Ray-test candidate pairs processed per chunk (bounds memory).
 _PAIR_CHUNK = 1 << 22
@@ -139,8 +139,9 @@ _MAX_LISTED = 10
 
 
 #: The arrays of a :class:`Domain` and their dtypes: each is made read-only (a copy of
-#: its own where the caller's was writable) and compared by ``==``.
-_DOMAIN_ARRAYS = {
+#: its own where the caller's was writable) and compared by ``==``; the service stores
+#: a validated domain as these arrays.
+DOMAIN_ARRAYS = {
     "points": np.float64,
     "ring_offsets": np.int64,
     "ring_polygon": np.int64,
@@ -222,7 +223,7 @@ class Domain:
     multi: bool = False
 
     def __post_init__(self) -> None:
-        for name, dtype in _DOMAIN_ARRAYS.items():
+        for name, dtype in DOMAIN_ARRAYS.items():
             arr = np.asarray(getattr(self, name), dtype=dtype)
             if arr.flags.writeable:  # perhaps the caller's: a copy of our own, frozen
                 arr = arr.copy()
@@ -240,7 +241,7 @@ class Domain:
             self.area == other.area
             and self.diameter == other.diameter
             and self.multi == other.multi
-            and all(np.array_equal(getattr(self, k), getattr(other, k)) for k in _DOMAIN_ARRAYS)
+            and all(np.array_equal(getattr(self, k), getattr(other, k)) for k in DOMAIN_ARRAYS)
         )
 
     __hash__ = None  # type: ignore[assignment]
