@@ -128,9 +128,9 @@ from meshcore.domain.crossings import (
 )
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d, orient2d_scalar
-from meshcore.geometry.tolerances import MAX_COORDINATE, MIN_DIAMETER
+from meshcore.geometry.tolerances import MAX_COORDINATE, MAX_COORDINATE_3D, MIN_DIAMETER
 
-__all__ = ["Domain", "as_domain", "parse_domain", "parse_size_field"]
+__all__ = ["DOMAIN_ARRAYS", "Domain", "as_domain", "parse_domain", "parse_size_field"]
 
 # Ray-test candidate pairs processed per chunk (bounds memory).
 _PAIR_CHUNK = 1 << 22
@@ -139,8 +139,9 @@ _MAX_LISTED = 10
 
 
 #: The arrays of a :class:`Domain` and their dtypes: each is made read-only (a copy of
-#: its own where the caller's was writable) and compared by ``==``.
-_DOMAIN_ARRAYS = {
+#: its own where the caller's was writable) and compared by ``==``; the service stores
+#: a validated domain as these arrays.
+DOMAIN_ARRAYS = {
     "points": np.float64,
     "ring_offsets": np.int64,
     "ring_polygon": np.int64,
@@ -222,7 +223,7 @@ class Domain:
     multi: bool = False
 
     def __post_init__(self) -> None:
-        for name, dtype in _DOMAIN_ARRAYS.items():
+        for name, dtype in DOMAIN_ARRAYS.items():
             arr = np.asarray(getattr(self, name), dtype=dtype)
             if arr.flags.writeable:  # perhaps the caller's: a copy of our own, frozen
                 arr = arr.copy()
@@ -240,7 +241,7 @@ class Domain:
             self.area == other.area
             and self.diameter == other.diameter
             and self.multi == other.multi
-            and all(np.array_equal(getattr(self, k), getattr(other, k)) for k in _DOMAIN_ARRAYS)
+            and all(np.array_equal(getattr(self, k), getattr(other, k)) for k in DOMAIN_ARRAYS)
         )
 
     __hash__ = None  # type: ignore[assignment]
@@ -1310,7 +1311,7 @@ def parse_size_field(size_field, dim: int = 2) -> tuple[np.ndarray, np.ndarray]:
     ------
     InputError
         Located at the bad point or value (``bad_parameter``, ``non_finite``,
-        ``duplicate_points``).
+        ``out_of_range``, ``duplicate_points``).
     """
     if isinstance(size_field, Mapping):
         pts, vals = size_field.get("points"), size_field.get("values")
@@ -1329,7 +1330,7 @@ def parse_size_field(size_field, dim: int = 2) -> tuple[np.ndarray, np.ndarray]:
     try:
         pts = np.asarray(pts, dtype=np.float64)
         vals = np.asarray(vals, dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int beyond float64
         raise InputError(
             "size_field needs numeric points and values", loc=("size_field",), code="bad_parameter"
         ) from None
@@ -1352,6 +1353,16 @@ def parse_size_field(size_field, dim: int = 2) -> tuple[np.ndarray, np.ndarray]:
             f"size_field point {bad[0]} is not finite",
             loc=("size_field", "points", int(bad[0])),
             code="non_finite",
+        )
+    # The domains' bound: beyond it distances overflow (a point at 1e308 has none to any
+    # other, and the interpolation found no nearest point for it).
+    bound = MAX_COORDINATE if dim == 2 else MAX_COORDINATE_3D
+    bad = np.flatnonzero((np.abs(pts) > bound).any(axis=1))
+    if bad.size:
+        raise InputError(
+            f"size_field point {bad[0]} has a coordinate of magnitude above {bound:g}",
+            loc=("size_field", "points", int(bad[0])),
+            code="out_of_range",
         )
     bad = np.flatnonzero(~(np.isfinite(vals) & (vals > 0)))
     if bad.size:

@@ -59,7 +59,7 @@ from pydantic import (
     model_validator,
 )
 
-from meshcore.domain.planar import Domain, parse_domain
+from meshcore.domain.planar import DOMAIN_ARRAYS, Domain, parse_domain
 from meshcore.domain.surface import Surface
 from meshcore.errors import InputError
 from service.bodies import MARKER
@@ -75,15 +75,6 @@ ARRAYS, DOMAINS, SURFACES, PACK = (
 )
 #: Bytes per write when an array goes to a file (:func:`write_npz`).
 _SLICE = 1 << 20
-_DOMAIN_ARRAYS = (
-    "points",
-    "ring_offsets",
-    "ring_polygon",
-    "ring_is_hole",
-    "ring_reversed",
-    "constraints",
-    "constraint_source",
-)
 _SURFACE_ARRAYS = (
     "points",
     "triangles",
@@ -238,7 +229,7 @@ class DomainIn(BaseModel):
         arrays[f"{prefix}.polygon_sizes"] = np.array(sizes, dtype=np.int64)
         domains = []
         for j, (key, dom) in enumerate(self._domains.items()):
-            for name in _DOMAIN_ARRAYS:
+            for name in DOMAIN_ARRAYS:
                 arrays[f"{prefix}.{j}.{name}"] = getattr(dom, name)
             domains.append([key, dom.area, dom.diameter, dom.multi])
         return {"kind": "domain", "multi": self.type != "Polygon", "domains": domains}
@@ -442,7 +433,7 @@ def unpack(data: bytes) -> dict[str, dict]:
             arrays[marker] = coords
             domains[marker] = {
                 key: Domain(
-                    **{name: npz[f"{i}.{j}.{name}"] for name in _DOMAIN_ARRAYS},
+                    **{name: npz[f"{i}.{j}.{name}"] for name in DOMAIN_ARRAYS},
                     area=area,
                     diameter=diameter,
                     multi=multi,

@@ -589,6 +589,13 @@ class TestErrors:
                 {"size_field": {"points": [[0, 0], [0, 0]], "values": [1, 1]}},
                 ["size_field", "points", 1],
             ),
+            # distances between them overflow: was an IndexError (no nearest point)
+            (
+                {"size_field": {"points": [[1e308, 1e308], [-1e308, 0]], "values": [1, 1]}},
+                ["size_field", "points", 0],
+            ),
+            # an integer beyond float64 (as JSON may carry): was an OverflowError
+            ({"size_field": {"points": [[0, 0]], "values": [10**400]}}, ["size_field"]),
             (
                 {"curves": [{"ring": 3, "type": "circle", "center": [0, 0], "radius": 1}]},
                 ["curves", 0, "ring"],
