@@ -1034,7 +1034,7 @@ def combine(
         boundary vertices end inside the final mesh and may move, so the
         valence clean-up may pair leftover triangles with a flat corner there
         too (:mod:`meshcore.quads.valence`).
-    corner_least : float, optional
+    corner_least : float in [0, 1], optional
         The least quality (8.4) of the corner row's quads before the
         optimization (:mod:`meshcore.quads.boundary_layer`; None: its
         ``CORNER_LEAST_QUALITY``). Where that refuses the row, ``optimize`` with
@@ -1204,6 +1204,8 @@ def _combine(
         raise InputError("give either mesh or domain", loc=("mesh",), code="conflicting_parameters")
     if not (0.0 <= min_quality <= 1.0):
         raise InputError("min_quality must be in [0, 1]", loc=("min_quality",), code="bad_value")
+    if corner_least is not None and not (0.0 <= corner_least <= 1.0):
+        raise InputError("corner_least must be in [0, 1]", loc=("corner_least",), code="bad_value")
     if size is not None and not (math.isfinite(size) and size > 0):
         raise InputError(
             f"size must be a finite number above 0, got {size!r}",

@@ -26,6 +26,7 @@ import numpy as np
 
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import quality
+from meshcore.mesh.topology import isin_ints, unique_ints
 
 __all__ = ["ladders", "merged_ladders", "split_all"]
 
@@ -40,7 +41,7 @@ def ladders(quads: np.ndarray, boundary: np.ndarray, n: int) -> np.ndarray:
     quads spanning a strip one quad wide (§8.4.2, §8.4.4)."""
     q = np.asarray(quads, np.int64).reshape(-1, 4)
     b = np.asarray(boundary, np.int64).reshape(-1, 2)
-    on = np.isin(_edge_keys(q, n), _edge_keys(b, n)[:, 0])
+    on = isin_ints(_edge_keys(q, n), _edge_keys(b, n)[:, 0])
     even, odd = on[:, 0] & on[:, 2], on[:, 1] & on[:, 3]
     return (even & ~on[:, 1] & ~on[:, 3]) | (odd & ~on[:, 0] & ~on[:, 2])
 
@@ -120,7 +121,7 @@ def merged_ladders(points, quads, triangles, boundary, n_input: int, longest: fl
     # the boundary edges again: the edges of one cell, each as its cell runs it
     tri = np.asarray(triangles, np.int64).reshape(-1, 3)
     ek = np.concatenate([_edge_keys(Q, n).ravel(), _edge_keys(tri, n).ravel()])
-    u, inv, cnt = np.unique(ek, return_inverse=True, return_counts=True)
+    _, inv, cnt = unique_ints(ek, return_inverse=True, counts=True)
     single = cnt[inv] == 1
     on = single[: Q.size].reshape(Q.shape)
     b = np.column_stack([Q[on], nxt[on]])
@@ -177,7 +178,7 @@ def split_all(
         np.asarray(triangles, np.int64).reshape(-1, 3),
     ]
     key = np.concatenate([_edge_keys(c, n).ravel() for c in cells])
-    uniq, inv = np.unique(key, return_inverse=True)
+    uniq, inv = unique_ints(key, return_inverse=True)
     e0, e1 = uniq // n, uniq % n
     nq, nt = len(cells[0]), len(cells[1])
     qe = inv[: 4 * nq].reshape(nq, 4)

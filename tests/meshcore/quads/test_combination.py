@@ -320,6 +320,20 @@ class TestDomainInput:
             combine(domain=self.HOLE, size=size, all_quad=True, twice_size=True)
         assert err.value.errors[0]["loc"] == ["size"]
 
+    @pytest.mark.parametrize("least", [math.nan, -0.1, 2.0])
+    def test_a_bad_corner_least_is_named(self, least):
+        # a quality (8.4) bound: NaN and 2.0 were taken silently
+        with pytest.raises(InputError) as err:
+            combine(
+                domain=self.HOLE,
+                size=0.1,
+                all_quad=True,
+                twice_size=True,
+                optimize=True,
+                corner_least=least,
+            )
+        assert err.value.errors[0]["loc"] == ["corner_least"]
+
     def test_a_size_that_doubles_past_the_largest_float_is_named(self):
         # 1e308 with twice_size was refused by the triangulator as "got inf"
         with pytest.raises(InputError, match="twice_size") as err:

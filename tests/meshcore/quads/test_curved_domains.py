@@ -167,6 +167,16 @@ def _unforced(P, Q, dom, below=45.0, above=270.0):
     return ~at[Q].any(axis=1)
 
 
+def _meets_targets(res, dom, size):
+    """Issue 20's targets on ``quad_combine``'s all-quad mesh (:func:`_check` too):
+    corners 30-150 degrees and quality (8.4) at least 0.5 on the quads the input does not
+    force (:func:`_unforced`), 1 / 1.5 to 1.5 times area / size² quads."""
+    ang, q, ratio = _check(res.mesh, dom, size)
+    ok = _unforced(res.mesh.points, res.mesh.cells_by_type["quad"], dom)
+    assert ang[ok].min() >= 30 and ang[ok].max() <= 150
+    assert q[ok].min() >= 0.5 and 1 / 1.5 <= ratio <= 1.5
+
+
 SMOOTH = ("disk", "annulus", "ellipse", "stadium")
 
 SETTINGS = settings(
@@ -266,10 +276,7 @@ def test_quad_combine_meets_the_targets_at_a_slightly_larger_size():
     fractions = [f for f, _ in seen]
     assert fractions == sorted(fractions) and 0 <= fractions[0] and fractions[-1] <= 1
     assert any("again at 1.02 x size" in msg for _, msg in seen)
-    ang, q, ratio = _check(res.mesh, dom, 0.1)
-    ok = _unforced(res.mesh.points, res.mesh.cells_by_type["quad"], dom)
-    assert ang[ok].min() >= 30 and ang[ok].max() <= 150
-    assert q[ok].min() >= 0.5 and 1 / 1.5 <= ratio <= 1.5
+    _meets_targets(res, dom, 0.1)
 
 
 def test_quad_combine_keeps_the_lattice_that_meets_the_targets():
@@ -279,10 +286,7 @@ def test_quad_combine_keeps_the_lattice_that_meets_the_targets():
     dom = parse_domain(issue_star(9)[0])
     res = combine(domain=dom, size=0.1, all_quad=True, twice_size=True, optimize=True)
     assert "boundary_layer" not in res.stats
-    ang, q, ratio = _check(res.mesh, dom, 0.1)
-    ok = _unforced(res.mesh.points, res.mesh.cells_by_type["quad"], dom)
-    assert ang[ok].min() >= 30 and ang[ok].max() <= 150
-    assert q[ok].min() >= 0.5 and 1 / 1.5 <= ratio <= 1.5
+    _meets_targets(res, dom, 0.1)
 
 
 def test_quad_combine_lifts_the_quad_next_to_a_spike_tip():
@@ -292,11 +296,8 @@ def test_quad_combine_lifts_the_quad_next_to_a_spike_tip():
     # away from them, takes it to 0.514 (its count 1.19 x area / size²)
     dom = parse_domain(issue_star(33)[0])
     res = combine(domain=dom, size=0.05, all_quad=True, twice_size=True, optimize=True)
-    ang, q, ratio = _check(res.mesh, dom, 0.05)
     assert res.operators["lift_off_sharp"] > 0
-    ok = _unforced(res.mesh.points, res.mesh.cells_by_type["quad"], dom)
-    assert ang[ok].min() >= 30 and ang[ok].max() <= 150
-    assert q[ok].min() >= 0.5 and 1 / 1.5 <= ratio <= 1.5
+    _meets_targets(res, dom, 0.05)
 
 
 @settings(SETTINGS, max_examples=3)
