@@ -724,9 +724,7 @@ def quad_medial(
         ctx = _Tries(axes, {prune: first}, prune, more, domain, method, size, levels, special, done)
         res, least = _other_tried(res, ctx)
         if _over(res, domain, size):  # the same tries, the fills with transitions
-            alt = _meshed(
-                first, domain, method, size, levels, BOUNDARY_SHARE, special, done, fine=True
-            )
+            alt = ctx.meshed(first, BOUNDARY_SHARE, merge=False, fine=True)
             alt = _lifted(alt, domain, LIFT_BELOW, done)
             alt, alt_least = _other_tried(alt, ctx, fine=True)
             if not _over(alt, domain, size) and alt_least >= min(PRUNE_LEAST, least):
