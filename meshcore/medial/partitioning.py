@@ -720,29 +720,13 @@ def quad_medial(
     res = _meshed(first, domain, method, size, levels, BOUNDARY_SHARE, special, done)
     res = _lifted(res, domain, LIFT_BELOW, done)
     if size is not None:
-        axis_at = {prune: first}  # the axes pruned at each angle, as they are needed
-        res, least = _other_tried(
-            res, axes, axis_at, prune, more, domain, method, size, levels, special, done
-        )
+        # the axes pruned at each angle (``axis_at``), as they are needed
+        ctx = _Tries(axes, {prune: first}, prune, more, domain, method, size, levels, special, done)
+        res, least = _other_tried(res, ctx)
         if _over(res, domain, size):  # the same tries, the fills with transitions
-            alt = _meshed(
-                first, domain, method, size, levels, BOUNDARY_SHARE, special, done, fine=True
-            )
+            alt = ctx.meshed(first, BOUNDARY_SHARE, merge=False, fine=True)
             alt = _lifted(alt, domain, LIFT_BELOW, done)
-            alt, alt_least = _other_tried(
-                alt,
-                axes,
-                axis_at,
-                prune,
-                more,
-                domain,
-                method,
-                size,
-                levels,
-                special,
-                done,
-                fine=True,
-            )
+            alt, alt_least = _other_tried(alt, ctx, fine=True)
             if not _over(alt, domain, size) and alt_least >= min(PRUNE_LEAST, least):
                 res, least = alt, alt_least
     else:
@@ -753,20 +737,32 @@ def quad_medial(
     return QuadMedial(mesh=res.mesh, partition=res.partition, stats=stats)
 
 
-def _other_tried(
-    res: QuadMedial,
-    axes,
-    axis_at,
-    prune,
-    more,
-    domain,
-    method,
-    size,
-    levels,
-    special,
-    done,
-    fine=False,
-):
+@dataclass(frozen=True, eq=False)
+class _Tries:
+    """What :func:`_other_tried` meshes with, the same at both its calls: the
+    iterator of pruned axes, ``axis_at`` (pruning angle -> axis, filled as needed),
+    the angle asked and the ``more`` ones, and :func:`_meshed`'s arguments."""
+
+    axes: object
+    axis_at: dict
+    prune: float
+    more: list
+    domain: Domain
+    method: str
+    size: float
+    levels: int | None
+    special: tuple
+    done: dict
+
+    def meshed(self, axis: MedialAxis, share, merge: bool, fine: bool) -> QuadMedial:
+        """:func:`_meshed` on ``axis`` with these arguments."""
+        d = self
+        return _meshed(
+            axis, d.domain, d.method, d.size, d.levels, share, d.special, d.done, merge, fine
+        )
+
+
+def _other_tried(res: QuadMedial, ctx: _Tries, fine=False):
     """``res`` (the first mesh of :func:`quad_medial`, lifted), or where it passes the
     count or its least quality away from input spikes is under :data:`GOOD_LEAST`, the
     first other mesh within the count of least quality :data:`GOOD_LEAST`, else the one
@@ -775,7 +771,8 @@ def _other_tried(
     asked (``res``'s); ``axis_at``: pruning angle -> axis, ``prune``'s given (others kept
     as made); ``axes``: the iterator of :func:`~meshcore.medial.axis.pruned_axes` giving
     the axes pruned at each of ``more`` in turn. Returns the mesh kept and its least
-    quality away from input spikes (:func:`_least_away`)."""
+    quality away from input spikes (:func:`_least_away`); the others as in ``ctx``."""
+    domain, size, prune, more, axis_at = ctx.domain, ctx.size, ctx.prune, ctx.more, ctx.axis_at
     over, kept = _over(res, domain, size), _least_away(res.mesh, domain)
     if not over and kept >= GOOD_LEAST:
         return res, kept
@@ -789,11 +786,9 @@ def _other_tried(
     tried = [res.mesh.cells_by_type["quad"]]
     for share, angle, merge in tries:  # a loop over at most eleven partitions
         if angle not in axis_at:
-            axis_at[angle] = next(axes)
+            axis_at[angle] = next(ctx.axes)
         try:
-            alt = _meshed(
-                axis_at[angle], domain, method, size, levels, share, special, done, merge, fine
-            )
+            alt = ctx.meshed(axis_at[angle], share, merge, fine)
         except AlgorithmError:
             continue
         # a mesh tried before (a merge that changed nothing; the butterfly again) or
@@ -802,7 +797,7 @@ def _other_tried(
         if any(quads is q for q in tried) or _over(alt, domain, size):
             continue
         tried.append(quads)
-        alt = _lifted(alt, domain, LIFT_BELOW, done)
+        alt = _lifted(alt, domain, LIFT_BELOW, ctx.done)
         got = _least_away(alt.mesh, domain)
         if got > least:
             extra = {"prune": angle} if angle != prune else {}

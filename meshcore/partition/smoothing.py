@@ -194,16 +194,10 @@ def _corner_cos(ax, ay, bx, by, la, lb):
 
 
 @njit(cache=True, inline="always")
-def quad_q(P, quads, c):
-    """Quality (8.4) of quad row c (0 when a corner does not turn left in floating point).
-
-    The same operations as :func:`meshcore.mesh.quality.quad_quality`, for one
-    quad: the compiled loops ask for a few quads at a time. Each edge ``e_j``
-    (corner j to j + 1) and its squared length is formed once, corner j taking
-    ``e_j`` and ``-e_{j-1}``: a negated difference is the reversed difference,
-    exactly, so every sign and cosine is the one of the corner's own differences.
-    Inlined: as a call it cost the smoothing loops as much as its arithmetic.
-    """
+def _edges(P, quads, c):
+    """The edges ``e_j`` (corner j to j + 1) of quad row c and their squared lengths:
+    (x0, y0, x1, y1, x2, y2, x3, y3, l0, l1, l2, l3), for :func:`quad_q` and
+    :func:`_skew` (inlined, as they are)."""
     a = quads[c, 0]
     b = quads[c, 1]
     d = quads[c, 2]
@@ -220,6 +214,21 @@ def quad_q(P, quads, c):
     l1 = x1 * x1 + y1 * y1
     l2 = x2 * x2 + y2 * y2
     l3 = x3 * x3 + y3 * y3
+    return x0, y0, x1, y1, x2, y2, x3, y3, l0, l1, l2, l3
+
+
+@njit(cache=True, inline="always")
+def quad_q(P, quads, c):
+    """Quality (8.4) of quad row c (0 when a corner does not turn left in floating point).
+
+    The same operations as :func:`meshcore.mesh.quality.quad_quality`, for one
+    quad: the compiled loops ask for a few quads at a time. Each edge ``e_j``
+    (corner j to j + 1) and its squared length is formed once, corner j taking
+    ``e_j`` and ``-e_{j-1}``: a negated difference is the reversed difference,
+    exactly, so every sign and cosine is the one of the corner's own differences.
+    Inlined: as a call it cost the smoothing loops as much as its arithmetic.
+    """
+    x0, y0, x1, y1, x2, y2, x3, y3, l0, l1, l2, l3 = _edges(P, quads, c)
     c0 = _corner_cos(x0, y0, -x3, -y3, l0, l3)
     c1 = _corner_cos(x1, y1, -x0, -y0, l1, l0)
     c2 = _corner_cos(x2, y2, -x1, -y1, l2, l1)
@@ -450,25 +459,10 @@ def _skew(P, quads, cptr, cidx, v, grad, slope):
         grad[1] = 0.0
     for r in range(cptr[v], cptr[v + 1]):
         c = cidx[r]
-        k0 = quads[c, 0]
-        k1 = quads[c, 1]
-        k2 = quads[c, 2]
-        k3 = quads[c, 3]
-        x0 = P[k1, 0] - P[k0, 0]
-        y0 = P[k1, 1] - P[k0, 1]
-        x1 = P[k2, 0] - P[k1, 0]
-        y1 = P[k2, 1] - P[k1, 1]
-        x2 = P[k3, 0] - P[k2, 0]
-        y2 = P[k3, 1] - P[k2, 1]
-        x3 = P[k0, 0] - P[k3, 0]
-        y3 = P[k0, 1] - P[k3, 1]
-        l0 = x0 * x0 + y0 * y0
-        l1 = x1 * x1 + y1 * y1
-        l2 = x2 * x2 + y2 * y2
-        l3 = x3 * x3 + y3 * y3
+        x0, y0, x1, y1, x2, y2, x3, y3, l0, l1, l2, l3 = _edges(P, quads, c)
         # v is corner `at` of the quad (v is one of its corners); corner j sees it in the
         # role _ROLE[at, j]
-        at = 0 if v == k0 else 1 if v == k1 else 2 if v == k2 else 3
+        at = 0 if v == quads[c, 0] else 1 if v == quads[c, 1] else 2 if v == quads[c, 2] else 3
         t0, gx0, gy0, ok0 = _skew_corner(x0, y0, -x3, -y3, l0, l3, _ROLE[at, 0], slope)
         t1, gx1, gy1, ok1 = _skew_corner(x1, y1, -x0, -y0, l1, l0, _ROLE[at, 1], slope)
         t2, gx2, gy2, ok2 = _skew_corner(x2, y2, -x1, -y1, l2, l1, _ROLE[at, 2], slope)
