@@ -29,6 +29,24 @@ def _parent(pid: int) -> int:
         return int(f.read().rsplit(")", 1)[1].split()[1])
 
 
+def _cmdline(pid: int) -> str:
+    with open(f"/proc/{pid}/cmdline", "rb") as f:
+        return f.read().replace(b"\0", b" ").decode(errors="replace")
+
+
+def _worker_running(pid: int, cluster: Cluster) -> int:
+    """The worker process above job process ``pid``: the ancestor whose parent is one of
+    the cluster's nannies (the ``dask worker`` processes it started)."""
+    nannies = {proc.pid for proc in cluster.procs}
+    chain = [pid]
+    while chain[-1] > 1:
+        parent = _parent(chain[-1])
+        if parent in nannies:
+            return chain[-1]
+        chain.append(parent)
+    raise AssertionError(f"no worker above the job's process: {[_cmdline(p) for p in chain]}")
+
+
 class Cluster:
     def __init__(self, logs: Path) -> None:
         self.port = _free_port()
@@ -177,13 +195,12 @@ class TestDask:
                 time.sleep(0.05)
             assert not pid_alive(pid)
 
-    def test_killed_worker_reruns_the_job_elsewhere(self, dask_server, tmp_path):
+    def test_killed_worker_reruns_the_job_elsewhere(self, dask_server, cluster, tmp_path):
         marker = tmp_path / "pids"
         with dask_server.client() as c:
             job = submit(c, "sleep", {"seconds": 3, "marker": str(marker)}).json()
             child = int(wait_file(marker, 60).split()[0])
-            worker = _parent(child)  # the job's process is the worker's own child
-            os.kill(worker, signal.SIGKILL)
+            os.kill(_worker_running(child, cluster), signal.SIGKILL)
             job = wait_status(c, job["id"], {"succeeded", "failed"}, timeout=120)
             assert job["status"] == "succeeded", job
             assert job["attempt"] == 2
