@@ -137,11 +137,12 @@ def _tet_volume(P, K) -> float:
 
 
 def _figures(P, K) -> dict:
+    from meshcore.delaunay.recovery3d import tet_circumcenters
     from meshcore.tets import tetra_dihedral_angles
-    from meshcore.tets.refinement import _shortest_edge, _tet_circumcenters
+    from meshcore.tets.refinement import _shortest_edge
 
     d = tetra_dihedral_angles(P, K).min(axis=1)
-    _, R = _tet_circumcenters(P, K)
+    _, R = tet_circumcenters(P, K)
     ratio = R / _shortest_edge(P, K)
     return {
         "dih_min": float(d.min()),
