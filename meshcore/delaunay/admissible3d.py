@@ -197,6 +197,8 @@ from meshcore.delaunay.recovery3d import (
     edge_keys,
     face_keys,
     member,
+    tet_circumcenters,
+    tri_circumcenters,
 )
 from meshcore.delaunay.regions3d import regions
 from meshcore.domain.surface import Surface, as_surface
@@ -305,20 +307,6 @@ class AdmissibleSurface:
 # ---------------------------------------------------------------------------
 # Classification (§9.3.2, Table 9.2)
 # ---------------------------------------------------------------------------
-
-
-def _circumcentres(P: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Centres and radii of the faces' great circles (float)."""
-    a = P[F[:, 0]]
-    b = P[F[:, 1]] - a
-    c = P[F[:, 2]] - a
-    n = np.cross(b, c)
-    nn = np.einsum("ij,ij->i", n, n)
-    off = (
-        np.einsum("ij,ij->i", b, b)[:, None] * np.cross(c, n)
-        + np.einsum("ij,ij->i", c, c)[:, None] * np.cross(n, b)
-    ) / (2.0 * nn)[:, None]
-    return a + off, np.linalg.norm(off, axis=1)
 
 
 def _as_integers(X: np.ndarray) -> np.ndarray:
@@ -456,7 +444,7 @@ def _classify(P: np.ndarray, faces) -> tuple[np.ndarray, np.ndarray, np.ndarray]
         zero = np.zeros(len(f), dtype=bool)
         zero[ji[s_ == 0]] = True
         strict[rows] = case0[rows] & ~zero
-    centres, R = _circumcentres(P, F)
+    centres, R = tri_circumcenters(P, F)
     xi, fi = ball_pairs(P[used], centres, R * (1 + BALL_SLACK))
     xi = used[xi]
     other = (xi != F[fi, 0]) & (xi != F[fi, 1]) & (xi != F[fi, 2])
@@ -1069,17 +1057,7 @@ class _Cavities:
     float: a choice, not a sign)."""
 
     def __init__(self, b: SurfaceRecovery, T: np.ndarray, edges: np.ndarray) -> None:
-        P = b.P
-        a = P[T[:, 0]]
-        u, v, w = (P[T[:, k]] - a for k in (1, 2, 3))
-        num = (
-            np.einsum("ij,ij->i", u, u)[:, None] * np.cross(v, w)
-            + np.einsum("ij,ij->i", v, v)[:, None] * np.cross(w, u)
-            + np.einsum("ij,ij->i", w, w)[:, None] * np.cross(u, v)
-        )
-        with np.errstate(divide="ignore", invalid="ignore"):  # flat tetrahedra: never
-            off = num / (2.0 * np.einsum("ij,ij->i", u, np.cross(v, w)))[:, None]
-        self.centres, self.radii = a + off, np.linalg.norm(off, axis=1)
+        self.centres, self.radii = tet_circumcenters(b.P, T)  # flat tetrahedra: never
         # Per tetrahedron, the subface (edge) row of each of its faces (edges), -1 if none.
         self.pieces = []
         for slots, keys, rows in ((TET_FACES, face_keys, b.sub), (TET_EDGES, edge_keys, edges)):
@@ -1185,7 +1163,7 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: _Cavities) ->
     b = st.b
     F = b.sub[rows]
     f = b.sub_facet[rows]
-    centres, R = _circumcentres(b.P, F)
+    centres, R = tri_circumcenters(b.P, F)
     hits = tree.query_ball_point(centres, R * (1 + BALL_SLACK))
     origin, e1, e2 = b.frame
     # Per missing subface, its candidate splits: (least angle, 3D point, kind, data).

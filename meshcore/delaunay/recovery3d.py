@@ -57,6 +57,7 @@ __all__ = [
     "face_rows",
     "member",
     "recover",
+    "tet_circumcenters",
     "tri_circumcenters",
 ]
 
@@ -158,6 +159,28 @@ def tri_circumcenters(P: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndar
     ] * np.cross(w, u)
     with np.errstate(divide="ignore", invalid="ignore"):
         off = num / (2.0 * ww)[:, None]
+    return a + off, np.sqrt(np.einsum("ij,ij->i", off, off))
+
+
+def tet_circumcenters(P: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Circumcentres and circumradii of tetrahedra ``T`` (float constructions, not signs:
+    offsets from the first corner, so a far translation costs no accuracy; not finite for a
+    flat tetrahedron; §9.3's circumspheres)."""
+    a = P[T[:, 0]]
+    u = P[T[:, 1]] - a
+    v = P[T[:, 2]] - a
+    w = P[T[:, 3]] - a
+    vw = np.cross(v, w)
+    wu = np.cross(w, u)
+    uv = np.cross(u, v)
+    den = 2.0 * np.einsum("ij,ij->i", u, vw)
+    num = (
+        np.einsum("ij,ij->i", u, u)[:, None] * vw
+        + np.einsum("ij,ij->i", v, v)[:, None] * wu
+        + np.einsum("ij,ij->i", w, w)[:, None] * uv
+    )
+    with np.errstate(divide="ignore", invalid="ignore"):
+        off = num / den[:, None]
     return a + off, np.sqrt(np.einsum("ij,ij->i", off, off))
 
 

@@ -323,6 +323,7 @@ from meshcore.quads.paving_fronts import (
     _polygons,
     _trace,
 )
+from meshcore.quads.splitting import split_all
 
 __all__ = ["PavingResult", "clean_up", "paving"]
 
@@ -1082,33 +1083,6 @@ def clean_up(P: np.ndarray, cells: np.ndarray, boundary: np.ndarray):
     return (*_compact(P, np.concatenate([cells[~mark], new])), ops, int(mark.sum()))
 
 
-def _split_all(points: np.ndarray, cells: list[np.ndarray]):
-    """Quads into four, triangles into three, through shared edge midpoints and centres."""
-    n = len(points)
-    edges = [
-        np.sort(np.stack([c, np.roll(c, -1, axis=1)], axis=2).reshape(-1, 2), axis=1) for c in cells
-    ]
-    alle = np.concatenate(edges)
-    uniq, inv = np.unique(alle, axis=0, return_inverse=True)
-    inv = inv.ravel()
-    mid = (points[uniq[:, 0]] + points[uniq[:, 1]]) / 2
-    out_pts = [points, mid]
-    out = []
-    off = 0
-    base_c = n + len(uniq)
-    for c in cells:
-        m, k = c.shape
-        em = (n + inv[off : off + m * k]).reshape(m, k)  # midpoint of edge (j, j+1)
-        off += m * k
-        cen = points[c].mean(axis=1)
-        cid = base_c + np.arange(m)
-        base_c += m
-        out_pts.append(cen)
-        for j in range(k):
-            out.append(np.column_stack([c[:, j], em[:, j], cid, em[:, (j - 1) % k]]))
-    return np.concatenate(out_pts), np.concatenate(out)
-
-
 def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strategy: str, even: bool):
     P = bnd.points
     fronts = [np.asarray(lp, np.int64) for lp in bnd.loops]
@@ -1393,7 +1367,7 @@ def paving(
         if res is None:
             raise stuck_error(given, twice.smallest * scale)  # in the input's units
         P, row_q, closure, stats = res
-        P, cells = _split_all(P, [row_q, closure])
+        P, cells, _ = split_all(P, row_q, closure)  # quads into four, triangles into three
     lap("rows and closure")
     P, cells = _compact(P, cells)
     fixed = boundary_points(P, cells)

@@ -275,26 +275,6 @@ class TetrahedralizationResult:
 # ---------------------------------------------------------------------------
 
 
-def _tet_circumcenters(P: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Circumcentres and circumradii of tetrahedra (constructions)."""
-    a = P[T[:, 0]]
-    u = P[T[:, 1]] - a
-    v = P[T[:, 2]] - a
-    w = P[T[:, 3]] - a
-    vw = np.cross(v, w)
-    wu = np.cross(w, u)
-    uv = np.cross(u, v)
-    den = 2.0 * np.einsum("ij,ij->i", u, vw)
-    num = (
-        np.einsum("ij,ij->i", u, u)[:, None] * vw
-        + np.einsum("ij,ij->i", v, v)[:, None] * wu
-        + np.einsum("ij,ij->i", w, w)[:, None] * uv
-    )
-    with np.errstate(divide="ignore", invalid="ignore"):
-        off = num / den[:, None]
-    return a + off, np.sqrt(np.einsum("ij,ij->i", off, off))
-
-
 def _shortest_edge(P: np.ndarray, T: np.ndarray) -> np.ndarray:
     d = P[T[:, TET_EDGES[:, 0]]] - P[T[:, TET_EDGES[:, 1]]]
     return np.sqrt(np.einsum("ijk,ijk->ij", d, d).min(axis=1))
@@ -626,9 +606,9 @@ def _size_map(size: float | None, field: SizeField3d | None) -> _SizeMap | None:
 @njit(cache=True, error_model="numpy")
 def _circumsphere(P, T, t):
     """(offset of the circumcentre from ``P[T[t, 0]]``, circumradius, determinant) of
-    tetrahedron ``t``: the floating-point operations of :func:`_tet_circumcenters`
-    (numpy's ``einsum`` adds three products ``p`` as ``(p0 + p2) + p1``: so do the
-    sums here)."""
+    tetrahedron ``t``: the floating-point operations of
+    :func:`~meshcore.delaunay.recovery3d.tet_circumcenters` (numpy's ``einsum`` adds three
+    products ``p`` as ``(p0 + p2) + p1``: so do the sums here)."""
     i0, i1, i2, i3 = T[t, 0], T[t, 1], T[t, 2], T[t, 3]
     ax, ay, az = P[i0, 0], P[i0, 1], P[i0, 2]
     ux, uy, uz = P[i1, 0] - ax, P[i1, 1] - ay, P[i1, 2] - az
@@ -666,8 +646,9 @@ def _shortest2(P, T, t):
 def _measures(P, T, max_radius_edge, max_volume, size_radius, size, C, R):
     """Circumcentres ``C`` and circumradii ``R`` of tetrahedra ``T``, and which are bad.
 
-    One pass, the floating-point operations of :func:`_tet_circumcenters`,
-    :func:`_shortest_edge` and :func:`_volumes`. Bad: circumradius above
+    One pass, the floating-point operations of
+    :func:`~meshcore.delaunay.recovery3d.tet_circumcenters`, :func:`_shortest_edge` and
+    :func:`_volumes`. Bad: circumradius above
     ``max_radius_edge`` times the shortest edge, volume above ``max_volume``,
     circumradius above ``size_radius * size`` (``size`` NaN: none), or too flat
     for a float circumcentre (its centroid in ``C`` and an infinite ``R`` then).
@@ -693,9 +674,10 @@ def _measures(P, T, max_radius_edge, max_volume, size_radius, size, C, R):
 
 @njit(cache=True, error_model="numpy")
 def _shapes(P, T, C, R, S, D):
-    """Circumcentres ``C`` and radii ``R`` (as :func:`_tet_circumcenters`), shortest
-    edges ``S`` (as :func:`_shortest_edge`) and the cosine ``D`` of the least
-    dihedral angle (1 where a face is degenerate) of tetrahedra ``T``, one pass."""
+    """Circumcentres ``C`` and radii ``R`` (as
+    :func:`~meshcore.delaunay.recovery3d.tet_circumcenters`), shortest edges ``S`` (as
+    :func:`_shortest_edge`) and the cosine ``D`` of the least dihedral angle (1 where a face
+    is degenerate) of tetrahedra ``T``, one pass."""
     nrm = np.empty((4, 3))
     for t in range(T.shape[0]):
         ox, oy, oz, r, _ = _circumsphere(P, T, t)

@@ -12,8 +12,8 @@ then plain floating point (clipped to the tetrahedron): a value, not a
 sign. With ``size`` given too, the smaller of the two holds everywhere.
 
 :func:`estimated_tetrahedra` says up front about how many tetrahedra a
-uniform ``size`` or ``max_volume`` asks for, so that a runaway request is
-refused before it runs (as 2D's ``estimated_triangles``).
+``size``, ``max_volume`` or ``size_field`` asks for, so that a runaway request
+is refused before it runs (as 2D's ``estimated_triangles``).
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ from scipy.spatial import cKDTree
 
 from meshcore.delaunay.kernel3d import delaunay3d
 from meshcore.domain.planar import parse_size_field
+from meshcore.domain.surface import as_surface
 from meshcore.errors import InputError
 from meshcore.geometry.predicates import WORK_SIZE
 from meshcore.geometry.predicates3d import orient3d_filtered
@@ -37,29 +38,73 @@ MAX_TETRAHEDRA = 1_500_000
 #: fits in its volume: the icosphere of radius 1 at size 0.05 makes 450,149 tetrahedra
 #: where its volume holds 282k regular ones (the 32 x 16 torus at 0.1: 257,840 for 159k).
 _FILL = 1.6
+#: Cells of the grid along the bounding box's longest side where a size field is averaged
+#: for the estimate (at most 32**3 = 32,768 values).
+_GRID_CELLS = 32
 
 
-def estimated_tetrahedra(volume: float, *, size: float | None = None, max_volume=None) -> int:
-    """About how many tetrahedra ``tetrahedralize`` makes for a uniform bound.
+def estimated_tetrahedra(surface, *, size=None, max_volume=None, size_field=None) -> int:
+    """About how many tetrahedra ``tetrahedralize`` makes for these bounds.
 
-    ``volume`` is the enclosed volume; ``size`` a target edge length (a
-    regular tetrahedron of that edge has volume size**3 / (6 sqrt 2)),
-    ``max_volume`` a largest tetrahedron volume; with both, the larger
-    count. 0 when neither is given (the mesh then follows the surface's own
-    spacing). A ``size_field`` is not estimated: its refinement is bounded
-    by the point limit instead. Meant for refusing runaway requests up front
-    (Remark 8.10's control space, uniform case).
+    Parameters
+    ----------
+    surface : Surface or dict
+        As ``tetrahedralize``; its enclosed volume is what is filled.
+    size, max_volume
+        As ``tetrahedralize``: a target edge length (a regular tetrahedron of
+        that edge has volume size**3 / (6 sqrt 2)), a largest tetrahedron
+        volume.
+    size_field : mapping or SizeField3d, optional
+        As ``tetrahedralize``: target edge lengths at scattered points, here
+        interpolated at the centres of the cells of a grid over the surface's
+        bounding box, the smaller of them and ``size``, averaged as
+        1 / size**3 (as 2D's ``estimated_triangles`` averages its field over
+        the domain's box).
+
+    Returns
+    -------
+    int
+        With several bounds the larger count; 0 when none is given (the mesh
+        then follows the surface's own spacing); at most 10**18. Meant for
+        refusing runaway requests up front (Remark 8.10's control space).
+
+    Raises
+    ------
+    InputError
+        A surface or size field ``tetrahedralize`` refuses, located as there.
     """
+    surf = as_surface(surface)
     per_cell = []
-    if size is not None:
-        per_cell.append(min(size, 1e100) ** 3 / (6.0 * math.sqrt(2.0)))  # no overflow
+    if size_field is not None:
+        volumes = _regular_volume(_grid_sizes(surf, size_field, size))
+        with np.errstate(divide="ignore"):  # 1 / 0 where size**3 underflows: 0 below
+            per_cell.append(1.0 / float(np.mean(1.0 / volumes)))  # their harmonic mean
+    elif size is not None:
+        per_cell.append(_regular_volume(size))
     if max_volume is not None:
         per_cell.append(max_volume)
     if not per_cell:
         return 0
     smallest = min(per_cell)  # 0 when size**3 underflows
-    count = _FILL * volume / smallest if smallest > 0 else math.inf
+    count = _FILL * surf.volume / smallest if smallest > 0 else math.inf
     return int(min(count, 1e18))
+
+
+def _regular_volume(size):
+    """The volume of a regular tetrahedron of edge ``size`` (0 where size**3 underflows)."""
+    return np.minimum(size, 1e100) ** 3 / (6.0 * math.sqrt(2.0))  # no overflow
+
+
+def _grid_sizes(surf, size_field, size: float | None) -> np.ndarray:
+    """The field's value, the smaller of it and ``size``, at the centres of the cells of a
+    grid over the surface's bounding box (32 along its longest side)."""
+    field = size_field if isinstance(size_field, SizeField3d) else SizeField3d(size_field)
+    P = surf.points[surf.vertices]
+    lo, hi = P.min(axis=0), P.max(axis=0)
+    step = (hi - lo).max() / _GRID_CELLS
+    axes = [lo[k] + step * (np.arange(math.ceil((hi[k] - lo[k]) / step)) + 0.5) for k in range(3)]
+    H = field(np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3))
+    return H if size is None else np.minimum(H, size)
 
 
 @njit(cache=True)

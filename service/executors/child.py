@@ -397,9 +397,17 @@ def run_in_child(
     child.jobs += 1
     proc, receiver = child.proc, child.answers
     answered = reuse = False
-    small = spares is not None and child.jobs < JOBS_PER_PROCESS  # it may take another job
-    if spares is not None and not small:  # its last job: a spare in its place now
-        spares.fill()
+    owed = spares is not None  # a spare in its place unless it goes back (one fill)
+
+    def gone() -> None:
+        """It will not come back: a spare in its place now (once)."""
+        nonlocal owed
+        if owed:
+            owed = False
+            spares.fill()
+
+    if child.jobs >= JOBS_PER_PROCESS:  # its last job
+        gone()
     try:
         child.tasks.send((task, memory_limit))
     except OSError:
@@ -409,9 +417,8 @@ def run_in_child(
         # Sequential by nature: one blocking reader per job's pipe.
         while True:
             ready = receiver.poll(poll)
-            if demote() and small:  # it will not come back: a spare in its place
-                small = False
-                spares.fill()
+            if demote():  # not a small job: it will not come back
+                gone()
             if not ready:
                 if should_stop():
                     raise Stopped(task.job_id)
@@ -424,7 +431,7 @@ def run_in_child(
                 progress(*payload)
             elif kind == "ok":
                 answered = True
-                reuse = small
+                reuse = owed  # small and not its last job: it may take another
                 return payload[0]
             else:
                 answered = True
@@ -436,8 +443,7 @@ def run_in_child(
         if reuse:
             spares.give_back(child)
         else:
-            if small:
-                spares.fill()
+            gone()
             child.tasks.close()  # a process that waits for another task exits
             receiver.close()
             if answered:  # it exits by itself: its teardown (about 10 ms) is not the job's time

@@ -87,20 +87,21 @@ class TetrahedralizeParams(MethodParams):
 
         super().check()
         surface = self.surface.to_surface()
+        field = None  # a bad field is refused here, located
         if self.size_field is not None:
-            SizeField3d(self.size_field)  # distinct points: refused here, located
+            field = SizeField3d(self.size_field)
         if self.empty or self.keep_boundary:
             return  # no interior refinement to the bounds
         check_resolution(surface.points, self.size, ("size",))
-        by_size = estimated_tetrahedra(surface.volume, size=self.size)
-        by_volume = estimated_tetrahedra(surface.volume, max_volume=self.max_volume)
-        estimate = max(by_size, by_volume)
+        bounds = {"size": self.size, "max_volume": self.max_volume, "size_field": field}
+        estimate = estimated_tetrahedra(surface, **bounds)
         if estimate > MAX_TETRAHEDRA:
-            name = "size" if by_size >= by_volume else "max_volume"  # the binding bound
+            alone = {n: estimated_tetrahedra(surface, **{n: v}) for n, v in bounds.items()}
+            name = max(alone, key=alone.get)  # the binding bound (the first of equals)
             raise InputError(
                 f"these bounds would make about {estimate:,} tetrahedra in a volume of "
                 f"{surface.volume:.6g}; this service makes at most {MAX_TETRAHEDRA:,}: "
-                "ask for a larger size or max_volume",
+                "ask for a larger size, max_volume or size_field",
                 loc=(name,),
                 code="too_many_tetrahedra",
             )

@@ -96,6 +96,14 @@ class TestTetrahedralize:
             ({"size": 1e-300}, ["size"]),
             ({"max_volume": 1e-9}, ["max_volume"]),
             ({"size": 0.5, "max_volume": 1e-9}, ["max_volume"]),
+            ({"size_field": {"points": [[0.5, 0.5, 0.5]], "values": [1e-300]}}, ["size_field"]),
+            (
+                {
+                    "size": 0.5,
+                    "size_field": {"points": [[0, 0, 0], [1, 1, 1]], "values": [0.005] * 2},
+                },
+                ["size_field"],
+            ),
         ],
     )
     def test_bad_params_are_422_naming_the_field(self, client, extra, loc):

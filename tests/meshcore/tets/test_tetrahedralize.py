@@ -200,9 +200,10 @@ class TestRefinement:
         assert_valid(r, s)
         assert r.given_up == 0
         P, K = r.mesh.points, r.mesh.cells[0].data
-        from meshcore.tets.refinement import _shortest_edge, _tet_circumcenters
+        from meshcore.delaunay.recovery3d import tet_circumcenters
+        from meshcore.tets.refinement import _shortest_edge
 
-        _, R = _tet_circumcenters(P, K)
+        _, R = tet_circumcenters(P, K)
         ratio = R / _shortest_edge(P, K)
         dih = tetra_dihedral_angles(P, K).min(axis=1)
         left = r.left
@@ -357,9 +358,10 @@ def test_small_input_angles_are_left_and_named():
     r = tetrahedralize(s, max_radius_edge=2.0)
     assert_valid(r, s)
     P, K = r.mesh.points, r.mesh.cells[0].data
-    from meshcore.tets.refinement import _shortest_edge, _tet_circumcenters
+    from meshcore.delaunay.recovery3d import tet_circumcenters
+    from meshcore.tets.refinement import _shortest_edge
 
-    _, R = _tet_circumcenters(P, K)
+    _, R = tet_circumcenters(P, K)
     above = R / _shortest_edge(P, K) > 2.0
     left = r.left["radius_edge_above"]
     assert above.sum() == sum(left.values())
@@ -406,9 +408,10 @@ def test_sharp_edges_are_protected(case, sharp, most):
     assert_valid(r, s)
     P, K = r.mesh.points, r.mesh.cells[0].data
     assert len(K) < most
-    from meshcore.tets.refinement import _shortest_edge, _tet_circumcenters
+    from meshcore.delaunay.recovery3d import tet_circumcenters
+    from meshcore.tets.refinement import _shortest_edge
 
-    _, R = _tet_circumcenters(P, K)
+    _, R = tet_circumcenters(P, K)
     above = R / _shortest_edge(P, K) > 2.0
     left = r.left["radius_edge_above"]
     assert above.sum() == sum(left.values())
