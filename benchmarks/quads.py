@@ -53,7 +53,8 @@ expected). ``quad_medial`` on the issue's random stars and on gears:
 ``benchmarks/medial.py --quad-medial SIZE...``. ``--bands [N...]``: ours from the
 domain (``all_quad``, ``twice_size``, ``optimize``) at about N triangles, its quads
 and irregular inner vertices by distance to the hole in sizes: where the mean's
-shortfall from 0.95 sits.
+shortfall from 0.95 sits. ``--misses [SIZES]``: ``quad_combine``'s all-quad meshes of
+issue 20's 40 random stars that miss its targets, and where their quads under them sit.
 """
 
 from __future__ import annotations
@@ -652,6 +653,73 @@ def bands_main(sizes) -> None:
             )
 
 
+def misses_main(sizes) -> None:
+    """``--misses``: ``quad_combine`` (``all_quad``, ``twice_size``, ``optimize``) on
+    issue 20's 40 random stars (:func:`tests.meshcore.quads.stars.issue_star`) at each
+    size; each run that misses the targets
+    (:func:`~meshcore.quads.boundary_layer.meets_targets`) with its count ratio, least
+    quality and corners away from the sharp input corners, mean, and its quads under
+    the targets by where their worst corner is (first that applies): within 4 sizes
+    of an input corner under 30 degrees (a spike's tip), within 2 sizes of one over
+    200 (a reflex corner), at an input corner of 45-135 degrees held by two quads or
+    more, at a boundary point held by three or more, else at an inner vertex of
+    its valence."""
+    from collections import Counter
+
+    from meshcore.domain.planar import parse_domain
+    from meshcore.mesh import quality
+    from meshcore.quads import combine
+    from meshcore.quads.boundary_layer import meets_targets, off_sharp
+    from tests.meshcore.quads.stars import issue_star
+
+    print(f"{_load()}\n")
+    print("| star | size | quads / (area / size²) | least Q | corners | mean Q | under targets |")
+    print("|---|---|---:|---:|---|---:|---|")
+    for size in sizes:
+        met = 0
+        for k in range(40):
+            dom = parse_domain(issue_star(k)[0])
+            res = combine(domain=dom, size=size, all_quad=True, twice_size=True, optimize=True)
+            if meets_targets(res.mesh, dom, size):
+                met += 1
+                continue
+            P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
+            ok = off_sharp(res.mesh, dom)
+            q, ang = quality.quad_quality(P, Q), quality.quad_angles(P, Q)
+            off = (q < 0.5) | (ang.min(axis=1) < 30) | (ang.max(axis=1) > 150)
+            bad = np.flatnonzero(ok & off)
+            val = np.bincount(Q.ravel(), minlength=len(P))
+            edges = np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], axis=-1).reshape(-1, 2), axis=1)
+            e, once = np.unique(edges, axis=0, return_counts=True)
+            on_boundary = np.zeros(len(P), bool)
+            on_boundary[e[once == 1].ravel()] = True
+            corner = dom.corner_angles()
+            where = Counter()
+            for i in bad:  # a loop over the few quads under the targets
+                v = Q[i, np.argmax(np.abs(ang[i] - 90))]
+                d = np.hypot(*(dom.points - P[Q[i]].mean(axis=0)).T) / size
+                at = np.flatnonzero((dom.points == P[v]).all(axis=1))
+                if ((corner < 30) & (d < 4)).any():
+                    where["spike tip"] += 1
+                elif ((corner > 200) & (d < 2)).any():
+                    where["reflex corner"] += 1
+                elif len(at) and 45 <= corner[at[0]] <= 135 and val[v] >= 2:
+                    where[f"convex corner in {val[v]} quads"] += 1
+                elif on_boundary[v] and val[v] >= 3:
+                    where[f"boundary point in {val[v]} quads"] += 1
+                else:
+                    where[f"inner vertex of valence {val[v]}"] += 1
+            a = ang[ok]
+            print(
+                f"| {k} | {size} | {len(Q) * size * size / dom.area:.2f} | {q[ok].min():.3f} | "
+                f"{a.min():.1f}-{a.max():.1f} | {q.mean():.3f} | "
+                + ", ".join(f"{n} {w}" for w, n in where.most_common())
+                + " |",
+                flush=True,
+            )
+        print(f"| met | {size} | {met} of 40 | | | | |", flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", type=int, nargs="*", default=[10_000, 100_000, 1_000_000])
@@ -676,6 +744,13 @@ def main() -> None:
         default=None,
         help="sizes (triangles): ours from the domain, quality by distance to the hole",
     )
+    ap.add_argument(
+        "--misses",
+        type=float,
+        nargs="*",
+        default=None,
+        help="sizes: quad_combine's misses of issue 20's targets on its 40 stars, and where",
+    )
     ap.add_argument("--poisson-child", nargs=2, metavar=("TOOL", "SIZE"))
     args = ap.parse_args()
     if args.poisson_child:
@@ -683,6 +758,9 @@ def main() -> None:
         return
     if args.poisson:
         poisson_main(args.timeout)
+        return
+    if args.misses is not None:
+        misses_main(args.misses or [0.1, 0.05])
         return
     if args.bands is not None:
         bands_main(args.bands or [1_000, 3_000, 10_000])
