@@ -321,6 +321,8 @@ from meshcore.quads.paving_fronts import (
     _chains,
     _close,
     _polygons,
+    _pred,
+    _succ,
     _trace,
 )
 from meshcore.quads.splitting import split_all
@@ -423,7 +425,7 @@ def _row(P: np.ndarray, f: np.ndarray, sizes: SizeMap, sides: np.ndarray, even: 
     cls = np.where(sides, _SIDE, _classify(theta))
     X = P[f]
     h = sizes(X)
-    prv, nxt = np.roll(np.arange(n), 1), np.roll(np.arange(n), -1)
+    prv, nxt = _pred(np.arange(n)), _succ(np.arange(n))
     e_in = X - X[prv]
     e_out = X[nxt] - X
     e_in /= np.hypot(e_in[:, 0], e_in[:, 1])[:, None]
@@ -448,9 +450,9 @@ def _row(P: np.ndarray, f: np.ndarray, sizes: SizeMap, sides: np.ndarray, even: 
     excess = np.cumsum(np.where(span > _STRETCH, span - 1.0, 0.0))
     plain = (cls == _SIDE) & ~near_end & ~sides
     plain &= (cls[prv] == _SIDE) & (cls[nxt] == _SIDE)
-    wedge = plain & (np.floor(excess / 2) > np.floor(np.roll(excess, 1) / 2))
+    wedge = plain & (np.floor(excess / 2) > np.floor(_pred(excess) / 2))
     wedge[0] = False
-    wedge &= ~np.roll(wedge, 1)
+    wedge &= ~_pred(wedge)
     cls = np.where(wedge, _WEDGE, cls)
     t_dir = e_in + e_out
     t_dir /= np.maximum(np.hypot(t_dir[:, 0], t_dir[:, 1]), 1e-300)[:, None]
@@ -531,7 +533,7 @@ def _relax(pts: np.ndarray, seq: np.ndarray, free: np.ndarray) -> None:
     at = seq[mov]
     for _ in range(_RELAX):
         X = pts[seq]
-        mid = (np.roll(X, 1, axis=0) + np.roll(X, -1, axis=0)) / 2
+        mid = (_pred(X) + _succ(X)) / 2
         pts[at] += 0.5 * (mid[mov] - X[mov])
 
 
@@ -581,7 +583,7 @@ def _snap(Q, f, nf, quads, fronts, which, n_old, h):
     succ = np.full(N, -1, np.int64)
     a, b = _chains(fronts)
     succ[a] = b
-    succ[nf] = np.roll(nf, -1)
+    succ[nf] = _succ(nf)
     # greedy, nearest first: each node once; a node of its own front is taken only if
     # it is no source of a node snapped already, and conversely
     to: dict[int, int] = {}
@@ -717,14 +719,14 @@ def _by_length(group: np.ndarray, length: np.ndarray, index: np.ndarray) -> np.n
 
 
 def _rungs(P: np.ndarray, fronts: list, sizes: SizeMap, reach: float):
-    """Facing front nodes: (nodes, succ, pred, partner), local indices into ``nodes``.
+    """Facing front nodes: (nodes, succ, pred, partner, nrm), local indices into ``nodes``.
 
     ``nodes`` are the front nodes in order, ``succ``/``pred`` their neighbours
-    on their front, ``partner[i]`` the node ``i`` faces (-1 if none): its
-    nearest front node within ``reach h`` that lies within
-    ``_LADDER_TURN`` of its inward bisector and sees it within its own, on
-    another front or at least 4 nodes away along the same one, when that
-    choice is mutual.
+    on their front, ``nrm`` their inward bisectors (unit), ``partner[i]`` the
+    node ``i`` faces (-1 if none): its nearest front node within ``reach h``
+    that lies within ``_LADDER_TURN`` of its inward bisector and sees it
+    within its own, on another front or at least 4 nodes away along the same
+    one, when that choice is mutual.
     """
     nodes = np.concatenate(fronts)
     lens = np.array([len(g) for g in fronts], np.int64)
@@ -755,7 +757,7 @@ def _rungs(P: np.ndarray, fronts: list, sizes: SizeMap, reach: float):
     best = np.full(len(nodes), -1, np.int64)
     best[i[first]] = j[first]
     partner = np.where((best >= 0) & (best[best.clip(0)] == np.arange(len(nodes))), best, -1)
-    return nodes, succ, pred, partner
+    return nodes, succ, pred, partner, nrm
 
 
 def _ladders(P: np.ndarray, fronts: list, sizes: SizeMap, banned: np.ndarray, reach: float):
@@ -785,13 +787,9 @@ def _ladders(P: np.ndarray, fronts: list, sizes: SizeMap, banned: np.ndarray, re
     empty = P, fronts, np.zeros((0, 4), np.int64), 0
     if not fronts:
         return empty
-    nodes, succ, pred, partner = _rungs(P, fronts, sizes, reach)
+    nodes, succ, pred, partner, nrm = _rungs(P, fronts, sizes, reach)
     X = P[nodes]
     cos = np.cos(np.radians(_LADDER_TURN))
-    nrm = _turned(
-        (X[succ] - X) / np.hypot(*(X[succ] - X).T)[:, None],
-        np.concatenate([_angles(P, g) for g in fronts]) / 2,
-    )
 
     def facing(a: int, b: int) -> bool:
         u = X[b] - X[a]
@@ -982,8 +980,8 @@ def _seam(P: np.ndarray, front: np.ndarray, quads: np.ndarray, h: np.ndarray, n_
     n = len(front)
     if n <= _SMALL_FRONT + 2:
         return P, front, quads, 0
-    d = np.hypot(*(P[np.roll(front, -1)] - P[front]).T)
-    nxt = np.roll(front, -1)
+    nxt = _succ(front)
+    d = np.hypot(*(P[nxt] - P[front]).T)
     close = np.flatnonzero((d < _SEAM * h) & (front >= n_old) & (nxt >= n_old))
     picked: list[int] = []
     used: set[int] = set()

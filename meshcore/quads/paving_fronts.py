@@ -41,9 +41,20 @@ _RING_STEPS = (0.5, 0.35, 0.65)  # shares of the way to the centroid tried by _r
 _CAVITY_TRIES = 3  # rings of quads around a stuck polygon taken into its cavity at most
 
 
+def _succ(a: np.ndarray) -> np.ndarray:
+    """Each entry's successor along axis 0, cyclically (``np.roll(a, -1, axis=0)``
+    without its overhead: the fronts are short and many)."""
+    return np.concatenate((a[1:], a[:1]))
+
+
+def _pred(a: np.ndarray) -> np.ndarray:
+    """Each entry's predecessor along axis 0, cyclically (``np.roll(a, 1, axis=0)``)."""
+    return np.concatenate((a[-1:], a[:-1]))
+
+
 def _angles(P: np.ndarray, f: np.ndarray) -> np.ndarray:
     """Interior angle (radians, domain on the left) at each node of front f."""
-    prv, nxt = np.roll(f, 1), np.roll(f, -1)
+    prv, nxt = _pred(f), _succ(f)
     u = P[prv] - P[f]
     w = P[nxt] - P[f]
     t = np.arctan2(w[:, 0] * u[:, 1] - w[:, 1] * u[:, 0], np.einsum("ij,ij->i", w, u))
@@ -76,7 +87,7 @@ def _trace(fronts: list, quads: np.ndarray, n: int) -> list | None:
     a doubled edge, an odd cycle).
     """
     ca, cb = _chains(fronts)
-    fa = np.concatenate([ca, np.roll(quads, -1, axis=1).ravel()])
+    fa = np.concatenate([ca, quads[:, [1, 2, 3, 0]].ravel()])
     fb = np.concatenate([cb, quads.ravel()])
     fwd = fa * n + fb
     back = fb * n + fa
@@ -106,7 +117,7 @@ def _polygons(P: np.ndarray, fronts: list):
     ring, each clockwise one a hole of the smallest outer ring around it."""
     area = []
     for g in fronts:
-        a, b = P[g], P[np.roll(g, -1)]
+        a, b = P[g], P[_succ(g)]
         area.append(float((a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]).sum()) / 2)
     outer = [k for k, a in enumerate(area) if a > 0]
     loops: list[np.ndarray] = []
@@ -119,7 +130,7 @@ def _polygons(P: np.ndarray, fronts: list):
         best = None
         for o in outer:
             R = P[fronts[o]]
-            S = np.roll(R, -1, axis=0)
+            S = _succ(R)
             up = (R[:, 1] > y) != (S[:, 1] > y)
             with np.errstate(divide="ignore", invalid="ignore"):
                 xc = R[:, 0] + (y - R[:, 1]) * (S[:, 0] - R[:, 0]) / (S[:, 1] - R[:, 1])
@@ -155,7 +166,7 @@ def _ring(P: np.ndarray, loop: np.ndarray, sizes: SizeMap, strategy: str):
     g = V.mean(axis=0)
     bend = np.clip((_angles(P, loop) - np.pi / 2) / (np.pi / 2), -1.0, 1.0)
     ids = len(P) + np.arange(n)
-    ring = np.column_stack([loop, np.roll(loop, -1), np.roll(ids, -1), ids])
+    ring = np.column_stack([loop, _succ(loop), _succ(ids), ids])
     for base in _RING_STEPS:
         t = base - 0.25 * bend
         Q = np.concatenate([P, V + t[:, None] * (g - V)])
@@ -188,14 +199,14 @@ def _coarse_split(P: np.ndarray, loop: np.ndarray, sizes: SizeMap, strategy: str
     n = len(loop)
     for parity in (0, 1):
         coarse = loop[parity::2]
-        skipped = loop[1::2] if parity == 0 else np.roll(loop[0::2], -1)
+        skipped = loop[1::2] if parity == 0 else _succ(loop[0::2])
         Q, tri, _ = partition_polygon(
             P, [coarse], np.zeros(1, np.int64), sizes, quad=False, strategy=strategy
         )
         if tri is None:
             continue
         N = len(Q)
-        key = _edge_keys(coarse, np.roll(coarse, -1), N)
+        key = _edge_keys(coarse, _succ(coarse), N)
         e = np.stack([tri, np.roll(tri, -1, axis=1)], axis=2).reshape(-1, 2)
         ekey = _edge_keys(e[:, 0], e[:, 1], N)
         ukey, inv = unique_ints(ekey, return_inverse=True)
@@ -283,7 +294,7 @@ class _Pool:
         rows = unique_ints(np.concatenate([self.rows[at], late]))
         rows = rows[live[rows]]  # the live quads at its points
         q = self.quads[rows]
-        key = _edge_keys(loop, np.roll(loop, -1), n)
+        key = _edge_keys(loop, _succ(loop), n)
         qk = _edge_keys(q.ravel(), np.roll(q, -1, axis=1).ravel(), n).reshape(-1, 4)
         take = rows[isin_ints(qk, key).any(axis=1)]
         if not len(take):

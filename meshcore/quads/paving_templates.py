@@ -170,13 +170,18 @@ def template(P: np.ndarray, loop: np.ndarray, theta: np.ndarray):
     at = np.flatnonzero(theta < _CORNER)
     if not 3 <= len(at) <= _MOST_CORNERS:
         return None
+    # on the polygon's own points (ids 0 .. N-1, new ones from N): no copy of P per try
+    X, own = P[loop], np.arange(N)
     best, least = None, _LEAST_Q
     for k in range(len(at), 2, -1):
         for corners in combinations(at.tolist(), k):
-            for pts, quads in _subdivided(P, loop, np.asarray(corners, np.int64)):
-                Q = np.concatenate([P, pts])
+            for pts, quads in _subdivided(X, own, np.asarray(corners, np.int64)):
+                Q = np.concatenate([X, pts])
                 if pk.convex_and_good(Q, quads, _LEAST_Q).all():
                     q = float(quad_quality(Q, quads).min())
                     if best is None or q > least:
                         best, least = (pts, quads), q
-    return best
+    if best is None:
+        return None
+    pts, quads = best
+    return pts, np.where(quads < N, loop[np.minimum(quads, N - 1)], quads - N + len(P))
