@@ -1080,10 +1080,20 @@ class _Cavities:
         with np.errstate(divide="ignore", invalid="ignore"):  # flat tetrahedra: never
             off = num / (2.0 * np.einsum("ij,ij->i", u, np.cross(v, w)))[:, None]
         self.centres, self.radii = a + off, np.linalg.norm(off, axis=1)
-        # Per tetrahedron, the subface (edge) row of each of its faces (edges), -1 if none.
+        # The hull's faces and edges stay (the cavity's boundary): never removed.
+        fk = face_keys(T[:, TET_FACES].reshape(-1, 3))
+        uk, n = np.unique(fk, return_counts=True)
+        hull = T[:, TET_FACES].reshape(-1, 3)[member(fk, uk[n == 1])]
+        hull = {
+            face_keys: uk[n == 1],
+            edge_keys: np.unique(edge_keys(hull[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2))),
+        }
+        # Per tetrahedron, the subface (edge) row of each of its faces (edges), -1 if none
+        # or on the hull.
         self.pieces = []
         for slots, keys, rows in ((TET_FACES, face_keys, b.sub), (TET_EDGES, edge_keys, edges)):
-            table = _table(keys(rows))
+            k = keys(rows)
+            table = _table(np.where(member(k, hull[keys]), -1, k))
             at = _find_all(*table, keys(T[:, slots].reshape(-1, slots.shape[1])))
             self.pieces.append(
                 (at.reshape(len(T), -1), np.bincount(at[at >= 0], minlength=len(rows)))
@@ -1218,7 +1228,7 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: _Cavities) ->
         lam = _angles_min(np.concatenate([T, np.broadcast_to(m, (3, 1, 2))], axis=1))
         bary = _barycentric(uv, m)
         if bary.min() > INSIDE_MARGIN:
-            mine.append((float(lam.min()), origin[fj] + frame @ m, "face", None))
+            mine.append(_face_point(st, fj, float(lam.min()), origin[fj] + frame @ m))
         # Edges: every edge but those of a whole strict Case 0 input face.
         own_keys = edge_keys(np.stack([tri, np.roll(tri, -1)], axis=1))
         for k in np.flatnonzero(~np.isin(own_keys, st.protected)).tolist():
@@ -1229,7 +1239,7 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: _Cavities) ->
             x3 = b.P[i] + t * (b.P[jj] - b.P[i])
             mine.append((float(_angles_min(two).min()), x3, "edge", (i, jj, t)))
         if not mine:  # every edge protected and M outside f: its centroid
-            mine.append((0.0, origin[fj] + frame @ uv.mean(axis=0), "face", None))
+            mine.append(_face_point(st, fj, 0.0, origin[fj] + frame @ uv.mean(axis=0)))
         options.append(mine)
     # Look-ahead: the split removing the fewest subfaces and subface edges from the
     # tetrahedralization, then the largest least angle (Pébay's heuristic).
@@ -1244,14 +1254,8 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: _Cavities) ->
         _, M, kind, data = mine[max(range(len(mine)), key=score.__getitem__)]
         fj = int(f[j])
         if kind == "face":
-            seg = _encroached_subsegment(st, fj, M)
-            if seg is None:
-                pts_face.append((fj, M, float(R[j])))
-                continue
-            # M would encroach a subsegment of its facet: that subsegment is split at
-            # its midpoint instead (Ruppert's rule). Else two facets meeting at a
-            # sharp edge hand split points back and forth ever nearer their edge.
-            data = (int(seg[0]), int(seg[1]), 0.5)
+            pts_face.append((fj, M, float(R[j])))
+            continue
         i, jj, t = data
         key = (min(i, jj), max(i, jj))
         if key in seen_edges:
@@ -1271,6 +1275,19 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: _Cavities) ->
         t = np.array([x[2] for x in pts_edge])
         added += _insert_on_edges(st, E, facet, t)
     return added
+
+
+def _face_point(st: _State, facet: int, angle: float, M: np.ndarray) -> tuple:
+    """The candidate split at ``M`` inside ``facet``: (least angle, 3D point, kind, data).
+    A point that would encroach a subsegment of its facet yields to it: that
+    subsegment's midpoint instead (Ruppert's rule; else two facets meeting at a sharp
+    edge hand split points back and forth ever nearer their edge), and the
+    look-ahead judges that midpoint."""
+    seg = _encroached_subsegment(st, facet, M)
+    if seg is None:
+        return angle, M, "face", None
+    i, j = int(seg[0]), int(seg[1])
+    return angle, 0.5 * (st.b.P[i] + st.b.P[j]), "edge", (i, j, 0.5)
 
 
 def _encroached_subsegment(st: _State, facet: int, X: np.ndarray) -> np.ndarray | None:
