@@ -229,6 +229,8 @@ LOOK_AHEAD = 9
 LOOK_END = 0.2
 #: ... and are tried where that interval is longer than this fraction of the edge.
 LOOK_ROOM = 0.05
+#: Split points of a missing edge tried along the whole edge (look-ahead).
+LOOK_WIDE = 7
 #: A split within this fraction of an edge's length from an input vertex is tried
 #: on the vertex's next concentric shell (:func:`_shell`).
 SHELL_END = 0.1
@@ -1026,7 +1028,7 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, cav: _Cavities) 
     lo, hi = lo + margin, hi - margin
     shell = _shell(st, E, L, t, lo, hi)
     lo, hi = np.maximum(lo, LOOK_END), np.minimum(hi, 1.0 - LOOK_END)
-    t = _look_ahead(cav, A, B, shell, t, lo, hi, best >= 0)
+    t = _look_ahead(cav, E, A, B, shell, t, lo, hi, best >= 0, b.sub)
     # Longest first (lengths equal to 1e-6 relative tie), then widest angle.
     length = np.round(np.log2(half) * 2.0**20)
     keep = _independent(A + t[:, None] * (B - A), mid, half, (-widest, -length))
@@ -1063,13 +1065,17 @@ def _shell(st: _State, E: np.ndarray, L: np.ndarray, t, lo, hi) -> np.ndarray:
 
 
 class _Cavities:
-    """What inserting a point would remove from the round's tetrahedralization
+    """What inserting a point would leave missing in the round's tetrahedralization
     ``T`` (the kernel's): the subfaces and subface ``edges`` all of whose
-    tetrahedra have the point in their circumsphere (the insertion's cavity;
-    float: a choice, not a sign)."""
+    tetrahedra have the point in their circumsphere (the insertion's cavity),
+    unless on the hull (the cavity's boundary: they stay), and the new pieces at
+    the point that the cavity's boundary does not give (float: a choice, not a
+    sign)."""
 
     def __init__(self, b: SurfaceRecovery, T: np.ndarray, edges: np.ndarray) -> None:
         P = b.P
+        self.T = T
+        self.n = b.n
         a = P[T[:, 0]]
         u, v, w = (P[T[:, k]] - a for k in (1, 2, 3))
         num = (
@@ -1080,7 +1086,6 @@ class _Cavities:
         with np.errstate(divide="ignore", invalid="ignore"):  # flat tetrahedra: never
             off = num / (2.0 * np.einsum("ij,ij->i", u, np.cross(v, w)))[:, None]
         self.centres, self.radii = a + off, np.linalg.norm(off, axis=1)
-        # The hull's faces and edges stay (the cavity's boundary): never removed.
         fk = face_keys(T[:, TET_FACES].reshape(-1, 3))
         uk, n = np.unique(fk, return_counts=True)
         hull = T[:, TET_FACES].reshape(-1, 3)[member(fk, uk[n == 1])]
@@ -1088,22 +1093,30 @@ class _Cavities:
             face_keys: uk[n == 1],
             edge_keys: np.unique(edge_keys(hull[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2))),
         }
-        # Per tetrahedron, the subface (edge) row of each of its faces (edges), -1 if none
-        # or on the hull.
+        # Per tetrahedron, the subface (edge) row of each of its faces (edges), -1 if
+        # none; per subface (edge), its tetrahedra and whether it is on the hull.
         self.pieces = []
         for slots, keys, rows in ((TET_FACES, face_keys, b.sub), (TET_EDGES, edge_keys, edges)):
             k = keys(rows)
-            table = _table(np.where(member(k, hull[keys]), -1, k))
-            at = _find_all(*table, keys(T[:, slots].reshape(-1, slots.shape[1])))
+            at = _find_all(*_table(k), keys(T[:, slots].reshape(-1, slots.shape[1])))
             self.pieces.append(
-                (at.reshape(len(T), -1), np.bincount(at[at >= 0], minlength=len(rows)))
+                (
+                    at.reshape(len(T), -1),
+                    np.bincount(at[at >= 0], minlength=len(rows)),
+                    member(k, hull[keys]),
+                )
             )
+        self.edge_table = _table(edge_keys(edges))
         # Only the tetrahedra holding a piece count (the others hold none to remove).
         held = (self.pieces[0][0] >= 0).any(1) | (self.pieces[1][0] >= 0).any(1)
         self.rows = np.flatnonzero(held & np.isfinite(self.radii))
 
-    def removed(self, X: np.ndarray) -> np.ndarray:
-        """Per point of ``X``: how many subfaces and subface edges its insertion removes."""
+    def missing(self, X: np.ndarray, V: np.ndarray, base: np.ndarray) -> np.ndarray:
+        """Per point of ``X``: the subfaces and subface edges its insertion removes (all
+        their tetrahedra in its cavity, not on the hull), plus its new edges to the
+        vertices ``V`` (k, j; -1: none) and new faces on the subface edges ``base``
+        (k, i, 2; -1: none) that the cavity's boundary does not give (an edge to a
+        vertex of no cavity tetrahedron; a face on an edge not on the boundary)."""
         tree = cKDTree(X)
         centres, radii = self.centres[self.rows], self.radii[self.rows]
         # The counts first (no list per tetrahedron), then the lists of those hit: the
@@ -1114,30 +1127,78 @@ class _Cavities:
         xi = np.fromiter(itertools.chain.from_iterable(hits), np.int64, int(n.sum()))
         ti = np.repeat(self.rows[some], n)
         out = np.zeros(len(X), dtype=np.int64)
-        for at, around in self.pieces:
+        for at, around, hull in self.pieces:
             piece = at[ti].reshape(-1)
             ok = piece >= 0
             key = np.repeat(xi, at.shape[1])[ok] * len(around) + piece[ok]
             uk, count = np.unique(key, return_counts=True)
-            np.add.at(out, uk[count == around[uk % len(around)]] // len(around), 1)
+            gone = (count == around[uk % len(around)]) & ~hull[uk % len(around)]
+            np.add.at(out, uk[gone] // len(around), 1)
+        # uk, count: per (point, subface edge) its tetrahedra in the point's cavity.
+        # The new edges: to the cavity's vertices.
+        cavity = np.unique(xi[:, None] * self.n + self.T[ti])
+        want = V >= 0
+        q = np.arange(len(X))[:, None] * self.n + V
+        out += (want & ~member(q.reshape(-1), cavity).reshape(V.shape)).sum(axis=1)
+        # The new faces: on the subface edges present with some but not all of their
+        # tetrahedra in the cavity (or on the hull).
+        want = base[:, :, 0] >= 0
+        row = _find_all(*self.edge_table, edge_keys(base.reshape(-1, 2))).reshape(want.shape)
+        _, around, hull = self.pieces[1]
+        m = len(around)
+        c = np.zeros(row.size, dtype=np.int64)
+        if uk.size:
+            q = (np.arange(len(X))[:, None] * m + row).reshape(-1)
+            pos = np.minimum(np.searchsorted(uk, q), len(uk) - 1)
+            hit = (row.reshape(-1) >= 0) & (uk[pos] == q)
+            c[hit] = count[pos[hit]]
+        c = c.reshape(want.shape)
+        r = np.maximum(row, 0)
+        kept = (row >= 0) & (c > 0) & ((c < around[r]) | hull[r])
+        out += (want & ~kept).sum(axis=1)
         return out
 
 
-def _look_ahead(cav: _Cavities, A, B, t, t0, lo, hi, known) -> np.ndarray:
-    """Per edge ``AB`` where ``known`` (an interval of its encroachers is known): among
-    ``t`` (its shell point, :func:`_shell`), ``t0`` (the point before it) and, where
-    ``[lo, hi]`` is longer than :data:`LOOK_ROOM`, :data:`LOOK_AHEAD` points spread over
-    it, the split removing the fewest subfaces and subface edges from the
-    tetrahedralization (ties: the nearest to ``t``)."""
-    rows = np.flatnonzero(known & ((hi - lo > LOOK_ROOM) | (t != t0)))
+def _split_pieces(sub: np.ndarray, E: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For subface edges ``E`` (``AB``, each in two subfaces ``ABC``, ``BAD``): the
+    vertices a split point gets edges to (``A, B, C, D``) and the edges its new
+    subfaces stand on (``AC, BC, AD, BD``), as :meth:`_Cavities.missing` takes them."""
+    k = edge_keys(np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]]))
+    opposite = np.concatenate([sub[:, 2], sub[:, 0], sub[:, 1]])
+    order = np.argsort(k, kind="stable")
+    lo = np.searchsorted(k[order], edge_keys(E))
+    C = opposite[order[lo]]
+    D = opposite[order[np.minimum(lo + 1, len(k) - 1)]]
+    A, B = E[:, 0], E[:, 1]
+    V = np.stack([A, B, C, D], axis=1)
+    base = np.stack(
+        [np.stack([A, C], 1), np.stack([B, C], 1), np.stack([A, D], 1), np.stack([B, D], 1)], axis=1
+    )
+    return V, base
+
+
+def _look_ahead(cav: _Cavities, E, A, B, t, t0, lo, hi, known, sub) -> np.ndarray:
+    """Per edge ``E`` = ``AB`` where ``known`` (an encroacher is known): among ``t``
+    (its shell point, :func:`_shell`), ``t0`` (the point before it), :data:`LOOK_AHEAD`
+    points spread over ``[lo, hi]`` where it is longer than :data:`LOOK_ROOM`, and
+    :data:`LOOK_WIDE` points spread over the edge (:data:`LOOK_END` away from its
+    ends), the split leaving the fewest pieces missing (:meth:`_Cavities.missing`;
+    ties: the nearest to ``t``)."""
+    rows = np.flatnonzero(known)
     if rows.size == 0:
         return t
     cand = np.repeat(t[rows, None], LOOK_AHEAD + 2, axis=1)
     cand[:, 1] = t0[rows]
     spread = lo[rows, None] + np.linspace(0.0, 1.0, LOOK_AHEAD) * (hi - lo)[rows, None]
     cand[:, 2:] = np.where((hi - lo > LOOK_ROOM)[rows, None], spread, t[rows, None])
+    wide = np.linspace(LOOK_END, 1.0 - LOOK_END, LOOK_WIDE)
+    cand = np.concatenate([cand, np.broadcast_to(wide, (len(rows), LOOK_WIDE))], axis=1)
     X = A[rows, None, :] + cand[:, :, None] * (B - A)[rows, None, :]
-    count = cav.removed(X.reshape(-1, 3)).reshape(len(rows), -1)
+    V, base = _split_pieces(sub, E[rows])
+    k = cand.shape[1]
+    count = cav.missing(
+        X.reshape(-1, 3), np.repeat(V, k, axis=0), np.repeat(base, k, axis=0)
+    ).reshape(len(rows), -1)
     dist = np.abs(cand - t[rows, None])
     pick = np.argmin(count + dist / 2.0, axis=1)  # dist < 1: the count first
     out = t.copy()
@@ -1228,7 +1289,7 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: _Cavities) ->
         lam = _angles_min(np.concatenate([T, np.broadcast_to(m, (3, 1, 2))], axis=1))
         bary = _barycentric(uv, m)
         if bary.min() > INSIDE_MARGIN:
-            mine.append(_face_point(st, fj, float(lam.min()), origin[fj] + frame @ m))
+            mine.append(_face_point(st, fj, tri, float(lam.min()), origin[fj] + frame @ m))
         # Edges: every edge but those of a whole strict Case 0 input face.
         own_keys = edge_keys(np.stack([tri, np.roll(tri, -1)], axis=1))
         for k in np.flatnonzero(~np.isin(own_keys, st.protected)).tolist():
@@ -1239,11 +1300,22 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: _Cavities) ->
             x3 = b.P[i] + t * (b.P[jj] - b.P[i])
             mine.append((float(_angles_min(two).min()), x3, "edge", (i, jj, t)))
         if not mine:  # every edge protected and M outside f: its centroid
-            mine.append(_face_point(st, fj, 0.0, origin[fj] + frame @ uv.mean(axis=0)))
+            mine.append(_face_point(st, fj, tri, 0.0, origin[fj] + frame @ uv.mean(axis=0)))
         options.append(mine)
     # Look-ahead: the split removing the fewest subfaces and subface edges from the
     # tetrahedralization, then the largest least angle (Pébay's heuristic).
-    removed = cav.removed(np.array([o[1] for mine in options for o in mine]))
+    flat = [o for mine in options for o in mine]
+    V = np.full((len(flat), 4), -1, dtype=np.int64)
+    base = np.full((len(flat), 4, 2), -1, dtype=np.int64)
+    split = [k for k, o in enumerate(flat) if o[2] == "edge"]
+    if split:
+        E = np.array([o[3][:2] for o in (flat[k] for k in split)], dtype=np.int64)
+        V[split], base[split] = _split_pieces(b.sub, E)
+    for k, o in enumerate(flat):
+        if o[2] == "face":
+            V[k, :3] = o[3]
+            base[k, :3] = np.stack([o[3], np.roll(o[3], -1)], axis=1)
+    removed = cav.missing(np.array([o[1] for o in flat]), V, base)
     pts_edge: list[tuple[np.ndarray, int, float]] = []
     pts_face: list[tuple[int, np.ndarray, float]] = []
     seen_edges: set[tuple[int, int]] = set()
@@ -1277,15 +1349,16 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: _Cavities) ->
     return added
 
 
-def _face_point(st: _State, facet: int, angle: float, M: np.ndarray) -> tuple:
-    """The candidate split at ``M`` inside ``facet``: (least angle, 3D point, kind, data).
+def _face_point(st: _State, facet: int, tri: np.ndarray, angle: float, M: np.ndarray) -> tuple:
+    """The candidate split at ``M`` inside subface ``tri`` of ``facet``: (least angle,
+    3D point, kind, data: ``tri`` or a subsegment's ends and 0.5).
     A point that would encroach a subsegment of its facet yields to it: that
     subsegment's midpoint instead (Ruppert's rule; else two facets meeting at a sharp
     edge hand split points back and forth ever nearer their edge), and the
     look-ahead judges that midpoint."""
     seg = _encroached_subsegment(st, facet, M)
     if seg is None:
-        return angle, M, "face", None
+        return angle, M, "face", tri
     i, j = int(seg[0]), int(seg[1])
     return angle, 0.5 * (st.b.P[i] + st.b.P[j]), "edge", (i, j, 0.5)
 
