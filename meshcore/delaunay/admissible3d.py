@@ -1088,12 +1088,12 @@ def _look_ahead(cav: Cavities, E, A, B, t, t0, lo, hi, known, sub) -> np.ndarray
     cand[:, 2:] = np.where((hi - lo > LOOK_ROOM)[rows, None], spread, t[rows, None])
     wide = np.linspace(LOOK_END, 1.0 - LOOK_END, LOOK_WIDE)
     cand = np.concatenate([cand, np.broadcast_to(wide, (len(rows), LOOK_WIDE))], axis=1)
-    X = A[rows, None, :] + cand[:, :, None] * (B - A)[rows, None, :]
-    V, base = split_pieces(sub, E[rows])
-    k = cand.shape[1]
-    count = cav.missing(
-        X.reshape(-1, 3), np.repeat(V, k, axis=0), np.repeat(base, k, axis=0)
-    ).reshape(len(rows), -1)
+    # Each distinct (edge, parameter) judged once.
+    pairs = np.column_stack([np.repeat(rows, cand.shape[1]), cand.reshape(-1)])
+    pairs, again = np.unique(pairs, axis=0, return_inverse=True)
+    r, s = pairs[:, 0].astype(np.int64), pairs[:, 1]
+    V, base = split_pieces(sub, E[r])
+    count = cav.missing(A[r] + s[:, None] * (B - A)[r], V, base)[again].reshape(cand.shape)
     dist = np.abs(cand - t[rows, None])
     pick = np.argmin(count + dist / 2.0, axis=1)  # dist < 1: the count first
     out = t.copy()
@@ -1342,7 +1342,7 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     cap = MAX_ADDED_FACTOR * b.n_surface + MAX_ADDED_BASE
     swaps = 0
     for rounds in range(1, MAX_ROUNDS + 1):
-        _, T = b.tets()
+        slots, T = b.tets()
         present = _Present(T)
         swaps = _coplanar_swaps(st, present)
         edges, holder = _subface_edges(b.sub)
@@ -1356,7 +1356,7 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
             break
         if b.n - b.n_surface > cap:
             break
-        cav = Cavities(b, T, edges)  # the look-ahead's
+        cav = Cavities(b, slots, T, edges)  # the look-ahead's
         if missing_e.size:
             added = _split_edges(st, edges[missing_e], holder[missing_e], cav)
         else:

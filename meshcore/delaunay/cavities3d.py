@@ -39,7 +39,9 @@ class Cavities:
     the point that the cavity's boundary does not give (float: a choice, not a
     sign)."""
 
-    def __init__(self, b: SurfaceRecovery, T: np.ndarray, edges: np.ndarray) -> None:
+    def __init__(
+        self, b: SurfaceRecovery, slots: np.ndarray, T: np.ndarray, edges: np.ndarray
+    ) -> None:
         P = b.P
         self.T = T
         self.n = b.n
@@ -53,11 +55,15 @@ class Cavities:
         with np.errstate(divide="ignore", invalid="ignore"):  # flat tetrahedra: never
             off = num / (2.0 * np.einsum("ij,ij->i", u, np.cross(v, w)))[:, None]
         self.centres, self.radii = a + off, np.linalg.norm(off, axis=1)
-        fk = face_keys(T[:, TET_FACES].reshape(-1, 3))
-        uk, n = np.unique(fk, return_counts=True)
-        hull = T[:, TET_FACES].reshape(-1, 3)[member(fk, uk[n == 1])]
+        # The hull's faces: those with no real tetrahedron across (the kernel's
+        # neighbours of the tetrahedra in ``slots``).
+        across = b.dt.adjacent(slots)
+        real = np.zeros(max(int(across.max(initial=-1)), int(slots.max(initial=-1))) + 1, bool)
+        real[slots] = True
+        out = (across < 0) | ~real[np.maximum(across, 0)]
+        hull = T[:, TET_FACES][out]
         hull = {
-            face_keys: uk[n == 1],
+            face_keys: np.sort(face_keys(hull)),
             edge_keys: np.unique(edge_keys(hull[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2))),
         }
         # Per tetrahedron, the subface (edge) row of each of its faces (edges), -1 if
