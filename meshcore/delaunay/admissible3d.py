@@ -47,7 +47,8 @@ makes the great circles ``gc_f`` empty (the reduced classification of
    (its edges all present) gets the point ``P`` of its closed ball
    ``B_f^min`` with the largest solid angle over ``f``; ``P``'s projection
    ``M`` onto the facet's plane is a candidate when it lies inside ``f``,
-   and so are the projections of ``P`` onto the edges of ``f``; the
+   and so are the projections of ``P`` onto the edges of ``f`` (and points
+   spread over them, the look-ahead's); the
    candidate whose insertion leaves the fewest pieces missing (the
    look-ahead below) wins, and among
    those the one whose split of ``f`` has the largest least angle
@@ -108,15 +109,16 @@ look-ahead, 97 / 441 with it):
   edge (all kept :data:`LOOK_END` of the edge away from its ends: a split
   near an end leaves a long piece whose ball catches more points) besides
   the point above, and takes the one leaving the fewest missing (ties: the
-  nearest to it); a face's split takes, among the candidates of step 3,
-  the one leaving the fewest, then Pébay's. The points of the intervals
-  clear what the text's point clears (every encroacher of the edge, or the
-  widest one from both halves' balls, §9.2); a point of the whole edge
-  need not, and is taken only where the count says it leaves fewer pieces
-  missing (the next round splits what it leaves). Counting the new pieces
-  and leaving the hull out took the bumpy sphere from 539 to 496 points,
-  star seeds 1-40 from 95 to 80 and 1-3,000 from 6,816 to 5,716 (456 seeds fewer, 63
-  more).
+  nearest to it); a face's split takes, among the candidates of step 3 and
+  :data:`LOOK_WIDE` points spread over each of its edges, the one leaving
+  the fewest, then Pébay's (the spread points last). The points of the
+  intervals clear what the text's point clears (every encroacher of the
+  edge, or the widest one from both halves' balls, §9.2); the spread points
+  need not, and are taken only where the count says they leave fewer
+  pieces missing (the next round splits what they leave). Counting the new
+  pieces, leaving the hull out and the spread points took the bumpy sphere
+  from 539 to 497 points, star seeds 1-40 from 95 to 82 and 1-3,000 from
+  6,816 to 5,450 (521 seeds fewer, 44 more).
 * **Concentric shells** (Ruppert's and Shewchuk's protection of small input
   angles, §9.1.5 in 3D). An edge's split within :data:`SHELL_END` of its
   length from an input vertex is moved out to the vertex's next shell (its
@@ -237,7 +239,8 @@ LOOK_AHEAD = 9
 LOOK_END = 0.2
 #: ... and are tried where that interval is longer than this fraction of the edge.
 LOOK_ROOM = 0.05
-#: Split points of a missing edge tried along the whole edge (look-ahead).
+#: Split points tried along the whole of a missing edge, and of each edge of a missing
+#: face (look-ahead).
 LOOK_WIDE = 7
 #: A split within this fraction of an edge's length from an input vertex is tried
 #: on the vertex's next concentric shell (:func:`_shell`).
@@ -1189,11 +1192,14 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: Cavities) -> 
         own_keys = edge_keys(np.stack([tri, np.roll(tri, -1)], axis=1))
         for k in np.flatnonzero(~np.isin(own_keys, st.protected)).tolist():
             i, jj = tri[k], tri[(k + 1) % 3]
-            t = float(_project_on_segment(X[None], b.P[i][None], b.P[jj][None])[0])
-            x = uv[k] + t * (uv[(k + 1) % 3] - uv[k])
-            two = np.array([[uv[k], x, uv[(k + 2) % 3]], [x, uv[(k + 1) % 3], uv[(k + 2) % 3]]])
-            x3 = b.P[i] + t * (b.P[jj] - b.P[i])
-            mine.append((float(_angles_min(two).min()), x3, "edge", (i, jj, t)))
+            t0 = float(_project_on_segment(X[None], b.P[i][None], b.P[jj][None])[0])
+            for t in (t0, *np.linspace(LOOK_END, 1.0 - LOOK_END, LOOK_WIDE).tolist()):
+                x = uv[k] + t * (uv[(k + 1) % 3] - uv[k])
+                two = np.array([[uv[k], x, uv[(k + 2) % 3]], [x, uv[(k + 1) % 3], uv[(k + 2) % 3]]])
+                x3 = b.P[i] + t * (b.P[jj] - b.P[i])
+                # The spread points after every text's point on ties (angles < pi).
+                angle = float(_angles_min(two).min()) - (np.pi if t != t0 else 0.0)
+                mine.append((angle, x3, "edge", (i, jj, t)))
         if not mine:  # every edge protected and M outside f: its centroid
             mine.append(_face_point(st, fj, tri, 0.0, origin[fj] + frame @ uv.mean(axis=0)))
         options.append(mine)
