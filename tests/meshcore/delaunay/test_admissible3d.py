@@ -288,15 +288,20 @@ def test_translation_and_scale(how):
     assert len(res.triangles) == len(ref.triangles)
 
 
-def test_near_end_splits_on_concentric_shells():
-    # A star polyhedron (benchmarks/robustness3d.py's seed 35) whose sharp vertices took 3
-    # points before the shells: 2 now, each at its vertex's shortest input edge times a
-    # power of two from an input vertex; the same under a 1e6 translation or 1e-6 scaling.
-    first = np.random.default_rng(35)
+def star_seed(seed):
+    """The star polyhedron of ``benchmarks/robustness3d.py``'s ``seed``."""
+    first = np.random.default_rng(seed)
     n, inner = int(first.integers(6, 31)), int(first.integers(0, 2**31 - 1))
     rng = np.random.default_rng(inner)
     d = np.concatenate([np.eye(3), -np.eye(3), rng.normal(size=(n, 3))])
-    P, T = shapes.star(rng.uniform(0.5, 1.5, size=len(d)), d)
+    return shapes.star(rng.uniform(0.5, 1.5, size=len(d)), d)
+
+
+def test_near_end_splits_on_concentric_shells():
+    # A star polyhedron (seed 35) whose sharp vertices took 3 points before the shells:
+    # 2 now, each at its vertex's shortest input edge times a power of two from an input
+    # vertex; the same under a 1e6 translation or 1e-6 scaling.
+    P, T = star_seed(35)
     res = run(P, T)
     X = res.points[len(P) :]
     assert len(X) == 2
@@ -307,6 +312,18 @@ def test_near_end_splits_on_concentric_shells():
     )
     k = np.log2(np.linalg.norm(X[:, None] - P[None], axis=2) / unit)
     assert (np.abs(k - np.round(k)) < 1e-9).any(axis=1).all()
+    np.testing.assert_allclose(run(P + 1e6, T).points - 1e6, res.points, atol=1e-9)
+    np.testing.assert_allclose(run(P * 1e-6, T).points * 1e6, res.points, atol=1e-12)
+
+
+def test_look_ahead_counts_the_new_pieces():
+    # Seed 28: one missing edge. Its split inside its encroachers' common interval
+    # leaves another edge missing and took 3 points; the look-ahead, counting the new
+    # pieces the insertion's cavity does not give, splits it further along: 1 point
+    # (TetGen -pD and -pDM: 2); the same under a 1e6 translation or 1e-6 scaling.
+    P, T = star_seed(28)
+    res = run(P, T)
+    assert res.added_on_edges == 1 and res.added_on_faces == 0
     np.testing.assert_allclose(run(P + 1e6, T).points - 1e6, res.points, atol=1e-9)
     np.testing.assert_allclose(run(P * 1e-6, T).points * 1e6, res.points, atol=1e-12)
 

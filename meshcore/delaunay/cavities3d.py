@@ -1,0 +1,141 @@
+"""What inserting a point on a surface would leave missing (the look-ahead of
+:mod:`meshcore.delaunay.admissible3d`, methods text §9.2, §9.3.4).
+
+Inserting a point ``X`` into a Delaunay tetrahedralization removes the
+tetrahedra whose circumsphere holds it (its *cavity*) and joins ``X`` to the
+cavity's boundary faces (Bowyer-Watson). So, before inserting, one knows which
+of the surface's pieces (subfaces, subface edges) it takes away (all their
+tetrahedra in the cavity, not on the hull) and which of the new pieces at ``X``
+it makes (an edge ``XV`` where ``V`` is a vertex of the cavity, a face ``XPQ``
+where ``PQ`` is an edge of its boundary). Float circumspheres: a choice among
+valid split points, never a sign.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from meshcore.delaunay.hashgrid import _find_all, _table
+from meshcore.delaunay.recovery3d import (
+    TET_EDGES,
+    TET_FACES,
+    SurfaceRecovery,
+    edge_keys,
+    face_keys,
+    member,
+    tet_circumcenters,
+)
+
+__all__ = ["Cavities", "split_pieces"]
+
+
+class Cavities:
+    """What inserting a point would leave missing in the round's tetrahedralization
+    ``T`` (the kernel's): the subfaces and subface ``edges`` all of whose
+    tetrahedra have the point in their circumsphere (the insertion's cavity),
+    unless on the hull (the cavity's boundary: they stay), and the new pieces at
+    the point that the cavity's boundary does not give (float: a choice, not a
+    sign)."""
+
+    def __init__(
+        self, b: SurfaceRecovery, slots: np.ndarray, T: np.ndarray, edges: np.ndarray
+    ) -> None:
+        self.T = T
+        self.n = b.n
+        self.centres, self.radii = tet_circumcenters(b.P, T)  # flat tetrahedra: never
+        # The hull's faces: those with no real tetrahedron across (the kernel's
+        # neighbours of the tetrahedra in ``slots``).
+        across = b.dt.adjacent(slots)
+        real = np.zeros(max(int(across.max(initial=-1)), int(slots.max(initial=-1))) + 1, bool)
+        real[slots] = True
+        out = (across < 0) | ~real[np.maximum(across, 0)]
+        hull = T[:, TET_FACES][out]
+        hull = {
+            face_keys: np.sort(face_keys(hull)),
+            edge_keys: np.unique(edge_keys(hull[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2))),
+        }
+        # Per tetrahedron, the subface (edge) row of each of its faces (edges), -1 if
+        # none; per subface (edge), its tetrahedra and whether it is on the hull.
+        self.pieces = []
+        for slots, keys, rows in ((TET_FACES, face_keys, b.sub), (TET_EDGES, edge_keys, edges)):
+            k = keys(rows)
+            at = _find_all(*_table(k), keys(T[:, slots].reshape(-1, slots.shape[1])))
+            self.pieces.append(
+                (
+                    at.reshape(len(T), -1),
+                    np.bincount(at[at >= 0], minlength=len(rows)),
+                    member(k, hull[keys]),
+                )
+            )
+        self.edge_table = _table(edge_keys(edges))
+        # Only the tetrahedra holding a piece count (the others hold none to remove).
+        held = (self.pieces[0][0] >= 0).any(1) | (self.pieces[1][0] >= 0).any(1)
+        self.rows = np.flatnonzero(held & np.isfinite(self.radii))
+
+    def missing(self, X: np.ndarray, V: np.ndarray, base: np.ndarray) -> np.ndarray:
+        """Per point of ``X``: the subfaces and subface edges its insertion removes (all
+        their tetrahedra in its cavity, not on the hull), plus its new edges to the
+        vertices ``V`` (k, j; -1: none) and new faces on the subface edges ``base``
+        (k, i, 2; -1: none) that the cavity's boundary does not give (an edge to a
+        vertex of no cavity tetrahedron; a face on an edge not on the boundary)."""
+        tree = cKDTree(X)
+        centres, radii = self.centres[self.rows], self.radii[self.rows]
+        # The counts first (no list per tetrahedron), then the lists of those hit: the
+        # same query twice, so the same hits (most tetrahedra hold no candidate).
+        some = np.flatnonzero(tree.query_ball_point(centres, radii, return_length=True))
+        hits = tree.query_ball_point(centres[some], radii[some])
+        n = np.fromiter(map(len, hits), np.int64, len(hits))
+        xi = np.fromiter(itertools.chain.from_iterable(hits), np.int64, int(n.sum()))
+        ti = np.repeat(self.rows[some], n)
+        out = np.zeros(len(X), dtype=np.int64)
+        for at, around, hull in self.pieces:
+            piece = at[ti].reshape(-1)
+            ok = piece >= 0
+            key = np.repeat(xi, at.shape[1])[ok] * len(around) + piece[ok]
+            uk, count = np.unique(key, return_counts=True)
+            gone = (count == around[uk % len(around)]) & ~hull[uk % len(around)]
+            np.add.at(out, uk[gone] // len(around), 1)
+        # uk, count: per (point, subface edge) its tetrahedra in the point's cavity.
+        # The new edges: to the cavity's vertices.
+        cavity = np.unique(xi[:, None] * self.n + self.T[ti])
+        want = V >= 0
+        q = np.arange(len(X))[:, None] * self.n + V
+        out += (want & ~member(q.reshape(-1), cavity).reshape(V.shape)).sum(axis=1)
+        # The new faces: on the subface edges present with some but not all of their
+        # tetrahedra in the cavity (or on the hull).
+        want = base[:, :, 0] >= 0
+        row = _find_all(*self.edge_table, edge_keys(base.reshape(-1, 2))).reshape(want.shape)
+        _, around, hull = self.pieces[1]
+        m = len(around)
+        c = np.zeros(row.size, dtype=np.int64)
+        if uk.size:
+            q = (np.arange(len(X))[:, None] * m + row).reshape(-1)
+            pos = np.minimum(np.searchsorted(uk, q), len(uk) - 1)
+            hit = (row.reshape(-1) >= 0) & (uk[pos] == q)
+            c[hit] = count[pos[hit]]
+        c = c.reshape(want.shape)
+        r = np.maximum(row, 0)
+        kept = (row >= 0) & (c > 0) & ((c < around[r]) | hull[r])
+        out += (want & ~kept).sum(axis=1)
+        return out
+
+
+def split_pieces(sub: np.ndarray, E: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For subface edges ``E`` (``AB``, each in two subfaces ``ABC``, ``BAD``): the
+    vertices a split point gets edges to (``A, B, C, D``) and the edges its new
+    subfaces stand on (``AC, BC, AD, BD``), as :meth:`Cavities.missing` takes them."""
+    k = edge_keys(np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]]))
+    opposite = np.concatenate([sub[:, 2], sub[:, 0], sub[:, 1]])
+    order = np.argsort(k, kind="stable")
+    lo = np.searchsorted(k[order], edge_keys(E))
+    C = opposite[order[lo]]
+    D = opposite[order[np.minimum(lo + 1, len(k) - 1)]]
+    A, B = E[:, 0], E[:, 1]
+    V = np.stack([A, B, C, D], axis=1)
+    base = np.stack(
+        [np.stack([A, C], 1), np.stack([B, C], 1), np.stack([A, D], 1), np.stack([B, D], 1)], axis=1
+    )
+    return V, base
