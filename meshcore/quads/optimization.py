@@ -126,7 +126,6 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import CONVEX_PROOF, orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.mesh.topology import isin_ints, unique_ints
@@ -134,8 +133,10 @@ from meshcore.partition.smoothing import boundary_points
 from meshcore.quads.vertex_moves import (
     _angle_quality_rows,
     _colors,
+    _edge_table,
     _incidence,
     _lift_round,
+    _neighbour_csr,
     _smooth_passes,
     _split_rows,
     _split_scores,
@@ -213,21 +214,6 @@ class OptimizeResult:
 
 # ----------------------------------------------------------------------------- cells
 # All cells are rows of C (c, 4), a triangle with -1 in its last slot.
-
-
-def _edge_keys(C: np.ndarray, alive: np.ndarray, n: int):
-    """Directed edges of the alive cells: (key of the undirected edge, cell)."""
-    rows = np.flatnonzero(alive)
-    sub = C[rows]
-    tri = sub[:, 3] < 0
-    nxt = np.roll(sub, -1, axis=1)
-    nxt[tri, 2] = sub[tri, 0]
-    a = sub.ravel()
-    b = nxt.ravel()
-    cell = np.repeat(rows, 4)
-    keep = (a >= 0) & (b >= 0)
-    a, b, cell = a[keep], b[keep], cell[keep]
-    return np.minimum(a, b) * n + np.maximum(a, b), a, b, cell
 
 
 def _cell_quality(P, C, measure: str, metric) -> np.ndarray:
@@ -494,31 +480,18 @@ class _State:
         return self._inc
 
     def edges(self):
-        """The directed edges of :func:`_edge_keys` ``(key, a, b, cell)``, their stable
-        sort order and the sorted unique keys with each one's first edge (as
-        :func:`~meshcore.mesh.topology.unique_ints`), kept until the cells change."""
+        """:func:`~meshcore.quads.vertex_moves._edge_table` of the alive cells ``(a, b,
+        sorted keys, their cells, unique keys, first edges)``, kept until the cells change."""
         if self._edges is None:
-            key, a, b, cell = _edge_keys(self.C, self.alive, len(self.P))
-            order = radix_argsort(key)
-            ks = key[order]
-            head = np.ones(len(ks), bool)
-            head[1:] = ks[1:] != ks[:-1]
-            self._edges = (key, a, b, cell, order, ks[head], order[head])
+            self._edges = _edge_table(self.C, self.alive, len(self.P))
         return self._edges
 
     def neighbours(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """CSR vertex -> edge neighbours of the alive cells ``(nptr, nidx, degree)``,
         kept until the cells change."""
         if self._nbrs is None:
-            n = len(self.P)
-            _, a, b, _, _, _, first = self.edges()
-            src = np.concatenate([a[first], b[first]])
-            dst = np.concatenate([b[first], a[first]])
-            nidx = dst[radix_argsort(src)]
-            deg = np.bincount(src, minlength=n)
-            nptr = np.zeros(n + 1, np.int64)
-            np.cumsum(deg, out=nptr[1:])
-            self._nbrs = (nptr, nidx, deg)
+            a, b, _, _, _, first = self.edges()
+            self._nbrs = _neighbour_csr(a, b, first, len(self.P))
         return self._nbrs
 
     def quality_of(self, rows: np.ndarray) -> np.ndarray:
@@ -624,7 +597,7 @@ def _valence3_vertices(st: _State, ptr, cells):
 
 def _op_valence3(st: _State) -> int:
     ptr, cells = st.incidence()
-    keys = st.edges()[5]
+    keys = st.edges()[4]
     _, sets = _valence3_vertices(st, ptr, cells)
     if not len(sets):
         return 0
@@ -634,7 +607,7 @@ def _op_valence3(st: _State) -> int:
 def _op_hexagon(st: _State) -> int:
     n = len(st.P)
     ptr, cells = st.incidence()
-    _, a, b, _, _, keys, _ = st.edges()
+    a, b, _, _, keys, _ = st.edges()
     v3, sets3 = _valence3_vertices(st, ptr, cells)
     if len(v3) < 2:
         return 0
@@ -659,8 +632,7 @@ def _op_hexagon(st: _State) -> int:
 
 def _op_swap(st: _State) -> int:
     n = len(st.P)
-    key, _, _, cell, order, keys, _ = st.edges()
-    ks, cs = key[order], cell[order]
+    _, _, ks, cs, keys, _ = st.edges()
     same = np.flatnonzero(ks[1:] == ks[:-1])
     pairs = np.column_stack([cs[same], cs[same + 1]])
     quads = (st.C[pairs, 3] >= 0).all(axis=1) & (pairs[:, 0] != pairs[:, 1])
@@ -981,9 +953,8 @@ def optimize_quads(
     C = np.concatenate([quads, np.column_stack([tris, np.full(len(tris), -1)])]).astype(np.int64)
     if metric is not None and np.ndim(metric) == 2:
         metric = np.asarray(metric, dtype=np.float64)
-    alive = np.ones(len(C), bool)
-    key, _, _, _ = _edge_keys(C, alive, n)
-    ukey, cnt = unique_ints(key, counts=True)
+    _, _, ks, _, _, _ = _edge_table(C, np.ones(len(C), bool), n)
+    ukey, cnt = unique_ints(ks, counts=True)
     bkeys = ukey[cnt == 1]
     interior = np.ones(n, bool)
     interior[bkeys // n] = False

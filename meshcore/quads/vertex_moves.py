@@ -19,6 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
+from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import CONVEX_PROOF, WORK_SIZE, orient2d_filtered
 from meshcore.partition.smoothing import boundary_points, quad_q
 
@@ -45,6 +46,74 @@ def _incidence(C, alive, n):
                     cells[fill[v]] = r
                     fill[v] += 1
     return ptr, cells
+
+
+@njit(cache=True)
+def _edge_table(C, alive, n):
+    """The directed edges of the alive cells (a triangle being a row with -1 last), in
+    row order: ``(a, b, sorted keys, their cells, unique keys, first edge of each)``.
+
+    ``a[e] -> b[e]`` turns with its cell; the keys ``min * n + max`` sorted stably
+    (:func:`~meshcore.geometry.ordering.radix_argsort`) with the cell of each, and the
+    sorted unique keys with the index into ``a``/``b`` of each one's first edge (as
+    :func:`~meshcore.mesh.topology.unique_ints`). One compiled call: rebuilt after
+    every operator run that changes the cells."""
+    m = 0
+    for r in range(C.shape[0]):
+        if alive[r]:
+            m += 4 if C[r, 3] >= 0 else 3
+    a = np.empty(m, np.int64)
+    b = np.empty(m, np.int64)
+    cell = np.empty(m, np.int64)
+    key = np.empty(m, np.int64)
+    e = 0
+    for r in range(C.shape[0]):
+        if not alive[r]:
+            continue
+        nv = 4 if C[r, 3] >= 0 else 3
+        for s in range(nv):
+            u, w = C[r, s], C[r, (s + 1) % nv]
+            a[e], b[e], cell[e] = u, w, r
+            key[e] = min(u, w) * n + max(u, w)
+            e += 1
+    order = radix_argsort(key)
+    ks = key[order]
+    nu = 0
+    for i in range(m):
+        if i == 0 or ks[i] != ks[i - 1]:
+            nu += 1
+    ukeys = np.empty(nu, np.int64)
+    first = np.empty(nu, np.int64)
+    nu = 0
+    for i in range(m):
+        if i == 0 or ks[i] != ks[i - 1]:
+            ukeys[nu], first[nu] = ks[i], order[i]
+            nu += 1
+    return a, b, ks, cell[order], ukeys, first
+
+
+@njit(cache=True)
+def _neighbour_csr(a, b, first, n):
+    """CSR vertex -> edge neighbours ``(nptr, nidx, degree)`` of the edges ``a[first]``,
+    ``b[first]`` (each undirected edge once): the neighbours of a vertex in the order
+    of the list of edges from it followed by that of the edges to it (a stable
+    counting sort)."""
+    deg = np.zeros(n, np.int64)
+    for e in first:
+        deg[a[e]] += 1
+        deg[b[e]] += 1
+    nptr = np.zeros(n + 1, np.int64)
+    for v in range(n):
+        nptr[v + 1] = nptr[v] + deg[v]
+    fill = nptr[:-1].copy()
+    nidx = np.empty(nptr[n], np.int64)
+    for e in first:
+        nidx[fill[a[e]]] = b[e]
+        fill[a[e]] += 1
+    for e in first:
+        nidx[fill[b[e]]] = a[e]
+        fill[b[e]] += 1
+    return nptr, nidx, deg
 
 
 @njit(cache=True)
