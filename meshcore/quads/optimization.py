@@ -126,12 +126,13 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from meshcore.geometry.predicates import CONVEX_PROOF, orient2d
+from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.mesh.topology import isin_ints, unique_ints
 from meshcore.partition.smoothing import boundary_points
 from meshcore.quads.vertex_moves import (
     _angle_quality_rows,
+    _checked_rows,
     _colors,
     _edge_table,
     _incidence,
@@ -140,6 +141,7 @@ from meshcore.quads.vertex_moves import (
     _smooth_passes,
     _split_rows,
     _split_scores,
+    _swap_pairs,
     _valid_planar,
     lift_corners,
 )
@@ -249,17 +251,13 @@ def _valid(P, C) -> np.ndarray:
     return ok
 
 
-def _valid_of(P, C, q, measure: str, metric) -> np.ndarray:
-    """:func:`_valid` of rows of C whose :func:`_cell_quality` ``q`` is known: planar
-    (8.4) without a metric, a quality above ``CONVEX_PROOF`` proves strict convexity,
-    so that the exact signs are taken for the other rows only."""
-    if P.shape[1] != 2 or measure != "angle" or metric is not None:
-        return _valid(P, C)
-    ok = q > CONVEX_PROOF
-    low = np.flatnonzero(~ok)
-    if len(low):
-        ok[low] = _valid_planar(P, C[low])
-    return ok
+def _checked(P, C, measure: str, metric) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_cell_quality` and :func:`_valid` of the rows of C: planar (8.4) without a
+    metric in one compiled loop, where a quality above ``CONVEX_PROOF`` proves strict
+    convexity and the exact signs are taken for the other rows only."""
+    if P.shape[1] == 2 and measure == "angle" and metric is None:
+        return _checked_rows(P, C)
+    return _cell_quality(P, C, measure, metric), _valid(P, C)
 
 
 # ----------------------------------------------------------------------------- kernels
@@ -494,9 +492,6 @@ class _State:
             self._nbrs = _neighbour_csr(a, b, first, len(self.P))
         return self._nbrs
 
-    def quality_of(self, rows: np.ndarray) -> np.ndarray:
-        return _cell_quality(self.P, rows, self.measure, self.metric)
-
     def replace(self, old: np.ndarray, new: np.ndarray, newq: np.ndarray) -> None:
         old = old[old >= 0]
         self.alive[old] = False
@@ -525,24 +520,16 @@ def _hex_splits(st: _State, sets: np.ndarray, edge_keys: np.ndarray):
     sets, H = sets[ok], H[ok]
     k = len(sets)
     if not k:
-        return sets, np.zeros((0, 2, 4), np.int64), np.zeros(0)
+        return sets, np.zeros((0, 2, 4), np.int64), np.zeros(0), np.zeros((0, 2))
     rows = _split_rows(H)
     ptr, _ = st.incidence()
-    q = st.quality_of(rows)
+    q, valid = _checked(st.P, rows, st.measure, st.metric)
+    floor = _floor(st, TOL.swap_floor)
     best, gain = _split_scores(
-        st.C,
-        sets,
-        H,
-        q,
-        _valid_of(st.P, rows, q, st.measure, st.metric),
-        edge_keys,
-        len(st.P),
-        ptr,
-        st.ideal,
-        st.q,
-        _floor(st, TOL.swap_floor),
+        st.C, sets, H, q, valid, edge_keys, len(st.P), ptr, st.ideal, st.q, floor
     )
-    return sets, rows.reshape(k, 3, 2, 4)[np.arange(k), best], gain
+    at = np.arange(k)
+    return sets, rows.reshape(k, 3, 2, 4)[at, best], gain, q.reshape(k, 3, 2)[at, best]
 
 
 def _floor(st: _State, floor: float | None = None) -> float:
@@ -550,15 +537,13 @@ def _floor(st: _State, floor: float | None = None) -> float:
     return max(float(st.q[st.alive].min()), TOL.smooth_floor if floor is None else floor)
 
 
-def _apply_hex(st: _State, sets, new, gain) -> int:
+def _apply_hex(st: _State, sets, new, gain, newq) -> int:
     good = gain > TOL.gain
-    sets, new, gain = sets[good], new[good], gain[good]
+    sets, new, gain, newq = sets[good], new[good], gain[good], newq[good]
     if not len(sets):
         return 0
     pick = _select(gain, sets, len(st.C))
-    sets, new = sets[pick], new[pick]
-    rows = new.reshape(-1, 4)
-    st.replace(sets.ravel(), rows, st.quality_of(rows))
+    st.replace(sets[pick].ravel(), new[pick].reshape(-1, 4), newq[pick].ravel())
     return int(pick.sum())
 
 
@@ -573,15 +558,14 @@ def _op_valence2(st: _State) -> int:
     old, new = old[ok], new[ok]
     if not len(old):
         return 0
-    q = st.quality_of(new)
-    valid = _valid_of(st.P, new, q, st.measure, st.metric)
+    q, valid = _checked(st.P, new, st.measure, st.metric)
     gain = np.where(valid, q - _old_min(st, old), -np.inf)
     good = gain > TOL.gain
-    old, new, gain = old[good], new[good], gain[good]
+    old, new, gain, q = old[good], new[good], gain[good], q[good]
     if not len(old):
         return 0
     pick = _select(gain, old, len(st.C))
-    st.replace(old[pick].ravel(), new[pick], st.quality_of(new[pick]))
+    st.replace(old[pick].ravel(), new[pick], q[pick])
     return int(pick.sum())
 
 
@@ -631,29 +615,16 @@ def _op_hexagon(st: _State) -> int:
 
 
 def _op_swap(st: _State) -> int:
-    n = len(st.P)
     _, _, ks, cs, keys, _ = st.edges()
-    same = np.flatnonzero(ks[1:] == ks[:-1])
-    pairs = np.column_stack([cs[same], cs[same + 1]])
-    quads = (st.C[pairs, 3] >= 0).all(axis=1) & (pairs[:, 0] != pairs[:, 1])
-    pairs = pairs[quads]
-    if not len(pairs):
-        return 0
-    # a swap can only relax valences next to an irregular vertex, or lift a poor pair
     ptr, _ = st.incidence()
-    irregular = np.diff(ptr) != st.ideal
-    near = irregular[st.C[pairs].reshape(len(pairs), -1)].any(axis=1)
-    poor = _old_min(st, pairs) < TOL.active_below
-    if st.swapped is not None:  # a later sweep: poor pairs only next to the cells made since
-        dirty = np.zeros(n, bool)
-        new = st.C[st.swapped :][st.alive[st.swapped :]]
-        dirty[new[new >= 0]] = True
-        made = dirty[st.C[pairs].reshape(len(pairs), -1)].any(axis=1)
-        poor &= made
-        if not st.swaps:  # the last run swapped nothing: irregular pairs only there too
-            near &= made
+    # a swap can only relax valences next to an irregular vertex, or lift a poor pair; a
+    # later sweep: poor pairs only next to the cells made since the last run, and
+    # irregular pairs only there too when that run swapped nothing
+    since = -1 if st.swapped is None else st.swapped
+    pairs = _swap_pairs(
+        st.C, st.alive, ks, cs, ptr, st.ideal, st.q, TOL.active_below, since, not st.swaps
+    )
     st.swapped = len(st.C)
-    pairs = pairs[near | poor]
     st.swaps = _apply_hex(st, *_hex_splits(st, pairs, keys)) if len(pairs) else 0
     return st.swaps
 
@@ -689,8 +660,8 @@ def _op_collapse(st: _State) -> int:
     Pt = np.concatenate([st.P, mid])
     flat = rows.reshape(-1, 4)
     metric = _extended(st.metric, pair)
-    q = _cell_quality(Pt, flat, st.measure, metric)
-    valid = _valid_of(Pt, flat, q, st.measure, metric).reshape(-1, 4).all(axis=1)
+    q, valid = _checked(Pt, flat, st.measure, metric)
+    valid = valid.reshape(-1, 4).all(axis=1)
     gain = np.where(valid, q.reshape(-1, 4).min(axis=1) - _old_min(st, old), -np.inf)
     good = gain > TOL.gain
     old, new, pair, mid, gain = old[good], new[good], pair[good], mid[good], gain[good]
@@ -705,7 +676,7 @@ def _op_collapse(st: _State) -> int:
         st.metric = st.metric.copy()
         st.metric[pair[:, 0]] = 0.5 * (st.metric[pair[:, 0]] + st.metric[pair[:, 1]])
     rows = new.reshape(-1, 4)
-    st.replace(old.ravel(), rows, st.quality_of(rows))
+    st.replace(old.ravel(), rows, _cell_quality(st.P, rows, st.measure, st.metric))
     return int(pick.sum())
 
 

@@ -126,6 +126,58 @@ def _angle_quality_rows(P, C):
 
 
 @njit(cache=True)
+def _checked_rows(P, C):
+    """:func:`_angle_quality` of every row and whether it is strictly convex (a quality
+    above ``CONVEX_PROOF`` proves it, else the exact signs of :func:`_row_valid`)."""
+    k = C.shape[0]
+    q = np.empty(k)
+    ok = np.empty(k, np.bool_)
+    work = np.empty(WORK_SIZE)
+    for r in range(k):
+        q[r] = _angle_quality(P, C, r)
+        ok[r] = q[r] > CONVEX_PROOF or _row_valid(P, C, r, work)
+    return q, ok
+
+
+@njit(cache=True)
+def _swap_pairs(C, alive, ks, cs, ptr, ideal, q, below, since, only_made):
+    """The pairs of quads sharing an edge (``ks``, ``cs``: the sorted edge keys and
+    their cells, :func:`_edge_table`) that :func:`meshcore.quads.optimization._op_swap`
+    tries, in the order of the keys: those with a vertex whose valence (``ptr``) is not
+    its ``ideal``, or whose least quality ``q`` is under ``below``. With ``since`` >= 0
+    (a later sweep) a poor pair must hold a vertex of an alive cell from row ``since``
+    on, and with ``only_made`` an irregular pair too."""
+    dirty = np.zeros(ptr.shape[0] - 1, np.bool_)
+    if since >= 0:
+        for r in range(since, C.shape[0]):
+            if alive[r]:
+                for s in range(4):
+                    if C[r, s] >= 0:
+                        dirty[C[r, s]] = True
+    out = np.empty((ks.shape[0], 2), np.int64)
+    k = 0
+    for i in range(ks.shape[0] - 1):
+        c0, c1 = cs[i], cs[i + 1]
+        if ks[i + 1] != ks[i] or C[c0, 3] < 0 or C[c1, 3] < 0 or c0 == c1:
+            continue
+        near = made = False
+        for c in (c0, c1):
+            for s in range(4):
+                v = C[c, s]
+                near |= ptr[v + 1] - ptr[v] != ideal[v]
+                made |= dirty[v]
+        poor = min(q[c0], q[c1]) < below
+        if since >= 0:
+            poor &= made
+            if only_made:
+                near &= made
+        if near or poor:
+            out[k, 0], out[k, 1] = c0, c1
+            k += 1
+    return out[:k]
+
+
+@njit(cache=True)
 def _valid_planar(P, C):
     """Rows of C (planar) whose every corner turns counter-clockwise, by the exact orient2d.
 
