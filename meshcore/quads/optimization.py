@@ -139,6 +139,7 @@ from meshcore.quads.vertex_moves import (
     _lift_round,
     _neighbour_csr,
     _smooth_passes,
+    _split_drops,
     _split_rows,
     _split_scores,
     _swap_pairs,
@@ -507,13 +508,14 @@ def _old_min(st: _State, old: np.ndarray) -> np.ndarray:
 
 
 def _hex_splits(st: _State, sets: np.ndarray, edge_keys: np.ndarray):
-    """Best two-quad split of the hexagon of each cell set: (sets, new quads (k, 2, 4), gain).
+    """Best two-quad split of the hexagon of each cell set: (sets, new quads (k, 2, 4),
+    gain, their qualities (k, 2)).
 
     The gain is first the drop of ``sum |valence - ideal|`` over the vertices
     whose valence the split changes (the "topological criterion" of §8.4.3,
-    degrees relaxed towards 4), a split being allowed to lower the quality
-    down to :func:`_floor`; then the rise of the least quality
-    (:func:`~meshcore.quads.vertex_moves._split_scores`).
+    degrees relaxed towards 4, :func:`~meshcore.quads.vertex_moves._split_drops`), a
+    split being allowed to lower the quality down to :func:`_floor`; then the rise of
+    the least quality (:func:`~meshcore.quads.vertex_moves._split_scores`).
     """
     H = _hexagons(st.C, sets)
     ok = H[:, 0] >= 0
@@ -523,11 +525,13 @@ def _hex_splits(st: _State, sets: np.ndarray, edge_keys: np.ndarray):
         return sets, np.zeros((0, 2, 4), np.int64), np.zeros(0), np.zeros((0, 2))
     rows = _split_rows(H)
     ptr, _ = st.incidence()
-    q, valid = _checked(st.P, rows, st.measure, st.metric)
-    floor = _floor(st, TOL.swap_floor)
-    best, gain = _split_scores(
-        st.C, sets, H, q, valid, edge_keys, len(st.P), ptr, st.ideal, st.q, floor
-    )
+    drop = _split_drops(st.C, sets, H, edge_keys, len(st.P), ptr, st.ideal)
+    # the cells of the allowed splits only are evaluated
+    need = np.repeat(drop.ravel() >= 0, 2)
+    q = np.zeros(len(rows))
+    valid = np.zeros(len(rows), bool)
+    q[need], valid[need] = _checked(st.P, rows[need], st.measure, st.metric)
+    best, gain = _split_scores(sets, drop, q, valid, st.q, _floor(st, TOL.swap_floor))
     at = np.arange(k)
     return sets, rows.reshape(k, 3, 2, 4)[at, best], gain, q.reshape(k, 3, 2)[at, best]
 

@@ -419,31 +419,18 @@ def _split_rows(H):
 
 
 @njit(cache=True)
-def _split_scores(C, sets, H, q, valid, keys, n, ptr, ideal, cq, floor):
-    """The best split of each hexagon by the topological criterion of
-    :func:`meshcore.quads.optimization._hex_splits`: (split index (k,), score (k,)).
-
-    ``q``, ``valid``: quality and validity of the rows of :func:`_split_rows`; ``keys``
-    the mesh's sorted unique edge keys ``min * n + max`` (a split whose diagonal is an
-    edge already is not valid); ``ptr`` the vertex -> cell CSR (valences), ``ideal``
-    the ideal valences, ``cq`` the cells' qualities, ``floor`` the least quality a split
-    may leave (:func:`meshcore.quads.optimization._floor`). A split is kept when it does
-    not raise ``sum |valence - ideal|`` over the hexagon (its removed interior vertices
-    counting 1 each), stays above ``min(floor, old least)``, and lowers that sum or
-    raises the least quality; its score is the drop of the sum plus the rise of the
-    least quality, -inf if not kept.
-    """
+def _split_drops(C, sets, H, keys, n, ptr, ideal):
+    """The topological criterion of :func:`meshcore.quads.optimization._hex_splits` for
+    each split ``s`` of each hexagon ``H`` (the cell ``sets`` it replaces): the drop
+    of ``sum |valence - ideal|`` over the hexagon (its removed interior vertices
+    counting 1 each), or -1 where the split is not allowed: its diagonal is an edge
+    already (``keys``: the mesh's sorted unique edge keys ``min * n + max``) or the sum
+    would rise. ``ptr``: the vertex -> cell CSR (valences)."""
     k = H.shape[0]
-    best = np.zeros(k, np.int64)
-    gain = np.empty(k)
+    drop = np.full((k, 3), -1.0)
     held = np.zeros(6, np.int64)
     nk = keys.shape[0]
     for i in range(k):
-        old = np.inf
-        for a in range(sets.shape[1]):
-            c = sets[i, a]
-            if c >= 0:
-                old = min(old, cq[c])
         # how many of the set's cells hold each hexagon vertex
         total = 0
         dev_old = 0
@@ -461,24 +448,51 @@ def _split_scores(C, sets, H, q, valid, keys, n, ptr, ideal, cq, floor):
         # interior vertices of the set (not on the hexagon) disappear with it, each
         # held by 3 of the cells: |3 - 4| each
         dev_old += max(4 * sets.shape[1] - total, 0) // 3
-        low = min(old, floor)
-        bs = -np.inf
         for s in range(3):
-            r0, r1 = 6 * i + 2 * s, 6 * i + 2 * s + 1
             d0, d1 = H[i, s], H[i, s + 3]
             key = min(d0, d1) * n + max(d0, d1)
             at = np.searchsorted(keys, key)
-            exists = nk > 0 and keys[min(at, nk - 1)] == key
-            qs = min(q[r0], q[r1])
+            if nk > 0 and keys[min(at, nk - 1)] == key:
+                continue
             dev_new = 0
             for j in range(6):
                 v = H[i, j]
                 newc = 2 if j == s or j == s + 3 else 1
                 dev_new += abs(ptr[v + 1] - ptr[v] - held[j] + newc - ideal[v])
-            dev = float(dev_old - dev_new)
+            if dev_old >= dev_new:
+                drop[i, s] = float(dev_old - dev_new)
+    return drop
+
+
+@njit(cache=True)
+def _split_scores(sets, drop, q, valid, cq, floor):
+    """The best split of each hexagon: (split index (k,), score (k,)).
+
+    ``drop``: :func:`_split_drops`; ``q``, ``valid``: quality and validity of the rows
+    of :func:`_split_rows` (read only where the drop is at least 0); ``cq`` the cells'
+    qualities, ``floor`` the least quality a split may leave
+    (:func:`meshcore.quads.optimization._floor`). An allowed split is kept when it
+    stays above ``min(floor, old least)`` and lowers the sum or raises the least
+    quality; its score is the drop plus the rise of the least quality, -inf if not kept.
+    """
+    k = sets.shape[0]
+    best = np.zeros(k, np.int64)
+    gain = np.empty(k)
+    for i in range(k):
+        old = np.inf
+        for a in range(sets.shape[1]):
+            c = sets[i, a]
+            if c >= 0:
+                old = min(old, cq[c])
+        low = min(old, floor)
+        bs = -np.inf
+        for s in range(3):
+            r0, r1 = 6 * i + 2 * s, 6 * i + 2 * s + 1
+            dev = drop[i, s]
             score = -np.inf
-            if valid[r0] and valid[r1] and not exists and dev >= 0 and qs >= low:
-                if dev > 0 or qs > old:
+            if dev >= 0 and valid[r0] and valid[r1]:
+                qs = min(q[r0], q[r1])
+                if qs >= low and (dev > 0 or qs > old):
                     score = dev + (qs - old)
             if score > bs:
                 bs = score
