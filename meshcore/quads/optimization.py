@@ -138,6 +138,7 @@ from meshcore.quads.vertex_moves import (
     _incidence,
     _lift_round,
     _neighbour_csr,
+    _smooth_order,
     _smooth_passes,
     _split_drops,
     _split_rows,
@@ -814,17 +815,11 @@ def _op_smooth(st: _State, passes: int, below: float | None = None) -> int:
     n = len(st.P)
     nptr, nidx, deg = st.neighbours()
     ptr, cells = st.incidence()
-    live = np.flatnonzero(st.alive)
-    vmin = np.full(n, np.inf)
-    has = ptr[1:] > ptr[:-1]
-    vmin[has] = np.minimum.reduceat(st.q[cells], ptr[:-1][has])
-    movable = st.interior & (deg > 0) & (vmin < (TOL.active_below if below is None else below))
-    if not movable.any():  # nothing to move (an empty mesh: no least quality to keep)
+    below = TOL.active_below if below is None else below
+    movable, color, order = _smooth_order(st.C, st.q, ptr, cells, st.interior, deg, below)
+    if not len(order):  # nothing to move (an empty mesh: no least quality to keep)
         return 0
-    color = _colors(st.C, ptr, cells, movable)
-    # the movable vertices by colour, increasing within each colour
-    order = np.flatnonzero(color >= 0)
-    order = order[np.argsort(color[order], kind="stable")]
+    live = np.flatnonzero(st.alive)
     moved = np.zeros(n, bool)  # kept moves, however small
     if st.P.shape[1] == 2 and st.measure == "angle" and st.metric is None:  # (8.4): compiled
         tol = (TOL.smooth_floor, TOL.smooth_still, TOL.smooth_gain)

@@ -218,6 +218,35 @@ def _colors(C, ptr, cells, movable):
 
 
 @njit(cache=True)
+def _smooth_order(C, q, ptr, cells, interior, deg, below):
+    """The vertices smoothing moves: ``(movable, colour, order)``. Movable: interior,
+    with an edge (``deg``), and a cell of quality ``q`` under ``below``; coloured by
+    :func:`_colors`; ``order``: the movable vertices by colour, increasing within each
+    colour (a counting sort)."""
+    n = ptr.shape[0] - 1
+    movable = np.zeros(n, np.bool_)
+    for v in range(n):
+        if interior[v] and deg[v] > 0:
+            for j in range(ptr[v], ptr[v + 1]):
+                if q[cells[j]] < below:
+                    movable[v] = True
+                    break
+    color = _colors(C, ptr, cells, movable)
+    start = np.zeros(66, np.int64)
+    for v in range(n):
+        if color[v] >= 0:
+            start[color[v] + 1] += 1
+    for k in range(65):
+        start[k + 1] += start[k]
+    order = np.empty(start[65], np.int64)
+    for v in range(n):
+        if color[v] >= 0:
+            order[start[color[v]]] = v
+            start[color[v]] += 1
+    return movable, color, order
+
+
+@njit(cache=True)
 def _lift_round(P, C, q, order, ptr, cells, dirs, steps, gain, moved, dirty):
     """One round of :func:`_op_lift` over ``order`` (sorted by colour), planar, (8.4).
 
