@@ -167,6 +167,7 @@ from numba import njit
 
 from meshcore.domain.planar import Domain, parse_domain, parse_size_field
 from meshcore.errors import AlgorithmError, InputError
+from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.quads.boundary_layer import (
@@ -709,7 +710,7 @@ def _neighbours(mesh: Mesh, P: np.ndarray, tri: np.ndarray):
     b = np.roll(tri, -1, axis=1).ravel()
     n = len(P)
     key = np.minimum(a, b) * n + np.maximum(a, b)
-    order = np.argsort(key, kind="stable")
+    order = radix_argsort(key)
     ks = key[order]
     start = np.r_[True, ks[1:] != ks[:-1]]
     gid = np.cumsum(start) - 1
