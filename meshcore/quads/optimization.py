@@ -141,7 +141,6 @@ from meshcore.quads.vertex_moves import (
     _smooth_order,
     _smooth_passes,
     _split_drops,
-    _split_rows,
     _split_scores,
     _swap_pairs,
     _valid_planar,
@@ -518,23 +517,17 @@ def _hex_splits(st: _State, sets: np.ndarray, edge_keys: np.ndarray):
     split being allowed to lower the quality down to :func:`_floor`; then the rise of
     the least quality (:func:`~meshcore.quads.vertex_moves._split_scores`).
     """
-    H = _hexagons(st.C, sets)
-    ok = H[:, 0] >= 0
-    sets, H = sets[ok], H[ok]
-    k = len(sets)
-    if not k:
-        return sets, np.zeros((0, 2, 4), np.int64), np.zeros(0), np.zeros((0, 2))
-    rows = _split_rows(H)
     ptr, _ = st.incidence()
-    drop = _split_drops(st.C, sets, H, edge_keys, len(st.P), ptr, st.ideal)
+    H = _hexagons(st.C, sets)
+    drop, rows = _split_drops(st.C, sets, H, edge_keys, len(st.P), ptr, st.ideal)
     # the cells of the allowed splits only are evaluated
     need = np.repeat(drop.ravel() >= 0, 2)
     q = np.zeros(len(rows))
     valid = np.zeros(len(rows), bool)
     q[need], valid[need] = _checked(st.P, rows[need], st.measure, st.metric)
     best, gain = _split_scores(sets, drop, q, valid, st.q, _floor(st, TOL.swap_floor))
-    at = np.arange(k)
-    return sets, rows.reshape(k, 3, 2, 4)[at, best], gain, q.reshape(k, 3, 2)[at, best]
+    at = np.arange(len(sets))
+    return sets, rows.reshape(-1, 3, 2, 4)[at, best], gain, q.reshape(-1, 3, 2)[at, best]
 
 
 def _floor(st: _State, floor: float | None = None) -> float:

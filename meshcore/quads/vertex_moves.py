@@ -433,33 +433,29 @@ def _row_valid(P, C, r, work):
 
 
 @njit(cache=True)
-def _split_rows(H):
-    """The three two-quad splits of each hexagon ``H`` (k, 6): rows ``6 i + 2 s`` and
-    ``6 i + 2 s + 1`` are split ``s`` of hexagon ``i``, along its diagonal from ``H[i, s]``
-    to ``H[i, s + 3]``."""
+def _split_drops(C, sets, H, keys, n, ptr, ideal):
+    """The three two-quad splits of each hexagon ``H`` (k, 6) (-1 rows: none) and the
+    topological criterion of :func:`meshcore.quads.optimization._hex_splits` for each:
+    ``(drop (k, 3), rows (6 k, 4))``, rows ``6 i + 2 s`` and ``6 i + 2 s + 1`` the split
+    ``s`` of hexagon ``i`` along its diagonal from ``H[i, s]`` to ``H[i, s + 3]``.
+
+    The drop of ``sum |valence - ideal|`` over the hexagon (the cell ``sets`` it
+    replaces; its removed interior vertices counting 1 each), or -1 where the split is
+    not allowed: no hexagon, its diagonal an edge already (``keys``: the mesh's sorted
+    unique edge keys ``min * n + max``) or the sum would rise. ``ptr``: the vertex ->
+    cell CSR (valences)."""
     k = H.shape[0]
+    drop = np.full((k, 3), -1.0)
     rows = np.empty((6 * k, 4), np.int64)
+    held = np.zeros(6, np.int64)
+    nk = keys.shape[0]
     for i in range(k):
         for s in range(3):
             for j in range(4):
                 rows[6 * i + 2 * s, j] = H[i, (s + j) % 6]
                 rows[6 * i + 2 * s + 1, j] = H[i, (s + 3 + j) % 6]
-    return rows
-
-
-@njit(cache=True)
-def _split_drops(C, sets, H, keys, n, ptr, ideal):
-    """The topological criterion of :func:`meshcore.quads.optimization._hex_splits` for
-    each split ``s`` of each hexagon ``H`` (the cell ``sets`` it replaces): the drop
-    of ``sum |valence - ideal|`` over the hexagon (its removed interior vertices
-    counting 1 each), or -1 where the split is not allowed: its diagonal is an edge
-    already (``keys``: the mesh's sorted unique edge keys ``min * n + max``) or the sum
-    would rise. ``ptr``: the vertex -> cell CSR (valences)."""
-    k = H.shape[0]
-    drop = np.full((k, 3), -1.0)
-    held = np.zeros(6, np.int64)
-    nk = keys.shape[0]
-    for i in range(k):
+        if H[i, 0] < 0:
+            continue
         # how many of the set's cells hold each hexagon vertex
         total = 0
         dev_old = 0
@@ -490,15 +486,15 @@ def _split_drops(C, sets, H, keys, n, ptr, ideal):
                 dev_new += abs(ptr[v + 1] - ptr[v] - held[j] + newc - ideal[v])
             if dev_old >= dev_new:
                 drop[i, s] = float(dev_old - dev_new)
-    return drop
+    return drop, rows
 
 
 @njit(cache=True)
 def _split_scores(sets, drop, q, valid, cq, floor):
     """The best split of each hexagon: (split index (k,), score (k,)).
 
-    ``drop``: :func:`_split_drops`; ``q``, ``valid``: quality and validity of the rows
-    of :func:`_split_rows` (read only where the drop is at least 0); ``cq`` the cells'
+    ``drop``: :func:`_split_drops`; ``q``, ``valid``: quality and validity of its rows
+    (read only where the drop is at least 0); ``cq`` the cells'
     qualities, ``floor`` the least quality a split may leave
     (:func:`meshcore.quads.optimization._floor`). An allowed split is kept when it
     stays above ``min(floor, old least)`` and lowers the sum or raises the least
