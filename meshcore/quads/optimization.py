@@ -368,13 +368,25 @@ def _valence2(C, ptr, cells, verts):
 
 
 @njit(cache=True)
-def _collapses(C, ptr, cells, quads, first):
-    """Per quad with opposite interior valence-3 vertices ``first``, ``first + 2``.
+def _collapses(C, alive, ptr, cells, interior):
+    """The quads with two opposite interior valence-3 vertices (corners 0 and 2 first,
+    then 1 and 3, each in row order) whose two vertices' other cells are four distinct
+    cells.
 
-    Returns the five cells involved (the quad first), the four rebuilt cells
-    (the merged vertex is the one at ``first``), and the two vertices.
+    Returns the five cells involved (the quad first), the four rebuilt cells and the
+    two vertices (the first kept, the second merged into it).
     """
-    k = quads.shape[0]
+    quads = np.empty(2 * C.shape[0], np.int64)
+    first = np.empty(2 * C.shape[0], np.int64)
+    k = 0
+    for f in range(2):
+        for r in range(C.shape[0]):
+            a, b = C[r, f], C[r, f + 2]
+            if not alive[r] or C[r, 3] < 0 or not (interior[a] and interior[b]):
+                continue
+            if ptr[a + 1] - ptr[a] == 3 and ptr[b + 1] - ptr[b] == 3:
+                quads[k], first[k] = r, f
+                k += 1
     old = np.full((k, 5), -1, np.int64)
     new = np.full((k, 4, 4), -1, np.int64)
     pair = np.full((k, 2), -1, np.int64)
@@ -408,7 +420,8 @@ def _collapses(C, ptr, cells, quads, first):
                 new[i, s, j] = v1 if u == v2 else u
         pair[i, 0] = v1
         pair[i, 1] = v2
-    return old, new, pair
+    ok = old[:, 0] >= 0
+    return old[ok], new[ok], pair[ok]
 
 
 @njit(cache=True)
@@ -629,22 +642,7 @@ def _op_swap(st: _State) -> int:
 
 def _op_collapse(st: _State) -> int:
     ptr, cells = st.incidence()
-    val = np.diff(ptr)
-    three = (val == 3) & st.interior
-    qrows = np.flatnonzero(st.alive & (st.C[:, 3] >= 0))
-    Q = st.C[qrows]
-    cand_q, cand_f = [], []
-    for f in (0, 1):
-        hit = three[Q[:, f]] & three[Q[:, f + 2]]
-        cand_q.append(qrows[hit])
-        cand_f.append(np.full(int(hit.sum()), f))
-    quads = np.concatenate(cand_q)
-    first = np.concatenate(cand_f)
-    if not len(quads):
-        return 0
-    old, new, pair = _collapses(st.C, ptr, cells, quads, first)
-    ok = old[:, 0] >= 0
-    old, new, pair = old[ok], new[ok], pair[ok]
+    old, new, pair = _collapses(st.C, st.alive, ptr, cells, st.interior)
     if not len(old):
         return 0
     mid = 0.5 * (st.P[pair[:, 0]] + st.P[pair[:, 1]])
