@@ -476,8 +476,14 @@ def _split_drops(C, sets, H, keys, n, ptr, ideal):
         for s in range(3):
             d0, d1 = H[i, s], H[i, s + 3]
             key = min(d0, d1) * n + max(d0, d1)
-            at = np.searchsorted(keys, key)
-            if nk > 0 and keys[min(at, nk - 1)] == key:
+            lo, hi = 0, nk  # the first key >= key (a binary search)
+            while lo < hi:
+                mid = (lo + hi) >> 1
+                if keys[mid] < key:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            if lo < nk and keys[lo] == key:
                 continue
             dev_new = 0
             for j in range(6):
