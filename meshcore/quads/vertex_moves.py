@@ -6,6 +6,10 @@ incidence, the greedy colouring, each cell's quality (8.4) (or a triangle's
 shape ratio) and its exact convexity. Each is a sequential loop over a few
 cells per vertex, where a vectorized call costs more than the cells
 (:mod:`meshcore.quads.optimization`, module docstring: the rules they apply).
+And the tables and candidate loops of the operator sweeps (any mesh): the edge
+table and the vertex neighbours, the swap pairs, a hexagon's splits with their
+topological criterion and their scores, each one call where numpy took ten or
+more small calls.
 
 References
 ----------
