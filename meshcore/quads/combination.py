@@ -167,6 +167,7 @@ from numba import njit
 
 from meshcore.domain.planar import Domain, parse_domain, parse_size_field
 from meshcore.errors import AlgorithmError, InputError
+from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.quads.boundary_layer import (
@@ -188,6 +189,7 @@ from meshcore.quads.paths import (
     _pop,
     _push,
     _weight,
+    corner_extremes,
     frontal_kernel,
     heap_kernel,
     stack_kernel,
@@ -709,7 +711,7 @@ def _neighbours(mesh: Mesh, P: np.ndarray, tri: np.ndarray):
     b = np.roll(tri, -1, axis=1).ravel()
     n = len(P)
     key = np.minimum(a, b) * n + np.maximum(a, b)
-    order = np.argsort(key, kind="stable")
+    order = radix_argsort(key)
     ks = key[order]
     start = np.r_[True, ks[1:] != ks[:-1]]
     gid = np.cumsum(start) - 1
@@ -769,8 +771,8 @@ def _candidates(P, tri, nb, measure: str, metric, min_quality: float, flat: floa
     ts = tri[s_in]
     w2 = ts.sum(axis=1) - u - v
     quads = np.column_stack([u, w2, v, w1])
-    ok = _allowed(P, quads, metric, flat)
-    q = np.where(ok, _quantized(_measure(P, quads, measure, metric)), -1.0)
+    ok, q = _allowed_measured(P, quads, measure, metric, flat)
+    q = np.where(ok, _quantized(q), -1.0)
     q[q < min_quality] = -1.0
     w = np.full(3 * m, -1.0)
     w[3 * t[inner] + k[inner]] = q
@@ -1397,6 +1399,24 @@ def _valence_cleanup(P, tri, nb, w, mate, measure, metric, min_quality, inner) -
         fixed[tri[t_b, (k_b + 1) % 3]] = True
         w_merge = np.where(fixed[tri] | fixed[np.roll(tri, -1, axis=1)], w, w_merge)
     return fewer_defects(P, tri, nb, w, w_merge, mate, TOL.valence_depth, TOL.valence_rounds)
+
+
+def _allowed_measured(P, quads, measure: str, metric, flat: float):
+    """:func:`_allowed` and :func:`_measure` of the candidates: in the plane without a
+    metric, the cosines and turns of both from one compiled loop
+    (:func:`~meshcore.quads.paths.corner_extremes`) and the arcsines by numpy, the
+    operations of :mod:`meshcore.mesh.quality` (the same values)."""
+    if P.shape[1] != 2 or metric is not None:
+        return _allowed(P, quads, metric, flat), _measure(P, quads, measure, metric)
+    convex, big2, big4, bad = corner_extremes(P[quads].astype(np.float64, copy=False))
+    corner = 1.0 - (2.0 / math.pi) * np.arcsin(np.minimum(big2, 1.0))
+    corner[bad] = 0.0
+    if measure == "angle":
+        q = 1.0 - (2.0 / math.pi) * np.arcsin(np.minimum(big4, 1.0))
+        q[bad] = 0.0
+    else:
+        q = corner if measure == "simplified" else _measure(P, quads, measure, metric)
+    return convex & (corner > flat / 90.0), q
 
 
 def _three_quads_allowed(P, tri, nb, measure, metric, min_quality, flat) -> np.ndarray:

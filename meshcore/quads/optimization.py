@@ -66,16 +66,19 @@ triangles and the square with a hole: the same meshes, swaps 10k
 45 -> 35 ms CPU). Then a longer
 smoothing over every interior vertex (``final_smooth_passes``), then the
 lift. Candidates are found
-and rebuilt by compiled loops over configurations (numba), and every quality
-and sign is evaluated vectorized by :mod:`meshcore.mesh.quality` and the
-predicates, except in the smoothing and the lift of a planar mesh under
+and rebuilt by compiled loops over configurations (numba), the edge and
+incidence tables rebuilt by one compiled call each after an operator changes
+the cells, and every quality and sign is evaluated vectorized by
+:mod:`meshcore.mesh.quality` and the predicates, except on a planar mesh under
 (8.4) without a metric: there compiled loops (:mod:`meshcore.quads.vertex_moves`:
-all the passes of one smoothing, one call per round of the lift) move the
-vertices colour by colour and evaluate their cells with the same operations as
+the new cells of the operators in one call per run, only for the hexagon splits
+their topological criterion allows; all the passes of one smoothing; one call per
+round of the lift) evaluate cells with the same operations as
 :func:`meshcore.mesh.quality.quad_quality` (a few cells per move, where a
 vectorized call costs more than the cells), the exact convexity test only
 where the quality is at most ``CONVEX_PROOF``. Configurations whose cells are
-all above ``active_below`` are not smoothed.
+all above ``active_below`` are not smoothed. (The Python and numpy calls of the
+sweeps were most of a small mesh's time: Gmsh's 1k-triangle mesh 11 -> 8 ms.)
 
 Cost (``benchmarks/quads.py``, matching + optimize on Gmsh's 10k-triangle
 mesh, CPU): 78 smoothing passes over about 4,400 vertices are 55-60 % of it
@@ -126,19 +129,23 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from meshcore.geometry.ordering import radix_argsort
-from meshcore.geometry.predicates import CONVEX_PROOF, orient2d
+from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.mesh.topology import isin_ints, unique_ints
 from meshcore.partition.smoothing import boundary_points
 from meshcore.quads.vertex_moves import (
     _angle_quality_rows,
+    _checked_rows,
     _colors,
+    _edge_table,
     _incidence,
     _lift_round,
+    _neighbour_csr,
+    _smooth_order,
     _smooth_passes,
-    _split_rows,
+    _split_drops,
     _split_scores,
+    _swap_pairs,
     _valid_planar,
     lift_corners,
 )
@@ -215,21 +222,6 @@ class OptimizeResult:
 # All cells are rows of C (c, 4), a triangle with -1 in its last slot.
 
 
-def _edge_keys(C: np.ndarray, alive: np.ndarray, n: int):
-    """Directed edges of the alive cells: (key of the undirected edge, cell)."""
-    rows = np.flatnonzero(alive)
-    sub = C[rows]
-    tri = sub[:, 3] < 0
-    nxt = np.roll(sub, -1, axis=1)
-    nxt[tri, 2] = sub[tri, 0]
-    a = sub.ravel()
-    b = nxt.ravel()
-    cell = np.repeat(rows, 4)
-    keep = (a >= 0) & (b >= 0)
-    a, b, cell = a[keep], b[keep], cell[keep]
-    return np.minimum(a, b) * n + np.maximum(a, b), a, b, cell
-
-
 def _cell_quality(P, C, measure: str, metric) -> np.ndarray:
     """Quality of each row of C: the quad measure, or the triangle shape ratio."""
     if P.shape[1] == 2 and measure == "angle" and metric is None:
@@ -263,17 +255,13 @@ def _valid(P, C) -> np.ndarray:
     return ok
 
 
-def _valid_of(P, C, q, measure: str, metric) -> np.ndarray:
-    """:func:`_valid` of rows of C whose :func:`_cell_quality` ``q`` is known: planar
-    (8.4) without a metric, a quality above ``CONVEX_PROOF`` proves strict convexity,
-    so that the exact signs are taken for the other rows only."""
-    if P.shape[1] != 2 or measure != "angle" or metric is not None:
-        return _valid(P, C)
-    ok = q > CONVEX_PROOF
-    low = np.flatnonzero(~ok)
-    if len(low):
-        ok[low] = _valid_planar(P, C[low])
-    return ok
+def _checked(P, C, measure: str, metric) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_cell_quality` and :func:`_valid` of the rows of C: planar (8.4) without a
+    metric in one compiled loop, where a quality above ``CONVEX_PROOF`` proves strict
+    convexity and the exact signs are taken for the other rows only."""
+    if P.shape[1] == 2 and measure == "angle" and metric is None:
+        return _checked_rows(P, C)
+    return _cell_quality(P, C, measure, metric), _valid(P, C)
 
 
 # ----------------------------------------------------------------------------- kernels
@@ -383,13 +371,25 @@ def _valence2(C, ptr, cells, verts):
 
 
 @njit(cache=True)
-def _collapses(C, ptr, cells, quads, first):
-    """Per quad with opposite interior valence-3 vertices ``first``, ``first + 2``.
+def _collapses(C, alive, ptr, cells, interior):
+    """The quads with two opposite interior valence-3 vertices (corners 0 and 2 first,
+    then 1 and 3, each in row order) whose two vertices' other cells are four distinct
+    cells.
 
-    Returns the five cells involved (the quad first), the four rebuilt cells
-    (the merged vertex is the one at ``first``), and the two vertices.
+    Returns the five cells involved (the quad first), the four rebuilt cells and the
+    two vertices (the first kept, the second merged into it).
     """
-    k = quads.shape[0]
+    quads = np.empty(2 * C.shape[0], np.int64)
+    first = np.empty(2 * C.shape[0], np.int64)
+    k = 0
+    for f in range(2):
+        for r in range(C.shape[0]):
+            a, b = C[r, f], C[r, f + 2]
+            if not alive[r] or C[r, 3] < 0 or not (interior[a] and interior[b]):
+                continue
+            if ptr[a + 1] - ptr[a] == 3 and ptr[b + 1] - ptr[b] == 3:
+                quads[k], first[k] = r, f
+                k += 1
     old = np.full((k, 5), -1, np.int64)
     new = np.full((k, 4, 4), -1, np.int64)
     pair = np.full((k, 2), -1, np.int64)
@@ -423,7 +423,8 @@ def _collapses(C, ptr, cells, quads, first):
                 new[i, s, j] = v1 if u == v2 else u
         pair[i, 0] = v1
         pair[i, 1] = v2
-    return old, new, pair
+    ok = old[:, 0] >= 0
+    return old[ok], new[ok], pair[ok]
 
 
 @njit(cache=True)
@@ -494,35 +495,19 @@ class _State:
         return self._inc
 
     def edges(self):
-        """The directed edges of :func:`_edge_keys` ``(key, a, b, cell)``, their stable
-        sort order and the sorted unique keys with each one's first edge (as
-        :func:`~meshcore.mesh.topology.unique_ints`), kept until the cells change."""
+        """:func:`~meshcore.quads.vertex_moves._edge_table` of the alive cells ``(a, b,
+        sorted keys, their cells, unique keys, first edges)``, kept until the cells change."""
         if self._edges is None:
-            key, a, b, cell = _edge_keys(self.C, self.alive, len(self.P))
-            order = radix_argsort(key)
-            ks = key[order]
-            head = np.ones(len(ks), bool)
-            head[1:] = ks[1:] != ks[:-1]
-            self._edges = (key, a, b, cell, order, ks[head], order[head])
+            self._edges = _edge_table(self.C, self.alive, len(self.P))
         return self._edges
 
     def neighbours(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """CSR vertex -> edge neighbours of the alive cells ``(nptr, nidx, degree)``,
         kept until the cells change."""
         if self._nbrs is None:
-            n = len(self.P)
-            _, a, b, _, _, _, first = self.edges()
-            src = np.concatenate([a[first], b[first]])
-            dst = np.concatenate([b[first], a[first]])
-            nidx = dst[radix_argsort(src)]
-            deg = np.bincount(src, minlength=n)
-            nptr = np.zeros(n + 1, np.int64)
-            np.cumsum(deg, out=nptr[1:])
-            self._nbrs = (nptr, nidx, deg)
+            a, b, _, _, _, first = self.edges()
+            self._nbrs = _neighbour_csr(a, b, first, len(self.P))
         return self._nbrs
-
-    def quality_of(self, rows: np.ndarray) -> np.ndarray:
-        return _cell_quality(self.P, rows, self.measure, self.metric)
 
     def replace(self, old: np.ndarray, new: np.ndarray, newq: np.ndarray) -> None:
         old = old[old >= 0]
@@ -539,37 +524,26 @@ def _old_min(st: _State, old: np.ndarray) -> np.ndarray:
 
 
 def _hex_splits(st: _State, sets: np.ndarray, edge_keys: np.ndarray):
-    """Best two-quad split of the hexagon of each cell set: (sets, new quads (k, 2, 4), gain).
+    """Best two-quad split of the hexagon of each cell set: (sets, new quads (k, 2, 4),
+    gain, their qualities (k, 2)).
 
     The gain is first the drop of ``sum |valence - ideal|`` over the vertices
     whose valence the split changes (the "topological criterion" of §8.4.3,
-    degrees relaxed towards 4), a split being allowed to lower the quality
-    down to :func:`_floor`; then the rise of the least quality
-    (:func:`~meshcore.quads.vertex_moves._split_scores`).
+    degrees relaxed towards 4, :func:`~meshcore.quads.vertex_moves._split_drops`), a
+    split being allowed to lower the quality down to :func:`_floor`; then the rise of
+    the least quality (:func:`~meshcore.quads.vertex_moves._split_scores`).
     """
-    H = _hexagons(st.C, sets)
-    ok = H[:, 0] >= 0
-    sets, H = sets[ok], H[ok]
-    k = len(sets)
-    if not k:
-        return sets, np.zeros((0, 2, 4), np.int64), np.zeros(0)
-    rows = _split_rows(H)
     ptr, _ = st.incidence()
-    q = st.quality_of(rows)
-    best, gain = _split_scores(
-        st.C,
-        sets,
-        H,
-        q,
-        _valid_of(st.P, rows, q, st.measure, st.metric),
-        edge_keys,
-        len(st.P),
-        ptr,
-        st.ideal,
-        st.q,
-        _floor(st, TOL.swap_floor),
-    )
-    return sets, rows.reshape(k, 3, 2, 4)[np.arange(k), best], gain
+    H = _hexagons(st.C, sets)
+    drop, rows = _split_drops(st.C, sets, H, edge_keys, len(st.P), ptr, st.ideal)
+    # the cells of the allowed splits only are evaluated
+    need = np.repeat(drop.ravel() >= 0, 2)
+    q = np.zeros(len(rows))
+    valid = np.zeros(len(rows), bool)
+    q[need], valid[need] = _checked(st.P, rows[need], st.measure, st.metric)
+    best, gain = _split_scores(sets, drop, q, valid, st.q, _floor(st, TOL.swap_floor))
+    at = np.arange(len(sets))
+    return sets, rows.reshape(-1, 3, 2, 4)[at, best], gain, q.reshape(-1, 3, 2)[at, best]
 
 
 def _floor(st: _State, floor: float | None = None) -> float:
@@ -577,15 +551,13 @@ def _floor(st: _State, floor: float | None = None) -> float:
     return max(float(st.q[st.alive].min()), TOL.smooth_floor if floor is None else floor)
 
 
-def _apply_hex(st: _State, sets, new, gain) -> int:
+def _apply_hex(st: _State, sets, new, gain, newq) -> int:
     good = gain > TOL.gain
-    sets, new, gain = sets[good], new[good], gain[good]
+    sets, new, gain, newq = sets[good], new[good], gain[good], newq[good]
     if not len(sets):
         return 0
     pick = _select(gain, sets, len(st.C))
-    sets, new = sets[pick], new[pick]
-    rows = new.reshape(-1, 4)
-    st.replace(sets.ravel(), rows, st.quality_of(rows))
+    st.replace(sets[pick].ravel(), new[pick].reshape(-1, 4), newq[pick].ravel())
     return int(pick.sum())
 
 
@@ -600,15 +572,14 @@ def _op_valence2(st: _State) -> int:
     old, new = old[ok], new[ok]
     if not len(old):
         return 0
-    q = st.quality_of(new)
-    valid = _valid_of(st.P, new, q, st.measure, st.metric)
+    q, valid = _checked(st.P, new, st.measure, st.metric)
     gain = np.where(valid, q - _old_min(st, old), -np.inf)
     good = gain > TOL.gain
-    old, new, gain = old[good], new[good], gain[good]
+    old, new, gain, q = old[good], new[good], gain[good], q[good]
     if not len(old):
         return 0
     pick = _select(gain, old, len(st.C))
-    st.replace(old[pick].ravel(), new[pick], st.quality_of(new[pick]))
+    st.replace(old[pick].ravel(), new[pick], q[pick])
     return int(pick.sum())
 
 
@@ -624,7 +595,7 @@ def _valence3_vertices(st: _State, ptr, cells):
 
 def _op_valence3(st: _State) -> int:
     ptr, cells = st.incidence()
-    keys = st.edges()[5]
+    keys = st.edges()[4]
     _, sets = _valence3_vertices(st, ptr, cells)
     if not len(sets):
         return 0
@@ -634,7 +605,7 @@ def _op_valence3(st: _State) -> int:
 def _op_hexagon(st: _State) -> int:
     n = len(st.P)
     ptr, cells = st.incidence()
-    _, a, b, _, _, keys, _ = st.edges()
+    a, b, _, _, keys, _ = st.edges()
     v3, sets3 = _valence3_vertices(st, ptr, cells)
     if len(v3) < 2:
         return 0
@@ -658,52 +629,23 @@ def _op_hexagon(st: _State) -> int:
 
 
 def _op_swap(st: _State) -> int:
-    n = len(st.P)
-    key, _, _, cell, order, keys, _ = st.edges()
-    ks, cs = key[order], cell[order]
-    same = np.flatnonzero(ks[1:] == ks[:-1])
-    pairs = np.column_stack([cs[same], cs[same + 1]])
-    quads = (st.C[pairs, 3] >= 0).all(axis=1) & (pairs[:, 0] != pairs[:, 1])
-    pairs = pairs[quads]
-    if not len(pairs):
-        return 0
-    # a swap can only relax valences next to an irregular vertex, or lift a poor pair
+    _, _, ks, cs, keys, _ = st.edges()
     ptr, _ = st.incidence()
-    irregular = np.diff(ptr) != st.ideal
-    near = irregular[st.C[pairs].reshape(len(pairs), -1)].any(axis=1)
-    poor = _old_min(st, pairs) < TOL.active_below
-    if st.swapped is not None:  # a later sweep: poor pairs only next to the cells made since
-        dirty = np.zeros(n, bool)
-        new = st.C[st.swapped :][st.alive[st.swapped :]]
-        dirty[new[new >= 0]] = True
-        made = dirty[st.C[pairs].reshape(len(pairs), -1)].any(axis=1)
-        poor &= made
-        if not st.swaps:  # the last run swapped nothing: irregular pairs only there too
-            near &= made
+    # a swap can only relax valences next to an irregular vertex, or lift a poor pair; a
+    # later sweep: poor pairs only next to the cells made since the last run, and
+    # irregular pairs only there too when that run swapped nothing
+    since = -1 if st.swapped is None else st.swapped
+    pairs = _swap_pairs(
+        st.C, st.alive, ks, cs, ptr, st.ideal, st.q, TOL.active_below, since, not st.swaps
+    )
     st.swapped = len(st.C)
-    pairs = pairs[near | poor]
     st.swaps = _apply_hex(st, *_hex_splits(st, pairs, keys)) if len(pairs) else 0
     return st.swaps
 
 
 def _op_collapse(st: _State) -> int:
     ptr, cells = st.incidence()
-    val = np.diff(ptr)
-    three = (val == 3) & st.interior
-    qrows = np.flatnonzero(st.alive & (st.C[:, 3] >= 0))
-    Q = st.C[qrows]
-    cand_q, cand_f = [], []
-    for f in (0, 1):
-        hit = three[Q[:, f]] & three[Q[:, f + 2]]
-        cand_q.append(qrows[hit])
-        cand_f.append(np.full(int(hit.sum()), f))
-    quads = np.concatenate(cand_q)
-    first = np.concatenate(cand_f)
-    if not len(quads):
-        return 0
-    old, new, pair = _collapses(st.C, ptr, cells, quads, first)
-    ok = old[:, 0] >= 0
-    old, new, pair = old[ok], new[ok], pair[ok]
+    old, new, pair = _collapses(st.C, st.alive, ptr, cells, st.interior)
     if not len(old):
         return 0
     mid = 0.5 * (st.P[pair[:, 0]] + st.P[pair[:, 1]])
@@ -717,8 +659,8 @@ def _op_collapse(st: _State) -> int:
     Pt = np.concatenate([st.P, mid])
     flat = rows.reshape(-1, 4)
     metric = _extended(st.metric, pair)
-    q = _cell_quality(Pt, flat, st.measure, metric)
-    valid = _valid_of(Pt, flat, q, st.measure, metric).reshape(-1, 4).all(axis=1)
+    q, valid = _checked(Pt, flat, st.measure, metric)
+    valid = valid.reshape(-1, 4).all(axis=1)
     gain = np.where(valid, q.reshape(-1, 4).min(axis=1) - _old_min(st, old), -np.inf)
     good = gain > TOL.gain
     old, new, pair, mid, gain = old[good], new[good], pair[good], mid[good], gain[good]
@@ -733,7 +675,7 @@ def _op_collapse(st: _State) -> int:
         st.metric = st.metric.copy()
         st.metric[pair[:, 0]] = 0.5 * (st.metric[pair[:, 0]] + st.metric[pair[:, 1]])
     rows = new.reshape(-1, 4)
-    st.replace(old.ravel(), rows, st.quality_of(rows))
+    st.replace(old.ravel(), rows, _cell_quality(st.P, rows, st.measure, st.metric))
     return int(pick.sum())
 
 
@@ -867,17 +809,11 @@ def _op_smooth(st: _State, passes: int, below: float | None = None) -> int:
     n = len(st.P)
     nptr, nidx, deg = st.neighbours()
     ptr, cells = st.incidence()
-    live = np.flatnonzero(st.alive)
-    vmin = np.full(n, np.inf)
-    has = ptr[1:] > ptr[:-1]
-    vmin[has] = np.minimum.reduceat(st.q[cells], ptr[:-1][has])
-    movable = st.interior & (deg > 0) & (vmin < (TOL.active_below if below is None else below))
-    if not movable.any():  # nothing to move (an empty mesh: no least quality to keep)
+    below = TOL.active_below if below is None else below
+    movable, color, order = _smooth_order(st.C, st.q, ptr, cells, st.interior, deg, below)
+    if not len(order):  # nothing to move (an empty mesh: no least quality to keep)
         return 0
-    color = _colors(st.C, ptr, cells, movable)
-    # the movable vertices by colour, increasing within each colour
-    order = np.flatnonzero(color >= 0)
-    order = order[np.argsort(color[order], kind="stable")]
+    live = np.flatnonzero(st.alive)
     moved = np.zeros(n, bool)  # kept moves, however small
     if st.P.shape[1] == 2 and st.measure == "angle" and st.metric is None:  # (8.4): compiled
         tol = (TOL.smooth_floor, TOL.smooth_still, TOL.smooth_gain)
@@ -981,9 +917,8 @@ def optimize_quads(
     C = np.concatenate([quads, np.column_stack([tris, np.full(len(tris), -1)])]).astype(np.int64)
     if metric is not None and np.ndim(metric) == 2:
         metric = np.asarray(metric, dtype=np.float64)
-    alive = np.ones(len(C), bool)
-    key, _, _, _ = _edge_keys(C, alive, n)
-    ukey, cnt = unique_ints(key, counts=True)
+    _, _, ks, _, _, _ = _edge_table(C, np.ones(len(C), bool), n)
+    ukey, cnt = unique_ints(ks, counts=True)
     bkeys = ukey[cnt == 1]
     interior = np.ones(n, bool)
     interior[bkeys // n] = False

@@ -6,6 +6,10 @@ incidence, the greedy colouring, each cell's quality (8.4) (or a triangle's
 shape ratio) and its exact convexity. Each is a sequential loop over a few
 cells per vertex, where a vectorized call costs more than the cells
 (:mod:`meshcore.quads.optimization`, module docstring: the rules they apply).
+And the tables and candidate loops of the operator sweeps (any mesh): the edge
+table and the vertex neighbours, the swap pairs, a hexagon's splits with their
+topological criterion and their scores, each one call where numpy took ten or
+more small calls.
 
 References
 ----------
@@ -19,6 +23,7 @@ import math
 import numpy as np
 from numba import njit
 
+from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import CONVEX_PROOF, WORK_SIZE, orient2d_filtered
 from meshcore.partition.smoothing import boundary_points, quad_q
 
@@ -48,12 +53,132 @@ def _incidence(C, alive, n):
 
 
 @njit(cache=True)
+def _edge_table(C, alive, n):
+    """The directed edges of the alive cells (a triangle being a row with -1 last), in
+    row order: ``(a, b, sorted keys, their cells, unique keys, first edge of each)``.
+
+    ``a[e] -> b[e]`` turns with its cell; the keys ``min * n + max`` sorted stably
+    (:func:`~meshcore.geometry.ordering.radix_argsort`) with the cell of each, and the
+    sorted unique keys with the index into ``a``/``b`` of each one's first edge (as
+    :func:`~meshcore.mesh.topology.unique_ints`). One compiled call: rebuilt after
+    every operator run that changes the cells."""
+    m = 0
+    for r in range(C.shape[0]):
+        if alive[r]:
+            m += 4 if C[r, 3] >= 0 else 3
+    a = np.empty(m, np.int64)
+    b = np.empty(m, np.int64)
+    cell = np.empty(m, np.int64)
+    key = np.empty(m, np.int64)
+    e = 0
+    for r in range(C.shape[0]):
+        if not alive[r]:
+            continue
+        nv = 4 if C[r, 3] >= 0 else 3
+        for s in range(nv):
+            u, w = C[r, s], C[r, (s + 1) % nv]
+            a[e], b[e], cell[e] = u, w, r
+            key[e] = min(u, w) * n + max(u, w)
+            e += 1
+    order = radix_argsort(key)
+    ks = key[order]
+    nu = 0
+    for i in range(m):
+        if i == 0 or ks[i] != ks[i - 1]:
+            nu += 1
+    ukeys = np.empty(nu, np.int64)
+    first = np.empty(nu, np.int64)
+    nu = 0
+    for i in range(m):
+        if i == 0 or ks[i] != ks[i - 1]:
+            ukeys[nu], first[nu] = ks[i], order[i]
+            nu += 1
+    return a, b, ks, cell[order], ukeys, first
+
+
+@njit(cache=True)
+def _neighbour_csr(a, b, first, n):
+    """CSR vertex -> edge neighbours ``(nptr, nidx, degree)`` of the edges ``a[first]``,
+    ``b[first]`` (each undirected edge once): the neighbours of a vertex in the order
+    of the list of edges from it followed by that of the edges to it (a stable
+    counting sort)."""
+    deg = np.zeros(n, np.int64)
+    for e in first:
+        deg[a[e]] += 1
+        deg[b[e]] += 1
+    nptr = np.zeros(n + 1, np.int64)
+    for v in range(n):
+        nptr[v + 1] = nptr[v] + deg[v]
+    fill = nptr[:-1].copy()
+    nidx = np.empty(nptr[n], np.int64)
+    for e in first:
+        nidx[fill[a[e]]] = b[e]
+        fill[a[e]] += 1
+    for e in first:
+        nidx[fill[b[e]]] = a[e]
+        fill[b[e]] += 1
+    return nptr, nidx, deg
+
+
+@njit(cache=True)
 def _angle_quality_rows(P, C):
     """:func:`_angle_quality` of every row (planar, no metric)."""
     q = np.empty(C.shape[0])
     for r in range(C.shape[0]):
         q[r] = _angle_quality(P, C, r)
     return q
+
+
+@njit(cache=True)
+def _checked_rows(P, C):
+    """:func:`_angle_quality` of every row and whether it is strictly convex (a quality
+    above ``CONVEX_PROOF`` proves it, else the exact signs of :func:`_row_valid`)."""
+    k = C.shape[0]
+    q = np.empty(k)
+    ok = np.empty(k, np.bool_)
+    work = np.empty(WORK_SIZE)
+    for r in range(k):
+        q[r] = _angle_quality(P, C, r)
+        ok[r] = q[r] > CONVEX_PROOF or _row_valid(P, C, r, work)
+    return q, ok
+
+
+@njit(cache=True)
+def _swap_pairs(C, alive, ks, cs, ptr, ideal, q, below, since, only_made):
+    """The pairs of quads sharing an edge (``ks``, ``cs``: the sorted edge keys and
+    their cells, :func:`_edge_table`) that :func:`meshcore.quads.optimization._op_swap`
+    tries, in the order of the keys: those with a vertex whose valence (``ptr``) is not
+    its ``ideal``, or whose least quality ``q`` is under ``below``. With ``since`` >= 0
+    (a later sweep) a poor pair must hold a vertex of an alive cell from row ``since``
+    on, and with ``only_made`` an irregular pair too."""
+    dirty = np.zeros(ptr.shape[0] - 1, np.bool_)
+    if since >= 0:
+        for r in range(since, C.shape[0]):
+            if alive[r]:
+                for s in range(4):
+                    if C[r, s] >= 0:
+                        dirty[C[r, s]] = True
+    out = np.empty((ks.shape[0], 2), np.int64)
+    k = 0
+    for i in range(ks.shape[0] - 1):
+        c0, c1 = cs[i], cs[i + 1]
+        if ks[i + 1] != ks[i] or C[c0, 3] < 0 or C[c1, 3] < 0 or c0 == c1:
+            continue
+        near = made = False
+        for c in (c0, c1):
+            for s in range(4):
+                v = C[c, s]
+                near |= ptr[v + 1] - ptr[v] != ideal[v]
+                made |= dirty[v]
+        poor = min(q[c0], q[c1]) < below
+        if since >= 0:
+            poor &= made
+            if only_made:
+                near &= made
+        if near or poor:
+            out[k, 0], out[k, 1] = c0, c1
+            k += 1
+    return out[:k]
 
 
 @njit(cache=True)
@@ -94,6 +219,35 @@ def _colors(C, ptr, cells, movable):
             k += 1
         color[v] = k
     return color
+
+
+@njit(cache=True)
+def _smooth_order(C, q, ptr, cells, interior, deg, below):
+    """The vertices smoothing moves: ``(movable, colour, order)``. Movable: interior,
+    with an edge (``deg``), and a cell of quality ``q`` under ``below``; coloured by
+    :func:`_colors`; ``order``: the movable vertices by colour, increasing within each
+    colour (a counting sort)."""
+    n = ptr.shape[0] - 1
+    movable = np.zeros(n, np.bool_)
+    for v in range(n):
+        if interior[v] and deg[v] > 0:
+            for j in range(ptr[v], ptr[v + 1]):
+                if q[cells[j]] < below:
+                    movable[v] = True
+                    break
+    color = _colors(C, ptr, cells, movable)
+    start = np.zeros(66, np.int64)
+    for v in range(n):
+        if color[v] >= 0:
+            start[color[v] + 1] += 1
+    for k in range(65):
+        start[k + 1] += start[k]
+    order = np.empty(start[65], np.int64)
+    for v in range(n):
+        if color[v] >= 0:
+            order[start[color[v]]] = v
+            start[color[v]] += 1
+    return movable, color, order
 
 
 @njit(cache=True)
@@ -283,46 +437,29 @@ def _row_valid(P, C, r, work):
 
 
 @njit(cache=True)
-def _split_rows(H):
-    """The three two-quad splits of each hexagon ``H`` (k, 6): rows ``6 i + 2 s`` and
-    ``6 i + 2 s + 1`` are split ``s`` of hexagon ``i``, along its diagonal from ``H[i, s]``
-    to ``H[i, s + 3]``."""
+def _split_drops(C, sets, H, keys, n, ptr, ideal):
+    """The three two-quad splits of each hexagon ``H`` (k, 6) (-1 rows: none) and the
+    topological criterion of :func:`meshcore.quads.optimization._hex_splits` for each:
+    ``(drop (k, 3), rows (6 k, 4))``, rows ``6 i + 2 s`` and ``6 i + 2 s + 1`` the split
+    ``s`` of hexagon ``i`` along its diagonal from ``H[i, s]`` to ``H[i, s + 3]``.
+
+    The drop of ``sum |valence - ideal|`` over the hexagon (the cell ``sets`` it
+    replaces; its removed interior vertices counting 1 each), or -1 where the split is
+    not allowed: no hexagon, its diagonal an edge already (``keys``: the mesh's sorted
+    unique edge keys ``min * n + max``) or the sum would rise. ``ptr``: the vertex ->
+    cell CSR (valences)."""
     k = H.shape[0]
+    drop = np.full((k, 3), -1.0)
     rows = np.empty((6 * k, 4), np.int64)
+    held = np.zeros(6, np.int64)
+    nk = keys.shape[0]
     for i in range(k):
         for s in range(3):
             for j in range(4):
                 rows[6 * i + 2 * s, j] = H[i, (s + j) % 6]
                 rows[6 * i + 2 * s + 1, j] = H[i, (s + 3 + j) % 6]
-    return rows
-
-
-@njit(cache=True)
-def _split_scores(C, sets, H, q, valid, keys, n, ptr, ideal, cq, floor):
-    """The best split of each hexagon by the topological criterion of
-    :func:`meshcore.quads.optimization._hex_splits`: (split index (k,), score (k,)).
-
-    ``q``, ``valid``: quality and validity of the rows of :func:`_split_rows`; ``keys``
-    the mesh's sorted unique edge keys ``min * n + max`` (a split whose diagonal is an
-    edge already is not valid); ``ptr`` the vertex -> cell CSR (valences), ``ideal``
-    the ideal valences, ``cq`` the cells' qualities, ``floor`` the least quality a split
-    may leave (:func:`meshcore.quads.optimization._floor`). A split is kept when it does
-    not raise ``sum |valence - ideal|`` over the hexagon (its removed interior vertices
-    counting 1 each), stays above ``min(floor, old least)``, and lowers that sum or
-    raises the least quality; its score is the drop of the sum plus the rise of the
-    least quality, -inf if not kept.
-    """
-    k = H.shape[0]
-    best = np.zeros(k, np.int64)
-    gain = np.empty(k)
-    held = np.zeros(6, np.int64)
-    nk = keys.shape[0]
-    for i in range(k):
-        old = np.inf
-        for a in range(sets.shape[1]):
-            c = sets[i, a]
-            if c >= 0:
-                old = min(old, cq[c])
+        if H[i, 0] < 0:
+            continue
         # how many of the set's cells hold each hexagon vertex
         total = 0
         dev_old = 0
@@ -340,24 +477,57 @@ def _split_scores(C, sets, H, q, valid, keys, n, ptr, ideal, cq, floor):
         # interior vertices of the set (not on the hexagon) disappear with it, each
         # held by 3 of the cells: |3 - 4| each
         dev_old += max(4 * sets.shape[1] - total, 0) // 3
-        low = min(old, floor)
-        bs = -np.inf
         for s in range(3):
-            r0, r1 = 6 * i + 2 * s, 6 * i + 2 * s + 1
             d0, d1 = H[i, s], H[i, s + 3]
             key = min(d0, d1) * n + max(d0, d1)
-            at = np.searchsorted(keys, key)
-            exists = nk > 0 and keys[min(at, nk - 1)] == key
-            qs = min(q[r0], q[r1])
+            lo, hi = 0, nk  # the first key >= key (a binary search)
+            while lo < hi:
+                mid = (lo + hi) >> 1
+                if keys[mid] < key:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            if lo < nk and keys[lo] == key:
+                continue
             dev_new = 0
             for j in range(6):
                 v = H[i, j]
                 newc = 2 if j == s or j == s + 3 else 1
                 dev_new += abs(ptr[v + 1] - ptr[v] - held[j] + newc - ideal[v])
-            dev = float(dev_old - dev_new)
+            if dev_old >= dev_new:
+                drop[i, s] = float(dev_old - dev_new)
+    return drop, rows
+
+
+@njit(cache=True)
+def _split_scores(sets, drop, q, valid, cq, floor):
+    """The best split of each hexagon: (split index (k,), score (k,)).
+
+    ``drop``: :func:`_split_drops`; ``q``, ``valid``: quality and validity of its rows
+    (read only where the drop is at least 0); ``cq`` the cells'
+    qualities, ``floor`` the least quality a split may leave
+    (:func:`meshcore.quads.optimization._floor`). An allowed split is kept when it
+    stays above ``min(floor, old least)`` and lowers the sum or raises the least
+    quality; its score is the drop plus the rise of the least quality, -inf if not kept.
+    """
+    k = sets.shape[0]
+    best = np.zeros(k, np.int64)
+    gain = np.empty(k)
+    for i in range(k):
+        old = np.inf
+        for a in range(sets.shape[1]):
+            c = sets[i, a]
+            if c >= 0:
+                old = min(old, cq[c])
+        low = min(old, floor)
+        bs = -np.inf
+        for s in range(3):
+            r0, r1 = 6 * i + 2 * s, 6 * i + 2 * s + 1
+            dev = drop[i, s]
             score = -np.inf
-            if valid[r0] and valid[r1] and not exists and dev >= 0 and qs >= low:
-                if dev > 0 or qs > old:
+            if dev >= 0 and valid[r0] and valid[r1]:
+                qs = min(q[r0], q[r1])
+                if qs >= low and (dev > 0 or qs > old):
                     score = dev + (qs - old)
             if score > bs:
                 bs = score
