@@ -42,10 +42,7 @@ from meshcore.delaunay.recovery3d import (
 from meshcore.mesh.tetstore import N_ROWS, CellStore
 from meshcore.mesh.topology import group_slots
 from meshcore.tets.improve import NK, OUT_OF_POINTS, OUT_OF_ROWS, improve_passes
-from meshcore.tets.refinement import (
-    _least_dihedral,
-    _measured,
-)
+from meshcore.tets.refinement import _least_dihedral
 
 __all__ = ["improve", "remove_slivers"]
 
@@ -224,7 +221,9 @@ def remove_slivers(
     b: SurfaceRecovery, tetra: np.ndarray, region: np.ndarray, sub: np.ndarray, bound, mre
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """:func:`improve` on the refined tetrahedra of ``b`` (its points inside may move; the
-    points it inserts are appended to ``b`` as interior points); (tetra, region, stats)."""
+    points it inserts are appended to ``b`` as interior points); (tetra, region, stats).
+    The stats' ``radius_edge_traded`` is counted by the caller's report, which measures
+    the tetrahedra anyway (:func:`meshcore.tets.refinement._left_report`)."""
     free = np.zeros(b.n, dtype=bool)
     free[b.n_surface :] = b.pt_edge[b.n_surface :] < 0
     # Points inside a facet slide in its plane.
@@ -248,10 +247,6 @@ def remove_slivers(
         normals = np.concatenate([normals, np.zeros((len(b.P) - n, 3))])
         for key, value in st.items():
             stats[key] = stats.get(key, 0) + value
-    stats["radius_edge_traded"] = 0
-    if math.isfinite(mre):
-        _, R, short, _ = _measured(b.P, tetra)
-        stats["radius_edge_traded"] = int((R > mre * short).sum())
     added = len(b.P) - b.n
     b.pt_edge = np.concatenate([b.pt_edge, np.full(added, -1, dtype=np.int64)])
     b.pt_facet = np.concatenate([b.pt_facet, np.full(added, -1, dtype=np.int64)])
