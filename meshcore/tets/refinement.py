@@ -569,7 +569,11 @@ def _left_report(
         if bad is None:
             continue
         out[key] = {n: int((bad & (cause == k)).sum()) for k, n in enumerate(names)}
-    worst = np.argsort(dih, kind="stable")[:10]
+    # A stable argsort's first ten (ties by index), without sorting every angle.
+    worst = np.arange(len(dih))
+    if len(dih) > 10:
+        worst = np.flatnonzero(dih <= np.partition(dih, 9)[9])
+    worst = worst[np.argsort(dih[worst], kind="stable")][:10]
     out["worst"] = [
         {
             "tetrahedron": int(t),
