@@ -1028,24 +1028,41 @@ def dot3d(a, b, c) -> np.ndarray:
     Float evaluation with the bound ``6 eps * sum |terms|`` (each of the
     three differences, products and sums rounds once per operation; the
     bound is Shewchuk's ``ccwerrboundA`` argument with one more term), then
-    exact rational arithmetic for the rows it cannot decide (rare: points
+    exact expansion arithmetic for the rows it cannot decide (rare: points
     within rounding of the sphere). Used by Delaunay refinement in 3D
     (:mod:`meshcore.tets.refinement`) for encroached subsegments.
     References: methods text §9.2 (the ball B_AB); DESIGN.md "Geometry robustness".
     """
-    from fractions import Fraction
-
     (a, b, c), lead = _prepare((a, b, c), 3, "abc")
     t = (a - c) * (b - c)
     det = t.sum(axis=1)
     errbound = (6.0 + 64.0 * _EPS) * _EPS * np.abs(t).sum(axis=1)
     out = _sign_int8(det)
     rows = np.flatnonzero(~(np.abs(det) > errbound))
-    for r in rows.tolist():  # only rows within rounding of zero
-        s = sum(
-            (Fraction(float(a[r, k])) - Fraction(float(c[r, k])))
-            * (Fraction(float(b[r, k])) - Fraction(float(c[r, k])))
-            for k in range(3)
-        )
-        out[r] = (s > 0) - (s < 0)
+    if rows.size:  # only rows within rounding of zero
+        sub = np.empty(rows.size, np.int8)
+        _dot3d_rows(a[rows], b[rows], c[rows], sub)
+        out[rows] = sub
     return out.reshape(lead)
+
+
+@njit(cache=True)
+def _dot3d_rows(a, b, c, out):
+    """The exact sign of ``(a - c) . (b - c)`` row by row, by expansions: each difference
+    exact in two components, each product in eight, the sum in 24."""
+    u = np.empty(2)
+    v = np.empty(2)
+    p = np.empty(8)
+    t1 = np.empty(8)
+    t2 = np.empty(8)
+    acc = np.empty(24)
+    h = np.empty(24)
+    for r in range(a.shape[0]):
+        n = np.int64(0)
+        for k in range(3):
+            ulen = _set_diff(a[r, k], c[r, k], u)
+            vlen = _set_diff(b[r, k], c[r, k], v)
+            plen = _expansion_product(ulen, u, vlen, v, p, t1, t2)
+            n = _expansion_sum(n, acc, plen, p, h)
+            acc[:n] = h[:n]
+        out[r] = _sign_of(n, acc)

@@ -502,9 +502,17 @@ def _drop_flat_folds(b: SurfaceRecovery, T: np.ndarray, region: np.ndarray):
 
 
 def _left_report(
-    b: SurfaceRecovery, T: np.ndarray, sub: np.ndarray, max_radius_edge, min_dihedral
+    b: SurfaceRecovery,
+    T: np.ndarray,
+    sub: np.ndarray,
+    max_radius_edge,
+    min_dihedral,
+    improved: dict | None = None,
 ) -> dict:
-    """The tetrahedra left above ``max_radius_edge`` or below ``min_dihedral``, and why.
+    """The tetrahedra left above ``max_radius_edge`` or below ``min_dihedral``, and why;
+    with the sliver stage's counts ``improved`` as ``improvement``, where
+    ``radius_edge_traded`` counts the tetrahedra of circumradius above ``max_radius_edge``
+    times their shortest edge (0 without a finite bound).
 
     Causes: ``fold`` (two faces on the surface: the tetrahedron fills the
     angle between two facets, forced by the input where that angle is near
@@ -561,7 +569,11 @@ def _left_report(
         if bad is None:
             continue
         out[key] = {n: int((bad & (cause == k)).sum()) for k, n in enumerate(names)}
-    worst = np.argsort(dih, kind="stable")[:10]
+    # A stable argsort's first ten (ties by index), without sorting every angle.
+    worst = np.arange(len(dih))
+    if len(dih) > 10:
+        worst = np.flatnonzero(dih <= np.partition(dih, 9)[9])
+    worst = worst[np.argsort(dih[worst], kind="stable")][:10]
     out["worst"] = [
         {
             "tetrahedron": int(t),
@@ -571,6 +583,11 @@ def _left_report(
         }
         for t in worst.tolist()
     ]
+    if improved is not None:
+        traded = 0
+        if max_radius_edge and math.isfinite(max_radius_edge):
+            traded = int((R > max_radius_edge * short).sum())
+        out["improvement"] = {**improved, "radius_edge_traded": traded}
     return out
 
 
@@ -729,9 +746,19 @@ def _measured(P: np.ndarray, T: np.ndarray) -> tuple:
     return C, R, S, D
 
 
+@njit(cache=True, error_model="numpy")
+def _least_dihedral_cosines(P, T, D):
+    """``D`` of :func:`_shapes` alone (no circumspheres)."""
+    nrm = np.empty((4, 3))
+    for t in range(T.shape[0]):
+        D[t] = _least_dihedral_cos(P, T, t, nrm)
+
+
 def _least_dihedral(P: np.ndarray, T: np.ndarray) -> np.ndarray:
     """(m,) degrees: ``tetra_dihedral_angles(P, T).min(axis=1)``, in one compiled pass."""
-    return np.degrees(np.arccos(np.clip(_measured(P, T)[3], -1.0, 1.0)))
+    D = np.empty(len(T))
+    _least_dihedral_cosines(P, np.ascontiguousarray(T, dtype=np.int64), D)
+    return np.degrees(np.arccos(np.clip(D, -1.0, 1.0)))
 
 
 class _BadTets:
@@ -1243,6 +1270,7 @@ def tetrahedralize(
         del slots, T, keep, region_of, bad_tets
         b.release_kernel()
         tetra, region, sub, sub_src, triangle_facet = _drop_flat_folds(b, tetra, region)
+        improved = None
         if not empty and mdh is not None:
             from meshcore.tets.slivers import remove_slivers  # (imports this module)
 
@@ -1250,9 +1278,7 @@ def tetrahedralize(
             t4 = time.perf_counter()
             tetra, region, improved = remove_slivers(b, tetra, region, sub, mdh, mre or math.inf)
             timings["improvement"] = time.perf_counter() - t4
-        left = _left_report(b, tetra, sub, None if empty else mre, None if empty else mdh)
-        if not empty and mdh is not None:
-            left["improvement"] = improved
+        left = _left_report(b, tetra, sub, None if empty else mre, None if empty else mdh, improved)
     if keep_boundary:
         # Boundary faces: the input triangles.
         sub, sub_src, triangle_facet = b.facets, np.arange(len(b.facets)), b.group

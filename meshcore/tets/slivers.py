@@ -32,6 +32,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from meshcore.delaunay.recovery3d import (
     TET_FACES,
@@ -41,10 +42,7 @@ from meshcore.delaunay.recovery3d import (
 from meshcore.mesh.tetstore import N_ROWS, CellStore
 from meshcore.mesh.topology import group_slots
 from meshcore.tets.improve import NK, OUT_OF_POINTS, OUT_OF_ROWS, improve_passes
-from meshcore.tets.refinement import (
-    _least_dihedral,
-    _measured,
-)
+from meshcore.tets.refinement import _least_dihedral
 
 __all__ = ["improve", "remove_slivers"]
 
@@ -64,11 +62,7 @@ ZONE_RINGS = 3
 
 def _face_keys(F: np.ndarray) -> np.ndarray:
     """Keys of faces as :func:`meshcore.mesh.tetstore.face_key` makes them (base ``NK``)."""
-    return _key3(F[:, 0], F[:, 1], F[:, 2])
-
-
-def _key3(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """:func:`_face_keys` of the faces with corners ``a``, ``b``, ``c`` (one per row)."""
+    a, b, c = F[:, 0], F[:, 1], F[:, 2]
     lo = np.minimum(np.minimum(a, b), c)
     hi = np.maximum(np.maximum(a, b), c)
     return (lo * NK + (a + b + c - lo - hi)) * NK + hi
@@ -93,7 +87,8 @@ def improve(
         The kernel's order (``orient3d > 0``, Shewchuk's sign).
     region : (m,) int64
     faces : (k, 3) int64
-        Constrained faces (the surface, the faces between regions): kept.
+        Constrained faces (the surface, the faces between regions): kept. Every face
+        of ``tetra`` held by one tetrahedron only is among them.
     free : (n,) bool
         The points that may move.
     normals : (n, 3) float64
@@ -128,8 +123,8 @@ def improve(
     fixed = ~np.asarray(free, bool)
     # Only the zone around the tetrahedra under the bound is edited; its boundary faces
     # are constrained and their vertices fixed, so the tetrahedra outside stay as they are.
-    zone = _zone(tetra, _least_dihedral(points, tetra) < bound, len(points))
-    rim, rim_k = _rim(tetra[zone])
+    zone, rim_k = _zone_rim(tetra, _least_dihedral(points, tetra) < bound, len(points))
+    rim, rim_k = _lone(np.sort(rim_k))
     subk = np.sort(_face_keys(np.asarray(faces, dtype=np.int64)))
     fixed[rim[~member(rim_k, subk)].ravel()] = True  # not the surface's: it may slide
     T = np.ascontiguousarray(tetra[zone][:, [0, 1, 3, 2]])
@@ -176,21 +171,44 @@ def improve(
     return state.points().copy(), out, np.concatenate([region[~zone], reg[:rows][alive]]), stats
 
 
-def _zone(tetra: np.ndarray, bad: np.ndarray, n: int) -> np.ndarray:
-    """(m,) bool: the tetrahedra within ``ZONE_RINGS`` rings of vertex neighbours of ``bad``."""
-    zone = bad
+@njit(cache=True)
+def _zone_rim(T, bad, n):
+    """(m,) bool: the tetrahedra within ``ZONE_RINGS`` rings of vertex neighbours of
+    ``bad``; and the keys (:func:`_face_keys`, unsorted) of their faces that may bound the
+    zone: those without a vertex of the last ring's tetrahedra. (A face with such a vertex
+    is held by two tetrahedra of the zone, every tetrahedron at that vertex being in it,
+    or by one only in the whole mesh: a constrained face. One without is held twice in
+    the keys exactly when both its tetrahedra are in the zone.)"""
+    m = T.shape[0]
+    zone = bad.copy()
+    mark = np.zeros(n, np.bool_)
     for _ in range(ZONE_RINGS):
-        mark = np.zeros(n, dtype=bool)
-        mark[tetra[zone].ravel()] = True
-        zone = mark[tetra].any(axis=1)
-    return zone
+        mark[:] = False
+        for t in range(m):
+            if zone[t]:
+                for j in range(4):
+                    mark[T[t, j]] = True
+        for t in range(m):
+            zone[t] = mark[T[t, 0]] or mark[T[t, 1]] or mark[T[t, 2]] or mark[T[t, 3]]
+    keys = np.empty(4 * m, np.int64)
+    k = 0
+    for t in range(m):
+        if not zone[t]:
+            continue
+        for j in range(4):
+            a, b, c = T[t, TET_FACES[j, 0]], T[t, TET_FACES[j, 1]], T[t, TET_FACES[j, 2]]
+            if mark[a] or mark[b] or mark[c]:
+                continue
+            lo = min(min(a, b), c)
+            hi = max(max(a, b), c)
+            keys[k] = (lo * NK + (a + b + c - lo - hi)) * NK + hi
+            k += 1
+    return zone, keys[:k]
 
 
-def _rim(tetra: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The faces of ``tetra`` that only one of them holds (the zone's boundary): their
-    corners, sorted ((k, 3)), and their keys (:func:`_face_keys`), in key order."""
-    v = [np.ascontiguousarray(tetra[:, i]) for i in range(4)]
-    k = np.sort(np.concatenate([_key3(*(v[i] for i in f)) for f in TET_FACES.tolist()]))
+def _lone(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The keys of sorted face keys ``k`` that occur once, and their faces' corners,
+    sorted ((k, 3)): (corners, keys)."""
     lone = np.ones(len(k), dtype=bool)
     same = k[1:] == k[:-1]
     lone[1:] &= ~same
@@ -203,7 +221,9 @@ def remove_slivers(
     b: SurfaceRecovery, tetra: np.ndarray, region: np.ndarray, sub: np.ndarray, bound, mre
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """:func:`improve` on the refined tetrahedra of ``b`` (its points inside may move; the
-    points it inserts are appended to ``b`` as interior points); (tetra, region, stats)."""
+    points it inserts are appended to ``b`` as interior points); (tetra, region, stats).
+    The stats' ``radius_edge_traded`` is counted by the caller's report, which measures
+    the tetrahedra anyway (:func:`meshcore.tets.refinement._left_report`)."""
     free = np.zeros(b.n, dtype=bool)
     free[b.n_surface :] = b.pt_edge[b.n_surface :] < 0
     # Points inside a facet slide in its plane.
@@ -227,10 +247,6 @@ def remove_slivers(
         normals = np.concatenate([normals, np.zeros((len(b.P) - n, 3))])
         for key, value in st.items():
             stats[key] = stats.get(key, 0) + value
-    stats["radius_edge_traded"] = 0
-    if math.isfinite(mre):
-        _, R, short, _ = _measured(b.P, tetra)
-        stats["radius_edge_traded"] = int((R > mre * short).sum())
     added = len(b.P) - b.n
     b.pt_edge = np.concatenate([b.pt_edge, np.full(added, -1, dtype=np.int64)])
     b.pt_facet = np.concatenate([b.pt_facet, np.full(added, -1, dtype=np.int64)])

@@ -21,6 +21,7 @@ from meshcore.geometry.predicates import (
     orient2d_scalar,
 )
 from meshcore.geometry.predicates3d import (
+    dot3d,
     insphere,
     insphere_perturbed,
     insphere_scalar,
@@ -374,6 +375,30 @@ def test_dot2d_vectorized_batch_matches_fractions():
     with pytest.raises(InputError) as info:
         indiametral([0, np.nan], [1, 0], [0, 1])
     assert info.value.code == "non_finite"
+
+
+def exact_dot3d(a, b, c) -> int:
+    a, b, c = (list(map(Fraction, q)) for q in (a, b, c))
+    return _sign(sum((a[k] - c[k]) * (b[k] - c[k]) for k in range(3)))
+
+
+@settings(max_examples=200, deadline=None)
+@given(degenerate_points(3, dim=3))
+def test_dot3d_degenerate_matches_fractions(p):
+    a, b, c = p
+    assert dot3d(a, b, c) == exact_dot3d(a, b, c)
+    assert dot3d(b, a, c) == dot3d(a, b, c)
+
+
+def test_dot3d_vectorized_batch_matches_fractions():
+    # Lattice points far from the origin on many spheres of diameter ab: the filter
+    # leaves the right angles (0) and their rounded neighbours to the exact stage.
+    rng = np.random.default_rng(11)
+    p = rng.integers(-3, 4, size=(3000, 3, 3)) * 0.1 + np.array([1e6, -3.0, 0.7])
+    got = dot3d(p[:, 0], p[:, 1], p[:, 2])
+    want = [exact_dot3d(*q) for q in p]
+    np.testing.assert_array_equal(got, want)
+    assert 0 in want and 1 in want and -1 in want
 
 
 # ---------------------------------------------------------------------------
