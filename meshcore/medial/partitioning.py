@@ -754,11 +754,11 @@ class _Tries:
     special: tuple
     done: dict
 
-    def meshed(self, axis: MedialAxis, share, merge: bool, fine: bool) -> QuadMedial:
+    def meshed(self, axis: MedialAxis, share, merge: bool, fine: bool, four=False) -> QuadMedial:
         """:func:`_meshed` on ``axis`` with these arguments."""
         d = self
         return _meshed(
-            axis, d.domain, d.method, d.size, d.levels, share, d.special, d.done, merge, fine
+            axis, d.domain, d.method, d.size, d.levels, share, d.special, d.done, merge, fine, four
         )
 
 
@@ -767,7 +767,12 @@ def _other_tried(res: QuadMedial, ctx: _Tries, fine=False):
     count or its least quality away from input spikes is under :data:`GOOD_LEAST`, the
     first other mesh within the count of least quality :data:`GOOD_LEAST`, else the one
     within it of the highest least quality; over the count, that one only when its least
-    is at least :data:`PRUNE_LEAST` (or the first mesh's). ``prune``: the pruning angle
+    is at least :data:`PRUNE_LEAST` (or the first mesh's). The others: each partition's
+    fill with its four-sided regions as one patch (``four`` of
+    :func:`meshcore.medial.fill.quads_on`; the first mesh's partition's first) after its
+    fill by midpoint subdivision; where none reaches :data:`GOOD_LEAST`, the best of each
+    of the two kinds is lifted further (:data:`LAST_LIFT_BELOW`) and the higher kept
+    (the lift raises the two kinds' least differently). ``prune``: the pruning angle
     asked (``res``'s); ``axis_at``: pruning angle -> axis, ``prune``'s given (others kept
     as made); ``axes``: the iterator of :func:`~meshcore.medial.axis.pruned_axes` giving
     the axes pruned at each of ``more`` in turn. Returns the mesh kept and its least
@@ -783,12 +788,16 @@ def _other_tried(res: QuadMedial, ctx: _Tries, fine=False):
     # every axis with its small regions merged too (MERGE_COUNT)
     tries = [(BOUNDARY_SHARE, a, False) for a in more] + [(None, a, False) for a in (prune, *more)]
     tries += [(BOUNDARY_SHARE, a, True) for a in (prune, *more)]
+    # each with its four-sided regions as one patch next (``quads_on``'s ``four``), the
+    # first mesh's partition so first
+    tries = [(BOUNDARY_SHARE, prune, False, True)] + [(*t, f) for t in tries for f in (False, True)]
     tried = [res.mesh.cells_by_type["quad"]]
-    for share, angle, merge in tries:  # a loop over at most eleven partitions
+    best = {} if over else {False: (kept, res)}  # the best of each kind (four or not)
+    for share, angle, merge, four in tries:  # a loop over at most 23 fills
         if angle not in axis_at:
             axis_at[angle] = next(ctx.axes)
         try:
-            alt = ctx.meshed(axis_at[angle], share, merge, fine)
+            alt = ctx.meshed(axis_at[angle], share, merge, fine, four)
         except AlgorithmError:
             continue
         # a mesh tried before (a merge that changed nothing; the butterfly again) or
@@ -799,17 +808,19 @@ def _other_tried(res: QuadMedial, ctx: _Tries, fine=False):
         tried.append(quads)
         alt = _lifted(alt, domain, LIFT_BELOW, ctx.done)
         got = _least_away(alt.mesh, domain)
-        if got > least:
+        if got > max(least, best.get(four, (least,))[0]):
             extra = {"prune": angle} if angle != prune else {}
-            res = QuadMedial(
-                mesh=alt.mesh,
-                partition=alt.partition,
-                stats={**alt.stats, **extra, "boundary_merged": share is not None},
-            )
-            kept = least = got
+            stats = {**alt.stats, **extra, "boundary_merged": share is not None}
+            best[four] = (got, QuadMedial(mesh=alt.mesh, partition=alt.partition, stats=stats))
             if got >= GOOD_LEAST:
-                return res, kept
-    return res, kept
+                return best[four][1], got
+    if len(best) < 2:
+        return best[next(iter(best))][::-1] if best else (res, kept)
+    # the best of each kind lifted further (as quad_medial lifts the mesh kept): the
+    # lift takes the two kinds' least qualities apart differently (star 22 at size 0.1:
+    # 0.247 -> 0.314 on the subdivided partition, 0.261 -> 0.261 with four-sided patches)
+    lifted = [_lifted(r, domain, LAST_LIFT_BELOW, ctx.done) for _, r in best.values()]
+    return max(((_least_away(r.mesh, domain), r) for r in lifted), key=lambda t: t[0])[::-1]
 
 
 def _over(res: QuadMedial, domain: Domain, size: float) -> bool:
@@ -829,7 +840,17 @@ def _least_away(mesh: Mesh, domain: Domain) -> float:
 
 
 def _meshed(
-    axis: MedialAxis, domain, method, size, levels, share, special, done, merge=False, fine=False
+    axis: MedialAxis,
+    domain,
+    method,
+    size,
+    levels,
+    share,
+    special,
+    done,
+    merge=False,
+    fine=False,
+    four=False,
 ) -> QuadMedial:
     """:func:`quad_medial` on the axis (of ``domain``; arguments checked), the medial
     partition's regions merged at crowded boundary points as ``share`` says
@@ -844,7 +865,7 @@ def _meshed(
             # at size 0.1: 1.88x): the medial partition when it keeps the count
             try:  # (a 2:1 ellipse's medial partition has a 2-sided region: the butterfly)
                 part, mesh2, stats2 = _medial_fill(
-                    axis, method, size, levels, share, done, merge, fine
+                    axis, method, size, levels, share, done, merge, fine, four
                 )
             except AlgorithmError:
                 part, stats2 = None, {"invalid": 1}
@@ -857,14 +878,14 @@ def _meshed(
             return QuadMedial(mesh=mesh, partition=special, stats={**stats, "partition": kind})
         mesh, stats = mesh2, stats2
     else:
-        part, mesh, stats = _medial_fill(axis, method, size, levels, share, done, merge, fine)
+        part, mesh, stats = _medial_fill(axis, method, size, levels, share, done, merge, fine, four)
     if (stats["invalid"] or stats["slits"]) and method == "terminal":
         # regions of 5 or 6 sides around reflex corners can fold; the critical
         # partition's triangles and quads do not on the domains tested. A region
         # around a dead-end cut (a slit: its cycle passes a vertex twice) gave a
         # non-conforming fill, a sliver hole along the slit (a random star at size 0.5)
         fallback, mesh, stats2 = _medial_fill(
-            part.axis, "critical", size, levels, share, done, merge, fine
+            part.axis, "critical", size, levels, share, done, merge, fine, four
         )
         stats = {
             **stats2,
@@ -890,10 +911,12 @@ def _meshed(
 def _lifted(res: QuadMedial, domain: Domain, below: float, done: dict) -> QuadMedial:
     """The mesh of :func:`_meshed` with its least corners lifted last around the quads
     under ``below`` (:func:`meshcore.medial.fill.lift_least`, input vertices fixed) when
-    :func:`_optimized` ran on it; ``stats["least_lifted"]`` counts the moves. The lift
-    from ``done`` when made before for the same mesh object (a fill tried again)."""
-    if "least_relaxed" not in res.stats:
-        return res
+    :func:`_optimized` ran on it; ``stats["least_lifted"]`` counts the moves,
+    ``stats["lifted_below"]`` keeps ``below`` (a mesh lifted so or further is returned as
+    it is). The lift from ``done`` when made before for the same mesh object (a fill
+    tried again)."""
+    if "least_relaxed" not in res.stats or res.stats.get("lifted_below", 0.0) >= below:
+        return res  # (not optimized, or lifted so already)
     P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
     key = ("lifted", id(res.mesh), below)
     if key not in done:  # (the mesh held: its id is not reused)
@@ -902,6 +925,7 @@ def _lifted(res: QuadMedial, domain: Domain, below: float, done: dict) -> QuadMe
     _, P, lifted = done[key]
     mesh = Mesh(P, (CellBlock("quad", Q),))
     stats = {**res.stats, "least_lifted": res.stats.get("least_lifted", 0) + lifted}
+    stats["lifted_below"] = below
     return QuadMedial(mesh=mesh, partition=res.partition, stats=stats)
 
 
@@ -1125,7 +1149,15 @@ def _regions(points: np.ndarray, cycles, corners) -> list[dict]:
 
 
 def _medial_fill(
-    axis: MedialAxis, method: str, size, levels, share, done: dict, merge=False, fine=False
+    axis: MedialAxis,
+    method: str,
+    size,
+    levels,
+    share,
+    done: dict,
+    merge=False,
+    fine=False,
+    four=False,
 ):
     """The medial partition (:func:`partition`, regions merged at crowded boundary points:
     :func:`_reflex_merged` with ``share``; with ``merge``, small regions merged until
@@ -1150,10 +1182,16 @@ def _medial_fill(
     if key not in done:  # (the axis held: its id is not reused)
         done[key] = (part, *quads_on(part, size, levels))
     tied = done[key]
+    if four:  # the same fill where no region is one patch (the same objects)
+        key = (*key, "four")
+        if key not in done:
+            fill = quads_on(part, size, levels, four=True)
+            done[key] = tied if fill is None else (part, *fill)
+        tied = done[key]
     if not fine or tied[2]["quads"] * size * size <= MOST_COUNT * axis.domain.area:
         return tied
     if (*key, "fine") not in done:  # None: the transitions do not bring it within
-        done[(*key, "fine")] = quads_on(part, size, levels, transitions=True)
+        done[(*key, "fine")] = quads_on(part, size, levels, transitions=True, four=four)
     fill = done[(*key, "fine")]
     return tied if fill is None else (part, *fill)
 
