@@ -767,10 +767,11 @@ def _other_tried(res: QuadMedial, ctx: _Tries, fine=False):
     count or its least quality away from input spikes is under :data:`GOOD_LEAST`, the
     first other mesh within the count of least quality :data:`GOOD_LEAST`, else the one
     within it of the highest least quality; over the count, that one only when its least
-    is at least :data:`PRUNE_LEAST` (or the first mesh's). The others: each partition's
-    fill with its four-sided regions as one patch (``four`` of
-    :func:`meshcore.medial.fill.quads_on`; the first mesh's partition's first) after its
-    fill by midpoint subdivision; where none reaches :data:`GOOD_LEAST`, the best of each
+    is at least :data:`PRUNE_LEAST` (or the first mesh's). The others, where the first
+    mesh passes the count: each partition's fill with its four-sided regions as one
+    patch too (``four`` of :func:`meshcore.medial.fill.quads_on`; the first mesh's
+    partition's first) after its fill by midpoint subdivision; where none reaches
+    :data:`GOOD_LEAST`, the best of each
     of the two kinds is lifted further (:data:`LAST_LIFT_BELOW`) and the higher kept
     (the lift raises the two kinds' least differently). ``prune``: the pruning angle
     asked (``res``'s); ``axis_at``: pruning angle -> axis, ``prune``'s given (others kept
@@ -788,9 +789,14 @@ def _other_tried(res: QuadMedial, ctx: _Tries, fine=False):
     # every axis with its small regions merged too (MERGE_COUNT)
     tries = [(BOUNDARY_SHARE, a, False) for a in more] + [(None, a, False) for a in (prune, *more)]
     tries += [(BOUNDARY_SHARE, a, True) for a in (prune, *more)]
-    # each with its four-sided regions as one patch next (``quads_on``'s ``four``), the
-    # first mesh's partition so first
-    tries = [(BOUNDARY_SHARE, prune, False, True)] + [(*t, f) for t in tries for f in (False, True)]
+    # where the first mesh passes the count, each with its four-sided regions as one patch
+    # next (``quads_on``'s ``four``), the first mesh's partition so first (where it keeps
+    # the count but not the least, not: the spike of 0.5 degrees of
+    # ``test_quad_medial_same_cells_translated_or_scaled`` has least 0.10 at the origin
+    # and 0.60 translated by 1e6 from the same cells, in ``_optimize``'s relaxation, and
+    # its four-patch fill, 0.61, was kept at the origin only)
+    kinds = (False, True) if over else (False,)
+    tries = [(*t, f) for t in [(BOUNDARY_SHARE, prune, False)] + tries for f in kinds][1:]
     tried = [res.mesh.cells_by_type["quad"]]
     best = {} if over else {False: (kept, res)}  # the best of each kind (four or not)
     for share, angle, merge, four in tries:  # a loop over at most 23 fills
