@@ -10,7 +10,7 @@ rings) is filled one patch per region, as the text's "if the polygon is not a qu
 itself": the midpoint subdivision put two quads at least across each ring (1.76x
 area / size**2 at size 0.15; one patch each: 0.88x, least quality 0.80). With
 ``four`` (tried by :func:`~meshcore.medial.partitioning.quad_medial` where the first
-fill misses the count or the least quality), so is every four-sided region whose
+mesh passes the count), so is every four-sided region whose
 corners are within :data:`WHOLE_ANGLES` among regions of other side counts: a side it
 shares with a subdivided neighbour has that neighbour's side point, and the region
 is then cut across from it to a point on the opposite side (two patches, four when
@@ -18,7 +18,7 @@ both pairs of sides are so), the cut carried on through a chain of such regions
 (:func:`_halved`), so that its sides' counts stay those of the conformity classes
 below (one count per class: a side of one patch against two halves would need the
 sum of two counts); a four-sided region had four coarse quads and so at least four
-quads (the figures: :mod:`meshcore.medial.partitioning`'s docstring).
+quads (figures: :mod:`meshcore.medial.partitioning`).
 Otherwise every region is split by midpoint subdivision (a
 sharp convex input corner, turning by more than 60 degrees, counts as one of
 the region's corners there, so that it is the corner of one coarse quad, not

@@ -119,7 +119,24 @@ regions of the partition (star 17, 70 vertices for area / size**2 = 140: 1.54x w
 its regions merged if its input vertices did not bind, 2.84x as they do; the
 transitions, which lift the bind only between a boundary side and its opposite side,
 at most 3 to 1, leave it over). The meshes within the count (on five of the six) have
-a least quality of 0.05-0.29 there: the one over it is kept (:data:`PRUNE_LEAST`). Gears
+a least quality of 0.05-0.29 there: the one over it is kept (:data:`PRUNE_LEAST`).
+Where the first mesh passes the count, every partition tried is also filled with its
+four-sided regions of corners in [45, 135] degrees as one patch (``four`` of
+:func:`meshcore.medial.fill.quads_on`: the midpoint subdivision made four coarse
+quads of such a region, so four quads at least; one patch is cut across only where a
+subdivided neighbour halves a side, carried on through a chain of them): on issue 20's
+40 stars (:func:`tests.meshcore.quads.stars.issue_star` 0-39) at size 0.15 the count
+passes 1.5x on 5 (7 before: star 12 1.66 -> 1.48x, least 0.527 kept; star 20 1.71 ->
+1.47x, least 0.457 -> 0.424), least 0.5 on 33 (32: star 1 0.464 -> 0.576); on the 7
+gears at 0.15 quads under 0.5 31 -> 23; 84 of the 94 star and gear meshes at 0.1 and
+0.15 unchanged (the other 10 first passed the count; gear 12 at 0.1 now 1.46x for
+1.27x, the first fill tried of least 0.5). Still over at 0.15: stars 17,
+22, 25, 31, 33 (1.83-2.86x), bound by their input vertices as above (star 22's first
+partition with four-patch fills: 1.68x from the input vertices' counts alone). Not
+tried where the first mesh keeps the count but not the least: a spike of 0.5 degrees
+(``test_quad_medial_same_cells_translated_or_scaled``) has least 0.10 at the origin
+and 0.60 translated by 1e6 from the same cells (``_optimize``'s relaxation), and its
+four-patch fill (0.61) was then kept at the origin only. Gears
 of 6-12 teeth at size 0.1: least 0.5
 on 7 of 7 (6 before :data:`LAST_LIFT_BELOW`, gear 9 at 0.487; 0 before the O-grid
 at their hub, :func:`meshcore.medial.fill._flowered`,
@@ -770,10 +787,7 @@ def _other_tried(res: QuadMedial, ctx: _Tries, fine=False):
     is at least :data:`PRUNE_LEAST` (or the first mesh's). The others, where the first
     mesh passes the count: each partition's fill with its four-sided regions as one
     patch too (``four`` of :func:`meshcore.medial.fill.quads_on`; the first mesh's
-    partition's first) after its fill by midpoint subdivision; where none reaches
-    :data:`GOOD_LEAST`, the best of each
-    of the two kinds is lifted further (:data:`LAST_LIFT_BELOW`) and the higher kept
-    (the lift raises the two kinds' least differently). ``prune``: the pruning angle
+    partition's first) after its fill by midpoint subdivision. ``prune``: the pruning angle
     asked (``res``'s); ``axis_at``: pruning angle -> axis, ``prune``'s given (others kept
     as made); ``axes``: the iterator of :func:`~meshcore.medial.axis.pruned_axes` giving
     the axes pruned at each of ``more`` in turn. Returns the mesh kept and its least
@@ -798,7 +812,6 @@ def _other_tried(res: QuadMedial, ctx: _Tries, fine=False):
     kinds = (False, True) if over else (False,)
     tries = [(*t, f) for t in [(BOUNDARY_SHARE, prune, False)] + tries for f in kinds][1:]
     tried = [res.mesh.cells_by_type["quad"]]
-    best = {} if over else {False: (kept, res)}  # the best of each kind (four or not)
     for share, angle, merge, four in tries:  # a loop over at most 23 fills
         if angle not in axis_at:
             axis_at[angle] = next(ctx.axes)
@@ -806,27 +819,26 @@ def _other_tried(res: QuadMedial, ctx: _Tries, fine=False):
             alt = ctx.meshed(axis_at[angle], share, merge, fine, four)
         except AlgorithmError:
             continue
-        # a mesh tried before (a merge that changed nothing; the butterfly again) or
-        # over the count is passed (the lift moves points only: lifted when kept)
+        # a mesh tried before (a merge that changed nothing; the butterfly again; a
+        # four-patch fill that is the subdivided one) or over the count is passed (the
+        # lift moves points only: lifted when kept)
         quads = alt.mesh.cells_by_type["quad"]
         if any(quads is q for q in tried) or _over(alt, domain, size):
             continue
         tried.append(quads)
         alt = _lifted(alt, domain, LIFT_BELOW, ctx.done)
         got = _least_away(alt.mesh, domain)
-        if got > max(least, best.get(four, (least,))[0]):
+        if got > least:
             extra = {"prune": angle} if angle != prune else {}
-            stats = {**alt.stats, **extra, "boundary_merged": share is not None}
-            best[four] = (got, QuadMedial(mesh=alt.mesh, partition=alt.partition, stats=stats))
+            res = QuadMedial(
+                mesh=alt.mesh,
+                partition=alt.partition,
+                stats={**alt.stats, **extra, "boundary_merged": share is not None},
+            )
+            kept = least = got
             if got >= GOOD_LEAST:
-                return best[four][1], got
-    if len(best) < 2:
-        return best[next(iter(best))][::-1] if best else (res, kept)
-    # the best of each kind lifted further (as quad_medial lifts the mesh kept): the
-    # lift takes the two kinds' least qualities apart differently (star 22 at size 0.1:
-    # 0.247 -> 0.314 on the subdivided partition, 0.261 -> 0.261 with four-sided patches)
-    lifted = [_lifted(r, domain, LAST_LIFT_BELOW, ctx.done) for _, r in best.values()]
-    return max(((_least_away(r.mesh, domain), r) for r in lifted), key=lambda t: t[0])[::-1]
+                return res, kept
+    return res, kept
 
 
 def _over(res: QuadMedial, domain: Domain, size: float) -> bool:
@@ -917,12 +929,10 @@ def _meshed(
 def _lifted(res: QuadMedial, domain: Domain, below: float, done: dict) -> QuadMedial:
     """The mesh of :func:`_meshed` with its least corners lifted last around the quads
     under ``below`` (:func:`meshcore.medial.fill.lift_least`, input vertices fixed) when
-    :func:`_optimized` ran on it; ``stats["least_lifted"]`` counts the moves,
-    ``stats["lifted_below"]`` keeps ``below`` (a mesh lifted so or further is returned as
-    it is). The lift from ``done`` when made before for the same mesh object (a fill
-    tried again)."""
-    if "least_relaxed" not in res.stats or res.stats.get("lifted_below", 0.0) >= below:
-        return res  # (not optimized, or lifted so already)
+    :func:`_optimized` ran on it; ``stats["least_lifted"]`` counts the moves. The lift
+    from ``done`` when made before for the same mesh object (a fill tried again)."""
+    if "least_relaxed" not in res.stats:
+        return res
     P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
     key = ("lifted", id(res.mesh), below)
     if key not in done:  # (the mesh held: its id is not reused)
@@ -931,7 +941,6 @@ def _lifted(res: QuadMedial, domain: Domain, below: float, done: dict) -> QuadMe
     _, P, lifted = done[key]
     mesh = Mesh(P, (CellBlock("quad", Q),))
     stats = {**res.stats, "least_lifted": res.stats.get("least_lifted", 0) + lifted}
-    stats["lifted_below"] = below
     return QuadMedial(mesh=mesh, partition=res.partition, stats=stats)
 
 
