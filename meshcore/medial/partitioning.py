@@ -1180,8 +1180,9 @@ def _medial_fill(
     (:func:`meshcore.medial.fill.quads_on`; with ``fine``, tried where every partition
     passes :data:`~meshcore.medial.fill.MOST_COUNT` x area / size**2 with the sides tied:
     its fill with transitions where this one passes and they bring it within, else the
-    same tied fill): the partition, the mesh and its stats; the partitions and the
-    fills from ``done`` when made before for this axis."""
+    same tied fill; with ``four``, its four-sided regions as one patch, the same fill
+    objects where none is): the partition, the mesh and its stats; the partitions and
+    the fills from ``done`` when made before for this axis."""
     base = (id(axis), method)  # (the axis held: its id is not reused)
     if base not in done:
         done[base] = partition(axis=axis, method=method)
