@@ -883,15 +883,15 @@ def _coarse(part: Partition, regions: list, halved: dict, size: float | None, is
     return seg_xy, seg_fixed, patches
 
 
-def _counted(part: Partition, regions, halved, size, levels, is_corner, transitions: bool):
+def _counted(part: Partition, regions, halved, size, levels, is_corner, transitions, only_within):
     """The fill of :func:`_coarse`'s coarse quads: the sides' conformity classes, their
     counts at the first stretch (:data:`STRETCH`) within :data:`MOST_COUNT` x area /
     size**2, else the last (``levels``: ``2**levels`` each), the transfinite fill and the
     quads it opens (:func:`_opened`, :func:`_flowered`). Returns the points, quads,
     coarse corners' ids and their stats (coarse quads, stretch, transition templates,
-    side classes, quads opened); None with
-    ``transitions`` where no side can take one or the count is passed at every stretch
-    (:func:`quads_on`)."""
+    side classes, quads opened); None ``only_within`` where the count is passed at
+    every stretch (the fill would only add quads: :func:`_opened`, :func:`_flowered`)
+    or, with ``transitions``, where no side can take one (:func:`quads_on`)."""
     seg_xy, seg_fixed, patches = _coarse(part, regions, halved, size, is_corner)
     # conformity classes: opposite patch sides, shared sides
     n_seg = len(seg_xy)
@@ -929,7 +929,7 @@ def _counted(part: Partition, regions, halved, size, levels, is_corner, transiti
         within = stretch is None or total * size * size <= MOST_COUNT * part.axis.domain.area
         if not within and stretch != stretches[-1]:
             continue
-        if not within and transitions:  # the fill would only add quads (_opened)
+        if not within and only_within:  # the fill would only add quads (_opened)
             return None
         if total > MAX_QUADS:
             raise InputError(
@@ -973,7 +973,8 @@ def quads_on(
     region of four corners within :data:`WHOLE_ANGLES` is one patch, cut across into
     two or four where a neighbour halves a side of it (:func:`_halved`), the others
     get the midpoint subdivision; None where that halves every side (the fill
-    without ``four``). Every quad lies in the domain, its
+    without ``four``) or passes the count at every stretch (such a fill is not kept:
+    it is not made). Every quad lies in the domain, its
     boundary points on the input boundary and the input vertices mesh points where the
     counts allow (module docstring); folded quads are counted, not refused (§9.7.2,
     §8.5.3). ``transitions`` (with ``size``, not ``whole``; for a partition whose sides
@@ -1025,7 +1026,7 @@ def quads_on(
     halved = _halved(sides, one)
     if four and all(halved.values()):  # no region is one patch: the fill without four
         return None
-    got = _counted(part, regions, halved, size, levels, is_corner, transitions)
+    got = _counted(part, regions, halved, size, levels, is_corner, transitions, transitions or four)
     if got is None:
         return None
     uniq, quads, corner_ids, info = got
