@@ -8,8 +8,18 @@ Quads (§9.7.2, §8.5.3). With ``size``, a partition whose regions all have four
 corners (an annulus: the regions between its loop's cross-sections and the two
 rings) is filled one patch per region, as the text's "if the polygon is not a quad
 itself": the midpoint subdivision put two quads at least across each ring (1.76x
-area / size**2 at size 0.15; one patch each: 0.88x, least quality 0.80). Otherwise
-every region is split by midpoint subdivision (a
+area / size**2 at size 0.15; one patch each: 0.88x, least quality 0.80). With
+``four`` (tried by :func:`~meshcore.medial.partitioning.quad_medial` where the first
+mesh passes the count), so is every four-sided region whose
+corners are within :data:`WHOLE_ANGLES` among regions of other side counts: a side it
+shares with a subdivided neighbour has that neighbour's side point, and the region
+is then cut across from it to a point on the opposite side (two patches, four when
+both pairs of sides are so), the cut carried on through a chain of such regions
+(:func:`_halved`), so that its sides' counts stay those of the conformity classes
+below (one count per class: a side of one patch against two halves would need the
+sum of two counts); a four-sided region had four coarse quads and so at least four
+quads (figures: :mod:`meshcore.medial.partitioning`).
+Otherwise every region is split by midpoint subdivision (a
 sharp convex input corner, turning by more than 60 degrees, counts as one of
 the region's corners there, so that it is the corner of one coarse quad, not
 the side point of two, each of half its angle): a
@@ -162,6 +172,10 @@ MOST_VALENCE = 7
 #: Up to 1.5 a random star of 60 vertices (95 regions, 343 coarse quads for area /
 #: size**2 = 315) kept 1.74x; 2.0 to 3.0 take it to 1.47x (least quality away from
 #: input spikes 0.44 -> 0.46), and another from 1.51x (with its opened corners) to 1.35x.
+#: A region of four corners, each of these many degrees, is one patch with ``size``
+#: (:func:`_halved`): the midpoint subdivision's side points only where a neighbour
+#: halves its sides.
+WHOLE_ANGLES = (45.0, 135.0)
 STRETCH = (1.0, 1.15, 1.3, 1.5, 2.0, 2.5, 3.0)
 
 
@@ -761,98 +775,73 @@ def _transition_counts(count: np.ndarray, cls: np.ndarray, need: np.ndarray) -> 
                 changed = True
 
 
-def quads_on(
-    part: Partition,
-    size: float | None,
-    levels: int | None,
-    whole: bool | None = None,
-    transitions: bool = False,
-):
-    """Midpoint subdivision and transfinite fill of a partition's regions, then
-    smoothing; the mesh and its counts (``invalid``: quads of area <= 0).
-    ``whole``: every region has four sides and is one patch (no subdivision); None:
-    so, with ``size``, when every region has four corners, the sharp input corners
-    (:data:`SHARP_TURN`) counted (an annulus: its rings' regions one patch each, so
-    that one quad across each ring is possible: the midpoint subdivision made at
-    least two, 1.76x area / size**2 at size 0.15). Every quad lies in the domain, its
-    boundary points on the input boundary and the input vertices mesh points where the
-    counts allow (module docstring); folded quads are counted, not refused (§9.7.2,
-    §8.5.3). ``transitions`` (with ``size``, not ``whole``; for a partition whose sides
-    tied pass :data:`MOST_COUNT` x area / size**2 at every stretch): a boundary side
-    with input vertices inside is not tied to its opposite side (:func:`_transition`);
-    None where no side is so (the tied fill is the fill) or the count still passes at
-    every stretch (the fill would only add quads: it is not made)."""
-    ax = part.axis
-    points = part.points
-    p = len(ax.samples)
-    succ = ax.succ
-    pred = np.empty(p, dtype=np.int64)
-    pred[succ] = np.arange(p)
-    src = ax.segment_source
-    is_corner = np.zeros(len(points), dtype=bool)
-    is_corner[:p] = src[pred] != src  # input vertices between two input segments
+def _halved(sides: list, one: list) -> dict:
+    """Which sides get a side point (a dict over the bytes of each side's canonical
+    vertex chain; ``sides``: per region, its sides as ``(chain, flipped)``): every side
+    of a region not ``one`` patch (its midpoint subdivision, §8.5.3); a region that is
+    ``one`` (four sides) is cut across where one of two opposite sides is halved (by a
+    neighbour), repeated until nothing changes (a chain of four-sided regions carries a
+    halving along it)."""
+    halved: dict = {}
+    for region, whole in zip(sides, one, strict=True):
+        for chain, _ in region:
+            key = chain.tobytes()
+            halved[key] = halved.get(key, False) or not whole
+    fours = [[c.tobytes() for c, _ in region] for region, w in zip(sides, one, strict=True) if w]
+    changed = True
+    while changed:  # a loop over the chains of four-sided regions' length, at most
+        changed = False
+        for keys in fours:
+            for a, b in ((keys[0], keys[2]), (keys[1], keys[3])):
+                if halved[a] != halved[b]:
+                    halved[a] = halved[b] = changed = True
+    return halved
 
+
+def _patch(a, b, c, d):
+    """A coarse quad from its four sides as segment references ``(id, reversed?)`` in
+    counterclockwise order: :func:`_transition`'s bottom, right, top and left (the top
+    and left run the other way)."""
+    return a, b, (c[0], not c[1]), (d[0], not d[1])
+
+
+def _coarse(part: Partition, regions: list, halved: dict, size: float | None, is_corner):
+    """The coarse quads of a partition's regions (``regions``: per region its vertices
+    from a corner, the corners' positions, its sides as ``(chain, flipped)`` and its
+    corner angles) with the sides ``halved`` given (:func:`_halved`): a region with
+    every side halved by its midpoint subdivision (a point inside joined to its side
+    points: :func:`_inner_point`), a four-sided one with none as one patch, with two
+    opposite ones as two (split between their side points). Returns the segments'
+    points, their fixed flags (input vertices, ends) and the patches (:func:`_patch`)."""
+    points = part.points
+    p = len(part.axis.samples)
     # segments: half-sides (in canonical direction) and spokes
     seg_xy: list[np.ndarray] = []
     seg_fixed: list[np.ndarray] = []
     half_id: dict[tuple[bytes, int], int] = {}
-    patches = []  # (s0, s0 reversed?, s1, s2, s3 reversed?) and corner points
+    patches = []  # per coarse quad: its four sides (segment id, reversed?)
 
     def new_segment(xy, fixed) -> int:
         seg_xy.append(xy)
         seg_fixed.append(fixed)
         return len(seg_xy) - 1
 
-    # a sharp convex input corner is a corner of the midpoint subdivision: one coarse
-    # quad there (as a side point it got two of half its angle)
-    sharp = np.zeros(len(points), dtype=bool)
-    sharp[:p] = turns(ax) > SHARP_TURN
-    with_sharp = not whole
-    if whole is None:  # (with levels, the halving is the subdivision asked for)
-        whole = size is not None and all(
-            int((c | sharp[v]).sum()) == 4 for v, c in zip(part.cycles, part.corners, strict=True)
-        )
-    for verts, corner in zip(part.cycles, part.corners, strict=True):
-        if with_sharp:
-            corner = corner | sharp[verts]
-        ci = np.flatnonzero(corner)
-        verts = np.roll(verts, -ci[0])
-        ci = ci - ci[0]
+    for verts, ci, sides, alpha in regions:
         k = len(ci)
-        bounds = np.append(ci, len(verts))
+        ring = points[verts]
+        tip = (alpha < KITE_ANGLE) & (k == 3) & (verts[ci] < p)  # a spike cut off
         halves = []  # per side: (first-half id, reversed?), (second-half id, reversed?)
-        mids = []
-        if whole:  # a four-sided region is one patch (its sides are not halved)
-            refs = []
-            for j in range(k):
-                side = np.append(
-                    verts[bounds[j] : bounds[j + 1]], verts[bounds[j + 1] % len(verts)]
-                )
-                flipped = not (side[0] < side[-1] or (side[0] == side[-1] and side[1] < side[-2]))
-                canon = side[::-1] if flipped else side
-                key = canon.tobytes()
+        mids = []  # per side: its side point (None: the side is not halved)
+        for j, (canon, flipped) in enumerate(sides):
+            key = canon.tobytes()
+            if not halved[key]:  # one segment, in the counterclockwise direction
                 if (key, 0) not in half_id:
                     fixed = is_corner[canon].copy()
                     fixed[[0, -1]] = True
                     half_id[(key, 0)] = new_segment(points[canon], fixed)
-                refs.append((half_id[(key, 0)], flipped))
-            b, r, t, lft = refs
-            patches.append((b, r, (t[0], not t[1]), (lft[0], not lft[1])))
-            continue
-        ring = points[verts]
-        nxt, prv = ring[(ci + 1) % len(verts)] - ring[ci], ring[ci - 1] - ring[ci]
-        cos_sin = ((nxt * prv).sum(axis=1), nxt[:, 0] * prv[:, 1] - nxt[:, 1] * prv[:, 0])
-        alpha = np.degrees(np.mod(np.arctan2(cos_sin[1], cos_sin[0]), 2 * np.pi))
-        tip = (alpha < KITE_ANGLE) & (k == 3) & (verts[ci] < p)  # a spike cut off
-        for j in range(k):
-            side = np.append(verts[bounds[j] : bounds[j + 1]], verts[bounds[(j + 1)] % len(verts)])
-            canon = (
-                side
-                if side[0] < side[-1] or (side[0] == side[-1] and side[1] < side[-2])
-                else side[::-1]
-            )
-            flipped = canon is not side
-            key = canon.tobytes()
+                halves.append((half_id[(key, 0)], flipped))
+                mids.append(None)
+                continue
             xy = points[canon]
             s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
             if (key, 0) not in half_id:
@@ -877,13 +866,33 @@ def quads_on(
             a, b = half_id[(key, 0)], half_id[(key, 1)]
             mids.append(seg_xy[a][-1])
             halves.append(((b, True), (a, True)) if flipped else ((a, False), (b, False)))
-        g = _inner_point(ring, points[verts[ci]], np.array(mids), tip)
-        spokes = [new_segment(np.vstack([mids[j], g]), np.ones(2, bool)) for j in range(k)]
-        for j in range(k):
-            h = halves[j - 1][1]
-            patches.append(
-                (halves[j][0], (spokes[j], False), (spokes[j - 1], False), (h[0], not h[1]))
-            )
+        if all(m is None for m in mids):  # a four-sided region as one patch
+            patches.append(_patch(*halves))
+        elif all(m is not None for m in mids):  # the midpoint subdivision
+            g = _inner_point(ring, points[verts[ci]], np.array(mids), tip)
+            spokes = [new_segment(np.vstack([mids[j], g]), np.ones(2, bool)) for j in range(k)]
+            patches += [
+                _patch(halves[j][0], (spokes[j], False), (spokes[j - 1], True), halves[j - 1][1])
+                for j in range(k)
+            ]
+        else:  # four sides, two opposite ones halved: two patches, split between them
+            j = 0 if mids[0] is not None else 1
+            cut = new_segment(np.vstack([mids[j], mids[j + 2]]), np.ones(2, bool))
+            patches.append(_patch(halves[j][1], halves[j + 1], halves[j + 2][0], (cut, True)))
+            patches.append(_patch(halves[j + 2][1], halves[j - 1], halves[j][0], (cut, False)))
+    return seg_xy, seg_fixed, patches
+
+
+def _counted(part: Partition, regions, halved, size, levels, is_corner, transitions, only_within):
+    """The fill of :func:`_coarse`'s coarse quads: the sides' conformity classes, their
+    counts at the first stretch (:data:`STRETCH`) within :data:`MOST_COUNT` x area /
+    size**2, else the last (``levels``: ``2**levels`` each), the transfinite fill and the
+    quads it opens (:func:`_opened`, :func:`_flowered`). Returns the points, quads,
+    coarse corners' ids and their stats (coarse quads, stretch, transition templates,
+    side classes, quads opened); None ``only_within`` where the count is passed at
+    every stretch (the fill would only add quads: :func:`_opened`, :func:`_flowered`)
+    or, with ``transitions``, where no side can take one (:func:`quads_on`)."""
+    seg_xy, seg_fixed, patches = _coarse(part, regions, halved, size, is_corner)
     # conformity classes: opposite patch sides, shared sides
     n_seg = len(seg_xy)
     # a boundary side (in one patch only) with input vertices inside is its patch's
@@ -892,7 +901,7 @@ def quads_on(
     need = np.array([int(f[1:-1].sum()) + 1 for f in seg_fixed], dtype=np.int64)
     sides = np.array([[r[0] for r in patch] for patch in patches], np.int64).reshape(-1, 4)
     fine = np.zeros(len(patches), dtype=np.int64)  # 1: the first side fine, 2: the last
-    if transitions and size is not None and not whole:
+    if transitions and size is not None:
         own = (np.bincount(sides.ravel(), minlength=n_seg)[sides] == 1) & (need[sides] > 1)
         fine = own[:, 0] + 2 * own[:, 3]
     if transitions and not fine.any():
@@ -917,10 +926,10 @@ def quads_on(
         n_of = count[label]
         n_f, n_o = n_of[rows[:, 0]], n_of[rows[:, 1]]  # a template: 4 quads for 1
         total = int((n_of[sides[:, 2]] * n_of[sides[:, 1]]).sum() + 3 * (n_f - n_o).sum() // 2)
-        within = stretch is None or total * size * size <= MOST_COUNT * ax.domain.area
+        within = stretch is None or total * size * size <= MOST_COUNT * part.axis.domain.area
         if not within and stretch != stretches[-1]:
             continue
-        if not within and transitions:  # the fill would only add quads (_opened)
+        if not within and only_within:  # the fill would only add quads (_opened)
             return None
         if total > MAX_QUADS:
             raise InputError(
@@ -933,8 +942,95 @@ def quads_on(
         uniq, quads, opened = _opened(uniq, quads)
         uniq, quads, flowers = _flowered(uniq, quads)
         # the quads opened at wide reflex corners count too (a star: 1.49x -> 1.51x)
-        if stretch is None or len(quads) * size * size <= MOST_COUNT * ax.domain.area:
+        if stretch is None or len(quads) * size * size <= MOST_COUNT * part.axis.domain.area:
             break
+    info = {
+        "coarse_quads": len(patches),
+        "stretch": stretch,
+        "transitions": int((n_f - n_o).sum() // 2),
+        "side_classes": int(n_classes),
+        "opened": opened,
+        "o_grids": flowers,
+    }
+    return uniq, quads, corner_ids, info
+
+
+def quads_on(
+    part: Partition,
+    size: float | None,
+    levels: int | None,
+    whole: bool = False,
+    transitions: bool = False,
+    four: bool = False,
+):
+    """Midpoint subdivision and transfinite fill of a partition's regions, then
+    smoothing; the mesh and its counts (``invalid``: quads of area <= 0).
+    ``whole``: every region has four sides and is one patch (no subdivision); so too,
+    with ``size``, when every region has four corners, the sharp input corners
+    (:data:`SHARP_TURN`) counted (an annulus: its rings' regions one patch each, so
+    that one quad across each ring is possible: the midpoint subdivision made at
+    least two, 1.76x area / size**2 at size 0.15). ``four`` (with ``size``): every
+    region of four corners within :data:`WHOLE_ANGLES` is one patch, cut across into
+    two or four where a neighbour halves a side of it (:func:`_halved`), the others
+    get the midpoint subdivision; None where that halves every side (the fill
+    without ``four``) or passes the count at every stretch (such a fill is not kept:
+    it is not made). Every quad lies in the domain, its
+    boundary points on the input boundary and the input vertices mesh points where the
+    counts allow (module docstring); folded quads are counted, not refused (§9.7.2,
+    §8.5.3). ``transitions`` (with ``size``, not ``whole``; for a partition whose sides
+    tied pass :data:`MOST_COUNT` x area / size**2 at every stretch): a boundary side
+    with input vertices inside is not tied to its opposite side (:func:`_transition`);
+    None where no side is so (the tied fill is the fill) or the count still passes at
+    every stretch (the fill would only add quads: it is not made)."""
+    ax = part.axis
+    points = part.points
+    p = len(ax.samples)
+    succ = ax.succ
+    pred = np.empty(p, dtype=np.int64)
+    pred[succ] = np.arange(p)
+    src = ax.segment_source
+    is_corner = np.zeros(len(points), dtype=bool)
+    is_corner[:p] = src[pred] != src  # input vertices between two input segments
+
+    # a sharp convex input corner is a corner of the midpoint subdivision: one coarse
+    # quad there (as a side point it got two of half its angle)
+    sharp = np.zeros(len(points), dtype=bool)
+    sharp[:p] = turns(ax) > SHARP_TURN
+    with_sharp = not whole
+    regions = []  # per region: its vertices from a corner, corner positions, sides
+    for verts, corner in zip(part.cycles, part.corners, strict=True):
+        if with_sharp:
+            corner = corner | sharp[verts]
+        ci = np.flatnonzero(corner)
+        verts = np.roll(verts, -ci[0])
+        ci = ci - ci[0]
+        bounds = np.append(ci, len(verts))
+        sides = []  # (the side from its first vertex, counterclockwise or reversed, flipped?)
+        for j in range(len(ci)):
+            side = np.append(verts[bounds[j] : bounds[j + 1]], verts[bounds[j + 1] % len(verts)])
+            flipped = not (side[0] < side[-1] or (side[0] == side[-1] and side[1] < side[-2]))
+            sides.append((side[::-1] if flipped else side, flipped))
+        ring = points[verts]
+        nxt, prv = ring[(ci + 1) % len(verts)] - ring[ci], ring[ci - 1] - ring[ci]
+        cos_sin = ((nxt * prv).sum(axis=1), nxt[:, 0] * prv[:, 1] - nxt[:, 1] * prv[:, 0])
+        alpha = np.degrees(np.mod(np.arctan2(cos_sin[1], cos_sin[0]), 2 * np.pi))
+        regions.append((verts, ci, sides, alpha))
+    sides = [r[2] for r in regions]
+    if four:  # the four-sided regions of corners within WHOLE_ANGLES
+        one = [
+            len(a) == 4 and ((a >= WHOLE_ANGLES[0]) & (a <= WHOLE_ANGLES[1])).all()
+            for *_, a in regions
+        ]
+    else:  # every region or none (whole: every one; with size: where all have four sides)
+        one = [whole or (size is not None and all(len(r) == 4 for r in sides))] * len(sides)
+    halved = _halved(sides, one)
+    if four and all(halved.values()):  # no region is one patch: the fill without four
+        return None
+    got = _counted(part, regions, halved, size, levels, is_corner, transitions, transitions or four)
+    if got is None:
+        return None
+    uniq, quads, corner_ids, info = got
+    info["one_patch"] = sum(not any(halved[c.tobytes()] for c, _ in r) for r in sides)
     before = _corner_areas(uniq, quads).min(axis=1)
     boundary = topology.boundary(Mesh(uniq, (CellBlock("quad", quads),))).cells[0].data
     fixed = np.zeros(len(uniq), dtype=bool)
@@ -955,16 +1051,11 @@ def quads_on(
     stats = {
         "quads": int(len(quads)),
         "points": int(len(uniq)),
-        "coarse_quads": len(patches),
-        "stretch": stretch,
-        "transitions": int((n_f - n_o).sum() // 2),
+        **info,
         "regions": len(part.regions),
-        "side_classes": int(n_classes),
         "area": float(area.sum()),
         "not_convex_before_smoothing": int((before <= 0).sum()),
         "relaxed": relaxed,
-        "opened": opened,
-        "o_grids": flowers,
         "closed": closed,
         "invalid": int((area <= 0).sum()),
         "slits": sum(len(topology.unique_ints(c)) < len(c) for c in part.cycles),

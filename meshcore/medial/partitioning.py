@@ -119,7 +119,24 @@ regions of the partition (star 17, 70 vertices for area / size**2 = 140: 1.54x w
 its regions merged if its input vertices did not bind, 2.84x as they do; the
 transitions, which lift the bind only between a boundary side and its opposite side,
 at most 3 to 1, leave it over). The meshes within the count (on five of the six) have
-a least quality of 0.05-0.29 there: the one over it is kept (:data:`PRUNE_LEAST`). Gears
+a least quality of 0.05-0.29 there: the one over it is kept (:data:`PRUNE_LEAST`).
+Where the first mesh passes the count, every partition tried is also filled with its
+four-sided regions of corners in [45, 135] degrees as one patch (``four`` of
+:func:`meshcore.medial.fill.quads_on`: the midpoint subdivision made four coarse
+quads of such a region, so four quads at least; one patch is cut across only where a
+subdivided neighbour halves a side, carried on through a chain of them): on issue 20's
+40 stars (:func:`tests.meshcore.quads.stars.issue_star` 0-39) at size 0.15 the count
+passes 1.5x on 5 (7 before: star 12 1.66 -> 1.48x, least 0.527 kept; star 20 1.71 ->
+1.47x, least 0.457 -> 0.424), least 0.5 on 33 (32: star 1 0.464 -> 0.576); on the 7
+gears at 0.15 quads under 0.5 31 -> 23; 84 of the 94 star and gear meshes at 0.1 and
+0.15 unchanged (the other 10 first passed the count; gear 12 at 0.1 now 1.46x for
+1.27x, the first fill tried of least 0.5). Still over at 0.15: stars 17,
+22, 25, 31, 33 (1.83-2.86x), bound by their input vertices as above (star 22's first
+partition with four-patch fills: 1.68x from the input vertices' counts alone). Not
+tried where the first mesh keeps the count but not the least: a spike of 0.5 degrees
+(``test_quad_medial_same_cells_translated_or_scaled``) has least 0.10 at the origin
+and 0.60 translated by 1e6 from the same cells (``_optimize``'s relaxation), and its
+four-patch fill (0.61) was then kept at the origin only. Gears
 of 6-12 teeth at size 0.1: least 0.5
 on 7 of 7 (6 before :data:`LAST_LIFT_BELOW`, gear 9 at 0.487; 0 before the O-grid
 at their hub, :func:`meshcore.medial.fill._flowered`,
@@ -754,11 +771,11 @@ class _Tries:
     special: tuple
     done: dict
 
-    def meshed(self, axis: MedialAxis, share, merge: bool, fine: bool) -> QuadMedial:
+    def meshed(self, axis: MedialAxis, share, merge: bool, fine: bool, four=False) -> QuadMedial:
         """:func:`_meshed` on ``axis`` with these arguments."""
         d = self
         return _meshed(
-            axis, d.domain, d.method, d.size, d.levels, share, d.special, d.done, merge, fine
+            axis, d.domain, d.method, d.size, d.levels, share, d.special, d.done, merge, fine, four
         )
 
 
@@ -767,7 +784,10 @@ def _other_tried(res: QuadMedial, ctx: _Tries, fine=False):
     count or its least quality away from input spikes is under :data:`GOOD_LEAST`, the
     first other mesh within the count of least quality :data:`GOOD_LEAST`, else the one
     within it of the highest least quality; over the count, that one only when its least
-    is at least :data:`PRUNE_LEAST` (or the first mesh's). ``prune``: the pruning angle
+    is at least :data:`PRUNE_LEAST` (or the first mesh's). The others, where the first
+    mesh passes the count: each partition's fill with its four-sided regions as one
+    patch too (``four`` of :func:`meshcore.medial.fill.quads_on`; the first mesh's
+    partition's first) after its fill by midpoint subdivision. ``prune``: the pruning angle
     asked (``res``'s); ``axis_at``: pruning angle -> axis, ``prune``'s given (others kept
     as made); ``axes``: the iterator of :func:`~meshcore.medial.axis.pruned_axes` giving
     the axes pruned at each of ``more`` in turn. Returns the mesh kept and its least
@@ -783,16 +803,25 @@ def _other_tried(res: QuadMedial, ctx: _Tries, fine=False):
     # every axis with its small regions merged too (MERGE_COUNT)
     tries = [(BOUNDARY_SHARE, a, False) for a in more] + [(None, a, False) for a in (prune, *more)]
     tries += [(BOUNDARY_SHARE, a, True) for a in (prune, *more)]
+    # where the first mesh passes the count, each with its four-sided regions as one patch
+    # next (``quads_on``'s ``four``), the first mesh's partition so first (where it keeps
+    # the count but not the least, not: the spike of 0.5 degrees of
+    # ``test_quad_medial_same_cells_translated_or_scaled`` has least 0.10 at the origin
+    # and 0.60 translated by 1e6 from the same cells, in ``_optimize``'s relaxation, and
+    # its four-patch fill, 0.61, was kept at the origin only)
+    kinds = (False, True) if over else (False,)
+    tries = [(*t, f) for t in [(BOUNDARY_SHARE, prune, False)] + tries for f in kinds][1:]
     tried = [res.mesh.cells_by_type["quad"]]
-    for share, angle, merge in tries:  # a loop over at most eleven partitions
+    for share, angle, merge, four in tries:  # a loop over at most 23 fills
         if angle not in axis_at:
             axis_at[angle] = next(ctx.axes)
         try:
-            alt = ctx.meshed(axis_at[angle], share, merge, fine)
+            alt = ctx.meshed(axis_at[angle], share, merge, fine, four)
         except AlgorithmError:
             continue
-        # a mesh tried before (a merge that changed nothing; the butterfly again) or
-        # over the count is passed (the lift moves points only: lifted when kept)
+        # a mesh tried before (a merge that changed nothing; the butterfly again; a
+        # four-patch fill that is the subdivided one) or over the count is passed (the
+        # lift moves points only: lifted when kept)
         quads = alt.mesh.cells_by_type["quad"]
         if any(quads is q for q in tried) or _over(alt, domain, size):
             continue
@@ -829,7 +858,17 @@ def _least_away(mesh: Mesh, domain: Domain) -> float:
 
 
 def _meshed(
-    axis: MedialAxis, domain, method, size, levels, share, special, done, merge=False, fine=False
+    axis: MedialAxis,
+    domain,
+    method,
+    size,
+    levels,
+    share,
+    special,
+    done,
+    merge=False,
+    fine=False,
+    four=False,
 ) -> QuadMedial:
     """:func:`quad_medial` on the axis (of ``domain``; arguments checked), the medial
     partition's regions merged at crowded boundary points as ``share`` says
@@ -844,7 +883,7 @@ def _meshed(
             # at size 0.1: 1.88x): the medial partition when it keeps the count
             try:  # (a 2:1 ellipse's medial partition has a 2-sided region: the butterfly)
                 part, mesh2, stats2 = _medial_fill(
-                    axis, method, size, levels, share, done, merge, fine
+                    axis, method, size, levels, share, done, merge, fine, four
                 )
             except AlgorithmError:
                 part, stats2 = None, {"invalid": 1}
@@ -857,14 +896,14 @@ def _meshed(
             return QuadMedial(mesh=mesh, partition=special, stats={**stats, "partition": kind})
         mesh, stats = mesh2, stats2
     else:
-        part, mesh, stats = _medial_fill(axis, method, size, levels, share, done, merge, fine)
+        part, mesh, stats = _medial_fill(axis, method, size, levels, share, done, merge, fine, four)
     if (stats["invalid"] or stats["slits"]) and method == "terminal":
         # regions of 5 or 6 sides around reflex corners can fold; the critical
         # partition's triangles and quads do not on the domains tested. A region
         # around a dead-end cut (a slit: its cycle passes a vertex twice) gave a
         # non-conforming fill, a sliver hole along the slit (a random star at size 0.5)
         fallback, mesh, stats2 = _medial_fill(
-            part.axis, "critical", size, levels, share, done, merge, fine
+            part.axis, "critical", size, levels, share, done, merge, fine, four
         )
         stats = {
             **stats2,
@@ -1125,7 +1164,15 @@ def _regions(points: np.ndarray, cycles, corners) -> list[dict]:
 
 
 def _medial_fill(
-    axis: MedialAxis, method: str, size, levels, share, done: dict, merge=False, fine=False
+    axis: MedialAxis,
+    method: str,
+    size,
+    levels,
+    share,
+    done: dict,
+    merge=False,
+    fine=False,
+    four=False,
 ):
     """The medial partition (:func:`partition`, regions merged at crowded boundary points:
     :func:`_reflex_merged` with ``share``; with ``merge``, small regions merged until
@@ -1133,8 +1180,9 @@ def _medial_fill(
     (:func:`meshcore.medial.fill.quads_on`; with ``fine``, tried where every partition
     passes :data:`~meshcore.medial.fill.MOST_COUNT` x area / size**2 with the sides tied:
     its fill with transitions where this one passes and they bring it within, else the
-    same tied fill): the partition, the mesh and its stats; the partitions and the
-    fills from ``done`` when made before for this axis."""
+    same tied fill; with ``four``, its four-sided regions as one patch, the same fill
+    objects where none is): the partition, the mesh and its stats; the partitions and
+    the fills from ``done`` when made before for this axis."""
     base = (id(axis), method)  # (the axis held: its id is not reused)
     if base not in done:
         done[base] = partition(axis=axis, method=method)
@@ -1150,10 +1198,16 @@ def _medial_fill(
     if key not in done:  # (the axis held: its id is not reused)
         done[key] = (part, *quads_on(part, size, levels))
     tied = done[key]
+    if four:  # the same fill where no region is one patch (the same objects)
+        key = (*key, "four")
+        if key not in done:
+            fill = quads_on(part, size, levels, four=True)
+            done[key] = tied if fill is None else (part, *fill)
+        tied = done[key]
     if not fine or tied[2]["quads"] * size * size <= MOST_COUNT * axis.domain.area:
         return tied
     if (*key, "fine") not in done:  # None: the transitions do not bring it within
-        done[(*key, "fine")] = quads_on(part, size, levels, transitions=True)
+        done[(*key, "fine")] = quads_on(part, size, levels, transitions=True, four=four)
     fill = done[(*key, "fine")]
     return tied if fill is None else (part, *fill)
 

@@ -230,8 +230,9 @@ def test_a_transition_conforms_with_convex_quads(nb, nl):
 
 
 def test_no_fill_with_transitions_where_the_coarse_quads_pass_the_count():
-    # issue star 17 at size 0.15: the regions' coarse quads (one per side) alone are over
-    # 1.5x area / size**2, so no count of the sides brings the fill within: none is made
+    # issue star 17 at size 0.15: the regions' coarse quads (one per side) and its input
+    # vertices' counts are over 1.5x area / size**2 (2.66x with its four-sided regions as
+    # one patch), so no count of the sides brings the fill within: none is made
     from meshcore.medial.fill import MOST_COUNT, quads_on
 
     dom = parse_domain(issue_star(17)[0])
@@ -281,3 +282,28 @@ def test_a_turn_that_bends_a_corner_past_180_is_opened_by_the_smoothing():
     )
     area = quality.signed_area(P2, Q2, "quad").sum()
     assert area == pytest.approx(quality.signed_area(P, Q, "quad").sum(), rel=1e-12)
+
+
+def test_four_sided_regions_as_one_patch_keep_the_count():
+    # issue star 12 at size 0.15: the midpoint subdivision of its 63 regions (41 of four
+    # sides) passes 1.5x area / size**2 at every stretch (1.66x); with every four-sided
+    # region of corners in [45, 135] degrees one patch (cut across where a neighbour
+    # halves a side: 2 patches, or 4) it is within, conforming, convex and area-exact
+    from meshcore.medial.fill import MOST_COUNT, quads_on
+    from meshcore.medial.partitioning import BOUNDARY_SHARE, _reflex_merged
+
+    dom = parse_domain(issue_star(12)[0])
+    part = _reflex_merged(partition(dom), BOUNDARY_SHARE)
+    mesh, stats = quads_on(part, 0.15, None)
+    mesh4, stats4 = quads_on(part, 0.15, None, four=True)
+    assert stats["quads"] * 0.15**2 > MOST_COUNT * dom.area
+    assert stats4["quads"] * 0.15**2 <= MOST_COUNT * dom.area
+    assert stats4["one_patch"] > 0 and stats4["coarse_quads"] < stats["coarse_quads"]
+    assert stats4["invalid"] == stats4["not_convex"] == 0
+    assert stats4["area"] == pytest.approx(dom.area, rel=1e-12)
+    Q = mesh4.cells_by_type["quad"]
+    edges = np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], axis=-1).reshape(-1, 2), axis=1)
+    _, uses = np.unique(edges, axis=0, return_counts=True)
+    assert uses.max() == 2  # conforming: no edge in three quads
+    boundary = topology.boundary(mesh4).cells[0].data
+    assert len(boundary) == (uses == 1).sum()
