@@ -57,21 +57,21 @@ class Cavities:
         hull_edges = np.unique(edge_keys(hull[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2)))
         # Per tetrahedron, the subface (edge) row of each of its faces (edges), -1 if
         # none; per subface (edge), its tetrahedra and whether it is on the hull.
+        face_k, edge_k = face_keys(b.sub), edge_keys(edges)
+        self.edge_table = _table(edge_k)  # missing() looks the new faces' edges up in it
         self.pieces = []
-        for corners, keys, rows, on_hull in (
-            (TET_FACES, face_keys, b.sub, hull_faces),
-            (TET_EDGES, edge_keys, edges, hull_edges),
+        for corners, keys, k, table, on_hull in (
+            (TET_FACES, face_keys, face_k, _table(face_k), hull_faces),
+            (TET_EDGES, edge_keys, edge_k, self.edge_table, hull_edges),
         ):
-            k = keys(rows)
-            at = _find_all(*_table(k), keys(T[:, corners].reshape(-1, corners.shape[1])))
+            at = _find_all(*table, keys(T[:, corners].reshape(-1, corners.shape[1])))
             self.pieces.append(
                 (
                     at.reshape(len(T), -1),
-                    np.bincount(at[at >= 0], minlength=len(rows)),
+                    np.bincount(at[at >= 0], minlength=len(k)),
                     member(k, on_hull),
                 )
             )
-        self.edge_table = _table(edge_keys(edges))
         # Only the tetrahedra holding a piece count (the others hold none to remove).
         held = (self.pieces[0][0] >= 0).any(1) | (self.pieces[1][0] >= 0).any(1)
         self.rows = np.flatnonzero(held & np.isfinite(self.radii))
