@@ -1193,13 +1193,18 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: Cavities) -> 
         for k in np.flatnonzero(~np.isin(own_keys, st.protected)).tolist():
             i, jj = tri[k], tri[(k + 1) % 3]
             t0 = float(_project_on_segment(X[None], b.P[i][None], b.P[jj][None])[0])
-            for t in (t0, *np.linspace(LOOK_END, 1.0 - LOOK_END, LOOK_WIDE).tolist()):
-                x = uv[k] + t * (uv[(k + 1) % 3] - uv[k])
-                two = np.array([[uv[k], x, uv[(k + 2) % 3]], [x, uv[(k + 1) % 3], uv[(k + 2) % 3]]])
-                x3 = b.P[i] + t * (b.P[jj] - b.P[i])
-                # The spread points after every text's point on ties (angles < pi).
-                angle = float(_angles_min(two).min()) - (np.pi if t != t0 else 0.0)
-                mine.append((angle, x3, "edge", (i, jj, t)))
+            ts = np.array([t0, *np.linspace(LOOK_END, 1.0 - LOOK_END, LOOK_WIDE).tolist()])
+            x = uv[k] + ts[:, None] * (uv[(k + 1) % 3] - uv[k])
+            pa, pb, pc = (np.broadcast_to(uv[r % 3], x.shape) for r in (k, k + 1, k + 2))
+            two = np.stack([np.stack([pa, x, pc], 1), np.stack([x, pb, pc], 1)], 1)
+            x3 = b.P[i] + ts[:, None] * (b.P[jj] - b.P[i])
+            # The spread points after every text's point on ties (angles < pi).
+            least = _angles_min(two.reshape(-1, 3, 2)).reshape(-1, 2).min(axis=1)
+            angle = least - np.where(ts != t0, np.pi, 0.0)
+            mine.extend(
+                (a, y, "edge", (i, jj, t))
+                for a, y, t in zip(angle.tolist(), x3, ts.tolist(), strict=True)
+            )
         if not mine:  # every edge protected and M outside f: its centroid
             mine.append(_face_point(st, fj, tri, 0.0, origin[fj] + frame @ uv.mean(axis=0)))
         options.append(mine)

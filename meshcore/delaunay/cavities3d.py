@@ -53,24 +53,25 @@ class Cavities:
         real[slots] = True
         out = (across < 0) | ~real[np.maximum(across, 0)]
         hull = T[:, TET_FACES][out]
-        hull = {
-            face_keys: np.sort(face_keys(hull)),
-            edge_keys: np.unique(edge_keys(hull[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2))),
-        }
+        hull_faces = np.sort(face_keys(hull))
+        hull_edges = np.unique(edge_keys(hull[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2)))
         # Per tetrahedron, the subface (edge) row of each of its faces (edges), -1 if
         # none; per subface (edge), its tetrahedra and whether it is on the hull.
+        face_k, edge_k = face_keys(b.sub), edge_keys(edges)
+        self.edge_table = _table(edge_k)  # missing() looks the new faces' edges up in it
         self.pieces = []
-        for slots, keys, rows in ((TET_FACES, face_keys, b.sub), (TET_EDGES, edge_keys, edges)):
-            k = keys(rows)
-            at = _find_all(*_table(k), keys(T[:, slots].reshape(-1, slots.shape[1])))
+        for corners, keys, k, table, on_hull in (
+            (TET_FACES, face_keys, face_k, _table(face_k), hull_faces),
+            (TET_EDGES, edge_keys, edge_k, self.edge_table, hull_edges),
+        ):
+            at = _find_all(*table, keys(T[:, corners].reshape(-1, corners.shape[1])))
             self.pieces.append(
                 (
                     at.reshape(len(T), -1),
-                    np.bincount(at[at >= 0], minlength=len(rows)),
-                    member(k, hull[keys]),
+                    np.bincount(at[at >= 0], minlength=len(k)),
+                    member(k, on_hull),
                 )
             )
-        self.edge_table = _table(edge_keys(edges))
         # Only the tetrahedra holding a piece count (the others hold none to remove).
         held = (self.pieces[0][0] >= 0).any(1) | (self.pieces[1][0] >= 0).any(1)
         self.rows = np.flatnonzero(held & np.isfinite(self.radii))
@@ -91,6 +92,7 @@ class Cavities:
         xi = np.fromiter(itertools.chain.from_iterable(hits), np.int64, int(n.sum()))
         ti = np.repeat(self.rows[some], n)
         out = np.zeros(len(X), dtype=np.int64)
+        in_cavity = []  # per kind: (point, piece) keys and their tetrahedra in the cavity
         for at, around, hull in self.pieces:
             piece = at[ti].reshape(-1)
             ok = piece >= 0
@@ -98,7 +100,7 @@ class Cavities:
             uk, count = np.unique(key, return_counts=True)
             gone = (count == around[uk % len(around)]) & ~hull[uk % len(around)]
             np.add.at(out, uk[gone] // len(around), 1)
-        # uk, count: per (point, subface edge) its tetrahedra in the point's cavity.
+            in_cavity.append((uk, count))
         # The new edges: to the cavity's vertices.
         cavity = np.unique(xi[:, None] * self.n + self.T[ti])
         want = V >= 0
@@ -109,6 +111,7 @@ class Cavities:
         want = base[:, :, 0] >= 0
         row = _find_all(*self.edge_table, edge_keys(base.reshape(-1, 2))).reshape(want.shape)
         _, around, hull = self.pieces[1]
+        uk, count = in_cavity[1]  # per (point, subface edge)
         m = len(around)
         c = np.zeros(row.size, dtype=np.int64)
         if uk.size:
