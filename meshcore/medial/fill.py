@@ -777,17 +777,16 @@ def _transition_counts(count: np.ndarray, cls: np.ndarray, need: np.ndarray) -> 
 
 def _halved(sides: list, one: list) -> dict:
     """Which sides get a side point (a dict over the bytes of each side's canonical
-    vertex chain; ``sides``: per region, its sides as ``(chain, flipped)``): every side
-    of a region not ``one`` patch (its midpoint subdivision, §8.5.3); a region that is
-    ``one`` (four sides) is cut across where one of two opposite sides is halved (by a
-    neighbour), repeated until nothing changes (a chain of four-sided regions carries a
-    halving along it)."""
+    vertex chain; ``sides``: per region, its sides as ``(key, chain, flipped)``, the key
+    those bytes): every side of a region not ``one`` patch (its midpoint subdivision,
+    §8.5.3); a region that is ``one`` (four sides) is cut across where one of two
+    opposite sides is halved (by a neighbour), repeated until nothing changes (a chain
+    of four-sided regions carries a halving along it)."""
     halved: dict = {}
     for region, whole in zip(sides, one, strict=True):
-        for chain, _ in region:
-            key = chain.tobytes()
+        for key, *_ in region:
             halved[key] = halved.get(key, False) or not whole
-    fours = [[c.tobytes() for c, _ in region] for region, w in zip(sides, one, strict=True) if w]
+    fours = [[key for key, *_ in region] for region, w in zip(sides, one, strict=True) if w]
     changed = True
     while changed:  # a loop over the chains of four-sided regions' length, at most
         changed = False
@@ -807,7 +806,7 @@ def _patch(a, b, c, d):
 
 def _coarse(part: Partition, regions: list, halved: dict, size: float | None, is_corner):
     """The coarse quads of a partition's regions (``regions``: per region its vertices
-    from a corner, the corners' positions, its sides as ``(chain, flipped)`` and its
+    from a corner, the corners' positions, its sides as ``(key, chain, flipped)`` and its
     corner angles) with the sides ``halved`` given (:func:`_halved`): a region with
     every side halved by its midpoint subdivision (a point inside joined to its side
     points: :func:`_inner_point`), a four-sided one with none as one patch, with two
@@ -832,8 +831,7 @@ def _coarse(part: Partition, regions: list, halved: dict, size: float | None, is
         tip = (alpha < KITE_ANGLE) & (k == 3) & (verts[ci] < p)  # a spike cut off
         halves = []  # per side: (first-half id, reversed?), (second-half id, reversed?)
         mids = []  # per side: its side point (None: the side is not halved)
-        for j, (canon, flipped) in enumerate(sides):
-            key = canon.tobytes()
+        for j, (key, canon, flipped) in enumerate(sides):
             if not halved[key]:  # one segment, in the counterclockwise direction
                 if (key, 0) not in half_id:
                     fixed = is_corner[canon].copy()
@@ -842,9 +840,9 @@ def _coarse(part: Partition, regions: list, halved: dict, size: float | None, is
                 halves.append((half_id[(key, 0)], flipped))
                 mids.append(None)
                 continue
-            xy = points[canon]
-            s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
-            if (key, 0) not in half_id:
+            if (key, 0) not in half_id:  # (a side shared with a region before: made)
+                xy = points[canon]
+                s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
                 fixed = is_corner[canon]
                 at = None  # next to a spike's tip: the kite's side (KITE_ANGLE)
                 if size is not None and tip[[j, (j + 1) % k]].any():
@@ -1005,11 +1003,13 @@ def quads_on(
         verts = np.roll(verts, -ci[0])
         ci = ci - ci[0]
         bounds = np.append(ci, len(verts))
-        sides = []  # (the side from its first vertex, counterclockwise or reversed, flipped?)
+        sides = []  # (key: the chain's bytes, the chain from its first vertex, ccw or
+        # reversed, flipped?)
         for j in range(len(ci)):
             side = np.append(verts[bounds[j] : bounds[j + 1]], verts[bounds[j + 1] % len(verts)])
             flipped = not (side[0] < side[-1] or (side[0] == side[-1] and side[1] < side[-2]))
-            sides.append((side[::-1] if flipped else side, flipped))
+            canon = side[::-1] if flipped else side
+            sides.append((canon.tobytes(), canon, flipped))
         ring = points[verts]
         nxt, prv = ring[(ci + 1) % len(verts)] - ring[ci], ring[ci - 1] - ring[ci]
         cos_sin = ((nxt * prv).sum(axis=1), nxt[:, 0] * prv[:, 1] - nxt[:, 1] * prv[:, 0])
@@ -1030,7 +1030,7 @@ def quads_on(
     if got is None:
         return None
     uniq, quads, corner_ids, info = got
-    info["one_patch"] = sum(not any(halved[c.tobytes()] for c, _ in r) for r in sides)
+    info["one_patch"] = sum(not any(halved[key] for key, *_ in r) for r in sides)
     before = _corner_areas(uniq, quads).min(axis=1)
     boundary = topology.boundary(Mesh(uniq, (CellBlock("quad", quads),))).cells[0].data
     fixed = np.zeros(len(uniq), dtype=bool)

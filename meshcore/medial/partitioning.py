@@ -810,7 +810,8 @@ def _other_tried(res: QuadMedial, ctx: _Tries, fine=False):
     # and 0.60 translated by 1e6 from the same cells, in ``_optimize``'s relaxation, and
     # its four-patch fill, 0.61, was kept at the origin only)
     kinds = (False, True) if over else (False,)
-    tries = [(*t, f) for t in [(BOUNDARY_SHARE, prune, False)] + tries for f in kinds][1:]
+    first = [(BOUNDARY_SHARE, prune, False, True)] if over else []  # (its subdivided: res)
+    tries = first + [(*t, four) for t in tries for four in kinds]
     tried = [res.mesh.cells_by_type["quad"]]
     for share, angle, merge, four in tries:  # a loop over at most 23 fills
         if angle not in axis_at:

@@ -183,5 +183,5 @@ def template(P: np.ndarray, loop: np.ndarray, theta: np.ndarray):
                         best, least = (pts, quads), q
     if best is None:
         return None
-    pts, quads = best
-    return pts, np.where(quads < N, loop[np.minimum(quads, N - 1)], quads - N + len(P))
+    pts, quads = best  # own ids back to P's: the loop's, then the new points' from len(P)
+    return pts, np.concatenate([loop, len(P) + np.arange(len(pts))])[quads]
