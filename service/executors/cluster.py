@@ -22,8 +22,9 @@ those of the local executor.
   ``meshservice-<job>-<attempt>``; the API subscribes to it for the run.
 - **Worker deaths.** Dask reruns a task whose worker died (at most
   ``distributed.scheduler.allowed-failures`` times, then ``KilledWorker``);
-  each start logs a ``started`` event, and every start after the first
-  counts as a new attempt of the job.
+  each start logs a ``started`` event, received by the scheduler before the
+  job's process starts, and every start after the first counts as a new
+  attempt of the job.
 - **Restarts of the API.** Runs left over from before are told to stop
   (:meth:`DaskExecutor.forget`) before their jobs are queued again.
 - **Spare runners.** A fresh interpreter's imports take 1-2 s; each worker
@@ -41,7 +42,7 @@ import time
 import uuid
 from collections.abc import Callable
 
-from distributed import Client, Event, get_worker
+from distributed import Client, Event, get_client, get_worker
 from distributed.client import FutureCancelledError
 from distributed.diagnostics.plugin import WorkerPlugin
 from distributed.scheduler import KilledWorker
@@ -72,7 +73,9 @@ def run_on_worker(task: Task, memory_limit: int) -> dict[str, bytes]:
     """
     worker = get_worker()
     topic = _topic(task)
-    worker.log_event(topic, {"kind": "started", "worker": worker.address})
+    # through the scheduler before the job starts: a batched event (Worker.log_event) is
+    # lost when the worker dies right after, and the rerun did not count as an attempt
+    get_client().log_event(topic, {"kind": "started", "worker": worker.address})
     cancel = Event(_cancel_event(task.job_id, task.attempt))
     started = last_check = time.monotonic()
 

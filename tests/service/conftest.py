@@ -12,6 +12,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import httpx
+import psutil
 import pytest
 
 from tests.conftest import kernels_ready
@@ -25,6 +26,15 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
+def _listens(pid: int, port: int) -> bool:
+    """Whether process ``pid`` has a TCP socket listening on ``port``."""
+    try:
+        sockets = psutil.Process(pid).net_connections("tcp")
+    except psutil.Error:  # it has exited
+        return False
+    return any(c.status == psutil.CONN_LISTEN and c.laddr.port == port for c in sockets)
+
+
 class LiveServer:
     """``python -m tests.service.server`` in a subprocess, with its own data dir."""
 
@@ -32,12 +42,29 @@ class LiveServer:
         self.data_dir = data_dir
         self.env = {k: str(v) for k, v in env.items()}
         self.port = _free_port()
-        self.url = f"http://127.0.0.1:{self.port}"
         self.proc: subprocess.Popen | None = None
         self.log = data_dir.parent / f"server-{data_dir.name}.log"
         self.module = "tests.service.server"  # "service": the product alone
 
     def start(self) -> LiveServer:
+        """Start the server; return once its own process answers ``/readyz`` on its port.
+
+        ``_free_port`` lets the port go before the server binds it, and another process
+        may take it meanwhile (a server of another xdist worker or of another run on the
+        machine). This server then exited unable to bind while the other one answered on
+        its URL, and the test talked to that server until its own test stopped it. So an
+        answer counts only when this process listens on the port, and a server whose port
+        is taken starts again on another.
+        """
+        deadline = time.monotonic() + 120
+        while not self._started(deadline):
+            self.port = _free_port()
+        return self
+
+    def _started(self, deadline: float) -> bool:
+        """Start the process on ``self.port``: True once it answers ``/readyz``, False
+        (it has exited) when another process has the port."""
+        written = self.log.stat().st_size if self.log.exists() else 0
         # no warm-up unless asked: each job loads the kernels it uses from numba's cache
         # (filled by ``tests/conftest.py``); the warm-up itself is tested in TestFirstStart
         env = {**os.environ, "MESHSERVICE_WORKERS": "2", "MESHSERVICE_WARMUP": "0", **self.env}
@@ -57,21 +84,33 @@ class LiveServer:
             stdout=open(self.log, "ab"),
             stderr=subprocess.STDOUT,
         )
-        deadline = time.monotonic() + 120
         # one client for the whole poll: each httpx.get builds an SSL context (~30 ms of
         # CPU), ten times a second for every server a test starts
         with httpx.Client(timeout=1) as probe:
             while time.monotonic() < deadline:
                 if self.proc.poll() is not None:
-                    raise RuntimeError(f"server exited: {self.log.read_text()[-2000:]}")
+                    with open(self.log, "rb") as f:  # what this process wrote
+                        f.seek(written)
+                        said = f.read().decode(errors="replace")
+                    if "address already in use" in said:
+                        return False
+                    raise RuntimeError(f"server exited: {said[-2000:]}")
                 try:
-                    if probe.get(self.url + "/readyz").status_code == 200:
-                        return self
+                    answered = probe.get(self.url + "/readyz").status_code == 200
                 except httpx.HTTPError:
-                    pass
+                    answered = False
+                if answered:
+                    if _listens(self.proc.pid, self.port):
+                        return True
+                    self.stop(signal.SIGKILL)  # another process answered: it will not bind
+                    return False
                 time.sleep(0.1)
         self.stop(signal.SIGKILL)  # never leave a server behind that no test will stop
         raise RuntimeError(f"server did not start: {self.log.read_text()[-2000:]}")
+
+    @property
+    def url(self) -> str:
+        return f"http://127.0.0.1:{self.port}"
 
     def stop(self, sig: int = signal.SIGTERM) -> int:
         assert self.proc is not None

@@ -17,7 +17,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.service.conftest import ROOT, _free_port, wait_status
+from tests.service.conftest import ROOT, _free_port, _listens, wait_status
 from tests.service.test_jobs import pid_alive, submit, wait_file
 
 BIN = Path(sys.executable).parent
@@ -50,9 +50,12 @@ def _worker_running(pid: int, cluster: Cluster) -> int:
 class Cluster:
     def __init__(self, logs: Path) -> None:
         self.port = _free_port()
-        self.address = f"tcp://127.0.0.1:{self.port}"
         self.logs = logs
         self.procs: list[subprocess.Popen] = []
+
+    @property
+    def address(self) -> str:
+        return f"tcp://127.0.0.1:{self.port}"
 
     def _spawn(self, name: str, *args: str) -> subprocess.Popen:
         proc = subprocess.Popen(
@@ -66,27 +69,39 @@ class Cluster:
         return proc
 
     def start(self, workers: int = 2) -> Cluster:
-        self._spawn(
-            "scheduler",
-            "scheduler",
-            "--host",
-            "127.0.0.1",
-            "--port",
-            str(self.port),
-            "--no-dashboard",
-        )
-        for i in range(workers):
-            self._spawn(
-                f"worker{i}",
-                "worker",
-                self.address,
-                "--nthreads",
-                "1",
+        """Start the scheduler and the workers; return once the scheduler listens on its
+        port. A port taken meanwhile (as in ``LiveServer.start``) makes the scheduler exit
+        and the workers join whatever has it: the cluster starts again on another."""
+        deadline = time.monotonic() + 60
+        while True:
+            scheduler = self._spawn(
+                "scheduler",
+                "scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                str(self.port),
                 "--no-dashboard",
-                "--name",
-                f"w{i}",
             )
-        return self
+            for i in range(workers):
+                self._spawn(
+                    f"worker{i}",
+                    "worker",
+                    self.address,
+                    "--nthreads",
+                    "1",
+                    "--no-dashboard",
+                    "--name",
+                    f"w{i}",
+                )
+            while scheduler.poll() is None and not _listens(scheduler.pid, self.port):
+                assert time.monotonic() < deadline, "the scheduler never listened"
+                time.sleep(0.1)
+            if scheduler.poll() is None:
+                return self
+            self.stop()
+            self.procs = []
+            self.port = _free_port()
 
     def stop(self) -> None:
         for proc in reversed(self.procs):
@@ -101,9 +116,11 @@ class Cluster:
 
 @pytest.fixture(scope="module")
 def cluster(tmp_path_factory):
-    c = Cluster(tmp_path_factory.mktemp("dask")).start()
-    yield c
-    c.stop()
+    c = Cluster(tmp_path_factory.mktemp("dask"))
+    try:
+        yield c.start()
+    finally:
+        c.stop()
 
 
 @pytest.fixture
