@@ -674,6 +674,7 @@ def misses_main(sizes) -> None:
 
     from meshcore.domain.planar import parse_domain
     from meshcore.mesh import quality
+    from meshcore.partition.smoothing import boundary_points
     from meshcore.quads import combine
     from meshcore.quads.boundary_layer import meets_targets, off_sharp
     from tests.meshcore.quads.stars import issue_star
@@ -686,19 +687,16 @@ def misses_main(sizes) -> None:
         for k in range(40):
             dom = parse_domain(issue_star(k)[0])
             res = combine(domain=dom, size=size, all_quad=True, twice_size=True, optimize=True)
-            if meets_targets(res.mesh, dom, size):
+            ok = off_sharp(res.mesh, dom)
+            if meets_targets(res.mesh, dom, size, ok):
                 met += 1
                 continue
             P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
-            ok = off_sharp(res.mesh, dom)
             q, ang = quality.quad_quality(P, Q), quality.quad_angles(P, Q)
             off = (q < 0.5) | (ang.min(axis=1) < 30) | (ang.max(axis=1) > 150)
             bad = np.flatnonzero(ok & off)
             val = np.bincount(Q.ravel(), minlength=len(P))
-            edges = np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], axis=-1).reshape(-1, 2), axis=1)
-            e, once = np.unique(edges, axis=0, return_counts=True)
-            on_boundary = np.zeros(len(P), bool)
-            on_boundary[e[once == 1].ravel()] = True
+            on_boundary = boundary_points(P, Q)
             corner = dom.corner_angles()
             where = Counter()
             for i in bad:  # a loop over the few quads under the targets

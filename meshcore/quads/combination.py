@@ -1438,8 +1438,7 @@ def _three_quads_allowed(P, tri, nb, measure, metric, min_quality, flat) -> np.n
         s = nb[K, k]
         d = tri[s].sum(axis=1) - u - v
         q4 = np.column_stack([u, d, v, g])
-        allowed = _allowed(Pg, q4, mg, flat)
-        q = _measure(Pg, q4, measure, mg)
+        allowed, q = _allowed_measured(Pg, q4, measure, mg, flat)
         good &= allowed & (q >= min_quality)
     ok[K] = good
     return ok

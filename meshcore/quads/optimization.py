@@ -660,22 +660,23 @@ def _op_collapse(st: _State) -> int:
     flat = rows.reshape(-1, 4)
     metric = _extended(st.metric, pair)
     q, valid = _checked(Pt, flat, st.measure, metric)
-    valid = valid.reshape(-1, 4).all(axis=1)
-    gain = np.where(valid, q.reshape(-1, 4).min(axis=1) - _old_min(st, old), -np.inf)
+    q, valid = q.reshape(-1, 4), valid.reshape(-1, 4).all(axis=1)
+    gain = np.where(valid, q.min(axis=1) - _old_min(st, old), -np.inf)
     good = gain > TOL.gain
-    old, new, pair, mid, gain = old[good], new[good], pair[good], mid[good], gain[good]
+    old, new, pair, mid, gain, q = old[good], new[good], pair[good], mid[good], gain[good], q[good]
     if not len(old):
         return 0
     # a vertex may be merged by one collapse only: two picked collapses never share a cell,
     # and each vertex's cells are all in its collapse, so the vertices are distinct too
     pick = _select(gain, old, len(st.C))
-    old, new, pair, mid = old[pick], new[pick], pair[pick], mid[pick]
+    old, new, pair, mid, q = old[pick], new[pick], pair[pick], mid[pick], q[pick]
     st.P[pair[:, 0]] = mid
     if st.metric is not None and np.ndim(st.metric) == 3:
         st.metric = st.metric.copy()
         st.metric[pair[:, 0]] = 0.5 * (st.metric[pair[:, 0]] + st.metric[pair[:, 1]])
-    rows = new.reshape(-1, 4)
-    st.replace(old.ravel(), rows, _cell_quality(st.P, rows, st.measure, st.metric))
+    # the rebuilt cells' qualities are those evaluated at the midpoints (same points, and
+    # the merged vertex's metric is the one _extended gave it)
+    st.replace(old.ravel(), new.reshape(-1, 4), q.ravel())
     return int(pick.sum())
 
 
