@@ -38,12 +38,21 @@ flip is one alternating step). Each prefix ends in one of:
   the two ends of their common edge lose one cell each.
 
 The path of least defect is taken when it lowers the defect (a quality
-tie-break: the summed weight of the pairs). Every pair formed is a strictly
-convex candidate of the matching (exact
+tie-break: the summed weight of the pairs).
+
+A boundary vertex holding more cells than its ideal (a straight boundary point
+in three or four cells) is never reached from a leftover triangle when none is
+near. Each such vertex's paired triangles ``t`` (mate ``s``) are therefore
+searched from too: ``(t, s)`` is unpaired (both leftover, the ends of their
+edge gaining a cell), the paths from ``t`` are searched as above, one ending by
+pairing with ``s`` closing an alternating cycle, and the best is taken when the
+defect counted from before the unpairing goes down; else the pair is restored.
+
+Every pair formed is a strictly convex candidate of the matching (exact
 :func:`~meshcore.geometry.predicates.orient2d`); the smoothing that follows
 in ``optimize`` moves the vertices. One compiled loop over the leftover
-triangles (a few per hundred on curved domains), each search at most
-``2 ** depth`` paths (the Python loop it replaces spent 28 of the 77 CPU s of
+triangles (a few per hundred on curved domains) and such vertices, each
+search at most ``2 ** depth`` paths (the Python loop it replaces spent 28 of the 77 CPU s of
 ``combine`` on a 100k-vertex circle at size 0.05, same pairs).
 """
 
@@ -184,10 +193,35 @@ def _pair(tri, nb, mate, cnt, t, s, sign):
 
 
 @njit(cache=True)
-def _fewer_defects_kernel(tri, nb, w, w_merge, mate, cnt, ideal, depth, rounds):
+def _apply(tri, nb, mate, cnt, node_parent, node_flip, path, start, x, partner):
+    """Make the path of flips from ``start`` to node ``x`` (:func:`_search`), then pair its
+    last freed triangle with ``partner`` (if >= 0). Returns the number of flips."""
+    npath = 0
+    while node_parent[x] >= 0:
+        path[npath] = x
+        npath += 1
+        x = node_parent[x]
+    last = start
+    for i in range(npath - 1, -1, -1):  # the flips from the start on
+        free, s, s2 = node_flip[path[i], 0], node_flip[path[i], 1], node_flip[path[i], 2]
+        _pair(tri, nb, mate, cnt, s, s2, -1)
+        _pair(tri, nb, mate, cnt, free, s, 1)
+        last = s2
+    if partner >= 0:
+        _pair(tri, nb, mate, cnt, last, partner, 1)
+    return npath
+
+
+@njit(cache=True)
+def _fewer_defects_kernel(tri, nb, w, w_merge, mate, cnt, ideal, roots, vptr, vtri, depth, rounds):
     """The rounds of :func:`fewer_defects` (compiled): each leftover triangle, in
     increasing order, takes its best path (:func:`_search`) when it lowers the
-    defect. Returns (merged, moved)."""
+    defect; then each vertex of ``roots`` still holding more cells than its ideal
+    (its triangles ``vtri[vptr[v]:vptr[v + 1]]``) has each of its paired triangles
+    ``t`` unpaired from its mate ``s`` and searched from, ``s`` a leftover the path
+    may end at (an alternating cycle), the best path taken when the defect counted
+    from before the unpairing goes down, else the pair restored.
+    Returns (merged, moved)."""
     cap = 1
     for _ in range(depth + 1):
         cap = 3 * cap + 1
@@ -201,6 +235,8 @@ def _fewer_defects_kernel(tri, nb, w, w_merge, mate, cnt, ideal, depth, rounds):
     )
     node_parent, node_flip = nodes[1], nodes[4]
     path = np.empty(depth + 1, np.int64)
+    ends = np.empty(2, np.int64)
+    ones = np.ones(2, np.int64)
     merged = moved = 0
     for _ in range(rounds):
         applied = 0
@@ -210,32 +246,40 @@ def _fewer_defects_kernel(tri, nb, w, w_merge, mate, cnt, ideal, depth, rounds):
             found, d, x, partner = _search(tri, nb, w, w_merge, mate, cnt, ideal, T, depth, nodes)
             if not found or d >= 0:
                 continue
-            npath = 0
-            while node_parent[x] >= 0:
-                path[npath] = x
-                npath += 1
-                x = node_parent[x]
-            last = T
-            for i in range(npath - 1, -1, -1):  # the flips from the start on
-                free, s, s2 = node_flip[path[i], 0], node_flip[path[i], 1], node_flip[path[i], 2]
-                _pair(tri, nb, mate, cnt, s, s2, -1)
-                _pair(tri, nb, mate, cnt, free, s, 1)
-                last = s2
-            if partner >= 0:
-                _pair(tri, nb, mate, cnt, last, partner, 1)
-            if partner >= 0:
-                merged += 1
-            if npath > 0:
-                moved += 1
+            npath = _apply(tri, nb, mate, cnt, node_parent, node_flip, path, T, x, partner)
+            merged += int(partner >= 0)
+            moved += int(npath > 0)
             applied += 1
+        for v in roots:
+            for j in range(vptr[v], vptr[v + 1]):
+                if cnt[v] <= ideal[v]:
+                    break
+                t = vtri[j]
+                s = mate[t]
+                if s < 0:
+                    continue
+                _, ends[0], ends[1] = _edge_to(tri, nb, t, s)
+                d0 = _delta(cnt, ideal, ends, ones, 2) + 2  # the two ends gain a cell, 2 leftovers
+                _pair(tri, nb, mate, cnt, t, s, -1)
+                found, d, x, partner = _search(
+                    tri, nb, w, w_merge, mate, cnt, ideal, t, depth, nodes
+                )
+                if not found or d0 + d >= 0:
+                    _pair(tri, nb, mate, cnt, t, s, 1)
+                    continue
+                npath = _apply(tri, nb, mate, cnt, node_parent, node_flip, path, t, x, partner)
+                merged += int(partner >= 0)
+                moved += 1
+                applied += 1
         if not applied:
             break
     return merged, moved
 
 
 def fewer_defects(P, tri, nb, w, w_merge, mate, depth: int = 4, rounds: int = 4) -> dict:
-    """Re-pair the leftover triangles of a matching so that the all-quad split has
-    fewer irregular vertices (module docstring).
+    """Re-pair the leftover triangles of a matching, and the triangles at boundary
+    vertices holding more cells than their ideal, so that the all-quad split has
+    fewer irregular vertices (module docstring); the defect never goes up.
 
     Parameters
     ----------
@@ -259,7 +303,8 @@ def fewer_defects(P, tri, nb, w, w_merge, mate, depth: int = 4, rounds: int = 4)
     -------
     dict
         ``defect_before``, ``defect_after``, ``merged`` (leftover pairs made),
-        ``moved`` (paths applied).
+        ``moved`` (other paths applied: a moved leftover triangle or a re-paired
+        boundary vertex).
 
     References
     ----------
@@ -284,7 +329,13 @@ def fewer_defects(P, tri, nb, w, w_merge, mate, depth: int = 4, rounds: int = 4)
         return int(np.abs(cnt - ideal)[used].sum() + np.count_nonzero(mate < 0))
 
     before = defect()
-    merged, moved = _fewer_defects_kernel(tri, nb, w, w_merge, mate, cnt, ideal, depth, rounds)
+    roots = np.flatnonzero(on_boundary & (cnt > ideal))
+    order = np.argsort(tri.ravel(), kind="stable")
+    vtri = order // 3
+    vptr = np.searchsorted(tri.ravel()[order], np.arange(n + 1)).astype(np.int64)
+    merged, moved = _fewer_defects_kernel(
+        tri, nb, w, w_merge, mate, cnt, ideal, roots, vptr, vtri, depth, rounds
+    )
     return {
         "defect_before": before,
         "defect_after": defect(),

@@ -60,9 +60,8 @@ def test_two_leftover_triangles_with_a_flat_corner_pair_under_the_wider_bound():
     assert _defect(P, tri, nb, mate) == 1
 
 
-@settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(seed=st.integers(0, 2**32 - 1))
-def test_random_pairings_lose_defect_and_stay_valid(seed):
+def _heap_pairing(seed):
+    """A triangulated random star, its all-quad and merge weights, and the heap's pairing."""
     rng = np.random.default_rng(seed)
     dom = parse_domain(star_domain(rng, int(rng.integers(8, 20)), int(rng.integers(0, 3))))
     mesh = triangulate(dom, size=0.12, min_angle=25).mesh
@@ -75,12 +74,17 @@ def test_random_pairings_lose_defect_and_stay_valid(seed):
     order = valid[np.argsort(-w.ravel()[valid], kind="stable")]
     mate = np.full(len(tri), -1, np.int64)
     heap_kernel(nb, w, order, mate, True)
+    return P, tri, nb, w, w_merge, mate
+
+
+def _check_cleanup(P, tri, nb, w, w_merge, mate) -> dict:
+    """fewer_defects on a pairing: its counts recomputed from scratch, and still a pairing:
+    mutual, adjacent, every new pair allowed (a merge under the wider bound)."""
     before = _defect(P, tri, nb, mate)
     pairs_before = {(t, int(s)) for t, s in enumerate(mate) if s >= 0}
     out = fewer_defects(P, tri, nb, w, w_merge, mate)
     assert out["defect_before"] == before
     assert out["defect_after"] == _defect(P, tri, nb, mate) <= before
-    # a pairing: mutual, adjacent, every new pair allowed (a merge under the wider bound)
     for t, s in enumerate(mate.tolist()):
         if s < 0:
             continue
@@ -88,6 +92,21 @@ def test_random_pairings_lose_defect_and_stay_valid(seed):
         k = int(np.flatnonzero(nb[t] == s)[0])
         if (t, s) not in pairs_before:
             assert w[t, k] >= 0 or (w_merge[t, k] >= 0 and out["merged"] > 0)
+    return out
+
+
+@settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**32 - 1))
+def test_random_pairings_lose_defect_and_stay_valid(seed):
+    _check_cleanup(*_heap_pairing(seed))
+
+
+def test_boundary_vertices_in_too_many_cells_are_searched_from():
+    # star 0: the paths from the leftover triangles reach 60; the alternating cycles
+    # from the boundary vertices holding more cells than their ideal take it to 54
+    P, tri, nb, w, w_merge, mate = _heap_pairing(0)
+    out = _check_cleanup(P, tri, nb, w, w_merge, mate)
+    assert (out["defect_before"], out["defect_after"]) == (72, 54)
 
 
 def test_disk_split_has_the_defect_counted_before_it():
