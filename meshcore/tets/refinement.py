@@ -199,7 +199,7 @@ from meshcore.tets.angles import (
 )
 from meshcore.tets.keep import flip_slivers, lift_surface_points
 from meshcore.tets.seeding import far_facets, seed_facets
-from meshcore.tets.sizing import SizeField3d
+from meshcore.tets.sizing import SizeField3d, _positive
 
 __all__ = ["TetrahedralizationResult", "tetrahedralize", "tetra_dihedral_angles"]
 
@@ -1082,23 +1082,7 @@ def _cone(b: SurfaceRecovery, region_count: int) -> tuple[np.ndarray, np.ndarray
 
 
 def _criteria_checked(max_radius_edge, min_dihedral, max_volume, size):
-    def positive(name, value, upper=None):
-        if value is None:
-            return None
-        try:
-            x = float(value)
-        except (TypeError, ValueError):
-            x = math.nan
-        if not math.isfinite(x) or x <= 0 or (upper is not None and x > upper):
-            rng = f"in (0, {upper}]" if upper is not None else "above 0"
-            raise InputError(
-                f"{name} must be a finite number {rng}, got {value!r}",
-                loc=(name,),
-                code="bad_parameter",
-            )
-        return x
-
-    mre = positive("max_radius_edge", max_radius_edge)
+    mre = _positive("max_radius_edge", max_radius_edge)
     if mre is not None and mre < MIN_RADIUS_EDGE:
         raise InputError(
             f"max_radius_edge must be at least {MIN_RADIUS_EDGE} (no tetrahedralization "
@@ -1108,9 +1092,9 @@ def _criteria_checked(max_radius_edge, min_dihedral, max_volume, size):
         )
     return (
         mre,
-        positive("min_dihedral", min_dihedral, 70.0),
-        positive("max_volume", max_volume),
-        positive("size", size),
+        _positive("min_dihedral", min_dihedral, 70.0),
+        _positive("max_volume", max_volume),
+        _positive("size", size),
     )
 
 

@@ -71,9 +71,12 @@ def estimated_tetrahedra(surface, *, size=None, max_volume=None, size_field=None
     Raises
     ------
     InputError
-        A surface or size field ``tetrahedralize`` refuses, located as there.
+        A surface, bound or size field ``tetrahedralize`` refuses, located as
+        there (a bound that is not a finite number above 0: ``bad_parameter``
+        at its name).
     """
     surf = as_surface(surface)
+    size, max_volume = _positive("size", size), _positive("max_volume", max_volume)
     per_cell = []
     if size_field is not None:
         volumes = _regular_volume(_grid_sizes(surf, size_field, size))
@@ -88,6 +91,25 @@ def estimated_tetrahedra(surface, *, size=None, max_volume=None, size_field=None
     smallest = min(per_cell)  # 0 when size**3 underflows
     count = _FILL * surf.volume / smallest if smallest > 0 else math.inf
     return int(min(count, 1e18))
+
+
+def _positive(name: str, value, upper: float | None = None) -> float | None:
+    """``value`` as a float (None stays None), refused unless a finite number above 0 (and at
+    most ``upper``): ``bad_parameter`` at ``name``."""
+    if value is None:
+        return None
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if not math.isfinite(x) or x <= 0 or (upper is not None and x > upper):
+        rng = f"in (0, {upper}]" if upper is not None else "above 0"
+        raise InputError(
+            f"{name} must be a finite number {rng}, got {value!r}",
+            loc=(name,),
+            code="bad_parameter",
+        )
+    return x
 
 
 def _regular_volume(size):

@@ -97,6 +97,15 @@ def test_no_bound_no_estimate_and_tiny_sizes_saturate():
     assert estimated_tetrahedra(cube, size_field={**one, "values": [1e300]}) == 0
 
 
+@pytest.mark.parametrize("name", ["size", "max_volume"])
+@pytest.mark.parametrize("value", [0, -1.0, float("nan"), float("inf"), "big"])
+def test_the_estimate_refuses_a_bound_that_is_not_positive_located(name, value):
+    cube = parse_surface(*shapes.box((0, 0, 0), (1, 1, 1)))
+    with pytest.raises(InputError) as err:
+        estimated_tetrahedra(cube, **{name: value})
+    assert (err.value.errors[0]["loc"], err.value.code) == ([name], "bad_parameter")
+
+
 def test_a_constant_field_is_estimated_as_that_size_and_the_smaller_holds():
     cube = parse_surface(*shapes.box((0, 0, 0), (1, 1, 1)))
     by_size = estimated_tetrahedra(cube, size=0.15)
