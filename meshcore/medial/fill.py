@@ -975,8 +975,8 @@ def quads_on(
     it is not made). Every quad lies in the domain, its
     boundary points on the input boundary and the input vertices mesh points where the
     counts allow (module docstring); folded quads are counted, not refused (§9.7.2,
-    §8.5.3). ``transitions`` (with ``size``, not ``whole``; for a partition whose sides
-    tied pass :data:`MOST_COUNT` x area / size**2 at every stretch): a boundary side
+    §8.5.3). ``transitions`` (with ``size``, whatever ``whole``; for a partition whose
+    sides tied pass :data:`MOST_COUNT` x area / size**2 at every stretch): a boundary side
     with input vertices inside is not tied to its opposite side (:func:`_transition`);
     None where no side is so (the tied fill is the fill) or the count still passes at
     every stretch (the fill would only add quads: it is not made)."""
