@@ -108,7 +108,7 @@ from meshcore.geometry.constructions import coons_grid
 from meshcore.geometry.predicates import orient2d
 from meshcore.limits import MAX_QUADS
 from meshcore.medial.axis import MedialAxis, _classes, _csr
-from meshcore.medial.regions import KITE_ANGLE, input_index, turns
+from meshcore.medial.regions import KITE_ANGLE, at_input_vertex, input_index, turns
 from meshcore.mesh import CellBlock, Mesh, quality, topology
 from meshcore.partition.smoothing import boundary_points
 from meshcore.quads.optimization import relax_quads, sliding_nodes
@@ -560,10 +560,7 @@ def _relaxed(points: np.ndarray, quads: np.ndarray, corner: np.ndarray, ax: Medi
     that are input vertices stay, the other boundary points slide along their input
     segment. Kept when it leaves fewer folded quads, or as many and a better least
     quality, than the fill; returns the points and whether they were kept."""
-    p = len(ax.samples)
-    pred = np.empty(p, dtype=np.int64)
-    pred[ax.succ] = np.arange(p)
-    vertex = ax.samples[ax.segment_source[pred] != ax.segment_source]
+    vertex = ax.samples[at_input_vertex(ax)]
     fixed = corner | (input_index(points, vertex) >= 0)
     new = relax_quads(points, quads, fixed, slide=boundary_slides(points, quads, fixed, vertex))
     before, after = folded(points, quads).sum(), folded(new, quads).sum()
@@ -983,12 +980,8 @@ def quads_on(
     ax = part.axis
     points = part.points
     p = len(ax.samples)
-    succ = ax.succ
-    pred = np.empty(p, dtype=np.int64)
-    pred[succ] = np.arange(p)
-    src = ax.segment_source
     is_corner = np.zeros(len(points), dtype=bool)
-    is_corner[:p] = src[pred] != src  # input vertices between two input segments
+    is_corner[:p] = at_input_vertex(ax)
 
     # a sharp convex input corner is a corner of the midpoint subdivision: one coarse
     # quad there (as a side point it got two of half its angle)
