@@ -146,13 +146,10 @@ def _check(r, s) -> None:
 
 
 def _figures(P, K) -> dict:
-    from meshcore.delaunay.recovery3d import tet_circumcenters
-    from meshcore.tets import tetra_dihedral_angles
-    from meshcore.tets.refinement import _shortest_edge
+    from meshcore.tets import tetra_dihedral_angles, tetra_radius_edge
 
     d = tetra_dihedral_angles(P, K).min(axis=1)
-    _, R = tet_circumcenters(P, K)
-    ratio = R / _shortest_edge(P, K)
+    ratio = tetra_radius_edge(P, K)
     return {
         "dih_min": float(d.min()),
         "under10": 100.0 * float((d < 10).mean()),

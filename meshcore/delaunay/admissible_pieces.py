@@ -25,7 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from meshcore.delaunay.kernel2d import IncrementalDelaunay, _corner, _nxt, _prefetch, _prv
+from meshcore.delaunay.kernel2d import IncrementalDelaunay, _corner, _nxt, _prv
+from meshcore.delaunay.prefetch import prefetch
 from meshcore.domain.planar import Domain
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.constructions import point_segment_distance_2d
@@ -121,8 +122,8 @@ def _crossed_triangles(pts, V, A, vt, ia, ib, tstamp, stamp, queue):
         if x < 0:
             break
         # Ask for both possible next triangles while this one's apex loads.
-        _prefetch(V, A[_nxt(kin)])
-        _prefetch(V, A[_prv(kin)])
+        prefetch(V, A[_nxt(kin)])
+        prefetch(V, A[_prv(kin)])
         t = kin // 3
         if tstamp[t] != stamp:
             tstamp[t] = stamp
@@ -149,21 +150,21 @@ def _prefetch_ahead(pts, V, A, vt, a, b, tstamp, vstamp, i):
     the 10,000-vertex star)."""
     k = a.shape[0]
     if i + 4 < k:
-        _prefetch(vt, a[i + 4])
-        _prefetch(pts, b[i + 4])
+        prefetch(vt, a[i + 4])
+        prefetch(pts, b[i + 4])
     if i + 3 < k:
         t = vt[a[i + 3]]
-        _prefetch(V, 3 * t)
-        _prefetch(A, 3 * t)
-        _prefetch(tstamp, t)
+        prefetch(V, 3 * t)
+        prefetch(A, 3 * t)
+        prefetch(tstamp, t)
     if i + 2 < k:
         c = 3 * vt[a[i + 2]]
         for j in range(3):
             if V[c + j] >= 0:
-                _prefetch(pts, V[c + j])
-                _prefetch(vstamp, V[c + j])
-            _prefetch(V, A[c + j])
-            _prefetch(A, A[c + j])
+                prefetch(pts, V[c + j])
+                prefetch(vstamp, V[c + j])
+            prefetch(V, A[c + j])
+            prefetch(A, A[c + j])
 
 
 @njit(cache=True)

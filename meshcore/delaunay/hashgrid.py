@@ -12,7 +12,7 @@ import math
 import numpy as np
 from numba import njit
 
-from meshcore.delaunay.kernel2d import _prefetch
+from meshcore.delaunay.prefetch import prefetch
 from meshcore.geometry.ordering import radix_argsort
 
 _FIB = np.uint64(0x9E3779B97F4A7C15)
@@ -46,8 +46,8 @@ def _table(keys):
     for i in range(keys.shape[0]):
         if i + 16 < keys.shape[0]:  # the slot 16 keys ahead (a miss in a large table)
             h = _slot(keys[i + 16], shift)
-            _prefetch(tk, h)
-            _prefetch(tv, h)
+            prefetch(tk, h)
+            prefetch(tv, h)
         key = keys[i]
         h = _slot(key, shift)
         while tk[h] != -1 and tk[h] != key:
@@ -76,7 +76,7 @@ def _find_all(tk, tv, keys):
     out = np.empty(keys.shape[0], np.int64)
     for i in range(keys.shape[0]):
         if i + 16 < keys.shape[0]:
-            _prefetch(tk, _slot(keys[i + 16], shift))
+            prefetch(tk, _slot(keys[i + 16], shift))
         out[i] = _find(tk, tv, keys[i], shift)
     return out
 

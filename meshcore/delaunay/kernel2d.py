@@ -62,12 +62,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from llvmlite import ir
 from numba import njit
-from numba.core import cgutils, types
 from numba.cpython.unsafe.numbers import trailing_zeros
-from numba.extending import intrinsic
 
+from meshcore.delaunay.prefetch import prefetch
 from meshcore.errors import InputError
 from meshcore.geometry.expansions import two_product, two_sum
 from meshcore.geometry.ordering import radix_sort
@@ -310,34 +308,6 @@ def _walk_hints(seq, curve_sorted):
             best = right
         hint[seq[j]] = seq[best] if best >= 0 else -1
     return hint
-
-
-@intrinsic
-def _prefetch(typingctx, arr, idx):
-    """Ask the processor to bring ``arr[idx]`` (the row ``idx`` of a 2D array)
-    into its caches: LLVM's ``prefetch`` instruction, which never faults and
-    changes no value, only when the later load finds the memory."""
-    sig = types.void(arr, idx)
-
-    def codegen(context, builder, signature, args):
-        aryty = signature.args[0]
-        ary = context.make_array(aryty)(context, builder, args[0])
-        zero = context.get_constant(types.intp, 0)
-        index = [context.cast(builder, args[1], signature.args[1], types.intp)]
-        ptr = cgutils.get_item_pointer(
-            context, builder, aryty, ary, index + [zero] * (aryty.ndim - 1), wraparound=False
-        )
-        i8p = ir.IntType(8).as_pointer()
-        i32 = ir.IntType(32)
-        fnty = ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32])
-        # Named by llvmlite from the pointer type: llvm.prefetch.p0i8 with
-        # LLVM's typed pointers (numba 0.59/0.60), llvm.prefetch.p0 after.
-        fn = builder.module.declare_intrinsic("llvm.prefetch", [i8p], fnty)
-        # read, keep in every cache level, data cache
-        builder.call(fn, [builder.bitcast(ptr, i8p), i32(0), i32(3), i32(1)])
-        return context.get_dummy_value()
-
-    return sig, codegen
 
 
 # ---------------------------------------------------------------------------
@@ -702,15 +672,15 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
         # its vertices (a miss each at 10^6 points, where BRIO's rounds
         # leave them anywhere in memory) ---------------------------------
         if p + 3 < stop and hint[p + 3] >= 0:
-            _prefetch(vt, hint[p + 3])
+            prefetch(vt, hint[p + 3])
         if p + 2 < stop and hint[p + 2] >= 0:
-            _prefetch(V, 3 * vt[hint[p + 2]])
-            _prefetch(A, 3 * vt[hint[p + 2]])
+            prefetch(V, 3 * vt[hint[p + 2]])
+            prefetch(A, 3 * vt[hint[p + 2]])
         if p + 1 < stop and hint[p + 1] >= 0:
             b1 = 3 * vt[hint[p + 1]]
             for i in range(3):
                 if V[b1 + i] >= 0:
-                    _prefetch(pts, V[b1 + i])
+                    prefetch(pts, V[b1 + i])
         # --- locate: visibility walk from the last triangle -------------
         h = hint[p]
         t = vt[h] if h >= 0 else last
@@ -792,9 +762,9 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
             sp = 3
             # The three triangles across p's new edges, asked for together
             # (their apexes are the first in-circle tests).
-            _prefetch(V, A[3 * t0])
-            _prefetch(V, a1)
-            _prefetch(V, a2)
+            prefetch(V, A[3 * t0])
+            prefetch(V, a1)
+            prefetch(V, a2)
             # The real one among the three (all three when t was real).
             if c < 0:
                 last = t2
@@ -938,8 +908,8 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
                 last = t2
             stack[sp] = b0
             stack[sp + 1] = b2
-            _prefetch(V, e_uq)  # the triangles across the two new edges
-            _prefetch(V, e_qv)
+            prefetch(V, e_uq)  # the triangles across the two new edges
+            prefetch(V, e_qv)
             sp += 2
         if log is not None:
             log[3 * nlog : 3 * nlog + 3] = -3

@@ -86,13 +86,11 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from llvmlite import ir
-from numba import njit, types
-from numba.core import cgutils
-from numba.extending import intrinsic
+from numba import njit
 
 from meshcore.delaunay.kernel2d import _walk_hints
 from meshcore.delaunay.order3d import insertion_order
+from meshcore.delaunay.prefetch import prefetch
 from meshcore.errors import InputError
 from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered
@@ -218,31 +216,6 @@ class Location:
     tet: int
     kind: str
     vertex: int
-
-
-@intrinsic
-def _prefetch(typingctx, arr, i):
-    """Start loading the cache line of ``arr[i]`` (LLVM's ``prefetch``: read, keep); no value.
-
-    A hint only: the cavity search's loads are cache misses on large inputs
-    (the tetrahedra's rows), and asking for the rows it will read next
-    overlaps them with the predicates.
-    """
-
-    def codegen(context, builder, sig, args):
-        aryty, idxty = sig.args
-        ary = context.make_array(aryty)(context, builder, args[0])
-        idx = context.cast(builder, args[1], idxty, types.intp)
-        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, [idx])
-        i8p = ir.IntType(8).as_pointer()
-        i32 = ir.IntType(32)
-        fnty = ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32])
-        # The typed-pointer name; LLVM with opaque pointers upgrades it to ".p0".
-        fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.prefetch.p0i8")
-        builder.call(fn, [builder.bitcast(ptr, i8p), i32(0), i32(3), i32(1)])
-        return context.get_dummy_value()
-
-    return types.none(arr, i), codegen
 
 
 # ---------------------------------------------------------------------------
@@ -549,14 +522,14 @@ def _insert(pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot,
         # Their vertex and adjacency rows too, ahead of use: the rows are read
         # by the conflict tests and when a cavity tetrahedron is searched, the
         # outer ones' adjacency written when the cone is glued to them.
-        _prefetch(V, 4 * u0)
-        _prefetch(V, 4 * u1)
-        _prefetch(V, 4 * u2)
-        _prefetch(V, 4 * u3)
-        _prefetch(A, 4 * u0)
-        _prefetch(A, 4 * u1)
-        _prefetch(A, 4 * u2)
-        _prefetch(A, 4 * u3)
+        prefetch(V, 4 * u0)
+        prefetch(V, 4 * u1)
+        prefetch(V, 4 * u2)
+        prefetch(V, 4 * u3)
+        prefetch(A, 4 * u0)
+        prefetch(A, 4 * u1)
+        prefetch(A, 4 * u2)
+        prefetch(A, 4 * u3)
         for f in range(4):
             u = u0 if f == 0 else (u1 if f == 1 else (u2 if f == 2 else u3))
             mu = m0 if f == 0 else (m1 if f == 1 else (m2 if f == 2 else m3))

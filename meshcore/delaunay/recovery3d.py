@@ -36,9 +36,9 @@ from scipy.spatial import cKDTree
 
 from meshcore.delaunay.facets3d import KeptTriangulations, _facet_points, _facet_subfaces
 from meshcore.delaunay.hashgrid import _find, _find_all, _shift, _table, ball_pairs
-from meshcore.delaunay.kernel2d import _prefetch
 from meshcore.delaunay.kernel2d import delaunay as delaunay2d
 from meshcore.delaunay.kernel3d import _NTET, IncrementalDelaunay3d
+from meshcore.delaunay.prefetch import prefetch
 from meshcore.domain.surface import Surface
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.predicates import orient2d
@@ -295,9 +295,9 @@ def _held_in_kernel(V, A, vt, inv, ntet, pieces, wit):
     for i in range(k):
         if i + 16 < k:  # the witness and corners 16 pieces ahead (misses at 10^6 tets)
             if wit[i + 16] >= 0:
-                _prefetch(V, 4 * wit[i + 16])
+                prefetch(V, 4 * wit[i + 16])
             for j in (0, 1, w - 1):
-                _prefetch(inv, pieces[i + 16, j])
+                prefetch(inv, pieces[i + 16, j])
         a = inv[pieces[i, 0]]
         b = inv[pieces[i, 1]]
         c = inv[pieces[i, w - 1]]

@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.delaunay.hashgrid import _shift, _slot, _table
-from meshcore.delaunay.kernel2d import _prefetch
+from meshcore.delaunay.prefetch import prefetch
 from meshcore.delaunay.recovery3d import (
     TET_FACES,
     SurfaceRecovery,
@@ -166,19 +166,19 @@ def _regions_update(T, slots, fresh, adj, old, on, tk, tv, faces):
         # neighbours' local numbers 8 rows on.
         if i + 16 < k:
             for j in range(4):
-                _prefetch(on, T[fresh[i + 16], j])
+                prefetch(on, T[fresh[i + 16], j])
                 u = adj[i + 16, j]
                 if 0 <= u < top:
-                    _prefetch(row_of, u)
+                    prefetch(row_of, u)
         if i + 8 < k:
             t = fresh[i + 8]
             for j in range(4):
                 a, b, c = T[t, faces[j, 0]], T[t, faces[j, 1]], T[t, faces[j, 2]]
                 if on[a] and on[b] and on[c]:
-                    _prefetch(tk, _slot(_face_key(a, b, c), shift))
+                    prefetch(tk, _slot(_face_key(a, b, c), shift))
                 u = adj[i + 8, j]
                 if 0 <= u < top and row_of[u] >= 0:
-                    _prefetch(local, row_of[u])
+                    prefetch(local, row_of[u])
         t = fresh[i]
         for j in range(4):
             sub_of[i, j] = _subface_at(T, t, j, faces, on, tk, tv, shift)

@@ -101,7 +101,7 @@ from meshcore.domain.planar import Domain, as_domain, parse_domain, ray_parity
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.tolerances import MAX_COORDINATE, MIN_DIAMETER
 from meshcore.limits import DEFAULT_PRUNE
-from meshcore.mesh import CellBlock, Mesh
+from meshcore.mesh import CellBlock, Mesh, topology
 
 __all__ = [
     "DEFAULT_PRUNE",
@@ -1386,8 +1386,7 @@ def pruned_axes(
     class_type2 = np.full(n_nodes, -1, dtype=np.int64)
     t2 = np.flatnonzero(types == 2)
     class_type2[label[t2]] = t2
-    pred = np.empty_like(succ)
-    pred[succ] = np.arange(len(succ))
+    pred = topology.inverse_permutation(succ)
     counts = np.bincount(types, minlength=4)
     for prune in prunes:  # the pruning and what depends on it, per angle
         node_alive, edge_alive, pruned = _prune(

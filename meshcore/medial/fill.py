@@ -108,7 +108,7 @@ from meshcore.geometry.constructions import coons_grid
 from meshcore.geometry.predicates import orient2d
 from meshcore.limits import MAX_QUADS
 from meshcore.medial.axis import MedialAxis, _classes, _csr
-from meshcore.medial.regions import KITE_ANGLE, input_index, turns
+from meshcore.medial.regions import KITE_ANGLE, at_input_vertex, input_index, turns
 from meshcore.mesh import CellBlock, Mesh, quality, topology
 from meshcore.partition.smoothing import boundary_points
 from meshcore.quads.optimization import relax_quads, sliding_nodes
@@ -560,10 +560,7 @@ def _relaxed(points: np.ndarray, quads: np.ndarray, corner: np.ndarray, ax: Medi
     that are input vertices stay, the other boundary points slide along their input
     segment. Kept when it leaves fewer folded quads, or as many and a better least
     quality, than the fill; returns the points and whether they were kept."""
-    p = len(ax.samples)
-    pred = np.empty(p, dtype=np.int64)
-    pred[ax.succ] = np.arange(p)
-    vertex = ax.samples[ax.segment_source[pred] != ax.segment_source]
+    vertex = ax.samples[at_input_vertex(ax)]
     fixed = corner | (input_index(points, vertex) >= 0)
     new = relax_quads(points, quads, fixed, slide=boundary_slides(points, quads, fixed, vertex))
     before, after = folded(points, quads).sum(), folded(new, quads).sum()
@@ -975,20 +972,16 @@ def quads_on(
     it is not made). Every quad lies in the domain, its
     boundary points on the input boundary and the input vertices mesh points where the
     counts allow (module docstring); folded quads are counted, not refused (§9.7.2,
-    §8.5.3). ``transitions`` (with ``size``, not ``whole``; for a partition whose sides
-    tied pass :data:`MOST_COUNT` x area / size**2 at every stretch): a boundary side
+    §8.5.3). ``transitions`` (with ``size``, whatever ``whole``; for a partition whose
+    sides tied pass :data:`MOST_COUNT` x area / size**2 at every stretch): a boundary side
     with input vertices inside is not tied to its opposite side (:func:`_transition`);
     None where no side is so (the tied fill is the fill) or the count still passes at
     every stretch (the fill would only add quads: it is not made)."""
     ax = part.axis
     points = part.points
     p = len(ax.samples)
-    succ = ax.succ
-    pred = np.empty(p, dtype=np.int64)
-    pred[succ] = np.arange(p)
-    src = ax.segment_source
     is_corner = np.zeros(len(points), dtype=bool)
-    is_corner[:p] = src[pred] != src  # input vertices between two input segments
+    is_corner[:p] = at_input_vertex(ax)
 
     # a sharp convex input corner is a corner of the midpoint subdivision: one coarse
     # quad there (as a side point it got two of half its angle)

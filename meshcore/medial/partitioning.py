@@ -220,6 +220,7 @@ from meshcore.medial.regions import (
     turns,
 )
 from meshcore.mesh import CellBlock, Mesh, quality
+from meshcore.mesh.topology import inverse_permutation
 from meshcore.quads.combination import TOL
 from meshcore.quads.optimization import optimize_quads, relax_quads
 
@@ -357,9 +358,7 @@ def _contacts(ax: MedialAxis) -> tuple[np.ndarray, np.ndarray]:
         np.column_stack([np.repeat(ax.triangle_node[t], 3), ax.triangles[t].ravel()]), axis=0
     )
     key = pairs[:, 0] * np.int64(len(ax.samples)) + pairs[:, 1]
-    pred = np.empty(len(ax.samples), dtype=np.int64)
-    pred[ax.succ] = np.arange(len(ax.succ))
-    before = pairs[:, 0] * np.int64(len(ax.samples)) + pred[pairs[:, 1]]
+    before = pairs[:, 0] * np.int64(len(ax.samples)) + inverse_permutation(ax.succ)[pairs[:, 1]]
     pos = np.minimum(np.searchsorted(key, before), len(key) - 1)
     follows = key[pos] == before
     kept = np.bincount(pairs[~follows, 0], minlength=len(ax.nodes))

@@ -32,6 +32,7 @@ import numpy as np
 
 from meshcore.geometry.predicates import orient2d
 from meshcore.medial.axis import MedialAxis
+from meshcore.mesh.topology import inverse_permutation
 
 __all__ = [
     "BOUNDARY_SHARE",
@@ -72,12 +73,16 @@ MERGE_BEND = 30.0
 
 def turns(ax: MedialAxis) -> np.ndarray:
     """Turning angle (radians, positive to the left) of the boundary at each sample."""
-    p = len(ax.samples)
-    pred = np.empty(p, dtype=np.int64)
-    pred[ax.succ] = np.arange(p)
-    a = ax.samples - ax.samples[pred]
+    a = ax.samples - ax.samples[inverse_permutation(ax.succ)]
     b = ax.samples[ax.succ] - ax.samples
     return np.arctan2(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], (a * b).sum(axis=1))
+
+
+def at_input_vertex(ax: MedialAxis) -> np.ndarray:
+    """(p,) bool: the boundary samples that are input vertices (between two input
+    segments)."""
+    src = ax.segment_source
+    return src[inverse_permutation(ax.succ)] != src
 
 
 def _chord_inside(P: np.ndarray, verts: np.ndarray, i: int, j: int) -> bool:
@@ -159,9 +164,6 @@ def reflex_merged(ax: MedialAxis, pts: np.ndarray, cycles, corners, kinds, share
     0.5 with 3). Returns the cycles, corner flags, edge kinds and the removed cuts
     (vertex pairs)."""
     p = len(ax.samples)
-    pred = np.empty(p, dtype=np.int64)
-    pred[ax.succ] = np.arange(p)
-    src = ax.segment_source
     turn = turns(ax)
     cycles, corners, kinds = list(cycles), list(corners), list(kinds)
     und = {}  # undirected edge -> how many cycles use it
@@ -172,7 +174,7 @@ def reflex_merged(ax: MedialAxis, pts: np.ndarray, cycles, corners, kinds, share
     for a, b in und:
         degree[a] += 1
         degree[b] += 1
-    reflex = (src[pred] != src) & (turn < 0)
+    reflex = at_input_vertex(ax) & (turn < 0)
     ends: dict[int, list[int]] = {}  # per sample, the cuts from axis nodes (not the chords)
     for (a, b), n in und.items():
         if n == 2 and min(a, b) < p <= max(a, b):

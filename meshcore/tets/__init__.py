@@ -3,13 +3,19 @@
 :func:`tetrahedralize` recovers the surface in our 3D Delaunay kernel
 (conforming, points added on the surface) and refines the tetrahedra to a
 radius-edge, volume and size bound; :func:`tetra_dihedral_angles` measures
-slivers.
+slivers, :func:`tetra_radius_edge` the ratio that bound holds.
 """
 
 from meshcore.tets.refinement import (
     TetrahedralizationResult,
     tetra_dihedral_angles,
+    tetra_radius_edge,
     tetrahedralize,
 )
 
-__all__ = ["TetrahedralizationResult", "tetra_dihedral_angles", "tetrahedralize"]
+__all__ = [
+    "TetrahedralizationResult",
+    "tetra_dihedral_angles",
+    "tetra_radius_edge",
+    "tetrahedralize",
+]

@@ -183,6 +183,7 @@ from meshcore.delaunay.recovery3d import (
     face_rows,
     member,
     recover,
+    tet_circumcenters,
 )
 from meshcore.delaunay.regions3d import RegionLabels, fresh_rows, regions
 from meshcore.domain.surface import as_surface
@@ -199,9 +200,14 @@ from meshcore.tets.angles import (
 )
 from meshcore.tets.keep import flip_slivers, lift_surface_points
 from meshcore.tets.seeding import far_facets, seed_facets
-from meshcore.tets.sizing import SizeField3d
+from meshcore.tets.sizing import SizeField3d, _positive
 
-__all__ = ["TetrahedralizationResult", "tetrahedralize", "tetra_dihedral_angles"]
+__all__ = [
+    "TetrahedralizationResult",
+    "tetrahedralize",
+    "tetra_dihedral_angles",
+    "tetra_radius_edge",
+]
 
 
 _TET_FACES = TET_FACES.copy()
@@ -275,9 +281,29 @@ class TetrahedralizationResult:
 # ---------------------------------------------------------------------------
 
 
-def _shortest_edge(P: np.ndarray, T: np.ndarray) -> np.ndarray:
-    d = P[T[:, TET_EDGES[:, 0]]] - P[T[:, TET_EDGES[:, 1]]]
-    return np.sqrt(np.einsum("ijk,ijk->ij", d, d).min(axis=1))
+def tetra_radius_edge(points: np.ndarray, tetra: np.ndarray) -> np.ndarray:
+    """Circumradius over shortest edge of each tetrahedron: the ratio that
+    :func:`tetrahedralize`'s ``max_radius_edge`` bounds.
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+    tetra : (m, 4) int64
+
+    Returns
+    -------
+    (m,) float64
+        At least sqrt(6) / 4 (the regular tetrahedron's); not finite for a flat
+        tetrahedron (float constructions, as
+        :func:`~meshcore.delaunay.recovery3d.tet_circumcenters`).
+
+    References
+    ----------
+    Shewchuk (1998)'s refinement measure, TetGen's ``-q``; methods text §9.5.
+    """
+    d = points[tetra[:, TET_EDGES[:, 0]]] - points[tetra[:, TET_EDGES[:, 1]]]
+    _, R = tet_circumcenters(points, tetra)
+    return R / np.sqrt(np.einsum("ijk,ijk->ij", d, d).min(axis=1))
 
 
 def _volumes(P: np.ndarray, T: np.ndarray) -> np.ndarray:
@@ -647,7 +673,8 @@ def _circumsphere(P, T, t):
 
 @njit(cache=True)
 def _shortest2(P, T, t):
-    """Squared shortest edge of tetrahedron ``t`` (as :func:`_shortest_edge` before its root)."""
+    """Squared shortest edge of tetrahedron ``t`` (the float operations of
+    :func:`tetra_radius_edge`'s shortest edge, before its root)."""
     short = np.inf
     for k in range(6):
         a = T[t, _TET_EDGES[k, 0]]
@@ -664,7 +691,7 @@ def _measures(P, T, max_radius_edge, max_volume, size_radius, size, C, R):
     """Circumcentres ``C`` and circumradii ``R`` of tetrahedra ``T``, and which are bad.
 
     One pass, the floating-point operations of
-    :func:`~meshcore.delaunay.recovery3d.tet_circumcenters`, :func:`_shortest_edge` and
+    :func:`~meshcore.delaunay.recovery3d.tet_circumcenters`, :func:`tetra_radius_edge` and
     :func:`_volumes`. Bad: circumradius above
     ``max_radius_edge`` times the shortest edge, volume above ``max_volume``,
     circumradius above ``size_radius * size`` (``size`` NaN: none), or too flat
@@ -693,7 +720,7 @@ def _measures(P, T, max_radius_edge, max_volume, size_radius, size, C, R):
 def _shapes(P, T, C, R, S, D):
     """Circumcentres ``C`` and radii ``R`` (as
     :func:`~meshcore.delaunay.recovery3d.tet_circumcenters`), shortest edges ``S`` (as
-    :func:`_shortest_edge`) and the cosine ``D`` of the least dihedral angle (1 where a face
+    :func:`tetra_radius_edge`) and the cosine ``D`` of the least dihedral angle (1 where a face
     is degenerate) of tetrahedra ``T``, one pass."""
     nrm = np.empty((4, 3))
     for t in range(T.shape[0]):
@@ -1082,23 +1109,7 @@ def _cone(b: SurfaceRecovery, region_count: int) -> tuple[np.ndarray, np.ndarray
 
 
 def _criteria_checked(max_radius_edge, min_dihedral, max_volume, size):
-    def positive(name, value, upper=None):
-        if value is None:
-            return None
-        try:
-            x = float(value)
-        except (TypeError, ValueError):
-            x = math.nan
-        if not math.isfinite(x) or x <= 0 or (upper is not None and x > upper):
-            rng = f"in (0, {upper}]" if upper is not None else "above 0"
-            raise InputError(
-                f"{name} must be a finite number {rng}, got {value!r}",
-                loc=(name,),
-                code="bad_parameter",
-            )
-        return x
-
-    mre = positive("max_radius_edge", max_radius_edge)
+    mre = _positive("max_radius_edge", max_radius_edge)
     if mre is not None and mre < MIN_RADIUS_EDGE:
         raise InputError(
             f"max_radius_edge must be at least {MIN_RADIUS_EDGE} (no tetrahedralization "
@@ -1108,9 +1119,9 @@ def _criteria_checked(max_radius_edge, min_dihedral, max_volume, size):
         )
     return (
         mre,
-        positive("min_dihedral", min_dihedral, 70.0),
-        positive("max_volume", max_volume),
-        positive("size", size),
+        _positive("min_dihedral", min_dihedral, 70.0),
+        _positive("max_volume", max_volume),
+        _positive("size", size),
     )
 
 

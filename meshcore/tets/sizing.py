@@ -19,6 +19,7 @@ is refused before it runs (as 2D's ``estimated_triangles``).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -43,8 +44,18 @@ _FILL = 1.6
 _GRID_CELLS = 32
 
 
-def estimated_tetrahedra(surface, *, size=None, max_volume=None, size_field=None) -> int:
-    """About how many tetrahedra ``tetrahedralize`` makes for these bounds.
+class Estimate(NamedTuple):
+    """What :func:`estimated_tetrahedra` says of a request's bounds."""
+
+    #: About how many tetrahedra the bounds together ask for (0 without bounds, at most 10**18).
+    tetrahedra: int
+    #: The bound that alone asks for the most ("size", "max_volume" or "size_field"; the first
+    #: of equals in that order), the one to relax; None without bounds.
+    binding: str | None
+
+
+def estimated_tetrahedra(surface, *, size=None, max_volume=None, size_field=None) -> Estimate:
+    """About how many tetrahedra ``tetrahedralize`` makes for these bounds, and which binds.
 
     Parameters
     ----------
@@ -63,31 +74,71 @@ def estimated_tetrahedra(surface, *, size=None, max_volume=None, size_field=None
 
     Returns
     -------
-    int
-        With several bounds the larger count; 0 when none is given (the mesh
-        then follows the surface's own spacing); at most 10**18. Meant for
-        refusing runaway requests up front (Remark 8.10's control space).
+    Estimate
+        ``tetrahedra``: with several bounds the larger count; 0 when none is
+        given (the mesh then follows the surface's own spacing); at most
+        10**18. ``binding``: the bound whose count alone is the largest (the
+        field's alone without ``size``). Meant for refusing runaway requests
+        up front, naming the bound to relax (Remark 8.10's control space).
 
     Raises
     ------
     InputError
-        A surface or size field ``tetrahedralize`` refuses, located as there.
+        A surface, bound or size field ``tetrahedralize`` refuses, located as
+        there (a bound that is not a finite number above 0: ``bad_parameter``
+        at its name).
     """
     surf = as_surface(surface)
-    per_cell = []
-    if size_field is not None:
-        volumes = _regular_volume(_grid_sizes(surf, size_field, size))
-        with np.errstate(divide="ignore"):  # 1 / 0 where size**3 underflows: 0 below
-            per_cell.append(1.0 / float(np.mean(1.0 / volumes)))  # their harmonic mean
-    elif size is not None:
-        per_cell.append(_regular_volume(size))
+    size, max_volume = _positive("size", size), _positive("max_volume", max_volume)
+    alone = {}  # the tetrahedron volume each given bound asks for alone
+    if size is not None:
+        alone["size"] = _regular_volume(size)
     if max_volume is not None:
-        per_cell.append(max_volume)
-    if not per_cell:
-        return 0
-    smallest = min(per_cell)  # 0 when size**3 underflows
-    count = _FILL * surf.volume / smallest if smallest > 0 else math.inf
+        alone["max_volume"] = max_volume
+    together = dict(alone)
+    if size_field is not None:
+        H = _grid_sizes(surf, size_field)
+        alone["size_field"] = _mean_volume(H)
+        together.pop("size", None)  # with the field, the smaller of the two at each cell:
+        together["size_field"] = (
+            alone["size_field"] if size is None else _mean_volume(np.minimum(H, size))
+        )
+    if not alone:
+        return Estimate(0, None)
+    counts = {name: _count(surf, volume) for name, volume in alone.items()}
+    return Estimate(_count(surf, min(together.values())), max(counts, key=counts.get))
+
+
+def _count(surf, volume) -> int:
+    """Tetrahedra of about ``volume`` filling the surface (at most 10**18; ``volume`` is 0
+    where size**3 underflows)."""
+    count = _FILL * surf.volume / volume if volume > 0 else math.inf
     return int(min(count, 1e18))
+
+
+def _mean_volume(sizes: np.ndarray) -> float:
+    """The harmonic mean of the volumes of regular tetrahedra of edges ``sizes``."""
+    with np.errstate(divide="ignore"):  # 1 / 0 where size**3 underflows: 0 in _count
+        return 1.0 / float(np.mean(1.0 / _regular_volume(sizes)))
+
+
+def _positive(name: str, value, upper: float | None = None) -> float | None:
+    """``value`` as a float (None stays None), refused unless a finite number above 0 (and at
+    most ``upper``): ``bad_parameter`` at ``name``."""
+    if value is None:
+        return None
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if not math.isfinite(x) or x <= 0 or (upper is not None and x > upper):
+        rng = f"in (0, {upper}]" if upper is not None else "above 0"
+        raise InputError(
+            f"{name} must be a finite number {rng}, got {value!r}",
+            loc=(name,),
+            code="bad_parameter",
+        )
+    return x
 
 
 def _regular_volume(size):
@@ -95,16 +146,15 @@ def _regular_volume(size):
     return np.minimum(size, 1e100) ** 3 / (6.0 * math.sqrt(2.0))  # no overflow
 
 
-def _grid_sizes(surf, size_field, size: float | None) -> np.ndarray:
-    """The field's value, the smaller of it and ``size``, at the centres of the cells of a
-    grid over the surface's bounding box (32 along its longest side)."""
+def _grid_sizes(surf, size_field) -> np.ndarray:
+    """The field's value at the centres of the cells of a grid over the surface's bounding
+    box (32 along its longest side)."""
     field = size_field if isinstance(size_field, SizeField3d) else SizeField3d(size_field)
     P = surf.points[surf.vertices]
     lo, hi = P.min(axis=0), P.max(axis=0)
     step = (hi - lo).max() / _GRID_CELLS
     axes = [lo[k] + step * (np.arange(math.ceil((hi[k] - lo[k]) / step)) + 0.5) for k in range(3)]
-    H = field(np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3))
-    return H if size is None else np.minimum(H, size)
+    return field(np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3))
 
 
 @njit(cache=True)

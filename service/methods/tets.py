@@ -93,16 +93,15 @@ class TetrahedralizeParams(MethodParams):
         if self.empty or self.keep_boundary:
             return  # no interior refinement to the bounds
         check_resolution(surface.points, self.size, ("size",))
-        bounds = {"size": self.size, "max_volume": self.max_volume, "size_field": field}
-        estimate = estimated_tetrahedra(surface, **bounds)
-        if estimate > MAX_TETRAHEDRA:
-            alone = {n: estimated_tetrahedra(surface, **{n: v}) for n, v in bounds.items()}
-            name = max(alone, key=alone.get)  # the binding bound (the first of equals)
+        estimate = estimated_tetrahedra(
+            surface, size=self.size, max_volume=self.max_volume, size_field=field
+        )
+        if estimate.tetrahedra > MAX_TETRAHEDRA:
             raise InputError(
-                f"these bounds would make about {estimate:,} tetrahedra in a volume of "
-                f"{surface.volume:.6g}; this service makes at most {MAX_TETRAHEDRA:,}: "
+                f"these bounds would make about {estimate.tetrahedra:,} tetrahedra in a volume "
+                f"of {surface.volume:.6g}; this service makes at most {MAX_TETRAHEDRA:,}: "
                 "ask for a larger size, max_volume or size_field",
-                loc=(name,),
+                loc=(estimate.binding,),
                 code="too_many_tetrahedra",
             )
 

@@ -357,3 +357,10 @@ def test_sort_based_unique_and_isin_match_numpy(n):
     for x, y in zip(ours, theirs, strict=True):
         assert np.array_equal(x, np.ravel(y))
     assert np.array_equal(topology.isin_ints(a, b), np.isin(a, b))
+
+
+def test_inverse_permutation_gives_each_boundary_sample_its_predecessor():
+    succ = np.array([2, 0, 3, 1])  # the cycle 0 -> 2 -> 3 -> 1 -> 0
+    pred = topology.inverse_permutation(succ)
+    assert pred.tolist() == [1, 3, 0, 2] and pred.dtype == np.int64
+    assert np.array_equal(pred[succ], np.arange(4)) and np.array_equal(succ[pred], np.arange(4))

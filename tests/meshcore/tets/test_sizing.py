@@ -75,7 +75,7 @@ def test_the_tetrahedra_follow_the_field():
     assert near < 0.5 * far
     uniform = tetrahedralize({"points": P.tolist(), "triangles": T.tolist()}, size=0.12)
     assert len(K) < 0.5 * len(uniform.mesh.cells[0].data)  # graded: fewer than uniformly fine
-    estimate = estimated_tetrahedra((P, T), size_field=field)  # the field at grid cells
+    estimate = estimated_tetrahedra((P, T), size_field=field).tetrahedra  # at grid cells
     assert estimate <= len(K) <= 1.5 * estimate, (len(K), estimate)
 
 
@@ -83,29 +83,42 @@ def test_the_tetrahedra_follow_the_field():
 def test_the_estimate_is_the_count_within_a_factor_1_5(bound):
     cube = parse_surface(*shapes.box((0, 0, 0), (1, 1, 1)))
     made = len(tetrahedralize(cube, max_radius_edge=None, **bound).mesh.cells[0].data)
-    estimate = estimated_tetrahedra(cube, **bound)
+    estimate = estimated_tetrahedra(cube, **bound).tetrahedra
     assert estimate <= made <= 1.5 * estimate, (made, estimate)
 
 
 def test_no_bound_no_estimate_and_tiny_sizes_saturate():
     cube = parse_surface(*shapes.box((0, 0, 0), (1, 1, 1)))
-    assert estimated_tetrahedra(cube) == 0
-    assert estimated_tetrahedra(cube, size=1e300) == 0
-    assert estimated_tetrahedra(cube, size=1e-300) == 10**18
+    assert estimated_tetrahedra(cube) == (0, None)
+    assert estimated_tetrahedra(cube, size=1e300) == (0, "size")
+    assert estimated_tetrahedra(cube, size=1e-300) == (10**18, "size")
     one = {"points": [[0.5, 0.5, 0.5]], "values": [1e-300]}  # was found at the point limit
-    assert estimated_tetrahedra(cube, size_field=one) == 10**18
-    assert estimated_tetrahedra(cube, size_field={**one, "values": [1e300]}) == 0
+    assert estimated_tetrahedra(cube, size_field=one) == (10**18, "size_field")
+    assert estimated_tetrahedra(cube, size_field={**one, "values": [1e300]}) == (0, "size_field")
+    both = estimated_tetrahedra(cube, size=1e-300, max_volume=1e-300, size_field=one)
+    assert both == (10**18, "size")  # equals: the first of size, max_volume, size_field
+
+
+@pytest.mark.parametrize("name", ["size", "max_volume"])
+@pytest.mark.parametrize("value", [0, -1.0, float("nan"), float("inf"), "big"])
+def test_the_estimate_refuses_a_bound_that_is_not_positive_located(name, value):
+    cube = parse_surface(*shapes.box((0, 0, 0), (1, 1, 1)))
+    with pytest.raises(InputError) as err:
+        estimated_tetrahedra(cube, **{name: value})
+    assert (err.value.errors[0]["loc"], err.value.code) == ([name], "bad_parameter")
 
 
 def test_a_constant_field_is_estimated_as_that_size_and_the_smaller_holds():
     cube = parse_surface(*shapes.box((0, 0, 0), (1, 1, 1)))
-    by_size = estimated_tetrahedra(cube, size=0.15)
+    by_size = estimated_tetrahedra(cube, size=0.15).tetrahedra
     field = {"points": [[0.5, 0.5, 0.5], [9.0, 9.0, 9.0]], "values": [0.15, 0.15]}
-    assert estimated_tetrahedra(cube, size_field=field) == pytest.approx(by_size, rel=1e-9)
+    by_field = estimated_tetrahedra(cube, size_field=field).tetrahedra
+    assert by_field == pytest.approx(by_size, rel=1e-9)
     coarse = {"points": field["points"], "values": [1.0, 1.0]}
-    assert estimated_tetrahedra(cube, size=0.15, size_field=coarse) == pytest.approx(
-        by_size, rel=1e-9
-    )
+    both = estimated_tetrahedra(cube, size=0.15, size_field=coarse)
+    assert both.tetrahedra == pytest.approx(by_size, rel=1e-9) and both.binding == "size"
+    fine = estimated_tetrahedra(cube, size=1.0, max_volume=1.0, size_field=field)
+    assert fine.tetrahedra == pytest.approx(by_size, rel=1e-9) and fine.binding == "size_field"
 
 
 def test_the_point_limit_is_an_error_not_an_under_refined_mesh(monkeypatch):

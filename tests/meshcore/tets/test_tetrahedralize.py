@@ -14,7 +14,7 @@ from meshcore.errors import InputError
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import io
 from meshcore.mesh.topology import unique_edges, unique_ints
-from meshcore.tets import tetra_dihedral_angles, tetrahedralize
+from meshcore.tets import tetra_dihedral_angles, tetra_radius_edge, tetrahedralize
 from tests.meshcore.domain import shapes
 
 
@@ -200,11 +200,7 @@ class TestRefinement:
         assert_valid(r, s)
         assert r.given_up == 0
         P, K = r.mesh.points, r.mesh.cells[0].data
-        from meshcore.delaunay.recovery3d import tet_circumcenters
-        from meshcore.tets.refinement import _shortest_edge
-
-        _, R = tet_circumcenters(P, K)
-        ratio = R / _shortest_edge(P, K)
+        ratio = tetra_radius_edge(P, K)
         dih = tetra_dihedral_angles(P, K).min(axis=1)
         left = r.left
         assert left["radius_edge_above"] == NONE_LEFT
@@ -358,11 +354,7 @@ def test_small_input_angles_are_left_and_named():
     r = tetrahedralize(s, max_radius_edge=2.0)
     assert_valid(r, s)
     P, K = r.mesh.points, r.mesh.cells[0].data
-    from meshcore.delaunay.recovery3d import tet_circumcenters
-    from meshcore.tets.refinement import _shortest_edge
-
-    _, R = tet_circumcenters(P, K)
-    above = R / _shortest_edge(P, K) > 2.0
+    above = tetra_radius_edge(P, K) > 2.0
     left = r.left["radius_edge_above"]
     assert above.sum() == sum(left.values())
     places = r.left["input_angles"]
@@ -408,11 +400,7 @@ def test_sharp_edges_are_protected(case, sharp, most):
     assert_valid(r, s)
     P, K = r.mesh.points, r.mesh.cells[0].data
     assert len(K) < most
-    from meshcore.delaunay.recovery3d import tet_circumcenters
-    from meshcore.tets.refinement import _shortest_edge
-
-    _, R = tet_circumcenters(P, K)
-    above = R / _shortest_edge(P, K) > 2.0
+    above = tetra_radius_edge(P, K) > 2.0
     left = r.left["radius_edge_above"]
     assert above.sum() == sum(left.values())
     places = r.left["input_angles"]
