@@ -47,66 +47,72 @@ class LiveServer:
         self.module = "tests.service.server"  # "service": the product alone
 
     def start(self) -> LiveServer:
-        """Start the server; return once its own process answers ``/readyz`` on its port.
-
-        ``_free_port`` lets the port go before the server binds it, and another process
-        may take it meanwhile (a server of another xdist worker or of another run on the
-        machine). This server then exited unable to bind while the other one answered on
-        its URL, and the test talked to that server until its own test stopped it. So an
-        answer counts only when this process listens on the port, and a server whose port
-        is taken starts again on another.
-        """
+        """Start the server; return once it answers ``/readyz`` on its port."""
         deadline = time.monotonic() + 120
-        while not self._started(deadline):
-            self.port = _free_port()
-        return self
-
-    def _started(self, deadline: float) -> bool:
-        """Start the process on ``self.port``: True once it answers ``/readyz``, False
-        (it has exited) when another process has the port."""
-        written = self.log.stat().st_size if self.log.exists() else 0
-        # no warm-up unless asked: each job loads the kernels it uses from numba's cache
-        # (filled by ``tests/conftest.py``); the warm-up itself is tested in TestFirstStart
-        env = {**os.environ, "MESHSERVICE_WORKERS": "2", "MESHSERVICE_WARMUP": "0", **self.env}
-        self.proc = subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                self.module,
-                *(["serve"] if self.module == "service" else []),
-                "--port",
-                str(self.port),
-                "--data-dir",
-                str(self.data_dir),
-            ],
-            cwd=ROOT,
-            env=env,
-            stdout=open(self.log, "ab"),
-            stderr=subprocess.STDOUT,
-        )
+        self.spawn(deadline)
         # one client for the whole poll: each httpx.get builds an SSL context (~30 ms of
         # CPU), ten times a second for every server a test starts
         with httpx.Client(timeout=1) as probe:
             while time.monotonic() < deadline:
                 if self.proc.poll() is not None:
-                    with open(self.log, "rb") as f:  # what this process wrote
-                        f.seek(written)
-                        said = f.read().decode(errors="replace")
-                    if "address already in use" in said:
-                        return False
-                    raise RuntimeError(f"server exited: {said[-2000:]}")
+                    raise RuntimeError(f"server exited: {self.log.read_text()[-2000:]}")
                 try:
-                    answered = probe.get(self.url + "/readyz").status_code == 200
+                    if probe.get(self.url + "/readyz").status_code == 200:
+                        return self
                 except httpx.HTTPError:
-                    answered = False
-                if answered:
-                    if _listens(self.proc.pid, self.port):
-                        return True
-                    self.stop(signal.SIGKILL)  # another process answered: it will not bind
-                    return False
+                    pass
                 time.sleep(0.1)
         self.stop(signal.SIGKILL)  # never leave a server behind that no test will stop
         raise RuntimeError(f"server did not start: {self.log.read_text()[-2000:]}")
+
+    def spawn(self, deadline: float | None = None) -> subprocess.Popen:
+        """Start the process; return it once it listens on ``self.port`` itself.
+
+        ``_free_port`` lets the port go before the server binds it, and another process
+        may take it meanwhile (a server of another xdist worker or of another run on the
+        machine). This server then exited unable to bind while the other one answered on
+        its URL, and the test talked to that server until its own test stopped it. So
+        nothing is asked of the port before this process listens on it, and a server
+        whose port is taken starts again on another.
+        """
+        if deadline is None:
+            deadline = time.monotonic() + 120
+        # no warm-up unless asked: each job loads the kernels it uses from numba's cache
+        # (filled by ``tests/conftest.py``); the warm-up itself is tested in TestFirstStart
+        env = {**os.environ, "MESHSERVICE_WORKERS": "2", "MESHSERVICE_WARMUP": "0", **self.env}
+        while True:
+            written = self.log.stat().st_size if self.log.exists() else 0
+            self.proc = subprocess.Popen(
+                [
+                    sys.executable,
+                    "-m",
+                    self.module,
+                    *(["serve"] if self.module == "service" else []),
+                    "--port",
+                    str(self.port),
+                    "--data-dir",
+                    str(self.data_dir),
+                ],
+                cwd=ROOT,
+                env=env,
+                stdout=open(self.log, "ab"),
+                stderr=subprocess.STDOUT,
+            )
+            while not _listens(self.proc.pid, self.port):
+                if self.proc.poll() is not None:
+                    with open(self.log, "rb") as f:  # what this process wrote
+                        f.seek(written)
+                        said = f.read().decode(errors="replace")
+                    if "address already in use" not in said:
+                        raise RuntimeError(f"server exited: {said[-2000:]}")
+                    break
+                if time.monotonic() > deadline:
+                    self.stop(signal.SIGKILL)  # never leave a server behind
+                    raise RuntimeError(f"server never listened: {self.log.read_text()[-2000:]}")
+                time.sleep(0.05)
+            else:
+                return self.proc
+            self.port = _free_port()
 
     @property
     def url(self) -> str:

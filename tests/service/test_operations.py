@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import signal
 import subprocess
 import sys
@@ -182,23 +181,8 @@ class TestFirstStart:
     @pytest.mark.kernels  # the fork server warms every kernel up
     def test_port_answers_while_warming_and_queued_jobs_run_when_ready(self, tmp_path):
         """The port opens before the fork server is warm; a job submitted then waits and runs."""
-        server = LiveServer(tmp_path / "data")
-        env = {**os.environ, "MESHSERVICE_WORKERS": "1", "MESHSERVICE_WARMUP": "1"}
-        server.proc = subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                server.module,
-                "--port",
-                str(server.port),
-                "--data-dir",
-                str(server.data_dir),
-            ],
-            cwd=ROOT,
-            env=env,
-            stdout=open(server.log, "ab"),
-            stderr=subprocess.STDOUT,
-        )
+        server = LiveServer(tmp_path / "data", MESHSERVICE_WORKERS="1", MESHSERVICE_WARMUP="1")
+        server.spawn()
         try:
             warming, job = [], None
             deadline = time.monotonic() + 120
