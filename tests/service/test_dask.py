@@ -100,6 +100,8 @@ class Cluster:
             if scheduler.poll() is None:
                 return self
             self.stop()
+            # a scheduler that exits for another reason would otherwise restart forever
+            assert time.monotonic() < deadline, (self.logs / "scheduler.log").read_text()[-2000:]
             self.procs = []
             self.port = _free_port()
 
