@@ -62,6 +62,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.mesh import quality
+from meshcore.mesh.topology import group_slots
 
 __all__ = ["fewer_defects"]
 
@@ -330,9 +331,8 @@ def fewer_defects(P, tri, nb, w, w_merge, mate, depth: int = 4, rounds: int = 4)
 
     before = defect()
     roots = np.flatnonzero(on_boundary & (cnt > ideal))
-    order = np.argsort(tri.ravel(), kind="stable")
+    order, vptr = group_slots(tri.ravel(), n)  # each vertex's triangles
     vtri = order // 3
-    vptr = np.searchsorted(tri.ravel()[order], np.arange(n + 1)).astype(np.int64)
     merged, moved = _fewer_defects_kernel(
         tri, nb, w, w_merge, mate, cnt, ideal, roots, vptr, vtri, depth, rounds
     )
