@@ -268,9 +268,9 @@ def _fewer_defects_kernel(tri, nb, w, w_merge, mate, cnt, ideal, roots, vptr, vt
                 if not found or d0 + d >= 0:
                     _pair(tri, nb, mate, cnt, t, s, 1)
                     continue
-                npath = _apply(tri, nb, mate, cnt, node_parent, node_flip, path, t, x, partner)
+                _apply(tri, nb, mate, cnt, node_parent, node_flip, path, t, x, partner)
                 merged += int(partner >= 0)
-                moved += 1
+                moved += 1  # (t, s) unpaired: a re-paired vertex, flips or none
                 applied += 1
         if not applied:
             break
