@@ -10,6 +10,7 @@ at the offending field, ring or vertex.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 
@@ -62,3 +63,25 @@ class Cancelled(MeshcoreError):
     """Raised by a progress callback to stop the computation."""
 
     code = "cancelled"
+
+
+def positive_parameter(value, name: str, upper: float | None = None) -> float | None:
+    """``value`` as a float (None stays None), refused unless a finite number above 0 (and
+    at most ``upper``): an :class:`InputError` ``bad_parameter`` at ``(name,)``. The one
+    check of the meshers' positive bounds (``size``, ``max_area``, ``max_volume``, ...)."""
+    if value is None:
+        return None
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise InputError(
+            f"{name} must be a number, got {value!r}", loc=(name,), code="bad_parameter"
+        ) from None
+    if not math.isfinite(x) or x <= 0.0 or (upper is not None and x > upper):
+        bound = f" and at most {upper:g}" if upper is not None else ""
+        raise InputError(
+            f"{name} must be a finite number above 0{bound}, got {value!r}",
+            loc=(name,),
+            code="bad_parameter",
+        )
+    return x

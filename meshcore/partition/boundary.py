@@ -36,7 +36,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from meshcore.domain.planar import Domain, parse_size_field
-from meshcore.errors import InputError
+from meshcore.errors import InputError, positive_parameter
 
 __all__ = ["BoundaryResampling", "SizeMap", "resample_boundary", "size_map"]
 
@@ -75,24 +75,6 @@ class SizeMap:
         )
 
 
-def _positive(value, name: str) -> float | None:
-    if value is None:
-        return None
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(
-            f"{name} must be a number, got {value!r}", loc=(name,), code="bad_parameter"
-        ) from None
-    if not math.isfinite(x) or x <= 0.0:
-        raise InputError(
-            f"{name} must be a finite number above 0, got {value!r}",
-            loc=(name,),
-            code="bad_parameter",
-        )
-    return x
-
-
 def size_map(domain: Domain, size=None, size_field=None) -> SizeMap:
     """The control space ``h(x)`` of Remark 8.10 from ``size`` and/or ``size_field``.
 
@@ -118,7 +100,7 @@ def size_map(domain: Domain, size=None, size_field=None) -> SizeMap:
     ----------
     Methods text Remark 8.10.
     """
-    size = _positive(size, "size")
+    size = positive_parameter(size, "size")
     if size_field is None:
         if size is None:
             raise InputError("give size or size_field", loc=("size",), code="missing_size")

@@ -117,10 +117,10 @@ from meshcore.domain.surface import (
     parse_surface,
     shell_volume,
 )
-from meshcore.errors import AlgorithmError, InputError, MeshcoreError
+from meshcore.errors import AlgorithmError, InputError, MeshcoreError, positive_parameter
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh, quality
-from meshcore.partition.boundary import SizeMap, _positive
+from meshcore.partition.boundary import SizeMap
 from meshcore.partition.recursive import PartitionResult, partition_polygon
 from meshcore.tets import tetrahedralize
 
@@ -561,7 +561,7 @@ def recursive_partition_3d(
             loc=("strategy",),
             code="bad_parameter",
         )
-    size = _positive(size, "size")
+    size = positive_parameter(size, "size")
     sizes = _Sizes(size, size_field)
     if (s.shell_depth % 2 == 1).any():
         raise InputError(

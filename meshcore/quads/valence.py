@@ -62,6 +62,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.mesh import quality
+from meshcore.mesh.topology import group_slots
 
 __all__ = ["fewer_defects"]
 
@@ -267,9 +268,9 @@ def _fewer_defects_kernel(tri, nb, w, w_merge, mate, cnt, ideal, roots, vptr, vt
                 if not found or d0 + d >= 0:
                     _pair(tri, nb, mate, cnt, t, s, 1)
                     continue
-                npath = _apply(tri, nb, mate, cnt, node_parent, node_flip, path, t, x, partner)
+                _apply(tri, nb, mate, cnt, node_parent, node_flip, path, t, x, partner)
                 merged += int(partner >= 0)
-                moved += 1
+                moved += 1  # (t, s) unpaired: a re-paired vertex, flips or none
                 applied += 1
         if not applied:
             break
@@ -330,9 +331,8 @@ def fewer_defects(P, tri, nb, w, w_merge, mate, depth: int = 4, rounds: int = 4)
 
     before = defect()
     roots = np.flatnonzero(on_boundary & (cnt > ideal))
-    order = np.argsort(tri.ravel(), kind="stable")
+    order, vptr = group_slots(tri.ravel(), n)  # each vertex's triangles
     vtri = order // 3
-    vptr = np.searchsorted(tri.ravel()[order], np.arange(n + 1)).astype(np.int64)
     merged, moved = _fewer_defects_kernel(
         tri, nb, w, w_merge, mate, cnt, ideal, roots, vptr, vtri, depth, rounds
     )

@@ -187,7 +187,7 @@ from meshcore.delaunay.recovery3d import (
 )
 from meshcore.delaunay.regions3d import RegionLabels, fresh_rows, regions
 from meshcore.domain.surface import as_surface
-from meshcore.errors import AlgorithmError, InputError
+from meshcore.errors import AlgorithmError, InputError, positive_parameter
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.limits import MIN_RADIUS_EDGE
 from meshcore.mesh import CellBlock, Mesh
@@ -200,7 +200,7 @@ from meshcore.tets.angles import (
 )
 from meshcore.tets.keep import flip_slivers, lift_surface_points
 from meshcore.tets.seeding import far_facets, seed_facets
-from meshcore.tets.sizing import SizeField3d, _positive
+from meshcore.tets.sizing import SizeField3d
 
 __all__ = [
     "TetrahedralizationResult",
@@ -1109,7 +1109,7 @@ def _cone(b: SurfaceRecovery, region_count: int) -> tuple[np.ndarray, np.ndarray
 
 
 def _criteria_checked(max_radius_edge, min_dihedral, max_volume, size):
-    mre = _positive("max_radius_edge", max_radius_edge)
+    mre = positive_parameter(max_radius_edge, "max_radius_edge")
     if mre is not None and mre < MIN_RADIUS_EDGE:
         raise InputError(
             f"max_radius_edge must be at least {MIN_RADIUS_EDGE} (no tetrahedralization "
@@ -1119,9 +1119,9 @@ def _criteria_checked(max_radius_edge, min_dihedral, max_volume, size):
         )
     return (
         mre,
-        _positive("min_dihedral", min_dihedral, 70.0),
-        _positive("max_volume", max_volume),
-        _positive("size", size),
+        positive_parameter(min_dihedral, "min_dihedral", 70.0),
+        positive_parameter(max_volume, "max_volume"),
+        positive_parameter(size, "size"),
     )
 
 

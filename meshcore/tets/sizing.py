@@ -28,7 +28,7 @@ from scipy.spatial import cKDTree
 from meshcore.delaunay.kernel3d import delaunay3d
 from meshcore.domain.planar import parse_size_field
 from meshcore.domain.surface import as_surface
-from meshcore.errors import InputError
+from meshcore.errors import InputError, positive_parameter
 from meshcore.geometry.predicates import WORK_SIZE
 from meshcore.geometry.predicates3d import orient3d_filtered
 
@@ -89,7 +89,10 @@ def estimated_tetrahedra(surface, *, size=None, max_volume=None, size_field=None
         at its name).
     """
     surf = as_surface(surface)
-    size, max_volume = _positive("size", size), _positive("max_volume", max_volume)
+    size, max_volume = (
+        positive_parameter(size, "size"),
+        positive_parameter(max_volume, "max_volume"),
+    )
     alone = {}  # the tetrahedron volume each given bound asks for alone
     if size is not None:
         alone["size"] = _regular_volume(size)
@@ -120,25 +123,6 @@ def _mean_volume(sizes: np.ndarray) -> float:
     """The harmonic mean of the volumes of regular tetrahedra of edges ``sizes``."""
     with np.errstate(divide="ignore"):  # 1 / 0 where size**3 underflows: 0 in _count
         return 1.0 / float(np.mean(1.0 / _regular_volume(sizes)))
-
-
-def _positive(name: str, value, upper: float | None = None) -> float | None:
-    """``value`` as a float (None stays None), refused unless a finite number above 0 (and at
-    most ``upper``): ``bad_parameter`` at ``name``."""
-    if value is None:
-        return None
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        x = math.nan
-    if not math.isfinite(x) or x <= 0 or (upper is not None and x > upper):
-        rng = f"in (0, {upper}]" if upper is not None else "above 0"
-        raise InputError(
-            f"{name} must be a finite number {rng}, got {value!r}",
-            loc=(name,),
-            code="bad_parameter",
-        )
-    return x
 
 
 def _regular_volume(size):

@@ -115,7 +115,7 @@ from meshcore.delaunay import cdt
 from meshcore.delaunay.admissible import admissible_segments, circles_of, located_in_domain
 from meshcore.delaunay.kernel2d import delaunay
 from meshcore.domain.planar import Domain, as_domain, parse_size_field
-from meshcore.errors import AlgorithmError, InputError
+from meshcore.errors import AlgorithmError, InputError, positive_parameter
 from meshcore.geometry.predicates import WORK_SIZE
 from meshcore.limits import MAX_MIN_ANGLE
 from meshcore.mesh import CellBlock, Mesh
@@ -251,30 +251,6 @@ class TriangulationResult:
 
 
 # ---------------------------------------------------------------------------
-# Parameter checks
-# ---------------------------------------------------------------------------
-
-
-def _positive(value, name: str, upper: float | None = None) -> float | None:
-    if value is None:
-        return None
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(
-            f"{name} must be a number, got {value!r}", loc=(name,), code="bad_parameter"
-        ) from None
-    if not math.isfinite(x) or x <= 0.0 or (upper is not None and x > upper):
-        bound = f" and at most {upper:g}" if upper is not None else ""
-        raise InputError(
-            f"{name} must be a finite number above 0{bound}, got {value!r}",
-            loc=(name,),
-            code="bad_parameter",
-        )
-    return x
-
-
-# ---------------------------------------------------------------------------
 # Sizing: the control space
 # ---------------------------------------------------------------------------
 
@@ -353,8 +329,8 @@ def estimated_triangles(domain, *, max_area=None, size=None, size_field=None) ->
         As :func:`triangulate` for the same arguments.
     """
     dom = as_domain(domain)
-    max_area = _positive(max_area, "max_area")
-    size = _positive(size, "size")
+    max_area = positive_parameter(max_area, "max_area")
+    size = positive_parameter(size, "size")
     fp = fv = None
     if size_field is not None:
         fp, fv = parse_size_field(size_field)
@@ -902,9 +878,9 @@ def triangulate(
             progress(fraction, message)
 
     dom = as_domain(domain)
-    min_angle = _positive(min_angle, "min_angle", MAX_MIN_ANGLE)
-    max_area = _positive(max_area, "max_area")
-    size = _positive(size, "size")
+    min_angle = positive_parameter(min_angle, "min_angle", MAX_MIN_ANGLE)
+    max_area = positive_parameter(max_area, "max_area")
+    size = positive_parameter(size, "size")
     field_pts = field_vals = None
     if size_field is not None:
         field_pts, field_vals = parse_size_field(size_field)
