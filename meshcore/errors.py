@@ -73,6 +73,8 @@ def positive_parameter(value, name: str, upper: float | None = None) -> float | 
         return None
     try:
         x = float(value)
+    except OverflowError:  # an int beyond float64: not finite, refused below
+        x = math.inf
     except (TypeError, ValueError):
         raise InputError(
             f"{name} must be a number, got {value!r}", loc=(name,), code="bad_parameter"
