@@ -396,7 +396,7 @@ def run_in_child(
     child = (spares.take() if spares is not None else None) or _fork(ctx)
     child.jobs += 1
     proc, receiver = child.proc, child.answers
-    answered = reuse = False
+    answered = None  # the answer's kind: "ok" or "error"
     owed = spares is not None  # a spare in its place unless it goes back (one fill)
 
     def gone() -> None:
@@ -429,18 +429,16 @@ def run_in_child(
                 break
             if kind == "progress":
                 progress(*payload)
-            elif kind == "ok":
-                answered = True
-                reuse = owed  # small and not its last job: it may take another
+                continue
+            answered = kind
+            if kind == "ok":
                 return payload[0]
-            else:
-                answered = True
-                raise JobFailed(payload[0])
+            raise JobFailed(payload[0])
         proc.join(5)
         log.warning("job %s: process died with exit code %s", task.job_id, proc.exitcode)
         raise JobFailed(death_problem(proc.exitcode))
     finally:
-        if reuse:
+        if answered == "ok" and owed:  # small and not its last job: it may take another
             spares.give_back(child)
         else:
             gone()
