@@ -83,15 +83,17 @@ class TetrahedralizeParams(MethodParams):
     )
 
     def check(self) -> None:
+        from meshcore.domain.planar import parse_size_field
         from meshcore.tets.sizing import MAX_TETRAHEDRA, SizeField3d, estimated_tetrahedra
 
         super().check()
         surface = self.surface.to_surface()
-        field = None  # a bad field is refused here, located
-        if self.size_field is not None:
-            field = SizeField3d(self.size_field)
-        if self.empty or self.keep_boundary:
-            return  # no interior refinement to the bounds
+        if self.empty or self.keep_boundary:  # no interior refinement to the bounds
+            if self.size_field is not None:  # a bad field is refused all the same, located
+                parse_size_field(self.size_field, dim=3)  # (not interpolated: no Delaunay)
+            return
+        # a bad field is refused here, located
+        field = SizeField3d(self.size_field) if self.size_field is not None else None
         check_resolution(surface.points, self.size, ("size",))
         estimate = estimated_tetrahedra(
             surface, size=self.size, max_volume=self.max_volume, size_field=field
