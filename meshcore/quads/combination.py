@@ -166,7 +166,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.domain.planar import Domain, parse_domain, parse_size_field
-from meshcore.errors import AlgorithmError, InputError
+from meshcore.errors import AlgorithmError, InputError, positive_parameter
 from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
@@ -1073,6 +1073,7 @@ def combine(
     ----------
     §8.4 (module docstring).
     """
+    size = positive_parameter(size, "size")  # before the size tries multiply it
     retry = (
         domain is not None
         and size is not None
@@ -1208,12 +1209,6 @@ def _combine(
         raise InputError("min_quality must be in [0, 1]", loc=("min_quality",), code="bad_value")
     if corner_least is not None and not (0.0 <= corner_least <= 1.0):
         raise InputError("corner_least must be in [0, 1]", loc=("corner_least",), code="bad_value")
-    if size is not None and not (math.isfinite(size) and size > 0):
-        raise InputError(
-            f"size must be a finite number above 0, got {size!r}",
-            loc=("size",),
-            code="bad_parameter",
-        )
     if twice_size and (domain is None or not all_quad):
         raise InputError(
             "twice_size meshes a domain at twice the size for all_quad: it needs domain input "
