@@ -1205,10 +1205,8 @@ def _combine(
     pattern = _choose(pattern, "pattern", PATTERNS)
     if (mesh is None) == (domain is None):
         raise InputError("give either mesh or domain", loc=("mesh",), code="conflicting_parameters")
-    if not (0.0 <= min_quality <= 1.0):
-        raise InputError("min_quality must be in [0, 1]", loc=("min_quality",), code="bad_value")
-    if corner_least is not None and not (0.0 <= corner_least <= 1.0):
-        raise InputError("corner_least must be in [0, 1]", loc=("corner_least",), code="bad_value")
+    min_quality = _fraction(min_quality, "min_quality")
+    corner_least = None if corner_least is None else _fraction(corner_least, "corner_least")
     if twice_size and (domain is None or not all_quad):
         raise InputError(
             "twice_size meshes a domain at twice the size for all_quad: it needs domain input "
@@ -1372,6 +1370,18 @@ def _combine(
         operators=ops,
         stats=stats,
     )
+
+
+def _fraction(value, name: str) -> float:
+    """``value`` as a float in [0, 1], else an :class:`InputError` ``bad_value`` at
+    ``(name,)`` (a non-number too: a library caller's string is not a TypeError)."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if not 0.0 <= x <= 1.0:
+        raise InputError(f"{name} must be in [0, 1]", loc=(name,), code="bad_value")
+    return x
 
 
 def _mixed_passes(mesh: Mesh) -> tuple[int, int]:
