@@ -166,7 +166,7 @@ import numpy as np
 from numba import njit
 
 from meshcore.domain.planar import Domain, parse_domain, parse_size_field
-from meshcore.errors import AlgorithmError, InputError
+from meshcore.errors import AlgorithmError, InputError, positive_parameter
 from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
@@ -1073,6 +1073,7 @@ def combine(
     ----------
     §8.4 (module docstring).
     """
+    size = positive_parameter(size, "size")  # before the size tries multiply it
     retry = (
         domain is not None
         and size is not None
@@ -1204,16 +1205,8 @@ def _combine(
     pattern = _choose(pattern, "pattern", PATTERNS)
     if (mesh is None) == (domain is None):
         raise InputError("give either mesh or domain", loc=("mesh",), code="conflicting_parameters")
-    if not (0.0 <= min_quality <= 1.0):
-        raise InputError("min_quality must be in [0, 1]", loc=("min_quality",), code="bad_value")
-    if corner_least is not None and not (0.0 <= corner_least <= 1.0):
-        raise InputError("corner_least must be in [0, 1]", loc=("corner_least",), code="bad_value")
-    if size is not None and not (math.isfinite(size) and size > 0):
-        raise InputError(
-            f"size must be a finite number above 0, got {size!r}",
-            loc=("size",),
-            code="bad_parameter",
-        )
+    min_quality = _fraction(min_quality, "min_quality")
+    corner_least = None if corner_least is None else _fraction(corner_least, "corner_least")
     if twice_size and (domain is None or not all_quad):
         raise InputError(
             "twice_size meshes a domain at twice the size for all_quad: it needs domain input "
@@ -1377,6 +1370,18 @@ def _combine(
         operators=ops,
         stats=stats,
     )
+
+
+def _fraction(value, name: str) -> float:
+    """``value`` as a float in [0, 1], else an :class:`InputError` ``bad_value`` at
+    ``(name,)`` (a non-number too: a library caller's string is not a TypeError)."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if not 0.0 <= x <= 1.0:
+        raise InputError(f"{name} must be in [0, 1]", loc=(name,), code="bad_value")
+    return x
 
 
 def _mixed_passes(mesh: Mesh) -> tuple[int, int]:

@@ -34,6 +34,7 @@ from meshcore.partition import SizeMap, partition_polygon
 from meshcore.partition.recursive import FALLBACK_SCALE
 from meshcore.quads import paving_kernel as pk
 from meshcore.quads.paving_templates import template
+from meshcore.quads.splitting import _edge_keys as _cell_edge_keys
 from meshcore.quads.vertex_moves import _incidence
 
 _MIN_Q = 0.1  # least quality (8.4) of a quad laid in a row or a closure
@@ -62,7 +63,8 @@ def _angles(P: np.ndarray, f: np.ndarray) -> np.ndarray:
 
 
 def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
-    """Undirected key of each segment (a, b) among n points."""
+    """Undirected key of each segment (a, b) among n points (the fronts' edges, without
+    ``np.roll``; a cell's edges: :func:`_cell_edge_keys`)."""
     return np.minimum(a, b) * n + np.maximum(a, b)
 
 
@@ -207,8 +209,7 @@ def _coarse_split(P: np.ndarray, loop: np.ndarray, sizes: SizeMap, strategy: str
             continue
         N = len(Q)
         key = _edge_keys(coarse, _succ(coarse), N)
-        e = np.stack([tri, np.roll(tri, -1, axis=1)], axis=2).reshape(-1, 2)
-        ekey = _edge_keys(e[:, 0], e[:, 1], N)
+        ekey = _cell_edge_keys(tri, N).ravel()
         ukey, inv = unique_ints(ekey, return_inverse=True)
         mid = np.full(len(ukey), -1, np.int64)
         on = isin_ints(ukey, key)
@@ -295,7 +296,7 @@ class _Pool:
         rows = rows[live[rows]]  # the live quads at its points
         q = self.quads[rows]
         key = _edge_keys(loop, _succ(loop), n)
-        qk = _edge_keys(q.ravel(), np.roll(q, -1, axis=1).ravel(), n).reshape(-1, 4)
+        qk = _cell_edge_keys(q, n)
         take = rows[isin_ints(qk, key).any(axis=1)]
         if not len(take):
             return None

@@ -27,6 +27,10 @@ from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import CONVEX_PROOF, WORK_SIZE, orient2d_filtered
 from meshcore.partition.smoothing import boundary_points, quad_q
 
+# :func:`_colors` gives colours 0 .. MOST_COLORS (a vertex whose neighbours hold all of
+# 0 .. MOST_COLORS - 1 takes MOST_COLORS), so :func:`_smooth_order` counts MOST_COLORS + 1.
+MOST_COLORS = 64
+
 
 @njit(cache=True)
 def _incidence(C, alive, n):
@@ -204,7 +208,7 @@ def _colors(C, ptr, cells, movable):
     """
     n = ptr.shape[0] - 1
     color = np.full(n, -1, np.int64)
-    seen = np.full(64, -1, np.int64)
+    seen = np.full(MOST_COLORS, -1, np.int64)
     for v in range(n):
         if not movable[v]:
             continue
@@ -212,10 +216,10 @@ def _colors(C, ptr, cells, movable):
             c = cells[j]
             for s in range(4):
                 u = C[c, s]
-                if u >= 0 and color[u] >= 0 and color[u] < 64:
+                if u >= 0 and color[u] >= 0 and color[u] < MOST_COLORS:
                     seen[color[u]] = v
         k = 0
-        while k < 64 and seen[k] == v:
+        while k < MOST_COLORS and seen[k] == v:
             k += 1
         color[v] = k
     return color
@@ -236,13 +240,13 @@ def _smooth_order(C, q, ptr, cells, interior, deg, below):
                     movable[v] = True
                     break
     color = _colors(C, ptr, cells, movable)
-    start = np.zeros(66, np.int64)
+    start = np.zeros(MOST_COLORS + 2, np.int64)
     for v in range(n):
         if color[v] >= 0:
             start[color[v] + 1] += 1
-    for k in range(65):
+    for k in range(MOST_COLORS + 1):
         start[k + 1] += start[k]
-    order = np.empty(start[65], np.int64)
+    order = np.empty(start[MOST_COLORS + 1], np.int64)
     for v in range(n):
         if color[v] >= 0:
             order[start[color[v]]] = v
