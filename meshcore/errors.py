@@ -65,20 +65,27 @@ class Cancelled(MeshcoreError):
     code = "cancelled"
 
 
+def as_number(value, name: str) -> float:
+    """``value`` as a float, or an :class:`InputError` ``bad_parameter`` at ``(name,)``
+    where ``float`` refuses it (NaN and infinities pass, an integer beyond float64 is an
+    infinity: the callers say how they differ)."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
+    except (TypeError, ValueError):
+        raise InputError(
+            f"{name} must be a number, got {value!r}", loc=(name,), code="bad_parameter"
+        ) from None
+
+
 def positive_parameter(value, name: str, upper: float | None = None) -> float | None:
     """``value`` as a float (None stays None), refused unless a finite number above 0 (and
     at most ``upper``): an :class:`InputError` ``bad_parameter`` at ``(name,)``. The one
     check of the meshers' positive bounds (``size``, ``max_area``, ``max_volume``, ...)."""
     if value is None:
         return None
-    try:
-        x = float(value)
-    except OverflowError:  # an int beyond float64: not finite, refused below
-        x = math.inf
-    except (TypeError, ValueError):
-        raise InputError(
-            f"{name} must be a number, got {value!r}", loc=(name,), code="bad_parameter"
-        ) from None
+    x = as_number(value, name)
     if not math.isfinite(x) or x <= 0.0 or (upper is not None and x > upper):
         bound = f" and at most {upper:g}" if upper is not None else ""
         raise InputError(

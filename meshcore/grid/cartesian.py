@@ -116,7 +116,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from meshcore.domain.planar import Domain, parse_domain, ray_parity
-from meshcore.errors import AlgorithmError, InputError
+from meshcore.errors import AlgorithmError, InputError, as_number
 from meshcore.geometry.constructions import point_segment_distance
 from meshcore.geometry.predicates import orient2d
 from meshcore.grid.band import outline_loops
@@ -178,12 +178,7 @@ class GridResult:
 
 
 def _number(value, name: str) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(
-            f"{name} must be a number, got {value!r}", loc=(name,), code="bad_parameter"
-        ) from None
+    x = as_number(value, name)
     if not math.isfinite(x):
         raise InputError(f"{name} must be finite, got {value!r}", loc=(name,), code="non_finite")
     return x

@@ -39,7 +39,7 @@ from meshcore.delaunay.recovery3d import (
     SurfaceRecovery,
     member,
 )
-from meshcore.mesh.tetstore import N_ROWS, CellStore
+from meshcore.mesh.tetstore import N_ROWS, CellStore, face_key
 from meshcore.mesh.topology import group_slots
 from meshcore.tets.improve import NK, OUT_OF_POINTS, OUT_OF_ROWS, improve_passes
 from meshcore.tets.refinement import _least_dihedral
@@ -199,9 +199,7 @@ def _zone_rim(T, bad, n):
             a, b, c = T[t, TET_FACES[j, 0]], T[t, TET_FACES[j, 1]], T[t, TET_FACES[j, 2]]
             if mark[a] or mark[b] or mark[c]:
                 continue
-            lo = min(min(a, b), c)
-            hi = max(max(a, b), c)
-            keys[k] = (lo * NK + (a + b + c - lo - hi)) * NK + hi
+            keys[k] = face_key(a, b, c, NK)
             k += 1
     return zone, keys[:k]
 
