@@ -25,6 +25,16 @@ __all__ = ["insertion_order"]
 _HILBERT_BITS = 16
 
 
+@njit(cache=True, inline="always")
+def _invert_or_exchange(x0, xi, q, p):
+    """One step of AxesToTranspose for axis i: invert x0's low bits (below
+    ``q``) when xi has bit ``q``, else exchange those bits between x0 and xi."""
+    if xi & q:
+        return x0 ^ p, xi
+    t = (x0 ^ xi) & p
+    return x0 ^ t, xi ^ t
+
+
 @njit(cache=True)
 def _hilbert3(x, y, z, nbits):
     """Hilbert index of integer coordinates (Skilling's AxesToTranspose)."""
@@ -34,18 +44,8 @@ def _hilbert3(x, y, z, nbits):
         p = q - 1
         if X0 & q:
             X0 ^= p
-        if X1 & q:
-            X0 ^= p
-        else:
-            t = (X0 ^ X1) & p
-            X0 ^= t
-            X1 ^= t
-        if X2 & q:
-            X0 ^= p
-        else:
-            t = (X0 ^ X2) & p
-            X0 ^= t
-            X2 ^= t
+        X0, X1 = _invert_or_exchange(X0, X1, q, p)
+        X0, X2 = _invert_or_exchange(X0, X2, q, p)
         q >>= 1
     X1 ^= X0
     X2 ^= X1
