@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
-from numba.cpython.unsafe.numbers import trailing_zeros
 
+from meshcore.delaunay.brio import brio_round, brio_rounds
 from meshcore.geometry.ordering import radix_argsort
 
 __all__ = ["insertion_order"]
@@ -82,11 +82,7 @@ def _brio_hilbert_keys(pts, nbits, salt):
         extent = 1.0
     side = (1 << nbits) - 1
     scale = side / extent
-    rounds = 0
-    m = n
-    while m > 64:
-        m >>= 1
-        rounds += 1
+    rounds = brio_rounds(n)
     keys = np.empty(n, np.int64)
     curve = np.empty(n, np.int64)
     for i in range(n):
@@ -94,13 +90,7 @@ def _brio_hilbert_keys(pts, nbits, salt):
         hy = min(max(int((pts[i, 1] - lo[1]) * scale), 0), side)
         hz = min(max(int((pts[i, 2] - lo[2]) * scale), 0), side)
         d = _hilbert3(hx, hy, hz, nbits)
-        # splitmix64 of the index: a reproducible fair coin sequence.
-        z = np.uint64(i + salt) + np.uint64(0x9E3779B97F4A7C15)
-        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-        z = z ^ (z >> np.uint64(31))
-        # The number of trailing zero bits (64 for z = 0), at most ``rounds``.
-        r = rounds - min(np.int64(trailing_zeros(z)), rounds)
+        r = brio_round(i + salt, rounds)
         curve[i] = d
         if r % 2 == 1:
             d = (1 << (3 * nbits)) - 1 - d
