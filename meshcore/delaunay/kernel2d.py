@@ -63,8 +63,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
-from numba.cpython.unsafe.numbers import trailing_zeros
 
+from meshcore.delaunay.brio import brio_round, brio_rounds
 from meshcore.delaunay.prefetch import prefetch
 from meshcore.errors import InputError
 from meshcore.geometry.expansions import two_product, two_sum
@@ -172,11 +172,7 @@ def _brio_hilbert_keys(pts, factor, nbits):
     scale = side / extent
     # Rounds: the last round holds about half the points, the one before a
     # quarter, ...; the first round gathers the smallest 2**-rounds fraction.
-    rounds = 0
-    m = n
-    while m > 64:
-        m >>= 1
-        rounds += 1
+    rounds = brio_rounds(n)
     rnd = np.empty(n, np.int64)
     curve = np.empty(n, np.int64)
     head = nbits % 4
@@ -206,13 +202,7 @@ def _brio_hilbert_keys(pts, factor, nbits):
             e = _HILBERT_TABLE[(state << 8) | (((hx >> lvl) & 15) << 4) | ((hy >> lvl) & 15)]
             d = (d << 8) | (e & 255)
             state = e >> 8
-        # splitmix64 of the index: a reproducible fair coin sequence.
-        z = np.uint64(i) + np.uint64(0x9E3779B97F4A7C15)
-        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-        z = z ^ (z >> np.uint64(31))
-        # The number of trailing zero bits (64 for z = 0), at most ``rounds``.
-        rnd[i] = rounds - min(trailing_zeros(z), rounds)
+        rnd[i] = brio_round(i, rounds)
         curve[i] = d
     return rnd, curve, rounds + 1
 

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
-from numba.cpython.unsafe.numbers import trailing_zeros
 
+from meshcore.delaunay.brio import brio_round, brio_rounds
 from meshcore.geometry.ordering import radix_argsort
 
 __all__ = ["insertion_order"]
@@ -23,6 +23,16 @@ __all__ = ["insertion_order"]
 # Most bits per axis of the Hilbert grid: 3 * 16 bits of curve index under
 # the round number, all in a non-negative int64.
 _HILBERT_BITS = 16
+
+
+@njit(cache=True, inline="always")
+def _invert_or_exchange(x0, xi, q, p):
+    """One step of AxesToTranspose for axis i: invert x0's low bits (below
+    ``q``) when xi has bit ``q``, else exchange those bits between x0 and xi."""
+    if xi & q:
+        return x0 ^ p, xi
+    t = (x0 ^ xi) & p
+    return x0 ^ t, xi ^ t
 
 
 @njit(cache=True)
@@ -34,18 +44,8 @@ def _hilbert3(x, y, z, nbits):
         p = q - 1
         if X0 & q:
             X0 ^= p
-        if X1 & q:
-            X0 ^= p
-        else:
-            t = (X0 ^ X1) & p
-            X0 ^= t
-            X1 ^= t
-        if X2 & q:
-            X0 ^= p
-        else:
-            t = (X0 ^ X2) & p
-            X0 ^= t
-            X2 ^= t
+        X0, X1 = _invert_or_exchange(X0, X1, q, p)
+        X0, X2 = _invert_or_exchange(X0, X2, q, p)
         q >>= 1
     X1 ^= X0
     X2 ^= X1
@@ -82,11 +82,7 @@ def _brio_hilbert_keys(pts, nbits, salt):
         extent = 1.0
     side = (1 << nbits) - 1
     scale = side / extent
-    rounds = 0
-    m = n
-    while m > 64:
-        m >>= 1
-        rounds += 1
+    rounds = brio_rounds(n)
     keys = np.empty(n, np.int64)
     curve = np.empty(n, np.int64)
     for i in range(n):
@@ -94,13 +90,7 @@ def _brio_hilbert_keys(pts, nbits, salt):
         hy = min(max(int((pts[i, 1] - lo[1]) * scale), 0), side)
         hz = min(max(int((pts[i, 2] - lo[2]) * scale), 0), side)
         d = _hilbert3(hx, hy, hz, nbits)
-        # splitmix64 of the index: a reproducible fair coin sequence.
-        z = np.uint64(i + salt) + np.uint64(0x9E3779B97F4A7C15)
-        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-        z = z ^ (z >> np.uint64(31))
-        # The number of trailing zero bits (64 for z = 0), at most ``rounds``.
-        r = rounds - min(np.int64(trailing_zeros(z)), rounds)
+        r = brio_round(i + salt, rounds)
         curve[i] = d
         if r % 2 == 1:
             d = (1 << (3 * nbits)) - 1 - d
