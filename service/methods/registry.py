@@ -47,6 +47,7 @@ METHOD_CODE = (
     "meshcore.delaunay",
     "meshcore.delaunay.admissible",
     "meshcore.delaunay.admissible3d",
+    "meshcore.domain.planar",
     "meshcore.grid.cartesian",
     "meshcore.grid.patterns",
     "meshcore.grid.superposition",
