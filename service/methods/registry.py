@@ -47,7 +47,6 @@ METHOD_CODE = (
     "meshcore.delaunay",
     "meshcore.delaunay.admissible",
     "meshcore.delaunay.admissible3d",
-    "meshcore.domain.planar",
     "meshcore.grid.cartesian",
     "meshcore.grid.patterns",
     "meshcore.grid.superposition",

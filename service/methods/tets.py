@@ -17,6 +17,7 @@ from typing import Annotated
 import numpy as np
 from pydantic import Field
 
+from meshcore.domain.planar import parse_size_field
 from meshcore.errors import InputError
 from meshcore.limits import MIN_RADIUS_EDGE
 from meshcore.mesh import quality
@@ -83,7 +84,6 @@ class TetrahedralizeParams(MethodParams):
     )
 
     def check(self) -> None:
-        from meshcore.domain.planar import parse_size_field
         from meshcore.tets.sizing import MAX_TETRAHEDRA, SizeField3d, estimated_tetrahedra
 
         super().check()
