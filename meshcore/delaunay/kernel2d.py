@@ -1154,6 +1154,33 @@ class IncrementalDelaunay:
         self._n = n + k
         return None
 
+    def insertion_arrays(self, extra: int) -> tuple:
+        """Room for ``extra`` more points, and the arrays a compiled caller in
+        this package inserts them with, one call of :func:`_insert_range`
+        per point (``pts, V, A, stack, vt, hint, state, work, order, slot,
+        log``): it writes the point's scaled coordinates at slot ``n``
+        (its own index, as are ``order`` and ``slot`` there), its walk
+        start's slot in ``hint``, and then tells :meth:`grown_to`."""
+        self._reserve(extra)
+        return (
+            self._pts,
+            self._V,
+            self._A,
+            self._stack,
+            self._vt,
+            self._hint,
+            self._state,
+            self._work,
+            self._order,
+            self._slot,
+            self._log,
+        )
+
+    def grown_to(self, n: int) -> None:
+        """The points a compiled caller inserted (:meth:`insertion_arrays`)
+        are now ``n`` in all."""
+        self._n = n
+
     def rings(self) -> tuple[np.ndarray, np.ndarray]:
         """``(start, ring)``: the neighbours of the ``i``-th point of the last
         :meth:`insert` right after it went in are ``ring[start[i]:start[i + 1]]``
