@@ -8,21 +8,23 @@ arrays, for the triangulator) split the offending segments until it is, and
 :func:`make_admissible` also returns the "empty" Delaunay triangulation of
 the domain (§9.4.1: no vertex inside, only boundary points).
 
-Algorithm (§9.1.4), in rounds, each one vectorized over the segments it
-splits:
+Algorithm (§9.1.4), one missing piece at a time:
 
 1. Triangulate the input points with :func:`meshcore.delaunay.kernel2d.delaunay`
    (our exact kernel) and look every segment up among its edges (a
    compiled, linear-time scan of the vertex adjacency). Stop when all are
-   there. Otherwise the rounds go on in one
-   :class:`~meshcore.delaunay.kernel2d.IncrementalDelaunay`: each round
-   inserts its split points (the same triangles as triangulating anew: the
-   kernel's ties depend only on the point set) and finds the pieces that
-   are no longer edges from what each insertion logged: a new piece is
-   missing when its later end went in without the other end among its
-   neighbours, an older one when an insertion removed it (flipped it away:
-   an edge once removed comes back only at an insertion of one of its
-   ends). The last triangulation is made anew from the final
+   there. Otherwise the missing segments go on a work stack, and one
+   compiled loop (:func:`~meshcore.delaunay.admissible_loop._split_loop`)
+   takes them one at a time: a piece that is an edge by now is dropped;
+   any other is split (steps 2 and 3), its split point inserted into one
+   growing :class:`~meshcore.delaunay.kernel2d.IncrementalDelaunay` (the
+   same triangles as triangulating anew: the kernel's ties depend only on
+   the point set), and the new pieces and the pieces whose edges that
+   insertion removed (read off the insertion's log) are pushed, to be
+   checked next while they are in cache. A piece stops being an edge only
+   when an insertion removes it (an edge once removed comes back only at
+   an insertion of one of its ends), so when the stack is empty every
+   piece is an edge. The last triangulation is made anew from the final
    points when first read, so that it is the one :func:`delaunay` gives.
 2. For each missing segment ``f = AB`` find the point of its closed
    diametral ball (the exact predicate
@@ -43,8 +45,8 @@ segment's line holds no point: the segment lies on a straight run of the
 convex hull, found with :func:`~meshcore.geometry.predicates.orient2d`),
 Case 1 (the open diametral ball holds no point,
 :func:`~meshcore.geometry.predicates.indiametral`), Case 2 otherwise.
-Cases are reported for the input and for the output. Only segments that
-are not Delaunay edges in a round are split, so a Case 2 segment whose
+Cases are reported for the input and for the output. Only pieces that
+are not Delaunay edges when taken are split, so a Case 2 segment whose
 triangle ``fP`` is Delaunay (§9.1.3) stays whole, and Case 0 segments (hull
 edges, and the added points never leave the hull) are never split. A Case 1
 segment stays whole unless added points enter its diametral ball: that
@@ -103,7 +105,10 @@ Choices where the text leaves freedom
   safe bound, else the bound, and from then on each missing piece of the
   cluster at ``E`` is split at exactly ``r_E`` from ``E`` (Exercise 9.4's
   "points at a common distance on all edges emanating from A", made lazily
-  so that segments that are Delaunay stay whole). The safe bound is
+  so that segments that are Delaunay stay whole). A piece that needs
+  ``E`` protected waits until the loop's stack is empty; then all such
+  vertices are protected at once (:func:`_protect`), and their pieces go
+  back on the stack. The safe bound is
   :data:`PROTECT_FRACTION` (0.9) times the distance from ``E`` to its
   nearest other point and to its nearest non-incident segment, and
   :data:`SHARE_FRACTION` (0.45) times its shortest cluster segment (so the
@@ -142,54 +147,56 @@ Choices where the text leaves freedom
   minor arc between the segment's ends), protection points are placed on
   the circle at chord distance ``r_A``. The domain is assumed to be sampled
   finely enough that the arcs meet no other segment.
-* **Termination guard.** Rounds stop with
-  :class:`~meshcore.errors.AlgorithmError` after :data:`MAX_ROUNDS` rounds
-  or when the points added exceed :data:`MAX_ADDED_FACTOR` times the input
-  size plus :data:`MAX_ADDED_BASE`, each with its own message: crossing
-  segments (not a planar straight-line graph) get there, and so do valid
-  inputs whose close features need more points than the limit (a random
-  star of 30,000 vertices needs 4.6M).
+* **Which missing piece first.** The last pushed: the pieces a split made
+  or disturbed are checked right after it, so each split sees the points
+  added before it (a split that resolves a neighbour's encroachment saves
+  that neighbour's split). Splitting all missing pieces of a triangulation
+  at once, in rounds, added more points: 603,670 instead of 476,241 on the
+  10,000-vertex star, 9,291 instead of 8,018 at 1,000 vertices.
+* **Termination guard.** The splits stop with
+  :class:`~meshcore.errors.AlgorithmError` when the points added exceed
+  :data:`MAX_ADDED_FACTOR` times the input size plus
+  :data:`MAX_ADDED_BASE`: valid inputs whose close features need more
+  points than the limit get there; crossing segments (not a planar
+  straight-line graph) stop earlier, when a split point lands on a
+  segment or on a point.
 
-Frames and ties. The rounds run in a frame centred on the first input
+Frames and ties. The splits run in a frame centred on the first input
 point when that shift is exact (:func:`_local_origin`): an input moved by an
 exact translation then makes bit-identical constructions and decisions.
 Back in the input's frame, the added points are rounded once more, and the
-rounds continue there until every segment is an edge again (normally no
-round at all): the guarantee is always checked on the returned coordinates.
+splits continue there until every segment is an edge again (normally none
+is missing): the guarantee is always checked on the returned coordinates.
 Projections make right angles, so the output may hold exactly co-circular
 quadrilaterals around a segment; the segment is then an edge of our
 kernel's triangulation (its exact tie-breaking), and a Delaunay code with
 other tie-breaking may need a swap to show it (§9.1.3, footnote 4);
 floating-point codes such as Qhull may take either diagonal.
 
-Cost: a round costs time in the pieces it splits and checks (insertions,
-lens searches, split points and the pieces' bookkeeping in
-compiled code), not in all points, plus one whole triangulation at the
-start and, when it is read, one at the end. Rounds are few on the test
-polygons (2 to 8). A random star of ``n`` vertices (``benchmarks/admissible.py``)
+Cost: time in the pieces split and checked (for each, a turn around
+one end to see whether it is an edge, the widest-angle search, the
+insertion and the bookkeeping, all in the compiled loop), not in all
+points, plus one whole triangulation at the start and, when it is read,
+one at the end. A random star of ``n`` vertices (``benchmarks/admissible.py``)
 is ``n`` spikes about ``2 pi / n`` wide, and the added points grow about as
-``n ** 1.8`` (9,291 at 1,000 vertices, 67,859 at 3,000, 603,670 at 10,000,
-spread evenly along the segments: on the 3,000-vertex star the median
-piece is 11 times its distance to the nearest other segment, the pieces of
-neighbouring segments lining up in rungs). The measurements point to the
-input more than to the rule: Triangle's full conforming Delaunay (``pcD``)
-adds 6 to 11 times more; on a 200-vertex star a greedy pass that drops
-added points one at a time while every segment stays a Delaunay edge drops
-only 9 % of them, and splitting one segment per round instead of all saves
-7 %; the near-end clamp's constants move the count by under 10 %. Two
-"concentric shell" rules at acute ends were tried and add more points
-(3,000-vertex star, 67,859 now): a split at the encroaching point's
-distance from the apex (the two sides of a wedge then split alike) 79,234,
-and Ruppert's power-of-two distances (quarter powers) 121,726. The
-10,000-vertex star takes 146 rounds (each spike's chain of splits is
-sequential) and about 1.7 CPU s (2.0 before the compiled searches and
-insertions prefetched; 2.7 before the insertions logged the edges they
-remove; 5.5 before the searches stopped at the crossed triangles), per
-added point: the insertion about 1 µs (5 walk steps, 12 to 18 in-circle
-tests), the widest-angle search 0.75 (6 to 22 triangles), the pieces'
-bookkeeping, protection radii and Python 1.1, mostly waiting on memory;
-126 s when every round re-triangulated everything. The case counts of
-the result are computed when first read.
+``n ** 1.8`` (8,018 at 1,000 vertices, 56,682 at 3,000, 476,241 at 10,000,
+spread evenly along the segments: the pieces of neighbouring segments line
+up in rungs). The measurements point to the input more than to the rule:
+Triangle's full conforming Delaunay (``pcD``) adds 6 to 11 times more
+(than the rounds' counts); on a 200-vertex star a greedy pass that drops
+added points one at a time while every segment stays a Delaunay edge
+dropped only 9 % of the rounds' points; the near-end clamp's constants
+move the count by under 10 %. Two "concentric shell" rules at acute ends
+were tried (with the rounds) and add more points (3,000-vertex star:
+67,859 then): a split at the encroaching point's distance from the apex
+(the two sides of a wedge then split alike) 79,234, and Ruppert's
+power-of-two distances (quarter powers) 121,726. The 10,000-vertex star
+takes about 0.8 CPU s on a loaded machine (load 7; 85 % in the compiled
+loop, 1.7 µs per added point), where the rounds took 1.5 (146 rounds over
+the missing pieces, 0.85 µs per point for the insertions alone and 0.7
+for the searches of 10,000-piece rounds, whose pieces were far apart in
+memory) and 126 s when every round re-triangulated everything. The case
+counts of the result are computed when first read.
 
 The restricted triangulation (:func:`restricted_triangles`) keeps the
 triangles reached by a flood fill across non-segment edges from the left
@@ -323,7 +330,9 @@ class AdmissibleSegments:
     added : int
         Number of points added (Steiner points).
     rounds : int
-        Triangulation rounds run (the last one finds nothing to split).
+        Passes: the first check of the input, then each run of the compiled
+        loop (it pauses to grow its arrays, to protect acute vertices and to
+        report progress); 1 when the input was admissible.
     protected : (k,) int64
         The acute vertices that were protected (Exercises 9.2-9.4).
     protection_radius : (k,) float64
@@ -331,7 +340,7 @@ class AdmissibleSegments:
         vertex has this length.
     delaunay : Triangulation
         The Delaunay triangulation of :attr:`points` (all of the convex hull),
-        made on first read when the rounds added points.
+        made on first read when points were added.
     """
 
     points: np.ndarray
@@ -387,7 +396,7 @@ class AdmissibleBoundary:
     added : int
         Points added.
     rounds : int
-        Triangulation rounds run.
+        Passes (:attr:`AdmissibleSegments.rounds`).
     protected : (k,) int64
         The acute vertices protected (Exercises 9.2-9.4).
     triangulation : Mesh
@@ -758,7 +767,7 @@ def _protection_bounds(P, S, acute, reach, verts) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------
-# The rounds
+# The splits
 # ---------------------------------------------------------------------------
 
 
@@ -790,8 +799,8 @@ def admissible_segments(
         Per segment, the index of the circle it samples, or -1 (straight).
         Its new points are placed on the circle.
     progress : callable, optional
-        ``progress(fraction, message)`` after each round; it may raise to
-        cancel. The fraction is a heuristic (the number of rounds is not
+        ``progress(fraction, message)`` after each pass; it may raise to
+        cancel. The fraction is a heuristic (the number of passes is not
         known in advance).
     tolerances : Tolerances, optional
 
@@ -809,9 +818,9 @@ def admissible_segments(
         rounding of a segment it does not end (valid in floating point, but
         a split point between them rounds onto the point or onto an end).
     AlgorithmError
-        More than :data:`MAX_ROUNDS` rounds or too many added points (an
-        input that is not a planar straight-line graph), or a segment too
-        short to split in float64.
+        Too many added points (:data:`MAX_ADDED_FACTOR`), segments that
+        cross (not a planar straight-line graph), or a segment too short to
+        split in float64.
 
     References
     ----------
@@ -866,7 +875,7 @@ def admissible_segments(
         _rounds(st, budget, local_circles, tolerances, progress, first=tri)
         # Back to the input's frame: the input points come back exactly; the
         # added ones are rounded, which may (rarely) undo a near tie, so the
-        # rounds go on there until every segment is an edge again.
+        # splits go on there until every segment is an edge again.
         st.P = st.P + origin
         st.P[:n0] = P
         tri = None

@@ -1,16 +1,16 @@
-"""The pieces of the admissible-boundary rounds and their compiled searches (§9.1).
+"""The pieces of the admissible-boundary splits and their compiled searches (§9.1).
 
 :class:`_Pieces` holds the boundary segments cut into pieces (chains of
 subsegments per input segment, their protecting circles, the split points)
-together with the one growing triangulation the rounds insert into
+together with the one growing triangulation the splits insert into
 (:class:`~meshcore.delaunay.kernel2d.IncrementalDelaunay`); the compiled
-functions here search that triangulation: the triangles a segment crosses,
-the vertex of widest angle in a segment's ball (the encroacher of §9.1 whose
-projection splits it), the edges inside a disc; and, on a grid, the pieces
-near each vertex to protect (:func:`_grid_reach`). Split from
-:mod:`meshcore.delaunay.admissible`, which runs the rounds; the names stay
-private to the package but :func:`located_in_domain` (the errors of the
-rounds located in a domain), which that module exports.
+functions here search that triangulation for the edges inside a disc, and,
+on a grid, the pieces near each vertex to protect (:func:`_grid_reach`).
+The loop that splits the pieces is
+:func:`meshcore.delaunay.admissible_loop._split_loop`, run by
+:mod:`meshcore.delaunay.admissible`; the names stay private to the package
+but :func:`located_in_domain` (the errors of the splits located in a
+domain), which that module exports.
 
 References
 ----------
@@ -42,7 +42,7 @@ NEAR_END_FRACTION = 0.5
 NUDGE = 2.0**-20
 #: Split points of two segments that meet this close (times the largest
 #: coordinate magnitude) to an end of one of them: that end is within float64
-#: rounding of the other segment (:meth:`_Pieces.split`).
+#: rounding of the other segment (:meth:`_Pieces.touching`).
 TOUCH = 2.0**-40
 
 __all__: list[str] = []
@@ -385,14 +385,13 @@ def _grown(arr: np.ndarray, size: int) -> np.ndarray:
 
 
 class _Pieces:
-    """The segments during the rounds, by piece id, in growable arrays.
+    """The segments during the splits, by piece id, in growable arrays.
 
     A split keeps the piece's id for its first part and gives each new
-    point the id of the piece that starts there, so a round costs time in
-    the pieces it splits and checks, not in all of them; :meth:`to_state`
-    puts the pieces back in chain order and numbers the added points as
-    the whole-array rounds did (by round, then along the chains), so the
-    output does not depend on this bookkeeping.
+    point the id of the piece that starts there, so a split costs time in
+    the pieces it makes and checks, not in all of them; :meth:`to_state`
+    puts the pieces back in chain order and numbers the added points along
+    the chains, so the output does not depend on this bookkeeping.
     """
 
     _ROW = ("a", "b", "nxt", "src", "circ", "acute", "done", "near")
@@ -437,7 +436,7 @@ class _Pieces:
         self.vstamp = np.zeros(0, np.int64)
         self.counter = np.zeros(1, np.int64)
 
-    # Views of the live rows, as _split_round reads them.
+    # Views of the live rows, as the errors and protections read them.
     @property
     def P(self) -> np.ndarray:
         return self.xy[: self.n]
