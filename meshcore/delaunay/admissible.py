@@ -830,7 +830,7 @@ def admissible_segments(
     m0, n0 = len(S), len(P)
     if circles is None:
         circles = np.zeros((0, 3))
-    circles = np.asarray(circles, dtype=np.float64).reshape(-1, 3)
+    circles = np.ascontiguousarray(circles, dtype=np.float64).reshape(-1, 3)
     if segment_circle is None:
         segment_circle = np.full(m0, -1, dtype=np.int64)
     segment_circle = np.asarray(segment_circle, dtype=np.int64).reshape(-1)
