@@ -1022,8 +1022,8 @@ def _split_until_edges(st, budget, missing, circles, tol, progress) -> None:
         if status == PROTECT:
             rows, vert, dist, nd = deferred
             _protect(pc, rows[:nd], vert[:nd], dist[:nd], scale, tol)
-            stack, sp = np.unique(rows[:nd])[::-1].copy(), len(np.unique(rows[:nd]))
-            deferred = (rows, vert, dist, 0)
+            stack = np.unique(rows[:nd])[::-1].copy()  # back on the stack, the first on top
+            sp, deferred = len(stack), (rows, vert, dist, 0)
         elif status not in (ROOM, TICK):
             _loop_error(pc, status, info, budget, sp + deferred[3])
     pc.to_state(st)
