@@ -31,17 +31,14 @@ The last inputs are the random stars of issue 19 (same recipe, seed 1,
 ``--stars``). A star of ``n`` vertices is ``n`` spikes about ``2 pi / n``
 wide and up to 0.7 long, and a conforming point set must resolve the gaps
 between them, so both sides' counts grow about as ``n ** 1.8``: at 10,000
-vertices ours adds about 604,000 points in 146 rounds, Triangle's ``pcD``
-millions (see the README for this machine's figures).
+vertices ours adds about 476,000 points, Triangle's ``pcD`` millions (see
+the README for this machine's figures).
 
 ``--phases N`` then runs the ``N``-vertex star once more with a CPU timer
-around each phase of the rounds (the compiled searches, the insertions, the
-pieces they removed, read off the insertions' log, the bookkeeping, the
-growth of the arrays) and prints seconds, calls and microseconds per added
-point: where the time goes; then the rounds by size (pieces split), with
-their CPU time and microseconds per piece: whether the many small rounds'
-fixed costs (Python between the compiled calls) or the few large rounds'
-work per piece dominate.
+around each phase (the compiled splitting loop, the protections of acute
+vertices and their searches, the first triangulation, the renumbering of
+the output, the growth of the arrays) and prints seconds, calls and
+microseconds per added point: where the time goes.
 
 Times are CPU seconds (``time.process_time``: this process alone, so a
 loaded machine slows both sides alike), medians of three runs (one run
@@ -160,21 +157,15 @@ def run_triangle(points, segments, holes, repeat=3, switches="pD"):
 
 #: The phases ``--phases`` times: (module, name) of each function wrapped.
 PHASES = (
-    ("admissible", "_widest_angle_points"),
-    ("admissible", "_projection_points"),
-    ("admissible", "_split_points"),
+    ("admissible", "_split_loop"),
+    ("admissible", "_protect"),
     ("admissible", "_segment_reach"),
-    ("pieces", "_split_pieces"),
-    ("pieces", "_missing_pieces"),
+    ("admissible", "delaunay"),
     ("pieces", "_disc_edges"),
-    ("pieces", "_search_order"),
     ("pieces", "_in_chain_order"),
     ("pieces", "_grown"),
     ("incremental", "_reserve"),
-    ("kernel", "_insert_rings"),
 )
-#: Rounds by the number of pieces they split (``--phases``): at least the bound.
-ROUND_SIZES = (10_000, 1_000, 100, 1)
 
 
 def phases(n: int) -> None:
@@ -185,30 +176,10 @@ def phases(n: int) -> None:
     import meshcore.delaunay.admissible_pieces as pieces
     import meshcore.delaunay.kernel2d as kernel
 
-    modules = {
-        "admissible": adm,
-        "pieces": pieces,
-        "kernel": kernel,
-        "incremental": kernel.IncrementalDelaunay,
-    }
+    modules = {"admissible": adm, "pieces": pieces, "incremental": kernel.IncrementalDelaunay}
     spent: Counter = Counter()
     calls: Counter = Counter()
     saved = []
-    starts = []  # (pieces split, CPU time at its start) per round
-
-    def split_round(fn):
-        def wrapper(st, missing, *args):
-            starts.append((len(missing), time.process_time()))
-            return fn(st, missing, *args)
-
-        return wrapper
-
-    def to_state(fn):
-        def wrapper(*args):
-            starts.append((0, time.process_time()))  # the rounds end here
-            return fn(*args)
-
-        return wrapper
 
     def timed(name, fn):
         def wrapper(*args):
@@ -225,10 +196,6 @@ def phases(n: int) -> None:
         fn = getattr(modules[mod], name)
         saved.append((modules[mod], name, fn))
         setattr(modules[mod], name, timed(f"{name} ({mod})" if name == "_reserve" else name, fn))
-    saved.append((adm, "_split_round", adm._split_round))
-    saved.append((pieces._Pieces, "to_state", pieces._Pieces.to_state))
-    adm._split_round = split_round(adm._split_round)
-    pieces._Pieces.to_state = to_state(pieces._Pieces.to_state)
     try:
         points, segments, _ = star(n)
         t = time.process_time()
@@ -237,25 +204,11 @@ def phases(n: int) -> None:
     finally:
         for mod, name, fn in saved:
             setattr(mod, name, fn)
-    print(f"\nphases of star-{n}: {res.added} points added, {res.rounds} rounds, {total:.3f} CPU s")
+    print(f"\nphases of star-{n}: {res.added} points added, {res.rounds} passes, {total:.3f} CPU s")
     print(f"{'phase':<27}{'CPU s':>8}{'calls':>7}{'us/point':>10}")
     for name, sec in [*spent.most_common(), ("(rest: Python)", total - sum(spent.values()))]:
         print(f"{name:<27}{sec:>8.3f}{calls.get(name, 0):>7}{1e6 * sec / res.added:>10.2f}")
     print("\n(_grown and _reserve are the growth of the arrays, numpy copies: Python)")
-    # A round from its split to the next one's (the search for what is
-    # missing included); the last one to the renumbering of the output.
-    times = [b[1] - a[1] for a, b in zip(starts[:-1], starts[1:], strict=True)]
-    starts = starts[:-1]
-    print(f"\n{'pieces split':<16}{'rounds':>7}{'pieces':>9}{'CPU s':>8}{'us/piece':>10}")
-    top = None
-    for bound in ROUND_SIZES:
-        sel = [i for i, (k, _) in enumerate(starts) if k >= bound and (top is None or k < top)]
-        label = f"{bound:,}+" if top is None else f"{bound:,}-{top - 1:,}"
-        top = bound
-        k = sum(starts[i][0] for i in sel)
-        sec = sum(times[i] for i in sel)
-        per = f"{1e6 * sec / k:>10.2f}" if k else f"{'-':>10}"
-        print(f"{label:<16}{len(sel):>7}{k:>9}{sec:>8.3f}{per}")
 
 
 def main() -> None:

@@ -8,21 +8,23 @@ arrays, for the triangulator) split the offending segments until it is, and
 :func:`make_admissible` also returns the "empty" Delaunay triangulation of
 the domain (§9.4.1: no vertex inside, only boundary points).
 
-Algorithm (§9.1.4), in rounds, each one vectorized over the segments it
-splits:
+Algorithm (§9.1.4), one missing piece at a time:
 
 1. Triangulate the input points with :func:`meshcore.delaunay.kernel2d.delaunay`
    (our exact kernel) and look every segment up among its edges (a
    compiled, linear-time scan of the vertex adjacency). Stop when all are
-   there. Otherwise the rounds go on in one
-   :class:`~meshcore.delaunay.kernel2d.IncrementalDelaunay`: each round
-   inserts its split points (the same triangles as triangulating anew: the
-   kernel's ties depend only on the point set) and finds the pieces that
-   are no longer edges from what each insertion logged: a new piece is
-   missing when its later end went in without the other end among its
-   neighbours, an older one when an insertion removed it (flipped it away:
-   an edge once removed comes back only at an insertion of one of its
-   ends). The last triangulation is made anew from the final
+   there. Otherwise the missing segments go on a work stack, and one
+   compiled loop (:func:`~meshcore.delaunay.admissible_loop._split_loop`)
+   takes them one at a time: a piece that is an edge by now is dropped;
+   any other is split (steps 2 and 3), its split point inserted into one
+   growing :class:`~meshcore.delaunay.kernel2d.IncrementalDelaunay` (the
+   same triangles as triangulating anew: the kernel's ties depend only on
+   the point set), and the new pieces and the pieces whose edges that
+   insertion removed (read off the insertion's log) are pushed, to be
+   checked next while they are in cache. A piece stops being an edge only
+   when an insertion removes it (an edge once removed comes back only at
+   an insertion of one of its ends), so when the stack is empty every
+   piece is an edge. The last triangulation is made anew from the final
    points when first read, so that it is the one :func:`delaunay` gives.
 2. For each missing segment ``f = AB`` find the point of its closed
    diametral ball (the exact predicate
@@ -43,8 +45,8 @@ segment's line holds no point: the segment lies on a straight run of the
 convex hull, found with :func:`~meshcore.geometry.predicates.orient2d`),
 Case 1 (the open diametral ball holds no point,
 :func:`~meshcore.geometry.predicates.indiametral`), Case 2 otherwise.
-Cases are reported for the input and for the output. Only segments that
-are not Delaunay edges in a round are split, so a Case 2 segment whose
+Cases are reported for the input and for the output. Only pieces that
+are not Delaunay edges when taken are split, so a Case 2 segment whose
 triangle ``fP`` is Delaunay (§9.1.3) stays whole, and Case 0 segments (hull
 edges, and the added points never leave the hull) are never split. A Case 1
 segment stays whole unless added points enter its diametral ball: that
@@ -103,7 +105,10 @@ Choices where the text leaves freedom
   safe bound, else the bound, and from then on each missing piece of the
   cluster at ``E`` is split at exactly ``r_E`` from ``E`` (Exercise 9.4's
   "points at a common distance on all edges emanating from A", made lazily
-  so that segments that are Delaunay stay whole). The safe bound is
+  so that segments that are Delaunay stay whole). A piece that needs
+  ``E`` protected waits until the loop's stack is empty; then all such
+  vertices are protected at once (:func:`_protect`), and their pieces go
+  back on the stack. The safe bound is
   :data:`PROTECT_FRACTION` (0.9) times the distance from ``E`` to its
   nearest other point and to its nearest non-incident segment, and
   :data:`SHARE_FRACTION` (0.45) times its shortest cluster segment (so the
@@ -142,54 +147,56 @@ Choices where the text leaves freedom
   minor arc between the segment's ends), protection points are placed on
   the circle at chord distance ``r_A``. The domain is assumed to be sampled
   finely enough that the arcs meet no other segment.
-* **Termination guard.** Rounds stop with
-  :class:`~meshcore.errors.AlgorithmError` after :data:`MAX_ROUNDS` rounds
-  or when the points added exceed :data:`MAX_ADDED_FACTOR` times the input
-  size plus :data:`MAX_ADDED_BASE`, each with its own message: crossing
-  segments (not a planar straight-line graph) get there, and so do valid
-  inputs whose close features need more points than the limit (a random
-  star of 30,000 vertices needs 4.6M).
+* **Which missing piece first.** The last pushed: the pieces a split made
+  or disturbed are checked right after it, so each split sees the points
+  added before it (a split that resolves a neighbour's encroachment saves
+  that neighbour's split). Splitting all missing pieces of a triangulation
+  at once, in rounds, added more points: 603,670 instead of 476,241 on the
+  10,000-vertex star, 9,291 instead of 8,018 at 1,000 vertices.
+* **Termination guard.** The splits stop with
+  :class:`~meshcore.errors.AlgorithmError` when the points added exceed
+  :data:`MAX_ADDED_FACTOR` times the input size plus
+  :data:`MAX_ADDED_BASE`: valid inputs whose close features need more
+  points than the limit get there; crossing segments (not a planar
+  straight-line graph) stop earlier, when a split point lands on a
+  segment or on a point.
 
-Frames and ties. The rounds run in a frame centred on the first input
+Frames and ties. The splits run in a frame centred on the first input
 point when that shift is exact (:func:`_local_origin`): an input moved by an
 exact translation then makes bit-identical constructions and decisions.
 Back in the input's frame, the added points are rounded once more, and the
-rounds continue there until every segment is an edge again (normally no
-round at all): the guarantee is always checked on the returned coordinates.
+splits continue there until every segment is an edge again (normally none
+is missing): the guarantee is always checked on the returned coordinates.
 Projections make right angles, so the output may hold exactly co-circular
 quadrilaterals around a segment; the segment is then an edge of our
 kernel's triangulation (its exact tie-breaking), and a Delaunay code with
 other tie-breaking may need a swap to show it (§9.1.3, footnote 4);
 floating-point codes such as Qhull may take either diagonal.
 
-Cost: a round costs time in the pieces it splits and checks (insertions,
-lens searches, split points and the pieces' bookkeeping in
-compiled code), not in all points, plus one whole triangulation at the
-start and, when it is read, one at the end. Rounds are few on the test
-polygons (2 to 8). A random star of ``n`` vertices (``benchmarks/admissible.py``)
+Cost: time in the pieces split and checked (for each, a turn around
+one end to see whether it is an edge, the widest-angle search, the
+insertion and the bookkeeping, all in the compiled loop), not in all
+points, plus one whole triangulation at the start and, when it is read,
+one at the end. A random star of ``n`` vertices (``benchmarks/admissible.py``)
 is ``n`` spikes about ``2 pi / n`` wide, and the added points grow about as
-``n ** 1.8`` (9,291 at 1,000 vertices, 67,859 at 3,000, 603,670 at 10,000,
-spread evenly along the segments: on the 3,000-vertex star the median
-piece is 11 times its distance to the nearest other segment, the pieces of
-neighbouring segments lining up in rungs). The measurements point to the
-input more than to the rule: Triangle's full conforming Delaunay (``pcD``)
-adds 6 to 11 times more; on a 200-vertex star a greedy pass that drops
-added points one at a time while every segment stays a Delaunay edge drops
-only 9 % of them, and splitting one segment per round instead of all saves
-7 %; the near-end clamp's constants move the count by under 10 %. Two
-"concentric shell" rules at acute ends were tried and add more points
-(3,000-vertex star, 67,859 now): a split at the encroaching point's
-distance from the apex (the two sides of a wedge then split alike) 79,234,
-and Ruppert's power-of-two distances (quarter powers) 121,726. The
-10,000-vertex star takes 146 rounds (each spike's chain of splits is
-sequential) and about 1.7 CPU s (2.0 before the compiled searches and
-insertions prefetched; 2.7 before the insertions logged the edges they
-remove; 5.5 before the searches stopped at the crossed triangles), per
-added point: the insertion about 1 µs (5 walk steps, 12 to 18 in-circle
-tests), the widest-angle search 0.75 (6 to 22 triangles), the pieces'
-bookkeeping, protection radii and Python 1.1, mostly waiting on memory;
-126 s when every round re-triangulated everything. The case counts of
-the result are computed when first read.
+``n ** 1.8`` (8,018 at 1,000 vertices, 56,682 at 3,000, 476,241 at 10,000,
+spread evenly along the segments: the pieces of neighbouring segments line
+up in rungs). The measurements point to the input more than to the rule:
+Triangle's full conforming Delaunay (``pcD``) adds 6 to 11 times more
+(than the rounds' counts); on a 200-vertex star a greedy pass that drops
+added points one at a time while every segment stays a Delaunay edge
+dropped only 9 % of the rounds' points; the near-end clamp's constants
+move the count by under 10 %. Two "concentric shell" rules at acute ends
+were tried (with the rounds) and add more points (3,000-vertex star:
+67,859 then): a split at the encroaching point's distance from the apex
+(the two sides of a wedge then split alike) 79,234, and Ruppert's
+power-of-two distances (quarter powers) 121,726. The 10,000-vertex star
+takes about 0.8 CPU s on a loaded machine (load 7; 85 % in the compiled
+loop, 1.7 µs per added point), where the rounds took 1.5 (146 rounds over
+the missing pieces, 0.85 µs per point for the insertions alone and 0.7
+for the searches of 10,000-piece rounds, whose pieces were far apart in
+memory) and 126 s when every round re-triangulated everything. The case
+counts of the result are computed when first read.
 
 The restricted triangulation (:func:`restricted_triangles`) keeps the
 triangles reached by a flood fill across non-segment edges from the left
@@ -216,16 +223,25 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from meshcore.delaunay.admissible_loop import (
+    BAD_SPLIT,
+    BUDGET,
+    DONE,
+    DUPLICATE,
+    ON_SEGMENT,
+    PROTECT,
+    ROOM,
+    TICK,
+    TICK_POINTS,
+    _split_loop,
+)
 from meshcore.delaunay.admissible_pieces import (
     _ball_radii,
     _edge_keys,
     _grid_reach,
     _Pieces,
-    _projection_points,
-    _split_points,
     _State,
     _unresolvable,
-    _widest_angle_points,
     located_in_domain,
 )
 from meshcore.delaunay.kernel2d import (
@@ -258,8 +274,6 @@ Progress = Callable[[float, str], None]
 PROTECT_FRACTION = 0.9
 #: ... and at most this fraction of its shortest acute-cluster segment (below 1/2).
 SHARE_FRACTION = 0.45
-#: At most this many rounds.
-MAX_ROUNDS = 2000
 #: Added points allowed: this factor times (points + segments) of the input ...
 MAX_ADDED_FACTOR = 64
 #: ... plus this many.
@@ -316,7 +330,9 @@ class AdmissibleSegments:
     added : int
         Number of points added (Steiner points).
     rounds : int
-        Triangulation rounds run (the last one finds nothing to split).
+        Passes: the first check of the input, then each run of the compiled
+        loop (it pauses to grow its arrays, to protect acute vertices and to
+        report progress); 1 when the input was admissible.
     protected : (k,) int64
         The acute vertices that were protected (Exercises 9.2-9.4).
     protection_radius : (k,) float64
@@ -324,7 +340,7 @@ class AdmissibleSegments:
         vertex has this length.
     delaunay : Triangulation
         The Delaunay triangulation of :attr:`points` (all of the convex hull),
-        made on first read when the rounds added points.
+        made on first read when points were added.
     """
 
     points: np.ndarray
@@ -380,7 +396,7 @@ class AdmissibleBoundary:
     added : int
         Points added.
     rounds : int
-        Triangulation rounds run.
+        Passes (:attr:`AdmissibleSegments.rounds`).
     protected : (k,) int64
         The acute vertices protected (Exercises 9.2-9.4).
     triangulation : Mesh
@@ -751,73 +767,7 @@ def _protection_bounds(P, S, acute, reach, verts) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------
-# Split points
-# ---------------------------------------------------------------------------
-
-
-def _on_circle(M: np.ndarray, circ: np.ndarray) -> np.ndarray:
-    """Points M moved radially onto their circles (rows of (cx, cy, r))."""
-    c = circ[:, :2]
-    d = M - c
-    norm = np.hypot(d[:, 0], d[:, 1])
-    return c + d * (circ[:, 2] / norm)[:, None]
-
-
-def _protection_on_circle(apex, far, radius, cc) -> np.ndarray:
-    """Protection points of curved segments: on their circles (rows of
-    ``cc``), at chord distance ``radius`` from the apex, toward ``far``."""
-    centre, R = cc[:, :2], cc[:, 2]
-    u = apex - centre
-    u = u * (R / np.hypot(u[:, 0], u[:, 1]))[:, None]
-    w = far - centre
-    turn = np.sign(u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0])
-    phi = 2.0 * np.arcsin(np.minimum(radius / (2.0 * R), 1.0)) * turn
-    cos, sin = np.cos(phi), np.sin(phi)
-    return centre + np.column_stack([cos * u[:, 0] - sin * u[:, 1], sin * u[:, 0] + cos * u[:, 1]])
-
-
-def _choose_encroachers(missing, st: _Pieces, scale, tol):
-    """Per missing piece, the point of its closed diametral ball with the
-    largest angle APB (ties within ``angle_tie``: smallest index), found by
-    :func:`_widest_angle_points` in the rounds' triangulation; and whether
-    it lies on the piece (collinear). The searches go along the chains
-    (:meth:`_Pieces.along`): consecutive ones then meet the same triangles
-    (each choice is independent of the order; 40 % less time on the
-    10,000-vertex star than in piece order)."""
-    seq, sa, sb, radii = st.along(missing, *_enlargement(scale, tol))
-    pts, V, A, vt, order, _ = st.dt.arrays()
-    if len(st.tstamp) < len(V) // 3 or len(st.vstamp) < len(pts):
-        st.tstamp = np.zeros(len(V) // 3, np.int64)
-        st.vstamp = np.zeros(len(pts), np.int64)
-        st.counter[0] = 0
-    choice, on_segment = _widest_angle_points(
-        pts,
-        V,
-        A,
-        vt,
-        order,
-        sa,
-        sb,
-        radii,
-        tol.angle_tie,
-        st.tstamp,
-        st.vstamp,
-        st.counter,
-        st.work,
-    )
-    if (choice < 0).any():
-        i = int(missing[seq[np.flatnonzero(choice < 0)[0]]])
-        raise AlgorithmError(
-            f"piece {i} is not a Delaunay edge yet its closed diametral ball is empty "
-            "(inconsistent predicates)"
-        )
-    out, flat = np.empty_like(choice), np.empty_like(on_segment)
-    out[seq], flat[seq] = choice, on_segment
-    return out, flat
-
-
-# ---------------------------------------------------------------------------
-# The rounds
+# The splits
 # ---------------------------------------------------------------------------
 
 
@@ -849,8 +799,8 @@ def admissible_segments(
         Per segment, the index of the circle it samples, or -1 (straight).
         Its new points are placed on the circle.
     progress : callable, optional
-        ``progress(fraction, message)`` after each round; it may raise to
-        cancel. The fraction is a heuristic (the number of rounds is not
+        ``progress(fraction, message)`` after each pass; it may raise to
+        cancel. The fraction is a heuristic (the number of passes is not
         known in advance).
     tolerances : Tolerances, optional
 
@@ -868,9 +818,9 @@ def admissible_segments(
         rounding of a segment it does not end (valid in floating point, but
         a split point between them rounds onto the point or onto an end).
     AlgorithmError
-        More than :data:`MAX_ROUNDS` rounds or too many added points (an
-        input that is not a planar straight-line graph), or a segment too
-        short to split in float64.
+        Too many added points (:data:`MAX_ADDED_FACTOR`), segments that
+        cross (not a planar straight-line graph), or a segment too short to
+        split in float64.
 
     References
     ----------
@@ -880,7 +830,7 @@ def admissible_segments(
     m0, n0 = len(S), len(P)
     if circles is None:
         circles = np.zeros((0, 3))
-    circles = np.asarray(circles, dtype=np.float64).reshape(-1, 3)
+    circles = np.ascontiguousarray(circles, dtype=np.float64).reshape(-1, 3)
     if segment_circle is None:
         segment_circle = np.full(m0, -1, dtype=np.int64)
     segment_circle = np.asarray(segment_circle, dtype=np.int64).reshape(-1)
@@ -925,7 +875,7 @@ def admissible_segments(
         _rounds(st, budget, local_circles, tolerances, progress, first=tri)
         # Back to the input's frame: the input points come back exactly; the
         # added ones are rounded, which may (rarely) undo a near tie, so the
-        # rounds go on there until every segment is an edge again.
+        # splits go on there until every segment is an edge again.
         st.P = st.P + origin
         st.P[:n0] = P
         tri = None
@@ -975,14 +925,14 @@ class _Budget:
 
 
 def _rounds(st, budget, circles, tol, progress, first=None) -> Triangulation | None:
-    """Rounds of §9.1.4 until every segment is an edge; the last triangulation.
+    """Split until every segment is an edge (§9.1.4); the last triangulation.
 
     The first check runs on a whole triangulation (``first``, or one made
-    here); if segments are missing, the rounds go on incrementally
-    (:func:`_incremental_rounds`) and None is returned: the last
-    triangulation is then made anew from the final points when first read
-    (:attr:`AdmissibleSegments.delaunay`: the one :func:`delaunay` gives;
-    the triangulator does not read it).
+    here); if segments are missing, the splits go on in one growing
+    triangulation (:func:`_split_until_edges`) and None is returned: the
+    last triangulation is then made anew from the final points when first
+    read (:attr:`AdmissibleSegments.delaunay`: the one :func:`delaunay`
+    gives; the triangulator does not read it).
     """
     try:
         tri = first if first is not None else delaunay(st.P)
@@ -993,9 +943,10 @@ def _rounds(st, budget, circles, tol, progress, first=None) -> Triangulation | N
         raise
     budget.rounds += 1
     missing = np.flatnonzero(~_present(tri, st.S))
-    if _report(budget, st, missing, progress):
+    _report(budget, st, missing.size, progress)
+    if missing.size == 0:
         return tri
-    _incremental_rounds(st, budget, missing, circles, tol, progress)
+    _split_until_edges(st, budget, missing, circles, tol, progress)
     return None
 
 
@@ -1019,136 +970,129 @@ def _coinciding(st: _State) -> None:
         )
 
 
-def _report(budget, st, missing, progress) -> bool:
-    """Progress of a round; True when nothing is missing; the guard."""
-    added = len(st.P) - budget.n0
+def _report(budget, st, pending: int, progress) -> None:
+    """Progress after the first check and after each pass of the loop."""
     if progress is not None:
+        added = len(st.P) - budget.n0
         progress(
             budget.rounds / (budget.rounds + 4.0),
-            f"round {budget.rounds}: {missing.size} segment(s) not Delaunay, "
-            f"{added} point(s) added",
+            f"pass {budget.rounds}: {pending} piece(s) to check, {added} point(s) added",
         )
-    if missing.size == 0:
-        return True
-    if added > budget.max_added:
-        raise AlgorithmError(
-            f"no Delaunay-admissible discretization within {budget.max_added} added points "
-            f"(the limit, {MAX_ADDED_FACTOR} x (points + segments) + {MAX_ADDED_BASE}): "
-            f"{added} added in {budget.rounds} rounds, {missing.size} segments still missing; "
-            "the boundary's close features need more points than that"
-        )
-    if budget.rounds >= MAX_ROUNDS:
-        raise AlgorithmError(
-            f"no Delaunay-admissible discretization after {budget.rounds} rounds and "
-            f"{added} added points ({missing.size} segments still missing): "
-            "do segments cross?"
-        )
-    return False
 
 
-def _incremental_rounds(st, budget, missing, circles, tol, progress) -> None:
-    """Split rounds on one triangulation that grows by insertion.
+def _split_until_edges(st, budget, missing, circles, tol, progress) -> None:
+    """Split the missing pieces until every piece is an edge (§9.1.4).
 
-    Each round inserts its split points into the triangulation
+    One triangulation grows by insertion
     (:class:`~meshcore.delaunay.kernel2d.IncrementalDelaunay`: the same
-    triangles as triangulating anew) and finds the pieces that are no
-    longer edges from the neighbours of each inserted point
-    (:meth:`_Pieces.missing`); ball and nearest-point queries walk the triangulation. The
-    decisions are those of whole-array rounds, in time proportional to the
-    pieces split and checked.
+    triangles as triangulating anew) and the compiled loop
+    (:func:`~meshcore.delaunay.admissible_loop._split_loop`) takes the
+    pieces one at a time from a work stack, splits those that are not
+    edges and pushes the new pieces and those the insertions removed. It
+    comes back here to grow its arrays, to report progress, and, when its
+    stack is empty, to protect the acute vertices its deferred pieces wait
+    for (:func:`_protect`); the errors it finds are raised here.
     """
     scale = _scale(st.P)
+    grow, pad = _enlargement(scale, tol)
     pc = _Pieces(st, IncrementalDelaunay(st.P))
+    stack, sp = missing[::-1].astype(np.int64), len(missing)  # the first piece on top
+    deferred = (np.empty(16, np.int64), np.empty(16, np.int64), np.empty(16), 0)
+    n_stop = budget.n0 + budget.max_added
     while True:
-        _split_round(pc, missing, scale, circles, tol, budget.rounds)
+        kernel = pc.dt.insertion_arrays(2)
+        pc.reserve(2, 2)
+        status, stack, sp, deferred, pc.m, pc.n, info = _split_loop(
+            kernel,
+            (pc.a, pc.b, pc.nxt, pc.src, pc.circ, pc.acute, pc.done, pc.near, pc.head, pc.tail),
+            (pc.xy, pc.radius, pc.left, pc.right, pc.beside),
+            (pc.end_start, pc.end_chain, pc.end_side),
+            circles,
+            (stack, sp),
+            deferred,
+            (pc.m, pc.n, pc.n0, n_stop, pc.n + TICK_POINTS),
+            (pc.dt.scale, grow, pad, tol.angle_tie),
+            pc.stamps(),
+        )
+        pc.dt.grown_to(pc.n)
         budget.rounds += 1
-        missing = pc.missing()
-        if _report(budget, pc, missing, progress):
+        _report(budget, pc, sp + deferred[3], progress)
+        if status == DONE:
             break
+        if status == PROTECT:
+            rows, vert, dist, nd = deferred
+            _protect(pc, rows[:nd], vert[:nd], dist[:nd], scale, tol)
+            stack = np.unique(rows[:nd])[::-1].copy()  # back on the stack, the first on top
+            sp, deferred = len(stack), (rows, vert, dist, 0)
+        elif status not in (ROOM, TICK):
+            _loop_error(pc, status, info, budget, sp + deferred[3])
     pc.to_state(st)
 
 
-def _split_round(st: _Pieces, missing, scale, circles, tol, round_no) -> None:
-    """One round of splits of the missing segments (§9.1.4, Exercises 9.2-9.4).
+def _protect(pc: _Pieces, rows, E, x, scale, tol) -> None:
+    """Protection radii of the acute vertices ``E`` (Exercises 9.2-9.4):
+    the deferred pieces ``rows`` had a second projection split near them,
+    at distance ``x``; the chase of Exercise 9.3 may have begun. The
+    radius is the smallest ``x`` at the vertex when that is within the safe
+    bound (:func:`_protection_bounds`), else the bound. The deferred pieces
+    are all the missing ones now (the loop's stack is empty), so the
+    nearest non-incident piece is among them or among the edges near the
+    vertex."""
+    P = pc.P
+    verts, inv = np.unique(E, return_inverse=True)
+    # Nearest other point (a Delaunay neighbour), nearest missing piece,
+    # nearest piece that is an edge (an edge of a triangle meeting the disc
+    # of that radius).
+    reach = pc.dt.nearest_distance(verts)
+    reach = _segment_reach(pc, rows, reach, verts, scale, tol)
+    q, near_rows = pc.edge_pieces_near(verts, reach)
+    if q.size:
+        d = point_segment_distance(P[verts[q]], P[pc.a[near_rows]], P[pc.b[near_rows]])[0]
+        np.minimum.at(reach, q, d)
+    r = _protection_bounds(P, *pc.end_pieces(verts), reach, verts)
+    np.minimum.at(r, inv, x)
+    pc.radius[verts] = r
 
-    Each missing segment gets its projection split point ``M``, nearer its
-    end ``E``. A segment of an acute cluster at ``E`` may be split near
-    ``E`` by projection once; a second time, the chase of Exercise 9.3 may
-    have begun and ``E`` is protected: its radius is fixed, the projection
-    distance ``|EM|`` when that is within the safe bound
-    (:func:`_protection_bounds`), the bound otherwise. From then on every
-    missing piece of its cluster is split at exactly that distance from
-    ``E`` (and gets no projection split that round).
-    """
-    # The missing pieces' own rows: a round costs time in them, not in all.
-    P = st.P
-    enc, on_segment = _choose_encroachers(missing, st, scale, tol)
-    if on_segment.any():
-        _not_planar(st, missing[on_segment][0], enc[on_segment][0])
-    M, near, again = _projection_points(
-        st.xy, st.a, st.b, missing, enc, st.acute, st.done, st.near, st.radius
-    )
-    curved = np.flatnonzero(st.circ[missing] >= 0) if len(circles) else ()
-    if len(curved):
-        M[curved] = _on_circle(M[curved], circles[st.circ[missing[curved]]])
-    if again.any():
-        # A second projection split near the same acute vertex on the same
-        # segment: the chase of Exercise 9.3 may have begun; protect the vertex.
-        rows = np.flatnonzero(again.any(axis=1))
-        E = np.where(near[rows] == 0, st.a[missing[rows]], st.b[missing[rows]])
-        x = np.hypot(M[rows, 0] - P[E, 0], M[rows, 1] - P[E, 1])
-        verts, inv = np.unique(E, return_inverse=True)
-        # Nearest other point (a Delaunay neighbour), nearest missing piece,
-        # nearest piece that is an edge (an edge of a triangle meeting the
-        # disc of that radius).
-        reach = st.dt.nearest_distance(verts)
-        reach = _segment_reach(st, missing, reach, verts, scale, tol)
-        q, near_rows = st.edge_pieces_near(verts, reach)
-        if q.size:
-            d = point_segment_distance(P[verts[q]], P[st.a[near_rows]], P[st.b[near_rows]])[0]
-            np.minimum.at(reach, q, d)
-        r = _protection_bounds(P, *st.end_pieces(verts), reach, verts)
-        np.minimum.at(r, inv, x)
-        st.radius[verts] = r
-    rows, xy, t, protect_side, near_side, near_vertex, bad = _split_points(
-        st.xy, st.a, st.b, missing, M, near, enc, st.acute, st.done, st.radius, st.work
-    )
-    if len(curved):
-        _curved_split_points(st, circles, rows, xy, protect_side, near_vertex, bad)
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        if near_side[i] >= 0:  # a projection that rounds onto an end of the piece
-            x = int(enc[np.searchsorted(missing, rows[i])])
-            e = int(st.a[rows[i]] if near_side[i] == 0 else st.b[rows[i]])
-            if x < st.n0:  # x within rounding of the piece
-                _unresolvable(P, int(st.source[rows[i]]), x)
-            if e < st.n0:  # x, on another segment, within rounding of the end e
-                _unresolvable(P, int(st.src[st.right[x]]), e)
-        a, b = P[st.a[rows[i]]], P[st.b[rows[i]]]
+
+def _loop_error(pc: _Pieces, status, info, budget, pending) -> None:
+    """Raise the error the loop stopped at (``info``: the piece, the points)."""
+    r, x = int(info[0]), int(info[1])
+    P = pc.P
+    if status == BUDGET:
+        added = pc.n - budget.n0
         raise AlgorithmError(
-            f"cannot split the segment from {a.tolist()} to {b.tolist()}: it is too "
-            "short for float64 at that distance from the origin (or segments cross there)"
+            f"no Delaunay-admissible discretization within {budget.max_added} added points "
+            f"(the limit, {MAX_ADDED_FACTOR} x (points + segments) + {MAX_ADDED_BASE}): "
+            f"{added} added, {pending} pieces still to check; "
+            "the boundary's close features need more points than that"
         )
-    # A new point that coincides with another point, new or old (segments
-    # that cross or touch would share it), is found by the insertion.
-    st.split(rows, t, xy, protect_side, near_side, near_vertex, round_no)
-
-
-def _curved_split_points(st: _Pieces, circles, rows, xy, protect_side, near_vertex, bad):
-    """The protection points of curved pieces moved onto their circles
-    (the projections were moved already), and their check redone: every
-    split point must lie strictly inside its piece's diametral ball (so it
-    differs from both ends); this fails only for segments too short for
-    float64 at their distance from the origin."""
-    circ = st.circ[rows]
-    fix = np.flatnonzero((circ >= 0) & (protect_side >= 0))
-    if fix.size:
-        e = near_vertex[fix]
-        f = np.where(protect_side[fix] == 0, st.b[rows[fix]], st.a[rows[fix]])
-        xy[fix] = _protection_on_circle(st.xy[e], st.xy[f], st.radius[e], circles[circ[fix]])
-    curved = np.flatnonzero(circ >= 0)
-    a, b = st.xy[st.a[rows[curved]]], st.xy[st.b[rows[curved]]]
-    bad[curved] = dot2d(a, b, xy[curved]) >= 0
+    if status == ON_SEGMENT:
+        _not_planar(pc, r, x)
+    if status == DUPLICATE:
+        p, last = int(info[2]), int(info[3])
+        if x < pc.n0:
+            _unresolvable(pc.xy, int(pc.src[r]), x)
+        pc.touching(int(pc.src[r]), int(pc.src[pc.right[x]]), x)
+        raise AlgorithmError(
+            f"cannot split the segment from {P[pc.a[r]].tolist()} to {P[pc.b[last]].tolist()}: "
+            f"the split point {P[p].tolist()} is an existing point (do segments cross or touch?)"
+        )
+    if status == BAD_SPLIT:
+        side = int(info[2])
+        if side >= 0:  # a projection that rounds onto an end of the piece
+            e = int(pc.a[r] if side == 0 else pc.b[r])
+            if x < pc.n0:  # x within rounding of the piece
+                _unresolvable(P, int(pc.src[r]), x)
+            if e < pc.n0:  # x, on another segment, within rounding of the end e
+                _unresolvable(P, int(pc.src[pc.right[x]]), e)
+        raise AlgorithmError(
+            f"cannot split the segment from {P[pc.a[r]].tolist()} to {P[pc.b[r]].tolist()}: it "
+            "is too short for float64 at that distance from the origin (or segments cross there)"
+        )
+    raise AlgorithmError(
+        f"piece {r} is not a Delaunay edge yet its closed diametral ball is empty "
+        "(inconsistent predicates)"
+    )
 
 
 def _not_planar(st: _State, row: int, point: int) -> None:

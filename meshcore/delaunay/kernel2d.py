@@ -87,10 +87,6 @@ _MAX_POINTS = 1 << 28  # corners 3 * (2n) must fit the kernel's int32 arrays
 _MIN_SCALED = 2.0**-140
 
 _OK, _DUPLICATE, _COLLINEAR = 0, 1, 2
-#: The incremental insertions' log holds the triples of one point's worst
-#: case (the points so far plus 8) and this many more: thousands of points
-#: per compiled call.
-_LOG_ROOM = 1 << 14
 
 
 @dataclass(frozen=True, eq=False)
@@ -979,55 +975,6 @@ def _corner(V, t, v):
 
 
 @njit(cache=True)
-def _insert_rings(pts, V, A, stack, vt, hint, state, work, order, base, start, stop, log, buf):
-    """Insert points start..stop-1; record each one's neighbours right after
-    it went in (input indices, -1 the vertex at infinity) and the edges its
-    insertion removed (input index pairs; those at infinity left out), from
-    the insertions' log (:func:`_insert_range`). Returns ``(ring_start,
-    gone_start, buf, m, g)``: in CSR form, point ``i``'s neighbours are
-    ``buf[0, ring_start[i]:ring_start[i + 1]]`` and its removed pairs
-    ``buf[1, 2 * gone_start[i]:2 * gone_start[i + 1]]``, of ``m`` and ``g``
-    entries in all; ``buf`` (2, size) is the caller's, kept from call to
-    call (grown here when too short: made anew each call, its fresh pages
-    were a third of the rounds' page faults). The slots from ``base``
-    on are their own indices (inserted points): ``order`` is read only
-    below it (a load at a random place per entry saved)."""
-    k = stop - start
-    ring_start = np.zeros(k + 1, np.int64)
-    gone_start = np.zeros(k + 1, np.int64)
-    m = 0
-    g = 0
-    p = start
-    while p < stop:
-        nlog = _insert_range(pts, V, A, stack, vt, hint, state, work, p, stop, log)
-        if max(m, g) + 2 * nlog > buf.shape[1]:
-            grown = np.empty((2, max(max(m, g) + 2 * nlog, 2 * buf.shape[1])), np.int64)
-            grown[0, :m] = buf[0, :m]
-            grown[1, :g] = buf[1, :g]
-            buf = grown
-        ring = buf[0]
-        gone = buf[1]
-        for j in range(nlog):
-            u = log[3 * j]
-            w = log[3 * j + 1]
-            q = log[3 * j + 2]
-            if q == -3:  # the end of point p's log
-                p += 1
-                ring_start[p - start] = m
-                gone_start[p - start] = g // 2
-                continue
-            ring[m] = q if q >= base else (order[q] if q >= 0 else -1)
-            m += 1
-            if u >= 0 and w >= 0:
-                gone[g] = u if u >= base else order[u]
-                gone[g + 1] = w if w >= base else order[w]
-                g += 2
-        if state[2] != _OK:
-            break
-    return ring_start, gone_start, buf, m, g
-
-
-@njit(cache=True)
 def _nearest_neighbour(pts, V, A, vt, verts):
     """Squared distance from each vertex to its nearest other point: one of
     its Delaunay neighbours (the nearest-neighbour graph is a subgraph of
@@ -1053,7 +1000,7 @@ def _nearest_neighbour(pts, V, A, vt, verts):
 
 
 class IncrementalDelaunay:
-    """The Delaunay triangulation of a growing point set (§9.1.4's rounds).
+    """The Delaunay triangulation of a growing point set (§9.1.4's splits).
 
     Built like :func:`delaunay` from the first points; :meth:`insert` adds
     more, each located by a walk from a given nearby vertex and inserted by
@@ -1062,11 +1009,10 @@ class IncrementalDelaunay:
     :func:`delaunay` gives for the same point set. Points are named by their
     index: the first ones as given, then each inserted batch in order.
 
-    Queries for :mod:`meshcore.delaunay.admissible`: each vertex's nearest
-    other point (:meth:`nearest_distance`), the neighbours each point of the
-    last :meth:`insert` had when it went in (:meth:`rings`) and the edges
-    its insertion removed (:meth:`removed`), both recorded by the insertion
-    itself.
+    For :mod:`meshcore.delaunay.admissible`: each vertex's nearest other
+    point (:meth:`nearest_distance`), and the arrays its compiled loop
+    inserts with, one point at a time, reading the edges each insertion
+    removed from the insertion's own log (:meth:`insertion_arrays`).
 
     Added points must lie in the convex hull of the first ones (split
     points of segments do), so that the power-of-two scale stays valid.
@@ -1085,11 +1031,8 @@ class IncrementalDelaunay:
         self._V, self._A, self._vt = V, A, vt
         self._state, self._work = state, work
         self._stack = np.empty(n + 8, np.int32)
-        self._log = np.empty(3 * (n + _LOG_ROOM), np.int32)
+        self._log = np.empty(3 * (n + 8), np.int32)  # one point's worst case
         self._hint = np.full(n, -1, np.int32)
-        self._buf = np.empty((2, 0), np.int64)  # the rings' and removed edges' room
-        self._rings = (np.zeros(1, np.int64), np.zeros(0, np.int64))
-        self._gone = (np.zeros(1, np.int64), np.zeros(0, np.int64))
 
     def __len__(self) -> int:
         return self._n
@@ -1114,7 +1057,7 @@ class IncrementalDelaunay:
         self._A = grown(self._A, 6 * cap)
         self._vt = grown(self._vt, cap)
         self._stack = np.empty(cap + 8, np.int32)
-        self._log = np.empty(3 * (cap + _LOG_ROOM), np.int32)
+        self._log = np.empty(3 * (cap + 8), np.int32)
         self._hint = grown(self._hint, cap, -1)
 
     def insert(self, xy: np.ndarray, near: np.ndarray) -> tuple[int, int] | None:
@@ -1131,7 +1074,33 @@ class IncrementalDelaunay:
         self._order[n : n + k] = slots
         self._slot[n : n + k] = slots
         self._hint[n : n + k] = self._slot[near]
-        ring_start, gone_start, self._buf, m, g = _insert_rings(
+        _insert_range(
+            self._pts,
+            self._V,
+            self._A,
+            self._stack,
+            self._vt,
+            self._hint,
+            self._state,
+            self._work,
+            n,
+            n + k,
+            None,
+        )
+        if self._state[2] == _DUPLICATE:
+            return int(self._order[self._state[3]]), int(self._order[self._state[4]])
+        self._n = n + k
+        return None
+
+    def insertion_arrays(self, extra: int) -> tuple:
+        """Room for ``extra`` more points, and the arrays a compiled caller in
+        this package inserts them with, one call of :func:`_insert_range`
+        per point (``pts, V, A, stack, vt, hint, state, work, order, slot,
+        log``): it writes the point's scaled coordinates at slot ``n``
+        (its own index, as are ``order`` and ``slot`` there), its walk
+        start's slot in ``hint``, and then tells :meth:`grown_to`."""
+        self._reserve(extra)
+        return (
             self._pts,
             self._V,
             self._A,
@@ -1141,34 +1110,14 @@ class IncrementalDelaunay:
             self._state,
             self._work,
             self._order,
-            self._base,
-            n,
-            n + k,
+            self._slot,
             self._log,
-            self._buf,
         )
-        self._rings = (ring_start, self._buf[0, :m])
-        self._gone = (gone_start, self._buf[1, :g])
-        if self._state[2] == _DUPLICATE:
-            return int(self._order[self._state[3]]), int(self._order[self._state[4]])
-        self._n = n + k
-        return None
 
-    def rings(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(start, ring)``: the neighbours of the ``i``-th point of the last
-        :meth:`insert` right after it went in are ``ring[start[i]:start[i + 1]]``
-        (point indices, in no particular order; -1 the vertex at infinity).
-        Both this and :meth:`removed` are views of room the next
-        :meth:`insert` writes over."""
-        return self._rings
-
-    def removed(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(start, pairs)``: the edges the insertion of the ``i``-th point
-        of the last :meth:`insert` removed are the point index pairs
-        ``pairs[2 * start[i]:2 * start[i + 1]]`` (those at infinity left
-        out). An edge once removed comes back only at an insertion of one
-        of its ends."""
-        return self._gone
+    def grown_to(self, n: int) -> None:
+        """The points a compiled caller inserted (:meth:`insertion_arrays`)
+        are now ``n`` in all."""
+        self._n = n
 
     def nearest_distance(self, verts: np.ndarray) -> np.ndarray:
         """(k,) float64: distance from each vertex to its nearest other point."""

@@ -616,6 +616,20 @@ def test_progress_is_reported_and_may_cancel():
         make_admissible(parse_domain(polygon(star_ring())), progress=stop)
 
 
+def test_pauses_of_the_splitting_loop_change_nothing(monkeypatch):
+    # The compiled loop pauses for progress every TICK_POINTS added points
+    # (and to grow its arrays, to protect vertices): resumed, it makes the
+    # same points and pieces, and reports each pause.
+    ring = star_ring(50, seed=2, r0=0.1)
+    base = admissible_segments(ring, ring_segments(50))
+    monkeypatch.setattr(admissible_mod, "TICK_POINTS", 3)
+    seen = []
+    res = admissible_segments(ring, ring_segments(50), progress=lambda f, m: seen.append(m))
+    np.testing.assert_array_equal(res.points, base.points)
+    np.testing.assert_array_equal(res.segments, base.segments)
+    assert len(seen) == res.rounds >= base.added // 3
+
+
 # ---------------------------------------------------------------------------
 # Random star polygons with holes (hypothesis)
 # ---------------------------------------------------------------------------
