@@ -237,7 +237,6 @@ from meshcore.delaunay.admissible_loop import (
 )
 from meshcore.delaunay.admissible_pieces import (
     _ball_radii,
-    _edge_keys,
     _grid_reach,
     _Pieces,
     _State,
@@ -254,6 +253,7 @@ from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.constructions import point_segment_distance
 from meshcore.geometry.predicates import dot2d, orient2d
 from meshcore.mesh import CellBlock, Mesh
+from meshcore.mesh.topology import edge_keys
 
 __all__ = [
     "AdmissibleBoundary",
@@ -671,7 +671,7 @@ def _validated(points, segments) -> tuple[np.ndarray, np.ndarray]:
         raise InputError(
             f"segment {i} has zero length", loc=("segments", i), code="degenerate_segment"
         )
-    keys = _edge_keys(S[:, 0], S[:, 1], len(P))
+    keys = edge_keys(S[:, 0], S[:, 1], len(P))
     order = np.argsort(keys, kind="stable")
     dup = np.flatnonzero(keys[order][1:] == keys[order][:-1])
     if dup.size:
@@ -1192,7 +1192,7 @@ def restricted_triangles(tri: Triangulation, segments, two_sided=None) -> np.nda
             code="inconsistent_orientation",
         )
     seeds = np.concatenate([left, right[two]])
-    barrier = np.isin(_edge_keys(ea, eb, n), _edge_keys(S[:, 0], S[:, 1], n))
+    barrier = np.isin(edge_keys(ea, eb, n), edge_keys(S[:, 0], S[:, 1], n))
     link = (across >= 0) & ~barrier
     graph = coo_matrix(
         (np.ones(int(link.sum()), dtype=np.int8), (owner[link], across[link])), shape=(nt, nt)

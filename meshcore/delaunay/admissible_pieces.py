@@ -30,7 +30,7 @@ from meshcore.domain.planar import Domain
 from meshcore.errors import InputError
 from meshcore.geometry.constructions import point_segment_distance_2d
 from meshcore.geometry.ordering import radix_sort
-from meshcore.mesh.topology import group_slots
+from meshcore.mesh.topology import edge_keys, group_slots
 
 #: A projection closer than this fraction of ``|EP|`` to the nearer endpoint
 #: ``E`` (``P`` the encroaching point) is too close ...
@@ -46,13 +46,6 @@ NUDGE = 2.0**-20
 TOUCH = 2.0**-40
 
 __all__: list[str] = []
-
-
-def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
-    """Undirected integer key of each edge (a, b)."""
-    lo = np.minimum(a, b)
-    hi = np.maximum(a, b)
-    return lo * np.int64(n) + hi
 
 
 @njit(cache=True, inline="always")
@@ -428,7 +421,7 @@ class _Pieces:
         side = np.repeat([0, 1], m0)
         order, self.end_start = group_slots(ends, n)
         self.end_chain, self.end_side = chain[order], side[order]
-        keys = _edge_keys(S[self.head, 0], S[self.tail, 1], st.n0)
+        keys = edge_keys(S[self.head, 0], S[self.tail, 1], st.n0)
         self.input_chain = np.argsort(keys)
         self.input_keys = keys[self.input_chain]
         # Marks of the compiled searches.
@@ -528,7 +521,7 @@ class _Pieces:
 
     def _input_segment(self, u, w) -> np.ndarray:
         """The chain (input segment) joining input points u and w, or -1."""
-        keys = _edge_keys(u, w, self.n0)
+        keys = edge_keys(u, w, self.n0)
         pos = np.minimum(np.searchsorted(self.input_keys, keys), len(self.input_keys) - 1)
         return np.where(self.input_keys[pos] == keys, self.input_chain[pos], -1)
 

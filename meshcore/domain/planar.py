@@ -1290,6 +1290,37 @@ def as_domain(domain) -> Domain:
     )
 
 
+def _refuse_non_numbers(value, loc: tuple) -> None:
+    """An InputError ``bad_parameter`` at the first entry of ``value`` (nested lists or an
+    array) that is a bool, a string or another non-number where a number is due: numpy
+    would read a bool as 0 or 1 and a numeric string as its number (the service's schema
+    refuses both). A numeric array passes at once; nested lists are scanned entry by
+    entry (a malformed nesting is left to the conversion that follows)."""
+    if isinstance(value, np.ndarray) and value.dtype.kind in "iuf":
+        return
+    try:
+        entries = np.asarray(value, dtype=object)
+    except (TypeError, ValueError):
+        return
+    if not any(map(_not_a_number, set(map(type, entries.flat)))):  # the usual case, fast
+        return
+    i = next(i for i, x in enumerate(entries.flat) if _not_a_number(type(x)))
+    where = tuple(int(k) for k in np.unravel_index(i, entries.shape))
+    raise InputError(
+        f"{'.'.join(loc)} entry {list(where)} is not a number ({entries.flat[i]!r})",
+        loc=(*loc, *where),
+        code="bad_parameter",
+    )
+
+
+def _not_a_number(kind: type) -> bool:
+    """Entries of this type are refused where a number is due (a sequence is a malformed
+    nesting, left to the conversion)."""
+    return issubclass(kind, bool | np.bool_ | str | bytes | np.complexfloating) or not (
+        issubclass(kind, Real | np.number | Sequence | np.ndarray)
+    )
+
+
 def parse_size_field(size_field, dim: int = 2) -> tuple[np.ndarray, np.ndarray]:
     """A size field's sample points and sizes, checked (the control space of Remark 8.10).
 
@@ -1327,6 +1358,8 @@ def parse_size_field(size_field, dim: int = 2) -> tuple[np.ndarray, np.ndarray]:
                 loc=("size_field",),
                 code="bad_parameter",
             ) from None
+    _refuse_non_numbers(pts, ("size_field", "points"))
+    _refuse_non_numbers(vals, ("size_field", "values"))
     try:
         pts = np.asarray(pts, dtype=np.float64)
         vals = np.asarray(vals, dtype=np.float64)

@@ -73,7 +73,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from meshcore.domain.planar import ray_parity
-from meshcore.errors import InputError
+from meshcore.errors import InputError, positive_parameter
 from meshcore.geometry.predicates import orient2d
 from meshcore.grid.band import fill_gap
 from meshcore.grid.cartesian import GridResult, Progress, _as_domain, _choice, _number
@@ -95,21 +95,21 @@ def _bad(msg: str, *loc) -> InputError:
 def _point(value, *loc) -> np.ndarray:
     try:
         p = np.asarray(value, dtype=np.float64).reshape(2)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int beyond float64
         raise _bad(f"{loc[-1]} must be [x, y], got {value!r}", *loc) from None
     if not np.isfinite(p).all():
         raise InputError(f"{loc[-1]} must be finite", loc=("pattern", *loc), code="non_finite")
     return p
 
 
-def _positive(value, *loc) -> float:
+def _size(spec: Mapping) -> float:
+    """A hexagon pattern's size: ``positive_parameter``'s check, under ``pattern``."""
+    if spec.get("size") is None:
+        raise _bad("a hexagon pattern needs its size", "size")
     try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise _bad(f"{loc[-1]} must be a number, got {value!r}", *loc) from None
-    if not math.isfinite(x) or x <= 0:
-        raise _bad(f"{loc[-1]} must be a finite number above 0, got {value!r}", *loc)
-    return x
+        return positive_parameter(spec["size"], "size")
+    except InputError as exc:
+        raise exc.prefixed("pattern") from None
 
 
 def _count(n: float) -> None:
@@ -126,7 +126,7 @@ def _vectors(spec: Mapping) -> tuple[np.ndarray, int]:
     vec = spec.get("vectors")
     try:
         V = np.asarray(vec, dtype=np.float64).reshape(2, 2)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise _bad(f"vectors must be two [x, y] vectors, got {vec!r}", "vectors") from None
     if not np.isfinite(V).all():
         raise InputError("vectors must be finite", loc=("pattern", "vectors"), code="non_finite")
@@ -163,7 +163,7 @@ def _parallelogram(spec: Mapping, P: np.ndarray):
 
 
 def _hexagon(spec: Mapping, P: np.ndarray):
-    s = _positive(spec.get("size"), "size")
+    s = _size(spec)
     o = _point(spec["origin"], "origin") if spec.get("origin") is not None else P.min(axis=0)
     u, v = np.array([s, 0.0]), np.array([0.5 * s, 0.5 * math.sqrt(3.0) * s])
     M = np.column_stack([u, v])
@@ -193,7 +193,7 @@ def _radii(spec: Mapping) -> np.ndarray | None:
         return None
     try:
         r = np.asarray(spec["radii"], dtype=np.float64).ravel()
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise _bad("radii must be a list of numbers", "radii") from None
     if len(r) < 2:
         raise _bad("radii needs at least two circles", "radii")
@@ -221,7 +221,7 @@ def check_pattern(spec: Mapping) -> None:
     if kind == "parallelogram":
         _vectors(spec)
     elif kind == "hexagon":
-        _positive(spec.get("size"), "size")
+        _size(spec)
     else:
         _radii(spec)
 

@@ -476,7 +476,7 @@ def _triangulated_band(dom: Domain, h: float, layers: int, smooth: bool):
 def _fallback_estimate(dom: Domain) -> tuple[int, int]:
     """The fallback band's estimated triangles, and those the angle bound forces in thin
     parts."""
-    forced = estimated_triangles(dom)
+    forced = estimated_triangles(dom).triangles
     return forced + 2 * len(dom.points), forced
 
 

@@ -40,8 +40,10 @@ import math
 from collections.abc import Callable
 
 import numpy as np
+from numba import njit
 
 from meshcore.errors import InputError
+from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered
 from meshcore.mesh.mesh import CELL_TYPES, Mesh
 from meshcore.mesh.topology import CELL_FACES, as_blocks, conformity
 
@@ -50,6 +52,7 @@ __all__ = [
     "cell_angles",
     "cell_quality",
     "metric_factors",
+    "planar_quad_measures",
     "quad_angles",
     "quad_quality",
     "quad_quality_simplified",
@@ -375,18 +378,83 @@ def _quad(P: list[_V]):
 
 
 def _quad_q(cos: list[np.ndarray], turn: list[np.ndarray]) -> np.ndarray:
-    # Q_P = 1 - |1 - 2 theta / pi| for 0 < theta < pi, i.e. 1 - (2/pi) arcsin|cos theta|:
-    # the least corner has the largest |cos|. A corner turning the wrong way
-    # (theta >= pi) or not at all (theta = 0 or pi) gives 0.
     big = np.abs(cos[0])
     for c in cos[1:]:
         np.maximum(big, np.abs(c), out=big)
-    q = 1.0 - (2.0 / math.pi) * np.arcsin(np.minimum(big, 1.0, out=big))
     bad = turn[0] <= 0
     for t in turn[1:]:
         bad |= t <= 0
+    return _corner_q(big, bad)
+
+
+def _corner_q(big: np.ndarray, bad: np.ndarray) -> np.ndarray:
+    # Q_P = 1 - |1 - 2 theta / pi| for 0 < theta < pi, i.e. 1 - (2/pi) arcsin|cos theta|:
+    # the least corner has the largest |cos| (``big``). A corner turning the wrong way
+    # (theta >= pi) or not at all (theta = 0 or pi: ``bad``) gives 0.
+    q = 1.0 - (2.0 / math.pi) * np.arcsin(np.minimum(big, 1.0, out=big))
     q[bad] = 0.0
     return q
+
+
+@njit(cache=True)
+def _planar_quad_corners(X):
+    """:func:`_quad`'s cosines and turns of planar quads ``X`` (k, 4, 2) (corner
+    coordinates in order), with the same operations (so the same values), in one loop:
+    whether the corners 0 and 2 turn left (exact
+    :func:`~meshcore.geometry.predicates.orient2d_filtered`), the largest ``|cos|`` of
+    the corners 0 and 2 and of all four (NaN as ``np.maximum`` propagates it) and
+    whether a corner's turn is at most 0."""
+    k = X.shape[0]
+    convex = np.empty(k, np.bool_)
+    big2 = np.empty(k)
+    big4 = np.empty(k)
+    bad = np.empty(k, np.bool_)
+    work = np.empty(WORK_SIZE)
+    ex = np.empty(4)
+    ey = np.empty(4)
+    ll = np.empty(4)
+    for i in range(k):
+        for j in range(4):
+            ex[j] = X[i, (j + 1) % 4, 0] - X[i, j, 0]
+            ey[j] = X[i, (j + 1) % 4, 1] - X[i, j, 1]
+            ll[j] = ex[j] * ex[j] + ey[j] * ey[j]
+        b2 = b4 = 0.0
+        turned = False
+        for j in range(4):
+            ax, ay = ex[j], ey[j]
+            bx, by = -ex[(j + 3) % 4], -ey[(j + 3) % 4]
+            den = np.sqrt(ll[j] * ll[(j + 3) % 4])
+            c = abs((ax * bx + ay * by) / den) if den > 0 else 1.0
+            if not c <= b4:  # NaN too
+                b4 = c
+            if j % 2 == 0 and not c <= b2:
+                b2 = c
+            turned |= ax * by - ay * bx <= 0
+        big2[i], big4[i], bad[i] = b2, b4, turned
+        convex[i] = True
+        for j in (0, 2):
+            p, c, n = (j + 3) % 4, j, j + 1
+            o = orient2d_filtered(
+                X[i, p, 0], X[i, p, 1], X[i, c, 0], X[i, c, 1], X[i, n, 0], X[i, n, 1], work
+            )
+            convex[i] &= o > 0
+    return convex, big2, big4, bad
+
+
+def planar_quad_measures(points: np.ndarray, cells: np.ndarray):
+    """Of planar quads ``cells`` (m, 4) over float64 ``points`` (n, 2), without a metric,
+    in one compiled loop: ``(convex, simplified, quality)``, (m,) each: whether the
+    corners 0 and 2 turn left (exact orientation), :func:`quad_quality_simplified` (8.7)
+    and :func:`quad_quality` (8.4), the same values as those functions (which use it for
+    such quads). Unchecked input: for callers that checked it (``combine``'s candidates).
+
+    References
+    ----------
+    §8.4.4, equations (8.4) and (8.7).
+    """
+    X = np.ascontiguousarray(points[cells], dtype=np.float64)
+    convex, big2, big4, bad = _planar_quad_corners(X)
+    return convex, _corner_q(big2, bad), _corner_q(big4, bad)
 
 
 def _reflex(area: np.ndarray, turn: list[np.ndarray], planar: bool) -> list[np.ndarray]:
@@ -576,6 +644,8 @@ def quad_quality(points: np.ndarray, cells: np.ndarray, metric: np.ndarray | Non
     """
     pts, data = _prepare(points, cells, "quad", ("quad",))
     L = metric_factors(metric, pts.shape[1], len(pts))
+    if L is None and pts.shape[1] == 2:
+        return planar_quad_measures(pts, data)[2]
     if L is not None and L.ndim == 3:
         P = _gather(pts, data)
         q = None
@@ -621,6 +691,8 @@ def quad_quality_simplified(points: np.ndarray, cells: np.ndarray, metric=None) 
     """
     pts, data = _prepare(points, cells, "quad", ("quad",))
     L = metric_factors(metric, pts.shape[1], len(pts))
+    if L is None and pts.shape[1] == 2:
+        return planar_quad_measures(pts, data)[1]
     P = _gather(pts, data)
     if L is None or L.ndim == 2:
         mapped = [P if L is None else _gather(pts @ L, data)]

@@ -59,6 +59,7 @@ __all__ = [
     "as_blocks",
     "boundary",
     "conformity",
+    "edge_keys",
     "edges",
     "facets",
     "group_slots",
@@ -271,6 +272,13 @@ def _column_keys(cols: list[np.ndarray], n: int) -> np.ndarray:
 def _facet_keys(nodes: np.ndarray, n: int) -> np.ndarray:
     """:func:`_column_keys` of the rows of ``nodes`` ``(s, k)``."""
     return _column_keys([nodes[:, j] for j in range(nodes.shape[1])], n)
+
+
+def edge_keys(a, b, n: int) -> np.ndarray:
+    """int64 ``min(a, b) * n + max(a, b)``: the key of each undirected edge ``(a, b)`` among
+    ``n`` points (``a``, ``b`` arrays or ints in ``0 .. n-1``), the same whichever way the
+    edge runs, and ordered as the pairs ``(min, max)`` are (n below 2**31)."""
+    return np.minimum(a, b).astype(np.int64, copy=False) * n + np.maximum(a, b)
 
 
 def group_slots(key, n: int | None = None) -> tuple[np.ndarray, np.ndarray]:

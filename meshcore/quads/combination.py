@@ -189,7 +189,6 @@ from meshcore.quads.paths import (
     _pop,
     _push,
     _weight,
-    corner_extremes,
     frontal_kernel,
     heap_kernel,
     stack_kernel,
@@ -1408,17 +1407,13 @@ def _valence_cleanup(P, tri, nb, w, mate, measure, metric, min_quality, inner) -
 
 def _allowed_measured(P, quads, measure: str, metric, flat: float):
     """:func:`_allowed` and :func:`_measure` of the candidates: in the plane without a
-    metric, the cosines and turns of both from one compiled loop
-    (:func:`~meshcore.quads.paths.corner_extremes`) and the arcsines by numpy, the
-    operations of :mod:`meshcore.mesh.quality` (the same values)."""
+    metric, both from :func:`~meshcore.mesh.quality.planar_quad_measures` (one compiled
+    loop; the same values)."""
     if P.shape[1] != 2 or metric is not None:
         return _allowed(P, quads, metric, flat), _measure(P, quads, measure, metric)
-    convex, big2, big4, bad = corner_extremes(P[quads].astype(np.float64, copy=False))
-    corner = 1.0 - (2.0 / math.pi) * np.arcsin(np.minimum(big2, 1.0))
-    corner[bad] = 0.0
+    convex, corner, angle = quality.planar_quad_measures(P, quads)
     if measure == "angle":
-        q = 1.0 - (2.0 / math.pi) * np.arcsin(np.minimum(big4, 1.0))
-        q[bad] = 0.0
+        q = angle
     else:
         q = corner if measure == "simplified" else _measure(P, quads, measure, metric)
     return convex & (corner > flat / 90.0), q

@@ -2,8 +2,7 @@
 step 2): the best-first heap of §8.4.4 (with its binary heap, shared by the
 matching's augmenting search), the stack path of §8.4.2 and the frontal order of
 Remark 8.8, each one compiled sequential kernel (numba) over the dual graph, and
-the 4-cycle swaps that end the matching (``swap_kernel``); and the corner measures of
-the candidate quads (``corner_extremes``).
+the 4-cycle swaps that end the matching (``swap_kernel``).
 
 Each takes the triangles' neighbours ``nb`` (m, 3) (-1 on the boundary) and the
 candidates' weights ``w`` (m, 3) (negative: not allowed), and fills ``mate`` (m,)
@@ -20,55 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from meshcore.geometry.predicates import WORK_SIZE, orient2d_filtered
-
-__all__ = ["corner_extremes", "frontal_kernel", "heap_kernel", "stack_kernel", "swap_kernel"]
-
-
-@njit(cache=True)
-def corner_extremes(X):
-    """Corner measures of planar quads ``X`` (k, 4, 2) (corner coordinates in order),
-    with the operations of :mod:`meshcore.mesh.quality`'s quad measures: whether the
-    corners 0 and 2 turn left (exact :func:`~meshcore.geometry.predicates.orient2d_filtered`),
-    the largest ``|cos|`` of the corners 0 and 2 and of all four (each ``a . b /
-    sqrt(|a|^2 |b|^2)``, 1 where a length is 0, ``a`` the edge out of the corner and
-    ``b`` the reversed edge into it), and whether a corner's turn ``a x b`` is at most 0
-    in floating point. (8.4) and (8.7) are then ``1 - 2 / pi arcsin(min(big, 1))``, 0
-    where a corner does not turn (§8.4.4)."""
-    k = X.shape[0]
-    convex = np.empty(k, np.bool_)
-    big2 = np.empty(k)
-    big4 = np.empty(k)
-    bad = np.empty(k, np.bool_)
-    work = np.empty(WORK_SIZE)
-    ex = np.empty(4)
-    ey = np.empty(4)
-    ll = np.empty(4)
-    for i in range(k):
-        for j in range(4):
-            ex[j] = X[i, (j + 1) % 4, 0] - X[i, j, 0]
-            ey[j] = X[i, (j + 1) % 4, 1] - X[i, j, 1]
-            ll[j] = ex[j] * ex[j] + ey[j] * ey[j]
-        b2 = b4 = 0.0
-        turned = False
-        for j in range(4):
-            ax, ay = ex[j], ey[j]
-            bx, by = -ex[(j + 3) % 4], -ey[(j + 3) % 4]
-            den = np.sqrt(ll[j] * ll[(j + 3) % 4])
-            c = abs((ax * bx + ay * by) / den) if den > 0 else 1.0
-            b4 = max(b4, c)
-            if j % 2 == 0:
-                b2 = max(b2, c)
-            turned |= ax * by - ay * bx <= 0
-        big2[i], big4[i], bad[i] = b2, b4, turned
-        convex[i] = True
-        for j in (0, 2):
-            p, c, n = (j + 3) % 4, j, j + 1
-            o = orient2d_filtered(
-                X[i, p, 0], X[i, p, 1], X[i, c, 0], X[i, c, 1], X[i, n, 0], X[i, n, 1], work
-            )
-            convex[i] &= o > 0
-    return convex, big2, big4, bad
+__all__ = ["frontal_kernel", "heap_kernel", "stack_kernel", "swap_kernel"]
 
 
 @njit(cache=True)

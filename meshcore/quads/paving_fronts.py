@@ -29,12 +29,12 @@ from __future__ import annotations
 import numpy as np
 
 from meshcore.errors import AlgorithmError
-from meshcore.mesh.topology import isin_ints, unique_ints
+from meshcore.mesh.topology import edge_keys, isin_ints, unique_ints
 from meshcore.partition import SizeMap, partition_polygon
 from meshcore.partition.recursive import FALLBACK_SCALE
 from meshcore.quads import paving_kernel as pk
 from meshcore.quads.paving_templates import template
-from meshcore.quads.splitting import _edge_keys as _cell_edge_keys
+from meshcore.quads.splitting import _cell_edge_keys
 from meshcore.quads.vertex_moves import _incidence
 
 _MIN_Q = 0.1  # least quality (8.4) of a quad laid in a row or a closure
@@ -60,12 +60,6 @@ def _angles(P: np.ndarray, f: np.ndarray) -> np.ndarray:
     w = P[nxt] - P[f]
     t = np.arctan2(w[:, 0] * u[:, 1] - w[:, 1] * u[:, 0], np.einsum("ij,ij->i", w, u))
     return np.where(t <= 0, t + 2 * np.pi, t)
-
-
-def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
-    """Undirected key of each segment (a, b) among n points (the fronts' edges, without
-    ``np.roll``; a cell's edges: :func:`_cell_edge_keys`)."""
-    return np.minimum(a, b) * n + np.maximum(a, b)
 
 
 def _chains(fronts: list) -> tuple[np.ndarray, np.ndarray]:
@@ -208,7 +202,7 @@ def _coarse_split(P: np.ndarray, loop: np.ndarray, sizes: SizeMap, strategy: str
         if tri is None:
             continue
         N = len(Q)
-        key = _edge_keys(coarse, _succ(coarse), N)
+        key = edge_keys(coarse, _succ(coarse), N)
         ekey = _cell_edge_keys(tri, N).ravel()
         ukey, inv = unique_ints(ekey, return_inverse=True)
         mid = np.full(len(ukey), -1, np.int64)
@@ -295,7 +289,7 @@ class _Pool:
         rows = unique_ints(np.concatenate([self.rows[at], late]))
         rows = rows[live[rows]]  # the live quads at its points
         q = self.quads[rows]
-        key = _edge_keys(loop, _succ(loop), n)
+        key = edge_keys(loop, _succ(loop), n)
         qk = _cell_edge_keys(q, n)
         take = rows[isin_ints(qk, key).any(axis=1)]
         if not len(take):

@@ -26,7 +26,7 @@ import numpy as np
 
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import quality
-from meshcore.mesh.topology import isin_ints, unique_ints
+from meshcore.mesh.topology import edge_keys, isin_ints, unique_ints
 
 __all__ = ["ladders", "merged_ladders", "split_all"]
 
@@ -41,7 +41,7 @@ def ladders(quads: np.ndarray, boundary: np.ndarray, n: int) -> np.ndarray:
     quads spanning a strip one quad wide (§8.4.2, §8.4.4)."""
     q = np.asarray(quads, np.int64).reshape(-1, 4)
     b = np.asarray(boundary, np.int64).reshape(-1, 2)
-    on = isin_ints(_edge_keys(q, n), _edge_keys(b, n)[:, 0])
+    on = isin_ints(_cell_edge_keys(q, n), _cell_edge_keys(b, n)[:, 0])
     even, odd = on[:, 0] & on[:, 2], on[:, 1] & on[:, 3]
     return (even & ~on[:, 1] & ~on[:, 3]) | (odd & ~on[:, 0] & ~on[:, 2])
 
@@ -72,7 +72,7 @@ def merged_ladders(points, quads, triangles, boundary, n_input: int, longest: fl
     Q = np.asarray(quads, np.int64).reshape(-1, 4).copy()
     n = len(P)
     w = np.flatnonzero(ladders(Q, boundary, n))
-    k = _edge_keys(Q[w], n).ravel()
+    k = _cell_edge_keys(Q[w], n).ravel()
     order = np.argsort(k, kind="stable")
     k = k[order]
     pair = np.flatnonzero(k[1:] == k[:-1])  # a rung of two ladder quads
@@ -120,7 +120,7 @@ def merged_ladders(points, quads, triangles, boundary, n_input: int, longest: fl
     nxt = np.roll(Q, -1, axis=1)
     # the boundary edges again: the edges of one cell, each as its cell runs it
     tri = np.asarray(triangles, np.int64).reshape(-1, 3)
-    ek = np.concatenate([_edge_keys(Q, n).ravel(), _edge_keys(tri, n).ravel()])
+    ek = np.concatenate([_cell_edge_keys(Q, n).ravel(), _cell_edge_keys(tri, n).ravel()])
     _, inv, cnt = unique_ints(ek, return_inverse=True, counts=True)
     single = cnt[inv] == 1
     on = single[: Q.size].reshape(Q.shape)
@@ -177,7 +177,7 @@ def split_all(
         np.asarray(quads, np.int64).reshape(-1, 4),
         np.asarray(triangles, np.int64).reshape(-1, 3),
     ]
-    key = np.concatenate([_edge_keys(c, n).ravel() for c in cells])
+    key = np.concatenate([_cell_edge_keys(c, n).ravel() for c in cells])
     uniq, inv = unique_ints(key, return_inverse=True)
     e0, e1 = uniq // n, uniq % n
     nq, nt = len(cells[0]), len(cells[1])
@@ -226,7 +226,7 @@ def split_all(
     if segments is None:
         return newp, newq, newm
     seg = np.asarray(segments, np.int64).reshape(-1, 2)
-    mid = mid_of[np.searchsorted(uniq, _edge_keys(seg, n)[:, 0])]
+    mid = mid_of[np.searchsorted(uniq, _cell_edge_keys(seg, n)[:, 0])]
     cut = mid >= 0
     newseg = np.concatenate(
         [
@@ -238,11 +238,10 @@ def split_all(
     return newp, newq, newm, newseg
 
 
-def _edge_keys(cells: np.ndarray, n: int) -> np.ndarray:
+def _cell_edge_keys(cells: np.ndarray, n: int) -> np.ndarray:
     """(c, k) int64: the key ``min * n + max`` of each edge ``(i, i + 1)`` of ``(c, k)``
     cells of ``n`` points (an edge's key whichever way a cell runs it)."""
-    nxt = np.roll(cells, -1, axis=1)
-    return np.minimum(cells, nxt) * n + np.maximum(cells, nxt)
+    return edge_keys(cells, np.roll(cells, -1, axis=1), n)
 
 
 def _ladder_split(points, quads, qe, whole, per_edge):

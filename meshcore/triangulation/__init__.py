@@ -6,6 +6,7 @@ is a chain of edges and the angle, area and size bounds hold.
 
 from meshcore.triangulation.refinement import (
     MAX_POINTS,
+    Estimate,
     TriangulationResult,
     check_thinness,
     estimated_triangles,
@@ -14,6 +15,7 @@ from meshcore.triangulation.refinement import (
 
 __all__ = [
     "MAX_POINTS",
+    "Estimate",
     "TriangulationResult",
     "check_thinness",
     "estimated_triangles",

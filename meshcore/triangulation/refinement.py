@@ -106,6 +106,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -123,6 +124,7 @@ from meshcore.triangulation.features import feature_cuts
 
 __all__ = [
     "MAX_POINTS",
+    "Estimate",
     "TriangulationResult",
     "check_thinness",
     "estimated_triangles",
@@ -304,8 +306,19 @@ def _expected_points(domain: Domain, sizing: _Sizing | None) -> int:
     return _ESTIMATE_CAP if math.isnan(points) else int(min(points, _ESTIMATE_CAP))  # 0 * inf
 
 
-def estimated_triangles(domain, *, max_area=None, size=None, size_field=None) -> int:
-    """About how many triangles :func:`triangulate` makes for these sizes.
+class Estimate(NamedTuple):
+    """What :func:`estimated_triangles` says of a request's sizes (as 3D's
+    :class:`meshcore.tets.sizing.Estimate`)."""
+
+    #: About how many triangles the sizes together ask for (at most 2 * 10**18).
+    triangles: int
+    #: The size that alone asks for the most ("size", "max_area" or "size_field"; the first
+    #: of equals in that order), the one to relax; None without sizes.
+    binding: str | None
+
+
+def estimated_triangles(domain, *, max_area=None, size=None, size_field=None) -> Estimate:
+    """About how many triangles :func:`triangulate` makes for these sizes, and which binds.
 
     Parameters
     ----------
@@ -315,13 +328,15 @@ def estimated_triangles(domain, *, max_area=None, size=None, size_field=None) ->
 
     Returns
     -------
-    int
-        Twice the points of an equilateral mesh following the sizes (area /
-        (0.866 h**2); none when no size is given: the mesh then follows the
-        boundary's own spacing) and of those the angle bound forces where the
-        boundary runs close to itself (``0.25 perimeter**2 / area``: a strip of
-        width w and length L needs edges about w long, about L / w points,
-        whatever the size). Meant for refusing runaway requests up front.
+    Estimate
+        ``triangles``: twice the points of an equilateral mesh following the sizes
+        together (area / (0.866 h**2); none when no size is given: the mesh then
+        follows the boundary's own spacing) and of those the angle bound forces where
+        the boundary runs close to itself (``0.25 perimeter**2 / area``: a strip of
+        width w and length L needs edges about w long, about L / w points, whatever
+        the size). ``binding``: the size whose points alone are the most (the field's
+        nearest values over the domain's box alone). Meant for refusing runaway
+        requests up front, naming the size to relax (Remark 8.10's control space).
 
     Raises
     ------
@@ -336,7 +351,17 @@ def estimated_triangles(domain, *, max_area=None, size=None, size_field=None) ->
         fp, fv = parse_size_field(size_field)
     # nearest field values: an estimate needs no triangulation of the field
     sizing = _sizing(dom, size, max_area, fp, fv, linear=False)
-    return 2 * _expected_points(dom, sizing)
+    alone = {  # the points each given size asks for alone
+        name: _sized_points(dom, _sizing(dom, *bounds, linear=False))
+        for name, bounds, given in (
+            ("size", (size, None, None, None), size is not None),
+            ("max_area", (None, max_area, None, None), max_area is not None),
+            ("size_field", (None, None, fp, fv), fp is not None),
+        )
+        if given
+    }
+    binding = max(alone, key=alone.get) if alone else None
+    return Estimate(2 * _expected_points(dom, sizing), binding)
 
 
 def check_thinness(domain, most: int, *, code: str, advice: str) -> None:
@@ -351,7 +376,7 @@ def check_thinness(domain, most: int, *, code: str, advice: str) -> None:
         ``code`` at ``domain``, the message ending with ``advice``.
     """
     dom = as_domain(domain)
-    forced = estimated_triangles(dom)
+    forced = estimated_triangles(dom).triangles
     if forced > most:
         raise InputError(
             f"the domain is so thin (area {dom.area:.3g} for its boundary's length) that "

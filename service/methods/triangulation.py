@@ -127,13 +127,12 @@ class TriangulateParams(MethodParams):
         estimate = estimated_triangles(
             dom, max_area=self.max_area, size=self.size, size_field=field
         )
-        if estimate > MAX_TRIANGLES:
-            name = next(n for n in ("size", "max_area", "size_field") if getattr(self, n))
+        if estimate.triangles > MAX_TRIANGLES:  # some size binds: check_thinness passed
             raise InputError(
-                f"these sizes would make about {estimate:,} triangles on a domain of area "
-                f"{dom.area:.6g}; this service makes at most {MAX_TRIANGLES:,}: "
-                "ask for larger sizes",
-                loc=(name,),
+                f"these sizes would make about {estimate.triangles:,} triangles on a domain of "
+                f"area {dom.area:.6g}; this service makes at most {MAX_TRIANGLES:,}: "
+                f"ask for a larger {estimate.binding}",
+                loc=(estimate.binding,),
                 code="too_many_triangles",
             )
 

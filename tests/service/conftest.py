@@ -8,8 +8,9 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import httpx
 import psutil
@@ -33,6 +34,49 @@ def _listens(pid: int, port: int) -> bool:
     except psutil.Error:  # it has exited
         return False
     return any(c.status == psutil.CONN_LISTEN and c.laddr.port == port for c in sockets)
+
+
+def spawn_listening(
+    command: Callable[[int], list[str]],
+    log: Path,
+    deadline: float,
+    port: int | None = None,
+    **popen: Any,
+) -> tuple[subprocess.Popen, int]:
+    """Start ``command(port)`` with its output appended to ``log``; return the process and
+    the port once that process itself listens on the port.
+
+    ``_free_port`` lets the port go before the process binds it, and another process
+    may take it meanwhile (a server of another xdist worker or of another run on the
+    machine). A server then exited unable to bind while the other one answered on its
+    URL, and the test talked to that server until its own test stopped it. So nothing is
+    asked of the port before this process listens on it, and a process whose port is
+    taken (it exits saying "address already in use", as uvicorn and ``dask scheduler``
+    do) starts again on another. A process that exits otherwise, or does not listen by
+    ``deadline`` (``time.monotonic()``; then killed), raises RuntimeError.
+    """
+    if port is None:
+        port = _free_port()
+    while True:
+        written = log.stat().st_size if log.exists() else 0
+        with open(log, "ab") as out:
+            proc = subprocess.Popen(command(port), stdout=out, stderr=subprocess.STDOUT, **popen)
+        while not _listens(proc.pid, port):
+            if proc.poll() is not None:
+                with open(log, "rb") as f:  # what this process wrote
+                    f.seek(written)
+                    said = f.read().decode(errors="replace")
+                if "address already in use" not in said.lower():
+                    raise RuntimeError(f"exited: {said[-2000:]}")
+                break
+            if time.monotonic() > deadline:
+                proc.kill()  # never leave a process behind
+                proc.wait()
+                raise RuntimeError(f"never listened on {port}: {log.read_text()[-2000:]}")
+            time.sleep(0.05)
+        else:
+            return proc, port
+        port = _free_port()
 
 
 class LiveServer:
@@ -66,53 +110,32 @@ class LiveServer:
         raise RuntimeError(f"server did not start: {self.log.read_text()[-2000:]}")
 
     def spawn(self, deadline: float | None = None) -> subprocess.Popen:
-        """Start the process; return it once it listens on ``self.port`` itself.
-
-        ``_free_port`` lets the port go before the server binds it, and another process
-        may take it meanwhile (a server of another xdist worker or of another run on the
-        machine). This server then exited unable to bind while the other one answered on
-        its URL, and the test talked to that server until its own test stopped it. So
-        nothing is asked of the port before this process listens on it, and a server
-        whose port is taken starts again on another.
-        """
+        """Start the process; return it once it listens on ``self.port`` itself
+        (``spawn_listening``: a port taken meanwhile moves the server to another)."""
         if deadline is None:
             deadline = time.monotonic() + 120
         # no warm-up unless asked: each job loads the kernels it uses from numba's cache
         # (filled by ``tests/conftest.py``); the warm-up itself is tested in TestFirstStart
         env = {**os.environ, "MESHSERVICE_WORKERS": "2", "MESHSERVICE_WARMUP": "0", **self.env}
-        while True:
-            written = self.log.stat().st_size if self.log.exists() else 0
-            self.proc = subprocess.Popen(
-                [
-                    sys.executable,
-                    "-m",
-                    self.module,
-                    *(["serve"] if self.module == "service" else []),
-                    "--port",
-                    str(self.port),
-                    "--data-dir",
-                    str(self.data_dir),
-                ],
-                cwd=ROOT,
-                env=env,
-                stdout=open(self.log, "ab"),
-                stderr=subprocess.STDOUT,
-            )
-            while not _listens(self.proc.pid, self.port):
-                if self.proc.poll() is not None:
-                    with open(self.log, "rb") as f:  # what this process wrote
-                        f.seek(written)
-                        said = f.read().decode(errors="replace")
-                    if "address already in use" not in said:
-                        raise RuntimeError(f"server exited: {said[-2000:]}")
-                    break
-                if time.monotonic() > deadline:
-                    self.stop(signal.SIGKILL)  # never leave a server behind
-                    raise RuntimeError(f"server never listened: {self.log.read_text()[-2000:]}")
-                time.sleep(0.05)
-            else:
-                return self.proc
-            self.port = _free_port()
+        serve = ["serve"] if self.module == "service" else []
+        self.proc, self.port = spawn_listening(
+            lambda port: [
+                sys.executable,
+                "-m",
+                self.module,
+                *serve,
+                "--port",
+                str(port),
+                "--data-dir",
+                str(self.data_dir),
+            ],
+            self.log,
+            deadline,
+            port=self.port,
+            cwd=ROOT,
+            env=env,
+        )
+        return self.proc
 
     @property
     def url(self) -> str:

@@ -17,7 +17,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.service.conftest import ROOT, _free_port, _listens, wait_status
+from tests.service.conftest import ROOT, spawn_listening, wait_status
 from tests.service.test_jobs import pid_alive, submit, wait_file
 
 BIN = Path(sys.executable).parent
@@ -49,7 +49,7 @@ def _worker_running(pid: int, cluster: Cluster) -> int:
 
 class Cluster:
     def __init__(self, logs: Path) -> None:
-        self.port = _free_port()
+        self.port = 0  # the scheduler's, once started
         self.logs = logs
         self.procs: list[subprocess.Popen] = []
 
@@ -57,53 +57,35 @@ class Cluster:
     def address(self) -> str:
         return f"tcp://127.0.0.1:{self.port}"
 
-    def _spawn(self, name: str, *args: str) -> subprocess.Popen:
-        proc = subprocess.Popen(
-            [str(BIN / "dask"), *args],
-            cwd=ROOT,
-            env={**os.environ, **WORKER_ENV},
-            stdout=open(self.logs / f"{name}.log", "ab"),
-            stderr=subprocess.STDOUT,
-        )
-        self.procs.append(proc)
-        return proc
-
     def start(self, workers: int = 2) -> Cluster:
-        """Start the scheduler and the workers; return once the scheduler listens on its
-        port. A port taken meanwhile (as in ``LiveServer.start``) makes the scheduler exit
-        and the workers join whatever has it: the cluster starts again on another."""
-        deadline = time.monotonic() + 60
-        while True:
-            scheduler = self._spawn(
-                "scheduler",
+        """Start the scheduler, and the workers once it listens on its port itself
+        (``spawn_listening``: a port taken meanwhile moves the scheduler to another, and
+        no worker joins whatever has it)."""
+        popen = {"cwd": ROOT, "env": {**os.environ, **WORKER_ENV}}
+        scheduler, self.port = spawn_listening(
+            lambda port: [
+                str(BIN / "dask"),
                 "scheduler",
                 "--host",
                 "127.0.0.1",
                 "--port",
-                str(self.port),
+                str(port),
                 "--no-dashboard",
-            )
-            for i in range(workers):
-                self._spawn(
-                    f"worker{i}",
-                    "worker",
-                    self.address,
-                    "--nthreads",
-                    "1",
-                    "--no-dashboard",
-                    "--name",
-                    f"w{i}",
+            ],
+            self.logs / "scheduler.log",
+            time.monotonic() + 60,
+            **popen,
+        )
+        self.procs.append(scheduler)
+        for i in range(workers):
+            args = ["worker", self.address, "--nthreads", "1", "--no-dashboard", "--name", f"w{i}"]
+            with open(self.logs / f"worker{i}.log", "ab") as log:
+                self.procs.append(
+                    subprocess.Popen(
+                        [str(BIN / "dask"), *args], stdout=log, stderr=subprocess.STDOUT, **popen
+                    )
                 )
-            while scheduler.poll() is None and not _listens(scheduler.pid, self.port):
-                assert time.monotonic() < deadline, "the scheduler never listened"
-                time.sleep(0.1)
-            if scheduler.poll() is None:
-                return self
-            self.stop()
-            # a scheduler that exits for another reason would otherwise restart forever
-            assert time.monotonic() < deadline, (self.logs / "scheduler.log").read_text()[-2000:]
-            self.procs = []
-            self.port = _free_port()
+        return self
 
     def stop(self) -> None:
         for proc in reversed(self.procs):

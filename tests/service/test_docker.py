@@ -17,14 +17,15 @@ from pathlib import Path
 import httpx
 import yaml
 
-from tests.service.conftest import ROOT, _free_port
+from tests.service.conftest import ROOT, spawn_listening
 from tests.service.testing_methods import SQUARE
 
 DOCKER = ROOT / "docker"
+BIN = Path(sys.executable).parent
 
 
 def test_dockerfile_passes_hadolint():
-    hadolint = shutil.which("hadolint") or str(Path(sys.executable).parent / "hadolint")
+    hadolint = shutil.which("hadolint") or str(BIN / "hadolint")
     run = subprocess.run([hadolint, str(DOCKER / "Dockerfile")], capture_output=True, text=True)
     assert run.returncode == 0, run.stdout + run.stderr
 
@@ -34,10 +35,11 @@ def _env_file() -> dict[str, str]:
     return dict(line.split("=", 1) for line in lines if line and not line.startswith("#"))
 
 
-def _local(args: list[str], ports: dict[str, str]) -> list[str]:
-    """A compose command with the service names and public binds mapped to loopback."""
-    out = []
-    for arg in args:
+def _command(spec: dict, ports: dict[str, str]) -> list[str]:
+    """A compose service's command with the service names and public binds mapped to
+    loopback and the ports in ``ports`` to the ones given."""
+    out = [str(BIN / spec.get("entrypoint", ["meshservice"])[0])]
+    for arg in spec["command"]:
         arg = arg.replace("0.0.0.0", "127.0.0.1")
         for old, new in ports.items():
             arg = arg.replace(old, new)
@@ -46,42 +48,44 @@ def _local(args: list[str], ports: dict[str, str]) -> list[str]:
 
 
 def test_compose_commands_serve_a_job(tmp_path):
-    compose = yaml.safe_load((DOCKER / "compose.yaml").read_text())["services"]
-    scheduler_port, api_port = str(_free_port()), str(_free_port())
-    ports = {
-        "scheduler:8786": f"127.0.0.1:{scheduler_port}",
-        "8786": scheduler_port,
-        "8000": api_port,
-    }
-    bin_dir = Path(sys.executable).parent
+    services = yaml.safe_load((DOCKER / "compose.yaml").read_text())["services"]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    deadline = time.monotonic() + 90
     procs = []
-
-    def start(service: str, extra_env: dict) -> None:
-        spec = compose[service]
-        program = spec.get("entrypoint", ["meshservice"])[0]
-        args = [str(bin_dir / program), *_local(spec["command"], ports)]
-        environment = {
-            k: _local([str(v)], ports)[0] for k, v in spec.get("environment", {}).items()
-        }
-        log = open(tmp_path / f"{service}.log", "wb")
-        procs.append(
-            subprocess.Popen(
-                args,
-                cwd=ROOT,
-                env={**env, **extra_env, **environment},
-                stdout=log,
-                stderr=subprocess.STDOUT,
-            )
-        )
-
     try:
-        start("scheduler", {})
-        start("worker", {})
-        start("api", {**_env_file(), "MESHSERVICE_DATA_DIR": str(tmp_path / "data")})
-        key = _env_file()["MESHSERVICE_API_KEYS"].split(",")[0].split(":")[0]
+        # the scheduler and the API each on a free port that they listen on themselves
+        scheduler, scheduler_port = spawn_listening(
+            lambda port: _command(services["scheduler"], {"8786": str(port)}),
+            tmp_path / "scheduler.log",
+            deadline,
+            cwd=ROOT,
+            env=env,
+        )
+        procs.append(scheduler)
+        to_scheduler = {"scheduler:8786": f"127.0.0.1:{scheduler_port}"}
+        with open(tmp_path / "worker.log", "ab") as log:
+            worker = _command(services["worker"], to_scheduler)
+            procs.append(
+                subprocess.Popen(worker, cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT)
+            )
+        api, api_port = spawn_listening(
+            lambda port: _command(services["api"], {"8000": str(port)}),
+            tmp_path / "api.log",
+            deadline,
+            cwd=ROOT,
+            env={
+                **env,
+                **_env_file(),
+                "MESHSERVICE_DATA_DIR": str(tmp_path / "data"),
+                **{
+                    k: str(v).replace("scheduler:8786", to_scheduler["scheduler:8786"])
+                    for k, v in services["api"].get("environment", {}).items()
+                },
+            },
+        )
+        procs.append(api)
         url = f"http://127.0.0.1:{api_port}"
-        deadline = time.monotonic() + 90
+        key = _env_file()["MESHSERVICE_API_KEYS"].split(",")[0].split(":")[0]
         with httpx.Client() as probe:
             while True:
                 try:

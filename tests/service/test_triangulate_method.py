@@ -45,6 +45,12 @@ class TestTriangulate:
             ({"empty": True, "size": 0.1}, ["size"]),
             ({"size": 1e-5}, ["size"]),  # ten billion triangles: refused up front
             ({"max_area": 1e-12}, ["max_area"]),
+            # the size that binds is named, whichever others are given
+            ({"size": 0.1, "max_area": 1e-12}, ["max_area"]),
+            (
+                {"size": 0.5, "size_field": {"points": [[0.5, 0.5]], "values": [1e-5]}},
+                ["size_field"],
+            ),
             ({"curves": [{"ring": 2, "center": [0.5, 0.5], "radius": 0.2}]}, ["curves", 0, "ring"]),
             (
                 {"curves": [{"ring": 0, "center": [0.5, 0.5], "radius": 0.2}]},

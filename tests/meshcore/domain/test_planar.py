@@ -22,7 +22,7 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from meshcore.domain.planar import Domain, parse_domain
+from meshcore.domain.planar import Domain, parse_domain, parse_size_field
 from meshcore.errors import InputError
 
 SQUARE = [[0, 0], [4, 0], [4, 4], [0, 4]]
@@ -687,3 +687,29 @@ def test_corner_angles_are_the_angles_inside_the_domain():
         assert angles[(1.0, 1.0)] == pytest.approx(270)
         assert angles[(2.0, 0.0)] == pytest.approx(90)
         assert all(angles[tuple(map(float, p))] == pytest.approx(270) for p in hole[:4])
+
+
+@pytest.mark.parametrize(
+    "field, loc",
+    [
+        ({"points": [[0, 0], [1, 1]], "values": [True, 0.5]}, ["size_field", "values", 0]),
+        ({"points": [[0, 0], [1, 1]], "values": [0.5, "1"]}, ["size_field", "values", 1]),
+        ({"points": [[0, "1"], [1, 1]], "values": [1, 0.5]}, ["size_field", "points", 0, 1]),
+        ({"points": [[0, 0], [1, False]], "values": [1, 0.5]}, ["size_field", "points", 1, 1]),
+        ((np.zeros((2, 2)), np.array([True, True])), ["size_field", "values", 0]),
+        (([[0, 0], [1, 1]], [1.0, np.True_]), ["size_field", "values", 1]),
+    ],
+)
+def test_size_field_refuses_bools_and_strings(field, loc):
+    """numpy reads a bool as 0 or 1 and a numeric string as its number; the library
+    refuses them where a number is due, as the service's schema does."""
+    with pytest.raises(InputError) as err:
+        parse_size_field(field)
+    assert err.value.errors[0]["loc"] == loc and err.value.code == "bad_parameter"
+
+
+def test_size_field_takes_ints_floats_and_numeric_arrays():
+    pts, vals = parse_size_field({"points": [[0, 0], [1, 1.5]], "values": [1, np.float32(0.5)]})
+    assert pts.dtype == vals.dtype == np.float64 and vals.tolist() == [1.0, 0.5]
+    pts, vals = parse_size_field((np.array([[0, 0], [1, 1]]), np.array([2, 3])))
+    assert vals.tolist() == [2.0, 3.0]

@@ -122,6 +122,9 @@ class TestBadInput:
             ({"type": "parallelogram", "vectors": [[1, 0], [2, 0]]}, ("pattern", "vectors")),
             ({"type": "parallelogram", "vectors": [[0, 0], [0, 1]]}, ("pattern", "vectors", 0)),
             ({"type": "hexagon", "size": 0}, ("pattern", "size")),
+            ({"type": "hexagon", "size": 10**400}, ("pattern", "size")),  # not an OverflowError
+            ({"type": "hexagon"}, ("pattern", "size")),
+            ({"type": "parallelogram", "vectors": [[10**400, 0], [0, 1]]}, ("pattern", "vectors")),
             (
                 {"type": "radial", "center": [0, 0], "radii": [0, 0.5], "segments": 8},
                 ("pattern", "radii", 0),
@@ -129,6 +132,14 @@ class TestBadInput:
             (
                 {"type": "radial", "center": [0, 0], "radii": [0.5, 0.2], "segments": 8},
                 ("pattern", "radii", 1),
+            ),
+            (
+                {"type": "radial", "center": [0, 0], "radii": [0.5, 10**400], "segments": 8},
+                ("pattern", "radii"),
+            ),
+            (
+                {"type": "radial", "center": [10**400, 0], "radii": [0.5, 1], "segments": 8},
+                ("pattern", "center"),
             ),
             (
                 {"type": "radial", "center": [0, 0], "rings": 3, "segments": 2},

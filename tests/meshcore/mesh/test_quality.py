@@ -169,6 +169,19 @@ class TestQuads:
             quality.quad_quality(SQUARE, [[0, 1, 2, 3]], metric=metric)
         assert err.value.code == "bad_metric"
 
+    @pytest.mark.parametrize("scale, shift", [(1.0, 0.0), (1e-6, 0.0), (1.0, 1e6), (1e150, 0.0)])
+    def test_compiled_planar_measures_are_the_vectorized_ones(self, scale, shift) -> None:
+        """Planar quads without a metric are measured by one compiled loop
+        (``planar_quad_measures``); with the identity metric by the vectorized corners
+        of the other cases: bit for bit the same, degenerate and overflowing quads too."""
+        rng = np.random.default_rng(7)
+        P = rng.normal(size=(300, 2)) * scale + shift
+        P[:5] = P[5:10]  # coincident points
+        Q = rng.integers(0, 300, (2000, 4))
+        Q[:20, 1] = Q[:20, 0]  # zero-length edges, corners that do not turn
+        for f in (quality.quad_quality, quality.quad_quality_simplified):
+            assert np.array_equal(f(P, Q), f(P, Q, metric=np.eye(2)), equal_nan=True)
+
     def test_surface_quads_of_a_cube(self) -> None:
         """The six outward faces of the unit cube: closed, all squares."""
         faces = np.array(topology.CELL_FACES["hexahedron"]["quad"])

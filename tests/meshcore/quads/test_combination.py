@@ -215,19 +215,21 @@ class TestRandomDomains:
     @given(seed=st.integers(0, 2**32 - 1), amp=st.sampled_from([0.0, 0.25]))
     def test_compiled_candidate_measures_are_the_vectorized_ones(self, seed, amp):
         # the candidates' convexity, (8.7) corner and (8.4)/(8.7) weights from the compiled
-        # cosines (``corner_extremes``) equal mesh.quality's bit for bit, moved or scaled
-        # too: the pairs a matching takes must not depend on which computes them
+        # loop (``quality.planar_quad_measures``) equal the vectorized corners' (mesh.quality
+        # with the identity metric) bit for bit, moved or scaled too: the pairs a matching
+        # takes must not depend on which computes them
         for mesh in (random_mesh(seed), perturbed_grid(12, amp, seed % 1000)):
             P, tri = combination._check_mesh(mesh)
             nb = combination._neighbours(mesh, P, tri)
             quads = combination._candidates(P, tri, nb, "angle", None, 0.0, 5.0)[0].reshape(-1, 4)
             quads = quads[quads[:, 0] != quads[:, 2]]
+            I2 = np.eye(2)
             for Q in (P, P + 1e6, P * 1e-6):
                 for measure in ("angle", "simplified"):
                     for flat in (5.0, 45.0):
                         ok, q = combination._allowed_measured(Q, quads, measure, None, flat)
-                        assert np.array_equal(ok, combination._allowed(Q, quads, None, flat))
-                        assert np.array_equal(q, combination._measure(Q, quads, measure, None))
+                        assert np.array_equal(ok, combination._allowed(Q, quads, I2, flat))
+                        assert np.array_equal(q, combination._measure(Q, quads, measure, I2))
 
     @settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
     @given(seed=st.integers(0, 2**32 - 1))

@@ -626,7 +626,18 @@ class TestErrors:
     def test_estimated_triangles(self):
         domain = parse_domain(l_shape())  # area 3, perimeter 8
         thin = 0.25 * 8**2 / 3  # the points the angle bound forces in thin parts
-        assert tri_mod.estimated_triangles(domain, size=0.1) == pytest.approx(
+        by_size = tri_mod.estimated_triangles(domain, size=0.1)
+        assert by_size.triangles == pytest.approx(
             2 * (3 / (math.sqrt(3) / 2 * 0.01) + thin), rel=0.01
         )
-        assert tri_mod.estimated_triangles(domain) == 2 * int(thin)
+        assert by_size.binding == "size"
+        assert tri_mod.estimated_triangles(domain) == (2 * int(thin), None)
+        # several sizes: the count of them together, the binding one named (ties: the first
+        # of size, max_area, size_field)
+        both = tri_mod.estimated_triangles(domain, size=0.1, max_area=1e-4)
+        assert both.triangles > by_size.triangles and both.binding == "max_area"
+        assert tri_mod.estimated_triangles(domain, size=0.01, max_area=1e-4).binding == "size"
+        field = {"points": [[0.5, 0.5]], "values": [0.1]}
+        assert tri_mod.estimated_triangles(domain, size=0.1, size_field=field) == by_size
+        fine = tri_mod.estimated_triangles(domain, size=0.1, size_field={**field, "values": [0.05]})
+        assert fine.binding == "size_field" and fine.triangles > by_size.triangles
