@@ -33,8 +33,14 @@ Choices the text leaves open
   hole the rows spread outwards and meet the outer ones sooner: on the
   annulus (radii 1 and 0.45) three rows along the hole too gave 0.908 /
   0.943 at sizes 0.05 / 0.025 and did not fit at 0.1 (two and two: 0.871),
-  one along the hole 0.906 / 0.947 and 0.890 at 0.1. The rows keep the
-  boundary's point count, so on a disk they shrink towards the inside: the
+  one along the hole 0.906 / 0.947 and 0.890 at 0.1. Which is best varies with the
+  domain and the size, so ``combine`` (with ``optimize``) makes the meshes of
+  ``ROW_CHOICES`` (three, two or one row outside with one along the holes, three
+  with two; two and two was never the best) and keeps the best mean
+  (:func:`best_rows`): disk, annulus, ellipse at size 0.1 0.900 / 0.890 / 0.917 ->
+  0.902 / 0.897 / 0.921, at 0.05 0.948 / 0.902 / 0.954 -> 0.948 / 0.903 / 0.962;
+  issue 20's 40 stars unchanged (their boundaries turn too much for these rows).
+  The rows keep the boundary's point count, so on a disk they shrink towards the inside: the
   count rises (disk at 0.1: 322, 338, 370 quads for 314 = area / size²);
   rows after the first are kept only while the count stays within
   ``MOST_QUADS`` = 1.4 times area / size².
@@ -120,6 +126,7 @@ from meshcore.mesh import CellBlock, Mesh, quality
 __all__ = [
     "CORNER_LEAST_QUALITY",
     "beats_lattice",
+    "best_rows",
     "boundary_layer",
     "least_off_sharp",
     "meets_targets",
@@ -144,6 +151,13 @@ CORNER_LEAST_QUALITY = 0.2
 #: A row that misses the targets is kept over the lattice with at most this many
 #: times its quads (the row's short pieces at convex corners add some).
 ROW_MOST_QUADS = 1.2
+#: The rows along the outer rings and along the holes (``rows``, ``hole_rows``) whose
+#: optimized meshes :func:`best_rows` compares, the first :func:`boundary_layer`'s
+#: defaults.
+ROW_CHOICES = ((3, 1), (2, 1), (1, 1), (3, 2))
+#: ... when the first has at most this many quads (each choice costs a whole mesh: up to
+#: 3 more).
+ROWS_MOST_QUADS = 20_000
 
 
 def _ring_points(dom: Domain, k: int, size: float):
@@ -191,6 +205,7 @@ def boundary_layer(
     least_quality: float = 0.3,
     rows: int = 3,
     corner_least: float = CORNER_LEAST_QUALITY,
+    hole_rows: int = 1,
 ):
     """Rows of quads along the boundary and an inner all-quad mesh (module docstring).
 
@@ -208,20 +223,24 @@ def boundary_layer(
         ``max_turn`` degrees at each point, and kept only when each of its
         quads reaches ``least_quality`` (8.4).
     rows : int
-        Rows of quads along the outer rings at most (one along the holes): where
-        that many are not kept, one fewer is tried, down to one; then one row
-        with corners (module docstring).
+        Rows of quads along the outer rings at most: where that many are not kept,
+        one fewer is tried, down to one; then one row with corners (module
+        docstring).
     corner_least : float
         The ``least_quality`` of that row's quads away from convex corners.
+    hole_rows : int
+        Rows along the holes (at most ``rows``).
 
     Returns
     -------
-    (Mesh, (s, 2) int64 boundary edges, inner result) or None
+    (Mesh, (s, 2) int64 boundary edges, inner result, rows) or None
         The quads, the input vertices first (their ids kept), then the added
         boundary points and the points of the rows between, then the inner
         mesh's points; None when no layer is made (module docstring: where,
         guards). Every input segment is a chain of boundary edges; every quad
-        is strictly convex (exact); the areas add up to the domain's.
+        is strictly convex (exact); the areas add up to the domain's. ``rows``:
+        the rows laid along the outer rings and along the holes, ``(r, h)``, or
+        None for the row with corners.
 
     References
     ----------
@@ -230,13 +249,15 @@ def boundary_layer(
     if len(dom.constraints):
         return None
     for r in range(rows, 0, -1):  # a loop of at most `rows` tries
-        out = _layer(dom, size, mesh_inner, max_turn, least_quality, r)
+        h = min(r, hole_rows)
+        out = _layer(dom, size, mesh_inner, max_turn, least_quality, r, h)
         if out is not None:
-            return out
+            return (*out, (r, h))
     d = dom.points[dom.segments[:, 1]] - dom.points[dom.segments[:, 0]]
     if ((d[:, 0] == 0) | (d[:, 1] == 0)).all():  # the lattice's own directions
         return None
-    return _corner_layer(dom, size, mesh_inner, max_turn, corner_least)
+    out = _corner_layer(dom, size, mesh_inner, max_turn, corner_least)
+    return None if out is None else (*out, None)
 
 
 def off_sharp(mesh: Mesh, dom: Domain) -> np.ndarray:
@@ -284,6 +305,45 @@ def least_off_sharp(mesh: Mesh, dom: Domain, ok: np.ndarray | None = None) -> fl
     return float(quality.quad_quality(mesh.points, mesh.cells_by_type["quad"][ok]).min())
 
 
+def best_rows(first, again: Callable, dom: Domain, size: float):
+    """Of the optimized all-quad meshes of ``dom`` with the rows of ``ROW_CHOICES``
+    along its rings, the one that meets :func:`meets_targets`, else any, of the highest
+    mean quality (8.4); the first on ties. ``first``: the mesh made (its
+    ``stats["layer_rows"]``: its rows), returned as it is past ``ROWS_MOST_QUADS``
+    quads; ``again(rows, hole_rows)`` makes another (a
+    :class:`~meshcore.errors.MeshcoreError` leaves it out; so does a mesh whose rows
+    fell back to fewer: another choice); hole rows other than one only where ``dom``
+    has holes, and no more rows outside than ``first`` has (it fell back from them).
+
+    The rows change where the lattice meets the innermost ring, hence the irregular
+    vertices there; which count is best varies with the domain and the size, and the
+    mean before the optimization does not tell (disk at size 0.1, one / two / three
+    rows: 0.857 / 0.855 / 0.849 before, 0.900 / 0.902 / 0.900 after).
+    """
+
+    def key(res):
+        P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
+        return meets_targets(res.mesh, dom, size), float(quality.quad_quality(P, Q).mean())
+
+    if len(first.mesh.cells_by_type["quad"]) > ROWS_MOST_QUADS:
+        return first
+    best, best_key, laid = first, key(first), first.stats["layer_rows"]
+    holes = bool(dom.ring_is_hole.any())
+    for r, h in ROW_CHOICES:  # a loop of at most len(ROW_CHOICES) meshes
+        if (r, h) == laid or r > laid[0] or (h > 1 and not holes):
+            continue  # the first fell back from more rows: they do not fit
+        try:
+            res = again(r, h)
+        except MeshcoreError:
+            continue
+        if res.stats.get("layer_rows") != (r, h):
+            continue
+        k = key(res)
+        if k > best_key:
+            best, best_key = res, k
+    return best
+
+
 def beats_lattice(row: Mesh, lattice: Mesh, lattice_least: float, dom: Domain) -> bool:
     """Whether the optimized mesh with the corner row laid at least quality 0 (``row``)
     is kept over the lattice's (``lattice``, of :func:`least_off_sharp` ``lattice_least``)
@@ -295,15 +355,15 @@ def beats_lattice(row: Mesh, lattice: Mesh, lattice_least: float, dom: Domain) -
     return least_off_sharp(row, dom) > lattice_least
 
 
-def _layer(dom, size, mesh_inner, max_turn, least_quality, rows):
-    """:func:`boundary_layer` with exactly ``rows`` rows along the outer rings (one
-    along the holes), or None."""
+def _layer(dom, size, mesh_inner, max_turn, least_quality, rows, hole_rows):
+    """:func:`boundary_layer` with exactly ``rows`` rows along the outer rings and
+    ``hole_rows`` along the holes, or None."""
     nring = len(dom.ring_offsets) - 1
     parts = []
     for k in range(nring):  # a loop over rings
         ids, X = _ring_points(dom, k, size)
         chain = [X]
-        for _ in range(1 if dom.ring_is_hole[k] else rows):
+        for _ in range(hole_rows if dom.ring_is_hole[k] else rows):
             off = _offsets(chain[-1], max_turn)
             if off is None:
                 return None
