@@ -125,6 +125,7 @@ from meshcore.mesh import CellBlock, Mesh, quality
 
 __all__ = [
     "CORNER_LEAST_QUALITY",
+    "ROW_CHOICES",
     "beats_lattice",
     "best_rows",
     "boundary_layer",
