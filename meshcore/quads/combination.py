@@ -1030,8 +1030,10 @@ def combine(
         kept) after a row of quads along the boundary
         (:func:`meshcore.quads.boundary_layer.boundary_layer`); with ``optimize``
         (``angle``, no ``corner_least``, ``squares``) up to three rows along smooth
-        boundaries, their counts chosen by the optimized mesh's mean quality
-        (:func:`~meshcore.quads.boundary_layer.best_rows`, ``stats`` ``layer_rows``).
+        boundaries, or rows across from the outer ring to a single hole, chosen by
+        the optimized mesh's mean quality
+        (:func:`~meshcore.quads.boundary_layer.best_rows`, ``stats`` ``layer_rows``:
+        ``(rows, hole_rows)``, ``(0, 0)`` across).
     optimize : bool
         Apply the operators of §8.4.3 and smoothing (:mod:`meshcore.quads.optimization`).
     inner : bool
@@ -1314,8 +1316,9 @@ def _combine(
         )
     else:
         out_mesh, boundary, inside, laid = layered
-        counts = (inside.pairs, inside.triples, inside.triangles_left)
-        stats = dict(inside.stats, boundary_layer=len(boundary), layer_rows=laid)
+        made = inside or QuadResult(out_mesh, {}, {}, 0, 0, 0)  # rows across: no inner mesh
+        counts = (made.pairs, made.triples, made.triangles_left)
+        stats = dict(made.stats, boundary_layer=len(boundary), layer_rows=laid)
         lap("layer")
     report(0.65, "quality report")
     quality_before = _report(out_mesh, metric, boundary)
