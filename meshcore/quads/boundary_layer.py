@@ -8,9 +8,13 @@ advancing-front methods of the text (§8.5) start each front with a row of
 quads along the boundary. We take up to three such rows and keep the
 combination for the rest:
 
-1. every input segment is cut into ``round(length / size)`` equal pieces
-   (at least one, a few more so that each ring has a multiple of four), so
-   every input vertex is a boundary point and the pieces are about ``size``;
+1. every ring is cut into as many pieces as its segments' ``round(length /
+   size)`` add up to (at least one each, raised to a multiple of four), spread
+   over its segments by arc length (equal pieces on each segment, at least
+   one), so every input vertex is a boundary point and the pieces are about
+   ``size`` (the extra pieces of a regular polygon, whose segments tie in
+   length, went where rounding put them: another mesh under a translation by
+   1e6 on the disk, annulus and ellipse of ``benchmarks/quads.py``);
 2. each boundary point ``b_i`` gets an offset point ``o_i`` inside, along
    the bisector of the normals of its two pieces, at the local spacing
    (the mean piece length over five points) divided by the cosine of half
@@ -33,8 +37,21 @@ Choices the text leaves open
   hole the rows spread outwards and meet the outer ones sooner: on the
   annulus (radii 1 and 0.45) three rows along the hole too gave 0.908 /
   0.943 at sizes 0.05 / 0.025 and did not fit at 0.1 (two and two: 0.871),
-  one along the hole 0.906 / 0.947 and 0.890 at 0.1. The rows keep the
-  boundary's point count, so on a disk they shrink towards the inside: the
+  one along the hole 0.906 / 0.947 and 0.890 at 0.1. On a domain with one
+  hole the rows may also go across, from the outer ring to the hole, with no
+  lattice (:func:`_ruled`): the hole cut into as many pieces as the outer ring,
+  each outer point joined to the hole point opposite it (an annulus: the polar
+  grid; the lattice between the rows along both circles left nine valence 3-5
+  pairs on the annulus at size 0.1). Which is best varies with the domain and the
+  size, so ``combine`` (with ``optimize``) makes the meshes of ``ROW_CHOICES``
+  (three, two or one row outside with one along the holes, three with two; two
+  and two was never the best; across) and keeps the best mean
+  (:func:`best_rows`): disk, annulus, ellipse at size 0.1 0.900 / 0.890 / 0.917
+  -> 0.908 / 0.947 / 0.929, at 0.05 0.948 / 0.902 / 0.954 -> 0.949 / 0.970 /
+  0.960, at 0.025 0.972 / 0.947 / 0.979 -> 0.974 / 0.984 / 0.981 (least 0.64 or
+  more, counts 1.00-1.38x; 2.5-4x the CPU time there); issue 20's 40 stars
+  unchanged (their boundaries turn too much for these rows).
+  The rows keep the boundary's point count, so on a disk they shrink towards the inside: the
   count rises (disk at 0.1: 322, 338, 370 quads for 314 = area / size²);
   rows after the first are kept only while the count stays within
   ``MOST_QUADS`` = 1.4 times area / size².
@@ -119,7 +136,9 @@ from meshcore.mesh import CellBlock, Mesh, quality
 
 __all__ = [
     "CORNER_LEAST_QUALITY",
+    "ROW_CHOICES",
     "beats_lattice",
+    "best_rows",
     "boundary_layer",
     "least_off_sharp",
     "meets_targets",
@@ -144,20 +163,34 @@ CORNER_LEAST_QUALITY = 0.2
 #: A row that misses the targets is kept over the lattice with at most this many
 #: times its quads (the row's short pieces at convex corners add some).
 ROW_MOST_QUADS = 1.2
+#: The rows along the outer rings and along the holes (``rows``, ``hole_rows``) whose
+#: optimized meshes :func:`best_rows` compares, the first :func:`boundary_layer`'s
+#: defaults.
+ROW_CHOICES = ((3, 1), (2, 1), (1, 1), (3, 2), (0, 0))
+#: ... when the first has at most this many quads (each choice costs a whole mesh: up to
+#: 3 more).
+ROWS_MOST_QUADS = 20_000
 
 
-def _ring_points(dom: Domain, k: int, size: float):
-    """Ring ``k`` cut into pieces of about ``size``, domain on the left: point ids
-    (input vertices keep theirs, new points numbered from -1 down) and coordinates."""
+def _ring_points(dom: Domain, k: int, size: float, total: int | None = None):
+    """Ring ``k`` cut into pieces of about ``size`` (a multiple of four of them; or
+    ``total`` pieces spread by arc length, at least one per segment), domain on the
+    left: point ids (input vertices keep theirs, new points numbered from -1 down) and
+    coordinates."""
     ro = dom.ring_offsets
     seg = dom.segments[ro[k] : ro[k + 1]]
     if dom.ring_reversed[k]:
         seg = seg[::-1]
     a, b = dom.points[seg[:, 0]], dom.points[seg[:, 1]]
     length = np.hypot(*(b - a).T)
-    cnt = np.maximum(1, np.rint(length / size)).astype(np.int64)
-    while cnt.sum() % 4:  # a loop of at most three steps
-        cnt[np.argmax(length / cnt)] += 1
+    if total is None:
+        total = int(np.maximum(1, np.rint(length / size)).sum())
+        total += -total % 4
+    # spread by arc length (rounded: ties alike in any frame), one at least
+    x = np.round(total * np.cumsum(length) / length.sum(), 6)
+    cnt = np.maximum(np.diff(np.floor(x + 0.5), prepend=0.0).astype(np.int64), 1)
+    while cnt.sum() > total:  # a loop over the segments raised to one
+        cnt[np.argmax(cnt)] -= 1
     rep = np.repeat(np.arange(len(seg)), cnt)
     t = (np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)) / cnt[rep]
     X = a[rep] + t[:, None] * (b - a)[rep]
@@ -191,6 +224,7 @@ def boundary_layer(
     least_quality: float = 0.3,
     rows: int = 3,
     corner_least: float = CORNER_LEAST_QUALITY,
+    hole_rows: int = 1,
 ):
     """Rows of quads along the boundary and an inner all-quad mesh (module docstring).
 
@@ -208,20 +242,25 @@ def boundary_layer(
         ``max_turn`` degrees at each point, and kept only when each of its
         quads reaches ``least_quality`` (8.4).
     rows : int
-        Rows of quads along the outer rings at most (one along the holes): where
-        that many are not kept, one fewer is tried, down to one; then one row
-        with corners (module docstring).
+        Rows of quads along the outer rings at most: where that many are not kept,
+        one fewer is tried, down to one; then one row with corners (module
+        docstring). 0: rows across from the outer ring to the one hole
+        (:func:`_ruled`), or None.
     corner_least : float
         The ``least_quality`` of that row's quads away from convex corners.
+    hole_rows : int
+        Rows along the holes (at most ``rows``).
 
     Returns
     -------
-    (Mesh, (s, 2) int64 boundary edges, inner result) or None
+    (Mesh, (s, 2) int64 boundary edges, inner result, rows) or None
         The quads, the input vertices first (their ids kept), then the added
         boundary points and the points of the rows between, then the inner
         mesh's points; None when no layer is made (module docstring: where,
         guards). Every input segment is a chain of boundary edges; every quad
-        is strictly convex (exact); the areas add up to the domain's.
+        is strictly convex (exact); the areas add up to the domain's. ``rows``:
+        the rows laid along the outer rings and along the holes, ``(r, h)``, or
+        None for the row with corners.
 
     References
     ----------
@@ -229,14 +268,19 @@ def boundary_layer(
     """
     if len(dom.constraints):
         return None
+    if rows == 0:
+        out = _ruled(dom, size, max_turn, least_quality)
+        return None if out is None else (*out, (0, 0))
     for r in range(rows, 0, -1):  # a loop of at most `rows` tries
-        out = _layer(dom, size, mesh_inner, max_turn, least_quality, r)
+        h = min(r, hole_rows)
+        out = _layer(dom, size, mesh_inner, max_turn, least_quality, r, h)
         if out is not None:
-            return out
+            return (*out, (r, h))
     d = dom.points[dom.segments[:, 1]] - dom.points[dom.segments[:, 0]]
     if ((d[:, 0] == 0) | (d[:, 1] == 0)).all():  # the lattice's own directions
         return None
-    return _corner_layer(dom, size, mesh_inner, max_turn, corner_least)
+    out = _corner_layer(dom, size, mesh_inner, max_turn, corner_least)
+    return None if out is None else (*out, None)
 
 
 def off_sharp(mesh: Mesh, dom: Domain) -> np.ndarray:
@@ -284,6 +328,45 @@ def least_off_sharp(mesh: Mesh, dom: Domain, ok: np.ndarray | None = None) -> fl
     return float(quality.quad_quality(mesh.points, mesh.cells_by_type["quad"][ok]).min())
 
 
+def best_rows(first, again: Callable, dom: Domain, size: float):
+    """Of the optimized all-quad meshes of ``dom`` with the rows of ``ROW_CHOICES``
+    along its rings, the one that meets :func:`meets_targets`, else any, of the highest
+    mean quality (8.4); the first on ties. ``first``: the mesh made (its
+    ``stats["layer_rows"]``: its rows), returned as it is past ``ROWS_MOST_QUADS``
+    quads; ``again(rows, hole_rows)`` makes another (a
+    :class:`~meshcore.errors.MeshcoreError` leaves it out; so does a mesh whose rows
+    fell back to fewer: another choice); hole rows other than one only where ``dom``
+    has holes, and no more rows outside than ``first`` has (it fell back from them).
+
+    The rows change where the lattice meets the innermost ring, hence the irregular
+    vertices there; which count is best varies with the domain and the size, and the
+    mean before the optimization does not tell (disk at size 0.1, one / two / three
+    rows: 0.857 / 0.855 / 0.849 before, 0.900 / 0.902 / 0.900 after).
+    """
+
+    def key(res):
+        P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
+        return meets_targets(res.mesh, dom, size), float(quality.quad_quality(P, Q).mean())
+
+    if len(first.mesh.cells_by_type["quad"]) > ROWS_MOST_QUADS:
+        return first
+    best, best_key, laid = first, key(first), first.stats["layer_rows"]
+    holes = bool(dom.ring_is_hole.any())
+    for r, h in ROW_CHOICES:  # a loop of at most len(ROW_CHOICES) meshes
+        if (r, h) == laid or r > laid[0] or (h != 1 and not holes):
+            continue  # the first fell back from more rows: they do not fit
+        try:
+            res = again(r, h)
+        except MeshcoreError:
+            continue
+        if res.stats.get("layer_rows") != (r, h):
+            continue
+        k = key(res)
+        if k > best_key:
+            best, best_key = res, k
+    return best
+
+
 def beats_lattice(row: Mesh, lattice: Mesh, lattice_least: float, dom: Domain) -> bool:
     """Whether the optimized mesh with the corner row laid at least quality 0 (``row``)
     is kept over the lattice's (``lattice``, of :func:`least_off_sharp` ``lattice_least``)
@@ -295,15 +378,15 @@ def beats_lattice(row: Mesh, lattice: Mesh, lattice_least: float, dom: Domain) -
     return least_off_sharp(row, dom) > lattice_least
 
 
-def _layer(dom, size, mesh_inner, max_turn, least_quality, rows):
-    """:func:`boundary_layer` with exactly ``rows`` rows along the outer rings (one
-    along the holes), or None."""
+def _layer(dom, size, mesh_inner, max_turn, least_quality, rows, hole_rows):
+    """:func:`boundary_layer` with exactly ``rows`` rows along the outer rings and
+    ``hole_rows`` along the holes, or None."""
     nring = len(dom.ring_offsets) - 1
     parts = []
     for k in range(nring):  # a loop over rings
         ids, X = _ring_points(dom, k, size)
         chain = [X]
-        for _ in range(1 if dom.ring_is_hole[k] else rows):
+        for _ in range(hole_rows if dom.ring_is_hole[k] else rows):
             off = _offsets(chain[-1], max_turn)
             if off is None:
                 return None
@@ -322,6 +405,68 @@ def _layer(dom, size, mesh_inner, max_turn, least_quality, rows):
     if out is not None and rows > 1 and _too_many(len(out[0].cells[0].data), dom, size):
         return None
     return out
+
+
+def _ruled(dom, size, max_turn, least_quality):
+    """Quads across from the outer ring to the hole of a domain with one hole: the hole
+    cut into as many pieces as the outer ring, each hole point joined to the outer point
+    opposite it (the cyclic shift of least summed squared distance) and the segments
+    between cut into ``K`` equal steps, ``K`` the mean gap over ``size`` rounded, at most
+    ``MOST_QUADS`` times area / size² quads in all (an annulus: the polar grid). Returns
+    (Mesh, boundary edges, None) as :func:`_assembled`, or None where the domain is not
+    one polygon with one hole, a ring turns by more than ``max_turn`` at a point, or a
+    quad is not strictly convex (exact) or under ``least_quality``."""
+    if len(dom.ring_offsets) != 3 or not dom.ring_is_hole[1] or dom.ring_is_hole[0]:
+        return None
+    ids_o, Xo = _ring_points(dom, 0, size)
+    n = len(Xo)
+    if n < dom.ring_offsets[2] - dom.ring_offsets[1] or _offsets(Xo, max_turn) is None:
+        return None
+    ids_h, Xh = _ring_points(dom, 1, size, n)
+    if _offsets(Xh, max_turn) is None:
+        return None
+    ids_h, Xh = ids_h[::-1], Xh[::-1]  # counter-clockwise, as the outer ring
+    gaps = [((Xo - np.roll(Xh, -j, axis=0)) ** 2).sum() for j in range(n)]  # n shifts
+    # rounded: a tie (a symmetric domain) goes to the first shift in any frame
+    j0 = int(np.argmin(np.round(np.array(gaps) / (n * size * size), 6)))
+    ids_h, Xh = np.roll(ids_h, -j0), np.roll(Xh, -j0, axis=0)
+    steps = min(
+        round(float(np.hypot(*(Xo - Xh).T).mean()) / size),
+        int(MOST_QUADS * dom.area / (size * size) / n),
+    )
+    if steps < 1:
+        return None
+    t = np.arange(steps + 1)[:, None, None] / steps
+    X = (1 - t) * Xo + t * Xh  # (steps + 1, n, 2)
+    X[-1] = Xh  # the hole's points exactly
+    n0 = len(dom.points)
+    gid = np.empty((steps + 1, n), np.int64)
+    ids = np.stack([ids_o, ids_h])
+    new = ids < 0
+    b = ids.copy()
+    b[new] = n0 + np.arange(new.sum())
+    gid[0], gid[-1] = b
+    nb = n0 + int(new.sum())
+    gid[1:-1] = nb + np.arange((steps - 1) * n).reshape(steps - 1, n)
+    P = np.concatenate([dom.points, Xo[new[0]], Xh[new[1]], X[1:-1].reshape(-1, 2)])
+    j, j1 = np.arange(n), np.roll(np.arange(n), -1)
+    Q = np.concatenate(
+        [
+            np.column_stack([g[j], g[j1], h[j1], h[j]])
+            for g, h in zip(gid[:-1], gid[1:], strict=True)
+        ]
+    )
+    corners = [orient2d(P[Q[:, i - 1]], P[Q[:, i]], P[Q[:, (i + 1) % 4]]) for i in range(4)]
+    if not all((c > 0).all() for c in corners):
+        return None
+    if quality.quad_quality(P, Q).min() < least_quality:
+        return None
+    if abs(quality.signed_area(P, Q, "quad").sum() - dom.area) > 1e-9 * dom.area:
+        return None
+    bedges = np.concatenate(
+        [np.column_stack([b[0], np.roll(b[0], -1)]), np.column_stack([b[1], np.roll(b[1], 1)])]
+    )
+    return Mesh(P, (CellBlock("quad", Q),)), bedges, None
 
 
 def _too_many(quads: int, dom: Domain, size: float) -> bool:

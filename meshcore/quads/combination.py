@@ -173,6 +173,7 @@ from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.quads.boundary_layer import (
     CORNER_LEAST_QUALITY,
     beats_lattice,
+    best_rows,
     boundary_layer,
     least_off_sharp,
     meets_targets,
@@ -1026,7 +1027,12 @@ def combine(
         Domain input with ``all_quad``: mesh at ``2 * size`` first; on smooth
         domains (``size`` given, no size field nor metric, the boundary not
         kept) after a row of quads along the boundary
-        (:func:`meshcore.quads.boundary_layer.boundary_layer`).
+        (:func:`meshcore.quads.boundary_layer.boundary_layer`); with ``optimize``
+        (``angle``, no ``corner_least``, ``squares``) up to three rows along smooth
+        boundaries, or rows across from the outer ring to a single hole, chosen by
+        the optimized mesh's mean quality
+        (:func:`~meshcore.quads.boundary_layer.best_rows`, ``stats`` ``layer_rows``:
+        ``(rows, hole_rows)``, ``(0, 0)`` across).
     optimize : bool
         Apply the operators of §8.4.3 and smoothing (:mod:`meshcore.quads.optimization`).
     inner : bool
@@ -1110,6 +1116,8 @@ def combine(
         corner_least=corner_least,
     )
     res = one(size=size, progress=_share(progress, 0, 1) if retry else progress)
+    if retry and res.stats.get("layer_rows"):
+        res = best_rows(res, lambda r, h: one(size=size, rows=(r, h)), domain, size)
     if (
         not retry
         or len(res.mesh.cells_by_type["quad"]) > TOL.size_tries_most
@@ -1186,9 +1194,12 @@ def _combine(
     corner_least: float | None = None,
     progress: Progress | None = None,
     ladders: bool = False,
+    rows: tuple[int, int] = (3, 1),
 ) -> QuadResult:
     """:func:`combine` for one ``size``; ``ladders``: merge the ladder quads of the
-    domain's thin parts and keep them whole (:mod:`meshcore.quads.splitting`)."""
+    domain's thin parts and keep them whole (:mod:`meshcore.quads.splitting`); ``rows``:
+    the rows along the outer rings and the holes at most
+    (:func:`~meshcore.quads.boundary_layer.boundary_layer`)."""
     report = progress if progress is not None else (lambda f, msg: None)
     timings: dict[str, float] = {}
     clock = time.perf_counter()
@@ -1263,6 +1274,8 @@ def _combine(
                     inner=True,
                 ),
                 corner_least=CORNER_LEAST_QUALITY if corner_least is None else corner_least,
+                rows=rows[0],
+                hole_rows=rows[1],
             )
             if layered is None and corner_least is None and optimize and measure == "angle":
                 res = _combine(
@@ -1301,9 +1314,10 @@ def _combine(
             (len(_dom.points), tsize or 0.0) if ladders and not keep_boundary else None,
         )
     else:
-        out_mesh, boundary, inside = layered
-        counts = (inside.pairs, inside.triples, inside.triangles_left)
-        stats = dict(inside.stats, boundary_layer=len(boundary))
+        out_mesh, boundary, inside, laid = layered
+        made = inside or QuadResult(out_mesh, {}, {}, 0, 0, 0)  # rows across: no inner mesh
+        counts = (made.pairs, made.triples, made.triangles_left)
+        stats = dict(made.stats, boundary_layer=len(boundary), layer_rows=laid)
         lap("layer")
     report(0.65, "quality report")
     quality_before = _report(out_mesh, metric, boundary)
