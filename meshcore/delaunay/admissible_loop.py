@@ -550,9 +550,9 @@ def _split_loop(kernel, piece, point, ends, circles, work_stack, deferred, count
                 info[3] = last
                 break
             for j in range(nlog):
-                u = log[3 * j]
-                w = log[3 * j + 1]
-                if log[3 * j + 2] == -3 or u < 0 or w < 0:
+                u = log[2 * j]
+                w = log[2 * j + 1]
+                if u < 0 or w < 0:
                     continue
                 u = order[u]
                 w = order[w]

@@ -637,21 +637,18 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
 
     state = [ntri, last real triangle, status, info1, info2]. ``log``
     None (whole triangulations: the logging compiled away), or room for
-    what each insertion changed, as slot triples
-    ``(u, v, q)`` (-1: the vertex at infinity): edge ``uv`` removed (-2,
-    -2: none), ``q`` made a neighbour of the point: the vertices of the
-    split triangle or edge (and the edge a 2->4 split splits), then each
-    flip's removed diagonal and new neighbour; ``(-3, -3, -3)`` ends a
-    point. The insertions stop early, at a point whose log might not fit
-    (one can hold up to the number of points so far plus 8 triples).
-    Returns how many triples.
+    the edges the insertions removed, as slot pairs ``(u, v)`` (-1: the
+    vertex at infinity): the edge a 2->4 split splits, then each flip's
+    diagonal. The insertions stop early, at a point whose edges might not
+    fit (one removes fewer than the number of points so far plus 8).
+    Returns how many pairs.
     """
     ntri = state[0]
     last = state[1]
     nlog = 0
     for p in range(start, stop):
         if log is not None:
-            if 3 * (nlog + p + 8) > log.shape[0]:
+            if 2 * (nlog + p + 8) > log.shape[0]:
                 break
         # --- prefetch the walk starts of the next points, one level of
         # indirection per point ahead: vt[hint], then the triangle, then
@@ -709,13 +706,6 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
             a = V[base]
             b = V[base + 1]
             c = V[base + 2]
-            if log is not None:
-                j = 3 * nlog
-                log[j : j + 9] = -2
-                log[j + 2] = a
-                log[j + 5] = b
-                log[j + 8] = c
-                nlog += 3
             a1 = A[base + 1]
             a2 = A[base + 2]
             t0 = t
@@ -765,15 +755,9 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
             b = V[_nxt(k)]
             c = V[_prv(k)]
             if log is not None:
-                j = 3 * nlog
-                log[j : j + 12] = -2
-                log[j] = b
-                log[j + 1] = c
-                log[j + 2] = a
-                log[j + 5] = b
-                log[j + 8] = c
-                log[j + 11] = V[A[k]]
-                nlog += 4
+                log[2 * nlog] = b
+                log[2 * nlog + 1] = c
+                nlog += 1
             ab_ = A[_nxt(k)]  # edge (c, a)
             ac_ = A[_prv(k)]  # edge (a, b)
             kk = A[k]
@@ -858,9 +842,8 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
             if not flip:
                 continue
             if log is not None:
-                log[3 * nlog] = u
-                log[3 * nlog + 1] = v
-                log[3 * nlog + 2] = q
+                log[2 * nlog] = u
+                log[2 * nlog + 1] = v
                 nlog += 1
             t = k // 3
             t2 = kk // 3
@@ -897,9 +880,6 @@ def _insert_range(pts, V, A, stack, vt, hint, state, work, start, stop, log):
             prefetch(V, e_uq)  # the triangles across the two new edges
             prefetch(V, e_qv)
             sp += 2
-        if log is not None:
-            log[3 * nlog : 3 * nlog + 3] = -3
-            nlog += 1
     state[0] = ntri
     state[1] = last
     state[2] = _OK
@@ -1031,7 +1011,7 @@ class IncrementalDelaunay:
         self._V, self._A, self._vt = V, A, vt
         self._state, self._work = state, work
         self._stack = np.empty(n + 8, np.int32)
-        self._log = np.empty(3 * (n + 8), np.int32)  # one point's worst case
+        self._log = np.empty(2 * (n + 8), np.int32)  # one point's worst case
         self._hint = np.full(n, -1, np.int32)
 
     def __len__(self) -> int:
@@ -1057,7 +1037,7 @@ class IncrementalDelaunay:
         self._A = grown(self._A, 6 * cap)
         self._vt = grown(self._vt, cap)
         self._stack = np.empty(cap + 8, np.int32)
-        self._log = np.empty(3 * (cap + 8), np.int32)
+        self._log = np.empty(2 * (cap + 8), np.int32)
         self._hint = grown(self._hint, cap, -1)
 
     def insert(self, xy: np.ndarray, near: np.ndarray) -> tuple[int, int] | None:
