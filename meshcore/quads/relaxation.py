@@ -35,7 +35,7 @@ __all__ = ["relax_quads"]
 RELAX_CONDITION = 0.03
 #: Newton steps after L-BFGS-B at most; they stop when no variable moves by more
 #: than ``NEWTON_STILL`` (the normalized frame's lengths: the median edge is 1).
-NEWTON_STEPS = 150
+NEWTON_STEPS = 40
 NEWTON_STILL = 1e-12
 
 
