@@ -15,6 +15,7 @@ Methods text §8.4.3 (smoothing by optimization), §8.5.3 (the fill's quads).
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
 import scipy.sparse as sp
@@ -35,7 +36,7 @@ __all__ = ["relax_quads"]
 RELAX_CONDITION = 0.03
 #: Newton steps after L-BFGS-B at most; they stop when no variable moves by more
 #: than ``NEWTON_STILL`` (the normalized frame's lengths: the median edge is 1).
-NEWTON_STEPS = 40
+NEWTON_STEPS = 100
 NEWTON_STILL = 1e-12
 
 
@@ -65,7 +66,7 @@ def _corner(ax, ay, bx, by, delta, angle, power, w):
 
 
 @njit(cache=True, error_model="numpy")
-def _relax_corners(P, C, delta, angle, power, w, g):
+def _relax_corners(P, C, turns, delta, angle, power, w, g):
     """The summed corner energy of :func:`_relax_energy`, its gradient added into ``g``
     (zeroed first): one pass over the corners (a collapsed edge gives inf / nan, as
     numpy's errors ignored)."""
@@ -76,7 +77,7 @@ def _relax_corners(P, C, delta, angle, power, w, g):
             i, j, m = C[c, k], C[c, (k + 1) % 4], C[c, (k + 3) % 4]
             ax, ay = P[j, 0] - P[i, 0], P[j, 1] - P[i, 1]
             bx, by = P[m, 0] - P[i, 0], P[m, 1] - P[i, 1]
-            ec, gax, gay, gbx, gby = _corner(ax, ay, bx, by, delta, angle, power, w)
+            ec, gax, gay, gbx, gby = _corner(ax, ay, bx, by, delta, angle and turns[c, k], power, w)
             e += ec
             g[j, 0] += gax
             g[j, 1] += gay
@@ -104,7 +105,7 @@ def _placed(x, P, free, node, A, D, L):
 
 
 @njit(cache=True, error_model="numpy")
-def _relax_energy(x, P, free, node, A, D, L, C, delta, angle, power, w):
+def _relax_energy(x, P, free, node, A, D, L, C, turns, delta, angle, power, w):
     """Summed corner energy at the variables ``x`` of :func:`relax_quads` and its
     gradient in them: the nodes placed (:func:`_placed`), then :func:`_relax_corners`
     (weight ``w``): the regularized condition number ``(|a|^2 + |b|^2) / (2 h)``, or
@@ -117,7 +118,7 @@ def _relax_energy(x, P, free, node, A, D, L, C, delta, angle, power, w):
     0.025: 0.51 of 0.83 s)."""
     Q = _placed(x, P, free, node, A, D, L)
     g = np.zeros_like(Q)
-    e = _relax_corners(Q, C, delta, angle, power, w, g)
+    e = _relax_corners(Q, C, turns, delta, angle, power, w, g)
     out = np.zeros(x.shape[0])
     if not np.isfinite(e) or not np.isfinite(g).all():
         return np.inf, out
@@ -130,8 +131,27 @@ def _relax_energy(x, P, free, node, A, D, L, C, delta, angle, power, w):
     return e, out
 
 
+@njit(cache=True, inline="always")
+def _definite(H):
+    """Whether the symmetric 4 x 4 ``H`` is positive definite (its Cholesky factor)."""
+    L = np.zeros((4, 4))
+    for j in range(4):
+        d = H[j, j]
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:
+            return False
+        L[j, j] = math.sqrt(d)
+        for i in range(j + 1, 4):
+            t = H[i, j]
+            for k in range(j):
+                t -= L[i, k] * L[j, k]
+            L[i, j] = t / L[j, j]
+    return True
+
+
 @njit(cache=True, error_model="numpy")
-def _relax_hessian(x, P, free, node, A, D, L, C, delta, angle, power, w, var):
+def _relax_hessian(x, P, free, node, A, D, L, C, turns, delta, angle, power, w, var):
     """The Hessian of :func:`_relax_energy` in its variables as triplets ``(rows,
     cols, values)`` (duplicates summed): each corner's 4 x 4 Hessian in its edges
     ``a``, ``b`` by central differences of :func:`_corner`'s gradient (steps 1e-6 of
@@ -144,7 +164,10 @@ def _relax_hessian(x, P, free, node, A, D, L, C, delta, angle, power, w, var):
     rows = np.empty(cap, np.int64)
     cols = np.empty(cap, np.int64)
     vals = np.empty(cap)
+    safe = np.empty(cap)
     H = np.empty((4, 4))
+    u, up, um = np.empty(4), np.empty(4), np.empty(4)
+    B, Bp = np.empty((2, 2)), np.empty((2, 2))
     J = np.zeros((3, 2, 2))  # each node's d(point) / d(variables)
     nv = np.zeros(3, np.int64)
     ids = np.zeros(3, np.int64)
@@ -157,24 +180,32 @@ def _relax_hessian(x, P, free, node, A, D, L, C, delta, angle, power, w, var):
             if var[corner[0]] < 0 and var[corner[1]] < 0 and var[corner[2]] < 0:
                 continue
             i, j, m = corner
-            u = np.array(
-                (Q[j, 0] - Q[i, 0], Q[j, 1] - Q[i, 1], Q[m, 0] - Q[i, 0], Q[m, 1] - Q[i, 1])
-            )
+            u[0], u[1] = Q[j, 0] - Q[i, 0], Q[j, 1] - Q[i, 1]
+            u[2], u[3] = Q[m, 0] - Q[i, 0], Q[m, 1] - Q[i, 1]
             # the step a 1e-5 change of the corner's (regularized) cross product
             sigma = u[0] * u[3] - u[1] * u[2]
             h = 0.5 * (sigma + math.sqrt(sigma * sigma + 4.0 * delta * delta))
             s = 1e-5 * h / (math.hypot(u[0], u[1]) + math.hypot(u[2], u[3]))
+            turn = angle and turns[c, k]
             for q in range(4):
-                up, um = u.copy(), u.copy()
+                up[:] = u
+                um[:] = u
                 up[q] += s
                 um[q] -= s
-                gp = _corner(up[0], up[1], up[2], up[3], delta, angle, power, w)
-                gm = _corner(um[0], um[1], um[2], um[3], delta, angle, power, w)
+                gp = _corner(up[0], up[1], up[2], up[3], delta, turn, power, w)
+                gm = _corner(um[0], um[1], um[2], um[3], delta, turn, power, w)
                 for r in range(4):
                     H[r, q] = (gp[r + 1] - gm[r + 1]) / (2.0 * s)
             for r in range(4):
                 for q in range(r + 1, 4):
                     H[r, q] = H[q, r] = 0.5 * (H[r, q] + H[q, r])
+            if not np.isfinite(H).all():
+                return rows[:0], cols[:0], vals[:0], safe[:0]
+            if _definite(H):
+                Hp = H
+            else:  # the corner's Hessian made positive semidefinite
+                lam, V = np.linalg.eigh(H)
+                Hp = (V * np.maximum(lam, 0.0)) @ V.T
             for t in range(3):
                 v = corner[t]
                 ids[t] = var[v]
@@ -192,7 +223,8 @@ def _relax_hessian(x, P, free, node, A, D, L, C, delta, angle, power, w, var):
                 for s2 in range(3):
                     if nv[s1] == 0 or nv[s2] == 0:
                         continue
-                    B = np.zeros((2, 2))  # d2 e / d(point s1) d(point s2)
+                    B[:] = 0.0  # d2 e / d(point s1) d(point s2)
+                    Bp[:] = 0.0
                     for X in range(2):
                         cx = ca[s1] if X == 0 else cb[s1]
                         for Y in range(2):
@@ -202,15 +234,64 @@ def _relax_hessian(x, P, free, node, A, D, L, C, delta, angle, power, w, var):
                                 for r in range(2):
                                     for q in range(2):
                                         B[r, q] += f * H[2 * X + r, 2 * Y + q]
+                                        Bp[r, q] += f * Hp[2 * X + r, 2 * Y + q]
                     for p1 in range(nv[s1]):
                         for p2 in range(nv[s2]):
-                            hv = 0.0
+                            hv = hp = 0.0
                             for r in range(2):
                                 for q in range(2):
                                     hv += J[s1, r, p1] * B[r, q] * J[s2, q, p2]
-                            rows[got], cols[got], vals[got] = ids[s1] + p1, ids[s2] + p2, hv
+                                    hp += J[s1, r, p1] * Bp[r, q] * J[s2, q, p2]
+                            rows[got], cols[got] = ids[s1] + p1, ids[s2] + p2
+                            vals[got], safe[got] = hv, hp
                             got += 1
-    return rows[:got], cols[:got], vals[:got]
+    return rows[:got], cols[:got], vals[:got], safe[:got]
+
+
+def _newton(fun, hessian, x, lower, upper):
+    """Newton's method from ``x`` to the minimum of ``fun`` (energy and gradient) between
+    ``lower`` and ``upper``, ``hessian`` giving the Hessian's triplets exact and made
+    positive semidefinite corner by corner (:func:`_relax_hessian`): each step the exact
+    Hessian's step where it is taken whole, else the safe Hessian's halved until the
+    energy falls (Armijo), or near the minimum, where the energy is all rounding, until
+    the gradient does; a variable at its bound with the gradient pushing out held
+    there. Until no variable moves by ``NEWTON_STILL``, ``NEWTON_STEPS`` at most."""
+    f, g = fun(x)
+    for _ in range(NEWTON_STEPS):
+        held = ((x <= lower) & (g > 0)) | ((x >= upper) & (g < 0))
+        on = np.flatnonzero(~held)
+        r, c, exact, safe = hessian(x)
+        if not (np.isfinite(f) and len(exact) and on.size):
+            break
+        y = None
+        for vals in (exact, safe):
+            H = sp.csc_matrix((vals, (r, c)), shape=(len(x), len(x)))[on][:, on]
+            tiny = 1e-12 * float(np.abs(H.diagonal()).max())
+            d = np.zeros(len(x))
+            d[on] = spsolve((H + tiny * sp.identity(len(on), format="csc")).tocsc(), -g[on])
+            if not (np.isfinite(d).all() and d @ g < 0):
+                continue
+            step = 1.0
+            while step > 1e-9 and y is None:
+                z = np.clip(x + step * d, lower, upper)
+                fz, gz = fun(z)
+                if np.isfinite(fz) and (
+                    fz <= f + 1e-4 * (g @ (z - x))
+                    or (fz <= f + 1e-13 * abs(f) and np.abs(gz[on]).max() < np.abs(g[on]).max())
+                ):
+                    y, fy, gy = z, fz, gz
+                elif vals is exact:  # the exact Hessian's step whole or not at all
+                    break
+                step *= 0.5
+            if y is not None:
+                break
+        if y is None:
+            break
+        moved = float(np.abs(y - x).max())
+        x, f, g = y, fy, gy
+        if moved <= NEWTON_STILL:
+            break
+    return x
 
 
 def relax_quads(
@@ -240,19 +321,21 @@ def relax_quads(
     square with a hole at size 0.02 reached in 200 iterations the mean quality
     it reached in 3,000 before, 0.9621 against 0.9586).
 
-    Each L-BFGS-B run is followed by Newton's method (the Hessian of
-    :func:`_relax_hessian`, shifted until its step descends, a sliding node at
-    its bound with the gradient pushing out of it held there; a step halved
-    until the energy, or the gradient near the minimum where the energy is
-    all rounding, falls) until no variable moves by ``NEWTON_STILL``
-    (``NEWTON_STEPS`` at most): the minimum the run leads to. L-BFGS-B
-    stopped at ``iterations`` amplified rounding (a 1e6 translation moved
-    the points of issue 20's stars by 1e-4 to 1e-2 of the extent; 1e-9 of
-    the normalized frame grew about 1.3 times per iteration), the minimum
-    moves with the input only to rounding. The problem is set in a local
-    frame (coordinates relative to the mean of the active quads' nodes, in
-    their median edge length), so translated or scaled inputs are the same
-    problem to rounding.
+    Each L-BFGS-B run is followed by Newton's method to the minimum it leads
+    to (:func:`_newton`): L-BFGS-B stopped at ``iterations`` amplified
+    rounding (1e-9 of the normalized frame grew about 1.3 times an iteration:
+    a 1e6 translation moved the points of issue 20's stars by 1e-4 to 1e-2 of
+    the extent), the minimum moves with the input by rounding only (6.8e-11 of
+    the extent translated, 1e-13 scaled by 1e-6, on every relaxation
+    quad_combine makes on issue 20's stars 0-9 at size 0.1). A corner whose
+    angle no move can change (a fixed node between neighbours fixed or
+    sliding on its own segments: a spike's tip) has no angle term: its
+    constant ``(1 / sin) ** power`` (1.7e8 at a tip of 0.5 degrees) only
+    pulled, through the regularization, its sliding neighbours away, and
+    left Newton's method crawling along that valley. The problem is set in a
+    local frame (coordinates relative to the mean of the active quads'
+    nodes, in their median edge length), so translated or scaled inputs are
+    the same problem to rounding.
 
     Parameters
     ----------
@@ -318,6 +401,16 @@ def relax_quads(
     free = np.flatnonzero(movable)
     if not free.size and not node.size:
         return P0.copy()
+    # the corners whose angle a move changes: at a moving node, or with a moving neighbour
+    # off the node's own segments (a spike's tip, its neighbours sliding on its segments,
+    # keeps its angle, and its huge constant term's regularization pulled them away)
+    moves = np.zeros(n, bool)
+    moves[free] = moves[node] = True
+    ends = np.full((n, 2), -1)
+    ends[node, 0], ends[node, 1] = sa, sb
+    turns = moves[Ca].copy()
+    for v in (np.roll(Ca, -1, axis=1), np.roll(Ca, 1, axis=1)):
+        turns |= moves[v] & (ends[v, 0] != Ca) & (ends[v, 1] != Ca)
     centre = P0[Ca.ravel()].mean(axis=0)
     edge = np.hypot(*(P0[np.roll(Ca, -1, axis=1)] - P0[Ca]).reshape(-1, 2).T)
     scale = float(np.median(edge)) or 1.0
@@ -340,7 +433,7 @@ def relax_quads(
     power, w = float(angle_power or 1.0), RELAX_CONDITION if angle else 1.0
 
     def fun(x, delta):
-        return _relax_energy(x, P, free, node, A, D, L, Ca, delta, angle, power, w)
+        return _relax_energy(x, P, free, node, A, D, L, Ca, turns, delta, angle, power, w)
 
     # each sliding node stays between the midpoints to its neighbours on its segment
     # (to the segment's ends for the first and last): none reaches an end or passes
@@ -358,45 +451,13 @@ def relax_quads(
     x = np.concatenate([P[free].ravel(), t0 * L])
     lo, hi = lo * L, hi * L
     bounds = [(None, None)] * (2 * nf) + list(zip(lo.tolist(), hi.tolist(), strict=True))
-    lower = np.concatenate([np.full(2 * nf, -np.inf), lo])
-    upper = np.concatenate([np.full(2 * nf, np.inf), hi])
+    box = (
+        np.concatenate([np.full(2 * nf, -np.inf), lo]),
+        np.concatenate([np.full(2 * nf, np.inf), hi]),
+    )
 
-    def newton(x, delta):
-        f, g = fun(x, delta)
-        for _ in range(NEWTON_STEPS):
-            if not np.isfinite(f):
-                break
-            held = ((x <= lower) & (g > 0)) | ((x >= upper) & (g < 0))
-            on = np.flatnonzero(~held)
-            r, c, v = _relax_hessian(x, P, free, node, A, D, L, Ca, delta, angle, power, w, var)
-            H = sp.csc_matrix((v, (r, c)), shape=(len(x), len(x)))[on][:, on]
-            d = np.zeros(len(x))
-            big = float(np.abs(H.diagonal()).max())
-            shift = 0.0
-            while shift <= 1e6 * big:  # shifted toward a gradient step until it descends
-                d[on] = spsolve((H + shift * sp.identity(len(on), format="csc")).tocsc(), -g[on])
-                if np.isfinite(d).all() and d @ g < 0:
-                    break
-                shift = max(1e3 * shift, 1e-9 * big)
-            else:
-                break
-            step = 1.0
-            while step > 1e-9:
-                y = np.clip(x + step * d, lower, upper)
-                fy, gy = fun(y, delta)
-                if np.isfinite(fy) and (
-                    fy <= f + 1e-4 * (g @ (y - x))
-                    or (fy <= f + 1e-13 * abs(f) and np.abs(gy[on]).max() < np.abs(g[on]).max())
-                ):
-                    break
-                step *= 0.5
-            else:
-                break
-            moved = float(np.abs(y - x).max())
-            x, f, g = y, fy, gy
-            if moved <= NEWTON_STILL:
-                break
-        return x
+    def hessian(x, delta):
+        return _relax_hessian(x, P, free, node, A, D, L, Ca, turns, delta, angle, power, w, var)
 
     with threadpool_limits(limits=1, user_api="blas"):
         for r in range(6):
@@ -418,7 +479,7 @@ def relax_quads(
                 bounds=bounds,
                 options={"maxiter": iterations},
             )
-            x = newton(res.x, delta)
+            x = _newton(partial(fun, delta=delta), partial(hessian, delta=delta), res.x, *box)
             if least > 0:
                 break
     out = P0.copy()
