@@ -150,6 +150,52 @@ def _definite(H):
     return True
 
 
+@njit(cache=True)
+def _clamped(A, V):
+    """The symmetric 4 x 4 ``A`` with its negative eigenvalues set to 0, in place
+    (cyclic Jacobi rotations, ``V`` the work space for the eigenvectors): one corner's
+    Hessian, where LAPACK's call and its arrays cost three times the rest."""
+    V[:] = 0.0
+    for i in range(4):
+        V[i, i] = 1.0
+    for _ in range(30):
+        off = 0.0
+        for p in range(4):
+            for q in range(p + 1, 4):
+                off += A[p, q] * A[p, q]
+        scale = 0.0
+        for p in range(4):
+            scale += A[p, p] * A[p, p]
+        if not off > 1e-30 * scale:
+            break
+        for p in range(3):
+            for q in range(p + 1, 4):
+                if A[p, q] == 0.0:
+                    continue
+                theta = (A[q, q] - A[p, p]) / (2.0 * A[p, q])
+                t = math.copysign(1.0, theta) / (abs(theta) + math.sqrt(theta * theta + 1.0))
+                c = 1.0 / math.sqrt(t * t + 1.0)
+                sn = t * c
+                for k in range(4):  # A <- A J (columns p, q)
+                    akp, akq = A[k, p], A[k, q]
+                    A[k, p], A[k, q] = c * akp - sn * akq, sn * akp + c * akq
+                for k in range(4):  # A <- J^T A (rows p, q)
+                    apk, aqk = A[p, k], A[q, k]
+                    A[p, k], A[q, k] = c * apk - sn * aqk, sn * apk + c * aqk
+                for k in range(4):
+                    vkp, vkq = V[k, p], V[k, q]
+                    V[k, p], V[k, q] = c * vkp - sn * vkq, sn * vkp + c * vkq
+    lam0, lam1, lam2, lam3 = A[0, 0], A[1, 1], A[2, 2], A[3, 3]
+    for r in range(4):
+        for q in range(4):
+            A[r, q] = (
+                V[r, 0] * max(lam0, 0.0) * V[q, 0]
+                + V[r, 1] * max(lam1, 0.0) * V[q, 1]
+                + V[r, 2] * max(lam2, 0.0) * V[q, 2]
+                + V[r, 3] * max(lam3, 0.0) * V[q, 3]
+            )
+
+
 @njit(cache=True, error_model="numpy")
 def _relax_hessian(x, P, free, node, A, D, L, C, turns, delta, angle, power, w, var):
     """The Hessian of :func:`_relax_energy` in its variables as triplets ``(rows,
@@ -168,6 +214,7 @@ def _relax_hessian(x, P, free, node, A, D, L, C, turns, delta, angle, power, w, 
     H = np.empty((4, 4))
     u, up, um = np.empty(4), np.empty(4), np.empty(4)
     B, Bp = np.empty((2, 2)), np.empty((2, 2))
+    Hp, V = np.empty((4, 4)), np.empty((4, 4))
     J = np.zeros((3, 2, 2))  # each node's d(point) / d(variables)
     nv = np.zeros(3, np.int64)
     ids = np.zeros(3, np.int64)
@@ -201,11 +248,9 @@ def _relax_hessian(x, P, free, node, A, D, L, C, turns, delta, angle, power, w, 
                     H[r, q] = H[q, r] = 0.5 * (H[r, q] + H[q, r])
             if not np.isfinite(H).all():
                 return rows[:0], cols[:0], vals[:0], safe[:0]
-            if _definite(H):
-                Hp = H
-            else:  # the corner's Hessian made positive semidefinite
-                lam, V = np.linalg.eigh(H)
-                Hp = (V * np.maximum(lam, 0.0)) @ V.T
+            Hp[:] = H
+            if not _definite(H):  # the corner's Hessian made positive semidefinite
+                _clamped(Hp, V)
             for t in range(3):
                 v = corner[t]
                 ids[t] = var[v]
@@ -257,18 +302,25 @@ def _newton(fun, hessian, x, lower, upper):
     the gradient does; a variable at its bound with the gradient pushing out held
     there. Until no variable moves by ``NEWTON_STILL``, ``NEWTON_STEPS`` at most."""
     f, g = fun(x)
+    n = len(x)
+    every = np.arange(n)
     for _ in range(NEWTON_STEPS):
         held = ((x <= lower) & (g > 0)) | ((x >= upper) & (g < 0))
-        on = np.flatnonzero(~held)
         r, c, exact, safe = hessian(x)
-        if not (np.isfinite(f) and len(exact) and on.size):
+        if not (np.isfinite(f) and len(exact)) or held.all():
             break
+        # a held variable's row and column the identity's (its step 0), a shift of 1e-12
+        # of the largest diagonal entry against a singular Hessian
+        keep = ~held[r] & ~held[c]
+        rows, cols = np.concatenate([r[keep], every]), np.concatenate([c[keep], every])
+        tiny = 1e-12 * float(np.abs(exact[r == c]).max())
+        diagonal = np.where(held, 1.0, tiny)
+        rhs = np.where(held, 0.0, -g)
+        on = ~held
         y = None
         for vals in (exact, safe):
-            H = sp.csc_matrix((vals, (r, c)), shape=(len(x), len(x)))[on][:, on]
-            tiny = 1e-12 * float(np.abs(H.diagonal()).max())
-            d = np.zeros(len(x))
-            d[on] = spsolve((H + tiny * sp.identity(len(on), format="csc")).tocsc(), -g[on])
+            H = sp.csc_matrix((np.concatenate([vals[keep], diagonal]), (rows, cols)), shape=(n, n))
+            d = spsolve(H, rhs)
             if not (np.isfinite(d).all() and d @ g < 0):
                 continue
             step = 1.0
