@@ -36,7 +36,7 @@ __all__ = ["relax_quads"]
 RELAX_CONDITION = 0.03
 #: Newton steps after L-BFGS-B at most; they stop when no variable moves by more
 #: than ``NEWTON_STILL`` (the normalized frame's lengths: the median edge is 1).
-NEWTON_STEPS = 100
+NEWTON_STEPS = 50
 NEWTON_STILL = 1e-12
 
 
@@ -531,8 +531,9 @@ def relax_quads(
                 bounds=bounds,
                 options={"maxiter": iterations},
             )
-            x = _newton(partial(fun, delta=delta), partial(hessian, delta=delta), res.x, *box)
-            if least > 0:
+            x = res.x
+            if least > 0:  # the smoothing round (untangling rounds are not polished)
+                x = _newton(partial(fun, delta=delta), partial(hessian, delta=delta), x, *box)
                 break
     out = P0.copy()
     out[free] = x[: 2 * nf].reshape(-1, 2) * scale + centre

@@ -258,11 +258,11 @@ def test_quad_combine_keeps_a_row_that_beats_the_lattice():
 
 
 def test_quad_combine_meets_the_targets_at_a_slightly_larger_size():
-    # issue 20's random star 15 at size 0.1: the corner row meets every target but the
-    # count (1.514 times area / size² quads), the lattice's mesh misses the least
-    # quality (0.435); meshed again at 1.02 times the size the row meets them all (1.489x);
-    # the progress of the two meshes never goes back
-    dom = parse_domain(issue_star(15)[0])
+    # issue 20's random star 23 at size 0.1: neither mesh meets the targets at the size
+    # nor at 1.02 times it, both do at 1.04 (least 0.521 away from the sharp corners);
+    # the progress of the meshes never goes back. (Star 15, here before, now meets them
+    # at the size: its corner relaxation ends at its minimum, least 0.501)
+    dom = parse_domain(issue_star(23)[0])
     seen = []
     res = combine(
         domain=dom,
@@ -272,7 +272,7 @@ def test_quad_combine_meets_the_targets_at_a_slightly_larger_size():
         optimize=True,
         progress=lambda f, msg: seen.append((f, msg)),
     )
-    assert res.stats["size_factor"] == 1.02 and "boundary_layer" in res.stats
+    assert res.stats["size_factor"] == 1.04
     fractions = [f for f, _ in seen]
     assert fractions == sorted(fractions) and 0 <= fractions[0] and fractions[-1] <= 1
     assert any("again at 1.02 x size" in msg for _, msg in seen)
@@ -290,14 +290,15 @@ def test_quad_combine_keeps_the_lattice_that_meets_the_targets():
 
 
 def test_quad_combine_lifts_the_quad_next_to_a_spike_tip():
-    # issue 20's random star 33 at size 0.05 (spike tips): after the corner relaxation the
-    # least quality away from the sharp corners is 0.437, the tips' quads, capped by their
-    # input corners, holding the nodes next to them; the lift, judging only the quads
-    # away from them, takes it to 0.514 (its count 1.19 x area / size²)
-    dom = parse_domain(issue_star(33)[0])
-    res = combine(domain=dom, size=0.05, all_quad=True, twice_size=True, optimize=True)
+    # issue 20's random star 15 at size 0.1 (spike tips): after the corner relaxation the
+    # tips' quads, capped by their input corners, hold the nodes next to them; the lift,
+    # judging only the quads away from them, makes its moves there and the mesh meets the
+    # targets (least 0.501 away from the sharp corners). (Star 33 at size 0.05, here
+    # before, meets them after the relaxation alone now that it ends at its minimum)
+    dom = parse_domain(issue_star(15)[0])
+    res = combine(domain=dom, size=0.1, all_quad=True, twice_size=True, optimize=True)
     assert res.operators["lift_off_sharp"] > 0
-    _meets_targets(res, dom, 0.05)
+    _meets_targets(res, dom, 0.1)
 
 
 @settings(SETTINGS, max_examples=3)
