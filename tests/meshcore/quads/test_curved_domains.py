@@ -573,7 +573,7 @@ def test_lift_keeps_unjudged_quads_and_moves_alike_in_any_frame():
     for shift, scale in ((1e6, 1.0), (0.0, 1e-6)):
         got, m = lift_corners(P * scale + shift, Q, ~inner, none, judged, 0.6, 0.6)
         assert m == moves
-        np.testing.assert_allclose((got - shift) / scale, new, atol=1e-8)
+        np.testing.assert_allclose((got - shift) / scale, new, rtol=0, atol=1e-9)
 
 
 def test_lift_raises_the_least_corner_and_keeps_the_boundary():
