@@ -120,7 +120,6 @@ Methods text §8.4.3 (the operators and their acceptance by quality),
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import partial
@@ -133,6 +132,7 @@ from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.mesh.topology import isin_ints, unique_ints
 from meshcore.partition.smoothing import boundary_points
+from meshcore.quads.relaxation import relax_quads
 from meshcore.quads.vertex_moves import (
     _angle_quality_rows,
     _checked_rows,
@@ -195,14 +195,6 @@ class _Tolerances:
     #: per sweep leave mean quality on the table (97k triangles: 0.853 -> 0.861).
     final_smooth_passes: int = 30
     final_active_below: float = 1.01
-    #: The corner-angle relaxation (``relax_quads`` with ``angle_power``) adds the
-    #: condition number times this: the ``1 / sin`` of an angle does not change
-    #: with the lengths of its edges, so alone it let an interior node slide
-    #: onto a boundary node (a collapsed edge, a quad of quality 0: the whole
-    #: relaxation was then refused, on the annulus at size 0.05 and the disk at
-    #: 0.05). 0.03 kept every relaxation valid and lost least of the mean gain
-    #: (annulus 0.05: 0.867 -> 0.895 at 0.03, 0.893 at 0.1, 0.889 at 0.3).
-    relax_condition: float = 0.03
 
 
 TOL = _Tolerances()
@@ -1071,237 +1063,6 @@ def sliding_nodes(points: np.ndarray, quads: np.ndarray, fixed: np.ndarray, on_s
         z = np.zeros(0, np.int64)
         return z, z, z
     return np.concatenate(node), np.concatenate(sa), np.concatenate(sb)
-
-
-@njit(cache=True, error_model="numpy")
-def _relax_corners(P, C, delta, angle, power, w, g):
-    """The summed corner energy of :func:`_relax_energy`, its gradient added into ``g``
-    (zeroed first): one pass over the corners (a collapsed edge gives inf / nan, as
-    numpy's errors ignored)."""
-    g[:] = 0.0
-    e = 0.0
-    for c in range(C.shape[0]):
-        for k in range(4):
-            i, j, m = C[c, k], C[c, (k + 1) % 4], C[c, (k + 3) % 4]
-            ax, ay = P[j, 0] - P[i, 0], P[j, 1] - P[i, 1]
-            bx, by = P[m, 0] - P[i, 0], P[m, 1] - P[i, 1]
-            sigma = ax * by - ay * bx
-            root = np.sqrt(sigma * sigma + 4.0 * delta * delta)
-            h = 0.5 * (sigma + root)
-            dh = 0.5 * (1.0 + sigma / root)
-            ec = ca = cb = dsig = 0.0
-            if angle:
-                la = np.sqrt(ax * ax + ay * ay)
-                lb = np.sqrt(bx * bx + by * by)
-                base = la * lb / h
-                ec = base**power
-                f = power * base ** (power - 1.0)
-                ca, cb = f * lb / (h * la), f * la / (h * lb)
-                dsig = -f * base / h * dh
-            S = (ax * ax + ay * ay) + (bx * bx + by * by)
-            e += ec + w * S / (2.0 * h)
-            ca = ca + w / h
-            cb = cb + w / h
-            dsig = dsig - w * S / (2.0 * h * h) * dh
-            gax, gay = ca * ax + dsig * by, ca * ay - dsig * bx
-            gbx, gby = cb * bx - dsig * ay, cb * by + dsig * ax
-            g[j, 0] += gax
-            g[j, 1] += gay
-            g[m, 0] += gbx
-            g[m, 1] += gby
-            g[i, 0] -= gax + gbx
-            g[i, 1] -= gay + gby
-    return e
-
-
-@njit(cache=True, error_model="numpy")
-def _relax_energy(x, P, free, node, A, D, L, C, delta, angle, power, w):
-    """Summed corner energy at the variables ``x`` of :func:`relax_quads` and its
-    gradient in them: ``P`` with the ``free`` nodes at ``x``'s leading pairs and the
-    sliding ``node`` at ``A + x / L * D``, then :func:`_relax_corners` (weight ``w``):
-    the regularized condition number ``(|a|^2 + |b|^2) / (2 h)``, or with ``angle``
-    ``(|a| |b| / h) ** power`` (the regularized ``1 / sin`` of the corner angle: angles
-    only, the power weighting the worst corners) plus ``w`` times the condition number
-    (a barrier against collapsing an edge, which leaves the angles' term unchanged).
-    ``(inf, zeros)`` when a value is not finite (a trial step collapsing an edge).
-    Compiled whole, called once per L-BFGS-B evaluation: the vectorized form cost 80 %
-    of ``combine``'s CPU on curved domains (disk at size 0.025: 0.51 of 0.83 s)."""
-    Q = P.copy()
-    nf = free.shape[0]
-    for k in range(nf):
-        Q[free[k], 0] = x[2 * k]
-        Q[free[k], 1] = x[2 * k + 1]
-    for k in range(node.shape[0]):
-        t = x[2 * nf + k] / L[k]
-        Q[node[k], 0] = A[k, 0] + t * D[k, 0]
-        Q[node[k], 1] = A[k, 1] + t * D[k, 1]
-    g = np.zeros_like(Q)
-    e = _relax_corners(Q, C, delta, angle, power, w, g)
-    out = np.zeros(x.shape[0])
-    if not np.isfinite(e) or not np.isfinite(g).all():
-        return np.inf, out
-    for k in range(nf):
-        out[2 * k] = g[free[k], 0]
-        out[2 * k + 1] = g[free[k], 1]
-    for k in range(node.shape[0]):
-        out[2 * nf + k] = (g[node[k], 0] * D[k, 0] + g[node[k], 1] * D[k, 1]) / L[k]
-    return e, out
-
-
-def relax_quads(
-    points: np.ndarray,
-    quads: np.ndarray,
-    fixed: np.ndarray,
-    *,
-    slide: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
-    active: np.ndarray | None = None,
-    iterations: int = 200,
-    angle_power: float | None = None,
-    border: np.ndarray | None = None,
-) -> np.ndarray:
-    """Untangle and smooth a planar quad mesh (quads of §8.4.3, §8.5.3).
-
-    Minimizes the summed condition number of the quad corners over the free
-    nodes (L-BFGS-B), regularized so that folded quads have a finite energy
-    (Escobar et al., "Simultaneous untangling and smoothing of tetrahedral
-    meshes", 2003, here for quad corners): a folded mesh is untangled and a
-    valid one is smoothed toward right-angled corners in one process. Nodes
-    in ``slide`` move only along their segment, each between the midpoints to
-    its neighbours there (so no boundary edge collapses and the boundary order
-    is kept), so the boundary and the area of a polygonal domain are kept.
-    A sliding node's variable is its position along its segment in the
-    normalized frame's lengths, as the free nodes' coordinates are (its
-    fraction of the segment made a segment of k edges k**2 times stiffer: the
-    square with a hole at size 0.02 reached in 200 iterations the mean quality
-    it reached in 3,000 before, 0.9621 against 0.9586).
-
-    Parameters
-    ----------
-    points : (n, 2) float64
-    quads : (q, 4) int
-        Counter-clockwise.
-    fixed : (n,) bool
-        Nodes that do not move (besides the sliding ones, which are fixed too
-        except along their segment).
-    slide : (node, a, b), optional
-        As :func:`sliding_nodes`.
-    active : (q,) bool, optional
-        Only these quads enter the energy, and only nodes all of whose quads
-        are active move (a band around the bad quads of a large mesh).
-    iterations : int
-        L-BFGS-B iterations per round at most.
-    angle_power : float, optional
-        Minimize ``(1 / sin(corner angle)) ** angle_power`` (regularized the
-        same way) instead: angles only, closer to (8.4) than the condition
-        number, which also evens the edge lengths.
-    border : (n,) bool, optional
-        The mesh's boundary nodes, when the caller has them
-        (:func:`meshcore.partition.smoothing.boundary_points`): they move only in
-        ``slide``.
-
-    Returns
-    -------
-    (n, 2) float64
-        The moved points. Whether they are valid is the caller's check
-        (exact predicates): a tangle that cannot be undone with the fixed
-        nodes stays tangled.
-
-    L-BFGS-B runs on one BLAS thread (:func:`threadpoolctl.threadpool_limits`):
-    its many small calls made a multithreaded OpenBLAS up to 12 times slower
-    in CPU on busy cores, for library callers that did not set
-    ``OPENBLAS_NUM_THREADS=1`` as the service's job processes do.
-    """
-    from scipy.optimize import minimize
-    from threadpoolctl import threadpool_limits
-
-    P0 = np.asarray(points, np.float64)
-    C = np.asarray(quads, np.int64)
-    n = len(P0)
-    if active is None:
-        active = np.ones(len(C), bool)
-    Ca = C[active]
-    if not len(Ca):
-        return P0.copy()
-    movable = np.zeros(n, bool)
-    movable[Ca.ravel()] = True
-    inactive = C[~active]
-    movable[inactive.ravel()] = False
-    movable &= ~fixed
-    # boundary nodes move only along their segment
-    movable &= ~(boundary_points(P0, C) if border is None else border)
-    node, sa, sb = slide if slide is not None else (np.zeros(0, np.int64),) * 3
-    ok = np.zeros(n, bool)
-    ok[Ca.ravel()] = True
-    ok[inactive.ravel()] = False
-    keep = ok[node] & ~fixed[node]
-    node, sa, sb = np.asarray(node[keep], np.int64), sa[keep], sb[keep]
-    free = np.flatnonzero(movable)
-    if not free.size and not node.size:
-        return P0.copy()
-    centre = P0[Ca.ravel()].mean(axis=0)
-    edge = np.hypot(*(P0[np.roll(Ca, -1, axis=1)] - P0[Ca]).reshape(-1, 2).T)
-    scale = float(np.median(edge)) or 1.0
-    P = (P0 - centre) / scale
-    A, D = P[sa], P[sb] - P[sa]
-    t0 = ((P[node] - A) * D).sum(-1) / (D * D).sum(-1)
-    L = np.hypot(D[:, 0], D[:, 1])  # a sliding node's variable: t times its segment's length
-    nf = free.size
-
-    def unpack(x):
-        Q = P.copy()
-        Q[free] = x[: 2 * nf].reshape(-1, 2)
-        Q[node] = A + (x[2 * nf :] / L)[:, None] * D
-        return Q
-
-    angle = angle_power is not None
-    power, w = float(angle_power or 1.0), TOL.relax_condition if angle else 1.0
-
-    def fun(x, delta):
-        return _relax_energy(x, P, free, node, A, D, L, Ca, delta, angle, power, w)
-
-    # each sliding node stays between the midpoints to its neighbours on its segment
-    # (to the segment's ends for the first and last): none reaches an end or passes
-    # another, which would collapse a boundary edge; a node projecting off its segment (as
-    # rounding at coordinates 1e12 makes) keeps its own position within its range
-    order = np.lexsort((t0, sb, sa))
-    ts = t0[order]
-    first = np.ones(len(order), bool)
-    first[1:] = (sa[order][1:] != sa[order][:-1]) | (sb[order][1:] != sb[order][:-1])
-    last = np.roll(first, -1)
-    lo, hi = np.empty(len(order)), np.empty(len(order))
-    lo[order] = (ts + np.where(first, 0.0, np.roll(ts, 1))) / 2
-    hi[order] = (ts + np.where(last, 1.0, np.roll(ts, -1))) / 2
-    lo, hi = np.minimum(lo, t0), np.maximum(hi, t0)
-    x = np.concatenate([P[free].ravel(), t0 * L])
-    lo, hi = lo * L, hi * L
-    bounds = [(None, None)] * (2 * nf) + list(zip(lo.tolist(), hi.tolist(), strict=True))
-    with threadpool_limits(limits=1, user_api="blas"):
-        for r in range(6):
-            Q = unpack(x)
-            p = Q[Ca]
-            a, b = np.roll(p, -1, axis=1) - p, np.roll(p, 1, axis=1) - p
-            least = float((a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]).min())
-            # untangling rounds (Escobar's delta) only while a corner is folded; delta
-            # shrinks each round, so that a fold among corners far smaller than the
-            # median is not lost in the regularization
-            eps = 1e-2 * 0.1**r
-            delta = math.sqrt(eps * (eps - least)) if least <= 0 else 1e-6
-            res = minimize(
-                fun,
-                x,
-                args=(delta,),
-                jac=True,
-                method="L-BFGS-B",
-                bounds=bounds,
-                options={"maxiter": iterations},
-            )
-            x = res.x
-            if least > 0:
-                break
-    out = P0.copy()
-    out[free] = x[: 2 * nf].reshape(-1, 2) * scale + centre
-    out[node] = P0[sa] + (x[2 * nf :] / L)[:, None] * (P0[sb] - P0[sa])
-    return out
 
 
 class DomainMoves(NamedTuple):

@@ -551,6 +551,12 @@ LIFT_SWEEPS = 8
 LIFT_GAIN = 1e-6
 #: Least fall of the summed squared shortfall for a move that keeps the least.
 LIFT_SHORTFALL_GAIN = 1e-9
+#: A corner quality within this of another is as high (qualities are <= 1): a node
+#: sliding along a segment leaves its neighbour's corner there as it was, which rounding
+#: put just under or over its floor, and the same move was made at the origin and not
+#: at +1e6 (issue 20's star 9 with quad_medial at size 0.1: points 8.5e-3 of the extent
+#: apart). Far above rounding at +1e6 (1e-9 of the normalized frame: ~1e-10).
+LIFT_TIE = 1e-8
 
 
 @njit(cache=True)
@@ -611,7 +617,7 @@ def _moved_at(P, C, ptr, cells, v, x, y, judged, floor, shortest, aim, work):
                 return -1.0, np.inf
         for s in (3, 0, 1):
             q = _corner_at(P, C, c, (k + s) % 4, v, x, y, work)
-            if q < floor[c] or q < 0.0:
+            if q < floor[c] - LIFT_TIE or q < 0.0:
                 return -1.0, np.inf
             if judged[c]:
                 worst = min(worst, q)
@@ -670,7 +676,7 @@ def _lift_corners(P, C, mode, slide, judged, aim, keep):
                             P, C, ptr, cells, v, x, y, judged, floor, shortest[v], aim, work
                         )
                         lower = gpen < bpen - LIFT_SHORTFALL_GAIN
-                        if got > best + LIFT_GAIN or (got >= best and lower):
+                        if got > best + LIFT_GAIN or (got >= best - LIFT_TIE and lower):
                             best, bpen, bx, by = got, gpen, x, y
                     step *= 0.5
                 if bx == P[v, 0] and by == P[v, 1]:
@@ -678,8 +684,8 @@ def _lift_corners(P, C, mode, slide, judged, aim, keep):
                 P[v, 0], P[v, 1], cur, pen = bx, by, best, bpen
                 for j in range(ptr[v], ptr[v + 1]):
                     c = cells[j]
-                    qc = _quad_at(P, C, c, work)
-                    floor[c] = min(qc, keep) if judged[c] else qc
+                    qc = _quad_at(P, C, c, work)  # a floor falls by LIFT_TIE at most
+                    floor[c] = max(floor[c], min(qc, keep) if judged[c] else qc)
                 moved += 1
         moves += moved
         if moved == 0:
@@ -713,7 +719,9 @@ def lift_corners(
     Guarantees: every quad stays strictly convex (exact
     :func:`~meshcore.geometry.predicates.orient2d_filtered` wherever a corner's sine
     is under 1e-6); the least quality of the judged quads never falls; no other quad's
-    quality (8.4) falls; no judged quad falls under ``min(its quality, keep)``; no
+    quality (8.4) falls; no judged quad falls under ``min(its quality, keep)`` (each to
+    :data:`LIFT_TIE`: a corner a move leaves as it was is taken as unchanged, not as
+    rounding makes it, so that the moves do not change under a translation); no
     edge at a moved node gets shorter than half its shortest at the start. Run in a
     frame centred on the moving nodes and scaled by their mean edge length: the
     points that do not move are returned unchanged.
