@@ -66,7 +66,7 @@ from numba import njit
 
 from meshcore.delaunay.brio import brio_round, brio_rounds
 from meshcore.delaunay.prefetch import prefetch
-from meshcore.errors import InputError
+from meshcore.errors import InputError, refuse_non_numbers
 from meshcore.geometry.expansions import two_product, two_sum
 from meshcore.geometry.ordering import radix_sort
 from meshcore.geometry.predicates import (
@@ -1133,6 +1133,7 @@ class IncrementalDelaunay:
 
 
 def _validated(points) -> np.ndarray:
+    refuse_non_numbers(points, ("points",), code="bad_shape")  # numpy reads "1.5" and True
     try:
         pts = np.ascontiguousarray(points, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -1299,7 +1300,7 @@ def delaunay(
     Raises
     ------
     InputError
-        ``bad_shape`` (not an ``(n, 2)`` array), ``too_few_points`` (fewer
+        ``bad_shape`` (not an ``(n, 2)`` array of numbers), ``too_few_points`` (fewer
         than 3), ``non_finite`` (NaN or infinite coordinates, naming the
         points), ``duplicate_points`` (naming the coinciding indices),
         ``collinear_points`` (all points on one line),

@@ -112,7 +112,6 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from numbers import Real
 
 import numpy as np
 from numba import njit
@@ -126,7 +125,7 @@ from meshcore.domain.crossings import (
     _floor_index,
     _intersections,
 )
-from meshcore.errors import InputError
+from meshcore.errors import InputError, is_number, refuse_non_numbers
 from meshcore.geometry.predicates import orient2d, orient2d_scalar
 from meshcore.geometry.tolerances import MAX_COORDINATE, MAX_COORDINATE_3D, MIN_DIAMETER
 
@@ -429,6 +428,8 @@ def _positions(value: object, loc: tuple, what: str) -> tuple[np.ndarray, tuple]
         arr = None
     if arr is not None and arr.ndim == 1 and arr.size == 0:
         return np.zeros((0, 2)), (np.inf, np.inf, -np.inf, -np.inf)
+    if arr is not None and arr.dtype.kind in "iuf" and arr is not value:
+        refuse_non_numbers(value, loc, what=what, code="bad_geometry")  # [True, 1.5] is float
     out = _NO_COPY
     if arr is None or arr.dtype.kind not in "iuf" or arr.ndim != 2 or arr.shape[1] != 2:
         arr = _positions_slow(value, loc, what)
@@ -503,9 +504,7 @@ def _positions_slow(value: Sequence, loc: tuple, what: str) -> np.ndarray:
                 code="bad_geometry",
             )
         for c, x in enumerate(pos):
-            if isinstance(x, bool | np.bool_ | np.complexfloating) or not isinstance(
-                x, Real | np.number
-            ):
+            if not is_number(x):
                 raise InputError(
                     f"{what}: vertex {v}, coordinate {c} is not a number ({x!r})",
                     loc=(*loc, v, c),
@@ -1290,37 +1289,6 @@ def as_domain(domain) -> Domain:
     )
 
 
-def _refuse_non_numbers(value, loc: tuple) -> None:
-    """An InputError ``bad_parameter`` at the first entry of ``value`` (nested lists or an
-    array) that is a bool, a string or another non-number where a number is due: numpy
-    would read a bool as 0 or 1 and a numeric string as its number (the service's schema
-    refuses both). A numeric array passes at once; nested lists are scanned entry by
-    entry (a malformed nesting is left to the conversion that follows)."""
-    if isinstance(value, np.ndarray) and value.dtype.kind in "iuf":
-        return
-    try:
-        entries = np.asarray(value, dtype=object)
-    except (TypeError, ValueError):
-        return
-    if not any(map(_not_a_number, set(map(type, entries.flat)))):  # the usual case, fast
-        return
-    i = next(i for i, x in enumerate(entries.flat) if _not_a_number(type(x)))
-    where = tuple(int(k) for k in np.unravel_index(i, entries.shape))
-    raise InputError(
-        f"{'.'.join(loc)} entry {list(where)} is not a number ({entries.flat[i]!r})",
-        loc=(*loc, *where),
-        code="bad_parameter",
-    )
-
-
-def _not_a_number(kind: type) -> bool:
-    """Entries of this type are refused where a number is due (a sequence is a malformed
-    nesting, left to the conversion)."""
-    return issubclass(kind, bool | np.bool_ | str | bytes | np.complexfloating) or not (
-        issubclass(kind, Real | np.number | Sequence | np.ndarray)
-    )
-
-
 def parse_size_field(size_field, dim: int = 2) -> tuple[np.ndarray, np.ndarray]:
     """A size field's sample points and sizes, checked (the control space of Remark 8.10).
 
@@ -1358,8 +1326,8 @@ def parse_size_field(size_field, dim: int = 2) -> tuple[np.ndarray, np.ndarray]:
                 loc=("size_field",),
                 code="bad_parameter",
             ) from None
-    _refuse_non_numbers(pts, ("size_field", "points"))
-    _refuse_non_numbers(vals, ("size_field", "values"))
+    refuse_non_numbers(pts, ("size_field", "points"))
+    refuse_non_numbers(vals, ("size_field", "values"))
     try:
         pts = np.asarray(pts, dtype=np.float64)
         vals = np.asarray(vals, dtype=np.float64)

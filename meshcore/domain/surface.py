@@ -120,7 +120,7 @@ import scipy.sparse as sp
 from numba import njit
 from scipy.sparse.csgraph import connected_components
 
-from meshcore.errors import InputError
+from meshcore.errors import InputError, is_number, refuse_non_numbers
 from meshcore.geometry.predicates import orient2d, orient2d_scalar
 from meshcore.geometry.predicates3d import orient3d_scalar
 from meshcore.geometry.tolerances import MAX_COORDINATE_3D, MIN_DIAMETER_3D
@@ -269,6 +269,8 @@ def _rows(value: object, name: str, what: str) -> np.ndarray:
     if arr is not None and arr.ndim == 1 and arr.size == 0:
         return np.zeros((0, 3))
     if arr is not None and arr.dtype.kind in "iuf" and arr.ndim == 2 and arr.shape[1] == 3:
+        if arr is not value:  # numpy reads [True, 1.5] as floats
+            refuse_non_numbers(value, (name,), what=name, code="bad_geometry")
         return arr
     for v, row in enumerate(value):
         if not _is_seq(row) or len(row) != 3:
@@ -279,10 +281,7 @@ def _rows(value: object, name: str, what: str) -> np.ndarray:
                 code="bad_geometry",
             )
         for c, x in enumerate(row):
-            ok = isinstance(x, int | float | np.integer | np.floating) and not isinstance(
-                x, bool | np.bool_
-            )
-            if not ok:
+            if not is_number(x):
                 raise InputError(
                     f"{name}: row {v}, entry {c} is not a number ({x!r})",
                     loc=(name, v, c),

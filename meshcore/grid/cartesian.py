@@ -123,7 +123,7 @@ from meshcore.grid.band import outline_loops
 from meshcore.limits import MAX_CELLS
 from meshcore.mesh import CellBlock, Mesh
 from meshcore.mesh.quality import quad_quality, triangle_shape
-from meshcore.mesh.topology import isin_ints, unique_ints
+from meshcore.mesh.topology import edge_keys, isin_ints, unique_ints
 from meshcore.triangulation.refinement import triangulate
 
 __all__ = ["MAX_CELLS", "GridResult", "grid"]
@@ -564,12 +564,12 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
     core_out = _outline_edges(core)
     if len(core_out):
         ck = np.sort(core_out, axis=1)
-        ekey = edges[:, 0] * N + edges[:, 1]
-        edges = edges[~isin_ints(ekey, ck[:, 0] * N + ck[:, 1])]
+        ekey = edge_keys(edges[:, 0], edges[:, 1], N)
+        edges = edges[~isin_ints(ekey, edge_keys(ck[:, 0], ck[:, 1], N))]
     E = len(edges)
     # (edge, segment) candidates: the four edges of each candidate cell, found
     # in the sorted edge keys
-    ekey = edges[:, 0] * N + edges[:, 1]
+    ekey = edge_keys(edges[:, 0], edges[:, 1], N)
     cc, cs = cand_cell, cand_seg
     ci, cj = cc % nx, cc // nx
     c00 = cj * nx1 + ci
@@ -581,7 +581,7 @@ def _fit(dom: Domain, frame: _Frame, L: np.ndarray, nx: int, ny: int, mode: str,
     ]
     pe, pseg = [], []
     for u0, u1 in four:
-        k = u0 * N + u1
+        k = edge_keys(u0, u1, N)
         pos = np.searchsorted(ekey, k)
         ok = (pos < E) & (ekey[np.minimum(pos, E - 1)] == k)
         pe.append(pos[ok])

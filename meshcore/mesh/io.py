@@ -374,7 +374,7 @@ def to_glb(mesh: Mesh, extras: dict | None = None) -> bytes:
     primitives = []
     runs = _drawn_faces(mesh)
     if runs:
-        tris, quality, edge_keys, edge_ends, cell_types = [], [], [], [], []
+        tris, quality, keys, edge_ends, cell_types = [], [], [], [], []
         first, n = 0, len(points)
         for ftype, nodes, q, source in runs:
             split, fe = _SPLIT[ftype], _FACE_EDGES[ftype]
@@ -385,13 +385,13 @@ def to_glb(mesh: Mesh, extras: dict | None = None) -> bytes:
             corner = 3 * (first + np.arange(f)[:, None] * s + fe[:, 0])  # (f, e)
             a = nodes[:, split[fe[:, 0], fe[:, 1]]].ravel()
             b = nodes[:, split[fe[:, 0], fe[:, 2]]].ravel()
-            edge_keys.append(np.minimum(a, b) * n + np.maximum(a, b))
+            keys.append(topology.edge_keys(a, b, n))
             edge_ends.append(((corner + fe[:, 1]).ravel(), (corner + fe[:, 2]).ravel()))
             cell_types.append([source, first])
             first += f * s
         corners = np.concatenate(tris)
         position = out.add(local[corners], "VEC3", 34962, bounds=_bounds(local, corners))
-        _, once = np.unique(np.concatenate(edge_keys), return_index=True)
+        _, once = np.unique(np.concatenate(keys), return_index=True)
         ends = np.column_stack([np.concatenate([e[k] for e in edge_ends])[once] for k in (0, 1)])
         primitives.append(
             {

@@ -120,6 +120,7 @@ from meshcore.domain.surface import (
 from meshcore.errors import AlgorithmError, InputError, MeshcoreError, positive_parameter
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh, quality
+from meshcore.mesh.topology import edge_keys
 from meshcore.partition.boundary import SizeMap
 from meshcore.partition.recursive import PartitionResult, partition_polygon
 from meshcore.tets import tetrahedralize
@@ -182,8 +183,7 @@ def _twins(F: np.ndarray) -> np.ndarray:
     src = F.reshape(-1)
     dst = F[:, [1, 2, 0]].reshape(-1)
     n = int(F.max()) + 1
-    key = np.minimum(src, dst) * n + np.maximum(src, dst)
-    order = np.argsort(key, kind="stable")
+    order = np.argsort(edge_keys(src, dst, n), kind="stable")
     twin = np.empty(len(src), dtype=np.int64)
     twin[order[0::2]] = order[1::2]
     twin[order[1::2]] = order[0::2]

@@ -47,6 +47,7 @@ import numpy as np
 
 from meshcore.errors import AlgorithmError
 from meshcore.geometry.predicates3d import orient3d
+from meshcore.mesh.topology import edge_keys
 
 __all__ = ["lift_surface_points"]
 
@@ -337,9 +338,7 @@ def flip_slivers(
         bad = np.flatnonzero(dih < bound)
         if bad.size == 0:
             break
-        lo = np.minimum(T[:, pairs[:, 0]], T[:, pairs[:, 1]]).reshape(-1)
-        hi = np.maximum(T[:, pairs[:, 0]], T[:, pairs[:, 1]]).reshape(-1)
-        key = lo * (len(P) + 1) + hi
+        key = edge_keys(T[:, pairs[:, 0]], T[:, pairs[:, 1]], len(P)).reshape(-1)
         order = np.argsort(key, kind="stable")
         ks = key[order]
         start = np.searchsorted(ks, key)
@@ -355,7 +354,7 @@ def flip_slivers(
                 ring = order[i0 : i0 + 3] // 6
                 if used[ring].any():
                     continue
-                u, v = int(lo[6 * t + e]), int(hi[6 * t + e])
+                u, v = sorted(T[t, pairs[e]].tolist())  # the edge, lo first
                 others = [[x for x in T[r].tolist() if x not in (u, v)] for r in ring.tolist()]
                 verts = sorted({x for o in others for x in o})
                 # A closed ring: three vertices, each in exactly two of the three tetrahedra.

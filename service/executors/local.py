@@ -77,12 +77,12 @@ class LocalExecutor:
     async def close(self) -> None:
         if self._warming is not None and not self._warming.done():
             self._warming.cancel()
+        self._forget_status()  # a fork server still warming up stops (preload.warm)
         self._started = False
         for stop in list(self._stops):
             stop.set()
         await asyncio.to_thread(self._threads.shutdown, wait=True)
         await asyncio.to_thread(self._spares.close)
-        self._forget_status()
 
     def _forget_status(self) -> None:
         if self._status_dir is not None:

@@ -19,7 +19,9 @@ writers and the preview's edge kernels (which run in the API process) are
 compiled into numba's disk cache here too. Each step is logged as
 ``compiling kernels 4/12: triangulate`` and,
 when ``MESHSERVICE_WARMUP_STATUS`` names a file, recorded there as JSON
-(``{"done", "total", "current", "left"}``) for ``/readyz``. With the
+(``{"done", "total", "current", "left"}``) for ``/readyz``; once that file's
+folder is gone (the service removes it as it stops), the warm-up stops before its
+next step. With the
 ``warmup`` setting false (``MESHSERVICE_WARMUP=0``) no step runs: each job
 then loads, from numba's cache, the kernels it uses.
 """
@@ -118,9 +120,12 @@ STEPS: list[tuple[str, Callable[[], None]]] = [
 ]
 
 
-def _record(path: str | None, done: int, current: str) -> None:
+def _record(path: str | None, done: int, current: str) -> bool:
+    """Write the status into ``path`` (if given); False when its folder is gone: the
+    service removes it as it stops (:meth:`~service.executors.local.LocalExecutor.close`),
+    and a warm-up no one waits for is abandoned."""
     if not path:
-        return
+        return True
     status = {
         "done": done,
         "total": len(STEPS),
@@ -128,21 +133,28 @@ def _record(path: str | None, done: int, current: str) -> None:
         "left": [name for name, _ in STEPS[done:]],
     }
     tmp = f"{path}.tmp"
-    with open(tmp, "w") as f:
-        json.dump(status, f)
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "w") as f:
+            json.dump(status, f)
+        os.replace(tmp, path)
+    except FileNotFoundError:
+        return False
+    return True
 
 
 def warm(log: Callable[[str], None], status_path: str | None = None) -> None:
     """Run every step of :data:`STEPS`, logging and recording progress.
 
     A step that fails is logged and skipped: its kernels then compile in
-    the first job that needs them.
+    the first job that needs them. The warm-up stops before its next step once
+    ``status_path``'s folder is gone (the service stopped).
     """
     started = time.monotonic()
     for i, (name, step) in enumerate(STEPS):
+        if not _record(status_path, i, name):
+            log("warm-up abandoned: the service stopped")
+            return
         log(f"compiling kernels {i + 1}/{len(STEPS)}: {name}")
-        _record(status_path, i, name)
         try:
             step()
         except Exception as exc:  # a warm-up step must not stop the server

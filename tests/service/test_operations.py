@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 import sys
@@ -212,3 +213,19 @@ class TestFirstStart:
             assert "compiling kernels 1/" in server.log.read_text()
         finally:
             server.stop()
+
+    def test_a_warm_up_no_one_waits_for_stops_quietly(self, tmp_path):
+        """A service stopping while its fork server warms up (a second ``serve`` on a taken
+        port) removes the status folder; the warm-up then stops before its next step. It
+        wrote into the removed folder and died with a FileNotFoundError traceback."""
+        env = {"MESHSERVICE_WARMUP": "1", "MESHSERVICE_WARMUP_STATUS": str(tmp_path / "gone/s")}
+        done = subprocess.run(
+            [sys.executable, "-c", "import service.executors.preload"],
+            cwd=ROOT,
+            env={**os.environ, **env},
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        assert done.returncode == 0, done.stderr
+        assert done.stderr == "INFO:     warm-up abandoned: the service stopped\n"

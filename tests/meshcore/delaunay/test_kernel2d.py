@@ -418,6 +418,9 @@ def test_scaling_by_1e6_on_general_position_points():
         ([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0], [-4.0, -4.0]], "collinear_points"),
         ([[0.0, 0.0], [1.0, 0.0], [0.0, 1e-300]], "coordinates_out_of_range"),
         ("not points", "bad_shape"),
+        ([[0.0, 0.0], [1.0, True], [0.0, 1.0]], "bad_shape"),  # numpy reads True as 1.0
+        ([["0", "0"], ["1", "0"], ["0", "1"]], "bad_shape"),  # and "1" as 1.0
+        (np.array([[0, 0], [1, 0], [0, 1]], dtype=bool), "bad_shape"),
     ],
 )
 def test_bad_input_raises_input_error(points, code):

@@ -384,6 +384,9 @@ class TestRejected:
             ({"type": "Polygon", "coordinates": [[[0, 0, 0], [1, 0, 0], [1, 1, 0]]]}, None),
             ({"type": "Polygon", "coordinates": [[[0, 0], [1, "a"], [1, 1]]]}, None),
             ({"type": "Polygon", "coordinates": [[[0, 0], [1], [1, 1]]]}, None),
+            # numpy would read these as [1.0, 1.0] and [1, 0]: refused as the schema does
+            (polygon([[0, 0.5], [1, True], [1, 1]]), ["coordinates", 0, 1, 1]),
+            (polygon([[0, 0], [False, 2], [1, 1]]), ["coordinates", 0, 1, 0]),
             ({"type": "MultiPolygon", "coordinates": [[]]}, ["coordinates", 0]),
             ({"type": "MultiPolygon", "coordinates": [SQUARE]}, None),
         ],
@@ -393,6 +396,10 @@ class TestRejected:
         assert e.code == "bad_geometry"
         if loc is not None:
             assert e.errors[0]["loc"] == loc
+
+    def test_boolean_constraint_coordinate(self):
+        e = rejected(polygon(SQUARE), [[[0.2, 0.2], [0.5, np.True_]]])
+        assert e.code == "bad_geometry" and e.errors[0]["loc"] == ["segments", 0, 1, 1]
 
     def test_huge_integer_is_not_finite(self):
         e = rejected(polygon([[0, 0], [10**400, 0], [1, 1]]))

@@ -186,11 +186,15 @@ class TestRefusedArrays:
         assert e.code == "bad_geometry" and e.errors[0]["loc"] == ["points", 3]
         rows[3] = [1.0, "x", 0.0]
         assert refusal(rows, T).errors[0]["loc"] == ["points", 3, 1]
+        rows[3] = [1.0, 0.5, True]  # numpy would read the row as floats
+        assert refusal(rows, T).errors[0]["loc"] == ["points", 3, 2]
         e = refusal(P, T.astype(bool))
         assert e.code == "bad_geometry" and e.errors[0]["loc"] == ["triangles", 0, 0]
         tris = T.tolist()
         tris[2] = [0, 1]
         assert refusal(P, tris).errors[0]["loc"] == ["triangles", 2]
+        tris[2] = [True, 2, 3]
+        assert refusal(P, tris).errors[0]["loc"] == ["triangles", 2, 0]
         assert refusal(P, "abc").errors[0]["loc"] == ["triangles"]
 
     def test_non_integer_index(self):
