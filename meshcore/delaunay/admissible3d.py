@@ -189,6 +189,7 @@ measures" and "A priori Delaunay-conformity" (1998).
 
 from __future__ import annotations
 
+import copy
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -210,7 +211,7 @@ from meshcore.delaunay.recovery3d import (
     member,
 )
 from meshcore.delaunay.regions3d import regions
-from meshcore.delaunay.ties3d import Reflipped, flip_ties
+from meshcore.delaunay.ties3d import Reflipped, TieFlips, flip_ties
 from meshcore.domain.surface import Surface, as_surface
 from meshcore.errors import AlgorithmError
 from meshcore.geometry.predicates3d import dot3d, orient3d
@@ -247,6 +248,12 @@ LOOK_WIDE = 7
 #: A split within this fraction of an edge's length from an input vertex is tried
 #: on the vertex's next concentric shell (:func:`_shell`).
 SHELL_END = 0.1
+#: Surfaces of at most this many vertices get the search (:func:`_search`) ...
+SEARCH_VERTICES = 64
+#: ... with at most this many rounds run in its rollouts in all ...
+SEARCH_ROUNDS = 400
+#: ... and options leaving at most this many more pieces missing than the look-ahead's.
+SEARCH_SLACK = 1
 
 
 @dataclass(frozen=True, eq=False)
@@ -524,6 +531,11 @@ class _State:
         self.added_on_faces = 0
         #: Edge keys of the strict Case 0 input faces (never split).
         self.protected = np.zeros(0, dtype=np.int64)
+        #: The search's choices for a round (:func:`_search`): per missing edge
+        #: ("edge", key) its split parameter, per missing face ("face", key) its
+        #: candidate's row; and, while the search looks, the options of each.
+        self.force: dict[tuple[str, int], float] = {}
+        self.options: dict[tuple[str, int], list] | None = None
         # The facets' subface edges are kept consistent by retriangulate.
 
     # -- positions ----------------------------------------------------------
@@ -555,6 +567,21 @@ class _State:
         s = (xu * ww - xw * uw) / det
         t = (xw * uu - xu * uw) / det
         return a + s[:, None] * u + t[:, None] * w
+
+    def choose(self, key: tuple[str, int], count, sig, values: list) -> None:
+        """Note, when the search looks, the options of one choice: ``values`` in the
+        look-ahead's order of preference, with their counts of pieces left missing
+        and signatures (:meth:`~meshcore.delaunay.cavities3d.Cavities.missing`); one
+        value per signature."""
+        if self.options is None:
+            return
+        seen: set[int] = set()
+        mine = []
+        for c, g, v in zip(count.tolist(), sig.tolist(), values, strict=True):
+            if g not in seen:
+                seen.add(g)
+                mine.append((c, v))
+        self.options[key] = mine
 
     # -- insertion ----------------------------------------------------------
 
@@ -749,7 +776,7 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, cav: Cavities) -
     lo, hi = lo + margin, hi - margin
     shell = _shell(st, E, L, t, lo, hi)
     lo, hi = np.maximum(lo, LOOK_END), np.minimum(hi, 1.0 - LOOK_END)
-    t = _look_ahead(cav, E, A, B, shell, t, lo, hi, best >= 0, b.sub)
+    t = _look_ahead(st, cav, E, A, B, shell, t, lo, hi, best >= 0)
     # Longest first (lengths equal to 1e-6 relative tie), then widest angle.
     length = np.round(np.log2(half) * 2.0**20)
     keep = _independent(A + t[:, None] * (B - A), mid, half, (-widest, -length))
@@ -785,13 +812,13 @@ def _shell(st: _State, E: np.ndarray, L: np.ndarray, t, lo, hi) -> np.ndarray:
     return np.where(ok, shell, t)
 
 
-def _look_ahead(cav: Cavities, E, A, B, t, t0, lo, hi, known, sub) -> np.ndarray:
+def _look_ahead(st: _State, cav: Cavities, E, A, B, t, t0, lo, hi, known) -> np.ndarray:
     """Per edge ``E`` = ``AB`` where ``known`` (an encroacher is known): among ``t``
     (its shell point, :func:`_shell`), ``t0`` (the point before it), :data:`LOOK_AHEAD`
     points spread over ``[lo, hi]`` where it is longer than :data:`LOOK_ROOM`, and
     :data:`LOOK_WIDE` points spread over the edge (:data:`LOOK_END` away from its
     ends), the split leaving the fewest pieces missing (:meth:`Cavities.missing`;
-    ties: the nearest to ``t``)."""
+    ties: the nearest to ``t``), unless the search chose another (:func:`_search`)."""
     rows = np.flatnonzero(known)
     if rows.size == 0:
         return t
@@ -805,12 +832,17 @@ def _look_ahead(cav: Cavities, E, A, B, t, t0, lo, hi, known, sub) -> np.ndarray
     pairs = np.column_stack([np.repeat(rows, cand.shape[1]), cand.reshape(-1)])
     pairs, again = np.unique(pairs, axis=0, return_inverse=True)
     r, s = pairs[:, 0].astype(np.int64), pairs[:, 1]
-    V, base = split_pieces(sub, E[r])
-    count = cav.missing(A[r] + s[:, None] * (B - A)[r], V, base)[again].reshape(cand.shape)
+    V, base = split_pieces(st.b.sub, E[r])
+    count, sig = cav.missing(A[r] + s[:, None] * (B - A)[r], V, base)
+    count, sig = count[again].reshape(cand.shape), sig[again].reshape(cand.shape)
     dist = np.abs(cand - t[rows, None])
     pick = np.argmin(count + dist / 2.0, axis=1)  # dist < 1: the count first
     out = t.copy()
     out[rows] = cand[np.arange(len(rows)), pick]
+    for i, k in enumerate(edge_keys(E[rows]).tolist()):  # a loop over this round's edges
+        order = np.lexsort((dist[i], count[i]))
+        st.choose(("edge", k), count[i, order], sig[i, order], cand[i, order].tolist())
+        out[rows[i]] = st.force.get(("edge", k), out[rows[i]])
     return out
 
 
@@ -931,15 +963,18 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: Cavities) -> 
         if o[2] == "face":
             V[k, :3] = o[3]
             base[k, :3] = np.stack([o[3], np.roll(o[3], -1)], axis=1)
-    removed = cav.missing(np.array([o[1] for o in flat]), V, base)
+    removed, sig = cav.missing(np.array([o[1] for o in flat]), V, base)
     pts_edge: list[tuple[np.ndarray, int, float]] = []
     pts_face: list[tuple[int, np.ndarray, float]] = []
     seen_edges: set[tuple[int, int]] = set()
     at = 0
     for j, mine in enumerate(options):  # a loop over the missing subfaces
-        score = [(-int(removed[at + k]), o[0]) for k, o in enumerate(mine)]
+        order = sorted(range(len(mine)), key=lambda k: (removed[at + k], -mine[k][0]))
+        key = ("face", int(face_keys(F[j : j + 1])[0]))
+        rows = at + np.array(order)
+        st.choose(key, removed[rows], sig[rows], order)
         at += len(mine)
-        _, M, kind, data = mine[max(range(len(mine)), key=score.__getitem__)]
+        _, M, kind, data = mine[st.force.get(key, order[0])]
         fj = int(f[j])
         if kind == "face":
             pts_face.append((fj, M, float(R[j])))
@@ -1008,6 +1043,101 @@ def _barycentric(uv: np.ndarray, m: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------------------
 
 
+def _step(st: _State) -> tuple[int, TieFlips, int]:
+    """One round: the coplanar swaps, the tie flips, then the missing subface edges
+    split, or if none the missing subfaces; (points added, 0 if nothing is missing,
+    the tie flips, the swaps)."""
+    b = st.b
+    slots, T = b.tets()
+    present = _Present(T)
+    swaps = _coplanar_swaps(st, present)
+    edges, holder = _subface_edges(b.sub)
+    missing_e = np.flatnonzero(~present.edges(edges))
+    ties = flip_ties(b.P, T, b.sub, edges[missing_e])
+    if ties.cones:
+        present = _Present(ties.tets())
+        missing_e = np.flatnonzero(~present.edges(edges))
+    missing_f = np.flatnonzero(~present.faces(b.sub))
+    if missing_e.size == 0 and missing_f.size == 0:
+        return 0, ties, swaps
+    cav = Cavities(b, slots, T, edges)  # the look-ahead's
+    if missing_e.size:
+        added = _split_edges(st, edges[missing_e], holder[missing_e], cav)
+    else:
+        added = _split_faces(st, missing_f, cKDTree(b.P), cav)
+    if added == 0:
+        raise AlgorithmError(
+            f"the surface could not be made Delaunay-admissible: {missing_e.size} edges "
+            f"and {missing_f.size} triangles are missing and no point could be added "
+            "(points at float64 resolution)",
+            code="recovery_failed",
+        )
+    return added, ties, swaps
+
+
+def _search(st: _State, budget: int, cap: int) -> tuple[_State, tuple, int]:
+    """One round (as :func:`_step`) with its splits chosen by rollouts: the state
+    after it (``st`` is left as it was), the round's result, the budget left.
+
+    The round is made on a copy of the state, noting each choice's options
+    (:meth:`_State.choose`): one per signature, those leaving at most
+    :data:`SEARCH_SLACK` more pieces missing than the look-ahead's choice, only
+    for the choices where that one leaves some missing. Each option, one choice
+    after the other (the better ones found kept), is judged by its *rollout*:
+    the round made with it on another copy, then the rounds of the look-ahead
+    alone until nothing is missing; the round whose rollout adds the fewest
+    points in all is kept (ties: the look-ahead's). The look-ahead's own
+    rollout is among those judged, and the round kept is the one judged, so
+    the search never adds more points than the look-ahead alone would from the
+    same state (and so on every input, round after round). Each rollout round
+    costs one of ``budget``; with none left, the options left unjudged keep the
+    look-ahead's choice.
+    """
+    kept = copy.deepcopy(st)
+    kept.options = {}
+    result = _step(kept)
+    tries = [
+        (key, value)
+        for key, mine in kept.options.items()
+        if mine[0][0] > 0
+        for count, value in mine[1:]
+        if count <= mine[0][0] + SEARCH_SLACK
+    ]
+    kept.options = None
+    if not tries or result[0] == 0:
+        return kept, result, budget
+    best, budget = _rollout(copy.deepcopy(kept), budget, cap)
+    chosen: dict[tuple[str, int], float] = {}
+    for key, value in tries:  # a loop over the round's options (few)
+        if budget <= 0:
+            break
+        trial = copy.deepcopy(st)
+        trial.force = {**chosen, key: value}
+        try:
+            got = _step(trial)
+        except AlgorithmError:
+            continue
+        force, trial.force = trial.force, {}
+        added, budget = _rollout(copy.deepcopy(trial), budget, cap)
+        if added < best:
+            best, chosen, kept, result = added, force, trial, got
+    return kept, result, budget
+
+
+def _rollout(st: _State, budget: int, cap: int) -> tuple[float, int]:
+    """The points added in all once the rounds of the look-ahead alone (on ``st``,
+    changed) leave nothing missing (inf if they fail, pass ``cap`` or run out of
+    ``budget`` rounds), and the budget left."""
+    while budget > 0 and st.b.n - st.b.n_surface <= cap:
+        budget -= 1
+        try:
+            if _step(st)[0] == 0:
+                return st.b.n - st.b.n_surface, budget
+        except AlgorithmError:
+            break
+    return np.inf, budget
+
+
 def make_admissible_surface(surface, progress: Progress | None = None) -> AdmissibleSurface:
     """A Delaunay-admissible refinement of a closed surface (§9.2, §9.3, §9.3.5).
 
@@ -1062,37 +1192,19 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     t2 = time.perf_counter()
     cap = MAX_ADDED_FACTOR * b.n_surface + MAX_ADDED_BASE
     swaps = 0
+    budget = SEARCH_ROUNDS if b.n_surface <= SEARCH_VERTICES else 0
     for rounds in range(1, MAX_ROUNDS + 1):
-        slots, T = b.tets()
-        present = _Present(T)
-        swaps = _coplanar_swaps(st, present)
-        edges, holder = _subface_edges(b.sub)
-        missing_e = np.flatnonzero(~present.edges(edges))
-        ties = flip_ties(b.P, T, b.sub, edges[missing_e])
-        if ties.cones:
-            present = _Present(ties.tets())
-            missing_e = np.flatnonzero(~present.edges(edges))
-        missing_f = np.flatnonzero(~present.faces(b.sub))
-        if missing_e.size == 0 and missing_f.size == 0:
-            break
-        if b.n - b.n_surface > cap:
-            break
-        cav = Cavities(b, slots, T, edges)  # the look-ahead's
-        if missing_e.size:
-            added = _split_edges(st, edges[missing_e], holder[missing_e], cav)
+        if budget > 0:
+            st, (added, ties, swaps), budget = _search(st, budget, cap)
         else:
-            added = _split_faces(st, missing_f, cKDTree(b.P), cav)
-        if added == 0:
-            raise AlgorithmError(
-                f"the surface could not be made Delaunay-admissible: {missing_e.size} edges "
-                f"and {missing_f.size} triangles are missing and no point could be added "
-                "(points at float64 resolution)",
-                code="recovery_failed",
-            )
+            added, ties, swaps = _step(st)
+        if added == 0 or st.b.n - st.b.n_surface > cap:
+            break
         if progress is not None:
             progress(min(0.9, 0.05 + 0.01 * rounds), f"round {rounds}: {added} points added")
     else:
         rounds = MAX_ROUNDS + 1
+    b = st.b  # the search's rounds are made on copies
     if rounds > MAX_ROUNDS or b.n - b.n_surface > cap:
         raise AlgorithmError(
             f"the surface could not be made Delaunay-admissible within {MAX_ROUNDS} rounds "

@@ -328,6 +328,26 @@ def test_look_ahead_counts_the_new_pieces():
     np.testing.assert_allclose(run(P * 1e-6, T).points * 1e6, res.points, atol=1e-12)
 
 
+def test_search_saves_a_near_end_cascade(monkeypatch):
+    # Seed 50: the look-ahead alone splits a missing edge near a sharp vertex (its
+    # options all leave 3 pieces missing; the nearest to the text's point is taken),
+    # and the vertex's other edges go missing in turn: 6 points (TetGen -pD: 5). The
+    # search's rollouts take the split whose rounds add the fewest in all: 5; the same
+    # under a 1e6 translation or 1e-6 scaling. Without the search, as before. (A
+    # point of these enters the ball of a strict Case 1 input face: no guarantee.)
+    from meshcore.delaunay import admissible3d
+
+    P, T = star_seed(50)
+    res = run(P, T, case1=False)
+    assert res.added_on_edges + res.added_on_faces == 5
+    moved = run(P + 1e6, T, case1=False).points - 1e6
+    np.testing.assert_allclose(moved, res.points, atol=1e-9)
+    np.testing.assert_allclose(run(P * 1e-6, T, case1=False).points * 1e6, res.points, atol=1e-12)
+    monkeypatch.setattr(admissible3d, "SEARCH_VERTICES", 0)
+    alone = run(P, T, case1=False)
+    assert alone.added_on_edges + alone.added_on_faces == 6
+
+
 def test_bad_surfaces_are_input_errors():
     P, T = shapes.box()
     with pytest.raises(InputError) as err:
