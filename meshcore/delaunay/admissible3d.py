@@ -551,7 +551,7 @@ class _State:
         #: The search's choices for a round (:func:`_search`): per missing edge
         #: ("edge", key) its split parameter, per missing face ("face", key) its
         #: candidate's row; and, while the search looks, the options of each.
-        self.force: dict[tuple[str, int], float] = {}
+        self.force: dict[tuple[str, int], float | int] = {}
         self.options: dict[tuple[str, int], list] | None = None
         # The facets' subface edges are kept consistent by retriangulate.
 
@@ -1124,7 +1124,7 @@ def _search(st: _State, budget: int, cap: int) -> tuple[_State, tuple, int]:
     if not tries or result[0] == 0:
         return kept, result, budget
     best, budget = _rollout(copy.deepcopy(kept), budget, cap)
-    chosen: dict[tuple[str, int], float] = {}
+    chosen: dict[tuple[str, int], float | int] = {}
     for key, value in tries:  # a loop over the round's options (few)
         if budget <= 0:
             break
