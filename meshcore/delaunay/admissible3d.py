@@ -66,9 +66,10 @@ of several Delaunay tetrahedralizations, and a subface whose diagonal it
 rejects is missing from it but not from another one. Each round, before
 splitting, every missing subface edge that is the diagonal of such a
 quadrilateral (its two subfaces) is given its cells' other Delaunay
-tetrahedralization when one holds it (:class:`_TieFlips`, on a copy of the
-kernel's tetrahedra: the kernel keeps its own, and the flips are made anew
-from it each round). The output's ``tetrahedra`` are the flipped ones.
+tetrahedralization when one holds it
+(:class:`~meshcore.delaunay.ties3d.TieFlips`, on a copy of the kernel's
+tetrahedra: the kernel keeps its own, and the flips are made anew from it
+each round). The output's ``tetrahedra`` are the flipped ones.
 With every input triangle a facet of its own, the flips took the unit
 cube from 6 points to 0, boxes of n x n squares a face (n = 2 to 8) to 0
 (36 and 120 before for n = 2, 3), a box with a box-shaped cavity 42 -> 0,
@@ -127,6 +128,22 @@ look-ahead, 97 / 441 with it):
   of the edges around a sharp vertex then meet on common spheres instead
   of cascading (star seeds 1-3,000: 6,887 -> 6,816 points, 24 seeds fewer,
   6 one or two more; the table's other inputs unchanged).
+* **Search by rollouts** (:func:`_search`, surfaces of at most
+  :data:`SEARCH_VERTICES` vertices). The look-ahead sees one insertion, not
+  what the next rounds will need: on star seed 50 every split of a missing
+  edge left 3 pieces missing, the one nearest the text's point was near a
+  sharp vertex, and the vertex's other edges went missing in turn (6 points,
+  TetGen ``-pD`` 5). Each round is made on a copy noting each choice's
+  options (one per set of pieces left missing, by its signature; those
+  within :data:`SEARCH_SLACK` of the best count, where the best leaves some
+  missing); each is judged by its rollout (the round made with it, then the
+  look-ahead alone until nothing is missing) and the round of the fewest
+  points in all is kept. The look-ahead's own rollout is one of them, so the
+  search never adds more points than the look-ahead alone; its rollouts stop
+  after :data:`SEARCH_WORK` (rounds times points). Star seed 50: 6 -> 5,
+  seeds 1-3,000: 5,450 -> 5,135 (124 seeds fewer, none more; TetGen ``-pD``
+  5,485), the torus 39 -> 37 (at least 32: its 32 input edges missing at
+  the start each need a point, as adding points makes no missing edge present).
 * **Postponed splits.** The round's edge splits are taken longest first
   (lengths equal to 1e-6 tie, then the widest encroaching angle first), and
   a split is postponed to the next round when a split point already taken
@@ -188,6 +205,7 @@ measures" and "A priori Delaunay-conformity" (1998).
 
 from __future__ import annotations
 
+import copy
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -209,9 +227,10 @@ from meshcore.delaunay.recovery3d import (
     member,
 )
 from meshcore.delaunay.regions3d import regions
+from meshcore.delaunay.ties3d import Reflipped, TieFlips, flip_ties
 from meshcore.domain.surface import Surface, as_surface
 from meshcore.errors import AlgorithmError
-from meshcore.geometry.predicates3d import dot3d, insphere_scalar, orient3d, orient3d_scalar
+from meshcore.geometry.predicates3d import dot3d, orient3d
 from meshcore.mesh import CellBlock, Mesh
 from meshcore.mesh.topology import group_slots
 
@@ -245,6 +264,13 @@ LOOK_WIDE = 7
 #: A split within this fraction of an edge's length from an input vertex is tried
 #: on the vertex's next concentric shell (:func:`_shell`).
 SHELL_END = 0.1
+#: Surfaces of at most this many vertices get the search (:func:`_search`) ...
+SEARCH_VERTICES = 1000
+#: ... its rollouts' rounds in all, each counted as the points it starts with, at most
+#: this (a budget of work: 100 rounds of 64 points) ...
+SEARCH_WORK = 6_400
+#: ... and options leaving at most this many more pieces missing than the look-ahead's.
+SEARCH_SLACK = 1
 
 
 @dataclass(frozen=True, eq=False)
@@ -292,8 +318,8 @@ class AdmissibleSurface:
     tie_flips : int
         Cells of co-spherical points re-tetrahedralized in the last round, so
         that exactly co-circular quadrilaterals get their missing diagonal
-        without a point (see :class:`_TieFlips`); with none,
-        :attr:`tetrahedra` is the kernel's (symbolic perturbation).
+        without a point (see :class:`~meshcore.delaunay.ties3d.TieFlips`); with
+        none, :attr:`tetrahedra` is the kernel's (symbolic perturbation).
     timings : dict
         Seconds per phase.
     """
@@ -522,6 +548,11 @@ class _State:
         self.added_on_faces = 0
         #: Edge keys of the strict Case 0 input faces (never split).
         self.protected = np.zeros(0, dtype=np.int64)
+        #: The search's choices for a round (:func:`_search`): per missing edge
+        #: ("edge", key) its split parameter, per missing face ("face", key) its
+        #: candidate's row; and, while the search looks, the options of each.
+        self.force: dict[tuple[str, int], float | int] = {}
+        self.options: dict[tuple[str, int], list] | None = None
         # The facets' subface edges are kept consistent by retriangulate.
 
     # -- positions ----------------------------------------------------------
@@ -553,6 +584,21 @@ class _State:
         s = (xu * ww - xw * uw) / det
         t = (xw * uu - xu * uw) / det
         return a + s[:, None] * u + t[:, None] * w
+
+    def choose(self, key: tuple[str, int], count, sig, values: list) -> None:
+        """Note, when the search looks, the options of one choice: ``values`` in the
+        look-ahead's order of preference, with their counts of pieces left missing
+        and signatures (:meth:`~meshcore.delaunay.cavities3d.Cavities.missing`); one
+        value per signature."""
+        if self.options is None:
+            return
+        seen: set[int] = set()
+        mine = []
+        for c, g, v in zip(count.tolist(), sig.tolist(), values, strict=True):
+            if g not in seen:
+                seen.add(g)
+                mine.append((c, v))
+        self.options[key] = mine
 
     # -- insertion ----------------------------------------------------------
 
@@ -668,298 +714,6 @@ def _coplanar_swaps(st: _State, present: _Present) -> int:
     return swaps
 
 
-class _TieFlips:
-    """Other Delaunay tetrahedralizations of co-spherical points (Remark 9.6).
-
-    Where points are exactly co-spherical the Delaunay tetrahedralization is
-    not unique (the text: ``AB`` is Delaunay when the Voronoï cells of ``A``
-    and ``B`` share a vertex, "the solution may be obtained after a swap"),
-    and the kernel's symbolic perturbation picks one of them. A missing
-    subface edge ``AC`` whose two subfaces ``ACB`` and ``CAD`` form a planar
-    convex quadrilateral ``ABCD`` (exact ``orient3d``) is *noted*. If ``BD``
-    is present, the tetrahedra on ``ABD`` and ``BCD`` must lie in at most two
-    *cells* (one per side; a cell: the tetrahedra joined across faces whose
-    far corner lies exactly on their circumsphere, exact ``insphere == 0``, a
-    convex polytope inscribed in an empty sphere), each holding ``A, B, C,
-    D`` (so the quadrilateral is co-circular). Each cell is re-tetrahedralized
-    as a cone from one of its vertices (the first, in index order, that
-    works) over its boundary with ``ABD, BCD`` replaced by ``ABC, ACD`` (and
-    so for every other noted quadrilateral on the cell's hull faces): the
-    cone must have exactly that boundary and keep every subface inside the
-    cell, so the neighbours still match. When no cone of a cell works, one
-    more quadrilateral of its boundary (two coplanar triangles, so
-    co-circular, neither a subface) shared with one neighbour cell may be
-    turned too, that cell re-tetrahedralized the same way, and so on
-    :data:`DEPTH` levels (a triangular prism along a box's edge: two sides
-    on the surface, the third shared).
-    Every new tetrahedron lies on its cell's empty sphere: the
-    tetrahedralization stays Delaunay, exactly, and nothing is added.
-    Quadrilaterals that need more (a cell triangulated other than as a cone,
-    more neighbours) stay missing and are split.
-    """
-
-    #: Cells of more tetrahedra than this are left alone.
-    MAX_CELL = 64
-    #: Levels of neighbour cells turned with a cell no cone fits (see :meth:`_fit`).
-    DEPTH = 4
-
-    def __init__(self, P: np.ndarray, T: np.ndarray, sub: np.ndarray) -> None:
-        self.P = P
-        self.T = T
-        self.kernel_rows = len(T)  # rows from here on are the cones'
-        self.order = self.keys = None  # the faces of T, sorted when first needed
-        self.added: dict[tuple[int, ...], list[int]] = {}  # faces of the rows added
-        self.sub_keys = np.sort(face_keys(sub))
-        self.dead: set[int] = set()
-        #: The noted quadrilaterals: each of their present triangles (sorted
-        #: corners) -> (both present triangles, both wanted ones).
-        self.wanted: dict[tuple[int, ...], tuple] = {}
-        #: Cells re-tetrahedralized.
-        self.cones = 0
-
-    def holding(self, face) -> list[int]:
-        """Rows of the live tetrahedra holding ``face``."""
-        if self.keys is None:
-            keys = face_keys(self.T[:, TET_FACES].reshape(-1, 3))
-            self.order = np.argsort(keys, kind="stable")
-            self.keys = keys[self.order]
-        key = face_keys(np.array([face], dtype=np.int64))[0]
-        lo, hi = np.searchsorted(self.keys, [key, key + 1])
-        rows = [int(r) // 4 for r in self.order[lo:hi]]
-        rows += self.added.get(tuple(sorted(int(v) for v in face)), [])
-        return [r for r in rows if r not in self.dead]
-
-    def cell(self, start: int) -> list[int] | None:
-        """The rows of the cell of tetrahedron ``start`` (None if too large)."""
-        P, T = self.P, self.T
-        seen = [start]
-        k = 0
-        while k < len(seen):
-            r = seen[k]
-            k += 1
-            q = P[T[r]].ravel().tolist()
-            for f in TET_FACES:
-                face = T[r][f].tolist()
-                for o in self.holding(face):
-                    if o in seen:
-                        continue
-                    x = (set(T[o].tolist()) - set(face)).pop()
-                    if insphere_scalar(*q, *P[x].tolist()) == 0:
-                        seen.append(o)
-                        if len(seen) > self.MAX_CELL:
-                            return None
-        return seen
-
-    def quad(self, a: int, b: int, c: int, d: int) -> bool:
-        """Note the planar quadrilateral ``ABCD`` (subfaces ``ACB``, ``CAD``) as
-        one whose diagonal ``AC`` is wanted, if it is convex (exact)."""
-        q = self.P[[a, b, c, d]]
-        # B and D on either side of AC (seen from a point off the plane, the normal's tip)
-        tip = (q[0] + np.cross(q[2] - q[0], q[1] - q[0])).tolist()
-        a_, b_, c_, d_ = q.tolist()
-        if orient3d_scalar(*a_, *c_, *tip, *b_) * orient3d_scalar(*a_, *c_, *tip, *d_) >= 0:
-            return False
-        pair = (tuple(sorted((a, b, d))), tuple(sorted((b, c, d))))
-        want = (tuple(sorted((a, b, c))), tuple(sorted((a, c, d))))
-        self.wanted[pair[0]] = self.wanted[pair[1]] = (pair, want)
-        return True
-
-    def flip(self, a: int, b: int, c: int, d: int) -> bool:
-        """Make ``AC`` present in place of ``BD`` (a noted quadrilateral ``ABCD``)
-        if its cells allow it (see the class)."""
-        if self.holding([a, b, c]) and self.holding([a, c, d]):
-            return True  # made present by an earlier cone
-        cells: list[list[int]] = []
-        for r in self.holding([a, b, d]) + self.holding([b, c, d]):
-            if any(r in cl for cl in cells):
-                continue
-            cl = self.cell(r)
-            if cl is None or not {a, b, c, d} <= set(self.T[cl].ravel().tolist()):
-                return False
-            cells.append(cl)
-        if not cells or len(cells) > 2:
-            return False
-        plan = []
-        own = self.wanted[tuple(sorted((a, b, d)))]
-        union = {r for cl in cells for r in cl}
-        got: set[tuple[int, ...]] = set()
-        for cl in cells:
-            part = self._fit(cl, dict([own]), union, self.DEPTH)
-            if part is None:
-                return False
-            for cell, cone in part:
-                union |= set(cell)
-                plan.append((cell, cone))
-                got |= {tuple(f) for f in np.sort(cone[:, TET_FACES].reshape(-1, 3), 1).tolist()}
-        if not {tuple(sorted((a, b, c))), tuple(sorted((a, c, d)))} <= got:
-            return False
-        for cl, cone in plan:
-            new = list(range(len(self.T), len(self.T) + len(cone)))
-            self.T = np.concatenate([self.T, cone])
-            for r, tet in zip(new, cone.tolist(), strict=True):
-                for f in TET_FACES.tolist():
-                    self.added.setdefault(tuple(sorted(tet[k] for k in f)), []).append(r)
-            self.dead.update(cl)
-            self.cones += 1
-        return True
-
-    def _fit(self, cl: list[int], turns: dict, union: set[int], depth: int):
-        """Cones for cell ``cl`` with ``turns`` and, when none fits, with one more
-        boundary quadrilateral turned, shared with a neighbour cell fitted the same
-        way (``depth`` levels): [(cell, cone), ...], or None."""
-        cone = self._cone(cl, turns)
-        if cone is not None:
-            return [(cl, cone)]
-        if depth == 0:
-            return None
-        for pair, want, nb in self._shared_quads(cl, union):
-            wider = union | set(nb)
-            mine = self._fit(cl, {**turns, pair: want}, wider, depth - 1)
-            if mine is None:
-                continue
-            wider |= {r for c, _ in mine for r in c}
-            theirs = self._fit(nb, {pair: want}, wider, depth - 1)
-            if theirs is not None:
-                return mine + theirs
-        return None
-
-    def _shared_quads(self, cl: list[int], union: set[int]):
-        """The cell's boundary quadrilaterals (two coplanar triangles, no subface,
-        so co-circular) whose other side is one cell outside ``union``: (their
-        triangles, the other diagonal's, that cell), in order."""
-        faces = np.sort(self.T[cl][:, TET_FACES].reshape(-1, 3), axis=1)
-        uniq, count = np.unique(faces, axis=0, return_counts=True)
-        out = uniq[count == 1]
-        out = out[~member(face_keys(out), self.sub_keys)]
-        found = []
-        for i in range(len(out)):
-            for j in range(i + 1, len(out)):
-                e = set(out[i].tolist()) & set(out[j].tolist())
-                if len(e) != 2:
-                    continue
-                y, w = ((set(out[k].tolist()) - e).pop() for k in (i, j))
-                x, z = sorted(e)
-                if orient3d_scalar(*self.P[[x, z, y, w]].ravel().tolist()) != 0:
-                    continue
-                t1, t2 = tuple(out[i].tolist()), tuple(out[j].tolist())
-                h = [r for r in self.holding(list(t1)) + self.holding(list(t2)) if r not in cl]
-                if len(h) != 2 or h[0] in union or h[1] in union:
-                    continue
-                nb = self.cell(h[0])
-                if nb is None or h[1] not in nb or union & set(nb):
-                    continue
-                want = (tuple(sorted((x, y, w))), tuple(sorted((z, y, w))))
-                found.append(((t1, t2), want, nb))
-        return found
-
-    def _cone(self, cl: list[int], turns: dict) -> np.ndarray | None:
-        """The cone re-tetrahedralization of cell ``cl`` whose boundary is the
-        cell's with the quadrilaterals ``turns`` (present triangles -> wanted
-        ones) turned, and every noted one whose tetrahedra are all in the cell
-        (on the hull), and which keeps the subfaces inside the cell (see the
-        class), or None."""
-        P, T = self.P, self.T
-        faces = np.sort(T[cl][:, TET_FACES].reshape(-1, 3), axis=1)
-        uniq, count = np.unique(faces, axis=0, return_counts=True)
-        boundary = {tuple(f) for f in uniq[count == 1].tolist()}
-        inner = uniq[count > 1]
-        held = {tuple(f) for f in inner[member(face_keys(inner), self.sub_keys)].tolist()}
-        mine = set(cl)
-        for pair, want in turns.items():
-            if pair[0] in boundary and pair[1] in boundary:
-                boundary -= set(pair)
-                boundary |= set(want)
-        for f in list(boundary):
-            if f in self.wanted and f in boundary:
-                pair, want = self.wanted[f]
-                if (
-                    pair[0] in boundary
-                    and pair[1] in boundary
-                    and mine.issuperset(self.holding(pair[0]) + self.holding(pair[1]))
-                ):  # another noted quadrilateral, on the hull
-                    boundary -= set(pair)
-                    boundary |= set(want)
-        W = np.array(sorted(boundary), dtype=np.int64)
-        for v in sorted(set(T[cl].ravel().tolist())):
-            s = orient3d(P[W[:, 0]], P[W[:, 1]], P[W[:, 2]], np.broadcast_to(P[v], (len(W), 3)))
-            cone = np.column_stack([np.full(int((s != 0).sum()), v), W[s != 0]])
-            neg = orient3d(*(P[cone[:, k]] for k in range(4))) < 0
-            cone[neg, 0], cone[neg, 1] = cone[neg, 1], v
-            f, n = np.unique(
-                np.sort(cone[:, TET_FACES].reshape(-1, 3), 1), axis=0, return_counts=True
-            )
-            inside = {tuple(x) for x in f[n == 2].tolist()}
-            if {tuple(x) for x in f[n == 1].tolist()} == boundary and held <= inside:
-                return cone
-        return None
-
-    def _live(self) -> np.ndarray:
-        keep = np.ones(len(self.T), dtype=bool)
-        keep[list(self.dead)] = False
-        return keep
-
-    def tets(self) -> np.ndarray:
-        """The live tetrahedra."""
-        return self.T[self._live()]
-
-    def cone_rows(self) -> np.ndarray:
-        """The rows of :meth:`tets` made by the cones (increasing)."""
-        return np.flatnonzero(np.flatnonzero(self._live()) >= self.kernel_rows)
-
-
-class _Reflipped:
-    """The builder seen through a tetrahedralization changed by :class:`_TieFlips`:
-    its kernel's ``adjacent`` answers for the rows of ``T`` (slots are rows), so
-    :func:`~meshcore.delaunay.recovery3d.regions` labels the flipped tetrahedra."""
-
-    def __init__(self, b: SurfaceRecovery, T: np.ndarray) -> None:
-        self._b = b
-        keys = face_keys(T[:, TET_FACES].reshape(-1, 3))
-        order = np.argsort(keys, kind="stable")
-        pair = np.flatnonzero(keys[order][1:] == keys[order][:-1])
-        adj = np.full(4 * len(T), -1, dtype=np.int64)
-        adj[order[pair]] = order[pair + 1] // 4
-        adj[order[pair + 1]] = order[pair] // 4
-        self._adj = adj.reshape(-1, 4)
-
-    @property
-    def dt(self):
-        return self
-
-    def adjacent(self, slots: np.ndarray) -> np.ndarray:
-        return self._adj[slots]
-
-    def __getattr__(self, name: str):
-        return getattr(self._b, name)
-
-
-def _flip_ties(st: _State, T: np.ndarray, E: np.ndarray) -> _TieFlips:
-    """Try :class:`_TieFlips` on the missing subface edges ``E`` that are diagonals of
-    planar quadrilaterals of two subfaces (a loop over those only)."""
-    sub = st.b.sub
-    P = st.b.P
-    flips = _TieFlips(P, T, sub)
-    k = edge_keys(np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]]))
-    order = np.argsort(k, kind="stable")
-    ks = k[order]
-    key = edge_keys(E)
-    lo = np.searchsorted(ks, key)
-    two = np.flatnonzero(np.searchsorted(ks, key + 1) - lo == 2)
-    if two.size == 0:
-        return flips
-    a, c = E[two].min(axis=1), E[two].max(axis=1)
-    r0, r1 = order[lo[two]] % len(sub), order[lo[two] + 1] % len(sub)
-    b = sub[r0].sum(axis=1) - a - c
-    d = sub[r1].sum(axis=1) - a - c
-    flat = np.flatnonzero(orient3d(P[a], P[b], P[c], P[d]) == 0)
-    quads = [
-        q for q in zip(*(x[flat].tolist() for x in (a, b, c, d)), strict=True) if flips.quad(*q)
-    ]
-    for q in quads:
-        flips.flip(*q)
-    return flips
-
-
 def _angles_min(uv: np.ndarray) -> np.ndarray:
     """Least angle (radians) of triangles given as (k, 3, 2) coordinates."""
     out = np.full(len(uv), np.pi)
@@ -1039,7 +793,7 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, cav: Cavities) -
     lo, hi = lo + margin, hi - margin
     shell = _shell(st, E, L, t, lo, hi)
     lo, hi = np.maximum(lo, LOOK_END), np.minimum(hi, 1.0 - LOOK_END)
-    t = _look_ahead(cav, E, A, B, shell, t, lo, hi, best >= 0, b.sub)
+    t = _look_ahead(st, cav, E, A, B, shell, t, lo, hi, best >= 0)
     # Longest first (lengths equal to 1e-6 relative tie), then widest angle.
     length = np.round(np.log2(half) * 2.0**20)
     keep = _independent(A + t[:, None] * (B - A), mid, half, (-widest, -length))
@@ -1075,13 +829,13 @@ def _shell(st: _State, E: np.ndarray, L: np.ndarray, t, lo, hi) -> np.ndarray:
     return np.where(ok, shell, t)
 
 
-def _look_ahead(cav: Cavities, E, A, B, t, t0, lo, hi, known, sub) -> np.ndarray:
+def _look_ahead(st: _State, cav: Cavities, E, A, B, t, t0, lo, hi, known) -> np.ndarray:
     """Per edge ``E`` = ``AB`` where ``known`` (an encroacher is known): among ``t``
     (its shell point, :func:`_shell`), ``t0`` (the point before it), :data:`LOOK_AHEAD`
     points spread over ``[lo, hi]`` where it is longer than :data:`LOOK_ROOM`, and
     :data:`LOOK_WIDE` points spread over the edge (:data:`LOOK_END` away from its
     ends), the split leaving the fewest pieces missing (:meth:`Cavities.missing`;
-    ties: the nearest to ``t``)."""
+    ties: the nearest to ``t``), unless the search chose another (:func:`_search`)."""
     rows = np.flatnonzero(known)
     if rows.size == 0:
         return t
@@ -1095,12 +849,17 @@ def _look_ahead(cav: Cavities, E, A, B, t, t0, lo, hi, known, sub) -> np.ndarray
     pairs = np.column_stack([np.repeat(rows, cand.shape[1]), cand.reshape(-1)])
     pairs, again = np.unique(pairs, axis=0, return_inverse=True)
     r, s = pairs[:, 0].astype(np.int64), pairs[:, 1]
-    V, base = split_pieces(sub, E[r])
-    count = cav.missing(A[r] + s[:, None] * (B - A)[r], V, base)[again].reshape(cand.shape)
+    V, base = split_pieces(st.b.sub, E[r])
+    count, sig = cav.missing(A[r] + s[:, None] * (B - A)[r], V, base)
+    count, sig = count[again].reshape(cand.shape), sig[again].reshape(cand.shape)
     dist = np.abs(cand - t[rows, None])
     pick = np.argmin(count + dist / 2.0, axis=1)  # dist < 1: the count first
     out = t.copy()
     out[rows] = cand[np.arange(len(rows)), pick]
+    for i, k in enumerate(edge_keys(E[rows]).tolist()):  # a loop over this round's edges
+        order = np.lexsort((dist[i], count[i]))
+        st.choose(("edge", k), count[i, order], sig[i, order], cand[i, order].tolist())
+        out[rows[i]] = st.force.get(("edge", k), out[rows[i]])
     return out
 
 
@@ -1221,15 +980,18 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: Cavities) -> 
         if o[2] == "face":
             V[k, :3] = o[3]
             base[k, :3] = np.stack([o[3], np.roll(o[3], -1)], axis=1)
-    removed = cav.missing(np.array([o[1] for o in flat]), V, base)
+    removed, sig = cav.missing(np.array([o[1] for o in flat]), V, base)
     pts_edge: list[tuple[np.ndarray, int, float]] = []
     pts_face: list[tuple[int, np.ndarray, float]] = []
     seen_edges: set[tuple[int, int]] = set()
     at = 0
     for j, mine in enumerate(options):  # a loop over the missing subfaces
-        score = [(-int(removed[at + k]), o[0]) for k, o in enumerate(mine)]
+        order = sorted(range(len(mine)), key=lambda k: (removed[at + k], -mine[k][0]))
+        key = ("face", int(face_keys(F[j : j + 1])[0]))
+        rows = at + np.array(order)
+        st.choose(key, removed[rows], sig[rows], order)
         at += len(mine)
-        _, M, kind, data = mine[max(range(len(mine)), key=score.__getitem__)]
+        _, M, kind, data = mine[st.force.get(key, order[0])]
         fj = int(f[j])
         if kind == "face":
             pts_face.append((fj, M, float(R[j])))
@@ -1298,6 +1060,101 @@ def _barycentric(uv: np.ndarray, m: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------------------
 
 
+def _step(st: _State) -> tuple[int, TieFlips, int]:
+    """One round: the coplanar swaps, the tie flips, then the missing subface edges
+    split, or if none the missing subfaces; (points added, 0 if nothing is missing,
+    the tie flips, the swaps)."""
+    b = st.b
+    slots, T = b.tets()
+    present = _Present(T)
+    swaps = _coplanar_swaps(st, present)
+    edges, holder = _subface_edges(b.sub)
+    missing_e = np.flatnonzero(~present.edges(edges))
+    ties = flip_ties(b.P, T, b.sub, edges[missing_e])
+    if ties.cones:
+        present = _Present(ties.tets())
+        missing_e = np.flatnonzero(~present.edges(edges))
+    missing_f = np.flatnonzero(~present.faces(b.sub))
+    if missing_e.size == 0 and missing_f.size == 0:
+        return 0, ties, swaps
+    cav = Cavities(b, slots, T, edges)  # the look-ahead's
+    if missing_e.size:
+        added = _split_edges(st, edges[missing_e], holder[missing_e], cav)
+    else:
+        added = _split_faces(st, missing_f, cKDTree(b.P), cav)
+    if added == 0:
+        raise AlgorithmError(
+            f"the surface could not be made Delaunay-admissible: {missing_e.size} edges "
+            f"and {missing_f.size} triangles are missing and no point could be added "
+            "(points at float64 resolution)",
+            code="recovery_failed",
+        )
+    return added, ties, swaps
+
+
+def _search(st: _State, budget: int, cap: int) -> tuple[_State, tuple, int]:
+    """One round (as :func:`_step`) with its splits chosen by rollouts: the state
+    after it (``st`` is left as it was), the round's result, the budget left.
+
+    The round is made on a copy of the state, noting each choice's options
+    (:meth:`_State.choose`): one per signature, those leaving at most
+    :data:`SEARCH_SLACK` more pieces missing than the look-ahead's choice, only
+    for the choices where that one leaves some missing. Each option, one choice
+    after the other (the better ones found kept), is judged by its *rollout*:
+    the round made with it on another copy, then the rounds of the look-ahead
+    alone until nothing is missing; the round whose rollout adds the fewest
+    points in all is kept (ties: the look-ahead's). The look-ahead's own
+    rollout is among those judged, and the round kept is the one judged, so
+    the search never adds more points than the look-ahead alone would from the
+    same state (and so on every input, round after round). Each rollout round
+    costs its points from ``budget``; with none left, the options left unjudged
+    keep the look-ahead's choice.
+    """
+    kept = copy.deepcopy(st)
+    kept.options = {}
+    result = _step(kept)
+    tries = [
+        (key, value)
+        for key, mine in kept.options.items()
+        if mine[0][0] > 0
+        for count, value in mine[1:]
+        if count <= mine[0][0] + SEARCH_SLACK
+    ]
+    kept.options = None
+    if not tries or result[0] == 0:
+        return kept, result, budget
+    best, budget = _rollout(copy.deepcopy(kept), budget, cap)
+    chosen: dict[tuple[str, int], float | int] = {}
+    for key, value in tries:  # a loop over the round's options (few)
+        if budget <= 0:
+            break
+        trial = copy.deepcopy(st)
+        trial.force = {**chosen, key: value}
+        try:
+            got = _step(trial)
+        except AlgorithmError:
+            continue
+        force, trial.force = trial.force, {}
+        added, budget = _rollout(copy.deepcopy(trial), budget, cap)
+        if added < best:
+            best, chosen, kept, result = added, force, trial, got
+    return kept, result, budget
+
+
+def _rollout(st: _State, budget: int, cap: int) -> tuple[float, int]:
+    """The points added in all once the rounds of the look-ahead alone (on ``st``,
+    changed) leave nothing missing (inf if they fail, pass ``cap`` or run out of
+    ``budget``, which each round takes its points from), and the budget left."""
+    while budget > 0 and st.b.n - st.b.n_surface <= cap:
+        budget -= st.b.n
+        try:
+            if _step(st)[0] == 0:
+                return st.b.n - st.b.n_surface, budget
+        except AlgorithmError:
+            break
+    return np.inf, budget
+
+
 def make_admissible_surface(surface, progress: Progress | None = None) -> AdmissibleSurface:
     """A Delaunay-admissible refinement of a closed surface (§9.2, §9.3, §9.3.5).
 
@@ -1352,37 +1209,19 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     t2 = time.perf_counter()
     cap = MAX_ADDED_FACTOR * b.n_surface + MAX_ADDED_BASE
     swaps = 0
+    budget = SEARCH_WORK if b.n_surface <= SEARCH_VERTICES else 0
     for rounds in range(1, MAX_ROUNDS + 1):
-        slots, T = b.tets()
-        present = _Present(T)
-        swaps = _coplanar_swaps(st, present)
-        edges, holder = _subface_edges(b.sub)
-        missing_e = np.flatnonzero(~present.edges(edges))
-        ties = _flip_ties(st, T, edges[missing_e])
-        if ties.cones:
-            present = _Present(ties.tets())
-            missing_e = np.flatnonzero(~present.edges(edges))
-        missing_f = np.flatnonzero(~present.faces(b.sub))
-        if missing_e.size == 0 and missing_f.size == 0:
-            break
-        if b.n - b.n_surface > cap:
-            break
-        cav = Cavities(b, slots, T, edges)  # the look-ahead's
-        if missing_e.size:
-            added = _split_edges(st, edges[missing_e], holder[missing_e], cav)
+        if budget > 0:
+            st, (added, ties, swaps), budget = _search(st, budget, cap)
         else:
-            added = _split_faces(st, missing_f, cKDTree(b.P), cav)
-        if added == 0:
-            raise AlgorithmError(
-                f"the surface could not be made Delaunay-admissible: {missing_e.size} edges "
-                f"and {missing_f.size} triangles are missing and no point could be added "
-                "(points at float64 resolution)",
-                code="recovery_failed",
-            )
+            added, ties, swaps = _step(st)
+        if added == 0 or st.b.n - st.b.n_surface > cap:
+            break
         if progress is not None:
             progress(min(0.9, 0.05 + 0.01 * rounds), f"round {rounds}: {added} points added")
     else:
         rounds = MAX_ROUNDS + 1
+    b = st.b  # the search's rounds are made on copies
     if rounds > MAX_ROUNDS or b.n - b.n_surface > cap:
         raise AlgorithmError(
             f"the surface could not be made Delaunay-admissible within {MAX_ROUNDS} rounds "
@@ -1396,7 +1235,7 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     if ties.cones:
         T = ties.tets()
         tie_rows = ties.cone_rows()
-        region = regions(_Reflipped(b, T), np.arange(len(T)), T)
+        region = regions(Reflipped(b, T), np.arange(len(T)), T)
     else:
         region = regions(b, slots, T)
     keep = region >= 0

@@ -9,6 +9,12 @@ tetrahedra in the cavity, not on the hull) and which of the new pieces at ``X``
 it makes (an edge ``XV`` where ``V`` is a vertex of the cavity, a face ``XPQ``
 where ``PQ`` is an edge of its boundary). Float circumspheres: a choice among
 valid split points, never a sign.
+
+Besides the count, each point gets a *signature*: a 64-bit sum of a hash of
+each piece it would leave missing (the pieces removed, the new edges' far
+vertices, the new faces' base edges), so that two points leaving the same
+pieces missing are told apart from two that only leave as many
+(:func:`meshcore.delaunay.admissible3d`'s search tries one of each).
 """
 
 from __future__ import annotations
@@ -76,12 +82,15 @@ class Cavities:
         held = (self.pieces[0][0] >= 0).any(1) | (self.pieces[1][0] >= 0).any(1)
         self.rows = np.flatnonzero(held & np.isfinite(self.radii))
 
-    def missing(self, X: np.ndarray, V: np.ndarray, base: np.ndarray) -> np.ndarray:
+    def missing(
+        self, X: np.ndarray, V: np.ndarray, base: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Per point of ``X``: the subfaces and subface edges its insertion removes (all
         their tetrahedra in its cavity, not on the hull), plus its new edges to the
         vertices ``V`` (k, j; -1: none) and new faces on the subface edges ``base``
         (k, i, 2; -1: none) that the cavity's boundary does not give (an edge to a
-        vertex of no cavity tetrahedron; a face on an edge not on the boundary)."""
+        vertex of no cavity tetrahedron; a face on an edge not on the boundary): their
+        count, and their signature (uint64, see the module docstring)."""
         tree = cKDTree(X)
         centres, radii = self.centres[self.rows], self.radii[self.rows]
         # The counts first (no list per tetrahedron), then the lists of those hit: the
@@ -92,20 +101,24 @@ class Cavities:
         xi = np.fromiter(itertools.chain.from_iterable(hits), np.int64, int(n.sum()))
         ti = np.repeat(self.rows[some], n)
         out = np.zeros(len(X), dtype=np.int64)
+        sig = np.zeros(len(X), dtype=np.uint64)
         in_cavity = []  # per kind: (point, piece) keys and their tetrahedra in the cavity
-        for at, around, hull in self.pieces:
+        for kind, (at, around, hull) in enumerate(self.pieces):
             piece = at[ti].reshape(-1)
             ok = piece >= 0
             key = np.repeat(xi, at.shape[1])[ok] * len(around) + piece[ok]
             uk, count = np.unique(key, return_counts=True)
             gone = (count == around[uk % len(around)]) & ~hull[uk % len(around)]
             np.add.at(out, uk[gone] // len(around), 1)
+            np.add.at(sig, uk[gone] // len(around), _mix(uk[gone] % len(around), kind))
             in_cavity.append((uk, count))
         # The new edges: to the cavity's vertices.
         cavity = np.unique(xi[:, None] * self.n + self.T[ti])
         want = V >= 0
         q = np.arange(len(X))[:, None] * self.n + V
-        out += (want & ~member(q.reshape(-1), cavity).reshape(V.shape)).sum(axis=1)
+        new = want & ~member(q.reshape(-1), cavity).reshape(V.shape)
+        out += new.sum(axis=1)
+        sig += np.where(new, _mix(V, 2), np.uint64(0)).sum(axis=1, dtype=np.uint64)
         # The new faces: on the subface edges present with some but not all of their
         # tetrahedra in the cavity (or on the hull).
         want = base[:, :, 0] >= 0
@@ -122,8 +135,23 @@ class Cavities:
         c = c.reshape(want.shape)
         r = np.maximum(row, 0)
         kept = (row >= 0) & (c > 0) & ((c < around[r]) | hull[r])
-        out += (want & ~kept).sum(axis=1)
-        return out
+        new = want & ~kept
+        out += new.sum(axis=1)
+        on = edge_keys(base.reshape(-1, 2)).reshape(want.shape)
+        sig += np.where(new, _mix(on, 3), np.uint64(0)).sum(axis=1, dtype=np.uint64)
+        return out, sig
+
+
+def _mix(x: np.ndarray, kind: int) -> np.ndarray:
+    """A 64-bit hash of the pieces ``x`` (non-negative ints, -1 ignored by the
+    callers) of one ``kind`` (splitmix64's finalizer; sums of these are the
+    signatures)."""
+    z = (np.asarray(x).astype(np.uint64) * np.uint64(4) + np.uint64(kind)) * np.uint64(
+        0x9E3779B97F4A7C15
+    )
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return z ^ (z >> np.uint64(31))
 
 
 def split_pieces(sub: np.ndarray, E: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -328,6 +328,26 @@ def test_look_ahead_counts_the_new_pieces():
     np.testing.assert_allclose(run(P * 1e-6, T).points * 1e6, res.points, atol=1e-12)
 
 
+def test_search_saves_a_near_end_cascade(monkeypatch):
+    # Seed 50: the look-ahead alone splits a missing edge near a sharp vertex (its
+    # options all leave 3 pieces missing; the nearest to the text's point is taken),
+    # and the vertex's other edges go missing in turn: 6 points (TetGen -pD: 5). The
+    # search's rollouts take the split whose rounds add the fewest in all: 5; the same
+    # under a 1e6 translation or 1e-6 scaling. Without the search, as before. (A
+    # point of these enters the ball of a strict Case 1 input face: no guarantee.)
+    from meshcore.delaunay import admissible3d
+
+    P, T = star_seed(50)
+    res = run(P, T, case1=False)
+    assert res.added_on_edges + res.added_on_faces == 5
+    moved = run(P + 1e6, T, case1=False).points - 1e6
+    np.testing.assert_allclose(moved, res.points, atol=1e-9)
+    np.testing.assert_allclose(run(P * 1e-6, T, case1=False).points * 1e6, res.points, atol=1e-12)
+    monkeypatch.setattr(admissible3d, "SEARCH_VERTICES", 0)
+    alone = run(P, T, case1=False)
+    assert alone.added_on_edges + alone.added_on_faces == 6
+
+
 def test_bad_surfaces_are_input_errors():
     P, T = shapes.box()
     with pytest.raises(InputError) as err:
@@ -384,16 +404,16 @@ def test_co_spherical_cell_re_tetrahedralized(monkeypatch):
     # the diagonal 2-4, one facet) cuts the cell of the co-spherical points, and a
     # shell below. In the first round the kernel holds the triangle 1-3-4 of the
     # other diagonal but not 1-2-3: no in-plane swap applies, and the cell is
-    # re-tetrahedralized as a cone holding 2-4 (_TieFlips, Remark 9.6) instead of
+    # re-tetrahedralized as a cone holding 2-4 (TieFlips, Remark 9.6) instead of
     # splitting 2-4 (the output differs without it). Later rounds make no flip.
-    from meshcore.delaunay import admissible3d
+    from meshcore.delaunay import ties3d
 
     P = [[-9, 12, -20], [24, 7, 0], [0, 25, 0], [15, -20, 0], [24, -7, 0], [9, 20, 12],
          [-16, -15, -12], [-15, 16, -12], [20, 9, -12], [12, -9, -20], [16, 15, -12]]  # fmt: skip
     T = [[2, 3, 5], [5, 3, 4], [2, 5, 1], [1, 5, 4], [4, 2, 1], [4, 3, 2], [6, 7, 0], [9, 8, 6],
          [6, 0, 9], [10, 0, 7], [8, 9, 10], [10, 9, 0], [10, 7, 6], [6, 8, 10]]  # fmt: skip
     cones = []
-    flip = admissible3d._TieFlips.flip
+    flip = ties3d.TieFlips.flip
 
     def spy(self, *quad):
         made = self.cones
@@ -401,6 +421,6 @@ def test_co_spherical_cell_re_tetrahedralized(monkeypatch):
         cones.append(self.cones - made)
         return out
 
-    monkeypatch.setattr(admissible3d._TieFlips, "flip", spy)
+    monkeypatch.setattr(ties3d.TieFlips, "flip", spy)
     run(np.array(P, dtype=float), np.array(T))
     assert sum(cones) >= 1
