@@ -75,7 +75,11 @@ Algorithm
    valence-4 share 92.7 -> 95.0 %, least scaled Jacobian 0.771 -> 0.763; the
    square with a hole at 100k 0.988 -> 0.990, 98.99 -> 99.38 %, 0.809 ->
    0.766; the plate at 10k 0.894 -> 0.896, 90.4 -> 90.1 %; the gear, the L
-   and the square with a hole at 10k about unchanged. The share is erratic:
+   and the square with a hole at 10k about unchanged; at 30k and 50k quads
+   the plate 88.1 -> 92.3 % and 89.5 -> 93.8 %, the gear at 50k 96.4 ->
+   97.6 %, the square with a hole 99.1 -> 98.9 % and 99.2 -> 99.1 %. It
+   costs rows tried (more fronts freeze and meet): CPU s at 100k quads, the
+   plate 5.25 -> 6.54, the square with a hole 1.75 -> 2.02. The share is erratic:
    at 4 % the plate's least scaled Jacobian was 0.707, at 8 % the gear at
    100k quads lost 4.5 points of valence-4 share (its rows stepped where
    they met). Any other row that still fails is
