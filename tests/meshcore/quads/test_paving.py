@@ -361,3 +361,16 @@ class TestFrontsMeeting:
         res = paving(geo, size=0.02)
         check_mesh(geo, res, 0.02, "quad", median=False)
         assert res.stats["partial_rows"] >= 1
+
+    def test_a_row_failing_on_a_few_quads_is_laid_without_them(self, monkeypatch):
+        # the square with a hole at about 3,000 quads: a row fails on a few quads (at
+        # most _FEW_BAD of it) not only on the gap; it is laid without them instead of
+        # freezing its front, only quads
+        from benchmarks.paving import geometry
+
+        geo = geometry("hole", 0.0164)
+        res = paving(geo, size=0.0164, smooth=False)
+        check_mesh(geo, res, 0.0164, "quad", median=False)
+        monkeypatch.setattr(advancing_front, "_FEW_BAD", 0.0)
+        fewer = paving(geo, size=0.0164, smooth=False).stats["partial_rows"]
+        assert res.stats["partial_rows"] > fewer
