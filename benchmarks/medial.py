@@ -44,7 +44,7 @@ nearest of our segments (GEOS STR-tree). scikit-image's ``skeletonize``
 error there is the corner's distance to the central segment, 0.707.
 
 ``--quad-medial SIZE...``: instead, :func:`meshcore.medial.partitioning.quad_medial` on
-issue 20's first 32 random stars (:func:`tests.meshcore.quads.stars.issue_star`) and on
+issue 20's 40 random stars (:func:`tests.meshcore.quads.stars.issue_star`) and on
 gears of 6-12 teeth (depth 0.12, sampled about ``size`` apart, as the tests draw them)
 at each size: per domain the count over area / size**2 and, away from the quads at
 input corners under 45 degrees (one quad holds such a corner), the least quality
@@ -347,7 +347,7 @@ def quad_medial_main(sizes) -> None:
     print("|---|---:|---:|---:|---:|---|---:|")
     rows: dict[tuple[str, float], list] = {}
     for size in sizes:
-        cases = [("star", f"star {k}", issue_star(k)[0]) for k in range(32)]
+        cases = [("star", f"star {k}", issue_star(k)[0]) for k in range(40)]
         cases += [
             (
                 "gear",
@@ -356,7 +356,7 @@ def quad_medial_main(sizes) -> None:
             )
             for k in range(6, 13)
         ]
-        for family, name, geo in cases:  # a loop over 39 domains
+        for family, name, geo in cases:  # a loop over 47 domains
             dom = parse_domain(geo)
             t0 = time.process_time()
             res = quad_medial(dom, size=size)

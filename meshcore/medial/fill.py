@@ -343,10 +343,26 @@ def _fan_angles(P: np.ndarray, Q: np.ndarray, start, cells, v: int):
     return ang, at
 
 
+def _border_angle(P: np.ndarray, Q: np.ndarray, ang: dict, at: dict, v: int) -> float:
+    """The domain's angle (radians, in [0, 2 pi)) at a border vertex ``v`` between its
+    two border edges (``ang``, ``at``: :func:`_fan_angles` of ``v``): the sum of its
+    quads' corners where none is folded, and the input's angle too where the fill folded
+    one (a region's reflex corner: its coarse quad's corner there over 180 degrees, read
+    as 360 minus it). Where ``v`` is on the border twice, the sum of ``ang``."""
+    nxt = {int(Q[q, (at[q] + 1) % 4]) for q in ang}
+    prv = {int(Q[q, at[q] - 1]) for q in ang}
+    ends = nxt - prv, prv - nxt
+    if any(len(e) != 1 for e in ends):
+        return sum(ang.values())
+    u, w = P[ends[0].pop()] - P[v], P[ends[1].pop()] - P[v]
+    return math.atan2(u[0] * w[1] - u[1] * w[0], float(u @ w)) % (2 * math.pi)
+
+
 def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """A quad more at every border vertex whose quads' corners there average more
     than :data:`OPEN_ANGLE` (a reflex input corner over 250 degrees that the
-    midpoint subdivision gave two quads, each with a corner over 125 degrees): the
+    midpoint subdivision gave two quads, each with a corner over 125 degrees; the
+    domain's angle there, :func:`_border_angle`, divided by its quads): the
     interior edge ``v - b`` between its two widest corners is opened into a quad
     ``(v, b, z, b2)``, ``b`` split in two along the path ``v - b - z`` (``z`` the
     neighbour of ``b`` across from ``v``; ``b`` keeps the quads on one side, the new
@@ -362,7 +378,7 @@ def _opened(points: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarr
     for v in np.flatnonzero(border):
         ang, at = _fan_angles(P, Q, start, cells, v)
         fan = list(ang)
-        if len(fan) < 2 or math.degrees(sum(ang.values())) / len(fan) <= OPEN_ANGLE:
+        if len(fan) < 2 or math.degrees(_border_angle(P, Q, ang, at, v)) / len(fan) <= OPEN_ANGLE:
             continue
         best = None
         for q1 in fan:  # q1 = (v, a, x, b) and q2 = (v, b, y, c) around the edge v - b

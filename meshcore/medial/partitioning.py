@@ -154,8 +154,19 @@ to them), thin 4-sided regions between the close nodes of a crowded junction of 
 the few regions around its Type 0 nodes with a corner of 10-30 degrees at the node
 (the text's midpoint subdivision of a triangle region), a spike's strips made coarse
 by the count's stretch (star 31 at 0.15: least 0.27), and one star of 53 vertices
-with 74 % jitter and no hole (star 22: least 0.31 at 0.1, corners 28-150 degrees, in
-thin regions between its spikes).
+with 74 % jitter and no hole (star 22: least 0.43 at 0.1, corners 39-141 degrees, in
+thin regions between its spikes; 0.31 and 28-150 before its 4-degree spike was cut
+at its base, :func:`meshcore.medial.regions.spike_chords`). On issue 20's 40 stars
+(``benchmarks/medial.py --quad-medial 0.1 0.15``): at 0.1 least 0.5 on 39, corners in
+[30, 150] on 40, quads under 0.5 there 5 (38, 39, 15 before that cut and before a
+reflex corner's fan was opened from the domain's angle, :func:`meshcore.medial.fill._opened`:
+star 33 0.36 -> 0.55); at 0.15 least 0.5 on 35 (33), over 1.5x on 4 (5: star 33
+1.83 -> 1.29x), quads under 0.5 24 (41). By class, the 0.15 misses: corners of 38-44
+degrees at interior points of valence 4-7 where regions meet at an axis node with a
+corner of 20-55 degrees (stars 17, 18, 22, gear 9: the lift stops there; on 17 and 18 three more
+lifts changed nothing), large regions (25-42 area / size**2, the axis pruned at 45-90)
+whose boundary side carries many input vertices (star 20, gear 10), a spike's strips
+(star 31).
 Every job succeeds and every quad is strictly convex (``stats["not_convex"]``
 counts them, exact). On 150 random star polygons the ``critical``
 partition so gives only valid quads; the ``terminal`` one's 5- and 6-sided

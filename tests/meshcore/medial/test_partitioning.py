@@ -307,3 +307,23 @@ def test_four_sided_regions_as_one_patch_keep_the_count():
     assert uses.max() == 2  # conforming: no edge in three quads
     boundary = topology.boundary(mesh4).cells[0].data
     assert len(boundary) == (uses == 1).sum()
+
+
+def test_a_spike_is_cut_at_its_base_where_the_corner_chord_crosses_it():
+    # a spike of 5.7 degrees between two reflex corners, the region's corners before and
+    # after it (A, B) on either side of its body: the chord A-B crosses the spike, so it
+    # was left in the region (issue star 22 at size 0.1: a 4-degree spike, least quality
+    # 0.31 in its quads). It is cut at its base instead, between the reflex corners
+    from meshcore.medial.regions import spike_chords
+
+    P = np.array([[-3, 0], [-1, -0.1], [-1.5, -1], [1, -1], [1, 1], [-1.5, 1], [-1, 0.1]])
+    verts = np.arange(7)
+    a, b = P[verts] - P[np.roll(verts, 1)], P[np.roll(verts, -1)] - P[verts]
+    turn = np.arctan2(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], (a * b).sum(axis=1))
+    corner = np.array([0, 0, 1, 1, 1, 1, 0], bool)
+    kinds = np.zeros(7, np.int8)
+    cycles, corners, _, chords = spike_chords(P, [verts], [corner], [kinds], turn)
+    assert chords == [(6, 1)]
+    tip = [c for c in cycles if 0 in c]
+    assert len(tip) == 1 and sorted(tip[0].tolist()) == [0, 1, 6]
+    assert sorted(int(f.sum()) for f in corners) == [3, 6]

@@ -411,6 +411,36 @@ def test_quad_medial_opens_a_wide_reflex_corner():
     assert q.min() >= 0.5 and ang.min() >= 30 and ang.max() <= 150 and ratio <= 1.5
 
 
+def test_a_reflex_region_corner_is_opened_from_the_domain_angle():
+    # a 295-degree input corner cut once: one region's corner there is reflex (204
+    # degrees) and the fill's quad at it folded, its corner read as 156: the fan's
+    # corners averaged 123.5 degrees, under OPEN_ANGLE, and the corner kept two quads of
+    # 147 degrees (issue star 33 at size 0.1: least quality 0.36). From the domain's
+    # angle there (147.5 on average) the edge between them is opened into a third quad
+    from meshcore.geometry.constructions import coons_grid
+    from meshcore.medial.fill import _opened
+
+    def ray(deg, r):
+        return r * np.array([math.cos(math.radians(deg)), math.sin(math.radians(deg))])
+
+    v, w, c, u = np.zeros(2), ray(-30, 1.5), ray(61, 1.5), ray(265, 1.5)
+    m1, m2 = w + c, ray(163, 2.5)
+    line = lambda a, b: a + np.linspace(0, 1, 4)[:, None] * (b - a)  # noqa: E731
+    blocks = []
+    for a, b, cc, d in ((v, w, m1, c), (v, c, m2, u)):  # counterclockwise coarse quads
+        g = coons_grid(line(a, b), line(b, cc), line(d, cc), line(a, d))
+        ids = np.arange(16).reshape(4, 4)
+        cells = np.stack([ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]], -1)
+        blocks.append((g.reshape(-1, 2), cells.reshape(-1, 4)))
+    allp = np.vstack([blocks[0][0], blocks[1][0]]).round(12)
+    P, inv = np.unique(allp, axis=0, return_inverse=True)
+    Q = np.vstack([inv.ravel()[blocks[0][1]], inv.ravel()[16 + blocks[1][1]]])
+    at = int(np.flatnonzero((P == 0).all(axis=1))[0])
+    assert (Q == at).any(axis=1).sum() == 2
+    P2, Q2, done = _opened(P, Q)
+    assert done == 1 and (Q2 == at).any(axis=1).sum() == 3 and len(Q2) == len(Q) + 1
+
+
 @pytest.mark.parametrize("tip", [(2.5, 0.5), (2.2, 0.3)])
 def test_quad_medial_cuts_off_a_spike(tip):
     # a spike of 4-6 degrees on a square: in the region of the axis node its tip was the
