@@ -23,7 +23,8 @@ Algorithm (a compiled sequential loop, numba ``@njit(cache=True)``):
    inserted point along the curve; the cavity (every tetrahedron whose
    circumsphere holds the point) is grown by depth-first search and replaced
    by the cone of its boundary faces to the point. New tetrahedra are glued
-   to each other through a small hash table of the cavity's boundary edges.
+   to each other across the cavity's boundary edges
+   (:mod:`meshcore.delaunay.cone3d`).
 
 Data structure: tetrahedron ``t`` has vertex slots ``4t .. 4t+3`` in ``V``
 (the vertex at infinity is -1, a freed slot -2) and ``A[4t+i] = 4u+j`` when
@@ -88,6 +89,7 @@ from functools import cached_property
 import numpy as np
 from numba import njit
 
+from meshcore.delaunay.cone3d import glue_cone
 from meshcore.delaunay.kernel2d import _walk_hints
 from meshcore.delaunay.order3d import insertion_order
 from meshcore.delaunay.prefetch import prefetch
@@ -117,7 +119,6 @@ _ISP_ERRBOUND_A = (16.0 + 224.0 * 2.0**-53) * 2.0**-53
 # the few roundings of that bound (each under 2**-52 relative).
 _O3D_SEMI = 6.0 * _O3D_ERRBOUND_A * (1.0 + 2.0**-40)
 _ISP_SEMI = 24.0 * _ISP_ERRBOUND_A * (1.0 + 2.0**-40)
-_FIB64 = np.int64(-7046029254386353131)  # 0x9E3779B97F4A7C15 as int64
 _CHUNK = 1 << 16
 _MAX_POINTS = 1 << 26  # 4 * tetrahedra slots must fit int32
 _MAX_SLOTS = 1 << 29  # tetrahedron slots: the adjacency's 4 * slot + 3 must fit int32
@@ -602,53 +603,8 @@ def _insert(pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot,
             V[4 * s + q] = -2
         free[nfree] = s
         nfree += 1
-    # --- glue the new tetrahedra to each other across their faces through p:
-    # the face (p, x, y) of two cone tetrahedra is keyed by the boundary edge
-    # (x, y), met exactly twice. Open addressing, table cleared per insertion.
-    hsize = 16
-    while hsize < 8 * nb:  # load at most 3/8 (each edge keyed twice, one tombstone)
-        hsize *= 2
-    for h in range(hsize):
-        hkey[h] = -1
-    big = np.int64(1) << 31
-    mask = hsize - 1
-    for k in range(nb):
-        s = newslot[k]
-        bs = 4 * s
-        f = bnd[k]
-        for g in range(4):
-            if g == f:
-                continue
-            x = np.int64(-1)
-            y = np.int64(-1)
-            for q in range(4):
-                if q != f and q != g:
-                    w = np.int64(V[bs + q])
-                    if w < 0:
-                        w = big - 1
-                    if x < 0:
-                        x = w
-                    else:
-                        y = w
-            if x > y:
-                x, y = y, x
-            key = x * big + y
-            # Fibonacci hashing: bits 32.. of the product mix both vertices
-            # (the former 32-bit multiplier left x out of the index bits).
-            h = ((key * _FIB64) >> 32) & mask
-            while True:
-                kk = hkey[h]
-                if kk == -1:
-                    hkey[h] = key
-                    hval[h] = bs + g
-                    break
-                if kk == key:
-                    other = hval[h]
-                    A[bs + g] = other
-                    A[other] = bs + g
-                    hkey[h] = -2  # tombstone: lookups probe past it
-                    break
-                h = (h + 1) & mask
+    # --- glue the new tetrahedra to each other across their faces through p
+    glue_cone(V, A, vt, newslot, bnd, nb, hkey, hval)
     # --- walk starts -------------------------------------------------------
     last = state[_LAST]
     for k in range(nb):
