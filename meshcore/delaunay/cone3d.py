@@ -39,62 +39,61 @@ _DENSE_FACES = 58
 _DENSE = 32
 
 
-@njit(cache=True)
-def glue_cone(V, A, vt, newslot, bnd, nb, hkey, hval):
+@njit(cache=True, inline="always")
+def glue_cone(A, vt, newslot, bnd, newv, nb, hkey, hval):
     """Glue the cone tetrahedra ``newslot[:nb]`` to each other across their faces through p.
 
-    ``bnd[k]`` is the slot of p in tetrahedron ``newslot[k]`` (its other three
-    vertex slots hold a cavity boundary face, in the outward orientation of
-    :data:`meshcore.delaunay.kernel3d._FACES`). Writes the adjacency ``A`` of
-    the three faces through p of each. ``vt`` (the vertices' walk starts, all
-    >= 0 between insertions) is scratch for the boundary vertices' local
-    numbers: the caller writes their walk starts afterwards. ``hkey`` (at
-    least 8 nb entries) and ``hval`` (at least 1,024) are scratch.
+    ``bnd[k]`` is the slot of p in tetrahedron ``newslot[k]``, whose vertices
+    are ``newv[4 k : 4 k + 4]`` (the other three slots a cavity boundary face,
+    in the outward orientation of :data:`meshcore.delaunay.kernel3d._FACES`).
+    Writes the adjacency ``A`` of the three faces through p of each. ``newv``
+    is then scratch, and so is ``vt`` (the vertices' walk starts, all >= 0
+    between insertions) for the boundary vertices' local numbers: the caller
+    writes their walk starts afterwards. ``hkey`` (at least 8 nb entries) and
+    ``hval`` (at least 1,024) are scratch. Inlined: a call would add reference
+    counting of its arrays to every insertion.
     """
     if nb <= _DENSE_FACES:
-        _glue_dense(V, A, vt, newslot, bnd, nb, hval)
+        _glue_dense(A, vt, newslot, bnd, newv, nb, hval)
     else:
-        _glue_hashed(V, A, newslot, bnd, nb, hkey, hval)
+        _glue_hashed(A, newslot, bnd, newv, nb, hkey, hval)
 
 
 @njit(cache=True, inline="always")
-def _local(vt, w):
-    """Local number of boundary vertex w: 0 at infinity, else -vt[w] (numbered by the caller)."""
-    return 0 if w < 0 else -vt[w]
-
-
-@njit(cache=True)
-def _glue_dense(V, A, vt, newslot, bnd, nb, table):
-    # Local numbers 1.. in vt (negated: every walk start is >= 0).
+def _glue_dense(A, vt, newslot, bnd, newv, nb, table):
+    # Each boundary vertex's local number, 1.. (0 at infinity), in newv in
+    # place of the vertex; vt holds it negated meanwhile (walk starts are >= 0).
     nid = 1
     for k in range(nb):
-        bs = 4 * newslot[k]
         f = bnd[k]
         for q in range(4):
             if q != f:
-                w = V[bs + q]
-                if w >= 0 and vt[w] >= 0:
-                    vt[w] = -nid
-                    nid += 1
+                w = newv[4 * k + q]
+                lid = 0
+                if w >= 0:
+                    x = vt[w]
+                    fresh = x >= 0
+                    lid = nid if fresh else -x
+                    vt[w] = -lid
+                    nid += fresh
+                newv[4 * k + q] = lid
     # The outward face opposite p lists slots (f1, f2, f3) = _FACES[f]; its
     # directed edge f1 -> f2 belongs to the face through p opposite f3, etc.
     for k in range(nb):
         bs = 4 * newslot[k]
-        f = bnd[k]
-        f1, f2, f3 = _outward(f)
-        a = _local(vt, V[bs + f1])
-        b = _local(vt, V[bs + f2])
-        c = _local(vt, V[bs + f3])
+        f1, f2, f3 = _outward(bnd[k])
+        a = newv[4 * k + f1]
+        b = newv[4 * k + f2]
+        c = newv[4 * k + f3]
         table[a * _DENSE + b] = bs + f3
         table[b * _DENSE + c] = bs + f1
         table[c * _DENSE + a] = bs + f2
     for k in range(nb):
         bs = 4 * newslot[k]
-        f = bnd[k]
-        f1, f2, f3 = _outward(f)
-        a = _local(vt, V[bs + f1])
-        b = _local(vt, V[bs + f2])
-        c = _local(vt, V[bs + f3])
+        f1, f2, f3 = _outward(bnd[k])
+        a = newv[4 * k + f1]
+        b = newv[4 * k + f2]
+        c = newv[4 * k + f3]
         A[bs + f3] = table[b * _DENSE + a]
         A[bs + f1] = table[c * _DENSE + b]
         A[bs + f2] = table[a * _DENSE + c]
@@ -112,8 +111,8 @@ def _outward(f):
     return 0, 1, 2
 
 
-@njit(cache=True)
-def _glue_hashed(V, A, newslot, bnd, nb, hkey, hval):
+@njit(cache=True, inline="always")
+def _glue_hashed(A, newslot, bnd, newv, nb, hkey, hval):
     # The face (p, x, y) of two cone tetrahedra is keyed by the boundary edge
     # (x, y), met exactly twice. Open addressing, table cleared per insertion.
     hsize = 16
@@ -134,7 +133,7 @@ def _glue_hashed(V, A, newslot, bnd, nb, hkey, hval):
             y = np.int64(-1)
             for q in range(4):
                 if q != f and q != g:
-                    w = np.int64(V[bs + q])
+                    w = np.int64(newv[4 * k + q])
                     if w < 0:
                         w = big - 1
                     if x < 0:

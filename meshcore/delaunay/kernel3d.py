@@ -604,7 +604,7 @@ def _insert(pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot,
         free[nfree] = s
         nfree += 1
     # --- glue the new tetrahedra to each other across their faces through p
-    glue_cone(V, A, vt, newslot, bnd, nb, hkey, hval)
+    glue_cone(A, vt, newslot, bnd, newv, nb, hkey, hval)
     # --- walk starts -------------------------------------------------------
     last = state[_LAST]
     for k in range(nb):
