@@ -476,14 +476,15 @@ def _walk(pts, V, A, t, p, work):
         off = (off + 1) & 3
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _insert(pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work):
     """Insert vertex p (its coordinates in pts[p]) walking from tetrahedron start.
 
     Sets state[_STATUS]: _OK (state[_NCAV] removed slots in cav, state[_NNEW]
     created slots in newslot), _DUPLICATE (state[_INFO] the vertex it
     coincides with), _GROW_BUFFERS or _GROW_TETS (nothing changed: enlarge
-    and call again).
+    and call again). Inlined into the compiled loops (a call reference-counts
+    its arrays at every insertion: 6 % of the time at 300k random points).
     """
     t = _walk(pts, V, A, start, p, work)
     b = 4 * t
