@@ -23,7 +23,8 @@ Algorithm (a compiled sequential loop, numba ``@njit(cache=True)``):
    inserted point along the curve; the cavity (every tetrahedron whose
    circumsphere holds the point) is grown by depth-first search and replaced
    by the cone of its boundary faces to the point. New tetrahedra are glued
-   to each other through a small hash table of the cavity's boundary edges.
+   to each other across the cavity's boundary edges
+   (:mod:`meshcore.delaunay.cone3d`).
 
 Data structure: tetrahedron ``t`` has vertex slots ``4t .. 4t+3`` in ``V``
 (the vertex at infinity is -1, a freed slot -2) and ``A[4t+i] = 4u+j`` when
@@ -88,6 +89,7 @@ from functools import cached_property
 import numpy as np
 from numba import njit
 
+from meshcore.delaunay.cone3d import glue_cone
 from meshcore.delaunay.kernel2d import _walk_hints
 from meshcore.delaunay.order3d import insertion_order
 from meshcore.delaunay.prefetch import prefetch
@@ -117,7 +119,6 @@ _ISP_ERRBOUND_A = (16.0 + 224.0 * 2.0**-53) * 2.0**-53
 # the few roundings of that bound (each under 2**-52 relative).
 _O3D_SEMI = 6.0 * _O3D_ERRBOUND_A * (1.0 + 2.0**-40)
 _ISP_SEMI = 24.0 * _ISP_ERRBOUND_A * (1.0 + 2.0**-40)
-_FIB64 = np.int64(-7046029254386353131)  # 0x9E3779B97F4A7C15 as int64
 _CHUNK = 1 << 16
 _MAX_POINTS = 1 << 26  # 4 * tetrahedra slots must fit int32
 _MAX_SLOTS = 1 << 29  # tetrahedron slots: the adjacency's 4 * slot + 3 must fit int32
@@ -475,14 +476,15 @@ def _walk(pts, V, A, t, p, work):
         off = (off + 1) & 3
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _insert(pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot, hkey, hval, work):
     """Insert vertex p (its coordinates in pts[p]) walking from tetrahedron start.
 
     Sets state[_STATUS]: _OK (state[_NCAV] removed slots in cav, state[_NNEW]
     created slots in newslot), _DUPLICATE (state[_INFO] the vertex it
     coincides with), _GROW_BUFFERS or _GROW_TETS (nothing changed: enlarge
-    and call again).
+    and call again). Inlined into the compiled loops (a call reference-counts
+    its arrays at every insertion: 6 % of the time at 300k random points).
     """
     t = _walk(pts, V, A, start, p, work)
     b = 4 * t
@@ -602,53 +604,8 @@ def _insert(pts, p, start, V, A, mark, vt, free, state, cav, bnd, newv, newslot,
             V[4 * s + q] = -2
         free[nfree] = s
         nfree += 1
-    # --- glue the new tetrahedra to each other across their faces through p:
-    # the face (p, x, y) of two cone tetrahedra is keyed by the boundary edge
-    # (x, y), met exactly twice. Open addressing, table cleared per insertion.
-    hsize = 16
-    while hsize < 8 * nb:  # load at most 3/8 (each edge keyed twice, one tombstone)
-        hsize *= 2
-    for h in range(hsize):
-        hkey[h] = -1
-    big = np.int64(1) << 31
-    mask = hsize - 1
-    for k in range(nb):
-        s = newslot[k]
-        bs = 4 * s
-        f = bnd[k]
-        for g in range(4):
-            if g == f:
-                continue
-            x = np.int64(-1)
-            y = np.int64(-1)
-            for q in range(4):
-                if q != f and q != g:
-                    w = np.int64(V[bs + q])
-                    if w < 0:
-                        w = big - 1
-                    if x < 0:
-                        x = w
-                    else:
-                        y = w
-            if x > y:
-                x, y = y, x
-            key = x * big + y
-            # Fibonacci hashing: bits 32.. of the product mix both vertices
-            # (the former 32-bit multiplier left x out of the index bits).
-            h = ((key * _FIB64) >> 32) & mask
-            while True:
-                kk = hkey[h]
-                if kk == -1:
-                    hkey[h] = key
-                    hval[h] = bs + g
-                    break
-                if kk == key:
-                    other = hval[h]
-                    A[bs + g] = other
-                    A[other] = bs + g
-                    hkey[h] = -2  # tombstone: lookups probe past it
-                    break
-                h = (h + 1) & mask
+    # --- glue the new tetrahedra to each other across their faces through p
+    glue_cone(A, vt, newslot, bnd, newv, nb, hkey, hval)
     # --- walk starts -------------------------------------------------------
     last = state[_LAST]
     for k in range(nb):
@@ -828,14 +785,17 @@ def _swap_rows(pts, order, i, j):
     order[j] = tmp
 
 
-@njit(cache=True)
-def _tetra_ids(V, ntet, order):
-    """The real tetrahedra (rows in slot order) as external point indices, and each slot's row.
+def _slot_tables(cap: int) -> tuple[np.ndarray, np.ndarray]:
+    """The vertex and adjacency tables of ``cap`` slots (int32): the two halves of one
+    buffer, where :func:`delaunay3d` then writes its int64 tetrahedra (:func:`_output`)."""
+    both = np.empty(8 * cap, np.int32)
+    return both[: 4 * cap], both[4 * cap :]
 
-    ``ids[t]`` is the row of slot ``t``, -1 for ghosts and free slots (int32, as
-    the slots: half the memory beside the outputs).
-    """
-    ids = np.empty(ntet, np.int32)
+
+@njit(cache=True)
+def _slot_rows(V, ntet, ids):
+    """``ids[t]``: the output row of slot ``t`` (real tetrahedra in slot order), -1 for
+    ghosts and free slots; returns the number of rows."""
     m = 0
     for t in range(ntet):
         b = 4 * t
@@ -844,13 +804,38 @@ def _tetra_ids(V, ntet, order):
             m += 1
         else:
             ids[t] = -1
-    tetra = np.empty((m, 4), np.int64)
-    for t in range(ntet):
+    return m
+
+
+@njit(cache=True)
+def _tetra_rows(V, ids, order, tetra):
+    """``tetra[ids[t]]``: slot ``t``'s vertices as external point indices."""
+    for t in range(ids.shape[0]):
         r = ids[t]
         if r >= 0:
             for i in range(4):
                 tetra[r, i] = order[V[4 * t + i]]
-    return tetra, ids
+
+
+@njit(cache=True)
+def _tetra_in_place(both, ids, m, order):
+    """:func:`_tetra_rows` into the memory of the slot tables (``both``, vertices then
+    adjacency, int32): the rows are first moved down to their output rows (``ids[t] <=
+    t``), then widened to int64 from the last one down (row r's eight words only cover
+    rows from r on, already read). The adjacency is lost."""
+    for t in range(ids.shape[0]):
+        r = ids[t]
+        if 0 <= r < t:
+            for i in range(4):
+                both[4 * r + i] = both[4 * t + i]
+    wide = both.view(np.int64)
+    for r in range(m - 1, -1, -1):
+        b = 4 * r
+        v0, v1, v2, v3 = both[b], both[b + 1], both[b + 2], both[b + 3]
+        wide[b] = order[v0]
+        wide[b + 1] = order[v1]
+        wide[b + 2] = order[v2]
+        wide[b + 3] = order[v3]
 
 
 @njit(cache=True)
@@ -869,17 +854,26 @@ def _output(builder: IncrementalDelaunay3d, release: bool = False):
     """Real tetrahedra (rows in slot order) as external point indices, and their neighbours.
 
     ``release`` (:func:`delaunay3d`, done with ``builder``): the structure is
-    emptied first and its vertex table dropped once the tetrahedra are read,
-    so that the two (m, 4) int64 outputs meet only the adjacency and the slots'
-    rows (at 1M random points: 216 MB each, beside 112 + 28 MB of int32).
+    emptied, the slots' rows written in its mark table, and the tetrahedra
+    written over its vertex and adjacency tables once the neighbours are read:
+    only the (m, 4) int64 neighbours are new memory (at 1M random points 216
+    MB, beside the tables' 224 MB, which then hold the tetrahedra).
     """
     V, A, order = builder._V, builder._A, builder._order
     ntet = int(builder._state[_NTET])
-    if release:
-        vars(builder).clear()
-    tetra, ids = _tetra_ids(V, ntet, order)
-    del V
-    return tetra, _neighbor_rows(A, ids, len(tetra))
+    if not release:
+        ids = np.empty(ntet, np.int32)
+        m = _slot_rows(V, ntet, ids)
+        tetra = np.empty((m, 4), np.int64)
+        _tetra_rows(V, ids, order, tetra)
+        return tetra, _neighbor_rows(A, ids, m)
+    ids = builder._mark[:ntet]
+    vars(builder).clear()
+    m = _slot_rows(V, ntet, ids)
+    neighbors = _neighbor_rows(A, ids, m)
+    both = V.base
+    _tetra_in_place(both, ids, m, order)
+    return both.view(np.int64)[: 4 * m].reshape(m, 4), neighbors
 
 
 @njit(cache=True)
@@ -1049,8 +1043,7 @@ class IncrementalDelaunay3d:
         self._inv = np.empty(cap_pts, np.int64)
         self._n = n
         cap = 7 * n + 64
-        self._V = np.empty(4 * cap, np.int32)
-        self._A = np.empty(4 * cap, np.int32)
+        self._V, self._A = _slot_tables(cap)
         self._mark = np.zeros(cap, np.int32)
         self._free = np.empty(cap, np.int32)
         self._vt = np.zeros(cap_pts, np.int32)
@@ -1101,11 +1094,10 @@ class IncrementalDelaunay3d:
                 code="too_many_points",
             )
         new = min(2 * cap, _MAX_SLOTS)
-        for name, width, dtype in (("_V", 4, np.int32), ("_A", 4, np.int32)):
-            old = getattr(self, name)
-            arr = np.empty(width * new, dtype)
-            arr[: old.size] = old
-            setattr(self, name, arr)
+        V, A = _slot_tables(new)
+        V[: self._V.size] = self._V
+        A[: self._A.size] = self._A
+        self._V, self._A = V, A
         mark = np.zeros(new, np.int32)
         mark[:cap] = self._mark
         self._mark = mark
@@ -1448,8 +1440,9 @@ def delaunay3d(points, progress: Callable[[float, str], None] | None = None) -> 
     Cost: a radix sort of the insertion keys plus O(n) insertions of expected
     constant work, in compiled code. Memory: 40 bytes a tetrahedron slot
     while inserting (vertices, adjacency, mark, free list: int32), then the
-    two int64 outputs (64 bytes a tetrahedron) made beside the adjacency
-    alone: at 1M random points (6.75M tetrahedra) about 620 MB at the peak.
+    int64 neighbours (32 bytes a tetrahedron) beside the vertex and adjacency
+    tables, whose memory then holds the int64 tetrahedra: at 1M random points
+    (6.75M tetrahedra) about 545 MB at the peak.
 
     References
     ----------

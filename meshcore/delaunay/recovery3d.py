@@ -349,6 +349,57 @@ def _holds3(V, s, a, b, c):
     )
 
 
+@njit(cache=True)
+def _sources(P, sub, sub_facet, facets, by_group, start):
+    """:meth:`SurfaceRecovery.sources`: per subface, the triangle of its facet (``by_group``
+    from ``start[facet]``, in that order) with the greatest least side of the subface's
+    centroid (:meth:`SurfaceRecovery._sides`' floats, the first of equals)."""
+    out = np.empty(len(sub), np.int64)
+    for i in range(len(sub)):
+        g = sub_facet[i]
+        lo, hi = start[g], start[g + 1]
+        out[i] = by_group[lo]
+        if hi - lo == 1:
+            continue
+        u, v, w = sub[i, 0], sub[i, 1], sub[i, 2]
+        x = (P[u, 0] + P[v, 0] + P[w, 0]) / 3.0
+        y = (P[u, 1] + P[v, 1] + P[w, 1]) / 3.0
+        z = (P[u, 2] + P[v, 2] + P[w, 2]) / 3.0
+        best = -np.inf
+        for jj in range(lo, hi):
+            j = by_group[jj]
+            a, b, c = facets[j, 0], facets[j, 1], facets[j, 2]
+            ax, ay, az = P[a, 0], P[a, 1], P[a, 2]
+            bx, by, bz = P[b, 0], P[b, 1], P[b, 2]
+            cx, cy, cz = P[c, 0], P[c, 1], P[c, 2]
+            nx, ny, nz = _cross(bx - ax, by - ay, bz - az, cx - ax, cy - ay, cz - az)
+            s = min(
+                min(
+                    _side(ax, ay, az, bx, by, bz, x, y, z, nx, ny, nz),
+                    _side(bx, by, bz, cx, cy, cz, x, y, z, nx, ny, nz),
+                ),
+                _side(cx, cy, cz, ax, ay, az, x, y, z, nx, ny, nz),
+            )
+            if s > best:
+                best = s
+                out[i] = j
+    return out
+
+
+@njit(cache=True, inline="always")
+def _cross(u0, u1, u2, v0, v1, v2):
+    """numpy.cross of two 3-vectors, the same roundings."""
+    return u1 * v2 - u2 * v1, u2 * v0 - u0 * v2, u0 * v1 - u1 * v0
+
+
+@njit(cache=True, inline="always")
+def _side(px, py, pz, qx, qy, qz, x, y, z, nx, ny, nz):
+    """``cross(q - p, x - p) . n`` as :meth:`SurfaceRecovery._sides` rounds it (numpy's
+    ``einsum`` of a row of three adds the last product to the first, then the middle one)."""
+    c0, c1, c2 = _cross(qx - px, qy - py, qz - pz, x - px, y - py, z - pz)
+    return (c0 * nx + c2 * nz) + c1 * ny
+
+
 def face_rows(T: np.ndarray, F: np.ndarray) -> np.ndarray:
     """(m, 4) int64: the row of ``F`` (k, 3) that each face of each tetrahedron ``T`` is
     (faces in ``TET_FACES`` order, corners in any order), or -1.
@@ -1116,16 +1167,11 @@ class SurfaceRecovery:
     def sources(self) -> np.ndarray:
         """The input triangle each subface lies in (the one that best holds its centroid;
         a facet of one input triangle: that one)."""
-        start = self._group_start
-        one = np.diff(start)[self.sub_facet] == 1
-        out = self._by_group[start[self.sub_facet]]
-        rows = np.flatnonzero(~one)
-        k, j = self._facet_triangles(self.sub_facet[rows])
-        s = self._sides(self.P[self.sub[rows[k]]].mean(axis=1), j).min(axis=1)
-        order = np.lexsort((-s, k))
-        first = unique_ints(k[order], return_index=True)[1]
-        out[rows] = j[order[first]]
-        return out
+        return _sources(
+            self.P, np.ascontiguousarray(self.sub, dtype=np.int64),
+            np.ascontiguousarray(self.sub_facet, dtype=np.int64), self.facets,
+            self._by_group, self._group_start,
+        )  # fmt: skip
 
     # -- encroachment --------------------------------------------------------------
 

@@ -247,6 +247,17 @@ class TestIncremental:
         assert len(tz.tetra) == len(res.created) == len(tz.hull_facets)
         check_delaunay(tz)
 
+    @pytest.mark.parametrize("n", [31, 32])
+    def test_cone_glued_at_and_past_the_dense_table(self, n):
+        # The centre of n points on a sphere is in every circumsphere: its cone
+        # has 2 n - 4 faces, 58 (the dense table's most, cone3d) and 60 (hashed).
+        x = np.random.default_rng(n).normal(size=(n, 3))
+        p = x / np.linalg.norm(x, axis=1)[:, None]
+        dt = IncrementalDelaunay3d(p)
+        res = dt.insert([0.0, 0.0, 0.0])
+        assert len(res.created) == 2 * n - 4
+        check_delaunay(dt.tetrahedralization())
+
     def test_guarded_batch(self):
         # The compiled lazy queue: a point whose origin tetrahedron an earlier one
         # removed is skipped, as is a point outside the allowed slots or the hull,
