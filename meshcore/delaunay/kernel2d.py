@@ -66,7 +66,8 @@ from numba import njit
 
 from meshcore.delaunay.brio import brio_round, brio_rounds
 from meshcore.delaunay.prefetch import prefetch
-from meshcore.errors import InputError, refuse_non_numbers
+from meshcore.domain.numbers import refuse_non_numbers
+from meshcore.errors import InputError
 from meshcore.geometry.expansions import two_product, two_sum
 from meshcore.geometry.ordering import radix_sort
 from meshcore.geometry.predicates import (

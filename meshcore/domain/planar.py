@@ -125,7 +125,8 @@ from meshcore.domain.crossings import (
     _floor_index,
     _intersections,
 )
-from meshcore.errors import InputError, is_number, refuse_non_numbers
+from meshcore.domain.numbers import is_number, refuse_non_numbers
+from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d, orient2d_scalar
 from meshcore.geometry.tolerances import MAX_COORDINATE, MAX_COORDINATE_3D, MIN_DIAMETER
 

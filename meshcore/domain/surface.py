@@ -120,7 +120,8 @@ import scipy.sparse as sp
 from numba import njit
 from scipy.sparse.csgraph import connected_components
 
-from meshcore.errors import InputError, is_number, refuse_non_numbers
+from meshcore.domain.numbers import is_number, refuse_non_numbers
+from meshcore.errors import InputError
 from meshcore.geometry.predicates import orient2d, orient2d_scalar
 from meshcore.geometry.predicates3d import orient3d_scalar
 from meshcore.geometry.tolerances import MAX_COORDINATE_3D, MIN_DIAMETER_3D
