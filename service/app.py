@@ -78,7 +78,9 @@ def create_app(settings: Settings | None = None, registry: Registry | None = Non
 
             executor = DaskExecutor(settings.dask_scheduler, settings.job_memory_limit)
         else:
-            executor = LocalExecutor(settings.workers, settings.job_memory_limit, settings.warmup)
+            executor = LocalExecutor(
+                settings.workers, settings.job_memory_limit, settings.data_dir, settings.warmup
+            )
         manager = JobManager(store, executor, registry, settings, metrics)
         app.state.metrics = metrics
         app.state.manager = manager

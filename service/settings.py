@@ -44,7 +44,9 @@ class Settings(BaseSettings):
 
     host: str = Field("127.0.0.1", description="Address to bind.")
     port: int = Field(8000, ge=0, le=65535, description="Port to bind (0: any free port).")
-    data_dir: Path = Field(Path("var"), description="Job store and result files.")
+    data_dir: Path = Field(
+        Path("var"), description="Job store, result files and the warm-up's status (warmup/)."
+    )
     workers: int = Field(
         default_factory=lambda: os.cpu_count() or 1, ge=1, description="Jobs run at once."
     )

@@ -106,7 +106,7 @@ from meshcore.geometry.predicates import WORK_SIZE, orient2d
 from meshcore.geometry.predicates3d import orient3d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.mesh.tetstore import N_PTS, N_ROWS, CellStore
-from meshcore.mesh.topology import unique_ints
+from meshcore.mesh.topology import edge_keys, unique_ints
 from meshcore.optimize import kernel2d as k2
 from meshcore.optimize import refine2d as r2
 from meshcore.triangulation import MAX_POINTS
@@ -519,7 +519,7 @@ def barycentric(state: LoopState, sweeps: list, sur: list, ops: dict) -> None:
     n, per = len(P), C.shape[1]
     i, j = np.triu_indices(per, 1)
     a, b = C[:, i].ravel(), C[:, j].ravel()
-    key = unique_ints(np.minimum(a, b) * n + np.maximum(a, b))
+    key = unique_ints(edge_keys(a, b, n))
     a, b = key // n, key % n
     adj = coo_matrix((np.ones(2 * len(a)), (np.r_[a, b], np.r_[b, a])), shape=(n, n)).tocsr()
     free = state.fixed[:n] == 0

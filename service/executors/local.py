@@ -13,6 +13,13 @@ capacity is zero until it is done, so jobs submitted meanwhile stay queued
 and start when it is ready. Without the warm-up (``warmup`` false) the
 executor is ready at once and the fork server starts meanwhile: its imports
 (about 1.4 CPU s) delay only a job that arrives before they are done.
+
+The warm-up's progress file lives in a folder of its own in
+``DATA_DIR/warmup/``, which is removed once the fork server is warm or the
+service stops. A service killed meanwhile (SIGKILL, the out-of-memory killer) cannot
+remove it: the next start on the same data directory removes every folder
+there, and a fork server the killed service left warming stops before its
+next step (:mod:`service.executors.preload`).
 """
 
 from __future__ import annotations
@@ -39,7 +46,7 @@ class LocalExecutor:
 
     name = "local"
 
-    def __init__(self, workers: int, memory_limit: int, warm: bool = True) -> None:
+    def __init__(self, workers: int, memory_limit: int, data_dir: Path, warm: bool = True) -> None:
         self.workers = workers
         self.memory_limit = memory_limit
         self.warm = warm
@@ -49,6 +56,7 @@ class LocalExecutor:
         self._stops: set[threading.Event] = set()
         self._started = False
         self._warming: asyncio.Task | None = None
+        self._status_root = Path(data_dir) / "warmup"
         self._status_dir: Path | None = None  # the warm-up's progress file, while warming
 
     @property
@@ -57,10 +65,15 @@ class LocalExecutor:
         return self.workers if self._started else 0
 
     async def start(self) -> None:
-        """Start warming the fork server (without the warm-up: ready now); returns at once."""
-        self._status_dir = Path(tempfile.mkdtemp(prefix="meshservice-warmup-"))
-        os.environ[WARMUP_STATUS_ENV] = str(self._status_dir / "status.json")  # inherited
-        os.environ[WARMUP_ENV] = "1" if self.warm else "0"
+        """Start warming the fork server (without the warm-up: ready now); returns at once.
+
+        Removes the status folders a killed service left under ``DATA_DIR/warmup/``."""
+        shutil.rmtree(self._status_root, ignore_errors=True)
+        os.environ[WARMUP_ENV] = "1" if self.warm else "0"  # inherited by the fork server
+        if self.warm:
+            self._status_root.mkdir(parents=True)
+            self._status_dir = Path(tempfile.mkdtemp(dir=self._status_root))
+            os.environ[WARMUP_STATUS_ENV] = str(self._status_dir / "status.json")
         self._started = not self.warm
         self._warming = asyncio.create_task(self._warm(), name="warm-up")
 
@@ -86,7 +99,7 @@ class LocalExecutor:
 
     def _forget_status(self) -> None:
         if self._status_dir is not None:
-            shutil.rmtree(self._status_dir, ignore_errors=True)
+            shutil.rmtree(self._status_root, ignore_errors=True)
             self._status_dir = None
 
     def ready(self) -> bool:

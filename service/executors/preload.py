@@ -20,8 +20,9 @@ compiled into numba's disk cache here too. Each step is logged as
 ``compiling kernels 4/12: triangulate`` and,
 when ``MESHSERVICE_WARMUP_STATUS`` names a file, recorded there as JSON
 (``{"done", "total", "current", "left"}``) for ``/readyz``; once that file's
-folder is gone (the service removes it as it stops), the warm-up stops before its
-next step. With the
+folder is gone (the service removes it as it stops, and a service started again on
+the same data directory removes the one a killed service left), the warm-up stops
+before its next step. With the
 ``warmup`` setting false (``MESHSERVICE_WARMUP=0``) no step runs: each job
 then loads, from numba's cache, the kernels it uses.
 """
