@@ -248,6 +248,7 @@ from meshcore.delaunay.kernel2d import (
     Triangulation,
     delaunay,
 )
+from meshcore.domain.numbers import refuse_non_numbers
 from meshcore.domain.planar import Domain
 from meshcore.errors import AlgorithmError, InputError
 from meshcore.geometry.constructions import point_segment_distance
@@ -628,6 +629,7 @@ def classify_segments(
 
 
 def _validated(points, segments) -> tuple[np.ndarray, np.ndarray]:
+    refuse_non_numbers(points, ("points",), code="bad_shape")  # numpy reads "1.5" and True
     try:
         P = np.array(points, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -645,18 +647,36 @@ def _validated(points, segments) -> tuple[np.ndarray, np.ndarray]:
             loc=("points", int(bad[0])),
             code="non_finite",
         )
+    refuse_non_numbers(segments, ("segments",), code="bad_shape")
     try:
-        S = np.array(segments, dtype=np.int64)
+        raw = np.asarray(segments)
     except (TypeError, ValueError) as exc:
         raise InputError(
             "segments must be an (m, 2) integer array", loc=("segments",), code="bad_shape"
         ) from exc
-    if S.size == 0:
-        S = S.reshape(0, 2)
-    if S.ndim != 2 or S.shape[1] != 2:
+    if raw.size == 0:
+        raw = raw.reshape(0, 2)
+    if raw.ndim != 2 or raw.shape[1] != 2:
         raise InputError(
-            f"segments must have shape (m, 2), got {S.shape}", loc=("segments",), code="bad_shape"
+            f"segments must have shape (m, 2), got {raw.shape}",
+            loc=("segments",),
+            code="bad_shape",
         )
+    if raw.dtype.kind == "f":  # numpy would truncate 1.5 to the index 1
+        frac = np.flatnonzero((~np.isfinite(raw) | (raw != np.round(raw))).any(axis=1))
+        if frac.size:
+            i = int(frac[0])
+            raise InputError(
+                f"segment {i} has an index that is not an integer: {raw[i].tolist()}",
+                loc=("segments", i),
+                code="bad_shape",
+            )
+    try:
+        S = raw.astype(np.int64)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise InputError(
+            "segments must be an (m, 2) integer array", loc=("segments",), code="bad_shape"
+        ) from exc
     out = np.flatnonzero(((S < 0) | (S >= len(P))).any(axis=1))
     if out.size:
         i = int(out[0])

@@ -1004,7 +1004,7 @@ class IncrementalDelaunay:
         pts, order, V, A, vt, state, work, factor = _build(pts_in, None)
         n = len(pts_in)
         self._factor = factor
-        self._n = self._base = n
+        self._n = n
         self._pts = pts
         self._slot = np.empty(n, np.int64)  # index -> slot
         self._slot[order] = np.arange(n)

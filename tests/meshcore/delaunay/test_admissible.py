@@ -584,6 +584,13 @@ def test_a_point_inside_a_segment_is_refused():
         ([[0, 0], [1, 0], [2, 0], [0, 1]], [[0, 1], [0, 2]], "overlapping_segments"),
         ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1]], "bad_shape"),
         ([[0, 0], [1, 0], [0, 0]], [[0, 1]], "duplicate_points"),
+        # numpy would read these as numbers (True, "1") or truncate them (1.5)
+        ([[0, 0], [1, True], [0, 1]], [[0, 1]], "bad_shape"),
+        ([[0, 0], [1, 0], [0, 1]], [[0, True]], "bad_shape"),
+        ([[0, 0], [1, 0], [0, 1]], [["0", "1"]], "bad_shape"),
+        ([[0, 0], [1, 0], [0, 1]], [[0, 1.5]], "bad_shape"),
+        ([[0, 0], [1, 0], [0, 1]], [[0, float("inf")]], "bad_shape"),
+        ([[0, 0], [1, 0], [0, 1]], [[0, 10**30]], "bad_shape"),  # was an OverflowError
     ],
 )
 def test_bad_raw_input_raises_input_error(points, segments, code):

@@ -23,12 +23,18 @@ from meshcore.delaunay.kernel2d import (
     _brio_hilbert_keys,
     _incircle_corner,
     _incircle_two_lines,
+    _insert_range,
     _insertion_order,
     delaunay,
 )
 from meshcore.errors import Cancelled, InputError
 from meshcore.geometry.ordering import radix_argsort, radix_sort
 from meshcore.geometry.predicates import WORK_SIZE, incircle, incircle_exact, orient2d
+
+
+def edge_set(triangles: np.ndarray) -> set[tuple[int, int]]:
+    e = np.sort(np.vstack([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), 1)
+    return set(map(tuple, e.tolist()))
 
 
 def canonical(triangles: np.ndarray) -> set[tuple[int, ...]]:
@@ -496,3 +502,32 @@ def test_incremental_insertion_gives_the_triangles_of_the_whole_set():
         assert canonical(tri.triangles) == canonical(delaunay(points).triangles)
     # A point inserted on an existing one is named, not inserted.
     assert inc.insert(np.array([points[3]]), np.array([0])) == (len(points), 3)
+
+
+def test_the_insertion_log_names_the_edges_it_removed():
+    # The log the admissible splitting loop reads (one point per call, as
+    # that loop inserts): the edges a point's insertion removed, as slot
+    # pairs (-1 the vertex at infinity), are those of the triangulation
+    # without it that are gone.
+    rng = np.random.default_rng(11)
+    points = np.vstack([square_grid(6), rng.random((40, 2)) * 5])
+    inc = IncrementalDelaunay(points)
+    total = 0
+    for xy in np.vstack([rng.random((25, 2)) * 5, [[2.5, 2.5], [1.0, 1.5], [4.5, 0.0]]]):
+        n = len(inc)
+        pts, V, A, stack, vt, hint, state, work, order, slot, log = inc.insertion_arrays(1)
+        pts[n] = xy * inc.scale
+        order[n] = slot[n] = n
+        hint[n] = slot[0]
+        nlog = _insert_range(pts, V, A, stack, vt, hint, state, work, n, n + 1, log)
+        inc.grown_to(n + 1)
+        before = edge_set(delaunay(points).triangles)
+        points = np.vstack([points, xy])
+        tri = inc.triangulation(points)
+        assert canonical(tri.triangles) == canonical(delaunay(points).triangles)
+        pairs = log[: 2 * nlog].reshape(-1, 2)
+        pairs = pairs[(pairs >= 0).all(axis=1)]
+        removed = {tuple(sorted(e)) for e in order[pairs].tolist()}
+        assert removed == before - edge_set(tri.triangles)
+        total += len(removed)
+    assert total > 28  # the insertions flipped edges away
