@@ -355,6 +355,8 @@ def best_rows(first, again: Callable, dom: Domain, size: float):
     for r, h in ROW_CHOICES:  # a loop of at most len(ROW_CHOICES) meshes
         if (r, h) == laid or r > laid[0] or (h != 1 and not holes):
             continue  # the first fell back from more rows: they do not fit
+        if r == 0 and not _one_hole(dom):
+            continue  # no rows across (:func:`_ruled`): the mesh made would be left out
         try:
             res = again(r, h)
         except MeshcoreError:
@@ -411,7 +413,7 @@ def _ruled(dom, size, max_turn, least_quality):
     (Mesh, boundary edges, None) as :func:`_assembled`, or None where the domain is not
     one polygon with one hole, a ring turns by more than ``max_turn`` at a point, or a
     quad is not strictly convex (exact) or under ``least_quality``."""
-    if len(dom.ring_offsets) != 3 or not dom.ring_is_hole[1] or dom.ring_is_hole[0]:
+    if not _one_hole(dom):
         return None
     ids_o, Xo = _ring_points(dom, 0, size)
     n = len(Xo)
@@ -455,6 +457,11 @@ def _ruled(dom, size, max_turn, least_quality):
         [np.column_stack([b[0], np.roll(b[0], -1)]), np.column_stack([b[1], np.roll(b[1], 1)])]
     )
     return Mesh(P, (CellBlock("quad", Q),)), bedges, None
+
+
+def _one_hole(dom: Domain) -> bool:
+    """Whether ``dom`` is one polygon with one hole (the rows across of :func:`_ruled`)."""
+    return len(dom.ring_offsets) == 3 and bool(dom.ring_is_hole[1]) and not dom.ring_is_hole[0]
 
 
 def _band(g: np.ndarray) -> np.ndarray:
