@@ -856,6 +856,8 @@ def _look_ahead(st: _State, cav: Cavities, E, A, B, t, t0, lo, hi, known) -> np.
     pick = np.argmin(count + dist / 2.0, axis=1)  # dist < 1: the count first
     out = t.copy()
     out[rows] = cand[np.arange(len(rows)), pick]
+    if st.options is None and not st.force:
+        return out  # not searching (:func:`_search`)
     for i, k in enumerate(edge_keys(E[rows]).tolist()):  # a loop over this round's edges
         order = np.lexsort((dist[i], count[i]))
         st.choose(("edge", k), count[i, order], sig[i, order], cand[i, order].tolist())
@@ -985,9 +987,10 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: Cavities) -> 
     pts_face: list[tuple[int, np.ndarray, float]] = []
     seen_edges: set[tuple[int, int]] = set()
     at = 0
+    face_key = face_keys(F).tolist()
     for j, mine in enumerate(options):  # a loop over the missing subfaces
         order = sorted(range(len(mine)), key=lambda k: (removed[at + k], -mine[k][0]))
-        key = ("face", int(face_keys(F[j : j + 1])[0]))
+        key = ("face", face_key[j])
         rows = at + np.array(order)
         st.choose(key, removed[rows], sig[rows], order)
         at += len(mine)

@@ -355,6 +355,8 @@ def best_rows(first, again: Callable, dom: Domain, size: float):
     for r, h in ROW_CHOICES:  # a loop of at most len(ROW_CHOICES) meshes
         if (r, h) == laid or r > laid[0] or (h != 1 and not holes):
             continue  # the first fell back from more rows: they do not fit
+        if r == 0 and not _one_hole(dom):
+            continue  # no rows across (:func:`_ruled`): the mesh made would be left out
         try:
             res = again(r, h)
         except MeshcoreError:
@@ -392,13 +394,8 @@ def _layer(dom, size, mesh_inner, max_turn, least_quality, rows, hole_rows):
                 return None
             chain.append(off)
         n = len(X)
-        j = np.arange(n)
-        j1 = (j + 1) % n
-        quads = [
-            np.column_stack([r * n + j, r * n + j1, (r + 1) * n + j1, (r + 1) * n + j])
-            for r in range(len(chain) - 1)
-        ]
-        parts.append((ids, np.concatenate(chain), n, np.concatenate(quads), None, n))
+        quads = _band(np.arange(len(chain) * n).reshape(-1, n))
+        parts.append((ids, np.concatenate(chain), n, quads, None, n))
     if rows > 1 and _too_many(sum(len(p[3]) for p in parts), dom, size):
         return None  # the rows alone are too many: the inner mesh is not made
     out = _assembled(dom, mesh_inner, parts, least_quality)
@@ -416,7 +413,7 @@ def _ruled(dom, size, max_turn, least_quality):
     (Mesh, boundary edges, None) as :func:`_assembled`, or None where the domain is not
     one polygon with one hole, a ring turns by more than ``max_turn`` at a point, or a
     quad is not strictly convex (exact) or under ``least_quality``."""
-    if len(dom.ring_offsets) != 3 or not dom.ring_is_hole[1] or dom.ring_is_hole[0]:
+    if not _one_hole(dom):
         return None
     ids_o, Xo = _ring_points(dom, 0, size)
     n = len(Xo)
@@ -449,15 +446,8 @@ def _ruled(dom, size, max_turn, least_quality):
     nb = n0 + int(new.sum())
     gid[1:-1] = nb + np.arange((steps - 1) * n).reshape(steps - 1, n)
     P = np.concatenate([dom.points, Xo[new[0]], Xh[new[1]], X[1:-1].reshape(-1, 2)])
-    j, j1 = np.arange(n), np.roll(np.arange(n), -1)
-    Q = np.concatenate(
-        [
-            np.column_stack([g[j], g[j1], h[j1], h[j]])
-            for g, h in zip(gid[:-1], gid[1:], strict=True)
-        ]
-    )
-    corners = [orient2d(P[Q[:, i - 1]], P[Q[:, i]], P[Q[:, (i + 1) % 4]]) for i in range(4)]
-    if not all((c > 0).all() for c in corners):
+    Q = _band(gid)
+    if not _strictly_convex(P, Q):
         return None
     if quality.quad_quality(P, Q).min() < least_quality:
         return None
@@ -467,6 +457,26 @@ def _ruled(dom, size, max_turn, least_quality):
         [np.column_stack([b[0], np.roll(b[0], -1)]), np.column_stack([b[1], np.roll(b[1], 1)])]
     )
     return Mesh(P, (CellBlock("quad", Q),)), bedges, None
+
+
+def _one_hole(dom: Domain) -> bool:
+    """Whether ``dom`` is one polygon with one hole (the rows across of :func:`_ruled`)."""
+    return len(dom.ring_offsets) == 3 and bool(dom.ring_is_hole[1]) and not dom.ring_is_hole[0]
+
+
+def _band(g: np.ndarray) -> np.ndarray:
+    """The quads between consecutive rows of ``g`` ((r + 1, n) point ids, each row a
+    closed ring of ``n``): row by row, ``g[i, j], g[i, j + 1], g[i + 1, j + 1], g[i + 1,
+    j]``."""
+    g1 = np.roll(g, -1, axis=1)
+    return np.stack([g[:-1], g1[:-1], g1[1:], g[1:]], axis=-1).reshape(-1, 4)
+
+
+def _strictly_convex(P: np.ndarray, Q: np.ndarray) -> bool:
+    """Whether every quad of ``Q`` turns left at each corner (exact ``orient2d``)."""
+    return all(
+        (orient2d(P[Q[:, i - 1]], P[Q[:, i]], P[Q[:, (i + 1) % 4]]) > 0).all() for i in range(4)
+    )
 
 
 def _too_many(quads: int, dom: Domain, size: float) -> bool:
@@ -529,10 +539,7 @@ def _assembled(dom, mesh_inner, parts, least_quality):
         forced_all.append(np.zeros(len(local), bool) if forced is None else forced)
     P = np.concatenate([dom.points, *extra, *mids_pts, Pin])
     layer = np.concatenate(layers)
-    corners = [
-        orient2d(P[layer[:, i - 1]], P[layer[:, i]], P[layer[:, (i + 1) % 4]]) for i in range(4)
-    ]
-    if not all((c > 0).all() for c in corners):
+    if not _strictly_convex(P, layer):
         return None
     free = ~np.concatenate(forced_all)
     if free.any() and quality.quad_quality(P, layer[free]).min() < least_quality:
