@@ -143,6 +143,7 @@ __all__ = [
     "least_off_sharp",
     "meets_targets",
     "off_sharp",
+    "targets_rank",
 ]
 
 #: Each offset is by the local spacing averaged over this many points on either
@@ -315,6 +316,24 @@ def meets_targets(mesh: Mesh, dom: Domain, size: float, ok: np.ndarray | None = 
     return bool(
         ang.min() >= 30 and ang.max() <= 150 and quality.quad_quality(P, Q[ok]).min() >= 0.5
     )
+
+
+def targets_rank(mesh: Mesh, dom: Domain, size: float) -> tuple:
+    """How near an all-quad mesh of ``dom`` comes to :func:`meets_targets` at ``size``,
+    to compare meshes of one domain that miss them (the larger, the nearer): whether it
+    meets them, then how many of the three targets it meets (within 1.5 times area /
+    size² quads; away from the sharp input corners, every corner in [30, 150] degrees
+    and least quality at least 0.5, which implies the corners), then that least quality
+    (:func:`least_off_sharp`), then the mean quality (8.4); qualities rounded to 1e-6 (a
+    1e6 translation moves them ~1e-9)."""
+    P, Q = mesh.points, mesh.cells_by_type["quad"]
+    ok = off_sharp(mesh, dom)
+    ratio = len(Q) * size * size / dom.area
+    least = least_off_sharp(mesh, dom, ok)
+    ang = quality.quad_angles(P, Q[ok]) if ok.any() else np.full(1, 90.0)
+    met = (1 / 1.5 <= ratio <= 1.5) + (least >= 0.5) + (ang.min() >= 30 and ang.max() <= 150)
+    mean = float(quality.quad_quality(P, Q).mean())
+    return meets_targets(mesh, dom, size, ok), int(met), round(least, 6), round(mean, 6)
 
 
 def least_off_sharp(mesh: Mesh, dom: Domain, ok: np.ndarray | None = None) -> float:

@@ -178,6 +178,7 @@ from meshcore.quads.boundary_layer import (
     least_off_sharp,
     meets_targets,
     off_sharp,
+    targets_rank,
 )
 from meshcore.quads.lattice import triangulated
 from meshcore.quads.optimization import (
@@ -268,8 +269,8 @@ class _Tolerances:
     size_tries_most: int = 50_000
     #: A first mesh with more than this times area / size² quads is made again with its
     #: ladder quads merged and kept whole (:mod:`meshcore.quads.splitting`), kept where
-    #: it meets the targets, or has fewer quads and no lower least quality away from
-    #: sharp corners (:func:`~meshcore.quads.boundary_layer.least_off_sharp`).
+    #: it meets the targets, or comes nearer to them
+    #: (:func:`~meshcore.quads.boundary_layer.targets_rank`).
     size_tries_over: float = 1.5
     #: Then the nodes of the quads under this quality away from sharp input corners
     #: (the issue's least quality) are moved to raise it
@@ -1054,8 +1055,10 @@ def combine(
         nor metric, the boundary not kept, not ``inner``, ``squares``) with more than 1.5
         times area / size² quads, it is made again with the ladder quads of the domain's
         thin parts merged and kept whole (:mod:`meshcore.quads.splitting`): returned
-        where it meets the targets, and standing for the first mesh where it has fewer
-        quads and no lower least quality away from the sharp input corners. Where the
+        where it meets the targets, and standing for the first mesh where it comes
+        nearer to them (:func:`~meshcore.quads.boundary_layer.targets_rank`: more of
+        the three targets met, then the higher least quality away from the sharp input
+        corners, then mean quality). Where the
         mesh still misses the targets, the domain is meshed
         again at 1.02, 1.04, 1.06, 1.1 and 1.2 times ``size`` and the first mesh that
         meets the targets at ``size`` is returned (``stats`` ``size_factor``);
@@ -1131,10 +1134,8 @@ def combine(
             thin = None
         if thin is not None and meets_targets(thin.mesh, domain, size):
             return thin
-        if (
-            thin is not None
-            and len(thin.mesh.cells_by_type["quad"]) < len(res.mesh.cells_by_type["quad"])
-            and least_off_sharp(thin.mesh, domain) >= least_off_sharp(res.mesh, domain)
+        if thin is not None and targets_rank(thin.mesh, domain, size) > targets_rank(
+            res.mesh, domain, size
         ):
             res = thin
     for k, f in enumerate(TOL.size_tries, 1):  # at most len(TOL.size_tries) meshes

@@ -47,9 +47,9 @@ from hypothesis import strategies as st
 from meshcore.domain.planar import parse_domain
 from meshcore.geometry.predicates import orient2d
 from meshcore.medial.partitioning import quad_medial
-from meshcore.mesh import quality
+from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.quads import combine
-from meshcore.quads.boundary_layer import ROW_CHOICES
+from meshcore.quads.boundary_layer import ROW_CHOICES, targets_rank
 from tests.meshcore.quads.stars import issue_star, star
 
 
@@ -650,3 +650,31 @@ def test_quad_combine_lays_rows_across_an_annulus():
     moved = {**geo, "coordinates": [(np.array(r) + 1e6).tolist() for r in geo["coordinates"]]}
     again = combine(domain=moved, size=0.1, all_quad=True, twice_size=True, optimize=True)
     assert np.array_equal(again.mesh.cells_by_type["quad"], res.mesh.cells_by_type["quad"])
+
+
+def _grid(n, shift=0.0):
+    """The unit square cut into n x n quads (its corners first), the inner grid point
+    nearest (0, 0) moved by ``shift`` along the diagonal."""
+    x = np.linspace(0, 1, n + 1)
+    X, Y = np.meshgrid(x, x)
+    P = np.column_stack([X.ravel(), Y.ravel()])
+    P[n + 2] += shift
+    a = (np.arange(n)[:, None] * (n + 1) + np.arange(n)).ravel()
+    Q = np.column_stack([a, a + 1, a + n + 2, a + n + 1])
+    corners = [0, n, (n + 1) * (n + 1) - 1, n * (n + 1)]
+    order = np.concatenate([corners, np.setdiff1d(np.arange(len(P)), corners)])
+    new = np.empty_like(order)
+    new[order] = np.arange(len(order))
+    return Mesh(P[order], (CellBlock("quad", new[Q]),))
+
+
+def test_targets_rank_counts_the_targets_met_before_the_least_quality():
+    """At size 0.5 on the unit square: 2 x 2 quads meeting every target, then 4 x 4
+    squares (4x the count, least 1), then 2 x 2 with least 0.35 (the count and the
+    corners met), then 4 x 4 with least 0.48 and a higher mean (only the corners)."""
+    dom = parse_domain({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]]]})
+    meshes = [_grid(2, 0.12), _grid(4), _grid(2, 0.18), _grid(4, 0.075)]
+    ranks = [targets_rank(m, dom, 0.5) for m in meshes]
+    assert [r[:2] for r in ranks] == [(True, 3), (False, 2), (False, 2), (False, 1)]
+    assert ranks == sorted(ranks, reverse=True)
+    assert ranks[3][2:] > ranks[2][2:]  # higher least and mean, fewer targets met
