@@ -84,7 +84,12 @@ Algorithm
    100k quads lost 4.5 points of valence-4 share (its rows stepped where
    they met). Any other row that still fails is
    not committed and its front is *frozen* (it is unfrozen when a merge
-   makes it part of a new front). A front is frozen too when it has 8
+   makes it part of a new front). After strips (step 5) every front is
+   active again, but one whose row failed is not tried again while the
+   front edges near it (those meeting the box its row looked at, from
+   :func:`_try_row`) are the same: the row would fail the same way (on the
+   plate with 20 holes at 100k quads 183 of 690 rows tried were such
+   repeats, every one failing; the meshes are unchanged). A front is frozen too when it has 8
    nodes or fewer, or after ``max_rows`` rounds.
 5. **Fronts meeting: strips** (a choice of this module; the text leaves
    the meeting of fronts open). Rows stop ``2 h`` short of other fronts,
@@ -328,7 +333,7 @@ from meshcore.partition.recursive import FALLBACK_SCALE, stuck_error
 from meshcore.partition.smoothing import SWEEPS
 from meshcore.quads import paving_kernel as pk
 from meshcore.quads.optimization import optimize_quads
-from meshcore.quads.paving_checks import _good_quads
+from meshcore.quads.paving_checks import _front_table, _good_quads
 from meshcore.quads.paving_fronts import (
     _angles,
     _chains,
@@ -551,7 +556,7 @@ def _relax(pts: np.ndarray, seq: np.ndarray, free: np.ndarray) -> None:
         pts[at] += 0.5 * (mid[mov] - X[mov])
 
 
-def _snap(Q, f, nf, quads, fronts, which, n_old, h):
+def _snap(Q, f, nf, quads, table, n_old, h):
     """Join the new row to fronts it meets: (Q, quads, dropped mask, snaps).
 
     A new node within ``_SNAP * h`` of a node ``t`` is snapped to it when
@@ -563,7 +568,8 @@ def _snap(Q, f, nf, quads, fronts, which, n_old, h):
     kept only in a run: a neighbour along the new front snapped to a
     neighbour of ``t`` the other way round, so the joined fronts share an
     edge that cancels (no front touches itself at one node); the fold seam
-    is its own run. Only new nodes move.
+    is its own run. Only new nodes move. ``table`` is
+    :func:`~meshcore.quads.paving_checks._front_table` of the fronts and f's.
     """
     new = nf[nf >= n_old]
     none = Q, quads, np.zeros(len(quads), bool), 0
@@ -573,8 +579,8 @@ def _snap(Q, f, nf, quads, fronts, which, n_old, h):
     pos = np.full(N, -1, np.int64)
     pos[nf] = np.arange(n_f)
     own_old = set(f.tolist())
-    other = [g for k, g in enumerate(fronts) if k != which]
-    targets = np.concatenate([*other, f, new])
+    a, b, of_other = table
+    targets = np.concatenate([a[of_other], f, new])
     ni, nj, nd = pk.near_pairs(Q[new], Q[targets], _SNAP * float(h[new].max()))
     x, t = new[ni], targets[nj]
     x, t = x[nd <= _SNAP * h[x]], t[nd <= _SNAP * h[x]]
@@ -595,7 +601,6 @@ def _snap(Q, f, nf, quads, fronts, which, n_old, h):
         for v in quads[q]:
             corners.setdefault(int(v), set()).update(quads[q].tolist())
     succ = np.full(N, -1, np.int64)
-    a, b = _chains(fronts)
     succ[a] = b
     succ[nf] = _succ(nf)
     # greedy, nearest first: each node once; a node of its own front is taken only if
@@ -652,8 +657,11 @@ def _snap(Q, f, nf, quads, fronts, which, n_old, h):
 def _try_row(P, fronts, which, sizes, even):
     """The row on ``fronts[which]``, when every quad of it passes every check.
 
-    Returns None when some quad fails or the fronts left would not be simple
-    even cycles; else ``(points, involved, loops, quads, classes, seams,
+    Returns ``(None, box)`` when some quad fails or the fronts left would not
+    be simple even cycles, ``box`` the ``(lo, hi)`` corners of a box such that
+    the same front fails again as long as the front edges whose bounding box
+    meets it are the same (None when the failure depends on more: the trace
+    of whole fronts); else ``(points, involved, loops, quads, classes, seams,
     snaps, partial)``: the fronts ``involved`` (the row's and those it snapped to) are
     replaced by ``loops``. A row failing on a few quads is tried again (up to
     ``_RETRIES`` times) with the front nodes of the failed quads made sides
@@ -667,6 +675,8 @@ def _try_row(P, fronts, which, sizes, even):
     sides = np.zeros(len(f), bool)
     snap = True
     partial = False
+    boxes: list = []  # every box of front edges the row looked at (the snaps, the checks)
+    table = _front_table(fronts, which)
     for attempt in range(_RETRIES + 1):
         pts, nf, quads, cls = _row(P, f, sizes, sides, even)
         Q = np.concatenate([P, pts])
@@ -675,15 +685,19 @@ def _try_row(P, fronts, which, sizes, even):
         snaps = 0
         moved = np.zeros(0, np.int64)
         if snap:
+            new = nf[nf >= n_old]
+            if len(new):  # the snaps' targets: front nodes within _SNAP h of a new node
+                r = 1.001 * _SNAP * float(h[new].max())
+                boxes.append((Q[new].min(axis=0) - r, Q[new].max(axis=0) + r))
             before = quads
-            Q, quads, dropped, snaps = _snap(Q, f, nf, quads, fronts, which, n_old, h)
+            Q, quads, dropped, snaps = _snap(Q, f, nf, quads, table, n_old, h)
             if snaps:
                 h = sizes(Q)
                 moved = unique_ints(quads[quads != before])
             quads = quads[~dropped]
         if not len(quads):
-            return None
-        ok = _good_quads(Q, quads, fronts, which, n_old, h)
+            return None, _union(boxes)
+        ok = _good_quads(Q, quads, table, n_old, h, boxes=boxes)
         if ok.all():
             break
         bad = quads[~ok]
@@ -699,14 +713,14 @@ def _try_row(P, fronts, which, sizes, even):
         drop_snaps = snap and bool(isin_ints(bad, moved).any())
         stuck = not again.any() and not drop_snaps  # nothing left to give up
         if stuck and not last and nbad > _STUCK_SHARE * len(ok):
-            return None
+            return None, _union(boxes)
         if last or stuck:
             few = nbad <= _FEW_BAD * len(ok)
             if not few and (
                 nbad > _PARTIAL * len(ok)
-                or not _good_quads(Q, quads, fronts, which, n_old, h, 0.0).all()
+                or not _good_quads(Q, quads, table, n_old, h, 0.0, boxes).all()
             ):
-                return None
+                return None, _union(boxes)
             quads = quads[ok]  # a few failed, or only on the gap: the row stops short there
             partial = True
             break
@@ -718,8 +732,24 @@ def _try_row(P, fronts, which, sizes, even):
     involved = sorted({which, *owner[quads[quads < n_old]].tolist()} - {-1})
     loops = _trace([fronts[k] for k in involved], quads, len(Q))
     if loops is None:
-        return None
+        return None, None
     return Q, involved, loops, quads, cls, seams, snaps, partial
+
+
+def _union(boxes: list) -> tuple[np.ndarray, np.ndarray]:
+    """The least box ``(lo, hi)`` holding every box of ``boxes``."""
+    return (
+        np.min([lo for lo, _ in boxes], axis=0),
+        np.max([hi for _, hi in boxes], axis=0),
+    )
+
+
+def _edges_in(P: np.ndarray, fronts: list, box) -> bytes:
+    """The front edges whose bounding box meets ``box``, in a canonical order (a key)."""
+    fa, fb = _chains(fronts)
+    near = pk.front_near(P, fa, fb, *box)
+    e = np.column_stack([fa[near], fb[near]])
+    return e[np.lexsort((e[:, 1], e[:, 0]))].tobytes()
 
 
 def _by_length(group: np.ndarray, length: np.ndarray, index: np.ndarray) -> np.ndarray:
@@ -852,7 +882,7 @@ def _ladders(P: np.ndarray, fronts: list, sizes: SizeMap, banned: np.ndarray, re
     coarse = np.array(
         [[r[i][0], r[i + 1][0], r[i + 1][1], r[i][1]] for r in strips for i in range(len(r) - 1)]
     )
-    ok = _good_quads(P, nodes[coarse], fronts, -1, len(P), sizes(P)).tolist()
+    ok = _good_quads(P, nodes[coarse], _front_table(fronts, -1), len(P), sizes(P)).tolist()
     pieces: list[list[tuple[int, int]]] = []
     at = 0
     for r in strips:
@@ -1113,6 +1143,8 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
     if max_rows is not None:
         limit = min(limit, max_rows)
     meetings = 0
+    # a front whose row failed: (box, front edges in it); tried again only when they change
+    failed: dict[bytes, tuple] = {}
     checkpoint = None  # the history entry of the fronts before their first meeting
     while rows < limit:
         if not any(active):
@@ -1140,8 +1172,14 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
             k = next((i for i, g in enumerate(fronts) if id(g) == key), None)
             if k is None or not active[k]:
                 continue  # merged into another front this round
-            res = _try_row(P, fronts, k, sizes, even)
-            if res is None:
+            key = fronts[k].tobytes()
+            if key in failed and failed[key][1] == _edges_in(P, fronts, failed[key][0]):
+                res = (None, None)  # failed before, with the same front edges around
+            else:
+                res = _try_row(P, fronts, k, sizes, even)
+                if res[0] is None and res[1] is not None:
+                    failed[key] = res[1], _edges_in(P, fronts, res[1])
+            if res[0] is None:
                 active[k] = False
                 stats["frozen"] += 1
                 continue
