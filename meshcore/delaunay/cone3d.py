@@ -37,6 +37,8 @@ _FIB64 = np.int64(-7046029254386353131)  # 0x9E3779B97F4A7C15 as int64
 #: (0 is the vertex at infinity).
 _DENSE_FACES = 58
 _DENSE = 32
+#: The least size of :func:`glue_cone`'s ``hval``: the dense table.
+TABLE_MIN = _DENSE * _DENSE
 
 
 @njit(cache=True, inline="always")
@@ -50,19 +52,22 @@ def glue_cone(A, vt, newslot, bnd, newv, nb, hkey, hval):
     is then scratch, and so is ``vt`` (the vertices' walk starts, all >= 0
     between insertions) for the boundary vertices' local numbers: the caller
     writes their walk starts afterwards. ``hkey`` (at least 8 nb entries) and
-    ``hval`` (at least 1,024) are scratch. Inlined: a call would add reference
-    counting of its arrays to every insertion.
+    ``hval`` (at least 8 nb and :data:`TABLE_MIN`) are scratch. Inlined: a call
+    would add reference counting of its arrays to every insertion.
     """
-    if nb <= _DENSE_FACES:
-        _glue_dense(A, vt, newslot, bnd, newv, nb, hval)
+    # A boundary that is not one sphere (only predicates disagreeing with each
+    # other would make one) may number more than 32 vertices: the dense table
+    # would be written past its end, unchecked. The hash takes the local numbers.
+    if nb <= _DENSE_FACES and _number_locally(vt, bnd, newv, nb) <= _DENSE:
+        _glue_dense(A, newslot, bnd, newv, nb, hval)
     else:
         _glue_hashed(A, newslot, bnd, newv, nb, hkey, hval)
 
 
 @njit(cache=True, inline="always")
-def _glue_dense(A, vt, newslot, bnd, newv, nb, table):
-    # Each boundary vertex's local number, 1.. (0 at infinity), in newv in
-    # place of the vertex; vt holds it negated meanwhile (walk starts are >= 0).
+def _number_locally(vt, bnd, newv, nb):
+    """Each boundary vertex's local number, 1.. (0 at infinity), in newv in place of the
+    vertex; vt holds it negated meanwhile (walk starts are >= 0). Returns the next one."""
     nid = 1
     for k in range(nb):
         f = bnd[k]
@@ -77,6 +82,11 @@ def _glue_dense(A, vt, newslot, bnd, newv, nb, table):
                     vt[w] = -lid
                     nid += fresh
                 newv[4 * k + q] = lid
+    return nid
+
+
+@njit(cache=True, inline="always")
+def _glue_dense(A, newslot, bnd, newv, nb, table):
     # The outward face opposite p lists slots (f1, f2, f3) = _FACES[f]; its
     # directed edge f1 -> f2 belongs to the face through p opposite f3, etc.
     for k in range(nb):

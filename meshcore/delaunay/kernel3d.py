@@ -89,7 +89,7 @@ from functools import cached_property
 import numpy as np
 from numba import njit
 
-from meshcore.delaunay.cone3d import glue_cone
+from meshcore.delaunay.cone3d import TABLE_MIN, glue_cone
 from meshcore.delaunay.kernel2d import _walk_hints
 from meshcore.delaunay.order3d import insertion_order
 from meshcore.delaunay.prefetch import prefetch
@@ -1080,7 +1080,7 @@ class IncrementalDelaunay3d:
         self._bnd = np.empty(2 * size, np.int32)
         self._newv = np.empty(8 * size, np.int32)
         self._newslot = np.empty(2 * size, np.int32)
-        hsize = 1 << int(np.ceil(np.log2(8 * size)))
+        hsize = max(1 << int(np.ceil(np.log2(8 * size))), TABLE_MIN)
         self._hkey = np.empty(hsize, np.int64)
         self._hval = np.empty(hsize, np.int32)
 

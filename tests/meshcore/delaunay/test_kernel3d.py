@@ -17,6 +17,7 @@ from scipy.spatial import ConvexHull
 from scipy.spatial import Delaunay as QhullDelaunay
 
 from meshcore.delaunay import IncrementalDelaunay3d, delaunay3d
+from meshcore.delaunay.cone3d import TABLE_MIN, glue_cone
 from meshcore.delaunay.kernel3d import SKIP_CHANGED, SKIP_DUPLICATE, SKIP_OUTSIDE, SKIP_STALE
 from meshcore.delaunay.order3d import _brio_hilbert_keys, _grid_bits, insertion_order
 from meshcore.errors import InputError
@@ -257,6 +258,28 @@ class TestIncremental:
         res = dt.insert([0.0, 0.0, 0.0])
         assert len(res.created) == 2 * n - 4
         check_delaunay(dt.tetrahedralization())
+
+    def test_cone_of_a_boundary_not_one_sphere(self):
+        # 14 disjoint tetrahedra's surfaces: 56 faces (within the dense table's
+        # count) but 56 vertices, past its 31 local numbers: glued through the
+        # hash instead of written past the table's end.
+        faces = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
+        tri = np.concatenate([faces + 4 * i for i in range(14)]).astype(np.int32)
+        nb = len(tri)
+        p = 4 * 14
+        newv = np.concatenate([tri, np.full((nb, 1), p, np.int32)], axis=1).ravel()
+        A = np.full(4 * nb, -1, np.int32)
+        vt = np.zeros(p + 1, np.int32)
+        bnd = np.full(nb, 3, np.int32)
+        newslot = np.arange(nb, dtype=np.int32)
+        past = np.full(4 * TABLE_MIN, -7, np.int32)  # hval, then what numba would not guard
+        hkey, hval = np.empty(1024, np.int64), past[:TABLE_MIN]
+        glue_cone(A, vt, newslot, bnd, newv, nb, hkey, hval)
+        assert (past[TABLE_MIN:] == -7).all()
+        a = A.reshape(nb, 4)[:, :3]
+        assert np.array_equal(A[a], np.arange(4 * nb).reshape(nb, 4)[:, :3])  # mutual
+        edge = np.sort(np.stack([np.delete(tri, g, axis=1) for g in range(3)], 1), axis=2)
+        assert np.array_equal(edge.reshape(-1, 2)[(a >> 2) * 3 + (a & 3)], edge)
 
     def test_guarded_batch(self):
         # The compiled lazy queue: a point whose origin tetrahedron an earlier one
