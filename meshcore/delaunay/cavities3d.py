@@ -112,11 +112,12 @@ class Cavities:
             np.add.at(out, uk[gone] // len(around), 1)
             np.add.at(sig, uk[gone] // len(around), _mix(uk[gone] % len(around), kind))
             in_cavity.append((uk, count))
-        # The new edges: to the cavity's vertices.
-        cavity = np.unique(xi[:, None] * self.n + self.T[ti])
-        want = V >= 0
-        q = np.arange(len(X))[:, None] * self.n + V
-        new = want & ~member(q.reshape(-1), cavity).reshape(V.shape)
+        # The new edges: to the vertices of no cavity tetrahedron (per hit, which of its
+        # point's V are corners of its tetrahedron: no sort of all the hits' corners).
+        corner = np.zeros(V.shape, dtype=bool)
+        h, j = np.nonzero((self.T[ti][:, :, None] == V[xi][:, None, :]).any(axis=1))
+        corner[xi[h], j] = True
+        new = (V >= 0) & ~corner
         out += new.sum(axis=1)
         sig += np.where(new, _mix(V, 2), np.uint64(0)).sum(axis=1, dtype=np.uint64)
         # The new faces: on the subface edges present with some but not all of their
