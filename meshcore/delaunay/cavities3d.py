@@ -50,7 +50,6 @@ class Cavities:
         self, b: SurfaceRecovery, slots: np.ndarray, T: np.ndarray, edges: np.ndarray
     ) -> None:
         self.T = T
-        self.n = b.n
         self.centres, self.radii = tet_circumcenters(b.P, T)  # flat tetrahedra: never
         # The hull's faces: those with no real tetrahedron across (the kernel's
         # neighbours of the tetrahedra in ``slots``).
