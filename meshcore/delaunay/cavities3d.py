@@ -113,8 +113,12 @@ class Cavities:
             in_cavity.append((uk, count))
         # The new edges: to the vertices of no cavity tetrahedron (per hit, which of its
         # point's V are corners of its tetrahedron: no sort of all the hits' corners).
+        corners, Vx = self.T[ti], V[xi]
+        at_hit = corners[:, :1] == Vx
+        for c in range(1, corners.shape[1]):
+            at_hit |= corners[:, c : c + 1] == Vx
         corner = np.zeros(V.shape, dtype=bool)
-        h, j = np.nonzero((self.T[ti][:, :, None] == V[xi][:, None, :]).any(axis=1))
+        h, j = np.nonzero(at_hit)
         corner[xi[h], j] = True
         new = (V >= 0) & ~corner
         out += new.sum(axis=1)
