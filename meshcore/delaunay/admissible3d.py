@@ -553,6 +553,9 @@ class _State:
         #: candidate's row; and, while the search looks, the options of each.
         self.force: dict[tuple[str, int], float | int] = {}
         self.options: dict[tuple[str, int], list] | None = None
+        #: While the search tries a round's options: the look-ahead's counts of that
+        #: round, shared by its trials (made from the same state: the same counts).
+        self.looked: dict[str, tuple] | None = None
         # The facets' subface edges are kept consistent by retriangulate.
 
     # -- positions ----------------------------------------------------------
@@ -599,6 +602,15 @@ class _State:
                 seen.add(g)
                 mine.append((c, v))
         self.options[key] = mine
+
+    def look(self, kind: str, count: Callable[[], tuple]) -> tuple:
+        """``count()``, the look-ahead's (:meth:`Cavities.missing`), or its result of
+        another trial of the same round (:func:`_search`)."""
+        if self.looked is None:
+            return count()
+        if kind not in self.looked:
+            self.looked[kind] = count()
+        return self.looked[kind]
 
     # -- insertion ----------------------------------------------------------
 
@@ -849,8 +861,10 @@ def _look_ahead(st: _State, cav: Cavities, E, A, B, t, t0, lo, hi, known) -> np.
     pairs = np.column_stack([np.repeat(rows, cand.shape[1]), cand.reshape(-1)])
     pairs, again = np.unique(pairs, axis=0, return_inverse=True)
     r, s = pairs[:, 0].astype(np.int64), pairs[:, 1]
-    V, base = split_pieces(st.b.sub, E[r])
-    count, sig = cav.missing(A[r] + s[:, None] * (B - A)[r], V, base)
+    count, sig = st.look(
+        "edges",
+        lambda: cav.missing(A[r] + s[:, None] * (B - A)[r], *split_pieces(st.b.sub, E[r])),
+    )
     count, sig = count[again].reshape(cand.shape), sig[again].reshape(cand.shape)
     dist = np.abs(cand - t[rows, None])
     pick = np.argmin(count + dist / 2.0, axis=1)  # dist < 1: the count first
@@ -982,7 +996,7 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: Cavities) -> 
         if o[2] == "face":
             V[k, :3] = o[3]
             base[k, :3] = np.stack([o[3], np.roll(o[3], -1)], axis=1)
-    removed, sig = cav.missing(np.array([o[1] for o in flat]), V, base)
+    removed, sig = st.look("faces", lambda: cav.missing(np.array([o[1] for o in flat]), V, base))
     pts_edge: list[tuple[np.ndarray, int, float]] = []
     pts_face: list[tuple[int, np.ndarray, float]] = []
     seen_edges: set[tuple[int, int]] = set()
@@ -1113,9 +1127,11 @@ def _search(st: _State, budget: int, cap: int) -> tuple[_State, tuple, int]:
     costs its points from ``budget``; with none left, the options left unjudged
     keep the look-ahead's choice.
     """
+    looked: dict[str, tuple] = {}  # the round's look-ahead, the same in each trial
     kept = copy.deepcopy(st)
-    kept.options = {}
+    kept.options, kept.looked = {}, looked
     result = _step(kept)
+    kept.looked = None
     tries = [
         (key, value)
         for key, mine in kept.options.items()
@@ -1132,12 +1148,12 @@ def _search(st: _State, budget: int, cap: int) -> tuple[_State, tuple, int]:
         if budget <= 0:
             break
         trial = copy.deepcopy(st)
-        trial.force = {**chosen, key: value}
+        trial.force, trial.looked = {**chosen, key: value}, looked
         try:
             got = _step(trial)
         except AlgorithmError:
             continue
-        force, trial.force = trial.force, {}
+        force, trial.force, trial.looked = trial.force, {}, None
         added, budget = _rollout(copy.deepcopy(trial), budget, cap)
         if added < best:
             best, chosen, kept, result = added, force, trial, got

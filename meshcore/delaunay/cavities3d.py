@@ -50,7 +50,6 @@ class Cavities:
         self, b: SurfaceRecovery, slots: np.ndarray, T: np.ndarray, edges: np.ndarray
     ) -> None:
         self.T = T
-        self.n = b.n
         self.centres, self.radii = tet_circumcenters(b.P, T)  # flat tetrahedra: never
         # The hull's faces: those with no real tetrahedron across (the kernel's
         # neighbours of the tetrahedra in ``slots``).
@@ -112,11 +111,16 @@ class Cavities:
             np.add.at(out, uk[gone] // len(around), 1)
             np.add.at(sig, uk[gone] // len(around), _mix(uk[gone] % len(around), kind))
             in_cavity.append((uk, count))
-        # The new edges: to the cavity's vertices.
-        cavity = np.unique(xi[:, None] * self.n + self.T[ti])
-        want = V >= 0
-        q = np.arange(len(X))[:, None] * self.n + V
-        new = want & ~member(q.reshape(-1), cavity).reshape(V.shape)
+        # The new edges: to the vertices of no cavity tetrahedron (per hit, which of its
+        # point's V are corners of its tetrahedron: no sort of all the hits' corners).
+        corners, Vx = self.T[ti], V[xi]
+        at_hit = corners[:, :1] == Vx
+        for c in range(1, corners.shape[1]):
+            at_hit |= corners[:, c : c + 1] == Vx
+        corner = np.zeros(V.shape, dtype=bool)
+        h, j = np.nonzero(at_hit)
+        corner[xi[h], j] = True
+        new = (V >= 0) & ~corner
         out += new.sum(axis=1)
         sig += np.where(new, _mix(V, 2), np.uint64(0)).sum(axis=1, dtype=np.uint64)
         # The new faces: on the subface edges present with some but not all of their
