@@ -736,12 +736,12 @@ def _try_row(P, fronts, which, sizes, even):
     return Q, involved, loops, quads, cls, seams, snaps, partial
 
 
-def _union(boxes: list) -> tuple[np.ndarray, np.ndarray]:
-    """The least box ``(lo, hi)`` holding every box of ``boxes``."""
-    return (
-        np.min([lo for lo, _ in boxes], axis=0),
-        np.max([hi for _, hi in boxes], axis=0),
-    )
+def _union(boxes: list) -> tuple[np.ndarray, np.ndarray] | None:
+    """The least box ``(lo, hi)`` holding every box of ``boxes`` (None for no box)."""
+    if not boxes:
+        return None  # no check looked at the fronts: nothing to key a repeat on
+    lo, hi = zip(*boxes, strict=True)
+    return np.min(lo, axis=0), np.max(hi, axis=0)
 
 
 def _edges_in(P: np.ndarray, fronts: list, box) -> bytes:
@@ -1172,13 +1172,13 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
             k = next((i for i, g in enumerate(fronts) if id(g) == key), None)
             if k is None or not active[k]:
                 continue  # merged into another front this round
-            key = fronts[k].tobytes()
-            if key in failed and failed[key][1] == _edges_in(P, fronts, failed[key][0]):
+            nodes = fronts[k].tobytes()
+            if nodes in failed and failed[nodes][1] == _edges_in(P, fronts, failed[nodes][0]):
                 res = (None, None)  # failed before, with the same front edges around
             else:
                 res = _try_row(P, fronts, k, sizes, even)
                 if res[0] is None and res[1] is not None:
-                    failed[key] = res[1], _edges_in(P, fronts, res[1])
+                    failed[nodes] = res[1], _edges_in(P, fronts, res[1])
             if res[0] is None:
                 active[k] = False
                 stats["frozen"] += 1
