@@ -556,7 +556,7 @@ def _relax(pts: np.ndarray, seq: np.ndarray, free: np.ndarray) -> None:
         pts[at] += 0.5 * (mid[mov] - X[mov])
 
 
-def _snap(Q, f, nf, quads, table, n_old, h):
+def _snap(Q, f, nf, quads, table, n_old, h, boxes: list):
     """Join the new row to fronts it meets: (Q, quads, dropped mask, snaps).
 
     A new node within ``_SNAP * h`` of a node ``t`` is snapped to it when
@@ -569,12 +569,15 @@ def _snap(Q, f, nf, quads, table, n_old, h):
     neighbour of ``t`` the other way round, so the joined fronts share an
     edge that cancels (no front touches itself at one node); the fold seam
     is its own run. Only new nodes move. ``table`` is
-    :func:`~meshcore.quads.paving_checks._front_table` of the fronts and f's.
+    :func:`~meshcore.quads.paving_checks._front_table` of the fronts and f's;
+    the box of the front nodes the snaps looked at is appended to ``boxes``.
     """
     new = nf[nf >= n_old]
     none = Q, quads, np.zeros(len(quads), bool), 0
     if not len(new):
         return none
+    r = 1.001 * _SNAP * float(h[new].max())  # the targets: within _SNAP h of a new node
+    boxes.append((Q[new].min(axis=0) - r, Q[new].max(axis=0) + r))
     N, n_f = len(Q), len(nf)
     pos = np.full(N, -1, np.int64)
     pos[nf] = np.arange(n_f)
@@ -685,12 +688,8 @@ def _try_row(P, fronts, which, sizes, even):
         snaps = 0
         moved = np.zeros(0, np.int64)
         if snap:
-            new = nf[nf >= n_old]
-            if len(new):  # the snaps' targets: front nodes within _SNAP h of a new node
-                r = 1.001 * _SNAP * float(h[new].max())
-                boxes.append((Q[new].min(axis=0) - r, Q[new].max(axis=0) + r))
             before = quads
-            Q, quads, dropped, snaps = _snap(Q, f, nf, quads, table, n_old, h)
+            Q, quads, dropped, snaps = _snap(Q, f, nf, quads, table, n_old, h, boxes)
             if snaps:
                 h = sizes(Q)
                 moved = unique_ints(quads[quads != before])
