@@ -139,6 +139,7 @@ def spike_chords(points, cycles, corners, kinds, turn):
         tips = np.flatnonzero((verts < p) & ~corner)
         tips = tips[spike[verts[tips]]]
         at = np.flatnonzero(corner)
+        at_reflex = (verts < p) & reflex[np.minimum(verts, p - 1)]
         cut = None
         for t in tips:  # a loop over a region's spikes (a few)
             k = np.searchsorted(at, t)
@@ -147,11 +148,11 @@ def spike_chords(points, cycles, corners, kinds, turn):
                 cut = (i, j, int(t))
                 break
             # else from the spike's base: the reflex samples nearest the tip on each side
-            before = np.roll(np.arange(n), -i)[1 : (t - i) % n][::-1]
-            after = np.roll(np.arange(n), -t)[1 : (j - t) % n]
-            bi = [b for b in before if verts[b] < p and reflex[verts[b]]][:1] or [i]
-            bj = [b for b in after if verts[b] < p and reflex[verts[b]]][:1] or [j]
-            i2, j2 = int(bi[0]), int(bj[0])
+            before = (t - np.arange(1, (t - i) % n)) % n  # t - 1 ... i + 1
+            after = (t + np.arange(1, (j - t) % n)) % n  # t + 1 ... j - 1
+            before, after = before[at_reflex[before]], after[at_reflex[after]]
+            i2 = int(before[0]) if len(before) else i
+            j2 = int(after[0]) if len(after) else j
             a, b, tip = points[verts[i2]], points[verts[j2]], points[verts[t]]
             thin = np.hypot(*(b - a)) <= THIN_BASE * np.hypot(*((a + b) / 2 - tip))
             if thin and (i2, j2) != (i, j) and len(at) + (i2 != i) + (j2 != j) >= 3:

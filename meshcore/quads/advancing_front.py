@@ -556,7 +556,7 @@ def _relax(pts: np.ndarray, seq: np.ndarray, free: np.ndarray) -> None:
         pts[at] += 0.5 * (mid[mov] - X[mov])
 
 
-def _snap(Q, f, nf, quads, table, n_old, h):
+def _snap(Q, f, nf, quads, table, n_old, h, boxes: list):
     """Join the new row to fronts it meets: (Q, quads, dropped mask, snaps).
 
     A new node within ``_SNAP * h`` of a node ``t`` is snapped to it when
@@ -569,12 +569,15 @@ def _snap(Q, f, nf, quads, table, n_old, h):
     neighbour of ``t`` the other way round, so the joined fronts share an
     edge that cancels (no front touches itself at one node); the fold seam
     is its own run. Only new nodes move. ``table`` is
-    :func:`~meshcore.quads.paving_checks._front_table` of the fronts and f's.
+    :func:`~meshcore.quads.paving_checks._front_table` of the fronts and f's;
+    the box of the front nodes the snaps looked at is appended to ``boxes``.
     """
     new = nf[nf >= n_old]
     none = Q, quads, np.zeros(len(quads), bool), 0
     if not len(new):
         return none
+    r = 1.001 * _SNAP * float(h[new].max())  # the targets: within _SNAP h of a new node
+    boxes.append((Q[new].min(axis=0) - r, Q[new].max(axis=0) + r))
     N, n_f = len(Q), len(nf)
     pos = np.full(N, -1, np.int64)
     pos[nf] = np.arange(n_f)
@@ -685,12 +688,8 @@ def _try_row(P, fronts, which, sizes, even):
         snaps = 0
         moved = np.zeros(0, np.int64)
         if snap:
-            new = nf[nf >= n_old]
-            if len(new):  # the snaps' targets: front nodes within _SNAP h of a new node
-                r = 1.001 * _SNAP * float(h[new].max())
-                boxes.append((Q[new].min(axis=0) - r, Q[new].max(axis=0) + r))
             before = quads
-            Q, quads, dropped, snaps = _snap(Q, f, nf, quads, table, n_old, h)
+            Q, quads, dropped, snaps = _snap(Q, f, nf, quads, table, n_old, h, boxes)
             if snaps:
                 h = sizes(Q)
                 moved = unique_ints(quads[quads != before])
@@ -736,12 +735,12 @@ def _try_row(P, fronts, which, sizes, even):
     return Q, involved, loops, quads, cls, seams, snaps, partial
 
 
-def _union(boxes: list) -> tuple[np.ndarray, np.ndarray]:
-    """The least box ``(lo, hi)`` holding every box of ``boxes``."""
-    return (
-        np.min([lo for lo, _ in boxes], axis=0),
-        np.max([hi for _, hi in boxes], axis=0),
-    )
+def _union(boxes: list) -> tuple[np.ndarray, np.ndarray] | None:
+    """The least box ``(lo, hi)`` holding every box of ``boxes`` (None for no box)."""
+    if not boxes:
+        return None  # no check looked at the fronts: nothing to key a repeat on
+    lo, hi = zip(*boxes, strict=True)
+    return np.min(lo, axis=0), np.max(hi, axis=0)
 
 
 def _edges_in(P: np.ndarray, fronts: list, box) -> bytes:
@@ -1172,13 +1171,13 @@ def _pave(bnd, sizes: SizeMap, max_rows: int | None, quad_closure: bool, strateg
             k = next((i for i, g in enumerate(fronts) if id(g) == key), None)
             if k is None or not active[k]:
                 continue  # merged into another front this round
-            key = fronts[k].tobytes()
-            if key in failed and failed[key][1] == _edges_in(P, fronts, failed[key][0]):
+            nodes = fronts[k].tobytes()
+            if nodes in failed and failed[nodes][1] == _edges_in(P, fronts, failed[nodes][0]):
                 res = (None, None)  # failed before, with the same front edges around
             else:
                 res = _try_row(P, fronts, k, sizes, even)
                 if res[0] is None and res[1] is not None:
-                    failed[key] = res[1], _edges_in(P, fronts, res[1])
+                    failed[nodes] = res[1], _edges_in(P, fronts, res[1])
             if res[0] is None:
                 active[k] = False
                 stats["frozen"] += 1
