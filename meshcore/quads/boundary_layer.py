@@ -226,6 +226,7 @@ def boundary_layer(
     rows: int = 3,
     corner_least: float = CORNER_LEAST_QUALITY,
     hole_rows: int = 1,
+    exact: bool = False,
 ):
     """Rows of quads along the boundary and an inner all-quad mesh (module docstring).
 
@@ -251,6 +252,9 @@ def boundary_layer(
         The ``least_quality`` of that row's quads away from convex corners.
     hole_rows : int
         Rows along the holes (at most ``rows``).
+    exact : bool
+        Only ``rows`` and ``hole_rows`` rows: no fewer, no row with corners (else None;
+        :func:`best_rows`' other choices).
 
     Returns
     -------
@@ -272,11 +276,13 @@ def boundary_layer(
     if rows == 0:
         out = _ruled(dom, size, max_turn, least_quality)
         return None if out is None else (*out, (0, 0))
-    for r in range(rows, 0, -1):  # a loop of at most `rows` tries
+    for r in range(rows, rows - 1 if exact else 0, -1):  # a loop of at most `rows` tries
         h = min(r, hole_rows)
         out = _layer(dom, size, mesh_inner, max_turn, least_quality, r, h)
         if out is not None:
             return (*out, (r, h))
+    if exact:
+        return None
     d = dom.points[dom.segments[:, 1]] - dom.points[dom.segments[:, 0]]
     if ((d[:, 0] == 0) | (d[:, 1] == 0)).all():  # the lattice's own directions
         return None
@@ -350,11 +356,11 @@ def least_off_sharp(mesh: Mesh, dom: Domain, ok: np.ndarray | None = None) -> fl
 def best_rows(first, again: Callable, dom: Domain, size: float):
     """Of the optimized all-quad meshes of ``dom`` with the rows of ``ROW_CHOICES``
     along its rings, the one that meets :func:`meets_targets`, else any, of the highest
-    mean quality (8.4); the first on ties. ``first``: the mesh made (its
+    mean quality (8.4), the first on ties, and whether it meets them. ``first``: the mesh made (its
     ``stats["layer_rows"]``: its rows), returned as it is past ``ROWS_MOST_QUADS``
-    quads; ``again(rows, hole_rows)`` makes another (a
-    :class:`~meshcore.errors.MeshcoreError` leaves it out; so does a mesh whose rows
-    fell back to fewer: another choice); hole rows other than one only where ``dom``
+    quads; ``again(rows, hole_rows)`` makes another with exactly those rows, or
+    returns None where they do not fit (so does a
+    :class:`~meshcore.errors.MeshcoreError`: left out); hole rows other than one only where ``dom``
     has holes, and no more rows outside than ``first`` has (it fell back from them).
 
     The rows change where the lattice meets the innermost ring, hence the irregular
@@ -367,25 +373,23 @@ def best_rows(first, again: Callable, dom: Domain, size: float):
         P, Q = res.mesh.points, res.mesh.cells_by_type["quad"]
         return meets_targets(res.mesh, dom, size), float(quality.quad_quality(P, Q).mean())
 
-    if len(first.mesh.cells_by_type["quad"]) > ROWS_MOST_QUADS:
-        return first
     best, best_key, laid = first, key(first), first.stats["layer_rows"]
+    if len(first.mesh.cells_by_type["quad"]) > ROWS_MOST_QUADS:
+        return first, best_key[0]
     holes = bool(dom.ring_is_hole.any())
     for r, h in ROW_CHOICES:  # a loop of at most len(ROW_CHOICES) meshes
         if (r, h) == laid or r > laid[0] or (h != 1 and not holes):
             continue  # the first fell back from more rows: they do not fit
-        if r == 0 and not _one_hole(dom):
-            continue  # no rows across (:func:`_ruled`): the mesh made would be left out
         try:
             res = again(r, h)
         except MeshcoreError:
             continue
-        if res.stats.get("layer_rows") != (r, h):
+        if res is None:  # these rows do not fit
             continue
         k = key(res)
         if k > best_key:
             best, best_key = res, k
-    return best
+    return best, best_key[0]
 
 
 def beats_lattice(row: Mesh, lattice: Mesh, lattice_least: float, dom: Domain) -> bool:

@@ -172,6 +172,7 @@ from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.quads.boundary_layer import (
     CORNER_LEAST_QUALITY,
+    ROW_CHOICES,
     beats_lattice,
     best_rows,
     boundary_layer,
@@ -1118,18 +1119,26 @@ def combine(
         inner=inner,
         corner_least=corner_least,
     )
-    res = one(size=size, progress=_share(progress, 0, 1) if retry else progress)
-    if retry and res.stats.get("layer_rows"):
-        res = best_rows(res, lambda r, h: one(size=size, rows=(r, h)), domain, size)
-    if (
-        not retry
-        or len(res.mesh.cells_by_type["quad"]) > TOL.size_tries_most
-        or meets_targets(res.mesh, domain, size)
-    ):
+    if not retry:
+        return one(size=size, progress=progress)
+    res = one(size=size, progress=_share(progress, 0.0, 0.9))
+    if res.stats.get("layer_rows"):
+
+        def rows_try(r: int, h: int) -> QuadResult | None:
+            share = 0.05 / (len(ROW_CHOICES) - 1)  # never the first choice: the first mesh's
+            low = 0.9 + share * (ROW_CHOICES.index((r, h)) - 1)
+            return one(
+                size=size, rows=(r, h), progress=_share(progress, low, share, f" (rows {r}, {h})")
+            )
+
+        res, met = best_rows(res, rows_try, domain, size)
+    else:
+        met = meets_targets(res.mesh, domain, size)
+    if met or len(res.mesh.cells_by_type["quad"]) > TOL.size_tries_most:
         return res
     if len(res.mesh.cells_by_type["quad"]) * size * size > TOL.size_tries_over * domain.area:
         try:
-            thin = one(size=size, ladders=True, progress=_share(progress, 0, 1))
+            thin = one(size=size, ladders=True, progress=_share(progress, 0.0, 0.9))
         except AlgorithmError:  # as a size try: a try that fails leaves the first mesh
             thin = None
         if thin is not None and meets_targets(thin.mesh, domain, size):
@@ -1138,9 +1147,15 @@ def combine(
             res.mesh, domain, size
         ):
             res = thin
-    for k, f in enumerate(TOL.size_tries, 1):  # at most len(TOL.size_tries) meshes
+    tries = len(TOL.size_tries)
+    for k, f in enumerate(TOL.size_tries):  # at most len(TOL.size_tries) meshes
         try:
-            again = one(size=size * f, progress=_share(progress, k, f))
+            again = one(
+                size=size * f,
+                progress=_share(
+                    progress, 0.95 + 0.05 * k / tries, 0.05 / tries, f" (again at {f:g} x size)"
+                ),
+            )
         except AlgorithmError:  # a try that fails leaves the first mesh standing
             continue
         if meets_targets(again.mesh, domain, size):
@@ -1162,17 +1177,14 @@ def _forward(progress: Progress) -> Progress:
     return report
 
 
-def _share(progress: Progress | None, k: int, factor: float) -> Progress | None:
-    """``progress`` for mesh ``k`` of those :func:`combine` may make: the first mesh
-    reports into [0, 0.9], size try ``k`` into its share of the last tenth."""
+def _share(progress: Progress | None, low: float, width: float, note: str = "") -> Progress | None:
+    """``progress`` for one of the meshes :func:`combine` may make, reporting into [low,
+    low + width] with ``note`` after each message: the first mesh (or the ladder-merged
+    try) into [0, 0.9], the other row choices of :func:`best_rows` each into its share of
+    [0.9, 0.95], the size tries into theirs of [0.95, 1]."""
     if progress is None:
         return None
-    if k == 0:
-        return lambda f, msg: progress(0.9 * f, msg)
-    tries = len(TOL.size_tries)
-    return lambda f, msg: progress(
-        0.9 + 0.1 * (k - 1 + f) / tries, f"{msg} (again at {factor:g} x size)"
-    )
+    return lambda f, msg: progress(low + width * f, msg + note)
 
 
 def _combine(
@@ -1195,11 +1207,12 @@ def _combine(
     corner_least: float | None = None,
     progress: Progress | None = None,
     ladders: bool = False,
-    rows: tuple[int, int] = (3, 1),
-) -> QuadResult:
+    rows: tuple[int, int] | None = None,
+) -> QuadResult | None:
     """:func:`combine` for one ``size``; ``ladders``: merge the ladder quads of the
     domain's thin parts and keep them whole (:mod:`meshcore.quads.splitting`); ``rows``:
-    the rows along the outer rings and the holes at most
+    exactly these rows along the outer rings and the holes, else None (no mesh made:
+    :func:`~meshcore.quads.boundary_layer.best_rows`); None: ``ROW_CHOICES[0]`` at most
     (:func:`~meshcore.quads.boundary_layer.boundary_layer`)."""
     report = progress if progress is not None else (lambda f, msg: None)
     timings: dict[str, float] = {}
@@ -1259,6 +1272,7 @@ def _combine(
                 code="too_many_cells",
             )
         if layer_fits and all_quad and twice_size and pattern == "squares" and not keep_boundary:
+            r, h = ROW_CHOICES[0] if rows is None else rows
             layered = boundary_layer(
                 _dom,
                 size,
@@ -1275,9 +1289,12 @@ def _combine(
                     inner=True,
                 ),
                 corner_least=CORNER_LEAST_QUALITY if corner_least is None else corner_least,
-                rows=rows[0],
-                hole_rows=rows[1],
+                rows=r,
+                hole_rows=h,
+                exact=rows is not None,
             )
+            if layered is None and rows is not None:
+                return None  # these rows do not fit
             if layered is None and corner_least is None and optimize and measure == "angle":
                 res = _combine(
                     domain=_dom,
@@ -1316,9 +1333,10 @@ def _combine(
         )
     else:
         out_mesh, boundary, inside, laid = layered
-        made = inside or QuadResult(out_mesh, {}, {}, 0, 0, 0)  # rows across: no inner mesh
-        counts = (made.pairs, made.triples, made.triangles_left)
-        stats = dict(made.stats, boundary_layer=len(boundary), layer_rows=laid)
+        counts, stats = (0, 0, 0), {}  # rows across: no inner mesh
+        if inside is not None:
+            counts, stats = (inside.pairs, inside.triples, inside.triangles_left), inside.stats
+        stats = dict(stats, boundary_layer=len(boundary), layer_rows=laid)
         lap("layer")
     report(0.65, "quality report")
     quality_before = _report(out_mesh, metric, boundary)

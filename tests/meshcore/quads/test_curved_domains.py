@@ -49,7 +49,7 @@ from meshcore.geometry.predicates import orient2d
 from meshcore.medial.partitioning import quad_medial
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.quads import combine
-from meshcore.quads.boundary_layer import ROW_CHOICES, targets_rank
+from meshcore.quads.boundary_layer import ROW_CHOICES, boundary_layer, targets_rank
 from tests.meshcore.quads.stars import issue_star, star
 
 
@@ -629,13 +629,47 @@ def test_lift_raises_the_least_corner_and_keeps_the_boundary():
 
 def test_quad_combine_keeps_the_rows_of_the_best_mean_on_a_disk():
     # one, two and three rows along the disk sampled at 0.1 gave means 0.900 / 0.902 /
-    # 0.900 after the optimization (three, the first laid, was kept before: under 0.9)
+    # 0.900 after the optimization (three, the first laid, was kept before: under 0.9);
+    # the progress goes on through the other rows' meshes, after the first mesh's share
     dom = parse_domain({"type": "Polygon", "coordinates": [_ring(_sampled(_ellipse(1, 1), 0.1))]})
-    res = combine(domain=dom, size=0.1, all_quad=True, twice_size=True, optimize=True)
+    seen = []
+    res = combine(
+        domain=dom,
+        size=0.1,
+        all_quad=True,
+        twice_size=True,
+        optimize=True,
+        progress=lambda f, msg: seen.append((f, msg)),
+    )
     assert res.stats["layer_rows"] in ROW_CHOICES
+    fractions = [f for f, _ in seen]
+    assert fractions == sorted(fractions) and fractions[-1] <= 1
+    for rows in ("(rows 2, 1)", "(rows 1, 1)"):
+        at = [f for f, msg in seen if msg.endswith(rows)]
+        assert at and 0.9 <= min(at) < max(at) <= 0.95
     ang, q, ratio = _check(res.mesh, dom, 0.1)
     assert q.mean() >= 0.9 and q.min() >= 0.5 and ang.min() >= 30 and ang.max() <= 150
     assert ratio <= 1.5
+
+
+def test_boundary_layer_lays_exactly_the_rows_asked_or_none():
+    # a disk with two holes at 0.07: three rows outside and two along the holes pass 1.4
+    # times area / size² quads, so the layer falls back to two and two; with ``exact``
+    # (best_rows' other choices) it is None, and no mesh is made for it
+    size = 0.07
+    holes = [_ring(_sampled(_ellipse(0.25, 0.25, (x, 0)), size)[::-1]) for x in (-0.45, 0.45)]
+    dom = parse_domain(
+        {"type": "Polygon", "coordinates": [_ring(_sampled(_ellipse(1, 1), size)), *holes]}
+    )
+
+    def inner(d):
+        return combine(
+            domain=d, size=size, keep_boundary=True, all_quad=True, twice_size=True, inner=True
+        )
+
+    assert boundary_layer(dom, size, inner, rows=3, hole_rows=2)[3] == (2, 2)
+    assert boundary_layer(dom, size, inner, rows=3, hole_rows=2, exact=True) is None
+    assert boundary_layer(dom, size, inner, rows=3, hole_rows=1, exact=True)[3] == (3, 1)
 
 
 def test_quad_combine_lays_rows_across_an_annulus():
