@@ -222,9 +222,9 @@ from meshcore.delaunay.recovery3d import (
     TET_EDGES,
     TET_FACES,
     SurfaceRecovery,
-    edge_keys,
     face_keys,
     member,
+    packed_edge_keys,
 )
 from meshcore.delaunay.regions3d import regions
 from meshcore.delaunay.ties3d import Reflipped, TieFlips, flip_ties
@@ -657,11 +657,11 @@ class _Present:
     (:mod:`~meshcore.delaunay.hashgrid`), built once a round."""
 
     def __init__(self, T: np.ndarray) -> None:
-        self.edge_table = _table(edge_keys(T[:, TET_EDGES].reshape(-1, 2)))
+        self.edge_table = _table(packed_edge_keys(T[:, TET_EDGES].reshape(-1, 2)))
         self.face_table = _table(face_keys(T[:, TET_FACES].reshape(-1, 3)))
 
     def edges(self, E: np.ndarray) -> np.ndarray:
-        return _find_all(*self.edge_table, edge_keys(E)) >= 0
+        return _find_all(*self.edge_table, packed_edge_keys(E)) >= 0
 
     def faces(self, F: np.ndarray) -> np.ndarray:
         return _find_all(*self.face_table, face_keys(F)) >= 0
@@ -672,7 +672,7 @@ def _subface_edges(sub: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     e = np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]])
     e.sort(axis=1)
     owner = np.tile(np.arange(len(sub)), 3)
-    _, first = np.unique(edge_keys(e), return_index=True)
+    _, first = np.unique(packed_edge_keys(e), return_index=True)
     return e[first], owner[first]
 
 
@@ -811,13 +811,15 @@ def _split_edges(st: _State, E: np.ndarray, holder: np.ndarray, cav: Cavities) -
     keep = _independent(A + t[:, None] * (B - A), mid, half, (-widest, -length))
     X = (A + t[:, None] * (B - A))[keep]
     E, holder, t = E[keep], holder[keep], t[keep]
-    for r in np.flatnonzero(~member(edge_keys(E), np.sort(edge_keys(b.seg)))).tolist():
+    for r in np.flatnonzero(
+        ~member(packed_edge_keys(E), np.sort(packed_edge_keys(b.seg)))
+    ).tolist():
         # A split point inside a facet that would encroach one of its subsegments
         # yields to it (as a face's point does in _split_faces).
         seg = _encroached_subsegment(st, int(b.sub_facet[holder[r]]), X[r])
         if seg is not None:
             E[r], t[r] = seg, 0.5
-    _, first = np.unique(edge_keys(E), return_index=True)
+    _, first = np.unique(packed_edge_keys(E), return_index=True)
     return _insert_on_edges(st, E[first], b.sub_facet[holder[first]], t[first])
 
 
@@ -872,7 +874,7 @@ def _look_ahead(st: _State, cav: Cavities, E, A, B, t, t0, lo, hi, known) -> np.
     out[rows] = cand[np.arange(len(rows)), pick]
     if st.options is None and not st.force:
         return out  # not searching (:func:`_search`)
-    for i, k in enumerate(edge_keys(E[rows]).tolist()):  # a loop over this round's edges
+    for i, k in enumerate(packed_edge_keys(E[rows]).tolist()):  # a loop over this round's edges
         order = np.lexsort((dist[i], count[i]))
         st.choose(("edge", k), count[i, order], sig[i, order], cand[i, order].tolist())
         out[rows[i]] = st.force.get(("edge", k), out[rows[i]])
@@ -899,7 +901,7 @@ def _insert_on_edges(st: _State, E, facet, t) -> int:
     """Insert the points at parameter ``t`` of subface edges ``E``: on the input
     edge when ``E`` is a subsegment, else inside input triangle ``facet``."""
     b = st.b
-    seg_rows = _match_rows(edge_keys(E), edge_keys(b.seg))
+    seg_rows = _match_rows(packed_edge_keys(E), packed_edge_keys(b.seg))
     is_seg = seg_rows >= 0
     e = np.where(is_seg, b.seg_edge[np.maximum(seg_rows, 0)], -1)
     s0 = st.edge_param(E[:, 0], np.maximum(e, 0))
@@ -964,7 +966,7 @@ def _split_faces(st: _State, rows: np.ndarray, tree: cKDTree, cav: Cavities) -> 
         if bary.min() > INSIDE_MARGIN:
             mine.append(_face_point(st, fj, tri, float(lam.min()), origin[fj] + frame @ m))
         # Edges: every edge but those of a whole strict Case 0 input face.
-        own_keys = edge_keys(np.stack([tri, np.roll(tri, -1)], axis=1))
+        own_keys = packed_edge_keys(np.stack([tri, np.roll(tri, -1)], axis=1))
         for k in np.flatnonzero(~np.isin(own_keys, st.protected)).tolist():
             i, jj = tri[k], tri[(k + 1) % 3]
             t0 = float(_project_on_segment(X[None], b.P[i][None], b.P[jj][None])[0])
@@ -1056,7 +1058,7 @@ def _encroached_subsegment(st: _State, facet: int, X: np.ndarray) -> np.ndarray 
     b = st.b
     rows = np.flatnonzero((b.edge_groups[b.seg_edge] == facet).any(axis=1))
     S = b.seg[rows]
-    S = S[~np.isin(edge_keys(S), st.protected)]
+    S = S[~np.isin(packed_edge_keys(S), st.protected)]
     A, B = b.P[S[:, 0]], b.P[S[:, 1]]
     hit = np.flatnonzero(dot3d(A, B, np.broadcast_to(X, A.shape)) <= 0)
     if hit.size == 0:
@@ -1222,7 +1224,7 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     cases_before = _counts(case, disc)
     F0 = b.facets[strict0]
     st.protected = np.unique(
-        edge_keys(np.concatenate([F0[:, [0, 1]], F0[:, [1, 2]], F0[:, [2, 0]]]))
+        packed_edge_keys(np.concatenate([F0[:, [0, 1]], F0[:, [1, 2]], F0[:, [2, 0]]]))
     )
     timings["classify"] = time.perf_counter() - t1
     t2 = time.perf_counter()

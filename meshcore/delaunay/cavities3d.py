@@ -29,9 +29,9 @@ from meshcore.delaunay.recovery3d import (
     TET_EDGES,
     TET_FACES,
     SurfaceRecovery,
-    edge_keys,
     face_keys,
     member,
+    packed_edge_keys,
     tet_circumcenters,
 )
 
@@ -59,15 +59,15 @@ class Cavities:
         out = (across < 0) | ~real[np.maximum(across, 0)]
         hull = T[:, TET_FACES][out]
         hull_faces = np.sort(face_keys(hull))
-        hull_edges = np.unique(edge_keys(hull[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2)))
+        hull_edges = np.unique(packed_edge_keys(hull[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2)))
         # Per tetrahedron, the subface (edge) row of each of its faces (edges), -1 if
         # none; per subface (edge), its tetrahedra and whether it is on the hull.
-        face_k, edge_k = face_keys(b.sub), edge_keys(edges)
+        face_k, edge_k = face_keys(b.sub), packed_edge_keys(edges)
         self.edge_table = _table(edge_k)  # missing() looks the new faces' edges up in it
         self.pieces = []
         for corners, keys, k, table, on_hull in (
             (TET_FACES, face_keys, face_k, _table(face_k), hull_faces),
-            (TET_EDGES, edge_keys, edge_k, self.edge_table, hull_edges),
+            (TET_EDGES, packed_edge_keys, edge_k, self.edge_table, hull_edges),
         ):
             at = _find_all(*table, keys(T[:, corners].reshape(-1, corners.shape[1])))
             self.pieces.append(
@@ -126,7 +126,7 @@ class Cavities:
         # The new faces: on the subface edges present with some but not all of their
         # tetrahedra in the cavity (or on the hull).
         want = base[:, :, 0] >= 0
-        row = _find_all(*self.edge_table, edge_keys(base.reshape(-1, 2))).reshape(want.shape)
+        row = _find_all(*self.edge_table, packed_edge_keys(base.reshape(-1, 2))).reshape(want.shape)
         _, around, hull = self.pieces[1]
         uk, count = in_cavity[1]  # per (point, subface edge)
         m = len(around)
@@ -141,7 +141,7 @@ class Cavities:
         kept = (row >= 0) & (c > 0) & ((c < around[r]) | hull[r])
         new = want & ~kept
         out += new.sum(axis=1)
-        on = edge_keys(base.reshape(-1, 2)).reshape(want.shape)
+        on = packed_edge_keys(base.reshape(-1, 2)).reshape(want.shape)
         sig += np.where(new, _mix(on, 3), np.uint64(0)).sum(axis=1, dtype=np.uint64)
         return out, sig
 
@@ -162,10 +162,10 @@ def split_pieces(sub: np.ndarray, E: np.ndarray) -> tuple[np.ndarray, np.ndarray
     """For subface edges ``E`` (``AB``, each in two subfaces ``ABC``, ``BAD``): the
     vertices a split point gets edges to (``A, B, C, D``) and the edges its new
     subfaces stand on (``AC, BC, AD, BD``), as :meth:`Cavities.missing` takes them."""
-    k = edge_keys(np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]]))
+    k = packed_edge_keys(np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]]))
     opposite = np.concatenate([sub[:, 2], sub[:, 0], sub[:, 1]])
     order = np.argsort(k, kind="stable")
-    lo = np.searchsorted(k[order], edge_keys(E))
+    lo = np.searchsorted(k[order], packed_edge_keys(E))
     C = opposite[order[lo]]
     D = opposite[order[np.minimum(lo + 1, len(k) - 1)]]
     A, B = E[:, 0], E[:, 1]

@@ -52,7 +52,7 @@ __all__ = [
     "Knobs",
     "SurfaceRecovery",
     "ball_pairs",
-    "edge_keys",
+    "packed_edge_keys",
     "face_keys",
     "face_rows",
     "member",
@@ -184,7 +184,10 @@ def tet_circumcenters(P: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndar
     return a + off, np.sqrt(np.einsum("ij,ij->i", off, off))
 
 
-def edge_keys(E: np.ndarray) -> np.ndarray:
+def packed_edge_keys(E: np.ndarray) -> np.ndarray:
+    """(k,) int64 ``min << 32 | max`` of each edge row of ``E`` (k, 2): a key needing no
+    point count, for the 3D tables (:func:`meshcore.mesh.topology.edge_keys` takes the
+    ends apart and ``n``; its keys differ)."""
     lo = np.minimum(E[:, 0], E[:, 1])
     hi = np.maximum(E[:, 0], E[:, 1])
     return (lo << 32) | hi
@@ -811,7 +814,7 @@ class SurfaceRecovery:
             )
         sub, owner, uptr, unsettled = _facet_subfaces(
             facets, plain, ptr, ids, loop, pos, tptr, tri, uv, in_ptr, in_tri, tu, tol, sptr,
-            segs, edge_keys(self.seg),
+            segs, packed_edge_keys(self.seg),
         )  # fmt: skip
         for k, f in enumerate(facets.tolist()):
             self.unsettled[f] = unsettled[uptr[k] : uptr[k + 1]]
@@ -1239,7 +1242,7 @@ class SurfaceRecovery:
         over the whole mesh.
         """
         seg_hit, sub_hit = self._held(0, self.seg), self._held(1, self.sub)
-        keys = edge_keys(self.seg)
+        keys = packed_edge_keys(self.seg)
         if seg_hit is None or sub_hit is None:
             seg_hit, sub_hit = self._present(keys, face_keys(self.sub))
         seg_missing = ~seg_hit

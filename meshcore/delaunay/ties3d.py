@@ -11,9 +11,9 @@ import numpy as np
 from meshcore.delaunay.recovery3d import (
     TET_FACES,
     SurfaceRecovery,
-    edge_keys,
     face_keys,
     member,
+    packed_edge_keys,
 )
 from meshcore.geometry.predicates3d import insphere_scalar, orient3d, orient3d_scalar
 
@@ -290,10 +290,10 @@ def flip_ties(P: np.ndarray, T: np.ndarray, sub: np.ndarray, E: np.ndarray) -> T
     planar quadrilaterals of two subfaces ``sub`` (a loop over those only), in the
     tetrahedralization ``T`` of points ``P``."""
     flips = TieFlips(P, T, sub)
-    k = edge_keys(np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]]))
+    k = packed_edge_keys(np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]]))
     order = np.argsort(k, kind="stable")
     ks = k[order]
-    key = edge_keys(E)
+    key = packed_edge_keys(E)
     lo = np.searchsorted(ks, key)
     two = np.flatnonzero(np.searchsorted(ks, key + 1) - lo == 2)
     if two.size == 0:

@@ -350,9 +350,8 @@ def estimated_triangles(domain, *, max_area=None, size=None, size_field=None) ->
     if size_field is not None:
         fp, fv = parse_size_field(size_field)
     # nearest field values: an estimate needs no triangulation of the field
-    sizing = _sizing(dom, size, max_area, fp, fv, linear=False)
-    alone = {  # the points each given size asks for alone
-        name: _sized_points(dom, _sizing(dom, *bounds, linear=False))
+    alone = {  # each given size alone
+        name: _sizing(dom, *bounds, linear=False)
         for name, bounds, given in (
             ("size", (size, None, None, None), size is not None),
             ("max_area", (None, max_area, None, None), max_area is not None),
@@ -360,7 +359,13 @@ def estimated_triangles(domain, *, max_area=None, size=None, size_field=None) ->
         )
         if given
     }
-    binding = max(alone, key=alone.get) if alone else None
+    # together: the field's grid (interpolated once) capped by the uniform sizes, as _sizing
+    sizing = _sizing(dom, size, max_area, None, None)
+    field = alone.get("size_field")
+    if field is not None:
+        sizing = field if sizing is None else _Sizing(np.minimum(field.H, sizing.H), field.grid)
+    points = {name: _sized_points(dom, s) for name, s in alone.items()}
+    binding = max(points, key=points.get) if points else None
     return Estimate(2 * _expected_points(dom, sizing), binding)
 
 

@@ -71,7 +71,7 @@ class LocalExecutor:
         shutil.rmtree(self._status_root, ignore_errors=True)
         os.environ[WARMUP_ENV] = "1" if self.warm else "0"  # inherited by the fork server
         if self.warm:
-            self._status_root.mkdir(parents=True)
+            self._status_root.mkdir(parents=True, exist_ok=True)  # rmtree may leave it
             self._status_dir = Path(tempfile.mkdtemp(dir=self._status_root))
             os.environ[WARMUP_STATUS_ENV] = str(self._status_dir / "status.json")
         self._started = not self.warm

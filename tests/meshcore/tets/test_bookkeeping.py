@@ -90,7 +90,7 @@ def test_region_labels_kept_between_rounds_equal_the_flood_fill(monkeypatch):
 
     def checked_missing(self):
         seg, sub = missing(self)
-        keys = recovery3d.edge_keys(self.seg)
+        keys = recovery3d.packed_edge_keys(self.seg)
         seg_hit, sub_hit = self._present(keys, recovery3d.face_keys(self.sub))
         unsettled = list(self.unsettled.values())
         if unsettled:  # subsegments that are no edges of their facet's triangulation
