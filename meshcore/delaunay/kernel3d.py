@@ -1196,7 +1196,11 @@ class IncrementalDelaunay3d:
                     loc=("near",),
                     code="bad_vertex",
                 )
-            s = int(self._vt[self._inv[near]])
+            if near != int(near):
+                raise InputError(
+                    f"near must be an integer, got {near!r}", loc=("near",), code="bad_parameter"
+                )
+            s = int(self._vt[self._inv[int(near)]])
             if self._V[4 * s] != -2:
                 start = s
         while True:

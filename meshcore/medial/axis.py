@@ -237,10 +237,10 @@ class MedialAxis:
         """The axis as a line mesh with point data ``radius`` (§9.7.4, dimensional
         reduction); its cell data ``branch`` numbers each edge's branch."""
         branch_of = np.full(len(self.edges), -1, dtype=np.int64)
-        key = _pair_keys(self.edges, len(self.nodes))
+        key = topology.edge_keys(self.edges[:, 0], self.edges[:, 1], len(self.nodes))
         order = np.argsort(key)
         for i, chain in enumerate(self.branches):
-            k = _pair_keys(np.column_stack([chain[:-1], chain[1:]]), len(self.nodes))
+            k = topology.edge_keys(chain[:-1], chain[1:], len(self.nodes))
             branch_of[order[np.searchsorted(key[order], k)]] = i
         return Mesh(
             self.nodes,
@@ -248,12 +248,6 @@ class MedialAxis:
             point_data={"radius": self.radius},
             cell_data={"branch": [branch_of]},
         )
-
-
-def _pair_keys(pairs: np.ndarray, n: int) -> np.ndarray:
-    lo = np.minimum(pairs[:, 0], pairs[:, 1])
-    hi = np.maximum(pairs[:, 0], pairs[:, 1])
-    return lo * np.int64(n) + hi
 
 
 # ---------------------------------------------------------------------------

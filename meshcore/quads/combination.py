@@ -170,6 +170,7 @@ from meshcore.errors import AlgorithmError, InputError, positive_parameter
 from meshcore.geometry.ordering import radix_argsort
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
+from meshcore.mesh.topology import edge_keys
 from meshcore.quads.boundary_layer import (
     CORNER_LEAST_QUALITY,
     ROW_CHOICES,
@@ -712,7 +713,7 @@ def _neighbours(mesh: Mesh, P: np.ndarray, tri: np.ndarray):
     a = tri.ravel()
     b = np.roll(tri, -1, axis=1).ravel()
     n = len(P)
-    key = np.minimum(a, b) * n + np.maximum(a, b)
+    key = edge_keys(a, b, n)
     order = radix_argsort(key)
     ks = key[order]
     start = np.r_[True, ks[1:] != ks[:-1]]

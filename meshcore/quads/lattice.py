@@ -22,6 +22,7 @@ from scipy.sparse import csgraph, csr_matrix
 from meshcore.domain.planar import Domain, parse_domain
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh
+from meshcore.mesh.topology import edge_keys
 from meshcore.triangulation.refinement import triangulate
 
 __all__ = ["triangulated"]
@@ -160,7 +161,7 @@ def _even_parts(P, tri):
     a = tri.ravel()
     b = np.roll(tri, -1, axis=1).ravel()
     n = len(P)
-    key = np.minimum(a, b) * n + np.maximum(a, b)
+    key = edge_keys(a, b, n)
     uniq, inv, cnt = np.unique(key, return_inverse=True, return_counts=True)
     h = np.arange(3 * m)
     inner = cnt[inv] == 2

@@ -130,7 +130,7 @@ from numba import njit
 
 from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
-from meshcore.mesh.topology import isin_ints, unique_ints
+from meshcore.mesh.topology import edge_keys, isin_ints, unique_ints
 from meshcore.partition.smoothing import boundary_points
 from meshcore.quads.relaxation import relax_quads
 from meshcore.quads.vertex_moves import (
@@ -985,7 +985,7 @@ def optimize_quads(
 def _loops(C: np.ndarray, n: int) -> list[np.ndarray]:
     """The boundary loops of a quad mesh (vertex ids, counter-clockwise)."""
     a, b = C.ravel(), np.roll(C, -1, axis=1).ravel()
-    key = np.minimum(a, b) * n + np.maximum(a, b)
+    key = edge_keys(a, b, n)
     uk, cnt = unique_ints(key, counts=True)
     once = isin_ints(key, uk[cnt == 1])
     nxt = np.full(n, -1, np.int64)

@@ -317,6 +317,12 @@ class TestIncremental:
         with pytest.raises(InputError):
             dt.insert([1e30, 0, 0])
 
+    def test_non_integral_near(self):
+        dt = IncrementalDelaunay3d(lattice(2))
+        with pytest.raises(InputError) as err:
+            dt.insert([0.25, 0.25, 0.25], near=1.5)
+        assert (err.value.code, err.value.errors[0]["loc"]) == ("bad_parameter", ["near"])
+
 
 @settings(max_examples=25, deadline=None)
 @given(
