@@ -497,12 +497,6 @@ def relax_quads(
     var[free] = 2 * np.arange(nf)
     var[node] = 2 * nf + np.arange(node.size)
 
-    def unpack(x):
-        Q = P.copy()
-        Q[free] = x[: 2 * nf].reshape(-1, 2)
-        Q[node] = A + (x[2 * nf :] / L)[:, None] * D
-        return Q
-
     angle = angle_power is not None
     power, w = float(angle_power or 1.0), RELAX_CONDITION if angle else 1.0
 
@@ -535,7 +529,7 @@ def relax_quads(
 
     with threadpool_limits(limits=1, user_api="blas"):
         for r in range(6):
-            Q = unpack(x)
+            Q = _placed(x, P, free, node, A, D, L)
             p = Q[Ca]
             a, b = np.roll(p, -1, axis=1) - p, np.roll(p, 1, axis=1) - p
             least = float((a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]).min())
