@@ -448,7 +448,7 @@ def relax_quads(
     in CPU on busy cores, for library callers that did not set
     ``OPENBLAS_NUM_THREADS=1`` as the service's job processes do.
     """
-    from scipy.optimize import minimize
+    from scipy.optimize import Bounds, minimize
     from threadpoolctl import threadpool_limits
 
     P0 = np.asarray(points, np.float64)
@@ -518,7 +518,6 @@ def relax_quads(
     lo, hi = np.minimum(lo, t0), np.maximum(hi, t0)
     x = np.concatenate([P[free].ravel(), t0 * L])
     lo, hi = lo * L, hi * L
-    bounds = [(None, None)] * (2 * nf) + list(zip(lo.tolist(), hi.tolist(), strict=True))
     box = (
         np.concatenate([np.full(2 * nf, -np.inf), lo]),
         np.concatenate([np.full(2 * nf, np.inf), hi]),
@@ -544,7 +543,7 @@ def relax_quads(
                 args=(delta,),
                 jac=True,
                 method="L-BFGS-B",
-                bounds=bounds,
+                bounds=Bounds(*box),
                 options={"maxiter": iterations},
             )
             x = res.x
