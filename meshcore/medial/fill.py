@@ -52,7 +52,7 @@ corners; Gauss-Seidel Laplacian sweeps over the interior points then keep
 each move that raises the smallest corner area around the point or keeps it
 above half of what the fill gave (untangling without flattening quads
 against a concave boundary). Then the whole mesh is relaxed
-(:func:`meshcore.quads.optimization.relax_quads`: the regularized condition
+(:func:`meshcore.quads.relaxation.relax_quads`: the regularized condition
 number of every corner minimized, which untangles and smooths at once),
 with the coarse corners on the boundary and the input vertices fixed, the
 other boundary points sliding along their input segment (:func:`boundary_slides`:
@@ -111,7 +111,8 @@ from meshcore.medial.axis import MedialAxis, _classes, _csr
 from meshcore.medial.regions import KITE_ANGLE, at_input_vertex, input_index, turns
 from meshcore.mesh import CellBlock, Mesh, quality, topology
 from meshcore.partition.smoothing import boundary_points
-from meshcore.quads.optimization import relax_quads, sliding_nodes
+from meshcore.quads.optimization import sliding_nodes
+from meshcore.quads.relaxation import relax_quads
 from meshcore.quads.vertex_moves import lift_corners
 
 if TYPE_CHECKING:
@@ -571,7 +572,7 @@ def _inner_point(
 
 
 def _relaxed(points: np.ndarray, quads: np.ndarray, corner: np.ndarray, ax: MedialAxis):
-    """The fill untangled and smoothed (:func:`meshcore.quads.optimization.relax_quads`):
+    """The fill untangled and smoothed (:func:`meshcore.quads.relaxation.relax_quads`):
     the coarse quads' corners on the boundary (``corner``) and the boundary samples
     that are input vertices stay, the other boundary points slide along their input
     segment. Kept when it leaves fewer folded quads, or as many and a better least

@@ -233,7 +233,8 @@ from meshcore.medial.regions import (
 from meshcore.mesh import CellBlock, Mesh, quality
 from meshcore.mesh.topology import inverse_permutation
 from meshcore.quads.combination import TOL
-from meshcore.quads.optimization import optimize_quads, relax_quads
+from meshcore.quads.optimization import optimize_quads
+from meshcore.quads.relaxation import relax_quads
 
 __all__ = ["Partition", "QuadMedial", "partition", "quad_medial"]
 
@@ -967,7 +968,7 @@ def _optimized(mesh: Mesh, domain: Domain, stats: dict, done: dict) -> tuple[Mes
 def _optimize(mesh: Mesh, domain: Domain, stats: dict) -> tuple[Mesh, dict]:
     """The fill improved as an all-quad mesh (§8.4.3): the quad operators and smoothing
     of :func:`meshcore.quads.optimization.optimize_quads` (boundary points fixed), then
-    the corner angles relaxed (:func:`~meshcore.quads.optimization.relax_quads` with
+    the corner angles relaxed (:func:`~meshcore.quads.relaxation.relax_quads` with
     ``angle_power``) over the quads under 0.95 and their neighbours, the input vertices
     fixed and the other boundary points sliding along their segment. The relaxation is
     kept when every quad stays strictly convex (exact), the mean quality (8.4) rises,

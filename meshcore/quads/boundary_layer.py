@@ -339,7 +339,9 @@ def targets_rank(mesh: Mesh, dom: Domain, size: float) -> tuple:
     ang = quality.quad_angles(P, Q[ok]) if ok.any() else np.full(1, 90.0)
     met = (1 / 1.5 <= ratio <= 1.5) + (least >= 0.5) + (ang.min() >= 30 and ang.max() <= 150)
     mean = float(quality.quad_quality(P, Q).mean())
-    return meets_targets(mesh, dom, size, ok), int(met), round(least, 6), round(mean, 6)
+    # meets_targets' own test from the measures above (its input vertices first too)
+    meets = bool(met == 3 and np.array_equal(P[: len(dom.points)], dom.points))
+    return meets, int(met), round(least, 6), round(mean, 6)
 
 
 def least_off_sharp(mesh: Mesh, dom: Domain, ok: np.ndarray | None = None) -> float:

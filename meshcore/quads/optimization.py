@@ -158,7 +158,6 @@ __all__ = [
     "domain_moves",
     "lifted_least",
     "optimize_quads",
-    "relax_quads",
     "sliding_nodes",
 ]
 

@@ -448,7 +448,7 @@ def relax_quads(
     in CPU on busy cores, for library callers that did not set
     ``OPENBLAS_NUM_THREADS=1`` as the service's job processes do.
     """
-    from scipy.optimize import minimize
+    from scipy.optimize import Bounds, minimize
     from threadpoolctl import threadpool_limits
 
     P0 = np.asarray(points, np.float64)
@@ -497,12 +497,6 @@ def relax_quads(
     var[free] = 2 * np.arange(nf)
     var[node] = 2 * nf + np.arange(node.size)
 
-    def unpack(x):
-        Q = P.copy()
-        Q[free] = x[: 2 * nf].reshape(-1, 2)
-        Q[node] = A + (x[2 * nf :] / L)[:, None] * D
-        return Q
-
     angle = angle_power is not None
     power, w = float(angle_power or 1.0), RELAX_CONDITION if angle else 1.0
 
@@ -524,7 +518,6 @@ def relax_quads(
     lo, hi = np.minimum(lo, t0), np.maximum(hi, t0)
     x = np.concatenate([P[free].ravel(), t0 * L])
     lo, hi = lo * L, hi * L
-    bounds = [(None, None)] * (2 * nf) + list(zip(lo.tolist(), hi.tolist(), strict=True))
     box = (
         np.concatenate([np.full(2 * nf, -np.inf), lo]),
         np.concatenate([np.full(2 * nf, np.inf), hi]),
@@ -535,7 +528,7 @@ def relax_quads(
 
     with threadpool_limits(limits=1, user_api="blas"):
         for r in range(6):
-            Q = unpack(x)
+            Q = _placed(x, P, free, node, A, D, L)
             p = Q[Ca]
             a, b = np.roll(p, -1, axis=1) - p, np.roll(p, 1, axis=1) - p
             least = float((a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]).min())
@@ -550,7 +543,7 @@ def relax_quads(
                 args=(delta,),
                 jac=True,
                 method="L-BFGS-B",
-                bounds=bounds,
+                bounds=Bounds(*box),
                 options={"maxiter": iterations},
             )
             x = res.x

@@ -524,7 +524,7 @@ def test_medial_axis_point_cloud_beyond_float_range_is_refused():
 def test_relax_quads_with_nodes_off_their_segment():
     """Sliding nodes projecting before their segment's start (rounding at 1e12 did it in
     quad_medial) made a lower bound above the upper one: scipy's ValueError, a 500."""
-    from meshcore.quads.optimization import relax_quads
+    from meshcore.quads.relaxation import relax_quads
 
     P = np.array([[0, 0], [1, 0], [2, 0], [3, 0], [0, 1], [1, 1], [2, 1], [3, 1], [10, 0], [20, 0]])
     Q = np.array([[0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6]])
