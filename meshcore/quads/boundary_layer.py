@@ -92,7 +92,8 @@ Choices the text leaves open
 * **Guarded, not trusted.** The offset rings must make a valid domain
   (:func:`~meshcore.domain.planar.parse_domain`: no crossing, no ring
   through another), every layer quad must be strictly convex (exact
-  :func:`~meshcore.geometry.predicates.orient2d` at its four corners) and
+  orientation at its four corners:
+  :func:`~meshcore.partition.kernel.strictly_convex_rows`) and
   of quality at least ``least_quality`` = 0.3 before the optimization (0.5
   left the gear at size 0.1 to the lattice, least 0.29 and mean 0.73, against
   0.52 and 0.80 with the layer), and the layer and the inner mesh
@@ -131,8 +132,8 @@ from scipy.spatial import cKDTree
 
 from meshcore.domain.planar import Domain, parse_domain
 from meshcore.errors import MeshcoreError
-from meshcore.geometry.predicates import orient2d
 from meshcore.mesh import CellBlock, Mesh, quality
+from meshcore.partition.kernel import strictly_convex_rows
 
 __all__ = [
     "CORNER_LEAST_QUALITY",
@@ -472,7 +473,7 @@ def _ruled(dom, size, max_turn, least_quality):
     gid[1:-1] = nb + np.arange((steps - 1) * n).reshape(steps - 1, n)
     P = np.concatenate([dom.points, Xo[new[0]], Xh[new[1]], X[1:-1].reshape(-1, 2)])
     Q = _band(gid)
-    if not _strictly_convex(P, Q):
+    if not strictly_convex_rows(P, Q).all():
         return None
     if quality.quad_quality(P, Q).min() < least_quality:
         return None
@@ -495,13 +496,6 @@ def _band(g: np.ndarray) -> np.ndarray:
     j]``."""
     g1 = np.roll(g, -1, axis=1)
     return np.stack([g[:-1], g1[:-1], g1[1:], g[1:]], axis=-1).reshape(-1, 4)
-
-
-def _strictly_convex(P: np.ndarray, Q: np.ndarray) -> bool:
-    """Whether every quad of ``Q`` turns left at each corner (exact ``orient2d``)."""
-    return all(
-        (orient2d(P[Q[:, i - 1]], P[Q[:, i]], P[Q[:, (i + 1) % 4]]) > 0).all() for i in range(4)
-    )
 
 
 def _too_many(quads: int, dom: Domain, size: float) -> bool:
@@ -564,7 +558,7 @@ def _assembled(dom, mesh_inner, parts, least_quality):
         forced_all.append(np.zeros(len(local), bool) if forced is None else forced)
     P = np.concatenate([dom.points, *extra, *mids_pts, Pin])
     layer = np.concatenate(layers)
-    if not _strictly_convex(P, layer):
+    if not strictly_convex_rows(P, layer).all():
         return None
     free = ~np.concatenate(forced_all)
     if free.any() and quality.quad_quality(P, layer[free]).min() < least_quality:

@@ -1407,10 +1407,11 @@ def _combine(
 
 def _fraction(value, name: str) -> float:
     """``value`` as a float in [0, 1], else an :class:`InputError` ``bad_value`` at
-    ``(name,)`` (a non-number too: a library caller's string is not a TypeError)."""
+    ``(name,)`` (a non-number too: a library caller's string is not a TypeError, nor an
+    integer beyond float64 an OverflowError)."""
     try:
         x = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         x = math.nan
     if not 0.0 <= x <= 1.0:
         raise InputError(f"{name} must be in [0, 1]", loc=(name,), code="bad_value")

@@ -340,9 +340,9 @@ class TestDomainInput:
             combine(domain=self.HOLE, size=size, all_quad=True, twice_size=True)
         assert err.value.errors[0]["loc"] == ["size"]
 
-    @pytest.mark.parametrize("least", [math.nan, -0.1, 2.0])
+    @pytest.mark.parametrize("least", [math.nan, -0.1, 2.0, 10**400])
     def test_a_bad_corner_least_is_named(self, least):
-        # a quality (8.4) bound: NaN and 2.0 were taken silently
+        # a quality (8.4) bound: NaN and 2.0 were taken silently, 10**400 an OverflowError
         with pytest.raises(InputError) as err:
             combine(
                 domain=self.HOLE,

@@ -208,6 +208,23 @@ def test_quad_combine_all_quad_on_curved_domains(case):
         assert 1 / 1.5 <= ratio <= 1.5
 
 
+def _combined_seen(dom):
+    """``combine`` of ``dom`` at size 0.1 (all_quad, twice_size, optimize) and the
+    progress it reported, checked to rise within [0, 1]."""
+    seen = []
+    res = combine(
+        domain=dom,
+        size=0.1,
+        all_quad=True,
+        twice_size=True,
+        optimize=True,
+        progress=lambda f, msg: seen.append((f, msg)),
+    )
+    fractions = [f for f, _ in seen]
+    assert fractions == sorted(fractions) and 0 <= fractions[0] and fractions[-1] <= 1
+    return res, seen
+
+
 def _assert_beats_lattice(res, dom, size):
     """The row kept over the lattice: a higher least quality away from the input's
     sharp corners than the lattice's mesh (``corner_least`` 1 refuses every corner
@@ -264,18 +281,8 @@ def test_quad_combine_meets_the_targets_at_a_slightly_larger_size():
     # the progress of the meshes never goes back. (Star 15, here before, now meets them
     # at the size: its corner relaxation ends at its minimum, least 0.501)
     dom = parse_domain(issue_star(23)[0])
-    seen = []
-    res = combine(
-        domain=dom,
-        size=0.1,
-        all_quad=True,
-        twice_size=True,
-        optimize=True,
-        progress=lambda f, msg: seen.append((f, msg)),
-    )
+    res, seen = _combined_seen(dom)
     assert res.stats["size_factor"] == 1.04
-    fractions = [f for f, _ in seen]
-    assert fractions == sorted(fractions) and 0 <= fractions[0] and fractions[-1] <= 1
     assert any("again at 1.02 x size" in msg for _, msg in seen)
     _meets_targets(res, dom, 0.1)
 
@@ -632,18 +639,8 @@ def test_quad_combine_keeps_the_rows_of_the_best_mean_on_a_disk():
     # 0.900 after the optimization (three, the first laid, was kept before: under 0.9);
     # the progress goes on through the other rows' meshes, after the first mesh's share
     dom = parse_domain({"type": "Polygon", "coordinates": [_ring(_sampled(_ellipse(1, 1), 0.1))]})
-    seen = []
-    res = combine(
-        domain=dom,
-        size=0.1,
-        all_quad=True,
-        twice_size=True,
-        optimize=True,
-        progress=lambda f, msg: seen.append((f, msg)),
-    )
+    res, seen = _combined_seen(dom)
     assert res.stats["layer_rows"] in ROW_CHOICES
-    fractions = [f for f, _ in seen]
-    assert fractions == sorted(fractions) and fractions[-1] <= 1
     for rows in ("(rows 2, 1)", "(rows 1, 1)"):
         at = [f for f, msg in seen if msg.endswith(rows)]
         assert at and 0.9 <= min(at) < max(at) <= 0.95
