@@ -1081,8 +1081,8 @@ def _barycentric(uv: np.ndarray, m: np.ndarray) -> np.ndarray:
 
 def _step(st: _State) -> tuple[int, TieFlips, int]:
     """One round: the coplanar swaps, the tie flips, then the missing subface edges
-    split, or if none the missing subfaces; (points added, 0 if nothing is missing,
-    the tie flips, the swaps)."""
+    split, or if none the missing subfaces: (the points added, 0 if nothing is
+    missing; the tie flips; the swaps)."""
     b = st.b
     slots, T = b.tets()
     present = _Present(T)
@@ -1229,7 +1229,6 @@ def make_admissible_surface(surface, progress: Progress | None = None) -> Admiss
     timings["classify"] = time.perf_counter() - t1
     t2 = time.perf_counter()
     cap = MAX_ADDED_FACTOR * b.n_surface + MAX_ADDED_BASE
-    swaps = 0
     budget = SEARCH_WORK if b.n_surface <= SEARCH_VERTICES else 0
     for rounds in range(1, MAX_ROUNDS + 1):
         if budget > 0:

@@ -35,7 +35,7 @@ from meshcore.delaunay.recovery3d import (
     tet_circumcenters,
 )
 
-__all__ = ["Cavities", "split_pieces"]
+__all__ = ["Cavities", "opposites", "split_pieces"]
 
 
 class Cavities:
@@ -162,15 +162,26 @@ def split_pieces(sub: np.ndarray, E: np.ndarray) -> tuple[np.ndarray, np.ndarray
     """For subface edges ``E`` (``AB``, each in two subfaces ``ABC``, ``BAD``): the
     vertices a split point gets edges to (``A, B, C, D``) and the edges its new
     subfaces stand on (``AC, BC, AD, BD``), as :meth:`Cavities.missing` takes them."""
-    k = packed_edge_keys(np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]]))
-    opposite = np.concatenate([sub[:, 2], sub[:, 0], sub[:, 1]])
-    order = np.argsort(k, kind="stable")
-    lo = np.searchsorted(k[order], packed_edge_keys(E))
-    C = opposite[order[lo]]
-    D = opposite[order[np.minimum(lo + 1, len(k) - 1)]]
+    C, D, _ = opposites(sub, E)
     A, B = E[:, 0], E[:, 1]
     V = np.stack([A, B, C, D], axis=1)
     base = np.stack(
         [np.stack([A, C], 1), np.stack([B, C], 1), np.stack([A, D], 1), np.stack([B, D], 1)], axis=1
     )
     return V, base
+
+
+def opposites(sub: np.ndarray, E: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For edges ``E``: the third vertices of the first two subfaces ``sub`` holding
+    each (``C`` and ``D``, in row order; meaningful where it has them) and how many
+    subfaces hold it."""
+    k = packed_edge_keys(np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]]))
+    opposite = np.concatenate([sub[:, 2], sub[:, 0], sub[:, 1]])
+    order = np.argsort(k, kind="stable")
+    ks = k[order]
+    key = packed_edge_keys(E)
+    lo = np.searchsorted(ks, key)
+    held = np.searchsorted(ks, key + 1) - lo
+    C = opposite[order[np.minimum(lo, len(k) - 1)]]
+    D = opposite[order[np.minimum(lo + 1, len(k) - 1)]]
+    return C, D, held

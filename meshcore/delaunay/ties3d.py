@@ -8,12 +8,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from meshcore.delaunay.cavities3d import opposites
 from meshcore.delaunay.recovery3d import (
     TET_FACES,
     SurfaceRecovery,
     face_keys,
     member,
-    packed_edge_keys,
 )
 from meshcore.geometry.predicates3d import insphere_scalar, orient3d, orient3d_scalar
 
@@ -290,18 +290,12 @@ def flip_ties(P: np.ndarray, T: np.ndarray, sub: np.ndarray, E: np.ndarray) -> T
     planar quadrilaterals of two subfaces ``sub`` (a loop over those only), in the
     tetrahedralization ``T`` of points ``P``."""
     flips = TieFlips(P, T, sub)
-    k = packed_edge_keys(np.concatenate([sub[:, [0, 1]], sub[:, [1, 2]], sub[:, [2, 0]]]))
-    order = np.argsort(k, kind="stable")
-    ks = k[order]
-    key = packed_edge_keys(E)
-    lo = np.searchsorted(ks, key)
-    two = np.flatnonzero(np.searchsorted(ks, key + 1) - lo == 2)
+    C, D, held = opposites(sub, E)
+    two = np.flatnonzero(held == 2)
     if two.size == 0:
         return flips
     a, c = E[two].min(axis=1), E[two].max(axis=1)
-    r0, r1 = order[lo[two]] % len(sub), order[lo[two] + 1] % len(sub)
-    b = sub[r0].sum(axis=1) - a - c
-    d = sub[r1].sum(axis=1) - a - c
+    b, d = C[two], D[two]
     flat = np.flatnonzero(orient3d(P[a], P[b], P[c], P[d]) == 0)
     quads = [
         q for q in zip(*(x[flat].tolist() for x in (a, b, c, d)), strict=True) if flips.quad(*q)
