@@ -35,6 +35,7 @@ from meshcore.delaunay.admissible_pieces import (
     NUDGE,
     _ball_radius,
     _near_segment,
+    _push,
 )
 from meshcore.delaunay.kernel2d import _DUPLICATE, _corner, _insert_range, _nxt, _prv
 from meshcore.geometry.predicates import dot2d_filtered, orient2d_filtered
@@ -251,10 +252,7 @@ def _widest_angle(pts, V, A, vt, order, ia, ib, radius, tie, tstamp, vstamp, sta
                 if not _enters_cone(pts, e, f, x, tip):
                     continue
             tstamp[t2] = stamp
-            if tail == queue.shape[0]:
-                queue = np.concatenate((queue, np.empty(tail, np.int64)))
-            queue[tail] = t2
-            tail += 1
+            queue, tail = _push(queue, tail, t2)
     best_id = -1
     collinear = False
     for c in range(nc):
@@ -342,14 +340,6 @@ def _protection_point(xy, e, f, r, circ, circles):
     c = np.cos(phi)
     s = np.sin(phi)
     return cx + c * ux - s * uy, cy + s * ux + c * uy
-
-
-@njit(cache=True, inline="always")
-def _push(stack, sp, r):
-    if sp == stack.shape[0]:
-        stack = np.concatenate((stack, np.empty(sp, np.int64)))
-    stack[sp] = r
-    return stack, sp + 1
 
 
 @njit(cache=True)

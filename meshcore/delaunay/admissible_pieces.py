@@ -64,6 +64,16 @@ def _near_segment(pts, u, v, cx, cy, r2):
     return fx * fx + fy * fy <= r2
 
 
+@njit(cache=True, inline="always")
+def _push(stack, sp, r):
+    """``r`` put at ``stack[sp]``, the int64 ``stack`` doubled when full:
+    the stack (or queue) and its new length."""
+    if sp == stack.shape[0]:
+        stack = np.concatenate((stack, np.empty(sp, np.int64)))
+    stack[sp] = r
+    return stack, sp + 1
+
+
 @njit(cache=True)
 def _disc_edges(pts, V, A, vt, verts, radius, tstamp, counter):
     """Edges that come within ``radius[i]`` (padded) of vertex ``verts[i]``
@@ -108,10 +118,7 @@ def _disc_edges(pts, V, A, vt, verts, radius, tstamp, counter):
                 if tstamp[t2] == stamp or V[A[kk]] < 0:
                     continue
                 tstamp[t2] = stamp
-                if tail == queue.shape[0]:
-                    queue = np.concatenate((queue, np.empty(tail, np.int64)))
-                queue[tail] = t2
-                tail += 1
+                queue, tail = _push(queue, tail, t2)
     counter[0] = stamp
     return qs[:m], us[:m], ws[:m]
 

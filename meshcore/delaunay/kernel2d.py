@@ -1048,28 +1048,16 @@ class IncrementalDelaunay:
         ``j`` (the insertion stops there, the triangulation is then unusable).
         """
         k = len(xy)
-        self._reserve(k)
+        pts, V, A, stack, vt, hint, state, work, order, slot, _ = self.insertion_arrays(k)
         n = self._n
         slots = np.arange(n, n + k)
-        self._pts[n : n + k] = np.asarray(xy, dtype=np.float64) * self._factor
-        self._order[n : n + k] = slots
-        self._slot[n : n + k] = slots
-        self._hint[n : n + k] = self._slot[near]
-        _insert_range(
-            self._pts,
-            self._V,
-            self._A,
-            self._stack,
-            self._vt,
-            self._hint,
-            self._state,
-            self._work,
-            n,
-            n + k,
-            None,
-        )
-        if self._state[2] == _DUPLICATE:
-            return int(self._order[self._state[3]]), int(self._order[self._state[4]])
+        pts[n : n + k] = np.asarray(xy, dtype=np.float64) * self._factor
+        order[n : n + k] = slots
+        slot[n : n + k] = slots
+        hint[n : n + k] = slot[near]
+        _insert_range(pts, V, A, stack, vt, hint, state, work, n, n + k, None)
+        if state[2] == _DUPLICATE:
+            return int(order[state[3]]), int(order[state[4]])
         self._n = n + k
         return None
 
