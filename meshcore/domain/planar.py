@@ -1327,6 +1327,11 @@ def parse_size_field(size_field, dim: int = 2) -> tuple[np.ndarray, np.ndarray]:
                 loc=("size_field",),
                 code="bad_parameter",
             ) from None
+    for name, given in (("points", pts), ("values", vals)):
+        if given is None:  # not "entry [] is not a number (None)"
+            raise InputError(
+                f"size_field needs its {name}", loc=("size_field", name), code="bad_parameter"
+            )
     refuse_non_numbers(pts, ("size_field", "points"))
     refuse_non_numbers(vals, ("size_field", "values"))
     try:

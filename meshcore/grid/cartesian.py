@@ -247,10 +247,13 @@ def _extent(dom: Domain, origin, cos, sin, h):
 
 
 def estimated_cells(domain, *, size=None, angle: float = 0.0) -> int:
-    """Cells of the grid's bounding box for ``size`` (the default when None)."""
+    """Cells of the grid's bounding box for ``size`` (the default when None); a size not
+    above 0 is an :class:`InputError` ``bad_parameter`` at ``size``."""
     dom = _as_domain(domain)
     a = math.radians(_number(angle, "angle"))
     h = _number(size, "size") if size is not None else _smallest_distance(dom.points)
+    if h <= 0:  # 0 divided by zero below; below 0, a count of a negative extent
+        raise InputError(f"size must be above 0, got {size!r}", loc=("size",), code="bad_parameter")
     pts = dom.points
     d = pts - pts.min(axis=0)
     u = d[:, 0] * math.cos(a) + d[:, 1] * math.sin(a)
@@ -1117,11 +1120,7 @@ def grid(
             h *= math.sqrt(est / max_cells) * 1.01
     else:
         h = _number(size, "size")
-        if h <= 0:
-            raise InputError(
-                f"size must be above 0, got {size!r}", loc=("size",), code="bad_parameter"
-            )
-        est = estimated_cells(dom, size=h, angle=a)
+        est = estimated_cells(dom, size=size, angle=a)  # refuses a size not above 0
         if est > max_cells:
             raise InputError(
                 f"size {h:g} makes a grid of about {est} cells, more than max_cells={max_cells}",

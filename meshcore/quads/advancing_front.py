@@ -576,7 +576,8 @@ def _snap(Q, f, nf, quads, table, n_old, h, boxes: list):
     none = Q, quads, np.zeros(len(quads), bool), 0
     if not len(new):
         return none
-    r = 1.001 * _SNAP * float(h[new].max())  # the targets: within _SNAP h of a new node
+    hmax = float(h[new].max())
+    r = 1.001 * _SNAP * hmax  # the targets: within _SNAP h of a new node
     boxes.append((Q[new].min(axis=0) - r, Q[new].max(axis=0) + r))
     N, n_f = len(Q), len(nf)
     pos = np.full(N, -1, np.int64)
@@ -584,9 +585,10 @@ def _snap(Q, f, nf, quads, table, n_old, h, boxes: list):
     own_old = set(f.tolist())
     a, b, of_other = table
     targets = np.concatenate([a[of_other], f, new])
-    ni, nj, nd = pk.near_pairs(Q[new], Q[targets], _SNAP * float(h[new].max()))
+    ni, nj, nd = pk.near_pairs(Q[new], Q[targets], _SNAP * hmax)
     x, t = new[ni], targets[nj]
-    x, t = x[nd <= _SNAP * h[x]], t[nd <= _SNAP * h[x]]
+    near = nd <= _SNAP * h[x]
+    x, t = x[near], t[near]
     # not the corners of x's quads (x among them), nor its neighbours on the new front
     mine = (quads[:, :, None] * N + quads[:, None, :]).ravel()
     step = (pos[t] - pos[x]) % n_f

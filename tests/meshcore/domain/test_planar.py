@@ -715,6 +715,16 @@ def test_size_field_refuses_bools_and_strings(field, loc):
     assert err.value.errors[0]["loc"] == loc and err.value.code == "bad_parameter"
 
 
+@pytest.mark.parametrize("missing", ["points", "values"])
+def test_size_field_without_points_or_values_says_which(missing):
+    field = {"points": [[0, 0], [1, 1]], "values": [1, 0.5]}
+    del field[missing]
+    with pytest.raises(InputError) as err:
+        parse_size_field(field)
+    assert err.value.errors[0]["loc"] == ["size_field", missing]
+    assert err.value.code == "bad_parameter" and missing in err.value.message
+
+
 def test_size_field_takes_ints_floats_and_numeric_arrays():
     pts, vals = parse_size_field({"points": [[0, 0], [1, 1.5]], "values": [1, np.float32(0.5)]})
     assert pts.dtype == vals.dtype == np.float64 and vals.tolist() == [1.0, 0.5]

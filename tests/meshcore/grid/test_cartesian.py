@@ -318,6 +318,16 @@ class TestBadInput:
         assert err.value.code == code
         assert err.value.errors[0]["loc"][0] == "domain"
 
+    @pytest.mark.parametrize("size", [0, 0.0, -1.0])
+    def test_estimate_refuses_a_size_not_above_zero(self, size):
+        """It divided by the size: 0 was a ZeroDivisionError, -1 a count of 4 cells."""
+        from meshcore.grid import estimated_cells
+
+        with pytest.raises(InputError) as err:
+            estimated_cells(square_with_hole(), size=size)
+        assert err.value.code == "bad_parameter"
+        assert tuple(err.value.errors[0]["loc"]) == ("size",)
+
     def test_default_size_is_bounded(self):
         res = grid(square_with_hole(), max_cells=2000)
         assert res.stats["grid"][0] * res.stats["grid"][1] <= 2000
