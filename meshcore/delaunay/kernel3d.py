@@ -1190,15 +1190,19 @@ class IncrementalDelaunay3d:
         self._order[p] = p
         start = int(self._state[_LAST])
         if near is not None:
+            try:  # a string, NaN or infinity is no integer either (int() raises)
+                integral = near == int(near)
+            except (TypeError, ValueError, OverflowError):
+                integral = False
+            if not integral:
+                raise InputError(
+                    f"near must be an integer, got {near!r}", loc=("near",), code="bad_parameter"
+                )
             if not 0 <= near < self._n:
                 raise InputError(
                     f"near must be a vertex index in [0, {self._n}), got {near}",
                     loc=("near",),
                     code="bad_vertex",
-                )
-            if near != int(near):
-                raise InputError(
-                    f"near must be an integer, got {near!r}", loc=("near",), code="bad_parameter"
                 )
             s = int(self._vt[self._inv[int(near)]])
             if self._V[4 * s] != -2:

@@ -319,9 +319,10 @@ class TestIncremental:
 
     def test_non_integral_near(self):
         dt = IncrementalDelaunay3d(lattice(2))
-        with pytest.raises(InputError) as err:
-            dt.insert([0.25, 0.25, 0.25], near=1.5)
-        assert (err.value.code, err.value.errors[0]["loc"]) == ("bad_parameter", ["near"])
+        for near in (1.5, "1", float("nan"), float("inf"), [1]):
+            with pytest.raises(InputError) as err:
+                dt.insert([0.25, 0.25, 0.25], near=near)
+            assert (err.value.code, err.value.errors[0]["loc"]) == ("bad_parameter", ["near"])
 
 
 @settings(max_examples=25, deadline=None)
